@@ -1,0 +1,1 @@
+"""One module per ``rockbench`` subcommand, each with ``register(subparsers)``."""

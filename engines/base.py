@@ -1,0 +1,329 @@
+"""The contract every engine adapter implements, and the objects it exchanges.
+
+An adapter turns a :class:`Case` (a block, a table pulse, a restitution law, a time step and
+engine settings) into a :class:`Trajectory` (θ(t), θ̇(t), diagnostics and flags). It never decides
+the outcome: :meth:`EngineAdapter.run` hands the trajectory to the one shared classifier
+(:func:`rockbench.reference_solver.classify.classify`), so every engine is judged by one rule.
+
+The contract, for a subclass of :class:`EngineAdapter`:
+
+1. Set the class attributes ``name`` (the registry key), ``module`` (the Python module of the
+   engine, imported lazily) and ``install_hint`` (how to get it). Import the engine only inside
+   methods, never at module import time.
+2. ``__init__(**settings)`` validates its settings and raises
+   :class:`~rockbench.reference_solver.errors.ConfigError` on an unknown name or bad value
+   (negative time step, stiffness, ...). :attr:`SETTINGS` maps each accepted setting to its default;
+   the base class rejects names that are not there.
+3. ``_simulate(case)`` runs one case and returns a :class:`Trajectory`. Angles follow one convention:
+   x is the excitation direction, z is up, θ is the rotation about +y, so a positive table
+   acceleration starts a negative θ. Samples start at t = 0 and cover at least the pulse
+   (``t_pulse_end_s``); the run ends by a documented rule (overturn certain, rest, or a bounded
+   tail after the pulse).
+4. Anything that breaks the model's assumptions is reported in ``Trajectory.flags`` with one of
+   :data:`FLAGS`: ``slip`` (the pivot corner moved on the table by more than :func:`slip_tol_m`),
+   ``jump`` (both bottom corners above the table by more than :func:`jump_tol_m`),
+   ``energy-gain`` (energy rose after the pulse by more than :data:`ENERGY_GAIN_TOL` of the
+   barrier), ``diverged`` (non-finite state). A flagged trajectory is not valid.
+5. An exception inside the engine is not caught by ``_simulate``: :meth:`EngineAdapter.run`
+   turns it into a failed :class:`CellResult` with the ``engine-error`` flag, so sweeps go on.
+6. ``_simulate_many(cases)`` may run many cases at once (native batches); the default loops over
+   :meth:`_simulate`. Results must not depend on how cases are batched.
+7. ``resolve(block, restitution)`` returns the concrete settings a case will use (for example contact
+   parameters calibrated to reach the restitution's η); they are recorded in run.json.
+8. ``measure_restitution(block, settings)`` and ``calibrate(block, target_eta)`` are optional
+   (engines with a contact model implement them; the reference solver does not need them).
+9. ``version()`` returns the engine's version string, or raises
+   :class:`~rockbench.reference_solver.errors.EngineUnavailableError` with an install hint.
+
+``rockbench check-adapter NAME`` runs a conformance suite on any registered adapter.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, asdict
+from typing import Any, ClassVar, Iterable, Mapping
+
+import numpy as np
+
+from ..reference_solver.classify import Classification, Outcome, classify
+from ..reference_solver.errors import ConfigError, EngineUnavailableError
+from ..reference_solver.model import Block
+from ..reference_solver.pulses import Pulse
+from ..reference_solver.restitution import Restitution
+
+#: Flags a trajectory or a cell can carry.
+FLAGS = ("slip", "jump", "energy-gain", "diverged", "engine-error", "timeout", "crashed")
+
+#: Relative rise of the energy after the pulse (as a fraction of the barrier height above rest)
+#: beyond which a run is flagged ``energy-gain`` [-].
+ENERGY_GAIN_TOL = 0.05
+
+
+def slip_tol_m(block: Block) -> float:
+    """Horizontal motion of the pivot corner on the table beyond which a run slipped [m]: 1 % of b."""
+    return 0.01 * block.width_m
+
+
+def jump_tol_m(block: Block) -> float:
+    """Height of the lower bottom corner above the table beyond which the block jumped [m]: 0.5 % of b."""
+    return 0.005 * block.width_m
+
+
+def uplift_tol_rad(block: Block) -> float:
+    """|θ| below which a soft-contact engine's block counts as not lifted [rad]: 2 % of α.
+
+    Soft contacts let a block standing on its base tilt by a few tenths of a milliradian under a
+    horizontal load; 2 % of α (4 mrad for the h/b = 4.5 blocks) sits above that and far below any
+    rocking motion worth the name.
+    """
+    return 0.02 * block.alpha_rad
+
+
+@dataclass(frozen=True)
+class Case:
+    """One simulation to run.
+
+    Attributes
+    ----------
+    block : Block
+        The block.
+    pulse : Pulse
+        The table motion.
+    restitution : Restitution
+        The restitution law: what the reference applies at impacts, and the target η engines are
+        calibrated to.
+    dt_s : float or None
+        Time step [s]; None takes the engine's default.
+    linearized : bool
+        Linearised equation of motion (reference only).
+    """
+
+    block: Block
+    pulse: Pulse
+    restitution: Restitution = field(default_factory=Restitution)
+    dt_s: float | None = None
+    linearized: bool = False
+
+    @property
+    def eta(self) -> float:
+        """The restitution coefficient of this case [-]."""
+        return self.restitution.eta(self.block.alpha_rad)
+
+    def to_dict(self) -> dict:
+        return {"block": self.block.to_dict(), "pulse": self.pulse.to_dict(),
+                "restitution": self.restitution.to_dict(), "eta": self.eta, "dt_s": self.dt_s,
+                "linearized": self.linearized}
+
+
+@dataclass
+class Trajectory:
+    """What an adapter returns for one case.
+
+    Attributes
+    ----------
+    t_s : ndarray
+        Sample times [s], increasing, from 0.
+    theta_rad : ndarray
+        Rotation about +y [rad] (see the contract for the sign).
+    theta_dot_rad_s : ndarray
+        Angular velocity [rad/s].
+    t_pulse_end_s : float
+        When the excitation ended [s].
+    flags : list of str
+        Broken assumptions (:data:`FLAGS`).
+    diagnostics : dict
+        Anything measured along the way (``max_slip_m``, ``max_jump_m``, ``energy_gain_rel``,
+        ``steps``, impact list, ...), JSON-serialisable.
+    eta_for_tail : float or None
+        When the trajectory stops while the block still rocks freely and the adapter wants the
+        exact free-rocking decision applied (the reference's fast mode), the η to use [-].
+    uplift_tol_rad : float
+        |θ| below which the classifier counts the block as not lifted [rad].
+    """
+
+    t_s: np.ndarray
+    theta_rad: np.ndarray
+    theta_dot_rad_s: np.ndarray
+    t_pulse_end_s: float
+    flags: list = field(default_factory=list)
+    diagnostics: dict = field(default_factory=dict)
+    eta_for_tail: float | None = None
+    uplift_tol_rad: float = 0.0
+
+
+@dataclass
+class CellResult:
+    """The verdict on one case: the classifier's outcome and the model's validity.
+
+    Attributes
+    ----------
+    outcome : str or None
+        ``rest``, ``rocking``, ``overturn``; None when the cell failed.
+    n_impacts : int
+        Impacts up to the decision [-].
+    max_abs_theta_rad : float
+        Largest |θ| [rad].
+    t_overturn_s : float or None
+        See :mod:`rockbench.reference_solver.classify` [s].
+    t_uplift_s : float or None
+        First uplift [s].
+    valid : bool
+        False when the engine broke the model's assumptions (any flag) or failed.
+    flags : list of str
+        :data:`FLAGS` raised.
+    status : str
+        ``ok`` or ``failed``.
+    message : str
+        Why it failed, or empty.
+    wall_s : float
+        Wall time of the simulation [s].
+    diagnostics : dict
+        The adapter's diagnostics.
+    """
+
+    outcome: str | None
+    n_impacts: int = 0
+    max_abs_theta_rad: float = math.nan
+    t_overturn_s: float | None = None
+    t_uplift_s: float | None = None
+    valid: bool = True
+    flags: list = field(default_factory=list)
+    status: str = "ok"
+    message: str = ""
+    wall_s: float = 0.0
+    diagnostics: dict = field(default_factory=dict)
+
+    @classmethod
+    def failed(cls, flag: str, message: str, wall_s: float = 0.0) -> "CellResult":
+        return cls(outcome=None, valid=False, flags=[flag], status="failed", message=message, wall_s=wall_s)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+class EngineAdapter:
+    """Base class of every engine adapter; see the module docstring for the contract."""
+
+    #: registry key, e.g. ``"mujoco"``
+    name: ClassVar[str] = ""
+    #: the engine's Python module, imported lazily (None for pure-Python adapters)
+    module: ClassVar[str | None] = None
+    #: how to install the engine
+    install_hint: ClassVar[str] = ""
+    #: accepted settings and their defaults
+    SETTINGS: ClassVar[Mapping[str, Any]] = {}
+    #: default time step [s]
+    default_dt_s: ClassVar[float] = 1e-3
+
+    def __init__(self, **settings):
+        unknown = sorted(set(settings) - set(self.SETTINGS))
+        if unknown:
+            known = ", ".join(sorted(self.SETTINGS)) or "none"
+            raise ConfigError(f"engine {self.name!r} has no setting {unknown[0]!r}; its settings are: {known}.")
+        self.settings = {**self.SETTINGS, **settings}
+        self._validate_settings(self.settings)
+
+    # -- to override -------------------------------------------------------------------------
+    def _validate_settings(self, settings: dict) -> None:
+        """Raise ConfigError for a bad setting value (the default accepts everything)."""
+
+    def _simulate(self, case: Case) -> Trajectory:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _simulate_many(self, cases: list[Case]) -> list[Trajectory | BaseException]:
+        out = []
+        for c in cases:
+            try:
+                out.append(self._simulate(c))
+            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
+                out.append(e)
+        return out
+
+    def resolve(self, block: Block, restitution: Restitution) -> dict:
+        """The concrete settings cases of this block and restitution will use (for run.json)."""
+        return dict(self.settings)
+
+    def measure_restitution(self, block: Block, **kwargs):
+        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate.")
+
+    def calibrate(self, block: Block, target_eta: float, **kwargs):
+        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate.")
+
+    @classmethod
+    def version(cls) -> str:
+        """The engine's version; raises EngineUnavailableError when it cannot be imported."""
+        if cls.module is None:
+            from importlib.metadata import version
+            try:
+                return version("rockbench")
+            except Exception:  # noqa: BLE001 - running from a source tree
+                return "source"
+        import importlib
+        try:
+            mod = importlib.import_module(cls.module)
+        except Exception as e:  # noqa: BLE001 - any import failure means "not available"
+            raise EngineUnavailableError(
+                f"engine {cls.name!r} is not available: importing {cls.module!r} failed ({e}); {cls.install_hint}") from None
+        return str(getattr(mod, "__version__", getattr(mod, "version", "unknown")))
+
+    # -- provided ----------------------------------------------------------------------------
+    def dt_for(self, case: Case) -> float:
+        """The time step a case runs with: its own, else the engine's default, checked against the pulse [s]."""
+        dt = case.dt_s if case.dt_s is not None else self.default_dt_s
+        return case.pulse.check_dt(dt)
+
+    def simulate(self, case: Case) -> Trajectory:
+        """Run one case and return its trajectory (exceptions propagate)."""
+        return self._simulate(case)
+
+    def run(self, case: Case) -> CellResult:
+        """Simulate one case and classify it; an engine exception becomes a failed cell."""
+        return self.run_many([case])[0]
+
+    def run_many(self, cases: Iterable[Case]) -> list[CellResult]:
+        """Simulate and classify many cases; failures are recorded per case."""
+        cases = list(cases)
+        t0 = time.perf_counter()
+        trajs = self._simulate_many(cases)
+        wall = (time.perf_counter() - t0) / max(len(cases), 1)
+        return [self._judge(c, tr, wall) for c, tr in zip(cases, trajs)]
+
+    def _judge(self, case: Case, tr, wall_s: float) -> CellResult:
+        if isinstance(tr, BaseException):
+            if isinstance(tr, ConfigError):
+                raise tr
+            return CellResult.failed("engine-error", f"{type(tr).__name__}: {tr}", wall_s)
+        if not (np.all(np.isfinite(tr.theta_rad)) and np.all(np.isfinite(tr.theta_dot_rad_s))):
+            return CellResult.failed("diverged", "the engine returned non-finite angles", wall_s)
+        c: Classification = classify(
+            tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, alpha_rad=case.block.alpha_rad,
+            p_rad_s=case.block.p_rad_s, t_pulse_end_s=tr.t_pulse_end_s, eta=tr.eta_for_tail,
+            linearized=case.linearized, uplift_tol_rad=tr.uplift_tol_rad)
+        flags = sorted(set(tr.flags))
+        return CellResult(outcome=c.outcome.value, n_impacts=c.n_impacts,
+                          max_abs_theta_rad=c.max_abs_theta_rad, t_overturn_s=c.t_overturn_s,
+                          t_uplift_s=c.t_uplift_s, valid=not flags, flags=flags, status="ok",
+                          wall_s=wall_s, diagnostics=tr.diagnostics)
+
+    def describe(self) -> dict:
+        """Name, version and settings, for run.json."""
+        return {"engine": self.name, "version": self.version(), "settings": dict(self.settings)}
+
+
+def energy_gain_rel(t_s, theta_rad, theta_dot_rad_s, t_pulse_end_s: float, block: Block) -> float:
+    """Largest rise of the ideal-model energy after the pulse, relative to the barrier height [-].
+
+    Uses ``E = ½θ̇² + p²cos(α − |θ|)``; 0 when it never rose. Engines may use it for ``energy-gain``.
+    """
+    from ..reference_solver.energy import energy
+
+    t = np.asarray(t_s)
+    m = t >= t_pulse_end_s
+    if m.sum() < 2:
+        return 0.0
+    E = energy(np.asarray(theta_rad)[m], np.asarray(theta_dot_rad_s)[m], block.alpha_rad, block.p_rad_s)
+    rise = float(np.max(E - np.minimum.accumulate(E)))
+    scale = block.p_rad_s**2 * (1.0 - math.cos(block.alpha_rad))
+    return rise / scale

@@ -1,0 +1,83 @@
+"""Engines by name: the built-in adapters plus any registered under the entry-point group
+``rockbench.engines`` by a third-party package (value ``"package.module:AdapterClass"``).
+
+Adapters are named by ``"module:Class"`` strings and imported only when asked for, so listing the
+engines never imports an engine library.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+from importlib.metadata import entry_points
+
+from ..reference_solver.errors import ConfigError, EngineUnavailableError
+
+#: built-in adapters, imported lazily
+BUILTIN = {
+    "reference": "rockbench.engines.reference_adapter:ReferenceAdapter",
+}
+
+#: the entry-point group third parties register under
+ENTRY_POINT_GROUP = "rockbench.engines"
+
+_extra: dict[str, str | type] = {}
+
+
+def register(name: str, target) -> None:
+    """Register an adapter class (or a ``"module:Class"`` string) under ``name`` for this process."""
+    _extra[name] = target
+
+
+def unregister(name: str) -> None:
+    _extra.pop(name, None)
+
+
+def names() -> list[str]:
+    """Every known engine name: built-in, entry points, and registered in this process."""
+    eps = {ep.name for ep in entry_points(group=ENTRY_POINT_GROUP)}
+    return sorted(set(BUILTIN) | eps | set(_extra))
+
+
+def _target(name: str):
+    if name in _extra:
+        return _extra[name]
+    if name in BUILTIN:
+        return BUILTIN[name]
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        if ep.name == name:
+            return ep.value
+    close = difflib.get_close_matches(name, names(), n=1)
+    hint = f" Did you mean {close[0]!r}?" if close else ""
+    raise ConfigError(f"unknown engine {name!r}; known engines: {', '.join(names())}.{hint}")
+
+
+def adapter_class(name: str):
+    """The adapter class registered under ``name`` (imports its module, not the engine)."""
+    target = _target(name)
+    if isinstance(target, type):
+        return target
+    mod_name, _, cls_name = str(target).partition(":")
+    try:
+        mod = importlib.import_module(mod_name)
+    except ImportError as e:
+        raise EngineUnavailableError(f"engine {name!r}: cannot import its adapter {mod_name!r} ({e}).") from None
+    return getattr(mod, cls_name)
+
+
+def get_adapter(name: str, **settings):
+    """An adapter instance; raises ConfigError (bad name/settings) or EngineUnavailableError."""
+    cls = adapter_class(name)
+    cls.version()  # fail early, with the install hint, if the engine cannot be imported
+    return cls(**settings)
+
+
+def availability(name: str) -> dict:
+    """``{"engine", "available", "version", "reason", "install_hint"}`` for one engine."""
+    try:
+        cls = adapter_class(name)
+        v = cls.version()
+        return {"engine": name, "available": True, "version": v, "reason": "",
+                "install_hint": getattr(cls, "install_hint", "")}
+    except Exception as e:  # noqa: BLE001 - reported, not raised
+        return {"engine": name, "available": False, "version": None, "reason": str(e), "install_hint": ""}

@@ -1,0 +1,144 @@
+"""The one outcome classifier: any trajectory, from any engine, judged by the same rule.
+
+Rules (``tol`` is the uplift tolerance, 0 for the reference solver):
+
+1. **rest**: ``|θ|`` never exceeds ``tol`` (the block never lifted off).
+2. **overturn**: at some sample the block is flat on its side (``|θ| ≥ π/2 − 0.01``), or, once the
+   excitation has ended, ``|θ| > α`` while moving outward (``θ·θ̇ > 0``): with nothing left to
+   pull it back, gravity alone takes it over. If the trajectory ends before either happens and a
+   restitution ``eta`` is given, the exact free-rocking decision of
+   :func:`~rockbench.reference_solver.energy.free_rocking_fate` is applied to the last state
+   (that is how the reference solver's fast mode stops at the end of the pulse).
+3. **rocking**: lifted off and did not overturn.
+
+``n_impacts`` counts the crossings of θ from one side to the other (from ``> tol`` to ``< −tol``
+or back); ``t_overturn_s`` is the last outward crossing of ``|θ| = α`` before the overturn was
+certain (None if not overturned, NaN if decided by energy before θ reached α).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, asdict
+from enum import Enum
+
+import numpy as np
+
+from .energy import free_rocking_fate
+
+#: |θ| at which a block is taken to lie on its side [rad]
+FLAT_ANGLE_RAD = 0.5 * math.pi - 0.01
+
+
+class Outcome(str, Enum):
+    """The three fates of a block."""
+
+    REST = "rest"
+    ROCKING = "rocking"
+    OVERTURN = "overturn"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+#: Integer codes used by compiled kernels and arrays of outcomes.
+OUTCOME_CODES = {Outcome.REST: 0, Outcome.ROCKING: 1, Outcome.OVERTURN: 2}
+OUTCOME_FROM_CODE = {v: k for k, v in OUTCOME_CODES.items()}
+
+
+@dataclass(frozen=True)
+class Classification:
+    """What the classifier says about one trajectory.
+
+    Attributes
+    ----------
+    outcome : Outcome
+        rest, rocking or overturn.
+    n_impacts : int
+        Impacts (sign changes of θ) up to the decision [-].
+    max_abs_theta_rad : float
+        Largest |θ| seen [rad] (up to the overturn decision when overturned).
+    t_uplift_s : float or None
+        First time |θ| exceeds the tolerance [s].
+    t_overturn_s : float or None
+        See the module docstring [s].
+    """
+
+    outcome: Outcome
+    n_impacts: int
+    max_abs_theta_rad: float
+    t_uplift_s: float | None
+    t_overturn_s: float | None
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["outcome"] = self.outcome.value
+        return d
+
+
+def classify(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: float,
+             t_pulse_end_s: float, eta: float | None = None, linearized: bool = False,
+             uplift_tol_rad: float = 0.0) -> Classification:
+    """Classify one trajectory (see the module docstring for the rules).
+
+    Parameters
+    ----------
+    t_s, theta_rad, theta_dot_rad_s : array_like
+        Samples of time [s], rotation [rad] and angular velocity [rad/s], same length.
+    alpha_rad, p_rad_s : float
+        The block's slenderness angle [rad] and frequency parameter [rad/s].
+    t_pulse_end_s : float
+        When the excitation ended [s].
+    eta : float, optional
+        Restitution for the exact free-rocking decision at the end of a trajectory that stops
+        while still rocking [-]. Leave None for engines: their trajectories decide by themselves.
+    linearized : bool
+        Use the linearised energy for that decision.
+    uplift_tol_rad : float
+        |θ| below this is "not lifted" [rad]; engines with soft contacts need a small positive value.
+    """
+    t = np.asarray(t_s, dtype=float)
+    th = np.asarray(theta_rad, dtype=float)
+    thd = np.asarray(theta_dot_rad_s, dtype=float)
+    if not (t.shape == th.shape == thd.shape) or t.ndim != 1:
+        raise ValueError(f"t, theta and theta_dot must be 1-D arrays of one length, got {t.shape}, {th.shape}, {thd.shape}")
+    if t.size == 0:
+        return Classification(Outcome.REST, 0, 0.0, None, None)
+    lifted = np.abs(th) > uplift_tol_rad
+    if not lifted.any():
+        return Classification(Outcome.REST, 0, float(np.max(np.abs(th))), None, None)
+    i_up = int(np.argmax(lifted))
+
+    flat = np.abs(th) >= FLAT_ANGLE_RAD
+    certain = flat | ((t >= t_pulse_end_s) & (np.abs(th) > alpha_rad) & (th * thd > 0.0))
+    i_end = int(np.argmax(certain)) if certain.any() else th.size - 1
+    overturned = bool(certain.any())
+
+    side = np.where(th > uplift_tol_rad, 1, np.where(th < -uplift_tol_rad, -1, 0))[: i_end + 1]
+    nz = side[side != 0]
+    n_imp = int(np.count_nonzero(np.diff(nz))) if nz.size > 1 else 0
+    max_th = float(np.max(np.abs(th[: i_end + 1])))
+
+    t_over = None
+    if overturned:
+        t_over = _last_outward_alpha_crossing(t[: i_end + 1], th[: i_end + 1], alpha_rad)
+    elif eta is not None and t[-1] >= t_pulse_end_s:
+        goes, extra = free_rocking_fate(float(th[-1]), float(thd[-1]), alpha_rad, p_rad_s, eta, linearized)
+        if goes:
+            overturned = True
+            n_imp += extra
+            t_over = math.nan
+    outcome = Outcome.OVERTURN if overturned else Outcome.ROCKING
+    return Classification(outcome, n_imp, max_th, float(t[i_up]), t_over)
+
+
+def _last_outward_alpha_crossing(t, th, alpha):
+    a = np.abs(th)
+    below = a <= alpha
+    idx = np.nonzero(below[:-1] & ~below[1:])[0]
+    if idx.size == 0:
+        return float(t[0]) if a[0] > alpha else math.nan
+    i = int(idx[-1])
+    # linear interpolation of the crossing inside the sample interval
+    f = (alpha - a[i]) / (a[i + 1] - a[i]) if a[i + 1] != a[i] else 0.0
+    return float(t[i] + f * (t[i + 1] - t[i]))

@@ -1,0 +1,61 @@
+"""The exception hierarchy shared by every floor.
+
+Each subclass also inherits the builtin it refines, so ``except ValueError`` keeps working for
+callers who do not know rockbench. Messages say what was wrong, what was given and what to do.
+"""
+
+
+class RockbenchError(Exception):
+    """Base class of every error rockbench raises on purpose."""
+
+    exit_code = 70
+
+
+class ConfigError(RockbenchError, ValueError):
+    """Bad user input: a size, a range, a setting, a file. The CLI exits with code 2."""
+
+    exit_code = 2
+
+
+class EngineUnavailableError(RockbenchError, ImportError):
+    """A requested engine is not installed or cannot start. The CLI exits with code 3."""
+
+    exit_code = 3
+
+
+class EngineError(RockbenchError, RuntimeError):
+    """An engine raised or diverged while simulating one case (recorded per cell in maps)."""
+
+    exit_code = 70
+
+
+class IncomparableError(RockbenchError, ValueError):
+    """Two result sets cannot be compared (other schema or scenario). The CLI exits with code 5."""
+
+    exit_code = 5
+
+
+def check_positive(name: str, value, unit: str = "", hint: str = "") -> float:
+    """Return ``value`` as a float if it is finite and > 0, else raise :class:`ConfigError`.
+
+    Parameters
+    ----------
+    name : str
+        How the user knows the quantity (an option name such as ``--width``).
+    value : float
+        The value given.
+    unit : str
+        Unit shown in the message, e.g. ``"m"``.
+    hint : str
+        What to do instead; appended to the message.
+    """
+    import math
+
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name} must be a number, got {value!r}.{' ' + hint if hint else ''}") from None
+    if not math.isfinite(v) or v <= 0.0:
+        u = f" {unit}" if unit else ""
+        raise ConfigError(f"{name} must be a finite number > 0{u}, got {value!r}.{' ' + hint if hint else ''}")
+    return v

@@ -1,0 +1,123 @@
+"""Coefficients of restitution for the rocking impact (DOMAIN.md §3, paper §2.3 and eq. (10)).
+
+The coefficient ``η`` multiplies the angular velocity at every impact, ``θ̇⁺ = η·θ̇⁻``, so the
+kinetic energy at ``θ = 0`` drops by ``η²``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .errors import ConfigError
+
+
+def housner_eta(alpha_rad: float) -> float:
+    """Housner's coefficient ``η_H = 1 − 1.5·sin²α`` [-] (conservation of angular momentum
+    about the new pivot for a rectangular block)."""
+    return 1.0 - 1.5 * math.sin(alpha_rad) ** 2
+
+
+def modified_eta(alpha_rad: float, k: float) -> float:
+    """Modified coefficient (Kalliontzis et al. 2016; Chatzis et al. 2017; paper eq. (10)).
+
+    ``η_M = (4 − 3·sin²α·(1 + k²)) / (4 − 3·sin²α·(1 − k²))``
+
+    Parameters
+    ----------
+    alpha_rad : float
+        Slenderness angle α [rad].
+    k : float
+        Position of the impact impulse as a fraction of the half width, ``k = b̄/(b/2)`` in
+        [0, 1] [-]. ``k = 1`` gives Housner's η, ``k = 0`` gives 1.
+    """
+    k = check_k(k)
+    s2 = math.sin(alpha_rad) ** 2
+    return (4.0 - 3.0 * s2 * (1.0 + k * k)) / (4.0 - 3.0 * s2 * (1.0 - k * k))
+
+
+def check_k(k) -> float:
+    """Validate the impulse position ``k`` in [0, 1]."""
+    try:
+        kf = float(k)
+    except (TypeError, ValueError):
+        raise ConfigError(f"--k must be a number in [0, 1], got {k!r}.") from None
+    if not (0.0 <= kf <= 1.0) or math.isnan(kf):
+        raise ConfigError(f"--k must be in [0, 1] (the impulse position as a fraction of b/2), got {k!r}.")
+    return kf
+
+
+def check_eta(eta) -> float:
+    """Validate a constant coefficient of restitution in (0, 1]."""
+    try:
+        e = float(eta)
+    except (TypeError, ValueError):
+        raise ConfigError(f"--restitution must be housner, modified or a number in (0, 1], got {eta!r}.") from None
+    if not (0.0 < e <= 1.0):
+        raise ConfigError(f"a constant restitution must be in (0, 1], got {eta!r}; "
+                          "use 1 for no energy loss at impact.")
+    return e
+
+
+@dataclass(frozen=True)
+class Restitution:
+    """A restitution law: ``housner``, ``modified`` (with ``k``) or ``constant`` (with ``value``).
+
+    Parameters
+    ----------
+    kind : str
+        ``"housner"``, ``"modified"`` or ``"constant"``.
+    k : float, optional
+        Impulse position for ``modified`` [-], in [0, 1].
+    value : float, optional
+        The coefficient for ``constant`` [-], in (0, 1].
+    """
+
+    kind: str = "housner"
+    k: float | None = None
+    value: float | None = None
+
+    def __post_init__(self):
+        if self.kind == "housner":
+            return
+        if self.kind == "modified":
+            if self.k is None:
+                raise ConfigError("--restitution modified needs --k (the impulse position in [0, 1]); "
+                                  "presets supply their average k.")
+            object.__setattr__(self, "k", check_k(self.k))
+        elif self.kind == "constant":
+            object.__setattr__(self, "value", check_eta(self.value))
+        else:
+            raise ConfigError(f"--restitution must be housner, modified or a number in (0, 1], got {self.kind!r}.")
+
+    def eta(self, alpha_rad: float) -> float:
+        """The coefficient for a block of slenderness angle ``alpha_rad`` [-]."""
+        if self.kind == "housner":
+            return housner_eta(alpha_rad)
+        if self.kind == "modified":
+            return modified_eta(alpha_rad, self.k)
+        return self.value
+
+    @property
+    def label(self) -> str:
+        """Short text: ``housner``, ``modified(k=0.8608)`` or ``0.9``."""
+        if self.kind == "housner":
+            return "housner"
+        if self.kind == "modified":
+            return f"modified(k={self.k:g})"
+        return f"{self.value:g}"
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "k": self.k, "value": self.value}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Restitution":
+        return cls(d["kind"], d.get("k"), d.get("value"))
+
+    @classmethod
+    def parse(cls, text: str, k: float | None = None) -> "Restitution":
+        """From the CLI's ``--restitution`` text and ``--k``."""
+        t = str(text).strip().lower()
+        if t in ("housner", "modified"):
+            return cls(t, k=k if t == "modified" else None)
+        return cls("constant", value=check_eta(text))
