@@ -436,8 +436,10 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
     cont = False      # energy mode: continuing a certain overturn after the pulse
     extra_left = 0    # impacts the energy decision allows on the way
     stop_next = False
-    thdd_prev = 0.0
+    thdd_prev = 0.0   # θ̈ one and two steps back, for the Newton start (see _newton_step)
+    thdd_prev2 = 0.0
     h_prev = 0.0      # length of the previous step of this smooth stretch (0: none yet)
+    n_same = 0        # accepted steps of length h_prev in a row since the last event
     steps = 0
     newton = 0
     if record:
@@ -505,7 +507,12 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
             else:
                 u1 = _pulse_acc(t1, code, a0, w, t_end, tk, ak) / G
             # θ̈_{n+1} extrapolated from the last two samples of this stretch (else θ̈_n)
-            a_pred = thdd + (thdd - thdd_prev) * (h / h_prev) if h_prev > 0.0 else thdd
+            if h_prev > 0.0 and n_same >= 2 and h == h_prev:
+                a_pred = 3.0 * (thdd - thdd_prev) + thdd_prev2   # quadratic through the last three
+            elif h_prev > 0.0:
+                a_pred = thdd + (thdd - thdd_prev) * (h / h_prev)
+            else:
+                a_pred = thdd
             x, it = _newton_step(th, thd, thdd, a_pred, h, u1, s, alpha, p2, lin)
             steps += 1
             newton += it
@@ -513,6 +520,8 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
             if s * x > 0.0:
                 thd1 = 2.0 / h * (x - th) - thd                          # eq (3)
                 thdd1 = 4.0 / (h * h) * (x - th) - 4.0 / h * thd - thdd  # eq (4)
+                n_same = n_same + 1 if (h == h_prev and h_prev > 0.0) else 1
+                thdd_prev2 = thdd_prev
                 thdd_prev = thdd
                 h_prev = h
                 t, th, thd, thdd = t1, x, thd1, thdd1
