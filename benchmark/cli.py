@@ -15,7 +15,7 @@ import sys
 from ..reference_solver.errors import RockbenchError
 
 #: subcommand modules under rockbench.benchmark.commands
-COMMANDS = ["blocks", "calibrate"]
+COMMANDS = ["blocks", "engines", "check-adapter", "map", "figures", "calibrate"]
 
 
 class UsageError(Exception):
