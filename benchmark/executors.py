@@ -371,6 +371,7 @@ class DaskExecutor:
             if "://" not in address and ":" not in address:
                 raise ConfigError(f"--scheduler takes a Dask scheduler address such as tcp://host:8786 or 'local', "
                                   f"got {address!r}.")
+            _probe(address)
             try:
                 self.client = Client(address, timeout=CONNECT_TIMEOUT_S)
             except Exception as e:  # noqa: BLE001 - any failure to connect is the user's address
@@ -402,3 +403,18 @@ class DaskExecutor:
         finally:
             if self.cluster is not None:
                 self.cluster.close()
+
+
+def _probe(address: str) -> None:
+    """Fail at once (not after Dask's retries) when nothing listens at a tcp:// address."""
+    import socket
+    from urllib.parse import urlsplit
+
+    u = urlsplit(address if "://" in address else "tcp://" + address)
+    if u.scheme not in ("tcp", "tls") or not u.hostname or u.port is None:
+        return   # other transports (inproc, ucx, ws) are left to Dask
+    try:
+        socket.create_connection((u.hostname, u.port), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as e:
+        raise ConfigError(f"cannot reach the Dask scheduler at {address!r} ({e.strerror or e}); start it "
+                          "(dask scheduler) or use --scheduler local.") from None
