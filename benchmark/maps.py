@@ -420,6 +420,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         result.adaptive, result.coarse_stride = adaptive, stride
         for (i, j), row in done.items():
             _put(result, i, j, row)
+        key = adaptive_mod.regime_key(result.outcome, result.n_impacts)   # what adaptive neighbours compare
         show = (sys.stderr.isatty() if progress is None else progress)
         bar = _Progress(show, spec.label())
 
@@ -437,6 +438,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
                     row = store.row(spec, i, j, r)
                     rows.append(row)
                     _put(result, i, j, row)
+                    key[i, j] = adaptive_mod.regime_key(result.outcome[i, j], result.n_impacts[i, j])
                 store.append(rows)
                 bar.update(len(pairs))
 
@@ -444,7 +446,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
                          batch=_is_batching(adapter))
 
         if adaptive:
-            adaptive_mod.refine(result.outcome, result.simulated, evaluate, stride)
+            adaptive_mod.refine(key, result.simulated, evaluate, stride)
         else:
             evaluate([(i, j) for i in range(spec.y.n) for j in range(spec.x.n)])
         bar.close()
