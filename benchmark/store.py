@@ -97,12 +97,15 @@ def _json_default(x):
 
 
 def _fmt(x) -> str:
+    t = type(x)
+    if t is float:
+        return repr(x)   # round-trips exactly
+    if t is str:
+        return x
     if x is None:
         return ""
-    if isinstance(x, bool):
+    if t is bool:
         return "true" if x else "false"
-    if isinstance(x, float):
-        return repr(x)   # round-trips exactly
     return str(x)
 
 
@@ -206,11 +209,13 @@ class RunStore:
     # -- writing ------------------------------------------------------------------------------
     def row(self, spec, i: int, j: int, r) -> dict:
         """The cells.csv row of cell ``(i, j)`` with result ``r`` (a CellResult)."""
-        case_amp = float(spec.amplitudes()[i])
-        omega = float(spec.omegas()[j])
-        return {"engine": spec.engine, "block": spec.block.name, "pulse": spec.pulse,
-                "restitution": spec.restitution.label, "eta": spec.eta, "w_ratio": float(spec.w_ratios()[j]),
-                "a_ratio": float(spec.a_ratios()[i]), "omega_rad_s": omega, "amplitude_mps2": case_amp,
+        if getattr(self, "_spec_cache", (None,))[0] is not spec:
+            self._spec_cache = (spec, spec.block.name, spec.restitution.label, spec.eta)
+        _, bname, rlabel, eta = self._spec_cache
+        return {"engine": spec.engine, "block": bname, "pulse": spec.pulse,
+                "restitution": rlabel, "eta": eta, "w_ratio": float(spec._w_ratios[j]),
+                "a_ratio": float(spec._a_ratios[i]), "omega_rad_s": float(spec._omegas[j]),
+                "amplitude_mps2": float(spec._amplitudes[i]),
                 "outcome": r.outcome or "", "n_impacts": int(r.n_impacts), "max_abs_theta_rad": r.max_abs_theta_rad,
                 "valid": bool(r.valid), "flags": ";".join(r.flags), "status": r.status,
                 "message": " ".join(str(r.message).split()), "wall_s": float(r.wall_s),
@@ -222,13 +227,21 @@ class RunStore:
             return
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
+        lines = []
         for r in rows:
-            w.writerow([_fmt(r[c]) for c in COLUMNS])
+            fields = [_fmt(r[c]) for c in COLUMNS]
+            if r["message"] or any(("," in f or '"' in f) for f in fields[:4]):
+                w.writerow(fields)          # needs csv quoting
+                lines.append(buf.getvalue())
+                buf.seek(0)
+                buf.truncate()
+            else:
+                lines.append(",".join(fields) + "\n")
             if r["status"] != "ok":
                 self._failures.append({k: _fmt(v) for k, v in r.items()})
         # one write per row batch; each row ends with its newline, so a kill leaves whole rows
         # plus at most one torn line, which the next open cuts off
-        self._csv.write(buf.getvalue())
+        self._csv.write("".join(lines))
         self._csv.flush()
 
     def _write_line(self, cells: list[str]) -> None:
