@@ -11,8 +11,9 @@ Algorithm
 ---------
 **Time stepping.** Newmark's trapezoidal rule (γ = ½, β = ¼), paper eqs (3)–(6): at each step the
 nonlinear equation for ``θ_{n+1}`` is solved by Newton–Raphson until ``|update| < 1e-9`` rad,
-starting from ``θ_n + Δt·θ̇_n + ¼Δt²·(θ̈_n + θ̈*)`` with ``θ̈*`` extrapolated from the last two
-steps (``θ̈_n`` after an event); θ̇ and θ̈ then follow from eqs (3) and (4). The linearised
+starting from ``θ_n + Δt·θ̇_n + ¼Δt²·(θ̈_n + θ̈*)`` with ``θ̈*`` a guess of ``θ̈_{n+1}``
+(extrapolated through up to four previous steps; on the first step after an event,
+``θ̈_n + Δt·dθ̈/dt`` from the equation of motion); θ̇ and θ̈ then follow from eqs (3) and (4). The linearised
 equation is affine in θ and is solved in one step.
 
 **Uplift.** A block at rest (``θ = θ̇ = 0``) stays at rest until the first instant ``t_u`` with
@@ -314,8 +315,8 @@ def _newton_step(th, thd, thdd, a_pred, h, u1, s, alpha, p2, lin):
     """Solve the Newmark equation (paper eqs (5)/(6)) for θ_{n+1}; returns (θ_{n+1}, iterations).
 
     Newton–Raphson until ``|update| < 1e-9`` rad, from the start ``θ_n + Δt·θ̇_n + ¼Δt²·(θ̈_n +
-    a_pred)`` where ``a_pred`` is θ̈_{n+1} extrapolated from the last two steps (so the first update
-    is already small and the second one confirms convergence).
+    a_pred)`` where ``a_pred`` is a guess of θ̈_{n+1} (extrapolated, see :func:`_integrate`), so
+    the first update is usually already below the tolerance.
     """
     c = 4.0 / (h * h)
     rhs = c * th + 4.0 / h * thd + thdd  # c·θ_{n+1} − θ̈(θ_{n+1}) = rhs
@@ -439,6 +440,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
     stop_next = False
     thdd_prev = 0.0   # θ̈ one and two steps back, for the Newton start (see _newton_step)
     thdd_prev2 = 0.0
+    thdd_prev3 = 0.0
     h_prev = 0.0      # length of the previous step of this smooth stretch (0: none yet)
     n_same = 0        # accepted steps of length h_prev in a row since the last event
     steps = 0
@@ -507,13 +509,23 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                 u1 = _harmonic_acc(t1, code, a0, w, t_end) / G
             else:
                 u1 = _pulse_acc(t1, code, a0, w, t_end, tk, ak) / G
-            # θ̈_{n+1} extrapolated from the last two samples of this stretch (else θ̈_n)
-            if h_prev > 0.0 and n_same >= 2 and h == h_prev:
+            # a guess of θ̈_{n+1}: extrapolated along this smooth stretch, or from dθ̈/dt after an event
+            if h_prev > 0.0 and n_same >= 3 and h == h_prev:
+                a_pred = 4.0 * (thdd + thdd_prev2) - 6.0 * thdd_prev - thdd_prev3   # cubic, last four
+            elif h_prev > 0.0 and n_same >= 2 and h == h_prev:
                 a_pred = 3.0 * (thdd - thdd_prev) + thdd_prev2   # quadratic through the last three
             elif h_prev > 0.0:
                 a_pred = thdd + (thdd - thdd_prev) * (h / h_prev)
             else:
-                a_pred = thdd
+                # first step after an event: θ̈_{n+1} ≈ θ̈_n + Δt·dθ̈/dt, from the equation of motion
+                un = 0.0 if post else _pulse_acc(t, code, a0, w, t_end, tk, ak) / G
+                jn = 0.0 if post else _pulse_jerk(t, code, a0, w, t_end, tk, ak) / G
+                if lin:
+                    a_pred = thdd + h * p2 * (thd - jn)
+                else:
+                    z = alpha * s - th
+                    cz = math.cos(z)
+                    a_pred = thdd + h * p2 * ((cz - un * math.sin(z)) * thd - cz * jn)
             x, it = _newton_step(th, thd, thdd, a_pred, h, u1, s, alpha, p2, lin)
             steps += 1
             newton += it
@@ -522,6 +534,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                 thd1 = 2.0 / h * (x - th) - thd                          # eq (3)
                 thdd1 = 4.0 / (h * h) * (x - th) - 4.0 / h * thd - thdd  # eq (4)
                 n_same = n_same + 1 if (h == h_prev and h_prev > 0.0) else 1
+                thdd_prev3 = thdd_prev2
                 thdd_prev2 = thdd_prev
                 thdd_prev = thdd
                 h_prev = h
