@@ -13,7 +13,7 @@ from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.classify import OUTCOME_CODES, classify
 from rockbench.reference_solver.energy import free_rocking_fate
 from rockbench.reference_solver.errors import ConfigError
-from rockbench.reference_solver.model import G, Block
+from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import RecordPulse, SinePulse, make_pulse
 from rockbench.reference_solver.restitution import Restitution, modified_eta
 from rockbench.reference_solver.solver import _fate, solve, solve_batch

@@ -19,7 +19,7 @@ from scipy.integrate import quad
 from rockbench.benchmark.presets import get_preset
 from rockbench.reference_solver.energy import energy
 from rockbench.reference_solver.model import G, Block
-from rockbench.reference_solver.pulses import CosinePulse, HalfSinePulse, RecordPulse, SinePulse, make_pulse
+from rockbench.reference_solver.pulses import CosinePulse, RecordPulse, SinePulse, make_pulse
 from rockbench.reference_solver.restitution import housner_eta, modified_eta
 from rockbench.reference_solver.solver import solve, solve_batch
 
