@@ -147,7 +147,8 @@ class MujocoAdapter(EngineAdapter):
     table_mass_ratio : float
         Table mass over block mass for ``drive="table"`` [-].
     threads : int
-        Rollout threads (0: all cores).
+        Rollout threads (0: ``OMP_NUM_THREADS`` when set, as the map executors do per worker,
+        else all cores).
     """
 
     name = "mujoco"
@@ -425,7 +426,15 @@ class MujocoAdapter(EngineAdapter):
 
     def _threads(self) -> int:
         n = self.settings["threads"]
-        return n if n > 0 else (os.cpu_count() or 1)
+        if n > 0:
+            return n
+        # the map executors give each worker process its share of the cores in OMP_NUM_THREADS;
+        # honouring it keeps jobs × threads within the machine
+        try:
+            share = int(os.environ.get("OMP_NUM_THREADS", "0"))
+        except ValueError:
+            share = 0
+        return share if share > 0 else (os.cpu_count() or 1)
 
     def _run_group(self, bm: _Built, cases: list[Case]) -> list:
         import mujoco

@@ -219,3 +219,8 @@ def test_cli_calibrate_json(capsys):
     assert out["reached"] is True
     assert abs(out["eta_measured"] - out["eta_target"]) <= 0.01 * out["eta_target"]
     assert {"timeconst", "dampratio"} <= set(out["settings"])
+
+
+def test_check_adapter_passes(capsys):
+    assert cli_main(["check-adapter", "mujoco"]) == 0
+    assert "checks passed" in capsys.readouterr().out
