@@ -101,7 +101,7 @@ _CONES = ("elliptic", "pyramidal")
 _INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
 
 #: version of the calibration procedure (part of the cache key)
-CALIBRATION_VERSION = 2
+CALIBRATION_VERSION = 3
 
 
 @dataclass
@@ -258,7 +258,8 @@ class MujocoAdapter(EngineAdapter):
             out["timeconst"] = c.settings["timeconst"]
             out["dampratio"] = c.settings["dampratio"]
             out["calibration"] = {"eta_target": c.eta_target, "eta_measured": c.eta_measured,
-                                  "eta_std": c.eta_std, "reached": c.reached, "note": c.note}
+                                  "eta_std": c.eta_std, "reached": c.reached, "note": c.note,
+                                  "rest_sink_m": c.settings.get("rest_sink_m")}
         self._resolved[key] = out
         return dict(out)
 
@@ -662,8 +663,10 @@ class MujocoAdapter(EngineAdapter):
         reached = abs(rel) <= 0.01
         etas_all = np.array([r[2] for r in results if math.isfinite(r[2])])
         lo, hi = (float(etas_all.min()), float(etas_all.max())) if etas_all.size else (math.nan, math.nan)
+        sink_mm = 1e3 * self._rest_sink_m(block, {"timeconst": tc, "dampratio": dr, **solver}, dt)
         if reached:
             note = (f"reached with solref ({tc:.4g} s, {dr:.3g}) at dt {dt:g} s, {n_imp} impacts measured; "
+                    f"the block rests {sink_mm:.3g} mm deep in its contact; "
                     f"η over the searched settings spans {lo:.4f}–{hi:.4f}.")
         else:
             note = (f"not reached: the closest η is {eta:.4f} ({100 * rel:+.2f} %), solref ({tc:.4g} s, {dr:.3g}). "
@@ -675,12 +678,19 @@ class MujocoAdapter(EngineAdapter):
                     "rock, and moving the contact inwards would change the pivots (DOMAIN.md §8).")
         res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
                                 settings={"timeconst": tc, "dampratio": dr, **solver,
-                                          "friction": self.settings["friction"], "dt_s": dt},
+                                          "friction": self.settings["friction"], "dt_s": dt,
+                                          "rest_sink_m": sink_mm * 1e-3},
                                 note=note, evaluations=len(results))
         _cal.store(key, {"key": key, "block": block.name, "mujoco": mujoco.__version__,
                          "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
                          "grid": [list(r) for r in results]})
         return res
+
+    def _rest_sink_m(self, block: Block, params: dict, dt: float) -> float:
+        """How deep the block at rest sinks into its soft contact [m] (a measure of the softness)."""
+        bm = self._model(block, params, dt)
+        z = bm.s0[bm.qi["pos"] + 1] if bm.planar else bm.s0[bm.qi["pos"] + 2] - 0.5 * block.height_m
+        return float(-z)
 
     def _eval_grid(self, block: Block, dt: float, solver: dict, grid: list) -> list:
         params = [{"timeconst": float(tc), "dampratio": float(dr), **solver} for tc, dr in grid]
