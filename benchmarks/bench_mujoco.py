@@ -75,6 +75,39 @@ def far_from_boundary(ref: np.ndarray) -> np.ndarray:
     return far
 
 
+def rigid_contact_demand(reference, case: Case) -> tuple[float, float]:
+    """What the rigid rocking model asks of the pivot along the reference motion.
+
+    From the reference trajectory (integrated to rest or overturn) the centre of mass moves on a
+    circle about the pivot; Newton's law gives the pivot's normal force ``N`` and friction force
+    ``F`` (table frame, inertial force ``−m·ü`` included). Returned: the smallest ``N/(m·g)``
+    and the largest ``|F|/N`` while the block is lifted and ``|θ|`` is below halfway from α to
+    flat (the adapter's window). ``N < 0`` means the rigid model needs the table to pull: a real
+    block, and MuJoCo's, must leave the table there, so ``slip``/``jump`` flags are expected.
+    """
+    blk = case.block
+    al, p, R = blk.alpha_rad, blk.p_rad_s, blk.half_diagonal_m
+    tr = reference.simulate(case)
+    t, th, thd = tr.t_s, tr.theta_rad, tr.theta_dot_rad_s
+    ug = np.asarray(case.pulse.accel(t), dtype=float)
+    phi = al * np.sign(th) - th
+    thdd = -p * p * (np.sin(phi) + ug / G * np.cos(phi))
+    xdd = R * (np.sin(phi) * thd**2 + np.cos(phi) * thdd)
+    zdd = -R * (np.cos(phi) * thd**2 - np.sin(phi) * thdd)
+    n_over_mg = 1.0 + zdd / G
+    f_over_mg = (xdd + ug) / G
+    lifted = np.abs(th) > 0.0
+    if not lifted.any():
+        return 1.0, 0.0
+    i0 = int(np.argmax(lifted))
+    beyond = np.abs(th) >= 0.5 * (al + 0.5 * math.pi - 0.01)
+    i1 = int(np.argmax(beyond)) if beyond.any() else len(t)
+    w = slice(i0, max(i1, i0 + 1))
+    nmin = float(np.min(n_over_mg[w]))
+    ratio = float(np.max(np.abs(f_over_mg[w]) / np.maximum(n_over_mg[w], 1e-12)))
+    return nmin, ratio
+
+
 def measure_steps(adapter, block, dt_s: float, nthreads: int, nbatch: int = 64, nstep: int = 2000) -> float:
     """Engine steps per second of ``mujoco.rollout`` on this model: a sine drive, no adapter work."""
     import mujoco
@@ -98,7 +131,7 @@ def measure_steps(adapter, block, dt_s: float, nthreads: int, nbatch: int = 64, 
     return nbatch * nstep / el, nbatch * nstep / cpu
 
 
-def run_map(adapter, block, kind, n, dt_s, ref_grid):
+def run_map(adapter, block, kind, n, dt_s, ref_grid, demand=None):
     w, a, cases = grid_cases(block, kind, n, dt_s)
     t0 = time.perf_counter()
     # calibration (cached after the first time) is part of resolve(): done before the clock matters
@@ -115,7 +148,18 @@ def run_map(adapter, block, kind, n, dt_s, ref_grid):
     flags = Counter(f for r in res for f in r.flags)
     dis_far = int(np.sum(~agree & far))
     dis_far_valid = int(np.sum(~agree & far & valid))
+    extra = {}
+    if demand is not None:
+        lift = demand[0] < 0.0
+        over_mu = demand[1] > adapter.settings["friction"]
+        need = lift | over_mu
+        extra = {"rigid_needs_pull_or_mu": int(need.sum()),
+                 "invalid_where_rigid_needs_pull_or_mu": int(np.sum(~valid & need)),
+                 "invalid_where_rigid_is_fine": int(np.sum(~valid & ~need)),
+                 "valid_where_rigid_needs_pull_or_mu": int(np.sum(valid & need))}
     return {
+        **extra,
+        "valid_grid": valid.astype(int).tolist(),
         "cells": n * n,
         "agreement_all": float(agree.mean()),
         "agreement_valid": float(agree[valid].mean()) if valid.any() else math.nan,
@@ -169,6 +213,10 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         ref_grid = outcome_grid(ref.run_many(rcases), args.n)
         _log(f"{name} {kind}: reference map {args.n}x{args.n} in {time.perf_counter() - t0:.1f} s")
+        to_rest = get_adapter("reference", mode="to-rest")
+        dem = np.array([rigid_contact_demand(to_rest, c) for c in rcases]).T.reshape(2, args.n, args.n)
+        _log(f"  rigid model needs a pulling table (N < 0) in {int(np.sum(dem[0] < 0))} cells")
+        out.setdefault("rigid_demand", {})[name] = {"n_min_over_mg": dem[0].tolist(), "f_over_n_max": dem[1].tolist()}
         runs = [("calibrated", dt, 10.0) for dt in args.dt]
         if not args.no_defaults:
             runs += [("defaults", args.defaults_dt, mu) for mu in args.defaults_friction]
@@ -181,13 +229,14 @@ def main(argv=None) -> int:
                                          "steps_per_cpu_s": spc, "load_avg": os.getloadavg()})
                     _log(f"  rollout speed dt={dt:g} threads={nt}: {sps:,.0f} steps/s wall, "
                          f"{spc:,.0f} steps per CPU-second")
-            r = run_map(ad, block, kind, args.n, dt, ref_grid)
+            r = run_map(ad, block, kind, args.n, dt, ref_grid, dem)
             r.update({"block": name, "pulse": kind, "mode": mode, "dt_s": dt, "friction": mu,
                       "load_avg": os.getloadavg()})
             out["maps"].append(r)
             _log(f"  {mode:10s} dt={dt:g} friction={mu:g}: agree {100 * r['agreement_all']:.1f} % (valid {100 * r['agreement_valid']:.1f} %), "
                  f"disagree {r['disagree']} ({r['disagree_far_from_boundary']} far from boundary), "
-                 f"invalid {r['invalid']} {r['flags']}, {r['cells_per_s']:.1f} cells/s, "
+                 f"invalid {r['invalid']} {r['flags']} ({r['invalid_where_rigid_needs_pull_or_mu']} where the rigid model "
+                 f"needs N < 0 or |F/N| > mu), {r['cells_per_s']:.1f} cells/s, "
                  f"{r['steps_per_s']:,.0f} steps/s, {r['steps_per_cpu_s']:,.0f} steps/CPU-s, wall {r['wall_s']:.0f} s")
     out["load_avg_end"] = os.getloadavg()
     # a compact table on stdout
