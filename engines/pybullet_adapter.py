@@ -78,9 +78,6 @@ CALIBRATION_PROTOCOL = 1
 _CAL_IMPACTS = 4
 _CAL_DURATION_S = 3.0
 
-#: Slip and jump are judged while |θ| stays below this [rad] (see PybulletAdapter._diagnostics).
-_CHECK_MAX_THETA_RAD = 0.25 * math.pi
-
 #: Trapped rule: stop when E < p² − _TRAPPED_MARGIN·p²(1 − cos α) (see the module docstring) [-].
 _TRAPPED_MARGIN = 0.05
 
@@ -492,7 +489,7 @@ class PybulletAdapter(EngineAdapter):
             roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
             out_of_plane = float(max(np.max(np.abs(data[:, 1])), 0.0))
             out_of_plane_tilt = float(np.max(np.abs(roll)))
-        diag = self._diagnostics(block, t, xc, zc, th, u_tab)
+        diag = self._diagnostics(block, t, xc, zc, th, u_tab, overturned=ended_by in ("flat", "overturn"))
         flags = []
         if not np.all(np.isfinite(data)):
             flags.append("diverged")
@@ -516,19 +513,21 @@ class PybulletAdapter(EngineAdapter):
         return traj
 
     @staticmethod
-    def _diagnostics(block: Block, t, xc, zc, th, u_tab) -> dict:
+    def _diagnostics(block: Block, t, xc, zc, th, u_tab, overturned: bool = False) -> dict:
         """Slip and jump of the bottom corners relative to the table [m].
 
         A corner is in contact while it is within the jump tolerance of the table top. Slip is the
         largest horizontal motion, relative to the table, of a corner during one such contact
-        episode; jump is the largest height of the lower corner above the table. Both are judged
-        while ``|θ| ≤ π/4`` (:data:`_CHECK_MAX_THETA_RAD`): beyond it an overturning block is
-        falling onto its side, where no rocking model applies and its landing may bounce.
+        episode; jump is the largest height of the lower corner above the table. For a block that
+        ``overturned`` both are judged up to its last outward crossing of ``|θ| = α``: from there
+        it falls onto its side, and neither a corner sliding on the way down nor the landing's
+        bounce can change the outcome (a free fall about a corner unloads it).
         """
-        keep = np.abs(th) <= _CHECK_MAX_THETA_RAD
-        if not keep.all():
-            # the run up to the first sample beyond the limit (a block never comes back from there)
-            n = int(np.argmin(keep))
+        if overturned:
+            # up to the last outward crossing of |θ| = α: afterwards the block is falling
+            a = np.abs(th)
+            up = np.flatnonzero((a[:-1] <= block.alpha_rad) & (a[1:] > block.alpha_rad))
+            n = int(up[-1]) + 2 if up.size else a.size
             t, xc, zc, th, u_tab = t[:n], xc[:n], zc[:n], th[:n], u_tab[:n]
         b, h = block.width_m, block.height_m
         c, s = np.cos(th), np.sin(th)
