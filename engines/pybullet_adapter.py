@@ -489,7 +489,9 @@ class PybulletAdapter(EngineAdapter):
             roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
             out_of_plane = float(max(np.max(np.abs(data[:, 1])), 0.0))
             out_of_plane_tilt = float(np.max(np.abs(roll)))
-        diag = self._diagnostics(block, t, xc, zc, th, u_tab, overturned=ended_by in ("flat", "overturn"))
+        # the model's assumptions are judged up to the fall of an overturning block (see _checked)
+        n_chk = _checked(th, block.alpha_rad, overturned=ended_by in ("flat", "overturn"))
+        diag = self._diagnostics(block, t[:n_chk], xc[:n_chk], zc[:n_chk], th[:n_chk], u_tab[:n_chk])
         flags = []
         if not np.all(np.isfinite(data)):
             flags.append("diverged")
@@ -498,7 +500,7 @@ class PybulletAdapter(EngineAdapter):
         if diag["max_jump_m"] > jump_tol_m(block):
             flags.append("jump")
         if pulse is not None:
-            gain = energy_gain_rel(t, th, om, t_end, block)
+            gain = energy_gain_rel(t[:n_chk], th[:n_chk], om[:n_chk], t_end, block)
             diag["energy_gain_rel"] = gain
             if gain > ENERGY_GAIN_TOL:
                 flags.append("energy-gain")
@@ -513,22 +515,13 @@ class PybulletAdapter(EngineAdapter):
         return traj
 
     @staticmethod
-    def _diagnostics(block: Block, t, xc, zc, th, u_tab, overturned: bool = False) -> dict:
+    def _diagnostics(block: Block, t, xc, zc, th, u_tab) -> dict:
         """Slip and jump of the bottom corners relative to the table [m].
 
         A corner is in contact while it is within the jump tolerance of the table top. Slip is the
         largest horizontal motion, relative to the table, of a corner during one such contact
-        episode; jump is the largest height of the lower corner above the table. For a block that
-        ``overturned`` both are judged up to its last outward crossing of ``|θ| = α``: from there
-        it falls onto its side, and neither a corner sliding on the way down nor the landing's
-        bounce can change the outcome (a free fall about a corner unloads it).
+        episode; jump is the largest height of the lower corner above the table.
         """
-        if overturned:
-            # up to the last outward crossing of |θ| = α: afterwards the block is falling
-            a = np.abs(th)
-            up = np.flatnonzero((a[:-1] <= block.alpha_rad) & (a[1:] > block.alpha_rad))
-            n = int(up[-1]) + 2 if up.size else a.size
-            t, xc, zc, th, u_tab = t[:n], xc[:n], zc[:n], th[:n], u_tab[:n]
         b, h = block.width_m, block.height_m
         c, s = np.cos(th), np.sin(th)
         tol = jump_tol_m(block)
@@ -689,6 +682,22 @@ class PybulletAdapter(EngineAdapter):
                                 settings=settings, note=note, evaluations=len(tried))
         calibration.store(key, {k: v for k, v in res.to_dict().items() if k != "rel_error"})
         return res
+
+
+def _checked(th, alpha_rad: float, overturned: bool) -> int:
+    """How many samples the slip, jump and energy checks judge.
+
+    All of them, unless the block overturned: then up to its last outward crossing of
+    ``|θ| = α``. From there it falls onto its side; neither a corner sliding or lifting on the way
+    down (a fast fall unloads the corner) nor the landing can change the outcome, and the
+    rocking model, whose assumptions the checks guard, no longer describes the motion.
+    """
+    n = len(th)
+    if not overturned:
+        return n
+    a = np.abs(np.asarray(th))
+    up = np.flatnonzero((a[:-1] <= alpha_rad) & (a[1:] > alpha_rad))
+    return int(up[-1]) + 2 if up.size else n
 
 
 def _impact_etas(block: Block, tr: Trajectory, n_impacts: int) -> list[float]:
