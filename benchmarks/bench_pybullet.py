@@ -7,6 +7,7 @@ Usage (from the repository's top folder, in the venv)::
     python benchmarks/bench_pybullet.py steps                      # engine steps/s, one process
     python benchmarks/bench_pybullet.py maps --out DIR [--n 50] [--jobs 2]
         [--dts 0.001,0.0005,0.00025] [--defaults]                  # maps, agreement, cells/s
+    python benchmarks/bench_pybullet.py reference --out DIR [--n 50]  # save the reference maps in DIR
     python benchmarks/bench_pybullet.py compare DIR                # (re)score saved maps vs the reference
 
 ``maps`` runs 50×50 maps of B3M under a sine and B6M under a cosine (ω/p and a₀/(g·tanα) over the
@@ -100,8 +101,15 @@ def run_map(block_name: str, pulse: str, settings: dict, dt: float, n: int, jobs
             "engine_version": ad.version(), "cells": sorted(rows, key=lambda r: (r["i"], r["j"]))}
 
 
-def reference_map(block_name: str, pulse: str, n: int) -> np.ndarray:
-    """Outcomes of the reference solver on the same grid (strings, shape (n, n): rows are a_ratio)."""
+def reference_map(block_name: str, pulse: str, n: int, out: Path | None = None) -> np.ndarray:
+    """Outcomes of the reference solver on the same grid (strings, shape (n, n): rows are a_ratio).
+
+    Read from ``out/reference-BLOCK-PULSE-nN.json`` when ``reference`` saved it there, else computed.
+    """
+    if out is not None:
+        path = out / f"reference-{block_name}-{pulse}-n{n}.json"
+        if path.exists():
+            return np.array(json.loads(path.read_text())["outcomes"], dtype=object)
     ref = get_adapter("reference")
     ws, as_ = grid(n)
     cases = [_case(block_name, pulse, float(w), float(a), None) for a in as_ for w in ws]
@@ -185,12 +193,12 @@ def cmd_compare(args) -> None:
     refs: dict = {}
     table = []
     for path in sorted(out.glob("*.json")):
-        if path.name == "summary.json":
+        if path.name == "summary.json" or path.name.startswith("reference-"):
             continue
         m = json.loads(path.read_text())
         key = (m["block"], m["pulse"], m["n"])
         if key not in refs:
-            refs[key] = reference_map(m["block"], m["pulse"], m["n"])
+            refs[key] = reference_map(m["block"], m["pulse"], m["n"], out)
         sc = score(m, refs[key])
         row = {"map": path.stem, "block": m["block"], "pulse": m["pulse"],
                "settings": m["settings"].get("settings", "calibrated"), "dt_s": m["dt_s"],
@@ -209,6 +217,19 @@ def cmd_compare(args) -> None:
               f"| {r['invalid']} ({fl}) | {r['cells_per_s']:.1f} ({r['jobs']}) | {r['steps_per_s_per_process']:.0f} |")
 
 
+def cmd_reference(args) -> None:
+    """Save the reference maps of the grid in DIR (so ``compare`` need not recompute them)."""
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for b, p in MAPS:
+        t0 = time.perf_counter()
+        ref = reference_map(b, p, args.n)
+        path = out / f"reference-{b}-{p}-n{args.n}.json"
+        path.write_text(json.dumps({"block": b, "pulse": p, "n": args.n, "w_range": W_RANGE, "a_range": A_RANGE,
+                                    "outcomes": ref.tolist(), "wall_s": time.perf_counter() - t0}))
+        print(f"{path.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -220,6 +241,10 @@ def main(argv=None) -> int:
     q.add_argument("--dts", default="0.001,0.0005,0.00025")
     q.add_argument("--defaults", action="store_true", help="also PyBullet as shipped (settings=defaults)")
     q.set_defaults(func=cmd_maps)
+    r = sub.add_parser("reference")
+    r.add_argument("--out", required=True)
+    r.add_argument("--n", type=int, default=50)
+    r.set_defaults(func=cmd_reference)
     c = sub.add_parser("compare")
     c.add_argument("out")
     c.set_defaults(func=cmd_compare)
