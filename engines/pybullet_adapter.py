@@ -421,12 +421,10 @@ class PybulletAdapter(EngineAdapter):
         steps_t = (np.arange(n_max) + 0.5) * dt  # midpoint of each step
         inertial = s["drive"] == "inertial"
         if pulse is not None:
-            acc = pulse.accel(steps_t) if inertial else None
-            u_pos = pulse.disp(np.arange(n_max) * dt)
-            u_vel = pulse.vel(steps_t)
-        else:
-            acc = np.zeros(n_max)
-            u_pos = u_vel = np.zeros(n_max)
+            # plain lists: indexing them in the loop costs less than numpy scalars
+            acc = (-pulse.accel(steps_t)).tolist() if inertial else None
+            u_pos = pulse.disp(np.arange(n_max) * dt).tolist()
+            u_vel = pulse.vel(steps_t).tolist()
         pb.setGravity(0.0, 0.0, -G, physicsClientId=cid)
 
         e_trap = p * p - _TRAPPED_MARGIN * p * p * (1.0 - math.cos(alpha))
@@ -452,10 +450,10 @@ class PybulletAdapter(EngineAdapter):
         # the loop does only what PyBullet needs: drive, step, read the state, test the end rules
         while i < n_max:
             if drive_table:
-                reset_pose(table, (float(u_pos[i]), 0.0, table_z), (0.0, 0.0, 0.0, 1.0), physicsClientId=cid)
-                reset_vel(table, (float(u_vel[i]), 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=cid)
+                reset_pose(table, (u_pos[i], 0.0, table_z), (0.0, 0.0, 0.0, 1.0), physicsClientId=cid)
+                reset_vel(table, (u_vel[i], 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=cid)
             elif pulse is not None and i <= n_pulse:
-                set_g(-float(acc[i]), 0.0, -G, physicsClientId=cid)
+                set_g(acc[i], 0.0, -G, physicsClientId=cid)
             step(physicsClientId=cid)
             i += 1
             if planar:
