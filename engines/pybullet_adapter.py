@@ -72,15 +72,14 @@ _SLIDER_MASS_KG = 1e-6
 _TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
 
 #: Version of the calibration protocol (free-rocking test and search); part of the cache key.
-CALIBRATION_PROTOCOL = 3
+CALIBRATION_PROTOCOL = 4
 
 #: Largest spread (standard deviation) of the per-impact η, as a fraction of the target, that a
 #: calibrated setting may show: beyond it the block has no single restitution coefficient [-].
 _CAL_MAX_SPREAD = 0.02
 
-#: Free-rocking test: impacts measured after release [-], and the longest test [s].
+#: Free-rocking test: impacts measured after release [-].
 _CAL_IMPACTS = 4
-_CAL_DURATION_S = 3.0
 
 #: Trapped rule: stop when E < p² − _TRAPPED_MARGIN·p²(1 − cos α) (see the module docstring) [-].
 _TRAPPED_MARGIN = 0.05
@@ -582,7 +581,12 @@ class PybulletAdapter(EngineAdapter):
         if not math.isfinite(dt) or dt <= 0 or dt > 0.01:
             raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
         s = self._base_settings() if settings is None else settings
-        tr = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=_CAL_DURATION_S)
+        # long enough for the swings around the measured impacts: each lasts at most half the
+        # linearised free-rocking period from the release angle, T = (4/p)·arcosh(1/(1 − θ0/α))
+        # (DOMAIN.md §7; amplitudes only shrink, and so do the swings), with 20 % to spare
+        period = 4.0 / block.p_rad_s * math.acosh(1.0 / (1.0 - float(theta0_frac)))
+        duration = 1.2 * (_CAL_IMPACTS + 2) * period / 2.0
+        tr = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=duration)
         etas = _impact_etas(block, tr, _CAL_IMPACTS)
         mean = float(np.mean(etas)) if etas else float("nan")
         std = float(np.std(etas)) if etas else float("nan")

@@ -96,27 +96,24 @@ def test_calibration_reaches_housner_within_one_percent(name):
     assert len(m.etas) >= 3 and all(0.5 < e < 1.0 for e in m.etas)
 
 
-def test_calibration_is_cached_and_reused(tmp_path):
+def test_softer_target_is_reached_with_a_compliant_contact_and_cached(tmp_path):
+    # below what Bullet's rigid contact gives: the search softens the contact
     block = get_preset("B3M").block()
     ad = get_adapter("pybullet")
     first = ad.calibrate(block, 0.70)
+    assert first.reached, first.note
+    assert first.settings["contact_stiffness"] is not None
     assert list((tmp_path / "cache" / "calibration").glob("*.json"))
     again = ad.calibrate(block, 0.70)
-    assert again.settings == first.settings and again.eta_measured == first.eta_measured
-
-
-def test_softer_target_is_reached_with_a_compliant_contact():
-    # below what the rigid contact gives: the search softens the contact
-    block = get_preset("B3M").block()
-    res = get_adapter("pybullet").calibrate(block, 0.70)
-    assert res.reached, res.note
-    assert res.settings["contact_stiffness"] is not None
+    assert again.evaluations == first.evaluations and again.settings == first.settings
+    assert again.eta_measured == first.eta_measured
 
 
 # -- the model's assumptions -------------------------------------------------------------------
 
 def test_low_friction_at_high_amplitude_is_flagged_slip():
-    r = get_adapter("pybullet", friction=0.2).run(case("B3M", "sine", 3.0, 5.0))
+    # Bullet as shipped: calibrating a contact that slides would only cost time here
+    r = get_adapter("pybullet", friction=0.2, settings="defaults").run(case("B3M", "sine", 3.0, 5.0))
     assert "slip" in r.flags and not r.valid
     assert r.diagnostics["max_slip_m"] > 0.01 * 0.045
 
