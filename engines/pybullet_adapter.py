@@ -388,7 +388,12 @@ class PybulletAdapter(EngineAdapter):
     def _simulate(self, case: Case) -> Trajectory:
         dt = self.dt_for(case)
         s = self._resolved_cached(case.block, case.restitution, dt)
-        return self._run(case.block, s, dt, case.pulse)
+        tr = self._run(case.block, s, dt, case.pulse)
+        # what the contact really gives in free rocking, next to the η the case asked for
+        tr.diagnostics["settings"] = s["settings"]
+        if "calibration" in s:
+            tr.diagnostics["calibration"] = dict(s["calibration"])
+        return tr
 
     def _resolved_cached(self, block: Block, restitution: Restitution, dt: float) -> dict:
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, restitution.eta(block.alpha_rad), dt)
