@@ -9,6 +9,7 @@ Usage (from the repository's top folder, in the venv)::
         [--dts 0.001,0.0005,0.00025] [--defaults]                  # maps, agreement, cells/s
     python benchmarks/bench_pybullet.py reference --out DIR [--n 50]  # save the reference maps in DIR
     python benchmarks/bench_pybullet.py compare DIR                # (re)score saved maps vs the reference
+    python benchmarks/bench_pybullet.py plot DIR [--figures docs/figures]  # one PNG per saved map
 
 ``maps`` runs 50×50 maps of B3M under a sine and B6M under a cosine (ω/p and a₀/(g·tanα) over the
 ranges below), with settings calibrated to Housner's η at each time step, and with
@@ -230,6 +231,49 @@ def cmd_reference(args) -> None:
         print(f"{path.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
 
 
+def cmd_plot(args) -> None:
+    """One PNG per saved map: the PyBullet outcomes over the reference's overturning boundary."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    out = Path(args.out)
+    figdir = Path(args.figures)
+    figdir.mkdir(parents=True, exist_ok=True)
+    codes = {"rest": 0, "rocking": 1, "overturn": 2}
+    for path in sorted(out.glob("*.json")):
+        if path.name == "summary.json" or path.name.startswith("reference-"):
+            continue
+        m = json.loads(path.read_text())
+        n = m["n"]
+        ref = reference_map(m["block"], m["pulse"], n, out)
+        grid_ = np.full((n, n), np.nan)
+        bad = np.zeros((n, n), dtype=bool)
+        for c in m["cells"]:
+            grid_[c["i"], c["j"]] = codes.get(c["outcome"], np.nan)
+            bad[c["i"], c["j"]] = not c["valid"]
+        ws, as_ = grid(n)
+        fig, ax = plt.subplots(figsize=(5.2, 4.2))
+        ax.pcolormesh(ws, as_, grid_, cmap=ListedColormap(["#dddddd", "#9ecae1", "#fb6a4a"]), vmin=-0.5, vmax=2.5,
+                      shading="nearest")
+        ii, jj = np.nonzero(bad)
+        ax.scatter(ws[jj], as_[ii], marker="x", s=6, c="k", linewidths=0.6, label="invalid (slip/jump/energy)")
+        ax.contour(ws, as_, (ref == "overturn").astype(float), levels=[0.5], colors="k", linewidths=1.2)
+        ax.plot([], [], "k-", label="reference boundary (Housner)")
+        ax.set_xlabel("ω/p")
+        ax.set_ylabel("a₀/(g·tanα)")
+        st = m["settings"].get("settings", "calibrated")
+        ax.set_title(f"PyBullet {m['block']} {m['pulse']}, {st}, Δt = {m['dt_s']:g} s\n"
+                     "grey rest, blue rocking, red overturn", fontsize=9)
+        ax.legend(loc="lower right", fontsize=7)
+        fig.tight_layout()
+        fig.savefig(figdir / f"pybullet-{path.stem}.png", dpi=110)
+        plt.close(fig)
+        print(figdir / f"pybullet-{path.stem}.png", file=sys.stderr)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -245,6 +289,10 @@ def main(argv=None) -> int:
     r.add_argument("--out", required=True)
     r.add_argument("--n", type=int, default=50)
     r.set_defaults(func=cmd_reference)
+    g = sub.add_parser("plot")
+    g.add_argument("out")
+    g.add_argument("--figures", default="docs/figures")
+    g.set_defaults(func=cmd_plot)
     c = sub.add_parser("compare")
     c.add_argument("out")
     c.set_defaults(func=cmd_compare)
