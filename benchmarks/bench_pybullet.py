@@ -69,6 +69,7 @@ def _work(job):
         d = r.diagnostics or {}
         out.append({"i": i, "j": j, "w_ratio": w, "a_ratio": a, "outcome": r.outcome, "n_impacts": r.n_impacts,
                     "flags": r.flags, "valid": r.valid, "steps": d.get("steps", 0), "loop_s": d.get("wall_s", 0.0),
+                    "loop_cpu_s": d.get("cpu_s", 0.0),
                     "ended_by": d.get("ended_by")})
     return out
 
@@ -93,10 +94,12 @@ def run_map(block_name: str, pulse: str, settings: dict, dt: float, n: int, jobs
     wall = time.perf_counter() - t0
     steps = sum(r["steps"] for r in rows)
     loop = sum(r["loop_s"] for r in rows)
+    cpu = sum(r.get("loop_cpu_s", 0.0) for r in rows)
     return {"schema": SCHEMA, "block": block_name, "pulse": pulse, "restitution": "housner", "dt_s": dt,
             "settings": settings, "resolved": resolved, "n": n, "w_range": W_RANGE, "a_range": A_RANGE,
             "jobs": jobs, "wall_s": wall, "cells_per_s": len(rows) / wall, "steps": steps,
             "steps_per_s_per_process": steps / loop if loop > 0 else None,
+            "steps_per_cpu_s": steps / cpu if cpu > 0 else None,
             "utc": datetime.now(timezone.utc).isoformat(timespec="seconds"), "load_avg": os.getloadavg(),
             "machine": platform.platform(), "cpus": os.cpu_count(),
             "engine_version": ad.version(), "cells": sorted(rows, key=lambda r: (r["i"], r["j"]))}
@@ -154,7 +157,9 @@ def cmd_steps(args) -> None:
     for planar in (True, False):
         for iters in (30, 50):
             ad = get_adapter("pybullet", planar=planar, solver_iterations=iters)
-            steps = loop = 0.0
+            ad.simulate(_case("B3M", "sine", 4.0, 3.0, None))  # calibration and scene set-up, not timed
+            ad.simulate(_case("B6M", "cosine", 3.0, 2.0, None))
+            steps = loop = cpu = 0.0
             t0 = time.perf_counter()
             for name, pulse, w, a in (("B3M", "sine", 4.0, 3.0), ("B6M", "cosine", 3.0, 2.0),
                                       ("B3M", "sine", 2.0, 1.5), ("B6M", "sine", 6.0, 3.0)):
@@ -162,9 +167,11 @@ def cmd_steps(args) -> None:
                     tr = ad.simulate(_case(name, pulse, w, a, None))
                     steps += tr.diagnostics["steps"]
                     loop += tr.diagnostics["wall_s"]
+                    cpu += tr.diagnostics["cpu_s"]
             total = time.perf_counter() - t0
             print(json.dumps({"planar": planar, "solver_iterations": iters, "steps": int(steps),
-                              "steps_per_s_loop": steps / loop, "steps_per_s_with_setup": steps / total}))
+                              "steps_per_s_loop": steps / loop, "steps_per_cpu_s_loop": steps / cpu,
+                              "steps_per_s_with_setup": steps / total, "load_avg": os.getloadavg()}))
 
 
 def cmd_maps(args) -> None:
@@ -205,17 +212,19 @@ def cmd_compare(args) -> None:
                "settings": m["settings"].get("settings", "calibrated"), "dt_s": m["dt_s"],
                "eta_engine": (m["resolved"].get("calibration") or {}).get("eta_measured"),
                "cells_per_s": m["cells_per_s"], "jobs": m["jobs"],
-               "steps_per_s_per_process": m["steps_per_s_per_process"], "utc": m["utc"], **sc}
+               "steps_per_s_per_process": m["steps_per_s_per_process"],
+               "steps_per_cpu_s": m.get("steps_per_cpu_s"), "load_avg": m.get("load_avg"), "utc": m["utc"], **sc}
         table.append(row)
     (out / "summary.json").write_text(json.dumps(table, indent=2))
     print("| map | settings | dt [s] | agree (overturn) | agree (3 outcomes) | disagree / not near boundary "
-          "| invalid (flags) | cells/s (jobs) | steps/s/process |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| invalid (flags) | cells/s (jobs) | steps/s per process (wall / CPU) | load |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in table:
         fl = ", ".join(f"{k} {v}" for k, v in sorted(r["flags"].items())) or "-"
         print(f"| {r['block']} {r['pulse']} | {r['settings']} | {r['dt_s']:g} | {100 * r['agree_overturn']:.1f} % "
               f"| {100 * r['agree_outcome']:.1f} % | {r['disagree_overturn']} / {r['disagree_not_near_boundary']} "
-              f"| {r['invalid']} ({fl}) | {r['cells_per_s']:.1f} ({r['jobs']}) | {r['steps_per_s_per_process']:.0f} |")
+              f"| {r['invalid']} ({fl}) | {r['cells_per_s']:.1f} ({r['jobs']}) | {r['steps_per_s_per_process']:.0f} / "
+              f"{(r['steps_per_cpu_s'] or float('nan')):.0f} | {(r['load_avg'] or [float('nan')])[0]:.1f} |")
 
 
 def cmd_reference(args) -> None:
