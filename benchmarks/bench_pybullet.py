@@ -10,6 +10,7 @@ Usage (from the repository's top folder, in the venv)::
     python benchmarks/bench_pybullet.py reference --out DIR [--n 50]  # save the reference maps in DIR
     python benchmarks/bench_pybullet.py compare DIR                # (re)score saved maps vs the reference
     python benchmarks/bench_pybullet.py plot DIR [--figures docs/figures]  # one PNG per saved map
+    python benchmarks/bench_pybullet.py liftoff DIR                # does the reference motion need N < 0?
 
 ``maps`` runs 50×50 maps of B3M under a sine and B6M under a cosine (ω/p and a₀/(g·tanα) over the
 ranges below), with settings calibrated to Housner's η at each time step, and with
@@ -283,6 +284,39 @@ def cmd_plot(args) -> None:
         print(figdir / f"pybullet-{path.stem}.png", file=sys.stderr)
 
 
+def cmd_liftoff(args) -> None:
+    """Does the reference motion itself need the table to pull the block down (tapes)?
+
+    For each overturning cell of a saved map, the normal force the ideal rocking motion needs is
+    ``N/(m g) = 1 + R[sin(α − φ)·φ̈ − cos(α − φ)·φ̇²]/g`` with ``φ = |θ|`` (the vertical motion of the
+    centre of mass, ``z = R cos(α − φ)``), from the reference trajectory (φ̇, φ̈ by finite differences)
+    while ``φ < α``. Counts cells by PyBullet validity and by the sign of the smallest N.
+    """
+    out = Path(args.out)
+    ref = get_adapter("reference")
+    for path in sorted(out.glob("*.json")):
+        if path.name == "summary.json" or path.name.startswith("reference-"):
+            continue
+        m = json.loads(path.read_text())
+        b = get_preset(m["block"]).block()
+        R, al = b.half_diagonal_m, b.alpha_rad
+        counts: dict = {}
+        for c in m["cells"]:
+            if c["outcome"] != "overturn":
+                continue
+            tr = ref.simulate(_case(m["block"], m["pulse"], c["w_ratio"], c["a_ratio"], 2.5e-4))
+            phi = np.abs(tr.theta_rad)
+            phid = np.gradient(phi, tr.t_s)
+            phidd = np.gradient(phid, tr.t_s)
+            keep = (phi < al) & (phi > 1e-3)
+            if keep.sum() < 3:
+                continue
+            n_min = float(np.min(1.0 + (R * np.sin(al - phi) * phidd - R * np.cos(al - phi) * phid**2)[keep] / G))
+            k = ("valid" if c["valid"] else "invalid", "N<0" if n_min < 0 else "N>=0")
+            counts[k] = counts.get(k, 0) + 1
+        print(path.stem, {f"{a} {b_}": v for (a, b_), v in sorted(counts.items())})
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -298,6 +332,9 @@ def main(argv=None) -> int:
     r.add_argument("--out", required=True)
     r.add_argument("--n", type=int, default=50)
     r.set_defaults(func=cmd_reference)
+    lo = sub.add_parser("liftoff")
+    lo.add_argument("out")
+    lo.set_defaults(func=cmd_liftoff)
     g = sub.add_parser("plot")
     g.add_argument("out")
     g.add_argument("--figures", default="docs/figures")
