@@ -53,12 +53,7 @@ CELLS = [
 
 @pytest.fixture(scope="module")
 def reference():
-    from rockbench.reference_solver.errors import EngineUnavailableError
-
-    try:
-        return get_adapter("reference")
-    except EngineUnavailableError as e:  # a branch without the reference solver merged yet
-        pytest.skip(f"the reference adapter is not available here: {e}")
+    return get_adapter("reference")
 
 
 @pytest.mark.parametrize("cell", CELLS, ids=["-".join(map(str, c)) for c in CELLS])
@@ -207,3 +202,9 @@ def test_cli_calibrate_json(capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["reached"] and abs(out["eta_measured"] - out["eta_target"]) <= 0.01 * out["eta_target"]
     assert "settings" in out
+
+
+def test_check_adapter_passes(capsys):
+    # the public conformance suite any adapter must pass (`rockbench check-adapter pybullet`)
+    assert main(["check-adapter", "pybullet"]) == 0
+    assert "checks passed" in capsys.readouterr().out
