@@ -179,11 +179,13 @@ def cmd_maps(args) -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     dts = [float(x) for x in args.dts.split(",")]
-    runs = [(b, p, {}, dt) for b, p in MAPS for dt in dts]
+    base = {"drive": args.drive} if args.drive != "inertial" else {}
+    runs = [(b, p, dict(base), dt) for b, p in MAPS for dt in dts]
     if args.defaults:
-        runs += [(b, p, {"settings": "defaults"}, 5e-4) for b, p in MAPS]
+        runs += [(b, p, {**base, "settings": "defaults"}, 5e-4) for b, p in MAPS]
     for b, p, s, dt in runs:
-        tag = f"{b}-{p}-{s.get('settings', 'calibrated')}-dt{dt:g}-n{args.n}"
+        drive = "" if args.drive == "inertial" else f"-{args.drive}"
+        tag = f"{b}-{p}-{s.get('settings', 'calibrated')}{drive}-dt{dt:g}-n{args.n}"
         path = out / f"{tag}.json"
         if path.exists():
             print(f"{tag}: exists, skipped", file=sys.stderr)
@@ -210,7 +212,9 @@ def cmd_compare(args) -> None:
             refs[key] = reference_map(m["block"], m["pulse"], m["n"], out)
         sc = score(m, refs[key])
         row = {"map": path.stem, "block": m["block"], "pulse": m["pulse"],
-               "settings": m["settings"].get("settings", "calibrated"), "dt_s": m["dt_s"],
+               "settings": m["settings"].get("settings", "calibrated") + (
+                   f", {m['settings']['drive']} drive" if m["settings"].get("drive", "inertial") != "inertial" else ""),
+               "dt_s": m["dt_s"],
                "eta_engine": (m["resolved"].get("calibration") or {}).get("eta_measured"),
                "cells_per_s": m["cells_per_s"], "jobs": m["jobs"],
                "steps_per_s_per_process": m["steps_per_s_per_process"],
@@ -327,6 +331,7 @@ def main(argv=None) -> int:
     q.add_argument("--jobs", type=int, default=2)
     q.add_argument("--dts", default="0.001,0.0005,0.00025")
     q.add_argument("--defaults", action="store_true", help="also PyBullet as shipped (settings=defaults)")
+    q.add_argument("--drive", default="inertial", choices=["inertial", "table"], help="table drive (default inertial)")
     q.set_defaults(func=cmd_maps)
     r = sub.add_parser("reference")
     r.add_argument("--out", required=True)
