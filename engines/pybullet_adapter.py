@@ -432,7 +432,7 @@ class PybulletAdapter(EngineAdapter):
         pb.setGravity(0.0, 0.0, -G, physicsClientId=cid)
 
         e_trap = p * p - _TRAPPED_MARGIN * p * p * (1.0 - math.cos(alpha))
-        half_p2 = p * p
+        p2 = p * p
         body, table = sc.block, sc.table
         step, set_g = pb.stepSimulation, pb.setGravity
         reset_pose, reset_vel = pb.resetBasePositionAndOrientation, pb.resetBaseVelocity
@@ -482,7 +482,7 @@ class PybulletAdapter(EngineAdapter):
                 if a > alpha and th * om > 0.0:
                     ended_by = "overturn"
                     break
-                if i >= n_min and 0.5 * om * om + half_p2 * math.cos(alpha - a) < e_trap:
+                if i >= n_min and 0.5 * om * om + p2 * math.cos(alpha - a) < e_trap:
                     ended_by = "trapped"
                     break
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -498,7 +498,7 @@ class PybulletAdapter(EngineAdapter):
             qx, qy, qz, qw = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
             th = np.arctan2(2.0 * (qx * qz + qw * qy), 1.0 - 2.0 * (qx * qx + qy * qy))
             vx, vz, om = data[:, 7], data[:, 9], data[:, 11]
-            # how far the free body left the plane: lateral drift and tilt about x and z
+            # how far the free body left the plane: lateral drift along y, tilt about x
             roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
             out_of_plane = float(max(np.max(np.abs(data[:, 1])), 0.0))
             out_of_plane_tilt = float(np.max(np.abs(roll)))
