@@ -17,6 +17,7 @@ from ..reference_solver.errors import ConfigError, EngineUnavailableError
 BUILTIN = {
     "reference": "rockbench.engines.reference_adapter:ReferenceAdapter",
     "mujoco": "rockbench.engines.mujoco_adapter:MujocoAdapter",
+    "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
 }
 
 #: the entry-point group third parties register under
