@@ -224,3 +224,12 @@ def test_cli_calibrate_json(capsys):
 def test_check_adapter_passes(capsys):
     assert cli_main(["check-adapter", "mujoco"]) == 0
     assert "checks passed" in capsys.readouterr().out
+
+
+def test_shipped_defaults_with_friction_10_are_flagged_not_scored():
+    # MuJoCo's shipped pyramidal cone with friction 10 lets the block sink through the table and
+    # gain energy: the run must come back invalid, with the checks saying why
+    r = get_adapter("mujoco", settings="defaults").run(_case("B3M", "sine", 6.0, 2.0))
+    assert not r.valid
+    assert {"jump", "energy-gain"} <= set(r.flags)
+    assert r.diagnostics["energy_gain_rel"] > 0.05
