@@ -7,7 +7,8 @@ Energies here are per unit corner inertia ``I_A`` [rad^2/s^2]:
 - linearised: ``E = ½θ̇² − ½p²·(|θ| − α)²``; barrier ``0``, rest ``−½p²α²``.
 
 With no excitation left, E is conserved between impacts and every impact (at θ = 0) multiplies the
-kinetic energy there by ``η²``. A block moving outward (``θ·θ̇ > 0``) overturns exactly when
+kinetic energy there by ``η²``. A block moving outward (``θ·θ̇ > 0``, or leaving the base at
+``θ = 0``, i.e. just after an impact) overturns exactly when
 ``E > barrier``; a block moving inward first hits the base once, so it overturns exactly when the
 post-impact energy exceeds the barrier. No later impact can change that, since energy only falls.
 """
@@ -63,7 +64,9 @@ def free_rocking_fate(theta_rad: float, theta_dot_rad_s: float, alpha_rad: float
         return False, 0
     if abs(theta_rad) > alpha_rad and theta_rad * theta_dot_rad_s >= 0.0:
         return True, 0  # already past the corner's balance point and not returning
-    outward = theta_rad * theta_dot_rad_s > 0.0
+    # θ = 0 with θ̇ ≠ 0 is a state just after an impact (or an uplift): the block is leaving the
+    # base, so it counts as outward and no further impact is applied
+    outward = theta_rad * theta_dot_rad_s > 0.0 or theta_rad == 0.0
     if outward:
         if E > Eb:
             return True, 0

@@ -241,7 +241,8 @@ def _fate(th, thd, alpha, p2, eta, lin):
         return False, 0
     if abs(th) > alpha and th * thd >= 0.0:
         return True, 0
-    if th * thd > 0.0:
+    if th * thd > 0.0 or th == 0.0:
+        # θ = 0 with θ̇ ≠ 0 is a post-impact (or uplift) state: the block is leaving the base
         return E > Eb, 0
     if abs(th) > alpha and E <= Eb:
         return True, 0

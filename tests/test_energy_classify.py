@@ -97,3 +97,10 @@ def test_classify_mirror_symmetric(values):
     a = classify(t, th, thd, alpha_rad=ALPHA, p_rad_s=P, t_pulse_end_s=0.5, eta=0.9)
     b = classify(t, -th, -thd, alpha_rad=ALPHA, p_rad_s=P, t_pulse_end_s=0.5, eta=0.9)
     assert a == b
+
+
+def test_fate_at_theta_zero_is_post_impact():
+    # a sample exactly at θ = 0 carries the post-impact velocity: no second η
+    need = math.sqrt(2 * P**2 * (1 - math.cos(ALPHA)))
+    assert free_rocking_fate(0.0, -need * 1.001, ALPHA, P, 0.5) == (True, 0)
+    assert free_rocking_fate(0.0, need * 0.999, ALPHA, P, 0.5) == (False, 0)
