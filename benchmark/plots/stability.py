@@ -115,7 +115,7 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     ax.set_ylabel("a₀/(g·tanα) [-]")
     if title:
         ax.set_title(title, fontsize=10)
-    ax.legend(handles=handles, fontsize=7, loc="upper right", framealpha=0.85)
+    ax.legend(handles=handles, fontsize=7, loc="best", framealpha=0.85)
     return {"ax": ax, "boundaries": drawn, "st_limit_a_ratio": st}
 
 
