@@ -451,15 +451,14 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
             cases = spec.cases(todo)
 
             def on_results(pairs):
-                rows = []
+                triples = []
                 for k, r in pairs:
                     i, j = todo[k]
-                    row = store.row(spec, i, j, r)
-                    rows.append(row)
-                    _put(result, i, j, row)
-                    o = int(result.outcome[i, j])   # regime_key for one cell, without numpy's scalar overhead
-                    key[i, j] = 2 + 10 * min(max(int(result.n_impacts[i, j]), 0), 3) if o == 2 else o
-                store.append(rows)
+                    triples.append((i, j, r))
+                    o = _put_result(result, i, j, r)
+                    # regime_key of one cell, without numpy's per-scalar overhead
+                    key[i, j] = 2 + 10 * min(max(int(r.n_impacts), 0), 3) if o == 2 else o
+                store.append_results(spec, triples)
                 bar.update(len(pairs))
 
             executor.run(list(enumerate(cases)), on_results, cell_timeout_s=cell_timeout_s,
@@ -514,6 +513,21 @@ def load_map(out_dir) -> MapResult:
 
 
 # -- helpers ----------------------------------------------------------------------------------
+_CODES = {o.value: c for o, c in OUTCOME_CODES.items()}
+
+
+def _put_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
+    """Record a fresh cell result in the grids; returns its outcome code."""
+    ok = r.status == "ok" and r.outcome
+    code = _CODES[r.outcome] if ok else FAILED
+    result.outcome[i, j] = code
+    result.simulated[i, j] = True
+    result.n_impacts[i, j] = int(r.n_impacts) if ok else -1
+    result.max_abs_theta_rad[i, j] = float(r.max_abs_theta_rad) if ok else math.nan
+    result.valid[i, j] = bool(ok and r.valid)
+    return code
+
+
 def _put(result: MapResult, i: int, j: int, row: dict) -> None:
     ok = row["status"] == "ok" and row["outcome"] not in ("", None)
     result.outcome[i, j] = OUTCOME_CODES[Outcome(row["outcome"])] if ok else FAILED
