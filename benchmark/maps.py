@@ -545,9 +545,18 @@ def _is_batching(adapter) -> bool:
 
 
 def _available_memory_bytes() -> int | None:
+    """Memory a new allocation can get [bytes]: Linux's MemAvailable (free plus reclaimable cache),
+    else the free pages, else None (not every platform reports it)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):  # not every platform reports it
+    except (ValueError, OSError, AttributeError):
         return None
 
 
