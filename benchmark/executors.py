@@ -147,6 +147,7 @@ class _Chunk:
         self.items = list(items)
         self.batch = batch
         self.remaining = dict(self.items)
+        self.deaths = 0      # workers lost on this chunk before they started one of its cells
 
 
 class _Worker:
@@ -243,6 +244,12 @@ class ProcessExecutor:
     def run(self, items, on_results: Callable, *, cell_timeout_s: float, batch: bool) -> None:
         if not items:
             return
+        for w in list(self.workers):
+            if w.chunk is not None:   # left busy by an earlier run that raised: start clean
+                w.kill("stale")
+                w.proc.wait()
+                w.dead = True
+                self.workers.remove(w)
         if batch:
             chunks = [_Chunk(c, True) for c in _chunks(items, 4 * self.jobs)]
         else:
@@ -330,9 +337,19 @@ class ProcessExecutor:
             else:
                 r = CellResult.failed("crashed", _death_reason(code))
             self._deliver(chunk, [(key, r)], on_results)
+        elif not chunk.batch and chunk.remaining:
+            # died between cells (unpickling, engine teardown...): after three such deaths the
+            # next cell is blamed, so a worker that always dies cannot stall the map
+            chunk.deaths += 1
+            if chunk.deaths >= 3:
+                key = next(iter(chunk.remaining))
+                self._deliver(chunk, [(key, CellResult.failed("crashed", _death_reason(code) +
+                                                              " three times before this cell started"))], on_results)
         if chunk.remaining:
             # the rest of the chunk (all of it for a batch) runs again, one cell at a time
-            pending.appendleft(_Chunk(list(chunk.remaining.items()), False))
+            rest = _Chunk(list(chunk.remaining.items()), False)
+            rest.deaths = chunk.deaths if not chunk.batch else 0
+            pending.appendleft(rest)
         return 1
 
     def close(self) -> None:
