@@ -377,7 +377,7 @@ def outcome_code(r: CellResult) -> int:
 def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str | None = None,
             serial: bool = False, adaptive: bool = False, coarse_stride: int | None = None,
             cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S, progress: bool | None = None,
-            plot: bool = True, log: Callable[[str], None] | None = None) -> MapResult:
+            plot: bool = True, log: Callable[[str], None] | None = None, executor=None) -> MapResult:
     """Compute a map into ``out_dir``, resuming whatever a previous run of the same spec finished.
 
     Parameters
@@ -407,6 +407,10 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         Draw ``map.png`` at the end.
     log : callable, optional
         Receives one-line notes (resumed cells, ...).
+    executor : optional
+        An executor from :func:`~rockbench.benchmark.executors.make_executor` for this spec's
+        engine and settings, to keep its warm workers across many maps (it is not closed here);
+        ``jobs``, ``scheduler`` and ``serial`` are then ignored.
 
     Returns
     -------
@@ -426,15 +430,21 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         stride = 1
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
     t0 = time.perf_counter()
-    executor = make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=scheduler, serial=serial,
-                             log_path=None)
+    own = executor is None
+    if own:
+        executor = make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=scheduler, serial=serial,
+                                 log_path=None)
+    elif executor.init["engine"] != spec.engine or executor.init["settings"] != dict(spec.engine_settings):
+        raise ConfigError(f"the executor given runs engine {executor.init['engine']!r} with settings "
+                          f"{executor.init['settings']}, the map needs {spec.engine!r} with {dict(spec.engine_settings)}.")
     store = RunStore(out_dir)
     try:
         done = store.open(spec, adapter, options={"adaptive": adaptive, "coarse_stride": stride,
                                                   "cell_timeout_s": cell_timeout_s, "executor": executor.describe()})
         if done and log:
             log(f"resuming {out_dir}: {len(done)} cells already done")
-        executor.log_path = store.dir / "workers.log"
+        if own:
+            executor.log_path = store.dir / "workers.log"
         result = empty_result(spec)
         result.adaptive, result.coarse_stride = adaptive, stride
         for (i, j), row in done.items():
@@ -475,7 +485,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         result.failures = store.failures()
         store.finish(result.summary())
     finally:
-        executor.close()
+        if own:
+            executor.close()
         store.close()
     if plot:
         from .plots.stability import plot_map_png

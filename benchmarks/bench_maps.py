@@ -27,6 +27,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+from rockbench.benchmark.executors import make_executor  # noqa: E402
 from rockbench.benchmark.maps import MapSpec, make_axis, run_map  # noqa: E402
 from rockbench.benchmark.presets import PRESETS, get_preset  # noqa: E402
 from rockbench.engines import registry  # noqa: E402
@@ -70,6 +71,14 @@ def bench_full_map(n: int, tmp: Path) -> dict:
     solve_batch(*args, dt_s=1e-3)
     batch_s = time.perf_counter() - t0
     out = {"cells": n * n, "batch_solver_s": batch_s}
+    code = ("import time, numpy as np; t0 = time.perf_counter(); "
+            "from rockbench.reference_solver.solver import solve_batch; "
+            "from rockbench.benchmark.presets import get_preset; b = get_preset('B6M').block(); "
+            f"w = np.linspace({W[0]}, {W[1]}, {n}) * b.p_rad_s; a = np.linspace({A[0]}, {A[1]}, {n}) * 9.81 * np.tan(b.alpha_rad); "
+            "W, A = np.meshgrid(w, a); solve_batch(b.alpha_rad, b.p_rad_s, 1 - 1.5 * np.sin(b.alpha_rad) ** 2, 'sine', W, A, dt_s=1e-3)")
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True)
+    out["batch_solver_process_s"] = time.perf_counter() - t0
     for label, extra in [("map_default_s", []), ("map_jobs2_s", ["--jobs", "2"])]:
         d = tmp / label
         cmd = [rockbench_exe(), "map", "--block", "B6M", "--w-ratio", f"{W[0]}:{W[1]}:{n}", "--a-ratio",
@@ -78,6 +87,7 @@ def bench_full_map(n: int, tmp: Path) -> dict:
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
         out[label] = time.perf_counter() - t0
         out[label[:-2] + "_ratio"] = out[label] / batch_s
+        out[label[:-2] + "_ratio_to_process"] = out[label] / out["batch_solver_process_s"]
     return out
 
 
@@ -100,20 +110,56 @@ def bench_adaptive(n: int, tmp: Path) -> list:
 
 
 def bench_scaling(n: int, sleep_s: float, tmp: Path) -> dict:
+    """Wall time of an n×n map whose cells each cost ``sleep_s``: 1 and 2 local worker processes
+    (each run starts its own workers: cold, as a user sees it) and a 2-worker Dask LocalCluster
+    (started once; its start and the first, warming map are timed apart from the measured map)."""
+    import logging
+
+    from dask.distributed import LocalCluster
+
     registry.register("sleepy-reference", "bench_maps:SleepyReference")
     s = spec("B3M", "sine", Restitution(), n, engine="sleepy-reference", sleep_s=sleep_s)
     out = {"cells": n * n, "sleep_s": sleep_s, "sleep_total_s": n * n * sleep_s}
     ref = None
-    for label, kw in [("processes_1", dict(jobs=1)), ("processes_2", dict(jobs=2)),
-                      ("dask_local_2", dict(scheduler="local", jobs=2))]:
+
+    def timed(label, **kw):
+        nonlocal ref
         t0 = time.perf_counter()
         r = run_map(s, tmp / label, plot=False, **kw)
         out[label + "_s"] = time.perf_counter() - t0
         ref = r.outcome if ref is None else ref
         out[label + "_same_map"] = bool(np.array_equal(r.outcome, ref))
         print(f"  {label}: {out[label + '_s']:.1f} s", flush=True)
+
+    timed("processes_1", jobs=1)
+    timed("processes_2", jobs=2)
+    # the same with workers already started (run_map(executor=...)): the harness's own scaling
+    # without the one-off start of the engine in each worker
+    warm = spec("B3M", "sine", Restitution(), 4, engine="sleepy-reference", sleep_s=sleep_s)
+    for jobs in (1, 2):
+        ex = make_executor("sleepy-reference", {"sleep_s": sleep_s}, jobs=jobs)
+        try:
+            t0 = time.perf_counter()
+            run_map(warm, tmp / f"warm-{jobs}", plot=False, executor=ex)
+            out[f"processes_{jobs}_worker_start_s"] = time.perf_counter() - t0
+            timed(f"processes_{jobs}_warm", executor=ex)
+        finally:
+            ex.close()
+    t0 = time.perf_counter()
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=":0", silence_logs=logging.ERROR)
+    out["dask_cluster_start_s"] = time.perf_counter() - t0
+    try:
+        warm = spec("B3M", "sine", Restitution(), 4, engine="sleepy-reference", sleep_s=sleep_s)
+        t0 = time.perf_counter()
+        run_map(warm, tmp / "dask-warm", plot=False, scheduler=cluster.scheduler_address)
+        out["dask_worker_warmup_s"] = time.perf_counter() - t0
+        timed("dask_local_2", scheduler=cluster.scheduler_address)
+    finally:
+        cluster.close()
     out["speedup_processes_2"] = out["processes_1_s"] / out["processes_2_s"]
-    out["speedup_dask_2"] = out["processes_1_s"] / out["dask_local_2_s"]
+    out["speedup_processes_2_warm"] = out["processes_1_warm_s"] / out["processes_2_warm_s"]
+    out["speedup_dask_2_vs_processes_1_warm"] = out["processes_1_warm_s"] / out["dask_local_2_s"]
     return out
 
 
