@@ -62,30 +62,43 @@ def rockbench_exe() -> str:
     return str(exe) if exe.exists() else "rockbench"
 
 
-def bench_full_map(n: int, tmp: Path) -> dict:
+def bench_full_map(n: int, tmp: Path, repeat: int = 3) -> dict:
+    """Medians of ``repeat`` runs: the batch solver warm in-process, the batch solver as a process
+    of its own, and ``rockbench map`` (default executor, and --jobs 2) as a process."""
     s = spec("B6M", "sine", Restitution(), n)
     om, am = np.meshgrid(s.omegas(), s.amplitudes())
     args = (s.block.alpha_rad, s.block.p_rad_s, s.eta, "sine", om, am)
     solve_batch(*(np.ravel(a)[:4] if isinstance(a, np.ndarray) else a for a in args), dt_s=1e-3)   # load the kernel
-    t0 = time.perf_counter()
-    solve_batch(*args, dt_s=1e-3)
-    batch_s = time.perf_counter() - t0
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        solve_batch(*args, dt_s=1e-3)
+        times.append(time.perf_counter() - t0)
+    batch_s = float(np.median(times))
     out = {"cells": n * n, "batch_solver_s": batch_s}
     code = ("import time, numpy as np; t0 = time.perf_counter(); "
             "from rockbench.reference_solver.solver import solve_batch; "
             "from rockbench.benchmark.presets import get_preset; b = get_preset('B6M').block(); "
             f"w = np.linspace({W[0]}, {W[1]}, {n}) * b.p_rad_s; a = np.linspace({A[0]}, {A[1]}, {n}) * 9.81 * np.tan(b.alpha_rad); "
             "W, A = np.meshgrid(w, a); solve_batch(b.alpha_rad, b.p_rad_s, 1 - 1.5 * np.sin(b.alpha_rad) ** 2, 'sine', W, A, dt_s=1e-3)")
-    t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-c", code], check=True)
-    out["batch_solver_process_s"] = time.perf_counter() - t0
-    for label, extra in [("map_default_s", []), ("map_jobs2_s", ["--jobs", "2"])]:
-        d = tmp / label
-        cmd = [rockbench_exe(), "map", "--block", "B6M", "--w-ratio", f"{W[0]}:{W[1]}:{n}", "--a-ratio",
-               f"{A[0]}:{A[1]}:{n}", "--out", str(d), "--json", *extra]
+    times = []
+    for _ in range(repeat):
         t0 = time.perf_counter()
-        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-        out[label] = time.perf_counter() - t0
+        subprocess.run([sys.executable, "-c", code], check=True)
+        times.append(time.perf_counter() - t0)
+    out["batch_solver_process_s"] = float(np.median(times))
+    for label, extra in [("map_default_s", []), ("map_jobs2_s", ["--jobs", "2"])]:
+        times = []
+        for rep in range(repeat):
+            d = tmp / f"{label}-{rep}"
+            cmd = [rockbench_exe(), "map", "--block", "B6M", "--w-ratio", f"{W[0]}:{W[1]}:{n}", "--a-ratio",
+                   f"{A[0]}:{A[1]}:{n}", "--out", str(d), "--json", *extra]
+            t0 = time.perf_counter()
+            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+            times.append(time.perf_counter() - t0)
+            shutil.rmtree(d)
+        out[label] = float(np.median(times))
+        out[label[:-2] + "_all_s"] = times
         out[label[:-2] + "_ratio"] = out[label] / batch_s
         out[label[:-2] + "_ratio_to_process"] = out[label] / out["batch_solver_process_s"]
     return out
@@ -167,21 +180,26 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller maps (a smoke run)")
     ap.add_argument("--json", default=None, help="also write the figures to this JSON file")
+    ap.add_argument("--parts", default="1,2,3", help="which measurements to run (default 1,2,3)")
     args = ap.parse_args()
+    parts = {int(x) for x in args.parts.split(",")}
     n_full, n_ad, n_sc = (60, 60, 20) if args.quick else (200, 200, 60)
     load = os.getloadavg()
     print(f"{time.strftime('%Y-%m-%d %H:%M:%S')} cores {os.cpu_count()} load {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
     res = {"started": time.strftime("%Y-%m-%dT%H:%M:%S"), "load_before": load}
     with tempfile.TemporaryDirectory() as t:
         tmp = Path(t)
-        print(f"1. {n_full}×{n_full} reference map (B6M, sine, Housner):", flush=True)
-        res["full_map"] = bench_full_map(n_full, tmp)
-        print("  " + json.dumps(res["full_map"]), flush=True)
-        print(f"2. adaptive fraction at {n_ad}×{n_ad}:", flush=True)
-        res["adaptive"] = bench_adaptive(n_ad, tmp)
-        print(f"3. {n_sc}×{n_sc} map of a slow adapter (reference + 10 ms per cell):", flush=True)
-        res["scaling"] = bench_scaling(n_sc, 0.01, tmp)
-        print("  " + json.dumps(res["scaling"]), flush=True)
+        if 1 in parts:
+            print(f"1. {n_full}×{n_full} reference map (B6M, sine, Housner):", flush=True)
+            res["full_map"] = bench_full_map(n_full, tmp)
+            print("  " + json.dumps(res["full_map"]), flush=True)
+        if 2 in parts:
+            print(f"2. adaptive fraction at {n_ad}×{n_ad}:", flush=True)
+            res["adaptive"] = bench_adaptive(n_ad, tmp)
+        if 3 in parts:
+            print(f"3. {n_sc}×{n_sc} map of a slow adapter (reference + 10 ms per cell):", flush=True)
+            res["scaling"] = bench_scaling(n_sc, 0.01, tmp)
+            print("  " + json.dumps(res["scaling"]), flush=True)
     res["load_after"] = os.getloadavg()
     print(f"load after {res['load_after'][0]:.2f} {res['load_after'][1]:.2f} {res['load_after'][2]:.2f}")
     if args.json:
