@@ -48,7 +48,7 @@ def cluster():
     import logging
 
     from dask.distributed import LocalCluster
-    c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+    c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=":0",
                      silence_logs=logging.ERROR)
     yield c.scheduler_address
     c.close()
