@@ -131,8 +131,16 @@ class SerialExecutor:
     def describe(self) -> dict:
         return {"kind": self.kind, "jobs": 1}
 
+    #: largest native batch per call: big enough that a whole 100×100 map is one call, small
+    #: enough that a 200×200 map reaches cells.csv (and the progress bar) in four steps, so a
+    #: killed run keeps most of its work
+    MAX_BATCH = 10_000
+
     def run(self, items, on_results, *, cell_timeout_s: float, batch: bool) -> None:
-        for chunk in ([items] if batch else _chunks(items, len(items), 64)):
+        if not items:
+            return
+        size = self.MAX_BATCH if batch else 64
+        for chunk in _chunks(items, math.ceil(len(items) / size)):
             on_results(_run_in_process(self.adapter, chunk, batch))
 
     def close(self) -> None:

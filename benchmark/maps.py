@@ -308,6 +308,8 @@ class MapResult:
         The adaptive coarse grid's spacing in cells (1 for a full map).
     wall_s : float
         Wall time of the run that produced it [s] (0 when loaded).
+    n_resumed : int
+        Cells found already done in the run directory when the run started.
     """
 
     spec: MapSpec
@@ -320,6 +322,7 @@ class MapResult:
     adaptive: bool = False
     coarse_stride: int = 1
     wall_s: float = 0.0
+    n_resumed: int = 0
 
     @property
     def w_ratio(self) -> np.ndarray:
@@ -357,7 +360,7 @@ class MapResult:
                 "shape": list(self.spec.shape), "n_cells": self.spec.n_cells, "n_simulated": self.n_simulated,
                 "fraction_simulated": self.fraction_simulated, "adaptive": self.adaptive,
                 "complete": self.complete, "counts": self.counts(), "n_failed": len(self.failures),
-                "wall_s": self.wall_s}
+                "n_resumed": self.n_resumed, "wall_s": self.wall_s}
 
 
 def empty_result(spec: MapSpec) -> MapResult:
@@ -449,6 +452,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         result.adaptive, result.coarse_stride = adaptive, stride
         for (i, j), row in done.items():
             _put(result, i, j, row)
+        result.n_resumed = len(done)
         key = adaptive_mod.regime_key(result.outcome, result.n_impacts)   # what adaptive neighbours compare
         show = (sys.stderr.isatty() if progress is None else progress)
         bar = _Progress(show, spec.label())
@@ -586,12 +590,13 @@ class _Progress:
 
     def __init__(self, show: bool, desc: str):
         self.bar = None
-        if show:
-            from tqdm import tqdm
-            self.bar = tqdm(total=0, desc=desc, unit="cell", file=sys.stderr, dynamic_ncols=True)
+        self.show, self.desc = show, desc
 
     def add(self, n: int) -> None:
-        if self.bar is not None:
+        if self.show and self.bar is None:
+            from tqdm import tqdm
+            self.bar = tqdm(total=n, desc=self.desc, unit="cell", file=sys.stderr, dynamic_ncols=True)
+        elif self.bar is not None:
             self.bar.total += n
             self.bar.refresh()
 
