@@ -63,44 +63,43 @@ def rockbench_exe() -> str:
 
 
 def bench_full_map(n: int, tmp: Path, repeat: int = 3) -> dict:
-    """Medians of ``repeat`` runs: the batch solver warm in-process, the batch solver as a process
-    of its own, and ``rockbench map`` (default executor, and --jobs 2) as a process."""
+    """``repeat`` rounds, each timing in turn: the batch solver warm in-process, the batch solver as
+    a process of its own, ``rockbench map`` as a process (default executor) and with ``--jobs 2``.
+    Interleaving the four keeps a changing machine load from favouring one of them; ratios are
+    taken within a round, and the medians reported."""
     s = spec("B6M", "sine", Restitution(), n)
     om, am = np.meshgrid(s.omegas(), s.amplitudes())
     args = (s.block.alpha_rad, s.block.p_rad_s, s.eta, "sine", om, am)
     solve_batch(*(np.ravel(a)[:4] if isinstance(a, np.ndarray) else a for a in args), dt_s=1e-3)   # load the kernel
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        solve_batch(*args, dt_s=1e-3)
-        times.append(time.perf_counter() - t0)
-    batch_s = float(np.median(times))
-    out = {"cells": n * n, "batch_solver_s": batch_s}
-    code = ("import time, numpy as np; t0 = time.perf_counter(); "
+    code = ("import time, numpy as np; "
             "from rockbench.reference_solver.solver import solve_batch; "
             "from rockbench.benchmark.presets import get_preset; b = get_preset('B6M').block(); "
             f"w = np.linspace({W[0]}, {W[1]}, {n}) * b.p_rad_s; a = np.linspace({A[0]}, {A[1]}, {n}) * 9.81 * np.tan(b.alpha_rad); "
             "W, A = np.meshgrid(w, a); solve_batch(b.alpha_rad, b.p_rad_s, 1 - 1.5 * np.sin(b.alpha_rad) ** 2, 'sine', W, A, dt_s=1e-3)")
-    times = []
-    for _ in range(repeat):
+    rounds = []
+    for rep in range(repeat):
+        r = {"load": os.getloadavg()[0]}
+        t0 = time.perf_counter()
+        solve_batch(*args, dt_s=1e-3)
+        r["batch_solver_s"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "-c", code], check=True)
-        times.append(time.perf_counter() - t0)
-    out["batch_solver_process_s"] = float(np.median(times))
-    for label, extra in [("map_default_s", []), ("map_jobs2_s", ["--jobs", "2"])]:
-        times = []
-        for rep in range(repeat):
+        r["batch_solver_process_s"] = time.perf_counter() - t0
+        for label, extra in [("map_default_s", []), ("map_jobs2_s", ["--jobs", "2"])]:
             d = tmp / f"{label}-{rep}"
             cmd = [rockbench_exe(), "map", "--block", "B6M", "--w-ratio", f"{W[0]}:{W[1]}:{n}", "--a-ratio",
                    f"{A[0]}:{A[1]}:{n}", "--out", str(d), "--json", *extra]
             t0 = time.perf_counter()
             subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-            times.append(time.perf_counter() - t0)
+            r[label] = time.perf_counter() - t0
             shutil.rmtree(d)
-        out[label] = float(np.median(times))
-        out[label[:-2] + "_all_s"] = times
-        out[label[:-2] + "_ratio"] = out[label] / batch_s
-        out[label[:-2] + "_ratio_to_process"] = out[label] / out["batch_solver_process_s"]
+            r[label[:-2] + "_ratio"] = r[label] / r["batch_solver_s"]
+            r[label[:-2] + "_ratio_to_process"] = r[label] / r["batch_solver_process_s"]
+        rounds.append(r)
+        print("  round " + json.dumps({k: round(v, 3) for k, v in r.items()}), flush=True)
+    out = {"cells": n * n, "rounds": rounds}
+    for k in rounds[0]:
+        out[k] = float(np.median([r[k] for r in rounds]))
     return out
 
 
