@@ -82,6 +82,12 @@ def make_executor(engine: str, settings: dict, *, jobs: int | None = None, sched
         return SerialExecutor(init)
     if scheduler:
         return DaskExecutor(init, scheduler, jobs=jobs)
+    if jobs is None:
+        from ..engines.registry import adapter_class
+        if getattr(adapter_class(engine), "parallel_batch", False):
+            # the adapter's own batch already uses every core: one call here beats worker processes
+            # that would each pay the engine's start-up (for the reference, loading its kernels)
+            return SerialExecutor(init, kind="in-process batch (the adapter's parallel_batch)")
     return ProcessExecutor(init, jobs=jobs or cpu_count(), log_path=log_path)
 
 
@@ -115,17 +121,26 @@ def _run_in_process(adapter, items, batch: bool) -> list:
 class SerialExecutor:
     """Cells in this process (whole batches for batching adapters: one ``run_many`` per round)."""
 
-    def __init__(self, init: dict):
+    def __init__(self, init: dict, kind: str = "serial"):
         from ..engines.registry import get_adapter
         self.init = init
+        self.kind = kind
         self.adapter = get_adapter(init["engine"], **init["settings"])
         self.log_path = None
 
     def describe(self) -> dict:
-        return {"kind": "serial", "jobs": 1}
+        return {"kind": self.kind, "jobs": 1}
+
+    #: largest native batch per call: big enough that a whole 100×100 map is one call, small
+    #: enough that a 200×200 map reaches cells.csv (and the progress bar) in four steps, so a
+    #: killed run keeps most of its work
+    MAX_BATCH = 10_000
 
     def run(self, items, on_results, *, cell_timeout_s: float, batch: bool) -> None:
-        for chunk in ([items] if batch else _chunks(items, len(items), 64)):
+        if not items:
+            return
+        size = self.MAX_BATCH if batch else 64
+        for chunk in _chunks(items, math.ceil(len(items) / size)):
             on_results(_run_in_process(self.adapter, chunk, batch))
 
     def close(self) -> None:
@@ -140,6 +155,7 @@ class _Chunk:
         self.items = list(items)
         self.batch = batch
         self.remaining = dict(self.items)
+        self.deaths = 0      # workers lost on this chunk before they started one of its cells
 
 
 class _Worker:
@@ -236,6 +252,12 @@ class ProcessExecutor:
     def run(self, items, on_results: Callable, *, cell_timeout_s: float, batch: bool) -> None:
         if not items:
             return
+        for w in list(self.workers):
+            if w.chunk is not None:   # left busy by an earlier run that raised: start clean
+                w.kill("stale")
+                w.proc.wait()
+                w.dead = True
+                self.workers.remove(w)
         if batch:
             chunks = [_Chunk(c, True) for c in _chunks(items, 4 * self.jobs)]
         else:
@@ -323,9 +345,19 @@ class ProcessExecutor:
             else:
                 r = CellResult.failed("crashed", _death_reason(code))
             self._deliver(chunk, [(key, r)], on_results)
+        elif not chunk.batch and chunk.remaining:
+            # died between cells (unpickling, engine teardown...): after three such deaths the
+            # next cell is blamed, so a worker that always dies cannot stall the map
+            chunk.deaths += 1
+            if chunk.deaths >= 3:
+                key = next(iter(chunk.remaining))
+                self._deliver(chunk, [(key, CellResult.failed("crashed", _death_reason(code) +
+                                                              " three times before this cell started"))], on_results)
         if chunk.remaining:
             # the rest of the chunk (all of it for a batch) runs again, one cell at a time
-            pending.appendleft(_Chunk(list(chunk.remaining.items()), False))
+            rest = _Chunk(list(chunk.remaining.items()), False)
+            rest.deaths = chunk.deaths if not chunk.batch else 0
+            pending.appendleft(rest)
         return 1
 
     def close(self) -> None:
@@ -337,14 +369,34 @@ class ProcessExecutor:
             self._log = None
 
 
+_DASK_POOLS: dict = {}
+_DASK_LOCK = threading.Lock()
+
+
+def _dask_pool(init: dict) -> ProcessExecutor:
+    """The worker process this Dask worker thread keeps for one engine (started on first use).
+
+    Kept across tasks so the engine's start-up is paid once per Dask worker, not once per chunk;
+    it dies with the Dask worker (its stdin closes) or is replaced when it crashes.
+    """
+    import atexit
+    import pickle
+
+    key = (pickle.dumps(sorted(init.items())), threading.get_ident())
+    with _DASK_LOCK:
+        ex = _DASK_POOLS.get(key)
+        if ex is None:
+            ex = _DASK_POOLS[key] = ProcessExecutor(init, jobs=1, threads_per_worker=1)
+            if len(_DASK_POOLS) == 1:
+                atexit.register(lambda: [p.close() for p in _DASK_POOLS.values()])
+    return ex
+
+
 def _dask_task(init: dict, items: list, batch: bool, cell_timeout_s: float) -> list:
-    """One Dask task: run a chunk in a fresh worker process on the Dask worker's machine."""
-    ex = ProcessExecutor(init, jobs=1, threads_per_worker=1)
+    """One Dask task: run a chunk in this Dask worker's own worker process (time limits and crash
+    isolation as in :class:`ProcessExecutor`)."""
     out: list = []
-    try:
-        ex.run(items, out.extend, cell_timeout_s=cell_timeout_s, batch=batch)
-    finally:
-        ex.close()
+    _dask_pool(init).run(items, out.extend, cell_timeout_s=cell_timeout_s, batch=batch)
     return out
 
 
@@ -365,7 +417,7 @@ class DaskExecutor:
         if address == "local":
             n = jobs or min(cpu_count(), 2) or 1
             self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                        dashboard_address=None, silence_logs=logging.ERROR)
+                                        dashboard_address=":0", silence_logs=logging.ERROR)
             self.client = Client(self.cluster, timeout=CONNECT_TIMEOUT_S)
         else:
             if "://" not in address and ":" not in address:

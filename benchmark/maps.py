@@ -308,6 +308,8 @@ class MapResult:
         The adaptive coarse grid's spacing in cells (1 for a full map).
     wall_s : float
         Wall time of the run that produced it [s] (0 when loaded).
+    n_resumed : int
+        Cells found already done in the run directory when the run started.
     """
 
     spec: MapSpec
@@ -320,6 +322,7 @@ class MapResult:
     adaptive: bool = False
     coarse_stride: int = 1
     wall_s: float = 0.0
+    n_resumed: int = 0
 
     @property
     def w_ratio(self) -> np.ndarray:
@@ -357,7 +360,7 @@ class MapResult:
                 "shape": list(self.spec.shape), "n_cells": self.spec.n_cells, "n_simulated": self.n_simulated,
                 "fraction_simulated": self.fraction_simulated, "adaptive": self.adaptive,
                 "complete": self.complete, "counts": self.counts(), "n_failed": len(self.failures),
-                "wall_s": self.wall_s}
+                "n_resumed": self.n_resumed, "wall_s": self.wall_s}
 
 
 def empty_result(spec: MapSpec) -> MapResult:
@@ -377,7 +380,7 @@ def outcome_code(r: CellResult) -> int:
 def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str | None = None,
             serial: bool = False, adaptive: bool = False, coarse_stride: int | None = None,
             cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S, progress: bool | None = None,
-            plot: bool = True, log: Callable[[str], None] | None = None) -> MapResult:
+            plot: bool = True, log: Callable[[str], None] | None = None, executor=None) -> MapResult:
     """Compute a map into ``out_dir``, resuming whatever a previous run of the same spec finished.
 
     Parameters
@@ -407,6 +410,10 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         Draw ``map.png`` at the end.
     log : callable, optional
         Receives one-line notes (resumed cells, ...).
+    executor : optional
+        An executor from :func:`~rockbench.benchmark.executors.make_executor` for this spec's
+        engine and settings, to keep its warm workers across many maps (it is not closed here);
+        ``jobs``, ``scheduler`` and ``serial`` are then ignored.
 
     Returns
     -------
@@ -426,19 +433,26 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         stride = 1
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
     t0 = time.perf_counter()
-    executor = make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=scheduler, serial=serial,
-                             log_path=None)
+    own = executor is None
+    if own:
+        executor = make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=scheduler, serial=serial,
+                                 log_path=None)
+    elif executor.init["engine"] != spec.engine or executor.init["settings"] != dict(spec.engine_settings):
+        raise ConfigError(f"the executor given runs engine {executor.init['engine']!r} with settings "
+                          f"{executor.init['settings']}, the map needs {spec.engine!r} with {dict(spec.engine_settings)}.")
     store = RunStore(out_dir)
     try:
         done = store.open(spec, adapter, options={"adaptive": adaptive, "coarse_stride": stride,
                                                   "cell_timeout_s": cell_timeout_s, "executor": executor.describe()})
         if done and log:
             log(f"resuming {out_dir}: {len(done)} cells already done")
-        executor.log_path = store.dir / "workers.log"
+        if own:
+            executor.log_path = store.dir / "workers.log"
         result = empty_result(spec)
         result.adaptive, result.coarse_stride = adaptive, stride
         for (i, j), row in done.items():
             _put(result, i, j, row)
+        result.n_resumed = len(done)
         key = adaptive_mod.regime_key(result.outcome, result.n_impacts)   # what adaptive neighbours compare
         show = (sys.stderr.isatty() if progress is None else progress)
         bar = _Progress(show, spec.label())
@@ -451,15 +465,14 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
             cases = spec.cases(todo)
 
             def on_results(pairs):
-                rows = []
+                triples = []
                 for k, r in pairs:
                     i, j = todo[k]
-                    row = store.row(spec, i, j, r)
-                    rows.append(row)
-                    _put(result, i, j, row)
-                    o = int(result.outcome[i, j])   # regime_key for one cell, without numpy's scalar overhead
-                    key[i, j] = 2 + 10 * min(max(int(result.n_impacts[i, j]), 0), 3) if o == 2 else o
-                store.append(rows)
+                    triples.append((i, j, r))
+                    o = _put_result(result, i, j, r)
+                    # regime_key of one cell, without numpy's per-scalar overhead
+                    key[i, j] = 2 + 10 * min(max(int(r.n_impacts), 0), 3) if o == 2 else o
+                store.append_results(spec, triples)
                 bar.update(len(pairs))
 
             executor.run(list(enumerate(cases)), on_results, cell_timeout_s=cell_timeout_s,
@@ -476,7 +489,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         result.failures = store.failures()
         store.finish(result.summary())
     finally:
-        executor.close()
+        if own:
+            executor.close()
         store.close()
     if plot:
         from .plots.stability import plot_map_png
@@ -514,6 +528,21 @@ def load_map(out_dir) -> MapResult:
 
 
 # -- helpers ----------------------------------------------------------------------------------
+_CODES = {o.value: c for o, c in OUTCOME_CODES.items()}
+
+
+def _put_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
+    """Record a fresh cell result in the grids; returns its outcome code."""
+    ok = r.status == "ok" and r.outcome
+    code = _CODES[r.outcome] if ok else FAILED
+    result.outcome[i, j] = code
+    result.simulated[i, j] = True
+    result.n_impacts[i, j] = int(r.n_impacts) if ok else -1
+    result.max_abs_theta_rad[i, j] = float(r.max_abs_theta_rad) if ok else math.nan
+    result.valid[i, j] = bool(ok and r.valid)
+    return code
+
+
 def _put(result: MapResult, i: int, j: int, row: dict) -> None:
     ok = row["status"] == "ok" and row["outcome"] not in ("", None)
     result.outcome[i, j] = OUTCOME_CODES[Outcome(row["outcome"])] if ok else FAILED
@@ -531,9 +560,18 @@ def _is_batching(adapter) -> bool:
 
 
 def _available_memory_bytes() -> int | None:
+    """Memory a new allocation can get [bytes]: Linux's MemAvailable (free plus reclaimable cache),
+    else the free pages, else None (not every platform reports it)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):  # not every platform reports it
+    except (ValueError, OSError, AttributeError):
         return None
 
 
@@ -552,12 +590,13 @@ class _Progress:
 
     def __init__(self, show: bool, desc: str):
         self.bar = None
-        if show:
-            from tqdm import tqdm
-            self.bar = tqdm(total=0, desc=desc, unit="cell", file=sys.stderr, dynamic_ncols=True)
+        self.show, self.desc = show, desc
 
     def add(self, n: int) -> None:
-        if self.bar is not None:
+        if self.show and self.bar is None:
+            from tqdm import tqdm
+            self.bar = tqdm(total=n, desc=self.desc, unit="cell", file=sys.stderr, dynamic_ncols=True)
+        elif self.bar is not None:
             self.bar.total += n
             self.bar.refresh()
 

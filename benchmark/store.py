@@ -221,7 +221,38 @@ class RunStore:
                 "message": " ".join(str(r.message).split()), "wall_s": float(r.wall_s),
                 "t_overturn_s": r.t_overturn_s, "t_uplift_s": r.t_uplift_s, "i": int(i), "j": int(j)}
 
-    def append(self, rows: list[dict]) -> None:
+    def append_results(self, spec, triples) -> None:
+        """Append the rows of ``[(i, j, CellResult), ...]`` (see :meth:`append`).
+
+        A plain successful cell is formatted straight into its line (a 200×200 map writes 40 000 of
+        them, and per-field formatting would cost a good share of the batch solver's time); any
+        other cell goes through :meth:`row` and the csv module's quoting.
+        """
+        if getattr(self, "_line_cache", (None,))[0] is not spec:
+            head = io.StringIO()
+            csv.writer(head, lineterminator="").writerow([spec.engine, spec.block.name, spec.pulse,
+                                                          spec.restitution.label, repr(float(spec.eta))])
+            self._line_cache = (spec, head.getvalue() + ",", [repr(float(x)) for x in spec._w_ratios],
+                                [repr(float(x)) for x in spec._a_ratios], [repr(float(x)) for x in spec._omegas],
+                                [repr(float(x)) for x in spec._amplitudes])
+        _, head, wr, ar, om, am = self._line_cache
+        lines, others = [], []
+        for i, j, r in triples:
+            if r.status == "ok" and not r.flags and not r.message and r.outcome:
+                tov, tup = r.t_overturn_s, r.t_uplift_s
+                lines.append(f"{head}{wr[j]},{ar[i]},{om[j]},{am[i]},{r.outcome},{int(r.n_impacts)},"
+                             f"{float(r.max_abs_theta_rad)!r},{'true' if r.valid else 'false'},,ok,,"
+                             f"{float(r.wall_s)!r},{'' if tov is None else repr(float(tov))},"
+                             f"{'' if tup is None else repr(float(tup))},{i},{j}\n")
+            else:
+                others.append(self.row(spec, i, j, r))
+        if others:
+            self.append(others, _prefix="".join(lines))
+        elif lines:
+            self._csv.write("".join(lines))
+            self._csv.flush()
+
+    def append(self, rows: list[dict], _prefix: str = "") -> None:
         """Append rows and flush them to the operating system (survives ``kill -9``)."""
         if not rows:
             return
@@ -241,7 +272,7 @@ class RunStore:
                 self._failures.append({k: _fmt(v) for k, v in r.items()})
         # one write per row batch; each row ends with its newline, so a kill leaves whole rows
         # plus at most one torn line, which the next open cuts off
-        self._csv.write("".join(lines))
+        self._csv.write(_prefix + "".join(lines))
         self._csv.flush()
 
     def _write_line(self, cells: list[str]) -> None:

@@ -27,7 +27,9 @@ The contract, for a subclass of :class:`EngineAdapter`:
 5. An exception inside the engine is not caught by ``_simulate``: :meth:`EngineAdapter.run`
    turns it into a failed :class:`CellResult` with the ``engine-error`` flag, so sweeps go on.
 6. ``_simulate_many(cases)`` may run many cases at once (native batches); the default loops over
-   :meth:`_simulate`. Results must not depend on how cases are batched.
+   :meth:`_simulate`. Results must not depend on how cases are batched. An adapter whose batch
+   already uses every core sets :attr:`parallel_batch`; maps then run it in one call in their own
+   process by default instead of spreading it over worker processes.
 7. ``resolve(block, restitution, dt_s)`` returns the concrete settings a case will use (for example contact
    parameters calibrated to reach the restitution's η); they are recorded in run.json.
 8. ``measure_restitution(block, settings)`` and ``calibrate(block, target_eta)`` are optional
@@ -292,6 +294,8 @@ class EngineAdapter:
     SETTINGS: ClassVar[Mapping[str, Any]] = {}
     #: default time step [s]
     default_dt_s: ClassVar[float] = 1e-3
+    #: True when ``run_many`` is a native batch that already runs on every core (contract item 6)
+    parallel_batch: ClassVar[bool] = False
 
     def __init__(self, **settings):
         unknown = sorted(set(settings) - set(self.SETTINGS))

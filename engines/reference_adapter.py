@@ -38,6 +38,8 @@ class ReferenceAdapter(EngineAdapter):
     install_hint = "part of rockbench; nothing to install."
     SETTINGS = {"mode": "energy"}
     default_dt_s = 1e-3
+    #: solve_batch runs the cases in parallel on all cores: maps call it once, in-process
+    parallel_batch = True
 
     def _validate_settings(self, settings: dict) -> None:
         if settings["mode"] not in MODES:

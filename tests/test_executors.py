@@ -48,7 +48,7 @@ def cluster():
     import logging
 
     from dask.distributed import LocalCluster
-    c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+    c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=":0",
                      silence_logs=logging.ERROR)
     yield c.scheduler_address
     c.close()
@@ -113,3 +113,20 @@ def test_unreachable_scheduler_cli_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "cannot reach the Dask scheduler" in err
     assert not (tmp_path / "m").exists()       # nothing half-written
+
+
+def test_one_executor_serves_many_maps(tmp_path):
+    from rockbench.benchmark.executors import make_executor
+    ex = make_executor("analytic", {}, jobs=2)
+    try:
+        for k, pulse in enumerate(("sine", "cosine")):
+            s = MapSpec(get_preset("B6L").block(), pulse, Restitution(), make_axis("--w-ratio", "w_ratio", 0.5, 8, 9),
+                        make_axis("--a-ratio", "a_ratio", 0.5, 9, 9), engine="analytic")
+            r = run_map(s, tmp_path / f"m{k}", executor=ex, plot=False)
+            assert np.array_equal(r.outcome, truth(s))
+        pids = {w.proc.pid for w in ex.workers}
+        assert len(pids) == 2                         # the same two workers did both maps
+        with pytest.raises(ConfigError, match="the executor given runs engine 'analytic'"):
+            run_map(spec("raising"), tmp_path / "other", executor=ex, plot=False)
+    finally:
+        ex.close()

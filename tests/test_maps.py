@@ -99,8 +99,8 @@ def test_adaptive_cannot_see_an_island_between_nodes():
 
 def test_adaptive_run_map_and_load_agree(tmp_path):
     b = get_preset("B6M").block()
-    s = MapSpec(b, "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 0.5, 10, 80),
-                make_axis("--a-ratio", "a_ratio", 0.5, 12, 80), engine="analytic-batch")
+    s = MapSpec(b, "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 0.5, 10, 50),
+                make_axis("--a-ratio", "a_ratio", 0.5, 12, 50), engine="analytic-batch")
     r = run_map(s, tmp_path / "m", adaptive=True, serial=True)
     assert np.array_equal(r.outcome, mh.analytic_grid(s.w_ratios(), s.a_ratios()))
     assert r.n_simulated < s.n_cells

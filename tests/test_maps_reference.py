@@ -105,10 +105,23 @@ def test_map_command_reference(tmp_path, capsys):
     # the same command again: nothing to do, nothing duplicated
     assert main(["map", "--block", "B3L", "--pulse", "cosine", "--restitution", "modified", "--w-ratio", "1:8:12",
                  "--a-ratio", "0.5:6:10", "--out", str(out), "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["n_simulated"] == 120
+    again = json.loads(capsys.readouterr().out)
+    assert again["n_simulated"] == 120 and again["n_resumed"] == 120
     assert (out / "cells.csv").read_text().count("\n") == 121
 
 
 def test_check_adapter_reference_passes():
     rep = check_adapter("reference")
     assert rep.passed, rep.text()
+
+
+def test_figures_command(tmp_path, capsys):
+    assert main(["figures", "--out", str(tmp_path), "--resolution", "12", "--figure", "4", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert sorted(out["figures"]["4"]) == [str(tmp_path / "fig4.png"), str(tmp_path / "fig4.svg")]
+    assert all((tmp_path / f).stat().st_size > 1000 for f in ("fig4.png", "fig4.svg"))
+    assert len(out["maps"]) == 2          # Housner and modified k = 0.75 on B3M
+    meta = json.loads((tmp_path / "maps" / "B3M-sine-k0.75-12" / "run.json").read_text())
+    assert meta["spec"]["restitution"]["k"] == 0.75
+    assert main(["figures", "--out", str(tmp_path), "--figure", "3"]) == 2
+    assert "4–9" in capsys.readouterr().err

@@ -33,7 +33,8 @@ def _overturn_mask(result) -> np.ndarray:
 
 
 def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiments=None,
-                   st_limit_mps2: float | None = ST_LIMIT_MPS2, title: str | None = None, show_failed: bool = True):
+                   st_limit_mps2: float | None = ST_LIMIT_MPS2, title: str | None = None, show_failed: bool = True,
+                   extra_handles=()):
     """Draw one or more maps' overturn boundaries on the normalised axes.
 
     Parameters
@@ -54,6 +55,8 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
         Axes title.
     show_failed : bool
         Mark failed cells with small red crosses.
+    extra_handles : sequence of matplotlib artists
+        More legend entries (put first).
 
     Returns
     -------
@@ -69,7 +72,7 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     if ax is None:
         _, ax = plt.subplots(figsize=(6.4, 4.8))
     labels = list(labels) if labels is not None else [_label(m) for m in maps]
-    handles, drawn = [], []
+    handles, drawn = list(extra_handles), []
     first = maps[0]
     if shade:
         W, A = np.meshgrid(first.w_ratio, first.a_ratio)
@@ -115,7 +118,7 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     ax.set_ylabel("a₀/(g·tanα) [-]")
     if title:
         ax.set_title(title, fontsize=10)
-    ax.legend(handles=handles, fontsize=7, loc="upper right", framealpha=0.85)
+    ax.legend(handles=handles, fontsize=7, loc="best", framealpha=0.85)
     return {"ax": ax, "boundaries": drawn, "st_limit_a_ratio": st}
 
 
@@ -141,6 +144,7 @@ def plot_map_png(result, path) -> Path:
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
 
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     try:
@@ -155,7 +159,9 @@ def plot_map_png(result, path) -> Path:
                       extent=(res.w_ratio[0] - dw, res.w_ratio[-1] + dw, res.a_ratio[0] - da, res.a_ratio[-1] + da))
         s = res.spec
         frac = f", {100 * res.fraction_simulated:.1f} % simulated" if res.adaptive else ""
-        plot_stability([res], shade=False, ax=ax,
+        classes = [Patch(facecolor=c, edgecolor="#999999", label=n)
+                   for c, n in (("#ffffff", "rest"), ("#dce9f7", "rocking"), ("#bbbbbb", "overturn"))]
+        plot_stability([res], shade=False, ax=ax, extra_handles=classes,
                        title=f"{s.engine}: {s.block.name}, {s.pulse}, {s.restitution.label} (η = {s.eta:.4f}){frac}")
         path = Path(path)
         fig.savefig(path, dpi=120, bbox_inches="tight")
