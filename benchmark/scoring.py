@@ -308,6 +308,9 @@ def write_json_atomic(path, data: dict) -> Path:
         with os.fdopen(fd, "w") as f:
             json.dump(_clean(data), f, indent=2)
             f.write("\n")
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, path)
     except BaseException:
         try:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html as _html
 import math
 
 from .scores import METRICS
@@ -79,7 +80,7 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
     head = ["engine", "pairs"] + [SHORT[m] for m in METRICS]
     rows = []
     for n in names:
-        r = [n, str(s[n]["pairs"])]
+        r = [_html.escape(n) if html else n, str(s[n]["pairs"])]
         for m in METRICS:
             t = fmt(m, s[n][m])
             if m in best and s[n][m] == best[m] and len(names) > 1:
@@ -87,7 +88,7 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
             r.append(t)
         rows.append(r)
     if html:
-        th = "".join(f"<th>{h}</th>" for h in head)
+        th = "".join(f"<th>{_html.escape(h)}</th>" for h in head)
         trs = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in r) + "</tr>" for r in rows)
         return f"<table><thead><tr>{th}</tr></thead><tbody>{trs}</tbody></table>"
     return render(head, rows, markdown)
