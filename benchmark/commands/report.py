@@ -19,30 +19,8 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def parse_case(text: str):
-    """``BLOCK:PULSE:W_RATIO:A_RATIO`` into a TrajectoryCase (ConfigError when malformed)."""
-    from ...reference_solver.errors import ConfigError
-    from ..presets import get_preset
-    from ..report import TrajectoryCase
-
-    parts = str(text).split(":")
-    if len(parts) != 4:
-        raise ConfigError(f"--case takes BLOCK:PULSE:W_RATIO:A_RATIO, got {text!r}; e.g. --case B3M:sine:6:6.1.")
-    block = get_preset(parts[0]).name
-    pulse = parts[1].strip().lower()
-    if pulse not in ("sine", "cosine", "half-sine"):
-        raise ConfigError(f"--case pulse must be sine, cosine or half-sine, got {parts[1]!r}.")
-    try:
-        w, a = float(parts[2]), float(parts[3])
-    except ValueError:
-        raise ConfigError(f"--case W_RATIO and A_RATIO must be numbers, got {text!r}.") from None
-    if not (w > 0 and a > 0):
-        raise ConfigError(f"--case W_RATIO and A_RATIO must be > 0, got {text!r}.")
-    return TrajectoryCase(block, pulse, w, a, (), f"{block}, {pulse}, ω/p = {w:g}, a₀/(g·tanα) = {a:g}")
-
-
 def run(args) -> int:
-    from ..report import FIG17, build_report
+    from ..report import FIG17, build_report, parse_case
 
     cases = tuple(parse_case(c) for c in args.case) or (FIG17,)
     points = None
