@@ -250,6 +250,7 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], save, log):
     import math as _m
 
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from ..engines.base import Case
     from ..engines.registry import get_adapter
@@ -282,7 +283,7 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], save, log):
         engine, settings = ("reference", {}) if name == "reference" else how
         label = f"{name} ({rest.label}, η={rest.eta(block.alpha_rad):.4f})"
         try:
-            adapter = get_adapter(engine, **settings)
+            adapter = _history_adapter(engine, settings, get_adapter)
             log(f"θ(t): {label}")
             tr = adapter.simulate(Case(block, pulse, rest))
             hist.append((label, tr.t_s, tr.theta_rad))
@@ -292,7 +293,21 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], save, log):
         return None, notes
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     plot_theta(hist, alpha_rad=block.alpha_rad, t_pulse_end_s=pulse.duration_s, title=case.title, ax=ax)
+    # long enough to see the free rocking after the pulse, not the whole decay to rest
+    t_end = max(float(np.asarray(t)[-1]) for _, t, _ in hist)
+    ax.set_xlim(0.0, min(t_end, max(1.0, 10.0 * pulse.duration_s)))
     return save(fig, f"theta_{_slug(case.block)}_{_slug(case.pulse)}_{case.w_ratio:g}_{case.a_ratio:g}.png"), notes
+
+
+def _history_adapter(engine: str, settings: dict, get_adapter):
+    """The adapter for a θ(t) curve: the reference integrates on after the pulse (``mode="to-rest"``)
+    so the curve shows the free rocking, instead of stopping with the energy decision."""
+    if engine == "reference":
+        try:
+            return get_adapter("reference", mode="to-rest")
+        except ConfigError:  # a reference adapter without that setting: its default history
+            pass
+    return get_adapter(engine, **settings)
 
 
 def _restitution_from_label(label: str, block: str):
