@@ -235,22 +235,25 @@ def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta
         raise ConfigError("the cell table has no rows: compute the map first (rockbench map ... --out DIR).")
     wu, wi = np.unique(w, return_inverse=True)
     au, ai = np.unique(a, return_inverse=True)
-    grid = np.full((au.size, wu.size), FAILED, dtype=int)
-    gvalid = np.zeros((au.size, wu.size), dtype=bool)
-    seen = np.zeros((au.size, wu.size), dtype=bool)
-    # Rows are processed in a canonical order (outcome first, then validity) so that duplicates
-    # resolve the same way whatever the row order: a row with an outcome beats a failed one, a
-    # valid row beats an invalid one with the same outcome.
-    order = np.lexsort((ok, codes))
-    for r in order:
-        i, j, c = ai[r], wi[r], codes[r]
-        if seen[i, j] and grid[i, j] != FAILED and c != FAILED and grid[i, j] != c:
-            raise ConfigError(f"two rows for the cell w_ratio={wu[j]:g}, a_ratio={au[i]:g} disagree "
-                              f"({_name(grid[i, j])} and {_name(c)}); remove the stale row from cells.csv.")
-        if c != FAILED or not seen[i, j]:
-            grid[i, j] = max(grid[i, j], c)
-            gvalid[i, j] = gvalid[i, j] or (bool(ok[r]) and c != FAILED)
-        seen[i, j] = True
+    shape = (au.size, wu.size)
+    # Duplicate rows of one cell resolve the same way whatever the row order: a row with an
+    # outcome beats a failed one, and the cell is valid when any row with its outcome is.
+    # Two rows with different outcomes are an error (a stale row in a hand-edited table).
+    has = codes != FAILED
+    hi = np.full(shape, FAILED, dtype=int)
+    lo = np.full(shape, OVERTURN + 1, dtype=int)
+    np.maximum.at(hi, (ai[has], wi[has]), codes[has])
+    np.minimum.at(lo, (ai[has], wi[has]), codes[has])
+    clash = (hi != FAILED) & (lo != hi)
+    if clash.any():
+        i, j = (int(x[0]) for x in np.nonzero(clash))
+        raise ConfigError(f"two rows for the cell w_ratio={wu[j]:g}, a_ratio={au[i]:g} disagree "
+                          f"({_name(lo[i, j])} and {_name(hi[i, j])}); remove the stale row from cells.csv.")
+    grid = hi
+    gvalid = np.zeros(shape, dtype=bool)
+    np.logical_or.at(gvalid, (ai[has], wi[has]), ok[has])
+    seen = np.zeros(shape, dtype=bool)
+    seen[ai, wi] = True
     filled = 0
     if fill and not seen.all():
         ii, jj = np.nonzero(seen)
@@ -278,17 +281,15 @@ def _to_codes(outcome, n: int) -> np.ndarray:
     if arr.dtype.kind in "iu":
         return arr.astype(int)
     names = {o.value: c for o, c in OUTCOME_CODES.items()}
-    out = np.empty(n, dtype=int)
-    for k, v in enumerate(arr):
-        s = "" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v).strip().lower()
-        if s in ("", "none", "failed", "nan"):
-            out[k] = FAILED
-        elif s in names:
-            out[k] = names[s]
-        else:
-            raise ConfigError(f"unknown outcome {v!r} in the cell table; expected rest, rocking, overturn "
+    names.update({"": FAILED, "none": FAILED, "failed": FAILED, "nan": FAILED})
+    # distinct texts are few (three outcomes and the empty one): map each once
+    text = np.array(["" if v is None else str(v).strip().lower() for v in arr], dtype=object)
+    uniq, inv = np.unique(text.astype(str), return_inverse=True)
+    for u in uniq:
+        if u not in names:
+            raise ConfigError(f"unknown outcome {u!r} in the cell table; expected rest, rocking, overturn "
                               "or empty for a failed cell.")
-    return out
+    return np.array([names[u] for u in uniq], dtype=int)[inv]
 
 
 # -- the pieces ------------------------------------------------------------------------------------
