@@ -121,3 +121,16 @@ def test_report_cli_bad_input(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "BLOCK:PULSE:W_RATIO:A_RATIO" in err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_report_draws_fig17_with_the_reference(tmp_path):
+    """θ(t) of the paper's Fig. 17 case with the real reference solver (both k of B3M)."""
+    write_map(tmp_path / "run" / "ref", band(6, 6, 3), block="B3M")
+    write_map(tmp_path / "run" / "eng", band(6, 6, 2), engine="nosuchengine", block="B3M")
+    res = build_report([tmp_path / "run"], tmp_path / "out", log=lambda m: None)
+    assert (tmp_path / "out" / "img" / "theta_b3m_sine_6_6.1.png").is_file()
+    # the reference curves were drawn; the unknown engine is a note, not a failure
+    assert not any(n.startswith("θ(t) reference") for n in res["notes"]), res["notes"]
+    assert any("nosuchengine" in n for n in res["notes"])
+    assert "theta_b3m_sine_6_6.1.png" in (tmp_path / "out" / "report.md").read_text()
