@@ -29,7 +29,7 @@ from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from .scoring import MapEntry, load_entries, score_entries, write_json_atomic
-from .tables import fmt, pairs_table, summary, summary_table
+from .tables import _vs, fmt, pairs_table, summary, summary_table
 
 
 @dataclass(frozen=True)
@@ -131,8 +131,10 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     cands = entries if against else [e for e in entries if not e.is_reference]
     notes: list[str] = []
     doc = None
+    from .scoring import load_own_eta
+    own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
     try:
-        doc = score_entries(cands, refs, experiments)
+        doc = score_entries(cands, refs, experiments, own_eta=own_eta)
     except IncomparableError as e:
         notes.append(f"No scores: {e}")
 
@@ -176,7 +178,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
             except RockbenchError as e:
                 notes.append(f"θ(t) for {case.title or case.block}: not drawn ({e})")
 
-    calib = _calibration_rows(cands)
+    calib = _calibration_rows(cands, own_eta)
     speed = _speed_rows(entries, doc)
     if any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
         from .plots.speed import plot_speed_accuracy
@@ -340,8 +342,12 @@ def _find_key(d, key):
     return None
 
 
-def _calibration_rows(cands: list[MapEntry]) -> list[dict]:
-    """η measured per engine map (from run.json) against Housner, the modified η and the experiment."""
+def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> list[dict]:
+    """η measured per engine map against Housner, the modified η and the experiment.
+
+    The η comes from the calibration recorded in the map's run.json (calibrated settings), else
+    from the free-rocking measurement of ``rockbench run`` (``own_eta``).
+    """
     from .experiments import restitution_targets
     from .presets import PRESETS
 
@@ -353,6 +359,8 @@ def _calibration_rows(cands: list[MapEntry]) -> list[dict]:
         seen.add(key)
         eng = e.run.get("engine") or {}
         measured = _find_key(eng.get("resolved_settings") or {}, "eta_measured")
+        if measured is None:
+            measured = (own_eta or {}).get((e.variant, e.block))
         r = {"variant": e.variant, "block": e.block, "restitution": e.restitution, "eta_target": e.eta,
              "eta_measured": float(measured) if measured is not None else math.nan}
         if e.block.upper() in PRESETS:
@@ -508,7 +516,7 @@ def _html(ctx, images: dict) -> str:
     P.append(f"<div class='wrap'>{summary_table(doc, html=True)}</div>" if doc else "<p><em>no scores</em></p>")
     if doc:
         head = ["engine", "block", "pulse", "restitution", "vs reference", "like"] + list(doc["pairs"][0]["scores"])
-        body = [[p["variant"], p["block"], p["pulse"], p["restitution"], p["reference"]["restitution"],
+        body = [[p["variant"], p["block"], p["pulse"], p["restitution"], _vs(p),
                  "yes" if p["like_for_like"] else "", *(fmt(k, v) for k, v in p["scores"].items())] for p in doc["pairs"]]
         P += ["<h2>Every scored pair</h2>", _h_table(head, body)]
         if doc.get("experiments"):

@@ -24,6 +24,7 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     names = "available"          # every installed engine but the reference, or a list of names
     variants = [{settings = "calibrated"}, {settings = "defaults"}]    # engine settings, one map each
     restitution = "housner"      # the η calibrated variants are tuned to (and their maps' label)
+    own_eta = true               # (d): measure each variant's η in free rocking, add reference maps with it
     # dt_s = 0.0005
 
     [run]
@@ -51,13 +52,14 @@ from pathlib import Path
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.restitution import Restitution
 from .presets import PRESETS, get_preset
+from .scoring import CALIBRATION_FILE, variant_name
 
 SUITE_KEYS = {
     "suite": {"name", "description"},
     "grid": {"w_ratio", "a_ratio", "adaptive", "coarse_stride"},
     "cases": {"blocks", "pulses"},
     "reference": {"restitutions", "dt_s"},
-    "engines": {"names", "variants", "restitution", "dt_s"},
+    "engines": {"names", "variants", "restitution", "dt_s", "own_eta"},
     "run": {"cell_timeout_s"},
     "report": {"cases", "experiments"},
 }
@@ -111,6 +113,7 @@ class Suite:
     engine_variants: list
     engine_restitution: str
     engine_dt_s: float | None
+    own_eta: bool
     cell_timeout_s: float
     report_cases: list
     experiments: str | None
@@ -197,7 +200,8 @@ def load_suite(path) -> Suite:
                  adaptive=bool(get("grid", "adaptive", False)), coarse_stride=stride, blocks=blocks, pulses=pulses,
                  reference_restitutions=refs, reference_dt_s=_dt(get("reference", "dt_s"), p.name, "reference"),
                  engine_names=names, engine_variants=variants, engine_restitution=eng_rest,
-                 engine_dt_s=_dt(get("engines", "dt_s"), p.name, "engines"), cell_timeout_s=float(timeout),
+                 engine_dt_s=_dt(get("engines", "dt_s"), p.name, "engines"),
+                 own_eta=bool(get("engines", "own_eta", False)), cell_timeout_s=float(timeout),
                  report_cases=str_list("report", "cases", ["B3M:sine:6:6.1"]), experiments=exp, raw=raw)
 
 
@@ -275,13 +279,61 @@ def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
                                    f"maps/reference/{block}-{pulse}-{_slug(r.label)}"))
     for engine in engines:
         for variant in suite.engine_variants:
-            vname = engine + ("[" + ",".join(f"{k}={v}" for k, v in sorted(variant.items())) + "]" if variant else "")
+            vname = variant_name(engine, variant, suite.engine_dt_s)
             for block in suite.blocks:
                 r = restitution_for(suite.engine_restitution, block)
                 for pulse in suite.pulses:
                     jobs.append(MapJob(engine, dict(variant), block, pulse, r, suite.engine_dt_s,
                                        f"maps/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}"))
     return jobs
+
+
+def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:
+    """Reference maps with each engine variant's measured η (4 decimals), one per block and pulse."""
+    jobs, seen = [], set()
+    for m in etas:
+        if m.get("eta_measured") is None:
+            continue
+        eta = round(float(m["eta_measured"]), 4)
+        if not 0.0 < eta <= 1.0 or (m["block"], eta) in seen:
+            continue
+        seen.add((m["block"], eta))
+        for pulse in suite.pulses:
+            jobs.append(MapJob("reference", {}, m["block"], pulse, Restitution("constant", value=eta),
+                               suite.reference_dt_s, f"maps/reference/{m['block']}-{pulse}-own-eta-{eta:.4f}"))
+    return jobs
+
+
+def measure_own_eta(suite: Suite, engines: list[str], out: Path, log) -> tuple[list[dict], list[str]]:
+    """Each engine variant's free-rocking η on each block (kept in OUT/calibration.json and reused).
+
+    Returns the measurements and notes on the ones that failed.
+    """
+    from ..engines.registry import get_adapter
+    from .scoring import _read_json, write_json_atomic
+
+    path = out / CALIBRATION_FILE
+    old = {(r["variant"], r["block"]): r for r in (_read_json(path).get("measurements", []) if path.is_file() else [])}
+    rows, notes = [], []
+    for engine in engines:
+        for variant in suite.engine_variants:
+            vname = variant_name(engine, variant, suite.engine_dt_s)
+            for block in suite.blocks:
+                if (vname, block) in old and old[(vname, block)].get("eta_measured") is not None:
+                    rows.append(old[(vname, block)])
+                    continue
+                log(f"measuring η of {vname} on {block} (free rocking)")
+                try:
+                    m = get_adapter(engine, **variant).measure_restitution(get_preset(block).block(),
+                                                                          dt_s=suite.engine_dt_s)
+                    rows.append({"variant": vname, "engine": engine, "settings": dict(variant), "block": block,
+                                 "eta_measured": float(m.eta_mean), "eta_std": float(m.eta_std),
+                                 "n_impacts": len(m.etas), "method": m.method})
+                except Exception as e:  # noqa: BLE001 - a failed measurement drops map (d) only
+                    notes.append(f"η of {vname} on {block} not measured: {type(e).__name__}: {e}")
+    out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(path, {"kind": "rockbench-calibration", "measurements": rows})
+    return rows, notes
 
 
 def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=None, report: bool = True,
@@ -306,6 +358,10 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     y = parse_range("grid.a_ratio", suite.a_ratio, "a_ratio")
     engines, notes = engine_names(suite)
     todo = plan(suite, engines)
+    if suite.own_eta and engines:
+        etas, more = measure_own_eta(suite, engines, out, log)
+        notes += more
+        todo += own_eta_jobs(suite, etas)
     # every spec is built (and so checked) before the first map runs
     specs = [MapSpec(get_preset(j.block).block(), j.pulse, j.restitution, x, y, engine=j.engine,
                      engine_settings=dict(j.settings), dt_s=j.dt_s) for j in todo]

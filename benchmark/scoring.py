@@ -140,13 +140,18 @@ def load_entry(d: Path) -> MapEntry:
         eta = float(first["eta"])
         spec = run.get("spec") or {}
         settings, dt = dict(spec.get("engine_settings") or {}), spec.get("dt_s")
-    parts = [f"{k}={v}" for k, v in sorted(settings.items())]
-    if dt is not None:
-        parts.append(f"dt={dt:g}")
-    variant = f"{engine}[{','.join(parts)}]" if parts else engine
+    variant = variant_name(engine, settings, dt)
     lm.meta.update({"engine": engine, "variant": variant, "block": block, "pulse": pulse,
                     "restitution": restitution, "eta": eta})
     return MapEntry(d, lm, engine, variant, block, pulse, restitution, eta, run)
+
+
+def variant_name(engine: str, settings: dict | None = None, dt_s: float | None = None) -> str:
+    """``engine[k=v,...,dt=...]``: the engine with its non-default settings and time step."""
+    parts = [f"{k}={v}" for k, v in sorted((settings or {}).items())]
+    if dt_s is not None:
+        parts.append(f"dt={dt_s:g}")
+    return f"{engine}[{','.join(parts)}]" if parts else engine
 
 
 def _read_json(p: Path) -> dict:
@@ -198,7 +203,8 @@ def pair_key(p: dict) -> str:
     return f"{p['variant']} | {p['block']} | {p['pulse']} | {p['restitution']} | vs {p['reference']['restitution']}"
 
 
-def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None) -> dict:
+def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None,
+                  own_eta: dict | None = None) -> dict:
     """Score every candidate against every reference of its block and pulse (see the module docstring).
 
     Parameters
@@ -208,6 +214,10 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     experiments : list of OutcomePoint, optional
         Shaking-table points; every map (candidates and references) of a preset block is scored
         against them.
+    own_eta : dict, optional
+        ``{(variant, block): η}``: each engine variant's restitution measured in free rocking [-]. A
+        reference map with that constant η (to 4 decimals) is the engine's *own-η* reference: it
+        isolates the engine's integration and contact error from its energy-loss model.
 
     Returns
     -------
@@ -233,9 +243,16 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
                                 "reference_grid": grid_of(r.label_map)})
                 continue
             s = score(c.label_map, r.label_map)
+            own = (own_eta or {}).get((c.variant, c.block))
+            if c.restitution == r.restitution:
+                kind = "same-law"
+            elif own is not None and _is_constant(r.restitution) and abs(r.eta - own) < 5e-5:
+                kind = "own-eta"
+            else:
+                kind = "other"
             p = {"variant": c.variant, "engine": c.engine, "block": c.block, "pulse": c.pulse,
                  "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
-                 "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path)},
+                 "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
                  "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
                  "filled_cells": c.label_map.filled, "scores": s}
             p["key"] = pair_key(p)
@@ -259,6 +276,14 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     return doc
 
 
+def _is_constant(label: str) -> bool:
+    try:
+        float(label)
+        return True
+    except ValueError:
+        return False
+
+
 def score_experiments(entries: list[MapEntry], points) -> list[dict]:
     """Each map of a preset block scored against the experimental points of its block and pulse."""
     from .experiments import score_outcomes
@@ -274,8 +299,30 @@ def score_experiments(entries: list[MapEntry], points) -> list[dict]:
     return out
 
 
+#: File of each engine variant's free-rocking η written by ``rockbench run`` at the top of its output.
+CALIBRATION_FILE = "calibration.json"
+
+
+def load_own_eta(paths: Iterable) -> dict:
+    """``{(variant, block): η}`` from the calibration.json files at the top of ``paths``."""
+    out = {}
+    for p in paths:
+        f = Path(p) / CALIBRATION_FILE
+        if f.is_file():
+            doc = _read_json(f)
+            for row in doc.get("measurements", []):
+                if row.get("eta_measured") is not None:
+                    out[(row["variant"], row["block"])] = float(row["eta_measured"])
+    return out
+
+
 def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None) -> dict:
-    """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`)."""
+    """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`).
+
+    Engine variants' own η come from a ``calibration.json`` at the top of a run directory (written
+    by ``rockbench run``), when there is one.
+    """
+    run_dirs = list(run_dirs)
     entries = load_entries(run_dirs)
     if against:
         refs = load_entries(against)
@@ -283,7 +330,7 @@ def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=
     else:
         refs = [e for e in entries if e.is_reference]
         cands = [e for e in entries if not e.is_reference]
-    return score_entries(cands, refs, experiments)
+    return score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs))
 
 
 def gate(doc: dict, thresholds: dict) -> list[str]:

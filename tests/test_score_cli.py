@@ -163,3 +163,31 @@ def test_missing_pair_is_a_regression(tmp_path, capsys):
     write_map(a / "eng2", band(8, 8, 3), engine="pybullet")
     code, out, _ = run_cli(capsys, "compare", a, b)
     assert code == 1 and "MISSING" in out and "pybullet" in out
+
+
+def test_own_eta_reference_is_marked(tmp_path, capsys):
+    """(d): a reference map with the engine's own measured η is recognised from calibration.json."""
+    root = tmp_path / "run"
+    write_map(root / "maps" / "ref-h", band(8, 8, 3))
+    write_map(root / "maps" / "ref-own", band(8, 8, 4), restitution=Restitution("constant", value=0.9712))
+    write_map(root / "maps" / "eng", band(8, 8, 4), engine="mujoco", settings={"settings": "defaults"})
+    (root / "calibration.json").write_text(json.dumps({"kind": "rockbench-calibration", "measurements": [
+        {"variant": "mujoco[settings=defaults]", "block": "B6M", "eta_measured": 0.97121}]}))
+    code, out, err = run_cli(capsys, "score", root, "--json", "--no-write")
+    assert code == 0, err
+    kinds = {p["reference"]["restitution"]: p["reference"]["kind"] for p in json.loads(out)["pairs"]}
+    assert kinds == {"housner": "same-law", "0.9712": "own-eta"}
+    code, out, _ = run_cli(capsys, "score", root, "--no-write")
+    assert "0.9712 (own η)" in out
+
+
+def test_own_eta_jobs():
+    from rockbench.benchmark.run import load_suite, own_eta_jobs, suite_path
+    s = load_suite(suite_path("default", False))
+    assert s.own_eta
+    jobs = own_eta_jobs(s, [{"variant": "a", "block": "B3M", "eta_measured": 0.91234},
+                            {"variant": "b", "block": "B3M", "eta_measured": 0.91231},  # same to 4 decimals
+                            {"variant": "c", "block": "B6L", "eta_measured": None}])
+    assert [j.subdir for j in jobs] == ["maps/reference/B3M-sine-own-eta-0.9123",
+                                        "maps/reference/B3M-cosine-own-eta-0.9123"]
+    assert jobs[0].restitution.value == 0.9123
