@@ -371,8 +371,11 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         d = out / job.subdir
         log(f"[{k}/{len(todo)}] {spec.label()} → {d}")
         t1 = time.perf_counter()
-        res = run_map(spec, d, jobs=jobs, adaptive=suite.adaptive, coarse_stride=suite.coarse_stride,
-                      cell_timeout_s=suite.cell_timeout_s, plot=False, log=log)
+        # The reference runs in this process: its compiled batch kernel is parallel already, and
+        # worker processes would each compile it again (seconds per map); engines keep the
+        # workers' time limit and crash isolation.
+        res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference", adaptive=suite.adaptive,
+                      coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False, log=log)
         done.append({"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                      "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)})
     maps_wall = time.perf_counter() - t0
@@ -399,5 +402,6 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         from .tables import summary_table
         result["summary"] = summary_table(result["score"])
     write_json_atomic(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,
-                                           **{k: v for k, v in result.items() if k not in ("score", "summary")}})
+                                           **{k: v for k, v in result.items() if k not in ("suite", "score", "summary")},
+                                           "suite_name": suite.name})
     return result

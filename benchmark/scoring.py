@@ -130,7 +130,10 @@ def load_entry(d: Path) -> MapEntry:
         res = load_map(d)
         spec = res.spec
         codes = np.where(np.asarray(res.outcome) < 0, FAILED, np.asarray(res.outcome, dtype=int))
-        lm = LabelMap(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool))
+        sim = np.asarray(res.simulated, bool)
+        # cells an adaptive sweep inferred were never simulated, so nothing in them broke the model
+        lm = LabelMap(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool) | ~sim,
+                      filled=int(np.count_nonzero(~sim & (codes != FAILED))))
         engine, block, pulse = spec.engine, spec.block.name, spec.pulse
         restitution, eta = spec.restitution.label, float(spec.eta)
         settings, dt = dict(spec.engine_settings or {}), spec.dt_s

@@ -12,9 +12,7 @@ from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
 
 NAMES = {-1: "", 0: "rest", 1: "rocking", 2: "overturn"}
-COLUMNS = ["engine", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2",
-           "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags", "status", "message", "wall_s",
-           "t_overturn_s", "t_uplift_s", "i", "j"]
+from rockbench.benchmark.store import COLUMNS  # the store's own column list, so fixtures follow it
 
 
 def write_map(d, codes, *, engine="reference", block="B6M", pulse="sine", restitution=None,
