@@ -191,3 +191,24 @@ def test_own_eta_jobs():
     assert [j.subdir for j in jobs] == ["maps/reference/B3M-sine-own-eta-0.9123",
                                         "maps/reference/B3M-cosine-own-eta-0.9123"]
     assert jobs[0].restitution.value == 0.9123
+
+
+def test_cells_csv_from_another_tool_is_read_by_its_cli_columns(tmp_path, capsys):
+    """A map directory without the store's run.json: cells.csv with only the CLI.md columns."""
+    write_map(tmp_path / "ref", band(4, 3, 2))
+    d = tmp_path / "foreign"
+    d.mkdir()
+    rows = ["engine,block,pulse,restitution,eta,w_ratio,a_ratio,omega_rad_s,amplitude_mps2,outcome,n_impacts,"
+            "max_abs_theta_rad,valid,flags"]
+    for i, a in enumerate(np.linspace(0.5, 8.0, 4)):
+        for w in np.linspace(1.0, 10.0, 3):
+            out = "overturn" if i >= 1 else "rocking"
+            rows.append(f"myengine,B6M,sine,housner,0.93,{float(w)!r},{float(a)!r},1,1,{out},1,0.1,true,")
+    (d / "cells.csv").write_text("\n".join(rows) + "\n")
+    code, out, err = run_cli(capsys, "score", d, "--against", tmp_path / "ref", "--json", "--no-write")
+    assert code == 0, err
+    (p,) = json.loads(out)["pairs"]
+    assert p["variant"] == "myengine" and p["scores"]["critical_error_max"] == pytest.approx(2.5)
+    (d / "cells.csv").write_text("engine,block\nx,y\n")
+    code, _, err = run_cli(capsys, "score", d, "--against", tmp_path / "ref")
+    assert code == 5 and "lacks the column" in err
