@@ -393,9 +393,13 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         result["notes"] += rep["notes"]
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
+        from ..reference_solver.errors import IncomparableError
         from .scoring import score_dirs
-        result["score"] = score_dirs([out / "maps"], experiments=experiments)
-        write_json_atomic(out / "score.json", result["score"])
+        try:
+            result["score"] = score_dirs([out / "maps"], experiments=experiments)
+            write_json_atomic(out / "score.json", result["score"])
+        except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
+            result["notes"].append(f"No scores: {e}")
     result["report_wall_s"] = time.perf_counter() - t2
     result["wall_s"] = time.perf_counter() - t0
     if result["score"] is not None:
