@@ -7,8 +7,8 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     description = "..."
 
     [grid]                       # LO:HI:N, N values from LO to HI inclusive
-    w_ratio = "1:16:76"          # ω/p
-    a_ratio = "1:12:56"          # a0/(g·tanα)
+    w_ratio = "1:16:51"          # ω/p
+    a_ratio = "1:12:51"          # a0/(g·tanα)
     adaptive = true              # coarse grid, refined where neighbours disagree
     coarse_stride = 4
 
