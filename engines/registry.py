@@ -16,6 +16,8 @@ from ..reference_solver.errors import ConfigError, EngineUnavailableError
 #: built-in adapters, imported lazily
 BUILTIN = {
     "reference": "rockbench.engines.reference_adapter:ReferenceAdapter",
+    "mujoco": "rockbench.engines.mujoco_adapter:MujocoAdapter",
+    "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
 }
 
 #: the entry-point group third parties register under
