@@ -15,7 +15,8 @@ import sys
 from ..reference_solver.errors import RockbenchError
 
 #: subcommand modules under rockbench.benchmark.commands
-COMMANDS = ["blocks", "simulate", "map", "figures", "engines", "check-adapter", "calibrate"]
+COMMANDS = ["blocks", "simulate", "map", "figures", "engines", "check-adapter", "calibrate", "score", "compare",
+            "report", "run"]
 
 
 class UsageError(Exception):

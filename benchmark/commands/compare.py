@@ -1,0 +1,37 @@
+"""``rockbench compare``: did a change make an engine's scores worse? Exit 1 on a regression."""
+
+from __future__ import annotations
+
+import json
+
+from ..scores import METRICS
+
+
+def register(sub) -> None:
+    p = sub.add_parser("compare", help="compare two scored runs; exit 1 on a regression beyond the tolerance",
+                       description="BASELINE and CURRENT are score.json files or run directories (scored on the "
+                       "fly when they hold no score.json). A pair (engine, block, pulse, restitution, reference) "
+                       "regresses when a metric got worse by more than its tolerance, or when the pair is missing "
+                       "from CURRENT. Default tolerances: "
+                       + ", ".join(f"{k} {m.tolerance:g}" for k, m in METRICS.items())
+                       + ". Exit 0 no regression, 1 regression, 2 bad usage, 5 not comparable.")
+    p.add_argument("baseline", metavar="BASELINE")
+    p.add_argument("current", metavar="CURRENT")
+    p.add_argument("--tolerance", action="append", default=[], metavar="VALUE|METRIC=VALUE",
+                   help="accepted worsening: VALUE for every metric, METRIC=VALUE for one (repeatable)")
+    p.add_argument("--json", action="store_true", help="print the comparison as JSON on stdout")
+    p.add_argument("--markdown", action="store_true", help="print a Markdown table (for a pull-request comment)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..scoring import _clean, compare_scores, load_score, parse_tolerances
+    from ..tables import compare_table
+
+    tol = parse_tolerances(args.tolerance)
+    res = compare_scores(load_score(args.baseline), load_score(args.current), tol)
+    if args.json:
+        print(json.dumps(_clean(res), indent=2))
+    else:
+        print(compare_table(res, markdown=args.markdown))
+    return 1 if res["status"] != "ok" else 0

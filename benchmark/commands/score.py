@@ -1,0 +1,67 @@
+"""``rockbench score``: score engine maps against reference maps (and experiments); a CI gate."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from ..scores import METRICS, parse_thresholds
+
+
+def register(sub) -> None:
+    p = sub.add_parser("score", help="score engine maps against reference maps; gate with --fail-under",
+                       description="Scores every engine map found in or below RUN_DIR against the reference "
+                       "maps of the same block and pulse (or those of --against). Metrics: "
+                       + ", ".join(METRICS) + " (docs/scores.md). Exit 0 ok, 1 a gate failed, 2 bad usage, "
+                       "5 nothing comparable.")
+    p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="map directories, or folders holding them")
+    p.add_argument("--against", action="append", default=[], metavar="REF_DIR",
+                   help="score every map of RUN_DIR against the maps found here (repeatable)")
+    p.add_argument("--fail-under", action="append", default=[], metavar="METRIC=VALUE",
+                   help="exit 1 when a higher-is-better metric is below VALUE (repeatable)")
+    p.add_argument("--fail-over", action="append", default=[], metavar="METRIC=VALUE",
+                   help="exit 1 when a lower-is-better metric is above VALUE (repeatable)")
+    p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score every map against "
+                   "(format in docs/data.md)")
+    p.add_argument("--out", metavar="FILE", help="where to write score.json (default: RUN_DIR/score.json of the first)")
+    p.add_argument("--no-write", action="store_true", help="do not write score.json")
+    p.add_argument("--json", action="store_true", help="print the score document on stdout")
+    p.add_argument("--markdown", action="store_true", help="print Markdown tables (for a pull-request comment)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..scoring import _clean, gate, score_dirs, write_json_atomic
+    from ..tables import pairs_table, summary_table
+
+    thresholds = {**parse_thresholds(args.fail_under, "higher", "--fail-under"),
+                  **parse_thresholds(args.fail_over, "lower", "--fail-over")}
+    points = None
+    if args.experiments:
+        from ..experiments import load_outcomes
+        points = load_outcomes(args.experiments)
+    doc = score_dirs(args.run_dirs, args.against or None, points)
+    failures = gate(doc, thresholds)
+    doc["gate"] = {"thresholds": thresholds, "failed": failures, "passed": not failures}
+    if not args.no_write:
+        out = Path(args.out) if args.out else Path(args.run_dirs[0]) / "score.json"
+        write_json_atomic(out, doc)
+        print(f"rockbench: scores written to {out}", file=sys.stderr)
+    if args.json:
+        print(json.dumps(_clean(doc), indent=2))
+    else:
+        md = args.markdown
+        print(("### Summary (mean over like-for-like pairs)\n\n" if md else "Summary (mean over like-for-like pairs)\n")
+              + summary_table(doc, markdown=md))
+        print(("\n### Pairs\n\n" if md else "\nPairs\n") + pairs_table(doc, markdown=md))
+        for e in doc.get("experiments", []):
+            print(f"\nexperiments vs {e['variant']} {e.get('restitution', '')} ({Path(e['dir']).name}): "
+                  f"accuracy {e['accuracy']:.3f}, overturn accuracy {e['overturn_accuracy']:.3f} over {e['runs']} "
+                  f"run(s), {e['outside']} outside the map")
+        if thresholds:
+            print(("\n**gate: " if md else "\ngate: ") + ("passed" if not failures else f"FAILED ({len(failures)})")
+                  + ("**" if md else ""))
+    for line in failures:
+        print(f"rockbench: gate failed: {line}", file=sys.stderr)
+    return 1 if failures else 0

@@ -1,0 +1,489 @@
+"""From run directories to scores: find the maps, pair engines with references, score, write score.json.
+
+This is the glue between the results store (run directories of ``rockbench map``) and the pure
+metrics of :mod:`rockbench.benchmark.scores`; the ``score``, ``compare``, ``report`` and ``run``
+commands call it.
+
+Pairing rule. Every map whose engine is not ``reference`` is scored against every reference map of
+the same block and pulse over the same grid (Housner, modified with the average k, modified with
+the exact k, a constant η, whatever was computed). With ``against=`` the maps found there are the
+references and *every* map of the run directories is scored against them (so a reference map can
+be compared with another reference map, e.g. at half the time step). A pair is *like for like*
+when both maps use the same restitution law; gates (``--fail-under``) apply to like-for-like pairs,
+or to all pairs of an engine map that has none.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+
+from ..reference_solver.errors import ConfigError, IncomparableError
+from .scores import FAILED, METRICS, METRICS_VERSION, LabelMap, check_gate, from_cells, score
+
+#: Version of score.json's layout.
+SCORE_SCHEMA_VERSION = 1
+SCORE_KIND = "rockbench-score"
+
+#: cells.csv columns every map directory has (CLI.md)
+CELL_COLUMNS = ("engine", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s",
+                "amplitude_mps2", "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags")
+
+
+@dataclass
+class MapEntry:
+    """One map found on disk.
+
+    Attributes
+    ----------
+    path : Path
+        Its run directory.
+    label_map : LabelMap
+        The outcome grid.
+    engine : str
+        Registry name of the engine.
+    variant : str
+        The engine with its non-default settings and time step, e.g. ``mujoco[settings=defaults]``;
+        equals ``engine`` when nothing was set.
+    block, pulse, restitution : str
+        Block name, pulse kind and restitution label (``housner``, ``modified(k=0.8608)``, ``0.9``).
+    eta : float
+        The restitution coefficient of the map [-].
+    run : dict
+        The run.json contents.
+    """
+
+    path: Path
+    label_map: LabelMap
+    engine: str
+    variant: str
+    block: str
+    pulse: str
+    restitution: str
+    eta: float
+    run: dict = field(default_factory=dict)
+
+    @property
+    def is_reference(self) -> bool:
+        return self.engine == "reference"
+
+    def describe(self) -> dict:
+        m = self.label_map
+        return {"dir": str(self.path), "engine": self.engine, "variant": self.variant, "block": self.block,
+                "pulse": self.pulse, "restitution": self.restitution, "eta": self.eta,
+                "grid": grid_of(m)}
+
+
+def grid_of(m: LabelMap) -> dict:
+    """The grid of a map, as score.json records it (for comparability checks)."""
+    return {"n_w": int(m.w_ratio.size), "n_a": int(m.a_ratio.size), "w_lo": float(m.w_ratio[0]),
+            "w_hi": float(m.w_ratio[-1]), "a_lo": float(m.a_ratio[0]), "a_hi": float(m.a_ratio[-1])}
+
+
+# -- finding and reading maps ----------------------------------------------------------------------
+
+def find_map_dirs(paths: Iterable) -> list[Path]:
+    """Map directories at or below each path (a directory with cells.csv), sorted, no duplicates.
+
+    Raises
+    ------
+    ConfigError
+        A path that does not exist, or holds no map at all.
+    """
+    out: list[Path] = []
+    for p in paths:
+        p = Path(p)
+        if not p.is_dir():
+            raise ConfigError(f"{str(p)!r} is not a directory; give run directories written by `rockbench map` "
+                              "or `rockbench run`.")
+        found = [p] if (p / "cells.csv").is_file() else sorted(c.parent for c in p.rglob("cells.csv"))
+        if not found:
+            raise ConfigError(f"{str(p)!r} holds no map (no cells.csv in it or below); compute one with "
+                              "`rockbench map ... --out DIR`.")
+        out.extend(f for f in found if f not in out)
+    return out
+
+
+def load_entry(d: Path) -> MapEntry:
+    """Read one map directory into a :class:`MapEntry`.
+
+    Uses the maps harness's loader when it is installed (:func:`rockbench.benchmark.maps.load_map`),
+    so adaptive maps get their inferred cells by the harness's own rule; otherwise reads the
+    CLI.md columns of cells.csv.
+    """
+    d = Path(d)
+    run = _read_json(d / "run.json") if (d / "run.json").is_file() else {}
+    try:
+        from .maps import load_map  # the store of the maps harness
+    except ImportError:
+        load_map = None
+    if load_map is not None and run.get("kind") == "rockbench-map":
+        res = load_map(d)
+        spec = res.spec
+        codes = np.where(np.asarray(res.outcome) < 0, FAILED, np.asarray(res.outcome, dtype=int))
+        sim = np.asarray(res.simulated, bool)
+        # cells an adaptive sweep inferred were never simulated, so nothing in them broke the model
+        lm = LabelMap(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool) | ~sim,
+                      filled=int(np.count_nonzero(~sim & (codes != FAILED))))
+        engine, block, pulse = spec.engine, spec.block.name, spec.pulse
+        restitution, eta = spec.restitution.label, float(spec.eta)
+        settings, dt = dict(spec.engine_settings or {}), spec.dt_s
+    else:
+        lm, first = _read_cells(d / "cells.csv")
+        engine, block, pulse, restitution = first["engine"], first["block"], first["pulse"], first["restitution"]
+        eta = float(first["eta"])
+        spec = run.get("spec") or {}
+        settings, dt = dict(spec.get("engine_settings") or {}), spec.get("dt_s")
+    variant = variant_name(engine, settings, dt)
+    lm.meta.update({"engine": engine, "variant": variant, "block": block, "pulse": pulse,
+                    "restitution": restitution, "eta": eta})
+    return MapEntry(d, lm, engine, variant, block, pulse, restitution, eta, run)
+
+
+def variant_name(engine: str, settings: dict | None = None, dt_s: float | None = None) -> str:
+    """``engine[k=v,...,dt=...]``: the engine with its non-default settings and time step."""
+    parts = [f"{k}={v}" for k, v in sorted((settings or {}).items())]
+    if dt_s is not None:
+        parts.append(f"dt={dt_s:g}")
+    return f"{engine}[{','.join(parts)}]" if parts else engine
+
+
+def _read_json(p: Path) -> dict:
+    try:
+        return json.loads(p.read_text())
+    except (OSError, ValueError) as e:
+        raise ConfigError(f"cannot read {str(p)!r} ({e}); is it a rockbench file?") from None
+
+
+def _read_cells(path: Path) -> tuple[LabelMap, dict]:
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ConfigError(f"cannot read {str(path)!r}: {e}.") from None
+    # a torn last line (the run was killed mid-write) is not a row
+    text = text[: text.rfind("\n") + 1]
+    rows = list(csv.DictReader(text.splitlines()))
+    header = rows[0].keys() if rows else next(csv.reader(text.splitlines()), [])
+    missing = [c for c in CELL_COLUMNS if c not in header]
+    if missing:
+        raise IncomparableError(f"{str(path)!r} lacks the column {missing[0]!r} of cells.csv (CLI.md); it was "
+                                "written by another tool or version.")
+    if not rows:
+        raise ConfigError(f"{str(path)!r} has no cells yet; let `rockbench map` finish (rerun it to resume).")
+    keys = {(r["engine"], r["block"], r["pulse"], r["restitution"]) for r in rows}
+    if len(keys) > 1:
+        raise ConfigError(f"{str(path)!r} mixes maps ({len(keys)} engine/block/pulse/restitution combinations); "
+                          "one run directory holds one map.")
+    ok = [r.get("status", "ok") in ("ok", "") for r in rows]
+    outcome = [r["outcome"] if good else "" for r, good in zip(rows, ok)]
+    valid = [str(r["valid"]).strip().lower() in ("true", "1") for r in rows]
+    try:
+        w = [float(r["w_ratio"]) for r in rows]
+        a = [float(r["a_ratio"]) for r in rows]
+    except ValueError as e:
+        raise ConfigError(f"{str(path)!r} has a non-numeric w_ratio or a_ratio ({e}).") from None
+    return from_cells(w, a, outcome, valid), rows[0]
+
+
+def load_entries(paths: Iterable) -> list[MapEntry]:
+    """Every map at or below ``paths`` (see :func:`find_map_dirs`)."""
+    return [load_entry(d) for d in find_map_dirs(paths)]
+
+
+# -- scoring ---------------------------------------------------------------------------------------
+
+def pair_key(p: dict) -> str:
+    """A stable text key of a scored pair: what compare matches baseline and current by."""
+    return f"{p['variant']} | {p['block']} | {p['pulse']} | {p['restitution']} | vs {p['reference']['restitution']}"
+
+
+def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None,
+                  own_eta: dict | None = None) -> dict:
+    """Score every candidate against every reference of its block and pulse (see the module docstring).
+
+    Parameters
+    ----------
+    candidates, references : list of MapEntry
+        Maps to score, and maps to score them against.
+    experiments : list of OutcomePoint, optional
+        Shaking-table points; every map (candidates and references) of a preset block is scored
+        against them.
+    own_eta : dict, optional
+        ``{(variant, block): η}``: each engine variant's restitution measured in free rocking [-]. A
+        reference map with that constant η (to 4 decimals) is the engine's *own-η* reference: it
+        isolates the engine's integration and contact error from its energy-loss model.
+
+    Returns
+    -------
+    dict
+        The score.json document: ``kind``, ``schema_version``, ``metrics_version``, ``metrics``
+        (definitions), ``created_utc``, ``pairs`` (one per scored pair, with ``key``, the maps,
+        ``like_for_like``, ``scores``), ``skipped`` (pairs on different grids, with the reason),
+        ``experiments`` (per map, when given).
+
+    Raises
+    ------
+    IncomparableError
+        No candidate has a reference of its block and pulse on its grid.
+    """
+    pairs, skipped = [], []
+    for c in candidates:
+        for r in references:
+            if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
+                continue
+            if not c.label_map.same_axes(r.label_map):
+                skipped.append({"engine_dir": str(c.path), "reference_dir": str(r.path),
+                                "reason": "different grids", "engine_grid": grid_of(c.label_map),
+                                "reference_grid": grid_of(r.label_map)})
+                continue
+            s = score(c.label_map, r.label_map)
+            own = (own_eta or {}).get((c.variant, c.block))
+            if c.restitution == r.restitution:
+                kind = "same-law"
+            elif own is not None and _is_constant(r.restitution) and abs(r.eta - own) < 5e-5:
+                kind = "own-eta"
+            else:
+                kind = "other"
+            p = {"variant": c.variant, "engine": c.engine, "block": c.block, "pulse": c.pulse,
+                 "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
+                 "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
+                 "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
+                 "filled_cells": c.label_map.filled, "scores": s}
+            p["key"] = pair_key(p)
+            pairs.append(p)
+    if not pairs:
+        if not candidates:
+            raise IncomparableError("nothing to score: the run directories hold only reference maps; give engine "
+                                    "maps, or --against REF_DIR to score these maps against others.")
+        why = (f"{len(skipped)} candidate pair(s) lie on different grids" if skipped else
+               "no reference map of the same block and pulse")
+        raise IncomparableError(f"no engine map could be paired with a reference map ({why}); compute the "
+                                "reference with the same block, pulse, --w-ratio and --a-ratio "
+                                "(or pass it with --against).")
+    pairs.sort(key=lambda p: p["key"])
+    doc = {"kind": SCORE_KIND, "schema_version": SCORE_SCHEMA_VERSION, "metrics_version": METRICS_VERSION,
+           "created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+           "metrics": [m.to_dict() for m in METRICS.values()], "pairs": pairs, "skipped": skipped}
+    if experiments is not None:
+        doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
+                                               experiments)
+    return doc
+
+
+def _is_constant(label: str) -> bool:
+    try:
+        float(label)
+        return True
+    except ValueError:
+        return False
+
+
+def score_experiments(entries: list[MapEntry], points) -> list[dict]:
+    """Each map of a preset block scored against the experimental points of its block and pulse."""
+    from .experiments import score_outcomes
+    from .presets import PRESETS
+
+    out = []
+    for e in entries:
+        if e.block.upper() not in PRESETS:
+            continue
+        s = score_outcomes(points, e.label_map, e.block, e.pulse)
+        if s["points"]:
+            out.append({"variant": e.variant, "restitution": e.restitution, "dir": str(e.path), **s})
+    return out
+
+
+#: File of each engine variant's free-rocking η written by ``rockbench run`` at the top of its output.
+CALIBRATION_FILE = "calibration.json"
+
+
+def load_own_eta(paths: Iterable) -> dict:
+    """``{(variant, block): η}`` from the calibration.json files at the top of ``paths``."""
+    out = {}
+    for p in paths:
+        f = Path(p) / CALIBRATION_FILE
+        if f.is_file():
+            doc = _read_json(f)
+            for row in doc.get("measurements", []):
+                if row.get("eta_measured") is not None:
+                    out[(row["variant"], row["block"])] = float(row["eta_measured"])
+    return out
+
+
+def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None) -> dict:
+    """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`).
+
+    Engine variants' own η come from a ``calibration.json`` at the top of a run directory (written
+    by ``rockbench run``), when there is one.
+    """
+    run_dirs = list(run_dirs)
+    entries = load_entries(run_dirs)
+    if against:
+        refs = load_entries(against)
+        cands = entries
+    else:
+        refs = [e for e in entries if e.is_reference]
+        cands = [e for e in entries if not e.is_reference]
+    return score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs))
+
+
+def gate(doc: dict, thresholds: dict) -> list[str]:
+    """Failed gate lines for every gated pair of a score document (see the module docstring)."""
+    by_engine: dict[str, list[dict]] = {}
+    for p in doc["pairs"]:
+        by_engine.setdefault(p["engine_dir"], []).append(p)
+    out = []
+    for ps in by_engine.values():
+        gated = [p for p in ps if p["like_for_like"]] or ps
+        for p in gated:
+            out += [f"{p['key']}: {line}" for line in check_gate(p["scores"], thresholds)]
+    return out
+
+
+def write_json_atomic(path, data: dict) -> Path:
+    """Write ``data`` as JSON through a temporary file and a rename (never a torn file)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(_clean(data), f, indent=2)
+            f.write("\n")
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+def _clean(x):
+    """JSON-safe copy: NaN and infinities become null, numpy scalars and arrays plain Python."""
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _clean(x.tolist())
+    if isinstance(x, (np.floating, np.integer, np.bool_)):
+        x = x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def load_score(path) -> dict:
+    """A score document from a score.json file, or computed from a run directory.
+
+    A directory with a ``score.json`` gives that file; otherwise its maps are scored (engine maps
+    against the reference maps found with them).
+
+    Raises
+    ------
+    ConfigError
+        The path does not exist or is not readable JSON.
+    IncomparableError
+        Not a score document, or another schema.
+    """
+    p = Path(path)
+    if p.is_dir():
+        if (p / "score.json").is_file():
+            p = p / "score.json"
+        else:
+            return score_dirs([p])
+    if not p.is_file():
+        raise ConfigError(f"{str(p)!r} does not exist; give a score.json or a run directory.")
+    doc = _read_json(p)
+    if not isinstance(doc, dict) or doc.get("kind") != SCORE_KIND:
+        raise IncomparableError(f"{str(p)!r} is not a rockbench score file (kind {doc.get('kind') if isinstance(doc, dict) else None!r}).")
+    if doc.get("schema_version") != SCORE_SCHEMA_VERSION:
+        raise IncomparableError(f"{str(p)!r} has score schema {doc.get('schema_version')}, this rockbench reads "
+                                f"{SCORE_SCHEMA_VERSION}; rescore both runs with one version.")
+    return doc
+
+
+# -- comparing two score documents -----------------------------------------------------------------
+
+def parse_tolerances(items: Iterable[str]) -> dict:
+    """``--tolerance`` items: ``VALUE`` (every metric) or ``METRIC=VALUE``; returns per-metric tolerances."""
+    tol = {name: m.tolerance for name, m in METRICS.items()}
+    for item in items:
+        name, eq, val = str(item).partition("=")
+        if not eq:
+            name, val = "", name
+        try:
+            v = float(val)
+        except ValueError:
+            raise ConfigError(f"--tolerance takes VALUE or METRIC=VALUE with a number, got {item!r}.") from None
+        if not math.isfinite(v) or v < 0:
+            raise ConfigError(f"--tolerance must be a finite number >= 0, got {item!r}.")
+        if not name:
+            tol = {k: v for k in tol}
+        elif name in METRICS:
+            tol[name] = v
+        else:
+            raise ConfigError(f"--tolerance: unknown metric {name!r}; metrics: {', '.join(METRICS)}.")
+    return tol
+
+
+def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dict:
+    """Regressions of ``cur`` against ``base``, pair by pair and metric by metric.
+
+    Returns
+    -------
+    dict
+        ``status`` (``ok`` or ``regression``), ``compared`` (pairs in both), ``regressions`` and
+        ``improvements`` (lists of ``{key, metric, baseline, current, delta, tolerance}``),
+        ``missing`` (pair keys in the baseline only: a regression), ``new`` (in the current only),
+        ``tolerances``.
+
+    Raises
+    ------
+    IncomparableError
+        Other metric definitions, no pair in common, or a common pair on another grid.
+    """
+    tol = dict(parse_tolerances([]) if tolerances is None else tolerances)
+    if base.get("metrics_version") != cur.get("metrics_version"):
+        raise IncomparableError(f"the scores use other metric definitions (metrics version "
+                                f"{base.get('metrics_version')} vs {cur.get('metrics_version')}); rescore both.")
+    b = {p["key"]: p for p in base["pairs"]}
+    c = {p["key"]: p for p in cur["pairs"]}
+    common = sorted(set(b) & set(c))
+    if not common:
+        raise IncomparableError("the two results share no scored pair (engine, block, pulse, restitution, "
+                                "reference): they describe other scenarios.")
+    for k in common:
+        if b[k]["grid"] != c[k]["grid"]:
+            raise IncomparableError(f"{k}: the maps lie on other grids (baseline {b[k]['grid']}, current "
+                                    f"{c[k]['grid']}); compare runs of one suite.")
+    regressions, improvements = [], []
+    for k in common:
+        for name, m in METRICS.items():
+            old, new = b[k]["scores"].get(name), c[k]["scores"].get(name)
+            old = math.nan if old is None else float(old)
+            new = math.nan if new is None else float(new)
+            row = {"key": k, "metric": name, "baseline": old, "current": new,
+                   "delta": new - old if math.isfinite(old) and math.isfinite(new) else math.nan,
+                   "tolerance": tol[name]}
+            if m.worse(new, old, tol[name]):
+                regressions.append(row)
+            elif m.worse(old, new, 0.0):
+                improvements.append(row)
+    missing = sorted(set(b) - set(c))
+    return {"status": "regression" if regressions or missing else "ok", "compared": len(common),
+            "regressions": regressions, "improvements": improvements, "missing": missing,
+            "new": sorted(set(c) - set(b)), "tolerances": tol}

@@ -1,0 +1,118 @@
+"""Text and Markdown tables of scores and comparisons (for the terminal, pull requests and report.md)."""
+
+from __future__ import annotations
+
+import html as _html
+import math
+
+from .scores import METRICS
+
+#: short column titles
+SHORT = {"agreement": "agree", "overturn_agreement": "agree O", "iou_overturn": "IoU O",
+         "boundary_mean": "bnd mean", "boundary_max": "bnd max", "critical_error_mean": "a_crit err",
+         "critical_error_max": "a_crit max", "critical_one_sided": "1-sided", "invalid_cells": "invalid",
+         "failed_cells": "failed"}
+COUNTS = ("critical_one_sided", "invalid_cells", "failed_cells")
+
+
+def fmt(name: str, v) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "n/a"
+    if name in COUNTS:
+        return f"{int(round(v))}"
+    return f"{v:.4f}" if name in ("agreement", "overturn_agreement", "iou_overturn") else f"{v:.3f}"
+
+
+def render(head: list[str], rows: list[list[str]], markdown: bool) -> str:
+    if markdown:
+        lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
+        lines += ["| " + " | ".join(r) + " |" for r in rows]
+        return "\n".join(lines)
+    width = [max(len(h), *(len(r[k]) for r in rows)) if rows else len(h) for k, h in enumerate(head)]
+    out = ["  ".join(h.ljust(w) for h, w in zip(head, width)), "  ".join("-" * w for w in width)]
+    out += ["  ".join(c.ljust(w) for c, w in zip(r, width)) for r in rows]
+    return "\n".join(out)
+
+
+def pairs_table(doc: dict, markdown: bool = False) -> str:
+    """One row per scored pair, one column per metric."""
+    head = ["engine", "block", "pulse", "restitution", "vs reference", "like"] + [SHORT[m] for m in METRICS]
+    rows = [[p["variant"], p["block"], p["pulse"], p["restitution"], _vs(p),
+             "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
+            for p in doc["pairs"]]
+    return render(head, rows, markdown)
+
+
+def _vs(p: dict) -> str:
+    r = p["reference"]
+    return r["restitution"] + (" (own η)" if r.get("kind") == "own-eta" else "")
+
+
+def summary(doc: dict) -> dict:
+    """Per engine variant: the mean of each metric over its like-for-like pairs (counts summed).
+
+    Variants without like-for-like pairs use all their pairs. Returns ``{variant: {metric: value,
+    "pairs": n}}``.
+    """
+    groups: dict[str, list[dict]] = {}
+    for p in doc["pairs"]:
+        groups.setdefault(p["variant"], []).append(p)
+    out = {}
+    for v, ps in sorted(groups.items()):
+        use = [p for p in ps if p["like_for_like"]] or ps
+        row = {"pairs": len(use)}
+        for m in METRICS:
+            vals = [p["scores"].get(m) for p in use]
+            vals = [math.nan if x is None else float(x) for x in vals]
+            if m in COUNTS:
+                row[m] = float(sum(vals))
+            else:
+                finite = [x for x in vals if math.isfinite(x)]
+                row[m] = sum(finite) / len(finite) if finite else math.nan
+        out[v] = row
+    return out
+
+
+def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
+    """Engine × metric, best value of each column in bold (``**`` in Markdown, ``*`` in text)."""
+    s = summary(doc)
+    names = list(s)
+    best = {}
+    for m, spec in METRICS.items():
+        vals = [s[n][m] for n in names if math.isfinite(s[n][m])]
+        if vals:
+            best[m] = max(vals) if spec.direction == "higher" else min(vals)
+    head = ["engine", "pairs"] + [SHORT[m] for m in METRICS]
+    rows = []
+    for n in names:
+        r = [_html.escape(n) if html else n, str(s[n]["pairs"])]
+        for m in METRICS:
+            t = fmt(m, s[n][m])
+            if m in best and s[n][m] == best[m] and len(names) > 1:
+                t = f"<b>{t}</b>" if html else (f"**{t}**" if markdown else f"*{t}")
+            r.append(t)
+        rows.append(r)
+    if html:
+        th = "".join(f"<th>{_html.escape(h)}</th>" for h in head)
+        trs = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in r) + "</tr>" for r in rows)
+        return f"<table><thead><tr>{th}</tr></thead><tbody>{trs}</tbody></table>"
+    return render(head, rows, markdown)
+
+
+def compare_table(res: dict, markdown: bool = False) -> str:
+    """Regressions (and improvements) of a comparison, one row per pair and metric."""
+    head = ["", "pair", "metric", "baseline", "current", "delta", "tolerance"]
+    rows = []
+    for tag, items in (("REGRESSION", res["regressions"]), ("improved", res["improvements"])):
+        for r in items:
+            d = r["delta"]
+            rows.append([tag, r["key"], r["metric"], fmt(r["metric"], r["baseline"]), fmt(r["metric"], r["current"]),
+                         "n/a" if isinstance(d, float) and math.isnan(d) else f"{d:+.4g}", f"{r['tolerance']:g}"])
+    for k in res["missing"]:
+        rows.append(["MISSING", k, "", "", "", "", ""])
+    title = (f"compare: {res['status']} — {res['compared']} pair(s) compared, {len(res['regressions'])} "
+             f"regression(s), {len(res['missing'])} missing, {len(res['improvements'])} improvement(s), "
+             f"{len(res['new'])} new")
+    if not rows:
+        return ("**" + title + "**") if markdown else title
+    return (("**" + title + "**\n\n") if markdown else title + "\n") + render(head, rows, markdown)

@@ -1,0 +1,59 @@
+"""End to end with the real maps harness and reference solver: adaptive maps scored, and `run --quick`."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from rockbench.benchmark.cli import main
+from rockbench.benchmark.maps import MapSpec, parse_range, run_map
+from rockbench.benchmark.presets import get_preset
+from rockbench.benchmark.scoring import score_dirs
+from rockbench.engines.registry import BUILTIN, availability
+from rockbench.reference_solver.restitution import Restitution
+
+
+def _spec(n=13):
+    return MapSpec(get_preset("B3M").block(), "sine", Restitution(), parse_range("--w-ratio", f"1:13:{n}", "w_ratio"),
+                   parse_range("--a-ratio", f"1:9:{n}", "a_ratio"))
+
+
+def test_adaptive_reference_map_scores_perfect_against_the_full_one(tmp_path):
+    run_map(_spec(), tmp_path / "full", serial=True, plot=False)
+    run_map(_spec(), tmp_path / "adaptive", serial=True, adaptive=True, coarse_stride=2, plot=False)
+    doc = score_dirs([tmp_path / "adaptive"], against=[tmp_path / "full"])
+    (p,) = doc["pairs"]
+    assert p["filled_cells"] > 0  # inferred cells are counted, not called invalid
+    s = p["scores"]
+    assert s["invalid_cells"] == 0 and s["failed_cells"] == 0
+    # the adaptive rule only skips cells inside uniform regions
+    assert s["agreement"] == 1.0 and s["boundary_max"] == 0.0
+
+
+def _rockbench(*args):
+    # a fresh process: engines other tests register in this one must not join the suite
+    return subprocess.run([sys.executable, "-m", "rockbench.benchmark.cli", *args], capture_output=True,
+                          text=True, timeout=900)
+
+
+@pytest.mark.slow
+def test_run_quick_end_to_end(tmp_path):
+    out = tmp_path / "quick"
+    r = _rockbench("run", "--quick", "--out", str(out))
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert (out / "index.html").is_file() and (out / "report.md").is_file()
+    assert len(list((out / "maps" / "reference").iterdir())) == 12  # 2 blocks x 2 pulses x 3 restitutions
+    assert (out / "img" / "theta_b3m_sine_6_6.1.png").is_file()
+    suite = json.loads((out / "suite.json").read_text())
+    assert suite["suite_name"] == "quick" and suite["suite"]["grid"]["adaptive"] and len(suite["maps"]) >= 12
+    engines = [n for n in BUILTIN if n != "reference" and availability(n)["available"]]
+    if engines:
+        doc = json.loads((out / "score.json").read_text())
+        assert {p["engine"] for p in doc["pairs"]} == set(engines)
+        assert "agree" in r.stdout
+    else:
+        assert "no scores" in r.stdout
+    # a rerun resumes: every map is already complete
+    r = _rockbench("run", "--quick", "--out", str(out))
+    assert r.returncode == 0 and "resuming" in r.stderr, r.stderr[-3000:]
