@@ -16,6 +16,7 @@ from ..reference_solver.errors import ConfigError, EngineUnavailableError
 #: built-in adapters, imported lazily
 BUILTIN = {
     "reference": "rockbench.engines.reference_adapter:ReferenceAdapter",
+    "exudyn": "rockbench.engines.exudyn_adapter:ExudynAdapter",
 }
 
 #: the entry-point group third parties register under
