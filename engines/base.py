@@ -203,6 +203,79 @@ class CellResult:
         return asdict(self)
 
 
+@dataclass
+class RestitutionMeasurement:
+    """The restitution an engine shows in free rocking, impact by impact.
+
+    Attributes
+    ----------
+    etas : list of float
+        ``|θ̇⁺/θ̇⁻|`` of each measured impact [-].
+    eta_mean, eta_std : float
+        Their mean and standard deviation [-].
+    theta0_rad : float
+        Release angle [rad].
+    dt_s : float
+        Time step [s].
+    settings : dict
+        The engine settings used.
+    method : str
+        How η was read from the motion (e.g. velocities around θ = 0, or amplitude ratios).
+    """
+
+    etas: list
+    eta_mean: float
+    eta_std: float
+    theta0_rad: float
+    dt_s: float
+    settings: dict
+    method: str = ""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass
+class CalibrationResult:
+    """Contact settings searched so that an engine's free-rocking η reaches a target.
+
+    Attributes
+    ----------
+    eta_target : float
+        The η asked for [-].
+    eta_measured : float
+        The η reached with ``settings`` [-].
+    eta_std : float
+        Spread of the per-impact η with those settings [-].
+    reached : bool
+        Whether ``|eta_measured − eta_target| ≤ 1 %·eta_target``.
+    settings : dict
+        The engine settings found.
+    note : str
+        Why a target could not be reached, or how it was.
+    evaluations : int
+        Free-rocking runs spent in the search.
+    """
+
+    eta_target: float
+    eta_measured: float
+    eta_std: float
+    reached: bool
+    settings: dict
+    note: str = ""
+    evaluations: int = 0
+
+    @property
+    def rel_error(self) -> float:
+        """``(eta_measured − eta_target)/eta_target`` [-]."""
+        return (self.eta_measured - self.eta_target) / self.eta_target
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["rel_error"] = self.rel_error
+        return d
+
+
 class EngineAdapter:
     """Base class of every engine adapter; see the module docstring for the contract."""
 
@@ -245,11 +318,17 @@ class EngineAdapter:
         """The concrete settings cases of this block and restitution will use (for run.json)."""
         return dict(self.settings)
 
-    def measure_restitution(self, block: Block, **kwargs):
-        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate.")
+    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
+                            dt_s: float | None = None) -> RestitutionMeasurement:
+        """Free rocking from rest at ``theta0_frac·α``, no excitation: η impact by impact."""
+        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate; "
+                          "calibrate applies to engines such as mujoco, pybullet, exudyn.")
 
-    def calibrate(self, block: Block, target_eta: float, **kwargs):
-        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate.")
+    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                  use_cache: bool = True) -> CalibrationResult:
+        """Search the engine's contact settings so its free-rocking η reaches ``target_eta`` (1 %)."""
+        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate; "
+                          "calibrate applies to engines such as mujoco, pybullet, exudyn.")
 
     @classmethod
     def version(cls) -> str:

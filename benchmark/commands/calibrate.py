@@ -1,0 +1,66 @@
+"""``rockbench calibrate``: an engine's restitution in free rocking, and contact settings that reach a target."""
+
+from __future__ import annotations
+
+import json
+
+from ...engines.registry import get_adapter
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.restitution import Restitution
+from ..cases import add_block_options, block_from_args, dt_from_args, engine_settings_from_args
+
+
+def register(sub) -> None:
+    p = sub.add_parser("calibrate", help="measure an engine's η in free rocking; with --target, search "
+                       "its contact settings to reach it")
+    add_block_options(p)
+    p.add_argument("--engine", required=True, help="engine name (see `rockbench engines`)")
+    p.add_argument("--target", default=None, help="housner | modified | a number in (0, 1] (default: measure only)")
+    p.add_argument("--k", default=None, help="impulse position for --target modified (default: the preset's average k)")
+    p.add_argument("--dt", default=None, help="time step [s] (default: the engine's)")
+    p.add_argument("--theta0", default="0.5", help="release angle as a fraction of α (measurement only; default 0.5)")
+    p.add_argument("--settings", default=None, help="calibrated | defaults (measurement only)")
+    p.add_argument("--drive", default=None, help="inertial | table")
+    p.add_argument("--friction", default=None, help="friction coefficient [-]")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="any other engine setting")
+    p.add_argument("--no-cache", action="store_true", help="search again even when a stored calibration exists")
+    p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    block, preset = block_from_args(args)
+    adapter = get_adapter(args.engine, **engine_settings_from_args(args))
+    dt = dt_from_args(args)
+    if args.target is None:
+        try:
+            frac = float(args.theta0)
+        except ValueError:
+            raise ConfigError(f"--theta0 must be a number in (0, 1), got {args.theta0!r}.") from None
+        if not 0.0 < frac < 1.0:
+            raise ConfigError(f"--theta0 must be a fraction of α in (0, 1), got {args.theta0!r}.")
+        m = adapter.measure_restitution(block, theta0_frac=frac, dt_s=dt)
+        out = {"engine": adapter.name, "block": block.name, "eta_measured": m.eta_mean, "eta_std": m.eta_std,
+               "eta_target": None, "n_impacts": len(m.etas), "etas": m.etas, "settings": m.settings,
+               "dt_s": m.dt_s, "method": m.method}
+    else:
+        k = None if args.k is None else float(args.k)
+        law = args.target.strip().lower()
+        if law == "modified" and k is None:
+            if preset is None:
+                raise ConfigError("--target modified on a custom block needs --k (the impulse position in [0, 1]).")
+            k = preset.k_average
+        rest = Restitution.parse(law if law in ("housner", "modified") else args.target, k=k)
+        target = rest.eta(block.alpha_rad)
+        c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
+        out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict()}
+    if args.json:
+        print(json.dumps(out, indent=2, default=float))
+        return 0
+    print(f"{out['engine']} on {out['block']}: η measured {out['eta_measured']:.4f} ± {out['eta_std']:.4f}"
+          + (f", target {out['eta_target']:.4f} ({'reached' if out['reached'] else 'NOT reached'}, "
+             f"{100 * out['rel_error']:+.2f} %)" if out.get("eta_target") is not None else ""))
+    if out.get("note"):
+        print(out["note"])
+    print("settings: " + json.dumps(out["settings"], default=float))
+    return 0
