@@ -52,11 +52,16 @@ The shared classifier decides the outcome from the samples.
 
 Restitution
 -----------
-Exudyn has no η of its own. ``settings="calibrated"`` (default) sets the contact damping to the
-value found by :meth:`ExudynAdapter.calibrate` for the case's target η, cached on disk
-(:mod:`rockbench.engines.calibration`). ``settings="defaults"`` keeps Exudyn's shipped contact
-defaults (no damping, restitution coefficient 1, linear impact model) except the stiffness, whose
-shipped value is 0 (no contact at all) and is therefore set by the same rule as the calibrated one
+Exudyn has no η of its own. Its penalty contact with linear damping (the shipped impact model 0)
+lets the landing corner bounce, which breaks the rocking model (jumps) whenever an impact is
+strong; the probes found that Exudyn's impact model 2 (Gonthier et al., hysteretic damping that
+reaches a prescribed normal restitution coefficient without sticky forces) with a nearly plastic
+coefficient lands the corner without bouncing, which is exactly Housner's assumption, and gives
+η within 0.5 % of η_H for B3M and B6M. ``settings="calibrated"`` (default) therefore searches
+that coefficient (:meth:`ExudynAdapter.calibrate`) for the case's target η and caches the result
+on disk (:mod:`rockbench.engines.calibration`). ``settings="defaults"`` keeps Exudyn's shipped
+contact model (impact model 0, restitution coefficient 1, no damping) except the stiffness, whose
+shipped value is 0 (no contact at all) and is set by the same rule as the calibrated one
 (:func:`default_stiffness_n_m`).
 """
 
@@ -76,16 +81,16 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
 from . import calibration
-from .base import (ENERGY_GAIN_TOL, Case, EngineAdapter, Trajectory, energy_gain_rel, jump_tol_m,
-                   slip_tol_m, uplift_tol_rad)
+from .base import (ENERGY_GAIN_TOL, CalibrationResult, Case, EngineAdapter, RestitutionMeasurement,
+                   Trajectory, energy_gain_rel, jump_tol_m, slip_tol_m, uplift_tol_rad)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range DOMAIN.md §8 found to
 #: reproduce Housner's η (2e6–2e7 N/m at Δt ≤ 1e-4 s).
 STATIC_PENETRATION_M = 1.34e-6
 
-#: Damping ratios ζ = d / (2·√(k·m)) tried by the calibration's coarse scan [-].
-CALIBRATION_ZETAS = (0.03, 0.05, 0.08, 0.11, 0.15, 0.2, 0.27, 0.36, 0.5, 0.7)
+#: Exudyn contact restitution coefficients (impact model 2) tried by the calibration's scan [-].
+CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 
 #: Impacts averaged by the free-rocking measurement [-].
 CALIBRATION_IMPACTS = 4
@@ -105,11 +110,6 @@ def default_stiffness_n_m(block: Block) -> float:
     return block.mass_kg * G / (2.0 * STATIC_PENETRATION_M)
 
 
-def damping_from_ratio(block: Block, stiffness_n_m: float, zeta: float) -> float:
-    """Linear contact damping [N s/m] from a damping ratio ζ relative to ``2·√(k·m)`` [-]."""
-    return 2.0 * zeta * math.sqrt(stiffness_n_m * block.mass_kg)
-
-
 @dataclass
 class FreeRocking:
     """What a free-rocking test measured.
@@ -125,6 +125,16 @@ class FreeRocking:
         Successive peak amplitudes |θ|, the release angle first [rad].
     theta0_rad : float
         Release angle [rad].
+    max_jump_m : float
+        Largest height of the lower corner above the table (a bouncing landing corner) [m].
+    contact : dict
+        The contact parameters used.
+    dt_s : float
+        Time step [s].
+    steps : int
+        Time steps integrated [-].
+    wall_s : float
+        Wall time of the run [s].
     """
 
     etas: list
@@ -132,11 +142,11 @@ class FreeRocking:
     eta_std: float
     peaks_rad: list
     theta0_rad: float
-
-    def to_dict(self) -> dict:
-        return {"etas": [float(e) for e in self.etas], "eta_mean": float(self.eta_mean),
-                "eta_std": float(self.eta_std), "peaks_rad": [float(p) for p in self.peaks_rad],
-                "theta0_rad": float(self.theta0_rad)}
+    max_jump_m: float
+    contact: dict
+    dt_s: float
+    steps: int
+    wall_s: float
 
 
 def _positive(name: str, value, unit: str, allow_none: bool = False):
@@ -417,26 +427,39 @@ class _Model:
         return t, math.atan2(A[0, 2], A[2, 2]), float(w[1])
 
     def samples(self):
-        """Arrays ``t, θ, θ̇`` and the bottom corners' positions ``(n, ncorners, 2)`` as (x, height)."""
+        """Arrays ``t, θ, θ̇``, the corner sphere centres and the block's own bottom corners.
+
+        Both point sets are ``(n, ncorners, 2)`` arrays of (x, height) [m]. The sphere centres
+        give the clearance to the table (``height − r``); the block's corners (one radius below
+        the centres in the block's frame) give slip, since a sphere centre also moves by ``r·θ``
+        when its sphere rolls, which is not slip.
+        """
         mbs = self.mbs
+        pts = np.concatenate([self.corners_local, self.corners_local], axis=0)
+        up = 1 if self.planar else 2
+        pts[len(self.corners_local):, up] -= self.r
         if self.planar:
             q = mbs.GetSensorStoredData(self.s_q)
             qd = mbs.GetSensorStoredData(self.s_v)
             t = q[:, 0]
             x, y, phi = q[:, 1], q[:, 2], q[:, 3]
             c, s = np.cos(phi), np.sin(phi)
-            cl = self.corners_local
-            cx = x[:, None] + c[:, None] * cl[None, :, 0] - s[:, None] * cl[None, :, 1]
-            cy = y[:, None] + s[:, None] * cl[None, :, 0] + c[:, None] * cl[None, :, 1]
-            return t, -phi, -qd[:, 3], np.stack([cx, cy], axis=-1)
-        pos = mbs.GetSensorStoredData(self.s_pos)
-        rot = mbs.GetSensorStoredData(self.s_rot)
-        omg = mbs.GetSensorStoredData(self.s_omg)
-        t = pos[:, 0]
-        A = rot[:, 1:10].reshape(-1, 3, 3)
-        theta = np.arctan2(A[:, 0, 2], A[:, 2, 2])
-        world = pos[:, None, 1:4] + np.einsum("nij,cj->nci", A, self.corners_local)
-        return t, theta, omg[:, 2], np.stack([world[..., 0], world[..., 2]], axis=-1)
+            wx = x[:, None] + c[:, None] * pts[None, :, 0] - s[:, None] * pts[None, :, 1]
+            wz = y[:, None] + s[:, None] * pts[None, :, 0] + c[:, None] * pts[None, :, 1]
+            theta, theta_dot = -phi, -qd[:, 3]
+        else:
+            pos = mbs.GetSensorStoredData(self.s_pos)
+            rot = mbs.GetSensorStoredData(self.s_rot)
+            omg = mbs.GetSensorStoredData(self.s_omg)
+            t = pos[:, 0]
+            A = rot[:, 1:10].reshape(-1, 3, 3)
+            theta = np.arctan2(A[:, 0, 2], A[:, 2, 2])
+            theta_dot = omg[:, 2]
+            world = pos[:, None, 1:4] + np.einsum("nij,cj->nci", A, pts)
+            wx, wz = world[..., 0], world[..., 2]
+        both = np.stack([wx, wz], axis=-1)
+        nc = len(self.corners_local)
+        return t, theta, theta_dot, both[:, :nc], both[:, nc:]
 
 
 class ExudynAdapter(EngineAdapter):
@@ -445,7 +468,7 @@ class ExudynAdapter(EngineAdapter):
     Settings
     --------
     settings : {"calibrated", "defaults"}
-        Contact damping calibrated to the case's η (default), or Exudyn's shipped contact defaults.
+        Contact calibrated to the case's η (default), or Exudyn's shipped contact defaults.
     drive : {"inertial", "table"}
         How the pulse enters: the force −m·ü at the centre of mass, or a table body moved along u(t).
     planar : bool
@@ -456,8 +479,11 @@ class ExudynAdapter(EngineAdapter):
         Sliding speed below which Exudyn's friction is proportional to the speed [m/s].
     stiffness_n_m : float or None
         Contact stiffness of each corner [N/m]; None: :func:`default_stiffness_n_m`.
-    damping_ratio : float or None
-        Contact damping ratio ζ = d/(2√(k·m)) [-]; None: calibrated (or 0 with ``defaults``).
+    contact_restitution : float or None
+        Exudyn's normal restitution coefficient of the corner contacts with its impact model 2
+        (Gonthier et al.) [-]; None: calibrated to the case's η (with ``calibrated``).
+    damping_n_s_m : float
+        Linear normal contact damping [N s/m], added by Exudyn to every impact model (default 0).
     sphere_radius_m : float
         Radius of the corner contact spheres [m].
     spectral_radius : float
@@ -478,7 +504,8 @@ class ExudynAdapter(EngineAdapter):
         "friction": 10.0,
         "friction_zone_m_s": 1e-3,
         "stiffness_n_m": None,
-        "damping_ratio": None,
+        "contact_restitution": None,
+        "damping_n_s_m": 0.0,
         "sphere_radius_m": 5e-4,
         "spectral_radius": 0.9,
         "chunk_s": 0.05,
@@ -497,23 +524,28 @@ class ExudynAdapter(EngineAdapter):
             raise ConfigError(f"exudyn setting 'settings' must be calibrated or defaults, got {s['settings']!r}.")
         if s["drive"] not in ("inertial", "table"):
             raise ConfigError(f"exudyn setting 'drive' must be inertial or table, got {s['drive']!r}.")
+        if isinstance(s["planar"], str) and s["planar"].lower() in ("true", "false"):
+            s["planar"] = s["planar"].lower() == "true"
         if not isinstance(s["planar"], bool):
             raise ConfigError(f"exudyn setting 'planar' must be true or false, got {s['planar']!r}.")
         s["friction"] = _positive("friction", s["friction"], "-")
         s["friction_zone_m_s"] = _positive("friction_zone_m_s", s["friction_zone_m_s"], "m/s")
         s["stiffness_n_m"] = _positive("stiffness_n_m", s["stiffness_n_m"], "N/m", allow_none=True)
-        if s["damping_ratio"] is not None:
-            try:
-                z = float(s["damping_ratio"])
-            except (TypeError, ValueError):
-                z = math.nan
-            if not math.isfinite(z) or z < 0.0:
-                raise ConfigError(f"exudyn setting 'damping_ratio' must be a number >= 0, got {s['damping_ratio']!r}.")
-            s["damping_ratio"] = z
-        s["sphere_radius_m"] = _positive("sphere_radius_m", s["sphere_radius_m"], "m")
-        rho = s["spectral_radius"]
+        if s["contact_restitution"] is not None:
+            e = _positive("contact_restitution", s["contact_restitution"], "-")
+            if e > 1.0:
+                raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {e!r}.")
+            s["contact_restitution"] = e
         try:
-            rho = float(rho)
+            d = float(s["damping_n_s_m"])
+        except (TypeError, ValueError):
+            d = math.nan
+        if not math.isfinite(d) or d < 0.0:
+            raise ConfigError(f"exudyn setting 'damping_n_s_m' must be a number >= 0 [N s/m], got {s['damping_n_s_m']!r}.")
+        s["damping_n_s_m"] = d
+        s["sphere_radius_m"] = _positive("sphere_radius_m", s["sphere_radius_m"], "m")
+        try:
+            rho = float(s["spectral_radius"])
         except (TypeError, ValueError):
             rho = math.nan
         if not (0.0 <= rho <= 1.0):
@@ -525,39 +557,43 @@ class ExudynAdapter(EngineAdapter):
     def _stiffness(self, block: Block) -> float:
         return self.settings["stiffness_n_m"] or default_stiffness_n_m(block)
 
-    def _contact(self, block: Block, zeta: float, defaults: bool = False) -> dict:
-        """The contact parameters for one block and damping ratio."""
-        k = self._stiffness(block)
-        return {"stiffness_n_m": k, "damping_n_s_m": damping_from_ratio(block, k, zeta), "damping_ratio": zeta,
-                "friction": self.settings["friction"], "friction_zone_m_s": self.settings["friction_zone_m_s"],
-                "sphere_radius_m": self.settings["sphere_radius_m"],
-                "spectral_radius": self.settings["spectral_radius"],
-                # Exudyn's shipped values: restitution coefficient 1 with the linear impact model,
-                # i.e. the damping alone dissipates
-                "restitution_coefficient": self.settings.get("_e", 1.0), "impact_model": self.settings.get("_model", 0)}
+    def _contact(self, block: Block, contact_restitution: float | None) -> dict:
+        """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model."""
+        s = self.settings
+        if contact_restitution is None:
+            # shipped: linear impact model (0) with restitution coefficient 1, i.e. only the
+            # linear damping (default 0) dissipates
+            model, e = 0, 1.0
+        else:
+            model, e = 2, float(contact_restitution)
+        return {"stiffness_n_m": self._stiffness(block), "damping_n_s_m": s["damping_n_s_m"],
+                "impact_model": model, "restitution_coefficient": e,
+                "friction": s["friction"], "friction_zone_m_s": s["friction_zone_m_s"],
+                "sphere_radius_m": s["sphere_radius_m"], "spectral_radius": s["spectral_radius"]}
 
     def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
         """Concrete settings for a block and restitution, calibrating (and caching) on first use."""
         dt = dt_s or self.default_dt_s
         s = dict(self.settings)
-        if s["damping_ratio"] is not None:
-            zeta, cal = s["damping_ratio"], None
+        cal = None
+        if s["contact_restitution"] is not None:
+            e = s["contact_restitution"]
         elif s["settings"] == "defaults":
-            zeta, cal = 0.0, None
+            e = None
         else:
             cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt)
-            zeta = cal["settings"]["damping_ratio"]
-        out = {**s, **self._contact(block, zeta), "dt_s": dt}
+            e = cal.settings["restitution_coefficient"]
+        out = {**s, **self._contact(block, e), "dt_s": dt}
         if cal is not None:
-            out["calibration"] = {k: cal[k] for k in ("eta_target", "eta_measured", "eta_spread", "reached")}
+            out["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
+                                  "eta_std": cal.eta_std, "reached": cal.reached}
         return out
 
     # -- simulation -----------------------------------------------------------------------
     def _model(self, block: Block, contact: dict, dt: float, pulse: Pulse) -> _Model:
-        record = pulse.kind == "record"
-        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, tuple(sorted(contact.items())), dt)
-        if record:  # a record's Python user function is bound to that pulse: no reuse
+        if pulse.kind == "record":  # a record's Python user function is bound to that pulse: no reuse
             return _Model(block, contact, self.settings["drive"], self.settings["planar"], dt, pulse)
+        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, tuple(sorted(contact.items())), dt)
         model = self._models.get(key)
         if model is None:
             model = _Model(block, contact, self.settings["drive"], self.settings["planar"], dt, None)
@@ -568,9 +604,7 @@ class ExudynAdapter(EngineAdapter):
         dt = self.dt_for(case)
         block = case.block
         res = self.resolve(block, case.restitution, dt)
-        contact = {k: res[k] for k in ("stiffness_n_m", "damping_n_s_m", "damping_ratio", "friction",
-                                       "friction_zone_m_s", "sphere_radius_m", "spectral_radius",
-                                       "restitution_coefficient", "impact_model")}
+        contact = {k: res[k] for k in _CONTACT_KEYS}
         model = self._model(block, contact, dt, case.pulse)
         if case.pulse.kind != "record":
             model.set_pulse(case.pulse)
@@ -593,29 +627,35 @@ class ExudynAdapter(EngineAdapter):
             return t >= t_pe + s["min_tail_s"] and E < settle
 
         ok, message, steps, wall = model.run(t_pe, stop, s["chunk_s"], t_pe + s["max_tail_s"])
-        t, th, thd, corners = model.samples()
+        t, th, thd, corners, edges = model.samples()
+        r = contact["sphere_radius_m"]
         diag = {"steps": int(steps), "wall_engine_s": wall, "steps_per_s": steps / wall if wall > 0 else None,
                 "dt_s": dt, "settings": s["settings"], "drive": s["drive"], "planar": s["planar"],
-                "damping_ratio": contact["damping_ratio"], "stiffness_n_m": contact["stiffness_n_m"],
-                "damping_n_s_m": contact["damping_n_s_m"], "friction": contact["friction"]}
+                **{k: contact[k] for k in ("stiffness_n_m", "damping_n_s_m", "impact_model",
+                                           "restitution_coefficient", "friction")}}
+        if "calibration" in res:
+            diag["calibration"] = res["calibration"]
+        over = (np.abs(th) >= FLAT_ANGLE_RAD) | ((t >= t_pe) & (np.abs(th) > alpha) & (th * thd > 0))
         if not ok:
             # a failure after the overturn was already certain does not change the verdict
-            over = (np.abs(th) >= FLAT_ANGLE_RAD) | ((t >= t_pe) & (np.abs(th) > alpha) & (th * thd > 0))
             if not over.any():
                 raise EngineError(message)
             diag["solver_stopped"] = message
+        # judge contact quality only up to the overturn decision: afterwards the block falls
+        # through the table by design (no spheres on its top corners)
+        n = int(np.argmax(over)) + 1 if over.any() else t.size
+        pen = float(np.max(r - corners[:n, :, 1]))
+        diag["max_penetration_m"] = pen
+        if pen >= 0.9 * r:
+            raise EngineError(f"a corner contact sphere sank {pen:.3g} m into the table, about its radius "
+                              f"{r:.3g} m: the contact broke through (stiffer contact or a larger "
+                              "sphere_radius_m needed)")
         flags = []
         if not (np.all(np.isfinite(th)) and np.all(np.isfinite(thd))):
             flags.append("diverged")
-        table_x = case.pulse.disp(t) if s["drive"] == "table" else np.zeros_like(t)
-        slip, jump = _slip_and_jump(t, th, corners, table_x, self.r_for(contact), block, t_pe)
-        gain = energy_gain_rel(t, th, thd, t_pe, block)
-        pen = float(np.max(self.r_for(contact) - corners[..., 1]))
-        diag["max_penetration_m"] = pen
-        if pen >= 0.9 * self.r_for(contact):
-            raise EngineError(f"a corner contact sphere sank {pen:.3g} m into the table, about its radius "
-                              f"{self.r_for(contact):.3g} m: the contact broke through (stiffer contact or a "
-                              "larger sphere_radius_m needed)")
+        table_x = case.pulse.disp(t[:n]) if s["drive"] == "table" else np.zeros(n)
+        slip, jump = _slip_and_jump(corners[:n], edges[:n], table_x, r, block)
+        gain = energy_gain_rel(t[:n], th[:n], thd[:n], t_pe, block)
         diag.update({"max_slip_m": slip, "max_jump_m": jump, "energy_gain_rel": gain})
         if slip > slip_tol_m(block):
             flags.append("slip")
@@ -626,71 +666,70 @@ class ExudynAdapter(EngineAdapter):
         return Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=thd, t_pulse_end_s=t_pe, flags=flags,
                           diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block))
 
-    @staticmethod
-    def r_for(contact: dict) -> float:
-        return contact["sphere_radius_m"]
-
     # -- restitution ----------------------------------------------------------------------
-    def measure_restitution(self, block: Block, damping_ratio: float | None = None, dt_s: float | None = None,
-                            theta0_frac: float = 0.5, n_impacts: int = CALIBRATION_IMPACTS,
-                            duration_s: float | None = None) -> FreeRocking:
-        """Free rocking from rest at ``θ0 = theta0_frac·α``, no excitation: η impact by impact.
+    def free_rocking(self, block: Block, contact_restitution: float | None, *, theta0_frac: float = 0.5,
+                     dt_s: float | None = None, n_impacts: int = CALIBRATION_IMPACTS) -> FreeRocking:
+        """Free rocking from rest at ``θ0 = theta0_frac·α``, no excitation, with given contact.
 
-        Parameters
-        ----------
-        block : Block
-            The block.
-        damping_ratio : float, optional
-            Contact damping ratio ζ [-]; default: this adapter's setting (0 with ``defaults``).
-        dt_s : float, optional
-            Time step [s]; default :attr:`default_dt_s`.
-        theta0_frac : float
-            Release angle as a fraction of α [-].
-        n_impacts : int
-            How many impacts to measure [-].
-        duration_s : float, optional
-            Simulated time [s]; default: long enough for ``n_impacts`` with η = 1 at the
-            linearised free-rocking period, plus a margin.
+        η of each impact comes from the energy-consistent amplitude ratio of successive peaks:
+        between impacts ``E = ½θ̇² + p²cos(α − |θ|)`` is conserved, so the kinetic energy at θ = 0
+        before an impact is ``p²(cos(α − θ_peak) − cos α)`` and η is the square root of the ratio
+        of two such energies. This is robust against the few steps a soft impact lasts, where
+        θ̇⁺/θ̇⁻ read at θ ≈ 0 depends on where one samples.
         """
         dt = dt_s or self.default_dt_s
         alpha, p = block.alpha_rad, block.p_rad_s
-        if damping_ratio is None:
-            damping_ratio = self.settings["damping_ratio"]
-            if damping_ratio is None:
-                damping_ratio = (0.0 if self.settings["settings"] == "defaults" else
-                                 self.calibrate(block, Restitution().eta(alpha), dt_s=dt)["settings"]["damping_ratio"])
         th0 = theta0_frac * alpha
-        if duration_s is None:
-            # a quarter period from θ0 to the first impact; later half-cycles are shorter
-            quarter = math.acosh(1.0 / (1.0 - theta0_frac)) / p
-            duration_s = quarter * (2 * n_impacts + 1) * 1.2 + 0.05
-        contact = self._contact(block, float(damping_ratio))
+        # a quarter period from θ0 to the first impact; later half-cycles are shorter
+        quarter = math.acosh(1.0 / (1.0 - theta0_frac)) / p
+        duration = quarter * (2 * n_impacts + 1) * 1.2 + 0.05
+        contact = self._contact(block, contact_restitution)
         model = _Model(block, contact, "inertial", self.settings["planar"], dt, None, theta0_rad=th0)
         model.set_pulse(None)
-        ok, message, steps, wall = model.run(0.0, lambda st: False, duration_s, duration_s)
-        t, th, thd, _ = model.samples()
+        ok, message, steps, wall = model.run(0.0, lambda st: False, duration, duration)
+        t, th, thd, corners, edges = model.samples()
         tol = uplift_tol_rad(block)
         side = np.where(th > tol, 1, np.where(th < -tol, -1, 0))
         nz = np.nonzero(side)[0]
         peaks = [abs(th0)]
         if nz.size:
-            # split the lifted samples into half-cycles at every change of side
             seg_start = nz[0]
             for a_, b_ in zip(nz[:-1], nz[1:]):
                 if side[b_] != side[a_]:
                     peaks.append(float(np.max(np.abs(th[seg_start:a_ + 1]))))
                     seg_start = b_
             peaks.append(float(np.max(np.abs(th[seg_start:]))))
-        # peaks[1] repeats the release half-cycle (its maximum is θ0): drop it
+        # the first half-cycle is the release (its peak is θ0 itself): keep θ0 once
         peaks = [peaks[0]] + peaks[2:]
         ke = np.cos(alpha - np.asarray(peaks)) - math.cos(alpha)
-        etas = [float(math.sqrt(ke[i + 1] / ke[i])) for i in range(len(ke) - 1) if ke[i] > 0 and ke[i + 1] > 0]
-        etas = etas[:n_impacts]
+        etas = []
+        for i in range(min(len(ke) - 1, n_impacts)):
+            if ke[i] <= 0 or ke[i + 1] <= 0:
+                break
+            etas.append(float(math.sqrt(ke[i + 1] / ke[i])))
         if not ok and len(etas) < n_impacts:
             raise EngineError(f"free rocking: {message}")
+        _, jump = _slip_and_jump(corners, edges, np.zeros(t.size), contact["sphere_radius_m"], block)
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        return FreeRocking(etas, mean, std, peaks[: n_impacts + 1], th0)
+        return FreeRocking(etas, mean, std, peaks[: n_impacts + 1], th0, jump, contact, dt, steps, wall)
+
+    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
+                            dt_s: float | None = None) -> RestitutionMeasurement:
+        """Free rocking with this adapter's settings (``calibrated``: those for Housner's η)."""
+        dt = dt_s or self.default_dt_s
+        s = self.settings
+        if s["contact_restitution"] is not None:
+            e = s["contact_restitution"]
+        elif s["settings"] == "defaults":
+            e = None
+        else:
+            e = self.calibrate(block, Restitution().eta(block.alpha_rad), dt_s=dt).settings["restitution_coefficient"]
+        fr = self.free_rocking(block, e, theta0_frac=theta0_frac, dt_s=dt)
+        return RestitutionMeasurement(etas=fr.etas, eta_mean=fr.eta_mean, eta_std=fr.eta_std,
+                                      theta0_rad=fr.theta0_rad, dt_s=dt,
+                                      settings={**fr.contact, "planar": s["planar"]},
+                                      method="energy-consistent amplitude ratio of successive peaks")
 
     def _cal_key(self, block: Block, target_eta: float, dt: float) -> str:
         s = self.settings
@@ -698,22 +737,18 @@ class ExudynAdapter(EngineAdapter):
             engine=self.name, version=self.version(), procedure=CALIBRATION_VERSION,
             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=float(target_eta),
             dt=float(dt), planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
-            zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"])
+            zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
+            damping=s["damping_n_s_m"])
 
-    def calibrate(self, block: Block, target_eta: float, dt_s: float | None = None, use_cache: bool = True) -> dict:
-        """Find the contact damping ratio whose free-rocking η is closest to ``target_eta``.
+    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                  use_cache: bool = True) -> CalibrationResult:
+        """Find Exudyn's contact restitution coefficient whose free-rocking η is closest to the target.
 
-        A coarse scan over :data:`CALIBRATION_ZETAS`, then bisection between the two neighbours
-        that bracket the target. A result is ``reached`` when the mean η is within 1 % of the
-        target and the impact-to-impact spread is below 2 %; otherwise the closest η is returned
-        with the reason.
-
-        Returns
-        -------
-        dict
-            ``eta_target``, ``eta_measured`` (mean), ``eta_spread`` (std), ``etas``,
-            ``reached``, ``note``, ``settings`` (``damping_ratio``, ``damping_n_s_m``,
-            ``stiffness_n_m``, ...), ``scan`` (every ζ tried with its η) and ``cached``.
+        A coarse scan over :data:`CALIBRATION_RESTITUTIONS`, then bisection between neighbours
+        that bracket the target. A point counts only when its free rocking is regular: impact to
+        impact spread below 2 % and no jump (both corners off the table). The result is
+        ``reached`` when the mean η is within 1 % of the target; otherwise the closest η is
+        returned with the reason. Results are cached on disk (:mod:`.calibration`).
         """
         dt = dt_s or self.default_dt_s
         target = float(target_eta)
@@ -724,88 +759,100 @@ class ExudynAdapter(EngineAdapter):
             return self._calibrations[key]
         if use_cache:
             rec = calibration.load(key)
-            if rec is not None:
-                rec["cached"] = True
-                self._calibrations[key] = rec
-                return rec
+            if rec is not None and "result" in rec:
+                res = CalibrationResult(**rec["result"])
+                self._calibrations[key] = res
+                return res
 
         scan = []
 
-        def measure(z):
+        def measure(e):
             try:
-                fr = self.measure_restitution(block, damping_ratio=z, dt_s=dt)
-            except EngineError as e:
-                scan.append({"damping_ratio": z, "eta_mean": None, "eta_std": None, "error": str(e)})
+                fr = self.free_rocking(block, e, dt_s=dt)
+            except EngineError as ex:
+                scan.append({"contact_restitution": e, "error": str(ex)})
                 return None
-            scan.append({"damping_ratio": z, "eta_mean": fr.eta_mean, "eta_std": fr.eta_std, "etas": fr.etas})
+            scan.append({"contact_restitution": e, "eta_mean": fr.eta_mean, "eta_std": fr.eta_std,
+                         "etas": fr.etas, "max_jump_m": fr.max_jump_m})
             return fr
 
         def regular(fr):
-            return fr is not None and len(fr.etas) >= 2 and math.isfinite(fr.eta_mean) and fr.eta_std < 0.02
+            return (fr is not None and len(fr.etas) >= 2 and math.isfinite(fr.eta_mean)
+                    and fr.eta_std < 0.02 and fr.max_jump_m <= jump_tol_m(block))
 
-        results = [(z, measure(z)) for z in CALIBRATION_ZETAS]
-        good = [(z, fr) for z, fr in results if regular(fr)]
+        good = [(e, fr) for e, fr in ((e, measure(e)) for e in CALIBRATION_RESTITUTIONS) if regular(fr)]
         best = None
         if good:
-            best = min(good, key=lambda zf: abs(zf[1].eta_mean - target))
-            # refine by bisection where neighbouring regular points bracket the target
-            for (z1, f1), (z2, f2) in zip(good[:-1], good[1:]):
-                if (f1.eta_mean - target) * (f2.eta_mean - target) < 0:
-                    lo, hi, flo = z1, z2, f1
-                    for _ in range(6):
-                        zm = math.sqrt(lo * hi)
-                        fm = measure(zm)
+            best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
+            if abs(best[1].eta_mean - target) > 0.2 * CALIBRATION_RTOL * target:
+                for (e1, f1), (e2, f2) in zip(good[:-1], good[1:]):
+                    if (f1.eta_mean - target) * (f2.eta_mean - target) >= 0:
+                        continue
+                    lo, hi, flo = e1, e2, f1
+                    for _ in range(5):
+                        em = 0.5 * (lo + hi)
+                        fm = measure(em)
                         if not regular(fm):
                             break
                         if abs(fm.eta_mean - target) < abs(best[1].eta_mean - target):
-                            best = (zm, fm)
+                            best = (em, fm)
                         if abs(fm.eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
                             break
                         if (fm.eta_mean - target) * (flo.eta_mean - target) < 0:
-                            hi = zm
+                            hi = em
                         else:
-                            lo, flo = zm, fm
+                            lo, flo = em, fm
+                    break
         if best is None:
-            raise EngineError("calibration: no damping ratio gave regular free rocking "
-                              f"(scan: {[(r['damping_ratio'], r['eta_mean']) for r in scan]})")
-        z, fr = best
+            raise EngineError("calibration: no contact restitution gave regular free rocking; scan: "
+                              + "; ".join(f"e={r['contact_restitution']:.3g}: η={r.get('eta_mean')}" for r in scan))
+        e, fr = best
         rel = abs(fr.eta_mean - target) / target
         reached = rel <= CALIBRATION_RTOL
         lo_eta = min(f.eta_mean for _, f in good)
         hi_eta = max(f.eta_mean for _, f in good)
         if reached:
-            note = f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} ({100 * rel:.2f} % off)."
+            note = (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
+                    f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}.")
         else:
             note = (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
-                    f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans η = "
-                    f"{lo_eta:.4f}…{hi_eta:.4f}. Less damping makes the landing corner bounce "
-                    "(irregular η from impact to impact) rather than raising η: a penalty contact at "
-                    "the corners loses the energy of the plastic impact Housner assumes, and η_M "
-                    "needs the impulse inside the base, which corner contacts cannot place.")
-        rec = {"engine": self.name, "version": self.version(), "block": block.to_dict(), "dt_s": dt,
-               "eta_target": target, "eta_measured": fr.eta_mean, "eta_spread": fr.eta_std,
-               "etas": fr.etas, "reached": reached, "note": note,
-               "settings": {**self._contact(block, z), "planar": self.settings["planar"]},
-               "scan": scan, "cached": False, "procedure_version": CALIBRATION_VERSION}
-        calibration.store(key, rec)
-        self._calibrations[key] = rec
-        return rec
+                    f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
+                    f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
+                    "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
+                    "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
+                    "impulse inside the base, where corner contacts cannot put it.")
+        settings = {**self._contact(block, e), "planar": self.settings["planar"]}
+        res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
+                                reached=reached, settings=settings, note=note, evaluations=len(scan))
+        calibration.store(key, {"engine": self.name, "version": self.version(), "block": block.to_dict(),
+                                "dt_s": dt, "procedure_version": CALIBRATION_VERSION,
+                                "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
+                                "etas": fr.etas, "scan": scan})
+        self._calibrations[key] = res
+        return res
 
 
-def _slip_and_jump(t, th, corners, table_x, r, block: Block, t_pulse_end_s: float):
+#: the contact parameters a model is built from
+_CONTACT_KEYS = ("stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient", "friction",
+                 "friction_zone_m_s", "sphere_radius_m", "spectral_radius")
+
+
+def _slip_and_jump(centres, corners, table_x, r, block: Block):
     """Largest pivot-corner slip and largest jump [m].
 
-    ``corners`` is ``(n, nc, 2)`` of (x, height) of the corner sphere centres; a corner touches the
-    table when its sphere's lowest point is within the jump tolerance of the table top. Slip is the
-    largest horizontal displacement, relative to the table, of a touching corner from where that
-    corner stood at t = 0 (an ideal rocking block puts each corner back on its own spot). Jump is
-    the largest height of the lower corner above the table, i.e. both corners off it at once.
+    ``centres`` and ``corners`` are ``(n, nc, 2)`` arrays of (x, height) of the corner sphere
+    centres and of the block's bottom corners. A corner touches the table when its sphere's lowest
+    point is within the jump tolerance of the table top. Slip is the largest horizontal
+    displacement, relative to the table, of a touching corner from where it stood at t = 0 (an
+    ideal rocking block puts each corner back on its own spot). Jump is the largest clearance of
+    the lowest sphere, i.e. every corner off the table at once.
     """
-    gap = corners[..., 1] - r
-    tol = jump_tol_m(block)
+    if centres.shape[0] == 0:
+        return 0.0, 0.0
+    gap = centres[..., 1] - r
+    touching = gap <= jump_tol_m(block)
     rel_x = corners[..., 0] - np.asarray(table_x)[:, None]
-    touching = gap <= tol
     drift = np.abs(rel_x - rel_x[0][None, :])
-    slip = float(np.max(np.where(touching, drift, 0.0))) if drift.size else 0.0
-    jump = float(np.max(np.min(gap, axis=1))) if gap.size else 0.0
+    slip = float(np.max(np.where(touching, drift, 0.0)))
+    jump = float(np.max(np.min(gap, axis=1)))
     return slip, max(jump, 0.0)
