@@ -15,7 +15,7 @@ import sys
 from ..reference_solver.errors import RockbenchError
 
 #: subcommand modules under rockbench.benchmark.commands
-COMMANDS = ["blocks", "calibrate"]
+COMMANDS = ["blocks", "simulate", "map", "figures", "engines", "check-adapter", "calibrate"]
 
 
 class UsageError(Exception):

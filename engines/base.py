@@ -141,6 +141,8 @@ class Trajectory:
         exact free-rocking decision applied (the reference's fast mode), the η to use [-].
     uplift_tol_rad : float
         |θ| below which the classifier counts the block as not lifted [rad].
+    theta_ddot_rad_s2 : ndarray or None
+        Angular acceleration at the samples [rad/s^2], when the engine provides it (for histories).
     """
 
     t_s: np.ndarray
@@ -151,6 +153,7 @@ class Trajectory:
     diagnostics: dict = field(default_factory=dict)
     eta_for_tail: float | None = None
     uplift_tol_rad: float = 0.0
+    theta_ddot_rad_s2: np.ndarray | None = None
 
 
 @dataclass

@@ -56,7 +56,8 @@ class ReferenceAdapter(EngineAdapter):
                 "impacts": sol.impact_list(), "uplifts_s": [float(x) for x in sol.uplifts]}
         return Trajectory(t_s=sol.t_s, theta_rad=sol.theta_rad, theta_dot_rad_s=sol.theta_dot_rad_s,
                           t_pulse_end_s=sol.t_pulse_end_s, flags=[], diagnostics=diag,
-                          eta_for_tail=eta if self._energy else None, uplift_tol_rad=0.0)
+                          eta_for_tail=eta if self._energy else None, uplift_tol_rad=0.0,
+                          theta_ddot_rad_s2=sol.theta_ddot_rad_s2)
 
     def run_many(self, cases: Iterable[Case]) -> list[CellResult]:
         """Classify many cases; harmonic pulses of one kind and model run in one batch call.

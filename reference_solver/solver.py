@@ -408,7 +408,7 @@ def _impact_time(th, thd, thdd, h, t, s, post, code, a0, w, t_end, tk, ak, alpha
 
 
 @njit(cache=True)
-def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, t_max, record):
+def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, t_max, record, th0, thd0, events):
     """Integrate one case; see the module docstring.
 
     Returns
@@ -416,9 +416,9 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
     hist : ndarray (n, 4)
         Samples t, θ, θ̇, θ̈ (empty unless ``record``).
     impacts : ndarray (m, 3)
-        Impact time, θ̇⁻, θ̇⁺ (empty unless ``record``).
+        Impact time, θ̇⁻, θ̇⁺ (empty unless ``events``).
     uplifts : ndarray (k,)
-        Uplift instants (empty unless ``record``).
+        Uplift instants (empty unless ``events``).
     stats : ndarray
         Outcome code, impacts, max |θ|, t_uplift, t_overturn (by the classifier's rule), steps,
         Newton iterations, impacts by the integrator.
@@ -429,8 +429,8 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
     if record:
         cap = int((t_end + 1.0) / dt) + 64
     hist = np.empty((cap if record else 1, 4))
-    imps = np.empty((16 if record else 1, 3))
-    upls = np.empty((8 if record else 1, 1))
+    imps = np.empty((16 if events else 1, 3))
+    upls = np.empty((8 if events else 1, 1))
     n = 0
     ni = 0
     nu = 0
@@ -439,10 +439,14 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
     cs[_C_TCROSS] = np.nan
 
     t = 0.0
-    th = 0.0
-    thd = 0.0
-    thdd = 0.0
+    th = th0
+    thd = thd0
     s = 0.0           # 0 at rest, else the pivot side
+    if th0 != 0.0:
+        s = 1.0 if th0 > 0.0 else -1.0
+    elif thd0 != 0.0:
+        s = 1.0 if thd0 > 0.0 else -1.0
+    thdd = 0.0 if s == 0.0 else _acc(th, _pulse_acc(0.0, code, a0, w, t_end, tk, ak) / G, s, alpha, p2, lin)
     post = False      # the pulse has ended
     cont = False      # energy mode: continuing a certain overturn after the pulse
     extra_left = 0    # impacts the energy decision allows on the way
@@ -473,7 +477,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
             thd = 0.0
             thdd = _acc(0.0, ua / G, s, alpha, p2, lin)
             h_prev = 0.0
-            if record:
+            if events:
                 upls = _grow(upls, nu)
                 upls[nu, 0] = tu
             nu += 1
@@ -545,7 +549,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                 thd = vp
                 u = 0.0 if post else _pulse_acc(t, code, a0, w, t_end, tk, ak) / G
                 thdd = _acc(0.0, u, s, alpha, p2, lin)
-                if record:
+                if events:
                     imps = _grow(imps, ni)
                     imps[ni, 0] = t
                     imps[ni, 1] = vm
@@ -611,8 +615,8 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                     stats[_S_OUTCOME] = _OVERTURN
                     nimp += extra
         stats[_S_NIMP] = nimp
-    return hist[:n] if record else hist[:0], imps[:ni] if record else imps[:0], \
-        upls[:nu, 0] if record else upls[:0, 0], stats
+    return hist[:n] if record else hist[:0], imps[:ni] if events else imps[:0], \
+        upls[:nu, 0] if events else upls[:0, 0], stats
 
 
 @njit(parallel=True, cache=True)
@@ -620,7 +624,7 @@ def _batch(alpha, p, eta, code, a0, w, t_end, dt, lin, energy_mode, t_max, out):
     empty = np.empty(0)
     for i in prange(alpha.size):
         _, _, _, st = _integrate(alpha[i], p[i], eta[i], code[i], a0[i], w[i], t_end[i], empty, empty,
-                                 dt[i], lin, energy_mode, t_max[i], False)
+                                 dt[i], lin, energy_mode, t_max[i], False, 0.0, 0.0, False)
         out[i, :] = st
 
 
@@ -739,7 +743,8 @@ def default_t_max_s(t_pulse_end_s: float, p_rad_s: float) -> float:
 
 
 def solve(block: Block, pulse: Pulse, eta: float, *, dt_s: float = 1e-3, linearized: bool = False,
-          mode: str = "energy", history: bool = True, t_max_s: float | None = None) -> Solution:
+          mode: str = "energy", history: bool = True, t_max_s: float | None = None,
+          theta0_rad: float = 0.0, theta_dot0_rad_s: float = 0.0) -> Solution:
     """Solve one case with the paper's scheme (see the module docstring).
 
     Parameters
@@ -760,6 +765,10 @@ def solve(block: Block, pulse: Pulse, eta: float, *, dt_s: float = 1e-3, lineari
         Keep the samples t, θ, θ̇, θ̈.
     t_max_s : float, optional
         Latest end of the run [s] (after the pulse's end); default :func:`default_t_max_s`.
+    theta0_rad, theta_dot0_rad_s : float
+        Initial rotation [rad] and angular velocity [rad/s] (default: at rest on the base); a
+        non-zero start rocks on the side of ``θ0`` (of ``θ̇0`` when ``θ0 = 0``). For free-rocking
+        checks; |θ0| must stay below π/2 − 0.01.
 
     Returns
     -------
@@ -770,10 +779,14 @@ def solve(block: Block, pulse: Pulse, eta: float, *, dt_s: float = 1e-3, lineari
     eta = _check_eta(eta)
     code, a0, w, t_end, tk, ak = pulse.kernel_spec()
     t_max = _check_t_max(t_max_s, t_end, block.p_rad_s)
+    th0, thd0 = float(theta0_rad), float(theta_dot0_rad_s)
+    if not (math.isfinite(th0) and math.isfinite(thd0) and abs(th0) < _FLAT):
+        raise ConfigError(f"the initial state must be finite with |θ0| < {_FLAT:.4f} rad, got θ0 = {theta0_rad!r}, "
+                          f"θ̇0 = {theta_dot0_rad_s!r}.")
     hist, imps, upls, st = _integrate(block.alpha_rad, block.p_rad_s, eta, int(code), float(a0),
                                       float(w), float(t_end), np.ascontiguousarray(tk, dtype=float),
                                       np.ascontiguousarray(ak, dtype=float), dt, bool(linearized),
-                                      energy_mode, t_max, bool(history))
+                                      energy_mode, t_max, bool(history), th0, thd0, True)
     common = dict(impacts=np.array(imps), uplifts=np.array(upls), t_pulse_end_s=float(t_end), eta=eta, dt_s=dt,
                   mode=mode, linearized=bool(linearized), n_steps=int(st[_S_STEPS]), n_newton=int(st[_S_NEWTON]))
     if history:

@@ -1,0 +1,182 @@
+"""``rockbench simulate``: one case through one engine (CLI.md).
+
+Everything the user typed is checked before anything runs or is written; files are written
+atomically (a temporary file in the same folder, then a rename).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ...engines.base import CellResult
+from ...engines.registry import get_adapter
+from ...reference_solver.errors import ConfigError, RockbenchError
+from ...reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from ...reference_solver.solver import MODES
+from ..cases import add_case_options, case_from_args, engine_settings_from_args
+
+
+def register(sub) -> None:
+    p = sub.add_parser("simulate", help="one simulation: outcome, impacts, θ(t) history and plot")
+    add_case_options(p)
+    p.add_argument("--mode", default=None, help="reference only: energy (default; decide at the pulse's end) "
+                   "| to-rest (integrate until rest or overturn)")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.add_argument("--history", metavar="FILE.csv", default=None,
+                   help="write t_s,theta_rad,theta_dot_rad_s[,theta_ddot_rad_s2] to FILE.csv")
+    p.add_argument("--plot", metavar="FILE.png", default=None, help="draw θ(t), the impacts and the pulse to FILE.png")
+    p.set_defaults(func=run)
+
+
+def _check_output(path: str | None, suffix: str, option: str) -> Path | None:
+    if path is None:
+        return None
+    p = Path(path)
+    if p.suffix.lower() != suffix:
+        raise ConfigError(f"{option} must name a {suffix} file, got {path!r}.")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise ConfigError(f"{option}: the folder {str(parent)!r} does not exist; create it or choose another path.")
+    if p.is_dir():
+        raise ConfigError(f"{option}: {path!r} is a folder; give a file name.")
+    return p
+
+
+def _atomic_write(path: Path, write) -> None:
+    """Call ``write(tmp_path)`` then rename onto ``path``; nothing is left behind on failure."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; give it a normal file's mode
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _num(x):
+    if x is None:
+        return None
+    x = float(x)
+    return None if math.isnan(x) else x
+
+
+def run(args) -> int:
+    case, preset = case_from_args(args)
+    settings = engine_settings_from_args(args)
+    if args.mode is not None:
+        if args.engine != "reference":
+            raise ConfigError(f"--mode applies to the reference engine only, got --engine {args.engine}.")
+        if args.mode not in MODES:
+            raise ConfigError(f"--mode must be energy or to-rest, got {args.mode!r}.")
+        settings["mode"] = args.mode
+    if case.linearized and args.engine != "reference":
+        raise ConfigError(f"--linearized applies to the reference engine only, got --engine {args.engine}.")
+    hist_path = _check_output(args.history, ".csv", "--history")
+    plot_path = _check_output(args.plot, ".png", "--plot")
+    adapter = get_adapter(args.engine, **settings)
+    dt = adapter.dt_for(case)
+
+    t0 = time.perf_counter()
+    try:
+        tr = adapter.simulate(case)
+    except RockbenchError:
+        raise
+    except Exception as e:  # noqa: BLE001 - the engine failed: reported as a failed cell
+        tr = None
+        res = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
+    else:
+        res = adapter._judge(case, tr, time.perf_counter() - t0)
+
+    block, pulse = case.block, case.pulse
+    out = {
+        "outcome": res.outcome, "n_impacts": res.n_impacts, "max_abs_theta_rad": _num(res.max_abs_theta_rad),
+        "t_overturn_s": _num(res.t_overturn_s) if res.outcome == "overturn" else None,
+        "t_uplift_s": _num(res.t_uplift_s), "eta": case.eta, "alpha_rad": block.alpha_rad,
+        "p_rad_s": block.p_rad_s, "omega_rad_s": _num(pulse.omega_rad_s), "amplitude_mps2": pulse.amplitude_mps2,
+        "w_ratio": None if pulse.omega_rad_s is None else omega_to_w_ratio(block, pulse.omega_rad_s),
+        "a_ratio": amplitude_to_a_ratio(block, pulse.amplitude_mps2), "engine": adapter.name,
+        "valid": res.valid, "flags": list(res.flags), "block": block.name, "pulse": pulse.kind,
+        "restitution": case.restitution.label, "linearized": case.linearized, "dt_s": dt,
+        "mode": adapter.settings.get("mode") if adapter.name == "reference" else None,
+        "t_pulse_end_s": pulse.duration_s,
+        "impacts": (res.diagnostics or {}).get("impacts", []),
+        "uplifts_s": (res.diagnostics or {}).get("uplifts_s"),
+        "message": res.message,
+    }
+
+    if tr is not None and hist_path is not None:
+        cols = [("t_s", tr.t_s), ("theta_rad", tr.theta_rad), ("theta_dot_rad_s", tr.theta_dot_rad_s)]
+        if tr.theta_ddot_rad_s2 is not None:
+            cols.append(("theta_ddot_rad_s2", tr.theta_ddot_rad_s2))
+
+        def write_csv(tmp):
+            buf = io.StringIO()
+            w = csv.writer(buf, lineterminator="\n")
+            w.writerow([c for c, _ in cols])
+            for row in zip(*(np.asarray(v) for _, v in cols)):
+                w.writerow([repr(float(x)) for x in row])
+            Path(tmp).write_text(buf.getvalue())
+        _atomic_write(hist_path, write_csv)
+        out["history"] = str(hist_path)
+    if tr is not None and plot_path is not None:
+        from ..plots.history import plot_history
+
+        title = (f"{block.name}, {pulse.kind}"
+                 + (f", ω/p = {out['w_ratio']:.3g}" if out["w_ratio"] is not None else "")
+                 + f", a₀/(g·tanα) = {out['a_ratio']:.3g}, η = {case.eta:.4f}: {res.outcome}")
+        drawn = plot_history(tr.t_s, tr.theta_rad, impacts=[d["t_s"] for d in out["impacts"]], pulse=pulse,
+                             alpha_rad=block.alpha_rad, t_pulse_end_s=pulse.duration_s, title=title,
+                             label=f"θ(t), {adapter.name}")
+        _atomic_write(plot_path, lambda tmp: drawn["figure"].savefig(tmp, format="png", dpi=120))
+        out["plot"] = str(plot_path)
+
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    _print_text(out)
+    return 0
+
+
+def _print_text(o: dict) -> None:
+    lines = [f"{o['engine']}: {o['block']} (α = {o['alpha_rad']:.4f} rad, p = {o['p_rad_s']:.3f} rad/s), "
+             f"{o['pulse']} pulse" + (f" ω = {o['omega_rad_s']:.4g} rad/s (ω/p = {o['w_ratio']:.4g})"
+                                      if o["omega_rad_s"] is not None else "")
+             + f", a₀ = {o['amplitude_mps2']:.4g} m/s² (a₀/(g·tanα) = {o['a_ratio']:.4g})",
+             f"restitution {o['restitution']}: η = {o['eta']:.4f}; Δt = {o['dt_s']:g} s"
+             + (f", mode {o['mode']}" if o["mode"] else "") + (", linearised" if o["linearized"] else "")]
+    if o["outcome"] is None:
+        lines.append(f"FAILED: {o['message']}")
+    else:
+        line = f"outcome: {o['outcome']}, {o['n_impacts']} impact(s), max |θ| = {o['max_abs_theta_rad']:.4f} rad"
+        if o["t_uplift_s"] is not None:
+            line += f", uplift at {o['t_uplift_s']:.4f} s"
+        if o["t_overturn_s"] is not None:
+            line += f", |θ| passed α at {o['t_overturn_s']:.4f} s"
+        lines.append(line)
+        for d in o["impacts"][:10]:
+            lines.append(f"  impact at {d['t_s']:.5f} s: θ̇ {d['theta_dot_minus_rad_s']:+.4f} → "
+                         f"{d['theta_dot_plus_rad_s']:+.4f} rad/s")
+        if len(o["impacts"]) > 10:
+            lines.append(f"  ... {len(o['impacts']) - 10} more")
+    if not o["valid"]:
+        lines.append(f"not valid: flags {', '.join(o['flags'])}")
+    for k in ("history", "plot"):
+        if k in o:
+            lines.append(f"{k}: {o[k]}")
+    print("\n".join(lines))

@@ -1,0 +1,420 @@
+"""Where a map's cells run: in this process, in local worker processes, or on a Dask cluster.
+
+Every executor takes a list of ``(key, Case)`` and calls ``on_results([(key, CellResult), ...])``
+as cells finish; the map is the same cell for cell whichever executor runs it (adapters must not
+depend on batching, contract item 6).
+
+- :class:`SerialExecutor`: this process, one batch after another. No time limit and no protection
+  from an engine that crashes the process: for debugging and for trusted in-process batches.
+- :class:`ProcessExecutor` (the default): ``jobs`` worker processes
+  (:mod:`rockbench.benchmark.worker`), kept for the whole map. A cell past its time limit gets its
+  worker killed and is recorded as ``timeout``; a worker that dies (a segfault in the engine)
+  records its current cell as ``crashed``; the other cells of the chunk run again on a fresh
+  worker. Batching adapters get whole chunks in one ``run_many`` call; if such a batch fails,
+  times out or crashes, its cells are rerun one by one so only the culprit is recorded as failed.
+- :class:`DaskExecutor`: ``--scheduler ADDRESS`` (an existing cluster) or ``local`` (a
+  ``LocalCluster`` on 127.0.0.1). Each Dask task runs its chunk in a short-lived worker process
+  (a :class:`ProcessExecutor` with one job), so time limits and crash isolation hold there too.
+
+Worker processes get ``NUMBA_NUM_THREADS``/``OMP_NUM_THREADS`` = cores / jobs (unless set), so
+``jobs`` processes with natively parallel batches do not oversubscribe the cores.
+"""
+
+from __future__ import annotations
+
+import collections
+import itertools
+import math
+import os
+import queue
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Callable
+
+from ..engines.base import CellResult
+from ..reference_solver.errors import ConfigError, EngineError
+from . import worker as wire
+
+#: Seconds to wait for a Dask scheduler before giving up.
+CONNECT_TIMEOUT_S = 5.0
+
+_THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def cpu_count() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def worker_init(engine: str, settings: dict) -> dict:
+    """What a worker process needs to rebuild the adapter: engine, settings, the registry
+    entries added in this process (as ``"module:Class"`` strings) and ``sys.path``."""
+    from ..engines import registry
+
+    extra = {}
+    for name, target in registry._extra.items():
+        extra[name] = f"{target.__module__}:{target.__qualname__}" if isinstance(target, type) else str(target)
+    return {"engine": engine, "settings": dict(settings), "registry": extra,
+            "sys_path": [p for p in sys.path if p and os.path.isdir(p)]}
+
+
+def make_executor(engine: str, settings: dict, *, jobs: int | None = None, scheduler: str | None = None,
+                  serial: bool = False, log_path=None):
+    """The executor for the CLI's ``--jobs``/``--scheduler``/``--serial`` choice.
+
+    Raises
+    ------
+    ConfigError
+        ``jobs`` < 1, ``serial`` with a scheduler, or an unreachable scheduler.
+    """
+    if jobs is not None and (not isinstance(jobs, int) or jobs < 1):
+        raise ConfigError(f"--jobs must be a whole number >= 1, got {jobs!r}.")
+    if serial and scheduler:
+        raise ConfigError("--serial runs in this process; drop --scheduler (or --serial).")
+    init = worker_init(engine, settings)
+    if serial:
+        return SerialExecutor(init)
+    if scheduler:
+        return DaskExecutor(init, scheduler, jobs=jobs)
+    return ProcessExecutor(init, jobs=jobs or cpu_count(), log_path=log_path)
+
+
+def _chunks(items: list, n_chunks: int, max_size: int | None = None) -> list[list]:
+    n_chunks = max(1, min(n_chunks, len(items)))
+    size = math.ceil(len(items) / n_chunks)
+    if max_size:
+        size = max(1, min(size, max_size))
+    return [items[k:k + size] for k in range(0, len(items), size)]
+
+
+def _run_in_process(adapter, items, batch: bool) -> list:
+    """Run ``items`` with ``adapter`` here; a failing batch falls back to one cell at a time."""
+    if batch:
+        try:
+            rs = adapter.run_many([c for _, c in items])
+            return [(k, wire._strip(r)) for (k, _), r in zip(items, rs)]
+        except Exception:  # noqa: BLE001 - find the culprit cell by cell
+            pass
+    out = []
+    for k, c in items:
+        t0 = time.perf_counter()
+        try:
+            r = adapter.run_many([c])[0]
+        except Exception as e:  # noqa: BLE001 - recorded per cell, the map goes on
+            r = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
+        out.append((k, wire._strip(r)))
+    return out
+
+
+class SerialExecutor:
+    """Cells in this process (whole batches for batching adapters: one ``run_many`` per round)."""
+
+    def __init__(self, init: dict):
+        from ..engines.registry import get_adapter
+        self.init = init
+        self.adapter = get_adapter(init["engine"], **init["settings"])
+        self.log_path = None
+
+    def describe(self) -> dict:
+        return {"kind": "serial", "jobs": 1}
+
+    def run(self, items, on_results, *, cell_timeout_s: float, batch: bool) -> None:
+        for chunk in ([items] if batch else _chunks(items, len(items), 64)):
+            on_results(_run_in_process(self.adapter, chunk, batch))
+
+    def close(self) -> None:
+        pass
+
+
+class _Chunk:
+    _ids = itertools.count()
+
+    def __init__(self, items, batch: bool):
+        self.id = next(self._ids)
+        self.items = list(items)
+        self.batch = batch
+        self.remaining = dict(self.items)
+
+
+class _Worker:
+    def __init__(self, init: dict, env: dict, log, q: queue.Queue):
+        self.proc = subprocess.Popen([sys.executable, "-m", "rockbench.benchmark.worker"], stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, stderr=log if log is not None else subprocess.DEVNULL,
+                                     env=env)
+        self.ready = False
+        self.chunk: _Chunk | None = None
+        self.current = None          # key of the cell running (per-cell mode)
+        self.deadline = math.inf
+        self.killed: str | None = None
+        self.dead = False
+        self.init_error: str | None = None
+        wire.send(self.proc.stdin, ("init", init))
+        threading.Thread(target=self._read, args=(q,), daemon=True).start()
+
+    def _read(self, q):
+        out = self.proc.stdout
+        while True:
+            try:
+                msg = wire.recv(out)
+            except Exception:  # noqa: BLE001 - a torn message means the process died mid-write
+                msg = None
+            if msg is None:
+                q.put((self, ("eof",)))
+                return
+            q.put((self, msg))
+
+    def give(self, chunk: _Chunk, cell_timeout_s: float) -> None:
+        self.chunk = chunk
+        self.current = None
+        items = [(k, chunk.remaining[k]) for k, _ in chunk.items if k in chunk.remaining]
+        self.deadline = time.monotonic() + cell_timeout_s * len(items) if chunk.batch else math.inf
+        wire.send(self.proc.stdin, ("chunk", chunk.id, items, chunk.batch))
+
+    def kill(self, why: str) -> None:
+        if self.killed is None:
+            self.killed = why
+            try:
+                self.proc.kill()
+            except OSError:
+                pass
+
+    def stop(self) -> None:
+        try:
+            if self.proc.poll() is None:
+                wire.send(self.proc.stdin, ("stop",))
+                self.proc.stdin.close()
+                self.proc.wait(timeout=5)
+        except (OSError, ValueError, subprocess.TimeoutExpired):
+            self.proc.kill()
+            self.proc.wait()
+
+
+def _death_reason(code: int | None) -> str:
+    if code is not None and code < 0:
+        try:
+            return f"the worker process died with signal {signal.Signals(-code).name}"
+        except ValueError:
+            return f"the worker process died with signal {-code}"
+    return f"the worker process exited with code {code}"
+
+
+class ProcessExecutor:
+    """``jobs`` worker processes; time limits and crash isolation per cell (module docstring)."""
+
+    #: how many times in a row a fresh worker may fail to start before the map stops
+    MAX_START_FAILURES = 3
+
+    def __init__(self, init: dict, jobs: int, log_path=None, threads_per_worker: int | None = None):
+        self.init = init
+        self.jobs = max(1, int(jobs))
+        self.log_path = log_path
+        self._log = None
+        self.workers: list[_Worker] = []
+        self.q: queue.Queue = queue.Queue()
+        tpw = threads_per_worker or max(1, cpu_count() // self.jobs)
+        self.env = dict(os.environ)
+        for v in _THREAD_VARS:
+            self.env.setdefault(v, str(tpw))
+        self._start_failures = 0
+
+    def describe(self) -> dict:
+        return {"kind": "processes", "jobs": self.jobs}
+
+    def _spawn(self) -> _Worker:
+        if self._log is None and self.log_path is not None:
+            self._log = open(Path(self.log_path), "ab")
+        w = _Worker(self.init, self.env, self._log, self.q)
+        self.workers.append(w)
+        return w
+
+    def run(self, items, on_results: Callable, *, cell_timeout_s: float, batch: bool) -> None:
+        if not items:
+            return
+        if batch:
+            chunks = [_Chunk(c, True) for c in _chunks(items, 4 * self.jobs)]
+        else:
+            chunks = [_Chunk(c, False) for c in _chunks(items, 4 * self.jobs, 64)]
+        pending = collections.deque(chunks)
+        busy = 0
+        while len(self.workers) < min(self.jobs, len(pending)):
+            self._spawn()
+        while pending or busy:
+            for w in self.workers:
+                if w.ready and w.chunk is None and not w.dead and pending:
+                    w.give(pending.popleft(), cell_timeout_s)
+                    busy += 1
+            try:
+                w, msg = self.q.get(timeout=0.05)
+            except queue.Empty:
+                w, msg = None, None
+            if msg is not None:
+                kind = msg[0]
+                if kind == "ready":
+                    w.ready = True
+                    self._start_failures = 0
+                elif kind == "init-error":
+                    w.init_error = msg[1]
+                elif kind == "start":
+                    w.current = msg[1]
+                    w.deadline = time.monotonic() + cell_timeout_s
+                elif kind == "result":
+                    self._deliver(w.chunk, [(msg[1], msg[2])], on_results)
+                    w.current = None
+                elif kind == "results":
+                    self._deliver(w.chunk, msg[2], on_results)
+                elif kind == "batch-failed":
+                    pending.appendleft(_Chunk(list(w.chunk.remaining.items()), False))
+                    w.chunk.remaining.clear()
+                elif kind == "done":
+                    w.chunk, w.current, w.deadline = None, None, math.inf
+                    busy -= 1
+                elif kind == "eof":
+                    busy -= self._bury(w, pending, on_results)
+            now = time.monotonic()
+            for w in self.workers:
+                if w.chunk is not None and not w.dead and now > w.deadline:
+                    w.kill("timeout")
+            if pending and not any(not w.dead for w in self.workers):
+                self._spawn()
+            elif pending and sum(not w.dead for w in self.workers) < min(self.jobs, len(pending) + busy):
+                self._spawn()
+
+    def _deliver(self, chunk: _Chunk | None, pairs, on_results) -> None:
+        if chunk is None:
+            return
+        fresh = [(k, r) for k, r in pairs if chunk.remaining.pop(k, None) is not None]
+        if fresh:
+            on_results(fresh)
+
+    def _bury(self, w: _Worker, pending, on_results) -> int:
+        """Handle a worker whose output ended; returns 1 if it held a chunk (no longer busy)."""
+        w.dead = True
+        try:
+            code = w.proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            w.proc.kill()
+            code = w.proc.wait()
+        self.workers.remove(w)
+        if not w.ready:
+            self._start_failures += 1
+            if w.init_error:
+                from ..reference_solver.errors import ConfigError as _CE, EngineUnavailableError
+                if w.init_error.startswith(("ConfigError", "EngineUnavailableError")):
+                    err = EngineUnavailableError if w.init_error.startswith("EngineUnavailable") else _CE
+                    raise err(w.init_error.split(": ", 1)[-1])
+                raise EngineError(f"a worker could not start the engine {self.init['engine']!r}: {w.init_error}")
+            if self._start_failures >= self.MAX_START_FAILURES:
+                raise EngineError(f"worker processes for engine {self.init['engine']!r} keep dying at start "
+                                  f"({_death_reason(code)}); see {self.log_path or 'their stderr'}.")
+            return 0
+        chunk = w.chunk
+        if chunk is None:
+            return 0
+        if w.current is not None and w.current in chunk.remaining and not chunk.batch:
+            key = w.current
+            if w.killed == "timeout":
+                r = CellResult.failed("timeout", "the cell ran past the per-cell time limit and was stopped")
+            else:
+                r = CellResult.failed("crashed", _death_reason(code))
+            self._deliver(chunk, [(key, r)], on_results)
+        if chunk.remaining:
+            # the rest of the chunk (all of it for a batch) runs again, one cell at a time
+            pending.appendleft(_Chunk(list(chunk.remaining.items()), False))
+        return 1
+
+    def close(self) -> None:
+        for w in list(self.workers):
+            w.stop()
+        self.workers.clear()
+        if self._log is not None:
+            self._log.close()
+            self._log = None
+
+
+def _dask_task(init: dict, items: list, batch: bool, cell_timeout_s: float) -> list:
+    """One Dask task: run a chunk in a fresh worker process on the Dask worker's machine."""
+    ex = ProcessExecutor(init, jobs=1, threads_per_worker=1)
+    out: list = []
+    try:
+        ex.run(items, out.extend, cell_timeout_s=cell_timeout_s, batch=batch)
+    finally:
+        ex.close()
+    return out
+
+
+class DaskExecutor:
+    """Chunks as Dask tasks on a cluster (``address``) or on a LocalCluster on loopback (``"local"``)."""
+
+    def __init__(self, init: dict, address: str, jobs: int | None = None):
+        import logging
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError as e:  # pragma: no cover - a declared dependency
+            from ..reference_solver.errors import EngineUnavailableError
+            raise EngineUnavailableError(f"--scheduler needs dask[distributed] ({e}); pip install 'dask[distributed]'.")
+        self.init = init
+        self.address = address
+        self.cluster = None
+        self.log_path = None
+        if address == "local":
+            n = jobs or min(cpu_count(), 2) or 1
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                        dashboard_address=None, silence_logs=logging.ERROR)
+            self.client = Client(self.cluster, timeout=CONNECT_TIMEOUT_S)
+        else:
+            if "://" not in address and ":" not in address:
+                raise ConfigError(f"--scheduler takes a Dask scheduler address such as tcp://host:8786 or 'local', "
+                                  f"got {address!r}.")
+            _probe(address)
+            try:
+                self.client = Client(address, timeout=CONNECT_TIMEOUT_S)
+            except Exception as e:  # noqa: BLE001 - any failure to connect is the user's address
+                msg = " ".join(str(e).split())[:200]
+                raise ConfigError(f"cannot reach the Dask scheduler at {address!r} within {CONNECT_TIMEOUT_S:g} s "
+                                  f"({type(e).__name__}: {msg}); start it (dask scheduler) or use --scheduler "
+                                  "local.") from None
+        self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})) or (jobs or 1))
+
+    def describe(self) -> dict:
+        return {"kind": "dask", "scheduler": self.address, "workers": self.n_workers}
+
+    def run(self, items, on_results, *, cell_timeout_s: float, batch: bool) -> None:
+        from dask.distributed import as_completed
+        if not items:
+            return
+        chunks = _chunks(items, 4 * self.n_workers, None if batch else 256)
+        futs = [self.client.submit(_dask_task, self.init, c, batch, cell_timeout_s, pure=False) for c in chunks]
+        try:
+            for fut in as_completed(futs):
+                on_results(fut.result())
+        finally:
+            for f in futs:
+                f.cancel()
+
+    def close(self) -> None:
+        try:
+            self.client.close()
+        finally:
+            if self.cluster is not None:
+                self.cluster.close()
+
+
+def _probe(address: str) -> None:
+    """Fail at once (not after Dask's retries) when nothing listens at a tcp:// address."""
+    import socket
+    from urllib.parse import urlsplit
+
+    u = urlsplit(address if "://" in address else "tcp://" + address)
+    if u.scheme not in ("tcp", "tls") or not u.hostname or u.port is None:
+        return   # other transports (inproc, ucx, ws) are left to Dask
+    try:
+        socket.create_connection((u.hostname, u.port), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as e:
+        raise ConfigError(f"cannot reach the Dask scheduler at {address!r} ({e.strerror or e}); start it "
+                          "(dask scheduler) or use --scheduler local.") from None

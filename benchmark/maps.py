@@ -1,0 +1,570 @@
+"""Stability maps: a grid over frequency and amplitude, one simulation per cell (issue 3).
+
+A map is described by a :class:`MapSpec` (block, pulse kind, restitution, engine, the two axes) and
+computed by :func:`run_map` into a run directory (see :mod:`rockbench.benchmark.store`): every
+finished cell is appended to ``cells.csv`` at once, so an interrupted map resumes where it stopped.
+:func:`load_map` reads a run directory back into a :class:`MapResult`.
+
+Grid layout: ``outcome[i, j]`` is the cell with amplitude index ``i`` (vertical axis, a₀/(g·tanα))
+and frequency index ``j`` (horizontal axis, ω/p), the way the paper's stability graphs are drawn.
+The axes may be given in normalised units (``w_ratio`` = ω/p, ``a_ratio`` = a₀/(g·tanα)) or in
+physical ones (``omega_rad_s`` [rad/s]; ``amplitude_mps2`` [m/s^2] or ``amplitude_g`` [g]); both
+are stored for every cell. Each axis holds ``n`` values from ``lo`` to ``hi`` inclusive, evenly
+spaced in the unit it was given in.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..engines.base import Case, CellResult
+from ..reference_solver.classify import OUTCOME_CODES, Outcome
+from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import G, Block
+from ..reference_solver.pulses import MIN_STEPS_PER_WAVE, make_pulse
+from ..reference_solver.restitution import Restitution
+
+#: Pulse kinds a map accepts (a record has no frequency to sweep).
+MAP_PULSES = ("sine", "cosine", "half-sine")
+
+#: Horizontal-axis units: option name → unit label.
+X_AXES = {"w_ratio": "ω/p [-]", "omega_rad_s": "ω [rad/s]"}
+#: Vertical-axis units.
+Y_AXES = {"a_ratio": "a0/(g·tanα) [-]", "amplitude_mps2": "a0 [m/s^2]", "amplitude_g": "a0 [g]"}
+#: The CLI option of each axis unit (for messages).
+AXIS_OPTION = {"w_ratio": "--w-ratio", "omega_rad_s": "--omega", "a_ratio": "--a-ratio",
+               "amplitude_mps2": "--amplitude", "amplitude_g": "--amplitude-g"}
+
+#: Outcome codes in a map's grids: the classifier's codes plus these two.
+FAILED = -1
+MISSING = -2
+
+#: Memory a map holds per cell while it runs (grids, the row written, the case) [bytes]; with
+#: :data:`MAX_CELLS` it bounds what ``--w-ratio``/``--a-ratio`` may ask for.
+BYTES_PER_CELL = 2048
+#: Largest number of cells in one map (4 million = 2000 × 2000).
+MAX_CELLS = 4_000_000
+
+#: Default per-cell wall-time limit [s] (engines with tiny time steps need seconds per cell).
+DEFAULT_CELL_TIMEOUT_S = 120.0
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One axis of a map: ``n`` values from ``lo`` to ``hi`` inclusive in the unit ``name``.
+
+    Attributes
+    ----------
+    name : str
+        ``w_ratio``, ``omega_rad_s`` (horizontal) or ``a_ratio``, ``amplitude_mps2``,
+        ``amplitude_g`` (vertical).
+    lo, hi : float
+        First and last value, in that unit (> 0, ``lo < hi`` unless ``n == 1``).
+    n : int
+        Number of values (≥ 1).
+    """
+
+    name: str
+    lo: float
+    hi: float
+    n: int
+
+    def values(self) -> np.ndarray:
+        """The axis values in its own unit."""
+        return np.linspace(self.lo, self.hi, self.n)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "lo": self.lo, "hi": self.hi, "n": self.n}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Axis":
+        return cls(str(d["name"]), float(d["lo"]), float(d["hi"]), int(d["n"]))
+
+
+def parse_range(option: str, text: str, name: str) -> Axis:
+    """Parse ``LO:HI:N`` given to ``option`` into an :class:`Axis` in unit ``name``.
+
+    Raises
+    ------
+    ConfigError
+        Malformed text, non-numbers, values ≤ 0, a reversed or empty range, or N < 1.
+    """
+    parts = str(text).split(":")
+    if len(parts) != 3:
+        raise ConfigError(f"{option} takes LO:HI:N (N values from LO to HI inclusive), got {text!r}; "
+                          f"e.g. {option} 1:10:100.")
+    try:
+        lo, hi = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise ConfigError(f"{option} LO and HI must be numbers, got {text!r}; e.g. {option} 1:10:100.") from None
+    try:
+        n = int(parts[2])
+    except ValueError:
+        raise ConfigError(f"{option} N must be a whole number of points, got {parts[2]!r} in {text!r}.") from None
+    return make_axis(option, name, lo, hi, n)
+
+
+def make_axis(option: str, name: str, lo: float, hi: float, n: int) -> Axis:
+    """A checked :class:`Axis` (see :func:`parse_range` for the rules)."""
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0 or hi <= 0:
+        raise ConfigError(f"{option} LO and HI must be finite numbers > 0, got {lo:g}:{hi:g}.")
+    if n < 1:
+        raise ConfigError(f"{option} needs at least one point, got N = {n}.")
+    if hi < lo:
+        raise ConfigError(f"{option} range is reversed ({lo:g} > {hi:g}); give LO:HI:N with LO < HI.")
+    if hi == lo and n > 1:
+        raise ConfigError(f"{option} range {lo:g}:{hi:g} is empty but asks for {n} points; "
+                          "give LO < HI, or N = 1 for a single value.")
+    if n == 1 and hi != lo:
+        raise ConfigError(f"{option} asks for one point between {lo:g} and {hi:g}; give N >= 2, or LO = HI.")
+    return Axis(name, float(lo), float(hi), int(n))
+
+
+@dataclass(frozen=True)
+class MapSpec:
+    """What a map computes; two runs with equal ``to_dict()`` are the same map.
+
+    Attributes
+    ----------
+    block : Block
+        The block.
+    pulse : str
+        ``sine``, ``cosine`` or ``half-sine``.
+    restitution : Restitution
+        The restitution law.
+    x, y : Axis
+        Horizontal (frequency) and vertical (amplitude) axes.
+    engine : str
+        Registry name of the engine.
+    engine_settings : dict
+        Settings passed to the adapter (only those given by the user).
+    dt_s : float or None
+        Time step [s] (None: the engine's default).
+    linearized : bool
+        Linearised equation of motion (reference only).
+    """
+
+    block: Block
+    pulse: str
+    restitution: Restitution
+    x: Axis
+    y: Axis
+    engine: str = "reference"
+    engine_settings: dict = field(default_factory=dict, hash=False, compare=False)
+    dt_s: float | None = None
+    linearized: bool = False
+
+    def __post_init__(self):
+        if self.pulse not in MAP_PULSES:
+            raise ConfigError(f"a map needs a harmonic pulse to sweep ({', '.join(MAP_PULSES)}), got "
+                              f"--pulse {self.pulse!r}; use `rockbench simulate` for a record.")
+        if self.x.name not in X_AXES:
+            raise ConfigError(f"the horizontal axis must be one of {', '.join(X_AXES)}, got {self.x.name!r}.")
+        if self.y.name not in Y_AXES:
+            raise ConfigError(f"the vertical axis must be one of {', '.join(Y_AXES)}, got {self.y.name!r}.")
+        cells = self.x.n * self.y.n
+        if cells > MAX_CELLS:
+            raise ConfigError(f"a {self.y.n}×{self.x.n} map has {cells:,} cells, more than the {MAX_CELLS:,} "
+                              f"one map may hold; use fewer points (e.g. 2000×2000) or split the range.")
+        need = cells * BYTES_PER_CELL
+        avail = _available_memory_bytes()
+        if avail is not None and need > 0.5 * avail:
+            raise ConfigError(f"a {self.y.n}×{self.x.n} map needs about {need / 2**30:.1f} GiB of memory, more than "
+                              f"half of the {avail / 2**30:.1f} GiB available; use fewer points.")
+        if self.dt_s is not None:
+            # the finest wave of the map must still get MIN_STEPS_PER_WAVE steps: refuse before any work
+            omega_max = float(self.omegas().max())
+            period = (math.pi if self.pulse == "half-sine" else 2.0 * math.pi) / omega_max
+            if self.dt_s > period / MIN_STEPS_PER_WAVE:
+                raise ConfigError(f"--dt {self.dt_s:g} s is too coarse for the highest frequency of this map "
+                                  f"(ω = {omega_max:.4g} rad/s): use --dt <= {period / MIN_STEPS_PER_WAVE:.3g} s "
+                                  "or a lower frequency range.")
+
+    # -- the grid -----------------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(n_amplitudes, n_frequencies)``: rows are amplitudes, columns frequencies."""
+        return (self.y.n, self.x.n)
+
+    @property
+    def n_cells(self) -> int:
+        return self.x.n * self.y.n
+
+    @functools.cached_property
+    def _omegas(self) -> np.ndarray:
+        v = self.x.values()
+        return v * self.block.p_rad_s if self.x.name == "w_ratio" else v
+
+    @functools.cached_property
+    def _amplitudes(self) -> np.ndarray:
+        v = self.y.values()
+        if self.y.name == "a_ratio":
+            return v * G * math.tan(self.block.alpha_rad)
+        return v * G if self.y.name == "amplitude_g" else v
+
+    @functools.cached_property
+    def _w_ratios(self) -> np.ndarray:
+        v = self.x.values()
+        return v if self.x.name == "w_ratio" else v / self.block.p_rad_s
+
+    @functools.cached_property
+    def _a_ratios(self) -> np.ndarray:
+        v = self.y.values()
+        return v if self.y.name == "a_ratio" else self._amplitudes / (G * math.tan(self.block.alpha_rad))
+
+    # the axis arrays are computed once per spec (a 200×200 map asks for them 40 000 times); copies
+    # go out so no caller can change the spec's own
+    def omegas(self) -> np.ndarray:
+        """ω of each column [rad/s]."""
+        return self._omegas.copy()
+
+    def amplitudes(self) -> np.ndarray:
+        """a₀ of each row [m/s^2]."""
+        return self._amplitudes.copy()
+
+    def w_ratios(self) -> np.ndarray:
+        """ω/p of each column [-]."""
+        return self._w_ratios.copy()
+
+    def a_ratios(self) -> np.ndarray:
+        """a₀/(g·tanα) of each row [-]."""
+        return self._a_ratios.copy()
+
+    @property
+    def eta(self) -> float:
+        return self.restitution.eta(self.block.alpha_rad)
+
+    def case(self, i: int, j: int) -> Case:
+        """The case of cell ``(i, j)`` (amplitude row ``i``, frequency column ``j``)."""
+        pulse = make_pulse(self.pulse, float(self.amplitudes()[i]), float(self.omegas()[j]))
+        return Case(self.block, pulse, self.restitution, self.dt_s, self.linearized)
+
+    def cases(self, cells) -> list[Case]:
+        """The cases of many cells ``[(i, j), ...]`` (axis values computed once)."""
+        amp, om = self._amplitudes, self._omegas
+        return [Case(self.block, make_pulse(self.pulse, float(amp[i]), float(om[j])), self.restitution,
+                     self.dt_s, self.linearized) for i, j in cells]
+
+    # -- persistence --------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        return {"engine": self.engine, "engine_settings": dict(sorted(self.engine_settings.items())),
+                "block": self.block.to_dict(), "pulse": self.pulse, "restitution": self.restitution.to_dict(),
+                "eta": self.eta, "x": self.x.to_dict(), "y": self.y.to_dict(), "dt_s": self.dt_s,
+                "linearized": self.linearized}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "MapSpec":
+        return cls(Block.from_dict(d["block"]), d["pulse"], Restitution.from_dict(d["restitution"]),
+                   Axis.from_dict(d["x"]), Axis.from_dict(d["y"]), d.get("engine", "reference"),
+                   dict(d.get("engine_settings") or {}), d.get("dt_s"), bool(d.get("linearized", False)))
+
+    def identity(self) -> dict:
+        """The fields that make two maps the same (derived numbers excluded), JSON-comparable."""
+        d = self.to_dict()
+        b = d["block"]
+        d["block"] = {k: b[k] for k in ("name", "width_m", "height_m", "depth_m", "mass_kg")}
+        d.pop("eta")
+        return _jsonable(d)
+
+    def label(self) -> str:
+        """Short text: ``reference B3M sine housner``."""
+        return f"{self.engine} {self.block.name} {self.pulse} {self.restitution.label}"
+
+
+@dataclass
+class MapResult:
+    """A computed (or loaded) map.
+
+    Attributes
+    ----------
+    spec : MapSpec
+        What was computed.
+    outcome : ndarray of int8, shape ``spec.shape``
+        Outcome codes (:data:`~rockbench.reference_solver.classify.OUTCOME_CODES`: 0 rest,
+        1 rocking, 2 overturn), :data:`FAILED` (-1) for a failed cell, :data:`MISSING` (-2) for a
+        cell neither simulated nor inferred (an unfinished run).
+    simulated : ndarray of bool
+        True where the cell was simulated; adaptive maps infer the others.
+    n_impacts : ndarray of int32
+        Impacts up to the decision [-]; -1 where not simulated.
+    max_abs_theta_rad : ndarray of float
+        Largest |θ| [rad]; NaN where not simulated.
+    valid : ndarray of bool
+        False where the engine broke the model's assumptions or failed.
+    failures : list of dict
+        ``{"i", "j", "flag", "message"}`` of each failed cell.
+    adaptive : bool
+        Whether unsimulated cells were inferred by adaptive refinement.
+    coarse_stride : int
+        The adaptive coarse grid's spacing in cells (1 for a full map).
+    wall_s : float
+        Wall time of the run that produced it [s] (0 when loaded).
+    """
+
+    spec: MapSpec
+    outcome: np.ndarray
+    simulated: np.ndarray
+    n_impacts: np.ndarray
+    max_abs_theta_rad: np.ndarray
+    valid: np.ndarray
+    failures: list = field(default_factory=list)
+    adaptive: bool = False
+    coarse_stride: int = 1
+    wall_s: float = 0.0
+
+    @property
+    def w_ratio(self) -> np.ndarray:
+        """ω/p of each column [-]."""
+        return self.spec.w_ratios()
+
+    @property
+    def a_ratio(self) -> np.ndarray:
+        """a₀/(g·tanα) of each row [-]."""
+        return self.spec.a_ratios()
+
+    @property
+    def n_simulated(self) -> int:
+        return int(self.simulated.sum())
+
+    @property
+    def fraction_simulated(self) -> float:
+        """Simulated cells over all cells [-]."""
+        return self.n_simulated / self.spec.n_cells
+
+    @property
+    def complete(self) -> bool:
+        return not bool((self.outcome == MISSING).any())
+
+    def counts(self) -> dict:
+        """Cells per outcome (``rest``, ``rocking``, ``overturn``, ``failed``, ``missing``)."""
+        codes = {o.value: OUTCOME_CODES[o] for o in Outcome}
+        codes.update(failed=FAILED, missing=MISSING)
+        return {name: int((self.outcome == c).sum()) for name, c in codes.items()}
+
+    def summary(self) -> dict:
+        """JSON-ready summary (what ``rockbench map --json`` prints)."""
+        return {"engine": self.spec.engine, "block": self.spec.block.name, "pulse": self.spec.pulse,
+                "restitution": self.spec.restitution.label, "eta": self.spec.eta,
+                "shape": list(self.spec.shape), "n_cells": self.spec.n_cells, "n_simulated": self.n_simulated,
+                "fraction_simulated": self.fraction_simulated, "adaptive": self.adaptive,
+                "complete": self.complete, "counts": self.counts(), "n_failed": len(self.failures),
+                "wall_s": self.wall_s}
+
+
+def empty_result(spec: MapSpec) -> MapResult:
+    """A result with every cell :data:`MISSING`."""
+    shape = spec.shape
+    return MapResult(spec, np.full(shape, MISSING, np.int8), np.zeros(shape, bool), np.full(shape, -1, np.int32),
+                     np.full(shape, np.nan), np.zeros(shape, bool))
+
+
+def outcome_code(r: CellResult) -> int:
+    """The grid code of a cell result (:data:`FAILED` for a failed one)."""
+    if r.status != "ok" or r.outcome is None:
+        return FAILED
+    return OUTCOME_CODES[Outcome(r.outcome)]
+
+
+def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str | None = None,
+            serial: bool = False, adaptive: bool = False, coarse_stride: int | None = None,
+            cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S, progress: bool | None = None,
+            plot: bool = True, log: Callable[[str], None] | None = None) -> MapResult:
+    """Compute a map into ``out_dir``, resuming whatever a previous run of the same spec finished.
+
+    Parameters
+    ----------
+    spec : MapSpec
+        The map.
+    out_dir : path
+        The run directory (created; must be empty, or hold a run of the same spec).
+    jobs : int, optional
+        Worker processes (default: all cores) or, with ``scheduler="local"``, Dask workers.
+    scheduler : str, optional
+        A Dask scheduler address (``tcp://host:8786``), or ``"local"`` for a LocalCluster on
+        127.0.0.1; None runs on local processes.
+    serial : bool
+        Run in this process, one batch after another (no time limit, no crash isolation).
+    adaptive : bool
+        Simulate a coarse grid and refine only where neighbours disagree
+        (:mod:`rockbench.benchmark.adaptive`).
+    coarse_stride : int, optional
+        Spacing of the adaptive coarse grid in cells (default
+        :data:`~rockbench.benchmark.adaptive.DEFAULT_STRIDE`).
+    cell_timeout_s : float
+        Wall-time limit of one cell [s]; a cell past it is recorded as failed (``timeout``).
+    progress : bool, optional
+        Progress bar on stderr; default: when stderr is a terminal.
+    plot : bool
+        Draw ``map.png`` at the end.
+    log : callable, optional
+        Receives one-line notes (resumed cells, ...).
+
+    Returns
+    -------
+    MapResult
+    """
+    from ..engines.registry import get_adapter
+    from . import adaptive as adaptive_mod
+    from .executors import make_executor
+    from .store import RunStore
+
+    if not (isinstance(cell_timeout_s, (int, float)) and math.isfinite(cell_timeout_s) and cell_timeout_s > 0):
+        raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {cell_timeout_s!r}.")
+    stride = adaptive_mod.DEFAULT_STRIDE if coarse_stride is None else int(coarse_stride)
+    if stride < 1:
+        raise ConfigError(f"the coarse stride must be a whole number >= 1, got {coarse_stride!r}.")
+    if not adaptive:
+        stride = 1
+    adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
+    t0 = time.perf_counter()
+    executor = make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=scheduler, serial=serial,
+                             log_path=None)
+    store = RunStore(out_dir)
+    try:
+        done = store.open(spec, adapter, options={"adaptive": adaptive, "coarse_stride": stride,
+                                                  "cell_timeout_s": cell_timeout_s, "executor": executor.describe()})
+        if done and log:
+            log(f"resuming {out_dir}: {len(done)} cells already done")
+        executor.log_path = store.dir / "workers.log"
+        result = empty_result(spec)
+        result.adaptive, result.coarse_stride = adaptive, stride
+        for (i, j), row in done.items():
+            _put(result, i, j, row)
+        key = adaptive_mod.regime_key(result.outcome, result.n_impacts)   # what adaptive neighbours compare
+        show = (sys.stderr.isatty() if progress is None else progress)
+        bar = _Progress(show, spec.label())
+
+        def evaluate(cells: list[tuple[int, int]]) -> None:
+            todo = [c for c in cells if not result.simulated[c]]
+            if not todo:
+                return
+            bar.add(len(todo))
+            cases = spec.cases(todo)
+
+            def on_results(pairs):
+                rows = []
+                for k, r in pairs:
+                    i, j = todo[k]
+                    row = store.row(spec, i, j, r)
+                    rows.append(row)
+                    _put(result, i, j, row)
+                    o = int(result.outcome[i, j])   # regime_key for one cell, without numpy's scalar overhead
+                    key[i, j] = 2 + 10 * min(max(int(result.n_impacts[i, j]), 0), 3) if o == 2 else o
+                store.append(rows)
+                bar.update(len(pairs))
+
+            executor.run(list(enumerate(cases)), on_results, cell_timeout_s=cell_timeout_s,
+                         batch=_is_batching(adapter))
+
+        if adaptive:
+            adaptive_mod.refine(key, result.simulated, evaluate, stride)
+        else:
+            evaluate([(i, j) for i in range(spec.y.n) for j in range(spec.x.n)])
+        bar.close()
+        if adaptive:
+            adaptive_mod.fill(result.outcome, result.simulated, stride)
+        result.wall_s = time.perf_counter() - t0
+        result.failures = store.failures()
+        store.finish(result.summary())
+    finally:
+        executor.close()
+        store.close()
+    if plot:
+        from .plots.stability import plot_map_png
+        plot_map_png(result, Path(out_dir) / "map.png")
+    return result
+
+
+def load_map(out_dir) -> MapResult:
+    """Read a run directory written by :func:`run_map` back into a :class:`MapResult`.
+
+    Adaptive maps get their inferred cells back by the same fill rule that produced them.
+
+    Raises
+    ------
+    ConfigError
+        When the directory holds no map (no ``run.json``) or a map of another schema.
+    """
+    from . import adaptive as adaptive_mod
+    from .store import read_run
+
+    meta, rows = read_run(out_dir)
+    spec = MapSpec.from_dict(meta["spec"])
+    result = empty_result(spec)
+    opts = meta.get("options", {})
+    result.adaptive = bool(opts.get("adaptive", False))
+    result.coarse_stride = int(opts.get("coarse_stride", 1))
+    for (i, j), row in rows.items():
+        _put(result, i, j, row)
+    if result.adaptive:
+        adaptive_mod.fill(result.outcome, result.simulated, result.coarse_stride)
+    result.failures = [{"i": i, "j": j, "flag": r["flags"], "message": r["message"]}
+                       for (i, j), r in sorted(rows.items()) if r["status"] != "ok"]
+    result.wall_s = float((meta.get("summary") or {}).get("wall_s", 0.0))
+    return result
+
+
+# -- helpers ----------------------------------------------------------------------------------
+def _put(result: MapResult, i: int, j: int, row: dict) -> None:
+    ok = row["status"] == "ok" and row["outcome"] not in ("", None)
+    result.outcome[i, j] = OUTCOME_CODES[Outcome(row["outcome"])] if ok else FAILED
+    result.simulated[i, j] = True
+    result.n_impacts[i, j] = int(row["n_impacts"]) if ok else -1
+    result.max_abs_theta_rad[i, j] = float(row["max_abs_theta_rad"]) if ok else math.nan
+    result.valid[i, j] = ok and str(row["valid"]).lower() in ("true", "1")
+
+
+def _is_batching(adapter) -> bool:
+    """Whether the adapter runs many cases at once natively (contract item 6): hand it big batches."""
+    from ..engines.base import EngineAdapter
+    cls = type(adapter)
+    return cls._simulate_many is not EngineAdapter._simulate_many or cls.run_many is not EngineAdapter.run_many
+
+
+def _available_memory_bytes() -> int | None:
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # not every platform reports it
+        return None
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    return x
+
+
+class _Progress:
+    """A tqdm bar on stderr whose total grows as adaptive rounds add cells; silent when disabled."""
+
+    def __init__(self, show: bool, desc: str):
+        self.bar = None
+        if show:
+            from tqdm import tqdm
+            self.bar = tqdm(total=0, desc=desc, unit="cell", file=sys.stderr, dynamic_ncols=True)
+
+    def add(self, n: int) -> None:
+        if self.bar is not None:
+            self.bar.total += n
+            self.bar.refresh()
+
+    def update(self, n: int) -> None:
+        if self.bar is not None:
+            self.bar.update(n)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()

@@ -1,0 +1,342 @@
+"""The results store of a map: one run directory (STYLE.md "Data and files").
+
+``DIR/run.json``
+    schema version, UTC times, rockbench version, git commit and dirty flag, Python, platform, the
+    engine's name, version, settings and resolved settings (``adapter.describe()``,
+    ``adapter.resolve()``), the sweep spec, run options and, once finished, a summary. Always
+    written atomically (a temporary file, then ``os.replace``).
+``DIR/cells.csv``
+    one row per simulation (:data:`COLUMNS`), appended and flushed as cells finish, each row
+    written whole with one ``write`` call. A ``kill -9`` can at worst leave a torn last line; it is
+    cut off when the directory is opened again, so the rerun neither recomputes finished cells nor
+    writes duplicates.
+``DIR/map.png``
+    the picture (drawn by :mod:`rockbench.benchmark.plots.stability`).
+
+A directory holding another map (a different spec) is refused; a second process writing the same
+directory at the same time is refused too (an advisory lock on ``DIR/.lock``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+from datetime import datetime, timezone
+from pathlib import Path
+
+from ..reference_solver.errors import ConfigError, IncomparableError
+
+#: Version of the run-directory layout; bumped when columns or run.json keys change meaning.
+SCHEMA_VERSION = 1
+
+#: The columns of cells.csv, in order (CLI.md's required ones first).
+COLUMNS = ["engine", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2",
+           "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags", "status", "message", "wall_s",
+           "t_overturn_s", "t_uplift_s", "i", "j"]
+
+
+def utc_now() -> str:
+    return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def git_info() -> dict:
+    """``{"commit", "dirty"}`` of the source tree rockbench runs from (None when not a git checkout)."""
+    here = Path(__file__).resolve().parent
+    try:
+        commit = subprocess.run(["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True, text=True,
+                                timeout=10)
+        if commit.returncode != 0:
+            return {"commit": None, "dirty": None}
+        status = subprocess.run(["git", "-C", str(here), "status", "--porcelain", "--untracked-files=no"],
+                                capture_output=True, text=True, timeout=10)
+        return {"commit": commit.stdout.strip(), "dirty": bool(status.stdout.strip())}
+    except (OSError, subprocess.SubprocessError):
+        return {"commit": None, "dirty": None}
+
+
+def rockbench_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("rockbench")
+    except PackageNotFoundError:
+        return "source"
+
+
+def write_json_atomic(path: Path, data: dict) -> None:
+    """Write JSON to ``path`` through a temporary file in the same folder and ``os.replace``."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(data, f, indent=2, default=_json_default)
+            f.write("\n")
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _json_default(x):
+    import numpy as np
+    if isinstance(x, (np.floating, np.integer, np.bool_)):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return str(x)
+
+
+def _fmt(x) -> str:
+    t = type(x)
+    if t is float:
+        return repr(x)   # round-trips exactly
+    if t is str:
+        return x
+    if x is None:
+        return ""
+    if t is bool:
+        return "true" if x else "false"
+    return str(x)
+
+
+class RunStore:
+    """Writes one map's run directory (see the module docstring)."""
+
+    def __init__(self, out_dir):
+        self.dir = Path(out_dir)
+        self._csv = None
+        self._lock = None
+        self._meta: dict | None = None
+        self._failures: list[dict] = []
+
+    # -- opening ------------------------------------------------------------------------------
+    def open(self, spec, adapter, options: dict) -> dict:
+        """Create or reopen the directory for ``spec``; returns the rows already done by cell ``(i, j)``.
+
+        Raises
+        ------
+        ConfigError
+            The directory holds another map, is not a map directory, or is being written by
+            another process.
+        """
+        d = self.dir
+        if d.exists() and not d.is_dir():
+            raise ConfigError(f"--out {str(d)!r} is a file; give a directory for the map.")
+        run_json = d / "run.json"
+        if d.exists() and any(p.name != ".lock" for p in d.iterdir()) and not run_json.exists():
+            raise ConfigError(f"--out {str(d)!r} exists and is not a rockbench map directory (no run.json); "
+                              "give a new or empty directory.")
+        previous = None
+        if run_json.exists():
+            previous = _read_json(run_json)
+            _check_schema(previous, d)
+            if previous.get("spec_identity") != spec.identity():
+                diff = _differences(previous.get("spec_identity") or {}, spec.identity())
+                raise ConfigError(f"{str(d)!r} already holds a different map (differs in {diff}); give another "
+                                  "--out directory, or delete this one to start over.")
+        d.mkdir(parents=True, exist_ok=True)
+        self._take_lock()
+        describe = adapter.describe()
+        try:
+            resolved = adapter.resolve(spec.block, spec.restitution)
+        except Exception as e:  # noqa: BLE001 - recorded, not fatal: the cells will show the failure
+            resolved = {"error": f"{type(e).__name__}: {e}"}
+        meta = {
+            "schema_version": SCHEMA_VERSION,
+            "kind": "rockbench-map",
+            "created_utc": previous.get("created_utc") if previous else utc_now(),
+            "updated_utc": utc_now(),
+            "rockbench_version": rockbench_version(),
+            "git": git_info(),
+            "python": sys.version.split()[0],
+            "platform": platform.platform(),
+            "machine": {"cpu_count": os.cpu_count(), "processor": platform.processor() or platform.machine()},
+            "engine": {**describe, "resolved_settings": resolved},
+            "spec": spec.to_dict(),
+            "spec_identity": spec.identity(),
+            "options": options,
+            "runs": (previous.get("runs", []) if previous else []) + [{"started_utc": utc_now()}],
+            "summary": None,
+        }
+        if previous and previous.get("engine", {}).get("version") != describe.get("version"):
+            meta["engine_version_changed"] = {"before": previous.get("engine", {}).get("version"),
+                                              "now": describe.get("version")}
+        self._meta = meta
+        write_json_atomic(run_json, meta)
+        done = self._recover_csv()
+        self._csv = open(d / "cells.csv", "a", newline="")
+        if self._csv.tell() == 0:
+            self._write_line(COLUMNS)
+        return done
+
+    def _take_lock(self) -> None:
+        import fcntl
+        self._lock = open(self.dir / ".lock", "w")
+        try:
+            fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self._lock.close()
+            self._lock = None
+            raise ConfigError(f"another rockbench process is writing {str(self.dir)!r}; wait for it to finish "
+                              "or give another --out.") from None
+
+    def _recover_csv(self) -> dict:
+        """Read the finished rows, cutting off a torn last line; returns ``{(i, j): row}``."""
+        path = self.dir / "cells.csv"
+        if not path.exists():
+            return {}
+        data = path.read_bytes()
+        keep = data.rfind(b"\n") + 1      # a row is only complete with its newline
+        rows, good = _parse_rows(data[:keep].decode("utf-8"), path)
+        if good != len(data):
+            with open(path, "r+b") as f:
+                f.truncate(good)
+        for r in rows.values():
+            if r["status"] != "ok":
+                self._failures.append(r)
+        return rows
+
+    # -- writing ------------------------------------------------------------------------------
+    def row(self, spec, i: int, j: int, r) -> dict:
+        """The cells.csv row of cell ``(i, j)`` with result ``r`` (a CellResult)."""
+        if getattr(self, "_spec_cache", (None,))[0] is not spec:
+            self._spec_cache = (spec, spec.block.name, spec.restitution.label, spec.eta)
+        _, bname, rlabel, eta = self._spec_cache
+        return {"engine": spec.engine, "block": bname, "pulse": spec.pulse,
+                "restitution": rlabel, "eta": eta, "w_ratio": float(spec._w_ratios[j]),
+                "a_ratio": float(spec._a_ratios[i]), "omega_rad_s": float(spec._omegas[j]),
+                "amplitude_mps2": float(spec._amplitudes[i]),
+                "outcome": r.outcome or "", "n_impacts": int(r.n_impacts), "max_abs_theta_rad": r.max_abs_theta_rad,
+                "valid": bool(r.valid), "flags": ";".join(r.flags), "status": r.status,
+                "message": " ".join(str(r.message).split()), "wall_s": float(r.wall_s),
+                "t_overturn_s": r.t_overturn_s, "t_uplift_s": r.t_uplift_s, "i": int(i), "j": int(j)}
+
+    def append(self, rows: list[dict]) -> None:
+        """Append rows and flush them to the operating system (survives ``kill -9``)."""
+        if not rows:
+            return
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        lines = []
+        for r in rows:
+            fields = [_fmt(r[c]) for c in COLUMNS]
+            if r["message"] or any(("," in f or '"' in f) for f in fields[:4]):
+                w.writerow(fields)          # needs csv quoting
+                lines.append(buf.getvalue())
+                buf.seek(0)
+                buf.truncate()
+            else:
+                lines.append(",".join(fields) + "\n")
+            if r["status"] != "ok":
+                self._failures.append({k: _fmt(v) for k, v in r.items()})
+        # one write per row batch; each row ends with its newline, so a kill leaves whole rows
+        # plus at most one torn line, which the next open cuts off
+        self._csv.write("".join(lines))
+        self._csv.flush()
+
+    def _write_line(self, cells: list[str]) -> None:
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerow(cells)
+        self._csv.write(buf.getvalue())
+        self._csv.flush()
+
+    def failures(self) -> list[dict]:
+        return [{"i": int(r["i"]), "j": int(r["j"]), "flag": r["flags"], "message": r["message"]}
+                for r in self._failures]
+
+    def finish(self, summary: dict) -> None:
+        """Record the summary and the end time in run.json (atomically)."""
+        if self._meta is None:
+            return
+        self._meta["updated_utc"] = utc_now()
+        self._meta["runs"][-1]["finished_utc"] = utc_now()
+        self._meta["summary"] = summary
+        write_json_atomic(self.dir / "run.json", self._meta)
+
+    def close(self) -> None:
+        if self._csv is not None:
+            self._csv.close()
+            self._csv = None
+        if self._lock is not None:
+            self._lock.close()
+            self._lock = None
+
+
+# -- reading ----------------------------------------------------------------------------------
+def read_run(out_dir) -> tuple[dict, dict]:
+    """``(run.json as a dict, {(i, j): row})`` of a map directory (a torn last line is ignored)."""
+    d = Path(out_dir)
+    run_json = d / "run.json"
+    if not run_json.exists():
+        raise ConfigError(f"{str(d)!r} holds no map (no run.json); give a directory written by `rockbench map`.")
+    meta = _read_json(run_json)
+    _check_schema(meta, d)
+    path = d / "cells.csv"
+    if not path.exists():
+        return meta, {}
+    data = path.read_bytes()
+    rows, _ = _parse_rows(data[: data.rfind(b"\n") + 1].decode("utf-8"), path)
+    return meta, rows
+
+
+def _parse_rows(text: str, path: Path) -> tuple[dict, int]:
+    """Rows by cell and the byte length of the well-formed prefix (header plus whole rows)."""
+    lines = text.splitlines(keepends=True)
+    if not lines:
+        return {}, 0
+    header = next(csv.reader([lines[0]]))
+    if header != COLUMNS:
+        raise IncomparableError(f"{str(path)!r} has other columns than this rockbench writes; it comes from "
+                                "another version: give a new --out directory.")
+    rows: dict = {}
+    good = len(lines[0].encode())
+    for n, line in enumerate(lines[1:], start=2):
+        vals = next(csv.reader([line]), [])
+        if len(vals) != len(COLUMNS):
+            if n == len(lines):
+                break   # a torn last row that still ended in a newline inside a quoted field
+            raise ConfigError(f"{str(path)!r} line {n} is malformed ({len(vals)} fields, expected {len(COLUMNS)}); "
+                              "the file was edited by hand: give a new --out directory.")
+        r = dict(zip(COLUMNS, vals))
+        rows[(int(r["i"]), int(r["j"]))] = r   # a repeated cell keeps its last row
+        good += len(line.encode())
+    return rows, good
+
+
+def _read_json(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise ConfigError(f"cannot read {str(path)!r} ({e}); give a new --out directory.") from None
+
+
+def _check_schema(meta: dict, d: Path) -> None:
+    if meta.get("kind") != "rockbench-map":
+        raise ConfigError(f"{str(d)!r} is not a rockbench map directory (its run.json is of kind "
+                          f"{meta.get('kind')!r}); give a new or empty directory.")
+    if meta.get("schema_version") != SCHEMA_VERSION:
+        raise IncomparableError(f"{str(d)!r} was written with schema {meta.get('schema_version')}, this rockbench "
+                                f"reads schema {SCHEMA_VERSION}; give a new --out directory.")
+
+
+def _differences(a: dict, b: dict, prefix: str = "") -> str:
+    out = []
+    for k in sorted(set(a) | set(b)):
+        va, vb = a.get(k), b.get(k)
+        if isinstance(va, dict) and isinstance(vb, dict):
+            sub = _differences(va, vb, prefix + k + ".")
+            if sub:
+                out.append(sub)
+        elif va != vb:
+            out.append(f"{prefix}{k}: {va!r} before, {vb!r} now")
+    return "; ".join(out)

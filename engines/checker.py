@@ -1,0 +1,276 @@
+"""A conformance suite for engine adapters, in the spirit of Gymnasium's env checker.
+
+``check_adapter(adapter_or_name)`` runs a dozen short simulations and checks what the contract
+(:mod:`rockbench.engines.base`) promises: the shape and units of the trajectory, the sign
+convention, mirror symmetry, no uplift below the threshold ``g·tanα``, determinism, batches equal
+to single runs, a clean :class:`~rockbench.reference_solver.errors.ConfigError` for a bad case or
+setting, and an overturn where any faithful engine must overturn. Third-party adapters can call it
+in their own CI::
+
+    from rockbench.engines.checker import check_adapter
+    report = check_adapter(MyAdapter())
+    assert report.passed, report.text()
+
+``rockbench check-adapter NAME`` prints the same report (exit 0 passed, 1 a check failed).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import numpy as np
+
+from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import G, Block
+from ..reference_solver.pulses import make_pulse
+from ..reference_solver.restitution import Restitution
+from .base import FLAGS, Case, EngineAdapter
+
+#: The block the checks use by default: B6M of Table 1 (h/b = 4.5).
+DEFAULT_BLOCK = Block(0.045, 0.2025, mass_kg=1.0896, name="B6M")
+
+
+@dataclass
+class CheckResult:
+    """One check: its name, whether it passed, and what was seen."""
+
+    name: str
+    passed: bool
+    detail: str = ""
+    wall_s: float = 0.0
+
+
+@dataclass
+class CheckReport:
+    """All checks of one adapter."""
+
+    engine: str
+    version: str | None
+    checks: list = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def failed(self) -> list:
+        return [c for c in self.checks if not c.passed]
+
+    def to_dict(self) -> dict:
+        return {"engine": self.engine, "version": self.version, "passed": self.passed,
+                "n_checks": len(self.checks), "n_failed": len(self.failed),
+                "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail, "wall_s": c.wall_s}
+                           for c in self.checks]}
+
+    def text(self) -> str:
+        lines = [f"check-adapter {self.engine} (version {self.version}):"]
+        for c in self.checks:
+            lines.append(f"  {'PASS' if c.passed else 'FAIL'}  {c.name:28} {c.detail}")
+        n = len(self.failed)
+        lines.append(f"{len(self.checks) - n} of {len(self.checks)} checks passed" + (f"; {n} failed." if n else "."))
+        return "\n".join(lines)
+
+
+def _case(block: Block, kind: str, w_ratio: float, a_ratio: float, dt_s=None) -> Case:
+    amp = a_ratio * G * math.tan(block.alpha_rad)
+    return Case(block, make_pulse(kind, amp, w_ratio * block.p_rad_s), Restitution(), dt_s)
+
+
+def _mirror(case: Case) -> Case:
+    p = case.pulse
+    return replace(case, pulse=make_pulse(p.kind, -p.amplitude_mps2, p.omega_rad_s))
+
+
+def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport:
+    """Run the conformance suite on an adapter instance or a registered engine name.
+
+    Parameters
+    ----------
+    adapter_or_name : EngineAdapter or str
+        The adapter, or its registry name (instantiated with default settings).
+    block : Block, optional
+        The block to use (default :data:`DEFAULT_BLOCK`, B6M).
+
+    Returns
+    -------
+    CheckReport
+
+    Raises
+    ------
+    ConfigError
+        An unknown engine name.
+    EngineUnavailableError
+        The engine is not installed.
+    """
+    from .registry import get_adapter
+
+    ad: EngineAdapter = get_adapter(adapter_or_name) if isinstance(adapter_or_name, str) else adapter_or_name
+    b = block or DEFAULT_BLOCK
+    try:
+        version = str(ad.version())
+    except Exception as e:  # noqa: BLE001 - reported as a failed check below
+        version = None
+        verr = e
+    rep = CheckReport(ad.name or type(ad).__name__, version)
+    rocking = _case(b, "sine", 4.0, 1.6)
+
+    def run_check(name: str, fn: Callable[[], str]) -> None:
+        t0 = time.perf_counter()
+        try:
+            detail = fn()
+            ok = True
+        except _Fail as e:
+            ok, detail = False, str(e)
+        except Exception as e:  # noqa: BLE001 - any exception is a failed check, reported
+            ok, detail = False, f"raised {type(e).__name__}: {e}"
+        rep.checks.append(CheckResult(name, ok, detail, time.perf_counter() - t0))
+
+    def c_describe():
+        if version is None:
+            raise _Fail(f"version() raised {type(verr).__name__}: {verr}")
+        d = ad.describe()
+        json.dumps(d)
+        s = ad.resolve(b, Restitution())
+        json.dumps(s)
+        if not isinstance(d, dict) or "engine" not in d or "version" not in d:
+            raise _Fail(f"describe() must return a dict with engine and version, got {d!r}")
+        return f"describe() and resolve() are JSON-ready; version {version}"
+
+    def c_bad_setting():
+        try:
+            type(ad)(__no_such_setting__=1)
+        except ConfigError:
+            return "an unknown setting raises ConfigError"
+        raise _Fail("an unknown setting was accepted; it must raise ConfigError (contract item 2)")
+
+    def c_shape():
+        tr = ad.simulate(rocking)
+        t, th, thd = (np.asarray(x) for x in (tr.t_s, tr.theta_rad, tr.theta_dot_rad_s))
+        if not (t.ndim == th.ndim == thd.ndim == 1 and t.shape == th.shape == thd.shape and t.size >= 2):
+            raise _Fail(f"t_s, theta_rad, theta_dot_rad_s must be 1-D of one length >= 2, got {t.shape}, "
+                        f"{th.shape}, {thd.shape}")
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(th)) and np.all(np.isfinite(thd))):
+            raise _Fail("non-finite samples in a plain rocking case")
+        if abs(t[0]) > 1e-9:
+            raise _Fail(f"samples must start at t = 0 s, got {t[0]:g} s")
+        if not np.all(np.diff(t) > 0):
+            raise _Fail("sample times must increase strictly")
+        T = rocking.pulse.duration_s
+        if not math.isclose(tr.t_pulse_end_s, T, rel_tol=0.01, abs_tol=2 * ad.dt_for(rocking)):
+            raise _Fail(f"t_pulse_end_s = {tr.t_pulse_end_s:g} but the pulse lasts {T:g} s (seconds expected)")
+        if t[-1] < T - 2 * ad.dt_for(rocking):
+            raise _Fail(f"the samples end at {t[-1]:g} s, before the pulse does ({T:g} s) (contract item 3)")
+        bad = sorted(set(tr.flags) - set(FLAGS))
+        if bad:
+            raise _Fail(f"unknown flags {bad}; use {', '.join(FLAGS)}")
+        json.dumps(tr.diagnostics)
+        if not (0.0 <= tr.uplift_tol_rad < b.alpha_rad):
+            raise _Fail(f"uplift_tol_rad = {tr.uplift_tol_rad:g} must be in [0, α = {b.alpha_rad:.4f}) rad")
+        return f"{t.size} samples over {t[-1]:.3f} s, pulse {T:.3f} s"
+
+    def c_units():
+        tr = ad.simulate(rocking)
+        t, th, thd = (np.asarray(x, float) for x in (tr.t_s, tr.theta_rad, tr.theta_dot_rad_s))
+        m = float(np.max(np.abs(th)))
+        if m > 0.5 * math.pi + 0.2:
+            raise _Fail(f"max |θ| = {m:.3g} in a rocking case: degrees instead of radians?")
+        if m <= tr.uplift_tol_rad:
+            raise _Fail(f"the block did not rock at a0/(g·tanα) = 1.6, ω/p = 4 (max |θ| = {m:.3g} rad)")
+        grad = np.gradient(th, t)
+        moving = np.abs(thd) > 0.1 * np.max(np.abs(thd))
+        err = np.median(np.abs(grad[moving] - thd[moving])) / np.median(np.abs(thd[moving]))
+        if not err < 0.2:
+            raise _Fail(f"theta_dot_rad_s is not the derivative of theta_rad (median relative mismatch {err:.2f})")
+        return f"max |θ| = {m:.4f} rad, θ̇ matches dθ/dt (median mismatch {100 * err:.1f} %)"
+
+    def c_sign():
+        tr = ad.simulate(rocking)
+        th = np.asarray(tr.theta_rad, float)
+        lifted = np.nonzero(np.abs(th) > max(tr.uplift_tol_rad, 1e-12))[0]
+        if lifted.size == 0:
+            raise _Fail("the block never lifted off in the rocking case")
+        if th[lifted[0]] >= 0:
+            raise _Fail("a positive table acceleration started a positive θ; the contract's convention is the "
+                        "opposite (θ about +y, x along the excitation, z up) (contract item 3)")
+        return "a positive table acceleration starts a negative θ"
+
+    def c_mirror():
+        msgs = []
+        for kind in ("sine", "cosine"):
+            c = _case(b, kind, 4.0, 1.6)
+            r1, r2 = ad.run(c), ad.run(_mirror(c))
+            if (r1.outcome, r1.n_impacts) != (r2.outcome, r2.n_impacts):
+                raise _Fail(f"{kind}: ü gives {r1.outcome} with {r1.n_impacts} impacts, −ü gives {r2.outcome} with "
+                            f"{r2.n_impacts} impacts")
+            if not math.isclose(r1.max_abs_theta_rad, r2.max_abs_theta_rad, rel_tol=0.02, abs_tol=1e-9):
+                raise _Fail(f"{kind}: max |θ| {r1.max_abs_theta_rad:.5g} for ü, {r2.max_abs_theta_rad:.5g} for −ü")
+            t1 = ad.simulate(c)
+            t2 = ad.simulate(_mirror(c))
+            i1 = np.argmax(np.abs(t1.theta_rad) > max(t1.uplift_tol_rad, 1e-12))
+            i2 = np.argmax(np.abs(t2.theta_rad) > max(t2.uplift_tol_rad, 1e-12))
+            if np.sign(t1.theta_rad[i1]) == np.sign(t2.theta_rad[i2]):
+                raise _Fail(f"{kind}: ü and −ü start θ on the same side")
+            msgs.append(f"{kind} {r1.outcome}/{r1.n_impacts}")
+        return "−ü gives −θ (" + ", ".join(msgs) + ")"
+
+    def c_threshold():
+        for kind in ("sine", "cosine"):
+            for w in (1.0, 6.0):
+                r = ad.run(_case(b, kind, w, 0.9))
+                if r.outcome != "rest":
+                    raise _Fail(f"{kind}, ω/p = {w:g}, a0 = 0.9·g·tanα: {r.outcome} (max |θ| = "
+                                f"{r.max_abs_theta_rad:.3g} rad); no uplift is possible below g·tanα")
+        return "rest at a0 = 0.9·g·tanα (sine and cosine, ω/p = 1 and 6)"
+
+    def c_determinism():
+        t1, t2 = ad.simulate(rocking), ad.simulate(rocking)
+        if not (np.array_equal(t1.t_s, t2.t_s) and np.array_equal(t1.theta_rad, t2.theta_rad)):
+            n = min(len(t1.theta_rad), len(t2.theta_rad))
+            d = float(np.max(np.abs(np.asarray(t1.theta_rad[:n]) - np.asarray(t2.theta_rad[:n])))) if n else math.nan
+            raise _Fail(f"two runs of one case differ (max |Δθ| = {d:.3g} rad); results must be reproducible")
+        return "two runs are bit-identical"
+
+    def c_batch():
+        cases = [_case(b, "sine", 4.0, 1.6), _case(b, "cosine", 2.0, 3.0), _case(b, "sine", 1.0, 0.9)]
+        many = ad.run_many(cases)
+        one = [ad.run(c) for c in cases]
+        for k, (m, o) in enumerate(zip(many, one)):
+            if (m.outcome, m.n_impacts, m.status) != (o.outcome, o.n_impacts, o.status) or not math.isclose(
+                    m.max_abs_theta_rad, o.max_abs_theta_rad, rel_tol=1e-9, abs_tol=1e-12):
+                raise _Fail(f"case {k}: run_many gives {m.outcome}/{m.n_impacts}, run gives {o.outcome}/{o.n_impacts} "
+                            "(contract item 6)")
+        return "run_many equals run case by case"
+
+    def c_bad_case():
+        for dt in (-1e-3, 10.0):
+            bad = replace(rocking, dt_s=dt)
+            try:
+                ad.run(bad)
+            except ConfigError:
+                continue
+            except Exception as e:  # noqa: BLE001
+                raise _Fail(f"dt_s = {dt:g} s raised {type(e).__name__}, not ConfigError: {e}") from None
+            raise _Fail(f"dt_s = {dt:g} s was accepted; a bad case must raise ConfigError (use self.dt_for(case))")
+        return "a negative or too coarse time step raises ConfigError"
+
+    def c_overturn():
+        r = ad.run(_case(b, "sine", 1.0, 5.0))
+        if r.outcome != "overturn":
+            raise _Fail(f"one sine wave at ω/p = 1, a0 = 5·g·tanα gave {r.outcome}; every faithful model overturns")
+        return "overturns under a long, strong sine wave (ω/p = 1, a0 = 5·g·tanα)"
+
+    for name, fn in [("describe", c_describe), ("unknown-setting", c_bad_setting), ("trajectory-shape", c_shape),
+                     ("units", c_units), ("sign-convention", c_sign), ("mirror-symmetry", c_mirror),
+                     ("no-uplift-below-threshold", c_threshold), ("determinism", c_determinism),
+                     ("batch-equals-single", c_batch), ("bad-case-config-error", c_bad_case),
+                     ("overturns-when-it-must", c_overturn)]:
+        run_check(name, fn)
+    return rep
+
+
+class _Fail(Exception):
+    """A check's clear failure message."""

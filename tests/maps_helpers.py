@@ -1,0 +1,154 @@
+"""Small adapters for the harness tests, importable by worker processes (they get this folder on
+their ``sys.path`` from the executor).
+
+:class:`AnalyticAdapter` classifies by a known analytic picture in normalised coordinates
+(ω/p, a₀/(g·tanα)): rest below a = 1, overturn above the line a = 1 + 0.8·(ω/p), with two thin
+features the adaptive sweep must not miss: a safe band of half-width 0.05 inside the overturn
+region (a = 2.5 + 0.8·ω/p ± 0.05) and an overturning tongue of half-width 0.06 inside the rocking
+region (a = 1.5 ± 0.06 for ω/p < 6). It returns a synthetic trajectory that the shared classifier
+turns into exactly that outcome, with the contract's sign (a positive table acceleration starts a
+negative θ), so it is mirror-symmetric and deterministic.
+
+The others misbehave on purpose for cells with ω/p above the ``bad_above`` setting.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import time
+
+import numpy as np
+
+from rockbench.engines.base import EngineAdapter, Trajectory
+from rockbench.reference_solver.model import G
+
+
+def analytic_outcome(w: float, a: float) -> str:
+    """The known outcome of the analytic map at ω/p = w, a₀/(g·tanα) = a."""
+    if a <= 1.0:
+        return "rest"
+    if abs(a - (2.5 + 0.8 * w)) < 0.05:
+        return "rocking"
+    if a > 1.0 + 0.8 * w:
+        return "overturn"
+    if abs(a - 1.5) < 0.06 and w < 6.0:
+        return "overturn"
+    return "rocking"
+
+
+def analytic_grid(w_values, a_values) -> np.ndarray:
+    codes = {"rest": 0, "rocking": 1, "overturn": 2}
+    return np.array([[codes[analytic_outcome(w, a)] for w in w_values] for a in a_values], dtype=np.int8)
+
+
+class AnalyticAdapter(EngineAdapter):
+    name = "analytic"
+    module = None
+    SETTINGS = {"sleep_s": 0.0, "bad_above": math.inf}
+    default_dt_s = 1e-3
+
+    def _ratios(self, case):
+        b = case.block
+        w = case.pulse.omega_rad_s / b.p_rad_s
+        a = abs(case.pulse.amplitude_mps2) / (G * math.tan(b.alpha_rad))
+        return round(w, 9), round(a, 9)   # the analytic picture, not round-off, decides a cell on a line
+
+    def _simulate(self, case):
+        self.dt_for(case)   # a bad time step is the user's error: ConfigError
+        if self.settings["sleep_s"]:
+            time.sleep(self.settings["sleep_s"])
+        w, a = self._ratios(case)
+        self._misbehave(w)
+        alpha = case.block.alpha_rad
+        T = case.pulse.duration_s
+        t = np.linspace(0.0, 1.5 * T, 61)
+        sgn = -math.copysign(1.0, case.pulse.amplitude_mps2)
+        out = analytic_outcome(w, a)
+        if out == "rest":
+            th = np.zeros_like(t)
+        elif out == "rocking":
+            th = sgn * 0.5 * alpha * np.sin(np.pi * t / (1.5 * T))
+        else:
+            th = sgn * (0.5 * np.pi) * (t / t[-1]) ** 2
+        thd = np.gradient(th, t)
+        return Trajectory(t, th, thd, T)
+
+    def _misbehave(self, w):
+        pass
+
+
+class BatchAnalyticAdapter(AnalyticAdapter):
+    """The same picture through a native batch (``_simulate_many``)."""
+
+    name = "analytic-batch"
+
+    def _simulate_many(self, cases):
+        return [self._simulate(c) for c in cases]
+
+
+class RaisingAdapter(AnalyticAdapter):
+    name = "raising"
+
+    def _misbehave(self, w):
+        if w > self.settings["bad_above"]:
+            raise RuntimeError(f"engine exploded at w={w:.3f}")
+
+
+class CrashingAdapter(AnalyticAdapter):
+    name = "crashing"
+
+    def _misbehave(self, w):
+        if w > self.settings["bad_above"]:
+            ctypes.string_at(0)   # segfault: the whole process dies
+
+
+class HangingAdapter(AnalyticAdapter):
+    name = "hanging"
+
+    def _misbehave(self, w):
+        if w > self.settings["bad_above"]:
+            time.sleep(3600)
+
+
+class DivergingAdapter(AnalyticAdapter):
+    name = "diverging"
+
+    def _simulate(self, case):
+        tr = super()._simulate(case)
+        w, _ = self._ratios(case)
+        if w > self.settings["bad_above"]:
+            tr.theta_rad[5:] = np.nan
+        return tr
+
+
+class CrashingBatchAdapter(BatchAnalyticAdapter):
+    """A native batch that segfaults when any of its cells is bad (the executor must isolate it)."""
+
+    name = "crashing-batch"
+
+    def _misbehave(self, w):
+        if w > self.settings["bad_above"]:
+            ctypes.string_at(0)
+
+
+class WrongAdapter(AnalyticAdapter):
+    """Breaks the contract: θ in degrees, the wrong sign, and a little noise (not deterministic)."""
+
+    name = "wrong"
+
+    def _simulate(self, case):
+        tr = super()._simulate(case)
+        rng = np.random.default_rng()
+        tr.theta_rad = -np.degrees(tr.theta_rad) + 1e-3 * rng.standard_normal(tr.theta_rad.size)
+        return tr
+
+
+ALL = {c.name: c for c in (AnalyticAdapter, BatchAnalyticAdapter, RaisingAdapter, CrashingAdapter,
+                           HangingAdapter, DivergingAdapter, CrashingBatchAdapter, WrongAdapter)}
+
+
+def register_all():
+    from rockbench.engines import registry
+    for name, cls in ALL.items():
+        registry.register(name, f"{cls.__module__}:{cls.__qualname__}")

@@ -1,0 +1,60 @@
+"""The adapter conformance suite and the engines/check-adapter commands."""
+
+import json
+
+import pytest
+
+import maps_helpers as mh
+from rockbench.benchmark.cli import main
+from rockbench.engines.checker import check_adapter
+
+
+@pytest.fixture(autouse=True)
+def _registered():
+    mh.register_all()
+
+
+def test_a_conforming_adapter_passes():
+    rep = check_adapter("analytic")
+    assert rep.passed, rep.text()
+    assert len(rep.checks) >= 10
+
+
+def test_a_wrong_adapter_fails_with_a_clear_report():
+    rep = check_adapter(mh.WrongAdapter())
+    assert not rep.passed
+    failed = {c.name for c in rep.failed}
+    assert {"units", "determinism", "no-uplift-below-threshold"} <= failed
+    text = rep.text()
+    assert "FAIL  units" in text and "degrees instead of radians" in text and "checks passed;" in text
+
+
+def test_check_adapter_cli_exit_codes(capsys):
+    assert main(["check-adapter", "analytic", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["passed"] and out["n_failed"] == 0
+    assert main(["check-adapter", "wrong"]) == 1
+    assert "FAIL" in capsys.readouterr().out
+    assert main(["check-adapter", "no-such-engine"]) == 2
+    assert "unknown engine" in capsys.readouterr().err
+
+
+def test_check_adapter_unavailable_engine_exit_3(capsys):
+    from rockbench.engines import registry
+    registry.register("ghost", "no_such_module_xyz:Adapter")
+    try:
+        assert main(["check-adapter", "ghost"]) == 3
+    finally:
+        registry.unregister("ghost")
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_engines_command(capsys):
+    assert main(["engines", "--json"]) == 0
+    rows = {r["engine"]: r for r in json.loads(capsys.readouterr().out)}
+    assert rows["analytic"]["available"] and rows["analytic"]["version"]
+    for r in rows.values():
+        assert set(r) >= {"engine", "available", "version", "reason"}
+        assert r["available"] or r["reason"]
+    assert main(["engines"]) == 0
+    assert "analytic" in capsys.readouterr().out

@@ -1,0 +1,115 @@
+"""Executors: the same map whatever runs it; failing, crashing and hanging cells recorded while the
+rest completes; an unreachable scheduler is a clean error within seconds."""
+
+import time
+
+import numpy as np
+import pytest
+
+import maps_helpers as mh
+from rockbench.benchmark.cli import main
+from rockbench.benchmark.executors import DaskExecutor, worker_init
+from rockbench.benchmark.maps import FAILED, MapSpec, load_map, make_axis, run_map
+from rockbench.benchmark.presets import get_preset
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.restitution import Restitution
+
+
+@pytest.fixture(autouse=True)
+def _registered():
+    mh.register_all()
+
+
+def spec(engine, n=16, **settings):
+    return MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 0.5, 8.0, n),
+                   make_axis("--a-ratio", "a_ratio", 0.5, 9.0, n), engine=engine, engine_settings=settings)
+
+
+def truth(s):
+    return mh.analytic_grid(s.w_ratios(), s.a_ratios())
+
+
+@pytest.mark.parametrize("engine", ["analytic", "analytic-batch"])
+def test_serial_equals_processes(tmp_path, engine):
+    s = spec(engine)
+    a = run_map(s, tmp_path / "serial", serial=True, plot=False)
+    b = run_map(s, tmp_path / "proc1", jobs=1, plot=False)
+    c = run_map(s, tmp_path / "proc2", jobs=2, plot=False)
+    assert np.array_equal(a.outcome, truth(s))
+    for r in (b, c):
+        assert np.array_equal(r.outcome, a.outcome)
+        assert np.array_equal(r.n_impacts, a.n_impacts)
+        assert np.array_equal(r.max_abs_theta_rad, a.max_abs_theta_rad)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A real Dask LocalCluster on loopback with two single-threaded worker processes."""
+    import logging
+
+    from dask.distributed import LocalCluster
+    c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                     silence_logs=logging.ERROR)
+    yield c.scheduler_address
+    c.close()
+
+
+def test_dask_equals_serial_and_isolates_crashes(tmp_path, cluster):
+    s = spec("analytic-batch", n=12)
+    ref = run_map(s, tmp_path / "serial", serial=True, plot=False)
+    d = run_map(s, tmp_path / "dask", scheduler=cluster, plot=False)
+    assert np.array_equal(d.outcome, ref.outcome)
+    assert np.array_equal(d.max_abs_theta_rad, ref.max_abs_theta_rad)
+    # a segfaulting engine on Dask: its cells are recorded, the rest equals the truth
+    s2 = spec("crashing", n=4, bad_above=7.5)
+    r = run_map(s2, tmp_path / "dask-crash", scheduler=cluster, plot=False, cell_timeout_s=30)
+    bad = s2.w_ratios() > 7.5
+    assert (r.outcome[:, bad] == FAILED).all()
+    assert np.array_equal(r.outcome[:, ~bad], truth(s2)[:, ~bad])
+    assert {f["flag"] for f in r.failures} == {"crashed"}
+
+
+@pytest.mark.parametrize("engine, flag, text", [
+    ("raising", "engine-error", "RuntimeError: engine exploded"),
+    ("crashing", "crashed", "SIGSEGV"),
+    ("diverging", "diverged", "non-finite"),
+    ("crashing-batch", "crashed", "SIGSEGV"),   # a native batch that segfaults: only its bad cells fail
+])
+def test_bad_cells_are_recorded_and_the_map_goes_on(tmp_path, engine, flag, text):
+    s = spec(engine, n=6, bad_above=7.5)
+    r = run_map(s, tmp_path / "m", jobs=2, plot=False)
+    bad = s.w_ratios() > 7.5
+    assert bad.sum() == 1
+    assert (r.outcome[:, bad] == FAILED).all()
+    assert np.array_equal(r.outcome[:, ~bad], truth(s)[:, ~bad])
+    assert len(r.failures) == 6
+    assert all(f["flag"] == flag and text in f["message"] for f in r.failures)
+    back = load_map(tmp_path / "m")
+    assert np.array_equal(back.outcome, r.outcome)
+    assert not back.valid[:, bad].any()
+
+
+def test_hanging_cell_times_out(tmp_path):
+    s = spec("hanging", n=4, bad_above=7.5)      # one column: four hanging cells
+    t0 = time.monotonic()
+    r = run_map(s, tmp_path / "m", jobs=2, plot=False, cell_timeout_s=1.0)
+    assert time.monotonic() - t0 < 30
+    bad = s.w_ratios() > 7.5
+    assert (r.outcome[:, bad] == FAILED).all()
+    assert {f["flag"] for f in r.failures} == {"timeout"} and len(r.failures) == 4
+    assert np.array_equal(r.outcome[:, ~bad], truth(s)[:, ~bad])
+
+
+def test_unreachable_scheduler_fails_fast():
+    t0 = time.monotonic()
+    with pytest.raises(ConfigError, match="cannot reach the Dask scheduler"):
+        DaskExecutor(worker_init("analytic", {}), "tcp://127.0.0.1:9")
+    assert time.monotonic() - t0 < 15
+
+
+def test_unreachable_scheduler_cli_exit_2(tmp_path, capsys):
+    code = main(["map", "--engine", "analytic", "--block", "B6M", "--w-ratio", "1:5:3", "--a-ratio", "1:4:3",
+                 "--out", str(tmp_path / "m"), "--scheduler", "tcp://127.0.0.1:9", "--json"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "cannot reach the Dask scheduler" in err
+    assert not (tmp_path / "m").exists()       # nothing half-written
