@@ -127,7 +127,9 @@ def test_modified_target_is_reported_not_reached(exudyn):
 
 
 def test_low_friction_is_flagged_slip():
-    ad = get_adapter("exudyn", friction=0.2)
+    # the contact restitution of the Housner calibration, given directly: a calibration at this
+    # friction would only find irregular (sliding) free rocking
+    ad = get_adapter("exudyn", friction=0.2, contact_restitution=0.05)
     res = ad.run(_case("B3M", "sine", 6.0, 3.0))
     assert res.status == "ok", res.message
     assert "slip" in res.flags
