@@ -148,7 +148,7 @@ class RunStore:
         self._take_lock()
         describe = adapter.describe()
         try:
-            resolved = adapter.resolve(spec.block, spec.restitution)
+            resolved = adapter.resolve(spec.block, spec.restitution, dt_s=spec.dt_s)
         except Exception as e:  # noqa: BLE001 - recorded, not fatal: the cells will show the failure
             resolved = {"error": f"{type(e).__name__}: {e}"}
         meta = {

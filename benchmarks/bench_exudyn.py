@@ -147,6 +147,7 @@ def main(argv=None):
 
     import exudyn
 
+    from rockbench.engines.base import uplift_tol_rad
     from rockbench.engines.registry import get_adapter
     from rockbench.reference_solver.restitution import Restitution
 
@@ -166,7 +167,12 @@ def main(argv=None):
             t0 = time.perf_counter()
             ref_res = ref_ad.run_many(cases)
             entry["reference_wall_s"] = time.perf_counter() - t0
+            # the same reference judged with the engines' uplift tolerance: a reference "rocking"
+            # that never lifts by more than 2 % of α counts as rest, as it would for an engine
+            tol = uplift_tol_rad(block)
             ref = [r.outcome for r in ref_res]
+            entry["reference_at_engine_tolerance"] = [
+                "rest" if (r.outcome == "rocking" and r.max_abs_theta_rad <= tol) else r.outcome for r in ref_res]
         except Exception as e:  # noqa: BLE001 - measured without agreement then
             print(f"reference unavailable ({e}); agreement is not measured", file=sys.stderr)
             ref = None
@@ -197,6 +203,9 @@ def main(argv=None):
                    "cells_per_s_cpu_bound": args.jobs / float(np.mean([e[7] for e in ex]))}
             if ref is not None:
                 run.update(summarize(ref, ex, n))
+                at_tol = summarize(entry["reference_at_engine_tolerance"], ex, n)
+                run["agreement_at_engine_tolerance"] = at_tol["agreement"]
+                run["disagree_not_next_to_boundary_at_engine_tolerance"] = at_tol["disagree_not_next_to_boundary"]
             else:
                 run["invalid"] = sum(1 for e in ex if not e[1])
             entry["runs"].append(run)
@@ -220,6 +229,8 @@ def _write(out_dir, record, rows, partial):
 
 def _row(block, pulse, r):
     ag = f"{100 * r['agreement']:.1f} %" if "agreement" in r else "n/a"
+    if "agreement_at_engine_tolerance" in r:
+        ag += f" ({100 * r['agreement_at_engine_tolerance']:.1f} %)"
     agv = f"{100 * r['agreement_on_valid']:.1f} %" if r.get("agreement_on_valid") is not None else "n/a"
     return (f"| {block} {pulse} | {r['settings']} | {r['dt_s']:g} | {ag} | {agv} | "
             f"{r.get('disagree_not_next_to_boundary', 'n/a')} | {r['invalid']} | {r.get('failed', 'n/a')} | "
@@ -231,7 +242,7 @@ def _table(rows, record):
     head = (f"Exudyn {record['exudyn']}, {record['n']}×{record['n']} cells, ω/p ∈ {record['w_ratio']}, "
             f"a₀/(g·tanα) ∈ {record['a_ratio']}, Housner η, {record['jobs']} workers; "
             f"{record['started_utc']} – {record['finished_utc'] or '(running)'}\n\n"
-            "| map | settings | Δt [s] | agreement | agreement (valid cells) | disagreements not next to the "
+            "| map | settings | Δt [s] | agreement (reference judged at the engines' uplift tolerance) | agreement (valid cells) | disagreements not next to the "
             "boundary | invalid | failed | flags | wall [s] | cells/s | CPU s/cell | cells/s if CPU-bound |\n"
             "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     return head + "\n".join(_row(b, p, r) for b, p, r in rows) + "\n"

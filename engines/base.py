@@ -28,7 +28,7 @@ The contract, for a subclass of :class:`EngineAdapter`:
    turns it into a failed :class:`CellResult` with the ``engine-error`` flag, so sweeps go on.
 6. ``_simulate_many(cases)`` may run many cases at once (native batches); the default loops over
    :meth:`_simulate`. Results must not depend on how cases are batched.
-7. ``resolve(block, restitution)`` returns the concrete settings a case will use (for example contact
+7. ``resolve(block, restitution, dt_s)`` returns the concrete settings a case will use (for example contact
    parameters calibrated to reach the restitution's η); they are recorded in run.json.
 8. ``measure_restitution(block, settings)`` and ``calibrate(block, target_eta)`` are optional
    (engines with a contact model implement them; the reference solver does not need them).
@@ -317,8 +317,11 @@ class EngineAdapter:
                 out.append(e)
         return out
 
-    def resolve(self, block: Block, restitution: Restitution) -> dict:
-        """The concrete settings cases of this block and restitution will use (for run.json)."""
+    def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
+        """The concrete settings cases of this block, restitution and time step [s] will use (for run.json).
+
+        ``dt_s`` None means the engine's default step; calibrated settings depend on it.
+        """
         return dict(self.settings)
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,

@@ -17,6 +17,8 @@ from ..reference_solver.errors import ConfigError, EngineUnavailableError
 BUILTIN = {
     "reference": "rockbench.engines.reference_adapter:ReferenceAdapter",
     "exudyn": "rockbench.engines.exudyn_adapter:ExudynAdapter",
+    "mujoco": "rockbench.engines.mujoco_adapter:MujocoAdapter",
+    "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
 }
 
 #: the entry-point group third parties register under

@@ -13,7 +13,7 @@ from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.classify import OUTCOME_CODES, classify
 from rockbench.reference_solver.energy import free_rocking_fate
 from rockbench.reference_solver.errors import ConfigError
-from rockbench.reference_solver.model import G, Block
+from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import RecordPulse, SinePulse, make_pulse
 from rockbench.reference_solver.restitution import Restitution, modified_eta
 from rockbench.reference_solver.solver import _fate, solve, solve_batch
@@ -186,3 +186,14 @@ def test_bad_batch_arguments():
         solve_batch(**ok, dt_s=0.05)
     with pytest.raises(ConfigError):
         solve_batch(**ok, mode="nope")
+
+
+def test_eta_one_rocks_until_the_cap_in_to_rest_mode():
+    # no energy loss: the block never settles, the run ends at t_max_s (and does not hang)
+    a0 = 1.5 * G * math.tan(B3M.alpha_rad)
+    sol = solve(B3M, SinePulse(a0, 6.0 * B3M.p_rad_s), 1.0, mode="to-rest", t_max_s=2.0)
+    assert sol.outcome.value == "rocking"
+    assert 2.0 <= sol.t_s[-1] < 2.0 + 2e-3 and sol.impacts.shape[0] > 5
+    # energy after the pulse stays put at every impact
+    after = sol.impacts[sol.impacts[:, 0] > sol.t_pulse_end_s]
+    np.testing.assert_allclose(np.abs(after[:, 2]), abs(after[0, 2]), rtol=1e-6)

@@ -1,0 +1,765 @@
+"""PyBullet adapter: the rocking block in Bullet's impulse-based (LCP) contact.
+
+The model
+---------
+The block is a box ``b × d × h`` of the case's mass and uniform density. It touches a static box
+(the table, top face at ``z = 0``) through Bullet's own box–box contact: no constraint or impact
+law of ours replaces it, since that contact is what the benchmark measures.
+
+* **Planar** (default, ``planar=True``): the block is the last link of a Featherstone chain
+  fixed to the world: slide x, slide z, hinge y (axis through the centre of mass). The two slider
+  links are massless in effect (1e-6 kg each, no collision shape) and carry the block, so the
+  block has exactly the three in-plane degrees of freedom of the paper's model and nothing holds
+  it but the contact. ``planar=False`` makes it a free 3-D floating body instead.
+* **Anti-slip**: the friction coefficient is 10 (``friction``), the largest Bullet allows: it
+  multiplies the two bodies' coefficients and clamps the product at 10, so the table gets 1 and
+  the block the requested value. Friction 1 lets blocks slide above 3–4 g (DOMAIN.md §8); a
+  rocking block's impacts ask for far more than the static ratio ``ü/g``. Bullet's friction
+  anchors (``friction_anchor``), its no-slip feature that pins a contact point's tangential
+  position while it sticks, are on.
+* **Drives** (``drive``): ``inertial`` (default) adds ``−m·ü(t)`` to every body through the
+  gravity vector ``(−ü, 0, −g)`` (exact for a rigid table, one call per step); ``table`` moves
+  the static table along ``u(t)`` and sets its velocity ``u̇(t)`` every step, which the contact
+  solver needs to drag the block (a position alone does not).
+* **Restitution**: Bullet has no η. ``settings="calibrated"`` (default) runs the contact settings
+  that :meth:`PybulletAdapter.calibrate` found for the case's η (cached on disk, see
+  :mod:`rockbench.engines.calibration`); ``settings="defaults"`` runs Bullet as shipped (its rigid
+  contact, 50 solver iterations), with only the time step and the anti-slip friction set.
+
+End of a run
+------------
+The pulse is simulated whole. Afterwards the run stops at the first of
+
+1. overturn certain: ``|θ| > α`` moving outward after the pulse (the classifier's rule), or the
+   block lying on its side (``|θ| ≥ π/2 − 0.01``) at any time;
+2. trapped: at least ``min_tail_s`` after the pulse, the ideal free-rocking energy
+   ``E = ½θ̇² + p²cos(α − |θ|)`` is below the barrier ``p²`` by more than 5 % of the barrier
+   height ``p²(1 − cos α)``: free rocking only loses energy, so the block can no longer overturn
+   (a block at rest is the extreme case). ``min_tail_s`` is the window in which an energy gain
+   would be caught;
+3. ``tail_s`` after the pulse (a block balancing near ``|θ| = α``): the classifier then judges
+   what it sees (rocking unless it is already moving outward beyond α).
+
+The shared classifier decides the outcome from θ(t); no η is handed to it (``eta_for_tail`` is
+None), since the engine must decide the motion after the pulse by itself.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+from ..reference_solver.classify import FLAT_ANGLE_RAD
+from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import G, Block
+from ..reference_solver.restitution import Restitution
+from . import calibration
+from .base import (CalibrationResult, Case, EngineAdapter, RestitutionMeasurement, Trajectory,
+                   energy_gain_rel, ENERGY_GAIN_TOL, jump_tol_m, slip_tol_m, uplift_tol_rad)
+
+#: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
+BULLET_MAX_FRICTION = 10.0
+
+#: Mass of each of the two slider links of the planar chain [kg]: small enough not to matter
+#: (2e-6 of a 0.5 kg block), large enough to keep the articulated-body inertia well conditioned.
+_SLIDER_MASS_KG = 1e-6
+
+#: Half extents of the table box [m]: wider than any table stroke, thick enough for stiff contact.
+_TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
+
+#: Version of the calibration protocol (free-rocking test and search); part of the cache key.
+CALIBRATION_PROTOCOL = 4
+
+#: Largest spread (standard deviation) of the per-impact η, as a fraction of the target, that a
+#: calibrated setting may show: beyond it the block has no single restitution coefficient [-].
+_CAL_MAX_SPREAD = 0.02
+
+#: Free-rocking test: impacts measured after release [-].
+_CAL_IMPACTS = 4
+
+#: Trapped rule: stop when E < p² − _TRAPPED_MARGIN·p²(1 − cos α) (see the module docstring) [-].
+_TRAPPED_MARGIN = 0.05
+
+
+def _import_pybullet():
+    """Import pybullet without the banner its C code prints at import time.
+
+    The banner ("pybullet build time: ...") goes to file descriptor 2, which would make every
+    one-line CLI error two lines; descriptors 1 and 2 point at /dev/null while the module loads
+    (only the first import prints; later calls return the cached module).
+    """
+    import sys
+
+    if "pybullet" in sys.modules:
+        return sys.modules["pybullet"]
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
+            try:
+                import pybullet
+            finally:
+                _flush_c_stdio()  # anything left in C's stdio buffers goes to /dev/null too
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in saved:
+            os.close(fd)
+    return pybullet
+
+
+def _flush_c_stdio() -> None:
+    try:
+        import ctypes
+        import ctypes.util
+
+        ctypes.CDLL(ctypes.util.find_library("c")).fflush(None)
+    except Exception:  # noqa: BLE001 - no C library to flush: nothing was buffered there
+        pass
+
+
+def _positive_or_none(settings: dict, key: str, unit: str, allow_zero: bool = False) -> None:
+    v = settings.get(key)
+    if v is None:
+        return
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise ConfigError(f"pybullet setting {key!r} must be a number{(' in ' + unit) if unit else ''}, got {v!r}.") from None
+    if not math.isfinite(x) or x < 0.0 or (x == 0.0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ConfigError(f"pybullet setting {key!r} must be a finite number {bound}"
+                          f"{(' ' + unit) if unit else ''}, got {v!r}.")
+    settings[key] = x
+
+
+class _Scene:
+    """One PyBullet DIRECT client and the bodies of one block geometry, reused across cases.
+
+    A case whose geometry (block size, mass, planar or free) and contact settings match the scene's
+    only resets the state; anything else rebuilds the bodies in the same client.
+    """
+
+    def __init__(self):
+        pb = _import_pybullet()
+        self.pb = pb
+        self.cid = pb.connect(pb.DIRECT)
+        self.pid = os.getpid()
+        self.key = None
+        self.table = self.block = None
+        self.block_link = -1
+
+    def alive(self) -> bool:
+        return self.pid == os.getpid() and self.pb.isConnected(physicsClientId=self.cid)
+
+    def build(self, block: Block, planar: bool, breaking_threshold_m: float | None, contact: tuple = ()) -> None:
+        """Create the table and the block (planar chain or free body) if the geometry or the contact changed.
+
+        ``contact`` identifies the contact settings: Bullet cannot switch a compliant contact back to
+        its rigid one, so another contact means new bodies, never a leftover of the previous case.
+        """
+        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, planar, breaking_threshold_m, contact)
+        if key == self.key:
+            return
+        pb, cid = self.pb, self.cid
+        pb.resetSimulation(physicsClientId=cid)
+        if breaking_threshold_m is not None:
+            # must be set before the shapes exist: Bullet copies it into each contact manifold
+            pb.setPhysicsEngineParameter(contactBreakingThreshold=breaking_threshold_m, physicsClientId=cid)
+        tcol = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=_TABLE_HALF_EXTENTS_M, physicsClientId=cid)
+        self.table = pb.createMultiBody(0.0, tcol, -1, [0, 0, -_TABLE_HALF_EXTENTS_M[2]], physicsClientId=cid)
+        b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
+        bcol = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[b / 2, d / 2, h / 2], physicsClientId=cid)
+        if planar:
+            n = 3
+            self.block = pb.createMultiBody(
+                baseMass=0.0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=-1, basePosition=[0, 0, h / 2],
+                linkMasses=[_SLIDER_MASS_KG, _SLIDER_MASS_KG, m], linkCollisionShapeIndices=[-1, -1, bcol],
+                linkVisualShapeIndices=[-1] * n, linkPositions=[[0, 0, 0]] * n,
+                linkOrientations=[[0, 0, 0, 1]] * n, linkInertialFramePositions=[[0, 0, 0]] * n,
+                linkInertialFrameOrientations=[[0, 0, 0, 1]] * n, linkParentIndices=[0, 1, 2],
+                linkJointTypes=[pb.JOINT_PRISMATIC, pb.JOINT_PRISMATIC, pb.JOINT_REVOLUTE],
+                linkJointAxis=[[1, 0, 0], [0, 0, 1], [0, 1, 0]], physicsClientId=cid)
+            # joints of a new multibody carry velocity motors: switch them off, the joints must be free
+            pb.setJointMotorControlArray(self.block, [0, 1, 2], pb.VELOCITY_CONTROL, forces=[0, 0, 0],
+                                         physicsClientId=cid)
+            self.block_link = 2
+            links = (-1, 0, 1, 2)
+        else:
+            self.block = pb.createMultiBody(m, bcol, -1, [0, 0, h / 2], physicsClientId=cid)
+            self.block_link = -1
+            links = (-1,)
+        for j in links:
+            # Bullet damps multibody motion by default (0.04): the model has no damping at all
+            pb.changeDynamics(self.block, j, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
+                              physicsClientId=cid)
+        # a block resting on the table for 2 s would fall asleep and ignore a later pulse
+        pb.changeDynamics(self.block, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
+        self.key = key
+
+    def apply(self, s: dict, dt_s: float) -> None:
+        """Set the contact and solver parameters of ``s`` (a resolved settings dict)."""
+        pb, cid = self.pb, self.cid
+        params: dict[str, Any] = dict(fixedTimeStep=dt_s, numSubSteps=0, numSolverIterations=int(s["solver_iterations"]))
+        if s.get("restitution_coef"):
+            # Bullet applies restitution only above this approach speed (0.2 m/s by default)
+            params["restitutionVelocityThreshold"] = 0.0
+        pb.setPhysicsEngineParameter(physicsClientId=cid, **params)
+        # friction and restitution combine as products: the table carries 1, the block the value
+        common = dict(lateralFriction=1.0, restitution=1.0 if s.get("restitution_coef") else 0.0)
+        blk = dict(lateralFriction=float(s["friction"]), restitution=float(s.get("restitution_coef") or 0.0),
+                   frictionAnchor=1 if s.get("friction_anchor") else 0)
+        if s.get("contact_stiffness") is not None:
+            kp, kd = float(s["contact_stiffness"]), float(s["contact_damping"])
+            common.update(contactStiffness=kp, contactDamping=kd)
+            blk.update(contactStiffness=kp, contactDamping=kd)
+        pb.changeDynamics(self.table, -1, physicsClientId=cid, **common)
+        pb.changeDynamics(self.block, self.block_link, physicsClientId=cid, **blk)
+
+    def place(self, block: Block, planar: bool, theta0: float = 0.0) -> None:
+        """Put the block at rest on the table at angle ``theta0`` (pivoting on the lower corner)
+        and the table at rest at x = 0; clear the contact cache so the case starts fresh."""
+        pb, cid = self.pb, self.cid
+        b, h = block.width_m, block.height_m
+        # lift the block clear and run collision detection once: Bullet then drops the old contact
+        # manifold, so no warm-start impulse of the previous case leaks into this one
+        if planar:
+            pb.resetJointState(self.block, 1, 1.0, 0.0, physicsClientId=cid)
+        else:
+            pb.resetBasePositionAndOrientation(self.block, [0, 0, 1.0 + h / 2], [0, 0, 0, 1], physicsClientId=cid)
+        pb.resetBasePositionAndOrientation(self.table, [0, 0, -_TABLE_HALF_EXTENTS_M[2]], [0, 0, 0, 1],
+                                           physicsClientId=cid)
+        pb.resetBaseVelocity(self.table, [0, 0, 0], [0, 0, 0], physicsClientId=cid)
+        pb.performCollisionDetection(physicsClientId=cid)
+        # centre of mass for a rotation theta0 about the pivot corner (at x = ±b/2, z = 0)
+        s = 1.0 if theta0 >= 0 else -1.0
+        th = abs(theta0)
+        alpha = block.alpha_rad
+        R = block.half_diagonal_m
+        xc = s * (b / 2 - R * math.sin(alpha - th))
+        zc = R * math.cos(alpha - th)
+        if planar:
+            for j, q in ((0, xc), (1, zc - h / 2), (2, theta0)):
+                pb.resetJointState(self.block, j, q, 0.0, physicsClientId=cid)
+        else:
+            quat = pb.getQuaternionFromEuler([0.0, theta0, 0.0])
+            pb.resetBasePositionAndOrientation(self.block, [xc, 0, zc], quat, physicsClientId=cid)
+            pb.resetBaseVelocity(self.block, [0, 0, 0], [0, 0, 0], physicsClientId=cid)
+
+
+_SCENE: _Scene | None = None
+
+
+def _scene() -> _Scene:
+    """This process's one DIRECT client (a forked worker gets its own)."""
+    global _SCENE
+    if _SCENE is None or not _SCENE.alive():
+        _SCENE = _Scene()
+    return _SCENE
+
+
+class PybulletAdapter(EngineAdapter):
+    """The rocking block in PyBullet (see the module docstring for the model and the end of a run).
+
+    Settings
+    --------
+    settings : {"calibrated", "defaults"}
+        Contact settings calibrated to the case's η, or Bullet as shipped.
+    drive : {"inertial", "table"}
+        How the pulse enters (inertial force at the centre of mass, or a moving table).
+    planar : bool
+        Keep the block in the vertical x–z plane (slide x, slide z, hinge y), or a free 3-D body.
+    friction : float
+        Friction coefficient block–table [-], at most 10 (Bullet's clamp).
+    friction_anchor : bool
+        Bullet's friction anchors (pin sticking contact points) [-].
+    solver_iterations : int or None
+        Bullet's solver iterations; None: 30 when calibrated, Bullet's 50 for defaults. The
+        sequential-impulse solver is not fully converged at 30 (a mirrored pulse gives the mirrored
+        θ(t) to about 1e-3 of its peak, against 1e-2 at 20 and 1e-1 at 10; 50 gives 4e-6), and
+        a step costs about 25 % less than at 50.
+    contact_stiffness, contact_damping : float or None
+        Explicit compliant contact [N/m], [N s/m] (give both); overrides calibration.
+    restitution_coef : float or None
+        Bullet's restitution of the block (the table carries 1) [-]; overrides calibration.
+    contact_breaking_threshold : float or None
+        Bullet's contact-breaking distance [m] (its default is 0.02 m).
+    tail_s, min_tail_s : float
+        Longest and shortest simulated time after the pulse [s].
+    """
+
+    name = "pybullet"
+    module = "pybullet"
+    install_hint = "install it with `pip install pybullet` (wheels for Linux, macOS and Windows)."
+    default_dt_s = 5e-4
+    SETTINGS = {
+        "settings": "calibrated",
+        "drive": "inertial",
+        "planar": True,
+        "friction": BULLET_MAX_FRICTION,
+        "friction_anchor": True,
+        "solver_iterations": None,
+        "contact_stiffness": None,
+        "contact_damping": None,
+        "restitution_coef": None,
+        "contact_breaking_threshold": None,
+        "tail_s": 2.0,
+        "min_tail_s": 0.25,
+    }
+    #: the settings that describe the contact (calibration chooses these)
+    CONTACT_KEYS = ("contact_stiffness", "contact_damping", "restitution_coef", "contact_breaking_threshold")
+
+    @classmethod
+    def version(cls) -> str:
+        try:
+            _import_pybullet()
+        except Exception:  # noqa: BLE001 - the base class reports it with the install hint
+            pass
+        super().version()  # raises EngineUnavailableError with the hint when the import fails
+        from importlib.metadata import PackageNotFoundError, version
+        try:
+            return version("pybullet")
+        except PackageNotFoundError:
+            return "unknown"
+
+    # -- settings -----------------------------------------------------------------------------
+    def _validate_settings(self, s: dict) -> None:
+        if s["settings"] not in ("calibrated", "defaults"):
+            raise ConfigError(f"pybullet setting 'settings' must be calibrated or defaults, got {s['settings']!r}.")
+        if s["drive"] not in ("inertial", "table"):
+            raise ConfigError(f"pybullet setting 'drive' must be inertial or table, got {s['drive']!r}.")
+        for key in ("planar", "friction_anchor"):
+            if not isinstance(s[key], bool):
+                raise ConfigError(f"pybullet setting {key!r} must be true or false, got {s[key]!r}.")
+        _positive_or_none(s, "friction", "")
+        if s["friction"] > BULLET_MAX_FRICTION:
+            raise ConfigError(f"pybullet setting 'friction' must be <= {BULLET_MAX_FRICTION:g} (Bullet clamps the "
+                              f"combined coefficient there), got {s['friction']!r}.")
+        _positive_or_none(s, "contact_stiffness", "N/m")
+        _positive_or_none(s, "contact_damping", "N s/m", allow_zero=True)
+        _positive_or_none(s, "restitution_coef", "", allow_zero=True)
+        _positive_or_none(s, "contact_breaking_threshold", "m")
+        _positive_or_none(s, "tail_s", "s")
+        _positive_or_none(s, "min_tail_s", "s", allow_zero=True)
+        if (s["contact_stiffness"] is None) != (s["contact_damping"] is None):
+            raise ConfigError("pybullet settings contact_stiffness and contact_damping go together: give both "
+                              "(Bullet ignores one without the other).")
+        if s["restitution_coef"] is not None and s["restitution_coef"] > 1.0:
+            raise ConfigError(f"pybullet setting 'restitution_coef' must be in [0, 1], got {s['restitution_coef']!r}.")
+        it = s["solver_iterations"]
+        if it is not None:
+            if isinstance(it, bool) or not isinstance(it, (int, float)) or it != int(it) or it < 1:
+                raise ConfigError(f"pybullet setting 'solver_iterations' must be a whole number >= 1, got {it!r}.")
+            s["solver_iterations"] = int(it)
+
+    def _explicit_contact(self) -> bool:
+        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
+
+    def _base_settings(self) -> dict:
+        """Settings without any calibration: Bullet's rigid contact unless given explicitly."""
+        s = dict(self.settings)
+        if s["solver_iterations"] is None:
+            s["solver_iterations"] = 50 if s["settings"] == "defaults" else 30
+        return s
+
+    def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
+        """The concrete settings cases of ``block`` with ``restitution`` run with.
+
+        ``defaults`` or explicit contact settings are used as given; ``calibrated`` looks up (or
+        runs) the calibration for the restitution's η at the time step ``dt_s`` [s].
+        """
+        s = self._base_settings()
+        if s["settings"] == "defaults" or self._explicit_contact():
+            return s
+        cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt_s)
+        s.update(cal.settings)
+        s["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
+                            "eta_std": cal.eta_std, "reached": cal.reached}
+        return s
+
+    # -- simulation ---------------------------------------------------------------------------
+    def _simulate(self, case: Case) -> Trajectory:
+        dt = self.dt_for(case)
+        s = self._resolved_cached(case.block, case.restitution, dt)
+        tr = self._run(case.block, s, dt, case.pulse)
+        # what the contact really gives in free rocking, next to the η the case asked for
+        tr.diagnostics["settings"] = s["settings"]
+        if "calibration" in s:
+            tr.diagnostics["calibration"] = dict(s["calibration"])
+        return tr
+
+    def _resolved_cached(self, block: Block, restitution: Restitution, dt: float) -> dict:
+        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, restitution.eta(block.alpha_rad), dt)
+        memo = self.__dict__.setdefault("_memo", {})
+        if key not in memo:
+            memo[key] = self.resolve(block, restitution, dt_s=dt)
+        return memo[key]
+
+    def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
+             duration_s: float | None = None) -> Trajectory:
+        """Simulate one run: a pulse with the end-of-run rules, or free rocking for ``duration_s``.
+
+        Returns the trajectory with its flags and diagnostics.
+        """
+        sc = _scene()
+        pb, cid = sc.pb, sc.cid
+        planar = bool(s["planar"])
+        sc.build(block, planar, s.get("contact_breaking_threshold"),
+                 tuple(s.get(k) for k in self.CONTACT_KEYS + ("friction", "friction_anchor")))
+        sc.apply(s, dt)
+        sc.place(block, planar, theta0)
+
+        alpha, p = block.alpha_rad, block.p_rad_s
+        t_end = pulse.duration_s if pulse is not None else 0.0
+        t_stop = (t_end + float(s["tail_s"])) if duration_s is None else float(duration_s)
+        n_max = int(math.ceil(t_stop / dt - 1e-9))
+        n_pulse = int(math.ceil(t_end / dt - 1e-9))
+        n_min = n_pulse + int(math.ceil(float(s["min_tail_s"]) / dt - 1e-9)) if duration_s is None else n_max
+        steps_t = (np.arange(n_max) + 0.5) * dt  # midpoint of each step
+        inertial = s["drive"] == "inertial"
+        if pulse is not None:
+            # plain lists: indexing them in the loop costs less than numpy scalars
+            acc = (-pulse.accel(steps_t)).tolist() if inertial else None
+            u_pos = pulse.disp(np.arange(n_max) * dt).tolist()
+            u_vel = pulse.vel(steps_t).tolist()
+        pb.setGravity(0.0, 0.0, -G, physicsClientId=cid)
+
+        e_trap = p * p - _TRAPPED_MARGIN * p * p * (1.0 - math.cos(alpha))
+        p2 = p * p
+        body, table = sc.block, sc.table
+        step, set_g = pb.stepSimulation, pb.setGravity
+        reset_pose, reset_vel = pb.resetBasePositionAndOrientation, pb.resetBaseVelocity
+        table_z = -_TABLE_HALF_EXTENTS_M[2]
+        rows = []
+        if planar:
+            get = pb.getJointStates
+            joints = [0, 1, 2]
+            st = get(body, joints, physicsClientId=cid)
+            rows.append((st[0][0], st[1][0], st[2][0], st[0][1], st[1][1], st[2][1]))
+        else:
+            getp, getv = pb.getBasePositionAndOrientation, pb.getBaseVelocity
+            pos, quat = getp(body, physicsClientId=cid)
+            rows.append(pos + quat + (0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+        drive_table = pulse is not None and not inertial
+        i = 0
+        ended_by = "tail"
+        t0, c0 = time.perf_counter(), time.process_time()
+        # the loop does only what PyBullet needs: drive, step, read the state, test the end rules
+        while i < n_max:
+            if drive_table:
+                reset_pose(table, (u_pos[i], 0.0, table_z), (0.0, 0.0, 0.0, 1.0), physicsClientId=cid)
+                reset_vel(table, (u_vel[i], 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=cid)
+            elif pulse is not None and i <= n_pulse:
+                set_g(acc[i], 0.0, -G, physicsClientId=cid)
+            step(physicsClientId=cid)
+            i += 1
+            if planar:
+                st = get(body, joints, physicsClientId=cid)
+                th, om = st[2][0], st[2][1]
+                rows.append((st[0][0], st[1][0], th, st[0][1], st[1][1], om))
+            else:
+                pos, quat = getp(body, physicsClientId=cid)
+                lin, ang = getv(body, physicsClientId=cid)
+                rows.append(pos + quat + lin + ang)
+                x, y, z, w = quat
+                th = math.atan2(2.0 * (x * z + w * y), 1.0 - 2.0 * (x * x + y * y))
+                om = ang[1]
+            a = abs(th)
+            if a != a:  # NaN: the engine diverged, nothing more to learn
+                ended_by = "diverged"
+                break
+            if a >= FLAT_ANGLE_RAD:
+                ended_by = "flat"
+                break
+            if duration_s is None and i >= n_pulse:
+                if a > alpha and th * om > 0.0:
+                    ended_by = "overturn"
+                    break
+                if i >= n_min and 0.5 * om * om + p2 * math.cos(alpha - a) < e_trap:
+                    ended_by = "trapped"
+                    break
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        data = np.asarray(rows, dtype=float)
+        n = data.shape[0]
+        t = np.arange(n) * dt
+        u_tab = np.zeros(n) if pulse is None or inertial else pulse.disp(t)
+        if planar:
+            xc, zc, th, vx, vz, om = data[:, 0], data[:, 1] + block.height_m / 2, data[:, 2], data[:, 3], data[:, 4], data[:, 5]
+            out_of_plane = 0.0
+        else:
+            xc, zc = data[:, 0], data[:, 2]
+            qx, qy, qz, qw = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
+            th = np.arctan2(2.0 * (qx * qz + qw * qy), 1.0 - 2.0 * (qx * qx + qy * qy))
+            vx, vz, om = data[:, 7], data[:, 9], data[:, 11]
+            # how far the free body left the plane: lateral drift along y, tilt about x
+            roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
+            out_of_plane = float(max(np.max(np.abs(data[:, 1])), 0.0))
+            out_of_plane_tilt = float(np.max(np.abs(roll)))
+        # the model's assumptions are judged up to the fall of an overturning block (see _checked)
+        n_chk = _checked(th, block.alpha_rad, overturned=ended_by in ("flat", "overturn"))
+        diag = self._diagnostics(block, t[:n_chk], xc[:n_chk], zc[:n_chk], th[:n_chk], u_tab[:n_chk])
+        flags = []
+        if not np.all(np.isfinite(data)):
+            flags.append("diverged")
+        if diag["max_slip_m"] > slip_tol_m(block):
+            flags.append("slip")
+        if diag["max_jump_m"] > jump_tol_m(block):
+            flags.append("jump")
+        if pulse is not None:
+            gain = energy_gain_rel(t[:n_chk], th[:n_chk], om[:n_chk], t_end, block)
+            diag["energy_gain_rel"] = gain
+            if gain > ENERGY_GAIN_TOL:
+                flags.append("energy-gain")
+        # CPU time too: on a shared machine the wall time says more about the neighbours
+        diag.update(steps=int(i), wall_s=wall, cpu_s=cpu, steps_per_s=(i / wall if wall > 0 else None),
+                    steps_per_cpu_s=(i / cpu if cpu > 0 else None), ended_by=ended_by,
+                    drive=s["drive"], planar=planar)
+        if not planar:
+            diag.update(max_lateral_drift_m=out_of_plane, max_out_of_plane_tilt_rad=out_of_plane_tilt)
+        traj = Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=om, t_pulse_end_s=t_end, flags=flags,
+                          diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block))
+        # kept for the free-rocking measurement (not part of the contract)
+        traj._body_state = (xc, zc, vx, vz, om)
+        return traj
+
+    @staticmethod
+    def _diagnostics(block: Block, t, xc, zc, th, u_tab) -> dict:
+        """Slip and jump of the bottom corners relative to the table [m].
+
+        A corner is in contact while it is within the jump tolerance of the table top. Slip is the
+        largest horizontal motion, relative to the table, of a corner during one such contact
+        episode; jump is the largest height of the lower corner above the table.
+        """
+        b, h = block.width_m, block.height_m
+        c, s = np.cos(th), np.sin(th)
+        tol = jump_tol_m(block)
+        max_slip = 0.0
+        z_corners = []
+        for side in (1.0, -1.0):
+            # rotation about +y by θ: body (x, z) -> (x cosθ + z sinθ, −x sinθ + z cosθ)
+            xk = xc + side * b / 2 * c - h / 2 * s - u_tab
+            zk = zc - side * b / 2 * s - h / 2 * c
+            z_corners.append(zk)
+            touching = zk <= tol
+            if not touching.any():
+                continue
+            # split into contact episodes and measure each one's drift from its first sample
+            edges = np.flatnonzero(np.diff(touching.astype(np.int8)) != 0) + 1
+            bounds = np.concatenate([[0], edges, [touching.size]])
+            for a0, a1 in zip(bounds[:-1], bounds[1:]):
+                if touching[a0]:
+                    seg = xk[a0:a1]
+                    max_slip = max(max_slip, float(np.max(np.abs(seg - seg[0]))))
+        low = np.minimum(z_corners[0], z_corners[1])
+        return {"max_slip_m": max_slip, "max_jump_m": float(max(np.max(low), 0.0)),
+                "max_penetration_m": float(max(-np.min(low), 0.0))}
+
+    # -- restitution --------------------------------------------------------------------------
+    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
+                            settings: dict | None = None) -> RestitutionMeasurement:
+        """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation.
+
+        η of each of the first impacts is read from energies, which are robust to the step in
+        which an impact falls: between impacts the block's mechanical energy is constant, and its
+        excess over standing at rest is the kinetic energy at ``θ = 0``. So
+        ``η_i = √(K_{i+1}/K_i)``, with ``K`` the median of ``E − m g h/2`` over the middle half of
+        each swing, ``E = ½m(ẋ² + ż²) + ½I_c θ̇² + m g z_c``.
+
+        Parameters
+        ----------
+        block : Block
+        theta0_frac : float
+            Release angle as a fraction of α [-].
+        dt_s : float, optional
+            Time step [s] (default: the adapter's).
+        settings : dict, optional
+            Resolved settings to measure (default: the adapter's, without calibration).
+        """
+        if not 0.0 < float(theta0_frac) < 1.0:
+            raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
+        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        if not math.isfinite(dt) or dt <= 0 or dt > 0.01:
+            raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
+        s = self._base_settings() if settings is None else settings
+        # long enough for the swings around the measured impacts: each lasts at most half the
+        # linearised free-rocking period from the release angle, T = (4/p)·arcosh(1/(1 − θ0/α))
+        # (DOMAIN.md §7; amplitudes only shrink, and so do the swings), with 20 % to spare
+        period = 4.0 / block.p_rad_s * math.acosh(1.0 / (1.0 - float(theta0_frac)))
+        duration = 1.2 * (_CAL_IMPACTS + 2) * period / 2.0
+        tr = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=duration)
+        etas = _impact_etas(block, tr, _CAL_IMPACTS)
+        mean = float(np.mean(etas)) if etas else float("nan")
+        std = float(np.std(etas)) if etas else float("nan")
+        shown = {k: s[k] for k in ("friction", "friction_anchor", "solver_iterations", "planar") + self.CONTACT_KEYS}
+        return RestitutionMeasurement(etas=[float(e) for e in etas], eta_mean=mean, eta_std=std,
+                                      theta0_rad=theta0_frac * block.alpha_rad, dt_s=dt, settings=shown,
+                                      method=f"energy ratio of the first {_CAL_IMPACTS} impacts: "
+                                             "sqrt(K_next/K), K = mechanical energy above rest between impacts")
+
+    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                  use_cache: bool = True) -> CalibrationResult:
+        """Search Bullet's contact settings so the free-rocking η reaches ``target_eta`` within 1 %.
+
+        The search, in order:
+
+        1. Bullet's rigid contact (its default): this gives η close to Housner's at Δt ≤ 1 ms.
+        2. A target below that η: compliant contact with stiffness ``k`` and damping at damping
+           ratio 1 (``c = 2√(k m)``), bisection on ``log10 k`` from 3 up to the stiffest contact
+           whose natural frequency the step resolves (``k ≤ m/Δt²``; stiffer springs pass this
+           test but gain energy under a pulse). A softer contact loses more energy at the impact.
+        3. A target above it: Bullet's restitution ``e`` with a contact-breaking threshold of
+           0.1 mm (otherwise the corner's contact point exists before the impact and Bullet
+           treats it as resting, with no restitution), scanned over [0.5, 0.98], then bisected.
+           The corner may then bounce: η per impact scatters, which ``eta_std`` reports.
+
+        Step 1 is kept whenever it is within 1 %. Otherwise the closest setting whose per-impact
+        spread stays within 2 % of the target wins (a bouncing corner that scatters η does not
+        give the block one restitution coefficient); ``reached`` says whether it is within 1 %. The result is cached on
+        disk per engine version, block, target, time step, planar flag and friction.
+        """
+        t = float(target_eta)
+        if not (math.isfinite(t) and 0.0 < t <= 1.0):
+            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
+        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        base = self._base_settings()
+        for k in self.CONTACT_KEYS:
+            base[k] = None
+        key = calibration.cache_key(engine=self.name, version=self.version(), protocol=CALIBRATION_PROTOCOL,
+                                    block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
+                                    target=t, dt=dt, planar=base["planar"], friction=base["friction"],
+                                    anchor=base["friction_anchor"], iterations=base["solver_iterations"])
+        if use_cache:
+            rec = calibration.load(key)
+            if rec is not None:
+                return CalibrationResult(**rec)
+        tried = []
+
+        def evaluate(extra: dict) -> float:
+            s = {**base, **extra}
+            m = self.measure_restitution(block, dt_s=dt, settings=s)
+            tried.append((m.eta_mean, m.eta_std, extra))
+            return m.eta_mean
+
+        def err(e):
+            return abs(e - t) / t if math.isfinite(e) else math.inf
+
+        e0 = evaluate({})
+        # Bullet's own rigid contact is preferred whenever it is within 1 %: every departure from it
+        # (softness, restitution) brings side effects of its own (penetration, bouncing corners)
+        if err(e0) > 0.01:
+            if e0 > t:
+                # log10 k: lo gives low η, hi high η. The contact's natural frequency √(k/m) must be
+                # resolved by the step (√(k/m)·Δt ≤ 1): stiffer springs pass the free-rocking test
+                # but gain energy and bounce under a pulse.
+                lo, hi = 3.0, max(3.5, math.log10(block.mass_kg / dt**2))
+                for _ in range(12):
+                    mid = 0.5 * (lo + hi)
+                    k = 10.0 ** mid
+                    e = evaluate({"contact_stiffness": k, "contact_damping": 2.0 * math.sqrt(k * block.mass_kg)})
+                    if not math.isfinite(e) or e < t:
+                        lo = mid
+                    else:
+                        hi = mid
+                    if err(e) <= 0.0025:
+                        break
+            else:
+                extra0 = {"contact_breaking_threshold": 1e-4}
+                grid = np.round(np.arange(0.5, 0.981, 0.04), 3)
+                vals = [evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
+                # refine between the neighbours that bracket the target, if any
+                for j in range(len(grid) - 1):
+                    if (vals[j] - t) * (vals[j + 1] - t) < 0:
+                        lo, hi = float(grid[j]), float(grid[j + 1])
+                        for _ in range(5):
+                            mid = 0.5 * (lo + hi)
+                            e = evaluate({**extra0, "restitution_coef": mid})
+                            if err(e) <= 0.0025:
+                                break
+                            if (e - t) * (vals[j] - t) > 0:
+                                lo = mid
+                            else:
+                                hi = mid
+                        break
+        # a setting whose impacts scatter does not give the block one restitution coefficient
+        consistent = [r for r in tried if math.isfinite(r[1]) and r[1] <= _CAL_MAX_SPREAD * t]
+        eta, std, extra = min(consistent or tried, key=lambda r: err(r[0]))
+        reached = bool(consistent) and err(eta) <= 0.01
+        settings = {k: None for k in self.CONTACT_KEYS}
+        settings.update(extra)
+        if not extra:
+            note = ("Bullet's rigid contact (its default) gives this η." if reached else
+                    f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
+        elif "restitution_coef" in extra:
+            note = ("reached with Bullet's restitution." if reached else
+                    f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
+                    f"per-impact spread within {100 * _CAL_MAX_SPREAD:g} % of the target.")
+        else:
+            note = ("reached with a compliant contact (damping ratio 1)." if reached else
+                    f"not reached: softening the contact lowers η only to {eta:.4f}.")
+        scattered = [r for r in tried if r not in consistent and err(r[0]) <= 0.01]
+        if not reached and scattered:
+            r = min(scattered, key=lambda r: r[1])
+            note += (f" Bullet's restitution e = {r[2].get('restitution_coef', float('nan')):.3g} gives a mean of "
+                     f"{r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (the corner bounces), so it is not taken.")
+        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
+                                settings=settings, note=note, evaluations=len(tried))
+        calibration.store(key, {k: v for k, v in res.to_dict().items() if k != "rel_error"})
+        return res
+
+
+def _checked(th, alpha_rad: float, overturned: bool) -> int:
+    """How many samples the slip, jump and energy checks judge.
+
+    All of them, unless the block overturned: then up to its last outward crossing of
+    ``|θ| = α``. From there it falls onto its side; neither a corner sliding or lifting on the way
+    down (a fast fall unloads the corner) nor the landing can change the outcome, and the
+    rocking model, whose assumptions the checks guard, no longer describes the motion.
+    """
+    n = len(th)
+    if not overturned:
+        return n
+    a = np.abs(np.asarray(th))
+    up = np.flatnonzero((a[:-1] <= alpha_rad) & (a[1:] > alpha_rad))
+    return int(up[-1]) + 2 if up.size else n
+
+
+def _impact_etas(block: Block, tr: Trajectory, n_impacts: int) -> list[float]:
+    """η of the first ``n_impacts`` impacts of a free-rocking trajectory, from energies (see
+    :meth:`PybulletAdapter.measure_restitution`)."""
+    xc, zc, vx, vz, om = tr._body_state
+    m, h = block.mass_kg, block.height_m
+    E = 0.5 * m * (vx * vx + vz * vz) + 0.5 * block.inertia_cm_kg_m2 * om * om + m * G * zc
+    K = E - m * G * h / 2
+    th = tr.theta_rad
+    tol = uplift_tol_rad(block)
+    side = np.where(th > tol, 1, np.where(th < -tol, -1, 0))
+    # swings: maximal runs of samples on one side; an impact separates two swings of opposite sides
+    idx = np.flatnonzero(side != 0)
+    if idx.size == 0:
+        return []
+    swings = []
+    start = idx[0]
+    for a, b in zip(idx[:-1], idx[1:]):
+        if side[b] != side[a]:
+            swings.append((start, a + 1))
+            start = b
+    swings.append((start, idx[-1] + 1))
+    Ks = []
+    for a, b in swings[:-1]:  # the last swing may be cut by the end of the run
+        if b - a < 8:
+            break
+        mid = K[a + (b - a) // 4: a + 3 * (b - a) // 4]
+        Ks.append(float(np.median(mid)))
+    etas = []
+    for k0, k1 in zip(Ks[:-1], Ks[1:]):
+        if k0 <= 0 or k1 < 0 or len(etas) >= n_impacts:
+            break
+        etas.append(math.sqrt(k1 / k0))
+    return etas

@@ -1,0 +1,235 @@
+"""The MuJoCo adapter with the real engine: outcomes, calibration, checks, drives, contract, errors.
+
+Kept small for CI (about a minute on two cores): a handful of cells well inside the reference
+map's regions (each test first checks that the reference gives the same outcome in a ±10 %
+neighbourhood, so a cell that drifts onto the boundary fails loudly rather than silently).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+
+from rockbench.benchmark.cli import main as cli_main  # noqa: E402
+from rockbench.benchmark.presets import PRESETS  # noqa: E402
+from rockbench.engines.base import Case  # noqa: E402
+from rockbench.engines.mujoco_adapter import MujocoAdapter, impact_etas  # noqa: E402
+from rockbench.engines.registry import get_adapter  # noqa: E402
+from rockbench.reference_solver.errors import ConfigError  # noqa: E402
+from rockbench.reference_solver.model import G  # noqa: E402
+from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
+from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
+
+pytestmark = pytest.mark.engine
+
+#: (block, pulse, ω/p, a₀/(g·tanα), reference outcome, one-impact overturn?)
+CELLS = [
+    ("B3M", "sine", 4.0, 0.8, "rest", False),
+    ("B3M", "sine", 6.0, 2.0, "rocking", False),
+    ("B3M", "sine", 2.0, 3.0, "overturn", False),
+    ("B3M", "sine", 3.0, 2.5, "overturn", True),
+    ("B3M", "cosine", 5.0, 2.5, "rocking", False),
+    ("B3M", "cosine", 2.0, 2.5, "overturn", True),
+    ("B6M", "cosine", 3.0, 0.8, "rest", False),
+    ("B6M", "cosine", 6.0, 2.5, "rocking", False),
+    ("B6M", "cosine", 3.0, 3.0, "overturn", True),
+    ("B6M", "sine", 8.0, 2.0, "rocking", False),
+    ("B6M", "sine", 2.0, 3.0, "overturn", False),
+    ("B6M", "sine", 3.0, 2.5, "overturn", True),
+]
+
+
+def _case(block_name, kind, w, a):
+    blk = PRESETS[block_name].block()
+    return Case(blk, make_pulse(kind, a * G * math.tan(blk.alpha_rad), w * blk.p_rad_s))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _fresh_cache(tmp_path_factory):
+    """A calibration cache of this module's own, so calibrations are really run once here."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("ROCKBENCH_CACHE", str(tmp_path_factory.mktemp("rockbench-cache")))
+    yield
+    mp.undo()
+
+
+@pytest.fixture(scope="module")
+def reference():
+    return get_adapter("reference")
+
+
+@pytest.fixture(scope="module")
+def inertial_results():
+    cases = [_case(b, k, w, a) for b, k, w, a, _, _ in CELLS]
+    return get_adapter("mujoco").run_many(cases)
+
+
+def test_cells_are_far_from_the_reference_boundary(reference):
+    for b, k, w, a, expected, one_impact in CELLS:
+        res = reference.run_many([_case(b, k, w * f, a * g) for f in (0.9, 1.0, 1.1) for g in (0.9, 1.0, 1.1)])
+        assert {r.outcome for r in res} == {expected}, (b, k, w, a)
+        centre = res[4]
+        if one_impact:
+            assert centre.outcome == "overturn" and centre.n_impacts == 1, (b, k, w, a)
+
+
+def test_outcomes_match_the_reference_with_housner(inertial_results):
+    for (b, k, w, a, expected, _), r in zip(CELLS, inertial_results):
+        assert r.status == "ok", r.message
+        assert r.outcome == expected, (b, k, w, a, r.outcome, r.flags)
+        assert r.valid, (b, k, w, a, r.flags, r.diagnostics)
+
+
+def test_one_impact_overturn_has_an_impact_in_mujoco_too(inertial_results):
+    for (b, k, w, a, expected, one_impact), r in zip(CELLS, inertial_results):
+        if one_impact:
+            assert r.outcome == "overturn" and r.n_impacts >= 1, (b, k, w, a, r.n_impacts)
+
+
+def test_table_drive_agrees_with_inertial_drive(inertial_results):
+    table = get_adapter("mujoco", drive="table")
+    res = table.run_many([_case(b, k, w, a) for b, k, w, a, _, _ in CELLS])
+    for cell, ri, rt in zip(CELLS, inertial_results, res):
+        assert rt.outcome == ri.outcome, (cell, rt.outcome, ri.outcome)
+        assert rt.valid, (cell, rt.flags)
+        # the heavy table follows u(t) closely
+        assert rt.diagnostics["table_track_err_rel"] < 0.05
+
+
+@pytest.mark.parametrize("name", ["B3M", "B6M"])
+def test_calibration_reaches_housner_within_one_percent(name):
+    blk = PRESETS[name].block()
+    target = housner_eta(blk.alpha_rad)
+    c = get_adapter("mujoco").calibrate(blk, target)
+    assert c.reached
+    assert abs(c.eta_measured - target) <= 0.01 * target
+    assert c.settings["timeconst"] >= 2 * c.settings["dt_s"]
+    # the calibrated settings are what free rocking then shows, impact by impact
+    m = get_adapter("mujoco").measure_restitution(blk)
+    assert len(m.etas) >= 2
+    assert m.eta_mean == pytest.approx(c.eta_measured, rel=1e-12)
+
+
+def test_calibration_is_cached_and_reused():
+    blk = PRESETS["B3M"].block()
+    ad = get_adapter("mujoco")
+    first = ad.calibrate(blk, housner_eta(blk.alpha_rad))
+    again = get_adapter("mujoco").calibrate(blk, housner_eta(blk.alpha_rad))
+    assert again.to_dict() == first.to_dict()
+
+
+def test_low_friction_at_high_amplitude_is_flagged_slip():
+    ad = get_adapter("mujoco", friction=0.2, timeconst=0.001, dampratio=1.0)
+    r = ad.run(_case("B3M", "sine", 5.0, 3.0))
+    assert "slip" in r.flags
+    assert not r.valid
+    assert r.diagnostics["max_slip_m"] > 0.01 * PRESETS["B3M"].block().width_m
+
+
+def test_batches_equal_single_runs_bit_for_bit():
+    ad = get_adapter("mujoco")
+    cases = [_case("B3M", "sine", 6.0, 2.0), _case("B3M", "sine", 3.0, 2.5), _case("B3M", "sine", 4.0, 0.8)]
+    many = ad._simulate_many(cases)
+    for c, tr in zip(cases, many):
+        one = ad.simulate(c)
+        assert np.array_equal(one.theta_rad, tr.theta_rad)
+        assert np.array_equal(one.theta_dot_rad_s, tr.theta_dot_rad_s)
+
+
+def test_trajectory_contract():
+    ad = get_adapter("mujoco")
+    c = _case("B3M", "sine", 6.0, 2.0)
+    tr = ad.simulate(c)
+    assert tr.t_s[0] == 0.0 and np.all(np.diff(tr.t_s) > 0)
+    assert tr.t_s[-1] >= tr.t_pulse_end_s + ad.settings["min_tail_s"] - 1e-9
+    assert tr.t_s[-1] <= tr.t_pulse_end_s + ad.settings["tail_s"] + ad.settings["segment_s"]
+    assert tr.theta_rad.shape == tr.theta_dot_rad_s.shape == tr.t_s.shape
+    # a positive table acceleration starts a negative θ
+    lifted = np.abs(tr.theta_rad) > tr.uplift_tol_rad
+    assert tr.theta_rad[np.argmax(lifted)] < 0
+    # mirror symmetry: ü → −ü gives θ → −θ (to the engine's round-off)
+    blk = c.block
+    mirror = ad.simulate(Case(blk, make_pulse("sine", -c.pulse.amplitude_mps2, c.pulse.omega_rad_s)))
+    n = min(len(mirror.t_s), len(tr.t_s))
+    assert np.max(np.abs(mirror.theta_rad[:n] + tr.theta_rad[:n])) < 1e-3 * blk.alpha_rad
+    assert isinstance(MujocoAdapter.version(), str)
+    d = ad.describe()
+    assert d["engine"] == "mujoco"
+    json.dumps(ad.resolve(blk, c.restitution))
+
+
+def test_free_3d_body_gives_the_same_outcomes():
+    ad = get_adapter("mujoco", planar=False)
+    cells = [CELLS[1], CELLS[2], CELLS[3]]
+    res = ad.run_many([_case(b, k, w, a) for b, k, w, a, _, _ in cells])
+    for (b, k, w, a, expected, _), r in zip(cells, res):
+        assert r.outcome == expected, (b, k, w, a, r.outcome, r.flags)
+
+
+def test_impact_etas_reads_a_known_ratio():
+    # a synthetic free rocking with an exact velocity ratio of 0.8 at θ = 0
+    blk = PRESETS["B3M"].block()
+    al, p = blk.alpha_rad, blk.p_rad_s
+    t = np.linspace(0, 0.2, 20001)
+    th_in = 0.3 * al * (1 - t / 0.1)              # towards θ = 0 at 3·α/s
+    th = np.where(t < 0.1, th_in, -0.8 * 0.3 * al * (t - 0.1) / 0.1)
+    thd = np.where(t < 0.1, -3 * al, -0.8 * 3 * al)
+    etas = impact_etas(th, thd, al, p)
+    assert len(etas) == 1
+    v_in = math.sqrt((3 * al) ** 2 + 2 * p * p * (math.cos(0.9 * al) - math.cos(al)))
+    v_out = math.sqrt((2.4 * al) ** 2 + 2 * p * p * (math.cos(0.9 * al) - math.cos(al)))
+    assert etas[0] == pytest.approx(v_out / v_in, rel=1e-9)
+
+
+@pytest.mark.parametrize("settings", [
+    {"nonsense": 1}, {"timeconst": -0.004}, {"dampratio": 0}, {"friction": -1}, {"settings": "fast"},
+    {"drive": "mocap"}, {"cone": "round"}, {"noslip_iterations": -2}, {"tail_s": "long"},
+])
+def test_bad_settings_raise_config_error(settings):
+    with pytest.raises(ConfigError):
+        get_adapter("mujoco", **settings)
+
+
+def test_negative_time_step_raises_config_error():
+    ad = get_adapter("mujoco", timeconst=0.004, dampratio=1.0)
+    with pytest.raises(ConfigError):
+        ad.run(Case(PRESETS["B3M"].block(), make_pulse("sine", 10.0, 60.0), dt_s=-1e-4))
+
+
+@pytest.mark.parametrize("argv", [
+    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "timeconst=-0.004"],
+    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "stiffness=1e6"],
+    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--dt", "-0.0005"],
+    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--settings", "shipped"],
+])
+def test_cli_bad_settings_exit_2_with_one_line(argv, capsys):
+    assert cli_main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err and "\n" not in err and "Traceback" not in err
+
+
+def test_cli_calibrate_json(capsys):
+    assert cli_main(["calibrate", "--engine", "mujoco", "--block", "B6M", "--target", "housner", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["reached"] is True
+    assert abs(out["eta_measured"] - out["eta_target"]) <= 0.01 * out["eta_target"]
+    assert {"timeconst", "dampratio"} <= set(out["settings"])
+
+
+def test_check_adapter_passes(capsys):
+    assert cli_main(["check-adapter", "mujoco"]) == 0
+    assert "checks passed" in capsys.readouterr().out
+
+
+def test_shipped_defaults_with_friction_10_are_flagged_not_scored():
+    # MuJoCo's shipped pyramidal cone with friction 10 lets the block sink through the table and
+    # gain energy: the run must come back invalid, with the checks saying why
+    r = get_adapter("mujoco", settings="defaults").run(_case("B3M", "sine", 6.0, 2.0))
+    assert not r.valid
+    assert {"jump", "energy-gain"} <= set(r.flags)
+    assert r.diagnostics["energy_gain_rel"] > 0.05
