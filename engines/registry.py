@@ -16,6 +16,7 @@ from ..reference_solver.errors import ConfigError, EngineUnavailableError
 #: built-in adapters, imported lazily
 BUILTIN = {
     "reference": "rockbench.engines.reference_adapter:ReferenceAdapter",
+    "exudyn": "rockbench.engines.exudyn_adapter:ExudynAdapter",
     "mujoco": "rockbench.engines.mujoco_adapter:MujocoAdapter",
     "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
 }
