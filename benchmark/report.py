@@ -20,14 +20,13 @@ import html
 import io
 import json
 import math
-import os
 import sys
-import tempfile
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, IncomparableError, RockbenchError
+from .atomic import write_bytes_atomic
 from .scoring import MapEntry, load_entries, score_entries, write_json_atomic
 from .tables import _vs, fmt, pairs_table, summary, summary_table
 
@@ -198,12 +197,12 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     (out / "img").mkdir(exist_ok=True)
     written = []
     for name, data in images.items():
-        written.append(_write_atomic(out / "img" / name, data))
+        written.append(write_bytes_atomic(out / "img" / name, data))
     paths = {"images": [str(p) for p in written]}
     if doc is not None:
         paths["score"] = str(write_json_atomic(out / "score.json", doc))
-    paths["markdown"] = str(_write_atomic(out / "report.md", md.encode()))
-    paths["html"] = str(_write_atomic(out / "index.html", page.encode()))
+    paths["markdown"] = str(write_bytes_atomic(out / "report.md", md.encode()))
+    paths["html"] = str(write_bytes_atomic(out / "index.html", page.encode()))
     log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
     return {**paths, "doc": doc, "notes": notes}
 
@@ -212,28 +211,6 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
 
 def _slug(s: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in str(s)).strip("-").lower()
-
-
-def _write_atomic(path: Path, data: bytes) -> Path:
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return path
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def _points_and_limit(points, block, pulse):

@@ -18,8 +18,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -29,6 +27,7 @@ import numpy as np
 
 from ..reference_solver.errors import ConfigError, IncomparableError
 from .scores import FAILED, METRICS, METRICS_VERSION, LabelMap, check_gate, from_cells, score
+from .atomic import write_json_atomic as _write_json
 
 #: Version of score.json's layout.
 SCORE_SCHEMA_VERSION = 1
@@ -353,22 +352,7 @@ def write_json_atomic(path, data: dict) -> Path:
     """Write ``data`` as JSON through a temporary file and a rename (never a torn file)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(_clean(data), f, indent=2)
-            f.write("\n")
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return path
+    return _write_json(path, _clean(data))
 
 
 def _clean(x):

@@ -26,11 +26,11 @@ import os
 import platform
 import subprocess
 import sys
-import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, IncomparableError
+from .atomic import write_json_atomic as _write_json
 
 #: Version of the run-directory layout; bumped when columns or run.json keys change meaning.
 SCHEMA_VERSION = 1
@@ -70,21 +70,7 @@ def rockbench_version() -> str:
 
 def write_json_atomic(path: Path, data: dict) -> None:
     """Write JSON to ``path`` through a temporary file in the same folder and ``os.replace``."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f, indent=2, default=_json_default)
-            f.write("\n")
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    _write_json(path, data, default=_json_default)
 
 
 def _json_default(x):

@@ -10,8 +10,6 @@ import csv
 import io
 import json
 import math
-import os
-import tempfile
 import time
 from pathlib import Path
 
@@ -22,6 +20,7 @@ from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError, RockbenchError
 from ...reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
 from ...reference_solver.solver import MODES
+from ..atomic import write_atomic
 from ..cases import add_case_options, case_from_args, engine_settings_from_args
 
 
@@ -49,24 +48,6 @@ def _check_output(path: str | None, suffix: str, option: str) -> Path | None:
     if p.is_dir():
         raise ConfigError(f"{option}: {path!r} is a folder; give a file name.")
     return p
-
-
-def _atomic_write(path: Path, write) -> None:
-    """Call ``write(tmp_path)`` then rename onto ``path``; nothing is left behind on failure."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; give it a normal file's mode
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def _num(x):
@@ -132,7 +113,7 @@ def run(args) -> int:
             for row in zip(*(np.asarray(v) for _, v in cols)):
                 w.writerow([repr(float(x)) for x in row])
             Path(tmp).write_text(buf.getvalue())
-        _atomic_write(hist_path, write_csv)
+        write_atomic(hist_path, write_csv)
         out["history"] = str(hist_path)
     if tr is not None and plot_path is not None:
         from ..plots.history import plot_history
@@ -143,7 +124,7 @@ def run(args) -> int:
         drawn = plot_history(tr.t_s, tr.theta_rad, impacts=[d["t_s"] for d in out["impacts"]], pulse=pulse,
                              alpha_rad=block.alpha_rad, t_pulse_end_s=pulse.duration_s, title=title,
                              label=f"θ(t), {adapter.name}")
-        _atomic_write(plot_path, lambda tmp: drawn["figure"].savefig(tmp, format="png", dpi=120))
+        write_atomic(plot_path, lambda tmp: drawn["figure"].savefig(tmp, format="png", dpi=120))
         out["plot"] = str(plot_path)
 
     if args.json:
