@@ -27,7 +27,7 @@ from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from .atomic import write_bytes_atomic
-from .scoring import MapEntry, load_entries, score_entries, write_json_atomic
+from .scoring import MapEntry, at_own_eta, load_entries, score_entries, write_json_atomic
 from .tables import _vs, fmt, pairs_table, summary, summary_table
 
 
@@ -160,9 +160,11 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         fig, ax = plt.subplots(figsize=(7.5, 5.5))
         from .plots.boundaries import plot_boundaries
         pts, st = _points_and_limit(experiments, block, pulse)
-        plot_boundaries([(r.restitution, r.label_map) for r in g["refs"]],
+        std_refs, own_refs = _split_own_eta_refs(g["refs"], g["engines"], own_eta)
+        plot_boundaries([(r.restitution, r.label_map) for r in std_refs],
                         [(f"{e.variant} ({e.restitution})", e.label_map) for e in g["engines"]],
-                        points=pts, st_limit_a_ratio=st, title=f"{block}, {pulse}: overturn boundaries", ax=ax)
+                        own_eta=own_refs, points=pts, st_limit_a_ratio=st,
+                        title=f"{block}, {pulse}: overturn boundaries", ax=ax)
         graphs.append((block, pulse, save(fig, f"stability_{_slug(block)}_{_slug(pulse)}.png"), len(pts)))
 
     # θ(t) comparisons
@@ -317,6 +319,22 @@ def _find_key(d, key):
             if r is not None:
                 return r
     return None
+
+
+def _split_own_eta_refs(refs: list[MapEntry], engines: list[MapEntry], own_eta: dict) -> tuple[list, list]:
+    """The standard references of one graph, and the references at an engine's own η as
+    ``(label, label_map, engine index)``: a reference whose η is an engine variant's measured η
+    (the pairing the scores call ``own-eta``) goes with the first such engine of ``engines``; one
+    matching no engine of the graph stays a standard reference."""
+    std, own = [], []
+    for r in refs:
+        owners = [k for k, e in enumerate(engines) if at_own_eta(r, e, own_eta)]
+        if not owners:
+            std.append(r)
+            continue
+        names = ", ".join(dict.fromkeys(engines[k].variant for k in owners))
+        own.append((f"reference at own η of {names} (η = {r.eta:.4f})", r.label_map, owners[0]))
+    return std, own
 
 
 def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> list[dict]:

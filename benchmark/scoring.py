@@ -245,10 +245,9 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
                                 "reference_grid": grid_of(r.label_map)})
                 continue
             s = score(c.label_map, r.label_map)
-            own = (own_eta or {}).get((c.variant, c.block))
             if c.restitution == r.restitution:
                 kind = "same-law"
-            elif own is not None and _is_constant(r.restitution) and abs(r.eta - own) < 5e-5:
+            elif at_own_eta(r, c, own_eta):
                 kind = "own-eta"
             else:
                 kind = "other"
@@ -276,6 +275,13 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
                                                experiments)
     return doc
+
+
+def at_own_eta(reference: MapEntry, candidate: MapEntry, own_eta: dict | None) -> bool:
+    """Whether ``reference`` is a constant-η map at ``candidate``'s own measured η (``own_eta`` as
+    from :func:`load_own_eta`; the maps of ``rockbench run`` name that η to 4 decimals)."""
+    own = (own_eta or {}).get((candidate.variant, candidate.block))
+    return own is not None and _is_constant(reference.restitution) and abs(reference.eta - own) < 5e-5
 
 
 def _is_constant(label: str) -> bool:

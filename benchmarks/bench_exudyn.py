@@ -4,9 +4,10 @@ For each map (default: B3M under one sine wave, B6M under one cosine wave, 50 ×
 ω/p ∈ [1, 10] and a₀/(g·tanα) ∈ [0.5, 15], Housner's η) it runs
 
 - the reference solver's map (the project's ``reference`` adapter), and
-- the Exudyn map at three time steps with ``settings=calibrated`` and once with
-  ``settings=defaults``, each on ``--jobs`` worker processes (one adapter, hence one Exudyn
-  system per block, per worker, reused for every cell),
+- the Exudyn map at three time steps (``--dts``, the default step 1e-4 s first) with
+  ``settings=calibrated`` and once with ``settings=defaults`` at the first step, each on
+  ``--jobs`` worker processes (one adapter, hence one Exudyn system per block, per worker,
+  reused for every cell),
 
 and prints, per Exudyn run: agreement with the reference outcome, the disagreements that are not
 next to the reference boundary (a cell whose 8 neighbours all share its reference outcome),
@@ -18,7 +19,7 @@ passes or fails on wall time.
 
 Usage::
 
-    python benchmarks/bench_exudyn.py [--n 50] [--jobs 2] [--out bench-exudyn] [--quick]
+    python benchmarks/bench_exudyn.py [--n 50] [--jobs 2] [--dts 1e-4,2e-4,5e-5] [--out bench-exudyn] [--quick]
 """
 
 from __future__ import annotations
@@ -136,10 +137,12 @@ def main(argv=None):
     ap.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     ap.add_argument("--out", default="bench-exudyn", help="output folder")
     ap.add_argument("--quick", action="store_true", help="10 × 10 maps, one time step (a smoke run)")
+    ap.add_argument("--dts", default=None, help="comma list of time steps for the calibrated maps "
+                    "(default 1e-4,2e-4,5e-5; the first is also the step of the defaults maps)")
     ap.add_argument("--maps", default=None, help="comma list BLOCK:PULSE (default B3M:sine,B6M:cosine)")
     args = ap.parse_args(argv)
     n = 10 if args.quick else args.n
-    dts = (1e-4,) if args.quick else DTS
+    dts = (DTS[0],) if args.quick else (tuple(float(x) for x in args.dts.split(",")) if args.dts else DTS)
     maps = MAPS if not args.maps else [tuple(m.split(":")) for m in args.maps.split(",")]
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -180,7 +183,7 @@ def main(argv=None):
         prepared.append((block_name, pulse, block, entry, ref))
     # every map at the default step first, then defaults, then the other steps: a run cut short
     # still holds the main numbers of both maps
-    configs = [("calibrated", dts[0]), ("defaults", 1e-4)] + [("calibrated", dt) for dt in dts[1:]]
+    configs = [("calibrated", dts[0]), ("defaults", dts[0])] + [("calibrated", dt) for dt in dts[1:]]
     for mode, dt in configs:
         for block_name, pulse, block, entry, ref in prepared:
             settings = {"settings": mode}

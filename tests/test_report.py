@@ -112,6 +112,41 @@ def test_plots_return_what_they_drew():
     np.testing.assert_allclose(r["lines"]["mujoco"].get_ydata(), 0.5 * np.cos(t))
 
 
+def test_own_eta_references_are_drawn_in_their_engines_colour():
+    import matplotlib
+    from matplotlib.colors import to_rgba
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    m = LabelMap(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
+    refs = [(f"r{k}", m) for k in range(4)]
+    r = plot_boundaries(refs, [("e0", m), ("e1", m)], own_eta=[("own e1", m, 1)])
+    lines = r["lines"]
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    assert np.allclose(lines["own e1"].get_colors()[0], to_rgba(colours[1]))
+    ls = lines["own e1"].get_linestyles()[0]
+    assert ls[1] is not None and ls not in [lines[f"reference r{k}"].get_linestyles()[0] for k in range(4)]
+
+
+def test_report_pairs_each_own_eta_reference_with_its_engine():
+    from rockbench.benchmark.report import _split_own_eta_refs
+    from rockbench.benchmark.scoring import MapEntry
+    m = LabelMap(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
+
+    def entry(engine, variant, restitution, eta):
+        return MapEntry(path=f"/x/{variant}-{restitution}", label_map=m, engine=engine, variant=variant,
+                        block="B3M", pulse="sine", restitution=restitution, eta=eta)
+
+    refs = [entry("reference", "reference", "housner", 0.7526), entry("reference", "reference", "0.7493", 0.7493),
+            entry("reference", "reference", "0.9", 0.9)]
+    engines = [entry("a", "a", "housner", 0.7526), entry("b", "b[x=1]", "housner", 0.7526),
+               entry("c", "c", "housner", 0.7526)]
+    own = {("b[x=1]", "B3M"): 0.74931, ("c", "B3M"): 0.74929, ("a", "B6M"): 0.7493}
+    std, paired = _split_own_eta_refs(refs, engines, own)
+    # the housner map and a constant η nobody measured stay standard references
+    assert [r.restitution for r in std] == ["housner", "0.9"]
+    assert [(label, k) for label, _, k in paired] == [("reference at own η of b[x=1], c (η = 0.7493)", 1)]
+
+
 def test_report_cli_bad_input(tmp_path, capsys):
     write_map(tmp_path / "r", band(5, 5, 2))
     f = tmp_path / "file"

@@ -45,7 +45,7 @@ def boundary_segments(m) -> np.ndarray:
     return np.asarray(segs, dtype=float).reshape(-1, 2, 2)
 
 
-def plot_boundaries(references, engines, *, points=None, st_limit_a_ratio=None, title="", ax=None):
+def plot_boundaries(references, engines, *, own_eta=None, points=None, st_limit_a_ratio=None, title="", ax=None):
     """Draw the overturn boundaries of several maps on one stability graph.
 
     Parameters
@@ -53,6 +53,10 @@ def plot_boundaries(references, engines, *, points=None, st_limit_a_ratio=None, 
     references, engines : list of (str, LabelMap)
         Labelled maps; references are drawn as thick grey-scale lines with the first one's overturn
         region shaded, engines as thin coloured lines.
+    own_eta : list of (str, LabelMap, int), optional
+        Reference maps at an engine's own measured η: label, map and the index in ``engines`` of
+        the engine it belongs to; drawn dotted in that engine's colour, so that each engine sits
+        beside the reference that shares its energy loss (and apart from the standard references).
     points : list of (w_ratio, a_ratio, letter, repetitions), optional
         Experimental outcomes in normalised coordinates.
     st_limit_a_ratio : float, optional
@@ -90,6 +94,10 @@ def plot_boundaries(references, engines, *, points=None, st_limit_a_ratio=None, 
         lc = LineCollection(boundary_segments(m), colors=colours[k % len(colours)], linewidths=1.3,
                             label=label, zorder=3)
         lines[label] = ax.add_collection(lc)
+    for label, m, k in own_eta or []:
+        lc = LineCollection(boundary_segments(m), colors=colours[k % len(colours)], linewidths=1.8,
+                            linestyles="dotted", label=label, zorder=2.5)
+        lines[label] = ax.add_collection(lc)
     for letter, (marker, colour) in EXPERIMENT_STYLE.items():
         sel = [p for p in (points or []) if p[2] == letter]
         if sel:
@@ -98,7 +106,7 @@ def plot_boundaries(references, engines, *, points=None, st_limit_a_ratio=None, 
                                                       label=f"experiment {letter}")
     if st_limit_a_ratio is not None:
         lines["ST limit"] = ax.axhline(st_limit_a_ratio, color="k", ls="--", lw=1.0, label="ST limit", zorder=1)
-    all_maps = [m for _, m in references] + [m for _, m in engines]
+    all_maps = [m for _, m in references] + [m for _, m in engines] + [m for _, m, _ in own_eta or []]
     if all_maps:
         ax.set_xlim(min(m.w_ratio[0] for m in all_maps), max(m.w_ratio[-1] for m in all_maps))
         ax.set_ylim(min(m.a_ratio[0] for m in all_maps), max(m.a_ratio[-1] for m in all_maps))
