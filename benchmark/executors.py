@@ -99,6 +99,21 @@ def _chunks(items: list, n_chunks: int, max_size: int | None = None) -> list[lis
     return [items[k:k + size] for k in range(0, len(items), size)]
 
 
+def _guided_chunks(items: list, jobs: int, max_size: int | None = None) -> list[list]:
+    """``items`` cut into chunks of falling size (guided self-scheduling): each chunk is a
+    ``1/(2·jobs)`` share of what is left (at most ``max_size``, at least one item). Handed out in
+    order to whichever worker is free, the big chunks keep the per-chunk overhead low and the
+    single cells at the end leave no worker idle for long while another finishes a big chunk."""
+    out, k, n = [], 0, len(items)
+    while k < n:
+        size = max(1, math.ceil((n - k) / (2 * max(1, jobs))))
+        if max_size:
+            size = min(size, max_size)
+        out.append(items[k:k + size])
+        k += size
+    return out
+
+
 def _run_in_process(adapter, items, batch: bool) -> list:
     """Run ``items`` with ``adapter`` here; a failing batch falls back to one cell at a time."""
     if batch:
@@ -258,10 +273,7 @@ class ProcessExecutor:
                 w.proc.wait()
                 w.dead = True
                 self.workers.remove(w)
-        if batch:
-            chunks = [_Chunk(c, True) for c in _chunks(items, 4 * self.jobs)]
-        else:
-            chunks = [_Chunk(c, False) for c in _chunks(items, 4 * self.jobs, 64)]
+        chunks = [_Chunk(c, batch) for c in _guided_chunks(items, self.jobs, None if batch else 64)]
         pending = collections.deque(chunks)
         busy = 0
         while len(self.workers) < min(self.jobs, len(pending)):

@@ -41,6 +41,7 @@ Layout of the output directory: ``OUT/maps/<engine variant>/<block>-<pulse>-<res
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 import time
@@ -346,6 +347,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         ``maps`` (per map: dir and wall time), ``wall_s``, ``score`` (the score document or None),
         ``notes``, ``report`` (paths) and ``summary`` (the summary table as text).
     """
+    from .executors import make_executor
     from .maps import MapSpec, parse_range, run_map
     from .presets import get_preset
     from .scoring import write_json_atomic
@@ -367,17 +369,34 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
                      engine_settings=dict(j.settings), dt_s=j.dt_s) for j in todo]
     t0 = time.perf_counter()
     done = []
-    for k, (job, spec) in enumerate(zip(todo, specs), 1):
-        d = out / job.subdir
-        log(f"[{k}/{len(todo)}] {spec.label()} → {d}")
-        t1 = time.perf_counter()
-        # The reference runs in this process: its compiled batch kernel is parallel already, and
-        # worker processes would each compile it again (seconds per map); engines keep the
-        # workers' time limit and crash isolation.
-        res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference", adaptive=suite.adaptive,
-                      coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False, log=log)
-        done.append({"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
-                     "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)})
+    # One executor per engine and settings, kept for all of its maps: its workers start, import the
+    # engine and build their models once instead of once per map (their stderr goes to one
+    # workers.log beside the variant's maps).
+    executors: dict = {}
+    try:
+        for k, (job, spec) in enumerate(zip(todo, specs), 1):
+            d = out / job.subdir
+            log(f"[{k}/{len(todo)}] {spec.label()} → {d}")
+            t1 = time.perf_counter()
+            # The reference runs in this process: its compiled batch kernel is parallel already, and
+            # worker processes would each compile it again (seconds per map); engines keep the
+            # workers' time limit and crash isolation.
+            ex = None
+            if job.engine != "reference":
+                key = (job.engine, json.dumps(dict(job.settings), sort_keys=True))
+                ex = executors.get(key)
+                if ex is None:
+                    (d.parent).mkdir(parents=True, exist_ok=True)
+                    ex = executors[key] = make_executor(job.engine, dict(job.settings), jobs=jobs,
+                                                        log_path=d.parent / "workers.log")
+            res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference", adaptive=suite.adaptive,
+                          coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False,
+                          log=log, executor=ex)
+            done.append({"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
+                         "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)})
+    finally:
+        for ex in executors.values():
+            ex.close()
     maps_wall = time.perf_counter() - t0
     result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(notes),
               "score": None, "report": None, "summary": ""}

@@ -168,3 +168,14 @@ def test_stability_plot_png_svg(tmp_path):
     paths = save(fig, tmp_path / "fig")
     plt.close(fig)
     assert [p.suffix for p in paths] == [".png", ".svg"] and all(p.stat().st_size > 1000 for p in paths)
+
+
+def test_guided_chunks_fall_in_size_and_keep_every_item_in_order():
+    from rockbench.benchmark.executors import _guided_chunks
+    items = list(range(169))
+    chunks = _guided_chunks(items, 2, 64)
+    assert [x for c in chunks for x in c] == items
+    sizes = [len(c) for c in chunks]
+    assert sizes[0] == 43 and sizes == sorted(sizes, reverse=True) and sizes[-1] == 1
+    assert max(len(c) for c in _guided_chunks(list(range(1000)), 2, 64)) == 64
+    assert _guided_chunks([], 2) == [] and _guided_chunks([7], 3) == [[7]]

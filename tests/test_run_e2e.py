@@ -52,6 +52,11 @@ def test_run_quick_end_to_end(tmp_path):
         doc = json.loads((out / "score.json").read_text())
         assert {p["engine"] for p in doc["pairs"]} == set(engines)
         assert "agree" in r.stdout
+        # one pool of workers per engine variant, kept for all its maps: one workers.log each
+        for e in engines:
+            variant_dirs = [d for d in (out / "maps").iterdir() if d.name.startswith(e)]
+            assert variant_dirs and all((d / "workers.log").is_file() for d in variant_dirs)
+            assert not any((m / "workers.log").exists() for d in variant_dirs for m in d.iterdir() if m.is_dir())
     else:
         assert "no scores" in r.stdout
     # a rerun resumes: every map is already complete
