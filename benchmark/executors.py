@@ -7,7 +7,8 @@ depend on batching, contract item 6).
 - :class:`SerialExecutor`: this process, one batch after another. No time limit and no protection
   from an engine that crashes the process: for debugging and for trusted in-process batches.
 - :class:`ProcessExecutor` (the default): ``jobs`` worker processes
-  (:mod:`rockbench.benchmark.worker`), kept for the whole map. A cell past its time limit gets its
+  (:mod:`rockbench.benchmark.worker`), kept for the whole map (``rockbench run`` keeps them for
+  all the maps of one engine variant), fed chunks of falling size (:func:`_guided_chunks`). A cell past its time limit gets its
   worker killed and is recorded as ``timeout``; a worker that dies (a segfault in the engine)
   records its current cell as ``crashed``; the other cells of the chunk run again on a fresh
   worker. Batching adapters get whole chunks in one ``run_many`` call; if such a batch fails,

@@ -112,6 +112,18 @@ def test_plots_return_what_they_drew():
     np.testing.assert_allclose(r["lines"]["mujoco"].get_ydata(), 0.5 * np.cos(t))
 
 
+def test_speed_accuracy_names_every_variant_in_its_legend():
+    import matplotlib
+    matplotlib.use("Agg")
+    from rockbench.benchmark.plots.speed import plot_speed_accuracy
+    rows = [{"variant": "a", "ms_per_cell": 10.0, "agreement": 0.9},
+            {"variant": "a[x=1]", "ms_per_cell": 10.5, "agreement": 0.9},
+            {"variant": "b", "ms_per_cell": None, "agreement": 0.5}]
+    r = plot_speed_accuracy(rows)
+    assert set(r["points"]) == {"a", "a[x=1]"}
+    assert [t.get_text() for t in r["ax"].get_legend().get_texts()] == ["a", "a[x=1]"]
+
+
 def test_own_eta_references_are_drawn_in_their_engines_colour():
     import matplotlib
     from matplotlib.colors import to_rgba
