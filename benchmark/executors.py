@@ -8,11 +8,12 @@ depend on batching, contract item 6).
   from an engine that crashes the process: for debugging and for trusted in-process batches.
 - :class:`ProcessExecutor` (the default): ``jobs`` worker processes
   (:mod:`rockbench.benchmark.worker`), kept for the whole map (``rockbench run`` keeps them for
-  all the maps of one engine variant), fed chunks of falling size (:func:`_guided_chunks`). A cell past its time limit gets its
-  worker killed and is recorded as ``timeout``; a worker that dies (a segfault in the engine)
-  records its current cell as ``crashed``; the other cells of the chunk run again on a fresh
-  worker. Batching adapters get whole chunks in one ``run_many`` call; if such a batch fails,
-  times out or crashes, its cells are rerun one by one so only the culprit is recorded as failed.
+  all the maps of one engine variant), fed chunks of falling size (:func:`_guided_chunks`). A
+  cell past its time limit gets its worker killed and is recorded as ``timeout``; a worker that
+  dies (a segfault in the engine) records its current cell as ``crashed``; the other cells of the
+  chunk run again on a fresh worker. Batching adapters get whole chunks in one ``run_many``
+  call; if such a batch fails, times out or crashes, its cells are rerun one by one so only the
+  culprit is recorded as failed.
 - :class:`DaskExecutor`: ``--scheduler ADDRESS`` (an existing cluster) or ``local`` (a
   ``LocalCluster`` on 127.0.0.1). Each Dask task runs its chunk in a short-lived worker process
   (a :class:`ProcessExecutor` with one job), so time limits and crash isolation hold there too.

@@ -386,7 +386,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
                 key = (job.engine, json.dumps(dict(job.settings), sort_keys=True))
                 ex = executors.get(key)
                 if ex is None:
-                    (d.parent).mkdir(parents=True, exist_ok=True)
+                    d.parent.mkdir(parents=True, exist_ok=True)
                     ex = executors[key] = make_executor(job.engine, dict(job.settings), jobs=jobs,
                                                         log_path=d.parent / "workers.log")
             res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference", adaptive=suite.adaptive,
