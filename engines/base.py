@@ -309,6 +309,25 @@ class EngineAdapter:
     def _validate_settings(self, settings: dict) -> None:
         """Raise ConfigError for a bad setting value (the default accepts everything)."""
 
+    # -- for adapters' _validate_settings ------------------------------------------------------
+    def _number_setting(self, settings: dict, key: str, unit: str = "", *, allow_zero: bool = False,
+                        allow_none: bool = True) -> None:
+        """Check that ``settings[key]`` is a finite number > 0 (≥ 0 with ``allow_zero``; None passes
+        with ``allow_none``) and store it as a float; otherwise one ConfigError line naming the
+        engine, the setting, the bound and the value given."""
+        v = settings[key]
+        if v is None and allow_none:
+            return
+        in_unit = f" [{unit}]" if unit else ""
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{self.name} setting {key!r} must be a number{in_unit}, got {v!r}.") from None
+        if not math.isfinite(x) or x < 0.0 or (x == 0.0 and not allow_zero):
+            bound = ">= 0" if allow_zero else "> 0"
+            raise ConfigError(f"{self.name} setting {key!r} must be a finite number {bound}{in_unit}, got {v!r}.")
+        settings[key] = x
+
     def _simulate(self, case: Case) -> Trajectory:  # pragma: no cover - abstract
         raise NotImplementedError
 

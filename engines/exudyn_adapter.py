@@ -151,18 +151,6 @@ class FreeRocking:
     wall_s: float
 
 
-def _positive(name: str, value, unit: str, allow_none: bool = False):
-    if value is None and allow_none:
-        return None
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"exudyn setting {name!r} must be a number [{unit}], got {value!r}.") from None
-    if not math.isfinite(v) or v <= 0.0:
-        raise ConfigError(f"exudyn setting {name!r} must be a finite number > 0 [{unit}], got {value!r}.")
-    return v
-
-
 _COUNTER = itertools.count()
 
 
@@ -532,22 +520,14 @@ class ExudynAdapter(EngineAdapter):
             s["planar"] = s["planar"].lower() == "true"
         if not isinstance(s["planar"], bool):
             raise ConfigError(f"exudyn setting 'planar' must be true or false, got {s['planar']!r}.")
-        s["friction"] = _positive("friction", s["friction"], "-")
-        s["friction_zone_m_s"] = _positive("friction_zone_m_s", s["friction_zone_m_s"], "m/s")
-        s["stiffness_n_m"] = _positive("stiffness_n_m", s["stiffness_n_m"], "N/m", allow_none=True)
-        if s["contact_restitution"] is not None:
-            e = _positive("contact_restitution", s["contact_restitution"], "-")
-            if e > 1.0:
-                raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {e!r}.")
-            s["contact_restitution"] = e
-        try:
-            d = float(s["damping_n_s_m"])
-        except (TypeError, ValueError):
-            d = math.nan
-        if not math.isfinite(d) or d < 0.0:
-            raise ConfigError(f"exudyn setting 'damping_n_s_m' must be a number >= 0 [N s/m], got {s['damping_n_s_m']!r}.")
-        s["damping_n_s_m"] = d
-        s["sphere_radius_m"] = _positive("sphere_radius_m", s["sphere_radius_m"], "m")
+        self._number_setting(s, "friction", "-", allow_none=False)
+        self._number_setting(s, "friction_zone_m_s", "m/s", allow_none=False)
+        self._number_setting(s, "stiffness_n_m", "N/m")
+        self._number_setting(s, "contact_restitution", "-")
+        if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
+            raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {s['contact_restitution']!r}.")
+        self._number_setting(s, "damping_n_s_m", "N s/m", allow_zero=True, allow_none=False)
+        self._number_setting(s, "sphere_radius_m", "m", allow_none=False)
         try:
             rho = float(s["spectral_radius"])
         except (TypeError, ValueError):
@@ -556,7 +536,7 @@ class ExudynAdapter(EngineAdapter):
             raise ConfigError(f"exudyn setting 'spectral_radius' must be in [0, 1], got {s['spectral_radius']!r}.")
         s["spectral_radius"] = rho
         for key in ("chunk_s", "min_tail_s", "max_tail_s"):
-            s[key] = _positive(key, s[key], "s")
+            self._number_setting(s, key, "s", allow_none=False)
 
     def _stiffness(self, block: Block) -> float:
         return self.settings["stiffness_n_m"] or default_stiffness_n_m(block)

@@ -192,16 +192,7 @@ class MujocoAdapter(EngineAdapter):
         for key, unit in (("friction", ""), ("timeconst", "s"), ("dampratio", ""), ("impratio", ""),
                           ("tail_s", "s"), ("min_tail_s", "s"), ("segment_s", "s"),
                           ("table_mass_ratio", "")):
-            v = s[key]
-            if v is None:
-                continue
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                raise ConfigError(f"mujoco setting {key!r} must be a number, got {v!r}.") from None
-            if not math.isfinite(v) or v <= 0.0:
-                raise ConfigError(f"mujoco setting {key!r} must be > 0{(' ' + unit) if unit else ''}, got {s[key]!r}.")
-            s[key] = v
+            self._number_setting(s, key, unit)
         if s["min_tail_s"] > s["tail_s"]:
             raise ConfigError(f"mujoco setting 'min_tail_s' ({s['min_tail_s']:g} s) must not exceed "
                               f"'tail_s' ({s['tail_s']:g} s).")

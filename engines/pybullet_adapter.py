@@ -125,21 +125,6 @@ def _flush_c_stdio() -> None:
         pass
 
 
-def _positive_or_none(settings: dict, key: str, unit: str, allow_zero: bool = False) -> None:
-    v = settings.get(key)
-    if v is None:
-        return
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise ConfigError(f"pybullet setting {key!r} must be a number{(' in ' + unit) if unit else ''}, got {v!r}.") from None
-    if not math.isfinite(x) or x < 0.0 or (x == 0.0 and not allow_zero):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ConfigError(f"pybullet setting {key!r} must be a finite number {bound}"
-                          f"{(' ' + unit) if unit else ''}, got {v!r}.")
-    settings[key] = x
-
-
 class _Scene:
     """One PyBullet DIRECT client and the bodies of one block geometry, reused across cases.
 
@@ -338,16 +323,16 @@ class PybulletAdapter(EngineAdapter):
         for key in ("planar", "friction_anchor"):
             if not isinstance(s[key], bool):
                 raise ConfigError(f"pybullet setting {key!r} must be true or false, got {s[key]!r}.")
-        _positive_or_none(s, "friction", "")
+        self._number_setting(s, "friction")
         if s["friction"] > BULLET_MAX_FRICTION:
             raise ConfigError(f"pybullet setting 'friction' must be <= {BULLET_MAX_FRICTION:g} (Bullet clamps the "
                               f"combined coefficient there), got {s['friction']!r}.")
-        _positive_or_none(s, "contact_stiffness", "N/m")
-        _positive_or_none(s, "contact_damping", "N s/m", allow_zero=True)
-        _positive_or_none(s, "restitution_coef", "", allow_zero=True)
-        _positive_or_none(s, "contact_breaking_threshold", "m")
-        _positive_or_none(s, "tail_s", "s")
-        _positive_or_none(s, "min_tail_s", "s", allow_zero=True)
+        self._number_setting(s, "contact_stiffness", "N/m")
+        self._number_setting(s, "contact_damping", "N s/m", allow_zero=True)
+        self._number_setting(s, "restitution_coef", allow_zero=True)
+        self._number_setting(s, "contact_breaking_threshold", "m")
+        self._number_setting(s, "tail_s", "s")
+        self._number_setting(s, "min_tail_s", "s", allow_zero=True)
         if (s["contact_stiffness"] is None) != (s["contact_damping"] is None):
             raise ConfigError("pybullet settings contact_stiffness and contact_damping go together: give both "
                               "(Bullet ignores one without the other).")

@@ -58,3 +58,31 @@ def test_engines_command(capsys):
         assert r["available"] or r["reason"]
     assert main(["engines"]) == 0
     assert "analytic" in capsys.readouterr().out
+
+
+def test_number_setting_checks_and_converts_for_every_adapter():
+    import math
+
+    import pytest
+
+    from rockbench.engines.base import EngineAdapter
+    from rockbench.reference_solver.errors import ConfigError
+
+    class Probe(EngineAdapter):
+        name = "probe"
+        SETTINGS = {"k": None, "d": 0, "t": 1}
+
+        def _validate_settings(self, s):
+            self._number_setting(s, "k", "N/m")
+            self._number_setting(s, "d", "N s/m", allow_zero=True, allow_none=False)
+            self._number_setting(s, "t", "s", allow_none=False)
+
+    p = Probe(t="2.5")
+    assert p.settings == {"k": None, "d": 0.0, "t": 2.5}
+    for bad, match in [({"k": 0}, r"'k' must be a finite number > 0 \[N/m\], got 0"),
+                       ({"d": -1}, r"'d' must be a finite number >= 0 \[N s/m\], got -1"),
+                       ({"d": None}, r"'d' must be a number \[N s/m\], got None"),
+                       ({"t": math.inf}, r"probe setting 't' must be a finite number > 0 \[s\]"),
+                       ({"t": "x"}, r"'t' must be a number \[s\], got 'x'")]:
+        with pytest.raises(ConfigError, match=match):
+            Probe(**bad)
