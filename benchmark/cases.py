@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..engines.base import Case
 from ..reference_solver.errors import ConfigError, check_positive
-from ..reference_solver.model import G, Block
+from ..reference_solver.model import G, Block, a_ratio_to_amplitude
 from ..reference_solver.pulses import Pulse, RecordPulse, make_pulse
 from ..reference_solver.restitution import Restitution
 from .presets import PRESETS, get_preset
@@ -112,7 +112,7 @@ def amplitude_from_args(args, block: Block) -> float:
     name, v = _one_of(args, ["--a-ratio", "--amplitude", "--amplitude-g"], "amplitude")
     x = check_positive(name, _num(name, v), {"--amplitude": "m/s^2", "--amplitude-g": "g"}.get(name, ""))
     if name == "--a-ratio":
-        return x * G * math.tan(block.alpha_rad)
+        return a_ratio_to_amplitude(block, x)
     if name == "--amplitude-g":
         return x * G
     return x

@@ -27,7 +27,7 @@ from typing import Iterable
 import numpy as np
 
 from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G
+from ..reference_solver.model import G, amplitude_to_a_ratio
 from ..reference_solver.restitution import housner_eta, modified_eta
 from .presets import PRESETS
 from .scores import FAILED, OVERTURN, REST, ROCKING, LabelMap
@@ -147,7 +147,7 @@ class OutcomePoint:
     @property
     def a_ratio(self) -> float:
         """a₀/(g·tanα) of the point for its block [-]."""
-        return self.amplitude_mps2 / (G * math.tan(PRESETS[self.block].block().alpha_rad))
+        return amplitude_to_a_ratio(PRESETS[self.block].block(), self.amplitude_mps2)
 
 
 def load_outcomes(path) -> list[OutcomePoint]:
@@ -306,4 +306,4 @@ def score_outcomes(points: Iterable[OutcomePoint], m: LabelMap, block: str, puls
 def st_limit_a_ratio(block: str) -> float:
     """The shaking-table limit (:data:`SHAKING_TABLE_LIMIT_MPS2`) in a₀/(g·tanα) for a block [-]."""
     b = PRESETS[block.upper()].block()
-    return SHAKING_TABLE_LIMIT_MPS2 / (G * math.tan(b.alpha_rad))
+    return amplitude_to_a_ratio(b, SHAKING_TABLE_LIMIT_MPS2)

@@ -29,7 +29,7 @@ import numpy as np
 from ..engines.base import Case, CellResult
 from ..reference_solver.classify import OUTCOME_CODES, Outcome
 from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
+from ..reference_solver.model import G, Block, a_ratio_to_amplitude, amplitude_to_a_ratio
 from ..reference_solver.pulses import MIN_STEPS_PER_WAVE, make_pulse
 from ..reference_solver.restitution import Restitution
 
@@ -208,7 +208,7 @@ class MapSpec:
     def _amplitudes(self) -> np.ndarray:
         v = self.y.values()
         if self.y.name == "a_ratio":
-            return v * G * math.tan(self.block.alpha_rad)
+            return a_ratio_to_amplitude(self.block, v)
         return v * G if self.y.name == "amplitude_g" else v
 
     @functools.cached_property
@@ -219,7 +219,7 @@ class MapSpec:
     @functools.cached_property
     def _a_ratios(self) -> np.ndarray:
         v = self.y.values()
-        return v if self.y.name == "a_ratio" else self._amplitudes / (G * math.tan(self.block.alpha_rad))
+        return v if self.y.name == "a_ratio" else amplitude_to_a_ratio(self.block, self._amplitudes)
 
     # the axis arrays are computed once per spec (a 200×200 map asks for them 40 000 times); copies
     # go out so no caller can change the spec's own

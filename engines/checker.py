@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 
 from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
+from ..reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
 from ..reference_solver.pulses import make_pulse
 from ..reference_solver.restitution import Restitution
 from .base import FLAGS, Case, EngineAdapter
@@ -76,8 +76,8 @@ class CheckReport:
 
 
 def _case(block: Block, kind: str, w_ratio: float, a_ratio: float, dt_s=None) -> Case:
-    amp = a_ratio * G * math.tan(block.alpha_rad)
-    return Case(block, make_pulse(kind, amp, w_ratio * block.p_rad_s), Restitution(), dt_s)
+    amp = a_ratio_to_amplitude(block, a_ratio)
+    return Case(block, make_pulse(kind, amp, w_ratio_to_omega(block, w_ratio)), Restitution(), dt_s)
 
 
 def _mirror(case: Case) -> Case:
