@@ -26,6 +26,7 @@ from typing import Iterable
 import numpy as np
 
 from ..reference_solver.errors import ConfigError, IncomparableError
+from ..reference_solver.pulses import is_number
 from .scores import FAILED, METRICS, METRICS_VERSION, LabelMap, check_gate, from_cells, score
 from .atomic import write_json_atomic as _write_json
 
@@ -281,15 +282,9 @@ def at_own_eta(reference: MapEntry, candidate: MapEntry, own_eta: dict | None) -
     """Whether ``reference`` is a constant-η map at ``candidate``'s own measured η (``own_eta`` as
     from :func:`load_own_eta`; the maps of ``rockbench run`` name that η to 4 decimals)."""
     own = (own_eta or {}).get((candidate.variant, candidate.block))
-    return own is not None and _is_constant(reference.restitution) and abs(reference.eta - own) < 5e-5
+    return own is not None and is_number(reference.restitution) and abs(reference.eta - own) < 5e-5
 
 
-def _is_constant(label: str) -> bool:
-    try:
-        float(label)
-        return True
-    except ValueError:
-        return False
 
 
 def score_experiments(entries: list[MapEntry], points) -> list[dict]:

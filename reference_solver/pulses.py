@@ -308,13 +308,13 @@ class RecordPulse(Pulse):
                               "give a CSV with columns t_s,accel_mps2.") from None
         rows = [r for r in csv.reader(line for line in text.splitlines()
                                       if line.strip() and not line.lstrip().startswith("#"))]
-        if rows and rows[0] and not _is_number(rows[0][0]):
+        if rows and rows[0] and not is_number(rows[0][0]):
             rows = rows[1:]
         if not rows:
             raise ConfigError(f"the record file {str(path)!r} is empty; give rows of t_s,accel_mps2.")
         ts, accs = [], []
         for n, r in enumerate(rows, start=1):
-            if len(r) < 2 or not (_is_number(r[0]) and _is_number(r[1])):
+            if len(r) < 2 or not (is_number(r[0]) and is_number(r[1])):
                 raise ConfigError(f"row {n} of the record file {str(path)!r} is not two numbers "
                                   f"(t_s,accel_mps2): got {','.join(r)!r}.")
             ts.append(float(r[0]))
@@ -322,7 +322,8 @@ class RecordPulse(Pulse):
         return cls(np.array(ts), np.array(accs), scale=scale, source=str(path))
 
 
-def _is_number(s: str) -> bool:
+def is_number(s: str) -> bool:
+    """Whether a text (a record's CSV field, a map's restitution label) reads as a number."""
     try:
         float(s)
         return True
