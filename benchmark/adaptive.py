@@ -76,7 +76,8 @@ def refine(outcome: np.ndarray, simulated: np.ndarray, evaluate: Callable[[list]
         True where ``outcome`` holds a simulated cell; updated in place by ``evaluate``.
     evaluate : callable
         ``evaluate([(i, j), ...])`` simulates those cells and writes ``outcome`` and
-        ``simulated``; it may be given cells already simulated (it skips them).
+        ``simulated``; it may be given cells already simulated (it skips them), never the same
+        cell twice in one call.
     stride : int
         Coarse spacing in cells (≥ 1; 1 simulates everything).
 
@@ -105,7 +106,8 @@ def refine(outcome: np.ndarray, simulated: np.ndarray, evaluate: Callable[[list]
             ii, jj = np.nonzero(~sub)
             cells.extend(zip((ii + i0).tolist(), (jj + j0).tolist()))
         refined |= todo
-        evaluate(cells)
+        # neighbouring blocks share their border cells: hand each cell over once
+        evaluate(list(dict.fromkeys(cells)))
         rounds += 1
         todo = np.zeros_like(refined)
         for bi, bj in zip(*np.nonzero(~refined)):

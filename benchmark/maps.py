@@ -458,7 +458,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         bar = _Progress(show, spec.label())
 
         def evaluate(cells: list[tuple[int, int]]) -> None:
-            todo = [c for c in cells if not result.simulated[c]]
+            # each cell once, even if a caller lists it twice
+            todo = list(dict.fromkeys(c for c in cells if not result.simulated[c]))
             if not todo:
                 return
             bar.add(len(todo))

@@ -1,6 +1,7 @@
 """Map specs, ranges, adaptive refinement (on a known analytic picture), the map command's input
 checks, and the pictures."""
 
+import csv
 import json
 
 import numpy as np
@@ -65,15 +66,19 @@ def test_coarse_index():
 def _refine_grid(truth, stride):
     out = np.full(truth.shape, MISSING, np.int8)
     sim = np.zeros(truth.shape, bool)
-    calls = []
+    runs = np.zeros(truth.shape, int)
 
     def evaluate(cells):
-        calls.append(len(cells))
+        # neighbouring refined blocks share their borders: each cell comes once per call
+        assert len(set(cells)) == len(cells)
         for i, j in cells:
+            if not sim[i, j]:
+                runs[i, j] += 1
             out[i, j] = truth[i, j]
             sim[i, j] = True
 
     adaptive.refine(out, sim, evaluate, stride)
+    assert runs.max() == 1 and runs.sum() == sim.sum()
     adaptive.fill(out, sim, stride)
     return out, sim
 
@@ -104,6 +109,10 @@ def test_adaptive_run_map_and_load_agree(tmp_path):
     r = run_map(s, tmp_path / "m", adaptive=True, serial=True)
     assert np.array_equal(r.outcome, mh.analytic_grid(s.w_ratios(), s.a_ratios()))
     assert r.n_simulated < s.n_cells
+    # every simulated cell was simulated once: one row each in cells.csv
+    with open(tmp_path / "m" / "cells.csv") as f:
+        ij = [(row["i"], row["j"]) for row in csv.DictReader(f)]
+    assert len(ij) == len(set(ij)) == r.n_simulated
     back = load_map(tmp_path / "m")
     assert np.array_equal(back.outcome, r.outcome) and back.adaptive
     assert back.fraction_simulated == pytest.approx(r.fraction_simulated)
