@@ -33,7 +33,9 @@ Model
   (``RecordPulse``) has no closed form and falls back to a Python user function.
 - **Solver**: Exudyn's implicit generalized-α (shipped default, spectral radius 0.9) with adaptive
   step reduction on Newton failure; the Newton tolerances are loosened to 1e-6 because the shipped
-  1e-8 makes Newton stall when the block settles on both corners (found in probes). A run whose
+  1e-8 makes Newton stall when the block settles on both corners (found in probes), and the
+  modified Newton method refreshes its Jacobian after 3 iterations instead of 8 (same tolerances,
+  10–27 % less time: the stiff regularised friction makes an old Jacobian converge slowly). A run whose
   Newton still stalls (a few violent impacts per thousand cells) is repeated at half the step,
   then with a full Newton method; only if all three fail is the cell an ``engine-error``.
 
@@ -267,6 +269,7 @@ class _Model:
         ti.newton.relativeTolerance = 1e-6
         ti.newton.absoluteTolerance = 1e-6
         ti.generalizedAlpha.spectralRadius = contact["spectral_radius"]
+        ti.newton.maxModifiedNewtonIterations = contact["modified_newton_iterations"]
         ti.adaptiveStep = True
         ss.solution.file.write = False
         ss.solution.sensors.writePeriod = dt_s
@@ -480,6 +483,12 @@ class ExudynAdapter(EngineAdapter):
         Radius of the corner contact spheres [m].
     spectral_radius : float
         Generalized-α spectral radius ρ∞ [-] (Exudyn's default 0.9).
+    modified_newton_iterations : int
+        Iterations Exudyn's modified Newton method makes with one Jacobian before it computes a
+        new one (its ``maxModifiedNewtonIterations``; Exudyn ships 8). The converged solution
+        must still meet the same tolerances, so this changes the cost, not the accuracy asked
+        for; 3 measured 10–14 % faster calibrated and 27 % faster as shipped than 8 (the stiff
+        regularised friction makes an old Jacobian converge slowly), docs/exudyn.md.
     chunk_s, min_tail_s, max_tail_s : float
         Length of the integration chunks between stop checks, and the shortest and longest tail
         after the pulse [s] (see the module notes on the end of a run).
@@ -500,6 +509,7 @@ class ExudynAdapter(EngineAdapter):
         "damping_n_s_m": 0.0,
         "sphere_radius_m": 5e-4,
         "spectral_radius": 0.9,
+        "modified_newton_iterations": 3,
         "chunk_s": 0.05,
         "min_tail_s": 0.3,
         "max_tail_s": 3.0,
@@ -535,6 +545,14 @@ class ExudynAdapter(EngineAdapter):
         if not (0.0 <= rho <= 1.0):
             raise ConfigError(f"exudyn setting 'spectral_radius' must be in [0, 1], got {s['spectral_radius']!r}.")
         s["spectral_radius"] = rho
+        n = s["modified_newton_iterations"]
+        try:
+            whole = not isinstance(n, bool) and float(n) == int(float(n)) >= 1
+        except (TypeError, ValueError, OverflowError):
+            whole = False
+        if not whole:
+            raise ConfigError(f"exudyn setting 'modified_newton_iterations' must be a whole number ≥ 1, got {n!r}.")
+        s["modified_newton_iterations"] = int(float(n))
         for key in ("chunk_s", "min_tail_s", "max_tail_s"):
             self._number_setting(s, key, "s", allow_none=False)
 
@@ -553,7 +571,8 @@ class ExudynAdapter(EngineAdapter):
         return {"stiffness_n_m": self._stiffness(block), "damping_n_s_m": s["damping_n_s_m"],
                 "impact_model": model, "restitution_coefficient": e,
                 "friction": s["friction"], "friction_zone_m_s": s["friction_zone_m_s"],
-                "sphere_radius_m": s["sphere_radius_m"], "spectral_radius": s["spectral_radius"]}
+                "sphere_radius_m": s["sphere_radius_m"], "spectral_radius": s["spectral_radius"],
+                "modified_newton_iterations": s["modified_newton_iterations"]}
 
     def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
         """Concrete settings for a block and restitution, calibrating (and caching) on first use."""
@@ -738,7 +757,7 @@ class ExudynAdapter(EngineAdapter):
             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=float(target_eta),
             dt=float(dt), planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
             zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
-            damping=s["damping_n_s_m"])
+            damping=s["damping_n_s_m"], newton=s["modified_newton_iterations"])
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
@@ -847,7 +866,7 @@ class ExudynAdapter(EngineAdapter):
 
 #: the contact parameters a model is built from
 _CONTACT_KEYS = ("stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient", "friction",
-                 "friction_zone_m_s", "sphere_radius_m", "spectral_radius")
+                 "friction_zone_m_s", "sphere_radius_m", "spectral_radius", "modified_newton_iterations")
 
 
 def _slip_and_jump(centres, corners, table_x, r, block: Block):

@@ -18,6 +18,7 @@ import pytest
 pytest.importorskip("exudyn")
 
 from rockbench.benchmark.presets import get_preset
+from rockbench.engines import exudyn_adapter
 from rockbench.engines.base import FLAGS, Case, Trajectory
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
@@ -188,10 +189,24 @@ def test_defaults_settings_run_the_shipped_contact():
 @pytest.mark.parametrize("settings", [
     {"nonsense": 1}, {"settings": "tuned"}, {"drive": "belt"}, {"stiffness_n_m": -1.0},
     {"friction": 0}, {"contact_restitution": 1.5}, {"spectral_radius": 2}, {"planar": "maybe"},
+    {"modified_newton_iterations": 0}, {"modified_newton_iterations": 2.5},
+    {"modified_newton_iterations": "many"}, {"modified_newton_iterations": True},
 ])
 def test_bad_settings_raise_config_error(settings):
     with pytest.raises(ConfigError):
         get_adapter("exudyn", **settings)
+
+
+def test_modified_newton_iterations_reach_exudyns_solver():
+    b = get_preset("B3M").block()
+    for given, used in ((None, 3), (8, 8), ("5", 5)):
+        ad = get_adapter("exudyn", settings="defaults",
+                         **({} if given is None else {"modified_newton_iterations": given}))
+        res = ad.resolve(b, Restitution())
+        assert res["modified_newton_iterations"] == used
+        model = ad._model(b, {k: res[k] for k in exudyn_adapter._CONTACT_KEYS}, 1e-4,
+                          make_pulse("sine", 1.0, 10.0))
+        assert model.ss.timeIntegration.newton.maxModifiedNewtonIterations == used
 
 
 def test_negative_time_step_is_config_error(exudyn):
