@@ -98,7 +98,9 @@ def main(argv=None) -> int:
         tmp = Path(tempfile.mkdtemp(prefix="rb-bench-run-"))
         out = Path(args.out) if args.out else tmp / "out"
         env = dict(os.environ, ROCKBENCH_CACHE=str(tmp / "cache"))
-        cmd = [shutil.which("rockbench") or "rockbench", "run", "--out", str(out)]
+        # the rockbench of the environment this script runs in, else the one on PATH
+        here = Path(sys.executable).with_name("rockbench")
+        cmd = [str(here) if here.is_file() else (shutil.which("rockbench") or "rockbench"), "run", "--out", str(out)]
         cmd += ["--quick"] if args.quick else ([args.suite] if args.suite else [])
         rec["command"] = " ".join(cmd[1:])
         rec["loadavg_before"] = _loadavg()
