@@ -10,6 +10,8 @@ depend on batching, contract item 6).
   (:mod:`rockbench.benchmark.worker`), kept for the whole map (``rockbench run`` keeps them for
   all the maps of one engine variant), fed chunks of falling size (:func:`_guided_chunks`). A
   cell past its time limit gets its worker killed and is recorded as ``timeout``; a worker that
+  does not start its engine within :attr:`ProcessExecutor.START_TIMEOUT_S` is stopped and counts
+  as a failed start (three in a row stop the map with the reason); a worker that
   dies (a segfault in the engine) records its current cell as ``crashed``; the other cells of the
   chunk run again on a fresh worker. Batching adapters get whole chunks in one ``run_many``
   call; if such a batch fails, times out or crashes, its cells are rerun one by one so only the
@@ -187,6 +189,7 @@ class _Worker:
         self.killed: str | None = None
         self.dead = False
         self.init_error: str | None = None
+        self.spawned = time.monotonic()
         wire.send(self.proc.stdin, ("init", init))
         threading.Thread(target=self._read, args=(q,), daemon=True).start()
 
@@ -206,7 +209,9 @@ class _Worker:
         self.chunk = chunk
         self.current = None
         items = [(k, chunk.remaining[k]) for k, _ in chunk.items if k in chunk.remaining]
-        self.deadline = time.monotonic() + cell_timeout_s * len(items) if chunk.batch else math.inf
+        # a batch has the time of all its cells; one cell at a time, each "start" renews the
+        # limit, and until the first one comes the worker has one cell's time to get there
+        self.deadline = time.monotonic() + cell_timeout_s * (len(items) if chunk.batch else 1)
         wire.send(self.proc.stdin, ("chunk", chunk.id, items, chunk.batch))
 
     def kill(self, why: str) -> None:
@@ -242,6 +247,8 @@ class ProcessExecutor:
 
     #: how many times in a row a fresh worker may fail to start before the map stops
     MAX_START_FAILURES = 3
+    #: seconds a fresh worker may take to import and set up its engine before it is stopped
+    START_TIMEOUT_S = 120.0
 
     def __init__(self, init: dict, jobs: int, log_path=None, threads_per_worker: int | None = None):
         self.init = init
@@ -302,6 +309,7 @@ class ProcessExecutor:
                 elif kind == "result":
                     self._deliver(w.chunk, [(msg[1], msg[2])], on_results)
                     w.current = None
+                    w.deadline = time.monotonic() + cell_timeout_s   # until the next "start" 
                 elif kind == "results":
                     self._deliver(w.chunk, msg[2], on_results)
                 elif kind == "batch-failed":
@@ -314,7 +322,11 @@ class ProcessExecutor:
                     busy -= self._bury(w, pending, on_results)
             now = time.monotonic()
             for w in self.workers:
-                if w.chunk is not None and not w.dead and now > w.deadline:
+                if w.dead:
+                    continue
+                if not w.ready and now > w.spawned + self.START_TIMEOUT_S:
+                    w.kill("start-timeout")
+                elif w.chunk is not None and now > w.deadline:
                     w.kill("timeout")
             if pending and not any(not w.dead for w in self.workers):
                 self._spawn()
@@ -346,8 +358,10 @@ class ProcessExecutor:
                     raise err(w.init_error.split(": ", 1)[-1])
                 raise EngineError(f"a worker could not start the engine {self.init['engine']!r}: {w.init_error}")
             if self._start_failures >= self.MAX_START_FAILURES:
+                why = (f"did not start within {self.START_TIMEOUT_S:g} s" if w.killed == "start-timeout"
+                       else _death_reason(code))
                 raise EngineError(f"worker processes for engine {self.init['engine']!r} keep dying at start "
-                                  f"({_death_reason(code)}); see {self.log_path or 'their stderr'}.")
+                                  f"({why}); see {self.log_path or 'their stderr'}.")
             return 0
         chunk = w.chunk
         if chunk is None:
@@ -365,8 +379,9 @@ class ProcessExecutor:
             chunk.deaths += 1
             if chunk.deaths >= 3:
                 key = next(iter(chunk.remaining))
-                self._deliver(chunk, [(key, CellResult.failed("crashed", _death_reason(code) +
-                                                              " three times before this cell started"))], on_results)
+                why = ("the worker was stopped at the time limit" if w.killed == "timeout" else _death_reason(code))
+                self._deliver(chunk, [(key, CellResult.failed("crashed", why + " three times before this cell "
+                                                              "started"))], on_results)
         if chunk.remaining:
             # the rest of the chunk (all of it for a batch) runs again, one cell at a time
             rest = _Chunk(list(chunk.remaining.items()), False)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import os
 import time
 
 import numpy as np
@@ -111,6 +112,18 @@ class HangingAdapter(AnalyticAdapter):
             time.sleep(3600)
 
 
+class HangingStartAdapter(AnalyticAdapter):
+    """Never gets going in a worker: it hangs while setting up the engine in any process but the
+    one named by ``RB_TEST_PARENT_PID`` (the test's own, which builds an adapter for run.json)."""
+
+    name = "hanging-start"
+
+    def __init__(self, **settings):
+        if str(os.getpid()) != os.environ.get("RB_TEST_PARENT_PID"):
+            time.sleep(3600)
+        super().__init__(**settings)
+
+
 class DivergingAdapter(AnalyticAdapter):
     name = "diverging"
 
@@ -145,7 +158,8 @@ class WrongAdapter(AnalyticAdapter):
 
 
 ALL = {c.name: c for c in (AnalyticAdapter, BatchAnalyticAdapter, RaisingAdapter, CrashingAdapter,
-                           HangingAdapter, DivergingAdapter, CrashingBatchAdapter, WrongAdapter)}
+                           HangingAdapter, HangingStartAdapter, DivergingAdapter, CrashingBatchAdapter,
+                           WrongAdapter)}
 
 
 def register_all():

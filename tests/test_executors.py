@@ -1,6 +1,7 @@
 """Executors: the same map whatever runs it; failing, crashing and hanging cells recorded while the
 rest completes; an unreachable scheduler is a clean error within seconds."""
 
+import os
 import time
 
 import numpy as np
@@ -11,7 +12,7 @@ from rockbench.benchmark.cli import main
 from rockbench.benchmark.executors import DaskExecutor, worker_init
 from rockbench.benchmark.maps import FAILED, MapSpec, load_map, make_axis, run_map
 from rockbench.benchmark.presets import get_preset
-from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.errors import ConfigError, EngineError
 from rockbench.reference_solver.restitution import Restitution
 
 
@@ -98,6 +99,16 @@ def test_hanging_cell_times_out(tmp_path):
     assert (r.outcome[:, bad] == FAILED).all()
     assert {f["flag"] for f in r.failures} == {"timeout"} and len(r.failures) == 4
     assert np.array_equal(r.outcome[:, ~bad], truth(s)[:, ~bad])
+
+
+def test_worker_that_never_starts_stops_the_map_with_the_reason(tmp_path, monkeypatch):
+    from rockbench.benchmark.executors import ProcessExecutor
+    monkeypatch.setattr(ProcessExecutor, "START_TIMEOUT_S", 1.0)
+    monkeypatch.setenv("RB_TEST_PARENT_PID", str(os.getpid()))
+    t0 = time.monotonic()
+    with pytest.raises(EngineError, match="did not start within 1 s"):
+        run_map(spec("hanging-start", n=4), tmp_path / "m", jobs=2, plot=False)
+    assert time.monotonic() - t0 < 60
 
 
 def test_unreachable_scheduler_fails_fast():
