@@ -373,6 +373,12 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     # engine and build their models once instead of once per map (their stderr goes to one
     # workers.log beside the variant's maps).
     executors: dict = {}
+
+    def variant(job):
+        return None if job.engine == "reference" else (job.engine, json.dumps(dict(job.settings), sort_keys=True))
+
+    # a variant's workers stop after its last map, so idle engines do not hold their memory
+    last_map = {variant(j): k for k, j in enumerate(todo, 1)}
     try:
         for k, (job, spec) in enumerate(zip(todo, specs), 1):
             d = out / job.subdir
@@ -382,8 +388,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
             # worker processes would each compile it again (seconds per map); engines keep the
             # workers' time limit and crash isolation.
             ex = None
-            if job.engine != "reference":
-                key = (job.engine, json.dumps(dict(job.settings), sort_keys=True))
+            key = variant(job)
+            if key is not None:
                 ex = executors.get(key)
                 if ex is None:
                     d.parent.mkdir(parents=True, exist_ok=True)
@@ -394,6 +400,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
                           log=log, executor=ex)
             done.append({"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                          "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)})
+            if ex is not None and last_map[key] == k:
+                executors.pop(key).close()
     finally:
         for ex in executors.values():
             ex.close()

@@ -57,3 +57,35 @@ def test_run_cli_usage(tmp_path, capsys):
     assert main(["run", "--quick", "--jobs", "0"]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and err.count("\n") == 4
+
+
+def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(tmp_path, monkeypatch):
+    import maps_helpers as mh
+    from rockbench.benchmark import executors
+    from rockbench.benchmark.run import run_suite
+
+    mh.register_all()
+    (tmp_path / "s.toml").write_text(
+        "[suite]\nname = 't'\n[grid]\nw_ratio = '1:8:5'\na_ratio = '1:9:5'\n"
+        "[cases]\nblocks = ['B3M', 'B6L']\npulses = ['sine']\n[reference]\nrestitutions = ['housner']\n"
+        "[engines]\nnames = ['analytic']\nvariants = [{ sleep_s = 0.0 }, { sleep_s = 1e-4 }]\nown_eta = false\n")
+    logs = []
+    real = executors.make_executor
+
+    def spy(engine, settings, **kw):
+        ex = real(engine, settings, **kw)
+        if engine != "reference":
+            name = f"{engine} {settings['sleep_s']}"
+            logs.append(f"open {name}")
+            close = ex.close
+            ex.close = lambda: (logs.append(f"close {name}"), close())
+        return ex
+
+    monkeypatch.setattr(executors, "make_executor", spy)
+    res = run_suite(load_suite(tmp_path / "s.toml"), tmp_path / "out", jobs=1, report=False, log=logs.append)
+    assert len(res["maps"]) == 2 + 2 * 2           # reference, then the two variants' two maps each
+    seen = [m.split(" → ")[0].split(" B")[0] if m.startswith("[") else m for m in logs
+            if m.startswith(("[", "open", "close"))]
+    assert seen == ["[1/6] reference", "[2/6] reference",
+                    "[3/6] analytic", "open analytic 0.0", "[4/6] analytic", "close analytic 0.0",
+                    "[5/6] analytic", "open analytic 0.0001", "[6/6] analytic", "close analytic 0.0001"]
