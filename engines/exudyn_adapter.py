@@ -545,14 +545,7 @@ class ExudynAdapter(EngineAdapter):
         if not (0.0 <= rho <= 1.0):
             raise ConfigError(f"exudyn setting 'spectral_radius' must be in [0, 1], got {s['spectral_radius']!r}.")
         s["spectral_radius"] = rho
-        n = s["modified_newton_iterations"]
-        try:
-            whole = not isinstance(n, bool) and float(n) == int(float(n)) >= 1
-        except (TypeError, ValueError, OverflowError):
-            whole = False
-        if not whole:
-            raise ConfigError(f"exudyn setting 'modified_newton_iterations' must be a whole number ≥ 1, got {n!r}.")
-        s["modified_newton_iterations"] = int(float(n))
+        self._whole_setting(s, "modified_newton_iterations", 1, allow_none=False)
         for key in ("chunk_s", "min_tail_s", "max_tail_s"):
             self._number_setting(s, key, "s", allow_none=False)
 

@@ -338,11 +338,7 @@ class PybulletAdapter(EngineAdapter):
                               "(Bullet ignores one without the other).")
         if s["restitution_coef"] is not None and s["restitution_coef"] > 1.0:
             raise ConfigError(f"pybullet setting 'restitution_coef' must be in [0, 1], got {s['restitution_coef']!r}.")
-        it = s["solver_iterations"]
-        if it is not None:
-            if isinstance(it, bool) or not isinstance(it, (int, float)) or it != int(it) or it < 1:
-                raise ConfigError(f"pybullet setting 'solver_iterations' must be a whole number >= 1, got {it!r}.")
-            s["solver_iterations"] = int(it)
+        self._whole_setting(s, "solver_iterations", 1)
 
     def _explicit_contact(self) -> bool:
         return any(self.settings[k] is not None for k in self.CONTACT_KEYS)

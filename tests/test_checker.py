@@ -86,3 +86,29 @@ def test_number_setting_checks_and_converts_for_every_adapter():
                        ({"t": "x"}, r"'t' must be a number \[s\], got 'x'")]:
         with pytest.raises(ConfigError, match=match):
             Probe(**bad)
+
+
+def test_whole_setting_checks_and_converts_for_every_adapter():
+    import math
+
+    import pytest
+
+    from rockbench.engines.base import EngineAdapter
+    from rockbench.reference_solver.errors import ConfigError
+
+    class Probe(EngineAdapter):
+        name = "probe"
+        SETTINGS = {"n": None, "m": 3}
+
+        def _validate_settings(self, s):
+            self._whole_setting(s, "n", 0)
+            self._whole_setting(s, "m", 1, allow_none=False)
+
+    p = Probe(n=4.0)
+    assert p.settings == {"n": 4, "m": 3} and isinstance(p.settings["n"], int)
+    for bad in ({"n": -1}, {"n": 2.5}, {"n": True}, {"n": "4"}, {"n": math.nan}, {"n": math.inf},
+                {"m": 0}, {"m": None}):
+        key, value = next(iter(bad.items()))
+        bound = 0 if key == "n" else 1
+        with pytest.raises(ConfigError, match=rf"probe setting '{key}' must be a whole number >= {bound}, got "):
+            Probe(**bad)

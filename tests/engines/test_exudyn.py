@@ -191,6 +191,8 @@ def test_defaults_settings_run_the_shipped_contact():
     {"friction": 0}, {"contact_restitution": 1.5}, {"spectral_radius": 2}, {"planar": "maybe"},
     {"modified_newton_iterations": 0}, {"modified_newton_iterations": 2.5},
     {"modified_newton_iterations": "many"}, {"modified_newton_iterations": True},
+    {"modified_newton_iterations": "5"}, {"modified_newton_iterations": None},
+    {"modified_newton_iterations": float("inf")},
 ])
 def test_bad_settings_raise_config_error(settings):
     with pytest.raises(ConfigError):
@@ -199,7 +201,7 @@ def test_bad_settings_raise_config_error(settings):
 
 def test_modified_newton_iterations_reach_exudyns_solver():
     b = get_preset("B3M").block()
-    for given, used in ((None, 3), (8, 8), ("5", 5)):
+    for given, used in ((None, 3), (8, 8), (5.0, 5)):
         ad = get_adapter("exudyn", settings="defaults",
                          **({} if given is None else {"modified_newton_iterations": given}))
         res = ad.resolve(b, Restitution())
