@@ -309,7 +309,7 @@ class ProcessExecutor:
                 elif kind == "result":
                     self._deliver(w.chunk, [(msg[1], msg[2])], on_results)
                     w.current = None
-                    w.deadline = time.monotonic() + cell_timeout_s   # until the next "start" 
+                    w.deadline = time.monotonic() + cell_timeout_s   # until the next "start"
                 elif kind == "results":
                     self._deliver(w.chunk, msg[2], on_results)
                 elif kind == "batch-failed":

@@ -285,8 +285,6 @@ def at_own_eta(reference: MapEntry, candidate: MapEntry, own_eta: dict | None) -
     return own is not None and is_number(reference.restitution) and abs(reference.eta - own) < 5e-5
 
 
-
-
 def score_experiments(entries: list[MapEntry], points) -> list[dict]:
     """Each map of a preset block scored against the experimental points of its block and pulse."""
     from .experiments import score_outcomes
