@@ -109,10 +109,7 @@ def classify(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: floa
         return Classification(Outcome.REST, 0, float(np.max(np.abs(th))), None, None)
     i_up = int(np.argmax(lifted))
 
-    flat = np.abs(th) >= FLAT_ANGLE_RAD
-    certain = flat | ((t >= t_pulse_end_s) & (np.abs(th) > alpha_rad) & (th * thd > 0.0))
-    i_end = int(np.argmax(certain)) if certain.any() else th.size - 1
-    overturned = bool(certain.any())
+    i_end, overturned = decision_index(t, th, thd, alpha_rad=alpha_rad, t_pulse_end_s=t_pulse_end_s)
 
     side = np.where(th > uplift_tol_rad, 1, np.where(th < -uplift_tol_rad, -1, 0))[: i_end + 1]
     nz = side[side != 0]
@@ -130,6 +127,24 @@ def classify(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: floa
             t_over = math.nan
     outcome = Outcome.OVERTURN if overturned else Outcome.ROCKING
     return Classification(outcome, n_imp, max_th, float(t[i_up]), t_over)
+
+
+def decision_index(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pulse_end_s: float) -> tuple[int, bool]:
+    """The sample at which the classifier decides, and whether that decision is an overturn.
+
+    The first sample at which the overturn is certain (rule 2: flat on its side, or after the
+    excitation ``|θ| > α`` moving outward), else the last sample. The one validity rule
+    (:mod:`~rockbench.reference_solver.validity`) and the rigid model's contact demand
+    (:mod:`~rockbench.reference_solver.demand`) judge the motion up to this sample.
+    """
+    t = np.asarray(t_s, dtype=float)
+    th = np.asarray(theta_rad, dtype=float)
+    thd = np.asarray(theta_dot_rad_s, dtype=float)
+    a = np.abs(th)
+    certain = (a >= FLAT_ANGLE_RAD) | ((t >= t_pulse_end_s) & (a > alpha_rad) & (th * thd > 0.0))
+    if certain.any():
+        return int(np.argmax(certain)), True
+    return th.size - 1, False
 
 
 def _last_outward_alpha_crossing(t, th, alpha):

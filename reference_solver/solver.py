@@ -75,6 +75,7 @@ import numpy as np
 from numba import njit, prange, set_parallel_chunksize
 
 from .classify import FLAT_ANGLE_RAD, OUTCOME_CODES, Outcome, OUTCOME_FROM_CODE, classify
+from .demand import D_MAX_F, D_MIN_N, N_DEMAND, demand_update
 from .errors import ConfigError, check_positive
 from .model import G, Block
 from .pulses import MIN_STEPS_PER_WAVE, PULSE_CODES, Pulse
@@ -99,8 +100,8 @@ _FLAT = FLAT_ANGLE_RAD
 _HARMONIC_CODES = {k: v for k, v in PULSE_CODES.items() if k != "record"}
 
 # indices of the stats vector the kernel returns
-_S_OUTCOME, _S_NIMP, _S_MAXTH, _S_TUP, _S_TOVER, _S_STEPS, _S_NEWTON, _S_NEVENTS = range(8)
-_N_STATS = 8
+_S_OUTCOME, _S_NIMP, _S_MAXTH, _S_TUP, _S_TOVER, _S_STEPS, _S_NEWTON, _S_NEVENTS, _S_MINN, _S_MAXF = range(10)
+_N_STATS = 10
 
 
 # --------------------------------------------------------------------------------------------
@@ -409,7 +410,8 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
         Uplift instants (empty unless ``events``).
     stats : ndarray
         Outcome code, impacts, max |θ|, t_uplift, t_overturn (by the classifier's rule), steps,
-        Newton iterations, impacts by the integrator.
+        Newton iterations, impacts by the integrator, and the rigid model's contact demand
+        (smallest N/(m·g), largest |F|/N; :mod:`~rockbench.reference_solver.demand`).
     """
     p2 = p * p
     thr = G * (alpha if lin else math.tan(alpha))
@@ -425,6 +427,8 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
     nu = 0
     cs = np.zeros(13)
     cs[_C_TCROSS] = np.nan
+    dm = np.zeros(N_DEMAND)   # running contact demand (demand.demand_update): never lifted yet
+    dm[D_MIN_N] = 1.0
 
     t = 0.0
     th = th0
@@ -449,6 +453,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
     if record:
         hist = _push(hist, n, t, th, thd, thdd)
     _emit(cs, t, th, thd, alpha, t_end)
+    demand_update(dm, th, thd, thdd, _pulse_acc(0.0, code, a0, w, t_end, tk, ak) / G, s, alpha, p2)
     n += 1
 
     while True:
@@ -481,6 +486,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                     hist = _push(hist, n, t, th, thd, thdd)
                 _emit(cs, t, th, thd, alpha, t_end)
                 n += 1
+            demand_update(dm, th, thd, thdd, ua / G, s, alpha, p2)
             continue
 
         # one step on side s (shortened to land exactly on the pulse's end)
@@ -501,6 +507,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                         hist = _push(hist, n, t, th, thd, thdd)
                     _emit(cs, t, th, thd, alpha, t_end)
                     n += 1
+                demand_update(dm, th, thd, thdd, 0.0, s, alpha, p2)
                 did_step = False
         if did_step:
             t1 = t_end if hits_end else t + h
@@ -540,10 +547,12 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                 thdd_prev = thdd
                 h_prev = h
                 t, th, thd, thdd = t1, x, thd1, thdd1
+                demand_update(dm, th, thd, thdd, u1, s, alpha, p2)
                 if hits_end:
                     post = True
                     thdd = _acc(th, 0.0, s, alpha, p2, lin)
                     h_prev = 0.0
+                    demand_update(dm, th, thd, thdd, 0.0, s, alpha, p2)
                 if record:
                     hist = _push(hist, n, t, th, thd, thdd)
                 _emit(cs, t, th, thd, alpha, t_end)
@@ -570,10 +579,12 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                 if hits_end and tau >= h * (1.0 - 1e-12):
                     t = t_end
                     post = True
+                u = 0.0 if post else _pulse_acc(t, code, a0, w, t_end, tk, ak) / G
+                # the states just before and just after the impulse (the impulse itself is not a force)
+                demand_update(dm, 0.0, vm, _acc(0.0, u, s, alpha, p2, lin), u, s, alpha, p2)
                 s = -s
                 th = 0.0
                 thd = vp
-                u = 0.0 if post else _pulse_acc(t, code, a0, w, t_end, tk, ak) / G
                 thdd = _acc(0.0, u, s, alpha, p2, lin)
                 if events:
                     imps = _grow(imps, ni)
@@ -587,6 +598,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
                     thd = 0.0
                     thdd = 0.0
                     s = 0.0
+                demand_update(dm, th, thd, thdd, u, s, alpha, p2)
                 if record:
                     hist = _push(hist, n, t, th, thd, thdd)
                 _emit(cs, t, th, thd, alpha, t_end)
@@ -626,6 +638,8 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
     stats[_S_NEWTON] = newton
     stats[_S_NEVENTS] = ni
     stats[_S_MAXTH] = cs[_C_MAX]
+    stats[_S_MINN] = dm[D_MIN_N]
+    stats[_S_MAXF] = dm[D_MAX_F]
     if cs[_C_LIFTED] == 0.0:
         stats[_S_OUTCOME] = _REST
         stats[_S_NIMP] = 0.0
@@ -700,6 +714,11 @@ class Solution:
         Newmark steps taken [-].
     n_newton : int
         Newton iterations, steps and impact steps together [-].
+    min_normal_mg : float
+        The rigid model's smallest normal force at the pivot over ``m·g``, from uplift to the
+        decision (:mod:`~rockbench.reference_solver.demand`); 1 when the block never lifted [-].
+    max_friction_ratio : float
+        The largest ``|F|/N`` it needs there while ``N > 0``; 0 when the block never lifted [-].
     """
 
     t_s: np.ndarray | None
@@ -720,6 +739,8 @@ class Solution:
     t_overturn_s: float | None
     n_steps: int
     n_newton: int
+    min_normal_mg: float = 1.0
+    max_friction_ratio: float = 0.0
 
     def impact_list(self) -> list[dict]:
         """The impacts as JSON-ready dicts ``{t_s, theta_dot_minus_rad_s, theta_dot_plus_rad_s}``."""
@@ -746,6 +767,8 @@ class BatchResult:
         before θ reached α).
     n_steps, n_newton : ndarray of int
         Newmark steps and Newton iterations per case [-].
+    min_normal_mg, max_friction_ratio : ndarray
+        The rigid model's contact demand (see :class:`Solution`) [-].
     """
 
     outcome: np.ndarray
@@ -755,6 +778,8 @@ class BatchResult:
     t_overturn_s: np.ndarray
     n_steps: np.ndarray
     n_newton: np.ndarray
+    min_normal_mg: np.ndarray
+    max_friction_ratio: np.ndarray
 
     def outcomes(self) -> np.ndarray:
         """The outcomes as strings (an object array of ``"rest"``/``"rocking"``/``"overturn"``)."""
@@ -819,7 +844,8 @@ def solve(block: Block, pulse: Pulse, eta: float, *, dt_s: float = 1e-3, lineari
                                       np.ascontiguousarray(ak, dtype=float), dt, bool(linearized),
                                       energy_mode, t_max, bool(history), th0, thd0, True)
     common = dict(impacts=np.array(imps), uplifts=np.array(upls), t_pulse_end_s=float(t_end), eta=eta, dt_s=dt,
-                  mode=mode, linearized=bool(linearized), n_steps=int(st[_S_STEPS]), n_newton=int(st[_S_NEWTON]))
+                  mode=mode, linearized=bool(linearized), n_steps=int(st[_S_STEPS]), n_newton=int(st[_S_NEWTON]),
+                  min_normal_mg=float(st[_S_MINN]), max_friction_ratio=float(st[_S_MAXF]))
     if history:
         t, th, thd, thdd = (np.array(hist[:, j]) for j in range(4))
         c = classify(t, th, thd, alpha_rad=block.alpha_rad, p_rad_s=block.p_rad_s, t_pulse_end_s=float(t_end),
@@ -919,6 +945,8 @@ def solve_batch(alpha_rad, p_rad_s, eta, pulse_kind: str, omega_rad_s, amplitude
         t_overturn_s=np.where(out[:, _S_OUTCOME] == _OVERTURN, out[:, _S_TOVER], np.nan).reshape(shape),
         n_steps=out[:, _S_STEPS].astype(np.int64).reshape(shape),
         n_newton=out[:, _S_NEWTON].astype(np.int64).reshape(shape),
+        min_normal_mg=out[:, _S_MINN].reshape(shape),
+        max_friction_ratio=out[:, _S_MAXF].reshape(shape),
     )
 
 
