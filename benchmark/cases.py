@@ -51,7 +51,9 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--settings", default=None, metavar="NAME",
                    help="engine contact settings: calibrated (default) | defaults (the engine as shipped)")
     g.add_argument("--drive", default=None, help="engine table drive: inertial (default) | table")
-    g.add_argument("--friction", default=None, help="engine friction coefficient [-]")
+    g.add_argument("--friction", default=None, metavar="MU",
+                   help="friction coefficient μ [-]: an engine's contact friction; for the reference, the μ "
+                   "its slip-required test allows (default 10, the engines' anti-slip friction)")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="any other engine setting (repeatable)")
 

@@ -1,9 +1,11 @@
 """The contract every engine adapter implements, and the objects it exchanges.
 
 An adapter turns a :class:`Case` (a block, a table pulse, a restitution law, a time step and
-engine settings) into a :class:`Trajectory` (θ(t), θ̇(t), diagnostics and flags). It never decides
-the outcome: :meth:`EngineAdapter.run` hands the trajectory to the one shared classifier
-(:func:`rockbench.reference_solver.classify.classify`), so every engine is judged by one rule.
+engine settings) into a :class:`Trajectory`: what the engine measured (θ(t), θ̇(t), both bottom
+corners in the table's frame, the block's energy) and diagnostics. It decides nothing:
+:meth:`EngineAdapter.judge` hands the trajectory to the one shared classifier
+(:func:`rockbench.reference_solver.classify.classify`) and the one validity rule
+(:mod:`rockbench.reference_solver.validity`), so every engine is judged by the same rules.
 
 The contract, for a subclass of :class:`EngineAdapter`:
 
@@ -19,11 +21,16 @@ The contract, for a subclass of :class:`EngineAdapter`:
    acceleration starts a negative θ. Samples start at t = 0 and cover at least the pulse
    (``t_pulse_end_s``); the run ends by a documented rule (overturn certain, rest, or a bounded
    tail after the pulse).
-4. Anything that breaks the model's assumptions is reported in ``Trajectory.flags`` with one of
-   :data:`FLAGS`: ``slip`` (the pivot corner moved on the table by more than :func:`slip_tol_m`),
-   ``jump`` (both bottom corners above the table by more than :func:`jump_tol_m`),
-   ``energy-gain`` (energy rose after the pulse by more than :data:`ENERGY_GAIN_TOL` of the
-   barrier), ``diverged`` (non-finite state). A flagged trajectory is not valid.
+4. A contact engine reports its measurements in the trajectory: ``corner_x_m`` and ``corner_z_m``
+   (both bottom corners, ``(n, 2)``, relative to the table and above its top) and, where the
+   engine gives the body's state, ``energy_j_kg`` (see
+   :class:`~rockbench.reference_solver.validity.Measurement`). It never raises ``slip``, ``jump``
+   or ``energy-gain`` itself: :meth:`EngineAdapter.judge` applies the one rule. The only flag an
+   adapter may set is ``diverged`` (non-finite state). The reference reports instead the rigid
+   model's contact demand (``min_normal_mg``, ``max_friction_ratio``), which the judge turns into
+   ``lift-required`` / ``slip-required`` with the friction coefficient of the adapter's
+   ``friction`` setting (:data:`~rockbench.reference_solver.validity.DEFAULT_FRICTION` without one).
+   A flagged trajectory is not valid.
 5. An exception inside the engine is not caught by ``_simulate``: :meth:`EngineAdapter.run`
    turns it into a failed :class:`CellResult` with the ``engine-error`` flag, so sweeps go on.
 6. ``_simulate_many(cases)`` may run many cases at once (native batches); the default loops over
@@ -54,33 +61,11 @@ from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.model import Block
 from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
+from ..reference_solver.validity import (DEFAULT_FRICTION, FLAGS, Measurement, contact_flags, judge_measurement,
+                                         jump_tol_m, slip_tol_m, uplift_tol_rad)
 
-#: Flags a trajectory or a cell can carry.
-FLAGS = ("slip", "jump", "energy-gain", "diverged", "engine-error", "timeout", "crashed")
-
-#: Relative rise of the energy after the pulse (as a fraction of the barrier height above rest)
-#: beyond which a run is flagged ``energy-gain`` [-].
-ENERGY_GAIN_TOL = 0.05
-
-
-def slip_tol_m(block: Block) -> float:
-    """Horizontal motion of the pivot corner on the table beyond which a run slipped [m]: 1 % of b."""
-    return 0.01 * block.width_m
-
-
-def jump_tol_m(block: Block) -> float:
-    """Height of the lower bottom corner above the table beyond which the block jumped [m]: 0.5 % of b."""
-    return 0.005 * block.width_m
-
-
-def uplift_tol_rad(block: Block) -> float:
-    """|θ| below which a soft-contact engine's block counts as not lifted [rad]: 2 % of α.
-
-    Soft contacts let a block standing on its base tilt by a few tenths of a milliradian under a
-    horizontal load; 2 % of α (4 mrad for the h/b = 4.5 blocks) sits above that and far below any
-    rocking motion worth the name.
-    """
-    return 0.02 * block.alpha_rad
+__all__ = ["Case", "Trajectory", "CellResult", "RestitutionMeasurement", "CalibrationResult", "EngineAdapter",
+           "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad"]
 
 
 @dataclass(frozen=True)
@@ -134,10 +119,9 @@ class Trajectory:
     t_pulse_end_s : float
         When the excitation ended [s].
     flags : list of str
-        Broken assumptions (:data:`FLAGS`).
+        Only ``"diverged"`` (non-finite state); every other flag comes from the judge.
     diagnostics : dict
-        Anything measured along the way (``max_slip_m``, ``max_jump_m``, ``energy_gain_rel``,
-        ``steps``, impact list, ...), JSON-serialisable.
+        Anything the engine reports along the way (``steps``, impact list, ...), JSON-serialisable.
     eta_for_tail : float or None
         When the trajectory stops while the block still rocks freely and the adapter wants the
         exact free-rocking decision applied (the reference's fast mode), the η to use [-].
@@ -145,6 +129,15 @@ class Trajectory:
         |θ| below which the classifier counts the block as not lifted [rad].
     theta_ddot_rad_s2 : ndarray or None
         Angular acceleration at the samples [rad/s^2], when the engine provides it (for histories).
+    corner_x_m, corner_z_m : ndarray (n, 2) or None
+        A contact engine's bottom corners (+x, −x) relative to the table and above its top [m]
+        (:class:`~rockbench.reference_solver.validity.Measurement`); None for the reference.
+    energy_j_kg : ndarray or None
+        The block's mechanical energy per unit mass in the table's frame [J/kg], where the engine
+        gives the body's state.
+    min_normal_mg, max_friction_ratio : float or None
+        The rigid model's contact demand along the trajectory (reference only,
+        :mod:`~rockbench.reference_solver.demand`) [-].
     """
 
     t_s: np.ndarray
@@ -156,6 +149,18 @@ class Trajectory:
     eta_for_tail: float | None = None
     uplift_tol_rad: float = 0.0
     theta_ddot_rad_s2: np.ndarray | None = None
+    corner_x_m: np.ndarray | None = None
+    corner_z_m: np.ndarray | None = None
+    energy_j_kg: np.ndarray | None = None
+    min_normal_mg: float | None = None
+    max_friction_ratio: float | None = None
+
+    def measurement(self) -> Measurement | None:
+        """What the engine measured, for the one validity rule (None without corner positions)."""
+        if self.corner_x_m is None or self.corner_z_m is None:
+            return None
+        return Measurement(self.t_s, self.theta_rad, self.theta_dot_rad_s, self.corner_x_m, self.corner_z_m,
+                           self.energy_j_kg)
 
 
 @dataclass
@@ -185,7 +190,9 @@ class CellResult:
     wall_s : float
         Wall time of the simulation [s].
     diagnostics : dict
-        The adapter's diagnostics.
+        The adapter's diagnostics and the validity rule's figures (``max_slip_m``, ...).
+    min_normal_mg, max_friction_ratio : float or None
+        The rigid model's contact demand (reference cells only) [-].
     """
 
     outcome: str | None
@@ -199,6 +206,8 @@ class CellResult:
     message: str = ""
     wall_s: float = 0.0
     diagnostics: dict = field(default_factory=dict)
+    min_normal_mg: float | None = None
+    max_friction_ratio: float | None = None
 
     @classmethod
     def failed(cls, flag: str, message: str, wall_s: float = 0.0) -> "CellResult":
@@ -409,42 +418,45 @@ class EngineAdapter:
         t0 = time.perf_counter()
         trajs = self._simulate_many(cases)
         wall = (time.perf_counter() - t0) / max(len(cases), 1)
-        return [self._judge(c, tr, wall) for c, tr in zip(cases, trajs)]
+        return [self.judge(c, tr, wall) for c, tr in zip(cases, trajs)]
 
-    def _judge(self, case: Case, tr, wall_s: float) -> CellResult:
+    @property
+    def friction(self) -> float:
+        """The friction coefficient μ the contact-demand test uses: the ``friction`` setting, else 10 [-]."""
+        mu = self.settings.get("friction")
+        return DEFAULT_FRICTION if mu is None else float(mu)
+
+    def judge(self, case: Case, tr, wall_s: float = 0.0) -> CellResult:
+        """The verdict on one simulation: the one classifier and the one validity rule.
+
+        ``tr`` is the adapter's :class:`Trajectory`, or the exception it raised (a failed cell).
+        """
         if isinstance(tr, BaseException):
             if isinstance(tr, ConfigError):
                 raise tr
             return CellResult.failed("engine-error", f"{type(tr).__name__}: {tr}", wall_s)
-        if not (np.all(np.isfinite(tr.theta_rad)) and np.all(np.isfinite(tr.theta_dot_rad_s))):
+        if "diverged" in tr.flags or not (np.all(np.isfinite(tr.theta_rad)) and np.all(np.isfinite(tr.theta_dot_rad_s))):
             return CellResult.failed("diverged", "the engine returned non-finite angles", wall_s)
         c: Classification = classify(
             tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, alpha_rad=case.block.alpha_rad,
             p_rad_s=case.block.p_rad_s, t_pulse_end_s=tr.t_pulse_end_s, eta=tr.eta_for_tail,
             linearized=case.linearized, uplift_tol_rad=tr.uplift_tol_rad)
-        flags = sorted(set(tr.flags))
+        flags: set[str] = set()
+        diag = dict(tr.diagnostics)
+        m = tr.measurement()
+        if m is not None:
+            v = judge_measurement(m, case.block, tr.t_pulse_end_s)
+            flags.update(v.flags)
+            diag.update(v.diagnostics())
+        if tr.min_normal_mg is not None:
+            flags.update(contact_flags(tr.min_normal_mg, tr.max_friction_ratio or 0.0, self.friction))
         return CellResult(outcome=c.outcome.value, n_impacts=c.n_impacts,
                           max_abs_theta_rad=c.max_abs_theta_rad, t_overturn_s=c.t_overturn_s,
-                          t_uplift_s=c.t_uplift_s, valid=not flags, flags=flags, status="ok",
-                          wall_s=wall_s, diagnostics=tr.diagnostics)
+                          t_uplift_s=c.t_uplift_s, valid=not flags, flags=sorted(flags), status="ok",
+                          wall_s=wall_s, diagnostics=diag, min_normal_mg=tr.min_normal_mg,
+                          max_friction_ratio=tr.max_friction_ratio)
 
     def describe(self) -> dict:
         """Name, version and settings, for run.json."""
         return {"engine": self.name, "version": self.version(), "settings": dict(self.settings)}
 
-
-def energy_gain_rel(t_s, theta_rad, theta_dot_rad_s, t_pulse_end_s: float, block: Block) -> float:
-    """Largest rise of the ideal-model energy after the pulse, relative to the barrier height [-].
-
-    Uses ``E = ½θ̇² + p²cos(α − |θ|)``; 0 when it never rose. Engines may use it for ``energy-gain``.
-    """
-    from ..reference_solver.energy import energy
-
-    t = np.asarray(t_s)
-    m = t >= t_pulse_end_s
-    if m.sum() < 2:
-        return 0.0
-    E = energy(np.asarray(theta_rad)[m], np.asarray(theta_dot_rad_s)[m], block.alpha_rad, block.p_rad_s)
-    rise = float(np.max(E - np.minimum.accumulate(E)))
-    scale = block.p_rad_s**2 * (1.0 - math.cos(block.alpha_rad))
-    return rise / scale

@@ -85,8 +85,8 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
 from . import calibration
-from .base import (ENERGY_GAIN_TOL, CalibrationResult, Case, EngineAdapter, RestitutionMeasurement,
-                   Trajectory, energy_gain_rel, jump_tol_m, slip_tol_m, uplift_tol_rad)
+from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
+from .base import CalibrationResult, Case, EngineAdapter, RestitutionMeasurement, Trajectory, uplift_tol_rad
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range DOMAIN.md §8 found to
@@ -259,6 +259,7 @@ class _Model:
             self.s_pos = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Position))
             self.s_rot = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.RotationMatrix))
             self.s_omg = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.AngularVelocity))
+            self.s_vel = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Velocity))
         self._pulse_funcs = []  # keep symbolic expression trees alive as long as the system
         self._install_pulse_functions(pulse)
         mbs.Assemble()
@@ -420,12 +421,14 @@ class _Model:
         return t, math.atan2(A[0, 2], A[2, 2]), float(w[1])
 
     def samples(self):
-        """Arrays ``t, θ, θ̇``, the corner sphere centres and the block's own bottom corners.
+        """Arrays ``t, θ, θ̇``, the corner sphere centres, the block's own bottom corners, and the
+        centre of mass's height and velocity.
 
         Both point sets are ``(n, ncorners, 2)`` arrays of (x, height) [m]. The sphere centres
         give the clearance to the table (``height − r``); the block's corners (one radius below
         the centres in the block's frame) give slip, since a sphere centre also moves by ``r·θ``
-        when its sphere rolls, which is not slip.
+        when its sphere rolls, which is not slip. The last array is ``(n, 3)``: the centre of
+        mass's height [m] and its horizontal and vertical velocity [m/s].
         """
         mbs = self.mbs
         pts = np.concatenate([self.corners_local, self.corners_local], axis=0)
@@ -440,6 +443,7 @@ class _Model:
             wx = x[:, None] + c[:, None] * pts[None, :, 0] - s[:, None] * pts[None, :, 1]
             wz = y[:, None] + s[:, None] * pts[None, :, 0] + c[:, None] * pts[None, :, 1]
             theta, theta_dot = -phi, -qd[:, 3]
+            com = np.stack([y, qd[:, 1], qd[:, 2]], axis=1)
         else:
             pos = mbs.GetSensorStoredData(self.s_pos)
             rot = mbs.GetSensorStoredData(self.s_rot)
@@ -450,11 +454,13 @@ class _Model:
             theta_dot = omg[:, 2]
             world = pos[:, None, 1:4] + np.einsum("nij,cj->nci", A, pts)
             wx, wz = world[..., 0], world[..., 2]
+            vel = mbs.GetSensorStoredData(self.s_vel)
+            com = np.stack([pos[:, 3], vel[:, 1], vel[:, 3]], axis=1)
         both = np.stack([wx, wz], axis=-1)
         nc = len(self.corners_local)
         # each chunk boundary is stored twice (end of one chunk, start of the next): keep the first
         keep = np.concatenate([[True], np.diff(t) > 0.5 * self.dt_s])
-        return t[keep], theta[keep], theta_dot[keep], both[keep, :nc], both[keep, nc:]
+        return t[keep], theta[keep], theta_dot[keep], both[keep, :nc], both[keep, nc:], com[keep]
 
 
 class ExudynAdapter(EngineAdapter):
@@ -628,7 +634,7 @@ class ExudynAdapter(EngineAdapter):
             if case.pulse.kind != "record":
                 model.set_pulse(case.pulse)
             ok, message, steps, wall = model.run(t_pe, stop, s["chunk_s"], t_pe + s["max_tail_s"], full_newton)
-            t, th, thd, corners, edges = model.samples()
+            t, th, thd, corners, edges, com = model.samples()
             over = (np.abs(th) >= FLAT_ANGLE_RAD) | ((t >= t_pe) & (np.abs(th) > alpha) & (th * thd > 0))
             if ok or over.any():
                 break
@@ -658,25 +664,19 @@ class ExudynAdapter(EngineAdapter):
             raise EngineError(f"a corner contact sphere sank {pen:.3g} m into the table, about its radius "
                               f"{r:.3g} m: the contact broke through (stiffer contact or a larger "
                               "sphere_radius_m needed)")
-        flags = []
-        if not (np.all(np.isfinite(th)) and np.all(np.isfinite(thd))):
-            flags.append("diverged")
-        # slip and jump are judged while the block is within 2α of upright: beyond, a block that
-        # falls onto its side always ends up sliding on its corner (any finite friction gives
-        # way as the normal force vanishes), which says nothing about the rocking it came from
-        w = np.abs(th[:n]) <= min(2.0 * alpha, FLAT_ANGLE_RAD)
-        table_x = case.pulse.disp(t[:n][w]) if s["drive"] == "table" else np.zeros(int(w.sum()))
-        slip, jump = _slip_and_jump(corners[:n][w], edges[:n][w], table_x, r, block)
-        gain = energy_gain_rel(t[:n], th[:n], thd[:n], t_pe, block)
-        diag.update({"max_slip_m": slip, "max_jump_m": jump, "energy_gain_rel": gain})
-        if slip > slip_tol_m(block):
-            flags.append("slip")
-        if jump > jump_tol_m(block):
-            flags.append("jump")
-        if gain > ENERGY_GAIN_TOL:
-            flags.append("energy-gain")
+        flags = [] if np.all(np.isfinite(th)) and np.all(np.isfinite(thd)) else ["diverged"]
+        # what Exudyn measured, for the one validity rule: the block's own corners (x, relative
+        # to the table) and its contact spheres' clearance; the centre of mass's energy per unit
+        # mass in the table's frame
+        drive_table = s["drive"] == "table"
+        table_x = case.pulse.disp(t) if drive_table else np.zeros(t.size)
+        table_v = case.pulse.vel(t) if drive_table else np.zeros(t.size)
+        zc, vx, vz = com[:, 0], com[:, 1] - table_v, com[:, 2]
+        e_body = 0.5 * (vx**2 + vz**2) + 0.5 * block.inertia_cm_kg_m2 / block.mass_kg * thd**2 + G * zc
         return Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=thd, t_pulse_end_s=t_pe, flags=flags,
-                          diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block))
+                          diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
+                          corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=corners[..., 1] - r,
+                          energy_j_kg=e_body)
 
     # -- restitution ----------------------------------------------------------------------
     def free_rocking(self, block: Block, contact_restitution: float | None, *, theta0_frac: float = 0.5,
@@ -699,7 +699,7 @@ class ExudynAdapter(EngineAdapter):
         model = _Model(block, contact, "inertial", self.settings["planar"], dt, None, theta0_rad=th0)
         model.set_pulse(None)
         ok, message, steps, wall = model.run(0.0, lambda st: False, duration, duration)
-        t, th, thd, corners, edges = model.samples()
+        t, th, thd, corners, edges, _ = model.samples()
         tol = uplift_tol_rad(block)
         side = np.where(th > tol, 1, np.where(th < -tol, -1, 0))
         nz = np.nonzero(side)[0]
@@ -721,7 +721,9 @@ class ExudynAdapter(EngineAdapter):
             etas.append(float(math.sqrt(ke[i + 1] / ke[i])))
         if not ok and len(etas) < n_impacts:
             raise EngineError(f"free rocking: {message}")
-        _, jump = _slip_and_jump(corners, edges, np.zeros(t.size), contact["sphere_radius_m"], block)
+        # the jump measure of the one validity rule (its slip and energy checks do not apply here)
+        jump = judge_measurement(Measurement(t, th, thd, edges[..., 0], corners[..., 1] - contact["sphere_radius_m"]),
+                                 block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
         return FreeRocking(etas, mean, std, peaks[: n_impacts + 1], th0, jump, contact, dt, steps, wall)
@@ -860,24 +862,3 @@ class ExudynAdapter(EngineAdapter):
 #: the contact parameters a model is built from
 _CONTACT_KEYS = ("stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient", "friction",
                  "friction_zone_m_s", "sphere_radius_m", "spectral_radius", "modified_newton_iterations")
-
-
-def _slip_and_jump(centres, corners, table_x, r, block: Block):
-    """Largest pivot-corner slip and largest jump [m].
-
-    ``centres`` and ``corners`` are ``(n, nc, 2)`` arrays of (x, height) of the corner sphere
-    centres and of the block's bottom corners. A corner touches the table when its sphere's lowest
-    point is within the jump tolerance of the table top. Slip is the largest horizontal
-    displacement, relative to the table, of a touching corner from where it stood at t = 0 (an
-    ideal rocking block puts each corner back on its own spot). Jump is the largest clearance of
-    the lowest sphere, i.e. every corner off the table at once.
-    """
-    if centres.shape[0] == 0:
-        return 0.0, 0.0
-    gap = centres[..., 1] - r
-    touching = gap <= jump_tol_m(block)
-    rel_x = corners[..., 0] - np.asarray(table_x)[:, None]
-    drift = np.abs(rel_x - rel_x[0][None, :])
-    slip = float(np.max(np.where(touching, drift, 0.0)))
-    jump = float(np.max(np.min(gap, axis=1)))
-    return slip, max(jump, 0.0)

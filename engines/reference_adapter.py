@@ -4,6 +4,13 @@ One case goes through :func:`~rockbench.reference_solver.solver.solve` with its 
 cases of harmonic pulses go through :func:`~rockbench.reference_solver.solver.solve_batch` in one
 compiled parallel call (a whole stability map at once). Both paths give the same outcomes and
 figures: the batch kernel applies the classifier's rule sample by sample (tested).
+
+Validity: the rigid model is valid only where its own assumptions hold. Along every trajectory the
+solver measures the contact demand (the smallest normal force over m·g and the largest |F|/N the
+pivot must supply, :mod:`~rockbench.reference_solver.demand`); the one rule of
+:func:`~rockbench.reference_solver.validity.contact_flags` turns a pull (N < 0) into
+``lift-required`` and a friction demand above μ (the ``friction`` setting, 10 by default, the
+engines' anti-slip friction) into ``slip-required``. Such a cell is not valid.
 """
 
 from __future__ import annotations
@@ -17,6 +24,7 @@ import numpy as np
 from ..reference_solver.classify import OUTCOME_FROM_CODE, Outcome
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.solver import MODES, solve, solve_batch
+from ..reference_solver.validity import DEFAULT_FRICTION, contact_flags
 from .base import Case, CellResult, EngineAdapter, Trajectory
 
 #: pulse kinds the batch kernel runs (records go case by case)
@@ -31,12 +39,15 @@ class ReferenceAdapter(EngineAdapter):
     mode : {"energy", "to-rest"}
         How a run ends: at the pulse's end with the exact energy decision (default), or integrated
         on until rest or overturn (see :mod:`rockbench.reference_solver.solver`).
+    friction : float
+        The friction coefficient μ the table can give [-]: a trajectory that needs ``|F|/N > μ``
+        at the pivot is ``slip-required`` (default 10, the engines' anti-slip friction).
     """
 
     name = "reference"
     module = None
     install_hint = "part of rockbench; nothing to install."
-    SETTINGS = {"mode": "energy"}
+    SETTINGS = {"mode": "energy", "friction": DEFAULT_FRICTION}
     default_dt_s = 1e-3
     #: solve_batch runs the cases in parallel on all cores: maps call it once, in-process
     parallel_batch = True
@@ -44,6 +55,7 @@ class ReferenceAdapter(EngineAdapter):
     def _validate_settings(self, settings: dict) -> None:
         if settings["mode"] not in MODES:
             raise ConfigError(f"the reference engine's mode must be energy or to-rest, got {settings['mode']!r}.")
+        self._number_setting(settings, "friction", allow_none=False)
 
     @property
     def _energy(self) -> bool:
@@ -59,7 +71,8 @@ class ReferenceAdapter(EngineAdapter):
         return Trajectory(t_s=sol.t_s, theta_rad=sol.theta_rad, theta_dot_rad_s=sol.theta_dot_rad_s,
                           t_pulse_end_s=sol.t_pulse_end_s, flags=[], diagnostics=diag,
                           eta_for_tail=eta if self._energy else None, uplift_tol_rad=0.0,
-                          theta_ddot_rad_s2=sol.theta_ddot_rad_s2)
+                          theta_ddot_rad_s2=sol.theta_ddot_rad_s2, min_normal_mg=sol.min_normal_mg,
+                          max_friction_ratio=sol.max_friction_ratio)
 
     def run_many(self, cases: Iterable[Case]) -> list[CellResult]:
         """Classify many cases; harmonic pulses of one kind and model run in one batch call.
@@ -85,16 +98,20 @@ class ReferenceAdapter(EngineAdapter):
                             np.array([c.pulse.amplitude_mps2 for c in sel]), dt_s=dts, linearized=lin,
                             mode=self.settings["mode"])
             wall = (time.perf_counter() - t0) / len(sel)
+            mu = self.friction
             for j, i in enumerate(idx):
                 outcome = OUTCOME_FROM_CODE[int(r.outcome[j])]
                 t_up = float(r.t_uplift_s[j])
+                n_min, f_max = float(r.min_normal_mg[j]), float(r.max_friction_ratio[j])
+                flags = contact_flags(n_min, f_max, mu)
                 out[i] = CellResult(
                     outcome=outcome.value, n_impacts=int(r.n_impacts[j]),
                     max_abs_theta_rad=float(r.max_abs_theta_rad[j]),
                     t_overturn_s=float(r.t_overturn_s[j]) if outcome is Outcome.OVERTURN else None,
-                    t_uplift_s=None if math.isnan(t_up) else t_up, valid=True, flags=[], status="ok",
+                    t_uplift_s=None if math.isnan(t_up) else t_up, valid=not flags, flags=flags, status="ok",
                     wall_s=wall, diagnostics={"mode": self.settings["mode"], "dt_s": float(dts[j]),
-                                              "n_steps": int(r.n_steps[j]), "n_newton": int(r.n_newton[j])})
+                                              "n_steps": int(r.n_steps[j]), "n_newton": int(r.n_newton[j])},
+                    min_normal_mg=n_min, max_friction_ratio=f_max)
         if rest:
             for i, res in zip(rest, super().run_many([cases[i] for i in rest])):
                 out[i] = res

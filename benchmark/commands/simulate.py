@@ -82,7 +82,7 @@ def run(args) -> int:
         tr = None
         res = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
     else:
-        res = adapter._judge(case, tr, time.perf_counter() - t0)
+        res = adapter.judge(case, tr, time.perf_counter() - t0)
 
     block, pulse = case.block, case.pulse
     out = {
@@ -100,6 +100,11 @@ def run(args) -> int:
         "uplifts_s": (res.diagnostics or {}).get("uplifts_s"),
         "message": res.message,
     }
+    if res.min_normal_mg is not None:
+        # the rigid model's contact demand (reference only): what the pivot must supply
+        out["min_normal_mg"] = _num(res.min_normal_mg)
+        out["max_friction_ratio"] = _num(res.max_friction_ratio)
+        out["friction"] = adapter.friction
 
     if tr is not None and hist_path is not None:
         cols = [("t_s", tr.t_s), ("theta_rad", tr.theta_rad), ("theta_dot_rad_s", tr.theta_dot_rad_s)]
@@ -155,6 +160,9 @@ def _print_text(o: dict) -> None:
                          f"{d['theta_dot_plus_rad_s']:+.4f} rad/s")
         if len(o["impacts"]) > 10:
             lines.append(f"  ... {len(o['impacts']) - 10} more")
+    if o.get("min_normal_mg") is not None:
+        lines.append(f"contact demand of the rigid model: min N/(m·g) = {o['min_normal_mg']:.3f}, "
+                     f"max |F|/N = {o['max_friction_ratio']:.3f} (μ = {o['friction']:g})")
     if not o["valid"]:
         lines.append(f"not valid: flags {', '.join(o['flags'])}")
     for k in ("history", "plot"):
