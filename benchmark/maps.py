@@ -32,6 +32,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block, a_ratio_to_amplitude, amplitude_to_a_ratio
 from ..reference_solver.pulses import MIN_STEPS_PER_WAVE, make_pulse
 from ..reference_solver.restitution import Restitution
+from ..reference_solver.validity import LEFT_MODEL_FLAGS
 
 #: Pulse kinds a map accepts (a record has no frequency to sweep).
 MAP_PULSES = ("sine", "cosine", "half-sine")
@@ -299,7 +300,10 @@ class MapResult:
     max_abs_theta_rad : ndarray of float
         Largest |θ| [rad]; NaN where not simulated.
     valid : ndarray of bool
-        False where the engine broke the model's assumptions or failed.
+        False where the run broke the model's assumptions or failed.
+    left_model : ndarray of bool
+        True where the run left the rigid model through its contact: an engine's ``slip`` or
+        ``jump``, the reference's ``lift-required`` or ``slip-required``.
     failures : list of dict
         ``{"i", "j", "flag", "message"}`` of each failed cell.
     adaptive : bool
@@ -318,11 +322,16 @@ class MapResult:
     n_impacts: np.ndarray
     max_abs_theta_rad: np.ndarray
     valid: np.ndarray
+    left_model: np.ndarray | None = None
     failures: list = field(default_factory=list)
     adaptive: bool = False
     coarse_stride: int = 1
     wall_s: float = 0.0
     n_resumed: int = 0
+
+    def __post_init__(self):
+        if self.left_model is None:
+            self.left_model = np.zeros(self.outcome.shape, bool)
 
     @property
     def w_ratio(self) -> np.ndarray:
@@ -360,6 +369,7 @@ class MapResult:
                 "shape": list(self.spec.shape), "n_cells": self.spec.n_cells, "n_simulated": self.n_simulated,
                 "fraction_simulated": self.fraction_simulated, "adaptive": self.adaptive,
                 "complete": self.complete, "counts": self.counts(), "n_failed": len(self.failures),
+                "n_invalid": int(np.count_nonzero(self.simulated & ~self.valid & (self.outcome >= 0))),
                 "n_resumed": self.n_resumed, "wall_s": self.wall_s}
 
 
@@ -541,6 +551,7 @@ def _put_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
     result.n_impacts[i, j] = int(r.n_impacts) if ok else -1
     result.max_abs_theta_rad[i, j] = float(r.max_abs_theta_rad) if ok else math.nan
     result.valid[i, j] = bool(ok and r.valid)
+    result.left_model[i, j] = bool(ok and LEFT_MODEL_FLAGS.intersection(r.flags))
     return code
 
 
@@ -551,6 +562,7 @@ def _put(result: MapResult, i: int, j: int, row: dict) -> None:
     result.n_impacts[i, j] = int(row["n_impacts"]) if ok else -1
     result.max_abs_theta_rad[i, j] = float(row["max_abs_theta_rad"]) if ok else math.nan
     result.valid[i, j] = ok and str(row["valid"]).lower() in ("true", "1")
+    result.left_model[i, j] = ok and bool(LEFT_MODEL_FLAGS.intersection(str(row["flags"]).split(";")))
 
 
 def _is_batching(adapter) -> bool:

@@ -3,17 +3,27 @@
 A stability map is a grid of outcomes over the normalised axes ``w_ratio = ω/p`` (columns) and
 ``a_ratio = a₀/(g·tanα)`` (rows), both increasing. Each cell holds an outcome code
 (:data:`~rockbench.reference_solver.classify.OUTCOME_CODES`: 0 rest, 1 rocking, 2 overturn) or
-:data:`FAILED` (-1: no outcome, the simulation failed or the cell is missing), and a validity flag
-(False when the engine broke the model's assumptions: slip, jump, energy gain; such a cell still
-has the classifier's outcome).
+:data:`FAILED` (-1: no outcome, the simulation failed or the cell is missing), a validity flag
+(False when the run broke the model's assumptions: an engine's slip, jump or energy gain, or a
+reference trajectory that needs the table to pull the block down or more friction than μ; such a
+cell still has the classifier's outcome), and whether the run left the rigid model through its
+contact (an engine's ``slip`` or ``jump``, the reference's ``lift-required`` or ``slip-required``).
 
 :func:`score` compares an *engine* map with a *reference* map over the same axes and returns the
-metrics of :data:`METRICS`. The rules, chosen so a gate cannot be passed by failing:
+metrics of :data:`METRICS` (metrics version 2). The rules, chosen so a gate cannot be passed by
+failing and no engine is blamed for physics the reference cannot do:
 
-- Only cells where the reference has an outcome are judged (a reference cell that failed says
-  nothing about the engine).
+- **The domain.** The headline metrics (agreement, IoU, boundary and critical-amplitude errors) are
+  computed over the cells where the reference has an outcome *and is valid*: where the rigid
+  model's own assumptions hold along its trajectory. Cells outside it are unknown to those
+  metrics (like a failed cell: no boundary edge runs to them).
+- **Honesty outside the domain.** Where the reference needs lift-off or sliding, an engine is
+  right to flag ``jump`` or ``slip``: ``consistency`` is the share of those cells where it does.
+  ``spurious_invalid`` counts the engine's invalid cells inside the domain, where the rigid
+  model says nothing should break.
+- A reference cell that failed says nothing about the engine and is not judged.
 - An engine cell that failed counts as wrong in every metric that compares outcomes.
-- An invalid engine cell is judged by its outcome; invalid cells are counted separately.
+- An invalid engine cell inside the domain is still judged by its outcome.
 - The overturn region is a set of cells, not "everything above a curve": the thin safe band above
   the first overturn and the one-impact overturning tongue below it are handled by working on
   cells and cell edges only.
@@ -31,9 +41,10 @@ import numpy as np
 
 from ..reference_solver.classify import OUTCOME_CODES, Outcome
 from ..reference_solver.errors import ConfigError, IncomparableError
+from ..reference_solver.validity import LEFT_MODEL_FLAGS
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
-METRICS_VERSION = "1"
+METRICS_VERSION = "2"
 
 #: Code of a cell without an outcome (failed, or not computed).
 FAILED = -1
@@ -126,12 +137,18 @@ _METRIC_LIST = [
     Metric("critical_one_sided",
            "Number of frequency columns where only one of the two maps overturns.",
            "lower", 0.0, "-", 0.0),
-    Metric("invalid_cells",
-           "Number of engine cells with an outcome that broke the model's assumptions (slip, jump, "
-           "energy gain).",
+    Metric("consistency",
+           "Outside the reference's domain (cells where the rigid model needs the table to pull the block "
+           "down or more friction than μ: lift-required, slip-required), the fraction of the engine's "
+           "simulated cells where it flags jump or slip, as a real block would; 1 when there is no such cell.",
+           "higher", 1.0, "-", 0.01),
+    Metric("spurious_invalid",
+           "Number of engine cells with an outcome flagged invalid (slip, jump, energy gain) inside the "
+           "reference's domain, where the rigid model says nothing should break.",
            "lower", 0.0, "-", 0.0),
     Metric("failed_cells",
-           "Number of judged cells where the engine produced no outcome (error, divergence, timeout, missing).",
+           "Number of cells where the reference has an outcome and the engine produced none (error, "
+           "divergence, timeout, missing), inside the domain or outside it.",
            "lower", 0.0, "-", 0.0),
 ]
 
@@ -152,7 +169,12 @@ class LabelMap:
     codes : ndarray of int, shape (n_a, n_w)
         0 rest, 1 rocking, 2 overturn, :data:`FAILED` for no outcome.
     valid : ndarray of bool, shape (n_a, n_w)
-        False where the engine broke the model's assumptions (or the cell failed).
+        False where the run broke the model's assumptions (or the cell failed).
+    left_model : ndarray of bool, shape (n_a, n_w)
+        True where the run left the rigid model through its contact (:data:`LEFT_MODEL_FLAGS`).
+    simulated : ndarray of bool, shape (n_a, n_w)
+        True where the cell was simulated (default everywhere); an adaptive map infers the others'
+        outcomes, and knows nothing of their flags.
     filled : int
         Cells that had no row in the cell table and were filled from the nearest computed cell
         (adaptive maps); 0 for a full grid.
@@ -164,6 +186,8 @@ class LabelMap:
     a_ratio: np.ndarray
     codes: np.ndarray
     valid: np.ndarray | None = None
+    left_model: np.ndarray | None = None
+    simulated: np.ndarray | None = None
     filled: int = 0
     meta: dict = field(default_factory=dict)
 
@@ -184,6 +208,14 @@ class LabelMap:
         self.valid = np.asarray(self.valid, dtype=bool) & (self.codes != FAILED)
         if self.valid.shape != shape:
             raise ValueError(f"valid must have shape {shape}, got {self.valid.shape}")
+        if self.left_model is None:
+            self.left_model = np.zeros(shape, dtype=bool)
+        self.left_model = np.asarray(self.left_model, dtype=bool) & (self.codes != FAILED)
+        if self.left_model.shape != shape:
+            raise ValueError(f"left_model must have shape {shape}, got {self.left_model.shape}")
+        self.simulated = np.ones(shape, bool) if self.simulated is None else np.asarray(self.simulated, dtype=bool)
+        if self.simulated.shape != shape:
+            raise ValueError(f"simulated must have shape {shape}, got {self.simulated.shape}")
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -197,7 +229,7 @@ class LabelMap:
 
 
 def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta: Mapping | None = None,
-               decimals: int = 9) -> LabelMap:
+               decimals: int = 9, flags=None) -> LabelMap:
     """Build a :class:`LabelMap` from a table of cells, one row per simulation, in any order.
 
     Parameters
@@ -209,6 +241,9 @@ def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta
         the integer codes.
     valid : array_like of bool, shape (n,), optional
         Per-row validity (default all valid).
+    flags : array_like of str, shape (n,), optional
+        Per-row flags as cells.csv writes them (``;``-separated); they give
+        :attr:`LabelMap.left_model`.
     fill : bool
         Cells of the grid (the product of the distinct ``w_ratio`` and ``a_ratio`` values) without a
         row take the outcome of the nearest computed cell in index space (ties: the lower index),
@@ -231,6 +266,8 @@ def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta
         raise ValueError("w_ratio and a_ratio must be 1-D arrays of one length")
     codes = _to_codes(outcome, w.size)
     ok = np.ones(w.size, bool) if valid is None else np.asarray(valid, dtype=bool)
+    left = np.zeros(w.size, bool) if flags is None else np.array(
+        [bool(LEFT_MODEL_FLAGS.intersection(str(f or "").split(";"))) for f in flags], dtype=bool)
     if w.size == 0:
         raise ConfigError("the cell table has no rows: compute the map first (rockbench map ... --out DIR).")
     wu, wi = np.unique(w, return_inverse=True)
@@ -252,6 +289,8 @@ def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta
     grid = hi
     gvalid = np.zeros(shape, dtype=bool)
     np.logical_or.at(gvalid, (ai[has], wi[has]), ok[has])
+    gleft = np.zeros(shape, dtype=bool)
+    np.logical_or.at(gleft, (ai[has], wi[has]), left[has])
     seen = np.zeros(shape, dtype=bool)
     seen[ai, wi] = True
     filled = 0
@@ -267,7 +306,8 @@ def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta
             src_i[s:s + 512], src_j[s:s + 512] = ii[k], jj[k]
         grid[mi, mj] = grid[src_i, src_j]
         gvalid[mi, mj] = gvalid[src_i, src_j]
-    return LabelMap(wu, au, grid, gvalid, filled=filled, meta=dict(meta or {}))
+        gleft[mi, mj] = False   # an inferred cell's outcome is known, its flags are not
+    return LabelMap(wu, au, grid, gvalid, gleft, seen, filled=filled, meta=dict(meta or {}))
 
 
 def _name(code: int) -> str:
@@ -374,6 +414,12 @@ def critical_errors(eng: LabelMap, ref: LabelMap) -> dict:
             "one_sided": one_sided}
 
 
+def domain(ref: LabelMap) -> tuple[np.ndarray, np.ndarray]:
+    """``(inside, outside)``: the reference's cells with an outcome where it is valid, and where it is not."""
+    has = ref.codes != FAILED
+    return has & ref.valid, has & ~ref.valid
+
+
 def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
     """Every metric of :data:`METRICS` for an engine map against a reference map.
 
@@ -388,7 +434,7 @@ def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
             f"{eng.w_ratio[0]:g}..{eng.w_ratio[-1]:g}, a-ratio {eng.a_ratio[0]:g}..{eng.a_ratio[-1]:g}; reference "
             f"{ref.shape[1]}×{ref.shape[0]} over {ref.w_ratio[0]:g}..{ref.w_ratio[-1]:g}, "
             f"{ref.a_ratio[0]:g}..{ref.a_ratio[-1]:g}); compute both with the same --w-ratio and --a-ratio.")
-    judged = ref.codes != FAILED
+    judged, outside = domain(ref)
     n = int(judged.sum())
     ce, cr = eng.codes, ref.codes
     eng_failed = judged & (ce == FAILED)
@@ -401,8 +447,15 @@ def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
     oe, orr = judged & (ce == OVERTURN), judged & (cr == OVERTURN)
     union = np.count_nonzero(oe | orr | eng_failed)
     iou = 1.0 if union == 0 else float(np.count_nonzero(oe & orr) / union)
-    b_mean, b_max = boundary_distance(eng, ref)
-    crit = critical_errors(eng, ref)
+    # boundaries and critical amplitudes see only the domain: outside it both maps are unknown
+    eng_in = LabelMap(eng.w_ratio, eng.a_ratio, np.where(judged, ce, FAILED))
+    ref_in = LabelMap(ref.w_ratio, ref.a_ratio, np.where(judged, cr, FAILED))
+    b_mean, b_max = boundary_distance(eng_in, ref_in)
+    crit = critical_errors(eng_in, ref_in)
+    # only simulated engine cells can say whether they left the model (an adaptive map infers outcomes)
+    out_sim = outside & eng.simulated
+    n_out = int(out_sim.sum())
+    consistency = 1.0 if n_out == 0 else float(np.count_nonzero(out_sim & eng.left_model) / n_out)
     return {
         "agreement": agreement,
         "overturn_agreement": overturn_agreement,
@@ -412,9 +465,20 @@ def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
         "critical_error_mean": crit["mean"],
         "critical_error_max": crit["max"],
         "critical_one_sided": float(crit["one_sided"]),
-        "invalid_cells": float(np.count_nonzero((ce != FAILED) & ~eng.valid)),
-        "failed_cells": float(np.count_nonzero(eng_failed)),
+        "consistency": consistency,
+        "spurious_invalid": float(np.count_nonzero(judged & (ce != FAILED) & ~eng.valid)),
+        "failed_cells": float(np.count_nonzero((judged | outside) & (ce == FAILED))),
     }
+
+
+def cell_counts(eng: LabelMap, ref: LabelMap) -> dict[str, int]:
+    """How many cells a pair judged inside and outside the reference's domain (and of those outside,
+    how many the engine simulated, which ``consistency`` is computed over), and the engine's invalid
+    cells in all (for score.json beside the metrics)."""
+    judged, outside = domain(ref)
+    return {"cells_in_domain": int(judged.sum()), "cells_outside_domain": int(outside.sum()),
+            "cells_outside_domain_simulated": int(np.count_nonzero(outside & eng.simulated)),
+            "invalid_cells": int(np.count_nonzero((eng.codes != FAILED) & ~eng.valid))}
 
 
 def is_perfect(scores: Mapping[str, float]) -> bool:

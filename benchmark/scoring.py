@@ -11,6 +11,10 @@ references and *every* map of the run directories is scored against them (so a r
 be compared with another reference map, e.g. at half the time step). A pair is *like for like*
 when both maps use the same restitution law; gates (``--fail-under``) apply to like-for-like pairs,
 or to all pairs of an engine map that has none.
+
+A reference map must be complete for its grid: every cell simulated, or (adaptive maps) inferred by
+its own fill rule. An unfinished one is refused (:class:`IncomparableError`, exit 5, naming what is
+missing) rather than scored on the cells it happens to have.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ import numpy as np
 
 from ..reference_solver.errors import ConfigError, IncomparableError
 from ..reference_solver.pulses import is_number
-from .scores import FAILED, METRICS, METRICS_VERSION, LabelMap, check_gate, from_cells, score
+from .scores import FAILED, METRICS, METRICS_VERSION, LabelMap, cell_counts, check_gate, from_cells, score
 from .atomic import write_json_atomic as _write_json
 
 #: Version of score.json's layout.
@@ -133,7 +137,9 @@ def load_entry(d: Path) -> MapEntry:
         sim = np.asarray(res.simulated, bool)
         # cells an adaptive sweep inferred were never simulated, so nothing in them broke the model
         lm = LabelMap(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool) | ~sim,
+                      np.asarray(res.left_model, bool) & sim, sim,
                       filled=int(np.count_nonzero(~sim & (codes != FAILED))))
+        lm.meta["missing_cells"] = int(res.counts()["missing"])
         engine, block, pulse = spec.engine, spec.block.name, spec.pulse
         restitution, eta = spec.restitution.label, float(spec.eta)
         settings, dt = dict(spec.engine_settings or {}), spec.dt_s
@@ -191,7 +197,7 @@ def _read_cells(path: Path) -> tuple[LabelMap, dict]:
         a = [float(r["a_ratio"]) for r in rows]
     except ValueError as e:
         raise ConfigError(f"{str(path)!r} has a non-numeric w_ratio or a_ratio ({e}).") from None
-    return from_cells(w, a, outcome, valid), rows[0]
+    return from_cells(w, a, outcome, valid, flags=[r["flags"] for r in rows]), rows[0]
 
 
 def load_entries(paths: Iterable) -> list[MapEntry]:
@@ -240,6 +246,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         for r in references:
             if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
                 continue
+            check_complete(r)
             if not c.label_map.same_axes(r.label_map):
                 skipped.append({"engine_dir": str(c.path), "reference_dir": str(r.path),
                                 "reason": "different grids", "engine_grid": grid_of(c.label_map),
@@ -256,7 +263,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
                  "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
                  "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
                  "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
-                 "filled_cells": c.label_map.filled, "scores": s}
+                 "filled_cells": c.label_map.filled, **cell_counts(c.label_map, r.label_map), "scores": s}
             p["key"] = pair_key(p)
             pairs.append(p)
     if not pairs:
@@ -276,6 +283,23 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
                                                experiments)
     return doc
+
+
+def check_complete(ref: MapEntry) -> None:
+    """Refuse a reference map that does not cover its grid (module docstring).
+
+    Raises
+    ------
+    IncomparableError
+        Cells of the grid are neither simulated nor inferred by the map's own fill rule.
+    """
+    missing = int(ref.label_map.meta.get("missing_cells", 0))
+    if missing:
+        n = ref.label_map.codes.size
+        raise IncomparableError(
+            f"the reference map {str(ref.path)!r} is incomplete: {missing} of its {n} cells are missing "
+            f"(neither simulated nor inferred); finish it (rerun the same `rockbench map` or `rockbench run` "
+            "to resume) before scoring against it.")
 
 
 def at_own_eta(reference: MapEntry, candidate: MapEntry, own_eta: dict | None) -> bool:
@@ -441,8 +465,10 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
     """
     tol = dict(parse_tolerances([]) if tolerances is None else tolerances)
     if base.get("metrics_version") != cur.get("metrics_version"):
-        raise IncomparableError(f"the scores use other metric definitions (metrics version "
-                                f"{base.get('metrics_version')} vs {cur.get('metrics_version')}); rescore both.")
+        raise IncomparableError(f"the scores use other metric definitions (baseline metrics version "
+                                f"{base.get('metrics_version')}, current {cur.get('metrics_version')}; version 2 "
+                                "judges engines only where the reference is valid and adds consistency and "
+                                "spurious_invalid); rescore both with one rockbench (`rockbench score RUN_DIR`).")
     b = {p["key"]: p for p in base["pairs"]}
     c = {p["key"]: p for p in cur["pairs"]}
     common = sorted(set(b) & set(c))

@@ -33,12 +33,12 @@ from ..reference_solver.errors import ConfigError, IncomparableError
 from .atomic import write_json_atomic as _write_json
 
 #: Version of the run-directory layout; bumped when columns or run.json keys change meaning.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 #: The columns of cells.csv, in order (CLI.md's required ones first).
 COLUMNS = ["engine", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2",
            "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags", "status", "message", "wall_s",
-           "t_overturn_s", "t_uplift_s", "i", "j"]
+           "t_overturn_s", "t_uplift_s", "min_normal_mg", "max_friction_ratio", "i", "j"]
 
 
 def utc_now() -> str:
@@ -205,7 +205,8 @@ class RunStore:
                 "outcome": r.outcome or "", "n_impacts": int(r.n_impacts), "max_abs_theta_rad": r.max_abs_theta_rad,
                 "valid": bool(r.valid), "flags": ";".join(r.flags), "status": r.status,
                 "message": " ".join(str(r.message).split()), "wall_s": float(r.wall_s),
-                "t_overturn_s": r.t_overturn_s, "t_uplift_s": r.t_uplift_s, "i": int(i), "j": int(j)}
+                "t_overturn_s": r.t_overturn_s, "t_uplift_s": r.t_uplift_s, "min_normal_mg": r.min_normal_mg,
+                "max_friction_ratio": r.max_friction_ratio, "i": int(i), "j": int(j)}
 
     def append_results(self, spec, triples) -> None:
         """Append the rows of ``[(i, j, CellResult), ...]`` (see :meth:`append`).
@@ -225,11 +226,12 @@ class RunStore:
         lines, others = [], []
         for i, j, r in triples:
             if r.status == "ok" and not r.flags and not r.message and r.outcome:
-                tov, tup = r.t_overturn_s, r.t_uplift_s
+                tov, tup, nmin, fmax = r.t_overturn_s, r.t_uplift_s, r.min_normal_mg, r.max_friction_ratio
                 lines.append(f"{head}{wr[j]},{ar[i]},{om[j]},{am[i]},{r.outcome},{int(r.n_impacts)},"
                              f"{float(r.max_abs_theta_rad)!r},{'true' if r.valid else 'false'},,ok,,"
                              f"{float(r.wall_s)!r},{'' if tov is None else repr(float(tov))},"
-                             f"{'' if tup is None else repr(float(tup))},{i},{j}\n")
+                             f"{'' if tup is None else repr(float(tup))},{'' if nmin is None else repr(float(nmin))},"
+                             f"{'' if fmax is None else repr(float(fmax))},{i},{j}\n")
             else:
                 others.append(self.row(spec, i, j, r))
         if others:

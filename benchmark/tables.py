@@ -10,9 +10,9 @@ from .scores import METRICS
 #: short column titles
 SHORT = {"agreement": "agree", "overturn_agreement": "agree O", "iou_overturn": "IoU O",
          "boundary_mean": "bnd mean", "boundary_max": "bnd max", "critical_error_mean": "a_crit err",
-         "critical_error_max": "a_crit max", "critical_one_sided": "1-sided", "invalid_cells": "invalid",
-         "failed_cells": "failed"}
-COUNTS = ("critical_one_sided", "invalid_cells", "failed_cells")
+         "critical_error_max": "a_crit max", "critical_one_sided": "1-sided", "consistency": "consistent",
+         "spurious_invalid": "spurious inv", "failed_cells": "failed"}
+COUNTS = ("critical_one_sided", "spurious_invalid", "failed_cells")
 
 
 def fmt(name: str, v) -> str:
@@ -20,7 +20,7 @@ def fmt(name: str, v) -> str:
         return "n/a"
     if name in COUNTS:
         return f"{int(round(v))}"
-    return f"{v:.4f}" if name in ("agreement", "overturn_agreement", "iou_overturn") else f"{v:.3f}"
+    return f"{v:.4f}" if name in ("agreement", "overturn_agreement", "iou_overturn", "consistency") else f"{v:.3f}"
 
 
 def render(head: list[str], rows: list[list[str]], markdown: bool) -> str:

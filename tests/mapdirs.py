@@ -12,12 +12,16 @@ from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
 
 NAMES = {-1: "", 0: "rest", 1: "rocking", 2: "overturn"}
-from rockbench.benchmark.store import COLUMNS  # the store's own column list, so fixtures follow it
+from rockbench.benchmark.store import COLUMNS, SCHEMA_VERSION  # the store's own layout, so fixtures follow it
 
 
 def write_map(d, codes, *, engine="reference", block="B6M", pulse="sine", restitution=None,
               w=(1.0, 10.0), a=(0.5, 8.0), settings=None, invalid=None, shuffle_seed=None):
-    """A map directory with outcome ``codes`` (n_a × n_w, -1 failed) on linspace axes."""
+    """A map directory with outcome ``codes`` (n_a × n_w, -1 failed) on linspace axes.
+
+    ``invalid`` (a boolean grid) marks cells not valid: ``slip`` in an engine map, ``lift-required``
+    (with a negative ``min_normal_mg``) in a reference map.
+    """
     d = Path(d)
     d.mkdir(parents=True, exist_ok=True)
     codes = np.asarray(codes)
@@ -29,12 +33,14 @@ def write_map(d, codes, *, engine="reference", block="B6M", pulse="sine", restit
     spec = {"engine": engine, "engine_settings": dict(settings or {}), "block": b.to_dict(), "pulse": pulse,
             "restitution": rest.to_dict(), "eta": eta, "x": {"name": "w_ratio", "lo": w[0], "hi": w[1], "n": n_w},
             "y": {"name": "a_ratio", "lo": a[0], "hi": a[1], "n": n_a}, "dt_s": None, "linearized": False}
-    run = {"schema_version": 1, "kind": "rockbench-map", "created_utc": "2026-01-01T00:00:00Z",
+    run = {"schema_version": SCHEMA_VERSION, "kind": "rockbench-map", "created_utc": "2026-01-01T00:00:00Z",
            "engine": {"engine": engine, "version": "test", "settings": dict(settings or {})},
            "spec": spec, "spec_identity": spec, "options": {"adaptive": False}, "summary": None,
            "python": "3.11", "platform": "test", "git": {"commit": None, "dirty": None}}
     (d / "run.json").write_text(json.dumps(run))
     rows = []
+    is_ref = engine == "reference"
+    bad_flag = "lift-required" if is_ref else "slip"
     for i in range(n_a):
         for j in range(n_w):
             c = int(codes[i, j])
@@ -43,8 +49,10 @@ def write_map(d, codes, *, engine="reference", block="B6M", pulse="sine", restit
             rows.append([engine, block, pulse, rest.label, repr(eta), repr(float(wr[j])), repr(float(ar[i])),
                          repr(float(wr[j] * b.p_rad_s)), repr(float(ar[i] * G * math.tan(b.alpha_rad))),
                          NAMES[c], "1" if ok else "0", "0.1" if ok else "", "true" if valid else "false",
-                         "" if valid else ("engine-error" if not ok else "slip"), "ok" if ok else "failed",
-                         "" if ok else "boom", "0.01", "", "", str(i), str(j)])
+                         "" if valid else ("engine-error" if not ok else bad_flag), "ok" if ok else "failed",
+                         "" if ok else "boom", "0.01", "", "",
+                         ("1.0" if valid else "-0.5") if is_ref and ok else "",
+                         ("0.5" if valid else "2.0") if is_ref and ok else "", str(i), str(j)])
     if shuffle_seed is not None:
         np.random.default_rng(shuffle_seed).shuffle(rows)
     with open(d / "cells.csv", "w", newline="") as f:

@@ -4,12 +4,12 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import assume, given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
 
 from rockbench.benchmark.scores import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING, LabelMap,
                                         boundary_points, check_gate, critical_amplitude, from_cells,
-                                        is_perfect, parse_thresholds, score)
+                                        cell_counts, is_perfect, parse_thresholds, score)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
 
 N = 10
@@ -41,7 +41,7 @@ def test_shifted_boundary_by_one_row():
     assert s["critical_error_mean"] == pytest.approx(1.0)
     assert s["critical_error_max"] == pytest.approx(1.0)
     assert s["critical_one_sided"] == 0
-    assert s["invalid_cells"] == 0 and s["failed_cells"] == 0
+    assert s["spurious_invalid"] == 0 and s["failed_cells"] == 0 and s["consistency"] == 1.0
 
 
 def test_shift_scales_with_axis_spacing():
@@ -129,8 +129,9 @@ def test_invalid_cells_counted_but_judged():
     eng = band_map(5)
     eng.valid[0, :3] = False
     s = score(eng, band_map(5))
-    assert s["invalid_cells"] == 3
+    assert s["spurious_invalid"] == 3
     assert s["agreement"] == 1.0
+    assert cell_counts(eng, band_map(5))["invalid_cells"] == 3
 
 
 def test_different_grids_are_incomparable():
@@ -253,3 +254,74 @@ def test_failures_never_improve_a_score(codes, data):
     for k in ("agreement", "overturn_agreement", "iou_overturn"):
         assert s1[k] <= s0[k]
     assert s1["failed_cells"] == mask.sum()
+
+
+# -- metrics version 2: the reference's domain ------------------------------------------------------
+
+def _outside(ref: LabelMap, mask) -> LabelMap:
+    """``ref`` with the cells of ``mask`` outside its domain (lift-required: invalid, left the model)."""
+    return LabelMap(ref.w_ratio, ref.a_ratio, ref.codes, ~mask, mask)
+
+
+def test_cells_outside_the_reference_domain_are_not_judged_by_outcome():
+    mask = np.zeros((N, N), bool)
+    mask[7:, :4] = True                        # a lift-required patch inside the overturn region
+    ref = _outside(band_map(5), mask)
+    eng = band_map(5)
+    eng.codes[7:, :4] = ROCKING                # the engine disagrees only where the reference is invalid
+    s = score(eng, ref)
+    assert s["agreement"] == 1.0 and s["iou_overturn"] == 1.0
+    assert s["boundary_mean"] == 0.0 and s["critical_error_max"] == 0.0
+    # the engine did not flag the lift-off the rigid model says a real block makes
+    assert s["consistency"] == 0.0
+    c = cell_counts(eng, ref)
+    assert c["cells_in_domain"] == N * N - 12 and c["cells_outside_domain"] == 12
+    # an engine that flags jump there is consistent
+    eng2 = LabelMap(eng.w_ratio, eng.a_ratio, eng.codes, ~mask, mask)
+    s2 = score(eng2, ref)
+    assert s2["consistency"] == 1.0 and s2["spurious_invalid"] == 0
+    # the same disagreement inside the domain counts
+    s3 = score(eng, band_map(5))
+    assert s3["agreement"] < 1.0
+
+
+def test_spurious_invalid_counts_only_inside_the_domain():
+    mask = np.zeros((N, N), bool)
+    mask[8:, :] = True
+    ref = _outside(band_map(5), mask)
+    eng = band_map(5)
+    eng.valid[8:, :] = False                   # invalid where the reference is too: not spurious
+    eng.valid[0, 0] = False                    # invalid where the reference is valid: spurious
+    s = score(eng, ref)
+    assert s["spurious_invalid"] == 1
+    assert cell_counts(eng, ref)["invalid_cells"] == N * 2 + 1
+
+
+def test_consistency_counts_only_simulated_engine_cells():
+    mask = np.zeros((N, N), bool)
+    mask[8:, :2] = True
+    ref = _outside(band_map(5), mask)
+    sim = np.ones((N, N), bool)
+    sim[8:, 1] = False                         # an adaptive engine map inferred these
+    left = mask & sim
+    eng = LabelMap(AX, AX, band_map(5).codes, None, left, sim)
+    assert score(eng, ref)["consistency"] == 1.0
+    assert cell_counts(eng, ref)["cells_outside_domain_simulated"] == 2
+
+
+@settings(max_examples=60, deadline=None)
+@given(hnp.arrays(np.int64, (6, 7), elements=st.sampled_from([REST, ROCKING, OVERTURN])),
+       hnp.arrays(np.bool_, (6, 7)))
+def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(codes, mask):
+    assume(not mask.all())   # an empty domain leaves agreement undefined (NaN), which fails every gate
+    m = LabelMap(np.linspace(1, 10, 7), np.linspace(0.5, 8, 6), codes, ~mask, mask)
+    s = score(m, m)
+    assert is_perfect(s)
+    assert s["consistency"] == 1.0
+
+
+def test_metrics_version_two_refuses_version_one():
+    from rockbench.benchmark.scoring import compare_scores
+    doc = {"metrics_version": "1", "pairs": []}
+    with pytest.raises(IncomparableError, match="metrics version 1, current 2"):
+        compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})
