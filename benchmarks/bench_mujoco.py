@@ -12,7 +12,7 @@ What it prints (and writes as JSON with ``--out FILE``):
    tolerance (:func:`~rockbench.engines.base.uplift_tol_rad`: a reference "rocking" below it is
    "rest" to any soft-contact engine), the invalid cells and their flags, and how many of them lie
    where the rigid model itself needs a pulling table (``N < 0``) or more friction than given
-   (:func:`rigid_contact_demand`), wall time, cells/s and engine steps/s, at each time step asked
+   (the reference's own ``min_normal_mg``/``max_friction_ratio``), wall time, cells/s and engine steps/s, at each time step asked
    for (calibrated) and with ``settings=defaults``.
 
 The machine may be shared: timings are what was measured then; the load average is recorded, and
@@ -77,39 +77,6 @@ def far_from_boundary(ref: np.ndarray) -> np.ndarray:
             nb = pad[1 + di: 1 + di + n0, 1 + dj: 1 + dj + n1]
             far &= (nb == ref) | (nb == -9)
     return far
-
-
-def rigid_contact_demand(reference, case: Case) -> tuple[float, float]:
-    """What the rigid rocking model asks of the pivot along the reference motion.
-
-    From the reference trajectory (integrated to rest or overturn) the centre of mass moves on a
-    circle about the pivot; Newton's law gives the pivot's normal force ``N`` and friction force
-    ``F`` (table frame, inertial force ``−m·ü`` included). Returned: the smallest ``N/(m·g)``
-    and the largest ``|F|/N`` while the block is lifted and ``|θ|`` is below halfway from α to
-    flat (the adapter's window). ``N < 0`` means the rigid model needs the table to pull: a real
-    block, and MuJoCo's, must leave the table there, so ``slip``/``jump`` flags are expected.
-    """
-    blk = case.block
-    al, p, R = blk.alpha_rad, blk.p_rad_s, blk.half_diagonal_m
-    tr = reference.simulate(case)
-    t, th, thd = tr.t_s, tr.theta_rad, tr.theta_dot_rad_s
-    ug = np.asarray(case.pulse.accel(t), dtype=float)
-    phi = al * np.sign(th) - th
-    thdd = -p * p * (np.sin(phi) + ug / G * np.cos(phi))
-    xdd = R * (np.sin(phi) * thd**2 + np.cos(phi) * thdd)
-    zdd = -R * (np.cos(phi) * thd**2 - np.sin(phi) * thdd)
-    n_over_mg = 1.0 + zdd / G
-    f_over_mg = (xdd + ug) / G
-    lifted = np.abs(th) > 0.0
-    if not lifted.any():
-        return 1.0, 0.0
-    i0 = int(np.argmax(lifted))
-    beyond = np.abs(th) >= 0.5 * (al + 0.5 * math.pi - 0.01)
-    i1 = int(np.argmax(beyond)) if beyond.any() else len(t)
-    w = slice(i0, max(i1, i0 + 1))
-    nmin = float(np.min(n_over_mg[w]))
-    ratio = float(np.max(np.abs(f_over_mg[w]) / np.maximum(n_over_mg[w], 1e-12)))
-    return nmin, ratio
 
 
 def measure_steps(adapter, block, dt_s: float, nthreads: int, nbatch: int = 64, nstep: int = 2000) -> float:
@@ -228,8 +195,8 @@ def main(argv=None) -> int:
         ref_max = np.array([r.max_abs_theta_rad for r in ref_res]).reshape(args.n, args.n)
         ref_grid_tol = np.where((ref_grid == 1) & (ref_max < uplift_tol_rad(block)), 0, ref_grid)
         _log(f"{name} {kind}: reference map {args.n}x{args.n} in {time.perf_counter() - t0:.1f} s")
-        to_rest = get_adapter("reference", mode="to-rest")
-        dem = np.array([rigid_contact_demand(to_rest, c) for c in rcases]).T.reshape(2, args.n, args.n)
+        # the rigid model's contact demand, as the reference itself reports it (reference_solver.demand)
+        dem = np.array([[r.min_normal_mg, r.max_friction_ratio] for r in ref_res]).T.reshape(2, args.n, args.n)
         _log(f"  rigid model needs a pulling table (N < 0) in {int(np.sum(dem[0] < 0))} cells")
         out.setdefault("rigid_demand", {})[name] = {"n_min_over_mg": dem[0].tolist(), "f_over_n_max": dem[1].tolist()}
         runs = [("calibrated", dt, 10.0) for dt in args.dt]

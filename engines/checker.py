@@ -4,7 +4,8 @@
 (:mod:`rockbench.engines.base`) promises: the shape and units of the trajectory, the sign
 convention, mirror symmetry, no uplift below the threshold ``g·tanα``, determinism, batches equal
 to single runs, a clean :class:`~rockbench.reference_solver.errors.ConfigError` for a bad case or
-setting, and an overturn where any faithful engine must overturn. Third-party adapters can call it
+setting, an overturn where any faithful engine must overturn, and measurements the one validity
+rule can judge (both bottom corners in the table's frame, no verdicts of the adapter's own). Third-party adapters can call it
 in their own CI::
 
     from rockbench.engines.checker import check_adapter
@@ -28,7 +29,8 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
 from ..reference_solver.pulses import make_pulse
 from ..reference_solver.restitution import Restitution
-from .base import FLAGS, Case, EngineAdapter
+from ..reference_solver.validity import Measurement
+from .base import Case, EngineAdapter
 
 #: The block the checks use by default: B6M of Table 1 (h/b = 4.5).
 DEFAULT_BLOCK = Block(0.045, 0.2025, mass_kg=1.0896, name="B6M")
@@ -164,9 +166,10 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
             raise _Fail(f"t_pulse_end_s = {tr.t_pulse_end_s:g} but the pulse lasts {T:g} s (seconds expected)")
         if t[-1] < T - 2 * ad.dt_for(rocking):
             raise _Fail(f"the samples end at {t[-1]:g} s, before the pulse does ({T:g} s) (contract item 3)")
-        bad = sorted(set(tr.flags) - set(FLAGS))
+        bad = sorted(set(tr.flags) - {"diverged"})
         if bad:
-            raise _Fail(f"unknown flags {bad}; use {', '.join(FLAGS)}")
+            raise _Fail(f"the adapter set the flags {bad} itself; an adapter reports measurements and may only "
+                        "set 'diverged': slip, jump and energy-gain come from the one validity rule (contract item 4)")
         json.dumps(tr.diagnostics)
         if not (0.0 <= tr.uplift_tol_rad < b.alpha_rad):
             raise _Fail(f"uplift_tol_rad = {tr.uplift_tol_rad:g} must be in [0, α = {b.alpha_rad:.4f}) rad")
@@ -257,6 +260,32 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
             raise _Fail(f"dt_s = {dt:g} s was accepted; a bad case must raise ConfigError (use self.dt_for(case))")
         return "a negative or too coarse time step raises ConfigError"
 
+    def c_measurements():
+        tr = ad.simulate(rocking)
+        if tr.min_normal_mg is not None:
+            if not (math.isfinite(tr.min_normal_mg) and math.isfinite(tr.max_friction_ratio or 0.0)):
+                raise _Fail("the rigid model's contact demand must be finite")
+            return (f"rigid-model contact demand reported (min N/(m·g) = {tr.min_normal_mg:.3f}, "
+                    f"max |F|/N = {tr.max_friction_ratio:.3f})")
+        m = tr.measurement()
+        if m is None:
+            raise _Fail("no corner_x_m/corner_z_m: a contact engine must report both bottom corners relative to the "
+                        "table so that the one validity rule can judge slip and jump (contract item 4)")
+        try:
+            Measurement(m.t_s, m.theta_rad, m.theta_dot_rad_s, m.corner_x_m, m.corner_z_m, m.energy_j_kg)
+        except ValueError as e:
+            raise _Fail(str(e)) from None
+        if not (np.all(np.isfinite(m.corner_x_m)) and np.all(np.isfinite(m.corner_z_m))):
+            raise _Fail("non-finite corner positions in a plain rocking case")
+        if m.energy_j_kg is not None and np.shape(m.energy_j_kg) != np.shape(m.t_s):
+            raise _Fail(f"energy_j_kg must have one value per sample, got shape {np.shape(m.energy_j_kg)}")
+        r = ad.judge(rocking, tr)
+        if not r.valid:
+            raise _Fail(f"a mild rocking case (a0/(g·tanα) = 1.6, ω/p = 4) was judged {r.flags}: the corner "
+                        "measurements are in the wrong frame or units, or the contact slides")
+        return (f"{m.corner_x_m.shape[1]} corners and {'the body energy' if m.energy_j_kg is not None else 'no energy'}"
+                " reported; the mild rocking case is valid by the one rule")
+
     def c_overturn():
         r = ad.run(_case(b, "sine", 1.0, 5.0))
         if r.outcome != "overturn":
@@ -267,7 +296,7 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
                      ("units", c_units), ("sign-convention", c_sign), ("mirror-symmetry", c_mirror),
                      ("no-uplift-below-threshold", c_threshold), ("determinism", c_determinism),
                      ("batch-equals-single", c_batch), ("bad-case-config-error", c_bad_case),
-                     ("overturns-when-it-must", c_overturn)]:
+                     ("overturns-when-it-must", c_overturn), ("measurements", c_measurements)]:
         run_check(name, fn)
     return rep
 

@@ -43,6 +43,18 @@ def analytic_grid(w_values, a_values) -> np.ndarray:
     return np.array([[codes[analytic_outcome(w, a)] for w in w_values] for a in a_values], dtype=np.int8)
 
 
+def ideal_corners(block, th):
+    """Both bottom corners of a block rocking without slip or jump (the pivot stays put): x, z ``(n, 2)``."""
+    b = block.width_m
+    xs, zs = [], []
+    for sx in (1.0, -1.0):
+        piv = np.where(th > 0, 1.0, np.where(th < 0, -1.0, sx)) * b / 2
+        dx = sx * b / 2 - piv
+        xs.append(piv + dx * np.cos(th))
+        zs.append(-dx * np.sin(th))
+    return np.stack(xs, 1), np.stack(zs, 1)
+
+
 class AnalyticAdapter(EngineAdapter):
     name = "analytic"
     module = None
@@ -73,7 +85,8 @@ class AnalyticAdapter(EngineAdapter):
         else:
             th = sgn * (0.5 * np.pi) * (t / t[-1]) ** 2
         thd = np.gradient(th, t)
-        return Trajectory(t, th, thd, T)
+        cx, cz = ideal_corners(case.block, th)
+        return Trajectory(t, th, thd, T, corner_x_m=cx, corner_z_m=cz)
 
     def _misbehave(self, w):
         pass

@@ -64,7 +64,11 @@ def test_outcome_matches_reference_far_from_the_boundary(cell, reference):
     assert all(o == ref.outcome for o in around), f"{cell} is not far from the reference boundary: {around}"
     for drive in ("inertial", "table"):
         r = get_adapter("pybullet", drive=drive).run(case(*cell))
-        assert r.valid, (drive, r.flags)
+        # valid where the rigid reference is; where it needs lift-off (the fall during a long pulse at
+        # ω/p = 1.5) the engine's block really lifts off or slides, and says so
+        assert r.valid == ref.valid, (drive, r.flags, ref.flags)
+        if not ref.valid:
+            assert {"jump", "slip"} & set(r.flags), (drive, r.flags)
         assert r.outcome == ref.outcome, (drive, r.outcome, ref.outcome, r.n_impacts, ref.n_impacts)
 
 
