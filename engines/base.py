@@ -22,7 +22,7 @@ The contract, for a subclass of :class:`EngineAdapter`:
    (``t_pulse_end_s``); the run ends by a documented rule (overturn certain, rest, or a bounded
    tail after the pulse).
 4. A contact engine reports its measurements in the trajectory: ``corner_x_m`` and ``corner_z_m``
-   (both bottom corners, ``(n, 2)``, relative to the table and above its top) and, where the
+   (the bottom corners, ``(n, k)`` with k ≥ 2, relative to the table and above its top) and, where the
    engine gives the body's state, ``energy_j_kg`` (see
    :class:`~rockbench.reference_solver.validity.Measurement`). It never raises ``slip``, ``jump``
    or ``energy-gain`` itself: :meth:`EngineAdapter.judge` applies the one rule. The only flag an
@@ -129,8 +129,8 @@ class Trajectory:
         |θ| below which the classifier counts the block as not lifted [rad].
     theta_ddot_rad_s2 : ndarray or None
         Angular acceleration at the samples [rad/s^2], when the engine provides it (for histories).
-    corner_x_m, corner_z_m : ndarray (n, 2) or None
-        A contact engine's bottom corners (+x, −x) relative to the table and above its top [m]
+    corner_x_m, corner_z_m : ndarray (n, k) or None
+        A contact engine's k ≥ 2 bottom corners relative to the table and above its top [m]
         (:class:`~rockbench.reference_solver.validity.Measurement`); None for the reference.
     energy_j_kg : ndarray or None
         The block's mechanical energy per unit mass in the table's frame [J/kg], where the engine

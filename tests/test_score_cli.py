@@ -212,3 +212,44 @@ def test_cells_csv_from_another_tool_is_read_by_its_cli_columns(tmp_path, capsys
     (d / "cells.csv").write_text("engine,block\nx,y\n")
     code, _, err = run_cli(capsys, "score", d, "--against", tmp_path / "ref")
     assert code == 5 and "lacks the column" in err
+
+
+def test_compare_refuses_metrics_version_one(tmp_path, capsys):
+    a = tmp_path / "a"
+    write_map(a / "ref", band(8, 8, 3))
+    write_map(a / "eng", band(8, 8, 3), engine="mujoco")
+    assert run_cli(capsys, "score", a)[0] == 0
+    old = json.loads((a / "score.json").read_text())
+    old["metrics_version"] = "1"
+    (tmp_path / "v1.json").write_text(json.dumps(old))
+    code, _, err = run_cli(capsys, "compare", tmp_path / "v1.json", a / "score.json")
+    assert code == 5 and "metrics version 1, current 2" in err and "Traceback" not in err
+
+
+def test_scoring_half_a_reference_map_exits_5(tmp_path, capsys):
+    """A reference map with 20 of its 36 rows (an unfinished run) is refused, never scored."""
+    root = tmp_path / "run"
+    write_map(root / "ref", band(36, 6, 20))
+    write_map(root / "eng", band(36, 6, 20), engine="mujoco")
+    cells = root / "ref" / "cells.csv"
+    lines = cells.read_text().splitlines(keepends=True)
+    cells.write_text("".join(lines[: 1 + 20 * 6]))
+    code, _, err = run_cli(capsys, "score", root, "--no-write")
+    assert code == 5 and "incomplete" in err and "96 of its 216 cells are missing" in err
+    # a header-only cells.csv is refused the same way (it scored IoU 1.0 before)
+    cells.write_text(lines[0])
+    code, _, err = run_cli(capsys, "score", root, "--no-write")
+    assert code == 5 and "216 of its 216 cells are missing" in err
+
+
+def test_score_json_records_the_domain_per_pair(tmp_path, capsys):
+    root = tmp_path / "run"
+    lift = np.zeros((10, 8), bool)
+    lift[7:, :3] = True                      # the reference needs the table to pull the block here
+    write_map(root / "ref", band(10, 8, 5), invalid=lift)
+    write_map(root / "eng", band(10, 8, 5), engine="mujoco", invalid=lift)   # the engine flags slip there
+    assert run_cli(capsys, "score", root)[0] == 0
+    (p,) = json.loads((root / "score.json").read_text())["pairs"]
+    assert p["cells_in_domain"] == 80 - 9 and p["cells_outside_domain"] == 9
+    assert p["scores"]["consistency"] == 1.0 and p["scores"]["spurious_invalid"] == 0
+    assert p["scores"]["agreement"] == 1.0
