@@ -68,8 +68,6 @@ def curve_spec(c: Curve, n: int) -> MapSpec:
 def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, serial: bool = False,
                  progress: bool = False) -> dict:
     """Compute the maps and draw the figures; returns ``{figure: [png, svg]}`` and the map folders."""
-    from matplotlib.figure import Figure
-
     from .plots.stability import plot_stability, save
 
     out = Path(out_dir)
@@ -85,8 +83,6 @@ def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, ser
                 done[key] = run_map(curve_spec(c, resolution), out / "maps" / key, jobs=jobs, serial=serial,
                                     progress=progress, plot=False)
             results.append(done[key])
-        fig = Figure(figsize=(6.4, 5.9), layout="constrained")
-        plot_stability(results, [c.label() for c in curves], ax=fig.add_subplot(),
-                       title=title + " (reference solver)")
-        written[num] = [str(p) for p in save(fig, out / f"fig{num}")]
+        drawn = plot_stability(results, [c.label() for c in curves], title=title + " (reference solver)")
+        written[num] = [str(p) for p in save(drawn["ax"].figure, out / f"fig{num}")]
     return {"figures": written, "maps": sorted(str(out / "maps" / k) for k in done)}

@@ -176,13 +176,10 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     speed = _speed_rows(entries, doc)
     speed_img = None
     if any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
-        from matplotlib.figure import Figure
-
         from .plots.speed import plot_speed_accuracy
-        fig = Figure(figsize=(8.4, 3.9), layout="constrained")
-        plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
-                             if r["variant"] != "reference"], ax=fig.add_subplot())
-        speed_img = save(fig, "speed_accuracy.png")
+        drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
+                                     if r["variant"] != "reference"])
+        speed_img = save(drawn["ax"].figure, "speed_accuracy.png")
 
     ctx = {"entries": entries, "refs": refs, "doc": doc, "variant_graphs": variant_graphs, "case_graphs": case_graphs,
            "traj": traj_imgs, "calib": calib, "speed": speed, "speed_img": speed_img, "notes": notes,

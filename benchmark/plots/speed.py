@@ -35,7 +35,7 @@ def plot_speed_accuracy(rows, *, metric="agreement", ax=None):
 
     if ax is None:
         from matplotlib.figure import Figure
-        ax = Figure(figsize=(8.0, 3.9), layout="constrained").add_subplot()
+        ax = Figure(figsize=(8.4, 3.9), layout="constrained").add_subplot()
     pts = {}
     xs = []
     markers = "osD^vP*Xh"
