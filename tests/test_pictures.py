@@ -260,3 +260,20 @@ def test_labels_in_words():
     assert variant_label("exudyn", {"drive": "table"}, restitution="modified(k=0.8608)", block="B3M",
                          dt_s=1e-4) == "Exudyn, calibrated to η_M (k = 0.8608, average k), table drive, Δt = 0.1 ms"
     assert restitution_symbol("0.9") == "η = 0.9" and short_version("1.9.1") == "1.9.1"
+
+
+def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):
+    """Fig. 5 (B6M): the table limit, a₀/(g·tanα) = 11.5, lies above the chart's 10: neither drawn nor
+    listed; the legend sits below the axes and the labels read as the paper writes them."""
+    from rockbench.benchmark.figures import FIGURES, curve_spec
+    from rockbench.benchmark.maps import run_map
+    from rockbench.benchmark.plots.stability import plot_stability
+    _, curves = FIGURES[5]
+    maps = [run_map(curve_spec(c, 12), tmp_path / f"m{k}", serial=True, plot=False) for k, c in enumerate(curves)]
+    d = plot_stability(maps, [c.label() for c in curves], title="Fig. 5")
+    labels = _labels(d["legend"])
+    assert d["st_limit_a_ratio"] is None and not any("ST limit" in t for t in labels)
+    assert "B6M, $\\eta_\\mathrm{H}$ = 0.9294" in labels and not any("(η =" in t for t in labels)
+    assert len(d["boundaries"]) == 2
+    assert_legend_clear(d["ax"].figure, d["legend"])
+    assert_nothing_off_axes(d["ax"])

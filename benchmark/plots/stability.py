@@ -519,13 +519,15 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
         if draw_st_limit(ax, st_a) is not None:
             st = st_a
             handles.append(Line2D([], [], color="k", ls=(0, (4, 2)), lw=0.9,
-                                  label=f"ST limit: the table's faithful limit, {st_limit_mps2:g} m/s²"))
+                                  label=f"ST limit (shaking table, {st_limit_mps2:g} m/s²)"))
     if title:
         ax.set_title(for_matplotlib(title), fontsize=10, loc="left")
     leg = None
     if legend == "below":
-        leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.13), ncols=2, fontsize=7.5,
-                        frameon=False, borderaxespad=0.0)
+        # two columns when they fit under the axes, else one (a legend never sticks out sideways)
+        long = max((len(h.get_label()) for h in handles), default=0) > 44
+        leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.13), ncols=1 if long else 2,
+                        fontsize=7.5, frameon=False, borderaxespad=0.0)
     elif legend == "right":
         leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7.5, frameon=False)
     return {"ax": ax, "boundaries": drawn, "st_limit_a_ratio": st, "hatch": hatch, "legend": leg}
