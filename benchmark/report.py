@@ -312,9 +312,18 @@ def _groups(cands, refs, own_eta):
     return out
 
 
+def _variant_order(label: str):
+    """Variants by engine, calibrated before "as shipped"."""
+    return (label.split(",")[0], "as shipped" in label, label)
+
+
 def _case_order(key):
+    """Blocks in Table 1's order (custom blocks after them), then sine, cosine, half-sine."""
+    from .presets import PRESETS
     block, pulse = key
-    return (block, {"sine": 0, "cosine": 1, "half-sine": 2}.get(pulse, 3), pulse)
+    order = list(PRESETS)
+    return (order.index(block) if block in order else len(order), block,
+            {"sine": 0, "cosine": 1, "half-sine": 2}.get(pulse, 3), pulse)
 
 
 def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str]]:
@@ -323,7 +332,7 @@ def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -
 
     groups = _groups(cands, refs, own_eta)
     out = []
-    for v in sorted(labels, key=lambda v: labels[v]):
+    for v in sorted(labels, key=lambda v: _variant_order(labels[v])):
         keys = sorted((k for k, g in groups.items() if v in g[2]), key=_case_order)
         if not keys:
             continue
@@ -351,7 +360,7 @@ def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> l
         if not std and not engines:
             continue
         panels = [_panel(e, std, own.get(v, []), experiments, pair_of.get(str(e.path)), labels.get(v, v), block, pulse)
-                  for v, e in sorted(engines.items(), key=lambda kv: labels.get(kv[0], kv[0]))]
+                  for v, e in sorted(engines.items(), key=lambda kv: _variant_order(labels.get(kv[0], kv[0])))]
         if not panels:
             if not std:
                 continue
