@@ -863,7 +863,7 @@ def _html(ctx, images: dict) -> str:
         P.append("<p><em>no engine maps</em></p>")
     P.append("</section><section id='trajectories'><h2>θ(t) comparison</h2>")
     P += [img(name, c.title, "The reference (black and grey, in front) and every engine; circles on the zero line "
-              "are impacts, × where a curve passes |θ| = α (overturn), ● where a run ended at rest; the table's "
+              "are impacts, × where a curve passes |θ| = α (overturn), ● where a run ended, decided not to overturn; the table's "
               "acceleration beneath.") for c, name in ctx["traj"]] or ["<p><em>not drawn</em></p>"]
     P += ["</section><section id='calibration'><h2>Calibration: η per engine</h2>",
           _h_table(*_calib_table(ctx["calib"], labels), num_from=3)]

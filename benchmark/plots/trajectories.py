@@ -2,10 +2,11 @@
 
 The reference curves are drawn in front of the engines' (black and greys, thicker); every curve
 runs to its own end (an engine stops at its own decision), with its impacts marked on the zero line
-and its end marked by its outcome (× where |θ| passes α: overturn; ● where it came to rest). The
-vertical range is fitted to the data up to where a curve passes the overturning threshold
-(θ/α; the threshold ±1 is drawn when it lies on the chart); the table's acceleration is drawn in a small panel beneath, sharing the time axis.
-matplotlib is imported inside the function only, and figures are made without pyplot.
+and its end marked by its outcome (× where |θ| passes α: overturn; ● where the run ended, decided
+not to overturn). The vertical range is fitted to the data up to where a curve passes the
+overturning threshold (θ/α; the threshold ±1 is drawn when it lies on the chart); the table's
+acceleration is drawn in a small panel beneath, sharing the time axis. matplotlib is imported
+inside the function only, and figures are made without pyplot.
 """
 
 from __future__ import annotations
@@ -167,7 +168,7 @@ def plot_theta(histories, *, alpha_rad=None, pulse=None, t_end_s=None, t_pulse_e
         if "overturn" in drawn_ends:
             handles.append(Line2D([], [], ls="none", marker="X", ms=6, color="k", label="|θ| passes α: overturns"))
         if "rocking" in drawn_ends or "rest" in drawn_ends:
-            handles.append(Line2D([], [], ls="none", marker="o", ms=4.5, color="k", label="run ends, block at rest"))
+            handles.append(Line2D([], [], ls="none", marker="o", ms=4.5, color="k", label="run ends: decided, no overturn"))
         leg = fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=7.5, frameon=False)
     return {"figure": fig, "ax": ax, "ax_pulse": ax_pulse, "lines": lines, "impacts": impacts, "ends": ends,
             "pulse": pulse_line, "ylim": (-lim, lim), "legend": leg}
@@ -175,7 +176,8 @@ def plot_theta(histories, *, alpha_rad=None, pulse=None, t_end_s=None, t_pulse_e
 
 def _end_mark(ax, t, y, outcome, alpha_rad, kw, ended_inside=True):
     """The curve's end by its outcome: × where it passes the threshold (overturn), ● at its last
-    sample when the run ended inside the window with the block back at rest; nothing else."""
+    sample when the run ended inside the window without overturning (the run decided: back at rest,
+    or, for an engine, unable to overturn any more); nothing else."""
     if outcome == "overturn" and alpha_rad:
         k = np.nonzero(np.abs(y) >= 1.0)[0]
         if k.size:
