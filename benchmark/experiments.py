@@ -41,6 +41,11 @@ OUTCOME_LETTERS = {"T": REST, "R": ROCKING, "O": OVERTURN}
 LETTER_OF_CODE = {v: k for k, v in OUTCOME_LETTERS.items()}
 
 PULSES = ("sine", "cosine", "half-sine")
+
+#: The outcomes CSV format in one line, for help texts and messages (the full description is in
+#: the project's docs/data.md, which an installed copy does not carry).
+FORMAT_HINT = ("a CSV with the header block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s or "
+               "period_s for the frequency, amplitude_g for the amplitude); outcome T, R or O; '#' lines are comments")
 FREQUENCY_COLUMNS = {"f_hz": "Hz", "omega_rad_s": "rad/s", "period_s": "s"}
 AMPLITUDE_COLUMNS = {"amplitude_mps2": "m/s^2", "amplitude_g": "g"}
 REQUIRED_COLUMNS = ("block", "pulse", "outcome", "source")
@@ -165,7 +170,7 @@ def load_outcomes(path) -> list[OutcomePoint]:
         text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise ConfigError(f"experiments file {str(p)!r} does not exist; give the path of an outcomes CSV "
-                          "(format in docs/data.md).") from None
+                          f"({FORMAT_HINT}).") from None
     except (OSError, UnicodeDecodeError) as e:
         raise ConfigError(f"cannot read experiments file {str(p)!r}: {e}.") from None
     return parse_outcomes(text, name=str(p))

@@ -38,10 +38,11 @@ class Curve:
         return Restitution("modified", k=float(self.restitution.split("=")[1]))
 
     def label(self) -> str:
+        """``B6M, η_H = 0.9294`` / ``B3M, η_M (k = 0.75) = 0.8532``."""
         r = self.law()
         eta = r.eta(get_preset(self.block).block().alpha_rad)
-        name = "η_H" if r.kind == "housner" else f"η_M, k = {r.k:g}"
-        return f"{self.block} {name} (η = {eta:.4f})"
+        name = "η_H" if r.kind == "housner" else f"η_M (k = {r.k:g})"
+        return f"{self.block}, {name} = {eta:.4f}"
 
 
 #: figure number → (title, curves)
@@ -67,10 +68,6 @@ def curve_spec(c: Curve, n: int) -> MapSpec:
 def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, serial: bool = False,
                  progress: bool = False) -> dict:
     """Compute the maps and draw the figures; returns ``{figure: [png, svg]}`` and the map folders."""
-    import matplotlib
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
     from .plots.stability import plot_stability, save
 
     out = Path(out_dir)
@@ -86,10 +83,6 @@ def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, ser
                 done[key] = run_map(curve_spec(c, resolution), out / "maps" / key, jobs=jobs, serial=serial,
                                     progress=progress, plot=False)
             results.append(done[key])
-        fig, ax = plt.subplots(figsize=(6.4, 4.8))
-        try:
-            plot_stability(results, [c.label() for c in curves], ax=ax, title=title + " (reference solver)")
-            written[num] = [str(p) for p in save(fig, out / f"fig{num}")]
-        finally:
-            plt.close(fig)
+        drawn = plot_stability(results, [c.label() for c in curves], title=title + " (reference solver)")
+        written[num] = [str(p) for p in save(drawn["ax"].figure, out / f"fig{num}")]
     return {"figures": written, "maps": sorted(str(out / "maps" / k) for k in done)}

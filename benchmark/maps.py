@@ -504,8 +504,9 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
             executor.close()
         store.close()
     if plot:
-        from .plots.stability import plot_map_png
-        plot_map_png(result, Path(out_dir) / "map.png")
+        # an engine map is drawn over the reference's boundary and domain of the same grid
+        from .plots.stability import plot_map_png, reference_for
+        plot_map_png(result, Path(out_dir) / "map.png", reference=reference_for(result))
     return result
 
 

@@ -1,11 +1,13 @@
 """The benchmark report: ``index.html`` (self-contained) and ``report.md`` with its pictures.
 
-Contents, in order: the summary table (engine × metric, best in bold), every scored pair, the
-experiments (when a set is given), one stability graph per block and pulse (reference boundaries,
-every engine's boundary, T/R/O markers, the shaking-table limit), θ(t) of the reference and every
-engine for chosen cases (the paper's Fig. 17 case by default), the calibration results (η per
-engine against Housner, the modified η and the experiment), speed against accuracy, and the
-versions and settings of every map (from run.json).
+The first screen answers "which engine is how faithful, and why": the summary table (one row per
+engine variant, in words such as "MuJoCo 4.0, calibrated to η_H"), each metric explained in words
+(the definitions of :data:`~rockbench.benchmark.scores.METRICS`), then one stability figure per
+engine variant (small multiples, one panel per block and pulse). Then θ(t) of the reference and
+every engine for chosen cases (the paper's Fig. 17 case by default), the calibration (η per engine
+against Housner, the modified η and the experiment), speed against accuracy and the experiments.
+Collapsed below (``<details>``): the stability graphs by case (every variant side by side), every
+scored pair, and the versions and settings of every map as tables.
 
 Pictures are written to ``OUT/img/`` (report.md links them) and embedded as base64 in
 index.html, so that one file can be mailed or attached to a CI run. Every file is written through
@@ -27,8 +29,9 @@ from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from .atomic import write_bytes_atomic
+from .labels import case_title, entry_label, for_html, restitution_symbol
 from .scoring import MapEntry, at_own_eta, load_entries, score_entries, write_json_atomic
-from .tables import _vs, fmt, pairs_table, summary, summary_table
+from .tables import _vs, fmt, summary
 
 
 @dataclass(frozen=True)
@@ -62,6 +65,14 @@ class TrajectoryCase:
 #: overturns with k = 0.7595 (DOMAIN.md §6).
 FIG17 = TrajectoryCase("B3M", "sine", 6.0, 6.1, (0.8608, 0.7595),
                        "Fig. 17 case: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1")
+
+#: Column titles of the metrics in the report's tables (the keys stay the score.json names).
+METRIC_TITLES = {"agreement": "agreement", "overturn_agreement": "overturn agreement",
+                 "iou_overturn": "IoU of overturn regions", "boundary_mean": "boundary distance, mean",
+                 "boundary_max": "boundary distance, max", "critical_error_mean": "a_crit error, mean",
+                 "critical_error_max": "a_crit error, max", "critical_one_sided": "one-sided columns",
+                 "consistency": "consistency", "spurious_invalid": "spurious invalid cells",
+                 "failed_cells": "failed cells"}
 
 
 def parse_case(text: str):
@@ -137,42 +148,24 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     except IncomparableError as e:
         notes.append(f"No scores: {e}")
 
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     images: dict[str, bytes] = {}
 
     def save(fig, name):
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-        plt.close(fig)
+        fig.savefig(buf, format="png", dpi=DPI)
         images[name] = buf.getvalue()
         return name
 
-    # stability graphs, one per block and pulse
-    graphs = []
-    groups: dict[tuple, dict] = {}
-    for e in refs + [c for c in cands if c not in refs]:
-        g = groups.setdefault((e.block, e.pulse), {"refs": [], "engines": []})
-        (g["refs"] if e in refs else g["engines"]).append(e)
-    for (block, pulse), g in sorted(groups.items()):
-        fig, ax = plt.subplots(figsize=(7.5, 5.5))
-        from .plots.boundaries import plot_boundaries
-        pts, st = _points_and_limit(experiments, block, pulse)
-        std_refs, own_refs = _split_own_eta_refs(g["refs"], g["engines"], own_eta)
-        plot_boundaries([(r.restitution, r.label_map) for r in std_refs],
-                        [(f"{e.variant} ({e.restitution})", e.label_map) for e in g["engines"]],
-                        own_eta=own_refs, points=pts, st_limit_a_ratio=st,
-                        title=f"{block}, {pulse}: overturn boundaries", ax=ax)
-        graphs.append((block, pulse, save(fig, f"stability_{_slug(block)}_{_slug(pulse)}.png"), len(pts)))
+    labels = _variant_labels(cands)
+    pair_of = _like_pairs(doc)
+    variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
+    case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
 
-    # θ(t) comparisons
     traj_imgs = []
     if trajectories:
         for case in cases:
             try:
-                name, case_notes = _trajectory_figure(case, cands, save, log)
+                name, case_notes = _trajectory_figure(case, cands, labels, save, log)
                 notes += case_notes
                 if name:
                     traj_imgs.append((case, name))
@@ -181,16 +174,16 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
 
     calib = _calibration_rows(cands, own_eta)
     speed = _speed_rows(entries, doc)
+    speed_img = None
     if any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
         from .plots.speed import plot_speed_accuracy
-        fig, ax = plt.subplots(figsize=(6.5, 4.0))
-        plot_speed_accuracy([r for r in speed if r["variant"] != "reference"], ax=ax)
-        speed_img = save(fig, "speed_accuracy.png")
-    else:
-        speed_img = None
+        drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
+                                     if r["variant"] != "reference"])
+        speed_img = save(drawn["ax"].figure, "speed_accuracy.png")
 
-    ctx = {"entries": entries, "refs": refs, "doc": doc, "graphs": graphs, "traj": traj_imgs, "calib": calib,
-           "speed": speed, "speed_img": speed_img, "notes": notes, "run_dirs": [str(d) for d in run_dirs],
+    ctx = {"entries": entries, "refs": refs, "doc": doc, "variant_graphs": variant_graphs, "case_graphs": case_graphs,
+           "traj": traj_imgs, "calib": calib, "speed": speed, "speed_img": speed_img, "notes": notes,
+           "labels": labels, "run_dirs": [str(d) for d in run_dirs],
            "created": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
     md = _markdown(ctx)
     page = _html(ctx, images)
@@ -209,10 +202,173 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     return {**paths, "doc": doc, "notes": notes}
 
 
+#: Resolution of the report's pictures [dots per inch]: a 3.4-inch panel is 374 pixels wide, its
+#: 7.5-point labels 11 pixels high at the size the page shows them (1:1 up to 1200 pixels).
+DPI = 110
+
+
 # -- pieces ----------------------------------------------------------------------------------------
 
 def _slug(s: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in str(s)).strip("-").lower()
+
+
+def _variant_labels(cands: list[MapEntry]) -> dict[str, str]:
+    """Engine variant key → its label in words ("MuJoCo 4.0, calibrated to η_H")."""
+    by: dict[str, list[MapEntry]] = {}
+    for e in cands:
+        by.setdefault(e.variant, []).append(e)
+    out = {}
+    for v, es in by.items():
+        same = len({e.restitution for e in es}) == 1
+        out[v] = entry_label(es[0], with_restitution=same)
+    # two variants that read alike keep their keys apart
+    seen: dict[str, list[str]] = {}
+    for v, lab in out.items():
+        seen.setdefault(lab, []).append(v)
+    for lab, vs in seen.items():
+        if len(vs) > 1:
+            for v in vs:
+                out[v] = f"{lab} [{v}]"
+    return out
+
+
+def _like_pairs(doc) -> dict:
+    """``engine_dir`` → its like-for-like scored pair."""
+    out = {}
+    for p in (doc or {}).get("pairs", []):
+        if p["like_for_like"]:
+            out[p["engine_dir"]] = p
+    return out
+
+
+def _ref_order(r: MapEntry):
+    from .presets import PRESETS
+    t = r.restitution.lower()
+    pre = PRESETS.get(r.block.upper())
+    if t == "housner":
+        return (0, 0.0)
+    if t.startswith("modified(k="):
+        k = float(t[len("modified(k="):-1])
+        if pre is not None and abs(k - pre.k_average) < 5e-5:
+            return (1, k)
+        if pre is not None and abs(k - pre.k_exact) < 5e-5:
+            return (2, k)
+        return (3, k)
+    return (4, r.eta)
+
+
+def _ref_line(r: MapEntry) -> tuple[str, dict]:
+    """A reference map's legend label and line style by its role (the same in every panel)."""
+    from .plots.stability import REFERENCE_STYLES
+    role = _ref_order(r)[0]
+    label = {0: "reference, η_H", 1: "reference, η_M with the average k", 2: "reference, η_M with the exact k",
+             3: f"reference, {restitution_symbol(r.restitution, r.block)}"}.get(role, f"reference, η = {r.eta:.4g}")
+    return label, REFERENCE_STYLES[min(role, 2) if role < 3 else 4]
+
+
+def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experiments, pair, title: str,
+           block: str, pulse: str) -> dict:
+    """Keyword arguments of :func:`~rockbench.benchmark.plots.stability.plot_panel` for one map."""
+    from .experiments import st_limit_a_ratio
+    from .presets import PRESETS
+
+    from .plots.stability import REFERENCE_STYLES
+
+    references = [(*_ref_line(r)[:1], r.label_map, _ref_line(r)[1]) for r in std]
+    references += [("reference at the engine's own measured η", r.label_map, REFERENCE_STYLES[3]) for r in own]
+    like = None
+    if e is not None:
+        like = next((r.label_map for r in std + own if r.restitution == e.restitution), None)
+    domain = like if like is not None else (std[0].label_map if std else None)
+    pts, st = _points_and_limit(experiments, block, pulse)
+    note = None
+    if pair is not None:
+        sc = pair["scores"]
+        note = (f"agreement {fmt('agreement', sc.get('agreement'))}, boundary {fmt('boundary_mean', sc.get('boundary_mean'))}"
+                f", consistency {fmt('consistency', sc.get('consistency'))}")
+    return {"engine": e.label_map if e is not None else None, "references": references, "like": like,
+            "domain": domain, "points": pts, "st_limit": st if block.upper() in PRESETS else None, "title": title,
+            "note": note}
+
+
+def _groups(cands, refs, own_eta):
+    """``{(block, pulse): (standard references, {variant: own-η references}, {variant: engine map})}``."""
+    out: dict = {}
+    for r in refs:
+        out.setdefault((r.block, r.pulse), ([], {}, {}))
+    for e in cands:
+        out.setdefault((e.block, e.pulse), ([], {}, {}))[2].setdefault(e.variant, e)
+    for r in refs:
+        std, own, engines = out[(r.block, r.pulse)]
+        owners = [v for v, e in engines.items() if at_own_eta(r, e, own_eta)]
+        if owners:
+            for v in owners:
+                own.setdefault(v, []).append(r)
+        else:
+            std.append(r)
+    for std, _, _ in out.values():
+        std.sort(key=_ref_order)
+    return out
+
+
+def _variant_order(label: str):
+    """Variants by engine, calibrated before "as shipped"."""
+    return (label.split(",")[0], "as shipped" in label, label)
+
+
+def _case_order(key):
+    """Blocks in Table 1's order (custom blocks after them), then sine, cosine, half-sine."""
+    from .presets import PRESETS
+    block, pulse = key
+    order = list(PRESETS)
+    return (order.index(block) if block in order else len(order), block,
+            {"sine": 0, "cosine": 1, "half-sine": 2}.get(pulse, 3), pulse)
+
+
+def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str]]:
+    """One figure per engine variant: a panel per block and pulse. Returns ``(variant, label, image)``."""
+    from .plots.stability import plot_panels
+
+    groups = _groups(cands, refs, own_eta)
+    out = []
+    for v in sorted(labels, key=lambda v: _variant_order(labels[v])):
+        keys = sorted((k for k, g in groups.items() if v in g[2]), key=_case_order)
+        if not keys:
+            continue
+        pulses = {p for _, p in keys}
+        panels = []
+        for block, pulse in keys:
+            std, own, engines = groups[(block, pulse)]
+            e = engines[v]
+            panels.append(_panel(e, std, own.get(v, []), experiments, pair_of.get(str(e.path)),
+                                 case_title(block, pulse), block, pulse))
+        drawn = plot_panels(panels, ncols=min(len(pulses), 3) if len(keys) > 1 else 1,
+                            suptitle=f"{labels[v]}: overturn region against the reference boundaries")
+        out.append((v, labels[v], save(drawn["figure"], f"variant_{_slug(v)}.png")))
+    return out
+
+
+def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str, int]]:
+    """One figure per block and pulse: a panel per engine variant (or the references alone).
+    Returns ``(block, pulse, image, number of experimental points)``."""
+    from .plots.stability import plot_panels
+
+    out = []
+    for (block, pulse), (std, own, engines) in sorted(_groups(cands, refs, own_eta).items(),
+                                                      key=lambda kv: _case_order(kv[0])):
+        if not std and not engines:
+            continue
+        panels = [_panel(e, std, own.get(v, []), experiments, pair_of.get(str(e.path)), labels.get(v, v), block, pulse)
+                  for v, e in sorted(engines.items(), key=lambda kv: _variant_order(labels.get(kv[0], kv[0])))]
+        if not panels:
+            if not std:
+                continue
+            panels = [_panel(None, std, [], experiments, None, "reference boundaries", block, pulse)]
+        drawn = plot_panels(panels, ncols=min(len(panels), 3), suptitle=case_title(block, pulse))
+        pts, _ = _points_and_limit(experiments, block, pulse)
+        out.append((block, pulse, save(drawn["figure"], f"stability_{_slug(block)}_{_slug(pulse)}.png"), len(pts)))
+    return out
 
 
 def _points_and_limit(points, block, pulse):
@@ -226,26 +382,22 @@ def _points_and_limit(points, block, pulse):
     return sel, st_limit_a_ratio(block)
 
 
-def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], save, log):
+def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict, save, log):
     """Simulate ``case`` with the reference (each relevant η) and every engine variant; draw θ(t)."""
-    import math as _m
-
-    import matplotlib.pyplot as plt
     import numpy as np
 
     from ..engines.base import Case
     from ..engines.registry import get_adapter
-    from ..reference_solver.model import G
+    from ..reference_solver.model import a_ratio_to_amplitude
     from ..reference_solver.pulses import make_pulse
     from ..reference_solver.restitution import Restitution
+    from .histories import impact_times, picture_span_s, trajectory_for_picture
     from .plots.trajectories import plot_theta
     from .presets import get_preset
 
     notes = []
     block = get_preset(case.block).block()
-    omega = case.w_ratio * block.p_rad_s
-    amp = case.a_ratio * G * _m.tan(block.alpha_rad)
-    pulse = make_pulse(case.pulse, amp, omega)
+    pulse = make_pulse(case.pulse, a_ratio_to_amplitude(block, case.a_ratio), case.w_ratio * block.p_rad_s)
     runs = [("reference", {}, Restitution("modified", k=k)) for k in case.reference_k]
     variants = {}
     for e in cands:
@@ -259,36 +411,32 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], save, log):
         if not any(r[0] == "reference" and r[2] == rest for r in runs):
             runs.append(("reference", {}, rest))
         runs.append((variant, (engine, settings), rest))
-    hist = []
+    hist, ends, overturns = [], [], []
     for name, how, rest in runs:
         engine, settings = ("reference", {}) if name == "reference" else how
-        label = f"{name} ({rest.label}, η={rest.eta(block.alpha_rad):.4f})"
+        law = f"{restitution_symbol(rest.label, case.block)} = {rest.eta(block.alpha_rad):.4f}"
+        label = f"reference, {law}" if name == "reference" else labels.get(name, name)
         try:
-            adapter = _history_adapter(engine, settings, get_adapter)
             log(f"θ(t): {label}")
-            tr = adapter.simulate(Case(block, pulse, rest))
-            hist.append((label, tr.t_s, tr.theta_rad))
+            c = Case(block, pulse, rest)
+            tr, mode = trajectory_for_picture(engine, settings, c)
+            judge = get_adapter(engine, **({**settings, "mode": mode} if mode else settings))
+            res = judge.judge(c, tr)
+            if name != "reference":
+                ends.append(float(np.asarray(tr.t_s)[-1]))
+            if res.outcome == "overturn" and res.t_overturn_s is not None:
+                overturns.append(res.t_overturn_s)
+            hist.append({"label": f"{label}: {res.outcome or 'failed'}", "t_s": tr.t_s, "theta_rad": tr.theta_rad,
+                         "impacts_s": impact_times(tr), "reference": name == "reference", "outcome": res.outcome})
         except Exception as ex:  # noqa: BLE001 - one engine failing must not sink the report
             notes.append(f"θ(t) {label}: {type(ex).__name__}: {ex}")
     if not hist:
         return None, notes
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
-    plot_theta(hist, alpha_rad=block.alpha_rad, t_pulse_end_s=pulse.duration_s, title=case.title, ax=ax)
-    # long enough to see the free rocking after the pulse, not the whole decay to rest
-    t_end = max(float(np.asarray(t)[-1]) for _, t, _ in hist)
-    ax.set_xlim(0.0, min(t_end, max(1.0, 10.0 * pulse.duration_s)))
-    return save(fig, f"theta_{_slug(case.block)}_{_slug(case.pulse)}_{case.w_ratio:g}_{case.a_ratio:g}.png"), notes
-
-
-def _history_adapter(engine: str, settings: dict, get_adapter):
-    """The adapter for a θ(t) curve: the reference integrates on after the pulse (``mode="to-rest"``)
-    so the curve shows the free rocking, instead of stopping with the energy decision."""
-    if engine == "reference":
-        try:
-            return get_adapter("reference", mode="to-rest")
-        except ConfigError:  # a reference adapter without that setting: its default history
-            pass
-    return get_adapter(engine, **settings)
+    # every engine curve runs to its own decision; the references are drawn over the same span
+    span = picture_span_s(pulse, max(overturns) if overturns else None)
+    t_end = max([span] + ends)
+    drawn = plot_theta(hist, alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=t_end, title=case.title)
+    return save(drawn["figure"], f"theta_{_slug(case.block)}_{_slug(case.pulse)}_{case.w_ratio:g}_{case.a_ratio:g}.png"), notes
 
 
 def _restitution_from_label(label: str, block: str):
@@ -393,88 +541,242 @@ def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
     return rows
 
 
-def _versions(entries: list[MapEntry]) -> list[dict]:
-    out = []
-    for e in entries:
-        r = e.run or {}
-        eng = r.get("engine") or {}
-        out.append({"map": f"{e.variant} {e.block} {e.pulse} {e.restitution}", "dir": str(e.path),
-                    "engine_version": eng.get("version"), "settings": eng.get("settings"),
-                    "resolved_settings": eng.get("resolved_settings"), "rockbench": r.get("rockbench_version"),
-                    "git": r.get("git"), "python": r.get("python"), "platform": r.get("platform"),
-                    "created_utc": r.get("created_utc"), "grid": e.describe()["grid"],
-                    "dt_s": (r.get("spec") or {}).get("dt_s"), "options": r.get("options")})
-    return out
-
+# -- tables ------------------------------------------------------------------------------------------
 
 def _num(x, spec=".4f"):
     return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
 
 
-def _calib_table(rows):
-    head = ["engine", "block", "target", "η target", "η measured", "vs Housner", "vs modified (avg k)",
+def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
+    """Head, body, the variant key of each row (most faithful first) and the best value per metric."""
+    from .scores import METRICS
+
+    s = summary(doc)
+    names = sorted(s, key=lambda v: (-(s[v]["agreement"] if math.isfinite(s[v]["agreement"]) else -1.0),
+                                     labels.get(v, v)))
+    best = {}
+    for m, spec in METRICS.items():
+        vals = [s[n][m] for n in names if math.isfinite(s[n][m])]
+        if vals and len(names) > 1 and len(set(vals)) > 1:   # a tie everywhere says nothing
+            best[m] = max(vals) if spec.direction == "higher" else min(vals)
+    head = ["engine variant", "pairs"] + [METRIC_TITLES.get(m, m) for m in METRICS]
+    body = [[labels.get(n, n), str(s[n]["pairs"])] + [fmt(m, s[n][m]) for m in METRICS] for n in names]
+    return head, body, names, {m: (best[m], [s[n][m] == best[m] for n in names]) for m in best}
+
+
+def _verdict(doc, labels) -> list[str]:
+    """One sentence per headline metric: which variant does best."""
+    from .scores import METRICS
+
+    s = summary(doc)
+    out = []
+    for m, what in (("agreement", "Most cells right"), ("boundary_mean", "Overturn boundary closest to the reference"),
+                    ("consistency", "Flags jump or slip in the largest share of the cells where the rigid model "
+                                    "breaks down")):
+        vals = {v: r[m] for v, r in s.items() if math.isfinite(r[m])}
+        if not vals:
+            continue
+        pick = max if METRICS[m].direction == "higher" else min
+        best = pick(vals.values())
+        who = [labels.get(v, v) for v, x in vals.items() if x == best]
+        out.append(f"{what}: {' and '.join(who)} ({METRIC_TITLES[m]} {fmt(m, best)}).")
+    return out
+
+
+def _calib_table(rows, labels):
+    head = ["engine variant", "block", "target", "η target", "η measured", "vs Housner", "vs modified (avg k)",
             "vs experiment (exact k)"]
-    body = [[r["variant"], r["block"], r["restitution"], _num(r["eta_target"]), _num(r["eta_measured"]),
+    body = [[labels.get(r["variant"], r["variant"]), r["block"], restitution_symbol(r["restitution"], r["block"]),
+             _num(r["eta_target"]), _num(r["eta_measured"]),
              *(_num(100 * r.get(f"{k}_rel_error", math.nan), "+.2f") + (" %" if math.isfinite(
                  r.get(f"{k}_rel_error", math.nan)) else "")
                for k in ("housner", "modified_average_k", "experiment"))] for r in rows]
     return head, body
 
 
-def _speed_table(rows):
-    head = ["engine", "cells", "ms per cell", "agreement", "boundary mean"]
-    body = [[r["variant"], str(r["cells"]), _num(r["ms_per_cell"], ".2f"), fmt("agreement", r["agreement"]),
-             fmt("boundary_mean", r["boundary_mean"])] for r in rows]
+def _speed_table(rows, labels):
+    head = ["engine variant", "cells", "ms per cell", "agreement", "boundary distance, mean"]
+    body = [[labels.get(r["variant"], r["variant"]), str(r["cells"]), _num(r["ms_per_cell"], ".2f"),
+             fmt("agreement", r["agreement"]), fmt("boundary_mean", r["boundary_mean"])] for r in rows]
     return head, body
 
 
-def _exp_table(doc):
-    head = ["map", "restitution", "runs", "outside", "accuracy", "overturn accuracy", "confusion T/R/O → rest/rocking/overturn/failed"]
+def _exp_table(doc, labels):
+    head = ["map", "restitution", "runs", "outside", "accuracy", "overturn accuracy",
+            "confusion T/R/O → rest/rocking/overturn/failed"]
     body = []
     for e in (doc or {}).get("experiments", []):
         conf = "; ".join(f"{k}: " + "/".join(str(v) for v in row.values()) for k, row in e["confusion"].items())
-        body.append([f"{e['variant']} {e['block']} {e['pulse']}", e["restitution"], str(e["runs"]), str(e["outside"]),
+        body.append([f"{labels.get(e['variant'], e['variant'])}, {e['block']} {e['pulse']}",
+                     restitution_symbol(e["restitution"], e["block"]), str(e["runs"]), str(e["outside"]),
                      _num(e["accuracy"], ".3f"), _num(e["overturn_accuracy"], ".3f"), conf])
     return head, body
 
 
+def _pairs_table(doc, labels):
+    from .scores import METRICS
+    head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
+        [METRIC_TITLES.get(m, m) for m in METRICS]
+    body = [[labels.get(p["variant"], p["variant"]), p["block"], p["pulse"], restitution_symbol(p["restitution"], p["block"]),
+             _vs(p), "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
+            for p in (doc or {}).get("pairs", [])]
+    return head, body
+
+
+def _flat(d, prefix="") -> list[str]:
+    """Nested settings as ``key = value`` lines (lists and long texts shortened)."""
+    out = []
+    for k, v in (d or {}).items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out += _flat(v, key + ".")
+        elif v is None:
+            continue
+        else:
+            if isinstance(v, float):
+                t = f"{v:.6g}"
+            elif isinstance(v, (list, tuple)):
+                t = ", ".join(f"{x:.6g}" if isinstance(x, float) else str(x) for x in v)
+            else:
+                t = str(v)
+            out.append(f"{key} = {t if len(t) <= 90 else t[:87] + '...'}")
+    return out
+
+
+def _settings_tables(entries: list[MapEntry], labels) -> dict:
+    """The versions and settings as tables: one row per engine variant, one per map, and the run
+    environment (values shared by every map once)."""
+    variants, maps, env = {}, [], {}
+    for e in entries:
+        r = e.run or {}
+        eng = r.get("engine") or {}
+        spec = r.get("spec") or {}
+        if e.variant not in variants:
+            resolved = dict(eng.get("resolved_settings") or {})
+            variants[e.variant] = [labels.get(e.variant, "reference solver" if e.is_reference else e.variant), e.variant,
+                                   str(eng.get("version") or ""), "\n".join(_flat(spec.get("engine_settings"))) or
+                                   "(engine defaults)", "\n".join(_flat(resolved)) or "-"]
+        g = e.describe()["grid"]
+        opts = r.get("options") or {}
+        summ = r.get("summary") or {}
+        maps.append([labels.get(e.variant, e.variant) if not e.is_reference else "reference solver", e.block, e.pulse,
+                     restitution_symbol(e.restitution, e.block), f"{e.eta:.4f}",
+                     f"{g['n_w']}×{g['n_a']}: ω/p {g['w_lo']:g}–{g['w_hi']:g}, a {g['a_lo']:g}–{g['a_hi']:g}",
+                     ("adaptive, " + _num(100 * summ.get("fraction_simulated", math.nan), ".0f") + " % simulated")
+                     if opts.get("adaptive") else "full", _num(spec.get("dt_s"), "g") if spec.get("dt_s") else "default",
+                     str(r.get("created_utc") or ""), _num(summ.get("wall_s"), ".1f")])
+        git = r.get("git") or {}
+        for k, v in (("rockbench", r.get("rockbench_version")),
+                     ("git commit", (git.get("commit") or "") + (" (uncommitted changes)" if git.get("dirty") else "")),
+                     ("Python", r.get("python")), ("platform", r.get("platform"))):
+            if v:
+                env.setdefault(k, set()).add(str(v))
+    return {"variants": (["engine variant", "key", "version", "settings given", "settings used (resolved)"],
+                         list(variants.values())),
+            "maps": (["engine variant", "block", "pulse", "restitution", "η", "grid", "cells", "Δt [s]", "created",
+                      "wall [s]"], maps),
+            "env": (["", "value"], [[k, ", ".join(sorted(v))] for k, v in env.items()])}
+
+
+# -- Markdown ----------------------------------------------------------------------------------------
+
 def _md_table(head, body):
     from .tables import render
-    return render(head, body, markdown=True) if body else "_none_"
+    if not body:
+        return "_none_"
+    esc = [[c.replace("|", "\\|").replace("\n", "<br>") for c in r] for r in body]
+    return render(head, esc, markdown=True)
+
+
+def _metric_words(doc) -> list[tuple[str, str, str]]:
+    """``(title, how read, definition)`` of each metric (score.json's definitions, else this version's)."""
+    from .scores import METRICS
+    ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
+    return [(METRIC_TITLES.get(m["name"], m["name"]) + f" ({m['name']})",
+             f"{m['direction']} is better, perfect {m['perfect']:g}" + (f", unit {m['unit']}" if m["unit"] != "-" else ""),
+             m["definition"]) for m in ms]
+
+
+_INTRO = ("Each row is one engine variant; each number is the mean over its like-for-like pairs (its map "
+          "against the reference map with the same restitution law, same block, pulse and grid); counts are "
+          "summed. The outcome scores judge only cells inside the rigid model's domain, where the reference is "
+          "valid; outside it (where the rigid model would need the table to pull the block down, or more "
+          "friction than μ) an engine is right to flag a jump or slip, which consistency measures.")
 
 
 def _markdown(ctx) -> str:
-    doc = ctx["doc"]
+    doc, labels = ctx["doc"], ctx["labels"]
     L = ["# rockbench report", "", f"Generated {ctx['created']} from {', '.join(ctx['run_dirs'])}.", ""]
     for n in ctx["notes"]:
         L.append(f"> {n}")
-    L += ["", "## Summary", "",
-          "Mean over each engine's like-for-like pairs (engine map vs the reference map with the same restitution "
-          "law); counts are summed. Best value of each column in bold. Metric definitions: docs/scores.md.", ""]
-    L.append(summary_table(doc, markdown=True) if doc else "_no scores_")
-    L += ["", "## Every scored pair", "", pairs_table(doc, markdown=True) if doc else "_none_", ""]
-    if doc and doc.get("experiments"):
-        L += ["## Experiments", "", _md_table(*_exp_table(doc)), ""]
-    L += ["## Stability graphs", ""]
-    for block, pulse, img, n_pts in ctx["graphs"]:
-        L += [f"### {block}, {pulse}", "", f"![{block} {pulse}](img/{img})", ""]
+    L += ["", "## Summary: which engine is how faithful", ""]
+    if doc:
+        head, body, _, best = _summary_rows(doc, labels)
+        from .scores import METRICS
+        mnames = list(METRICS)
+        for m, (_, flags) in best.items():
+            col = 2 + mnames.index(m)
+            for row, is_best in zip(body, flags):
+                if is_best:
+                    row[col] = f"**{row[col]}**"
+        L += [_INTRO + " Best value of each column in bold.", "", _md_table(head, body), ""]
+        L += [f"- {s}" for s in _verdict(doc, labels)] + [""]
+        L += ["What each column measures:", ""]
+        L += [f"- **{t}**, {how}: {d}" for t, how, d in _metric_words(doc)] + [""]
+    else:
+        L += ["_no scores_", ""]
+    L += ["## Stability graphs, one per engine variant", "", _READ_GRAPHS, ""]
+    for v, label, img in ctx["variant_graphs"]:
+        L += [f"### {label}", "", f"![{label}](img/{img})", ""]
     L += ["## θ(t) comparison", ""]
     L += [f"![{c.title}](img/{img})" for c, img in ctx["traj"]] or ["_not drawn_"]
-    L += ["", "## Calibration: η per engine", "", _md_table(*_calib_table(ctx["calib"])), ""]
-    L += ["## Speed and accuracy", "", _md_table(*_speed_table(ctx["speed"])), ""]
+    L += ["", "## Calibration: η per engine", "", _md_table(*_calib_table(ctx["calib"], labels)), ""]
+    L += ["## Speed and accuracy", "", _md_table(*_speed_table(ctx["speed"], labels)), ""]
     if ctx["speed_img"]:
         L += [f"![speed and accuracy](img/{ctx['speed_img']})", ""]
-    L += ["## Versions and settings", "", "```json", json.dumps(_versions(ctx["entries"]), indent=1, default=str),
-          "```", ""]
+    if doc and doc.get("experiments"):
+        L += ["## Experiments", "", _md_table(*_exp_table(doc, labels)), ""]
+    L += ["<details><summary>Stability graphs by case: every engine variant side by side</summary>", ""]
+    for block, pulse, img, _ in ctx["case_graphs"]:
+        L += [f"### {case_title(block, pulse)}", "", f"![{block} {pulse}](img/{img})", ""]
+    L += ["</details>", "", "<details><summary>Every scored pair</summary>", "",
+          _md_table(*_pairs_table(doc, labels)) if doc else "_none_", "", "</details>", "",
+          "<details><summary>Versions and settings</summary>", ""]
+    t = _settings_tables(ctx["entries"], labels)
+    L += ["Run environment:", "", _md_table(*t["env"]), "", "Engine variants:", "", _md_table(*t["variants"]), "",
+          "Maps:", "", _md_table(*t["maps"]), "", "</details>", ""]
     return "\n".join(L)
 
 
-_CSS = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1200px;color:#222}
-table{border-collapse:collapse;font-size:13px;margin:.5em 0}td,th{border:1px solid #ccc;padding:3px 6px;text-align:left}
-th{background:#f0f0f0}img{max-width:100%;border:1px solid #ddd}pre{background:#f7f7f7;padding:.5em;overflow:auto;font-size:12px}
-.wrap{overflow-x:auto}.note{background:#fff6d6;padding:.3em .6em}#img-warning{display:none;background:#fdd;padding:.5em}"""
+_READ_GRAPHS = ("How to read them: the engine's overturn region is filled; the reference's overturn boundaries "
+                "are lines (η_H solid black, η_M with the block's average k dashed, with its exact k dash-dotted, "
+                "at the engine's own measured η dotted); cells where the engine disagrees with the reference of "
+                "its own restitution law are marked by kind (▲ overturns where the reference does not, ○ misses an "
+                "overturn, × flagged slip, jump or energy gain, ■ failed); the hatched region is where the rigid "
+                "model itself needs lift-off or sliding, so the reference is not valid there; the dashed ST limit "
+                "is the shaking table's faithful limit (25 m/s²); T, R, O are experimental outcomes when given.")
 
-# Marks the page when a picture fails to load (a visible warning, and attributes a headless browser can read).
+
+# -- HTML --------------------------------------------------------------------------------------------
+
+_CSS = """body{font-family:system-ui,sans-serif;margin:1.2em auto;max-width:1200px;padding:0 1em;color:#222;line-height:1.4}
+h1{font-size:1.5em;margin:.2em 0}h2{font-size:1.2em;margin:1.2em 0 .4em}h3{font-size:1em;margin:1em 0 .3em}
+.meta{color:#555;font-size:13px;margin:.2em 0 .6em}.lead{font-size:14px;margin:.3em 0 .5em}
+table{border-collapse:collapse;font-size:13px;margin:.4em 0}td,th{border:1px solid #ccc;padding:3px 6px;text-align:left;vertical-align:top}
+th{background:#f0f0f0;font-weight:600}td.num{text-align:right;font-variant-numeric:tabular-nums}td.best{font-weight:700;background:#eef6ee}
+#summary-table th{font-size:12px;max-width:7.5em}#summary-table td:first-child{white-space:nowrap}
+td.pre{white-space:pre-line;font-size:12px}img{max-width:100%;border:1px solid #ddd}
+.wrap{overflow-x:auto;max-width:100%}.wide-note{display:none;color:#7a5b00;font-size:12px;margin:.2em 0}
+.wrap.wide + .wide-note, .wide-note.shown{display:block}
+.verdict{font-size:14px;margin:.4em 0 .6em;padding-left:1.2em}
+dl.metrics{font-size:12.5px;columns:2 30em;column-gap:2em;margin:.4em 0}dl.metrics dt{font-weight:600;break-after:avoid}
+dl.metrics dd{margin:0 0 .5em 0;break-inside:avoid}dl.metrics dt span{font-weight:400;color:#555}
+details{margin:.8em 0;border:1px solid #ddd;border-radius:4px;padding:.3em .7em}summary{cursor:pointer;font-weight:600}
+figure{margin:.6em 0 1.2em}figcaption{font-size:12.5px;color:#444}
+.note{background:#fff6d6;padding:.3em .6em}#img-warning{display:none;background:#fdd;padding:.5em}"""
+
+# After load: mark the page when a picture fails to load (a visible warning, and attributes a headless
+# browser can read), and give every table wider than its column a visible note.
 _CHECK = """<script>
 window.addEventListener('load', function () {
   var imgs = Array.prototype.slice.call(document.images);
@@ -483,53 +785,105 @@ window.addEventListener('load', function () {
   document.body.setAttribute('data-images-ok', bad.length === 0 ? 'yes' : 'no');
   if (bad.length) { var w = document.getElementById('img-warning'); w.style.display = 'block';
     w.textContent = bad.length + ' picture(s) failed to load.'; }
+  var wide = 0;
+  Array.prototype.forEach.call(document.querySelectorAll('details'), function (d) { d.open = true; });
+  Array.prototype.forEach.call(document.querySelectorAll('.wrap'), function (w) {
+    if (w.scrollWidth > w.clientWidth + 1) { w.classList.add('wide'); wide += 1; }
+  });
+  Array.prototype.forEach.call(document.querySelectorAll('details'), function (d) { d.open = false; });
+  document.body.setAttribute('data-wide-tables', String(wide));
+  var s = document.getElementById('summary-table');
+  if (s) { var r = s.getBoundingClientRect();
+    document.body.setAttribute('data-summary-bottom', String(Math.round(r.bottom + window.scrollY)));
+    document.body.setAttribute('data-viewport', window.innerWidth + 'x' + window.innerHeight); }
 });
 </script>"""
 
 
-def _h_table(head, body):
+def _h_table(head, body, *, id_=None, num_from=None, best=None):
+    """An HTML table in a scrolling wrapper with a note shown when it is wider than the page."""
     if not body:
         return "<p><em>none</em></p>"
-    th = "".join(f"<th>{html.escape(h)}</th>" for h in head)
-    trs = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in body)
-    return f"<div class='wrap'><table><thead><tr>{th}</tr></thead><tbody>{trs}</tbody></table></div>"
+    th = "".join(f"<th>{for_html(h)}</th>" for h in head)
+    rows = []
+    for ri, r in enumerate(body):
+        cells = []
+        for ci, c in enumerate(r):
+            cls = []
+            if num_from is not None and ci >= num_from:
+                cls.append("num")
+            if best and best.get(ci) and best[ci][ri]:
+                cls.append("best")
+            if "\n" in c:
+                cls.append("pre")
+            attr = f" class='{' '.join(cls)}'" if cls else ""
+            cells.append(f"<td{attr}>{for_html(c)}</td>")
+        rows.append("<tr>" + "".join(cells) + "</tr>")
+    ident = f" id='{id_}'" if id_ else ""
+    return (f"<div class='wrap'><table{ident}><thead><tr>{th}</tr></thead><tbody>{''.join(rows)}</tbody></table></div>"
+            "<p class='wide-note'>This table is wider than the page: scroll it sideways.</p>")
 
 
 def _html(ctx, images: dict) -> str:
-    doc = ctx["doc"]
+    doc, labels = ctx["doc"], ctx["labels"]
 
-    def img(name, alt):
+    def img(name, alt, caption=None):
         b64 = base64.b64encode(images[name]).decode()
-        return f'<p><img alt="{html.escape(alt)}" src="data:image/png;base64,{b64}"></p>'
+        cap = f"<figcaption>{for_html(caption)}</figcaption>" if caption else ""
+        return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{b64}">{cap}</figure>'
 
-    P = ["<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>rockbench report</title>",
+    n_var = len(labels)
+    P = ["<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+         "<meta name='viewport' content='width=device-width, initial-scale=1'><title>rockbench report</title>",
          f"<style>{_CSS}</style></head><body>", "<div id='img-warning'></div>", "<h1>rockbench report</h1>",
-         f"<p>Generated {html.escape(ctx['created'])} from {html.escape(', '.join(ctx['run_dirs']))}.</p>"]
+         f"<p class='meta'>Generated {html.escape(ctx['created'])} from {html.escape(', '.join(ctx['run_dirs']))}: "
+         f"{len(ctx['entries'])} maps, {n_var} engine variant(s)"
+         + (f", metrics version {html.escape(str(doc['metrics_version']))}" if doc else "") + ".</p>"]
     P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
-    P += ["<h2>Summary</h2><p>Mean over each engine's like-for-like pairs (engine map vs the reference map with "
-          "the same restitution law); counts are summed. Best value of each column in bold.</p>"]
-    P.append(f"<div class='wrap'>{summary_table(doc, html=True)}</div>" if doc else "<p><em>no scores</em></p>")
+    P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
     if doc:
-        head = ["engine", "block", "pulse", "restitution", "vs reference", "like"] + list(doc["pairs"][0]["scores"])
-        body = [[p["variant"], p["block"], p["pulse"], p["restitution"], _vs(p),
-                 "yes" if p["like_for_like"] else "", *(fmt(k, v) for k, v in p["scores"].items())] for p in doc["pairs"]]
-        P += ["<h2>Every scored pair</h2>", _h_table(head, body)]
-        if doc.get("experiments"):
-            P += ["<h2>Experiments</h2>", _h_table(*_exp_table(doc))]
-        P += ["<h3>Metric definitions</h3><ul>"]
-        P += [f"<li><b>{html.escape(m['name'])}</b> ({m['direction']} is better, perfect {m['perfect']:g}): "
-              f"{html.escape(m['definition'])}</li>" for m in doc["metrics"]]
-        P.append(f"</ul><p>Metrics version {html.escape(str(doc['metrics_version']))}.</p>")
-    P.append("<h2>Stability graphs</h2>")
-    for block, pulse, name, n_pts in ctx["graphs"]:
-        P += [f"<h3>{html.escape(block)}, {html.escape(pulse)}</h3>", img(name, f"stability graph {block} {pulse}")]
-    P.append("<h2>θ(t) comparison</h2>")
-    P += [img(name, c.title) for c, name in ctx["traj"]] or ["<p><em>not drawn</em></p>"]
-    P += ["<h2>Calibration: η per engine</h2>", _h_table(*_calib_table(ctx["calib"]))]
-    P += ["<h2>Speed and accuracy</h2>", _h_table(*_speed_table(ctx["speed"]))]
+        from .scores import METRICS
+        head, body, _, best = _summary_rows(doc, labels)
+        mnames = list(METRICS)
+        best_cols = {2 + mnames.index(m): flags for m, (_, flags) in best.items()}
+        P.append(f"<p class='lead'>{html.escape(_INTRO)} Best value of each column in bold.</p>")
+        P.append(_h_table(head, body, id_="summary-table", num_from=1, best=best_cols))
+        P.append("<ul class='verdict'>" + "".join(f"<li>{for_html(s)}</li>" for s in _verdict(doc, labels)) + "</ul>")
+        P.append("<dl class='metrics'>" + "".join(
+            f"<dt>{for_html(t)} <span>({html.escape(how)})</span></dt><dd>{html.escape(d)}</dd>"
+            for t, how, d in _metric_words(doc)) + "</dl>")
+    else:
+        P.append("<p><em>no scores</em></p>")
+    P.append("</section>")
+    P += ["<section id='stability'><h2>Stability graphs, one per engine variant</h2>",
+          f"<p class='lead'>{for_html(_READ_GRAPHS)}</p>"]
+    for v, label, name in ctx["variant_graphs"]:
+        P.append(img(name, f"stability graphs of {label}"))
+    if not ctx["variant_graphs"]:
+        P.append("<p><em>no engine maps</em></p>")
+    P.append("</section><section id='trajectories'><h2>θ(t) comparison</h2>")
+    P += [img(name, c.title, "The reference (black and grey, in front) and every engine; circles on the zero line "
+              "are impacts, × where a curve passes |θ| = α (overturn), ● where a run ended, decided not to overturn; the table's "
+              "acceleration beneath.") for c, name in ctx["traj"]] or ["<p><em>not drawn</em></p>"]
+    P += ["</section><section id='calibration'><h2>Calibration: η per engine</h2>",
+          _h_table(*_calib_table(ctx["calib"], labels), num_from=3)]
+    P += ["</section><section id='speed'><h2>Speed and accuracy</h2>",
+          _h_table(*_speed_table(ctx["speed"], labels), num_from=1)]
     if ctx["speed_img"]:
         P.append(img(ctx["speed_img"], "speed and accuracy"))
-    P += ["<h2>Versions and settings</h2>",
-          f"<pre>{html.escape(json.dumps(_versions(ctx['entries']), indent=1, default=str))}</pre>",
-          _CHECK, "</body></html>"]
+    P.append("</section>")
+    if doc and doc.get("experiments"):
+        P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*_exp_table(doc, labels), num_from=2),
+              "</section>"]
+    P.append("<details><summary>Stability graphs by case: every engine variant side by side</summary>")
+    for block, pulse, name, _ in ctx["case_graphs"]:
+        P += [f"<h3>{html.escape(case_title(block, pulse))}</h3>", img(name, f"stability graph {block} {pulse}")]
+    P.append("</details>")
+    if doc:
+        P += [f"<details><summary>Every scored pair ({len(doc['pairs'])})</summary>",
+              _h_table(*_pairs_table(doc, labels), num_from=6), "</details>"]
+    t = _settings_tables(ctx["entries"], labels)
+    P += ["<details><summary>Versions and settings</summary><h3>Run environment</h3>", _h_table(*t["env"]),
+          "<h3>Engine variants</h3>", _h_table(*t["variants"]), "<h3>Maps</h3>", _h_table(*t["maps"], num_from=4),
+          "</details>", _CHECK, "</body></html>"]
     return "\n".join(P)

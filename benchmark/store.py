@@ -32,13 +32,22 @@ from pathlib import Path
 from ..reference_solver.errors import ConfigError, IncomparableError
 from .atomic import write_json_atomic as _write_json
 
-#: Version of the run-directory layout; bumped when columns or run.json keys change meaning.
-SCHEMA_VERSION = 2
+#: Version of the run-directory layout; bumped when columns or run.json keys change meaning
+#: (3: the ``variant`` column).
+SCHEMA_VERSION = 3
 
-#: The columns of cells.csv, in order (CLI.md's required ones first).
-COLUMNS = ["engine", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2",
-           "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags", "status", "message", "wall_s",
+#: The columns of cells.csv, in order (CLI.md's required ones first, ``variant`` beside the engine:
+#: the engine with its non-default settings and time step, e.g. ``mujoco[settings=defaults]``, so
+#: that tables of several maps concatenated stay apart).
+COLUMNS = ["engine", "variant", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s",
+           "amplitude_mps2", "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags", "status", "message", "wall_s",
            "t_overturn_s", "t_uplift_s", "min_normal_mg", "max_friction_ratio", "i", "j"]
+
+
+def spec_variant(spec) -> str:
+    """The ``variant`` column of a map: its engine with the non-default settings and time step."""
+    from .scoring import variant_name
+    return variant_name(spec.engine, spec.engine_settings, spec.dt_s)
 
 
 def utc_now() -> str:
@@ -196,9 +205,9 @@ class RunStore:
     def row(self, spec, i: int, j: int, r) -> dict:
         """The cells.csv row of cell ``(i, j)`` with result ``r`` (a CellResult)."""
         if getattr(self, "_spec_cache", (None,))[0] is not spec:
-            self._spec_cache = (spec, spec.block.name, spec.restitution.label, spec.eta)
-        _, bname, rlabel, eta = self._spec_cache
-        return {"engine": spec.engine, "block": bname, "pulse": spec.pulse,
+            self._spec_cache = (spec, spec.block.name, spec.restitution.label, spec.eta, spec_variant(spec))
+        _, bname, rlabel, eta, variant = self._spec_cache
+        return {"engine": spec.engine, "variant": variant, "block": bname, "pulse": spec.pulse,
                 "restitution": rlabel, "eta": eta, "w_ratio": float(spec._w_ratios[j]),
                 "a_ratio": float(spec._a_ratios[i]), "omega_rad_s": float(spec._omegas[j]),
                 "amplitude_mps2": float(spec._amplitudes[i]),
@@ -217,7 +226,7 @@ class RunStore:
         """
         if getattr(self, "_line_cache", (None,))[0] is not spec:
             head = io.StringIO()
-            csv.writer(head, lineterminator="").writerow([spec.engine, spec.block.name, spec.pulse,
+            csv.writer(head, lineterminator="").writerow([spec.engine, spec_variant(spec), spec.block.name, spec.pulse,
                                                           spec.restitution.label, repr(float(spec.eta))])
             self._line_cache = (spec, head.getvalue() + ",", [repr(float(x)) for x in spec._w_ratios],
                                 [repr(float(x)) for x in spec._a_ratios], [repr(float(x)) for x in spec._omegas],
@@ -249,7 +258,7 @@ class RunStore:
         lines = []
         for r in rows:
             fields = [_fmt(r[c]) for c in COLUMNS]
-            if r["message"] or any(("," in f or '"' in f) for f in fields[:4]):
+            if r["message"] or any(("," in f or '"' in f) for f in fields[:5]):
                 w.writerow(fields)          # needs csv quoting
                 lines.append(buf.getvalue())
                 buf.seek(0)

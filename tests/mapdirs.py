@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.presets import PRESETS
+from rockbench.benchmark.scoring import variant_name
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
 
@@ -46,7 +47,7 @@ def write_map(d, codes, *, engine="reference", block="B6M", pulse="sine", restit
             c = int(codes[i, j])
             ok = c >= 0
             valid = ok and not (invalid is not None and invalid[i, j])
-            rows.append([engine, block, pulse, rest.label, repr(eta), repr(float(wr[j])), repr(float(ar[i])),
+            rows.append([engine, variant_name(engine, settings), block, pulse, rest.label, repr(eta), repr(float(wr[j])), repr(float(ar[i])),
                          repr(float(wr[j] * b.p_rad_s)), repr(float(ar[i] * G * math.tan(b.alpha_rad))),
                          NAMES[c], "1" if ok else "0", "0.1" if ok else "", "true" if valid else "false",
                          "" if valid else ("engine-error" if not ok else bad_flag), "ok" if ok else "failed",

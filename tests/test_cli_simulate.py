@@ -35,6 +35,29 @@ def test_fig17_pair(capsys, k, outcome, mode):
         assert 0.13 < o["impacts"][0]["t_s"] < 0.15
 
 
+def test_fig17_pictures_reach_the_decisive_impact_on_one_span(capsys, tmp_path, monkeypatch):
+    """README's Fig. 17 pair: the rocking run (energy mode stops it at the pulse's end, 0.091 s) is
+    drawn integrated on, so both pictures show the impact near 0.14 s over the same span."""
+    from rockbench.benchmark.plots import trajectories
+
+    drawn = []
+    real = trajectories.plot_theta
+    monkeypatch.setattr(trajectories, "plot_theta", lambda *a, **kw: drawn.append(real(*a, **kw)) or drawn[-1])
+    spans = []
+    for k in ("0.8608", "0.7595"):
+        o = run_json(capsys, FIG17 + ["--k", k, "--plot", str(tmp_path / f"fig17-{k}.png")])
+        spans.append(o["plot_span_s"])
+        assert (tmp_path / f"fig17-{k}.png").read_bytes()[:4] == b"\x89PNG"
+    assert spans[0] == spans[1] and spans[0] > 0.36     # past the overturn at 0.350 s
+    for d in drawn:
+        (line,) = d["lines"].values()
+        assert line.get_xdata()[-1] > 0.3               # not stopped at the pulse's end
+        (marks,) = d["impacts"].values()
+        assert 0.14 < marks.get_xdata()[0] < 0.15
+        assert d["ax"].get_xlim() == pytest.approx((0.0, spans[0]))
+        assert d["ax_pulse"] is not None
+
+
 def test_text_summary(capsys):
     assert main(FIG17 + ["--k", "0.7595"]) == 0
     out = capsys.readouterr().out

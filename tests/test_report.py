@@ -1,16 +1,16 @@
 """The report: files, tables, pictures, and a real headless browser opening index.html."""
 
 import json
+import os
 import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from rockbench.benchmark.cli import main
-from rockbench.benchmark.plots.boundaries import boundary_segments, plot_boundaries
-from rockbench.benchmark.plots.trajectories import plot_theta
 from rockbench.benchmark.report import build_report
 from rockbench.benchmark.scores import LabelMap
 from rockbench.reference_solver.restitution import Restitution
@@ -43,18 +43,29 @@ def test_report_files_and_tables(report):
     for name in ("index.html", "report.md", "score.json"):
         assert (out / name).is_file()
     imgs = sorted(p.name for p in (out / "img").iterdir())
-    assert imgs == ["speed_accuracy.png", "stability_b6l_cosine.png", "stability_b6l_sine.png"]
+    # one figure per engine variant, one per block and pulse, speed against accuracy
+    assert imgs == ["speed_accuracy.png", "stability_b6l_cosine.png", "stability_b6l_sine.png",
+                    "variant_mujoco-settings-calibrated.png", "variant_pybullet.png"]
     md = (out / "report.md").read_text()
-    assert "## Summary" in md and "| engine | pairs |" in md
-    # best values in bold: mujoco is one row off, pybullet two rows off the Housner reference
-    row = next(ln for ln in md.splitlines() if ln.startswith("| mujoco[settings=calibrated] | 1 |"))
-    assert "**" in row
+    assert "## Summary: which engine is how faithful" in md and "| engine variant | pairs |" in md
+    # words, not keys; best values in bold (mujoco is one row off, pybullet two rows off the reference)
+    row = next(ln for ln in md.splitlines() if ln.startswith("| MuJoCo, calibrated to η_H | 1 |"))
+    assert "**" in row and "mujoco[settings=calibrated]" not in md.split("<details>")[0]
     for img in imgs:
         assert f"(img/{img})" in md
-    assert "## Experiments" in md and "## Versions and settings" in md
-    page = (out / "index.html").read_text()
-    assert page.count("data:image/png;base64,") == 3 and "<b>" in page
+    # every metric explained in words, with the definition score.json carries
     doc = json.loads((out / "score.json").read_text())
+    for m in doc["metrics"]:
+        assert m["definition"] in md
+    assert "## Experiments" in md and "<details><summary>Versions and settings</summary>" in md
+    page = (out / "index.html").read_text()
+    assert page.count("data:image/png;base64,") == 5 and "class='num best'" in page
+    # the first screen: summary, metric definitions, then the variant figures; the rest collapsed
+    order = [page.index(x) for x in ("id='summary-table'", "<dl class='metrics'>", "id='stability'",
+                                     "<details><summary>Every scored pair", "<details><summary>Versions and settings")]
+    assert order == sorted(order)
+    # settings are a table, not a JSON dump
+    assert "<pre>" not in page and "settings used (resolved)" in page
     assert len(doc["pairs"]) == 4 and doc["experiments"]
 
 
@@ -63,80 +74,44 @@ def _chromium():
 
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+         "--disable-background-networking", "--disable-component-update", "--disable-sync", "--hide-scrollbars"]
+
+#: Where the browser test keeps its screenshot of the report's first screen (CI can archive it).
+SHOT_DIR = Path(os.environ.get("ROCKBENCH_TEST_OUTPUT", Path(__file__).resolve().parent.parent / "test-output"))
 
 
 def test_index_html_renders_in_headless_chromium(report, tmp_path):
+    """The page renders, every picture loads, the summary table is on the first screen at
+    1400 × 900, no table is wider than the page without a note, and a screenshot is kept."""
     exe = _chromium()
     if exe is None:
         pytest.skip("chromium is not installed (Debian: apt-get install -y chromium; .ci/run installs it)")
     out, _ = report
     url = (out / "index.html").resolve().as_uri()
     prof = tmp_path / "profile"
-    dom = subprocess.run([exe, *FLAGS, f"--user-data-dir={prof}", "--dump-dom", url], capture_output=True,
-                         text=True, timeout=120)
+    dom = subprocess.run([exe, *FLAGS, f"--user-data-dir={prof}", "--window-size=1400,900",
+                          "--virtual-time-budget=5000", "--dump-dom", url], capture_output=True, text=True, timeout=120)
     assert dom.returncode == 0, dom.stderr[-2000:]
     body = re.search(r"<body[^>]*>", dom.stdout).group(0)
     # the page's own check ran after load: every picture decoded
-    assert 'data-images="3"' in body and 'data-images-ok="yes"' in body, body
-    shot = tmp_path / "shot.png"
-    r = subprocess.run([exe, *FLAGS, f"--user-data-dir={prof}", f"--screenshot={shot}", "--window-size=1200,2000",
+    assert 'data-images="5"' in body and 'data-images-ok="yes"' in body, body
+    # the summary table ends above the fold of a 1400 × 900 window
+    bottom = int(re.search(r'data-summary-bottom="(\d+)"', body).group(1))
+    vw, vh = (int(x) for x in re.search(r'data-viewport="(\d+)x(\d+)"', body).group(1, 2))
+    # (a 1400 × 900 window leaves the page about 760 pixels in headless Chromium, as a browser's bars would)
+    assert vw >= 1300 and vh >= 700 and bottom <= vh, body
+    # a table wider than the page is marked (its note becomes visible)
+    wide = int(re.search(r'data-wide-tables="(\d+)"', body).group(1))
+    assert dom.stdout.count("wide-note") >= wide
+    SHOT_DIR.mkdir(parents=True, exist_ok=True)
+    shot = SHOT_DIR / "report-first-screen-1400x900.png"
+    r = subprocess.run([exe, *FLAGS, f"--user-data-dir={prof}", f"--screenshot={shot}", "--window-size=1400,900",
                         url], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and shot.is_file(), r.stderr[-2000:]
     import matplotlib.image as mpimg
     px = mpimg.imread(shot)
-    assert px.shape[0] >= 1000 and px.std() > 0.05  # not a blank page
-
-
-def test_boundary_segments_trace_the_cell_edges():
-    c = np.zeros((3, 3), int)
-    c[2, 1] = 2
-    m = LabelMap([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], c)
-    segs = boundary_segments(m)
-    # the cell (2, 1) touches the top of the grid: its lower edge and two side edges are drawn
-    assert segs.shape == (3, 2, 2)
-    assert [[1.5, 2.5], [2.5, 2.5]] in segs.tolist()
-    assert [[1.5, 2.5], [1.5, 3.5]] in segs.tolist() and [[2.5, 2.5], [2.5, 3.5]] in segs.tolist()
-
-
-def test_plots_return_what_they_drew():
-    import matplotlib
-    matplotlib.use("Agg")
-    m = LabelMap(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
-    r = plot_boundaries([("housner", m)], [("e", m)], points=[(1.0, 1.0, "R", 2)], st_limit_a_ratio=3.0)
-    assert set(r["lines"]) == {"reference housner", "e", "experiment R", "ST limit"}
-    t = np.linspace(0, 1, 50)
-    r = plot_theta([("reference x", t, 0.1 * np.sin(t)), ("mujoco", t, 0.1 * np.cos(t))], alpha_rad=0.2,
-                   t_pulse_end_s=0.5)
-    assert set(r["lines"]) == {"reference x", "mujoco"}
-    np.testing.assert_allclose(r["lines"]["mujoco"].get_ydata(), 0.5 * np.cos(t))
-
-
-def test_speed_accuracy_names_every_variant_in_its_legend():
-    import matplotlib
-    matplotlib.use("Agg")
-    from rockbench.benchmark.plots.speed import plot_speed_accuracy
-    rows = [{"variant": "a", "ms_per_cell": 10.0, "agreement": 0.9},
-            {"variant": "a[x=1]", "ms_per_cell": 10.5, "agreement": 0.9},
-            {"variant": "b", "ms_per_cell": None, "agreement": 0.5}]
-    r = plot_speed_accuracy(rows)
-    assert set(r["points"]) == {"a", "a[x=1]"}
-    assert [t.get_text() for t in r["ax"].get_legend().get_texts()] == ["a", "a[x=1]"]
-
-
-def test_own_eta_references_are_drawn_in_their_engines_colour():
-    import matplotlib
-    from matplotlib.colors import to_rgba
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    m = LabelMap(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
-    refs = [(f"r{k}", m) for k in range(4)]
-    r = plot_boundaries(refs, [("e0", m), ("e1", m)], own_eta=[("own e1", m, 1)])
-    lines = r["lines"]
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    assert np.allclose(lines["own e1"].get_colors()[0], to_rgba(colours[1]))
-    ls = lines["own e1"].get_linestyles()[0]
-    assert ls[1] is not None and ls not in [lines[f"reference r{k}"].get_linestyles()[0] for k in range(4)]
+    assert px.shape[:2] == (900, 1400) and px.std() > 0.05  # not a blank page
+    print(f"screenshot of the report's first screen: {shot}")
 
 
 def test_report_pairs_each_own_eta_reference_with_its_engine():

@@ -131,3 +131,39 @@ def test_resume_after_kill_9(tmp_path):
     assert np.array_equal(r.outcome, mh.analytic_grid(s.w_ratios(), s.a_ratios()))
     meta = json.loads((out / "run.json").read_text())
     assert len(meta["runs"]) == 2 and meta["summary"]["complete"]
+
+
+def test_cells_carry_their_variant_so_concatenated_maps_stay_apart(tmp_path):
+    run_map(spec(5, settings={"sleep_s": 0}), tmp_path / "a", serial=True, plot=False)
+    run_map(spec(5), tmp_path / "b", serial=True, plot=False)
+    a, b = rows_of(tmp_path / "a"), rows_of(tmp_path / "b")
+    assert COLUMNS[:3] == ["engine", "variant", "block"]
+    assert {r["variant"] for r in a} == {"analytic[sleep_s=0]"} and {r["variant"] for r in b} == {"analytic"}
+    assert {r["engine"] for r in a + b} == {"analytic"}
+
+
+def test_an_adaptive_map_written_out_on_its_full_grid(tmp_path, capsys):
+    from rockbench.benchmark.export import FULL_GRID_FILE, full_grid_rows
+    s = spec(13)
+    r = run_map(s, tmp_path / "m", serial=True, adaptive=True, coarse_stride=4, plot=False)
+    assert 0 < r.n_simulated < 169
+    rows = full_grid_rows(tmp_path / "m")
+    assert len(rows) == 169 and [(int(x["i"]), int(x["j"])) for x in rows] == [(i, j) for i in range(13)
+                                                                              for j in range(13)]
+    filled = [x for x in rows if x["filled"]]
+    assert len(filled) == 169 - r.n_simulated
+    # the fill rule's outcomes, and nothing invented about those cells' runs
+    assert all(x["status"] == "filled" and x["n_impacts"] == "" and x["flags"] == "" for x in filled)
+    grid = mh.analytic_grid(s.w_ratios(), s.a_ratios())
+    names = {0: "rest", 1: "rocking", 2: "overturn"}
+    assert [x["outcome"] for x in rows] == [names[int(grid[int(x["i"]), int(x["j"])])] for x in rows]
+    # the CLI writes it beside cells.csv
+    assert main(["map", "--engine", "analytic", "--block", "B6M", "--serial", "--no-plot", "--adaptive",
+                 "--w-ratio", "0.5:8:13", "--a-ratio", "0.5:9:13", "--out", str(tmp_path / "c"), "--full-grid",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    with open(out["full_grid"]) as f:
+        back = list(csv.DictReader(f))
+    assert out["full_grid"].endswith(FULL_GRID_FILE) and len(back) == 169
+    assert back[0].keys() == set(COLUMNS) | {"filled", "left_model"}
+    assert sum(x["filled"] == "true" for x in back) == 169 - out["n_simulated"]

@@ -38,6 +38,9 @@ def register(sub) -> None:
     g.add_argument("--cell-timeout", type=str, default=str(DEFAULT_CELL_TIMEOUT_S), metavar="S",
                    help=f"wall-time limit of one cell [s] (default {DEFAULT_CELL_TIMEOUT_S:g})")
     g.add_argument("--no-plot", action="store_true", help="do not draw DIR/map.png")
+    g.add_argument("--full-grid", action="store_true",
+                   help="also write DIR/cells-full.csv: every cell of the grid, those an adaptive map inferred "
+                   "by its fill rule marked filled=true")
     g.add_argument("--json", action="store_true", help="print a JSON summary on stdout (no progress bar)")
     p.set_defaults(func=run)
 
@@ -98,6 +101,9 @@ def run(args) -> int:
                      progress=not quiet, plot=not args.no_plot,
                      log=None if args.json else (lambda s: print(s, file=sys.stderr)))
     summary = {**result.summary(), "out": str(args.out)}
+    if args.full_grid:
+        from ..export import write_full_grid
+        summary["full_grid"] = str(write_full_grid(args.out))
     if args.json:
         print(json.dumps(summary, indent=2))
         return 0
@@ -106,4 +112,6 @@ def run(args) -> int:
           f"{summary['n_simulated']} simulated ({100 * summary['fraction_simulated']:.1f} %), "
           f"rest {c['rest']}, rocking {c['rocking']}, overturn {c['overturn']}, failed {c['failed']}"
           + (f", missing {c['missing']}" if c["missing"] else "") + f"; {summary['wall_s']:.1f} s → {args.out}")
+    if "full_grid" in summary:
+        print(f"every cell of the grid: {summary['full_grid']}")
     return 0

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import sys
 
+#: the outcomes CSV format (kept here so that --help needs no import of the harness)
+_FORMAT = ("block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
+           "outcome T, R or O")
+
 
 def register(sub) -> None:
     p = sub.add_parser("report", help="write the benchmark report (index.html, report.md) for run directories")
@@ -11,8 +15,7 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="report directory (created)")
     p.add_argument("--against", action="append", default=[], metavar="REF_DIR",
                    help="reference maps to score against (default: the reference maps among RUN_DIR)")
-    p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes (docs/data.md): markers and "
-                   "accuracy")
+    p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to draw and score: " + _FORMAT)
     p.add_argument("--case", action="append", default=[], metavar="BLOCK:PULSE:W_RATIO:A_RATIO",
                    help="θ(t) comparison case (repeatable; default the paper's Fig. 17 case B3M:sine:6:6.1)")
     p.add_argument("--no-trajectories", action="store_true", help="skip the θ(t) comparison (no simulation)")

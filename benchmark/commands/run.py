@@ -7,14 +7,18 @@ import sys
 
 def register(sub) -> None:
     p = sub.add_parser("run", help="the whole benchmark: every engine, block and pulse, reference maps, scores, "
-                       "report (a suite file; default benchmark/suites/default.toml)")
+                       "report (a suite file; default: the shipped suite 'default', see --show-suite)")
     p.add_argument("suite", nargs="?", default=None, metavar="SUITE.toml",
                    help="a suite file, or the name of a shipped suite (default, quick)")
+    p.add_argument("--show-suite", nargs="?", const="default", default=None, metavar="NAME",
+                   help="print a shipped suite (default, quick) as TOML, to read or to copy and edit, and exit")
     p.add_argument("--quick", action="store_true", help="the reduced suite (one block per slenderness, coarse grids)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output directory (default rockbench-results/<suite name>); rerunning resumes")
     p.add_argument("--jobs", default=None, metavar="N", help="worker processes per map (default: all cores)")
-    p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score against (docs/data.md)")
+    p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score against: "
+                   "block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
+                   "outcome T, R or O")
     p.add_argument("--no-report", action="store_true", help="maps and score.json only")
     p.add_argument("--plan", action="store_true", help="list the maps the suite would compute and exit")
     p.set_defaults(func=run)
@@ -26,6 +30,14 @@ def run(args) -> int:
     from ...reference_solver.errors import ConfigError
     from ..run import engine_names, load_suite, plan, run_suite, suite_path
 
+    if args.show_suite is not None:
+        if args.suite is not None or args.quick:
+            raise ConfigError("--show-suite NAME prints one shipped suite; give no other suite or --quick.")
+        if args.show_suite.endswith(".toml") or "/" in args.show_suite:
+            raise ConfigError(f"--show-suite takes the name of a shipped suite (default, quick), got "
+                              f"{args.show_suite!r}.")
+        print(suite_path(args.show_suite, False).read_text(), end="")
+        return 0
     if args.quick and args.suite is not None:
         raise ConfigError(f"give either a suite ({args.suite}) or --quick, not both.")
     suite = load_suite(suite_path(args.suite, args.quick))

@@ -10,11 +10,20 @@ from ..scores import METRICS, parse_thresholds
 
 
 def register(sub) -> None:
+    import argparse
+    import textwrap
+
+    from ..scores import METRICS_VERSION
+
+    defs = "\n".join(textwrap.fill(f"{m.name} ({m.direction} is better, perfect {m.perfect:g}): {m.definition}",
+                                   width=96, initial_indent="  ", subsequent_indent="    ")
+                      for m in METRICS.values())
     p = sub.add_parser("score", help="score engine maps against reference maps; gate with --fail-under",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
                        description="Scores every engine map found in or below RUN_DIR against the reference "
-                       "maps of the same block and pulse (or those of --against). Metrics: "
-                       + ", ".join(METRICS) + " (docs/scores.md). Exit 0 ok, 1 a gate failed, 2 bad usage, "
-                       "5 nothing comparable.")
+                       "maps of the same block and pulse (or those of --against).\nExit 0 ok, 1 a gate failed, "
+                       "2 bad usage, 5 nothing comparable.",
+                       epilog=f"metrics (version {METRICS_VERSION}), as score.json also records them:\n{defs}")
     p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="map directories, or folders holding them")
     p.add_argument("--against", action="append", default=[], metavar="REF_DIR",
                    help="score every map of RUN_DIR against the maps found here (repeatable)")
@@ -22,8 +31,9 @@ def register(sub) -> None:
                    help="exit 1 when a higher-is-better metric is below VALUE (repeatable)")
     p.add_argument("--fail-over", action="append", default=[], metavar="METRIC=VALUE",
                    help="exit 1 when a lower-is-better metric is above VALUE (repeatable)")
-    p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score every map against "
-                   "(format in docs/data.md)")
+    p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score every map against: "
+                   "block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
+                   "outcome T, R or O")
     p.add_argument("--out", metavar="FILE", help="where to write score.json (default: RUN_DIR/score.json of the first)")
     p.add_argument("--no-write", action="store_true", help="do not write score.json")
     p.add_argument("--json", action="store_true", help="print the score document on stdout")

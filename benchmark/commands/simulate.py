@@ -121,22 +121,52 @@ def run(args) -> int:
         write_atomic(hist_path, write_csv)
         out["history"] = str(hist_path)
     if tr is not None and plot_path is not None:
-        from ..plots.history import plot_history
-
-        title = (f"{block.name}, {pulse.kind}"
-                 + (f", ω/p = {out['w_ratio']:.3g}" if out["w_ratio"] is not None else "")
-                 + f", a₀/(g·tanα) = {out['a_ratio']:.3g}, η = {case.eta:.4f}: {res.outcome}")
-        drawn = plot_history(tr.t_s, tr.theta_rad, impacts=[d["t_s"] for d in out["impacts"]], pulse=pulse,
-                             alpha_rad=block.alpha_rad, t_pulse_end_s=pulse.duration_s, title=title,
-                             label=f"θ(t), {adapter.name}")
-        write_atomic(plot_path, lambda tmp: drawn["figure"].savefig(tmp, format="png", dpi=120))
-        out["plot"] = str(plot_path)
+        out["plot"] = str(_plot(plot_path, args.engine, settings, case, tr, res, out))
+        out["plot_span_s"] = out.pop("_span")
+        if out.get("_note"):
+            out["plot_note"] = out.pop("_note")
 
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
     _print_text(out)
     return 0
+
+
+def _plot(path: Path, engine: str, settings: dict, case, tr, res, out: dict) -> Path:
+    """Draw θ(t) as far as the picture needs (:mod:`rockbench.benchmark.histories`): the reference's
+    default mode stops at the pulse's end, so the picture's run is integrated on to rest or
+    overturn, over a span that depends on the pulse alone (two runs of one case share it)."""
+    from ..histories import impact_times, picture_span_s, trajectory_for_picture
+    from ..labels import restitution_symbol, variant_label
+    from ..plots.trajectories import plot_theta
+
+    block, pulse = case.block, case.pulse
+    pic, mode = trajectory_for_picture(engine, settings, case, tr)
+    span = picture_span_s(pulse, res.t_overturn_s if res.outcome == "overturn" else None)
+    outcome = res.outcome
+    if pic is not tr:
+        # the picture's run integrated on: its outcome is the one drawn (it differs from the
+        # decision of the energy mode only in cells that touch the boundary)
+        from ...engines.registry import get_adapter
+        judged = get_adapter(engine, **{**settings, "mode": mode}).judge(case, pic)
+        if judged.outcome != res.outcome:
+            out["_note"] = (f"integrated to rest for the picture, the run gives {judged.outcome} "
+                            f"(the energy decision gives {res.outcome})")
+        outcome = judged.outcome
+        if outcome == "overturn":
+            span = picture_span_s(pulse, judged.t_overturn_s)
+    who = variant_label(engine, settings, restitution=case.restitution.label, block=block.name)
+    law = restitution_symbol(case.restitution.label, block.name)
+    label = f"{who if engine != 'reference' else 'reference'}, {law} = {case.eta:.4f}: {outcome}"
+    title = (f"{block.name}, {pulse.kind}" + (f", ω/p = {out['w_ratio']:.3g}" if out["w_ratio"] is not None else "")
+             + f", a₀/(g·tanα) = {out['a_ratio']:.3g}")
+    drawn = plot_theta([{"label": label, "t_s": pic.t_s, "theta_rad": pic.theta_rad, "impacts_s": impact_times(pic),
+                         "reference": engine == "reference", "outcome": outcome}],
+                       alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=span, title=title)
+    out["_span"] = span
+    write_atomic(path, lambda tmp: drawn["figure"].savefig(tmp, format="png", dpi=130))
+    return path
 
 
 def _print_text(o: dict) -> None:
@@ -168,4 +198,6 @@ def _print_text(o: dict) -> None:
     for k in ("history", "plot"):
         if k in o:
             lines.append(f"{k}: {o[k]}")
+    if "plot_note" in o:
+        lines.append(f"plot: {o['plot_note']}")
     print("\n".join(lines))

@@ -1,28 +1,68 @@
-"""Stability graphs in the paper's style (Figs 4–9 and 13–16).
+"""Stability graphs in the paper's style (Figs 4–9 and 13–16), and one map's picture (``map.png``).
 
-Normalised axes (ω/p horizontal, a₀/(g·tanα) vertical), the overturn region of the first map
-shaded, the overturn boundary of every map drawn and labelled, experimental outcomes as markers
-(T translation, R rocking, O overturning) and the shaking table's limit (25 m/s², paper §5) as a
-dashed line at ``25/(g·tanα)``. matplotlib is imported inside the functions only.
+Normalised axes: ω/p horizontal, a₀/(g·tanα) vertical. A boundary is drawn as a smooth line, the
+0.5 contour of the map's overturn indicator (cells are values at grid points; the contour runs
+half-way between an overturn and a not-overturn point), not as cell staircases. The rigid model's
+own domain ends where its trajectory needs the table to pull the block down or more friction than
+μ (the reference's ``lift-required`` / ``slip-required`` cells, DOMAIN.md §9): that region is
+hatched in every picture. Experimental outcomes are the paper's letters T, R, O; the shaking
+table's faithful limit (25 m/s², paper §5) is a dashed line labelled on the chart, drawn only where
+it lies inside the chart.
+
+Small multiples (:func:`plot_panels`): one panel per engine variant (or per block and pulse), each
+with the reference boundaries, the engine's overturn region filled, its disagreements with the
+like-for-like reference marked by kind, the hatched region, the ST limit and the points; one legend
+for the figure, below the panels, never over data.
+
+matplotlib is imported inside the functions only; figures are made without pyplot
+(``matplotlib.figure.Figure``), so nothing here needs a display or a global figure manager.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ...reference_solver.model import G
 from ..experiments import SHAKING_TABLE_LIMIT_MPS2
+from ..labels import for_matplotlib
 
-#: The Quanser ST-III table's faithful limit for one sine wave (paper §5) [m/s^2]: the one value
-#: the experimental data module holds.
+#: The Quanser ST-III table's faithful limit for one sine wave (paper §5) [m/s^2].
 ST_LIMIT_MPS2 = SHAKING_TABLE_LIMIT_MPS2
 
-#: Line colours of the overlaid boundaries, in order.
-COLORS = ["#1f4e9a", "#c0392b", "#2e8b57", "#8e44ad", "#d35400", "#16a085", "#7f8c8d"]
-_MARKERS = {"T": ("^", "#2e8b57"), "R": ("s", "#1f4e9a"), "O": ("x", "#c0392b")}
+#: Line styles of the reference boundaries, in the order given (η_H, η_M average k, η_M exact k,
+#: a constant η such as an engine's own measured one).
+REFERENCE_STYLES = [
+    {"color": "#000000", "linestyle": "solid", "linewidth": 1.7},
+    {"color": "#1f5fa8", "linestyle": (0, (5, 2)), "linewidth": 1.5},
+    {"color": "#1b7f3b", "linestyle": (0, (6, 2, 1.5, 2)), "linewidth": 1.5},
+    {"color": "#8e44ad", "linestyle": (0, (1.5, 1.5)), "linewidth": 1.6},
+    {"color": "#7f7f7f", "linestyle": (0, (3, 1, 1, 1, 1, 1)), "linewidth": 1.3},
+]
+#: Line colours of overlaid maps in :func:`plot_stability` (first one also shaded).
+COLORS = ["#000000", "#1f5fa8", "#c0392b", "#1b7f3b", "#8e44ad", "#d35400", "#16a085"]
+
+ENGINE_FILL = "#f9c99b"          # the engine's overturn region
+OUTCOME_COLOURS = ("#ffffff", "#d6e6f5", "#f9c99b")   # rest, rocking, overturn (map.png)
+HATCH = "////"
+HATCH_COLOUR = "#8a8a8a"
+
+#: Disagreement kinds: label, marker style.
+MARKS = {
+    "false_overturn": ("overturns where the reference does not", {"marker": "^", "color": "#b2182b", "ms": 3.6,
+                                                                   "mec": "#b2182b", "mfc": "#b2182b"}),
+    "missed_overturn": ("misses an overturn of the reference", {"marker": "o", "color": "#1f5fa8", "ms": 3.4,
+                                                                "mfc": "none", "mec": "#1f5fa8", "mew": 0.9}),
+    "invalid": ("engine flagged slip, jump or energy gain", {"marker": "x", "color": "#555555", "ms": 2.6,
+                                                             "mew": 0.7}),
+    "failed": ("simulation failed", {"marker": "s", "color": "#000000", "ms": 3.0, "mfc": "#000000"}),
+}
+#: Experimental outcomes: the paper's letters.
+POINT_STYLE = {"T": ("translation (no uplift)", "#1b7f3b"), "R": ("rocking", "#1f5fa8"),
+               "O": ("overturning", "#b2182b")}
 
 
 def st_limit_a_ratio(alpha_rad: float, st_limit_mps2: float = ST_LIMIT_MPS2) -> float:
@@ -30,21 +70,385 @@ def st_limit_a_ratio(alpha_rad: float, st_limit_mps2: float = ST_LIMIT_MPS2) -> 
     return st_limit_mps2 / (G * math.tan(alpha_rad))
 
 
-def _overturn_mask(result) -> np.ndarray:
-    return (result.outcome == 2).astype(float)
+# -- maps as grids -------------------------------------------------------------------------------
 
+@dataclass
+class Grid:
+    """A map as the pictures need it (from a ``MapResult`` or a ``LabelMap``)."""
+
+    w: np.ndarray
+    a: np.ndarray
+    codes: np.ndarray         # -2 missing, -1 failed, 0 rest, 1 rocking, 2 overturn
+    valid: np.ndarray
+    left_model: np.ndarray
+    simulated: np.ndarray
+
+    @property
+    def known(self) -> np.ndarray:
+        return self.codes >= 0
+
+    @property
+    def outside_domain(self) -> np.ndarray:
+        """Cells with an outcome that are not valid (for a reference map: lift-/slip-required)."""
+        return self.known & ~self.valid
+
+
+def as_grid(m) -> Grid:
+    """A :class:`Grid` of a ``MapResult`` (``outcome``) or a ``LabelMap`` (``codes``)."""
+    codes = np.asarray(m.outcome if hasattr(m, "outcome") else m.codes, dtype=int)
+    shape = codes.shape
+    sim = getattr(m, "simulated", None)
+    sim = np.ones(shape, bool) if sim is None else np.asarray(sim, bool)
+    valid = getattr(m, "valid", None)
+    valid = (codes >= 0) if valid is None else np.asarray(valid, bool)
+    left = getattr(m, "left_model", None)
+    left = np.zeros(shape, bool) if left is None else np.asarray(left, bool)
+    # an adaptive map knows nothing of its inferred cells' flags: they count as valid
+    valid = valid | ~sim
+    return Grid(np.asarray(m.w_ratio, float), np.asarray(m.a_ratio, float), codes, valid, left & sim, sim)
+
+
+# -- pieces, each drawing on an Axes and returning what it drew ----------------------------------
+
+#: Width of the smoothing along a boundary line [vertices; about half a cell apart]: it turns the
+#: cell staircase of an oblique boundary into a line without moving it across a cell.
+SMOOTH_VERTICES = 1.6
+
+
+def boundary_lines(m) -> list[np.ndarray]:
+    """The overturn boundary of map ``m`` as smooth polylines ``[(n, 2) arrays of (ω/p, a₀/(g·tanα))]``.
+
+    The 0.5 contour of the overturn indicator (1 overturn, 0 any other outcome) at the cell
+    centres runs half-way between every overturn cell and its non-overturn neighbours, so every
+    cell stays on its side (an isolated cell is a small loop, a one-cell safe band stays open).
+    Each line is then smoothed along itself by a Gaussian over its vertices
+    (:data:`SMOOTH_VERTICES`, less on short loops so they do not shrink away), which rounds the
+    staircase of an oblique boundary without moving the line by more than a fraction of a cell.
+    Failed cells take the value of the nearest cell with an outcome (they are marked separately).
+    """
+    from contourpy import contour_generator
+    from scipy import ndimage
+
+    g = as_grid(m)
+    if min(g.codes.shape) < 2:
+        return []
+    vals = g.codes[g.known] == 2
+    if vals.size == 0 or vals.all() or not vals.any():
+        return []
+    ind = (g.codes == 2).astype(float)
+    if not g.known.all():
+        idx = ndimage.distance_transform_edt(~g.known, return_distances=False, return_indices=True)
+        ind = ind[tuple(idx)]
+    lines = contour_generator(g.w, g.a, ind).lines(0.5)
+    return [_smooth_polyline(np.asarray(p, float)) for p in lines if len(p) >= 2]
+
+
+def _smooth_polyline(p: np.ndarray) -> np.ndarray:
+    closed = len(p) > 3 and np.allclose(p[0], p[-1])
+    n = len(p) - 1 if closed else len(p)
+    sigma = min(SMOOTH_VERTICES, n / 8.0)
+    if sigma < 0.3:
+        return p
+    from scipy import ndimage
+    if closed:
+        body = ndimage.gaussian_filter1d(p[:-1], sigma, axis=0, mode="wrap")
+        return np.vstack([body, body[:1]])
+    out = ndimage.gaussian_filter1d(p, sigma, axis=0, mode="nearest")
+    out[0], out[-1] = p[0], p[-1]   # an open line ends on the chart's edge: keep it there
+    return out
+
+
+def draw_boundary(ax, m, *, label=None, zorder=3, **style):
+    """Draw :func:`boundary_lines` of map ``m``. Returns the LineCollection, or None when the map
+    has no boundary."""
+    from matplotlib.collections import LineCollection
+
+    lines = boundary_lines(m)
+    if not lines:
+        return None
+    st = {**REFERENCE_STYLES[0], **style}
+    lc = LineCollection(lines, colors=st["color"], linewidths=st["linewidth"], linestyles=[st["linestyle"]],
+                        zorder=zorder, label=label, capstyle="round", joinstyle="round")
+    return ax.add_collection(lc)
+
+
+def draw_domain_hatch(ax, ref, *, zorder=1):
+    """Hatch the reference's cells outside the rigid model's domain (lift-/slip-required). Returns
+    the ContourSet, or None when every cell is inside."""
+    g = as_grid(ref)
+    out = g.outside_domain
+    if not out.any() or min(out.shape) < 2:
+        return None
+    cs = ax.contourf(g.w, g.a, out.astype(float), levels=[0.5, 1.5], colors="none", hatches=[HATCH],
+                     zorder=zorder)
+    cs.set_edgecolor(HATCH_COLOUR)
+    cs.set_linewidth(0.0)
+    return cs
+
+
+def draw_fill(ax, m, *, color=ENGINE_FILL, zorder=0):
+    """Fill the overturn cells of ``m`` (each cell reaching half-way to its neighbours)."""
+    g = as_grid(m)
+    z = np.where(g.codes == 2, 1.0, np.nan)
+    if not np.isfinite(z).any():
+        return None
+    from matplotlib.colors import ListedColormap
+    return ax.pcolormesh(g.w, g.a, z, shading="nearest", cmap=ListedColormap([color]), vmin=0, vmax=1,
+                         zorder=zorder, rasterized=True)
+
+
+def disagreements(eng, ref) -> dict:
+    """Cells where engine map ``eng`` and reference map ``ref`` disagree, by kind.
+
+    ``false_overturn``: the engine overturns, the reference has another outcome; ``missed_overturn``:
+    the reverse; both only inside the reference's domain (where the scores judge them).
+    ``invalid``: simulated engine cells flagged invalid (anywhere: outside the domain that is
+    the right answer). ``failed``: engine cells without an outcome where the reference has one.
+
+    Returns
+    -------
+    dict
+        kind → boolean grid.
+    """
+    e, r = as_grid(eng), as_grid(ref)
+    inside = r.known & r.valid
+    return {"false_overturn": inside & e.known & (e.codes == 2) & (r.codes != 2),
+            "missed_overturn": inside & e.known & (e.codes != 2) & (r.codes == 2),
+            "invalid": e.known & e.simulated & ~e.valid,
+            "failed": r.known & (e.codes == -1)}
+
+
+def draw_marks(ax, m, cells: dict, *, zorder=4) -> dict:
+    """A marker at the centre of each marked cell, one style per kind (:data:`MARKS`)."""
+    g = as_grid(m)
+    # about half a cell wide on a 50-cell axis, no smaller than legible on a fine grid
+    shrink = float(np.clip(50.0 / max(g.w.size, g.a.size, 1), 0.55, 1.0))
+    out = {}
+    for kind, mask in cells.items():
+        i, j = np.nonzero(mask)
+        if i.size == 0:
+            continue
+        _, st = MARKS[kind]
+        st = {**st, "ms": st["ms"] * shrink}
+        (line,) = ax.plot(g.w[j], g.a[i], ls="none", zorder=zorder, **st)
+        out[kind] = line
+    return out
+
+
+def draw_st_limit(ax, a_limit: float | None, *, zorder=2):
+    """The shaking-table limit as a dashed line labelled "ST limit" on the chart; nothing when it
+    lies outside the vertical range. Returns ``(line, text)`` or None."""
+    if a_limit is None:
+        return None
+    lo, hi = ax.get_ylim()
+    if not lo <= a_limit <= hi:
+        return None
+    line = ax.axhline(a_limit, color="k", ls=(0, (4, 2)), lw=0.9, zorder=zorder)
+    txt = ax.text(0.985, a_limit, "ST limit", transform=ax.get_yaxis_transform(), ha="right", va="bottom",
+                  fontsize=7, zorder=zorder + 3, bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none",
+                                                        "alpha": 0.8})
+    return line, txt
+
+
+def draw_points(ax, points, *, zorder=5) -> dict:
+    """Experimental outcomes as the paper's letters T, R, O (points outside the chart are left out).
+
+    ``points``: ``(w_ratio, a_ratio, letter, repetitions)`` tuples or dicts with those keys
+    (``outcome`` for the letter)."""
+    x0, x1 = sorted(ax.get_xlim())
+    y0, y1 = sorted(ax.get_ylim())
+    out = {}
+    for letter, (_, colour) in POINT_STYLE.items():
+        sel = []
+        for p in points or []:
+            if isinstance(p, dict):
+                w, a, o = p["w_ratio"], p["a_ratio"], str(p.get("outcome", p.get("letter", ""))).upper()
+            else:
+                w, a, o = p[0], p[1], str(p[2]).upper()
+            if o == letter and x0 <= w <= x1 and y0 <= a <= y1:
+                sel.append((w, a))
+        if sel:
+            (line,) = ax.plot([s[0] for s in sel], [s[1] for s in sel], ls="none", marker=f"$\\mathrm{{{letter}}}$",
+                              ms=6.5, color=colour, zorder=zorder)
+            out[letter] = line
+    return out
+
+
+def _frame(ax, g: Grid, *, xlabel=True, ylabel=True):
+    ax.set_xlim(g.w[0], g.w[-1])
+    ax.set_ylim(g.a[0], g.a[-1])
+    if xlabel:
+        ax.set_xlabel("ω/p [-]")
+    if ylabel:
+        ax.set_ylabel("a₀/(g·tanα) [-]")
+
+
+# -- one panel ------------------------------------------------------------------------------------
+
+def plot_panel(engine=None, references=(), *, domain=None, like=None, points=None, st_limit=None, title=None,
+               note=None, ax=None, xlabel=True, ylabel=True) -> dict:
+    """One stability graph: an engine map against the reference boundaries.
+
+    Parameters
+    ----------
+    engine : MapResult or LabelMap, optional
+        The engine's map: its overturn cells are filled and its disagreements with ``like`` marked.
+    references : list of (str, map) or (str, map, style)
+        Reference maps and their legend labels, drawn as lines in :data:`REFERENCE_STYLES` order
+        (η_H, η_M average k, η_M exact k, ...) unless a style (a :data:`REFERENCE_STYLES` entry) is
+        given.
+    domain : map, optional
+        The reference whose lift-/slip-required region is hatched (default: ``like``, else the
+        first reference).
+    like : map, optional
+        The reference with the engine's restitution law: disagreements are counted against it
+        (default: the first reference).
+    points : list, optional
+        Experimental outcomes (see :func:`draw_points`).
+    st_limit : float, optional
+        The shaking-table limit as a₀/(g·tanα).
+    title, note : str, optional
+        Panel title and a second, smaller line under it (e.g. scores).
+    ax : matplotlib Axes, optional
+        Where to draw (a new figure when None).
+
+    Returns
+    -------
+    dict
+        ``ax``, ``fill``, ``hatch``, ``references`` (label → ContourSet), ``marks`` (kind → Line2D),
+        ``st_limit`` (``(line, text)`` or None), ``points`` (letter → Line2D) and ``handles``
+        (legend label → proxy artist, for a figure legend).
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    if ax is None:
+        from matplotlib.figure import Figure
+        ax = Figure(figsize=(4.6, 3.6), layout="constrained").add_subplot()
+    refs = [tuple(r) for r in references]
+    like = like if like is not None else (refs[0][1] if refs else None)
+    domain = domain if domain is not None else like
+    base = engine if engine is not None else (refs[0][1] if refs else None)
+    if base is None:
+        raise ValueError("plot_panel needs an engine map or at least one reference map")
+    _frame(ax, as_grid(base), xlabel=xlabel, ylabel=ylabel)
+    handles = {}
+    fill = draw_fill(ax, engine) if engine is not None else None
+    if engine is not None:
+        handles["engine overturns"] = Patch(facecolor=ENGINE_FILL, edgecolor="none", label="engine overturns")
+    hatch = draw_domain_hatch(ax, domain) if domain is not None else None
+    if domain is not None:
+        handles["hatch"] = Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0.0,
+                                 label="rigid model needs lift-off or sliding")
+    lines = {}
+    for k, item in enumerate(refs):
+        label, m = item[0], item[1]
+        st = item[2] if len(item) > 2 else REFERENCE_STYLES[k % len(REFERENCE_STYLES)]
+        # the first reference (the like-for-like one) on top where the lines coincide
+        cs = draw_boundary(ax, m, label=for_matplotlib(label), zorder=3.5 - 0.1 * k, **st)
+        lines[label] = cs
+        handles[label] = Line2D([], [], color=st["color"], ls=st["linestyle"], lw=st["linewidth"],
+                                label=for_matplotlib(label))
+    marks = {}
+    if engine is not None and like is not None:
+        marks = draw_marks(ax, engine, disagreements(engine, like))
+        for kind, (label, st) in MARKS.items():
+            if kind in marks:   # only the kinds this panel has
+                handles[label] = Line2D([], [], ls="none", label=label, **st)
+    st_art = draw_st_limit(ax, st_limit)
+    if st_art is not None:
+        handles["st"] = Line2D([], [], color="k", ls=(0, (4, 2)), lw=0.9, label="ST limit (shaking table, 25 m/s²)")
+    pts = draw_points(ax, points)
+    for letter, (words, colour) in POINT_STYLE.items():
+        if letter in pts:
+            handles[f"experiment {letter}: {words}"] = Line2D([], [], ls="none", marker=f"$\\mathrm{{{letter}}}$",
+                                                              ms=6.5, color=colour,
+                                                              label=f"experiment {letter}: {words}")
+    if title:
+        ax.set_title(for_matplotlib(title + (f"\n{note}" if note else "")), fontsize=8.5, loc="left")
+    ax.tick_params(labelsize=7.5)
+    ax.xaxis.label.set_size(8)
+    ax.yaxis.label.set_size(8)
+    return {"ax": ax, "fill": fill, "hatch": hatch, "references": lines, "marks": marks, "st_limit": st_art,
+            "points": pts, "handles": handles}
+
+
+def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str | None = None,
+                panel_size=(3.4, 2.75), fig=None) -> dict:
+    """Small multiples: one :func:`plot_panel` per entry of ``panels`` (its keyword arguments), on
+    shared axes, with one legend for the whole figure below the panels.
+
+    Returns
+    -------
+    dict
+        ``figure``, ``axes`` (list), ``panels`` (what each :func:`plot_panel` drew) and ``legend``.
+    """
+    from matplotlib.figure import Figure
+
+    n = len(panels)
+    if n == 0:
+        raise ValueError("plot_panels needs at least one panel")
+    ncols = ncols or min(n, 3)
+    nrows = math.ceil(n / ncols)
+    if fig is None:
+        fig = Figure(figsize=(panel_size[0] * ncols + 0.6, panel_size[1] * nrows + 1.3), layout="constrained")
+    axes = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False)
+    drawn, handles = [], {}
+    for k, kw in enumerate(panels):
+        r, c = divmod(k, ncols)
+        d = plot_panel(ax=axes[r][c], xlabel=(r == nrows - 1 or (r == nrows - 2 and k + ncols >= n)),
+                       ylabel=(c == 0), **kw)
+        drawn.append(d)
+        for label, h in d["handles"].items():
+            handles.setdefault(label, h)
+    for k in range(n, nrows * ncols):
+        r, c = divmod(k, ncols)
+        axes[r][c].set_visible(False)
+        if r > 0:
+            axes[r - 1][c].xaxis.set_tick_params(labelbottom=True)
+            axes[r - 1][c].set_xlabel("ω/p [-]")
+    if suptitle:
+        fig.suptitle(for_matplotlib(suptitle), fontsize=10.5, x=0.01, ha="left")
+    # one order whatever panel brought an entry in: fill, hatch, references, marks, ST limit, points
+    marks = [label for label, _ in MARKS.values()]
+
+    def rank(item):
+        k, (label, _) = item
+        if label == "engine overturns":
+            return (0, k)
+        if label == "hatch":
+            return (1, k)
+        if label in marks:
+            return (3, marks.index(label))
+        if label == "st":
+            return (4, k)
+        if label.startswith("experiment "):
+            return (5, k)
+        return (2, k)
+
+    handles = dict(v for _, v in sorted(enumerate(handles.items()), key=rank))
+    # as many legend columns as fit the figure's width (about 3.6 inches each)
+    width_in = fig.get_figwidth()
+    legend = fig.legend(handles=list(handles.values()), loc="outside lower center",
+                        ncols=max(1, min(3, len(handles), int(width_in / 3.6 + 0.05))), fontsize=7.5, frameon=False,
+                        handlelength=2.6, columnspacing=1.4)
+    return {"figure": fig, "axes": [ax for row in axes for ax in row][:n], "panels": drawn, "legend": legend}
+
+
+# -- several maps on one graph (the paper's Figs 4–9) -----------------------------------------------
 
 def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiments=None,
                    st_limit_mps2: float | None = ST_LIMIT_MPS2, title: str | None = None, show_failed: bool = True,
-                   extra_handles=()):
-    """Draw one or more maps' overturn boundaries on the normalised axes.
+                   extra_handles=(), legend: str = "below"):
+    """Several maps' overturn boundaries on one graph (the paper's Figs 4–9).
 
     Parameters
     ----------
     maps : MapResult or list of MapResult
-        The maps; the first one's overturn region is shaded.
+        The maps; the first one's overturn region is shaded and its lift-/slip-required region
+        hatched.
     labels : list of str, optional
-        Legend labels (default: each map's engine, block and restitution).
+        Legend labels (default: block and restitution in the paper's symbols).
     ax : matplotlib Axes, optional
         Where to draw (a new figure when None).
     shade : bool
@@ -52,81 +456,87 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     experiments : iterable of dict, optional
         Measured outcomes ``{"w_ratio", "a_ratio", "outcome"}`` with outcome ``T``, ``R`` or ``O``.
     st_limit_mps2 : float or None
-        The table limit [m/s^2] drawn for the first map's block; None draws nothing.
+        The table limit [m/s^2] drawn for the first map's block (only where it lies on the chart);
+        None draws nothing.
     title : str, optional
         Axes title.
     show_failed : bool
-        Mark failed cells with small red crosses.
+        Mark failed cells.
     extra_handles : sequence of matplotlib artists
         More legend entries (put first).
+    legend : {"below", "right", "none"}
+        Where the legend goes: outside the axes, never over the data.
 
     Returns
     -------
     dict
-        ``{"ax", "boundaries": [ContourSet...], "st_limit_a_ratio": float or None}``.
+        ``ax``, ``boundaries`` (list of ContourSet), ``st_limit_a_ratio`` (float or None; None also
+        when the limit lies off the chart), ``hatch`` and ``legend``.
     """
-    import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     if not isinstance(maps, (list, tuple)):
         maps = [maps]
     if ax is None:
-        _, ax = plt.subplots(figsize=(6.4, 4.8))
+        from matplotlib.figure import Figure
+        ax = Figure(figsize=(6.4, 5.6), layout="constrained").add_subplot()
     labels = list(labels) if labels is not None else [_label(m) for m in maps]
     handles, drawn = list(extra_handles), []
     first = maps[0]
-    if shade:
-        W, A = np.meshgrid(first.w_ratio, first.a_ratio)
-        m = _overturn_mask(first)
-        if m.any() and min(m.shape) > 1:
-            ax.contourf(W, A, m, levels=[0.5, 1.5], colors=["#bbbbbb"], alpha=0.55)
-            handles.append(Patch(color="#bbbbbb", alpha=0.55, label=f"overturn ({labels[0]})"))
+    _frame(ax, as_grid(first))
+    if shade and (as_grid(first).codes == 2).any():
+        draw_fill(ax, first, color="#d9d9d9")
+        handles.append(Patch(color="#d9d9d9", label=for_matplotlib(f"overturn ({labels[0]})")))
+    hatch = draw_domain_hatch(ax, first)
+    if hatch is not None:
+        handles.append(Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0,
+                             label=for_matplotlib(f"rigid model needs lift-off or sliding ({labels[0]})")))
     for k, (res, lab) in enumerate(zip(maps, labels)):
-        color = COLORS[k % len(COLORS)]
-        W, A = np.meshgrid(res.w_ratio, res.a_ratio)
-        m = _overturn_mask(res)
-        if 0 < m.sum() < m.size and min(m.shape) > 1:
-            cs = ax.contour(W, A, m, levels=[0.5], colors=[color], linewidths=1.6,
-                            linestyles="-" if k == 0 else ["--", "-.", ":"][(k - 1) % 3])
+        st = {**REFERENCE_STYLES[k % len(REFERENCE_STYLES)], "color": COLORS[k % len(COLORS)]}
+        cs = draw_boundary(ax, res, label=for_matplotlib(lab), zorder=3.5 - 0.1 * k, **st)
+        if cs is not None:
             drawn.append(cs)
-        handles.append(Line2D([], [], color=color, lw=1.6, ls="-" if k == 0 else ["--", "-.", ":"][(k - 1) % 3],
-                              label=lab))
-        if show_failed:
-            fi, fj = np.nonzero(res.outcome == -1)
-            if fi.size:
-                ax.plot(res.w_ratio[fj], res.a_ratio[fi], "x", color="red", ms=3, lw=0)
-                handles.append(Line2D([], [], color="red", marker="x", lw=0, label=f"failed cells ({fi.size})"))
-    for e in experiments or []:
-        mk, col = _MARKERS.get(str(e["outcome"]).upper(), ("o", "k"))
-        ax.plot(e["w_ratio"], e["a_ratio"], mk, color=col, ms=6, mfc="none" if mk != "x" else col)
-    if experiments:
-        for o, (mk, col) in _MARKERS.items():
-            handles.append(Line2D([], [], color=col, marker=mk, lw=0, mfc="none" if mk != "x" else col,
-                                  label={"T": "T translation", "R": "R rocking", "O": "O overturning"}[o]))
+        handles.append(Line2D([], [], color=st["color"], lw=st["linewidth"], ls=st["linestyle"],
+                              label=for_matplotlib(lab)))
+    if show_failed:
+        nfail = 0
+        for res in maps:
+            failed = as_grid(res).codes == -1
+            if failed.any():
+                draw_marks(ax, res, {"failed": failed})
+                nfail += int(failed.sum())
+        if nfail:
+            handles.append(Line2D([], [], ls="none", label=f"failed cells ({nfail})", **MARKS["failed"][1]))
+    pts = draw_points(ax, experiments)
+    for letter, (words, colour) in POINT_STYLE.items():
+        if letter in pts:
+            handles.append(Line2D([], [], ls="none", marker=f"$\\mathrm{{{letter}}}$", ms=6.5, color=colour,
+                                  label=f"experiment {letter}: {words}"))
     st = None
     if st_limit_mps2 is not None:
-        st = st_limit_a_ratio(first.spec.block.alpha_rad, st_limit_mps2)
-        ax.axhline(st, color="k", ls="--", lw=1.0)
-        lo, hi = first.a_ratio[0], first.a_ratio[-1]
-        if lo <= st <= hi:
-            ax.annotate("ST limit", (first.w_ratio[-1], st), xytext=(-4, 3), textcoords="offset points",
-                        ha="right", va="bottom", fontsize=8)
-        handles.append(Line2D([], [], color="k", ls="--", lw=1.0, label=f"ST limit {st_limit_mps2:g} m/s² "
-                              f"({first.spec.block.name})"))
-    ax.set_xlim(first.w_ratio[0], first.w_ratio[-1])
-    ax.set_ylim(first.a_ratio[0], first.a_ratio[-1])
-    ax.set_xlabel("ω/p [-]")
-    ax.set_ylabel("a₀/(g·tanα) [-]")
+        st_a = st_limit_a_ratio(first.spec.block.alpha_rad, st_limit_mps2)
+        if draw_st_limit(ax, st_a) is not None:
+            st = st_a
+            handles.append(Line2D([], [], color="k", ls=(0, (4, 2)), lw=0.9,
+                                  label=f"ST limit (shaking table, {st_limit_mps2:g} m/s²)"))
     if title:
-        ax.set_title(title, fontsize=10)
-    ax.legend(handles=handles, fontsize=7, loc="best", framealpha=0.85)
-    return {"ax": ax, "boundaries": drawn, "st_limit_a_ratio": st}
+        ax.set_title(for_matplotlib(title), fontsize=10, loc="left")
+    leg = None
+    if legend == "below":
+        # two columns when they fit under the axes, else one (a legend never sticks out sideways)
+        long = max((len(h.get_label()) for h in handles), default=0) > 44
+        leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.13), ncols=1 if long else 2,
+                        fontsize=7.5, frameon=False, borderaxespad=0.0)
+    elif legend == "right":
+        leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7.5, frameon=False)
+    return {"ax": ax, "boundaries": drawn, "st_limit_a_ratio": st, "hatch": hatch, "legend": leg}
 
 
 def _label(res) -> str:
+    from ..labels import restitution_symbol
     s = res.spec
-    return f"{s.engine} {s.block.name} {s.restitution.label} (η={s.eta:.4f})"
+    return f"{s.block.name}, {restitution_symbol(s.restitution.label, s.block.name)} = {s.eta:.4f}"
 
 
 def save(fig, stem) -> list[Path]:
@@ -140,33 +550,102 @@ def save(fig, stem) -> list[Path]:
     return out
 
 
-def plot_map_png(result, path) -> Path:
-    """Draw one map (its outcome classes, failed cells, the ST limit) into ``path`` (PNG)."""
-    import matplotlib
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+# -- one map's picture ----------------------------------------------------------------------------
+
+def plot_map(result, *, reference=None, ax=None) -> dict:
+    """One map as its outcome classes (rest, rocking, overturn), failed and invalid cells marked,
+    the reference's overturn boundary overlaid and its lift-/slip-required region hatched.
+
+    Parameters
+    ----------
+    result : MapResult
+        The map.
+    reference : MapResult or LabelMap, optional
+        The reference map of the same case and grid (for an engine map); a reference map is its own.
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    dict
+        ``ax``, ``image`` (the outcome cells), ``boundary`` (ContourSet or None), ``hatch``, ``marks``,
+        ``st_limit`` and ``legend``.
+    """
     from matplotlib.colors import ListedColormap
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    try:
-        res = result
-        # light colours for the three outcomes under the paper-style boundary
-        show = np.where(res.outcome >= 0, res.outcome, np.nan).astype(float)
-        if min(show.shape) > 1:
-            dw = (res.w_ratio[1] - res.w_ratio[0]) / 2 if res.w_ratio.size > 1 else 0.5
-            da = (res.a_ratio[1] - res.a_ratio[0]) / 2 if res.a_ratio.size > 1 else 0.5
-            ax.imshow(show, origin="lower", aspect="auto", interpolation="nearest", vmin=0, vmax=2,
-                      cmap=ListedColormap(["#ffffff", "#dce9f7", "#bbbbbb"]),
-                      extent=(res.w_ratio[0] - dw, res.w_ratio[-1] + dw, res.a_ratio[0] - da, res.a_ratio[-1] + da))
-        s = res.spec
-        frac = f", {100 * res.fraction_simulated:.1f} % simulated" if res.adaptive else ""
-        classes = [Patch(facecolor=c, edgecolor="#999999", label=n)
-                   for c, n in (("#ffffff", "rest"), ("#dce9f7", "rocking"), ("#bbbbbb", "overturn"))]
-        plot_stability([res], shade=False, ax=ax, extra_handles=classes,
-                       title=f"{s.engine}: {s.block.name}, {s.pulse}, {s.restitution.label} (η = {s.eta:.4f}){frac}")
-        path = Path(path)
-        fig.savefig(path, dpi=120, bbox_inches="tight")
-    finally:
-        plt.close(fig)
+    from ..labels import restitution_symbol, variant_label
+
+    if ax is None:
+        from matplotlib.figure import Figure
+        ax = Figure(figsize=(6.4, 5.4), layout="constrained").add_subplot()
+    g = as_grid(result)
+    s = result.spec
+    is_ref = s.engine == "reference"
+    ref = result if is_ref else reference
+    _frame(ax, g)
+    show = np.where(g.codes >= 0, g.codes, np.nan).astype(float)
+    image = ax.pcolormesh(g.w, g.a, show, shading="nearest", cmap=ListedColormap(list(OUTCOME_COLOURS)), vmin=-0.5,
+                          vmax=2.5, zorder=0, rasterized=True)
+    handles = [Patch(facecolor=c, edgecolor="#999999", lw=0.5, label=n)
+               for c, n in zip(OUTCOME_COLOURS, ("rest", "rocking", "overturn"))]
+    hatch = boundary = None
+    if ref is not None:
+        hatch = draw_domain_hatch(ax, ref)
+        if hatch is not None:
+            handles.append(Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0,
+                                 label="rigid model needs lift-off or sliding"))
+        label = for_matplotlib(f"reference boundary ({restitution_symbol(s.restitution.label, s.block.name)})")
+        boundary = draw_boundary(ax, ref, label=label)
+        if boundary is not None:
+            handles.append(Line2D([], [], color="k", lw=1.7, label=label))
+    marks = draw_marks(ax, result, {"invalid": g.known & g.simulated & ~g.valid & ~is_ref, "failed": g.codes == -1})
+    labels = {"invalid": "invalid: engine flagged slip, jump or energy gain", "failed": "failed"}
+    for kind, line in marks.items():
+        handles.append(Line2D([], [], ls="none", label=f"{labels[kind]} ({int(len(line.get_xdata()))})",
+                              **MARKS[kind][1]))
+    st = draw_st_limit(ax, st_limit_a_ratio(s.block.alpha_rad))
+    if st is not None:
+        handles.append(Line2D([], [], color="k", ls=(0, (4, 2)), lw=0.9, label="ST limit, 25 m/s²"))
+    who = variant_label(s.engine, s.engine_settings, restitution=s.restitution.label, dt_s=s.dt_s, block=s.block.name)
+    frac = f"; {100 * result.fraction_simulated:.0f} % of the cells simulated" if result.adaptive else ""
+    ax.set_title(for_matplotlib(f"{who}\n{s.block.name}, {s.pulse}, η = {s.eta:.4f}, {s.y.n}×{s.x.n} cells{frac}"),
+                 fontsize=9, loc="left")
+    leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.12), ncols=2, fontsize=7.5,
+                    frameon=False, borderaxespad=0.0)
+    return {"ax": ax, "image": image, "boundary": boundary, "hatch": hatch, "marks": marks, "st_limit": st,
+            "legend": leg}
+
+
+def plot_map_png(result, path, *, reference=None) -> Path:
+    """Draw :func:`plot_map` into ``path`` (PNG), without pyplot."""
+    from matplotlib.figure import Figure
+
+    from ..atomic import write_atomic
+
+    fig = Figure(figsize=(6.4, 5.6), layout="constrained")
+    plot_map(result, reference=reference, ax=fig.add_subplot())
+    path = Path(path)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=120))
     return path
+
+
+def reference_for(result):
+    """The reference map of an engine map's case and grid, computed in memory (milliseconds per
+    thousand cells), for its picture; None for a reference map or when it cannot be computed."""
+    if result.spec.engine == "reference":
+        return None
+    try:
+        from dataclasses import replace
+
+        from ...engines.registry import get_adapter
+        from ..maps import _put_result, empty_result
+
+        spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
+        ref = empty_result(spec)
+        cells = [(i, j) for i in range(spec.y.n) for j in range(spec.x.n)]
+        for (i, j), r in zip(cells, get_adapter("reference").run_many(spec.cases(cells))):
+            _put_result(ref, i, j, r)
+        return ref
+    except Exception:  # noqa: BLE001 - a picture without the overlay is still a picture
+        return None

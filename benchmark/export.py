@@ -1,0 +1,198 @@
+"""A map on its full grid: one row per cell, simulated or inferred, as a CSV file, a tidy
+``pandas.DataFrame`` or an ``xarray.Dataset`` (issue 14).
+
+An adaptive map simulates only some cells of its grid (``cells.csv`` holds those) and infers the
+others by its fill rule (:func:`rockbench.benchmark.adaptive.fill`: a block whose four corners agree
+takes their outcome). :func:`full_grid_rows` applies that rule and writes every cell of the grid,
+the inferred ones marked ``filled = true`` with the outcome only (their impacts, θ and flags are
+unknown, so those fields are empty). A full map has no filled cell.
+
+pandas and xarray are optional (``pip install 'rockbench[notebook]'``); only the two converters
+need them.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import numpy as np
+
+from ..reference_solver.errors import ConfigError
+from .atomic import write_atomic
+
+#: Outcome categories of a cell, in order (``failed``: the simulation gave no outcome;
+#: ``missing``: neither simulated nor inferred, an unfinished run).
+OUTCOME_CATEGORIES = ("rest", "rocking", "overturn", "failed", "missing")
+_FROM_CODE = {0: "rest", 1: "rocking", 2: "overturn", -1: "failed", -2: "missing"}
+
+#: The full-grid columns: cells.csv's, then ``filled`` and ``left_model``.
+FULL_GRID_EXTRA = ("filled", "left_model")
+
+#: Name of the full-grid file ``rockbench map --full-grid`` writes beside cells.csv.
+FULL_GRID_FILE = "cells-full.csv"
+
+
+def full_grid_rows(map_dir) -> list[dict]:
+    """Every cell of a map directory's grid, row by row (amplitude index ``i``, then frequency ``j``).
+
+    Parameters
+    ----------
+    map_dir : path
+        A run directory written by ``rockbench map`` (or one map of ``rockbench run``).
+
+    Returns
+    -------
+    list of dict
+        cells.csv's columns (text as written there for simulated cells) plus ``filled`` (True for a
+        cell the adaptive fill rule inferred) and ``left_model`` (True where the run left the
+        rigid model: slip, jump, lift-required, slip-required).
+    """
+    from .maps import load_map
+    from .store import COLUMNS, read_run, spec_variant
+
+    meta, rows = read_run(map_dir)
+    res = load_map(map_dir)
+    spec = res.spec
+    head = {"engine": spec.engine, "variant": spec_variant(spec), "block": spec.block.name, "pulse": spec.pulse,
+            "restitution": spec.restitution.label, "eta": repr(float(spec.eta))}
+    w, a, om, am = spec.w_ratios(), spec.a_ratios(), spec.omegas(), spec.amplitudes()
+    out = []
+    for i in range(spec.y.n):
+        for j in range(spec.x.n):
+            row = rows.get((i, j))
+            if row is not None:
+                r = {c: row[c] for c in COLUMNS}
+                # a map written before the variant column existed gets it from its spec
+                r["variant"] = r.get("variant") or head["variant"]
+                r["filled"] = False
+            else:
+                code = int(res.outcome[i, j])
+                r = {c: "" for c in COLUMNS}
+                r.update(head, w_ratio=repr(float(w[j])), a_ratio=repr(float(a[i])), omega_rad_s=repr(float(om[j])),
+                         amplitude_mps2=repr(float(am[i])), outcome=_FROM_CODE[code] if code >= 0 else "",
+                         status="filled" if code >= 0 else "missing", i=str(i), j=str(j))
+                r["filled"] = code >= 0
+            r["left_model"] = bool(res.left_model[i, j])
+            out.append(r)
+    return out
+
+
+def write_full_grid(map_dir, path=None) -> Path:
+    """Write :func:`full_grid_rows` of ``map_dir`` as CSV (default ``map_dir/cells-full.csv``), atomically."""
+    from .store import COLUMNS
+
+    rows = full_grid_rows(map_dir)
+    path = Path(path) if path is not None else Path(map_dir) / FULL_GRID_FILE
+    cols = list(COLUMNS) + list(FULL_GRID_EXTRA)
+
+    def write(tmp):
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(cols)
+        for r in rows:
+            w.writerow([_text(r[c]) for c in cols])
+        Path(tmp).write_text(buf.getvalue())
+
+    write_atomic(path, write)
+    return path
+
+
+def _text(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    return "" if v is None else str(v)
+
+
+# -- pandas and xarray ----------------------------------------------------------------------------
+
+_FLOAT = ("eta", "w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2", "max_abs_theta_rad", "wall_s", "t_overturn_s",
+          "t_uplift_s", "min_normal_mg", "max_friction_ratio")
+
+
+def _need(module: str):
+    import importlib
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise ImportError(f"this needs {module}: pip install 'rockbench[notebook]' (pandas and xarray)") from None
+
+
+def rows_to_dataframe(rows: list[dict]):
+    """A tidy ``pandas.DataFrame`` of full-grid rows: numbers as floats, ``outcome`` categorical
+    (:data:`OUTCOME_CATEGORIES`), ``valid``, ``filled`` and ``left_model`` boolean, ``flags`` a
+    string (``;``-separated), ``n_impacts`` a nullable integer (missing for filled cells)."""
+    pd = _need("pandas")
+    df = pd.DataFrame(rows)
+    if df.empty:
+        return df
+    for c in _FLOAT:
+        if c in df:
+            df[c] = pd.to_numeric(df[c].replace("", np.nan), errors="coerce").astype(float)
+    for c in ("i", "j"):
+        df[c] = pd.to_numeric(df[c]).astype(int)
+    df["n_impacts"] = pd.to_numeric(df["n_impacts"].replace("", np.nan), errors="coerce").astype("Int64")
+    df.loc[df["filled"].astype(bool), "n_impacts"] = pd.NA
+    for c in ("valid", "filled", "left_model"):
+        df[c] = df[c].map(lambda v: v if isinstance(v, bool) else str(v).strip().lower() in ("true", "1")).astype(bool)
+    status = df["status"].astype(str)
+    out = df["outcome"].astype(str).where(df["outcome"].astype(str) != "", np.where(status == "missing", "missing",
+                                                                                      "failed"))
+    df["outcome"] = pd.Categorical(out, categories=list(OUTCOME_CATEGORIES))
+    for c in ("engine", "variant", "block", "pulse", "restitution"):
+        df[c] = df[c].astype("category")
+    return df
+
+
+def rows_to_dataset(rows: list[dict]):
+    """An ``xarray.Dataset`` of one map's full-grid rows on dims ``(a_ratio, w_ratio)``.
+
+    Coordinates ``w_ratio`` (ω/p), ``a_ratio`` (a₀/(g·tanα)), ``omega_rad_s`` and ``amplitude_mps2``;
+    variables ``outcome`` (text), ``outcome_code`` (int8 with CF ``flag_values``/``flag_meanings``:
+    -2 missing, -1 failed, 0 rest, 1 rocking, 2 overturn), ``valid``, ``filled``, ``left_model``,
+    ``n_impacts`` (-1 where unknown), ``max_abs_theta_rad``, ``t_overturn_s``, ``min_normal_mg``,
+    ``max_friction_ratio``, ``wall_s``; the map's engine, variant, block, pulse, restitution and η
+    as attributes.
+    """
+    xr = _need("xarray")
+    df = rows_to_dataframe(rows)
+    if df.empty:
+        raise ConfigError("the map has no cells yet; let `rockbench map` finish (rerun it to resume).")
+    keys = {c: df[c].astype(str).unique() for c in ("engine", "variant", "block", "pulse", "restitution")}
+    if any(len(v) > 1 for v in keys.values()):
+        raise ConfigError("a Dataset holds one map; these rows mix several (use the DataFrame, or one map each).")
+    ni, nj = int(df["i"].max()) + 1, int(df["j"].max()) + 1
+    if len(df) != ni * nj:
+        raise ConfigError(f"the rows do not cover the {ni}×{nj} grid ({len(df)} rows); write the full grid first.")
+    df = df.sort_values(["i", "j"])
+
+    def grid(col, fill=np.nan, dtype=float):
+        v = df[col]
+        if hasattr(v, "to_numpy"):
+            v = v.to_numpy(dtype=dtype, na_value=fill) if dtype is not bool else v.to_numpy(dtype=bool)
+        return np.asarray(v).reshape(ni, nj)
+
+    codes = {name: code for code, name in _FROM_CODE.items()}
+    oc = np.array([codes[str(x)] for x in df["outcome"]], dtype=np.int8).reshape(ni, nj)
+    w = df["w_ratio"].to_numpy()[:nj]
+    a = df["a_ratio"].to_numpy()[::nj]
+    dims = ("a_ratio", "w_ratio")
+    ds = xr.Dataset(
+        {"outcome": (dims, np.asarray(df["outcome"].astype(str)).reshape(ni, nj)),
+         "outcome_code": (dims, oc, {"flag_values": [-2, -1, 0, 1, 2],
+                                     "flag_meanings": "missing failed rest rocking overturn"}),
+         "valid": (dims, grid("valid", dtype=bool)), "filled": (dims, grid("filled", dtype=bool)),
+         "left_model": (dims, grid("left_model", dtype=bool)),
+         "n_impacts": (dims, grid("n_impacts", -1, np.int64)),
+         "max_abs_theta_rad": (dims, grid("max_abs_theta_rad"), {"units": "rad"}),
+         "t_overturn_s": (dims, grid("t_overturn_s"), {"units": "s"}),
+         "min_normal_mg": (dims, grid("min_normal_mg"), {"long_name": "min N/(m·g) the rigid model needs"}),
+         "max_friction_ratio": (dims, grid("max_friction_ratio"), {"long_name": "max |F|/N the rigid model needs"}),
+         "wall_s": (dims, grid("wall_s"), {"units": "s"})},
+        coords={"w_ratio": ("w_ratio", w, {"long_name": "ω/p", "units": "1"}),
+                "a_ratio": ("a_ratio", a, {"long_name": "a₀/(g·tanα)", "units": "1"}),
+                "omega_rad_s": ("w_ratio", df["omega_rad_s"].to_numpy()[:nj], {"units": "rad/s"}),
+                "amplitude_mps2": ("a_ratio", df["amplitude_mps2"].to_numpy()[::nj], {"units": "m/s^2"})},
+        attrs={**{k: str(v[0]) for k, v in keys.items()}, "eta": float(df["eta"].iloc[0])})
+    return ds

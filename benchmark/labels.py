@@ -1,0 +1,140 @@
+"""Words for people: engine variants and restitution laws as a figure legend or a report shows them.
+
+Internal keys such as ``mujoco[settings=calibrated]`` and ``modified(k=0.8608)`` stay the keys of
+files and scores; pictures and the report say "MuJoCo 4.0, calibrated to η_H" and "η_M, k = 0.8608
+(average for M)".
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+#: Display names of the engines (registry name → name).
+ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet": "PyBullet", "exudyn": "Exudyn",
+                "mujoco_warp": "MuJoCo Warp", "drake": "Drake"}
+
+#: Engine settings that say nothing a reader needs when they have their default value.
+_QUIET = {"settings"}
+
+
+def engine_name(engine: str) -> str:
+    """``mujoco`` → ``MuJoCo``; unknown engines keep their registry name."""
+    return ENGINE_NAMES.get(str(engine), str(engine))
+
+
+def short_version(version) -> str:
+    """``4.0.0`` → ``4.0`` (a zero patch level says nothing); anything else as it is."""
+    v = str(version or "").strip()
+    parts = v.split(".")
+    if len(parts) == 3 and parts[2] == "0" and all(p.isdigit() for p in parts):
+        return ".".join(parts[:2])
+    return v
+
+
+def restitution_symbol(label: str, block: str | None = None) -> str:
+    """A restitution label in the paper's symbols.
+
+    ``housner`` → ``η_H``; ``modified(k=0.8608)`` → ``η_M, k = 0.8608`` with "(average k)" or
+    "(exact k)" when it is the preset's; a number → ``η = 0.75``.
+    """
+    t = str(label).strip().lower()
+    if t == "housner":
+        return "η_H"
+    m = re.fullmatch(r"modified\(k=([0-9.eE+-]+)\)", t)
+    if m:
+        k = float(m.group(1))
+        which = ""
+        if block:
+            from .presets import PRESETS
+            pre = PRESETS.get(str(block).upper())
+            if pre is not None and math.isclose(k, pre.k_average, abs_tol=5e-5):
+                which = ", average k"
+            elif pre is not None and math.isclose(k, pre.k_exact, abs_tol=5e-5):
+                which = ", exact k"
+        return f"η_M (k = {k:g}{which})"
+    try:
+        return f"η = {float(t):.4g}"
+    except ValueError:
+        return str(label)
+
+
+def _setting_words(key: str, value) -> str | None:
+    if key in _QUIET:
+        return None
+    if key == "drive":
+        return f"{value} drive"
+    if key == "friction":
+        return f"μ = {value:g}" if isinstance(value, (int, float)) else f"μ = {value}"
+    if key == "planar":
+        return "planar" if value else "3-D body"
+    if key == "mode":
+        return "integrated to rest" if value == "to-rest" else None
+    return f"{key} = {value}"
+
+
+def variant_label(engine: str, settings: dict | None = None, *, version=None, restitution: str | None = None,
+                  dt_s: float | None = None, block: str | None = None) -> str:
+    """A human label for an engine variant: ``MuJoCo 4.0, calibrated to η_H`` / ``PyBullet 3.2.7, as shipped``.
+
+    Parameters
+    ----------
+    engine : str
+        Registry name.
+    settings : dict, optional
+        The engine settings the map was run with (only those given); ``settings = "defaults"``
+        reads "as shipped", ``"calibrated"`` (the default) "calibrated to <target>".
+    version : str, optional
+        The engine's version (``run.json``).
+    restitution : str, optional
+        The map's restitution label: the target a calibrated variant was tuned to.
+    dt_s : float, optional
+        A time step other than the engine's default [s].
+    block : str, optional
+        Names the preset's average or exact k in a modified target.
+    """
+    s = dict(settings or {})
+    name = engine_name(engine)
+    v = short_version(version)
+    head = f"{name} {v}" if v and v not in ("test", "source", "None") and engine != "reference" else name
+    words = []
+    if engine != "reference":
+        if s.get("settings", "calibrated") == "defaults":
+            words.append("as shipped")
+        else:
+            words.append(f"calibrated to {restitution_symbol(restitution, block)}" if restitution else "calibrated")
+    elif restitution:
+        words.append(restitution_symbol(restitution, block))
+    words += [w for w in (_setting_words(k, val) for k, val in sorted(s.items())) if w]
+    if dt_s is not None:
+        words.append(f"Δt = {dt_s * 1e3:g} ms")
+    return head + (", " + ", ".join(words) if words else "")
+
+
+def entry_label(entry, *, with_restitution: bool = True) -> str:
+    """:func:`variant_label` of a :class:`~rockbench.benchmark.scoring.MapEntry` (from its run.json)."""
+    run = entry.run or {}
+    spec = run.get("spec") or {}
+    version = (run.get("engine") or {}).get("version")
+    return variant_label(entry.engine, spec.get("engine_settings") or {}, version=version,
+                         restitution=entry.restitution if with_restitution else None, dt_s=spec.get("dt_s"),
+                         block=entry.block)
+
+
+PULSE_WORDS = {"sine": "one sine wave", "cosine": "one cosine wave", "half-sine": "one half-sine pulse"}
+
+
+def case_title(block: str, pulse: str) -> str:
+    """``B3M, one sine wave``."""
+    return f"{block}, {PULSE_WORDS.get(pulse, pulse)}"
+
+
+def for_matplotlib(text: str) -> str:
+    """The paper's symbols in matplotlib's mathtext: ``η_H`` → η with a subscript H (and η_M)."""
+    return (str(text).replace("η_H", r"$\eta_\mathrm{H}$").replace("η_M", r"$\eta_\mathrm{M}$"))
+
+
+def for_html(text: str) -> str:
+    """The paper's symbols in HTML (escaped): ``η_H`` → ``η<sub>H</sub>``."""
+    import html
+    return html.escape(str(text)).replace("η_H", "η<sub>H</sub>").replace("η_M", "η<sub>M</sub>")

@@ -1,0 +1,44 @@
+"""rockbench: how faithfully do physics engines reproduce a rigid block rocking and overturning on a
+shaking table (Čeh, Jelenić et al., Engineering Review 42 (2022) 149–162)?
+
+The notebook front door (everything else lives in the three floors: :mod:`rockbench.reference_solver`,
+:mod:`rockbench.engines`, :mod:`rockbench.benchmark`)::
+
+    import rockbench
+    sim = rockbench.simulate("B3M", w_ratio=6, a_ratio=6.1, restitution="modified", k=0.7595)
+    sim.outcome, sim.t_s, sim.theta_rad          # 'overturn', θ(t) as arrays
+    ds = rockbench.stability_map("B3M", w_ratio=(1, 12, 40), a_ratio=(1, 10, 40))   # xarray.Dataset
+    run = rockbench.load_run("rockbench-results/quick")                              # a finished run
+
+``python -m rockbench`` is the command line (the ``rockbench`` console script). Importing this
+package is cheap: the solver, the engines and plotting load on first use.
+"""
+
+from __future__ import annotations
+
+__all__ = ["__version__", "simulate", "stability_map", "load_run", "Simulation", "Run"]
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("rockbench")
+    except PackageNotFoundError:  # a source tree that was never installed
+        return "0+source"
+
+
+__version__ = _version()
+
+_LAZY = {"simulate", "stability_map", "load_run", "Simulation", "Run"}
+
+
+def __getattr__(name: str):
+    # the API pulls in numpy, numba and the engines' registry: load it on first use only
+    if name in _LAZY:
+        from .benchmark import api
+        return getattr(api, name)
+    raise AttributeError(f"module 'rockbench' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | _LAZY)

@@ -1,0 +1,178 @@
+"""Every code example of the README and docs/ runs as a test.
+
+- Python blocks run, in order, in one namespace per file, in a fresh folder.
+- CSV blocks load as shaking-table outcomes; JSON blocks parse (a block with ``...`` is a schematic
+  of a document's layout, and is checked to be one).
+- Shell blocks (``bash``, ``console``, ``sh``) and the ``run:`` lines of YAML blocks: every
+  ``rockbench`` command is parsed by the real command line (unknown commands or options fail), its
+  engine must be registered, and the cheap ones run for real: ``blocks``, ``engines``, reference
+  ``simulate`` and ``map``, ``check-adapter reference``, ``run`` (as ``run --plan``: the suite and
+  its options are checked without computing it). Engine maps, calibrations and scoring of maps
+  the examples did not compute are parsed only (minutes each; the engine tests cover them).
+- ``python benchmarks/X.py`` lines: the script exists and its ``--help`` works.
+- Pip and git lines are setup, not examples, and are skipped. A block with no language tag fails:
+  every example says what it is.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+FILES = [ROOT / "README.md"] + sorted((ROOT / "docs").glob("*.md"))
+FENCE = re.compile(r"^```([\w-]*)[^\n]*\n(.*?)^```", re.S | re.M)
+SHELL = {"bash", "console", "sh", "shell"}
+#: subcommands run for real (when their engine is the reference)
+CHEAP = {"blocks", "engines", "simulate", "map", "check-adapter", "run"}
+
+
+def blocks(path: Path):
+    return [(m.group(1).lower(), m.group(2)) for m in FENCE.finditer(path.read_text())]
+
+
+def _ids(paths):
+    return [p.relative_to(ROOT).as_posix() for p in paths]
+
+
+def shell_commands(text: str) -> list[str]:
+    """Command lines of a shell block: prompts stripped, continuations joined, comments dropped."""
+    out, cur = [], ""
+    for line in text.splitlines():
+        line = line.rstrip()
+        if line.startswith("$ "):
+            line = line[2:]
+        if line.endswith("\\"):
+            cur += line[:-1] + " "
+            continue
+        line = cur + line
+        cur = ""
+        if line.strip() and not line.lstrip().startswith("#"):
+            out.append(line.strip())
+    return out
+
+
+def _argv(cmd: str) -> list[str]:
+    argv = shlex.split(cmd, comments=True)
+    # a pipe or redirection ends the command
+    for k, a in enumerate(argv):
+        if a in ("|", ">", ">>", "&&"):
+            return argv[:k]
+    return argv
+
+
+def _rockbench(argv: list[str], tmp: Path, capsys) -> None:
+    from rockbench.benchmark.cli import build_parser, main
+    from rockbench.engines.registry import names
+
+    args = build_parser().parse_args(argv)       # unknown commands and options raise SystemExit
+    engine = getattr(args, "engine", None) or "reference"
+    assert engine in names(), f"unknown engine {engine!r} in {' '.join(argv)}"
+    if args.command not in CHEAP or engine != "reference":
+        return
+    if args.command == "check-adapter" and argv[-1] != "reference":
+        return
+    if args.command == "run":
+        argv = argv + ["--plan"]
+    if args.command == "map" and "--serial" not in argv:
+        argv = argv + ["--serial"]
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 0, f"`rockbench {' '.join(argv)}` exited {code}: {err[-800:]}"
+
+
+def _run_shell(cmds: list[str], tmp: Path, capsys) -> int:
+    n = 0
+    for cmd in cmds:
+        argv = _argv(cmd)
+        if not argv:
+            continue
+        exe = Path(argv[0]).name
+        if exe == "rockbench":
+            _rockbench(argv[1:], tmp, capsys)
+            n += 1
+        elif exe.startswith("python") and len(argv) > 1 and argv[1].startswith("benchmarks/"):
+            script = ROOT / argv[1]
+            assert script.is_file(), f"{argv[1]} does not exist"
+            r = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=300,
+                               cwd=tmp)
+            assert r.returncode == 0, f"{argv[1]} --help: {r.stderr[-800:]}"
+            n += 1
+        elif exe.startswith("python") and "-m" in argv and "pytest" in argv:
+            n += 1                                   # the test command: this is it running
+        elif exe in ("pip", "git", "sudo", "apt-get", "cd", "export", "ls") or exe.startswith("python3"):
+            continue                                 # setup
+        elif ".venv/bin/" in argv[0] or argv[0].startswith(".venv"):
+            continue                                 # setup through the project's venv
+        else:
+            raise AssertionError(f"an example runs {argv[0]!r}, which this test does not know how to check")
+    return n
+
+
+@pytest.mark.parametrize("path", FILES, ids=_ids(FILES))
+def test_every_code_example_runs(path, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    _fake_run_folder(tmp_path)
+    ns: dict = {"__name__": "__docs__"}
+    checked = 0
+    for lang, text in blocks(path):
+        if lang == "python":
+            exec(compile(text, f"{path.name}:python", "exec"), ns)
+        elif lang == "csv":
+            from rockbench.benchmark.experiments import parse_outcomes
+            assert parse_outcomes(text, name=path.name)
+        elif lang == "json":
+            if "..." in text:
+                assert re.search(r'"\.\.\."|\.\.\.[\]}]|, \.\.\.', text), "a schematic marks its gaps with ..."
+            else:
+                json.loads(text)
+        elif lang in SHELL:
+            checked += _run_shell(shell_commands(text), tmp_path, capsys)
+        elif lang == "yaml":
+            cmds = [m.group(1) for m in re.finditer(r"-\s*run:\s*(.+)", text)]
+            checked += _run_shell(cmds, tmp_path, capsys)
+        elif lang in ("", "text"):
+            assert lang == "text", f"{path.name}: a code block without a language tag; say what it is"
+        else:
+            raise AssertionError(f"{path.name}: no check for ```{lang} blocks")
+        checked += 1
+    assert checked or not blocks(path)
+
+
+def _fake_run_folder(tmp: Path) -> None:
+    """``rockbench-results/quick`` as `rockbench run --quick` would leave it (small hand-made maps,
+    scored), for the examples that read a finished run."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from mapdirs import band, write_map
+
+    from rockbench.benchmark.scoring import score_dirs, write_json_atomic
+    root = tmp / "rockbench-results" / "quick"
+    write_map(root / "maps" / "reference" / "B3M-sine-housner", band(9, 11, 4), block="B3M")
+    write_map(root / "maps" / "mujoco-settings=calibrated" / "B3M-sine-housner", band(9, 11, 5), engine="mujoco",
+              block="B3M", settings={"settings": "calibrated"})
+    write_json_atomic(root / "score.json", score_dirs([root / "maps"]))
+
+
+def test_the_notebook_example_is_ten_lines():
+    text = (ROOT / "docs" / "notebook.md").read_text()
+    first = blocks(ROOT / "docs" / "notebook.md")[0]
+    assert first[0] == "python" and "## Ten lines" in text
+    lines = [ln for ln in first[1].splitlines() if ln.strip()]
+    assert len(lines) <= 10 and any("stability_map" in ln for ln in lines)
+
+
+def test_no_document_points_at_files_a_user_does_not_have():
+    for path in FILES:
+        text = path.read_text()
+        assert "../shared/" not in text and "shared/CLI.md" not in text and "shared/STYLE.md" not in text, path.name
+        for target in re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", text):
+            if "://" in target:
+                continue
+            assert (path.parent / target).exists(), f"{path.name} links to {target}, which does not exist"

@@ -1,0 +1,279 @@
+"""What each picture draws: artists, labels, nothing off the axes, legends clear of the data."""
+
+import re
+
+import numpy as np
+import pytest
+
+from rockbench.benchmark.scores import LabelMap
+
+from mapdirs import band
+
+matplotlib = pytest.importorskip("matplotlib")
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+from matplotlib.collections import LineCollection, QuadMesh  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+INTERNAL_KEY = re.compile(r"\w+\[[^\]]*=[^\]]*\]|modified\(k=|housner\b")
+
+
+def _renderer(fig):
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    fig.canvas.draw()
+    return fig.canvas.get_renderer()
+
+
+def assert_nothing_off_axes(ax, tol=1e-6):
+    """Every line, marker, line collection and text of ``ax`` lies within its limits (cell fills are
+    clipped at the frame)."""
+    x0, x1 = sorted(ax.get_xlim())
+    y0, y1 = sorted(ax.get_ylim())
+    dx, dy = tol * (x1 - x0) + 1e-12, tol * (y1 - y0) + 1e-12
+    for line in ax.lines:
+        if line.get_transform() != ax.transData:
+            # axhline/axvline: the data coordinate they sit at must be on the chart
+            x, y = line.get_xdata(), line.get_ydata()
+            if line.get_transform() == ax.get_yaxis_transform():
+                assert all(y0 - dy <= v <= y1 + dy for v in y), f"{line} off the axes"
+            elif line.get_transform() == ax.get_xaxis_transform():
+                assert all(x0 - dx <= v <= x1 + dx for v in x), f"{line} off the axes"
+            continue
+        x = np.asarray(line.get_xdata(), float)
+        y = np.asarray(line.get_ydata(), float)
+        assert np.all((x >= x0 - dx) & (x <= x1 + dx)), f"{line.get_label()} leaves the x range"
+        assert np.all((y >= y0 - dy) & (y <= y1 + dy)), f"{line.get_label()} leaves the y range"
+    for c in ax.collections:
+        if isinstance(c, QuadMesh):
+            assert c.get_clip_on()
+            continue
+        if isinstance(c, LineCollection):
+            for seg in c.get_segments():
+                seg = np.asarray(seg)
+                assert np.all((seg[:, 0] >= x0 - dx) & (seg[:, 0] <= x1 + dx))
+                assert np.all((seg[:, 1] >= y0 - dy) & (seg[:, 1] <= y1 + dy))
+    r = _renderer(ax.figure)
+    box = ax.get_window_extent(r).expanded(1.0, 1.0).padded(2)
+    for t in ax.texts:
+        if t.get_text():
+            bb = t.get_window_extent(r)
+            assert box.x0 <= bb.x0 and bb.x1 <= box.x1 and box.y0 <= bb.y0 and bb.y1 <= box.y1, t.get_text()
+
+
+def assert_legend_clear(fig, legend):
+    """The legend lies inside the figure and overlaps no axes (so it covers no data)."""
+    r = _renderer(fig)
+    bb = legend.get_window_extent(r)
+    fb = fig.bbox
+    assert fb.x0 - 1 <= bb.x0 and bb.x1 <= fb.x1 + 1 and fb.y0 - 1 <= bb.y0 and bb.y1 <= fb.y1 + 1, "legend cut off"
+    for ax in fig.axes:
+        if ax.get_visible():
+            assert not bb.overlaps(ax.get_window_extent(r)), "legend over an axes"
+
+
+def _labels(legend):
+    return [t.get_text() for t in legend.get_texts()]
+
+
+# -- maps for the pictures ---------------------------------------------------------------------
+
+def _maps():
+    w = np.linspace(1.0, 10.0, 12)
+    a = np.linspace(1.0, 8.0, 10)
+    ref_codes = band(10, 12, 5)
+    ref_valid = np.ones((10, 12), bool)
+    ref_valid[8:, :3] = False                       # lift-required in the top left
+    ref = LabelMap(w, a, ref_codes, ref_valid, ~ref_valid)
+    mod = LabelMap(w, a, band(10, 12, 6))
+    eng_codes = band(10, 12, 5)
+    eng_codes[5, 7] = 1                              # misses an overturn
+    eng_codes[4, 2] = 2                              # overturns where the reference does not
+    eng_codes[2, 9] = -1                             # failed
+    eng_valid = eng_codes >= 0
+    eng_valid[9, 0] = False                          # flagged (outside the domain: the right answer)
+    eng = LabelMap(w, a, eng_codes, eng_valid, ~eng_valid & (eng_codes >= 0))
+    return w, a, ref, mod, eng
+
+
+def test_panel_draws_every_layer_where_it_belongs():
+    from rockbench.benchmark.plots.stability import plot_panel
+    w, a, ref, mod, eng = _maps()
+    d = plot_panel(eng, [("reference, η_H", ref), ("reference, η_M with the average k", mod)], like=ref,
+                   points=[(3.0, 2.0, "R", 1), (9.0, 7.0, "O", 2), (50.0, 2.0, "T", 1)], st_limit=6.5,
+                   title="MuJoCo 4.0, calibrated to η_H")
+    ax = d["ax"]
+    assert d["fill"] is not None and d["hatch"] is not None
+    assert set(d["references"]) == {"reference, η_H", "reference, η_M with the average k"}
+    assert all(isinstance(v, LineCollection) for v in d["references"].values())
+    # each disagreement marked at its cell, by kind
+    got = {k: list(zip(np.round(v.get_xdata(), 6), np.round(v.get_ydata(), 6))) for k, v in d["marks"].items()}
+    assert got["missed_overturn"] == [(round(w[7], 6), round(a[5], 6))]
+    assert got["false_overturn"] == [(round(w[2], 6), round(a[4], 6))]
+    assert got["failed"] == [(round(w[9], 6), round(a[2], 6))]
+    assert got["invalid"] == [(round(w[0], 6), round(a[9], 6))]
+    # the ST limit on the chart, the point outside it left out
+    assert d["st_limit"] is not None and d["st_limit"][1].get_text() == "ST limit"
+    assert set(d["points"]) == {"R", "O"}
+    assert "calibrated to" in ax.get_title(loc="left") and not INTERNAL_KEY.search(ax.get_title(loc="left"))
+    assert_nothing_off_axes(ax)
+
+
+def test_panel_leaves_out_an_st_limit_off_the_chart():
+    from rockbench.benchmark.plots.stability import plot_panel
+    _, _, ref, _, eng = _maps()
+    d = plot_panel(eng, [("reference, η_H", ref)], st_limit=20.0)
+    assert d["st_limit"] is None and "st" not in d["handles"]
+    assert not any("ST limit" in t.get_text() for t in d["ax"].texts)
+
+
+def test_small_multiples_share_one_legend_below_the_panels():
+    from rockbench.benchmark.plots.stability import plot_panels
+    _, _, ref, mod, eng = _maps()
+    panels = [{"engine": eng, "references": [("reference, η_H", ref), ("reference, η_M with the average k", mod)],
+               "like": ref, "st_limit": 6.5, "title": t} for t in ("MuJoCo 4.0, calibrated to η_H",
+                                                                   "PyBullet 3.2.7, as shipped",
+                                                                   "Exudyn 1.9, calibrated to η_H", "Drake 1.51")]
+    d = plot_panels(panels, suptitle="B3M, one sine wave")
+    fig = d["figure"]
+    assert len(d["axes"]) == 4 and sum(ax.get_visible() for ax in fig.axes) == 4
+    labels = _labels(d["legend"])
+    assert labels[:2] == ["engine overturns", "rigid model needs lift-off or sliding"]
+    assert "overturns where the reference does not" in labels and "ST limit (shaking table, 25 m/s²)" in labels
+    assert len(labels) == len(set(labels))
+    assert not any(INTERNAL_KEY.search(t) for t in labels)
+    assert_legend_clear(fig, d["legend"])
+    for ax in d["axes"]:
+        assert_nothing_off_axes(ax)
+    # readable at the size the report shows it (110 dpi, shown 1:1)
+    assert min(t.get_fontsize() for t in d["legend"].get_texts()) >= 7
+
+
+def test_boundary_lines_are_smooth_and_keep_every_cell_on_its_side():
+    from matplotlib.path import Path as MPath
+
+    from rockbench.benchmark.plots.stability import boundary_lines
+    n = 30
+    w = a = np.linspace(0.0, 29.0, n)
+    ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    codes = np.where(ii > jj + 0.5, 2, 1)            # an oblique staircase boundary
+    codes[5, 20] = 2                                  # an isolated overturn cell
+    lines = boundary_lines(LabelMap(w, a, codes))
+    assert len(lines) == 2
+    loop = next(p for p in lines if np.allclose(p[0], p[-1]))
+    path = MPath(loop)
+    inside = [(i, j) for i in range(n) for j in range(n) if path.contains_point((w[j], a[i]))]
+    assert inside == [(5, 20)]                        # the isolated cell, and only it, inside its loop
+    diag = next(p for p in lines if p is not loop)
+    # the staircase is smoothed: the line stays within a third of a cell of the diagonal a = w + 0.5
+    mid = diag[5:-5]
+    assert np.max(np.abs(mid[:, 1] - mid[:, 0] - 0.5)) < 0.34
+    # and every cell stays on its side of it
+    order = np.argsort(diag[:, 0])
+    line_a = np.interp(w, diag[order, 0], diag[order, 1])      # the line's height over each column
+    for i in range(n):
+        for j in range(n):
+            if (i, j) != (5, 20):
+                assert (a[i] > line_a[j]) == (codes[i, j] == 2), (i, j)
+
+
+def test_map_picture_overlays_the_reference_and_marks_invalid_cells(tmp_path):
+    from types import SimpleNamespace
+
+    from rockbench.benchmark.maps import MapSpec, make_axis
+    from rockbench.benchmark.plots.stability import plot_map, plot_map_png
+    from rockbench.benchmark.presets import get_preset
+    from rockbench.reference_solver.restitution import Restitution
+    _, _, ref, _, eng = _maps()
+    spec = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 10, 12),
+                   make_axis("--a-ratio", "a_ratio", 1, 8, 10), engine="mujoco", engine_settings={"settings": "calibrated"})
+    res = SimpleNamespace(spec=spec, outcome=eng.codes, valid=eng.valid, left_model=eng.left_model,
+                          simulated=np.ones(eng.codes.shape, bool), w_ratio=eng.w_ratio, a_ratio=eng.a_ratio,
+                          adaptive=False, fraction_simulated=1.0)
+    fig = Figure(figsize=(6.4, 5.6), layout="constrained")
+    d = plot_map(res, reference=ref, ax=fig.add_subplot())
+    assert d["boundary"] is not None and d["hatch"] is not None
+    assert len(d["marks"]["invalid"].get_xdata()) == 1 and len(d["marks"]["failed"].get_xdata()) == 1
+    labels = _labels(d["legend"])
+    assert "reference boundary ($\\eta_\\mathrm{H}$)" in labels and any(t.startswith("invalid") for t in labels)
+    assert d["ax"].get_title(loc="left").startswith("MuJoCo, calibrated to")
+    assert_legend_clear(fig, d["legend"])
+    assert_nothing_off_axes(d["ax"])
+    p = plot_map_png(res, tmp_path / "map.png", reference=ref)
+    assert p.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_theta_plot_draws_references_in_front_and_each_curve_to_its_own_end():
+    from rockbench.benchmark.plots.trajectories import plot_theta
+    from rockbench.reference_solver.pulses import make_pulse
+    alpha = 0.2
+    t1, t2 = np.linspace(0, 0.6, 300), np.linspace(0, 0.35, 100)
+    runs = [{"label": "reference, η_H: rocking", "t_s": t1, "theta_rad": 0.1 * np.sin(20 * t1), "reference": True,
+             "impacts_s": [np.pi / 20, 2 * np.pi / 20], "outcome": "rocking"},
+            {"label": "MuJoCo 4.0, calibrated to η_H: rocking", "t_s": t2, "theta_rad": 0.08 * np.sin(20 * t2),
+             "outcome": "rocking"}]
+    d = plot_theta(runs, alpha_rad=alpha, pulse=make_pulse("sine", 10.0, 40.0))
+    ax = d["ax"]
+    ref, eng = d["lines"]["reference, η_H: rocking"], d["lines"]["MuJoCo 4.0, calibrated to η_H: rocking"]
+    assert ref.get_zorder() > eng.get_zorder()                      # the reference in front
+    assert eng.get_xdata()[-1] == pytest.approx(0.35) and ax.get_xlim()[1] == pytest.approx(0.6)
+    assert list(d["impacts"]["reference, η_H: rocking"].get_xdata()) == pytest.approx([np.pi / 20, np.pi / 10])
+    assert set(d["ends"]) == {"reference, η_H: rocking", "MuJoCo 4.0, calibrated to η_H: rocking"}
+    # the y range fits the data (|θ/α| ≤ 0.5 here: no ±1 threshold stretched in)
+    assert d["ylim"][1] == pytest.approx(0.5 * 1.08)
+    assert d["ax_pulse"] is not None and d["ax_pulse"].get_shared_x_axes().joined(ax, d["ax_pulse"])
+    assert_legend_clear(d["figure"], d["legend"])
+    assert_nothing_off_axes(ax)
+    assert_nothing_off_axes(d["ax_pulse"])
+
+
+def test_theta_plot_caps_the_range_of_an_overturning_curve():
+    from rockbench.benchmark.plots.trajectories import plot_theta
+    t = np.linspace(0, 1, 200)
+    d = plot_theta([{"label": "x", "t_s": t, "theta_rad": 3 * t, "outcome": "overturn"}], alpha_rad=1.0)
+    # the range ends just above the threshold: the fall after it would squash the rest
+    assert d["ylim"][1] == pytest.approx(1.08, rel=0.02)
+    assert d["ends"]["x"].get_ydata()[0] == pytest.approx(1.0)
+
+
+def test_speed_accuracy_axes_do_not_exaggerate():
+    from rockbench.benchmark.plots.speed import plot_speed_accuracy
+    rows = [{"variant": "a", "label": "MuJoCo 4.0, calibrated to η_H", "ms_per_cell": 0.8, "agreement": 0.97},
+            {"variant": "a[x=1]", "ms_per_cell": 12.0, "agreement": 0.96},
+            {"variant": "b", "ms_per_cell": None, "agreement": 0.5}]
+    d = plot_speed_accuracy(rows)
+    ax = d["ax"]
+    assert set(d["points"]) == {"a", "a[x=1]"}
+    assert ax.get_ylim() == pytest.approx((0.0, 1.02)) and "0–1" in ax.get_ylabel()
+    fig = ax.figure
+    _renderer(fig)
+    ticks = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
+    assert ticks and all(re.fullmatch(r"[0-9.]+", t) for t in ticks), ticks   # plain numbers, no 10^x
+    assert _labels(d["legend"])[0] == "MuJoCo 4.0, calibrated to $\\eta_\\mathrm{H}$"
+    assert_legend_clear(fig, d["legend"])
+
+
+def test_labels_in_words():
+    from rockbench.benchmark.labels import restitution_symbol, short_version, variant_label
+    assert variant_label("mujoco", {"settings": "calibrated"}, version="4.0.0", restitution="housner") == \
+        "MuJoCo 4.0, calibrated to η_H"
+    assert variant_label("pybullet", {"settings": "defaults"}, version="3.2.7") == "PyBullet 3.2.7, as shipped"
+    assert variant_label("exudyn", {"drive": "table"}, restitution="modified(k=0.8608)", block="B3M",
+                         dt_s=1e-4) == "Exudyn, calibrated to η_M (k = 0.8608, average k), table drive, Δt = 0.1 ms"
+    assert restitution_symbol("0.9") == "η = 0.9" and short_version("1.9.1") == "1.9.1"
+
+
+def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):
+    """Fig. 5 (B6M): the table limit, a₀/(g·tanα) = 11.5, lies above the chart's 10: neither drawn nor
+    listed; the legend sits below the axes and the labels read as the paper writes them."""
+    from rockbench.benchmark.figures import FIGURES, curve_spec
+    from rockbench.benchmark.maps import run_map
+    from rockbench.benchmark.plots.stability import plot_stability
+    _, curves = FIGURES[5]
+    maps = [run_map(curve_spec(c, 12), tmp_path / f"m{k}", serial=True, plot=False) for k, c in enumerate(curves)]
+    d = plot_stability(maps, [c.label() for c in curves], title="Fig. 5")
+    labels = _labels(d["legend"])
+    assert d["st_limit_a_ratio"] is None and not any("ST limit" in t for t in labels)
+    assert "B6M, $\\eta_\\mathrm{H}$ = 0.9294" in labels and not any("(η =" in t for t in labels)
+    assert len(d["boundaries"]) == 2
+    assert_legend_clear(d["ax"].figure, d["legend"])
+    assert_nothing_off_axes(d["ax"])
