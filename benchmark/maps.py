@@ -421,7 +421,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     """
     from ..engines.registry import get_adapter
     from . import adaptive as adaptive_mod
-    from .executors import make_executor
+    from .executors import DASK_SCRATCH, cap_jobs, make_executor
     from .store import RunStore
 
     if not (isinstance(cell_timeout_s, (int, float)) and math.isfinite(cell_timeout_s) and cell_timeout_s > 0):
@@ -435,8 +435,12 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     t0 = time.perf_counter()
     own = executor is None
     if own:
+        jobs, note = cap_jobs(jobs, spec.n_cells)
+        if note and log:
+            log(note)
         executor = make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=scheduler, serial=serial,
-                                 log_path=None)
+                                 log_path=None,
+                                 scratch_dir=Path(out_dir) / DASK_SCRATCH if scheduler == "local" else None)
     elif executor.init["engine"] != spec.engine or executor.init["settings"] != dict(spec.engine_settings):
         raise ConfigError(f"the executor given runs engine {executor.init['engine']!r} with settings "
                           f"{executor.init['settings']}, the map needs {spec.engine!r} with {dict(spec.engine_settings)}.")

@@ -41,6 +41,11 @@ COLUMNS = ["engine", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio
            "t_overturn_s", "t_uplift_s", "i", "j"]
 
 
+#: what a map directory may hold before its run.json exists: the lock, and the scratch space of a
+#: ``--scheduler local`` cluster (executors.DASK_SCRATCH)
+_OURS = frozenset((".lock", ".dask-scratch"))
+
+
 def utc_now() -> str:
     return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
@@ -119,7 +124,7 @@ class RunStore:
         if d.exists() and not d.is_dir():
             raise ConfigError(f"--out {str(d)!r} is a file; give a directory for the map.")
         run_json = d / "run.json"
-        if d.exists() and any(p.name != ".lock" for p in d.iterdir()) and not run_json.exists():
+        if d.exists() and any(p.name not in _OURS for p in d.iterdir()) and not run_json.exists():
             raise ConfigError(f"--out {str(d)!r} exists and is not a rockbench map directory (no run.json); "
                               "give a new or empty directory.")
         previous = None
