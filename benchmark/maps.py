@@ -87,7 +87,14 @@ class Axis:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Axis":
-        return cls(str(d["name"]), float(d["lo"]), float(d["hi"]), int(d["n"]))
+        name = str(d["name"])
+        return make_axis(f"the axis {name}", name, float(d["lo"]), float(d["hi"]), _whole(d["n"], f"{name}.n"))
+
+
+def _whole(v, what: str) -> int:
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise ValueError(f"{what} must be a whole number, got {v!r}")
+    return v
 
 
 def parse_range(option: str, text: str, name: str) -> Axis:
@@ -263,9 +270,19 @@ class MapSpec:
 
     @classmethod
     def from_dict(cls, d: dict) -> "MapSpec":
+        """Inverse of :meth:`to_dict`; ValueError (ConfigError) or TypeError for a damaged description."""
+        engine, settings, dt = d.get("engine", "reference"), d.get("engine_settings") or {}, d.get("dt_s")
+        linearized = d.get("linearized", False)
+        if not isinstance(engine, str) or not engine:
+            raise ValueError(f"spec.engine must be an engine name, got {engine!r}")
+        if not isinstance(settings, dict):
+            raise ValueError(f"spec.engine_settings must be an object, got {settings!r}")
+        if dt is not None and (isinstance(dt, bool) or not isinstance(dt, (int, float)) or not 0 < dt < math.inf):
+            raise ValueError(f"spec.dt_s must be a number of seconds > 0 or null, got {dt!r}")
+        if not isinstance(linearized, bool):
+            raise ValueError(f"spec.linearized must be true or false, got {linearized!r}")
         return cls(Block.from_dict(d["block"]), d["pulse"], Restitution.from_dict(d["restitution"]),
-                   Axis.from_dict(d["x"]), Axis.from_dict(d["y"]), d.get("engine", "reference"),
-                   dict(d.get("engine_settings") or {}), d.get("dt_s"), bool(d.get("linearized", False)))
+                   Axis.from_dict(d["x"]), Axis.from_dict(d["y"]), engine, dict(settings), dt, linearized)
 
     def identity(self) -> dict:
         """The fields that make two maps the same (derived numbers excluded), JSON-comparable."""
@@ -517,19 +534,38 @@ def load_map(out_dir) -> MapResult:
     from .store import read_run
 
     meta, rows = read_run(out_dir)
-    spec = MapSpec.from_dict(meta["spec"])
+    spec, adaptive, stride = _spec_of_run(meta, Path(out_dir) / "run.json")
     result = empty_result(spec)
-    opts = meta.get("options", {})
-    result.adaptive = bool(opts.get("adaptive", False))
-    result.coarse_stride = int(opts.get("coarse_stride", 1))
+    result.adaptive, result.coarse_stride = adaptive, stride
     for (i, j), row in rows.items():
         _put(result, i, j, row)
     if result.adaptive:
         adaptive_mod.fill(result.outcome, result.simulated, result.coarse_stride)
     result.failures = [{"i": i, "j": j, "flag": r["flags"], "message": r["message"]}
                        for (i, j), r in sorted(rows.items()) if r["status"] != "ok"]
-    result.wall_s = float((meta.get("summary") or {}).get("wall_s", 0.0))
+    summary = meta.get("summary")
+    try:
+        result.wall_s = float(summary.get("wall_s", 0.0)) if isinstance(summary, dict) else 0.0
+    except (TypeError, ValueError):
+        result.wall_s = 0.0   # only shown in reports; a damaged summary does not change the map
     return result
+
+
+def _spec_of_run(meta: dict, where: Path) -> tuple[MapSpec, bool, int]:
+    """The spec and the adaptive options a run.json records; ConfigError naming the file when damaged."""
+    try:
+        spec = MapSpec.from_dict(meta["spec"])
+        opts = meta.get("options") or {}
+        adaptive = opts.get("adaptive", False)
+        stride = opts.get("coarse_stride", 1)
+        if not isinstance(adaptive, bool) or isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
+            raise ValueError(f"options adaptive={adaptive!r}, coarse_stride={stride!r}")
+    except KeyError as e:
+        raise ConfigError(f"{str(where)!r} is damaged: it lacks {e}; give a new --out directory "
+                          "(or rerun `rockbench map` into a new one).") from None
+    except (TypeError, ValueError, AttributeError) as e:
+        raise ConfigError(f"{str(where)!r} is damaged: {e}; give a new --out directory.") from None
+    return spec, adaptive, stride
 
 
 # -- helpers ----------------------------------------------------------------------------------

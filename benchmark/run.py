@@ -146,9 +146,11 @@ def load_suite(path) -> Suite:
     """
     p = Path(path)
     try:
-        raw = tomllib.loads(p.read_text())
+        raw = tomllib.loads(p.read_bytes().decode("utf-8-sig"))
     except OSError as e:
-        raise ConfigError(f"cannot read suite {str(p)!r}: {e}.") from None
+        raise ConfigError(f"cannot read suite {str(p)!r}: {e.strerror or e}.") from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"suite {str(p)!r} is not UTF-8 text (byte {e.start}); give a TOML suite file.") from None
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"suite {str(p)!r} is not valid TOML: {e}.") from None
     for table, val in raw.items():

@@ -158,17 +158,25 @@ def variant_name(engine: str, settings: dict | None = None, dt_s: float | None =
 
 
 def _read_json(p: Path) -> dict:
+    """A JSON object from ``p``; ConfigError naming the file when it is unreadable or not an object."""
     try:
-        return json.loads(p.read_text())
-    except (OSError, ValueError) as e:
-        raise ConfigError(f"cannot read {str(p)!r} ({e}); is it a rockbench file?") from None
+        doc = json.loads(p.read_bytes().decode("utf-8-sig"))
+    except (OSError, ValueError) as e:   # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        why = e.strerror if isinstance(e, OSError) and e.strerror else e
+        raise ConfigError(f"cannot read {str(p)!r} ({why}); is it a rockbench file?") from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{str(p)!r} is damaged: it holds {'null' if doc is None else type(doc).__name__}, not a "
+                          "JSON object; is it a rockbench file?")
+    return doc
 
 
 def _read_cells(path: Path) -> tuple[LabelMap, dict]:
     try:
-        text = path.read_text()
+        text = path.read_bytes().decode("utf-8-sig")
     except OSError as e:
-        raise ConfigError(f"cannot read {str(path)!r}: {e}.") from None
+        raise ConfigError(f"cannot read {str(path)!r}: {e.strerror or e}.") from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{str(path)!r} is not UTF-8 text (byte {e.start}); is it a cells.csv?") from None
     # a torn last line (the run was killed mid-write) is not a row
     text = text[: text.rfind("\n") + 1]
     rows = list(csv.DictReader(text.splitlines()))
@@ -311,9 +319,14 @@ def load_own_eta(paths: Iterable) -> dict:
         f = Path(p) / CALIBRATION_FILE
         if f.is_file():
             doc = _read_json(f)
-            for row in doc.get("measurements", []):
-                if row.get("eta_measured") is not None:
-                    out[(row["variant"], row["block"])] = float(row["eta_measured"])
+            rows = doc.get("measurements", [])
+            try:
+                for row in rows:
+                    if row.get("eta_measured") is not None:
+                        out[(str(row["variant"]), str(row["block"]))] = float(row["eta_measured"])
+            except (AttributeError, KeyError, TypeError, ValueError) as e:
+                raise ConfigError(f"{str(f)!r} is damaged ({type(e).__name__}: {e}); delete it (`rockbench run` "
+                                  "measures the engines' η again).") from None
     return out
 
 
@@ -391,12 +404,38 @@ def load_score(path) -> dict:
     if not p.is_file():
         raise ConfigError(f"{str(p)!r} does not exist; give a score.json or a run directory.")
     doc = _read_json(p)
-    if not isinstance(doc, dict) or doc.get("kind") != SCORE_KIND:
-        raise IncomparableError(f"{str(p)!r} is not a rockbench score file (kind {doc.get('kind') if isinstance(doc, dict) else None!r}).")
+    if doc.get("kind") != SCORE_KIND:
+        raise IncomparableError(f"{str(p)!r} is not a rockbench score file (kind {doc.get('kind')!r}).")
     if doc.get("schema_version") != SCORE_SCHEMA_VERSION:
         raise IncomparableError(f"{str(p)!r} has score schema {doc.get('schema_version')}, this rockbench reads "
                                 f"{SCORE_SCHEMA_VERSION}; rescore both runs with one version.")
+    check_score_doc(doc, p)
     return doc
+
+
+def check_score_doc(doc: dict, where) -> None:
+    """ConfigError naming the file and the first damaged part of a score document of this schema."""
+    def bad(what: str):
+        return ConfigError(f"{str(where)!r} is damaged: {what}; score the run again (`rockbench score RUN_DIR`).")
+
+    pairs = doc.get("pairs")
+    if not isinstance(pairs, list):
+        raise bad(f"'pairs' must be a list, got {type(pairs).__name__ if pairs is not None else 'nothing'}")
+    for n, p in enumerate(pairs):
+        if not isinstance(p, dict):
+            raise bad(f"pairs[{n}] is {type(p).__name__}, not an object")
+        for key, kind in (("key", str), ("grid", dict), ("scores", dict)):
+            if not isinstance(p.get(key), kind):
+                raise bad(f"pairs[{n}] has no {key!r} {'text' if kind is str else 'object'}")
+        if "cells" in p and not isinstance(p["cells"], dict):
+            raise bad(f"pairs[{n}].cells is {p['cells']!r}, not an object")
+        for part in ("scores", "grid", "cells"):
+            for name, v in (p.get(part) or {}).items():
+                if (v is None and part != "scores") or isinstance(v, bool) or not isinstance(v, (int, float, type(None))):
+                    raise bad(f"pairs[{n}].{part}.{name} is {v!r}, not a number")
+        for name in ("n_w", "n_a"):
+            if not isinstance(p["grid"].get(name), int) or p["grid"][name] < 1:
+                raise bad(f"pairs[{n}].grid.{name} is {p['grid'].get(name)!r}, not a whole number >= 1")
 
 
 # -- comparing two score documents -----------------------------------------------------------------

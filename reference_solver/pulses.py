@@ -247,9 +247,14 @@ class RecordPulse(Pulse):
             raise ConfigError(f"the record's times must increase strictly{where}: row {i + 2} has t = {t[i + 1]:g} s "
                               f"after t = {t[i]:g} s; sort the file and remove duplicate times.")
         h = np.diff(t)
-        v = np.concatenate([[0.0], np.cumsum(0.5 * h * (a[:-1] + a[1:]))])
-        du = v[:-1] * h + h * h * (2.0 * a[:-1] + a[1:]) / 6.0
-        u = np.concatenate([[0.0], np.cumsum(du)])
+        with np.errstate(over="ignore", invalid="ignore"):   # an overflow is reported below, in one line
+            v = np.concatenate([[0.0], np.cumsum(0.5 * h * (a[:-1] + a[1:]))])
+            du = v[:-1] * h + h * h * (2.0 * a[:-1] + a[1:]) / 6.0
+            u = np.concatenate([[0.0], np.cumsum(du)])
+        if not (np.all(np.isfinite(v)) and np.all(np.isfinite(u))):
+            raise ConfigError(f"the record{where} is too large to integrate: the table's velocity or displacement "
+                              f"overflows (peak |ü| = {np.max(np.abs(a)):.3g} m/s^2, {t[-1]:.3g} s long); check the "
+                              "units (accel_mps2 in m/s^2, t_s in s).")
         object.__setattr__(self, "t_s", t)
         object.__setattr__(self, "accel_mps2", a)
         object.__setattr__(self, "_v", v)
@@ -297,28 +302,58 @@ class RecordPulse(Pulse):
         d.update(source=self.source, scale=self.scale, n_samples=int(self.t_s.size))
         return d
 
+    #: the columns of a record file, in this order when it has no header
+    CSV_COLUMNS = ("t_s", "accel_mps2")
+
     @classmethod
     def from_csv(cls, path, scale: float = 1.0) -> "RecordPulse":
-        """Read a ``t_s,accel_mps2`` CSV (a header line is optional; ``#`` lines are comments)."""
+        """Read a ``t_s,accel_mps2`` CSV.
+
+        A header line is optional; when there is one it must name the two columns (in either
+        order). ``#`` lines are comments; a byte-order mark is skipped; fields may be separated by
+        commas, semicolons or tabs (the first line decides).
+
+        Raises
+        ------
+        ConfigError
+            The file cannot be read, is not UTF-8 text, names other columns, or has a row that is
+            not two numbers (one line naming the file and the row).
+        """
         p = Path(path)
+        hint = "give a CSV with columns t_s,accel_mps2 (time [s], ground acceleration [m/s^2])"
         try:
-            text = p.read_text()
+            data = p.read_bytes()
         except OSError as e:
-            raise ConfigError(f"cannot read the record file {str(path)!r}: {e.strerror or e}; "
-                              "give a CSV with columns t_s,accel_mps2.") from None
-        rows = [r for r in csv.reader(line for line in text.splitlines()
-                                      if line.strip() and not line.lstrip().startswith("#"))]
-        if rows and rows[0] and not is_number(rows[0][0]):
+            raise ConfigError(f"cannot read the record file {str(path)!r}: {e.strerror or e}; {hint}.") from None
+        try:
+            text = data.decode("utf-8-sig")
+        except UnicodeDecodeError as e:
+            raise ConfigError(f"the record file {str(path)!r} is not UTF-8 text (byte 0x{data[e.start]:02x} at "
+                              f"offset {e.start}); {hint}.") from None
+        if "\x00" in text:
+            raise ConfigError(f"the record file {str(path)!r} is binary, not text; {hint}.")
+        lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+        if not lines:
+            raise ConfigError(f"the record file {str(path)!r} is empty; {hint}.")
+        first = lines[0]
+        delim = ";" if ";" in first else ("\t" if "\t" in first and "," not in first else ",")
+        rows = [[f.strip() for f in r] for r in csv.reader(lines, delimiter=delim)]
+        order = (0, 1)
+        if rows[0] and not is_number(rows[0][0]):      # a header: it must name the two columns
+            names = [f.lower() for f in rows[0]]
+            if sorted(names) != sorted(cls.CSV_COLUMNS):
+                raise ConfigError(f"the record file {str(path)!r} has the columns {delim.join(rows[0])!r}; {hint}.")
+            order = (names.index("t_s"), names.index("accel_mps2"))
             rows = rows[1:]
         if not rows:
-            raise ConfigError(f"the record file {str(path)!r} is empty; give rows of t_s,accel_mps2.")
+            raise ConfigError(f"the record file {str(path)!r} is empty; {hint}.")
         ts, accs = [], []
         for n, r in enumerate(rows, start=1):
-            if len(r) < 2 or not (is_number(r[0]) and is_number(r[1])):
+            if len(r) != 2 or not (is_number(r[0]) and is_number(r[1])):
                 raise ConfigError(f"row {n} of the record file {str(path)!r} is not two numbers "
-                                  f"(t_s,accel_mps2): got {','.join(r)!r}.")
-            ts.append(float(r[0]))
-            accs.append(float(r[1]))
+                                  f"(t_s,accel_mps2): got {delim.join(r)!r}.")
+            ts.append(float(r[order[0]]))
+            accs.append(float(r[order[1]]))
         return cls(np.array(ts), np.array(accs), scale=scale, source=str(path))
 
 

@@ -20,7 +20,7 @@ from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError, RockbenchError
 from ...reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
 from ...reference_solver.solver import MODES
-from ..atomic import write_atomic
+from ..atomic import check_output_file, write_atomic
 from ..cases import add_case_options, case_from_args, engine_settings_from_args
 
 
@@ -47,7 +47,7 @@ def _check_output(path: str | None, suffix: str, option: str) -> Path | None:
         raise ConfigError(f"{option}: the folder {str(parent)!r} does not exist; create it or choose another path.")
     if p.is_dir():
         raise ConfigError(f"{option}: {path!r} is a folder; give a file name.")
-    return p
+    return check_output_file(p, option)
 
 
 def _num(x):
