@@ -30,7 +30,7 @@ from ..engines.base import Case, CellResult
 from ..reference_solver.classify import OUTCOME_CODES, Outcome
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block, a_ratio_to_amplitude, amplitude_to_a_ratio
-from ..reference_solver.pulses import MIN_STEPS_PER_WAVE, make_pulse
+from ..reference_solver.pulses import MIN_STEPS_PER_WAVE, check_accel, check_step_count, make_pulse
 from ..reference_solver.restitution import Restitution
 
 #: Pulse kinds a map accepts (a record has no frequency to sweep).
@@ -182,6 +182,8 @@ class MapSpec:
         if cells > MAX_CELLS:
             raise ConfigError(f"a {self.y.n}×{self.x.n} map has {cells:,} cells, more than the {MAX_CELLS:,} "
                               f"one map may hold; use fewer points (e.g. 2000×2000) or split the range.")
+        check_accel(float(np.max(np.abs(self._amplitudes))), f"the top of this map's amplitude axis "
+                    f"({AXIS_OPTION[self.y.name]} up to {self.y.hi:g})")
         need = cells * BYTES_PER_CELL
         avail = _available_memory_bytes()
         if avail is not None and need > 0.5 * avail:
@@ -195,6 +197,10 @@ class MapSpec:
                 raise ConfigError(f"--dt {self.dt_s:g} s is too coarse for the highest frequency of this map "
                                   f"(ω = {omega_max:.4g} rad/s): use --dt <= {period / MIN_STEPS_PER_WAVE:.3g} s "
                                   "or a lower frequency range.")
+            # and the longest wave must finish: a step too fine would hang the map (refused, not waited for)
+            longest = (math.pi if self.pulse == "half-sine" else 2.0 * math.pi) / float(self.omegas().min())
+            check_step_count(self.dt_s, longest, f"the longest wave of this map (ω = {self.omegas().min():.4g} rad/s)")
+        self.restitution.eta_for(self.block.alpha_rad)   # a law that gives no η for this block fails here
 
     # -- the grid -----------------------------------------------------------------------------
     @property

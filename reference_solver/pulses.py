@@ -23,6 +23,32 @@ PULSE_CODES = {"sine": 0, "cosine": 1, "half-sine": 2, "record": 3}
 #: Fewest time steps per pulse duration (per wave for the harmonic pulses) the solvers accept.
 MIN_STEPS_PER_WAVE = 20
 
+#: Largest table acceleration accepted [m/s^2] (about 100 000 g): far beyond any shaking table, and a
+#: bound that keeps every solver's numbers finite (a record of 1e300 m/s^2 is a units mistake).
+MAX_ACCEL_MPS2 = 1e6
+
+#: Most time steps one simulation may take to cover its pulse: a finer step could not finish (the
+#: reference takes about 150 ns per step, the engines 10-100 µs, and a history of that many samples
+#: fills gigabytes), so it is refused before anything runs.
+MAX_STEPS = 10_000_000
+
+
+def check_accel(amplitude_mps2: float, what: str) -> None:
+    """ConfigError when ``|amplitude_mps2|`` exceeds :data:`MAX_ACCEL_MPS2`."""
+    if abs(amplitude_mps2) > MAX_ACCEL_MPS2:
+        raise ConfigError(f"{what} reaches {abs(amplitude_mps2):.3g} m/s^2 ({abs(amplitude_mps2) / 9.81:.3g} g), more "
+                          f"than the {MAX_ACCEL_MPS2:.0e} m/s^2 rockbench accepts; check the units (m/s^2) and the "
+                          "amplitude.")
+
+
+def check_step_count(dt_s: float, duration_s: float, what: str) -> None:
+    """ConfigError when covering ``duration_s`` [s] in steps of ``dt_s`` [s] takes more than
+    :data:`MAX_STEPS` steps (the message says how many it would take)."""
+    n = duration_s / dt_s
+    if not n <= MAX_STEPS:
+        raise ConfigError(f"--dt {dt_s:g} s would take {n:.3g} steps to cover {what} ({duration_s:.4g} s), more than "
+                          f"the {MAX_STEPS:,} one simulation may take; use --dt >= {duration_s / MAX_STEPS:.3g} s.")
+
 
 class Pulse:
     """Base class: a prescribed horizontal table motion starting at ``t = 0``.
@@ -75,6 +101,7 @@ class Pulse:
             raise ConfigError(
                 f"--dt {dt_s:g} s is too coarse for this {self.kind} pulse (duration {self.duration_s:.4g} s): "
                 f"use --dt <= {limit:.3g} s.")
+        check_step_count(dt, self.duration_s, f"this {self.kind} pulse")
         return dt
 
     def max_dt_s(self) -> float:
@@ -97,6 +124,7 @@ class _Harmonic(Pulse):
             raise ConfigError(f"the amplitude must be a finite non-zero number in m/s^2, got {self.amplitude_mps2!r}.")
         check_positive("the frequency ω", self.omega_rad_s, "rad/s",
                        "Give --w-ratio, --omega or --period as a positive number.")
+        check_accel(a, f"the {self.kind} pulse's amplitude")
 
     @property
     def period_s(self) -> float:
@@ -241,6 +269,8 @@ class RecordPulse(Pulse):
             raise ConfigError(f"the record{where} has non-finite values; give plain numbers in both columns.")
         if t[0] < 0:
             raise ConfigError(f"the record{where} starts at t = {t[0]:g} s; times must be >= 0.")
+        check_accel(float(np.max(np.abs(a))), f"the record{where}" + (f" scaled by {self.scale:g}"
+                                                                    if self.scale != 1.0 else ""))
         bad = np.nonzero(np.diff(t) <= 0)[0]
         if bad.size:
             i = int(bad[0])
