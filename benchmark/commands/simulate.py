@@ -1,7 +1,14 @@
 """``rockbench simulate``: one case through one engine (CLI.md).
 
 Everything the user typed is checked before anything runs or is written; files are written
-atomically (a temporary file in the same folder, then a rename).
+atomically (a temporary file in the same folder, then a rename). A simulation that fails (the
+engine raised or diverged) prints its reason and exits 1: a failed simulation is not a success.
+
+The text output is drawn from the JSON object alone, each number from one field: ``n_impacts``
+and ``t_uplift_s`` are the classifier's (as in a map's cells.csv: sign changes of θ between
+samples, the first sample off the base), ``impacts`` and ``uplifts_s`` the engine's own event
+record where it keeps one (the reference's exact impact and uplift instants, which also see
+flights shorter than a step).
 """
 
 from __future__ import annotations
@@ -127,11 +134,12 @@ def run(args) -> int:
         write_atomic(plot_path, lambda tmp: drawn["figure"].savefig(tmp, format="png", dpi=120))
         out["plot"] = str(plot_path)
 
+    failed = res.outcome is None
     if args.json:
         print(json.dumps(out, indent=2))
-        return 0
-    _print_text(out)
-    return 0
+    else:
+        _print_text(out)
+    return 1 if failed else 0
 
 
 def _print_text(o: dict) -> None:
@@ -144,20 +152,41 @@ def _print_text(o: dict) -> None:
     if o["outcome"] is None:
         lines.append(f"FAILED: {o['message']}")
     else:
-        line = f"outcome: {o['outcome']}, {o['n_impacts']} impact(s), max |θ| = {o['max_abs_theta_rad']:.4f} rad"
+        line = (f"outcome: {o['outcome']}, {o['n_impacts']} impact(s) up to the decision, "
+                f"max |θ| = {o['max_abs_theta_rad']:.4f} rad")
         if o["t_uplift_s"] is not None:
-            line += f", uplift at {o['t_uplift_s']:.4f} s"
+            line += f", off the base at {o['t_uplift_s']:.4f} s"
         if o["t_overturn_s"] is not None:
             line += f", |θ| passed α at {o['t_overturn_s']:.4f} s"
         lines.append(line)
-        for d in o["impacts"][:10]:
-            lines.append(f"  impact at {d['t_s']:.5f} s: θ̇ {d['theta_dot_minus_rad_s']:+.4f} → "
-                         f"{d['theta_dot_plus_rad_s']:+.4f} rad/s")
-        if len(o["impacts"]) > 10:
-            lines.append(f"  ... {len(o['impacts']) - 10} more")
+        lines += _event_lines(o)
     if not o["valid"]:
         lines.append(f"not valid: flags {', '.join(o['flags'])}")
     for k in ("history", "plot"):
         if k in o:
             lines.append(f"{k}: {o[k]}")
     print("\n".join(lines))
+
+
+#: impacts listed one per line in the text output (the JSON has them all)
+SHOWN_IMPACTS = 10
+
+
+def _event_lines(o: dict) -> list[str]:
+    """The engine's event record (``impacts``, ``uplifts_s``), each count and time from those fields."""
+    imps, ups = o["impacts"] or [], o["uplifts_s"] or []
+    if not imps and not ups:
+        return []
+    head = f"event record: {len(imps)} impact(s)"
+    if ups:
+        head += f", {len(ups)} uplift(s), the first at {ups[0]:.5f} s"
+    if len(imps) != o["n_impacts"]:
+        head += (f" (the {o['n_impacts']} above count the sign changes of θ between samples, as in a map; the "
+                 "record also has impacts closer together than a step, or after the decision)")
+    out = [head + (":" if imps else "")]
+    for d in imps[:SHOWN_IMPACTS]:
+        out.append(f"  impact at {d['t_s']:.5f} s: θ̇ {d['theta_dot_minus_rad_s']:+.4f} → "
+                   f"{d['theta_dot_plus_rad_s']:+.4f} rad/s")
+    if len(imps) > SHOWN_IMPACTS:
+        out.append(f"  ... {len(imps) - SHOWN_IMPACTS} more (all of them in --json)")
+    return out
