@@ -64,27 +64,31 @@ FIG17 = TrajectoryCase("B3M", "sine", 6.0, 6.1, (0.8608, 0.7595),
                        "Fig. 17 case: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1")
 
 
-def parse_case(text: str):
+def parse_case(text: str, where: str = "--case"):
     """``BLOCK:PULSE:W_RATIO:A_RATIO`` into a TrajectoryCase (ConfigError when malformed).
 
-    The reference curves use the modified η with the block's average and exact k.
+    ``where`` names the option or suite key the text came from, for messages. The reference
+    curves use the modified η with the block's average and exact k.
     """
     from .presets import get_preset
 
     parts = str(text).split(":")
     if len(parts) != 4:
-        raise ConfigError(f"--case takes BLOCK:PULSE:W_RATIO:A_RATIO, got {text!r}; e.g. --case B3M:sine:6:6.1.")
-    pre = get_preset(parts[0])
+        raise ConfigError(f"{where} takes BLOCK:PULSE:W_RATIO:A_RATIO, got {text!r}; e.g. B3M:sine:6:6.1.")
+    try:
+        pre = get_preset(parts[0])
+    except ConfigError as e:
+        raise ConfigError(f"{where} {text!r}: {e}") from None
     block = pre.name
     pulse = parts[1].strip().lower()
     if pulse not in ("sine", "cosine", "half-sine"):
-        raise ConfigError(f"--case pulse must be sine, cosine or half-sine, got {parts[1]!r}.")
+        raise ConfigError(f"{where} pulse must be sine, cosine or half-sine, got {parts[1]!r} in {text!r}.")
     try:
         w, a = float(parts[2]), float(parts[3])
     except ValueError:
-        raise ConfigError(f"--case W_RATIO and A_RATIO must be numbers, got {text!r}.") from None
-    if not (w > 0 and a > 0):
-        raise ConfigError(f"--case W_RATIO and A_RATIO must be > 0, got {text!r}.")
+        raise ConfigError(f"{where} W_RATIO and A_RATIO must be numbers, got {text!r}.") from None
+    if not (0 < w < math.inf and 0 < a < math.inf):
+        raise ConfigError(f"{where} W_RATIO and A_RATIO must be finite numbers > 0, got {text!r}.")
     # the reference is drawn with the block's average and exact k, as in the paper's Fig. 17
     return TrajectoryCase(block, pulse, w, a, (pre.k_average, pre.k_exact),
                           f"{block}, {pulse}, ω/p = {w:g}, a₀/(g·tanα) = {a:g}")

@@ -187,6 +187,8 @@ def test_unwritable_outputs(run, tmp_path, capsys):
     assert_one_line(code, err, 2, "/proc/rockbench-test.png")
     code, _, err = run_cli(capsys, "report", run, "--out", "/proc/rockbench-test", "--no-trajectories")
     assert_one_line(code, err, 2, "/proc/rockbench-test")
+    code, _, err = run_cli(capsys, "run", "--quick", "--out", long)
+    assert_one_line(code, err, 2, "too long")
 
 
 def test_immutable_folder(tmp_path, capsys):
