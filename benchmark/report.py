@@ -129,15 +129,16 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    entries = load_entries(run_dirs)
+    from .scoring import load_own_eta, load_runs, mark_runs, pair_within_runs
+    entries, run_of = load_runs(run_dirs)
     refs = load_entries(against) if against else [e for e in entries if e.is_reference]
     cands = entries if against else [e for e in entries if not e.is_reference]
-    notes: list[str] = []
+    pair_with, notes = (None, []) if against else pair_within_runs(cands, refs, run_of)
     doc = None
-    from .scoring import load_own_eta
     own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
     try:
-        doc = score_entries(cands, refs, experiments, own_eta=own_eta)
+        doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with)
+        mark_runs(doc, run_of, against=bool(against), notes=notes)
     except IncomparableError as e:
         notes.append(f"No scores: {e}")
 
