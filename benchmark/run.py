@@ -206,8 +206,9 @@ def load_suite(path) -> Suite:
         y = parse_range("grid.a_ratio", get("grid", "a_ratio"), "a_ratio")
     except ConfigError as e:
         raise ConfigError(f"suite {p.name}: {e}") from None
+    block_names = str_list("cases", "blocks", list(PRESETS))
     try:
-        blocks = [get_preset(b).name for b in str_list("cases", "blocks", list(PRESETS))]
+        blocks = [get_preset(b).name for b in block_names]
     except ConfigError as e:
         raise ConfigError(f"{where('cases', 'blocks')}: {e}") from None
     pulses = [x_.lower() for x_ in str_list("cases", "pulses", ["sine", "cosine"])]

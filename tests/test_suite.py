@@ -139,7 +139,7 @@ def test_empty_case_lists(tmp_path, capsys, key):
     p.write_text(GRID.replace(f"{key} = ", f"{key} = [] #"))
     assert main(["run", str(p), "--plan"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"cases.{key} is empty" in err, err
+    assert err.count("\n") == 1 and f"cases.{key} is empty" in err and err.count("s.toml") == 1, err
 
 
 def test_a_folder_is_never_a_suite_file(tmp_path, capsys, monkeypatch):
