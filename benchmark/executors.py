@@ -599,11 +599,16 @@ def _handshake(address: str) -> None:
         finally:
             comm.abort()
 
+    def probe():   # in a thread of its own: the caller may be inside an event loop (a notebook)
+        return asyncio.run(asyncio.wait_for(ask(), CONNECT_TIMEOUT_S))
+
     try:
-        ident = asyncio.run(asyncio.wait_for(ask(), CONNECT_TIMEOUT_S))
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(1) as pool:
+            ident = pool.submit(probe).result()
     except (asyncio.TimeoutError, TimeoutError):
         ident = None
-        why = f"it accepts connections but did not answer as a Dask scheduler within {CONNECT_TIMEOUT_S:g} s"
+        why = f"nothing answered the Dask handshake within {CONNECT_TIMEOUT_S:g} s"
     except Exception as e:  # noqa: BLE001 - anything the peer does wrong is the address's fault
         ident = None
         why = f"{type(e).__name__}: {' '.join(str(e).split())[:160]}"
