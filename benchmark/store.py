@@ -246,8 +246,7 @@ class RunStore:
         if others:
             self.append(others, _prefix="".join(lines))
         elif lines:
-            self._csv.write("".join(lines))
-            self._csv.flush()
+            self._write("".join(lines))
 
     def append(self, rows: list[dict], _prefix: str = "") -> None:
         """Append rows and flush them to the operating system (survives ``kill -9``)."""
@@ -269,14 +268,22 @@ class RunStore:
                 self._failures.append({k: _fmt(v) for k, v in r.items()})
         # one write per row batch; each row ends with its newline, so a kill leaves whole rows
         # plus at most one torn line, which the next open cuts off
-        self._csv.write(_prefix + "".join(lines))
-        self._csv.flush()
+        self._write(_prefix + "".join(lines))
 
     def _write_line(self, cells: list[str]) -> None:
         buf = io.StringIO()
         csv.writer(buf, lineterminator="\n").writerow(cells)
-        self._csv.write(buf.getvalue())
-        self._csv.flush()
+        self._write(buf.getvalue())
+
+    def _write(self, text: str) -> None:
+        """Write and flush to cells.csv; a refusal of the file system (a full disk) names the file."""
+        try:
+            self._csv.write(text)
+            self._csv.flush()
+        except OSError as e:
+            if e.filename is not None:
+                raise
+            raise OSError(e.errno, e.strerror or str(e), str(self.dir / "cells.csv")) from None
 
     def failures(self) -> list[dict]:
         return [{"i": int(r["i"]), "j": int(r["j"]), "flag": r["flags"], "message": r["message"]}

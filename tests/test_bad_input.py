@@ -331,3 +331,38 @@ def test_any_damaged_score_json_value_is_a_clean_error(tmp_path_factory, pick, v
     # a changed value may be a regression (exit 1): that is an answer, not a crash
     _assert_clean(["compare", str(root / "base.json"), str(root / "score.json")], (0, 1, 2, 5))
     _assert_clean(["compare", str(root / "base.json"), str(root / "score.json"), "--markdown"], (0, 1, 2, 5))
+
+
+def test_a_full_disk_while_writing_cells_names_the_file_and_the_rerun_resumes(tmp_path, capsys, monkeypatch):
+    import builtins
+
+    import rockbench.benchmark.store as store
+
+    class Full:
+        """cells.csv on a disk that fills up after the header and one batch of rows."""
+        def __init__(self, f):
+            self.f, self.writes = f, 0
+
+        def write(self, text):
+            self.writes += 1
+            if self.writes > 2:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            return self.f.write(text)
+
+        def __getattr__(self, name):
+            return getattr(self.f, name)
+
+    def fake_open(path, *a, **k):
+        f = builtins.open(path, *a, **k)
+        return Full(f) if str(path).endswith("cells.csv") else f
+    monkeypatch.setattr(store, "open", fake_open, raising=False)
+    m = ["map", "--engine", "analytic", "--block", "B6M", "--w-ratio", "1:5:40", "--a-ratio", "1:4:40",
+         "--no-plot", "--serial", "--out", tmp_path / "m"]
+    code, _, err = run_cli(capsys, *m)
+    assert_one_line(code, err, 2, "cells.csv", "No space left")
+    monkeypatch.undo()
+    mh.register_all()
+    code, _, err = run_cli(capsys, *m)
+    assert code == 0 and "resuming" in err, err
+    rows = (tmp_path / "m" / "cells.csv").read_text().splitlines()[1:]
+    assert len(rows) == len({tuple(r.split(",")[-2:]) for r in rows}) == 1600
