@@ -394,6 +394,21 @@ _BOOLS = frozenset(("true", "false"))
 def _check_row(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
     """The cell ``(i, j)`` of a row, after checking the fields a map is read from (ConfigError naming the
     line and the field otherwise)."""
+    # the common case, a whole successful row, in as few steps as possible (a 200×200 map has 40 000)
+    try:
+        if r["status"] == "ok" and r["outcome"] in _OUTCOMES and r["valid"] in _BOOLS:
+            int(r["n_impacts"])
+            float(r["max_abs_theta_rad"])
+            i, j = int(r["i"]), int(r["j"])
+            if shape is None or (0 <= i < shape[0] and 0 <= j < shape[1]):
+                return i, j
+    except ValueError:
+        pass
+    return _check_row_slowly(r, n, path, shape)
+
+
+def _check_row_slowly(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
+    """:func:`_check_row` field by field, to name the first bad one."""
     def bad(col: str, what: str):
         return ConfigError(f"{str(path)!r} line {n}: {col} {r[col]!r} is not {what}; {_DAMAGED}.")
 
