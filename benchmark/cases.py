@@ -165,6 +165,7 @@ def case_from_args(args) -> tuple[Case, object]:
     """A full single case (for ``simulate``) and the preset (or None)."""
     block, preset = block_from_args(args)
     rest = restitution_from_args(args, preset)
+    rest.eta_for(block.alpha_rad)   # a law that gives no η for this block is refused here, not by the engine
     pulse = pulse_from_args(args, block)
     dt = dt_from_args(args)
     if dt is not None:

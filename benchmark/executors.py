@@ -21,7 +21,20 @@ depend on batching, contract item 6).
   (a :class:`ProcessExecutor` with one job), so time limits and crash isolation hold there too.
 
 Worker processes get ``NUMBA_NUM_THREADS``/``OMP_NUM_THREADS`` = cores / jobs (unless set), so
-``jobs`` processes with natively parallel batches do not oversubscribe the cores.
+``jobs`` processes with natively parallel batches do not oversubscribe the cores. ``jobs`` is capped
+at the cores (:func:`cap_jobs`): more processes than cores only add start-up costs.
+
+Worker processes never outlive the process that started them: each one is told its parent's pid
+and stops at once when that parent dies (SIGKILL included; see :mod:`rockbench.benchmark.worker`),
+and :meth:`ProcessExecutor.close` kills workers that are still busy (an interrupted map) instead
+of waiting for their chunk to end.
+
+Every wait on a Dask cluster is bounded: the scheduler must answer a handshake within
+:data:`CONNECT_TIMEOUT_S` (a port that accepts connections but is not a Dask scheduler is refused),
+and a map whose tasks make no progress for longer than their cells' time limits allow, or that has
+no worker for :data:`NO_WORKER_TIMEOUT_S`, stops with the reason. A ``LocalCluster`` keeps its
+scratch space in a folder of its own (inside the run directory when the map gives one) and removes
+it when closed.
 """
 
 from __future__ import annotations
@@ -40,11 +53,15 @@ from pathlib import Path
 from typing import Callable
 
 from ..engines.base import CellResult
-from ..reference_solver.errors import ConfigError, EngineError
+from ..reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
 from . import worker as wire
 
 #: Seconds to wait for a Dask scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0
+#: Seconds a map on a Dask cluster waits with no worker in the cluster before it stops.
+NO_WORKER_TIMEOUT_S = 60.0
+#: Name of the folder a LocalCluster keeps its scratch space in (removed when it closes).
+DASK_SCRATCH = ".dask-scratch"
 
 _THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -68,24 +85,43 @@ def worker_init(engine: str, settings: dict) -> dict:
             "sys_path": [p for p in sys.path if p and os.path.isdir(p)]}
 
 
+def cap_jobs(jobs: int | None, n_cells: int | None = None) -> tuple[int | None, str | None]:
+    """``jobs`` capped at the cores and at the cells that can use them, and a note saying so (None when
+    nothing was capped). ``None`` (all cores) stays None."""
+    if jobs is None:
+        return None, None
+    cores = cpu_count()
+    limit = cores if n_cells is None else max(1, min(cores, n_cells))
+    if jobs <= limit:
+        return jobs, None
+    why = f"{cores} core{'s' if cores != 1 else ''}" + (f", {n_cells} cell{'s' if n_cells != 1 else ''}"
+                                                      if n_cells is not None and n_cells < cores else "")
+    return limit, f"--jobs {jobs} capped at {limit} ({why}): more workers would only add start-up time"
+
+
 def make_executor(engine: str, settings: dict, *, jobs: int | None = None, scheduler: str | None = None,
-                  serial: bool = False, log_path=None):
+                  serial: bool = False, log_path=None, scratch_dir=None):
     """The executor for the CLI's ``--jobs``/``--scheduler``/``--serial`` choice.
+
+    ``jobs`` is capped at the cores (:func:`cap_jobs`; callers that know the cells cap it there too);
+    ``scratch_dir`` is where a ``--scheduler local`` cluster keeps its scratch space (default: a
+    temporary folder), removed when the executor closes.
 
     Raises
     ------
     ConfigError
         ``jobs`` < 1, ``serial`` with a scheduler, or an unreachable scheduler.
     """
-    if jobs is not None and (not isinstance(jobs, int) or jobs < 1):
+    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
         raise ConfigError(f"--jobs must be a whole number >= 1, got {jobs!r}.")
     if serial and scheduler:
         raise ConfigError("--serial runs in this process; drop --scheduler (or --serial).")
+    jobs, _ = cap_jobs(jobs)
     init = worker_init(engine, settings)
     if serial:
         return SerialExecutor(init)
     if scheduler:
-        return DaskExecutor(init, scheduler, jobs=jobs)
+        return DaskExecutor(init, scheduler, jobs=jobs, scratch_dir=scratch_dir)
     if jobs is None:
         from ..engines.registry import adapter_class
         if getattr(adapter_class(engine), "parallel_batch", False):
@@ -223,6 +259,12 @@ class _Worker:
                 pass
 
     def stop(self) -> None:
+        """End the process: an idle worker is asked to stop, a busy one (an interrupted map) is killed
+        at once rather than waited for until its chunk ends."""
+        if self.chunk is not None or not self.ready:
+            self.kill("stopped")
+            self.proc.wait()
+            return
         try:
             if self.proc.poll() is None:
                 wire.send(self.proc.stdin, ("stop",))
@@ -261,6 +303,7 @@ class ProcessExecutor:
         self.env = dict(os.environ)
         for v in _THREAD_VARS:
             self.env.setdefault(v, str(tpw))
+        self.env[wire.PARENT_ENV] = str(os.getpid())   # the worker stops when this process dies
         self._start_failures = 0
 
     def describe(self) -> dict:
@@ -432,7 +475,7 @@ def _dask_task(init: dict, items: list, batch: bool, cell_timeout_s: float) -> l
 class DaskExecutor:
     """Chunks as Dask tasks on a cluster (``address``) or on a LocalCluster on loopback (``"local"``)."""
 
-    def __init__(self, init: dict, address: str, jobs: int | None = None):
+    def __init__(self, init: dict, address: str, jobs: int | None = None, scratch_dir=None):
         import logging
         try:
             from dask.distributed import Client, LocalCluster
@@ -442,17 +485,35 @@ class DaskExecutor:
         self.init = init
         self.address = address
         self.cluster = None
+        self.client = None
         self.log_path = None
+        self.scratch = None
         if address == "local":
+            import tempfile
             n = jobs or min(cpu_count(), 2) or 1
-            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                        dashboard_address=":0", silence_logs=logging.ERROR)
-            self.client = Client(self.cluster, timeout=CONNECT_TIMEOUT_S)
+            if scratch_dir is not None:
+                Path(scratch_dir).mkdir(parents=True, exist_ok=True)
+                self.scratch = Path(scratch_dir)
+            else:
+                self.scratch = Path(tempfile.mkdtemp(prefix="rockbench-dask-"))
+            try:
+                import dask
+                # the scheduler (in this process) takes its scratch folder from the configuration, the
+                # workers from local_directory: both go to ours, removed by close()
+                with dask.config.set({"temporary-directory": str(self.scratch)}):
+                    self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                                dashboard_address=":0", silence_logs=logging.ERROR,
+                                                local_directory=str(self.scratch))
+                self.client = Client(self.cluster, timeout=CONNECT_TIMEOUT_S)
+            except BaseException:
+                self.close()
+                raise
         else:
             if "://" not in address and ":" not in address:
                 raise ConfigError(f"--scheduler takes a Dask scheduler address such as tcp://host:8786 or 'local', "
                                   f"got {address!r}.")
             _probe(address)
+            _handshake(address)
             try:
                 self.client = Client(address, timeout=CONNECT_TIMEOUT_S)
             except Exception as e:  # noqa: BLE001 - any failure to connect is the user's address
@@ -460,30 +521,102 @@ class DaskExecutor:
                 raise ConfigError(f"cannot reach the Dask scheduler at {address!r} within {CONNECT_TIMEOUT_S:g} s "
                                   f"({type(e).__name__}: {msg}); start it (dask scheduler) or use --scheduler "
                                   "local.") from None
-        self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})) or (jobs or 1))
+        self.n_workers = max(1, self._worker_count() or (jobs or 1))
+
+    def _worker_count(self) -> int:
+        # the client's own view, which it refreshes in the background every few seconds:
+        # scheduler_info() would ask the scheduler and wait without a limit
+        info = getattr(self.client, "_scheduler_identity", None) or {}
+        return len(info.get("workers", {}))
 
     def describe(self) -> dict:
         return {"kind": "dask", "scheduler": self.address, "workers": self.n_workers}
 
     def run(self, items, on_results, *, cell_timeout_s: float, batch: bool) -> None:
-        from dask.distributed import as_completed
         if not items:
             return
         chunks = _chunks(items, 4 * self.n_workers, None if batch else 256)
         futs = [self.client.submit(_dask_task, self.init, c, batch, cell_timeout_s, pure=False) for c in chunks]
+        # Every wait is bounded: a task holds at most its cells' time limits plus a worker's start, so
+        # with no result for longer than the biggest task may take, the cluster is stuck (or gone).
+        stall_s = max(len(c) for c in chunks) * cell_timeout_s + ProcessExecutor.START_TIMEOUT_S + 30.0
+        pending = set(futs)
+        last = no_worker_since = time.monotonic()
         try:
-            for fut in as_completed(futs):
-                on_results(fut.result())
+            while pending:
+                done = [f for f in futs if f in pending and f.done()]   # a local look, never a wait
+                now = time.monotonic()
+                for fut in done:
+                    pending.discard(fut)
+                    on_results(fut.result(timeout=CONNECT_TIMEOUT_S))
+                    last = now
+                if not pending:
+                    break
+                if not done:
+                    time.sleep(0.1)
+                if self._worker_count():
+                    no_worker_since = now
+                elif now - no_worker_since > NO_WORKER_TIMEOUT_S:
+                    raise EngineUnavailableError(f"the Dask cluster at {self.address!r} has had no worker for "
+                                      f"{NO_WORKER_TIMEOUT_S:g} s; start workers (dask worker ADDRESS) and rerun "
+                                      "to resume.")
+                if now - last > stall_s:
+                    raise EngineUnavailableError(f"no result from the Dask cluster at {self.address!r} for {stall_s:g} s, longer "
+                                      "than any task may take; check its workers and rerun to resume.")
         finally:
             for f in futs:
                 f.cancel()
 
     def close(self) -> None:
         try:
-            self.client.close()
+            if self.client is not None:
+                self.client.close(timeout=CONNECT_TIMEOUT_S)
+        except Exception:  # noqa: BLE001 - closing a broken connection must not hide the first error
+            pass
         finally:
-            if self.cluster is not None:
-                self.cluster.close()
+            try:
+                if self.cluster is not None:
+                    self.cluster.close(timeout=2 * CONNECT_TIMEOUT_S)
+            finally:
+                if self.scratch is not None:
+                    import shutil
+                    shutil.rmtree(self.scratch, ignore_errors=True)
+                    self.scratch = None
+
+
+def _handshake(address: str) -> None:
+    """Fail within :data:`CONNECT_TIMEOUT_S` unless a Dask scheduler answers at ``address`` (Dask's own
+    connect waits for the peer's handshake without a limit, so a port that accepts connections but
+    speaks another protocol would hang it)."""
+    import asyncio
+
+    async def ask():
+        from distributed.comm import connect
+        comm = await connect(address, timeout=CONNECT_TIMEOUT_S)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def probe():   # in a thread of its own: the caller may be inside an event loop (a notebook)
+        return asyncio.run(asyncio.wait_for(ask(), CONNECT_TIMEOUT_S))
+
+    try:
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(1) as pool:
+            ident = pool.submit(probe).result()
+    except (asyncio.TimeoutError, TimeoutError):
+        ident = None
+        why = f"nothing answered the Dask handshake within {CONNECT_TIMEOUT_S:g} s"
+    except Exception as e:  # noqa: BLE001 - anything the peer does wrong is the address's fault
+        ident = None
+        why = f"{type(e).__name__}: {' '.join(str(e).split())[:160]}"
+    else:
+        why = f"it answered as {ident.get('type')!r}" if isinstance(ident, dict) else "it answered something else"
+    if not (isinstance(ident, dict) and ident.get("type") == "Scheduler"):
+        raise ConfigError(f"{address!r} is not a Dask scheduler ({why}); give the scheduler's address "
+                          "(tcp://host:8786) or use --scheduler local.")
 
 
 def _probe(address: str) -> None:
@@ -492,7 +625,12 @@ def _probe(address: str) -> None:
     from urllib.parse import urlsplit
 
     u = urlsplit(address if "://" in address else "tcp://" + address)
-    if u.scheme not in ("tcp", "tls") or not u.hostname or u.port is None:
+    try:
+        port = u.port
+    except ValueError:
+        raise ConfigError(f"--scheduler {address!r}: the port must be a number from 1 to 65535; e.g. "
+                          "tcp://127.0.0.1:8786.") from None
+    if u.scheme not in ("tcp", "tls") or not u.hostname or port is None:
         return   # other transports (inproc, ucx, ws) are left to Dask
     try:
         socket.create_connection((u.hostname, u.port), timeout=CONNECT_TIMEOUT_S).close()

@@ -30,7 +30,7 @@ from ..engines.base import Case, CellResult
 from ..reference_solver.classify import OUTCOME_CODES, Outcome
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block, a_ratio_to_amplitude, amplitude_to_a_ratio
-from ..reference_solver.pulses import MIN_STEPS_PER_WAVE, make_pulse
+from ..reference_solver.pulses import MIN_STEPS_PER_WAVE, check_accel, check_step_count, make_pulse
 from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import LEFT_MODEL_FLAGS
 
@@ -88,7 +88,14 @@ class Axis:
 
     @classmethod
     def from_dict(cls, d: dict) -> "Axis":
-        return cls(str(d["name"]), float(d["lo"]), float(d["hi"]), int(d["n"]))
+        name = str(d["name"])
+        return make_axis(f"the axis {name}", name, float(d["lo"]), float(d["hi"]), _whole(d["n"], f"{name}.n"))
+
+
+def _whole(v, what: str) -> int:
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise ValueError(f"{what} must be a whole number, got {v!r}")
+    return v
 
 
 def parse_range(option: str, text: str, name: str) -> Axis:
@@ -176,6 +183,8 @@ class MapSpec:
         if cells > MAX_CELLS:
             raise ConfigError(f"a {self.y.n}×{self.x.n} map has {cells:,} cells, more than the {MAX_CELLS:,} "
                               f"one map may hold; use fewer points (e.g. 2000×2000) or split the range.")
+        check_accel(float(np.max(np.abs(self._amplitudes))), f"the top of this map's amplitude axis "
+                    f"({AXIS_OPTION[self.y.name]} up to {self.y.hi:g})")
         need = cells * BYTES_PER_CELL
         avail = _available_memory_bytes()
         if avail is not None and need > 0.5 * avail:
@@ -189,6 +198,10 @@ class MapSpec:
                 raise ConfigError(f"--dt {self.dt_s:g} s is too coarse for the highest frequency of this map "
                                   f"(ω = {omega_max:.4g} rad/s): use --dt <= {period / MIN_STEPS_PER_WAVE:.3g} s "
                                   "or a lower frequency range.")
+            # and the longest wave must finish: a step too fine would hang the map (refused, not waited for)
+            longest = (math.pi if self.pulse == "half-sine" else 2.0 * math.pi) / float(self.omegas().min())
+            check_step_count(self.dt_s, longest, f"the longest wave of this map (ω = {self.omegas().min():.4g} rad/s)")
+        self.restitution.eta_for(self.block.alpha_rad)   # a law that gives no η for this block fails here
 
     # -- the grid -----------------------------------------------------------------------------
     @property
@@ -264,9 +277,19 @@ class MapSpec:
 
     @classmethod
     def from_dict(cls, d: dict) -> "MapSpec":
+        """Inverse of :meth:`to_dict`; ValueError (ConfigError) or TypeError for a damaged description."""
+        engine, settings, dt = d.get("engine", "reference"), d.get("engine_settings") or {}, d.get("dt_s")
+        linearized = d.get("linearized", False)
+        if not isinstance(engine, str) or not engine:
+            raise ValueError(f"spec.engine must be an engine name, got {engine!r}")
+        if not isinstance(settings, dict):
+            raise ValueError(f"spec.engine_settings must be an object, got {settings!r}")
+        if dt is not None and (isinstance(dt, bool) or not isinstance(dt, (int, float)) or not 0 < dt < math.inf):
+            raise ValueError(f"spec.dt_s must be a number of seconds > 0 or null, got {dt!r}")
+        if not isinstance(linearized, bool):
+            raise ValueError(f"spec.linearized must be true or false, got {linearized!r}")
         return cls(Block.from_dict(d["block"]), d["pulse"], Restitution.from_dict(d["restitution"]),
-                   Axis.from_dict(d["x"]), Axis.from_dict(d["y"]), d.get("engine", "reference"),
-                   dict(d.get("engine_settings") or {}), d.get("dt_s"), bool(d.get("linearized", False)))
+                   Axis.from_dict(d["x"]), Axis.from_dict(d["y"]), engine, dict(settings), dt, linearized)
 
     def identity(self) -> dict:
         """The fields that make two maps the same (derived numbers excluded), JSON-comparable."""
@@ -431,7 +454,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     """
     from ..engines.registry import get_adapter
     from . import adaptive as adaptive_mod
-    from .executors import make_executor
+    from .executors import DASK_SCRATCH, cap_jobs, make_executor
     from .store import RunStore
 
     if not (isinstance(cell_timeout_s, (int, float)) and math.isfinite(cell_timeout_s) and cell_timeout_s > 0):
@@ -445,8 +468,12 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     t0 = time.perf_counter()
     own = executor is None
     if own:
+        jobs, note = cap_jobs(jobs, spec.n_cells)
+        if note and log:
+            log(note)
         executor = make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=scheduler, serial=serial,
-                                 log_path=None)
+                                 log_path=None,
+                                 scratch_dir=Path(out_dir) / DASK_SCRATCH if scheduler == "local" else None)
     elif executor.init["engine"] != spec.engine or executor.init["settings"] != dict(spec.engine_settings):
         raise ConfigError(f"the executor given runs engine {executor.init['engine']!r} with settings "
                           f"{executor.init['settings']}, the map needs {spec.engine!r} with {dict(spec.engine_settings)}.")
@@ -524,19 +551,38 @@ def load_map(out_dir) -> MapResult:
     from .store import read_run
 
     meta, rows = read_run(out_dir)
-    spec = MapSpec.from_dict(meta["spec"])
+    spec, adaptive, stride = _spec_of_run(meta, Path(out_dir) / "run.json")
     result = empty_result(spec)
-    opts = meta.get("options", {})
-    result.adaptive = bool(opts.get("adaptive", False))
-    result.coarse_stride = int(opts.get("coarse_stride", 1))
+    result.adaptive, result.coarse_stride = adaptive, stride
     for (i, j), row in rows.items():
         _put(result, i, j, row)
     if result.adaptive:
         adaptive_mod.fill(result.outcome, result.simulated, result.coarse_stride)
     result.failures = [{"i": i, "j": j, "flag": r["flags"], "message": r["message"]}
                        for (i, j), r in sorted(rows.items()) if r["status"] != "ok"]
-    result.wall_s = float((meta.get("summary") or {}).get("wall_s", 0.0))
+    summary = meta.get("summary")
+    try:
+        result.wall_s = float(summary.get("wall_s", 0.0)) if isinstance(summary, dict) else 0.0
+    except (TypeError, ValueError):
+        result.wall_s = 0.0   # only shown in reports; a damaged summary does not change the map
     return result
+
+
+def _spec_of_run(meta: dict, where: Path) -> tuple[MapSpec, bool, int]:
+    """The spec and the adaptive options a run.json records; ConfigError naming the file when damaged."""
+    try:
+        spec = MapSpec.from_dict(meta["spec"])
+        opts = meta.get("options") or {}
+        adaptive = opts.get("adaptive", False)
+        stride = opts.get("coarse_stride", 1)
+        if not isinstance(adaptive, bool) or isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
+            raise ValueError(f"options adaptive={adaptive!r}, coarse_stride={stride!r}")
+    except KeyError as e:
+        raise ConfigError(f"{str(where)!r} is damaged: it lacks {e}; give a new --out directory "
+                          "(or rerun `rockbench map` into a new one).") from None
+    except (TypeError, ValueError, AttributeError) as e:
+        raise ConfigError(f"{str(where)!r} is damaged: {e}; give a new --out directory.") from None
+    return spec, adaptive, stride
 
 
 # -- helpers ----------------------------------------------------------------------------------

@@ -75,27 +75,31 @@ METRIC_TITLES = {"agreement": "agreement", "overturn_agreement": "overturn agree
                  "failed_cells": "failed cells"}
 
 
-def parse_case(text: str):
+def parse_case(text: str, where: str = "--case"):
     """``BLOCK:PULSE:W_RATIO:A_RATIO`` into a TrajectoryCase (ConfigError when malformed).
 
-    The reference curves use the modified η with the block's average and exact k.
+    ``where`` names the option or suite key the text came from, for messages. The reference
+    curves use the modified η with the block's average and exact k.
     """
     from .presets import get_preset
 
     parts = str(text).split(":")
     if len(parts) != 4:
-        raise ConfigError(f"--case takes BLOCK:PULSE:W_RATIO:A_RATIO, got {text!r}; e.g. --case B3M:sine:6:6.1.")
-    pre = get_preset(parts[0])
+        raise ConfigError(f"{where} takes BLOCK:PULSE:W_RATIO:A_RATIO, got {text!r}; e.g. B3M:sine:6:6.1.")
+    try:
+        pre = get_preset(parts[0])
+    except ConfigError as e:
+        raise ConfigError(f"{where} {text!r}: {e}") from None
     block = pre.name
     pulse = parts[1].strip().lower()
     if pulse not in ("sine", "cosine", "half-sine"):
-        raise ConfigError(f"--case pulse must be sine, cosine or half-sine, got {parts[1]!r}.")
+        raise ConfigError(f"{where} pulse must be sine, cosine or half-sine, got {parts[1]!r} in {text!r}.")
     try:
         w, a = float(parts[2]), float(parts[3])
     except ValueError:
-        raise ConfigError(f"--case W_RATIO and A_RATIO must be numbers, got {text!r}.") from None
-    if not (w > 0 and a > 0):
-        raise ConfigError(f"--case W_RATIO and A_RATIO must be > 0, got {text!r}.")
+        raise ConfigError(f"{where} W_RATIO and A_RATIO must be numbers, got {text!r}.") from None
+    if not (0 < w < math.inf and 0 < a < math.inf):
+        raise ConfigError(f"{where} W_RATIO and A_RATIO must be finite numbers > 0, got {text!r}.")
     # the reference is drawn with the block's average and exact k, as in the paper's Fig. 17
     return TrajectoryCase(block, pulse, w, a, (pre.k_average, pre.k_exact),
                           f"{block}, {pulse}, ω/p = {w:g}, a₀/(g·tanα) = {a:g}")
@@ -136,15 +140,16 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    entries = load_entries(run_dirs)
+    from .scoring import load_own_eta, load_runs, mark_runs, pair_within_runs
+    entries, run_of = load_runs(run_dirs)
     refs = load_entries(against) if against else [e for e in entries if e.is_reference]
     cands = entries if against else [e for e in entries if not e.is_reference]
-    notes: list[str] = []
+    pair_with, notes = (None, []) if against else pair_within_runs(cands, refs, run_of)
     doc = None
-    from .scoring import load_own_eta
     own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
     try:
-        doc = score_entries(cands, refs, experiments, own_eta=own_eta)
+        doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with)
+        mark_runs(doc, run_of, against=bool(against), notes=notes)
     except IncomparableError as e:
         notes.append(f"No scores: {e}")
 

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 import time
 import tomllib
@@ -53,6 +54,7 @@ from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.restitution import Restitution
+from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
 from .scoring import CALIBRATION_FILE, variant_name
 
@@ -122,23 +124,42 @@ class Suite:
     raw: dict = field(default_factory=dict)
 
 
+#: the shipped suites, by name
+SHIPPED_SUITES = ("default", "quick")
+
+
 def suite_path(name_or_path: str | None, quick: bool) -> Path | None:
-    """The suite file to run: a path, or a shipped suite by name (``default``, ``quick``)."""
+    """The suite file to run: a shipped suite by name (``default``, ``quick``), or a path.
+
+    A bare name (no ``.toml``, no folder part) always means a shipped suite, whatever the working
+    directory holds (an output folder called ``quick`` is not a suite file); a path must be a file.
+    """
     if name_or_path is None:
         name_or_path = "quick" if quick else "default"
-    p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
-        if not p.is_file():
-            raise ConfigError(f"suite file {str(p)!r} does not exist; give a TOML suite file or one of: default, quick.")
-        return p
-    shipped = resources.files("rockbench.benchmark").joinpath(f"suites/{name_or_path}.toml")
-    if not shipped.is_file():
-        raise ConfigError(f"unknown suite {name_or_path!r}; give a TOML file or one of: default, quick.")
-    return Path(str(shipped))
+    text = str(name_or_path)
+    p = Path(text)
+    is_path = p.suffix.lower() == ".toml" or "/" in text or (os.sep in text) or p.is_absolute()
+    if not is_path:
+        shipped = resources.files("rockbench.benchmark").joinpath(f"suites/{text}.toml")
+        if shipped.is_file():
+            return Path(str(shipped))
+        if p.is_file():
+            raise ConfigError(f"unknown suite {text!r}; to run the file of that name give it as a path "
+                              f"(./{text}); shipped suites: {', '.join(SHIPPED_SUITES)}.")
+        raise ConfigError(f"unknown suite {text!r}; give a TOML file or one of: {', '.join(SHIPPED_SUITES)}.")
+    if p.is_dir():
+        raise ConfigError(f"suite file {text!r} is a folder; give a TOML suite file or one of: "
+                          f"{', '.join(SHIPPED_SUITES)}.")
+    if not p.is_file():
+        raise ConfigError(f"suite file {text!r} does not exist; give a TOML suite file or one of: "
+                          f"{', '.join(SHIPPED_SUITES)}.")
+    return p
 
 
 def load_suite(path) -> Suite:
-    """Read and check a suite file.
+    """Read and check a suite file: everything that does not need the engines (see
+    :func:`check_suite` for the rest), so a bad suite fails before the first map, and ``--plan``
+    fails the same way.
 
     Raises
     ------
@@ -147,9 +168,11 @@ def load_suite(path) -> Suite:
     """
     p = Path(path)
     try:
-        raw = tomllib.loads(p.read_text())
+        raw = tomllib.loads(p.read_bytes().decode("utf-8-sig"))
     except OSError as e:
-        raise ConfigError(f"cannot read suite {str(p)!r}: {e}.") from None
+        raise ConfigError(f"cannot read suite {str(p)!r}: {e.strerror or e}.") from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"suite {str(p)!r} is not UTF-8 text (byte {e.start}); give a TOML suite file.") from None
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"suite {str(p)!r} is not valid TOML: {e}.") from None
     for table, val in raw.items():
@@ -163,48 +186,132 @@ def load_suite(path) -> Suite:
     def get(table, key, default=None):
         return raw.get(table, {}).get(key, default)
 
-    def str_list(table, key, default):
+    def str_list(table, key, default, *, empty: bool = False):
         v = get(table, key, default)
-        if not isinstance(v, list) or not all(isinstance(x, (str, int, float)) for x in v):
+        if not isinstance(v, list) or not all(isinstance(x, (str, int, float)) and not isinstance(x, bool)
+                                              for x in v):
             raise ConfigError(f"suite {p.name}: {table}.{key} must be a list, got {v!r}.")
+        if not v and not empty:
+            raise ConfigError(f"suite {p.name}: {table}.{key} is empty; list at least one, or leave the key out "
+                              f"for the default {default!r}.")
         return [str(x) for x in v]
+
+    def where(table, key):
+        return f"suite {p.name}: {table}.{key}"
 
     for key in ("w_ratio", "a_ratio"):
         if not isinstance(get("grid", key), str):
             raise ConfigError(f"suite {p.name}: grid.{key} must be a string LO:HI:N, got {get('grid', key)!r}.")
-    blocks = [get_preset(b).name for b in str_list("cases", "blocks", list(PRESETS))]
-    pulses = [x.lower() for x in str_list("cases", "pulses", ["sine", "cosine"])]
-    for x in pulses:
-        if x not in ("sine", "cosine", "half-sine"):
-            raise ConfigError(f"suite {p.name}: cases.pulses has {x!r}; use sine, cosine or half-sine.")
+    try:
+        x = parse_range("grid.w_ratio", get("grid", "w_ratio"), "w_ratio")
+        y = parse_range("grid.a_ratio", get("grid", "a_ratio"), "a_ratio")
+    except ConfigError as e:
+        raise ConfigError(f"suite {p.name}: {e}") from None
+    block_names = str_list("cases", "blocks", list(PRESETS))
+    try:
+        blocks = [get_preset(b).name for b in block_names]
+    except ConfigError as e:
+        raise ConfigError(f"{where('cases', 'blocks')}: {e}") from None
+    pulses = [x_.lower() for x_ in str_list("cases", "pulses", ["sine", "cosine"])]
+    for x_ in pulses:
+        if x_ not in ("sine", "cosine", "half-sine"):
+            raise ConfigError(f"suite {p.name}: cases.pulses has {x_!r}; use sine, cosine or half-sine.")
     refs = str_list("reference", "restitutions", ["housner"])
     for r in refs:
-        restitution_for(r, blocks[0], p.name)  # checks the token
+        for b in blocks:
+            restitution_for(r, b, where("reference", "restitutions"))  # checks the token for every block
     names = get("engines", "names", "available")
     if not (names == "available" or (isinstance(names, list) and all(isinstance(n, str) for n in names))):
         raise ConfigError(f"suite {p.name}: engines.names must be \"available\" or a list of names, got {names!r}.")
     variants = get("engines", "variants", [{}])
     if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants) or not variants:
         raise ConfigError(f"suite {p.name}: engines.variants must be a non-empty list of tables of settings.")
-    eng_rest = str(get("engines", "restitution", "housner"))
-    restitution_for(eng_rest, blocks[0], p.name)
+    eng_rest = get("engines", "restitution", "housner")
+    if not isinstance(eng_rest, (str, int, float)) or isinstance(eng_rest, bool):
+        raise ConfigError(f"suite {p.name}: engines.restitution must be a text or a number, got {eng_rest!r}.")
+    eng_rest = str(eng_rest)
+    for b in blocks:
+        restitution_for(eng_rest, b, where("engines", "restitution"))
+    for table, key in (("grid", "adaptive"), ("engines", "own_eta")):
+        if not isinstance(get(table, key, False), bool):
+            raise ConfigError(f"suite {p.name}: {table}.{key} must be true or false, got {get(table, key)!r}.")
     stride = get("grid", "coarse_stride")
-    if stride is not None and (not isinstance(stride, int) or stride < 1):
+    if stride is not None and (isinstance(stride, bool) or not isinstance(stride, int) or stride < 1):
         raise ConfigError(f"suite {p.name}: grid.coarse_stride must be a whole number >= 1, got {stride!r}.")
     timeout = get("run", "cell_timeout_s", 120.0)
-    if not isinstance(timeout, (int, float)) or not timeout > 0:
-        raise ConfigError(f"suite {p.name}: run.cell_timeout_s must be a number > 0, got {timeout!r}.")
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < math.inf):
+        raise ConfigError(f"suite {p.name}: run.cell_timeout_s must be a number of seconds > 0, got {timeout!r}.")
+    for key in ("name", "description"):
+        if not isinstance(get("suite", key, ""), str):
+            raise ConfigError(f"suite {p.name}: suite.{key} must be a text, got {get('suite', key)!r}.")
+    cases = str_list("report", "cases", ["B3M:sine:6:6.1"], empty=True)
+    from .report import parse_case
+    for c in cases:
+        parse_case(c, where("report", "cases"))
     exp = get("report", "experiments")
     if exp is not None:
-        exp = str((p.parent / str(exp)).resolve())
-    return Suite(name=str(get("suite", "name", p.stem)), description=str(get("suite", "description", "")),
-                 path=str(p), w_ratio=get("grid", "w_ratio"), a_ratio=get("grid", "a_ratio"),
-                 adaptive=bool(get("grid", "adaptive", False)), coarse_stride=stride, blocks=blocks, pulses=pulses,
-                 reference_restitutions=refs, reference_dt_s=_dt(get("reference", "dt_s"), p.name, "reference"),
-                 engine_names=names, engine_variants=variants, engine_restitution=eng_rest,
-                 engine_dt_s=_dt(get("engines", "dt_s"), p.name, "engines"),
-                 own_eta=bool(get("engines", "own_eta", False)), cell_timeout_s=float(timeout),
-                 report_cases=str_list("report", "cases", ["B3M:sine:6:6.1"]), experiments=exp, raw=raw)
+        if not isinstance(exp, str):
+            raise ConfigError(f"suite {p.name}: report.experiments must be a path, got {exp!r}.")
+        exp = str((p.parent / exp).resolve())
+        from .experiments import load_outcomes
+        try:
+            load_outcomes(exp)
+        except ConfigError as e:
+            raise ConfigError(f"{where('report', 'experiments')}: {e}") from None
+    suite = Suite(name=str(get("suite", "name", p.stem)), description=str(get("suite", "description", "")),
+                  path=str(p), w_ratio=get("grid", "w_ratio"), a_ratio=get("grid", "a_ratio"),
+                  adaptive=bool(get("grid", "adaptive", False)), coarse_stride=stride, blocks=blocks, pulses=pulses,
+                  reference_restitutions=refs, reference_dt_s=_dt(get("reference", "dt_s"), p.name, "reference"),
+                  engine_names=names, engine_variants=variants, engine_restitution=eng_rest,
+                  engine_dt_s=_dt(get("engines", "dt_s"), p.name, "engines"),
+                  own_eta=bool(get("engines", "own_eta", False)), cell_timeout_s=float(timeout),
+                  report_cases=cases, experiments=exp, raw=raw)
+    # every map's spec, built once here, checks the grid's size and each time step against the
+    # highest frequency of each block
+    for block in blocks:
+        for pulse in pulses:
+            for dt, table in ((suite.reference_dt_s, "reference"), (suite.engine_dt_s, "engines")):
+                try:
+                    MapSpec(get_preset(block).block(), pulse, Restitution(), x, y, dt_s=dt)
+                except ConfigError as e:
+                    keys = "grid" + (f" and {table}.dt_s" if dt is not None else "")
+                    raise ConfigError(f"suite {p.name}: {keys} ({block} {pulse}): {e}") from None
+    return suite
+
+
+def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[list[str], list[str]]:
+    """What :func:`load_suite` cannot check alone: every engine variant's settings (the adapter is
+    built, nothing runs). Called by ``--plan`` and before the first map.
+
+    Returns the engines to run and notes. An engine picked because it is available (``explicit``
+    false) that cannot take a variant's settings is skipped with a note, as an engine that is not
+    installed is, unless no engine can take them (a typo).
+
+    Raises
+    ------
+    ConfigError
+        A setting an engine named explicitly (suite list or ``--engines``), or every engine, refuses:
+        one line naming the suite key.
+    """
+    from ..engines.base import EngineAdapter
+    from ..engines.registry import adapter_class
+
+    kept, refused = [], {}
+    for engine in engines:
+        cls = adapter_class(engine)
+        for k, variant in enumerate(suite.engine_variants):
+            try:
+                # the base class's check of names and values, without the adapter's own constructor
+                # (which may start its engine: nothing may run for --plan)
+                EngineAdapter.__init__(object.__new__(cls), **variant)
+            except ConfigError as e:
+                refused[engine] = f"engines.variants[{k}] {variant}: {e}"
+                break
+        else:
+            kept.append(engine)
+    if refused and (explicit or not kept):
+        raise ConfigError(f"suite {Path(suite.path).name}: {next(iter(refused.values()))}")
+    return kept, [f"engine {n} skipped: {why}" for n, why in refused.items()]
 
 
 def _dt(v, name, table):
@@ -225,29 +332,61 @@ def restitution_for(token: str, block: str, where: str = "suite") -> Restitution
         return Restitution("modified", k=pre.k_average)
     if t == "modified-exact":
         return Restitution("modified", k=pre.k_exact)
-    if t.startswith("modified:"):
-        try:
-            return Restitution("modified", k=float(t.split(":", 1)[1]))
-        except ValueError:
-            pass
     try:
+        if t.startswith("modified:"):
+            return Restitution("modified", k=float(t.split(":", 1)[1]))
         return Restitution("constant", value=float(t))
+    except ConfigError as e:    # a number out of range
+        raise ConfigError(f"{where}: restitution {token!r}: {e}") from None
     except ValueError:
         raise ConfigError(f"{where}: restitution {token!r} is not one of housner, modified-average, modified-exact, "
                           "modified:K or a number in (0, 1].") from None
 
 
-def engine_names(suite: Suite) -> tuple[list[str], list[str]]:
-    """(engines to run, notes on the ones skipped) for a suite.
+def parse_engines(text: str | None) -> list[str] | None:
+    """``--engines NAME,...`` into a list of names (None when not given); every name must be known.
+
+    Raises
+    ------
+    ConfigError
+        An empty list or an unknown name (with a "did you mean").
+    """
+    from ..engines.registry import adapter_class
+
+    if text is None:
+        return None
+    items = [n.strip() for n in str(text).split(",")]
+    if not items or any(not n for n in items):
+        raise ConfigError(f"--engines takes NAME,... (e.g. --engines mujoco,pybullet), got {text!r}.")
+    for n in items:
+        try:
+            adapter_class(n)
+        except ConfigError as e:
+            raise ConfigError(f"--engines: {e}") from None
+        except EngineUnavailableError:
+            pass    # known but not installed: engine_names says so with exit code 3
+    return list(dict.fromkeys(items))
+
+
+def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str], list[str]]:
+    """(engines to run, notes on the ones skipped) for a suite; ``only`` (``run --engines``) replaces
+    the suite's ``engines.names`` (the reference maps are always computed).
 
     Raises
     ------
     EngineUnavailableError
-        An engine named explicitly in the suite is not installed.
+        An engine named explicitly (in the suite or in ``only``) is not installed.
     """
     from ..engines.registry import availability, names
 
     notes = []
+    if only is not None:
+        for n in only:
+            a = availability(n)
+            if not a["available"]:
+                raise EngineUnavailableError(f"--engines asks for engine {n!r}, which is not available: "
+                                             f"{a['reason']}")
+        return [n for n in only if n != "reference"], notes
     if suite.engine_names == "available":
         out = []
         for n in names():
@@ -339,8 +478,10 @@ def measure_own_eta(suite: Suite, engines: list[str], out: Path, log) -> tuple[l
 
 
 def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=None, report: bool = True,
-              log=None) -> dict:
+              log=None, engines: list[str] | None = None) -> dict:
     """Compute what is missing, score, and write the report (see the module docstring).
+
+    ``engines`` (``run --engines``) restricts the engine maps to those engines.
 
     Returns
     -------
@@ -353,13 +494,23 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     from .presets import get_preset
     from .scoring import write_json_atomic
 
+    from .atomic import check_output_dir
+    from .executors import cap_jobs
+
     log = log or (lambda m: print(f"rockbench: {m}", file=sys.stderr))
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the benchmark.")
+    check_output_dir(out, "--out")
+    jobs, note = cap_jobs(jobs)
+    if note:
+        log(note)
     x = parse_range("grid.w_ratio", suite.w_ratio, "w_ratio")
     y = parse_range("grid.a_ratio", suite.a_ratio, "a_ratio")
-    engines, notes = engine_names(suite)
+    explicit = engines is not None or suite.engine_names != "available"
+    engines, notes = engine_names(suite, engines)
+    engines, more = check_suite(suite, engines, explicit)
+    notes += more
     todo = plan(suite, engines)
     if suite.own_eta and engines:
         etas, more = measure_own_eta(suite, engines, out, log)

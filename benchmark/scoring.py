@@ -6,11 +6,19 @@ commands call it.
 
 Pairing rule. Every map whose engine is not ``reference`` is scored against every reference map of
 the same block and pulse over the same grid (Housner, modified with the average k, modified with
-the exact k, a constant η, whatever was computed). With ``against=`` the maps found there are the
-references and *every* map of the run directories is scored against them (so a reference map can
-be compared with another reference map, e.g. at half the time step). A pair is *like for like*
-when both maps use the same restitution law; gates (``--fail-under``) apply to like-for-like pairs,
-or to all pairs of an engine map that has none.
+the exact k, a constant η, whatever was computed) **of its own run**: each RUN_DIR given is one run
+(or, below it, each folder written by ``rockbench run``, the one holding ``suite.json``), so
+several runs scored together are not cross-paired. An engine map whose run has no reference map of
+its block and pulse is paired with those of the other runs given, and a note says so
+(:func:`pair_within_runs`). With ``against=`` the maps found there are the references and *every*
+map of the run directories is scored against them (so a reference map can be compared with another
+reference map, e.g. at half the time step). A pair is *like for like* when both maps use the same
+restitution law; gates (``--fail-under``) apply to like-for-like pairs, or to all pairs of an engine
+map that has none.
+
+Tolerances of ``compare`` are stated in cells (:data:`DEFAULT_TOLERANCE_CELLS`): what that many
+flipped cells can change in each metric on the pair's own grid (:func:`cell_units`), never less
+than the metric's absolute default, so a one-cell change on a coarse grid is not a regression.
 
 A reference map must be complete for its grid: every cell simulated, or (adaptive maps) inferred by
 its own fill rule. An unfinished one is refused (:class:`IncomparableError`, exit 5, naming what is
@@ -31,7 +39,8 @@ import numpy as np
 
 from ..reference_solver.errors import ConfigError, IncomparableError
 from ..reference_solver.pulses import is_number
-from .scores import FAILED, METRICS, METRICS_VERSION, LabelMap, cell_counts, check_gate, from_cells, score
+from .scores import (FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, cell_counts, check_gate, domain,
+                     from_cells, score)
 from .atomic import write_json_atomic as _write_json
 
 #: Version of score.json's layout.
@@ -164,17 +173,25 @@ def variant_name(engine: str, settings: dict | None = None, dt_s: float | None =
 
 
 def _read_json(p: Path) -> dict:
+    """A JSON object from ``p``; ConfigError naming the file when it is unreadable or not an object."""
     try:
-        return json.loads(p.read_text())
-    except (OSError, ValueError) as e:
-        raise ConfigError(f"cannot read {str(p)!r} ({e}); is it a rockbench file?") from None
+        doc = json.loads(p.read_bytes().decode("utf-8-sig"))
+    except (OSError, ValueError) as e:   # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        why = e.strerror if isinstance(e, OSError) and e.strerror else e
+        raise ConfigError(f"cannot read {str(p)!r} ({why}); is it a rockbench file?") from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{str(p)!r} is damaged: it holds {'null' if doc is None else type(doc).__name__}, not a "
+                          "JSON object; is it a rockbench file?")
+    return doc
 
 
 def _read_cells(path: Path) -> tuple[LabelMap, dict]:
     try:
-        text = path.read_text()
+        text = path.read_bytes().decode("utf-8-sig")
     except OSError as e:
-        raise ConfigError(f"cannot read {str(path)!r}: {e}.") from None
+        raise ConfigError(f"cannot read {str(path)!r}: {e.strerror or e}.") from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{str(path)!r} is not UTF-8 text (byte {e.start}); is it a cells.csv?") from None
     # a torn last line (the run was killed mid-write) is not a row
     text = text[: text.rfind("\n") + 1]
     rows = list(csv.DictReader(text.splitlines()))
@@ -213,7 +230,7 @@ def pair_key(p: dict) -> str:
 
 
 def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None,
-                  own_eta: dict | None = None) -> dict:
+                  own_eta: dict | None = None, pair_with=None) -> dict:
     """Score every candidate against every reference of its block and pulse (see the module docstring).
 
     Parameters
@@ -227,6 +244,9 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         ``{(variant, block): η}``: each engine variant's restitution measured in free rocking [-]. A
         reference map with that constant η (to 4 decimals) is the engine's *own-η* reference: it
         isolates the engine's integration and contact error from its energy-loss model.
+    pair_with : callable, optional
+        ``pair_with(candidate)`` → the references that candidate may be paired with (default: all
+        of ``references``); :func:`pair_within_runs` makes one that keeps runs apart.
 
     Returns
     -------
@@ -243,7 +263,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     """
     pairs, skipped = [], []
     for c in candidates:
-        for r in references:
+        for r in (references if pair_with is None else pair_with(c)):
             if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
                 continue
             check_complete(r)
@@ -263,7 +283,8 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
                  "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
                  "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
                  "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
-                 "filled_cells": c.label_map.filled, **cell_counts(c.label_map, r.label_map), "scores": s}
+                 "filled_cells": c.label_map.filled, **cell_counts(c.label_map, r.label_map),
+                 "cells": grid_cells(c.label_map, r.label_map), "scores": s}
             p["key"] = pair_key(p)
             pairs.append(p)
     if not pairs:
@@ -335,27 +356,133 @@ def load_own_eta(paths: Iterable) -> dict:
         f = Path(p) / CALIBRATION_FILE
         if f.is_file():
             doc = _read_json(f)
-            for row in doc.get("measurements", []):
-                if row.get("eta_measured") is not None:
-                    out[(row["variant"], row["block"])] = float(row["eta_measured"])
+            rows = doc.get("measurements", [])
+            try:
+                for row in rows:
+                    if row.get("eta_measured") is not None:
+                        out[(str(row["variant"]), str(row["block"]))] = float(row["eta_measured"])
+            except (AttributeError, KeyError, TypeError, ValueError) as e:
+                raise ConfigError(f"{str(f)!r} is damaged ({type(e).__name__}: {e}); delete it (`rockbench run` "
+                                  "measures the engines' η again).") from None
     return out
 
 
 def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None) -> dict:
-    """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`).
+    """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`),
+    each engine map against the reference maps of its own run (see the module docstring).
 
     Engine variants' own η come from a ``calibration.json`` at the top of a run directory (written
-    by ``rockbench run``), when there is one.
+    by ``rockbench run``), when there is one. The document's ``pairing`` says how maps were paired
+    (and, in ``notes``, where runs had to be crossed).
     """
     run_dirs = list(run_dirs)
-    entries = load_entries(run_dirs)
+    entries, run_of = load_runs(run_dirs)
     if against:
         refs = load_entries(against)
         cands = entries
+        pair_with, notes = None, []
     else:
         refs = [e for e in entries if e.is_reference]
         cands = [e for e in entries if not e.is_reference]
-    return score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs))
+        pair_with, notes = pair_within_runs(cands, refs, run_of)
+    doc = score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs), pair_with=pair_with)
+    mark_runs(doc, run_of, against=bool(against), notes=notes)
+    return doc
+
+
+def _run_root(d: Path, arg: Path) -> Path:
+    """The run a map directory ``d`` found under the argument ``arg`` belongs to: the nearest folder at or
+    below ``arg`` holding ``suite.json`` (a ``rockbench run`` output), else ``arg`` itself."""
+    for q in [d, *d.parents]:
+        if (q / "suite.json").is_file():
+            return q
+        if q == arg:
+            break
+    return arg
+
+
+def load_runs(run_dirs: Iterable) -> tuple[list[MapEntry], dict]:
+    """Every map under ``run_dirs`` (as :func:`load_entries`) and ``{map dir: its run}``."""
+    entries, run_of = [], {}
+    for arg in run_dirs:
+        arg = Path(arg)
+        for d in find_map_dirs([arg]):
+            if d in run_of:
+                continue   # found under an earlier argument too: it belongs to that run
+            run_of[d] = _run_root(d, arg)
+            entries.append(load_entry(d))
+    return entries, run_of
+
+
+def pair_within_runs(cands: list[MapEntry], refs: list[MapEntry], run_of: dict):
+    """``(pair_with, notes)`` for :func:`score_entries`: each candidate is paired with the references of
+    its own run; a candidate whose run has none of its block and pulse takes those of the other runs,
+    and a note says so."""
+    notes: list[str] = []
+    own: dict = {}
+    for c in cands:
+        same = [r for r in refs if run_of.get(r.path) == run_of.get(c.path)]
+        if not any((r.block, r.pulse) == (c.block, c.pulse) for r in same):
+            others = [r for r in refs if (r.block, r.pulse) == (c.block, c.pulse)]
+            if others:
+                runs = sorted({str(run_of.get(r.path)) for r in others})
+                notes.append(f"{c.path} ({c.variant}, {c.block} {c.pulse}): its run {str(run_of.get(c.path))!r} has "
+                             f"no reference map of this block and pulse; paired across runs with those of "
+                             f"{', '.join(repr(x) for x in runs)}")
+            same = same + others
+        own[c.path] = same
+    return (lambda c: own.get(c.path, [])), notes
+
+
+def mark_runs(doc: dict, run_of: dict, *, against: bool = False, notes: list | None = None) -> None:
+    """Record in a score document which run each pair comes from and how maps were paired."""
+    for p in doc["pairs"]:
+        run = run_of.get(Path(p["engine_dir"]))
+        p["run"] = None if run is None else str(run)
+        ref_run = run_of.get(Path(p["reference"]["dir"]))
+        p["reference"]["run"] = None if ref_run is None else str(ref_run)
+        p["across_runs"] = bool(not against and run is not None and ref_run is not None and run != ref_run)
+    doc["pairing"] = {"rule": "against" if against else "within each run",
+                      "runs": sorted({str(r) for r in run_of.values()}), "notes": list(notes or [])}
+
+
+def grid_cells(eng: LabelMap, ref: LabelMap) -> dict:
+    """How many cells a pair's metrics are taken over: ``judged`` (the reference's domain: it has an
+    outcome and is valid), ``overturn_union`` (judged cells where either map overturns or the engine
+    failed), and the grid's steps, from which :func:`cell_units` turns a number of cells into each
+    metric's units."""
+    judged, _ = domain(ref)
+    union = judged & ((eng.codes == OVERTURN) | (ref.codes == OVERTURN) | (eng.codes == FAILED))
+    w, a = eng.w_ratio, eng.a_ratio
+    return {"judged": int(judged.sum()), "overturn_union": int(union.sum()),
+            "w_step": float((w[-1] - w[0]) / (w.size - 1)) if w.size > 1 else 0.0,
+            "a_step": float((a[-1] - a[0]) / (a.size - 1)) if a.size > 1 else 0.0}
+
+
+#: Default tolerance of ``compare``, in flipped cells (converted per pair by :func:`cell_units`).
+DEFAULT_TOLERANCE_CELLS = 2.0
+
+
+def cell_units(pair: dict) -> dict:
+    """What one flipped cell can change in each metric of ``pair`` (in the metric's own units).
+
+    Fractions of cells change by one over the cells they are taken over; distances in the
+    normalised plane by a cell's diagonal; critical amplitudes by an amplitude step (the mean by one
+    step over the columns); counts by one. Metrics not listed have no cell unit (absolute
+    tolerances only). A pair without ``cells`` (an older score.json) uses its whole grid.
+    """
+    g = pair.get("grid") or {}
+    n_w, n_a = int(g.get("n_w", 1) or 1), int(g.get("n_a", 1) or 1)
+    c = pair.get("cells") or {}
+    dw = c.get("w_step", (g.get("w_hi", 0) - g.get("w_lo", 0)) / max(n_w - 1, 1))
+    da = c.get("a_step", (g.get("a_hi", 0) - g.get("a_lo", 0)) / max(n_a - 1, 1))
+    judged = max(int(c.get("judged", n_w * n_a)), 1)
+    union = max(int(c.get("overturn_union", n_w * n_a)), 1)
+    return {"agreement": 1.0 / judged, "overturn_agreement": 1.0 / judged, "iou_overturn": 1.0 / union,
+            "boundary_mean": math.hypot(dw, da), "boundary_max": math.hypot(dw, da),
+            "critical_error_mean": da / n_w, "critical_error_max": da, "critical_one_sided": 1.0,
+            "consistency": 1.0 / max(int(pair.get("cells_outside_domain_simulated", n_w * n_a) or 1), 1),
+            "spurious_invalid": 1.0, "failed_cells": 1.0}
 
 
 def gate(doc: dict, thresholds: dict) -> list[str]:
@@ -415,40 +542,89 @@ def load_score(path) -> dict:
     if not p.is_file():
         raise ConfigError(f"{str(p)!r} does not exist; give a score.json or a run directory.")
     doc = _read_json(p)
-    if not isinstance(doc, dict) or doc.get("kind") != SCORE_KIND:
-        raise IncomparableError(f"{str(p)!r} is not a rockbench score file (kind {doc.get('kind') if isinstance(doc, dict) else None!r}).")
+    if doc.get("kind") != SCORE_KIND:
+        raise IncomparableError(f"{str(p)!r} is not a rockbench score file (kind {doc.get('kind')!r}).")
     if doc.get("schema_version") != SCORE_SCHEMA_VERSION:
         raise IncomparableError(f"{str(p)!r} has score schema {doc.get('schema_version')}, this rockbench reads "
                                 f"{SCORE_SCHEMA_VERSION}; rescore both runs with one version.")
+    check_score_doc(doc, p)
     return doc
+
+
+def check_score_doc(doc: dict, where) -> None:
+    """ConfigError naming the file and the first damaged part of a score document of this schema."""
+    def bad(what: str):
+        return ConfigError(f"{str(where)!r} is damaged: {what}; score the run again (`rockbench score RUN_DIR`).")
+
+    pairs = doc.get("pairs")
+    if not isinstance(pairs, list):
+        raise bad(f"'pairs' must be a list, got {type(pairs).__name__ if pairs is not None else 'nothing'}")
+    for n, p in enumerate(pairs):
+        if not isinstance(p, dict):
+            raise bad(f"pairs[{n}] is {type(p).__name__}, not an object")
+        for key, kind in (("key", str), ("grid", dict), ("scores", dict)):
+            if not isinstance(p.get(key), kind):
+                raise bad(f"pairs[{n}] has no {key!r} {'text' if kind is str else 'object'}")
+        if "cells" in p and not isinstance(p["cells"], dict):
+            raise bad(f"pairs[{n}].cells is {p['cells']!r}, not an object")
+        for part in ("scores", "grid", "cells"):
+            for name, v in (p.get(part) or {}).items():
+                if (v is None and part != "scores") or isinstance(v, bool) or not isinstance(v, (int, float, type(None))):
+                    raise bad(f"pairs[{n}].{part}.{name} is {v!r}, not a number")
+        for name in ("n_w", "n_a"):
+            if not isinstance(p["grid"].get(name), int) or p["grid"][name] < 1:
+                raise bad(f"pairs[{n}].grid.{name} is {p['grid'].get(name)!r}, not a whole number >= 1")
 
 
 # -- comparing two score documents -----------------------------------------------------------------
 
 def parse_tolerances(items: Iterable[str]) -> dict:
-    """``--tolerance`` items: ``VALUE`` (every metric) or ``METRIC=VALUE``; returns per-metric tolerances."""
-    tol = {name: m.tolerance for name, m in METRICS.items()}
+    """``--tolerance`` items: ``VALUE`` or ``Ncells`` (every metric), ``METRIC=VALUE`` or
+    ``METRIC=Ncells`` (one metric); returns per-metric tolerances.
+
+    A tolerance is ``{"cells": N, "at_least": X}``: N flipped cells on the pair's grid
+    (:func:`cell_units`), never less than the absolute X. The default is
+    :data:`DEFAULT_TOLERANCE_CELLS` cells at least the metric's own absolute tolerance; ``VALUE``
+    states an absolute tolerance alone, ``Ncells`` a number of cells alone.
+    """
+    tol = {name: {"cells": DEFAULT_TOLERANCE_CELLS, "at_least": m.tolerance} for name, m in METRICS.items()}
     for item in items:
         name, eq, val = str(item).partition("=")
         if not eq:
             name, val = "", name
+        text = val.strip().lower()
+        in_cells = text.endswith(("cells", "cell"))
         try:
-            v = float(val)
+            v = float(text[: -5 if text.endswith("cells") else -4] if in_cells else text)
         except ValueError:
-            raise ConfigError(f"--tolerance takes VALUE or METRIC=VALUE with a number, got {item!r}.") from None
+            raise ConfigError(f"--tolerance takes VALUE, Ncells, METRIC=VALUE or METRIC=Ncells with a number, got "
+                              f"{item!r}.") from None
         if not math.isfinite(v) or v < 0:
             raise ConfigError(f"--tolerance must be a finite number >= 0, got {item!r}.")
+        t = {"cells": v, "at_least": 0.0} if in_cells else {"cells": 0.0, "at_least": v}
         if not name:
-            tol = {k: v for k in tol}
+            tol = {k: dict(t) for k in tol}
         elif name in METRICS:
-            tol[name] = v
+            tol[name] = t
         else:
             raise ConfigError(f"--tolerance: unknown metric {name!r}; metrics: {', '.join(METRICS)}.")
     return tol
 
 
+def tolerance_for(tol, name: str, units: dict) -> float:
+    """The tolerance of metric ``name`` in its own units for a pair with ``units`` (see :func:`parse_tolerances`;
+    a plain number is an absolute tolerance)."""
+    if not isinstance(tol, dict):
+        return float(tol)
+    cells = float(tol.get("cells", 0.0))
+    return max(float(tol.get("at_least", 0.0)), cells * units[name] if cells and name in units else 0.0)
+
+
 def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dict:
     """Regressions of ``cur`` against ``base``, pair by pair and metric by metric.
+
+    Each tolerance is turned into the metric's units on the baseline pair's grid
+    (:func:`tolerance_for`); the rows give the value used.
 
     Returns
     -------
@@ -461,7 +637,8 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
     Raises
     ------
     IncomparableError
-        Other metric definitions, no pair in common, or a common pair on another grid.
+        Other metric definitions, no pair in common, a common pair on another grid, or a document
+        holding one pair twice (several runs scored together).
     """
     tol = dict(parse_tolerances([]) if tolerances is None else tolerances)
     if base.get("metrics_version") != cur.get("metrics_version"):
@@ -469,8 +646,8 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
                                 f"{base.get('metrics_version')}, current {cur.get('metrics_version')}; version 2 "
                                 "judges engines only where the reference is valid and adds consistency and "
                                 "spurious_invalid); rescore both with one rockbench (`rockbench score RUN_DIR`).")
-    b = {p["key"]: p for p in base["pairs"]}
-    c = {p["key"]: p for p in cur["pairs"]}
+    b = _pairs_by_key(base, "baseline")
+    c = _pairs_by_key(cur, "current")
     common = sorted(set(b) & set(c))
     if not common:
         raise IncomparableError("the two results share no scored pair (engine, block, pulse, restitution, "
@@ -481,14 +658,16 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
                                     f"{c[k]['grid']}); compare runs of one suite.")
     regressions, improvements = [], []
     for k in common:
+        units = cell_units(b[k])
         for name, m in METRICS.items():
             old, new = b[k]["scores"].get(name), c[k]["scores"].get(name)
             old = math.nan if old is None else float(old)
             new = math.nan if new is None else float(new)
+            t = tolerance_for(tol.get(name, m.tolerance), name, units)
             row = {"key": k, "metric": name, "baseline": old, "current": new,
                    "delta": new - old if math.isfinite(old) and math.isfinite(new) else math.nan,
-                   "tolerance": tol[name]}
-            if m.worse(new, old, tol[name]):
+                   "tolerance": t}
+            if m.worse(new, old, t):
                 regressions.append(row)
             elif m.worse(old, new, 0.0):
                 improvements.append(row)
@@ -496,3 +675,14 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
     return {"status": "regression" if regressions or missing else "ok", "compared": len(common),
             "regressions": regressions, "improvements": improvements, "missing": missing,
             "new": sorted(set(c) - set(b)), "tolerances": tol}
+
+
+def _pairs_by_key(doc: dict, which: str) -> dict:
+    out: dict = {}
+    for p in doc["pairs"]:
+        if p["key"] in out:
+            runs = [str(q.get("run")) for q in (out[p["key"]], p)]
+            raise IncomparableError(f"the {which} holds the pair {p['key']!r} twice (runs {runs[0]} and {runs[1]}); "
+                                    "score one run at a time to compare it.")
+        out[p["key"]] = p
+    return out

@@ -50,6 +50,11 @@ def spec_variant(spec) -> str:
     return variant_name(spec.engine, spec.engine_settings, spec.dt_s)
 
 
+#: what a map directory may hold before its run.json exists: the lock, and the scratch space of a
+#: ``--scheduler local`` cluster (executors.DASK_SCRATCH)
+_OURS = frozenset((".lock", ".dask-scratch"))
+
+
 def utc_now() -> str:
     return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
@@ -128,15 +133,16 @@ class RunStore:
         if d.exists() and not d.is_dir():
             raise ConfigError(f"--out {str(d)!r} is a file; give a directory for the map.")
         run_json = d / "run.json"
-        if d.exists() and any(p.name != ".lock" for p in d.iterdir()) and not run_json.exists():
+        if d.exists() and any(p.name not in _OURS for p in d.iterdir()) and not run_json.exists():
             raise ConfigError(f"--out {str(d)!r} exists and is not a rockbench map directory (no run.json); "
                               "give a new or empty directory.")
         previous = None
         if run_json.exists():
             previous = _read_json(run_json)
             _check_schema(previous, d)
-            if previous.get("spec_identity") != spec.identity():
-                diff = _differences(previous.get("spec_identity") or {}, spec.identity())
+            before = previous.get("spec_identity")
+            if before != spec.identity():
+                diff = _differences(before if isinstance(before, dict) else {}, spec.identity())
                 raise ConfigError(f"{str(d)!r} already holds a different map (differs in {diff}); give another "
                                   "--out directory, or delete this one to start over.")
         d.mkdir(parents=True, exist_ok=True)
@@ -160,15 +166,17 @@ class RunStore:
             "spec": spec.to_dict(),
             "spec_identity": spec.identity(),
             "options": options,
-            "runs": (previous.get("runs", []) if previous else []) + [{"started_utc": utc_now()}],
+            "runs": _list(previous, "runs") + [{"started_utc": utc_now()}],
             "summary": None,
         }
-        if previous and previous.get("engine", {}).get("version") != describe.get("version"):
-            meta["engine_version_changed"] = {"before": previous.get("engine", {}).get("version"),
-                                              "now": describe.get("version")}
+        before = _dict(previous, "engine").get("version")
+        if previous and before != describe.get("version"):
+            meta["engine_version_changed"] = {"before": before, "now": describe.get("version")}
+        # check cells.csv before anything is written: a resume that cannot read it changes nothing
+        done, good = self._read_csv(spec.shape)
+        self._cut_torn_tail(good)
         self._meta = meta
         write_json_atomic(run_json, meta)
-        done = self._recover_csv()
         self._csv = open(d / "cells.csv", "a", newline="")
         if self._csv.tell() == 0:
             self._write_line(COLUMNS)
@@ -185,21 +193,24 @@ class RunStore:
             raise ConfigError(f"another rockbench process is writing {str(self.dir)!r}; wait for it to finish "
                               "or give another --out.") from None
 
-    def _recover_csv(self) -> dict:
-        """Read the finished rows, cutting off a torn last line; returns ``{(i, j): row}``."""
+    def _read_csv(self, shape) -> tuple[dict, int | None]:
+        """The finished rows ``{(i, j): row}`` and the byte length of the well-formed prefix (None when
+        there is no cells.csv); reads only (see :meth:`_cut_torn_tail`)."""
         path = self.dir / "cells.csv"
         if not path.exists():
-            return {}
-        data = path.read_bytes()
-        keep = data.rfind(b"\n") + 1      # a row is only complete with its newline
-        rows, good = _parse_rows(data[:keep].decode("utf-8"), path)
-        if good != len(data):
-            with open(path, "r+b") as f:
-                f.truncate(good)
+            return {}, None
+        rows, good = _read_cells_file(path, shape)
         for r in rows.values():
             if r["status"] != "ok":
                 self._failures.append(r)
-        return rows
+        return rows, good
+
+    def _cut_torn_tail(self, good: int | None) -> None:
+        """Cut off a torn last line left by a kill (a row is only complete with its newline)."""
+        path = self.dir / "cells.csv"
+        if good is not None and good != path.stat().st_size:
+            with open(path, "r+b") as f:
+                f.truncate(good)
 
     # -- writing ------------------------------------------------------------------------------
     def row(self, spec, i: int, j: int, r) -> dict:
@@ -246,8 +257,7 @@ class RunStore:
         if others:
             self.append(others, _prefix="".join(lines))
         elif lines:
-            self._csv.write("".join(lines))
-            self._csv.flush()
+            self._write("".join(lines))
 
     def append(self, rows: list[dict], _prefix: str = "") -> None:
         """Append rows and flush them to the operating system (survives ``kill -9``)."""
@@ -269,14 +279,22 @@ class RunStore:
                 self._failures.append({k: _fmt(v) for k, v in r.items()})
         # one write per row batch; each row ends with its newline, so a kill leaves whole rows
         # plus at most one torn line, which the next open cuts off
-        self._csv.write(_prefix + "".join(lines))
-        self._csv.flush()
+        self._write(_prefix + "".join(lines))
 
     def _write_line(self, cells: list[str]) -> None:
         buf = io.StringIO()
         csv.writer(buf, lineterminator="\n").writerow(cells)
-        self._csv.write(buf.getvalue())
-        self._csv.flush()
+        self._write(buf.getvalue())
+
+    def _write(self, text: str) -> None:
+        """Write and flush to cells.csv; a refusal of the file system (a full disk) names the file."""
+        try:
+            self._csv.write(text)
+            self._csv.flush()
+        except OSError as e:
+            if e.filename is not None:
+                raise
+            raise OSError(e.errno, e.strerror or str(e), str(self.dir / "cells.csv")) from None
 
     def failures(self) -> list[dict]:
         return [{"i": int(r["i"]), "j": int(r["j"]), "flag": r["flags"], "message": r["message"]}
@@ -312,17 +330,55 @@ def read_run(out_dir) -> tuple[dict, dict]:
     path = d / "cells.csv"
     if not path.exists():
         return meta, {}
-    data = path.read_bytes()
-    rows, _ = _parse_rows(data[: data.rfind(b"\n") + 1].decode("utf-8"), path)
+    rows, _ = _read_cells_file(path, spec_shape(meta, run_json))
     return meta, rows
 
 
-def _parse_rows(text: str, path: Path) -> tuple[dict, int]:
+def spec_shape(meta: dict, where) -> tuple[int, int]:
+    """``(n_amplitudes, n_frequencies)`` of the map a run.json describes (ConfigError when damaged)."""
+    spec = meta.get("spec")
+    if not isinstance(spec, dict):
+        raise ConfigError(f"{str(where)!r} is damaged: it lacks the map's 'spec' object; give a new --out directory.")
+    try:
+        return int(spec["y"]["n"]), int(spec["x"]["n"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise ConfigError(f"{str(where)!r} is damaged: its spec has no whole-number grid size x.n, y.n "
+                          f"({type(e).__name__}: {e}); give a new --out directory.") from None
+
+
+_BOM = b"\xef\xbb\xbf"
+_DAMAGED = "the file was edited or damaged: fix or delete that line (rerunning `rockbench map` recomputes it)"
+
+
+def _read_cells_file(path: Path, shape=None) -> tuple[dict, int]:
+    """Rows of a cells.csv by cell and the byte length of its well-formed prefix.
+
+    A torn last line (a kill in mid-write) is not a row; a byte-order mark (a spreadsheet saved the
+    file) is skipped. Anything else that is not what this rockbench writes is a ConfigError naming
+    the line (an IncomparableError for the header of another version).
+    """
+    if path.is_dir():
+        raise ConfigError(f"{str(path)!r} is a folder, not the map's cell table; remove it, or give a new --out "
+                          "directory.")
+    data = path.read_bytes()
+    start = len(_BOM) if data.startswith(_BOM) else 0
+    end = data.rfind(b"\n") + 1       # a row is only complete with its newline
+    try:
+        text = data[start:end].decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data[:start + e.start].count(b"\n") + 1
+        raise ConfigError(f"{str(path)!r} line {line} is not UTF-8 text (byte 0x{data[start + e.start]:02x}); "
+                          f"{_DAMAGED}.") from None
+    rows, good = _parse_rows(text, path, shape)
+    return rows, (start + good) if good else 0
+
+
+def _parse_rows(text: str, path: Path, shape=None) -> tuple[dict, int]:
     """Rows by cell and the byte length of the well-formed prefix (header plus whole rows)."""
     lines = text.splitlines(keepends=True)
     if not lines:
         return {}, 0
-    header = next(csv.reader([lines[0]]))
+    header = next(csv.reader([lines[0]]), [])
     if header != COLUMNS:
         raise IncomparableError(f"{str(path)!r} has other columns than this rockbench writes; it comes from "
                                 "another version: give a new --out directory.")
@@ -334,18 +390,93 @@ def _parse_rows(text: str, path: Path) -> tuple[dict, int]:
             if n == len(lines):
                 break   # a torn last row that still ended in a newline inside a quoted field
             raise ConfigError(f"{str(path)!r} line {n} is malformed ({len(vals)} fields, expected {len(COLUMNS)}); "
-                              "the file was edited by hand: give a new --out directory.")
+                              f"{_DAMAGED}.")
         r = dict(zip(COLUMNS, vals))
-        rows[(int(r["i"]), int(r["j"]))] = r   # a repeated cell keeps its last row
+        rows[_check_row(r, n, path, shape)] = r   # a repeated cell keeps its last row
         good += len(line.encode())
     return rows, good
 
 
-def _read_json(path: Path) -> dict:
+_OUTCOMES = frozenset(("rest", "rocking", "overturn"))
+_STATUSES = frozenset(("ok", "failed"))
+_BOOLS = frozenset(("true", "false"))
+
+
+def _check_row(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
+    """The cell ``(i, j)`` of a row, after checking the fields a map is read from (ConfigError naming the
+    line and the field otherwise)."""
+    # the common case, a whole successful row, in as few steps as possible (a 200×200 map has 40 000)
     try:
-        return json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as e:
+        if r["status"] == "ok" and r["outcome"] in _OUTCOMES and r["valid"] in _BOOLS:
+            int(r["n_impacts"])
+            float(r["max_abs_theta_rad"])
+            i, j = int(r["i"]), int(r["j"])
+            if shape is None or (0 <= i < shape[0] and 0 <= j < shape[1]):
+                return i, j
+    except ValueError:
+        pass
+    return _check_row_slowly(r, n, path, shape)
+
+
+def _check_row_slowly(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
+    """:func:`_check_row` field by field, to name the first bad one."""
+    def bad(col: str, what: str):
+        return ConfigError(f"{str(path)!r} line {n}: {col} {r[col]!r} is not {what}; {_DAMAGED}.")
+
+    ij = []
+    for col in ("i", "j"):
+        try:
+            ij.append(int(r[col]))
+        except ValueError:
+            raise bad(col, "a whole number") from None
+    i, j = ij
+    if shape is not None:
+        for col, v, size in (("i", i, shape[0]), ("j", j, shape[1])):
+            if not 0 <= v < size:
+                raise bad(col, f"a cell index of this {shape[0]}×{shape[1]} map (0 to {size - 1})")
+    if r["status"] not in _STATUSES:
+        raise bad("status", "ok or failed")
+    ok = r["status"] == "ok"
+    if ok and r["outcome"] not in _OUTCOMES:
+        raise bad("outcome", "rest, rocking or overturn")
+    if not ok and r["outcome"] not in _OUTCOMES and r["outcome"] != "":
+        raise bad("outcome", "rest, rocking, overturn or empty")
+    if r["valid"] not in _BOOLS:
+        raise bad("valid", "true or false")
+    if ok:
+        try:
+            int(r["n_impacts"])
+        except ValueError:
+            raise bad("n_impacts", "a whole number") from None
+        try:
+            float(r["max_abs_theta_rad"])
+        except ValueError:
+            raise bad("max_abs_theta_rad", "a number") from None
+    return i, j
+
+
+def _list(d: dict | None, key: str) -> list:
+    v = (d or {}).get(key)
+    return v if isinstance(v, list) else []
+
+
+def _dict(d: dict | None, key: str) -> dict:
+    v = (d or {}).get(key)
+    return v if isinstance(v, dict) else {}
+
+
+def _read_json(path: Path) -> dict:
+    """A JSON object from ``path`` (ConfigError naming the file when it is unreadable or not an object)."""
+    try:
+        data = json.loads(path.read_bytes().decode("utf-8-sig"))
+    except IsADirectoryError:
+        raise ConfigError(f"{str(path)!r} is a folder, not a rockbench file; give a new --out directory.") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
         raise ConfigError(f"cannot read {str(path)!r} ({e}); give a new --out directory.") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{str(path)!r} is damaged: it holds {type(data).__name__ if data is not None else 'null'}, "
+                          "not a JSON object; give a new --out directory.")
+    return data
 
 
 def _check_schema(meta: dict, d: Path) -> None:

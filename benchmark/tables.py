@@ -23,10 +23,16 @@ def fmt(name: str, v) -> str:
     return f"{v:.4f}" if name in ("agreement", "overturn_agreement", "iou_overturn", "consistency") else f"{v:.3f}"
 
 
+def md_cell(text: str) -> str:
+    """A Markdown table cell: ``|`` escaped (pair keys contain it) and line breaks folded, so every
+    row keeps the header's number of cells."""
+    return " ".join(str(text).replace("\\", "\\\\").replace("|", "\\|").split())
+
+
 def render(head: list[str], rows: list[list[str]], markdown: bool) -> str:
     if markdown:
-        lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
-        lines += ["| " + " | ".join(r) + " |" for r in rows]
+        lines = ["| " + " | ".join(md_cell(h) for h in head) + " |", "|" + "|".join("---" for _ in head) + "|"]
+        lines += ["| " + " | ".join(md_cell(c) for c in r) + " |" for r in rows]
         return "\n".join(lines)
     width = [max(len(h), *(len(r[k]) for r in rows)) if rows else len(h) for k, h in enumerate(head)]
     out = ["  ".join(h.ljust(w) for h, w in zip(head, width)), "  ".join("-" * w for w in width)]
@@ -113,6 +119,6 @@ def compare_table(res: dict, markdown: bool = False) -> str:
     title = (f"compare: {res['status']} — {res['compared']} pair(s) compared, {len(res['regressions'])} "
              f"regression(s), {len(res['missing'])} missing, {len(res['improvements'])} improvement(s), "
              f"{len(res['new'])} new")
-    if not rows:
-        return ("**" + title + "**") if markdown else title
-    return (("**" + title + "**\n\n") if markdown else title + "\n") + render(head, rows, markdown)
+    if not rows:   # the table is always there, so a pull-request comment keeps its shape
+        rows.append(["ok", f"all {res['compared']} pair(s) within their tolerances", "", "", "", "", ""])
+    return (("**" + md_cell(title) + "**\n\n") if markdown else title + "\n") + render(head, rows, markdown)

@@ -10,17 +10,29 @@ Messages out: ``("ready", pid)`` or ``("init-error", text)``; per chunk either o
 ``("results", chunk_id, [(key, CellResult), ...])`` (batch) or ``("start", key)`` /
 ``("result", key, CellResult)`` per cell, then ``("done", chunk_id)``; ``("batch-failed",
 chunk_id, text)`` when a batch raised (the executor reruns its cells one by one).
+
+A worker never outlives the process that started it (whose pid the executor puts in
+``ROCKBENCH_PARENT_PID``): on Linux the kernel kills it when that process dies (``PR_SET_PDEATHSIG``,
+which works even while an engine holds the GIL in C code), and everywhere a watchdog thread stops
+it within half a second once it has been handed to another parent.
 """
 
 from __future__ import annotations
 
 import os
 import pickle
+import signal
 import struct
 import sys
+import threading
 import time
 
 _HEADER = struct.Struct(">Q")
+
+#: environment variable holding the pid of the process that started the worker
+PARENT_ENV = "ROCKBENCH_PARENT_PID"
+#: seconds between the watchdog's looks at the parent
+WATCH_INTERVAL_S = 0.5
 
 
 def send(f, msg) -> None:
@@ -101,7 +113,31 @@ def serve(inp, out) -> int:
         send(out, ("done", chunk_id))
 
 
+def watch_parent(parent_pid: int) -> None:
+    """Die with the parent ``parent_pid`` (see the module docstring)."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # 1 = PR_SET_PDEATHSIG
+        except (OSError, AttributeError):   # no libc prctl: the watchdog below still holds
+            pass
+    if os.getppid() != parent_pid:     # the parent died before the kernel was told
+        os._exit(1)
+
+    def watch():
+        while True:
+            time.sleep(WATCH_INTERVAL_S)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="rockbench-parent-watch", daemon=True).start()
+
+
 def main() -> int:
+    parent = os.environ.get(PARENT_ENV)
+    if parent and parent.isdigit():
+        watch_parent(int(parent))
     out = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)
     sys.stdout = sys.stderr

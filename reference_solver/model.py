@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from .classify import FLAT_ANGLE_RAD
 from .errors import ConfigError, check_positive
 
 #: Gravitational acceleration used throughout the paper and this package [m/s^2].
@@ -69,8 +70,18 @@ class Block:
         object.__setattr__(self, "depth_m", d)
         object.__setattr__(self, "density_kg_m3", rho)
         object.__setattr__(self, "mass_kg", m)
+        if not (math.isfinite(m) and m > 0.0):
+            raise ConfigError(f"the block's mass is {m:g} kg (width {b:g} m × height {h:g} m × depth {d:g} m × "
+                              f"density {rho:g} kg/m^3); give sizes and a density whose product is a finite mass > 0.")
+        alpha = math.atan2(b, h)
+        if alpha >= FLAT_ANGLE_RAD:
+            raise ConfigError(f"a block {b:g} m wide and {h:g} m high (b/h = {b / h:.4g}) lies flat: α = {alpha:.4f} rad, "
+                              f"and rocking needs α < {FLAT_ANGLE_RAD:.4f} rad (b/h < {math.tan(FLAT_ANGLE_RAD):.4g}); "
+                              "check --width and --height (full sizes in metres).")
         R = 0.5 * math.hypot(b, h)
-        object.__setattr__(self, "alpha_rad", math.atan2(b, h))
+        if not (math.isfinite(R) and R > 0.0):
+            raise ConfigError(f"a block {b:g} m wide and {h:g} m high has no finite size; check --width and --height.")
+        object.__setattr__(self, "alpha_rad", alpha)
         object.__setattr__(self, "half_diagonal_m", R)
         object.__setattr__(self, "p_rad_s", math.sqrt(3.0 * G / (4.0 * R)))
 

@@ -23,6 +23,32 @@ PULSE_CODES = {"sine": 0, "cosine": 1, "half-sine": 2, "record": 3}
 #: Fewest time steps per pulse duration (per wave for the harmonic pulses) the solvers accept.
 MIN_STEPS_PER_WAVE = 20
 
+#: Largest table acceleration accepted [m/s^2] (about 100 000 g): far beyond any shaking table, and a
+#: bound that keeps every solver's numbers finite (a record of 1e300 m/s^2 is a units mistake).
+MAX_ACCEL_MPS2 = 1e6
+
+#: Most time steps one simulation may take to cover its pulse: a finer step could not finish (the
+#: reference takes about 150 ns per step, the engines 10-100 µs, and a history of that many samples
+#: fills gigabytes), so it is refused before anything runs.
+MAX_STEPS = 10_000_000
+
+
+def check_accel(amplitude_mps2: float, what: str) -> None:
+    """ConfigError when ``|amplitude_mps2|`` exceeds :data:`MAX_ACCEL_MPS2`."""
+    if abs(amplitude_mps2) > MAX_ACCEL_MPS2:
+        raise ConfigError(f"{what} reaches {abs(amplitude_mps2):.3g} m/s^2 ({abs(amplitude_mps2) / 9.81:.3g} g), more "
+                          f"than the {MAX_ACCEL_MPS2:.0e} m/s^2 rockbench accepts; check the units (m/s^2) and the "
+                          "amplitude.")
+
+
+def check_step_count(dt_s: float, duration_s: float, what: str) -> None:
+    """ConfigError when covering ``duration_s`` [s] in steps of ``dt_s`` [s] takes more than
+    :data:`MAX_STEPS` steps (the message says how many it would take)."""
+    n = duration_s / dt_s
+    if not n <= MAX_STEPS:
+        raise ConfigError(f"--dt {dt_s:g} s would take {n:.3g} steps to cover {what} ({duration_s:.4g} s), more than "
+                          f"the {MAX_STEPS:,} one simulation may take; use --dt >= {duration_s / MAX_STEPS:.3g} s.")
+
 
 class Pulse:
     """Base class: a prescribed horizontal table motion starting at ``t = 0``.
@@ -75,6 +101,7 @@ class Pulse:
             raise ConfigError(
                 f"--dt {dt_s:g} s is too coarse for this {self.kind} pulse (duration {self.duration_s:.4g} s): "
                 f"use --dt <= {limit:.3g} s.")
+        check_step_count(dt, self.duration_s, f"this {self.kind} pulse")
         return dt
 
     def max_dt_s(self) -> float:
@@ -97,6 +124,7 @@ class _Harmonic(Pulse):
             raise ConfigError(f"the amplitude must be a finite non-zero number in m/s^2, got {self.amplitude_mps2!r}.")
         check_positive("the frequency ω", self.omega_rad_s, "rad/s",
                        "Give --w-ratio, --omega or --period as a positive number.")
+        check_accel(a, f"the {self.kind} pulse's amplitude")
 
     @property
     def period_s(self) -> float:
@@ -241,15 +269,22 @@ class RecordPulse(Pulse):
             raise ConfigError(f"the record{where} has non-finite values; give plain numbers in both columns.")
         if t[0] < 0:
             raise ConfigError(f"the record{where} starts at t = {t[0]:g} s; times must be >= 0.")
+        check_accel(float(np.max(np.abs(a))), f"the record{where}" + (f" scaled by {self.scale:g}"
+                                                                    if self.scale != 1.0 else ""))
         bad = np.nonzero(np.diff(t) <= 0)[0]
         if bad.size:
             i = int(bad[0])
             raise ConfigError(f"the record's times must increase strictly{where}: row {i + 2} has t = {t[i + 1]:g} s "
                               f"after t = {t[i]:g} s; sort the file and remove duplicate times.")
         h = np.diff(t)
-        v = np.concatenate([[0.0], np.cumsum(0.5 * h * (a[:-1] + a[1:]))])
-        du = v[:-1] * h + h * h * (2.0 * a[:-1] + a[1:]) / 6.0
-        u = np.concatenate([[0.0], np.cumsum(du)])
+        with np.errstate(over="ignore", invalid="ignore"):   # an overflow is reported below, in one line
+            v = np.concatenate([[0.0], np.cumsum(0.5 * h * (a[:-1] + a[1:]))])
+            du = v[:-1] * h + h * h * (2.0 * a[:-1] + a[1:]) / 6.0
+            u = np.concatenate([[0.0], np.cumsum(du)])
+        if not (np.all(np.isfinite(v)) and np.all(np.isfinite(u))):
+            raise ConfigError(f"the record{where} is too large to integrate: the table's velocity or displacement "
+                              f"overflows (peak |ü| = {np.max(np.abs(a)):.3g} m/s^2, {t[-1]:.3g} s long); check the "
+                              "units (accel_mps2 in m/s^2, t_s in s).")
         object.__setattr__(self, "t_s", t)
         object.__setattr__(self, "accel_mps2", a)
         object.__setattr__(self, "_v", v)
@@ -297,28 +332,58 @@ class RecordPulse(Pulse):
         d.update(source=self.source, scale=self.scale, n_samples=int(self.t_s.size))
         return d
 
+    #: the columns of a record file, in this order when it has no header
+    CSV_COLUMNS = ("t_s", "accel_mps2")
+
     @classmethod
     def from_csv(cls, path, scale: float = 1.0) -> "RecordPulse":
-        """Read a ``t_s,accel_mps2`` CSV (a header line is optional; ``#`` lines are comments)."""
+        """Read a ``t_s,accel_mps2`` CSV.
+
+        A header line is optional; when there is one it must name the two columns (in either
+        order). ``#`` lines are comments; a byte-order mark is skipped; fields may be separated by
+        commas, semicolons or tabs (the first line decides).
+
+        Raises
+        ------
+        ConfigError
+            The file cannot be read, is not UTF-8 text, names other columns, or has a row that is
+            not two numbers (one line naming the file and the row).
+        """
         p = Path(path)
+        hint = "give a CSV with columns t_s,accel_mps2 (time [s], ground acceleration [m/s^2])"
         try:
-            text = p.read_text()
+            data = p.read_bytes()
         except OSError as e:
-            raise ConfigError(f"cannot read the record file {str(path)!r}: {e.strerror or e}; "
-                              "give a CSV with columns t_s,accel_mps2.") from None
-        rows = [r for r in csv.reader(line for line in text.splitlines()
-                                      if line.strip() and not line.lstrip().startswith("#"))]
-        if rows and rows[0] and not is_number(rows[0][0]):
+            raise ConfigError(f"cannot read the record file {str(path)!r}: {e.strerror or e}; {hint}.") from None
+        try:
+            text = data.decode("utf-8-sig")
+        except UnicodeDecodeError as e:
+            raise ConfigError(f"the record file {str(path)!r} is not UTF-8 text (byte 0x{data[e.start]:02x} at "
+                              f"offset {e.start}); {hint}.") from None
+        if "\x00" in text:
+            raise ConfigError(f"the record file {str(path)!r} is binary, not text; {hint}.")
+        lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+        if not lines:
+            raise ConfigError(f"the record file {str(path)!r} is empty; {hint}.")
+        first = lines[0]
+        delim = ";" if ";" in first else ("\t" if "\t" in first and "," not in first else ",")
+        rows = [[f.strip() for f in r] for r in csv.reader(lines, delimiter=delim)]
+        order = (0, 1)
+        if rows[0] and not is_number(rows[0][0]):      # a header: it must name the two columns
+            names = [f.lower() for f in rows[0]]
+            if sorted(names) != sorted(cls.CSV_COLUMNS):
+                raise ConfigError(f"the record file {str(path)!r} has the columns {delim.join(rows[0])!r}; {hint}.")
+            order = (names.index("t_s"), names.index("accel_mps2"))
             rows = rows[1:]
         if not rows:
-            raise ConfigError(f"the record file {str(path)!r} is empty; give rows of t_s,accel_mps2.")
+            raise ConfigError(f"the record file {str(path)!r} is empty; {hint}.")
         ts, accs = [], []
         for n, r in enumerate(rows, start=1):
-            if len(r) < 2 or not (is_number(r[0]) and is_number(r[1])):
+            if len(r) != 2 or not (is_number(r[0]) and is_number(r[1])):
                 raise ConfigError(f"row {n} of the record file {str(path)!r} is not two numbers "
-                                  f"(t_s,accel_mps2): got {','.join(r)!r}.")
-            ts.append(float(r[0]))
-            accs.append(float(r[1]))
+                                  f"(t_s,accel_mps2): got {delim.join(r)!r}.")
+            ts.append(float(r[order[0]]))
+            accs.append(float(r[order[1]]))
         return cls(np.array(ts), np.array(accs), scale=scale, source=str(path))
 
 

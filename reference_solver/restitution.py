@@ -98,6 +98,19 @@ class Restitution:
             return modified_eta(alpha_rad, self.k)
         return self.value
 
+    def eta_for(self, alpha_rad: float) -> float:
+        """:meth:`eta`, checked: a ConfigError when the law gives no coefficient in (0, 1] for a block
+        of slenderness ``alpha_rad`` [rad] (Housner's η is ≤ 0 for α ≥ asin(√(2/3)) ≈ 0.9553 rad,
+        blocks wider than √2 times their height)."""
+        eta = self.eta(alpha_rad)
+        if not 0.0 < eta <= 1.0:
+            law = ("Housner's law" if self.kind == "housner" else
+                   f"the modified law (k = {self.k:g})" if self.kind == "modified" else "it")
+            raise ConfigError(f"{law} gives η = {eta:.4g} for a block with α = {alpha_rad:.4f} rad "
+                              f"(b/h = {math.tan(alpha_rad):.4g}); η must be in (0, 1]: use a more slender block "
+                              "or give --restitution a number in (0, 1].")
+        return eta
+
     @property
     def label(self) -> str:
         """Short text: ``housner``, ``modified(k=0.8608)`` or ``0.9``."""

@@ -181,3 +181,50 @@ def test_subprocess_entry_point(tmp_path):
     r = subprocess.run([sys.executable, "-m", "rockbench.benchmark.cli"] + FIG17 + ["--k", "1.5"],
                        capture_output=True, text=True, env={**os.environ, "PYTHONWARNINGS": "ignore"})
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--k" in r.stderr and r.stdout == ""
+
+
+# -- issue 13 --------------------------------------------------------------------------------------
+
+def test_a_failed_simulation_exits_1(capsys):
+    import maps_helpers as mh
+    mh.register_all()
+    args = ["simulate", "--engine", "raising", "--set", "bad_above=0", "--block", "B3M", "--w-ratio", "6",
+            "--a-ratio", "6.1"]
+    assert main(args) == 1
+    out = capsys.readouterr().out
+    assert "FAILED: RuntimeError: engine exploded" in out
+    assert main(args + ["--json"]) == 1
+    o = json.loads(capsys.readouterr().out)
+    assert o["outcome"] is None and o["flags"] == ["engine-error"] and not o["valid"]
+
+
+@pytest.mark.parametrize("extra, needle", [
+    (["--dt", "1e-15"], "steps"),
+    (["--width", "1e9", "--height", "1e-9"], "lies flat"),
+    (["--width", "0.3", "--height", "0.1"], "Housner's law gives η"),
+    (["--width", "1e-300", "--height", "1e-300"], "mass"),
+])
+def test_impossible_cases_are_refused_up_front(capsys, tmp_path, extra, needle):
+    base = ["simulate", "--w-ratio", "6", "--a-ratio", "6.1"] + (["--block", "B3M"] if "--width" not in extra else [])
+    _assert_bad(capsys, tmp_path, base + extra, needle)
+
+
+def test_a_record_that_cannot_finish_is_refused(capsys, tmp_path):
+    rec = tmp_path / "rec.csv"
+    rec.write_text("t_s,accel_mps2\n0,0\n1e6,1\n")
+    _assert_bad(capsys, tmp_path, ["simulate", "--block", "B3M", "--pulse", str(rec)], "1e+09 steps")
+
+
+def test_text_output_takes_each_number_from_the_json(capsys):
+    """Counts and times in the text are the JSON's fields, each from one source (issue 13)."""
+    args = ["simulate", "--block", "B3M", "--w-ratio", "6", "--a-ratio", "1.5", "--mode", "to-rest"]
+    o = run_json(capsys, list(args))
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert len(o["impacts"]) > 10 and len(o["impacts"]) != o["n_impacts"]   # two quantities, two names
+    assert f"{o['n_impacts']} impact(s) up to the decision" in text
+    assert f"off the base at {o['t_uplift_s']:.4f} s" in text
+    assert f"event record: {len(o['impacts'])} impact(s)" in text
+    assert f"the first at {o['uplifts_s'][0]:.5f} s" in text
+    assert f"... {len(o['impacts']) - 10} more" in text
+    assert text.count("  impact at ") == 10

@@ -141,3 +141,145 @@ def test_one_executor_serves_many_maps(tmp_path):
             run_map(spec("raising"), tmp_path / "other", executor=ex, plot=False)
     finally:
         ex.close()
+
+
+# -- issue 13: bounded waits, no orphans, a cap on --jobs -----------------------------------------------
+
+def test_jobs_are_capped_at_cores_and_cells(tmp_path):
+    from rockbench.benchmark.executors import cap_jobs, cpu_count
+    assert cap_jobs(None) == (None, None)
+    n, note = cap_jobs(1000, 4)
+    assert n == min(cpu_count(), 4) and "--jobs 1000 capped at" in note
+    assert cap_jobs(1, 4) == (1, None)
+    logs = []
+    s = spec("analytic", n=2)
+    t0 = time.monotonic()
+    r = run_map(s, tmp_path / "m", jobs=1000, plot=False, log=logs.append)
+    assert np.array_equal(r.outcome, truth(s))
+    assert any("--jobs 1000 capped at" in m for m in logs), logs
+    import json
+    jobs = json.loads((tmp_path / "m" / "run.json").read_text())["options"]["executor"]["jobs"]
+    assert jobs <= min(cpu_count(), 4)
+    assert time.monotonic() - t0 < 60
+
+
+def _map_process(tmp_path, *extra):
+    """A `rockbench map` process with the test adapters, whose workers hang in their cells."""
+    import subprocess
+    import sys
+    from pathlib import Path
+    here = Path(__file__).resolve().parent
+    cmd = [sys.executable, "-c",
+           "import sys, maps_helpers as mh; mh.register_all(); from rockbench.benchmark.cli import main; "
+           "sys.exit(main(sys.argv[1:]))",
+           "map", "--engine", "hanging", "--set", "bad_above=4", "--block", "B6M", "--w-ratio", "0.5:8:6",
+           "--a-ratio", "0.5:9:4", "--out", str(tmp_path / "m"), "--jobs", "2", "--no-plot", "--cell-timeout", "600",
+           *extra]
+    env = dict(os.environ, PYTHONPATH=str(here) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.Popen(cmd, cwd=here, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True, text=True)
+
+
+def _busy_workers(proc, out, timeout=120.0):
+    """The two worker processes of ``proc`` once they have started on the cells (the first rows are in
+    cells.csv; the good cells come first, then each worker hangs in a bad one)."""
+    import psutil
+    parent = psutil.Process(proc.pid)
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        kids = [k for k in parent.children(recursive=True) if "rockbench.benchmark.worker" in " ".join(k.cmdline())]
+        csv_path = out / "cells.csv"
+        if len(kids) == 2 and csv_path.exists() and csv_path.read_text().count("\n") > 1:
+            time.sleep(2.0)
+            return kids
+        if proc.poll() is not None:
+            raise AssertionError(f"the map ended: {proc.communicate()[1][-2000:]}")
+        time.sleep(0.1)
+    raise AssertionError("the workers did not start")
+
+
+def _gone(procs, timeout=10.0):
+    import psutil
+    _, alive = psutil.wait_procs(procs, timeout=timeout)
+    return not alive
+
+
+def test_workers_die_with_their_parent_on_sigkill(tmp_path):
+    import signal
+    proc = _map_process(tmp_path)
+    try:
+        kids = _busy_workers(proc, tmp_path / "m")
+        os.kill(proc.pid, signal.SIGKILL)          # the map process only, not its group
+        proc.wait(timeout=10)
+        assert _gone(kids, timeout=5.0), "workers outlived their parent"
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL) if proc.poll() is None else None
+
+
+def test_sigterm_is_handled_like_ctrl_c(tmp_path):
+    import json
+    import signal
+    proc = _map_process(tmp_path)
+    try:
+        kids = _busy_workers(proc, tmp_path / "m")
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=30)
+        assert proc.returncode == 143, err
+        assert time.monotonic() - t0 < 15
+        assert "interrupted by SIGTERM" in err and "Traceback" not in err
+        assert _gone(kids, timeout=5.0)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    # the finished cells were kept and a rerun resumes from them
+    rows = (tmp_path / "m" / "cells.csv").read_text().splitlines()
+    assert len(rows) > 1
+    meta = json.loads((tmp_path / "m" / "run.json").read_text())
+    assert meta["summary"] is None and len(meta["runs"]) == 1
+
+
+def test_a_port_that_is_not_a_dask_scheduler_is_refused_within_seconds(tmp_path, capsys):
+    import socket
+    import threading
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(16)
+    port = srv.getsockname()[1]
+    conns, stop = [], threading.Event()
+
+    def accept():               # accepts every connection and never says a word
+        srv.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                conns.append(srv.accept()[0])
+            except OSError:
+                pass
+    threading.Thread(target=accept, daemon=True).start()
+    try:
+        t0 = time.monotonic()
+        code = main(["map", "--engine", "analytic", "--block", "B6M", "--w-ratio", "1:5:3", "--a-ratio", "1:4:3",
+                     "--out", str(tmp_path / "m"), "--scheduler", f"tcp://127.0.0.1:{port}", "--json"])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and "not a Dask scheduler" in err, err
+        assert time.monotonic() - t0 < 20
+    finally:
+        stop.set()
+        srv.close()
+        for c in conns:
+            c.close()
+
+
+def test_local_cluster_leaves_no_scratch_space(tmp_path, monkeypatch):
+    import tempfile
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    tempfile.tempdir = None        # let tempfile see the new TMPDIR
+    try:
+        s = spec("analytic-batch", n=4)
+        r = run_map(s, tmp_path / "m", scheduler="local", jobs=1, plot=False)
+        assert np.array_equal(r.outcome, truth(s))
+    finally:
+        tempfile.tempdir = None
+    assert list((tmp_path / "tmp").iterdir()) == []
+    assert sorted(p.name for p in (tmp_path / "m").iterdir()) == [".lock", "cells.csv", "run.json"]

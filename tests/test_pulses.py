@@ -122,3 +122,62 @@ def test_bad_harmonic(a0, w):
 def test_unknown_pulse_kind():
     with pytest.raises(ConfigError, match="--pulse must be"):
         make_pulse("square", 1.0, 1.0)
+
+
+# -- issue 13: record files ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("text, match", [
+    ("foo,bar,baz\n0,1,2\n0.1,2,3\n", "has the columns 'foo,bar,baz'"),
+    ("time,acc\n0,1\n0.1,2\n", "has the columns 'time,acc'"),
+    ("t_s,accel_mps2\n0,1,5\n0.1,2,5\n", "row 1"),
+    ("0,1\n0.1,1e300\n0.2,-1e300\n", "1e\\+300 m/s\\^2"),
+])
+def test_bad_record_columns_and_values(tmp_path, text, match):
+    f = tmp_path / "bad.csv"
+    f.write_text(text)
+    with pytest.raises(ConfigError, match=match):
+        RecordPulse.from_csv(f)
+
+
+def test_huge_record_values_give_no_numpy_warning(tmp_path):
+    import warnings
+    f = tmp_path / "big.csv"
+    f.write_text("0,1\n0.1,1e300\n0.2,-1e300\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ConfigError, match="check the units"):
+            RecordPulse.from_csv(f)
+
+
+@pytest.mark.parametrize("text", [
+    "t_s,accel_mps2\n0,0\n0.1,1\n0.2,0\n",
+    "accel_mps2,t_s\n0,0\n1,0.1\n0,0.2\n",                 # swapped, named: read by name
+    "\ufeff0,0\n0.1,1\n0.2,0\n",                             # a BOM and no header: the first row is data
+    "\ufefft_s,accel_mps2\n0,0\n0.1,1\n0.2,0\n",
+    "0;0\n0.1;1\n0.2;0\n",                                   # semicolons, no header
+    "t_s;accel_mps2\n0;0\n0.1;1\n0.2;0\n",
+    "0\t0\n0.1\t1\n0.2\t0\n",
+    " T_S , Accel_MPS2 \n0, 0\n0.1, 1\n0.2, 0\n",
+])
+def test_record_formats_all_read_the_same(tmp_path, text):
+    f = tmp_path / "rec.csv"
+    f.write_bytes(text.encode("utf-8"))
+    r = RecordPulse.from_csv(f)
+    assert list(r.t_s) == [0.0, 0.1, 0.2] and list(r.accel_mps2) == [0.0, 1.0, 0.0]
+
+
+def test_record_that_is_a_folder_or_binary(tmp_path):
+    with pytest.raises(ConfigError, match="cannot read"):
+        RecordPulse.from_csv(tmp_path)
+    f = tmp_path / "bin.csv"
+    f.write_bytes(bytes(range(256)))
+    with pytest.raises(ConfigError, match="UTF-8"):
+        RecordPulse.from_csv(f)
+
+
+def test_a_step_that_cannot_finish_is_refused():
+    from rockbench.reference_solver.pulses import MAX_STEPS
+    p = SinePulse(1.0, 2 * math.pi)   # 1 s wave
+    assert p.check_dt(1.0 / MAX_STEPS) == 1.0 / MAX_STEPS
+    with pytest.raises(ConfigError, match=r"1e\+12 steps.*use --dt >= 1e-07 s"):
+        p.check_dt(1e-12)

@@ -253,3 +253,100 @@ def test_score_json_records_the_domain_per_pair(tmp_path, capsys):
     assert p["cells_in_domain"] == 80 - 9 and p["cells_outside_domain"] == 9
     assert p["scores"]["consistency"] == 1.0 and p["scores"]["spurious_invalid"] == 0
     assert p["scores"]["agreement"] == 1.0
+
+
+# -- issue 13: pairing within a run, tolerances in cells, well-formed Markdown -------------------------------
+
+def _md_rows(text):
+    """The cells of each row of every Markdown table in ``text`` (``\\|`` is a pipe inside a cell)."""
+    import re
+    rows = []
+    for line in text.splitlines():
+        if line.startswith("|"):
+            cells = re.split(r"(?<!\\)\|", line.strip())[1:-1]
+            rows.append(cells)
+    return rows
+
+
+def test_compare_markdown_tables_are_well_formed_and_always_there(tmp_path, capsys):
+    base, cur = tmp_path / "base", tmp_path / "cur"
+    for root in (base, cur):
+        write_map(root / "ref", band(12, 10, 6))
+    write_map(base / "eng", band(12, 10, 6), engine="exudyn")
+    write_map(cur / "eng", band(12, 10, 6), engine="exudyn")
+    code, out, _ = run_cli(capsys, "compare", base, cur, "--markdown")
+    assert code == 0
+    rows = _md_rows(out)
+    assert len(rows) == 3 and rows[1][0].strip() == "---"          # header, rule, one "ok" row
+    assert all(len(r) == 7 for r in rows)
+    worse = band(12, 10, 6)
+    worse[6, 2:8] = 1
+    write_map(cur / "eng", worse, engine="exudyn")
+    code, out, _ = run_cli(capsys, "compare", base, cur, "--markdown")
+    assert code == 1
+    rows = _md_rows(out)
+    assert len(rows) > 3 and all(len(r) == 7 for r in rows), out
+    assert any("exudyn \\| B6M \\| sine" in r[1] for r in rows)
+
+
+def test_runs_given_together_are_paired_within_each_run(tmp_path, capsys):
+    a, b = tmp_path / "a", tmp_path / "b"
+    write_map(a / "ref", band(12, 10, 6))
+    write_map(a / "eng", band(12, 10, 6), engine="mujoco")           # perfect against its own reference
+    write_map(b / "ref", band(12, 10, 3))
+    write_map(b / "eng", band(12, 10, 3), engine="mujoco", invalid=np.ones((12, 10), bool))
+    code, out, err = run_cli(capsys, "score", a, b, "--json", "--no-write")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert len(doc["pairs"]) == 2 and doc["pairing"]["rule"] == "within each run"
+    for p in doc["pairs"]:
+        assert p["run"] == p["reference"]["run"] and not p["across_runs"]
+        assert p["scores"]["agreement"] == 1.0
+    assert sorted(p["invalid_cells"] for p in doc["pairs"]) == [0, 120]   # not summed twice
+    assert "across runs" not in err
+
+
+def test_a_run_without_its_reference_is_paired_across_runs_and_says_so(tmp_path, capsys):
+    refs, engs = tmp_path / "refs", tmp_path / "engs"
+    write_map(refs / "ref", band(12, 10, 6))
+    write_map(engs / "eng", band(12, 10, 6), engine="mujoco")
+    code, out, err = run_cli(capsys, "score", refs, engs, "--json", "--no-write")
+    assert code == 0, err
+    (p,) = json.loads(out)["pairs"]
+    assert p["across_runs"] and "paired across runs" in err and str(refs) in err
+
+
+def test_compare_refuses_a_document_holding_a_pair_twice(tmp_path, capsys):
+    a, b = tmp_path / "a", tmp_path / "b"
+    for root in (a, b):
+        write_map(root / "ref", band(8, 8, 3))
+        write_map(root / "eng", band(8, 8, 3), engine="mujoco")
+    assert run_cli(capsys, "score", a, b, "--out", tmp_path / "both.json")[0] == 0
+    code, _, err = run_cli(capsys, "compare", tmp_path / "both.json", a)
+    assert code == 5 and "twice" in err
+
+
+def test_tolerances_are_stated_in_cells(tmp_path, capsys):
+    """On a 9 × 11 grid one flipped cell moves agreement by 1/99 > 0.005: not a regression by default;
+    a shifted boundary is."""
+    base, cur = tmp_path / "base", tmp_path / "cur"
+    for root in (base, cur):
+        write_map(root / "ref", band(9, 11, 4))
+    write_map(base / "eng", band(9, 11, 4), engine="mujoco")
+    one = band(9, 11, 4)
+    one[4, 5] = 1
+    write_map(cur / "eng", one, engine="mujoco")
+    code, out, _ = run_cli(capsys, "compare", base, cur, "--json")
+    res = json.loads(out)
+    assert code == 0 and res["status"] == "ok", res["regressions"]
+    assert run_cli(capsys, "compare", base, cur, "--tolerance", "0.005")[0] == 1     # the old absolute rule
+    assert run_cli(capsys, "compare", base, cur, "--tolerance", "agreement=0.5cells")[0] == 1
+    shifted = band(9, 11, 5)                                  # the boundary one row up: 11 cells
+    write_map(cur / "eng", shifted, engine="mujoco")
+    code, out, _ = run_cli(capsys, "compare", base, cur, "--json")
+    res = json.loads(out)
+    assert code == 1 and "agreement" in {r["metric"] for r in res["regressions"]}
+    row = next(r for r in res["regressions"] if r["metric"] == "agreement")
+    assert row["tolerance"] == pytest.approx(2 / 99)
+    assert run_cli(capsys, "compare", base, cur, "--tolerance", "12cells")[0] == 0
+    assert run_cli(capsys, "compare", base, cur, "--tolerance", "xcells")[0] == 2

@@ -3,7 +3,7 @@
 import pytest
 
 from rockbench.benchmark.cli import main
-from rockbench.benchmark.run import load_suite, plan, restitution_for, suite_path
+from rockbench.benchmark.run import load_suite, plan, restitution_for, run_suite, suite_path
 from rockbench.reference_solver.errors import ConfigError
 
 
@@ -89,3 +89,89 @@ def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(tmp_path, m
     assert seen == ["[1/6] reference", "[2/6] reference",
                     "[3/6] analytic", "open analytic 0.0", "[4/6] analytic", "close analytic 0.0",
                     "[5/6] analytic", "open analytic 0.0001", "[6/6] analytic", "close analytic 0.0001"]
+
+
+# -- issue 13: the whole suite is checked before the first map, and --plan fails the same way -------------
+
+GRID = "[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\n[cases]\nblocks = ['B3M']\npulses = ['sine']\n"
+
+
+@pytest.mark.parametrize("extra, needle", [
+    ("[report]\ncases = ['nonsense']\n", "report.cases"),
+    ("[report]\ncases = ['B9X:sine:6:6.1']\n", "report.cases"),
+    ("[report]\ncases = ['B3M:sine:6:-1']\n", "report.cases"),
+    ("[report]\nexperiments = 'no-such-file.csv'\n", "report.experiments"),
+    ("[run]\ncell_timeout_s = true\n", "run.cell_timeout_s"),
+    ("[engines]\nnames = ['analytic']\nvariants = [{ foo = 1 }]\n", "engines.variants[0]"),
+    ("[engines]\nnames = ['mujoco']\nvariants = [{ friction = -1 }]\n", "engines.variants[0]"),
+    ("[reference]\nrestitutions = []\n", "reference.restitutions is empty"),
+    ("[reference]\nrestitutions = ['1.5']\n", "reference.restitutions"),
+    ("[engines]\nvariants = []\n", "engines.variants"),
+    ("[grid]\nadaptive = 'yes'\n", None),
+])
+def test_bad_suite_fails_before_the_first_map_and_in_plan(tmp_path, capsys, extra, needle):
+    import maps_helpers as mh
+    mh.register_all()
+    text = GRID + extra if not extra.startswith("[grid]") else GRID.replace("[cases]", extra.split("\n", 1)[1] + "[cases]")
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    for args in (["run", str(p), "--plan"], ["run", str(p), "--out", str(tmp_path / "out")]):
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "s.toml" in err and "--case" not in err, err
+        assert needle is None or needle in err, err
+    assert not (tmp_path / "out").exists()     # nothing computed, nothing written
+
+
+@pytest.mark.parametrize("grid, needle", [("'1:16'", "LO:HI:N"), ("'16:1:5'", "reversed"),
+                                          ("'1:16:100000'", "cells")])
+def test_bad_suite_grids(tmp_path, capsys, grid, needle):
+    p = tmp_path / "s.toml"
+    p.write_text(f"[grid]\nw_ratio = {grid}\na_ratio = '1:12:100000'\n")
+    assert main(["run", str(p), "--plan"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err and "grid" in err, err
+
+
+@pytest.mark.parametrize("key", ["pulses", "blocks"])
+def test_empty_case_lists(tmp_path, capsys, key):
+    p = tmp_path / "s.toml"
+    p.write_text(GRID.replace(f"{key} = ", f"{key} = [] #"))
+    assert main(["run", str(p), "--plan"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"cases.{key} is empty" in err and err.count("s.toml") == 1, err
+
+
+def test_a_folder_is_never_a_suite_file(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "quick").mkdir()          # e.g. the output of an earlier `run --quick --out quick`
+    (tmp_path / "default").mkdir()
+    assert suite_path("quick", False).name == "quick.toml" and "suites" in str(suite_path("quick", False))
+    assert suite_path(None, True).name == "quick.toml"
+    assert main(["run", "--quick", "--out", "quick", "--plan"]) == 0
+    assert main(["run", "default", "--plan"]) == 0
+    capsys.readouterr()
+    (tmp_path / "d.toml").mkdir()
+    assert main(["run", "d.toml", "--plan"]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    (tmp_path / "mysuite").write_text(GRID)
+    assert main(["run", "mysuite", "--plan"]) == 2        # a bare name is a shipped suite's
+    assert "./mysuite" in capsys.readouterr().err
+    assert main(["run", "./mysuite", "--plan"]) == 0
+
+
+def test_run_engines_option(tmp_path, capsys):
+    import maps_helpers as mh
+    mh.register_all()
+    p = tmp_path / "s.toml"
+    p.write_text(GRID + "[engines]\nvariants = [{ sleep_s = 0.0 }]\n")
+    assert main(["run", str(p), "--plan", "--engines", "analytic"]) == 0
+    out = capsys.readouterr().out
+    assert "maps/analytic-sleep-s=0.0/B3M-sine-housner" in out and "maps/reference/B3M-sine-housner" in out
+    assert "raising" not in out and "mujoco" not in out
+    assert main(["run", str(p), "--plan", "--engines", "analytc"]) == 2
+    assert "Did you mean 'analytic'" in capsys.readouterr().err
+    assert main(["run", str(p), "--plan", "--engines", ""]) == 2
+    capsys.readouterr()
+    res = run_suite(load_suite(p), tmp_path / "out", jobs=1, report=False, engines=["analytic"], log=lambda m: None)
+    assert {m["label"].split()[0] for m in res["maps"]} == {"reference", "analytic"}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 from ..scores import METRICS
+from ..scoring import DEFAULT_TOLERANCE_CELLS
 
 
 def register(sub) -> None:
@@ -12,13 +13,15 @@ def register(sub) -> None:
                        description="BASELINE and CURRENT are score.json files or run directories (scored on the "
                        "fly when they hold no score.json). A pair (engine, block, pulse, restitution, reference) "
                        "regresses when a metric got worse by more than its tolerance, or when the pair is missing "
-                       "from CURRENT. Default tolerances: "
+                       "from CURRENT. Default tolerance of every metric: what "
+                       f"{DEFAULT_TOLERANCE_CELLS:g} flipped cells change on the pair's grid, at least "
                        + ", ".join(f"{k} {m.tolerance:g}" for k, m in METRICS.items())
                        + ". Exit 0 no regression, 1 regression, 2 bad usage, 5 not comparable.")
     p.add_argument("baseline", metavar="BASELINE")
     p.add_argument("current", metavar="CURRENT")
-    p.add_argument("--tolerance", action="append", default=[], metavar="VALUE|METRIC=VALUE",
-                   help="accepted worsening: VALUE for every metric, METRIC=VALUE for one (repeatable)")
+    p.add_argument("--tolerance", action="append", default=[], metavar="VALUE|Ncells|METRIC=VALUE|METRIC=Ncells",
+                   help="accepted worsening: a number in the metric's units, or Ncells (what N flipped cells change "
+                   "on the pair's grid); alone for every metric, METRIC=... for one (repeatable)")
     p.add_argument("--json", action="store_true", help="print the comparison as JSON on stdout")
     p.add_argument("--markdown", action="store_true", help="print a Markdown table (for a pull-request comment)")
     p.set_defaults(func=run)

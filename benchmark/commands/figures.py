@@ -6,6 +6,7 @@ import json
 import sys
 
 from ...reference_solver.errors import ConfigError
+from ..atomic import check_output_dir
 from ..figures import FIGURES, make_figures
 
 
@@ -42,6 +43,7 @@ def run(args) -> int:
             jobs = int(args.jobs)
         except ValueError:
             raise ConfigError(f"--jobs must be a whole number >= 1, got {args.jobs!r}.") from None
+    check_output_dir(args.out, "--out")
     out = make_figures(args.out, resolution=n, figures=figs, jobs=jobs, serial=args.serial,
                        progress=not args.json and sys.stderr.isatty())
     if args.json:

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
+from ..atomic import check_output_dir
 from ..cases import (add_block_options, add_model_options, block_from_args, dt_from_args,
                      engine_settings_from_args, restitution_from_args)
 from ..maps import DEFAULT_CELL_TIMEOUT_S, MAP_PULSES, MapSpec, parse_range, run_map
@@ -95,6 +96,7 @@ def run(args) -> int:
         raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {args.cell_timeout!r}.") from None
     if args.coarse_stride is not None and args.coarse_stride < 1:
         raise ConfigError(f"--coarse-stride must be >= 1, got {args.coarse_stride}.")
+    check_output_dir(args.out, "--out")
     quiet = args.json or not sys.stderr.isatty()
     result = run_map(spec, args.out, jobs=_jobs(args.jobs), scheduler=args.scheduler, serial=args.serial,
                      adaptive=args.adaptive, coarse_stride=args.coarse_stride, cell_timeout_s=timeout,

@@ -23,9 +23,11 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from ..atomic import check_output_dir
     from ..report import FIG17, build_report, parse_case
 
     cases = tuple(parse_case(c) for c in args.case) or (FIG17,)
+    check_output_dir(args.out, "--out")
     points = None
     if args.experiments:
         from ..experiments import load_outcomes

@@ -15,6 +15,8 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true", help="the reduced suite (one block per slenderness, coarse grids)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output directory (default rockbench-results/<suite name>); rerunning resumes")
+    p.add_argument("--engines", default=None, metavar="NAME,...",
+                   help="only these engines (e.g. the one under test); the reference maps are always computed")
     p.add_argument("--jobs", default=None, metavar="N", help="worker processes per map (default: all cores)")
     p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score against: "
                    "block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
@@ -28,7 +30,8 @@ def run(args) -> int:
     from pathlib import Path
 
     from ...reference_solver.errors import ConfigError
-    from ..run import engine_names, load_suite, plan, run_suite, suite_path
+    from ..atomic import check_output_dir
+    from ..run import check_suite, engine_names, load_suite, parse_engines, plan, run_suite, suite_path
 
     if args.show_suite is not None:
         if args.suite is not None or args.quick:
@@ -40,6 +43,7 @@ def run(args) -> int:
         return 0
     if args.quick and args.suite is not None:
         raise ConfigError(f"give either a suite ({args.suite}) or --quick, not both.")
+    only = parse_engines(args.engines)
     suite = load_suite(suite_path(args.suite, args.quick))
     jobs = None
     if args.jobs is not None:
@@ -51,17 +55,20 @@ def run(args) -> int:
             raise ConfigError(f"--jobs must be a whole number >= 1, got {args.jobs!r}.")
     out = Path(args.out) if args.out else Path("rockbench-results") / suite.name
     if args.plan:
-        engines, notes = engine_names(suite)
+        engines, notes = engine_names(suite, only)
+        engines, more = check_suite(suite, engines, only is not None or suite.engine_names != "available")
+        notes += more
         for n in notes:
             print(f"rockbench: {n}", file=sys.stderr)
         for j in plan(suite, engines):
             print(out / j.subdir)
         return 0
+    check_output_dir(out, "--out")
     points = None
     if args.experiments:
         from ..experiments import load_outcomes
         points = load_outcomes(args.experiments)
-    res = run_suite(suite, out, jobs=jobs, experiments=points, report=not args.no_report)
+    res = run_suite(suite, out, jobs=jobs, experiments=points, report=not args.no_report, engines=only)
     for n in res["notes"]:
         print(f"rockbench: note: {n}", file=sys.stderr)
     print(f"rockbench: {len(res['maps'])} maps in {res['maps_wall_s']:.0f} s, total {res['wall_s']:.0f} s; "

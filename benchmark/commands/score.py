@@ -42,6 +42,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from ..atomic import check_output_file
     from ..scoring import _clean, gate, score_dirs, write_json_atomic
     from ..tables import pairs_table, summary_table
 
@@ -51,11 +52,15 @@ def run(args) -> int:
     if args.experiments:
         from ..experiments import load_outcomes
         points = load_outcomes(args.experiments)
+    out = None
+    if not args.no_write:   # refused before the scoring, not after it
+        out = check_output_file(Path(args.out) if args.out else Path(args.run_dirs[0]) / "score.json", "--out")
     doc = score_dirs(args.run_dirs, args.against or None, points)
+    for n in doc.get("pairing", {}).get("notes", []):
+        print(f"rockbench: note: {n}", file=sys.stderr)
     failures = gate(doc, thresholds)
     doc["gate"] = {"thresholds": thresholds, "failed": failures, "passed": not failures}
-    if not args.no_write:
-        out = Path(args.out) if args.out else Path(args.run_dirs[0]) / "score.json"
+    if out is not None:
         write_json_atomic(out, doc)
         print(f"rockbench: scores written to {out}", file=sys.stderr)
     if args.json:

@@ -1,7 +1,14 @@
 """``rockbench simulate``: one case through one engine (CLI.md).
 
 Everything the user typed is checked before anything runs or is written; files are written
-atomically (a temporary file in the same folder, then a rename).
+atomically (a temporary file in the same folder, then a rename). A simulation that fails (the
+engine raised or diverged) prints its reason and exits 1: a failed simulation is not a success.
+
+The text output is drawn from the JSON object alone, each number from one field: ``n_impacts``
+and ``t_uplift_s`` are the classifier's (as in a map's cells.csv: sign changes of θ between
+samples, the first sample off the base), ``impacts`` and ``uplifts_s`` the engine's own event
+record where it keeps one (the reference's exact impact and uplift instants, which also see
+flights shorter than a step).
 """
 
 from __future__ import annotations
@@ -20,7 +27,7 @@ from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError, RockbenchError
 from ...reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
 from ...reference_solver.solver import MODES
-from ..atomic import write_atomic
+from ..atomic import check_output_file, write_atomic
 from ..cases import add_case_options, case_from_args, engine_settings_from_args
 
 
@@ -47,7 +54,7 @@ def _check_output(path: str | None, suffix: str, option: str) -> Path | None:
         raise ConfigError(f"{option}: the folder {str(parent)!r} does not exist; create it or choose another path.")
     if p.is_dir():
         raise ConfigError(f"{option}: {path!r} is a folder; give a file name.")
-    return p
+    return check_output_file(p, option)
 
 
 def _num(x):
@@ -126,11 +133,12 @@ def run(args) -> int:
         if out.get("_note"):
             out["plot_note"] = out.pop("_note")
 
+    failed = res.outcome is None
     if args.json:
         print(json.dumps(out, indent=2))
-        return 0
-    _print_text(out)
-    return 0
+    else:
+        _print_text(out)
+    return 1 if failed else 0
 
 
 def _plot(path: Path, engine: str, settings: dict, case, tr, res, out: dict) -> Path:
@@ -179,17 +187,14 @@ def _print_text(o: dict) -> None:
     if o["outcome"] is None:
         lines.append(f"FAILED: {o['message']}")
     else:
-        line = f"outcome: {o['outcome']}, {o['n_impacts']} impact(s), max |θ| = {o['max_abs_theta_rad']:.4f} rad"
+        line = (f"outcome: {o['outcome']}, {o['n_impacts']} impact(s) up to the decision, "
+                f"max |θ| = {o['max_abs_theta_rad']:.4f} rad")
         if o["t_uplift_s"] is not None:
-            line += f", uplift at {o['t_uplift_s']:.4f} s"
+            line += f", off the base at {o['t_uplift_s']:.4f} s"
         if o["t_overturn_s"] is not None:
             line += f", |θ| passed α at {o['t_overturn_s']:.4f} s"
         lines.append(line)
-        for d in o["impacts"][:10]:
-            lines.append(f"  impact at {d['t_s']:.5f} s: θ̇ {d['theta_dot_minus_rad_s']:+.4f} → "
-                         f"{d['theta_dot_plus_rad_s']:+.4f} rad/s")
-        if len(o["impacts"]) > 10:
-            lines.append(f"  ... {len(o['impacts']) - 10} more")
+        lines += _event_lines(o)
     if o.get("min_normal_mg") is not None:
         lines.append(f"contact demand of the rigid model: min N/(m·g) = {o['min_normal_mg']:.3f}, "
                      f"max |F|/N = {o['max_friction_ratio']:.3f} (μ = {o['friction']:g})")
@@ -201,3 +206,27 @@ def _print_text(o: dict) -> None:
     if "plot_note" in o:
         lines.append(f"plot: {o['plot_note']}")
     print("\n".join(lines))
+
+
+#: impacts listed one per line in the text output (the JSON has them all)
+SHOWN_IMPACTS = 10
+
+
+def _event_lines(o: dict) -> list[str]:
+    """The engine's event record (``impacts``, ``uplifts_s``), each count and time from those fields."""
+    imps, ups = o["impacts"] or [], o["uplifts_s"] or []
+    if not imps and not ups:
+        return []
+    head = f"event record: {len(imps)} impact(s)"
+    if ups:
+        head += f", {len(ups)} uplift(s), the first at {ups[0]:.5f} s"
+    if len(imps) != o["n_impacts"]:
+        head += (f" (the {o['n_impacts']} above count the sign changes of θ between samples, as in a map; the "
+                 "record also has impacts closer together than a step, or after the decision)")
+    out = [head + (":" if imps else "")]
+    for d in imps[:SHOWN_IMPACTS]:
+        out.append(f"  impact at {d['t_s']:.5f} s: θ̇ {d['theta_dot_minus_rad_s']:+.4f} → "
+                   f"{d['theta_dot_plus_rad_s']:+.4f} rad/s")
+    if len(imps) > SHOWN_IMPACTS:
+        out.append(f"  ... {len(imps) - SHOWN_IMPACTS} more (all of them in --json)")
+    return out
