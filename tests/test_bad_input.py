@@ -129,7 +129,7 @@ def test_results_of_another_version_exit_5(run, capsys):
     assert_one_line(code, err, 5, "schema")
     write_map(run / "eng", band(6, 5, 3), engine="mujoco")
     p = run / "eng" / "cells.csv"
-    p.write_text(p.read_text().replace("engine,block", "engine_name,block", 1))
+    p.write_text(p.read_text().replace("engine,", "engine_name,", 1))
     code, _, err = run_cli(capsys, "score", run, "--no-write")
     assert_one_line(code, err, 5, "another version")
 

@@ -106,7 +106,7 @@ def _run_shell(cmds: list[str], tmp: Path, capsys) -> int:
             n += 1
         elif exe.startswith("python") and "-m" in argv and "pytest" in argv:
             n += 1                                   # the test command: this is it running
-        elif exe in ("pip", "git", "sudo", "apt-get", "cd", "export", "ls") or exe.startswith("python3"):
+        elif exe in ("pip", "git", "sudo", "apt-get", "cd", "export", "ls", "mkdir", "cp") or exe.startswith("python3"):
             continue                                 # setup
         elif ".venv/bin/" in argv[0] or argv[0].startswith(".venv"):
             continue                                 # setup through the project's venv

@@ -185,9 +185,19 @@ def _busy_workers(proc, out, timeout=120.0):
     cells.csv; the good cells come first, then each worker hangs in a bad one)."""
     import psutil
     parent = psutil.Process(proc.pid)
+
+    def cmdline(k):
+        try:
+            return " ".join(k.cmdline())
+        except psutil.Error:        # a child that ended between the listing and the question
+            return ""
+
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
-        kids = [k for k in parent.children(recursive=True) if "rockbench.benchmark.worker" in " ".join(k.cmdline())]
+        try:
+            kids = [k for k in parent.children(recursive=True) if "rockbench.benchmark.worker" in cmdline(k)]
+        except psutil.NoSuchProcess:
+            kids = []
         csv_path = out / "cells.csv"
         if len(kids) == 2 and csv_path.exists() and csv_path.read_text().count("\n") > 1:
             time.sleep(2.0)
