@@ -217,19 +217,25 @@ def _gone(procs, timeout=10.0):
 def test_workers_die_with_their_parent_on_sigkill(tmp_path):
     import signal
     proc = _map_process(tmp_path)
+    kids = []
     try:
         kids = _busy_workers(proc, tmp_path / "m")
         os.kill(proc.pid, signal.SIGKILL)          # the map process only, not its group
         proc.wait(timeout=10)
         assert _gone(kids, timeout=5.0), "workers outlived their parent"
     finally:
-        os.killpg(proc.pid, signal.SIGKILL) if proc.poll() is None else None
+        for p in [proc] + kids:                    # never leave a hanging worker behind, pass or fail
+            try:
+                os.kill(p.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
 
 
 def test_sigterm_is_handled_like_ctrl_c(tmp_path):
     import json
     import signal
     proc = _map_process(tmp_path)
+    kids = []
     try:
         kids = _busy_workers(proc, tmp_path / "m")
         t0 = time.monotonic()
@@ -240,8 +246,11 @@ def test_sigterm_is_handled_like_ctrl_c(tmp_path):
         assert "interrupted by SIGTERM" in err and "Traceback" not in err
         assert _gone(kids, timeout=5.0)
     finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
+        for p in [proc] + kids:
+            try:
+                os.kill(p.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
     # the finished cells were kept and a rerun resumes from them
     rows = (tmp_path / "m" / "cells.csv").read_text().splitlines()
     assert len(rows) > 1
