@@ -68,6 +68,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(text: str) -> str:
+    """An error message as one line: line breaks that came in with a name or value from a file or
+    the command line are shown escaped (``str.splitlines`` breaks at more than ``\\n``)."""
+    lines = text.splitlines()
+    if len(lines) <= 1:
+        return text
+    return "".join(c if (c + "x").splitlines() == [c + "x"] else repr(c)[1:-1] for c in text.rstrip("\n"))
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rockbench`` console script; returns the exit code."""
     argv = sys.argv[1:] if argv is None else argv
@@ -87,12 +96,12 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         return int(args.func(args) or 0)
     except UsageError as e:
-        print(str(e), file=sys.stderr)
+        print(_one_line(str(e)), file=sys.stderr)
         return 2
     except RockbenchError as e:
         if debug:
             raise
-        print(f"rockbench: error: {e}", file=sys.stderr)
+        print(_one_line(f"rockbench: error: {e}"), file=sys.stderr)
         return e.exit_code
     except KeyboardInterrupt as e:
         how, code = ("SIGTERM", 143) if isinstance(e, Terminated) else ("Ctrl-C (SIGINT)", 130)
@@ -104,12 +113,12 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as e:   # the file system refused a path the user gave (full, read-only, too long, ...)
         if debug:
             raise
-        print(f"rockbench: error: {_file_error(e)}", file=sys.stderr)
+        print(_one_line(f"rockbench: error: {_file_error(e)}"), file=sys.stderr)
         return 2
     except Exception as e:  # noqa: BLE001 - last resort: one line and code 70
         if debug:
             raise
-        print(f"rockbench: internal error: {type(e).__name__}: {e} (rerun with --debug for the traceback)",
+        print(_one_line(f"rockbench: internal error: {type(e).__name__}: {e} (rerun with --debug for the traceback)"),
               file=sys.stderr)
         return 70
     finally:

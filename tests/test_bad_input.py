@@ -366,3 +366,16 @@ def test_a_full_disk_while_writing_cells_names_the_file_and_the_rerun_resumes(tm
     assert code == 0 and "resuming" in err, err
     rows = (tmp_path / "m" / "cells.csv").read_text().splitlines()[1:]
     assert len(rows) == len({tuple(r.split(",")[-2:]) for r in rows}) == 1600
+
+
+def test_an_error_naming_a_value_with_line_breaks_stays_one_line(run, capsys):
+    """A key or value with a line break in it (``\\x85`` counts for str.splitlines) is shown escaped."""
+    assert run_cli(capsys, "score", run)[0] == 0
+    doc = json.loads((run / "score.json").read_text())
+    doc["pairs"][0]["grid"]["n_w\x85x"] = doc["pairs"][0]["grid"].pop("n_w")
+    (run / "bad.json").write_text(json.dumps(doc))
+    code, _, err = run_cli(capsys, "compare", run / "bad.json", run / "score.json")
+    assert_one_line(code, err, 2, "bad.json")
+    from rockbench.benchmark.cli import _one_line
+    assert _one_line("grid.\x85 is None\n") == "grid.\\x85 is None"
+    assert _one_line("plain") == "plain"
