@@ -65,13 +65,13 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     dict
         ``{"ax", "boundaries": [ContourSet...], "st_limit_a_ratio": float or None}``.
     """
-    import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     if not isinstance(maps, (list, tuple)):
         maps = [maps]
     if ax is None:
+        import matplotlib.pyplot as plt
         _, ax = plt.subplots(figsize=(6.4, 4.8))
     labels = list(labels) if labels is not None else [_label(m) for m in maps]
     handles, drawn = list(extra_handles), []
@@ -141,32 +141,35 @@ def save(fig, stem) -> list[Path]:
 
 
 def plot_map_png(result, path) -> Path:
-    """Draw one map (its outcome classes, failed cells, the ST limit) into ``path`` (PNG)."""
-    import matplotlib
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    """Draw one map (its outcome classes, failed cells, the ST limit) into ``path`` (PNG).
+
+    The figure is a plain :class:`matplotlib.figure.Figure` on the Agg canvas: no pyplot, so no
+    backend selection, no figure manager and none of pyplot's start-up (a map run pays for the
+    picture only).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import ListedColormap
+    from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    try:
-        res = result
-        # light colours for the three outcomes under the paper-style boundary
-        show = np.where(res.outcome >= 0, res.outcome, np.nan).astype(float)
-        if min(show.shape) > 1:
-            dw = (res.w_ratio[1] - res.w_ratio[0]) / 2 if res.w_ratio.size > 1 else 0.5
-            da = (res.a_ratio[1] - res.a_ratio[0]) / 2 if res.a_ratio.size > 1 else 0.5
-            ax.imshow(show, origin="lower", aspect="auto", interpolation="nearest", vmin=0, vmax=2,
-                      cmap=ListedColormap(["#ffffff", "#dce9f7", "#bbbbbb"]),
-                      extent=(res.w_ratio[0] - dw, res.w_ratio[-1] + dw, res.a_ratio[0] - da, res.a_ratio[-1] + da))
-        s = res.spec
-        frac = f", {100 * res.fraction_simulated:.1f} % simulated" if res.adaptive else ""
-        classes = [Patch(facecolor=c, edgecolor="#999999", label=n)
-                   for c, n in (("#ffffff", "rest"), ("#dce9f7", "rocking"), ("#bbbbbb", "overturn"))]
-        plot_stability([res], shade=False, ax=ax, extra_handles=classes,
-                       title=f"{s.engine}: {s.block.name}, {s.pulse}, {s.restitution.label} (η = {s.eta:.4f}){frac}")
-        path = Path(path)
-        fig.savefig(path, dpi=120, bbox_inches="tight")
-    finally:
-        plt.close(fig)
+    fig = Figure(figsize=(6.4, 4.8))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    res = result
+    # light colours for the three outcomes under the paper-style boundary
+    show = np.where(res.outcome >= 0, res.outcome, np.nan).astype(float)
+    if min(show.shape) > 1:
+        dw = (res.w_ratio[1] - res.w_ratio[0]) / 2 if res.w_ratio.size > 1 else 0.5
+        da = (res.a_ratio[1] - res.a_ratio[0]) / 2 if res.a_ratio.size > 1 else 0.5
+        ax.imshow(show, origin="lower", aspect="auto", interpolation="nearest", vmin=0, vmax=2,
+                  cmap=ListedColormap(["#ffffff", "#dce9f7", "#bbbbbb"]),
+                  extent=(res.w_ratio[0] - dw, res.w_ratio[-1] + dw, res.a_ratio[0] - da, res.a_ratio[-1] + da))
+    s = res.spec
+    frac = f", {100 * res.fraction_simulated:.1f} % simulated" if res.adaptive else ""
+    classes = [Patch(facecolor=c, edgecolor="#999999", label=n)
+               for c, n in (("#ffffff", "rest"), ("#dce9f7", "rocking"), ("#bbbbbb", "overturn"))]
+    plot_stability([res], shade=False, ax=ax, extra_handles=classes,
+                   title=f"{s.engine}: {s.block.name}, {s.pulse}, {s.restitution.label} (η = {s.eta:.4f}){frac}")
+    path = Path(path)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     return path
