@@ -434,10 +434,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     -------
     MapResult
     """
-    from ..engines.registry import get_adapter
     from . import adaptive as adaptive_mod
-    from .executors import make_executor
-    from .store import RunStore
+    from .plots.picture import MapPicture
 
     if not (isinstance(cell_timeout_s, (int, float)) and math.isfinite(cell_timeout_s) and cell_timeout_s > 0):
         raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {cell_timeout_s!r}.")
@@ -446,6 +444,23 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         raise ConfigError(f"the coarse stride must be a whole number >= 1, got {coarse_stride!r}.")
     if not adaptive:
         stride = 1
+    # map.png's helper process loads matplotlib on another core while this one computes the map
+    picture = MapPicture() if plot else None
+    try:
+        return _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_timeout_s, progress, log,
+                        executor, picture)
+    finally:
+        if picture is not None:
+            picture.close()
+
+
+def _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_timeout_s, progress, log, executor,
+             picture) -> MapResult:
+    from ..engines.registry import get_adapter
+    from . import adaptive as adaptive_mod
+    from .executors import make_executor
+    from .store import RunStore
+
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
     t0 = time.perf_counter()
     own = executor is None
@@ -541,9 +556,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         if own:
             executor.close()
         store.close()
-    if plot:
-        from .plots.stability import plot_map_png
-        plot_map_png(result, Path(out_dir) / "map.png")
+    if picture is not None:
+        picture.draw(result, Path(out_dir) / "map.png")
     return result
 
 
