@@ -122,12 +122,12 @@ def make_executor(engine: str, settings: dict, *, jobs: int | None = None, sched
         return SerialExecutor(init)
     if scheduler:
         return DaskExecutor(init, scheduler, jobs=jobs, scratch_dir=scratch_dir)
-    if jobs is None:
-        from ..engines.registry import adapter_class
-        if getattr(adapter_class(engine), "parallel_batch", False):
-            # the adapter's own batch already uses every core: one call here beats worker processes
-            # that would each pay the engine's start-up (for the reference, loading its kernels)
-            return SerialExecutor(init, kind="in-process batch (the adapter's parallel_batch)")
+    from ..engines.registry import adapter_class
+    if getattr(adapter_class(engine), "parallel_batch", False):
+        # the adapter's own batch already uses every core: one call here beats worker processes
+        # that would each pay the engine's start-up (for the reference, loading its kernels);
+        # --jobs N gives it N threads
+        return SerialExecutor(init, kind="in-process batch (the adapter's parallel_batch)", threads=jobs)
     return ProcessExecutor(init, jobs=jobs or cpu_count(), log_path=log_path)
 
 
@@ -176,15 +176,25 @@ def _run_in_process(adapter, items, batch: bool) -> list:
 class SerialExecutor:
     """Cells in this process (whole batches for batching adapters: one ``run_many`` per round)."""
 
-    def __init__(self, init: dict, kind: str = "serial"):
+    def __init__(self, init: dict, kind: str = "serial", threads: int | None = None):
         from ..engines.registry import get_adapter
         self.init = init
         self.kind = kind
         self.adapter = get_adapter(init["engine"], **init["settings"])
         self.log_path = None
+        self.n_threads = threads
+        self.parallel = bool(getattr(type(self.adapter), "parallel_batch", False))
 
     def describe(self) -> dict:
-        return {"kind": self.kind, "jobs": 1}
+        d = {"kind": self.kind, "jobs": 1}
+        if self.n_threads is not None:
+            d["threads"] = self.n_threads
+        return d
+
+    def threads(self) -> "_NumbaThreads":
+        """A context in which a parallel batch in this process runs on the executor's threads
+        (``threads``, default: every core this process may use)."""
+        return _NumbaThreads(self.n_threads)
 
     #: largest native batch per call: big enough that a whole 100×100 map is one call, small
     #: enough that a 200×200 map reaches cells.csv (and the progress bar) in four steps, so a
@@ -196,10 +206,42 @@ class SerialExecutor:
             return
         size = self.MAX_BATCH if batch else 64
         for chunk in _chunks(items, math.ceil(len(items) / size)):
-            on_results(_run_in_process(self.adapter, chunk, batch))
+            if self.parallel:
+                with self.threads():
+                    res = _run_in_process(self.adapter, chunk, batch)
+            else:
+                res = _run_in_process(self.adapter, chunk, batch)
+            on_results(res)
 
     def close(self) -> None:
         pass
+
+
+class _NumbaThreads:
+    """Inside it numba's parallel kernels use ``n`` threads (default: ``NUMBA_NUM_THREADS`` if set,
+    else the cores this process may run on, which numba's own default, the machine's core count,
+    ignores); outside, what was set before."""
+
+    def __init__(self, n: int | None):
+        self.n = n
+        self.old = None
+
+    def __enter__(self):
+        nb = sys.modules.get("numba")
+        if nb is None:
+            import numba as nb
+        want = self.n if self.n is not None else int(os.environ.get("NUMBA_NUM_THREADS") or cpu_count())
+        want = max(1, min(int(want), nb.config.NUMBA_NUM_THREADS))
+        self.old = nb.get_num_threads()
+        if want != self.old:
+            nb.set_num_threads(want)
+        return self
+
+    def __exit__(self, *exc):
+        import numba as nb
+        if self.old is not None and nb.get_num_threads() != self.old:
+            nb.set_num_threads(self.old)
+        return False
 
 
 class _Chunk:

@@ -55,6 +55,11 @@ BYTES_PER_CELL = 2048
 #: Largest number of cells in one map (4 million = 2000 × 2000).
 MAX_CELLS = 4_000_000
 
+#: Cells solved and written at a time by the columnar path (an adapter's ``run_grid`` in this
+#: process): large enough for the parallel kernel and the bulk writer, small enough that a killed
+#: 1000×1000 map keeps all but the chunk it was on.
+COLUMNAR_CHUNK = 65_536
+
 #: Default per-cell wall-time limit [s] (engines with tiny time steps need seconds per cell).
 DEFAULT_CELL_TIMEOUT_S = 120.0
 
@@ -452,10 +457,10 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     -------
     MapResult
     """
-    from ..engines.registry import get_adapter
     from . import adaptive as adaptive_mod
     from .executors import DASK_SCRATCH, cap_jobs, make_executor
     from .store import RunStore
+    from .plots.picture import MapPicture
 
     if not (isinstance(cell_timeout_s, (int, float)) and math.isfinite(cell_timeout_s) and cell_timeout_s > 0):
         raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {cell_timeout_s!r}.")
@@ -464,6 +469,23 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         raise ConfigError(f"the coarse stride must be a whole number >= 1, got {coarse_stride!r}.")
     if not adaptive:
         stride = 1
+    # map.png's helper process loads matplotlib on another core while this one computes the map
+    picture = MapPicture() if plot else None
+    try:
+        return _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_timeout_s, progress, log,
+                        executor, picture)
+    finally:
+        if picture is not None:
+            picture.close()
+
+
+def _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_timeout_s, progress, log, executor,
+             picture) -> MapResult:
+    from ..engines.registry import get_adapter
+    from . import adaptive as adaptive_mod
+    from .executors import make_executor
+    from .store import RunStore
+
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
     t0 = time.perf_counter()
     own = executor is None
@@ -493,13 +515,45 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         key = adaptive_mod.regime_key(result.outcome, result.n_impacts)   # what adaptive neighbours compare
         show = (sys.stderr.isatty() if progress is None else progress)
         bar = _Progress(show, spec.label())
+        grid = _grid_runner(executor, spec)
+
+        def evaluate_arrays(ii: np.ndarray, jj: np.ndarray) -> None:
+            # each cell once, in the order given, even if a caller lists it twice
+            keep = ~result.simulated[ii, jj]
+            ii, jj = ii[keep], jj[keep]
+            _, first = np.unique(ii * spec.x.n + jj, return_index=True)
+            if first.size < ii.size:
+                first.sort()
+                ii, jj = ii[first], jj[first]
+            if not ii.size:
+                return
+            bar.add(ii.size)
+            if grid is None:
+                evaluate_cases(list(zip(ii.tolist(), jj.tolist())))
+                return
+            run_grid, threads = grid
+            for k in range(0, ii.size, COLUMNAR_CHUNK):
+                a, b = ii[k:k + COLUMNAR_CHUNK], jj[k:k + COLUMNAR_CHUNK]
+                try:
+                    with threads:
+                        cols = run_grid(spec.block, spec.pulse, spec.restitution, spec._omegas[b],
+                                        spec._amplitudes[a], dt_s=spec.dt_s, linearized=spec.linearized)
+                except Exception:  # noqa: BLE001 - the per-case path records each cell's failure
+                    evaluate_cases(list(zip(a.tolist(), b.tolist())))
+                    continue
+                _put_columns(result, a, b, cols)
+                key[a, b] = adaptive_mod.regime_key(cols.outcome, cols.n_impacts)
+                with threads:
+                    store.append_columns(spec, a, b, cols)
+                bar.update(a.size)
 
         def evaluate(cells: list[tuple[int, int]]) -> None:
-            # each cell once, even if a caller lists it twice
-            todo = list(dict.fromkeys(c for c in cells if not result.simulated[c]))
-            if not todo:
-                return
-            bar.add(len(todo))
+            if cells:
+                ij = np.array(cells, dtype=np.int64).reshape(-1, 2)
+                evaluate_arrays(ij[:, 0], ij[:, 1])
+
+        def evaluate_cases(todo: list[tuple[int, int]]) -> None:
+            """The cells one object each, through the executor (workers, time limits, crash isolation)."""
             cases = spec.cases(todo)
 
             def on_results(pairs):
@@ -519,7 +573,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         if adaptive:
             adaptive_mod.refine(key, result.simulated, evaluate, stride)
         else:
-            evaluate([(i, j) for i in range(spec.y.n) for j in range(spec.x.n)])
+            ii, jj = np.indices(spec.shape).reshape(2, -1)
+            evaluate_arrays(ii, jj)
         bar.close()
         if adaptive:
             adaptive_mod.fill(result.outcome, result.simulated, stride)
@@ -530,10 +585,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         if own:
             executor.close()
         store.close()
-    if plot:
-        # an engine map is drawn over the reference's boundary and domain of the same grid
-        from .plots.stability import plot_map_png, reference_for
-        plot_map_png(result, Path(out_dir) / "map.png", reference=reference_for(result))
+    if picture is not None:
+        picture.draw(result, Path(out_dir) / "map.png")
     return result
 
 
@@ -600,6 +653,31 @@ def _put_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
     result.valid[i, j] = bool(ok and r.valid)
     result.left_model[i, j] = bool(ok and LEFT_MODEL_FLAGS.intersection(r.flags))
     return code
+
+
+def _put_columns(result: MapResult, ii: np.ndarray, jj: np.ndarray, cols) -> None:
+    """Record fresh successful cells ``(ii[k], jj[k])`` from a CellColumns in the grids."""
+    result.outcome[ii, jj] = cols.outcome
+    result.simulated[ii, jj] = True
+    result.n_impacts[ii, jj] = cols.n_impacts
+    result.max_abs_theta_rad[ii, jj] = cols.max_abs_theta_rad
+    result.valid[ii, jj] = cols.flag_bits == 0
+    left = sum(1 << k for k, f in enumerate(cols.flag_names) if f in LEFT_MODEL_FLAGS)
+    result.left_model[ii, jj] = (cols.flag_bits & left) != 0
+
+
+def _grid_runner(executor, spec: MapSpec):
+    """``(adapter.run_grid, threads)`` when the map's cells run in this process on an adapter that
+    solves them as arrays (contract item 6), else None; ``threads`` is a context that gives the
+    batch the executor's threads."""
+    from .executors import SerialExecutor
+
+    if type(executor) is not SerialExecutor or spec.pulse not in MAP_PULSES:
+        return None
+    run_grid = getattr(executor.adapter, "run_grid", None)
+    if run_grid is None:
+        return None
+    return run_grid, executor.threads()
 
 
 def _put(result: MapResult, i: int, j: int, row: dict) -> None:

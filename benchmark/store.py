@@ -235,14 +235,7 @@ class RunStore:
         them, and per-field formatting would cost a good share of the batch solver's time); any
         other cell goes through :meth:`row` and the csv module's quoting.
         """
-        if getattr(self, "_line_cache", (None,))[0] is not spec:
-            head = io.StringIO()
-            csv.writer(head, lineterminator="").writerow([spec.engine, spec_variant(spec), spec.block.name, spec.pulse,
-                                                          spec.restitution.label, repr(float(spec.eta))])
-            self._line_cache = (spec, head.getvalue() + ",", [repr(float(x)) for x in spec._w_ratios],
-                                [repr(float(x)) for x in spec._a_ratios], [repr(float(x)) for x in spec._omegas],
-                                [repr(float(x)) for x in spec._amplitudes])
-        _, head, wr, ar, om, am = self._line_cache
+        head, wr, ar, om, am = self._line_strings(spec)
         lines, others = [], []
         for i, j, r in triples:
             if r.status == "ok" and not r.flags and not r.message and r.outcome:
@@ -258,6 +251,42 @@ class RunStore:
             self.append(others, _prefix="".join(lines))
         elif lines:
             self._write("".join(lines))
+
+    def append_columns(self, spec, ii, jj, cols) -> None:
+        """Append the rows of successful cells ``(ii[k], jj[k])`` with the verdicts of ``cols`` (a
+        :class:`~rockbench.engines.base.CellColumns`) in one write: the same text, row for row, as
+        :meth:`append_results` gives for the same cells (:mod:`rockbench.benchmark.columnar`)."""
+        from .columnar import format_rows
+
+        if len(ii) == 0:
+            return
+        head, wr, ar, om, am = self._line_strings(spec)
+        names = tuple(cols.flag_names)
+        texts = [";".join(f for k, f in enumerate(names) if b >> k & 1) for b in range(2 ** len(names))]
+        data = format_rows(head, [wr, ar, om, am], ii, jj, cols.outcome, cols.n_impacts, cols.flag_bits, texts,
+                           cols.max_abs_theta_rad, cols.t_overturn_s, cols.t_uplift_s, cols.min_normal_mg,
+                           cols.max_friction_ratio, repr(float(cols.wall_s)))
+        # whole rows in one write, as append() does: a kill leaves at most one torn line
+        try:
+            self._csv.flush()
+            self._csv.buffer.write(data)
+            self._csv.buffer.flush()
+        except OSError as e:   # a full disk names the file, as _write does
+            if e.filename is not None:
+                raise
+            raise OSError(e.errno, e.strerror or str(e), str(self.dir / "cells.csv")) from None
+
+    def _line_strings(self, spec) -> tuple:
+        """The first five fields of a row (with their commas) and the axis values as ``repr`` writes
+        them, computed once per spec."""
+        if getattr(self, "_line_cache", (None,))[0] is not spec:
+            head = io.StringIO()
+            csv.writer(head, lineterminator="").writerow([spec.engine, spec_variant(spec), spec.block.name, spec.pulse,
+                                                          spec.restitution.label, repr(float(spec.eta))])
+            self._line_cache = (spec, head.getvalue() + ",", [repr(float(x)) for x in spec._w_ratios],
+                                [repr(float(x)) for x in spec._a_ratios], [repr(float(x)) for x in spec._omegas],
+                                [repr(float(x)) for x in spec._amplitudes])
+        return self._line_cache[1:]
 
     def append(self, rows: list[dict], _prefix: str = "") -> None:
         """Append rows and flush them to the operating system (survives ``kill -9``)."""

@@ -36,7 +36,11 @@ The contract, for a subclass of :class:`EngineAdapter`:
 6. ``_simulate_many(cases)`` may run many cases at once (native batches); the default loops over
    :meth:`_simulate`. Results must not depend on how cases are batched. An adapter whose batch
    already uses every core sets :attr:`parallel_batch`; maps then run it in one call in their own
-   process by default instead of spreading it over worker processes.
+   process by default instead of spreading it over worker processes. Such an adapter may also
+   offer ``run_grid(block, pulse_kind, restitution, omega_rad_s, amplitude_mps2, dt_s=None,
+   linearized=False)``: the verdicts of many harmonic-pulse cases as :class:`CellColumns` (arrays,
+   no object per case), equal to what :meth:`run_many` gives for the same cases; maps run in this
+   process use it from the grid to the file (the reference does).
 7. ``resolve(block, restitution, dt_s)`` returns the concrete settings a case will use (for example contact
    parameters calibrated to reach the restitution's η); they are recorded in run.json.
 8. ``measure_restitution(block, settings)`` and ``calibrate(block, target_eta)`` are optional
@@ -64,8 +68,8 @@ from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import (DEFAULT_FRICTION, FLAGS, Measurement, contact_flags, judge_measurement,
                                          jump_tol_m, slip_tol_m, uplift_tol_rad)
 
-__all__ = ["Case", "Trajectory", "CellResult", "RestitutionMeasurement", "CalibrationResult", "EngineAdapter",
-           "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad"]
+__all__ = ["Case", "Trajectory", "CellResult", "CellColumns", "RestitutionMeasurement", "CalibrationResult",
+           "EngineAdapter", "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad"]
 
 
 @dataclass(frozen=True)
@@ -215,6 +219,55 @@ class CellResult:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+@dataclass
+class CellColumns:
+    """The verdicts on many successful cases as arrays, one entry per case (a columnar
+    :class:`CellResult`; ``run_grid`` in contract item 6).
+
+    Attributes
+    ----------
+    outcome : ndarray of int8
+        :data:`~rockbench.reference_solver.classify.OUTCOME_CODES` (0 rest, 1 rocking, 2 overturn).
+    n_impacts : ndarray of int
+        Impacts up to the decision [-].
+    max_abs_theta_rad : ndarray
+        Largest |θ| [rad].
+    t_overturn_s : ndarray
+        As in :class:`CellResult`, NaN where None [s] (an overturn decided before θ reached α has NaN too).
+    t_uplift_s : ndarray
+        First uplift, NaN where the block never lifted [s].
+    flag_bits : ndarray of int8
+        The flags: bit ``2**k`` for ``flag_names[k]``; 0 where valid.
+    flag_names : tuple of str
+        What the bits stand for.
+    min_normal_mg, max_friction_ratio : ndarray
+        The rigid model's contact demand [-].
+    wall_s : float
+        Wall time per case [s] (the batch's time over its size).
+    """
+
+    outcome: np.ndarray
+    n_impacts: np.ndarray
+    max_abs_theta_rad: np.ndarray
+    t_overturn_s: np.ndarray
+    t_uplift_s: np.ndarray
+    flag_bits: np.ndarray
+    flag_names: tuple
+    min_normal_mg: np.ndarray
+    max_friction_ratio: np.ndarray
+    wall_s: float = 0.0
+
+    @property
+    def valid(self) -> np.ndarray:
+        """True where no flag was raised."""
+        return self.flag_bits == 0
+
+    def flags_of(self, k: int) -> list[str]:
+        """The flags of entry ``k``, in the order a :class:`CellResult` lists them."""
+        b = int(self.flag_bits[k])
+        return [f for n, f in enumerate(self.flag_names) if b >> n & 1]
 
 
 @dataclass

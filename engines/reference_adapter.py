@@ -22,10 +22,11 @@ from typing import Iterable
 import numpy as np
 
 from ..reference_solver.classify import OUTCOME_FROM_CODE, Outcome
-from ..reference_solver.errors import ConfigError
+from ..reference_solver.errors import ConfigError, check_positive
+from ..reference_solver.pulses import MIN_STEPS_PER_WAVE
 from ..reference_solver.solver import MODES, solve, solve_batch
-from ..reference_solver.validity import DEFAULT_FRICTION, contact_flags
-from .base import Case, CellResult, EngineAdapter, Trajectory
+from ..reference_solver.validity import DEFAULT_FRICTION, DOMAIN_FLAGS, contact_flag_bits, contact_flags
+from .base import Case, CellColumns, CellResult, EngineAdapter, Trajectory
 
 #: pulse kinds the batch kernel runs (records go case by case)
 _BATCH_KINDS = ("sine", "cosine", "half-sine")
@@ -73,6 +74,54 @@ class ReferenceAdapter(EngineAdapter):
                           eta_for_tail=eta if self._energy else None, uplift_tol_rad=0.0,
                           theta_ddot_rad_s2=sol.theta_ddot_rad_s2, min_normal_mg=sol.min_normal_mg,
                           max_friction_ratio=sol.max_friction_ratio)
+
+    def run_grid(self, block, pulse_kind: str, restitution, omega_rad_s, amplitude_mps2, *,
+                 dt_s: float | None = None, linearized: bool = False) -> CellColumns:
+        """The verdicts on many cases of one block, harmonic pulse kind and restitution as arrays
+        (contract item 6): one :func:`solve_batch` call, no object per case.
+
+        Parameters
+        ----------
+        block : Block
+            The block.
+        pulse_kind : {"sine", "cosine", "half-sine"}
+            The pulse.
+        restitution : Restitution
+            The restitution law.
+        omega_rad_s, amplitude_mps2 : array_like
+            ω [rad/s] and a₀ [m/s^2] of each case.
+        dt_s : float, optional
+            Time step [s] (default :attr:`default_dt_s`).
+        linearized : bool
+            Linearised equation of motion.
+
+        Returns
+        -------
+        CellColumns
+            Equal, case by case, to what :meth:`run_many` gives for the same cases.
+
+        Raises
+        ------
+        ConfigError
+            A pulse kind the batch does not run, or a step too coarse for a case's wave.
+        """
+        if pulse_kind not in _BATCH_KINDS:
+            raise ConfigError(f"run_grid takes the pulses {', '.join(_BATCH_KINDS)}, got {pulse_kind!r}.")
+        dt = check_positive("--dt", self.default_dt_s if dt_s is None else dt_s, "s")
+        # the per-case path's rule (Pulse.check_dt: MIN_STEPS_PER_WAVE steps over the pulse's duration)
+        duration = (math.pi if pulse_kind == "half-sine" else 2.0 * math.pi) / np.asarray(omega_rad_s, dtype=float)
+        if np.size(duration) and dt > float(np.min(duration)) / MIN_STEPS_PER_WAVE:
+            raise ConfigError(f"--dt {dt:g} s is too coarse for the shortest {pulse_kind} pulse of the grid: "
+                              f"use --dt <= {float(np.min(duration)) / MIN_STEPS_PER_WAVE:.3g} s.")
+        t0 = time.perf_counter()
+        r = solve_batch(block.alpha_rad, block.p_rad_s, restitution.eta(block.alpha_rad), pulse_kind, omega_rad_s,
+                        amplitude_mps2, dt_s=dt, linearized=linearized, mode=self.settings["mode"])
+        n = max(int(np.size(r.outcome)), 1)
+        return CellColumns(outcome=r.outcome, n_impacts=r.n_impacts, max_abs_theta_rad=r.max_abs_theta_rad,
+                           t_overturn_s=r.t_overturn_s, t_uplift_s=r.t_uplift_s,
+                           flag_bits=contact_flag_bits(r.min_normal_mg, r.max_friction_ratio, self.friction),
+                           flag_names=DOMAIN_FLAGS, min_normal_mg=r.min_normal_mg,
+                           max_friction_ratio=r.max_friction_ratio, wall_s=(time.perf_counter() - t0) / n)
 
     def run_many(self, cases: Iterable[Case]) -> list[CellResult]:
         """Classify many cases; harmonic pulses of one kind and model run in one batch call.

@@ -213,6 +213,16 @@ def judge_measurement(m: Measurement, block: Block, t_pulse_end_s: float) -> Ver
     return Verdict(tuple(sorted(flags)), max_slip, max_jump, gain, float(t[i_end]))
 
 
+def _lift_required(min_normal_mg):
+    """The table must pull the block down (floats or arrays)."""
+    return min_normal_mg < 0.0
+
+
+def _slip_required(max_friction_ratio, friction):
+    """The pivot needs more friction than μ gives (floats or arrays)."""
+    return max_friction_ratio > friction
+
+
 def contact_flags(min_normal_mg: float, max_friction_ratio: float, friction: float = DEFAULT_FRICTION) -> list[str]:
     """Flags of a rigid-model trajectory outside its own domain (module docstring).
 
@@ -226,8 +236,16 @@ def contact_flags(min_normal_mg: float, max_friction_ratio: float, friction: flo
         The friction coefficient μ the contact can give [-].
     """
     flags = []
-    if min_normal_mg < 0.0:
+    if _lift_required(min_normal_mg):
         flags.append("lift-required")
-    if max_friction_ratio > friction:
+    if _slip_required(max_friction_ratio, friction):
         flags.append("slip-required")
     return flags
+
+
+def contact_flag_bits(min_normal_mg, max_friction_ratio, friction: float = DEFAULT_FRICTION) -> np.ndarray:
+    """:func:`contact_flags` for arrays of cases, as bits: 1 ``lift-required``, 2 ``slip-required``
+    (``DOMAIN_FLAGS[k]`` where bit ``2**k`` is set; 0: valid) [-]."""
+    lift = _lift_required(np.asarray(min_normal_mg, dtype=float))
+    slip = _slip_required(np.asarray(max_friction_ratio, dtype=float), friction)
+    return lift.astype(np.int8) | (slip.astype(np.int8) << 1)

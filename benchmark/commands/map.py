@@ -32,7 +32,8 @@ def register(sub) -> None:
     g.add_argument("--adaptive", action="store_true", help="coarse grid first, refine only where neighbours disagree")
     g.add_argument("--coarse-stride", type=int, default=None, metavar="S",
                    help="adaptive coarse spacing in cells (default 4)")
-    g.add_argument("--jobs", type=str, default=None, metavar="N", help="worker processes (default: all cores)")
+    g.add_argument("--jobs", type=str, default=None, metavar="N",
+                   help="worker processes (default: all cores); for the reference, threads of its batch in this process")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on a Dask cluster (tcp://host:8786), or 'local' for a LocalCluster on 127.0.0.1")
     g.add_argument("--serial", action="store_true", help="run in this process (no time limit or crash isolation)")
