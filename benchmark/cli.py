@@ -39,7 +39,7 @@ COMMANDS = {
     "compare": "compare two scored runs; exit 1 on a regression beyond the tolerance",
     "report": "write the benchmark report (index.html, report.md) for run directories",
     "run": "the whole benchmark: every engine, block and pulse, reference maps, scores, report (a suite file; "
-           "default benchmark/suites/default.toml)",
+           "default: the shipped suite 'default', see --show-suite)",
 }
 
 

@@ -458,8 +458,6 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     MapResult
     """
     from . import adaptive as adaptive_mod
-    from .executors import DASK_SCRATCH, cap_jobs, make_executor
-    from .store import RunStore
     from .plots.picture import MapPicture
 
     if not (isinstance(cell_timeout_s, (int, float)) and math.isfinite(cell_timeout_s) and cell_timeout_s > 0):
@@ -483,7 +481,7 @@ def _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_time
              picture) -> MapResult:
     from ..engines.registry import get_adapter
     from . import adaptive as adaptive_mod
-    from .executors import make_executor
+    from .executors import DASK_SCRATCH, cap_jobs, make_executor
     from .store import RunStore
 
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made

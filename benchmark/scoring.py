@@ -481,7 +481,7 @@ def cell_units(pair: dict) -> dict:
     return {"agreement": 1.0 / judged, "overturn_agreement": 1.0 / judged, "iou_overturn": 1.0 / union,
             "boundary_mean": math.hypot(dw, da), "boundary_max": math.hypot(dw, da),
             "critical_error_mean": da / n_w, "critical_error_max": da, "critical_one_sided": 1.0,
-            "consistency": 1.0 / max(int(pair.get("cells_outside_domain_simulated", n_w * n_a) or 1), 1),
+            "consistency": 1.0 / max(pair.get("cells_outside_domain_simulated", n_w * n_a), 1),
             "spurious_invalid": 1.0, "failed_cells": 1.0}
 
 
@@ -574,6 +574,10 @@ def check_score_doc(doc: dict, where) -> None:
         for name in ("n_w", "n_a"):
             if not isinstance(p["grid"].get(name), int) or p["grid"][name] < 1:
                 raise bad(f"pairs[{n}].grid.{name} is {p['grid'].get(name)!r}, not a whole number >= 1")
+        # the domain's cell counts (metrics version 2), when present
+        for name in ("cells_in_domain", "cells_outside_domain", "cells_outside_domain_simulated", "invalid_cells"):
+            if name in p and (isinstance(p[name], bool) or not isinstance(p[name], int) or p[name] < 0):
+                raise bad(f"pairs[{n}].{name} is {p[name]!r}, not a whole number >= 0")
 
 
 # -- comparing two score documents -----------------------------------------------------------------

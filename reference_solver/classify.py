@@ -25,9 +25,8 @@ from enum import Enum
 import numpy as np
 
 from .energy import free_rocking_fate
+from .model import FLAT_ANGLE_RAD  # noqa: F401 - re-exported: the classifier's flat-on-its-side angle
 
-#: |θ| at which a block is taken to lie on its side [rad]
-FLAT_ANGLE_RAD = 0.5 * math.pi - 0.01
 
 
 class Outcome(str, Enum):

@@ -13,8 +13,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .classify import FLAT_ANGLE_RAD
 from .errors import ConfigError, check_positive
+
+#: |θ| at which a block is taken to lie on its side [rad] (the classifier's rule 2)
+FLAT_ANGLE_RAD = 0.5 * math.pi - 0.01
 
 #: Gravitational acceleration used throughout the paper and this package [m/s^2].
 G = 9.81

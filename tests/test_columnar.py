@@ -66,8 +66,8 @@ def _lines(d):
     out = {}
     for line in text[1:]:
         f = line.split(",")
-        assert len(f) == 23
-        out[(int(f[-2]), int(f[-1]))] = f[:16] + f[17:]
+        assert len(f) == 24
+        out[(int(f[-2]), int(f[-1]))] = f[:17] + f[18:]
     return out
 
 

@@ -20,7 +20,7 @@ def _help(argv, capsys):
     return capsys.readouterr().out
 
 
-@pytest.mark.parametrize("command", [None] + COMMANDS)
+@pytest.mark.parametrize("command", [None] + list(COMMANDS))
 def test_help_points_at_nothing_a_user_does_not_have(command, capsys):
     text = _help([command, "--help"] if command else ["--help"], capsys)
     assert not ONLY_IN_A_CLONE.search(text), ONLY_IN_A_CLONE.search(text).group(0)
