@@ -49,6 +49,10 @@ CONNECT_TIMEOUT_S = 5.0
 _THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+class Cancelled(Exception):
+    """:meth:`ProcessExecutor.cancel` stopped a run (an interrupt, handled by whoever cancelled it)."""
+
+
 def cpu_count() -> int:
     try:
         return len(os.sched_getaffinity(0))
@@ -69,7 +73,7 @@ def worker_init(engine: str, settings: dict) -> dict:
 
 
 def make_executor(engine: str, settings: dict, *, jobs: int | None = None, scheduler: str | None = None,
-                  serial: bool = False, log_path=None):
+                  serial: bool = False, log_path=None, threads_per_worker: int | None = None):
     """The executor for the CLI's ``--jobs``/``--scheduler``/``--serial`` choice.
 
     Raises
@@ -92,7 +96,7 @@ def make_executor(engine: str, settings: dict, *, jobs: int | None = None, sched
         # that would each pay the engine's start-up (for the reference, loading its kernels);
         # --jobs N gives it N threads
         return SerialExecutor(init, kind="in-process batch (the adapter's parallel_batch)", threads=jobs)
-    return ProcessExecutor(init, jobs=jobs or cpu_count(), log_path=log_path)
+    return ProcessExecutor(init, jobs=jobs or cpu_count(), log_path=log_path, threads_per_worker=threads_per_worker)
 
 
 def _chunks(items: list, n_chunks: int, max_size: int | None = None) -> list[list]:
@@ -304,9 +308,17 @@ class ProcessExecutor:
         for v in _THREAD_VARS:
             self.env.setdefault(v, str(tpw))
         self._start_failures = 0
+        self._cancelled = False
 
     def describe(self) -> dict:
         return {"kind": "processes", "jobs": self.jobs}
+
+    def cancel(self) -> None:
+        """Stop a :meth:`run` in progress from another thread: its workers are killed, nothing more
+        is recorded, and :meth:`run` raises :class:`Cancelled` (within its 50 ms poll)."""
+        self._cancelled = True
+        for w in list(self.workers):
+            w.kill("cancelled")
 
     def _spawn(self) -> _Worker:
         if self._log is None and self.log_path is not None:
@@ -330,6 +342,8 @@ class ProcessExecutor:
         while len(self.workers) < min(self.jobs, len(pending)):
             self._spawn()
         while pending or busy:
+            if self._cancelled:
+                raise Cancelled("the run was cancelled")
             for w in self.workers:
                 if w.ready and w.chunk is None and not w.dead and pending:
                     w.give(pending.popleft(), cell_timeout_s)
@@ -376,7 +390,7 @@ class ProcessExecutor:
                 self._spawn()
 
     def _deliver(self, chunk: _Chunk | None, pairs, on_results) -> None:
-        if chunk is None:
+        if chunk is None or self._cancelled:
             return
         fresh = [(k, r) for k, r in pairs if chunk.remaining.pop(k, None) is not None]
         if fresh:
@@ -384,6 +398,8 @@ class ProcessExecutor:
 
     def _bury(self, w: _Worker, pending, on_results) -> int:
         """Handle a worker whose output ended; returns 1 if it held a chunk (no longer busy)."""
+        if self._cancelled:
+            raise Cancelled("the run was cancelled")
         w.dead = True
         try:
             code = w.proc.wait(timeout=10)

@@ -13,7 +13,8 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true", help="the reduced suite (one block per slenderness, coarse grids)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output directory (default rockbench-results/<suite name>); rerunning resumes")
-    p.add_argument("--jobs", default=None, metavar="N", help="worker processes per map (default: all cores)")
+    p.add_argument("--jobs", default=None, metavar="N",
+                   help="worker processes (default: all cores): N engine maps at a time, one worker each")
     p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score against (docs/data.md)")
     p.add_argument("--no-report", action="store_true", help="maps and score.json only")
     p.add_argument("--plan", action="store_true", help="list the maps the suite would compute and exit")
