@@ -66,6 +66,10 @@ DASK_SCRATCH = ".dask-scratch"
 _THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+class Cancelled(Exception):
+    """:meth:`ProcessExecutor.cancel` stopped a run (an interrupt, handled by whoever cancelled it)."""
+
+
 def cpu_count() -> int:
     try:
         return len(os.sched_getaffinity(0))
@@ -100,7 +104,7 @@ def cap_jobs(jobs: int | None, n_cells: int | None = None) -> tuple[int | None, 
 
 
 def make_executor(engine: str, settings: dict, *, jobs: int | None = None, scheduler: str | None = None,
-                  serial: bool = False, log_path=None, scratch_dir=None):
+                  serial: bool = False, log_path=None, scratch_dir=None, threads_per_worker: int | None = None):
     """The executor for the CLI's ``--jobs``/``--scheduler``/``--serial`` choice.
 
     ``jobs`` is capped at the cores (:func:`cap_jobs`; callers that know the cells cap it there too);
@@ -128,7 +132,7 @@ def make_executor(engine: str, settings: dict, *, jobs: int | None = None, sched
         # that would each pay the engine's start-up (for the reference, loading its kernels);
         # --jobs N gives it N threads
         return SerialExecutor(init, kind="in-process batch (the adapter's parallel_batch)", threads=jobs)
-    return ProcessExecutor(init, jobs=jobs or cpu_count(), log_path=log_path)
+    return ProcessExecutor(init, jobs=jobs or cpu_count(), log_path=log_path, threads_per_worker=threads_per_worker)
 
 
 def _chunks(items: list, n_chunks: int, max_size: int | None = None) -> list[list]:
@@ -347,9 +351,17 @@ class ProcessExecutor:
             self.env.setdefault(v, str(tpw))
         self.env[wire.PARENT_ENV] = str(os.getpid())   # the worker stops when this process dies
         self._start_failures = 0
+        self._cancelled = False
 
     def describe(self) -> dict:
         return {"kind": "processes", "jobs": self.jobs}
+
+    def cancel(self) -> None:
+        """Stop a :meth:`run` in progress from another thread: its workers are killed, nothing more
+        is recorded, and :meth:`run` raises :class:`Cancelled` (within its 50 ms poll)."""
+        self._cancelled = True
+        for w in list(self.workers):
+            w.kill("cancelled")
 
     def _spawn(self) -> _Worker:
         if self._log is None and self.log_path is not None:
@@ -373,6 +385,8 @@ class ProcessExecutor:
         while len(self.workers) < min(self.jobs, len(pending)):
             self._spawn()
         while pending or busy:
+            if self._cancelled:
+                raise Cancelled("the run was cancelled")
             for w in self.workers:
                 if w.ready and w.chunk is None and not w.dead and pending:
                     w.give(pending.popleft(), cell_timeout_s)
@@ -419,7 +433,7 @@ class ProcessExecutor:
                 self._spawn()
 
     def _deliver(self, chunk: _Chunk | None, pairs, on_results) -> None:
-        if chunk is None:
+        if chunk is None or self._cancelled:
             return
         fresh = [(k, r) for k, r in pairs if chunk.remaining.pop(k, None) is not None]
         if fresh:
@@ -427,6 +441,8 @@ class ProcessExecutor:
 
     def _bury(self, w: _Worker, pending, on_results) -> int:
         """Handle a worker whose output ended; returns 1 if it held a chunk (no longer busy)."""
+        if self._cancelled:
+            raise Cancelled("the run was cancelled")
         w.dead = True
         try:
             code = w.proc.wait(timeout=10)

@@ -445,36 +445,293 @@ def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:
     return jobs
 
 
-def measure_own_eta(suite: Suite, engines: list[str], out: Path, log) -> tuple[list[dict], list[str]]:
+def measure_own_eta(suite: Suite, engines: list[str], out: Path, log, workers: int = 1) -> tuple[list[dict], list[str]]:
     """Each engine variant's free-rocking η on each block (kept in OUT/calibration.json and reused).
 
-    Returns the measurements and notes on the ones that failed.
+    With ``workers`` > 1 the measurements run in that many helper processes at once (see
+    :func:`prepare_engines`). Returns the measurements and notes on the ones that failed.
     """
-    from ..engines.registry import get_adapter
-    from .scoring import _read_json, write_json_atomic
+    rows, notes, _ = prepare_engines(suite, engines, out, log, workers=workers, own_eta=True)
+    return rows, notes
 
-    path = out / CALIBRATION_FILE
-    old = {(r["variant"], r["block"]): r for r in (_read_json(path).get("measurements", []) if path.is_file() else [])}
-    rows, notes = [], []
+
+def _variant_blocks(suite: Suite, engines: list[str]):
     for engine in engines:
         for variant in suite.engine_variants:
-            vname = variant_name(engine, variant, suite.engine_dt_s)
             for block in suite.blocks:
-                if (vname, block) in old and old[(vname, block)].get("eta_measured") is not None:
-                    rows.append(old[(vname, block)])
-                    continue
-                log(f"measuring η of {vname} on {block} (free rocking)")
+                yield engine, variant, block
+
+
+def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s, measure: bool) -> dict:
+    """One engine variant on one block: its calibration for the suite's restitution (computed once
+    and cached on disk, where the map workers find it) and, with ``measure``, its free-rocking η
+    (by a fresh adapter, as measured before the maps always was)."""
+    from ..engines.registry import get_adapter
+
+    b = get_preset(block).block()
+    out: dict = {"measurement": None, "error": None}
+    try:
+        get_adapter(engine, **variant).resolve(b, restitution_for(restitution, block), dt_s=dt_s)
+    except Exception:  # noqa: BLE001 - not fatal here: the maps meet it again and record it
+        pass
+    if measure:
+        try:
+            m = get_adapter(engine, **variant).measure_restitution(b, dt_s=dt_s)
+            out["measurement"] = {"eta_measured": float(m.eta_mean), "eta_std": float(m.eta_std),
+                                  "n_impacts": len(m.etas), "method": m.method}
+        except Exception as e:  # noqa: BLE001 - a failed measurement drops map (d) only
+            out["error"] = f"{type(e).__name__}: {e}"
+    return out
+
+
+def prepare_engines(suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
+                    own_eta: bool | None = None) -> tuple[list[dict], list[str], float]:
+    """Everything the engine maps need before they start, on ``workers`` cores at once: each engine
+    variant's calibration on each block (cached on disk) and, with ``own_eta`` (default: the
+    suite's), its free-rocking η (kept in OUT/calibration.json and reused).
+
+    The tasks run in helper processes (one per core; forked where that is safe, so they share what
+    this process has imported), the costliest engines first; a task that fails is noted, and if the
+    helpers themselves cannot run, the rest runs here one task after another. The measurements are
+    the same wherever they run (the simulations are deterministic).
+
+    Returns
+    -------
+    rows, notes, wall_s
+        The η measurements in suite order (engine, variant, block), notes on those that failed,
+        and the wall time spent [s].
+    """
+    return _Preparation(suite, engines, out, log, workers=workers, own_eta=own_eta).finish()
+
+
+class _Preparation:
+    """:func:`prepare_engines` in two halves: made, it starts the helpers; :meth:`finish` waits for
+    them (the suite computes its reference maps in between)."""
+
+    def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
+                 own_eta: bool | None = None):
+        from .scoring import _read_json
+
+        self.t0 = time.perf_counter()
+        self.suite, self.out = suite, out
+        self.own_eta = suite.own_eta if own_eta is None else own_eta
+        self.path = out / CALIBRATION_FILE
+        self.old = {(r["variant"], r["block"]): r
+                    for r in (_read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
+        self.tasks = []
+        for engine, variant, block in _variant_blocks(suite, engines):
+            vname = variant_name(engine, variant, suite.engine_dt_s)
+            cached = (vname, block) in self.old and self.old[(vname, block)].get("eta_measured") is not None
+            self.tasks.append((engine, variant, block, self.own_eta and not cached))
+        self.results: dict = {}
+        # work to do: a measurement, or a calibration (an engine with none has nothing to prepare);
+        # the costliest engines first (finer default steps), so the last tasks are short
+        self.todo = sorted((k for k, t in enumerate(self.tasks) if t[3] or _calibrates(t[0])),
+                           key=lambda k: _cost_rank(self.tasks[k][0]))
+        for k in self.todo:
+            engine, variant, block, measure = self.tasks[k]
+            if measure:
+                log(f"measuring η of {variant_name(engine, variant, suite.engine_dt_s)} on {block} (free rocking)")
+        self.pool, self.futs = None, {}
+        if workers > 1 and len(self.todo) > 1:
+            self._start_helpers(workers)
+
+    def _start_helpers(self, workers: int) -> None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        from .executors import worker_init
+        from .plots.picture import can_fork_helper
+
+        suite = self.suite
+        try:
+            # a fork shares what this process has imported (the engines: seconds of start-up per
+            # helper); it is safe only from a single thread, else a fresh interpreter is spawned
+            ctx = multiprocessing.get_context("fork" if can_fork_helper() else "spawn")
+            init = worker_init("", {})   # this process's extra engines and sys.path, as map workers get them
+            self.pool = ProcessPoolExecutor(max_workers=min(workers, len(self.todo)), mp_context=ctx,
+                                            initializer=_helper_init, initargs=(init["registry"], init["sys_path"]))
+            for k in self.todo:
+                engine, variant, block, measure = self.tasks[k]
+                self.futs[k] = self.pool.submit(_prepare_one, engine, variant, block, suite.engine_restitution,
+                                                suite.engine_dt_s, measure)
+        except (OSError, RuntimeError, ValueError):
+            self._stop()
+
+    def _stop(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool = None
+
+    def finish(self) -> tuple[list[dict], list[str], float]:
+        from concurrent.futures.process import BrokenProcessPool
+
+        from .scoring import write_json_atomic
+
+        suite = self.suite
+        try:
+            for k, f in self.futs.items():
                 try:
-                    m = get_adapter(engine, **variant).measure_restitution(get_preset(block).block(),
-                                                                          dt_s=suite.engine_dt_s)
+                    self.results[k] = f.result()
+                except BrokenProcessPool:
+                    break
+        finally:
+            self._stop()
+        for k in self.todo:   # here: one worker, or what the helpers could not do
+            if k not in self.results:
+                engine, variant, block, measure = self.tasks[k]
+                self.results[k] = _prepare_one(engine, variant, block, suite.engine_restitution, suite.engine_dt_s,
+                                               measure)
+        rows, notes = [], []
+        if self.own_eta:
+            for k, (engine, variant, block, measure) in enumerate(self.tasks):
+                vname = variant_name(engine, variant, suite.engine_dt_s)
+                if not measure:
+                    rows.append(self.old[(vname, block)])
+                    continue
+                r = self.results[k]
+                if r["measurement"] is not None:
                     rows.append({"variant": vname, "engine": engine, "settings": dict(variant), "block": block,
-                                 "eta_measured": float(m.eta_mean), "eta_std": float(m.eta_std),
-                                 "n_impacts": len(m.etas), "method": m.method})
-                except Exception as e:  # noqa: BLE001 - a failed measurement drops map (d) only
-                    notes.append(f"η of {vname} on {block} not measured: {type(e).__name__}: {e}")
-    out.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(path, {"kind": "rockbench-calibration", "measurements": rows})
-    return rows, notes
+                                 **r["measurement"]})
+                else:
+                    notes.append(f"η of {vname} on {block} not measured: {r['error']}")
+            self.out.mkdir(parents=True, exist_ok=True)
+            write_json_atomic(self.path, {"kind": "rockbench-calibration", "measurements": rows})
+        return rows, notes, time.perf_counter() - self.t0
+
+
+def _helper_init(registry: dict, sys_path: list) -> None:
+    import os
+    from ..engines.registry import register
+    for p in sys_path:
+        if p not in sys.path and os.path.isdir(p):
+            sys.path.append(p)
+    for name, target in registry.items():
+        register(name, target)
+
+
+def _calibrates(engine: str) -> bool:
+    """Whether the engine's adapter has a calibration of its own to compute (and cache)."""
+    from ..engines.base import EngineAdapter
+    from ..engines.registry import adapter_class
+    try:
+        return adapter_class(engine).calibrate is not EngineAdapter.calibrate
+    except Exception:  # noqa: BLE001 - an adapter that cannot load has nothing to prepare here
+        return False
+
+
+def _cost_rank(engine: str) -> float:
+    """Maps and calibrations of engines with finer default time steps cost more: they go first."""
+    from ..engines.registry import adapter_class
+    try:
+        return float(getattr(adapter_class(engine), "default_dt_s", 1.0))
+    except Exception:  # noqa: BLE001 - an engine that cannot even load its adapter class goes last
+        return math.inf
+
+
+def _warm_report() -> None:
+    """Import what the report draws with and load the reference solver's history kernel (numba's
+    cache), so that the report, which needs every map, starts at once when the last one is done."""
+    try:
+        from matplotlib import figure  # noqa: F401
+        from matplotlib.backends import backend_agg  # noqa: F401
+
+        from ..reference_solver.pulses import make_pulse
+        from ..reference_solver.solver import solve
+        from . import report  # noqa: F401
+        from .presets import get_preset
+        solve(get_preset("B3M").block(), make_pulse("sine", 30.0, 60.0), 0.8, history=True)
+    except Exception:  # noqa: BLE001 - only a head start; the report imports what it needs itself
+        pass
+
+
+def _variant_key(job: MapJob):
+    return None if job.engine == "reference" else (job.engine, json.dumps(dict(job.settings), sort_keys=True))
+
+
+def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, announce, one_map) -> None:
+    """Run the engine maps ``todo[k]`` for ``k`` in ``order`` on ``lanes`` lanes at once.
+
+    Each lane is a thread that takes the next map from the shared queue and runs it with its own
+    worker process for that engine variant (kept for the variant's maps it runs; the workers' stderr
+    goes to one workers.log beside the variant's maps). One worker per map and several maps at a
+    time keep every core busy: within a map, adaptive refinement waits at the end of each round for
+    its last cells, and one worker never waits for another. A lane stops its worker as soon as the
+    queue holds no more maps of that variant. On an interrupt every lane's workers are stopped and
+    nothing more is recorded; finished cells stay, and a rerun resumes.
+    """
+    import threading
+    from collections import deque
+
+    from . import executors as ex_mod
+
+    queue = deque(order)
+    lock = threading.Lock()
+    live: list = []
+    errors: list = []
+    cores = ex_mod.cpu_count()
+
+    def lane() -> None:
+        key, ex = None, None
+        try:
+            while True:
+                with lock:
+                    if errors or not queue:
+                        return
+                    k = queue.popleft()
+                job = todo[k]
+                announce(k)
+                if _variant_key(job) != key:
+                    if ex is not None:
+                        ex.close()
+                    key = _variant_key(job)
+                    d = out / job.subdir
+                    d.parent.mkdir(parents=True, exist_ok=True)
+                    ex = ex_mod.make_executor(job.engine, dict(job.settings), jobs=1, log_path=d.parent / "workers.log",
+                                              threads_per_worker=max(1, cores // lanes))
+                    with lock:
+                        live.append(ex)
+                one_map(k, ex)
+                with lock:
+                    more = any(_variant_key(todo[q]) == key for q in queue)
+                if not more:
+                    # a variant's worker stops after its last map, so idle engines do not hold their memory
+                    ex.close()
+                    key, ex = None, None
+        except ex_mod.Cancelled:
+            pass
+        except BaseException as e:  # noqa: BLE001 - handed to the main thread, which raises it
+            with lock:
+                errors.append(e)
+            for other in list(live):
+                if other is not ex and hasattr(other, "cancel"):
+                    other.cancel()
+        finally:
+            if ex is not None:
+                ex.close()
+
+    if lanes <= 1:
+        lane()
+    else:
+        threads = [threading.Thread(target=lane, name=f"rockbench-lane-{n}", daemon=True) for n in range(lanes)]
+        for t in threads:
+            t.start()
+        try:
+            while any(t.is_alive() for t in threads):
+                for t in threads:
+                    t.join(0.2)
+        except BaseException:
+            # Ctrl-C (delivered to this thread only): stop every lane's workers, record nothing more
+            with lock:
+                queue.clear()
+                for e in list(live):
+                    if hasattr(e, "cancel"):
+                        e.cancel()
+            for t in threads:
+                t.join(10.0)
+            raise
+    if errors:
+        raise errors[0]
 
 
 def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=None, report: bool = True,
@@ -489,9 +746,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         ``maps`` (per map: dir and wall time), ``wall_s``, ``score`` (the score document or None),
         ``notes``, ``report`` (paths) and ``summary`` (the summary table as text).
     """
-    from .executors import make_executor
-    from .maps import MapSpec, parse_range, run_map
-    from .presets import get_preset
+    from .executors import cpu_count
+    from .maps import MapSpec, parse_range
     from .scoring import write_json_atomic
 
     from .atomic import check_output_dir
@@ -512,54 +768,68 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     engines, more = check_suite(suite, engines, explicit)
     notes += more
     todo = plan(suite, engines)
-    if suite.own_eta and engines:
-        etas, more = measure_own_eta(suite, engines, out, log)
-        notes += more
-        todo += own_eta_jobs(suite, etas)
-    # every spec is built (and so checked) before the first map runs
-    specs = [MapSpec(get_preset(j.block).block(), j.pulse, j.restitution, x, y, engine=j.engine,
-                     engine_settings=dict(j.settings), dt_s=j.dt_s) for j in todo]
+    workers = max(1, jobs or cpu_count())
+
+    def specs_of(jobs_):
+        return [MapSpec(get_preset(j.block).block(), j.pulse, j.restitution, x, y, engine=j.engine,
+                        engine_settings=dict(j.settings), dt_s=j.dt_s) for j in jobs_]
+
+    # every spec is built (and so checked) before the first map runs (the own-η reference maps, which
+    # wait for the measured η, differ from the others only in a constant restitution)
+    specs = specs_of(todo)
     t0 = time.perf_counter()
-    done = []
-    # One executor per engine and settings, kept for all of its maps: its workers start, import the
-    # engine and build their models once instead of once per map (their stderr goes to one
-    # workers.log beside the variant's maps).
-    executors: dict = {}
+    records: dict = {}
+    # calibrations (and the engines' own η) once, on every core, before the engine maps need them;
+    # the helpers start now and work while this process computes the reference maps
+    prep = _Preparation(suite, engines, out, log, workers=workers) if engines else None
 
-    def variant(job):
-        return None if job.engine == "reference" else (job.engine, json.dumps(dict(job.settings), sort_keys=True))
+    def announce(k: int) -> None:
+        log(f"[{k + 1}/{len(todo)}] {specs[k].label()} → {out / todo[k].subdir}")
 
-    # a variant's workers stop after its last map, so idle engines do not hold their memory
-    last_map = {variant(j): k for k, j in enumerate(todo, 1)}
+    def one_map(k: int, ex) -> None:
+        from .maps import run_map
+        job, spec = todo[k], specs[k]
+        d = out / job.subdir
+        t1 = time.perf_counter()
+        # reference maps are computed in full: they cost milliseconds, and scoring needs the
+        # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked
+        res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference",
+                      adaptive=suite.adaptive and job.engine != "reference",
+                      coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False,
+                      log=log, executor=ex)
+        records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
+                      "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
+
+    # The reference runs in this process: its compiled batch kernel is parallel already, and worker
+    # processes would each load it again; engines keep the workers' time limit and crash isolation.
     try:
-        for k, (job, spec) in enumerate(zip(todo, specs), 1):
-            d = out / job.subdir
-            log(f"[{k}/{len(todo)}] {spec.label()} → {d}")
-            t1 = time.perf_counter()
-            # The reference runs in this process: its compiled batch kernel is parallel already, and
-            # worker processes would each compile it again (seconds per map); engines keep the
-            # workers' time limit and crash isolation.
-            ex = None
-            key = variant(job)
-            if key is not None:
-                ex = executors.get(key)
-                if ex is None:
-                    d.parent.mkdir(parents=True, exist_ok=True)
-                    ex = executors[key] = make_executor(job.engine, dict(job.settings), jobs=jobs,
-                                                        log_path=d.parent / "workers.log")
-            # reference maps are computed in full: they cost milliseconds, and scoring needs the
-            # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked
-            res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference",
-                          adaptive=suite.adaptive and job.engine != "reference",
-                          coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False,
-                          log=log, executor=ex)
-            done.append({"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
-                         "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)})
-            if ex is not None and last_map[key] == k:
-                executors.pop(key).close()
+        for k, job in enumerate(todo):
+            if job.engine == "reference":
+                announce(k)
+                one_map(k, None)
     finally:
-        for ex in executors.values():
-            ex.close()
+        if prep is not None:
+            etas, more, _ = prep.finish()
+    if prep is not None:
+        notes += more
+        if suite.own_eta:
+            extra = own_eta_jobs(suite, etas)
+            first = len(todo)
+            todo += extra
+            specs += specs_of(extra)
+            for k in range(first, len(todo)):
+                announce(k)
+                one_map(k, None)
+    if report:
+        # the report's start-up (matplotlib, the reference's history kernel) costs a few seconds of one
+        # core at the end; a thread pays it while the workers compute the engine maps
+        import threading
+        threading.Thread(target=_warm_report, name="rockbench-warm-report", daemon=True).start()
+    engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
+    # the costliest engines first, so that the last maps, when one core may wait for the other, are short
+    engine_maps.sort(key=lambda k: _cost_rank(todo[k].engine))
+    _run_lanes(engine_maps, todo, out, min(workers, max(1, len(engine_maps))), announce, one_map)
+    done = [records[k] for k in sorted(records)]
     maps_wall = time.perf_counter() - t0
     result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(notes),
               "score": None, "report": None, "summary": ""}

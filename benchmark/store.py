@@ -20,6 +20,7 @@ directory at the same time is refused too (an advisory lock on ``DIR/.lock``).
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import os
@@ -60,7 +61,16 @@ def utc_now() -> str:
 
 
 def git_info() -> dict:
-    """``{"commit", "dirty"}`` of the source tree rockbench runs from (None when not a git checkout)."""
+    """``{"commit", "dirty"}`` of the source tree rockbench runs from (None when not a git checkout).
+
+    Asked once per process: the code that runs is the code imported at its start (two ``git`` calls
+    per map added a few seconds to a suite of a hundred maps). Callers get a copy.
+    """
+    return dict(_git_info())
+
+
+@functools.lru_cache(maxsize=1)
+def _git_info() -> dict:
     here = Path(__file__).resolve().parent
     try:
         commit = subprocess.run(["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True, text=True,
@@ -74,6 +84,7 @@ def git_info() -> dict:
         return {"commit": None, "dirty": None}
 
 
+@functools.lru_cache(maxsize=1)
 def rockbench_version() -> str:
     from importlib.metadata import PackageNotFoundError, version
     try:

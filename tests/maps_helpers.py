@@ -170,9 +170,28 @@ class WrongAdapter(AnalyticAdapter):
         return tr
 
 
+class EtaAnalyticAdapter(AnalyticAdapter):
+    """The analytic picture with a free-rocking η of its own: a function of the block and the
+    ``sleep_s`` setting (so two variants measure two values), deterministic, slow enough (``work_s``)
+    that measurements run side by side; each measurement appends a line to ``log_path``."""
+
+    name = "analytic-eta"
+    SETTINGS = {**AnalyticAdapter.SETTINGS, "work_s": 0.0, "log_path": ""}
+
+    def measure_restitution(self, block, *, theta0_frac=0.5, dt_s=None):
+        from rockbench.engines.base import RestitutionMeasurement
+        time.sleep(self.settings["work_s"])
+        if self.settings["log_path"]:
+            with open(self.settings["log_path"], "a") as f:
+                f.write(f"{block.name} {self.settings['sleep_s']} {os.getpid()}\n")
+        eta = 0.8 + 0.1 * block.alpha_rad + 100.0 * self.settings["sleep_s"]
+        return RestitutionMeasurement([eta, eta], eta, 0.0, theta0_frac * block.alpha_rad, dt_s or 1e-3,
+                                      dict(self.settings), "analytic")
+
+
 ALL = {c.name: c for c in (AnalyticAdapter, BatchAnalyticAdapter, RaisingAdapter, CrashingAdapter,
                            HangingAdapter, HangingStartAdapter, DivergingAdapter, CrashingBatchAdapter,
-                           WrongAdapter)}
+                           WrongAdapter, EtaAnalyticAdapter)}
 
 
 def register_all():

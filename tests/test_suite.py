@@ -1,5 +1,8 @@
 """Suite files of `rockbench run`: the shipped ones parse, bad ones are refused with one line."""
 
+import json
+from pathlib import Path
+
 import pytest
 
 from rockbench.benchmark.cli import main
@@ -175,3 +178,62 @@ def test_run_engines_option(tmp_path, capsys):
     capsys.readouterr()
     res = run_suite(load_suite(p), tmp_path / "out", jobs=1, report=False, engines=["analytic"], log=lambda m: None)
     assert {m["label"].split()[0] for m in res["maps"]} == {"reference", "analytic"}
+
+
+def _rows(d):
+    import csv
+    with open(d / "cells.csv", newline="") as f:
+        return {(r["i"], r["j"]): {k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(f)}
+
+
+def test_lanes_and_helpers_give_what_one_worker_gives(tmp_path):
+    """Engine maps on two lanes at once and the η measured by two helpers: the same maps, cell for
+    cell, and the same calibration.json as one worker doing everything in turn; each η measured once,
+    and not again on a rerun."""
+    import maps_helpers as mh
+    from rockbench.benchmark.run import run_suite
+
+    mh.register_all()
+    log = tmp_path / "measured.txt"
+    (tmp_path / "s.toml").write_text(
+        "[suite]\nname = 't'\n[grid]\nw_ratio = '1:8:9'\na_ratio = '1:9:9'\nadaptive = true\ncoarse_stride = 2\n"
+        "[cases]\nblocks = ['B3M', 'B6L']\npulses = ['sine', 'cosine']\n[reference]\nrestitutions = ['housner']\n"
+        "[engines]\nnames = ['analytic-eta']\nvariants = [{ sleep_s = 0.0, work_s = 0.2, log_path = '%s' }, "
+        "{ sleep_s = 1e-4, work_s = 0.2, log_path = '%s' }]\nown_eta = true\n" % (log, log))
+    suite = load_suite(tmp_path / "s.toml")
+    one = run_suite(suite, tmp_path / "one", jobs=1, report=False, log=lambda m: None)
+    two = run_suite(suite, tmp_path / "two", jobs=2, report=False, log=lambda m: None)
+    assert [m["label"] for m in one["maps"]] == [m["label"] for m in two["maps"]]
+    assert len(one["maps"]) == 4 + 2 * 4 + 2 * 2 * 2    # reference, engine maps, own-η reference maps
+    for m1, m2 in zip(one["maps"], two["maps"]):
+        d1, d2 = Path(m1["dir"]), Path(m2["dir"])
+        assert d1.relative_to(tmp_path / "one") == d2.relative_to(tmp_path / "two")
+        assert _rows(d1) == _rows(d2), d1.name
+    cal1 = json.loads((tmp_path / "one" / "calibration.json").read_text())
+    cal2 = json.loads((tmp_path / "two" / "calibration.json").read_text())
+    assert cal1 == cal2 and len(cal1["measurements"]) == 4
+    lines = log.read_text().splitlines()
+    assert len(lines) == 2 * 4                          # each variant × block once per run
+    run_suite(suite, tmp_path / "two", jobs=2, report=False, log=lambda m: None)
+    assert len(log.read_text().splitlines()) == 8       # the rerun reuses calibration.json
+
+
+def test_a_lane_that_fails_stops_the_suite(tmp_path, monkeypatch):
+    """Workers that cannot start their engine stop the whole suite with the reason, whichever lane
+    meets them first; the other lane is cancelled, nothing hangs."""
+    import os
+
+    import maps_helpers as mh
+    from rockbench.benchmark import executors
+    from rockbench.benchmark.run import run_suite
+    from rockbench.reference_solver.errors import EngineError
+
+    mh.register_all()
+    monkeypatch.setenv("RB_TEST_PARENT_PID", str(os.getpid()))
+    monkeypatch.setattr(executors.ProcessExecutor, "START_TIMEOUT_S", 1.0)
+    (tmp_path / "s.toml").write_text(
+        "[suite]\nname = 't'\n[grid]\nw_ratio = '1:8:5'\na_ratio = '1:9:5'\n"
+        "[cases]\nblocks = ['B3M', 'B6L']\npulses = ['sine', 'cosine']\n[reference]\nrestitutions = ['housner']\n"
+        "[engines]\nnames = ['hanging-start']\nown_eta = false\n")
+    with pytest.raises(EngineError, match="keep dying at start"):
+        run_suite(load_suite(tmp_path / "s.toml"), tmp_path / "out", jobs=2, report=False, log=lambda m: None)

@@ -17,7 +17,8 @@ def register(sub) -> None:
                    help="output directory (default rockbench-results/<suite name>); rerunning resumes")
     p.add_argument("--engines", default=None, metavar="NAME,...",
                    help="only these engines (e.g. the one under test); the reference maps are always computed")
-    p.add_argument("--jobs", default=None, metavar="N", help="worker processes per map (default: all cores)")
+    p.add_argument("--jobs", default=None, metavar="N",
+                   help="worker processes (default: all cores): N engine maps at a time, one worker each")
     p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score against: "
                    "block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
                    "outcome T, R or O")

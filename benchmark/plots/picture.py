@@ -9,9 +9,11 @@ same function, so the same picture). The fork adds no start-up of its own (the h
 imported already) and, on a busy machine, no more work than drawing here would.
 
 The helper is forked only where that is safe and useful: on a POSIX system, with at least two cores
-to run on, from a process with a single thread (a fork copies only the calling thread, so locks held
-by others would stay locked in the child; a process that ran numba's parallel kernels has threads).
-Otherwise, or when the helper fails, the picture is drawn in this process.
+to run on, from a process with no Python thread but the main one and whose numba parallel runtime
+has not started (a fork copies only the calling thread: locks held by other threads would stay
+locked in the child, and numba's thread pools are not fork-safe; idle native pools such as
+OpenBLAS's, which numpy starts at import, take care of a fork themselves). Otherwise, or when the
+helper fails, the picture is drawn in this process.
 """
 
 from __future__ import annotations
@@ -33,16 +35,19 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
-def _single_threaded() -> bool:
-    try:
-        return len(os.listdir("/proc/self/task")) == 1
-    except OSError:   # no /proc: cannot tell, so do not fork
+def _fork_safe() -> bool:
+    import sys
+    import threading
+    if threading.active_count() > 1:
         return False
+    par = sys.modules.get("numba.np.ufunc.parallel")
+    return not getattr(par, "_is_initialized", False)
 
 
 def can_fork_helper() -> bool:
-    """Whether :class:`MapPicture` would fork a helper here and now."""
-    return hasattr(os, "fork") and _cores() >= 2 and _single_threaded()
+    """Whether a helper may be forked here and now (module docstring; :class:`MapPicture`, and the
+    suite's preparation of the engines)."""
+    return hasattr(os, "fork") and _cores() >= 2 and _fork_safe()
 
 
 class MapPicture:
