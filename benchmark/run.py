@@ -663,8 +663,10 @@ def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, anno
     goes to one workers.log beside the variant's maps). One worker per map and several maps at a
     time keep every core busy: within a map, adaptive refinement waits at the end of each round for
     its last cells, and one worker never waits for another. A lane stops its worker as soon as the
-    queue holds no more maps of that variant. On an interrupt every lane's workers are stopped and
-    nothing more is recorded; finished cells stay, and a rerun resumes.
+    queue holds no more maps of that variant. When the queue is empty, a lane that finishes lends its
+    core to a lane still running a map (that map's executor starts a second worker), so the last
+    maps do not run on one core while the other waits. On an interrupt every lane's workers are
+    stopped and nothing more is recorded; finished cells stay, and a rerun resumes.
     """
     import threading
     from collections import deque
@@ -674,15 +676,26 @@ def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, anno
     queue = deque(order)
     lock = threading.Lock()
     live: list = []
+    running: dict = {}   # lane → the executor running its map now
     errors: list = []
     cores = ex_mod.cpu_count()
 
-    def lane() -> None:
+    def lend(n: int) -> None:
+        """Nothing left to start: this lane's core goes to the lane running with the fewest workers
+        (its executor starts one more worker for the rest of that map's rounds)."""
+        others = [e for m, e in running.items() if m != n and isinstance(e, ex_mod.ProcessExecutor)]
+        if others:
+            e = min(others, key=lambda e: e.jobs)
+            e.jobs += 1
+
+    def lane(n: int) -> None:
         key, ex = None, None
         try:
             while True:
                 with lock:
                     if errors or not queue:
+                        if not errors:
+                            lend(n)
                         return
                     k = queue.popleft()
                 job = todo[k]
@@ -697,7 +710,13 @@ def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, anno
                                               threads_per_worker=max(1, cores // lanes))
                     with lock:
                         live.append(ex)
-                one_map(k, ex)
+                with lock:
+                    running[n] = ex
+                try:
+                    one_map(k, ex)
+                finally:
+                    with lock:
+                        running.pop(n, None)
                 with lock:
                     more = any(_variant_key(todo[q]) == key for q in queue)
                 if not more:
@@ -717,9 +736,10 @@ def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, anno
                 ex.close()
 
     if lanes <= 1:
-        lane()
+        lane(0)
     else:
-        threads = [threading.Thread(target=lane, name=f"rockbench-lane-{n}", daemon=True) for n in range(lanes)]
+        threads = [threading.Thread(target=lane, args=(n,), name=f"rockbench-lane-{n}", daemon=True)
+                   for n in range(lanes)]
         for t in threads:
             t.start()
         try:
