@@ -191,22 +191,18 @@ def _repr_float(bits, buf, pos, write):
     neg = (bits >> np.uint64(63)) != _U0
     e = (bits >> _U52) & np.uint64(0x7FF)
     m = bits & _M52
-    if e == np.uint64(0x7FF):
-        if m != _U0:                       # nan (repr drops its sign)
-            if write:
-                buf[pos], buf[pos + 1], buf[pos + 2] = 110, 97, 110
-            return pos + 3
-        if neg:
-            if write:
-                buf[pos] = 45
-            pos += 1
+    if e == np.uint64(0x7FF) and m != _U0:   # nan (repr drops its sign)
         if write:
-            buf[pos], buf[pos + 1], buf[pos + 2] = 105, 110, 102
+            buf[pos], buf[pos + 1], buf[pos + 2] = 110, 97, 110
         return pos + 3
     if neg:
         if write:
             buf[pos] = 45
         pos += 1
+    if e == np.uint64(0x7FF):                  # ±inf
+        if write:
+            buf[pos], buf[pos + 1], buf[pos + 2] = 105, 110, 102
+        return pos + 3
     if e == _U0 and m == _U0:
         if write:
             buf[pos], buf[pos + 1], buf[pos + 2] = 48, 46, 48   # 0.0
