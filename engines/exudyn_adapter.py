@@ -83,7 +83,7 @@ from ..reference_solver.energy import energy
 from ..reference_solver.errors import ConfigError, EngineError
 from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
-from ..reference_solver.restitution import Restitution
+from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration
 from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, EngineAdapter, RestitutionMeasurement, Trajectory, uplift_tol_rad
@@ -95,6 +95,10 @@ STATIC_PENETRATION_M = 1.34e-6
 
 #: Exudyn contact restitution coefficients (impact model 2) tried by the calibration's scan [-].
 CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
+
+#: The scan for the distributed contact (issue 18): its η rises with the coefficient from about
+#: η_H, and the probe (benchmarks/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
+CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
 
 #: Impacts averaged by the free-rocking measurement [-].
 CALIBRATION_IMPACTS = 4
@@ -183,6 +187,11 @@ class _Model:
         r = contact["sphere_radius_m"]
         k = contact["stiffness_n_m"]
         self.r = r
+        # contact spheres: one per bottom corner, or a row of ``contact_points`` along the base
+        # (issue 18: the outer ones stay under the corners, so the static pivots do not move)
+        self.n_points = int(contact.get("contact_points") or 2)
+        self.exponent = float(contact.get("stiffness_exponent") or 1.0)
+        row = np.linspace(-b / 2, b / 2, self.n_points)
         SC = exu.SystemContainer()
         mbs = SC.AddSystem()
         self.SC, self.mbs = SC, mbs
@@ -216,6 +225,7 @@ class _Model:
                                                initialCoordinates=[x0, y0, phi0]))
             body = mbs.AddObject(ObjectRigidBody2D(nodeNumber=node, mass=m, inertia=block.inertia_cm_kg_m2))
             corners = [[-b / 2, -h / 2 + r, 0.0], [b / 2, -h / 2 + r, 0.0]]
+            spheres = [[float(x), -h / 2 + r, 0.0] for x in row]
             gravity = [0.0, -m * G, 0.0]
         else:
             import exudyn.utilities as eu
@@ -230,13 +240,14 @@ class _Model:
                                       returnDict=True)
             node, body = res["nodeNumber"], res["bodyNumber"]
             corners = [[sx * b / 2, sy * d / 2, -h / 2 + r] for sy in (-1, 1) for sx in (-1, 1)]
+            spheres = [[float(x), sy * d / 2, -h / 2 + r] for sy in (-1, 1) for x in row]
             gravity = [0.0, 0.0, -m * G]
         self.node, self.body = node, body
         self.corners_local = np.array(corners)
 
         mcom = mbs.AddMarker(MarkerNodePosition(nodeNumber=node))
         mbs.AddLoad(Force(markerNumber=mcom, loadVector=gravity))
-        for c in corners:
+        for c in spheres:
             mc = mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=c))
             dn = mbs.AddNode(NodeGenericData(numberOfDataCoordinates=4, initialCoordinates=[0, 0, 0, 0]))
             mbs.AddObject(ObjectContactSphereTriangle(
@@ -244,7 +255,7 @@ class _Model:
                 trianglePoints=exu.Vector3DList(tri), includeEdges=0,
                 dynamicFriction=contact["friction"], frictionProportionalZone=contact["friction_zone_m_s"],
                 contactStiffness=k, contactDamping=contact["damping_n_s_m"],
-                contactStiffnessExponent=1.0, restitutionCoefficient=contact["restitution_coefficient"],
+                contactStiffnessExponent=self.exponent, restitutionCoefficient=contact["restitution_coefficient"],
                 impactModel=contact["impact_model"]))
 
         self._inertial_load = None
@@ -282,8 +293,8 @@ class _Model:
         onto one corner (θ ≠ 0), its corner sphere(s) pressed in by their static penetration."""
         b, h = self.block.width_m, self.block.height_m
         k = self.contact["stiffness_n_m"]
-        n = 2.0 if theta_rad == 0.0 else 1.0
-        pen = self.block.mass_kg * G / (n * k)
+        n = float(self.n_points) if theta_rad == 0.0 else 1.0
+        pen = (self.block.mass_kg * G / (n * k)) ** (1.0 / self.exponent)
         if theta_rad == 0.0:
             return 0.0, h / 2 - pen, 0.0
         s = 1.0 if theta_rad > 0 else -1.0
@@ -480,6 +491,15 @@ class ExudynAdapter(EngineAdapter):
         Sliding speed below which Exudyn's friction is proportional to the speed [m/s].
     stiffness_n_m : float or None
         Contact stiffness of each corner [N/m]; None: :func:`default_stiffness_n_m`.
+    contact : {"auto", "corners", "distributed"}
+        ``corners``: one contact sphere per bottom corner. ``distributed``: a row of
+        ``contact_points`` spheres along the base, the outer ones under the corners, with the
+        corners' total stiffness shared among them (same static sink), so an impact's impulse can
+        spread into the base while the static pivots stay at the corners (issue 18). ``auto``
+        (default): the corners for targets up to 1 % above Housner's η_H, the distributed
+        contact above (the modified η_M); explicit ``contact_restitution`` with ``auto``: corners.
+    contact_points : int
+        Spheres of the distributed contact along the base (≥ 3, default 9).
     contact_restitution : float or None
         Exudyn's normal restitution coefficient of the corner contacts with its impact model 2
         (Gonthier et al.) [-]; None: calibrated to the case's η (with ``calibrated``).
@@ -514,6 +534,8 @@ class ExudynAdapter(EngineAdapter):
         "contact_restitution": None,
         "damping_n_s_m": 0.0,
         "sphere_radius_m": 5e-4,
+        "contact": "auto",
+        "contact_points": 9,
         "spectral_radius": 0.9,
         "modified_newton_iterations": 3,
         "chunk_s": 0.05,
@@ -539,6 +561,16 @@ class ExudynAdapter(EngineAdapter):
         self._number_setting(s, "friction", "-", allow_none=False)
         self._number_setting(s, "friction_zone_m_s", "m/s", allow_none=False)
         self._number_setting(s, "stiffness_n_m", "N/m")
+        if s["contact"] not in ("auto", "corners", "distributed"):
+            raise ConfigError(f"exudyn setting 'contact' must be auto, corners or distributed, got {s['contact']!r}.")
+        try:
+            n = int(s["contact_points"])
+        except (TypeError, ValueError):
+            n = -1
+        if n < 3 or n != float(s["contact_points"]) or n > 101:
+            raise ConfigError(f"exudyn setting 'contact_points' must be a whole number from 3 to 101, "
+                              f"got {s['contact_points']!r}.")
+        s["contact_points"] = n
         self._number_setting(s, "contact_restitution", "-")
         if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
             raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {s['contact_restitution']!r}.")
@@ -558,8 +590,19 @@ class ExudynAdapter(EngineAdapter):
     def _stiffness(self, block: Block) -> float:
         return self.settings["stiffness_n_m"] or default_stiffness_n_m(block)
 
-    def _contact(self, block: Block, contact_restitution: float | None) -> dict:
-        """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model."""
+    def _points_for(self, block: Block, target_eta: float | None) -> int:
+        """Contact spheres for a target η: 2 (the corners) or the distributed row (``contact`` setting)."""
+        kind = self.settings["contact"]
+        if kind == "auto":
+            kind = ("distributed" if target_eta is not None and target_eta > 1.01 * housner_eta(block.alpha_rad)
+                    else "corners")
+        return self.settings["contact_points"] if kind == "distributed" else 2
+
+    def _contact(self, block: Block, contact_restitution: float | None, points: int = 2) -> dict:
+        """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model.
+
+        ``points`` > 2: a row of that many spheres along the base sharing the corners' total stiffness.
+        """
         s = self.settings
         if contact_restitution is None:
             # shipped: linear impact model (0) with restitution coefficient 1, i.e. only the
@@ -567,7 +610,8 @@ class ExudynAdapter(EngineAdapter):
             model, e = 0, 1.0
         else:
             model, e = 2, float(contact_restitution)
-        return {"stiffness_n_m": self._stiffness(block), "damping_n_s_m": s["damping_n_s_m"],
+        return {"stiffness_n_m": self._stiffness(block) * 2.0 / points, "contact_points": points,
+                "damping_n_s_m": s["damping_n_s_m"],
                 "impact_model": model, "restitution_coefficient": e,
                 "friction": s["friction"], "friction_zone_m_s": s["friction_zone_m_s"],
                 "sphere_radius_m": s["sphere_radius_m"], "spectral_radius": s["spectral_radius"],
@@ -578,6 +622,7 @@ class ExudynAdapter(EngineAdapter):
         dt = dt_s or self.default_dt_s
         s = dict(self.settings)
         cal = None
+        points = s["contact_points"] if s["contact"] == "distributed" else 2
         if s["contact_restitution"] is not None:
             e = s["contact_restitution"]
         elif s["settings"] == "defaults":
@@ -585,10 +630,11 @@ class ExudynAdapter(EngineAdapter):
         else:
             cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt)
             e = cal.settings["restitution_coefficient"]
-        out = {**s, **self._contact(block, e), "dt_s": dt}
+            points = int(cal.settings.get("contact_points") or 2)
+        out = {**s, **self._contact(block, e, points), "dt_s": dt}
         if cal is not None:
             out["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
-                                  "eta_std": cal.eta_std, "reached": cal.reached}
+                                  "eta_std": cal.eta_std, "reached": cal.reached, "price": cal.price}
         return out
 
     # -- simulation -----------------------------------------------------------------------
@@ -680,7 +726,8 @@ class ExudynAdapter(EngineAdapter):
 
     # -- restitution ----------------------------------------------------------------------
     def free_rocking(self, block: Block, contact_restitution: float | None, *, theta0_frac: float = 0.5,
-                     dt_s: float | None = None, n_impacts: int = CALIBRATION_IMPACTS) -> FreeRocking:
+                     dt_s: float | None = None, n_impacts: int = CALIBRATION_IMPACTS,
+                     contact: dict | None = None) -> FreeRocking:
         """Free rocking from rest at ``θ0 = theta0_frac·α``, no excitation, with given contact.
 
         η of each impact comes from the energy-consistent amplitude ratio of successive peaks:
@@ -695,7 +742,8 @@ class ExudynAdapter(EngineAdapter):
         # a quarter period from θ0 to the first impact; later half-cycles are shorter
         quarter = math.acosh(1.0 / (1.0 - theta0_frac)) / p
         duration = quarter * (2 * n_impacts + 1) * 1.2 + 0.05
-        contact = self._contact(block, contact_restitution)
+        if contact is None:
+            contact = self._contact(block, contact_restitution)
         model = _Model(block, contact, "inertial", self.settings["planar"], dt, None, theta0_rad=th0)
         model.set_pulse(None)
         ok, message, steps, wall = model.run(0.0, lambda st: False, duration, duration)
@@ -745,9 +793,26 @@ class ExudynAdapter(EngineAdapter):
                                       settings={**fr.contact, "planar": s["planar"]},
                                       method="energy-consistent amplitude ratio of successive peaks")
 
+    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
+        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
+        st = c.settings
+        e = st.get("restitution_coefficient") if st.get("impact_model") == 2 else None
+        return self._price(block, e, int(st.get("contact_points") or 2), c.eta_target, dt_s or self.default_dt_s)
+
+    def _price(self, block: Block, e: float | None, points: int, target: float, dt: float) -> dict:
+        """The price of this adapter with the contact fixed (restitution coefficient ``e``, ``points`` spheres)."""
+        from . import price as _price
+
+        fixed = ExudynAdapter(**{**self.settings, "contact_restitution": e,
+                                 "contact": "distributed" if points > 2 else "corners",
+                                 "contact_points": points if points > 2 else self.settings["contact_points"]})
+        return _price.contact_price(fixed, block, Restitution("constant", value=target), dt)
+
     def _cal_key(self, block: Block, target_eta: float, dt: float) -> str:
         s = self.settings
-        return calibration.cache_key(
+        points = self._points_for(block, target_eta)
+        extra = {} if points == 2 else {"contact_points": points, "price_procedure": 1}
+        return calibration.cache_key(**extra,
             engine=self.name, version=self.version(), procedure=CALIBRATION_VERSION,
             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=float(target_eta),
             dt=float(dt), planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
@@ -779,10 +844,11 @@ class ExudynAdapter(EngineAdapter):
                 return res
 
         scan = []
+        points = self._points_for(block, target)
 
         def measure(e):
             try:
-                fr = self.free_rocking(block, e, dt_s=dt)
+                fr = self.free_rocking(block, e, dt_s=dt, contact=self._contact(block, e, points))
             except EngineError as ex:
                 scan.append({"contact_restitution": e, "error": str(ex)})
                 return None
@@ -794,7 +860,7 @@ class ExudynAdapter(EngineAdapter):
             return (fr is not None and len(fr.etas) >= 2 and math.isfinite(fr.eta_mean)
                     and fr.eta_std < 0.02 and fr.max_jump_m <= jump_tol_m(block))
 
-        measured = [(e, measure(e)) for e in CALIBRATION_RESTITUTIONS]
+        measured = [(e, measure(e)) for e in (CALIBRATION_RESTITUTIONS if points == 2 else CALIBRATION_RESTITUTIONS_DIST)]
         good = [(e, fr) for e, fr in measured if regular(fr)]
         best = None
         if good:
@@ -848,9 +914,21 @@ class ExudynAdapter(EngineAdapter):
                     "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
                     "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
                     "impulse inside the base, where corner contacts cannot put it.")
-        settings = {**self._contact(block, e), "planar": self.settings["planar"]}
+        if points > 2:
+            note = note.replace("corner contacts give about η_H", "even spread along the base the contact gives")
+            note += (f" Contact: {points} spheres along the base sharing the corners' stiffness (issue 18); "
+                     f"regular free rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
+                     f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}.")
+        settings = {**self._contact(block, e, points), "planar": self.settings["planar"]}
+        price = None
+        if points > 2 and reached:
+            price = self._price(block, e, points, target, dt)
+            if not price["counts"]:
+                reached = False
+                note = ("not reached: η is within 1 % (" + note + ") but the static uplift threshold is not "
+                        "within 2 % of g·tanα.")
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
-                                reached=reached, settings=settings, note=note, evaluations=len(scan))
+                                reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
         calibration.store(key, {"engine": self.name, "version": self.version(), "block": block.to_dict(),
                                 "dt_s": dt, "procedure_version": CALIBRATION_VERSION,
                                 "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
@@ -860,5 +938,5 @@ class ExudynAdapter(EngineAdapter):
 
 
 #: the contact parameters a model is built from
-_CONTACT_KEYS = ("stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient", "friction",
+_CONTACT_KEYS = ("contact_points", "stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient", "friction",
                  "friction_zone_m_s", "sphere_radius_m", "spectral_radius", "modified_newton_iterations")
