@@ -915,18 +915,25 @@ class ExudynAdapter(EngineAdapter):
                     "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
                     "impulse inside the base, where corner contacts cannot put it.")
         if points > 2:
-            note = note.replace("corner contacts give about η_H", "even spread along the base the contact gives")
-            note += (f" Contact: {points} spheres along the base sharing the corners' stiffness (issue 18); "
-                     f"regular free rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
-                     f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}.")
+            span = (f"{points} spheres along the base sharing the corners' stiffness (issue 18); regular free "
+                    f"rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
+                    f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}")
+            if reached:
+                note += f" Contact: {span}."
+            elif not irregular:
+                note = (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
+                        f"({100 * rel:.1f} % off target {target:.4f}) with {span}; smaller coefficients make the "
+                        "rocking irregular (impact-to-impact spread above 2 %), larger ones let the landing "
+                        "corner hop (jumps).")
         settings = {**self._contact(block, e, points), "planar": self.settings["planar"]}
         price = None
         if points > 2 and reached:
             price = self._price(block, e, points, target, dt)
             if not price["counts"]:
                 reached = False
-                note = ("not reached: η is within 1 % (" + note + ") but the static uplift threshold is not "
-                        "within 2 % of g·tanα.")
+                note = ("not reached: η is within 1 % (" + note + ") but " + (
+                    "the static uplift threshold is not within 2 % of g·tanα." if not price["uplift"].get("within")
+                    else f"{price['anti_slip']['n_slip']} default-suite cells slip."))
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
         calibration.store(key, {"engine": self.name, "version": self.version(), "block": block.to_dict(),
