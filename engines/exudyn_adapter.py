@@ -71,6 +71,7 @@ shipped value is 0 (no contact at all) and is set by the same rule as the calibr
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -99,6 +100,9 @@ CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 #: The scan for the distributed contact (issue 18): its η rises with the coefficient from about
 #: η_H, and the probe (benchmarks/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
 CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
+
+#: Spheres the distributed calibration tries along the base when ``contact_points`` is not set.
+_POINTS_TRIED = (9, 5, 17)
 
 #: Impacts averaged by the free-rocking measurement [-].
 CALIBRATION_IMPACTS = 4
@@ -143,6 +147,8 @@ class FreeRocking:
         Time steps integrated [-].
     wall_s : float
         Wall time of the run [s].
+    first_quarter_s : float or None
+        Time from the release to the first θ = 0 [s] (a quarter of the free-rocking period).
     """
 
     etas: list
@@ -155,6 +161,7 @@ class FreeRocking:
     dt_s: float
     steps: int
     wall_s: float
+    first_quarter_s: float | None = None
 
 
 _COUNTER = itertools.count()
@@ -498,8 +505,10 @@ class ExudynAdapter(EngineAdapter):
         spread into the base while the static pivots stay at the corners (issue 18). ``auto``
         (default): the corners for targets up to 1 % above Housner's η_H, the distributed
         contact above (the modified η_M); explicit ``contact_restitution`` with ``auto``: corners.
-    contact_points : int
-        Spheres of the distributed contact along the base (≥ 3, default 9).
+    contact_points : int or None
+        Spheres of the distributed contact along the base (≥ 3). None (default): the calibration
+        tries 9, then 5, then 17 until one reaches the target at an acceptable price; an explicit
+        ``contact_restitution`` then uses 9.
     contact_restitution : float or None
         Exudyn's normal restitution coefficient of the corner contacts with its impact model 2
         (Gonthier et al.) [-]; None: calibrated to the case's η (with ``calibrated``).
@@ -535,7 +544,7 @@ class ExudynAdapter(EngineAdapter):
         "damping_n_s_m": 0.0,
         "sphere_radius_m": 5e-4,
         "contact": "auto",
-        "contact_points": 9,
+        "contact_points": None,
         "spectral_radius": 0.9,
         "modified_newton_iterations": 3,
         "chunk_s": 0.05,
@@ -563,14 +572,15 @@ class ExudynAdapter(EngineAdapter):
         self._number_setting(s, "stiffness_n_m", "N/m")
         if s["contact"] not in ("auto", "corners", "distributed"):
             raise ConfigError(f"exudyn setting 'contact' must be auto, corners or distributed, got {s['contact']!r}.")
-        try:
-            n = int(s["contact_points"])
-        except (TypeError, ValueError):
-            n = -1
-        if n < 3 or n != float(s["contact_points"]) or n > 101:
-            raise ConfigError(f"exudyn setting 'contact_points' must be a whole number from 3 to 101, "
-                              f"got {s['contact_points']!r}.")
-        s["contact_points"] = n
+        if s["contact_points"] is not None:
+            try:
+                n = int(s["contact_points"])
+            except (TypeError, ValueError):
+                n = -1
+            if n < 3 or n != float(s["contact_points"]) or n > 101:
+                raise ConfigError(f"exudyn setting 'contact_points' must be a whole number from 3 to 101, "
+                                  f"got {s['contact_points']!r}.")
+            s["contact_points"] = n
         self._number_setting(s, "contact_restitution", "-")
         if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
             raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {s['contact_restitution']!r}.")
@@ -596,7 +606,7 @@ class ExudynAdapter(EngineAdapter):
         if kind == "auto":
             kind = ("distributed" if target_eta is not None and target_eta > 1.01 * housner_eta(block.alpha_rad)
                     else "corners")
-        return self.settings["contact_points"] if kind == "distributed" else 2
+        return (self.settings["contact_points"] or _POINTS_TRIED[0]) if kind == "distributed" else 2
 
     def _contact(self, block: Block, contact_restitution: float | None, points: int = 2) -> dict:
         """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model.
@@ -622,7 +632,7 @@ class ExudynAdapter(EngineAdapter):
         dt = dt_s or self.default_dt_s
         s = dict(self.settings)
         cal = None
-        points = s["contact_points"] if s["contact"] == "distributed" else 2
+        points = (s["contact_points"] or _POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
         if s["contact_restitution"] is not None:
             e = s["contact_restitution"]
         elif s["settings"] == "defaults":
@@ -774,7 +784,12 @@ class ExudynAdapter(EngineAdapter):
                                  block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        return FreeRocking(etas, mean, std, peaks[: n_impacts + 1], th0, jump, contact, dt, steps, wall)
+        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
+        quarter = None
+        if zc.size:
+            i = int(zc[0])
+            quarter = float(t[i] + (t[i + 1] - t[i]) * th[i] / (th[i] - th[i + 1]))
+        return FreeRocking(etas, mean, std, peaks[: n_impacts + 1], th0, jump, contact, dt, steps, wall, quarter)
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:
@@ -791,27 +806,32 @@ class ExudynAdapter(EngineAdapter):
         return RestitutionMeasurement(etas=fr.etas, eta_mean=fr.eta_mean, eta_std=fr.eta_std,
                                       theta0_rad=fr.theta0_rad, dt_s=dt,
                                       settings={**fr.contact, "planar": s["planar"]},
-                                      method="energy-consistent amplitude ratio of successive peaks")
+                                      method="energy-consistent amplitude ratio of successive peaks",
+                                      first_quarter_s=fr.first_quarter_s)
 
     def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
         """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
         st = c.settings
         e = st.get("restitution_coefficient") if st.get("impact_model") == 2 else None
-        return self._price(block, e, int(st.get("contact_points") or 2), c.eta_target, dt_s or self.default_dt_s)
+        dt = dt_s or self.default_dt_s
+        points = int(st.get("contact_points") or 2)
+        fr = self.free_rocking(block, e, dt_s=dt, contact=self._contact(block, e, points))
+        return self._price(block, e, points, c.eta_target, dt, fr.first_quarter_s)
 
-    def _price(self, block: Block, e: float | None, points: int, target: float, dt: float) -> dict:
+    def _price(self, block: Block, e: float | None, points: int, target: float, dt: float,
+               first_quarter_s: float | None = None) -> dict:
         """The price of this adapter with the contact fixed (restitution coefficient ``e``, ``points`` spheres)."""
         from . import price as _price
 
         fixed = ExudynAdapter(**{**self.settings, "contact_restitution": e,
                                  "contact": "distributed" if points > 2 else "corners",
-                                 "contact_points": points if points > 2 else self.settings["contact_points"]})
-        return _price.contact_price(fixed, block, Restitution("constant", value=target), dt)
+                                 "contact_points": points if points > 2 else None})
+        return _price.contact_price(fixed, block, Restitution("constant", value=target), dt,
+                                    first_quarter_s=first_quarter_s)
 
-    def _cal_key(self, block: Block, target_eta: float, dt: float) -> str:
+    def _cal_key(self, block: Block, target_eta: float, dt: float, points: int) -> str:
         s = self.settings
-        points = self._points_for(block, target_eta)
-        extra = {} if points == 2 else {"contact_points": points, "price_procedure": 1}
+        extra = {} if points == 2 else {"contact_points": points, "price_procedure": 2}
         return calibration.cache_key(**extra,
             engine=self.name, version=self.version(), procedure=CALIBRATION_VERSION,
             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=float(target_eta),
@@ -821,6 +841,23 @@ class ExudynAdapter(EngineAdapter):
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
+        """Contact settings for ``target_eta`` (:meth:`_calibrate_points`): the corners, or the
+        distributed contact with the set number of spheres, or (``contact_points`` unset) 9, then
+        5, then 17 spheres until one reaches the target at an acceptable price."""
+        points = self._points_for(block, float(target_eta))
+        if points == 2 or self.settings["contact_points"] is not None:
+            return self._calibrate_points(block, target_eta, points, dt_s=dt_s, use_cache=use_cache)
+        tried = []
+        for n in _POINTS_TRIED:
+            c = self._calibrate_points(block, target_eta, n, dt_s=dt_s, use_cache=use_cache)
+            if c.reached:
+                return c
+            tried.append(c)
+        best = min(tried, key=lambda c: abs(c.rel_error) if math.isfinite(c.rel_error) else math.inf)
+        return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} spheres: {c.note}" for c in tried))
+
+    def _calibrate_points(self, block: Block, target_eta: float, points: int, *, dt_s: float | None = None,
+                          use_cache: bool = True) -> CalibrationResult:
         """Find Exudyn's contact restitution coefficient whose free-rocking η is closest to the target.
 
         A coarse scan over :data:`CALIBRATION_RESTITUTIONS`, then bisection between neighbours
@@ -833,7 +870,7 @@ class ExudynAdapter(EngineAdapter):
         target = float(target_eta)
         if not (0.0 < target <= 1.0):
             raise ConfigError(f"the calibration target η must be in (0, 1], got {target_eta!r}.")
-        key = self._cal_key(block, target, dt)
+        key = self._cal_key(block, target, dt, points)
         if key in self._calibrations:
             return self._calibrations[key]
         if use_cache:
@@ -844,7 +881,6 @@ class ExudynAdapter(EngineAdapter):
                 return res
 
         scan = []
-        points = self._points_for(block, target)
 
         def measure(e):
             try:
@@ -928,7 +964,7 @@ class ExudynAdapter(EngineAdapter):
         settings = {**self._contact(block, e, points), "planar": self.settings["planar"]}
         price = None
         if points > 2 and reached:
-            price = self._price(block, e, points, target, dt)
+            price = self._price(block, e, points, target, dt, fr.first_quarter_s)
             if not price["counts"]:
                 reached = False
                 note = ("not reached: η is within 1 % (" + note + ") but " + (

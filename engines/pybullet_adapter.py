@@ -82,7 +82,7 @@ _CAL_MAX_SPREAD = 0.02
 #: calibration (part of the cache key) and how many candidates its price check tries.
 _DEFAULT_POINTS = 9
 _POINTS_TRIED = (9, 5, 17)
-CALIBRATION_PROTOCOL_DIST = 1
+CALIBRATION_PROTOCOL_DIST = 2
 _MAX_PRICE_TRIES = 8
 
 #: Radius of the spheres of a distributed contact (``contact_points``) [m].
@@ -663,7 +663,7 @@ class PybulletAdapter(EngineAdapter):
 
         Bullet's rigid contact and a grid of stiffness ``k`` (100 × 10^(−2…0)·m/Δt², nine values up
         to the stiffest the step resolves) × damping ratio ζ (0.05–1, ``c = 2ζ√(k·m)``). Candidates
-        within 1 % of the target whose impacts agree within 2 % are tried stiffest first until one
+        within 1 % of the target whose impacts agree within 2 % are tried closest first until one
         keeps the static uplift threshold within 2 % of g·tanα and raises no ``slip`` flag in the
         anti-slip cells (:func:`rockbench.engines.price.contact_price`); its price is recorded.
         """
@@ -700,8 +700,7 @@ class PybulletAdapter(EngineAdapter):
             except Exception as e:  # noqa: BLE001 - a setting that breaks is recorded, the search goes on
                 rows.append({**g, "eta": math.nan, "eta_std": math.nan, "n": 0, "error": f"{type(e).__name__}: {e}"})
         regular = [r for r in rows if math.isfinite(r["eta"]) and r["n"] >= 2 and r["eta_std"] <= _CAL_MAX_SPREAD * r["eta"]]
-        within = sorted((r for r in regular if abs(r["eta"] - t) <= 0.01 * t),
-                        key=lambda r: (-(r.get("contact_stiffness") or math.inf), abs(r["eta"] - t)))
+        within = sorted((r for r in regular if abs(r["eta"] - t) <= 0.01 * t), key=lambda r: abs(r["eta"] - t))
         chosen, price, tried = None, None, []
         rest = Restitution("constant", value=t)
         for r in within[:_MAX_PRICE_TRIES]:
