@@ -129,11 +129,11 @@ class Suite:
 
 
 #: the shipped suites, by name
-SHIPPED_SUITES = ("default", "quick")
+SHIPPED_SUITES = ("default", "quick", "full")
 
 
 def suite_path(name_or_path: str | None, quick: bool) -> Path | None:
-    """The suite file to run: a shipped suite by name (``default``, ``quick``), or a path.
+    """The suite file to run: a shipped suite by name (``default``, ``quick``, ``full``), or a path.
 
     A bare name (no ``.toml``, no folder part) always means a shipped suite, whatever the working
     directory holds (an output folder called ``quick`` is not a suite file); a path must be a file.
@@ -629,6 +629,8 @@ class _Preparation:
         if self.own_eta:
             for k, (engine, variant, block, measure) in enumerate(self.tasks):
                 vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
+                if "restitution" in variant:
+                    continue      # no own-η map for a variant with its own restitution (see above)
                 if not measure:
                     rows.append(self.old[(vname, block)])
                     continue

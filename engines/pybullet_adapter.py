@@ -404,7 +404,7 @@ class PybulletAdapter(EngineAdapter):
         cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt_s)
         s.update(cal.settings)
         s["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
-                            "eta_std": cal.eta_std, "reached": cal.reached}
+                            "eta_std": cal.eta_std, "reached": cal.reached, "price": cal.price}
         return s
 
     # -- simulation ---------------------------------------------------------------------------
