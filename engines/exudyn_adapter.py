@@ -967,9 +967,11 @@ class ExudynAdapter(EngineAdapter):
             price = self._price(block, e, points, target, dt, fr.first_quarter_s)
             if not price["counts"]:
                 reached = False
-                note = ("not reached: η is within 1 % (" + note + ") but " + (
-                    "the static uplift threshold is not within 2 % of g·tanα." if not price["uplift"].get("within")
-                    else f"{price['anti_slip']['n_slip']} default-suite cells slip."))
+                why = ("its static uplift threshold is not within 2 % of g·tanα" if not price["uplift"].get("within")
+                       else f"{price['anti_slip']['n_slip']} of the {price['anti_slip']['cells']} anti-slip cells slip")
+                note = (f"not reached at an acceptable price: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} "
+                        f"({100 * rel:.2f} % off target {target:.4f}) with impact model 2 and restitution coefficient "
+                        f"{e:.3g}, {span}, but {why}.")
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
         calibration.store(key, {"engine": self.name, "version": self.version(), "block": block.to_dict(),
