@@ -14,9 +14,12 @@ elliptic cones, no-slip solver, implicitfast, Δt = 0.5 ms, like the calibrated 
 Each setting: free rocking from rest at α/2 (η measured impact by impact with the adapter's
 :func:`impact_etas`, the method every calibration uses), and for the best settings a slow ramp of
 the table acceleration (inertial force −m·a(t), a from 0.9 to 1.1 g·tanα over 8 s) giving the
-static uplift threshold (first instant the heel's contact point leaves the table plane, and the
-first with |θ| above the classifier's uplift tolerance), and the free-rocking period (first
-half-cycle from α/2) against the rigid model's.
+static uplift threshold (the acceleration at the first instant with |θ| above the classifier's
+uplift tolerance, 2 % of α, as :func:`rockbench.engines.price.uplift_threshold` reads it), and the
+time from the release at α/2 to the first impact against the rigid model's (here to the step,
+0.5 ms, i.e. ±0.4 % for B3M; the adapter's measurement interpolates). The "closest" settings
+are picked by η alone: some of them fail the uplift check (one B6M setting tips over during the
+ramp), which is why the adapter's calibration checks the price of each candidate.
 
 Run: ``python benchmarks/probe_eta_m_mujoco.py [--quick]``; writes
 ``benchmarks/results/probe-eta-m-mujoco-<date>.json``.
@@ -170,18 +173,12 @@ def uplift_ramp(block, model, s0, lo=0.9, hi=1.1, ramp_s=8.0):
     with rollout.Rollout(nthread=1) as ro:
         st, _ = ro.rollout([model], datas, s0[None], ctrl, initial_warmstart=np.zeros((1, model.nv)))
     st = st[0]
-    x, z, th = st[:, 1], st[:, 2], st[:, 3]
-    b, h = block.width_m, block.height_m
-    # positive a pushes the block towards −x: it tips onto the −x edge (θ < 0); the heel is the +x edge
-    cz = z + 0.5 * h
-    heel_z = cz - np.sin(th) * 0.5 * b - np.cos(th) * 0.5 * h
+    th = st[:, 3]
     tol = uplift_tol_rad(block)
-    i_lift = np.nonzero(heel_z > 1e-7)[0]
     i_rock = np.nonzero(np.abs(th) > tol)[0]
-    ratio_contact = float(a[i_lift[0]] / a_ref) if i_lift.size else math.nan
     ratio_theta = float(a[i_rock[0]] / a_ref) if i_rock.size else math.nan
     pre = a < 0.98 * a_ref
-    return {"ratio_heel_leaves": ratio_contact, "ratio_theta_tol": ratio_theta,
+    return {"ratio_theta_tol": ratio_theta,
             "max_abs_theta_below_0.98_rad": float(np.max(np.abs(th[pre]))), "uplift_tol_rad": tol,
             "rest_sink_m": float(-s0[2])}
 
