@@ -17,7 +17,8 @@ def register(sub) -> None:
     add_block_options(p)
     p.add_argument("--engine", required=True, help="engine name (see `rockbench engines`)")
     p.add_argument("--target", default=None, help="housner | modified | a number in (0, 1] (default: measure only)")
-    p.add_argument("--k", default=None, help="impulse position for --target modified (default: the preset's average k)")
+    p.add_argument("--k", default=None, help="impulse position for --target modified: a number in [0, 1], or "
+                   "average / exact (the preset's; default: average)")
     p.add_argument("--dt", default=None, help="time step [s] (default: the engine's)")
     p.add_argument("--theta0", default="0.5", help="release angle as a fraction of α (measurement only; default 0.5)")
     p.add_argument("--settings", default=None, help="calibrated | defaults (measurement only)")
@@ -29,6 +30,22 @@ def register(sub) -> None:
     p.add_argument("--no-cache", action="store_true", help="search again even when a stored calibration exists")
     p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
     p.set_defaults(func=run)
+
+
+def _k_from_args(k, preset):
+    """``--k``: a number, or ``average`` / ``exact`` for a Table 1 preset's k (None: not given)."""
+    if k is None:
+        return None
+    word = str(k).strip().lower()
+    if word in ("average", "exact"):
+        if preset is None:
+            raise ConfigError(f"--k {word} needs a Table 1 block (--block B3M, B6M, B3L or B6L); give a number "
+                              "for a custom block.")
+        return preset.k_average if word == "average" else preset.k_exact
+    try:
+        return float(k)
+    except ValueError:
+        raise ConfigError(f"--k must be a number in [0, 1], average or exact, got {k!r}.") from None
 
 
 def run(args) -> int:
@@ -47,8 +64,8 @@ def run(args) -> int:
                "eta_target": None, "n_impacts": len(m.etas), "etas": m.etas, "settings": m.settings,
                "dt_s": m.dt_s, "method": m.method}
     else:
-        k = None if args.k is None else float(args.k)
         law = args.target.strip().lower()
+        k = _k_from_args(args.k, preset)
         if law == "modified" and k is None:
             if preset is None:
                 raise ConfigError("--target modified on a custom block needs --k (the impulse position in [0, 1]).")
