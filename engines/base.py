@@ -60,7 +60,7 @@ from typing import Any, ClassVar, Iterable, Mapping
 
 import numpy as np
 
-from ..reference_solver.classify import Classification, Outcome, classify
+from ..reference_solver.classify import Classification, classify
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.model import Block
 from ..reference_solver.pulses import Pulse

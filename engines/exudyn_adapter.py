@@ -41,7 +41,7 @@ Model
 
 End of a run
 ------------
-The run is integrated in chunks of ``chunk_s`` inside Exudyn's C++ solver; between chunks the
+The run is integrated in segments of ``segment_s`` inside Exudyn's C++ solver; between chunks the
 adapter reads the state and stops when
 
 1. the block lies flat on its side (``|θ| ≥ π/2 − 0.01``), or, after the pulse, ``|θ| > α``
@@ -50,7 +50,7 @@ adapter reads the state and stops when
 2. after the pulse, at least ``min_tail_s`` has passed and the ideal-model energy above rest is
    below ``1 − ENERGY_GAIN_TOL`` of the barrier: the block can then only overturn by gaining more
    energy than the ``energy-gain`` flag allows, so the verdict "not overturned" is settled;
-3. ``max_tail_s`` after the pulse has passed.
+3. ``tail_s`` after the pulse has passed.
 
 The shared classifier decides the outcome from the samples.
 
@@ -78,7 +78,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..reference_solver.classify import FLAT_ANGLE_RAD
 from ..reference_solver.energy import energy
 from ..reference_solver.errors import ConfigError, EngineError
 from ..reference_solver.model import G, Block
@@ -86,7 +85,8 @@ from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
 from . import calibration
 from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
-from .base import CalibrationResult, Case, EngineAdapter, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import ContactEngineAdapter, free_rocking_etas, overturn_certain
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range DOMAIN.md §8 found to
@@ -301,7 +301,6 @@ class _Model:
 
         mbs, esym, pre = self.mbs, self.exu.symbolic, self._pre
         m = self.block.mass_kg
-        planar = self.planar
 
         def acc_sym(t):
             v = esym.variables
@@ -463,7 +462,7 @@ class _Model:
         return t[keep], theta[keep], theta_dot[keep], both[keep, :nc], both[keep, nc:], com[keep]
 
 
-class ExudynAdapter(EngineAdapter):
+class ExudynAdapter(ContactEngineAdapter):
     """Exudyn (multibody dynamics, C++ core): the block on a table through penalty contact.
 
     Settings
@@ -478,12 +477,12 @@ class ExudynAdapter(EngineAdapter):
         Coulomb friction coefficient of the corner contacts [-] (default 10, see the module notes).
     friction_zone_m_s : float
         Sliding speed below which Exudyn's friction is proportional to the speed [m/s].
-    stiffness_n_m : float or None
+    contact_stiffness_n_m : float or None
         Contact stiffness of each corner [N/m]; None: :func:`default_stiffness_n_m`.
     contact_restitution : float or None
         Exudyn's normal restitution coefficient of the corner contacts with its impact model 2
         (Gonthier et al.) [-]; None: calibrated to the case's η (with ``calibrated``).
-    damping_n_s_m : float
+    contact_damping_n_s_m : float
         Linear normal contact damping [N s/m], added by Exudyn to every impact model (default 0).
     sphere_radius_m : float
         Radius of the corner contact spheres [m].
@@ -495,9 +494,11 @@ class ExudynAdapter(EngineAdapter):
         must still meet the same tolerances, so this changes the cost, not the accuracy asked
         for; 3 measured 10–14 % faster calibrated and 27 % faster as shipped than 8 (the stiff
         regularised friction makes an old Jacobian converge slowly), docs/exudyn.md.
-    chunk_s, min_tail_s, max_tail_s : float
-        Length of the integration chunks between stop checks, and the shortest and longest tail
-        after the pulse [s] (see the module notes on the end of a run).
+    segment_s, min_tail_s, tail_s : float
+        Length of the integration segments between stop checks, and the shortest and longest tail
+        after the pulse [s] (see the module notes on the end of a run). Old names, accepted for one
+        release: ``chunk_s``, ``max_tail_s``, ``stiffness_n_m``, ``damping_n_s_m``
+        (:data:`~rockbench.engines.contact.RENAMED_SETTINGS`).
     """
 
     name = "exudyn"
@@ -505,20 +506,16 @@ class ExudynAdapter(EngineAdapter):
     install_hint = "install it with `pip install exudyn`."
     default_dt_s = 1e-4
     SETTINGS = {
-        "settings": "calibrated",
-        "drive": "inertial",
-        "planar": True,
-        "friction": 10.0,
+        **ContactEngineAdapter.SHARED_SETTINGS,
         "friction_zone_m_s": 1e-3,
-        "stiffness_n_m": None,
+        "contact_stiffness_n_m": None,
         "contact_restitution": None,
-        "damping_n_s_m": 0.0,
+        "contact_damping_n_s_m": 0.0,
         "sphere_radius_m": 5e-4,
         "spectral_radius": 0.9,
         "modified_newton_iterations": 3,
-        "chunk_s": 0.05,
+        "segment_s": 0.05,
         "min_tail_s": 0.3,
-        "max_tail_s": 3.0,
     }
 
     def __init__(self, **settings):
@@ -527,22 +524,13 @@ class ExudynAdapter(EngineAdapter):
         self._calibrations: dict = {}
 
     # -- settings -------------------------------------------------------------------------
-    def _validate_settings(self, s: dict) -> None:
-        if s["settings"] not in ("calibrated", "defaults"):
-            raise ConfigError(f"exudyn setting 'settings' must be calibrated or defaults, got {s['settings']!r}.")
-        if s["drive"] not in ("inertial", "table"):
-            raise ConfigError(f"exudyn setting 'drive' must be inertial or table, got {s['drive']!r}.")
-        if isinstance(s["planar"], str) and s["planar"].lower() in ("true", "false"):
-            s["planar"] = s["planar"].lower() == "true"
-        if not isinstance(s["planar"], bool):
-            raise ConfigError(f"exudyn setting 'planar' must be true or false, got {s['planar']!r}.")
-        self._number_setting(s, "friction", "-", allow_none=False)
+    def _validate_engine_settings(self, s: dict) -> None:
         self._number_setting(s, "friction_zone_m_s", "m/s", allow_none=False)
-        self._number_setting(s, "stiffness_n_m", "N/m")
+        self._number_setting(s, "contact_stiffness_n_m", "N/m")
         self._number_setting(s, "contact_restitution", "-")
         if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
             raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {s['contact_restitution']!r}.")
-        self._number_setting(s, "damping_n_s_m", "N s/m", allow_zero=True, allow_none=False)
+        self._number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True, allow_none=False)
         self._number_setting(s, "sphere_radius_m", "m", allow_none=False)
         try:
             rho = float(s["spectral_radius"])
@@ -552,11 +540,9 @@ class ExudynAdapter(EngineAdapter):
             raise ConfigError(f"exudyn setting 'spectral_radius' must be in [0, 1], got {s['spectral_radius']!r}.")
         s["spectral_radius"] = rho
         self._whole_setting(s, "modified_newton_iterations", 1, allow_none=False)
-        for key in ("chunk_s", "min_tail_s", "max_tail_s"):
-            self._number_setting(s, key, "s", allow_none=False)
 
     def _stiffness(self, block: Block) -> float:
-        return self.settings["stiffness_n_m"] or default_stiffness_n_m(block)
+        return self.settings["contact_stiffness_n_m"] or default_stiffness_n_m(block)
 
     def _contact(self, block: Block, contact_restitution: float | None) -> dict:
         """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model."""
@@ -567,29 +553,21 @@ class ExudynAdapter(EngineAdapter):
             model, e = 0, 1.0
         else:
             model, e = 2, float(contact_restitution)
-        return {"stiffness_n_m": self._stiffness(block), "damping_n_s_m": s["damping_n_s_m"],
+        return {"stiffness_n_m": self._stiffness(block), "damping_n_s_m": s["contact_damping_n_s_m"],
                 "impact_model": model, "restitution_coefficient": e,
                 "friction": s["friction"], "friction_zone_m_s": s["friction_zone_m_s"],
                 "sphere_radius_m": s["sphere_radius_m"], "spectral_radius": s["spectral_radius"],
                 "modified_newton_iterations": s["modified_newton_iterations"]}
 
-    def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
-        """Concrete settings for a block and restitution, calibrating (and caching) on first use."""
-        dt = dt_s or self.default_dt_s
-        s = dict(self.settings)
-        cal = None
-        if s["contact_restitution"] is not None:
-            e = s["contact_restitution"]
-        elif s["settings"] == "defaults":
-            e = None
-        else:
-            cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt)
-            e = cal.settings["restitution_coefficient"]
-        out = {**s, **self._contact(block, e), "dt_s": dt}
-        if cal is not None:
-            out["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
-                                  "eta_std": cal.eta_std, "reached": cal.reached}
-        return out
+    def explicit_contact(self) -> bool:
+        """Whether ``contact_restitution`` was given (then nothing is calibrated)."""
+        return self.settings["contact_restitution"] is not None
+
+    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
+        """The settings and Exudyn's contact parameters (``contact_restitution``: explicit, None for
+        the shipped model, or calibrated)."""
+        e = self.settings["contact_restitution"] if cal is None else cal.settings["restitution_coefficient"]
+        return {**self.settings, **self._contact(block, e), "dt_s": dt}
 
     # -- simulation -----------------------------------------------------------------------
     def _model(self, block: Block, contact: dict, dt: float, pulse: Pulse) -> _Model:
@@ -616,12 +594,10 @@ class ExudynAdapter(EngineAdapter):
 
         def stop(state):
             t, th, thd = state
-            if abs(th) >= FLAT_ANGLE_RAD:
+            if overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=t_pe):
                 return True
             if t < t_pe:
                 return False
-            if abs(th) > alpha and th * thd > 0.0:
-                return True
             E = float(energy(th, thd, alpha, p))
             return t >= t_pe + s["min_tail_s"] and E < settle
 
@@ -633,9 +609,9 @@ class ExudynAdapter(EngineAdapter):
             model = self._model(block, contact, dt_run, case.pulse)
             if case.pulse.kind != "record":
                 model.set_pulse(case.pulse)
-            ok, message, steps, wall = model.run(t_pe, stop, s["chunk_s"], t_pe + s["max_tail_s"], full_newton)
+            ok, message, steps, wall = model.run(t_pe, stop, s["segment_s"], t_pe + s["tail_s"], full_newton)
             t, th, thd, corners, edges, com = model.samples()
-            over = (np.abs(th) >= FLAT_ANGLE_RAD) | ((t >= t_pe) & (np.abs(th) > alpha) & (th * thd > 0))
+            over = overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=t_pe)
             if ok or over.any():
                 break
             retried = message
@@ -689,7 +665,7 @@ class ExudynAdapter(EngineAdapter):
         of two such energies. This is robust against the few steps a soft impact lasts, where
         θ̇⁺/θ̇⁻ read at θ ≈ 0 depends on where one samples.
         """
-        dt = dt_s or self.default_dt_s
+        dt = self.check_dt(dt_s)
         alpha, p = block.alpha_rad, block.p_rad_s
         th0 = theta0_frac * alpha
         # a quarter period from θ0 to the first impact; later half-cycles are shorter
@@ -700,25 +676,7 @@ class ExudynAdapter(EngineAdapter):
         model.set_pulse(None)
         ok, message, steps, wall = model.run(0.0, lambda st: False, duration, duration)
         t, th, thd, corners, edges, _ = model.samples()
-        tol = uplift_tol_rad(block)
-        side = np.where(th > tol, 1, np.where(th < -tol, -1, 0))
-        nz = np.nonzero(side)[0]
-        peaks = [abs(th0)]
-        if nz.size:
-            seg_start = nz[0]
-            for a_, b_ in zip(nz[:-1], nz[1:]):
-                if side[b_] != side[a_]:
-                    peaks.append(float(np.max(np.abs(th[seg_start:a_ + 1]))))
-                    seg_start = b_
-            peaks.append(float(np.max(np.abs(th[seg_start:]))))
-        # the first half-cycle is the release (its peak is θ0 itself): keep θ0 once
-        peaks = [peaks[0]] + peaks[2:]
-        ke = np.cos(alpha - np.asarray(peaks)) - math.cos(alpha)
-        etas = []
-        for i in range(min(len(ke) - 1, n_impacts)):
-            if ke[i] <= 0 or ke[i + 1] <= 0:
-                break
-            etas.append(float(math.sqrt(ke[i + 1] / ke[i])))
+        etas, peaks = free_rocking_etas(th, alpha, th0, uplift_tol_rad(block), n_impacts)
         if not ok and len(etas) < n_impacts:
             raise EngineError(f"free rocking: {message}")
         # the jump measure of the one validity rule (its slip and energy checks do not apply here)
@@ -726,12 +684,12 @@ class ExudynAdapter(EngineAdapter):
                                  block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        return FreeRocking(etas, mean, std, peaks[: n_impacts + 1], th0, jump, contact, dt, steps, wall)
+        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall)
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:
         """Free rocking with this adapter's settings (``calibrated``: those for Housner's η)."""
-        dt = dt_s or self.default_dt_s
+        dt = self.check_dt(dt_s)
         s = self.settings
         if s["contact_restitution"] is not None:
             e = s["contact_restitution"]
@@ -752,7 +710,7 @@ class ExudynAdapter(EngineAdapter):
             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=float(target_eta),
             dt=float(dt), planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
             zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
-            damping=s["damping_n_s_m"], newton=s["modified_newton_iterations"])
+            damping=s["contact_damping_n_s_m"], newton=s["modified_newton_iterations"])
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
@@ -764,10 +722,8 @@ class ExudynAdapter(EngineAdapter):
         ``reached`` when the mean η is within 1 % of the target; otherwise the closest η is
         returned with the reason. Results are cached on disk (:mod:`.calibration`).
         """
-        dt = dt_s or self.default_dt_s
-        target = float(target_eta)
-        if not (0.0 < target <= 1.0):
-            raise ConfigError(f"the calibration target η must be in (0, 1], got {target_eta!r}.")
+        dt = self.check_dt(dt_s)
+        target = self.check_target_eta(target_eta)
         key = self._cal_key(block, target, dt)
         if key in self._calibrations:
             return self._calibrations[key]

@@ -56,9 +56,9 @@ import numpy as np
 from ..reference_solver.classify import FLAT_ANGLE_RAD
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
-from ..reference_solver.restitution import Restitution
 from . import calibration
-from .base import CalibrationResult, Case, EngineAdapter, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import ContactEngineAdapter, overturn_certain
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
@@ -200,8 +200,8 @@ class _Scene:
         common = dict(lateralFriction=1.0, restitution=1.0 if s.get("restitution_coef") else 0.0)
         blk = dict(lateralFriction=float(s["friction"]), restitution=float(s.get("restitution_coef") or 0.0),
                    frictionAnchor=1 if s.get("friction_anchor") else 0)
-        if s.get("contact_stiffness") is not None:
-            kp, kd = float(s["contact_stiffness"]), float(s["contact_damping"])
+        if s.get("contact_stiffness_n_m") is not None:
+            kp, kd = float(s["contact_stiffness_n_m"]), float(s["contact_damping_n_s_m"])
             common.update(contactStiffness=kp, contactDamping=kd)
             blk.update(contactStiffness=kp, contactDamping=kd)
         pb.changeDynamics(self.table, -1, physicsClientId=cid, **common)
@@ -249,7 +249,7 @@ def _scene() -> _Scene:
     return _SCENE
 
 
-class PybulletAdapter(EngineAdapter):
+class PybulletAdapter(ContactEngineAdapter):
     """The rocking block in PyBullet (see the module docstring for the model and the end of a run).
 
     Settings
@@ -269,12 +269,14 @@ class PybulletAdapter(EngineAdapter):
         sequential-impulse solver is not fully converged at 30 (a mirrored pulse gives the mirrored
         θ(t) to about 1e-3 of its peak, against 1e-2 at 20 and 1e-1 at 10; 50 gives 4e-6), and
         a step costs about 25 % less than at 50.
-    contact_stiffness, contact_damping : float or None
+    contact_stiffness_n_m, contact_damping_n_s_m : float or None
         Explicit compliant contact [N/m], [N s/m] (give both); overrides calibration.
     restitution_coef : float or None
         Bullet's restitution of the block (the table carries 1) [-]; overrides calibration.
-    contact_breaking_threshold : float or None
-        Bullet's contact-breaking distance [m] (its default is 0.02 m).
+    contact_breaking_threshold_m : float or None
+        Bullet's contact-breaking distance [m] (its default is 0.02 m). Old names, accepted for one
+        release: ``contact_stiffness``, ``contact_damping``, ``contact_breaking_threshold``
+        (:data:`~rockbench.engines.contact.RENAMED_SETTINGS`).
     tail_s, min_tail_s : float
         Longest and shortest simulated time after the pulse [s].
     """
@@ -284,21 +286,19 @@ class PybulletAdapter(EngineAdapter):
     install_hint = "install it with `pip install pybullet` (wheels for Linux, macOS and Windows)."
     default_dt_s = 5e-4
     SETTINGS = {
-        "settings": "calibrated",
-        "drive": "inertial",
-        "planar": True,
+        **ContactEngineAdapter.SHARED_SETTINGS,
         "friction": BULLET_MAX_FRICTION,
         "friction_anchor": True,
         "solver_iterations": None,
-        "contact_stiffness": None,
-        "contact_damping": None,
+        "contact_stiffness_n_m": None,
+        "contact_damping_n_s_m": None,
         "restitution_coef": None,
-        "contact_breaking_threshold": None,
+        "contact_breaking_threshold_m": None,
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
     #: the settings that describe the contact (calibration chooses these)
-    CONTACT_KEYS = ("contact_stiffness", "contact_damping", "restitution_coef", "contact_breaking_threshold")
+    CONTACT_KEYS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "restitution_coef", "contact_breaking_threshold_m")
 
     @classmethod
     def version(cls) -> str:
@@ -314,32 +314,24 @@ class PybulletAdapter(EngineAdapter):
             return "unknown"
 
     # -- settings -----------------------------------------------------------------------------
-    def _validate_settings(self, s: dict) -> None:
-        if s["settings"] not in ("calibrated", "defaults"):
-            raise ConfigError(f"pybullet setting 'settings' must be calibrated or defaults, got {s['settings']!r}.")
-        if s["drive"] not in ("inertial", "table"):
-            raise ConfigError(f"pybullet setting 'drive' must be inertial or table, got {s['drive']!r}.")
-        for key in ("planar", "friction_anchor"):
-            if not isinstance(s[key], bool):
-                raise ConfigError(f"pybullet setting {key!r} must be true or false, got {s[key]!r}.")
-        self._number_setting(s, "friction")
+    def _validate_engine_settings(self, s: dict) -> None:
+        self._bool_setting(s, "friction_anchor")
         if s["friction"] > BULLET_MAX_FRICTION:
             raise ConfigError(f"pybullet setting 'friction' must be <= {BULLET_MAX_FRICTION:g} (Bullet clamps the "
                               f"combined coefficient there), got {s['friction']!r}.")
-        self._number_setting(s, "contact_stiffness", "N/m")
-        self._number_setting(s, "contact_damping", "N s/m", allow_zero=True)
+        self._number_setting(s, "contact_stiffness_n_m", "N/m")
+        self._number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True)
         self._number_setting(s, "restitution_coef", allow_zero=True)
-        self._number_setting(s, "contact_breaking_threshold", "m")
-        self._number_setting(s, "tail_s", "s")
-        self._number_setting(s, "min_tail_s", "s", allow_zero=True)
-        if (s["contact_stiffness"] is None) != (s["contact_damping"] is None):
-            raise ConfigError("pybullet settings contact_stiffness and contact_damping go together: give both "
-                              "(Bullet ignores one without the other).")
+        self._number_setting(s, "contact_breaking_threshold_m", "m")
+        if (s["contact_stiffness_n_m"] is None) != (s["contact_damping_n_s_m"] is None):
+            raise ConfigError("pybullet settings contact_stiffness_n_m and contact_damping_n_s_m go together: "
+                              "give both (Bullet ignores one without the other).")
         if s["restitution_coef"] is not None and s["restitution_coef"] > 1.0:
             raise ConfigError(f"pybullet setting 'restitution_coef' must be in [0, 1], got {s['restitution_coef']!r}.")
         self._whole_setting(s, "solver_iterations", 1)
 
-    def _explicit_contact(self) -> bool:
+    def explicit_contact(self) -> bool:
+        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
         return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
 
     def _base_settings(self) -> dict:
@@ -349,38 +341,23 @@ class PybulletAdapter(EngineAdapter):
             s["solver_iterations"] = 50 if s["settings"] == "defaults" else 30
         return s
 
-    def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
-        """The concrete settings cases of ``block`` with ``restitution`` run with.
-
-        ``defaults`` or explicit contact settings are used as given; ``calibrated`` looks up (or
-        runs) the calibration for the restitution's η at the time step ``dt_s`` [s].
-        """
+    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
+        """The settings with the solver iterations of the mode and, calibrated, the contact found."""
         s = self._base_settings()
-        if s["settings"] == "defaults" or self._explicit_contact():
-            return s
-        cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt_s)
-        s.update(cal.settings)
-        s["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
-                            "eta_std": cal.eta_std, "reached": cal.reached}
+        if cal is not None:
+            s.update(self.canonical_settings(cal.settings))
         return s
 
     # -- simulation ---------------------------------------------------------------------------
     def _simulate(self, case: Case) -> Trajectory:
         dt = self.dt_for(case)
-        s = self._resolved_cached(case.block, case.restitution, dt)
+        s = self.resolve(case.block, case.restitution, dt)
         tr = self._run(case.block, s, dt, case.pulse)
         # what the contact really gives in free rocking, next to the η the case asked for
         tr.diagnostics["settings"] = s["settings"]
         if "calibration" in s:
             tr.diagnostics["calibration"] = dict(s["calibration"])
         return tr
-
-    def _resolved_cached(self, block: Block, restitution: Restitution, dt: float) -> dict:
-        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, restitution.eta(block.alpha_rad), dt)
-        memo = self.__dict__.setdefault("_memo", {})
-        if key not in memo:
-            memo[key] = self.resolve(block, restitution, dt_s=dt)
-        return memo[key]
 
     def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
              duration_s: float | None = None) -> Trajectory:
@@ -391,7 +368,7 @@ class PybulletAdapter(EngineAdapter):
         sc = _scene()
         pb, cid = sc.pb, sc.cid
         planar = bool(s["planar"])
-        sc.build(block, planar, s.get("contact_breaking_threshold"),
+        sc.build(block, planar, s.get("contact_breaking_threshold_m"),
                  tuple(s.get(k) for k in self.CONTACT_KEYS + ("friction", "friction_anchor")))
         sc.apply(s, dt)
         sc.place(block, planar, theta0)
@@ -402,6 +379,8 @@ class PybulletAdapter(EngineAdapter):
         n_max = int(math.ceil(t_stop / dt - 1e-9))
         n_pulse = int(math.ceil(t_end / dt - 1e-9))
         n_min = n_pulse + int(math.ceil(float(s["min_tail_s"]) / dt - 1e-9)) if duration_s is None else n_max
+        # the overturn rule's "after the pulse", in steps (free rocking: only the flat rule applies)
+        i_after = n_pulse if duration_s is None else math.inf
         steps_t = (np.arange(n_max) + 0.5) * dt  # midpoint of each step
         inertial = s["drive"] == "inertial"
         if pulse is not None:
@@ -455,16 +434,13 @@ class PybulletAdapter(EngineAdapter):
             if a != a:  # NaN: the engine diverged, nothing more to learn
                 ended_by = "diverged"
                 break
-            if a >= FLAT_ANGLE_RAD:
-                ended_by = "flat"
+            # the time axis of the rule in steps: i ≥ n_pulse is "after the pulse"
+            if overturn_certain(i, th, om, alpha_rad=alpha, t_pulse_end_s=i_after):
+                ended_by = "flat" if a >= FLAT_ANGLE_RAD else "overturn"
                 break
-            if duration_s is None and i >= n_pulse:
-                if a > alpha and th * om > 0.0:
-                    ended_by = "overturn"
-                    break
-                if i >= n_min and 0.5 * om * om + p2 * math.cos(alpha - a) < e_trap:
-                    ended_by = "trapped"
-                    break
+            if duration_s is None and i >= n_min and 0.5 * om * om + p2 * math.cos(alpha - a) < e_trap:
+                ended_by = "trapped"
+                break
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         data = np.asarray(rows, dtype=float)
         n = data.shape[0]
@@ -538,8 +514,8 @@ class PybulletAdapter(EngineAdapter):
         """
         if not 0.0 < float(theta0_frac) < 1.0:
             raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        if not math.isfinite(dt) or dt <= 0 or dt > 0.01:
+        dt = self.check_dt(dt_s)
+        if dt > 0.01:
             raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
         s = self._base_settings() if settings is None else settings
         # long enough for the swings around the measured impacts: each lasts at most half the
@@ -578,10 +554,8 @@ class PybulletAdapter(EngineAdapter):
         give the block one restitution coefficient); ``reached`` says whether it is within 1 %. The result is cached on
         disk per engine version, block, target, time step, planar flag and friction.
         """
-        t = float(target_eta)
-        if not (math.isfinite(t) and 0.0 < t <= 1.0):
-            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        t = self.check_target_eta(target_eta)
+        dt = self.check_dt(dt_s)
         base = self._base_settings()
         for k in self.CONTACT_KEYS:
             base[k] = None
@@ -592,7 +566,8 @@ class PybulletAdapter(EngineAdapter):
         if use_cache:
             rec = calibration.load(key)
             if rec is not None:
-                return CalibrationResult(**rec)
+                # records written before issue 15 name the contact settings by their old names
+                return CalibrationResult(**{**rec, "settings": self.canonical_settings(rec["settings"])})
         tried = []
 
         def evaluate(extra: dict) -> float:
@@ -616,7 +591,7 @@ class PybulletAdapter(EngineAdapter):
                 for _ in range(12):
                     mid = 0.5 * (lo + hi)
                     k = 10.0 ** mid
-                    e = evaluate({"contact_stiffness": k, "contact_damping": 2.0 * math.sqrt(k * block.mass_kg)})
+                    e = evaluate({"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * block.mass_kg)})
                     if not math.isfinite(e) or e < t:
                         lo = mid
                     else:
@@ -624,7 +599,7 @@ class PybulletAdapter(EngineAdapter):
                     if err(e) <= 0.0025:
                         break
             else:
-                extra0 = {"contact_breaking_threshold": 1e-4}
+                extra0 = {"contact_breaking_threshold_m": 1e-4}
                 grid = np.round(np.arange(0.5, 0.981, 0.04), 3)
                 vals = [evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
                 # refine between the neighbours that bracket the target, if any

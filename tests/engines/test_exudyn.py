@@ -174,7 +174,7 @@ def test_trajectory_contract(exudyn):
     json.dumps(tr.diagnostics)
     assert tr.uplift_tol_rad > 0
     # the run ends early once the overturn is certain: far less than the bounded tail
-    assert tr.t_s[-1] < case.pulse.duration_s + exudyn.settings["max_tail_s"]
+    assert tr.t_s[-1] < case.pulse.duration_s + exudyn.settings["tail_s"]
 
 
 def test_defaults_settings_run_the_shipped_contact():
@@ -187,7 +187,7 @@ def test_defaults_settings_run_the_shipped_contact():
 
 
 @pytest.mark.parametrize("settings", [
-    {"nonsense": 1}, {"settings": "tuned"}, {"drive": "belt"}, {"stiffness_n_m": -1.0},
+    {"nonsense": 1}, {"settings": "tuned"}, {"drive": "belt"}, {"contact_stiffness_n_m": -1.0},
     {"friction": 0}, {"contact_restitution": 1.5}, {"spectral_radius": 2}, {"planar": "maybe"},
     {"modified_newton_iterations": 0}, {"modified_newton_iterations": 2.5},
     {"modified_newton_iterations": "many"}, {"modified_newton_iterations": True},
@@ -221,7 +221,7 @@ def _cli(*args):
                           text=True, timeout=300)
 
 
-@pytest.mark.parametrize("extra", [["--set", "stiffness_n_m=-5"], ["--set", "colour=red"], ["--dt", "-0.001"]])
+@pytest.mark.parametrize("extra", [["--set", "contact_stiffness_n_m=-5"], ["--set", "colour=red"], ["--dt", "-0.001"]])
 def test_cli_bad_settings_exit_2_one_line(extra):
     r = _cli("calibrate", "--engine", "exudyn", "--block", "B3M", *extra)
     assert r.returncode == 2, r.stderr

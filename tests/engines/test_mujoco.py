@@ -124,7 +124,7 @@ def test_calibration_is_cached_and_reused():
 
 
 def test_low_friction_at_high_amplitude_is_flagged_slip():
-    ad = get_adapter("mujoco", friction=0.2, timeconst=0.001, dampratio=1.0)
+    ad = get_adapter("mujoco", friction=0.2, timeconst_s=0.001, dampratio=1.0)
     r = ad.run(_case("B3M", "sine", 5.0, 3.0))
     assert "slip" in r.flags
     assert not r.valid
@@ -187,7 +187,7 @@ def test_impact_etas_reads_a_known_ratio():
 
 
 @pytest.mark.parametrize("settings", [
-    {"nonsense": 1}, {"timeconst": -0.004}, {"dampratio": 0}, {"friction": -1}, {"settings": "fast"},
+    {"nonsense": 1}, {"timeconst_s": -0.004}, {"dampratio": 0}, {"friction": -1}, {"settings": "fast"},
     {"drive": "mocap"}, {"cone": "round"}, {"noslip_iterations": -2}, {"tail_s": "long"},
 ])
 def test_bad_settings_raise_config_error(settings):
@@ -196,13 +196,13 @@ def test_bad_settings_raise_config_error(settings):
 
 
 def test_negative_time_step_raises_config_error():
-    ad = get_adapter("mujoco", timeconst=0.004, dampratio=1.0)
+    ad = get_adapter("mujoco", timeconst_s=0.004, dampratio=1.0)
     with pytest.raises(ConfigError):
         ad.run(Case(PRESETS["B3M"].block(), make_pulse("sine", 10.0, 60.0), dt_s=-1e-4))
 
 
 @pytest.mark.parametrize("argv", [
-    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "timeconst=-0.004"],
+    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "timeconst_s=-0.004"],
     ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "stiffness=1e6"],
     ["calibrate", "--engine", "mujoco", "--block", "B3M", "--dt", "-0.0005"],
     ["calibrate", "--engine", "mujoco", "--block", "B3M", "--settings", "shipped"],

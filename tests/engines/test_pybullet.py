@@ -101,7 +101,7 @@ def test_softer_target_is_reached_with_a_compliant_contact_and_cached(tmp_path):
     ad = get_adapter("pybullet")
     first = ad.calibrate(block, 0.70)
     assert first.reached, first.note
-    assert first.settings["contact_stiffness"] is not None
+    assert first.settings["contact_stiffness_n_m"] is not None
     assert list((tmp_path / "cache" / "calibration").glob("*.json"))
     again = ad.calibrate(block, 0.70)
     assert again.evaluations == first.evaluations and again.settings == first.settings
@@ -154,7 +154,7 @@ def test_results_do_not_depend_on_the_order_of_cells():
     for other in (case("B3M", "sine", 1.5, 3.0), case("B6M", "sine", 6.0, 6.0)):
         a.simulate(other)
     # another adapter in the same process (one client per process) with a compliant contact
-    get_adapter("pybullet", contact_stiffness=3e4, contact_damping=300.0).simulate(c)
+    get_adapter("pybullet", contact_stiffness_n_m=3e4, contact_damping_n_s_m=300.0).simulate(c)
     assert np.array_equal(first, a.simulate(c).theta_rad)
 
 
@@ -172,8 +172,8 @@ def test_engine_exception_becomes_engine_error(monkeypatch):
 
 
 @pytest.mark.parametrize("settings", [
-    {"settings": "tuned"}, {"drive": "mocap"}, {"bogus": 1}, {"contact_stiffness": -1.0, "contact_damping": 1.0},
-    {"contact_stiffness": 1e6}, {"friction": 20.0}, {"friction": -1.0}, {"solver_iterations": 0},
+    {"settings": "tuned"}, {"drive": "mocap"}, {"bogus": 1}, {"contact_stiffness_n_m": -1.0, "contact_damping_n_s_m": 1.0},
+    {"contact_stiffness_n_m": 1e6}, {"friction": 20.0}, {"friction": -1.0}, {"solver_iterations": 0},
     {"planar": "yes"},
 ])
 def test_bad_settings_raise_config_error(settings):
@@ -188,7 +188,7 @@ def test_bad_time_step_raises_config_error():
 
 
 @pytest.mark.parametrize("argv", [
-    ["calibrate", "--engine", "pybullet", "--block", "B3M", "--set", "contact_stiffness=-5", "--set", "contact_damping=1"],
+    ["calibrate", "--engine", "pybullet", "--block", "B3M", "--set", "contact_stiffness_n_m=-5", "--set", "contact_damping_n_s_m=1"],
     ["calibrate", "--engine", "pybullet", "--block", "B3M", "--settings", "nonsense"],
     ["calibrate", "--engine", "pybullet", "--block", "B3M", "--set", "no_such_setting=1"],
     ["calibrate", "--engine", "pybullet", "--block", "B3M", "--dt", "-0.001"],
