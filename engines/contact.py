@@ -36,8 +36,8 @@ from ..reference_solver.model import Block
 from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, EngineAdapter
 
-__all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "free_rocking_etas",
-           "overturn_certain"]
+__all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "FREE_ROCKING_IMPACTS",
+           "FREE_ROCKING_METHOD", "free_rocking_duration_s", "free_rocking_etas", "overturn_certain"]
 
 #: ``settings`` values: contact calibrated to the case's η, or the engine as shipped
 SETTINGS_MODES = ("calibrated", "defaults")
@@ -55,7 +55,14 @@ RENAMED_SETTINGS: Mapping[str, Mapping[str, str]] = {
                "damping_n_s_m": "contact_damping_n_s_m"},
 }
 
-_TRUE, _FALSE = ("true", "1", "yes"), ("false", "0", "no")
+#: Impacts a free-rocking test measures (calibrations average their η) [-]
+FREE_ROCKING_IMPACTS = 4
+
+#: How :func:`free_rocking_etas` reads η (recorded with every restitution measurement)
+FREE_ROCKING_METHOD = ("energy-consistent amplitude ratio of successive peaks: "
+                       "η = sqrt[(cos(α − θ_next) − cos α)/(cos(α − θ) − cos α)]")
+
+_TRUE, _FALSE = ("true", "1"), ("false", "0")
 
 
 class ContactEngineAdapter(EngineAdapter):
@@ -125,7 +132,7 @@ class ContactEngineAdapter(EngineAdapter):
         """Raise ConfigError for a bad value of an engine-specific setting (default: none)."""
 
     def _bool_setting(self, s: dict, key: str) -> None:
-        """Check that ``s[key]`` is a bool, or a string true/false/1/0/yes/no, and store it as a bool."""
+        """Check that ``s[key]`` is a bool, or a string true/false/1/0, and store it as a bool."""
         v = s[key]
         if isinstance(v, str) and v.lower() in _TRUE + _FALSE:
             v = v.lower() in _TRUE
@@ -193,6 +200,14 @@ class ContactEngineAdapter(EngineAdapter):
         if not (math.isfinite(t) and 0.0 < t <= 1.0):
             raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
         return t
+
+
+def free_rocking_duration_s(block: Block, theta0_frac: float, n_impacts: int = FREE_ROCKING_IMPACTS) -> float:
+    """How long a free-rocking test from rest at ``theta0_frac·α`` runs to see ``n_impacts`` whole
+    swings [s]: ``2n + 1`` quarter periods of the linearised rocking from θ0 (later swings are only
+    shorter, DOMAIN.md §7), ``T/4 = arcosh(1/(1 − θ0/α))/p``, with 20 % and 0.05 s to spare."""
+    quarter = math.acosh(1.0 / (1.0 - float(theta0_frac))) / block.p_rad_s
+    return quarter * (2 * n_impacts + 1) * 1.2 + 0.05
 
 
 def free_rocking_etas(theta_rad, alpha_rad: float, theta0_rad: float, uplift_tol_rad: float,

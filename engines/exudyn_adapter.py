@@ -86,7 +86,8 @@ from ..reference_solver.restitution import Restitution
 from . import calibration
 from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import ContactEngineAdapter, free_rocking_etas, overturn_certain
+from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, free_rocking_duration_s,
+                      free_rocking_etas, overturn_certain)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range DOMAIN.md §8 found to
@@ -96,8 +97,8 @@ STATIC_PENETRATION_M = 1.34e-6
 #: Exudyn contact restitution coefficients (impact model 2) tried by the calibration's scan [-].
 CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 
-#: Impacts averaged by the free-rocking measurement [-].
-CALIBRATION_IMPACTS = 4
+#: Impacts averaged by the free-rocking measurement [-] (the one count of all contact engines).
+CALIBRATION_IMPACTS = FREE_ROCKING_IMPACTS
 
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].
 CALIBRATION_RTOL = 0.01
@@ -666,11 +667,9 @@ class ExudynAdapter(ContactEngineAdapter):
         θ̇⁺/θ̇⁻ read at θ ≈ 0 depends on where one samples.
         """
         dt = self.check_dt(dt_s)
-        alpha, p = block.alpha_rad, block.p_rad_s
+        alpha = block.alpha_rad
         th0 = theta0_frac * alpha
-        # a quarter period from θ0 to the first impact; later half-cycles are shorter
-        quarter = math.acosh(1.0 / (1.0 - theta0_frac)) / p
-        duration = quarter * (2 * n_impacts + 1) * 1.2 + 0.05
+        duration = free_rocking_duration_s(block, theta0_frac, n_impacts)
         contact = self._contact(block, contact_restitution)
         model = _Model(block, contact, "inertial", self.settings["planar"], dt, None, theta0_rad=th0)
         model.set_pulse(None)
@@ -701,7 +700,7 @@ class ExudynAdapter(ContactEngineAdapter):
         return RestitutionMeasurement(etas=fr.etas, eta_mean=fr.eta_mean, eta_std=fr.eta_std,
                                       theta0_rad=fr.theta0_rad, dt_s=dt,
                                       settings={**fr.contact, "planar": s["planar"]},
-                                      method="energy-consistent amplitude ratio of successive peaks")
+                                      method=FREE_ROCKING_METHOD)
 
     def _cal_key(self, block: Block, target_eta: float, dt: float) -> str:
         s = self.settings

@@ -152,6 +152,8 @@ class MujocoAdapter(ContactEngineAdapter):
     module = "mujoco"
     install_hint = "install it with `pip install mujoco` (3.2 or newer; 4.0 tested)."
     default_dt_s = 5e-4
+    #: cells run through native multi-threaded rollouts (``_simulate_many``)
+    batching = "native"
     SETTINGS = {
         **ContactEngineAdapter.SHARED_SETTINGS,
         "timeconst_s": None,
