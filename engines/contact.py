@@ -32,12 +32,13 @@ import numpy as np
 
 from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import Block
+from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, EngineAdapter
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "FREE_ROCKING_IMPACTS",
-           "FREE_ROCKING_METHOD", "free_rocking_duration_s", "free_rocking_etas", "overturn_certain"]
+           "FREE_ROCKING_METHOD", "body_energy_j_kg", "free_rocking_duration_s", "free_rocking_etas",
+           "overturn_certain"]
 
 #: ``settings`` values: contact calibrated to the case's η, or the engine as shipped
 SETTINGS_MODES = ("calibrated", "defaults")
@@ -200,6 +201,14 @@ class ContactEngineAdapter(EngineAdapter):
         if not (math.isfinite(t) and 0.0 < t <= 1.0):
             raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
         return t
+
+
+def body_energy_j_kg(block: Block, vx_m_s, vz_m_s, omega_rad_s, zc_m):
+    """The block's own mechanical energy per unit mass in the table's frame [J/kg]:
+    ``½(v_x² + v_z²) + ½(I_c/m)ω² + g·z_c`` from its centre of mass's velocity relative to the table
+    [m/s], its angular velocity about y [rad/s] and its height above the table top [m]. Unlike the
+    rigid model's ``½θ̇² + p²cos(α − |θ|)`` it sees a hop after an impact (the energy-gain check)."""
+    return 0.5 * (vx_m_s**2 + vz_m_s**2) + 0.5 * block.inertia_cm_kg_m2 / block.mass_kg * omega_rad_s**2 + G * zc_m
 
 
 def free_rocking_duration_s(block: Block, theta0_frac: float, n_impacts: int = FREE_ROCKING_IMPACTS) -> float:

@@ -86,8 +86,8 @@ from ..reference_solver.restitution import Restitution
 from . import calibration
 from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, free_rocking_duration_s,
-                      free_rocking_etas, overturn_certain)
+from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
+                      free_rocking_duration_s, free_rocking_etas, overturn_certain)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range DOMAIN.md §8 found to
@@ -649,7 +649,7 @@ class ExudynAdapter(ContactEngineAdapter):
         table_x = case.pulse.disp(t) if drive_table else np.zeros(t.size)
         table_v = case.pulse.vel(t) if drive_table else np.zeros(t.size)
         zc, vx, vz = com[:, 0], com[:, 1] - table_v, com[:, 2]
-        e_body = 0.5 * (vx**2 + vz**2) + 0.5 * block.inertia_cm_kg_m2 / block.mass_kg * thd**2 + G * zc
+        e_body = body_energy_j_kg(block, vx, vz, thd, zc)
         return Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=thd, t_pulse_end_s=t_pe, flags=flags,
                           diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
                           corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=corners[..., 1] - r,

@@ -49,6 +49,20 @@ def test_peak_ratio_is_robust_to_a_coarse_step():
     np.testing.assert_allclose(etas, 0.9, rtol=1e-3)
 
 
+def test_peak_ratio_reads_known_peaks_exactly():
+    # synthetic swings with chosen peaks: η = sqrt of the ratio of cos(α − θ_peak) − cos α
+    block = get_preset("B3M").block()
+    al = block.alpha_rad
+    peaks = [0.5 * al, 0.4 * al, 0.3 * al, 0.22 * al]
+    x = np.linspace(0.0, np.pi, 401)[:-1]
+    release = peaks[0] * np.cos(x[x < np.pi / 2])          # from rest at θ0 down to the first impact
+    th = np.concatenate([release] + [(-1) ** k * pk * np.sin(x) for k, pk in enumerate(peaks[1:], start=1)])
+    etas, got = free_rocking_etas(th, al, peaks[0], uplift_tol_rad(block), 4)
+    ke = np.cos(al - np.array(peaks)) - math.cos(al)
+    np.testing.assert_allclose(got, peaks, rtol=1e-4)
+    np.testing.assert_allclose(etas, np.sqrt(ke[1:] / ke[:-1]), rtol=1e-4)
+
+
 def test_no_rocking_gives_no_eta():
     block = get_preset("B3M").block()
     etas, peaks = free_rocking_etas(np.zeros(100), block.alpha_rad, 0.0, uplift_tol_rad(block), 4)
