@@ -76,8 +76,7 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
 from . import calibration as _cal
 from .base import Case, CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
-                      free_rocking_duration_s, free_rocking_etas, overturn_certain)
+from .contact import ContactEngineAdapter, overturn_certain
 
 #: MuJoCo's own defaults for what ``settings="defaults"`` leaves alone (MuJoCo 3.x/4.0 docs).
 MUJOCO_SHIPPED = {"timeconst": 0.02, "dampratio": 1.0, "cone": "pyramidal", "integrator": "euler",
@@ -86,6 +85,10 @@ MUJOCO_SHIPPED = {"timeconst": 0.02, "dampratio": 1.0, "cone": "pyramidal", "int
 #: Free-rocking release angle used by calibration, as a fraction of α [-].
 CALIBRATION_THETA0_FRAC = 0.5
 
+#: |θ| at which η is read on the way into and out of an impact, as a fraction of α [-]; the
+#: velocities there are carried to θ = 0 with the free-rocking energy (see :func:`impact_etas`).
+ETA_READ_FRAC = 0.1
+
 #: Calibration grid: contact time constants as multiples of the time step, and damping ratios.
 _TC_FACTORS = (2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0, 48.0)
 _DR_VALUES = (0.5, 0.7, 1.0, 1.4, 2.0)
@@ -93,9 +96,8 @@ _DR_VALUES = (0.5, 0.7, 1.0, 1.4, 2.0)
 _CONES = ("elliptic", "pyramidal")
 _INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
 
-#: version of the calibration procedure (part of the cache key); 4: η from the shared peak-ratio
-#: measurement (:func:`~rockbench.engines.contact.free_rocking_etas`) of the first 4 impacts
-CALIBRATION_VERSION = 4
+#: version of the calibration procedure (part of the cache key)
+CALIBRATION_VERSION = 3
 
 
 @dataclass
@@ -475,9 +477,9 @@ class MujocoAdapter(ContactEngineAdapter):
     def _energy(self, bm: _Built, st: np.ndarray, block: Block) -> np.ndarray:
         """The block's mechanical energy per unit mass in the table's frame at every sample [J/kg].
 
-        ``½v_c² + ½(I_cm/m)θ̇² + g·z_c`` (:func:`~rockbench.engines.contact.body_energy_j_kg`; the
-        centre of mass's velocity relative to the table and its height): the body's own energy, which
-        sees a hop after an impact that the rigid model's ``½θ̇² + p²cos(α − |θ|)`` misreads.
+        ``½v_c² + ½(R²/3)θ̇² + g·z_c`` (centre-of-mass velocity relative to the table and height;
+        ``R²/3`` is ``I_cm/m``): the body's own energy, which sees a hop after an impact that the
+        rigid model's ``½θ̇² + p²cos(α − |θ|)`` misreads.
         """
         qi = bm.qi
         _, _, thd, _, _ = self._read(bm, st, block)
@@ -489,13 +491,13 @@ class MujocoAdapter(ContactEngineAdapter):
             zc = st[:, qi["pos"] + 2]
         if qi["table_v"] is not None:
             vx = vx - st[:, qi["table_v"]]
-        return body_energy_j_kg(block, vx, vz, thd, zc)
+        R = block.half_diagonal_m
+        return 0.5 * (vx**2 + vz**2) + 0.5 * R**2 / 3.0 * thd**2 + G * zc
 
     # -- restitution -------------------------------------------------------------------------
-    def _free_rocking(self, block: Block, params_list: list[dict], dt: float,
-                      theta0_frac: float) -> list[RestitutionMeasurement]:
-        """Free rocking from rest at ``theta0_frac·α`` about the +x edge, one native batch; η of the
-        first impacts by the shared measurement (:func:`~rockbench.engines.contact.free_rocking_etas`)."""
+    def _free_rocking(self, block: Block, params_list: list[dict], dt: float, theta0_frac: float,
+                      duration_s: float = 2.0) -> list[RestitutionMeasurement]:
+        """Free rocking from rest at ``theta0_frac·α`` about the +x edge, one native batch."""
         import mujoco
         from mujoco import rollout
 
@@ -515,7 +517,7 @@ class MujocoAdapter(ContactEngineAdapter):
                 s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, 0.0, cz + sink]
                 s[bm.qi["pos"] + 3: bm.qi["pos"] + 7] = [math.cos(0.5 * th0), 0.0, math.sin(0.5 * th0), 0.0]
             init.append(s)
-        nstep = int(round(free_rocking_duration_s(block, theta0_frac) / dt))
+        nstep = int(round(duration_s / dt))
         nthread = min(self._threads(), len(built))
         datas = [mujoco.MjData(built[0].model) for _ in range(nthread)]
         with rollout.Rollout(nthread=nthread) as ro:
@@ -525,15 +527,16 @@ class MujocoAdapter(ContactEngineAdapter):
         out = []
         for bm, p, s_init, traj in zip(built, params_list, init, st):
             full = np.concatenate([s_init[None], traj])
-            _, th, _, _, _ = self._read(bm, full, block)
-            etas, _ = free_rocking_etas(th, block.alpha_rad, th0, uplift_tol_rad(block), FREE_ROCKING_IMPACTS)
+            _, th, thd, _, _ = self._read(bm, full, block)
+            etas = impact_etas(th, thd, block.alpha_rad, block.p_rad_s)
             arr = np.array(etas) if etas else np.array([math.nan])
             out.append(RestitutionMeasurement(
                 etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
                 eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
                 settings={k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator",
                                             "noslip_iterations", "impratio")} | {"friction": self.settings["friction"]},
-                method=FREE_ROCKING_METHOD))
+                method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
+                        "carried to θ = 0 with the free-rocking energy; η = ratio after/before")))
         return out
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = CALIBRATION_THETA0_FRAC,
@@ -637,3 +640,52 @@ class MujocoAdapter(ContactEngineAdapter):
             return min(near, key=lambda r: (abs(r[2] - target), abs(math.log(r[1]))))
         return min(good, key=lambda r: abs(r[2] - target))
 
+
+def impact_etas(theta_rad, theta_dot_rad_s, alpha_rad: float, p_rad_s: float,
+                read_frac: float = ETA_READ_FRAC) -> list[float]:
+    """η of each impact of a freely rocking block, from its sampled motion.
+
+    A soft contact spreads an impact over several steps, so velocities are not read at θ = 0
+    itself but where ``|θ|`` crosses ``θc = read_frac·α`` on the way in (the last crossing before
+    the sign change) and on the way out (the first after it), both carried to θ = 0 with the
+    rigid block's free-rocking energy ``½θ̇² + p²cos(α − |θ|)`` (paper eqs (1)–(2)):
+    ``θ̇₀² = θ̇c² + 2p²(cos(α − θc) − cos α)``. An excursion that does not reach ``θc`` ends
+    the measurement.
+
+    Parameters
+    ----------
+    theta_rad, theta_dot_rad_s : array_like
+        Samples of θ [rad] and θ̇ [rad/s].
+    alpha_rad, p_rad_s : float
+        The block's α [rad] and p [rad/s].
+    read_frac : float
+        ``θc/α`` [-].
+
+    Returns
+    -------
+    list of float
+        ``θ̇₀⁺/θ̇₀⁻`` per impact [-].
+    """
+    th = np.asarray(theta_rad, dtype=float)
+    thd = np.asarray(theta_dot_rad_s, dtype=float)
+    thc = read_frac * alpha_rad
+    a = np.abs(th)
+    inward = np.nonzero((a[:-1] > thc) & (a[1:] <= thc))[0]
+    outward = np.nonzero((a[:-1] < thc) & (a[1:] >= thc))[0]
+    add = 2.0 * p_rad_s**2 * (math.cos(alpha_rad - thc) - math.cos(alpha_rad))
+
+    def v0(i):
+        f = (a[i] - thc) / (a[i] - a[i + 1])
+        v = thd[i] + f * (thd[i + 1] - thd[i])
+        return math.sqrt(v * v + add)
+
+    etas = []
+    for i in inward:
+        later = outward[outward > i]
+        if later.size == 0:
+            break
+        j = int(later[0])
+        if np.sign(th[j + 1]) == np.sign(th[i]):
+            break  # it came back out on the same side: no impact, the rocking has died out
+        etas.append(v0(j) / v0(i))
+    return etas
