@@ -58,8 +58,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from . import calibration
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
-                      free_rocking_duration_s, free_rocking_etas, overturn_certain)
+from .contact import ContactEngineAdapter, body_energy_j_kg, overturn_certain
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
@@ -72,15 +71,14 @@ _SLIDER_MASS_KG = 1e-6
 _TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
 
 #: Version of the calibration protocol (free-rocking test and search); part of the cache key.
-#: 5: η from the shared peak-ratio measurement (:func:`~rockbench.engines.contact.free_rocking_etas`)
-CALIBRATION_PROTOCOL = 5
+CALIBRATION_PROTOCOL = 4
 
 #: Largest spread (standard deviation) of the per-impact η, as a fraction of the target, that a
 #: calibrated setting may show: beyond it the block has no single restitution coefficient [-].
 _CAL_MAX_SPREAD = 0.02
 
 #: Free-rocking test: impacts measured after release [-].
-_CAL_IMPACTS = FREE_ROCKING_IMPACTS
+_CAL_IMPACTS = 4
 
 #: Trapped rule: stop when E < p² − _TRAPPED_MARGIN·p²(1 − cos α) (see the module docstring) [-].
 _TRAPPED_MARGIN = 0.05
@@ -362,10 +360,11 @@ class PybulletAdapter(ContactEngineAdapter):
         return tr
 
     def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
-             duration_s: float | None = None) -> Trajectory:
+             duration_s: float | None = None, with_state: bool = False):
         """Simulate one run: a pulse with the end-of-run rules, or free rocking for ``duration_s``.
 
-        Returns the trajectory with its flags and diagnostics.
+        Returns the trajectory with its flags and diagnostics (and, ``with_state``, the body's state
+        ``(x_c, z_c, ẋ_c, ż_c, θ̇)`` as a second item).
         """
         sc = _scene()
         pb, cid = sc.pb, sc.cid
@@ -445,12 +444,15 @@ class PybulletAdapter(ContactEngineAdapter):
                 break
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         diag = {"steps": int(i), "wall_s": wall, "cpu_s": cpu, "ended_by": ended_by}
-        return self._record(block, s, dt, pulse, t_end, rows, diag)
+        traj, state = self._record(block, s, dt, pulse, t_end, rows, diag)
+        return (traj, state) if with_state else traj
 
-    def _record(self, block: Block, s: dict, dt: float, pulse, t_end: float, rows: list, run: dict) -> Trajectory:
+    def _record(self, block: Block, s: dict, dt: float, pulse, t_end: float, rows: list,
+                run: dict) -> tuple[Trajectory, tuple]:
         """The trajectory from the state rows a run read (``(x, z, θ, ẋ, ż, θ̇)`` per sample planar,
         position, quaternion and velocities free): θ, θ̇, both bottom corners relative to the table,
-        the block's energy, and diagnostics (``run``: steps, wall and CPU time, how it ended)."""
+        the block's energy, and diagnostics (``run``: steps, wall and CPU time, how it ended); and
+        the body's state ``(x_c, z_c, ẋ_c, ż_c, θ̇)`` for the free-rocking measurement."""
         planar = bool(s["planar"])
         inertial = s["drive"] == "inertial"
         data = np.asarray(rows, dtype=float)
@@ -483,9 +485,10 @@ class PybulletAdapter(ContactEngineAdapter):
                     drive=s["drive"], planar=planar)
         if not planar:
             diag.update(max_lateral_drift_m=out_of_plane, max_out_of_plane_tilt_rad=out_of_plane_tilt)
-        return Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=om, t_pulse_end_s=t_end, flags=flags,
+        traj = Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=om, t_pulse_end_s=t_end, flags=flags,
                           diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
                           corner_x_m=corner_x, corner_z_m=corner_z, energy_j_kg=energy)
+        return traj, (xc, zc, vx, vz, om)
 
     @staticmethod
     def _corners(block: Block, xc, zc, th, u_tab):
@@ -504,9 +507,13 @@ class PybulletAdapter(ContactEngineAdapter):
                             settings: dict | None = None) -> RestitutionMeasurement:
         """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation.
 
-        η of each of the first impacts comes from the shared measurement
-        (:func:`~rockbench.engines.contact.free_rocking_etas`): the energy-consistent ratio of
-        successive peak amplitudes, robust to the steps over which an impact spreads.
+        η of each of the first impacts is read from energies, which are robust to the step in
+        which an impact falls: between impacts the block's mechanical energy is constant, and its
+        excess over standing at rest is the kinetic energy at ``θ = 0``. So
+        ``η_i = √(K_{i+1}/K_i)``, with ``K`` the median of ``E − m g h/2`` over the middle half of
+        each swing, ``E = ½m(ẋ² + ż²) + ½I_c θ̇² + m g z_c``. (The contact engines' shared peak
+        ratio, :func:`~rockbench.engines.contact.free_rocking_etas`, scatters by ±0.03 between the
+        impacts of a compliant contact, which the calibration then refuses: docs/engines.md.)
 
         Parameters
         ----------
@@ -524,15 +531,21 @@ class PybulletAdapter(ContactEngineAdapter):
         if dt > 0.01:
             raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
         s = self._base_settings() if settings is None else settings
-        th0 = theta0_frac * block.alpha_rad
-        tr = self._run(block, s, dt, None, theta0=th0, duration_s=free_rocking_duration_s(block, theta0_frac))
-        etas, _ = free_rocking_etas(tr.theta_rad, block.alpha_rad, th0, uplift_tol_rad(block), _CAL_IMPACTS)
+        # long enough for the swings around the measured impacts: each lasts at most half the
+        # linearised free-rocking period from the release angle, T = (4/p)·arcosh(1/(1 − θ0/α))
+        # (DOMAIN.md §7; amplitudes only shrink, and so do the swings), with 20 % to spare
+        period = 4.0 / block.p_rad_s * math.acosh(1.0 / (1.0 - float(theta0_frac)))
+        duration = 1.2 * (_CAL_IMPACTS + 2) * period / 2.0
+        tr, state = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=duration,
+                              with_state=True)
+        etas = _impact_etas(block, tr.theta_rad, state, _CAL_IMPACTS)
         mean = float(np.mean(etas)) if etas else float("nan")
         std = float(np.std(etas)) if etas else float("nan")
         shown = {k: s[k] for k in ("friction", "friction_anchor", "solver_iterations", "planar") + self.CONTACT_KEYS}
         return RestitutionMeasurement(etas=[float(e) for e in etas], eta_mean=mean, eta_std=std,
                                       theta0_rad=theta0_frac * block.alpha_rad, dt_s=dt, settings=shown,
-                                      method=FREE_ROCKING_METHOD)
+                                      method=f"energy ratio of the first {_CAL_IMPACTS} impacts: "
+                                             "sqrt(K_next/K), K = mechanical energy above rest between impacts")
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
@@ -643,3 +656,37 @@ class PybulletAdapter(ContactEngineAdapter):
         calibration.store(key, {k: v for k, v in res.to_dict().items() if k != "rel_error"})
         return res
 
+
+def _impact_etas(block: Block, theta_rad, body_state: tuple, n_impacts: int) -> list[float]:
+    """η of the first ``n_impacts`` impacts of a free-rocking trajectory, from energies (see
+    :meth:`PybulletAdapter.measure_restitution`); ``body_state`` is ``(x_c, z_c, ẋ_c, ż_c, θ̇)``."""
+    xc, zc, vx, vz, om = body_state
+    m, h = block.mass_kg, block.height_m
+    E = 0.5 * m * (vx * vx + vz * vz) + 0.5 * block.inertia_cm_kg_m2 * om * om + m * G * zc
+    K = E - m * G * h / 2
+    th = theta_rad
+    tol = uplift_tol_rad(block)
+    side = np.where(th > tol, 1, np.where(th < -tol, -1, 0))
+    # swings: maximal runs of samples on one side; an impact separates two swings of opposite sides
+    idx = np.flatnonzero(side != 0)
+    if idx.size == 0:
+        return []
+    swings = []
+    start = idx[0]
+    for a, b in zip(idx[:-1], idx[1:]):
+        if side[b] != side[a]:
+            swings.append((start, a + 1))
+            start = b
+    swings.append((start, idx[-1] + 1))
+    Ks = []
+    for a, b in swings[:-1]:  # the last swing may be cut by the end of the run
+        if b - a < 8:
+            break
+        mid = K[a + (b - a) // 4: a + 3 * (b - a) // 4]
+        Ks.append(float(np.median(mid)))
+    etas = []
+    for k0, k1 in zip(Ks[:-1], Ks[1:]):
+        if k0 <= 0 or k1 < 0 or len(etas) >= n_impacts:
+            break
+        etas.append(math.sqrt(k1 / k0))
+    return etas
