@@ -163,52 +163,65 @@ class _Model:
     def __init__(self, block: Block, contact: dict, drive: str, planar: bool, dt_s: float,
                  pulse: Pulse | None, theta0_rad: float = 0.0):
         import exudyn as exu
-        from exudyn.itemInterface import (CoordinateConstraint, Force, MarkerBodyRigid,
-                                          MarkerNodeCoordinate, MarkerNodePosition, NodeGenericData,
-                                          NodePointGround, NodeRigidBody2D, ObjectContactSphereTriangle,
-                                          ObjectGround, ObjectRigidBody2D, SensorNode)
 
         self.exu = exu
         self.block, self.drive, self.planar, self.dt_s = block, drive, planar, dt_s
         self.contact = dict(contact)
         self.uses_symbolic = pulse is None or pulse.kind != "record"
-        esym = exu.symbolic
         # Exudyn's symbolic variables live in one process-wide table: a unique prefix per model
         # keeps two models of one process (a map and a calibration) from sharing pulse values.
         self._pre = f"rb{next(_COUNTER)}_"
         for nm in ("a0", "w", "tb", "cs", "utb", "vtb"):
-            esym.variables.Set(self._pre + nm, 0.0)
+            exu.symbolic.variables.Set(self._pre + nm, 0.0)
+        self.r = contact["sphere_radius_m"]
+        self.SC = exu.SystemContainer()
+        self.mbs = self.SC.AddSystem()
+        # the items in this order (Exudyn numbers them as they come)
+        table_marker = self._add_table()
+        tri, gravity = self._add_block(theta0_rad)
+        mcom = self._add_contacts(table_marker, tri, gravity)
+        self._inertial_load = None
+        if drive == "inertial":
+            from exudyn.itemInterface import Force
+            self._inertial_load = self.mbs.AddLoad(Force(markerNumber=mcom, loadVector=[0.0, 0.0, 0.0]))
+        self._add_sensors()
+        self._pulse_funcs = []  # keep symbolic expression trees alive as long as the system
+        self._install_pulse_functions(pulse)
+        self.mbs.Assemble()
+        self.ss = self._simulation_settings()
 
-        b, h, m = block.width_m, block.height_m, block.mass_kg
-        d = block.depth_m
-        r = contact["sphere_radius_m"]
-        k = contact["stiffness_n_m"]
-        self.r = r
-        SC = exu.SystemContainer()
-        mbs = SC.AddSystem()
-        self.SC, self.mbs = SC, mbs
+    # -- building -------------------------------------------------------------------------
+    def _add_table(self) -> int:
+        """The ground and the table: the ground itself (inertial drive) or a body driven along u(t);
+        returns the marker the contacts attach to."""
+        from exudyn.itemInterface import (CoordinateConstraint, MarkerBodyRigid, MarkerNodeCoordinate,
+                                          NodePointGround, NodeRigidBody2D, ObjectGround, ObjectRigidBody2D)
+
+        mbs = self.mbs
         ground = mbs.AddObject(ObjectGround())
+        if self.drive != "table":
+            return mbs.AddMarker(MarkerBodyRigid(bodyNumber=ground, localPosition=[0, 0, 0]))
+        # a planar body carries the table in both models: its x follows u(t), its height and
+        # angle are held at 0 (the triangle lies in its local frame, so it moves with it)
+        tnode = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0, 0, 0]))
+        table = mbs.AddObject(ObjectRigidBody2D(nodeNumber=tnode, mass=100.0 * self.block.mass_kg, inertia=1.0))
+        gnode = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
+        mg0 = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnode, coordinate=0))
+        self._table_constraints = []
+        for c in range(3):
+            mc = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=tnode, coordinate=c))
+            self._table_constraints.append(mbs.AddObject(CoordinateConstraint(markerNumbers=[mg0, mc], offset=0.0)))
+        return mbs.AddMarker(MarkerBodyRigid(bodyNumber=table, localPosition=[0, 0, 0]))
 
-        # the table: the ground itself (inertial drive) or a body driven along u(t)
-        if drive == "table":
-            # a planar body carries the table in both models: its x follows u(t), its height and
-            # angle are held at 0 (the triangle lies in its local frame, so it moves with it)
-            tnode = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0, 0, 0]))
-            table = mbs.AddObject(ObjectRigidBody2D(nodeNumber=tnode, mass=100.0 * m, inertia=1.0))
-            n_coords = 3
-            gnode = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
-            mg0 = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnode, coordinate=0))
-            self._table_constraints = []
-            for c in range(n_coords):
-                mc = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=tnode, coordinate=c))
-                self._table_constraints.append(
-                    mbs.AddObject(CoordinateConstraint(markerNumbers=[mg0, mc], offset=0.0)))
-            table_marker = mbs.AddMarker(MarkerBodyRigid(bodyNumber=table, localPosition=[0, 0, 0]))
-        else:
-            table_marker = mbs.AddMarker(MarkerBodyRigid(bodyNumber=ground, localPosition=[0, 0, 0]))
+    def _add_block(self, theta0_rad: float):
+        """The block (planar or free 3-D body) at rest, or tilted by ``theta0_rad`` onto a corner;
+        sets ``node``, ``body`` and ``corners_local``; returns the table triangle and the weight."""
+        from exudyn.itemInterface import NodeRigidBody2D, ObjectRigidBody2D
 
+        exu, mbs, block, r = self.exu, self.mbs, self.block, self.r
+        b, h, m, d = block.width_m, block.height_m, block.mass_kg, block.depth_m
         L = _TABLE_HALF_SIZE_M
-        if planar:
+        if self.planar:
             # Exudyn's planar bodies move in its x-y plane, y up: the table is the plane y = 0
             # (a triangle spanning x and the out-of-plane z), our θ is minus Exudyn's φ.
             tri = [[-L, 0.0, L], [L, 0.0, L], [0.0, 0.0, -L]]
@@ -234,48 +247,61 @@ class _Model:
             gravity = [0.0, 0.0, -m * G]
         self.node, self.body = node, body
         self.corners_local = np.array(corners)
+        return tri, gravity
 
-        mcom = mbs.AddMarker(MarkerNodePosition(nodeNumber=node))
+    def _add_contacts(self, table_marker: int, tri: list, gravity: list) -> int:
+        """The weight at the centre of mass and one sphere–triangle contact per bottom corner;
+        returns the centre-of-mass marker."""
+        from exudyn.itemInterface import (Force, MarkerBodyRigid, MarkerNodePosition, NodeGenericData,
+                                          ObjectContactSphereTriangle)
+
+        exu, mbs, contact = self.exu, self.mbs, self.contact
+        mcom = mbs.AddMarker(MarkerNodePosition(nodeNumber=self.node))
         mbs.AddLoad(Force(markerNumber=mcom, loadVector=gravity))
-        for c in corners:
-            mc = mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=c))
+        for c in self.corners_local.tolist():
+            mc = mbs.AddMarker(MarkerBodyRigid(bodyNumber=self.body, localPosition=c))
             dn = mbs.AddNode(NodeGenericData(numberOfDataCoordinates=4, initialCoordinates=[0, 0, 0, 0]))
             mbs.AddObject(ObjectContactSphereTriangle(
-                markerNumbers=[mc, table_marker], nodeNumber=dn, sphereRadius=r,
+                markerNumbers=[mc, table_marker], nodeNumber=dn, sphereRadius=self.r,
                 trianglePoints=exu.Vector3DList(tri), includeEdges=0,
                 dynamicFriction=contact["friction"], frictionProportionalZone=contact["friction_zone_m_s"],
-                contactStiffness=k, contactDamping=contact["damping_n_s_m"],
+                contactStiffness=contact["stiffness_n_m"], contactDamping=contact["damping_n_s_m"],
                 contactStiffnessExponent=1.0, restitutionCoefficient=contact["restitution_coefficient"],
                 impactModel=contact["impact_model"]))
+        return mcom
 
-        self._inertial_load = None
-        if drive == "inertial":
-            self._inertial_load = mbs.AddLoad(Force(markerNumber=mcom, loadVector=[0.0, 0.0, 0.0]))
+    def _add_sensors(self) -> None:
+        """Sensors that store the block's state at every step (read by :meth:`samples`)."""
+        from exudyn.itemInterface import SensorNode
 
-        OVT = exu.OutputVariableType
-        if planar:
-            self.s_q = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Coordinates))
-            self.s_v = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Coordinates_t))
+        mbs, node, OVT = self.mbs, self.node, self.exu.OutputVariableType
+
+        def sensor(kind):
+            return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=kind))
+
+        if self.planar:
+            self.s_q = sensor(OVT.Coordinates)
+            self.s_v = sensor(OVT.Coordinates_t)
         else:
-            self.s_pos = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Position))
-            self.s_rot = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.RotationMatrix))
-            self.s_omg = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.AngularVelocity))
-            self.s_vel = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Velocity))
-        self._pulse_funcs = []  # keep symbolic expression trees alive as long as the system
-        self._install_pulse_functions(pulse)
-        mbs.Assemble()
+            self.s_pos = sensor(OVT.Position)
+            self.s_rot = sensor(OVT.RotationMatrix)
+            self.s_omg = sensor(OVT.AngularVelocity)
+            self.s_vel = sensor(OVT.Velocity)
 
-        ss = exu.SimulationSettings()
+    def _simulation_settings(self):
+        """Exudyn's implicit generalized-α with adaptive steps, the loosened Newton tolerances and
+        the Jacobian refresh of the settings (module docstring, "Solver")."""
+        ss = self.exu.SimulationSettings()
         ti = ss.timeIntegration
         ti.verboseMode = 0
         ti.newton.relativeTolerance = 1e-6
         ti.newton.absoluteTolerance = 1e-6
-        ti.generalizedAlpha.spectralRadius = contact["spectral_radius"]
-        ti.newton.maxModifiedNewtonIterations = contact["modified_newton_iterations"]
+        ti.generalizedAlpha.spectralRadius = self.contact["spectral_radius"]
+        ti.newton.maxModifiedNewtonIterations = self.contact["modified_newton_iterations"]
         ti.adaptiveStep = True
         ss.solution.file.write = False
-        ss.solution.sensors.writePeriod = dt_s
-        self.ss = ss
+        ss.solution.sensors.writePeriod = self.dt_s
+        return ss
 
     # -- geometry -------------------------------------------------------------------------
     def _rest_pose_planar(self, theta_rad: float):
