@@ -18,8 +18,11 @@ so it needs the same few things whatever the engine:
   (:meth:`~ContactEngineAdapter._resolved_settings`).
 * **One overturn-is-certain early stop**: :func:`~rockbench.reference_solver.classify.overturn_certain`,
   the classifier's own rule, re-exported here.
-* **One free-rocking η measurement**: :func:`free_rocking_etas` (amplitude ratio of successive
-  peaks, energy-consistent); see its docstring for why this one.
+* **A free-rocking η measurement**: :func:`free_rocking_etas` (amplitude ratio of successive
+  peaks, energy-consistent); see its docstring for why this one. Exudyn uses it; MuJoCo and
+  PyBullet keep their own for now, since moving them made their calibrations pick worse settings
+  (docs/engines.md says what was measured).
+* **The body's energy**: :func:`body_energy_j_kg`.
 """
 
 from __future__ import annotations
@@ -227,8 +230,9 @@ def free_rocking_etas(theta_rad, alpha_rad: float, theta0_rad: float, uplift_tol
     kinetic energy at θ = 0 just before the impact that ends a swing of peak ``|θ|`` is
     ``p²(cos(α − θ_peak) − cos α)``; η, the ratio of angular velocities at θ = 0 after and before
     an impact, is then ``√[(cos(α − θ_{i+1}) − cos α)/(cos(α − θ_i) − cos α)]`` for successive
-    peaks. This is the measurement all contact engines share because it is the most robust of
-    the ways η was read before:
+    peaks. Of the three ways the engines read η this is the most robust for a rigid-like contact
+    (the others: |θ̇| read near θ = 0, MuJoCo; the ratio of the body's energy between impacts,
+    PyBullet):
 
     * it needs only θ(t), which every engine reports (no body velocities, no energy bookkeeping);
     * a peak is where θ̇ = 0, so reading it from samples errs by O((θ̇Δt)²) only, and the few
