@@ -367,6 +367,17 @@ class EngineAdapter:
     #: how the adapter batches cases (contract item 6): "none", "native" or "parallel"
     batching: ClassVar[Literal["none", "native", "parallel"]] = "none"
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        # ``parallel_batch = True`` (before issue 15) is ``batching = "parallel"``: kept for one release
+        if cls.__dict__.get("parallel_batch") is True and "batching" not in cls.__dict__:
+            import warnings
+            warnings.warn(f"{cls.__name__}.parallel_batch is now batching = 'parallel'; the old attribute goes in "
+                          "the next release.", DeprecationWarning, stacklevel=2)
+            cls.batching = "parallel"
+        if cls.batching not in ("none", "native", "parallel"):
+            raise TypeError(f"{cls.__name__}.batching must be 'none', 'native' or 'parallel', got {cls.batching!r}")
+
     def __init__(self, **settings):
         unknown = sorted(set(settings) - set(self.SETTINGS))
         if unknown:

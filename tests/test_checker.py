@@ -144,3 +144,21 @@ def test_registry_refuses_a_class_that_is_not_an_adapter():
     finally:
         registry.unregister("not-an-adapter")
         registry.unregister("no-such-class")
+
+
+def test_batching_is_declared_and_the_old_parallel_batch_still_reads():
+    import warnings
+
+    from rockbench.engines.base import EngineAdapter
+
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+
+        class Old(EngineAdapter):
+            name = "old"
+            parallel_batch = True
+    assert Old.batching == "parallel" and "batching = 'parallel'" in str(w[0].message)
+    assert mh.BatchAnalyticAdapter.batching == "native" and mh.AnalyticAdapter.batching == "none"
+    with pytest.raises(TypeError, match="batching must be"):
+        class Bad(EngineAdapter):
+            batching = "sometimes"
