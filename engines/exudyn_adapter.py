@@ -530,7 +530,7 @@ class ExudynAdapter(ContactEngineAdapter):
 
     name = "exudyn"
     module = "exudyn"
-    install_hint = "install it with `pip install exudyn`."
+    install_hint = "install it with `pip install 'rockbench[exudyn]'` (or `pip install exudyn`)."
     default_dt_s = 1e-4
     SETTINGS = {
         **ContactEngineAdapter.SHARED_SETTINGS,

@@ -283,7 +283,8 @@ class PybulletAdapter(ContactEngineAdapter):
 
     name = "pybullet"
     module = "pybullet"
-    install_hint = "install it with `pip install pybullet` (wheels for Linux, macOS and Windows)."
+    install_hint = ("install it with `pip install 'rockbench[pybullet]'` (or `pip install pybullet`: wheels for Linux, "
+                    "macOS and Windows).")
     default_dt_s = 5e-4
     SETTINGS = {
         **ContactEngineAdapter.SHARED_SETTINGS,
