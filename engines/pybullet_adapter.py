@@ -591,71 +591,91 @@ class PybulletAdapter(ContactEngineAdapter):
             tried.append((m.eta_mean, m.eta_std, extra))
             return m.eta_mean
 
-        def err(e):
-            return abs(e - t) / t if math.isfinite(e) else math.inf
-
         e0 = evaluate({})
         # Bullet's own rigid contact is preferred whenever it is within 1 %: every departure from it
         # (softness, restitution) brings side effects of its own (penetration, bouncing corners)
-        if err(e0) > 0.01:
+        if _rel_err(e0, t) > 0.01:
             if e0 > t:
-                # log10 k: lo gives low η, hi high η. The contact's natural frequency √(k/m) must be
-                # resolved by the step (√(k/m)·Δt ≤ 1): stiffer springs pass the free-rocking test
-                # but gain energy and bounce under a pulse.
-                lo, hi = 3.0, max(3.5, math.log10(block.mass_kg / dt**2))
-                for _ in range(12):
-                    mid = 0.5 * (lo + hi)
-                    k = 10.0 ** mid
-                    e = evaluate({"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * block.mass_kg)})
-                    if not math.isfinite(e) or e < t:
-                        lo = mid
-                    else:
-                        hi = mid
-                    if err(e) <= 0.0025:
-                        break
+                _search_compliant(evaluate, t, block.mass_kg, dt)
             else:
-                extra0 = {"contact_breaking_threshold_m": 1e-4}
-                grid = np.round(np.arange(0.5, 0.981, 0.04), 3)
-                vals = [evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
-                # refine between the neighbours that bracket the target, if any
-                for j in range(len(grid) - 1):
-                    if (vals[j] - t) * (vals[j + 1] - t) < 0:
-                        lo, hi = float(grid[j]), float(grid[j + 1])
-                        for _ in range(5):
-                            mid = 0.5 * (lo + hi)
-                            e = evaluate({**extra0, "restitution_coef": mid})
-                            if err(e) <= 0.0025:
-                                break
-                            if (e - t) * (vals[j] - t) > 0:
-                                lo = mid
-                            else:
-                                hi = mid
-                        break
+                _search_restitution(evaluate, t)
         # a setting whose impacts scatter does not give the block one restitution coefficient
         consistent = [r for r in tried if math.isfinite(r[1]) and r[1] <= _CAL_MAX_SPREAD * t]
-        eta, std, extra = min(consistent or tried, key=lambda r: err(r[0]))
-        reached = bool(consistent) and err(eta) <= 0.01
+        eta, std, extra = min(consistent or tried, key=lambda r: _rel_err(r[0], t))
+        reached = bool(consistent) and _rel_err(eta, t) <= 0.01
         settings = {k: None for k in self.CONTACT_KEYS}
         settings.update(extra)
-        if not extra:
-            note = ("Bullet's rigid contact (its default) gives this η." if reached else
-                    f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
-        elif "restitution_coef" in extra:
-            note = ("reached with Bullet's restitution." if reached else
-                    f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
-                    f"per-impact spread within {100 * _CAL_MAX_SPREAD:g} % of the target.")
-        else:
-            note = ("reached with a compliant contact (damping ratio 1)." if reached else
-                    f"not reached: softening the contact lowers η only to {eta:.4f}.")
-        scattered = [r for r in tried if r not in consistent and err(r[0]) <= 0.01]
-        if not reached and scattered:
-            r = min(scattered, key=lambda r: r[1])
-            note += (f" Bullet's restitution e = {r[2].get('restitution_coef', float('nan')):.3g} gives a mean of "
-                     f"{r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (the corner bounces), so it is not taken.")
+        note = _calibration_note(tried, consistent, eta, extra, reached, t)
         res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
                                 settings=settings, note=note, evaluations=len(tried))
         calibration.store(key, {k: v for k, v in res.to_dict().items() if k != "rel_error"})
         return res
+
+
+def _rel_err(e: float, t: float) -> float:
+    """|e − t|/t, infinite for a non-finite e [-]."""
+    return abs(e - t) / t if math.isfinite(e) else math.inf
+
+
+def _search_compliant(evaluate, t: float, mass_kg: float, dt: float) -> None:
+    """A target below the rigid contact's η: bisection on log10 of a compliant contact's stiffness
+    at damping ratio 1 (``c = 2√(k m)``); a softer contact loses more energy at the impact."""
+    # log10 k: lo gives low η, hi high η. The contact's natural frequency √(k/m) must be
+    # resolved by the step (√(k/m)·Δt ≤ 1): stiffer springs pass the free-rocking test
+    # but gain energy and bounce under a pulse.
+    lo, hi = 3.0, max(3.5, math.log10(mass_kg / dt**2))
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        k = 10.0 ** mid
+        e = evaluate({"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * mass_kg)})
+        if not math.isfinite(e) or e < t:
+            lo = mid
+        else:
+            hi = mid
+        if _rel_err(e, t) <= 0.0025:
+            break
+
+
+def _search_restitution(evaluate, t: float) -> None:
+    """A target above the rigid contact's η: Bullet's restitution with a 0.1 mm contact-breaking
+    threshold, scanned over [0.5, 0.98] and bisected between the neighbours that bracket ``t``."""
+    extra0 = {"contact_breaking_threshold_m": 1e-4}
+    grid = np.round(np.arange(0.5, 0.981, 0.04), 3)
+    vals = [evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
+    # refine between the neighbours that bracket the target, if any
+    for j in range(len(grid) - 1):
+        if (vals[j] - t) * (vals[j + 1] - t) < 0:
+            lo, hi = float(grid[j]), float(grid[j + 1])
+            for _ in range(5):
+                mid = 0.5 * (lo + hi)
+                e = evaluate({**extra0, "restitution_coef": mid})
+                if _rel_err(e, t) <= 0.0025:
+                    break
+                if (e - t) * (vals[j] - t) > 0:
+                    lo = mid
+                else:
+                    hi = mid
+            break
+
+
+def _calibration_note(tried: list, consistent: list, eta: float, extra: dict, reached: bool, t: float) -> str:
+    """What the calibration found, in words (``tried``: ``(η mean, η spread, settings)`` per run)."""
+    if not extra:
+        note = ("Bullet's rigid contact (its default) gives this η." if reached else
+                f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
+    elif "restitution_coef" in extra:
+        note = ("reached with Bullet's restitution." if reached else
+                f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
+                f"per-impact spread within {100 * _CAL_MAX_SPREAD:g} % of the target.")
+    else:
+        note = ("reached with a compliant contact (damping ratio 1)." if reached else
+                f"not reached: softening the contact lowers η only to {eta:.4f}.")
+    scattered = [r for r in tried if r not in consistent and _rel_err(r[0], t) <= 0.01]
+    if not reached and scattered:
+        r = min(scattered, key=lambda r: r[1])
+        note += (f" Bullet's restitution e = {r[2].get('restitution_coef', float('nan')):.3g} gives a mean of "
+                 f"{r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (the corner bounces), so it is not taken.")
+    return note
 
 
 def _impact_etas(block: Block, theta_rad, body_state: tuple, n_impacts: int) -> list[float]:
