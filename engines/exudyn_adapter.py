@@ -777,28 +777,7 @@ class ExudynAdapter(ContactEngineAdapter):
 
         measured = [(e, measure(e)) for e in CALIBRATION_RESTITUTIONS]
         good = [(e, fr) for e, fr in measured if regular(fr)]
-        best = None
-        if good:
-            best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
-            if abs(best[1].eta_mean - target) > 0.2 * CALIBRATION_RTOL * target:
-                for (e1, f1), (e2, f2) in zip(good[:-1], good[1:]):
-                    if (f1.eta_mean - target) * (f2.eta_mean - target) >= 0:
-                        continue
-                    lo, hi, flo = e1, e2, f1
-                    for _ in range(5):
-                        em = 0.5 * (lo + hi)
-                        fm = measure(em)
-                        if not regular(fm):
-                            break
-                        if abs(fm.eta_mean - target) < abs(best[1].eta_mean - target):
-                            best = (em, fm)
-                        if abs(fm.eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
-                            break
-                        if (fm.eta_mean - target) * (flo.eta_mean - target) < 0:
-                            hi = em
-                        else:
-                            lo, flo = em, fm
-                    break
+        best = _refine(good, target, measure, regular) if good else None
         irregular = best is None
         if irregular:
             # no regular free rocking at all (e.g. a friction too low to hold the pivot): keep the
@@ -812,23 +791,7 @@ class ExudynAdapter(ContactEngineAdapter):
         e, fr = best
         rel = abs(fr.eta_mean - target) / target
         reached = rel <= CALIBRATION_RTOL and not irregular
-        lo_eta = min(f.eta_mean for _, f in good)
-        hi_eta = max(f.eta_mean for _, f in good)
-        if irregular:
-            note = (f"not reached: no contact restitution gave regular free rocking (spread < 2 %, no jump); "
-                    f"the closest η is {fr.eta_mean:.4f} ± {fr.eta_std:.4f} (target {target:.4f}). The block "
-                    "slides or bounces in free rocking with these settings (friction "
-                    f"{self.settings['friction']:g}).")
-        elif reached:
-            note = (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
-                    f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}.")
-        else:
-            note = (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
-                    f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
-                    f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
-                    "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
-                    "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
-                    "impulse inside the base, where corner contacts cannot put it.")
+        note = _calibration_note(e, fr, good, target, irregular, reached, self.settings["friction"])
         settings = {**self._contact(block, e), "planar": self.settings["planar"]}
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan))
@@ -838,6 +801,55 @@ class ExudynAdapter(ContactEngineAdapter):
                                 "etas": fr.etas, "scan": scan})
         self._calibrations[key] = res
         return res
+
+
+def _refine(good: list, target: float, measure, regular):
+    """The best of the scan's regular points ``(e, FreeRocking)``, refined by bisection between the
+    first neighbours that bracket ``target`` until within 0.2·CALIBRATION_RTOL (5 halvings at most;
+    an irregular midpoint ends it)."""
+    best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
+    if abs(best[1].eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
+        return best
+    for (e1, f1), (e2, f2) in zip(good[:-1], good[1:]):
+        if (f1.eta_mean - target) * (f2.eta_mean - target) >= 0:
+            continue
+        lo, hi, flo = e1, e2, f1
+        for _ in range(5):
+            em = 0.5 * (lo + hi)
+            fm = measure(em)
+            if not regular(fm):
+                break
+            if abs(fm.eta_mean - target) < abs(best[1].eta_mean - target):
+                best = (em, fm)
+            if abs(fm.eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
+                break
+            if (fm.eta_mean - target) * (flo.eta_mean - target) < 0:
+                hi = em
+            else:
+                lo, flo = em, fm
+        break
+    return best
+
+
+def _calibration_note(e: float, fr: FreeRocking, good: list, target: float, irregular: bool, reached: bool,
+                      friction: float) -> str:
+    """What the calibration found, in words."""
+    rel = abs(fr.eta_mean - target) / target
+    if irregular:
+        return (f"not reached: no contact restitution gave regular free rocking (spread < 2 %, no jump); "
+                f"the closest η is {fr.eta_mean:.4f} ± {fr.eta_std:.4f} (target {target:.4f}). The block "
+                f"slides or bounces in free rocking with these settings (friction {friction:g}).")
+    if reached:
+        return (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
+                f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}.")
+    lo_eta = min(f.eta_mean for _, f in good)
+    hi_eta = max(f.eta_mean for _, f in good)
+    return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
+            f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
+            f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
+            "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
+            "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
+            "impulse inside the base, where corner contacts cannot put it.")
 
 
 #: the contact parameters a model is built from
