@@ -26,19 +26,21 @@ from rockbench.reference_solver.restitution import Restitution, effective_k
 
 
 def contact_words(st: dict) -> str:
+    st = {{"contact_stiffness": "contact_stiffness_n_m", "contact_damping": "contact_damping_n_s_m"}.get(k, k): v
+          for k, v in st.items()}
     n = st.get("contact_points")
     if n and int(n) > 2:
         if "solimp_d" in st:
             return f"{n} points, solref ({st['timeconst']:.3g} s, {st['dampratio']:.3g}), solimp d {st['solimp_d']:.2f}"
         if "restitution_coefficient" in st:
             return f"{n} spheres, impact model 2, e = {st['restitution_coefficient']:.3g}"
-        return f"{n} spheres, k = {st['contact_stiffness']:.3g} N/m, c = {st['contact_damping']:.3g} N s/m"
+        return f"{n} spheres, k = {st['contact_stiffness_n_m']:.3g} N/m, c = {st['contact_damping_n_s_m']:.3g} N s/m"
     if "timeconst" in st:
         return f"corners, solref ({st['timeconst']:.3g} s, {st['dampratio']:.3g})"
     if "restitution_coefficient" in st:
         return f"corners, impact model {st.get('impact_model')}, e = {st['restitution_coefficient']:.3g}"
-    if st.get("contact_stiffness"):
-        return f"corners, k = {st['contact_stiffness']:.3g} N/m"
+    if st.get("contact_stiffness_n_m"):
+        return f"corners, k = {st['contact_stiffness_n_m']:.3g} N/m"
     return "corners, Bullet's rigid contact"
 
 

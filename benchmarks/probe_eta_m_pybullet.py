@@ -57,8 +57,8 @@ def main():
             grid.append({"contact_points": pts})
             for k in ks:
                 for z in (0.05, 0.2, 0.5, 1.0, 2.0):
-                    grid.append({"contact_points": pts, "contact_stiffness": k,
-                                 "contact_damping": 2 * z * math.sqrt(k * m), "zeta": z})
+                    grid.append({"contact_points": pts, "contact_stiffness_n_m": k,
+                                 "contact_damping_n_s_m": 2 * z * math.sqrt(k * m), "zeta": z})
         rows = []
         t0 = time.perf_counter()
         base = ad._base_settings()
@@ -84,7 +84,7 @@ def main():
                 entry = {**{k: v for k, v in rb.items() if k != "etas"}, "target": tv, "rel_error": rb["eta"] / tv - 1.0}
                 if tname != "housner" and abs(entry["rel_error"]) <= 0.015:
                     fixed = PybulletAdapter(**{k: v for k, v in rb.items()
-                                               if k in ("contact_points", "contact_stiffness", "contact_damping")})
+                                               if k in ("contact_points", "contact_stiffness_n_m", "contact_damping_n_s_m")})
                     pr_ = P.contact_price(fixed, block, Restitution("constant", value=tv), dt)
                     entry["price"] = {"uplift": pr_["uplift"], "anti_slip": {k: v for k, v in pr_["anti_slip"].items()},
                                       "counts": pr_["counts"]}
@@ -95,7 +95,7 @@ def main():
         print(name, "regular span", out["blocks"][name]["eta_span_regular"], flush=True)
         for k, v in best.items():
             print("  ", k, round(v["eta"], 4), f"{100 * v['rel_error']:+.2f} %",
-                  {kk: v.get(kk) for kk in ("contact_stiffness", "zeta")},
+                  {kk: v.get(kk) for kk in ("contact_stiffness_n_m", "zeta")},
                   v.get("price", {}).get("uplift", {}).get("ratio"), v.get("price", {}).get("counts"), flush=True)
     p = Path(__file__).parent / "results" / f"probe-eta-m-pybullet-{out['date']}.json"
     p.write_text(json.dumps(out, indent=1, default=float))
