@@ -48,14 +48,20 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--engines", default="mujoco,pybullet,exudyn")
     ap.add_argument("--blocks", default="B3M,B6M,B3L,B6L")
+    ap.add_argument("--targets", default="housner,average,exact", help="of housner, average, exact")
+    ap.add_argument("--out", default=None, help="output name (default eta-m-table-<date>, in benchmarks/results)")
     args = ap.parse_args()
+    wanted = set(args.targets.split(","))
     rows = []
     for eng in args.engines.split(","):
         for bname in args.blocks.split(","):
             pr = PRESETS[bname]
             b = pr.block()
-            for label, rest in (("η_H", Restitution("housner")), ("η_M avg k", Restitution("modified", k=pr.k_average)),
-                                ("η_M exact k", Restitution("modified", k=pr.k_exact))):
+            for tag, label, rest in (("housner", "η_H", Restitution("housner")),
+                                     ("average", "η_M avg k", Restitution("modified", k=pr.k_average)),
+                                     ("exact", "η_M exact k", Restitution("modified", k=pr.k_exact))):
+                if tag not in wanted:
+                    continue
                 ad = get_adapter(eng)
                 t0 = time.perf_counter()
                 c = ad.calibrate(b, rest.eta(b.alpha_rad))
@@ -72,7 +78,7 @@ def main():
                 print(eng, bname, label, f"{c.eta_measured:.4f} ({100 * c.rel_error:+.2f} %)", c.reached,
                       r["contact"], f"uplift {p['uplift'].get('ratio', math.nan):.4f}", flush=True)
     date = str(_dt.date.today())
-    out = Path(__file__).parent / "results" / f"eta-m-table-{date}"
+    out = Path(__file__).parent / "results" / (args.out or f"eta-m-table-{date}")
     out.with_suffix(".json").write_text(json.dumps({"date": date, "rows": rows}, indent=1, default=float))
     lines = ["| engine | block | target | η target | η measured (± spread) | error | k of the measured η | reached | contact | "
              "uplift / g·tanα | slip / jump (cells) | quarter period vs rigid | steps/s |",
