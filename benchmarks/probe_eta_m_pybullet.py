@@ -83,7 +83,8 @@ def main():
                 rb = min(cand, key=lambda r: abs(r["eta"] - tv))
                 entry = {**{k: v for k, v in rb.items() if k != "etas"}, "target": tv, "rel_error": rb["eta"] / tv - 1.0}
                 if tname != "housner" and abs(entry["rel_error"]) <= 0.015:
-                    fixed = PybulletAdapter(**{k: v for k, v in rb.items()
+                    fixed = PybulletAdapter(contact="distributed" if pts else "corners",
+                                            **{k: v for k, v in rb.items()
                                                if k in ("contact_points", "contact_stiffness_n_m", "contact_damping_n_s_m")})
                     pr_ = P.contact_price(fixed, block, Restitution("constant", value=tv), dt)
                     entry["price"] = {"uplift": pr_["uplift"], "anti_slip": {k: v for k, v in pr_["anti_slip"].items()},
