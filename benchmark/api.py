@@ -178,7 +178,7 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
     from ..engines.registry import get_adapter
     from ..reference_solver.errors import RockbenchError
     from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
-    from .cases import case_from_args, engine_settings_from_args
+    from .cli_options import case_from_args, engine_settings_from_args
 
     ns = _checked(_namespace, block, **case)
     c, _ = _checked(case_from_args, ns)
@@ -252,7 +252,7 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     -------
     xarray.Dataset or pandas.DataFrame
     """
-    from .cases import block_from_args, dt_from_args, engine_settings_from_args, restitution_from_args
+    from .cli_options import block_from_args, dt_from_args, engine_settings_from_args, restitution_from_args
     from .export import full_grid_rows, rows_to_dataframe, rows_to_dataset
     from .maps import MAP_PULSES, MapSpec, run_map
 
@@ -364,7 +364,7 @@ class Run:
         """Metric name → its definition in words (from score.json, else from this rockbench)."""
         if self.score and self.score.get("metrics"):
             return {m["name"]: m["definition"] for m in self.score["metrics"]}
-        from .scores import METRICS
+        from .metrics import METRICS
         return {k: m.definition for k, m in METRICS.items()}
 
 
@@ -376,7 +376,7 @@ def load_run(path) -> Run:
     ConfigError
         Nothing there, or no map in it.
     """
-    from .scoring import find_map_dirs
+    from .score_runs import find_map_dirs
     from .store import read_run, spec_variant
     from .maps import MapSpec
 
@@ -389,6 +389,6 @@ def load_run(path) -> Run:
                            float(spec.eta)))
     score = None
     if (p / "score.json").is_file():
-        from .scoring import load_score
+        from .score_runs import load_score
         score = load_score(p / "score.json")
     return Run(p, maps, score)

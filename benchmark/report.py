@@ -2,7 +2,7 @@
 
 The first screen answers "which engine is how faithful, and why": the summary table (one row per
 engine variant, in words such as "MuJoCo 4.0, calibrated to η_H"), each metric explained in words
-(the definitions of :data:`~rockbench.benchmark.scores.METRICS`), then one stability figure per
+(the definitions of :data:`~rockbench.benchmark.metrics.METRICS`), then one stability figure per
 engine variant (small multiples, one panel per block and pulse). Then θ(t) of the reference and
 every engine for chosen cases (the paper's Fig. 17 case by default), the calibration (η per engine
 against Housner, the modified η and the experiment), speed against accuracy and the experiments.
@@ -30,7 +30,7 @@ from pathlib import Path
 from ..reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from .atomic import write_bytes_atomic
 from .labels import case_title, entry_label, for_html, restitution_symbol
-from .scoring import MapEntry, at_own_eta, load_entries, score_entries, write_json_atomic
+from .score_runs import MapEntry, at_own_eta, load_entries, score_entries, write_json_atomic
 from .tables import _vs, fmt, summary
 
 
@@ -140,7 +140,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    from .scoring import load_own_eta, load_runs, mark_runs, pair_within_runs
+    from .score_runs import load_own_eta, load_runs, mark_runs, pair_within_runs
     entries, run_of = load_runs(run_dirs)
     refs = load_entries(against) if against else [e for e in entries if e.is_reference]
     cands = entries if against else [e for e in entries if not e.is_reference]
@@ -554,7 +554,7 @@ def _num(x, spec=".4f"):
 
 def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
     """Head, body, the variant key of each row (most faithful first) and the best value per metric."""
-    from .scores import METRICS
+    from .metrics import METRICS
 
     s = summary(doc)
     names = sorted(s, key=lambda v: (-(s[v]["agreement"] if math.isfinite(s[v]["agreement"]) else -1.0),
@@ -571,7 +571,7 @@ def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], d
 
 def _verdict(doc, labels) -> list[str]:
     """One sentence per headline metric: which variant does best."""
-    from .scores import METRICS
+    from .metrics import METRICS
 
     s = summary(doc)
     out = []
@@ -619,7 +619,7 @@ def _exp_table(doc, labels):
 
 
 def _pairs_table(doc, labels):
-    from .scores import METRICS
+    from .metrics import METRICS
     head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
         [METRIC_TITLES.get(m, m) for m in METRICS]
     body = [[labels.get(p["variant"], p["variant"]), p["block"], p["pulse"], restitution_symbol(p["restitution"], p["block"]),
@@ -695,7 +695,7 @@ def _md_table(head, body):
 
 def _metric_words(doc) -> list[tuple[str, str, str]]:
     """``(title, how read, definition)`` of each metric (score.json's definitions, else this version's)."""
-    from .scores import METRICS
+    from .metrics import METRICS
     ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
     return [(METRIC_TITLES.get(m["name"], m["name"]) + f" ({m['name']})",
              f"{m['direction']} is better, perfect {m['perfect']:g}" + (f", unit {m['unit']}" if m["unit"] != "-" else ""),
@@ -717,7 +717,7 @@ def _markdown(ctx) -> str:
     L += ["", "## Summary: which engine is how faithful", ""]
     if doc:
         head, body, _, best = _summary_rows(doc, labels)
-        from .scores import METRICS
+        from .metrics import METRICS
         mnames = list(METRICS)
         for m, (_, flags) in best.items():
             col = 2 + mnames.index(m)
@@ -847,7 +847,7 @@ def _html(ctx, images: dict) -> str:
     P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
     P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
     if doc:
-        from .scores import METRICS
+        from .metrics import METRICS
         head, body, _, best = _summary_rows(doc, labels)
         mnames = list(METRICS)
         best_cols = {2 + mnames.index(m): flags for m, (_, flags) in best.items()}

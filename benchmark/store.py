@@ -47,7 +47,7 @@ COLUMNS = ["engine", "variant", "block", "pulse", "restitution", "eta", "w_ratio
 
 def spec_variant(spec) -> str:
     """The ``variant`` column of a map: its engine with the non-default settings and time step."""
-    from .scoring import variant_name
+    from .score_runs import variant_name
     return variant_name(spec.engine, spec.engine_settings, spec.dt_s)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import html as _html
 import math
 
-from .scores import METRICS
+from .metrics import METRICS
 
 #: short column titles
 SHORT = {"agreement": "agree", "overturn_agreement": "agree O", "iou_overturn": "IoU O",

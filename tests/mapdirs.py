@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.presets import PRESETS
-from rockbench.benchmark.scoring import variant_name
+from rockbench.benchmark.score_runs import variant_name
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
 

@@ -5,7 +5,7 @@ import re
 import numpy as np
 import pytest
 
-from rockbench.benchmark.scores import LabelMap
+from rockbench.benchmark.metrics import LabelMap
 
 from mapdirs import band
 

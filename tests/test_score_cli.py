@@ -182,7 +182,7 @@ def test_own_eta_reference_is_marked(tmp_path, capsys):
 
 
 def test_own_eta_jobs():
-    from rockbench.benchmark.run import load_suite, own_eta_jobs, suite_path
+    from rockbench.benchmark.suite_runner import load_suite, own_eta_jobs, suite_path
     s = load_suite(suite_path("default", False))
     assert s.own_eta
     jobs = own_eta_jobs(s, [{"variant": "a", "block": "B3M", "eta_measured": 0.91234},

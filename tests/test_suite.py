@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from rockbench.benchmark.cli import main
-from rockbench.benchmark.run import load_suite, plan, restitution_for, run_suite, suite_path
+from rockbench.benchmark.suite_runner import load_suite, plan, restitution_for, run_suite, suite_path
 from rockbench.reference_solver.errors import ConfigError
 
 
@@ -65,7 +65,7 @@ def test_run_cli_usage(tmp_path, capsys):
 def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(tmp_path, monkeypatch):
     import maps_helpers as mh
     from rockbench.benchmark import executors
-    from rockbench.benchmark.run import run_suite
+    from rockbench.benchmark.suite_runner import run_suite
 
     mh.register_all()
     (tmp_path / "s.toml").write_text(
@@ -191,7 +191,7 @@ def test_lanes_and_helpers_give_what_one_worker_gives(tmp_path):
     cell, and the same calibration.json as one worker doing everything in turn; each η measured once,
     and not again on a rerun."""
     import maps_helpers as mh
-    from rockbench.benchmark.run import run_suite
+    from rockbench.benchmark.suite_runner import run_suite
 
     mh.register_all()
     log = tmp_path / "measured.txt"
@@ -225,7 +225,7 @@ def test_a_lane_that_fails_stops_the_suite(tmp_path, monkeypatch):
 
     import maps_helpers as mh
     from rockbench.benchmark import executors
-    from rockbench.benchmark.run import run_suite
+    from rockbench.benchmark.suite_runner import run_suite
     from rockbench.reference_solver.errors import EngineError
 
     mh.register_all()

@@ -7,7 +7,7 @@ import json
 from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.restitution import Restitution
-from ..cases import add_block_options, block_from_args, dt_from_args, engine_settings_from_args
+from ..cli_options import add_block_options, block_from_args, dt_from_args, engine_settings_from_args
 
 
 def register(sub) -> None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from ..scores import METRICS
-from ..scoring import DEFAULT_TOLERANCE_CELLS
+from ..metrics import METRICS
+from ..score_runs import DEFAULT_TOLERANCE_CELLS
 
 
 def register(sub) -> None:
@@ -28,7 +28,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..scoring import _clean, compare_scores, load_score, parse_tolerances
+    from ..score_runs import _clean, compare_scores, load_score, parse_tolerances
     from ..tables import compare_table
 
     tol = parse_tolerances(args.tolerance)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
 from ..atomic import check_output_dir
-from ..cases import (add_block_options, add_model_options, block_from_args, dt_from_args,
+from ..cli_options import (add_block_options, add_model_options, block_from_args, dt_from_args,
                      engine_settings_from_args, restitution_from_args)
 from ..maps import DEFAULT_CELL_TIMEOUT_S, MAP_PULSES, MapSpec, parse_range, run_map
 

@@ -32,7 +32,7 @@ def run(args) -> int:
 
     from ...reference_solver.errors import ConfigError
     from ..atomic import check_output_dir
-    from ..run import check_suite, engine_names, load_suite, parse_engines, plan, run_suite, suite_path
+    from ..suite_runner import check_suite, engine_names, load_suite, parse_engines, plan, run_suite, suite_path
 
     if args.show_suite is not None:
         if args.suite is not None or args.quick:

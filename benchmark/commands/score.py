@@ -6,14 +6,14 @@ import json
 import sys
 from pathlib import Path
 
-from ..scores import METRICS, parse_thresholds
+from ..metrics import METRICS, parse_thresholds
 
 
 def register(sub) -> None:
     import argparse
     import textwrap
 
-    from ..scores import METRICS_VERSION
+    from ..metrics import METRICS_VERSION
 
     defs = "\n".join(textwrap.fill(f"{m.name} ({m.direction} is better, perfect {m.perfect:g}): {m.definition}",
                                    width=96, initial_indent="  ", subsequent_indent="    ")
@@ -43,7 +43,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..atomic import check_output_file
-    from ..scoring import _clean, gate, score_dirs, write_json_atomic
+    from ..score_runs import _clean, gate, score_dirs, write_json_atomic
     from ..tables import pairs_table, summary_table
 
     thresholds = {**parse_thresholds(args.fail_under, "higher", "--fail-under"),

@@ -28,7 +28,7 @@ from ...reference_solver.errors import ConfigError, RockbenchError
 from ...reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
 from ...reference_solver.solver import MODES
 from ..atomic import check_output_file, write_atomic
-from ..cases import add_case_options, case_from_args, engine_settings_from_args
+from ..cli_options import add_case_options, case_from_args, engine_settings_from_args
 
 
 def register(sub) -> None:

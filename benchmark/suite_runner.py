@@ -56,7 +56,7 @@ from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.restitution import Restitution
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
-from .scoring import CALIBRATION_FILE, variant_name
+from .score_runs import CALIBRATION_FILE, variant_name
 
 SUITE_KEYS = {
     "suite": {"name", "description"},
@@ -510,7 +510,7 @@ class _Preparation:
 
     def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
                  own_eta: bool | None = None):
-        from .scoring import _read_json
+        from .score_runs import _read_json
 
         self.t0 = time.perf_counter()
         self.suite, self.out = suite, out
@@ -566,7 +566,7 @@ class _Preparation:
     def finish(self) -> tuple[list[dict], list[str], float]:
         from concurrent.futures.process import BrokenProcessPool
 
-        from .scoring import write_json_atomic
+        from .score_runs import write_json_atomic
 
         suite = self.suite
         try:
@@ -774,7 +774,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     """
     from .executors import cpu_count
     from .maps import MapSpec, parse_range
-    from .scoring import write_json_atomic
+    from .score_runs import write_json_atomic
 
     from .atomic import check_output_dir
     from .executors import cap_jobs
@@ -872,7 +872,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
         from ..reference_solver.errors import IncomparableError
-        from .scoring import score_dirs
+        from .score_runs import score_dirs
         try:
             result["score"] = score_dirs([out / "maps"], experiments=experiments)
             write_json_atomic(out / "score.json", result["score"])

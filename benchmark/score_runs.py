@@ -1,7 +1,7 @@
 """From run directories to scores: find the maps, pair engines with references, score, write score.json.
 
 This is the glue between the results store (run directories of ``rockbench map``) and the pure
-metrics of :mod:`rockbench.benchmark.scores`; the ``score``, ``compare``, ``report`` and ``run``
+metrics of :mod:`rockbench.benchmark.metrics`; the ``score``, ``compare``, ``report`` and ``run``
 commands call it.
 
 Pairing rule. Every map whose engine is not ``reference`` is scored against every reference map of
@@ -39,7 +39,7 @@ import numpy as np
 
 from ..reference_solver.errors import ConfigError, IncomparableError
 from ..reference_solver.pulses import is_number
-from .scores import (FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, cell_counts, check_gate, domain,
+from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, cell_counts, check_gate, domain,
                      from_cells, score)
 from .atomic import write_json_atomic as _write_json
 
