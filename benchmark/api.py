@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..reference_solver.errors import ConfigError
+from .results import MapEntry as RunMap   # one map of a Run: the same record the scores read
 
 __all__ = ["simulate", "stability_map", "load_run", "Simulation", "Run", "RunMap"]
 
@@ -288,29 +289,6 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
 
 
 @dataclass
-class RunMap:
-    """One map of a run (:attr:`Run.maps`): its folder and what it holds."""
-
-    path: Path
-    engine: str
-    variant: str
-    block: str
-    pulse: str
-    restitution: str
-    eta: float
-
-    def to_dataframe(self):
-        """Every cell of the full grid (adaptive fills marked ``filled``), outcome categorical."""
-        from .export import full_grid_rows, rows_to_dataframe
-        return rows_to_dataframe(full_grid_rows(self.path))
-
-    def to_dataset(self):
-        """The full grid as an ``xarray.Dataset`` on dims ``(a_ratio, w_ratio)``."""
-        from .export import full_grid_rows, rows_to_dataset
-        return rows_to_dataset(full_grid_rows(self.path))
-
-
-@dataclass
 class Run:
     """A finished ``rockbench run`` (or ``map``) folder, as :func:`load_run` reads it.
 
@@ -319,7 +297,8 @@ class Run:
     path : Path
         The folder.
     maps : list of RunMap
-        Every map found in or below it.
+        Every map found in or below it (``RunMap`` is :class:`~rockbench.benchmark.results.MapEntry`: its folder,
+        engine, variant, block, pulse, restitution, η, outcome grid; ``to_dataframe()``, ``to_dataset()``).
     score : dict or None
         score.json (metric definitions, every scored pair), when the folder has one.
     """
@@ -376,17 +355,10 @@ def load_run(path) -> Run:
     ConfigError
         Nothing there, or no map in it.
     """
-    from .score_runs import find_map_dirs
-    from .store import read_run, spec_variant
-    from .maps import MapSpec
+    from .results import load_entries
 
     p = Path(path)
-    maps = []
-    for d in find_map_dirs([p]):
-        meta, _ = read_run(d)
-        spec = MapSpec.from_dict(meta["spec"])
-        maps.append(RunMap(d, spec.engine, spec_variant(spec), spec.block.name, spec.pulse, spec.restitution.label,
-                           float(spec.eta)))
+    maps = load_entries([p])
     score = None
     if (p / "score.json").is_file():
         from .score_runs import load_score

@@ -50,7 +50,7 @@ def full_grid_rows(map_dir) -> list[dict]:
         rigid model: slip, jump, lift-required, slip-required).
     """
     from .maps import load_map
-    from .store import COLUMNS, read_run, spec_variant
+    from .results import COLUMNS, read_run, spec_variant
 
     meta, rows = read_run(map_dir)
     res = load_map(map_dir)
@@ -81,7 +81,7 @@ def full_grid_rows(map_dir) -> list[dict]:
 
 def write_full_grid(map_dir, path=None) -> Path:
     """Write :func:`full_grid_rows` of ``map_dir`` as CSV (default ``map_dir/cells-full.csv``), atomically."""
-    from .store import COLUMNS
+    from .results import COLUMNS
 
     rows = full_grid_rows(map_dir)
     path = Path(path) if path is not None else Path(map_dir) / FULL_GRID_FILE

@@ -112,7 +112,7 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
 
 
 def entry_label(entry, *, with_restitution: bool = True) -> str:
-    """:func:`variant_label` of a :class:`~rockbench.benchmark.score_runs.MapEntry` (from its run.json)."""
+    """:func:`variant_label` of a :class:`~rockbench.benchmark.results.MapEntry` (from its run.json)."""
     run = entry.run or {}
     spec = run.get("spec") or {}
     version = (run.get("engine") or {}).get("version")

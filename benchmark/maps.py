@@ -599,7 +599,7 @@ def load_map(out_dir) -> MapResult:
         When the directory holds no map (no ``run.json``) or a map of another schema.
     """
     from . import adaptive as adaptive_mod
-    from .store import read_run
+    from .results import read_run
 
     meta, rows = read_run(out_dir)
     spec, adaptive, stride = _spec_of_run(meta, Path(out_dir) / "run.json")

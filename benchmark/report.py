@@ -17,20 +17,18 @@ a temporary file and a rename.
 from __future__ import annotations
 
 import base64
-import csv
 import html
 import io
-import json
 import math
 import sys
 from dataclasses import dataclass
-from datetime import datetime, timezone
 from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from .atomic import write_bytes_atomic
 from .labels import case_title, entry_label, for_html, restitution_symbol
-from .score_runs import MapEntry, at_own_eta, load_entries, score_entries, write_json_atomic
+from .results import DISPLAY_UTC, MapEntry, load_entries, map_cell_rows, utc_stamp, write_json
+from .score_runs import at_own_eta, score_entries
 from .tables import _vs, fmt, summary
 
 
@@ -189,7 +187,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     ctx = {"entries": entries, "refs": refs, "doc": doc, "variant_graphs": variant_graphs, "case_graphs": case_graphs,
            "traj": traj_imgs, "calib": calib, "speed": speed, "speed_img": speed_img, "notes": notes,
            "labels": labels, "run_dirs": [str(d) for d in run_dirs],
-           "created": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
+           "created": utc_stamp(DISPLAY_UTC)}
     md = _markdown(ctx)
     page = _html(ctx, images)
 
@@ -200,7 +198,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         written.append(write_bytes_atomic(out / "img" / name, data))
     paths = {"images": [str(p) for p in written]}
     if doc is not None:
-        paths["score"] = str(write_json_atomic(out / "score.json", doc))
+        paths["score"] = str(write_json(out / "score.json", doc))
     paths["markdown"] = str(write_bytes_atomic(out / "report.md", md.encode()))
     paths["html"] = str(write_bytes_atomic(out / "index.html", page.encode()))
     log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
@@ -275,7 +273,6 @@ def _ref_line(r: MapEntry) -> tuple[str, dict]:
 def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experiments, pair, title: str,
            block: str, pulse: str) -> dict:
     """Keyword arguments of :func:`~rockbench.benchmark.plots.stability.plot_panel` for one map."""
-    from .experiments import st_limit_a_ratio
     from .presets import PRESETS
 
     from .plots.stability import REFERENCE_STYLES
@@ -524,18 +521,17 @@ def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
     acc = summary(doc) if doc else {}
     per: dict[str, list[float]] = {}
     for e in entries:
-        path = e.path / "cells.csv"
         try:
-            with open(path, newline="") as f:
-                for row in csv.DictReader(f):
-                    try:
-                        w = float(row.get("wall_s") or "nan")
-                    except ValueError:
-                        continue
-                    if math.isfinite(w) and row.get("status", "ok") == "ok":
-                        per.setdefault(e.variant, []).append(w)
-        except OSError:
+            rows = map_cell_rows(e.path)
+        except (OSError, ConfigError):
             continue
+        for row in rows:
+            try:
+                w = float(row.get("wall_s") or "nan")
+            except ValueError:
+                continue
+            if math.isfinite(w) and row.get("status", "ok") == "ok":
+                per.setdefault(e.variant, []).append(w)
     rows = []
     for v in sorted({e.variant for e in entries}):
         ws = per.get(v, [])

@@ -56,7 +56,7 @@ from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.restitution import Restitution
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
-from .score_runs import CALIBRATION_FILE, variant_name
+from .results import CALIBRATION_FILE, variant_name
 
 SUITE_KEYS = {
     "suite": {"name", "description"},
@@ -510,14 +510,14 @@ class _Preparation:
 
     def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
                  own_eta: bool | None = None):
-        from .score_runs import _read_json
+        from .results import read_json
 
         self.t0 = time.perf_counter()
         self.suite, self.out = suite, out
         self.own_eta = suite.own_eta if own_eta is None else own_eta
         self.path = out / CALIBRATION_FILE
         self.old = {(r["variant"], r["block"]): r
-                    for r in (_read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
+                    for r in (read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
         self.tasks = []
         for engine, variant, block in _variant_blocks(suite, engines):
             vname = variant_name(engine, variant, suite.engine_dt_s)
@@ -566,7 +566,7 @@ class _Preparation:
     def finish(self) -> tuple[list[dict], list[str], float]:
         from concurrent.futures.process import BrokenProcessPool
 
-        from .score_runs import write_json_atomic
+        from .results import write_json
 
         suite = self.suite
         try:
@@ -596,7 +596,7 @@ class _Preparation:
                 else:
                     notes.append(f"η of {vname} on {block} not measured: {r['error']}")
             self.out.mkdir(parents=True, exist_ok=True)
-            write_json_atomic(self.path, {"kind": "rockbench-calibration", "measurements": rows})
+            write_json(self.path, {"kind": "rockbench-calibration", "measurements": rows})
         return rows, notes, time.perf_counter() - self.t0
 
 
@@ -774,7 +774,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     """
     from .executors import cpu_count
     from .maps import MapSpec, parse_range
-    from .score_runs import write_json_atomic
+    from .results import write_json
 
     from .atomic import check_output_dir
     from .executors import cap_jobs
@@ -875,7 +875,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         from .score_runs import score_dirs
         try:
             result["score"] = score_dirs([out / "maps"], experiments=experiments)
-            write_json_atomic(out / "score.json", result["score"])
+            write_json(out / "score.json", result["score"])
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
     result["report_wall_s"] = time.perf_counter() - t2
@@ -883,7 +883,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     if result["score"] is not None:
         from .tables import summary_table
         result["summary"] = summary_table(result["score"])
-    write_json_atomic(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,
+    write_json(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,
                                            **{k: v for k, v in result.items() if k not in ("suite", "score", "summary")},
                                            "suite_name": suite.name})
     return result

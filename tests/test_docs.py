@@ -152,12 +152,13 @@ def _fake_run_folder(tmp: Path) -> None:
     sys.path.insert(0, str(Path(__file__).parent))
     from mapdirs import band, write_map
 
-    from rockbench.benchmark.score_runs import score_dirs, write_json_atomic
+    from rockbench.benchmark.results import write_json
+    from rockbench.benchmark.score_runs import score_dirs
     root = tmp / "rockbench-results" / "quick"
     write_map(root / "maps" / "reference" / "B3M-sine-housner", band(9, 11, 4), block="B3M")
     write_map(root / "maps" / "mujoco-settings=calibrated" / "B3M-sine-housner", band(9, 11, 5), engine="mujoco",
               block="B3M", settings={"settings": "calibrated"})
-    write_json_atomic(root / "score.json", score_dirs([root / "maps"]))
+    write_json(root / "score.json", score_dirs([root / "maps"]))
 
 
 def test_the_notebook_example_is_ten_lines():

@@ -116,7 +116,7 @@ def test_index_html_renders_in_headless_chromium(report, tmp_path):
 
 def test_report_pairs_each_own_eta_reference_with_its_engine():
     from rockbench.benchmark.report import _split_own_eta_refs
-    from rockbench.benchmark.score_runs import MapEntry
+    from rockbench.benchmark.results import MapEntry
     m = LabelMap(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
 
     def entry(engine, variant, restitution, eta):

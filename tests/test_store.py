@@ -16,7 +16,7 @@ import maps_helpers as mh
 from rockbench.benchmark.cli import main
 from rockbench.benchmark.maps import MapSpec, load_map, make_axis, run_map
 from rockbench.benchmark.presets import get_preset
-from rockbench.benchmark.store import COLUMNS, SCHEMA_VERSION
+from rockbench.benchmark.results import COLUMNS, SCHEMA_VERSION
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.restitution import Restitution
 
