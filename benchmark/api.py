@@ -14,7 +14,6 @@ import argparse
 import json
 import re
 import tempfile
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -175,26 +174,16 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
     >>> sim.outcome
     'overturn'
     """
-    from ..engines.base import CellResult
     from ..engines.registry import get_adapter
-    from ..reference_solver.errors import RockbenchError
     from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
     from .cli_options import case_from_args, engine_settings_from_args
+    from .simulation import run_case
 
     ns = _checked(_namespace, block, **case)
     c, _ = _checked(case_from_args, ns)
     settings = _checked(engine_settings_from_args, ns)
     adapter = _checked(get_adapter, ns.engine, **settings)
-    t0 = time.perf_counter()
-    tr = None
-    try:
-        tr = adapter.simulate(c)
-    except RockbenchError:
-        raise
-    except Exception as e:  # noqa: BLE001 - the engine failed: a failed result, as in a map
-        res = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
-    else:
-        res = adapter.judge(c, tr, time.perf_counter() - t0)
+    tr, res = run_case(adapter, c)
     from .histories import impact_times
     empty = np.zeros(0)
     b, p = c.block, c.pulse

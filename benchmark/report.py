@@ -247,12 +247,12 @@ def _like_pairs(doc) -> dict:
 
 def _ref_order(r: MapEntry):
     from .presets import PRESETS
-    t = r.restitution.lower()
+    law = _restitution_from_label(r.restitution)
     pre = PRESETS.get(r.block.upper())
-    if t == "housner":
+    if law is not None and law.kind == "housner":
         return (0, 0.0)
-    if t.startswith("modified(k="):
-        k = float(t[len("modified(k="):-1])
+    if law is not None and law.kind == "modified":
+        k = law.k
         if pre is not None and abs(k - pre.k_average) < 5e-5:
             return (1, k)
         if pre is not None and abs(k - pre.k_exact) < 5e-5:
@@ -406,7 +406,7 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict
         settings = dict((e.run.get("spec") or {}).get("engine_settings") or {})
         variants.setdefault((e.variant, e.restitution), (e.engine, settings, e))
     for (variant, rest_label), (engine, settings, e) in sorted(variants.items()):
-        rest = _restitution_from_label(rest_label, case.block)
+        rest = _restitution_from_label(rest_label)
         if rest is None:
             notes.append(f"θ(t): restitution {rest_label!r} of {variant} not understood; skipped")
             continue
@@ -441,16 +441,12 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict
     return save(drawn["figure"], f"theta_{_slug(case.block)}_{_slug(case.pulse)}_{case.w_ratio:g}_{case.a_ratio:g}.png"), notes
 
 
-def _restitution_from_label(label: str, block: str):
+def _restitution_from_label(label: str):
+    """The law a run folder's restitution label names (:meth:`Restitution.parse`), None if not understood."""
     from ..reference_solver.restitution import Restitution
-    t = label.strip().lower()
-    if t == "housner":
-        return Restitution()
-    if t.startswith("modified(k=") and t.endswith(")"):
-        return Restitution("modified", k=float(t[len("modified(k="):-1]))
     try:
-        return Restitution("constant", value=float(t))
-    except (ValueError, RockbenchError):
+        return Restitution.parse(label)
+    except ConfigError:
         return None
 
 

@@ -53,6 +53,7 @@ from importlib import resources
 from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
+from ..reference_solver.pulses import is_number
 from ..reference_solver.restitution import Restitution
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
@@ -323,22 +324,15 @@ def _dt(v, name, table):
 
 
 def restitution_for(token: str, block: str, where: str = "suite") -> Restitution:
-    """``housner``, ``modified-average``, ``modified-exact``, ``modified:K`` or a number → a Restitution."""
-    t = str(token).strip().lower()
+    """A suite's restitution token (``housner``, ``modified-average``, ``modified-exact``,
+    ``modified:K`` or a number) for a preset block: :meth:`Restitution.parse` with the preset's k."""
     pre = PRESETS[block]
-    if t == "housner":
-        return Restitution()
-    if t == "modified-average":
-        return Restitution("modified", k=pre.k_average)
-    if t == "modified-exact":
-        return Restitution("modified", k=pre.k_exact)
     try:
-        if t.startswith("modified:"):
-            return Restitution("modified", k=float(t.split(":", 1)[1]))
-        return Restitution("constant", value=float(t))
-    except ConfigError as e:    # a number out of range
-        raise ConfigError(f"{where}: restitution {token!r}: {e}") from None
-    except ValueError:
+        return Restitution.parse(token, k_average=pre.k_average, k_exact=pre.k_exact)
+    except ConfigError as e:
+        t = str(token).strip().lower()
+        if t.startswith("modified") or is_number(t):    # a known spelling with a value out of range
+            raise ConfigError(f"{where}: restitution {token!r}: {e}") from None
         raise ConfigError(f"{where}: restitution {token!r} is not one of housner, modified-average, modified-exact, "
                           "modified:K or a number in (0, 1].") from None
 
