@@ -194,9 +194,9 @@ class RunStore:
             self._spec_cache = (spec, spec.block.name, spec.restitution.label, spec.eta, spec_variant(spec))
         _, bname, rlabel, eta, variant = self._spec_cache
         return {"engine": spec.engine, "variant": variant, "block": bname, "pulse": spec.pulse,
-                "restitution": rlabel, "eta": eta, "w_ratio": float(spec._w_ratios[j]),
-                "a_ratio": float(spec._a_ratios[i]), "omega_rad_s": float(spec._omegas[j]),
-                "amplitude_mps2": float(spec._amplitudes[i]),
+                "restitution": rlabel, "eta": eta, "w_ratio": float(spec.w_ratio_axis[j]),
+                "a_ratio": float(spec.a_ratio_axis[i]), "omega_rad_s": float(spec.omega_axis[j]),
+                "amplitude_mps2": float(spec.amplitude_axis[i]),
                 "outcome": r.outcome or "", "n_impacts": int(r.n_impacts), "max_abs_theta_rad": r.max_abs_theta_rad,
                 "valid": bool(r.valid), "flags": ";".join(r.flags), "status": r.status,
                 "message": " ".join(str(r.message).split()), "wall_s": float(r.wall_s),
@@ -258,9 +258,9 @@ class RunStore:
             head = io.StringIO()
             csv.writer(head, lineterminator="").writerow([spec.engine, spec_variant(spec), spec.block.name, spec.pulse,
                                                           spec.restitution.label, repr(float(spec.eta))])
-            self._line_cache = (spec, head.getvalue() + ",", [repr(float(x)) for x in spec._w_ratios],
-                                [repr(float(x)) for x in spec._a_ratios], [repr(float(x)) for x in spec._omegas],
-                                [repr(float(x)) for x in spec._amplitudes])
+            self._line_cache = (spec, head.getvalue() + ",", [repr(float(x)) for x in spec.w_ratio_axis],
+                                [repr(float(x)) for x in spec.a_ratio_axis], [repr(float(x)) for x in spec.omega_axis],
+                                [repr(float(x)) for x in spec.amplitude_axis])
         return self._line_cache[1:]
 
     def append(self, rows: list[dict], _prefix: str = "") -> None:
