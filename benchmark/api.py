@@ -135,8 +135,8 @@ class Simulation:
 
     def to_dataframe(self):
         """The history as a ``pandas.DataFrame`` (columns ``t_s``, ``theta_rad``, ``theta_dot_rad_s``)."""
-        from .export import _need
-        pd = _need("pandas")
+        from .export import need
+        pd = need("pandas")
         return pd.DataFrame({"t_s": self.t_s, "theta_rad": self.theta_rad, "theta_dot_rad_s": self.theta_dot_rad_s})
 
 
@@ -249,8 +249,8 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     if output not in ("dataset", "dataframe"):
         raise ConfigError(f"output must be 'dataset' or 'dataframe', got {output!r}.")
     if output == "dataset":
-        from .export import _need
-        _need("xarray")
+        from .export import need
+        need("xarray")
     bad = sorted(set(case) & {"w_ratio", "a_ratio", "omega", "period", "amplitude", "amplitude_g"})
     if bad:
         raise ConfigError(f"a map takes its axes as w_ratio=(LO, HI, N) and a_ratio=(LO, HI, N), not {bad[0]}=.")
@@ -299,8 +299,8 @@ class Run:
     def cells(self):
         """All maps' cells on their full grids in one tidy ``pandas.DataFrame`` (``variant``,
         ``block``, ``pulse`` and ``restitution`` keep them apart)."""
-        from .export import _need, full_grid_rows, rows_to_dataframe
-        pd = _need("pandas")
+        from .export import need, full_grid_rows, rows_to_dataframe
+        pd = need("pandas")
         frames = [rows_to_dataframe(full_grid_rows(m.path)) for m in self.maps]
         df = pd.concat(frames, ignore_index=True)
         for c in ("engine", "variant", "block", "pulse", "restitution"):
@@ -309,8 +309,8 @@ class Run:
 
     def scores(self):
         """Every scored pair of score.json, one row each, one column per metric (``pandas.DataFrame``)."""
-        from .export import _need
-        pd = _need("pandas")
+        from .export import need
+        pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
         rows = [{"variant": p["variant"], "block": p["block"], "pulse": p["pulse"], "restitution": p["restitution"],
@@ -321,9 +321,9 @@ class Run:
     def summary(self):
         """Per engine variant, the mean of each metric over its like-for-like pairs (counts summed),
         as the report's summary table shows it (``pandas.DataFrame`` indexed by variant)."""
-        from .export import _need
+        from .export import need
         from .tables import summary
-        pd = _need("pandas")
+        pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
         return pd.DataFrame.from_dict(summary(self.score), orient="index")

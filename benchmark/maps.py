@@ -648,7 +648,7 @@ class _Sweep:
             for k, r in pairs:
                 i, j = todo[k]
                 triples.append((i, j, r))
-                o = _put_result(result, i, j, r)
+                o = record_result(result, i, j, r)
                 # regime_key of one cell, without numpy's per-scalar overhead
                 key[i, j] = 2 + 10 * min(max(int(r.n_impacts), 0), 3) if o == 2 else o
             self.store.append_results(self.spec, triples)
@@ -716,7 +716,7 @@ def _read_only(v: np.ndarray) -> np.ndarray:
 _CODES = {o.value: c for o, c in OUTCOME_CODES.items()}
 
 
-def _put_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
+def record_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
     """Record a fresh cell result in the grids; returns its outcome code."""
     ok = r.status == "ok" and r.outcome
     code = _CODES[r.outcome] if ok else FAILED

@@ -29,7 +29,7 @@ from .atomic import write_bytes_atomic
 from .labels import case_title, entry_label, for_html, restitution_symbol
 from .results import DISPLAY_UTC, MapEntry, load_entries, map_cell_rows, utc_stamp, write_json
 from .score_runs import at_own_eta, score_entries
-from .tables import _vs, fmt, summary
+from .tables import fmt, reference_label, summary
 
 
 @dataclass(frozen=True)
@@ -615,7 +615,7 @@ def _pairs_table(doc, labels):
     head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
         [METRIC_TITLES.get(m, m) for m in METRICS]
     body = [[labels.get(p["variant"], p["variant"]), p["block"], p["pulse"], restitution_symbol(p["restitution"], p["block"]),
-             _vs(p), "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
+             reference_label(p), "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
             for p in (doc or {}).get("pairs", [])]
     return head, body
 
