@@ -138,19 +138,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    from .score_runs import load_own_eta, load_runs, mark_runs, pair_within_runs
-    entries, run_of = load_runs(run_dirs)
-    refs = load_entries(against) if against else [e for e in entries if e.is_reference]
-    cands = entries if against else [e for e in entries if not e.is_reference]
-    pair_with, notes = (None, []) if against else pair_within_runs(cands, refs, run_of)
-    doc = None
-    own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
-    try:
-        doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with)
-        mark_runs(doc, run_of, against=bool(against), notes=notes)
-    except IncomparableError as e:
-        notes.append(f"No scores: {e}")
-
+    sc = _Scored.of(run_dirs, against, experiments)
+    notes = sc.notes
     images: dict[str, bytes] = {}
 
     def save(fig, name):
@@ -159,50 +148,87 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         images[name] = buf.getvalue()
         return name
 
+    cands, refs, own_eta = sc.cands, sc.refs, sc.own_eta
     labels = _variant_labels(cands)
-    pair_of = _like_pairs(doc)
+    pair_of = _like_pairs(sc.doc)
     variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
+    traj_imgs = _trajectory_figures(cases, cands, labels, save, log, notes) if trajectories else []
+    speed = _speed_rows(sc.entries, sc.doc)
+    ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
+           "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
+           "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
+           "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC)}
+    paths = _write_report(out, images, sc.doc, _markdown(ctx), _html(ctx, images))
+    log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
+    return {**paths, "doc": sc.doc, "notes": notes}
 
-    traj_imgs = []
-    if trajectories:
-        for case in cases:
-            try:
-                name, case_notes = _trajectory_figure(case, cands, labels, save, log)
-                notes += case_notes
-                if name:
-                    traj_imgs.append((case, name))
-            except RockbenchError as e:
-                notes.append(f"θ(t) for {case.title or case.block}: not drawn ({e})")
 
-    calib = _calibration_rows(cands, own_eta)
-    speed = _speed_rows(entries, doc)
-    speed_img = None
-    if any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
-        from .plots.speed import plot_speed_accuracy
-        drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
-                                     if r["variant"] != "reference"])
-        speed_img = save(drawn["ax"].figure, "speed_accuracy.png")
+@dataclass
+class _Scored:
+    """The maps of a report and their scores: every map (``entries``), the engine maps (``cands``) and
+    the references they are judged against, the score document (None when nothing could be scored),
+    the engines' own η, and notes for the page."""
 
-    ctx = {"entries": entries, "refs": refs, "doc": doc, "variant_graphs": variant_graphs, "case_graphs": case_graphs,
-           "traj": traj_imgs, "calib": calib, "speed": speed, "speed_img": speed_img, "notes": notes,
-           "labels": labels, "run_dirs": [str(d) for d in run_dirs],
-           "created": utc_stamp(DISPLAY_UTC)}
-    md = _markdown(ctx)
-    page = _html(ctx, images)
+    entries: list
+    cands: list
+    refs: list
+    doc: dict | None
+    own_eta: dict
+    notes: list
 
+    @classmethod
+    def of(cls, run_dirs, against, experiments) -> "_Scored":
+        from .score_runs import load_own_eta, load_runs, mark_runs, pair_within_runs
+        entries, run_of = load_runs(run_dirs)
+        refs = load_entries(against) if against else [e for e in entries if e.is_reference]
+        cands = entries if against else [e for e in entries if not e.is_reference]
+        pair_with, notes = (None, []) if against else pair_within_runs(cands, refs, run_of)
+        doc = None
+        own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
+        try:
+            doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with)
+            mark_runs(doc, run_of, against=bool(against), notes=notes)
+        except IncomparableError as e:
+            notes.append(f"No scores: {e}")
+        return cls(entries, cands, refs, doc, own_eta, notes)
+
+
+def _trajectory_figures(cases, cands, labels, save, log, notes: list) -> list:
+    """``[(case, image name)]`` of the θ(t) comparisons drawn; a case that cannot be drawn is a note."""
+    out = []
+    for case in cases:
+        try:
+            name, case_notes = _trajectory_figure(case, cands, labels, save, log)
+            notes += case_notes
+            if name:
+                out.append((case, name))
+        except RockbenchError as e:
+            notes.append(f"θ(t) for {case.title or case.block}: not drawn ({e})")
+    return out
+
+
+def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:
+    """The speed-against-agreement picture of the engines (None when no engine has wall times)."""
+    if not any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
+        return None
+    from .plots.speed import plot_speed_accuracy
+    drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
+                                 if r["variant"] != "reference"])
+    return save(drawn["ax"].figure, "speed_accuracy.png")
+
+
+def _write_report(out: Path, images: dict, doc: dict | None, md: str, page: str) -> dict:
+    """Write the pictures, score.json, report.md and index.html (each atomically); their paths."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "img").mkdir(exist_ok=True)
-    written = []
-    for name, data in images.items():
-        written.append(write_bytes_atomic(out / "img" / name, data))
+    written = [write_bytes_atomic(out / "img" / name, data) for name, data in images.items()]
     paths = {"images": [str(p) for p in written]}
     if doc is not None:
         paths["score"] = str(write_json(out / "score.json", doc))
     paths["markdown"] = str(write_bytes_atomic(out / "report.md", md.encode()))
     paths["html"] = str(write_bytes_atomic(out / "index.html", page.encode()))
-    log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
-    return {**paths, "doc": doc, "notes": notes}
+    return paths
 
 
 #: Resolution of the report's pictures [dots per inch]: a 3.4-inch panel is 374 pixels wide, its
