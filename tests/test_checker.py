@@ -4,14 +4,11 @@ import json
 
 import pytest
 
-import maps_helpers as mh
 from rockbench.benchmark.cli import main
 from rockbench.engines.checker import check_adapter
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    mh.register_all()
+pytestmark = pytest.mark.usefixtures("fake_engines")
 
 
 def test_a_conforming_adapter_passes():
@@ -20,8 +17,8 @@ def test_a_conforming_adapter_passes():
     assert len(rep.checks) >= 10
 
 
-def test_a_wrong_adapter_fails_with_a_clear_report():
-    rep = check_adapter(mh.WrongAdapter())
+def test_a_wrong_adapter_fails_with_a_clear_report(fake_engines):
+    rep = check_adapter(fake_engines.WrongAdapter())
     assert not rep.passed
     failed = {c.name for c in rep.failed}
     assert {"units", "determinism", "no-uplift-below-threshold"} <= failed

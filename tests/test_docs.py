@@ -116,10 +116,10 @@ def _run_shell(cmds: list[str], tmp: Path, capsys) -> int:
 
 
 @pytest.mark.parametrize("path", FILES, ids=_ids(FILES))
-def test_every_code_example_runs(path, tmp_path, monkeypatch, capsys):
+def test_every_code_example_runs(write_map, band, path, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    _fake_run_folder(tmp_path)
+    _fake_run_folder(tmp_path, write_map, band)
     ns: dict = {"__name__": "__docs__"}
     checked = 0
     for lang, text in blocks(path):
@@ -146,11 +146,10 @@ def test_every_code_example_runs(path, tmp_path, monkeypatch, capsys):
     assert checked or not blocks(path)
 
 
-def _fake_run_folder(tmp: Path) -> None:
+def _fake_run_folder(tmp: Path, write_map, band) -> None:
     """``rockbench-results/quick`` as `rockbench run --quick` would leave it (small hand-made maps,
     scored), for the examples that read a finished run."""
     sys.path.insert(0, str(Path(__file__).parent))
-    from mapdirs import band, write_map
 
     from rockbench.benchmark.results import write_json
     from rockbench.benchmark.score_runs import score_dirs
