@@ -439,16 +439,6 @@ def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:
     return jobs
 
 
-def measure_own_eta(suite: Suite, engines: list[str], out: Path, log, workers: int = 1) -> tuple[list[dict], list[str]]:
-    """Each engine variant's free-rocking η on each block (kept in OUT/calibration.json and reused).
-
-    With ``workers`` > 1 the measurements run in that many helper processes at once (see
-    :func:`prepare_engines`). Returns the measurements and notes on the ones that failed.
-    """
-    rows, notes, _ = prepare_engines(suite, engines, out, log, workers=workers, own_eta=True)
-    return rows, notes
-
-
 def _variant_blocks(suite: Suite, engines: list[str]):
     for engine in engines:
         for variant in suite.engine_variants:
