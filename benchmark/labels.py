@@ -7,7 +7,6 @@ files and scores; pictures and the report say "MuJoCo 4.0, calibrated to η_H" a
 
 from __future__ import annotations
 
-import math
 
 #: Display names of the engines (registry name → name).
 ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet": "PyBullet", "exudyn": "Exudyn",
@@ -47,15 +46,10 @@ def restitution_symbol(label: str, block: str | None = None) -> str:
         return "η_H"
     if law.kind == "constant":
         return f"η = {law.value:.4g}"
-    k, which = law.k, ""
-    if block:
-        from .presets import PRESETS
-        pre = PRESETS.get(str(block).upper())
-        if pre is not None and math.isclose(k, pre.k_average, abs_tol=5e-5):
-            which = ", average k"
-        elif pre is not None and math.isclose(k, pre.k_exact, abs_tol=5e-5):
-            which = ", exact k"
-    return f"η_M (k = {k:g}{which})"
+    from .presets import PRESETS
+    pre = PRESETS.get(str(block).upper()) if block else None
+    which = pre.which_k(law.k) if pre is not None else None
+    return f"η_M (k = {law.k:g}{f', {which} k' if which else ''})"
 
 
 def _setting_words(key: str, value) -> str | None:

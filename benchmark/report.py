@@ -278,12 +278,8 @@ def _ref_order(r: MapEntry):
     if law is not None and law.kind == "housner":
         return (0, 0.0)
     if law is not None and law.kind == "modified":
-        k = law.k
-        if pre is not None and abs(k - pre.k_average) < 5e-5:
-            return (1, k)
-        if pre is not None and abs(k - pre.k_exact) < 5e-5:
-            return (2, k)
-        return (3, k)
+        which = pre.which_k(law.k) if pre is not None else None
+        return ({"average": 1, "exact": 2}.get(which, 3), law.k)
     return (4, r.eta)
 
 
