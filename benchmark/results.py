@@ -246,6 +246,7 @@ def _check_row_slowly(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
 
 
 def check_map_schema(meta: dict, d: Path) -> None:
+    """ConfigError unless ``meta`` is a map's run.json; IncomparableError when of another schema."""
     if meta.get("kind") != "rockbench-map":
         raise ConfigError(f"{str(d)!r} is not a rockbench map directory (its run.json is of kind "
                           f"{meta.get('kind')!r}); give a new or empty directory.")
@@ -300,7 +301,7 @@ def map_cell_rows(d) -> list[dict]:
     return read_cell_table(d / "cells.csv")
 
 
-# -- maps of run folders -------------------------------------------------------------------------
+# -- the maps of run folders, as the scores and reports read them ----------------------------------
 @dataclass
 class MapEntry:
     """One map found on disk.
@@ -361,8 +362,6 @@ def grid_of(m: LabelMap) -> dict:
     return {"n_w": int(m.w_ratio.size), "n_a": int(m.a_ratio.size), "w_lo": float(m.w_ratio[0]),
             "w_hi": float(m.w_ratio[-1]), "a_lo": float(m.a_ratio[0]), "a_hi": float(m.a_ratio[-1])}
 
-
-# -- finding and reading maps ----------------------------------------------------------------------
 
 def find_map_dirs(paths: Iterable) -> list[Path]:
     """Map directories at or below each path (a directory with cells.csv), sorted, no duplicates.
