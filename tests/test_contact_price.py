@@ -11,7 +11,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from rockbench.benchmark.presets import PRESETS
-from rockbench.benchmark.run import load_suite, plan, variant_restitution, variant_settings
+from rockbench.benchmark.suite_runner import load_suite, plan, variant_restitution, variant_settings
 from rockbench.engines import price as P
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G, Block

@@ -7,8 +7,8 @@ import json
 from ...engines.price import price_line
 from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError
-from ...reference_solver.restitution import Restitution
-from ..cases import add_block_options, block_from_args, dt_from_args, engine_settings_from_args
+from ..cli_options import (add_block_options, block_from_args, dt_from_args, engine_settings_from_args,
+                           restitution_from_args)
 
 
 def register(sub) -> None:
@@ -16,9 +16,10 @@ def register(sub) -> None:
                        "its contact settings to reach it")
     add_block_options(p)
     p.add_argument("--engine", required=True, help="engine name (see `rockbench engines`)")
-    p.add_argument("--target", default=None, help="housner | modified | a number in (0, 1] (default: measure only)")
-    p.add_argument("--k", default=None, help="impulse position for --target modified: a number in [0, 1], or "
-                   "average / exact (the preset's; default: average)")
+    p.add_argument("--target", default=None, help="housner | modified | modified-average | modified-exact | a number "
+                   "in (0, 1] (default: measure only); above Housner's η the contact along the base is searched")
+    p.add_argument("--k", default=None, help="impulse position for --target modified (default: the preset's average k; "
+                   "--target modified-exact: its exact k)")
     p.add_argument("--dt", default=None, help="time step [s] (default: the engine's)")
     p.add_argument("--theta0", default="0.5", help="release angle as a fraction of α (measurement only; default 0.5)")
     p.add_argument("--settings", default=None, help="calibrated | defaults (measurement only)")
@@ -30,22 +31,6 @@ def register(sub) -> None:
     p.add_argument("--no-cache", action="store_true", help="search again even when a stored calibration exists")
     p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
     p.set_defaults(func=run)
-
-
-def _k_from_args(k, preset):
-    """``--k``: a number, or ``average`` / ``exact`` for a Table 1 preset's k (None: not given)."""
-    if k is None:
-        return None
-    word = str(k).strip().lower()
-    if word in ("average", "exact"):
-        if preset is None:
-            raise ConfigError(f"--k {word} needs a Table 1 block (--block B3M, B6M, B3L or B6L); give a number "
-                              "for a custom block.")
-        return preset.k_average if word == "average" else preset.k_exact
-    try:
-        return float(k)
-    except ValueError:
-        raise ConfigError(f"--k must be a number in [0, 1], average or exact, got {k!r}.") from None
 
 
 def run(args) -> int:
@@ -64,13 +49,7 @@ def run(args) -> int:
                "eta_target": None, "n_impacts": len(m.etas), "etas": m.etas, "settings": m.settings,
                "dt_s": m.dt_s, "method": m.method}
     else:
-        law = args.target.strip().lower()
-        k = _k_from_args(args.k, preset)
-        if law == "modified" and k is None:
-            if preset is None:
-                raise ConfigError("--target modified on a custom block needs --k (the impulse position in [0, 1]).")
-            k = preset.k_average
-        rest = Restitution.parse(law if law in ("housner", "modified") else args.target, k=k)
+        rest = restitution_from_args(args, preset, option="--target")
         target = rest.eta(block.alpha_rad)
         c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
         if args.price and c.price is None:
