@@ -785,13 +785,16 @@ class ExudynAdapter(ContactEngineAdapter):
         """Free rocking with this adapter's settings (``calibrated``: those for Housner's η)."""
         dt = self.check_dt(dt_s)
         s = self.settings
+        points = (s["contact_points"] or _POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
         if s["contact_restitution"] is not None:
             e = s["contact_restitution"]
         elif s["settings"] == "defaults":
             e = None
         else:
-            e = self.calibrate(block, Restitution().eta(block.alpha_rad), dt_s=dt).settings["restitution_coefficient"]
-        fr = self.free_rocking(block, e, theta0_frac=theta0_frac, dt_s=dt)
+            cal = self.calibrate(block, Restitution().eta(block.alpha_rad), dt_s=dt)
+            e = cal.settings["restitution_coefficient"]
+            points = int(cal.settings.get("contact_points") or 2)
+        fr = self.free_rocking(block, e, theta0_frac=theta0_frac, dt_s=dt, contact=self._contact(block, e, points))
         return RestitutionMeasurement(etas=fr.etas, eta_mean=fr.eta_mean, eta_std=fr.eta_std,
                                       theta0_rad=fr.theta0_rad, dt_s=dt,
                                       settings={**fr.contact, "planar": s["planar"]},

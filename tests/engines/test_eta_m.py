@@ -171,3 +171,16 @@ def test_calibrate_cli_exact_k(capsys):
     assert cli_main(["calibrate", "--engine", "mujoco", "--block", "B3M", "--target", "modified", "--k", "often"]) == 2
     err = capsys.readouterr().err.strip()
     assert "--k" in err and "often" in err and "\n" not in err
+
+
+@pytest.mark.parametrize("engine,explicit", [
+    ("mujoco", {"timeconst_s": "timeconst", "dampratio": "dampratio", "solimp_d": "solimp_d",
+                "contact_points": "contact_points"}),
+    ("exudyn", {"contact_restitution": "restitution_coefficient", "contact_points": "contact_points"}),
+])
+def test_explicit_distributed_settings_measure_the_calibrated_eta(engine, explicit):
+    """The calibration's contact given explicitly (``contact = distributed``) measures the same η."""
+    ad, b, c = _calibration(engine, "B3M")
+    fixed = get_adapter(engine, contact="distributed", **{k: c.settings[v] for k, v in explicit.items()})
+    m = fixed.measure_restitution(b)
+    assert m.eta_mean == pytest.approx(c.eta_measured, rel=2e-3)
