@@ -87,10 +87,12 @@ from .base import CalibrationResult, Case, EngineAdapter, RestitutionMeasurement
 BASE_CONTACT = {"point_stiffness": 1e6, "hydroelastic_modulus": 1e8, "relaxation_time": 1e-3,
                 "hunt_crossley_dissipation": 0.1}
 
-#: Softer stiffnesses (factors of the base) where the calibration's search varies the dissipation:
-#: only a contact the step resolves lets the dissipation change η (a stiffer one is near-rigid
-#: and plastic whatever its dissipation) [-].
-_SOFT_FACTORS = (0.1, 0.03)
+#: Stiffnesses (factors of the base) where the calibration's search varies the dissipation. Point
+#: contact: softer ones, since only a contact the step resolves lets the dissipation change η (a
+#: stiffer one is near-rigid and plastic whatever its dissipation). Hydroelastic: stiffer ones
+#: first (a stiffer pressure field concentrates the contact towards the corner, which lowers η
+#: towards Housner's), then softer [-].
+_STIFFNESS_FACTORS = {"point": (0.1, 0.03), "hydroelastic": (10.0, 100.0, 0.1, 0.03)}
 
 #: Dissipation ranges searched, log10 [-]: SAP relaxation time [s], Hunt–Crossley [s/m].
 _DISSIPATION_LOG10 = {"relaxation_time": (-5.0, -1.0), "hunt_crossley_dissipation": (-3.0, 1.5)}
@@ -275,7 +277,8 @@ class _Scene:
         """Advance to step ``n_steps`` and return every logged state so far, ``(n_steps + 1, nq + nv)``."""
         self.simulator.AdvanceTo(n_steps * self.dt)
         data = self.logger.FindLog(self.context).data()
-        return data[:, :n_steps + 1].T
+        # a copy: the log's buffer is reused by the next case, a view would change under the caller
+        return np.array(data[:, :n_steps + 1].T, dtype=float, copy=True)
 
 
 class DrakeAdapter(EngineAdapter):
@@ -594,7 +597,8 @@ class DrakeAdapter(EngineAdapter):
         1. The stiff contact of :data:`BASE_CONTACT` (point stiffness 1e6 N/m per edge or
            modulus 1e8 Pa; relaxation time 1 ms for SAP, Hunt–Crossley 0.1 s/m otherwise): a
            near-rigid, plastic impact, which gives η close to Housner's. Kept when within 0.5 %.
-        2. Otherwise softer contacts (stiffness × 0.1, then × 0.03), each with a bisection on
+        2. Otherwise other stiffnesses (point: × 0.1, then × 0.03; hydroelastic: × 10, × 100,
+           × 0.1, × 0.03), each with a bisection on
            the logarithm of the dissipation (relaxation time 1e-5–0.1 s, or Hunt–Crossley
            1e-3–30 s/m): less dissipation, higher η (the corner comes off the table more
            elastically); the search stops at 0.25 %.
@@ -633,7 +637,7 @@ class DrakeAdapter(EngineAdapter):
         e0 = evaluate(k0, d0)
         if err(e0) > 0.005:
             lo0, hi0 = _DISSIPATION_LOG10[dkey]
-            for f in _SOFT_FACTORS:
+            for f in _STIFFNESS_FACTORS[base["contact"]]:
                 k = k0 * f
                 # η falls as the dissipation grows: lo (little) gives the high end
                 e_lo, e_hi = evaluate(k, 10.0 ** lo0), evaluate(k, 10.0 ** hi0)
@@ -661,7 +665,8 @@ class DrakeAdapter(EngineAdapter):
                     f"not reached: the closest consistent η is the base contact's, {eta:.4f}.")
         else:
             note = ("reached with a softer contact and its dissipation." if reached else
-                    f"not reached: softer contacts (x{', x'.join(f'{f:g}' for f in _SOFT_FACTORS)}) with "
+                    f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in _STIFFNESS_FACTORS[base['contact']])} "
+                    f"the base with "
                     f"dissipation over the searched range give at best {eta:.4f}.")
         res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
                                 settings=settings, note=note, evaluations=len(tried))
