@@ -98,7 +98,7 @@ _STIFFNESS_FACTORS = {"point": (0.1, 0.03), "hydroelastic": (10.0, 100.0, 0.1, 0
 _DISSIPATION_LOG10 = {"relaxation_time": (-5.0, -1.0), "hunt_crossley_dissipation": (-3.0, 1.5)}
 
 #: Version of the calibration protocol (free-rocking test and search); part of the cache key.
-CALIBRATION_PROTOCOL = 1
+CALIBRATION_PROTOCOL = 2
 
 #: Largest per-impact spread of η (standard deviation over the target) a calibrated setting may show [-].
 _CAL_MAX_SPREAD = 0.02
@@ -556,9 +556,9 @@ class DrakeAdapter(EngineAdapter):
 
         η of each of the first impacts from energies (as for PyBullet): ``η_i = √(K_{i+1}/K_i)``,
         ``K`` the median of the block's mechanical energy above standing at rest over the middle
-        half of each swing. ``settings`` (resolved) default to this adapter's settings, with the
-        calibration's starting contact (:data:`BASE_CONTACT`) where not given (as shipped for
-        ``defaults``).
+        half of each swing. ``settings`` (resolved) default to the settings in force: for
+        ``calibrated`` without explicit contact settings, the calibration to Housner's η of this
+        block (as for MuJoCo and Exudyn); Drake as shipped for ``defaults``.
         """
         from .pybullet_adapter import _impact_etas
 
@@ -568,9 +568,7 @@ class DrakeAdapter(EngineAdapter):
         if not math.isfinite(dt) or dt <= 0 or dt > 0.01:
             raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
         if settings is None:
-            s = self._base_settings()
-            if s["settings"] != "defaults":
-                s = self._filled(s)
+            s = self.resolve(block, Restitution(), dt_s=dt)
         else:
             s = settings
         # long enough for the swings around the measured impacts (each at most half the

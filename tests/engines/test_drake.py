@@ -98,6 +98,8 @@ def test_calibration_reaches_housner(name, tol):
     m = s.measure_restitution(block)
     assert len(m.etas) >= 3 and all(0.5 < e < 1.0 for e in m.etas)
     assert m.eta_mean == pytest.approx(res.eta_measured, rel=1e-9)
+    # what the suites' own-η measurement gets from the adapter as configured (calibrated to η_H)
+    assert get_adapter("drake").measure_restitution(block).eta_mean == pytest.approx(res.eta_measured, rel=1e-9)
 
 
 def test_higher_target_is_reached_with_a_softer_contact_and_cached(tmp_path):
