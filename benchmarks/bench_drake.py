@@ -9,11 +9,14 @@ Usage (from the repository's top folder, in the venv, with ``pip install -e '.[d
     python benchmarks/bench_drake.py maps --out DIR [--jobs 2] [--maps B3M:sine,B6L:cosine]
         [--settings calibrated]                            # maps on the default suite's grid, then `summary`
     python benchmarks/bench_drake.py summary DIR           # cells, worker time, agreement with the reference
+    python benchmarks/bench_drake.py suite [full] --out DIR [--engines drake]   # a suite's run, timed
 
 ``maps`` runs ``rockbench map --engine drake`` on the default suite's grid (ω/p 1–16 and
 a₀/(g·tanα) 1–12, 51 × 51, adaptive with coarse stride 4) for each listed block and pulse, each into
 ``DIR/<settings>-<block>-<pulse>`` (rerunning resumes). ``summary`` reads each map's ``cells.csv``:
-the cells simulated, their summed wall time (the worker time a suite spends on that map), and
+the cells simulated, their summed wall time (the worker time a suite spends on that map; it
+grows with the machine's load), the CPU time of the map command and its workers (``maps`` records
+it in ``bench.json``), and
 the agreement with the reference solver (Housner's η) on the same cells, counting cells valid in
 both (overturn or not, and the three outcomes). The default suite has 8 such maps per engine
 variant (4 blocks × 2 pulses); the worker time of a suite is estimated from these maps' mean.
@@ -26,6 +29,7 @@ import csv
 import json
 import math
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -110,8 +114,17 @@ def cmd_maps(args) -> None:
         if args.settings != "calibrated":
             cmd[cmd.index("--engine") + 2:cmd.index("--engine") + 2] = ["--settings", args.settings]
         print(_stamp(), " ".join(cmd[1:]), file=sys.stderr)
+        r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        load0 = os.getloadavg()[0]
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-        print(f"{d.name}: {time.perf_counter() - t0:.0f} s wall with {args.jobs} workers", file=sys.stderr)
+        r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        # CPU time of the map command and its workers: what the map costs, whatever the neighbours do
+        cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+        wall = time.perf_counter() - t0
+        (d / "bench.json").write_text(json.dumps({"wall_s": wall, "cpu_s": cpu, "jobs": args.jobs,
+                                                  "load_before": load0, "load_after": os.getloadavg()[0],
+                                                  "utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}))
+        print(f"{d.name}: {wall:.0f} s wall, {cpu:.0f} s CPU with {args.jobs} workers", file=sys.stderr)
     args.dir = args.out
     cmd_summary(args)
 
@@ -136,23 +149,49 @@ def cmd_summary(args) -> None:
         for c in cells:
             for fl in filter(None, c["flags"].replace(";", " ").replace("|", " ").split()):
                 flags[fl] = flags.get(fl, 0) + 1
+        bench = json.loads((d / "bench.json").read_text()) if (d / "bench.json").is_file() else {}
         rows.append({"map": d.name, "cells": len(cells), "worker_s": wall, "s_per_cell": wall / len(cells),
+                     "cpu_s": bench.get("cpu_s"), "map_wall_s": bench.get("wall_s"),
                      "valid_both": len(both), "agree_overturn": over / max(len(both), 1),
                      "agree_outcome": same / max(len(both), 1), "flags": flags,
                      "version": run.get("engine", {}).get("version")})
-    print("| map | cells simulated | worker time [s] | s per cell | agree (overturn) | agree (3 outcomes) | "
+    print("| map | cells simulated | worker time [s] | s per cell | CPU [s] | agree (overturn) | agree (3 outcomes) | "
           "valid in both | flags |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         fl = ", ".join(f"{k} {v}" for k, v in sorted(r["flags"].items())) or "-"
-        print(f"| {r['map']} | {r['cells']} | {r['worker_s']:.0f} | {r['s_per_cell']:.3f} | "
+        cpu = "-" if r["cpu_s"] is None else f"{r['cpu_s']:.0f}"
+        print(f"| {r['map']} | {r['cells']} | {r['worker_s']:.0f} | {r['s_per_cell']:.3f} | {cpu} | "
               f"{100 * r['agree_overturn']:.1f} % | {100 * r['agree_outcome']:.1f} % | {r['valid_both']} | {fl} |")
+    cpus = [r["cpu_s"] for r in rows if r["cpu_s"] is not None]
+    if cpus:
+        c = float(np.mean(cpus))
+        print(f"\nmean CPU time per map: {c:.0f} s; the default suite's 16 maps (8 per variant): about "
+              f"{16 * c / 60:.0f} min of CPU, {8 * c / 60:.0f} min of wall time on 2 free cores")
     if rows:
         mean = float(np.mean([r["worker_s"] for r in rows]))
         print(f"\nmean worker time per map: {mean:.0f} s; the default suite's 8 maps per variant: about "
               f"{8 * mean / 60:.0f} min of worker time per variant, {16 * mean / 60:.0f} min for two variants "
               f"(about half that in wall time on 2 cores)")
     (Path(args.dir) / "summary.json").write_text(json.dumps(rows, indent=2))
+
+
+def cmd_suite(args) -> None:
+    """A suite's run restricted to engines (default: drake), timed: wall and CPU of the whole job."""
+    cmd = [sys.executable, "-m", "rockbench", "run", args.suite, "--engines", args.engines, "--out", args.out,
+           "--no-report"]
+    print(_stamp(), " ".join(cmd[1:]), file=sys.stderr)
+    t0, load0 = time.perf_counter(), os.getloadavg()[0]
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+    wall = time.perf_counter() - t0
+    maps = [json.loads(p.read_text()) for p in Path(args.out).glob("maps/*/*/run.json")]
+    out = {"suite": args.suite, "engines": args.engines, "wall_s": wall, "cpu_s": cpu, "maps": len(maps),
+           "load_before": load0, "load_after": os.getloadavg()[0],
+           "utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+    print(json.dumps(out))
 
 
 def main(argv=None) -> int:
@@ -168,6 +207,11 @@ def main(argv=None) -> int:
     m.add_argument("--maps", default="B3M:sine,B6L:cosine")
     m.add_argument("--settings", default="calibrated", choices=["calibrated", "defaults"])
     m.set_defaults(func=cmd_maps)
+    u = sub.add_parser("suite")
+    u.add_argument("suite", nargs="?", default="full")
+    u.add_argument("--engines", default="drake")
+    u.add_argument("--out", required=True)
+    u.set_defaults(func=cmd_suite)
     r = sub.add_parser("summary")
     r.add_argument("dir")
     r.set_defaults(func=cmd_summary)
