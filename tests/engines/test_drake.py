@@ -227,3 +227,18 @@ def test_tiny_map_through_the_cli(tmp_path):
     lines = (out / "cells.csv").read_text().splitlines()
     assert len(lines) == 1 + 9 and all("drake" in ln for ln in lines[1:])
     assert json.loads((out / "run.json").read_text())["engine"]["engine"] == "drake"
+
+
+def test_run_a_tiny_suite_with_drake_scores_and_reports_it(tmp_path):
+    # the main job's path (calibration, engine maps in worker processes, scores, report) on a tiny grid
+    suite = tmp_path / "tiny.toml"
+    suite.write_text('[suite]\nname = "tiny"\n[grid]\nw_ratio = "2:8:4"\na_ratio = "1:5:3"\n'
+                     '[cases]\nblocks = ["B6M"]\npulses = ["cosine"]\n[reference]\nrestitutions = ["housner"]\n'
+                     '[engines]\nnames = ["drake"]\nvariants = [{ settings = "calibrated" }]\n'
+                     '[report]\ncases = []\n')
+    out = tmp_path / "out"
+    assert main(["run", str(suite), "--out", str(out), "--jobs", "2"]) == 0
+    doc = json.loads((out / "score.json").read_text())
+    (pair,) = [p for p in doc["pairs"] if p["engine"] == "drake"]
+    assert pair["scores"]["failed_cells"] == 0 and pair["scores"]["agreement"] >= 0.75
+    assert "Drake 1.51.1" in (out / "report.md").read_text()
