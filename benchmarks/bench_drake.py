@@ -65,8 +65,8 @@ def cmd_steps(args) -> None:
               ("point, SAP, free body", {"planar": False}),
               ("point, lagged (as shipped)", {"settings": "defaults"}),
               ("point, SAP, table drive", {"drive": "table"}),
-              ("hydroelastic, SAP, planar", {"contact": "hydroelastic", "hydroelastic_modulus": 1e8,
-                                             "relaxation_time": 1e-3})]
+              ("hydroelastic, SAP, planar", {"contact": "hydroelastic", "hydroelastic_modulus_pa": 1e8,
+                                             "relaxation_time_s": 1e-3})]
     cells = [("B3M", "sine", 4.0, 3.0), ("B6M", "cosine", 3.0, 2.0), ("B3M", "sine", 2.0, 1.5), ("B6M", "sine", 6.0, 3.0)]
     print("| model | steps | steps per wall second | steps per CPU second | load |")
     print("|---|---|---|---|---|")

@@ -13,13 +13,13 @@ and no impact law of ours replaces it.
   contact point, the deepest, which cannot hold a block standing on its base; spheres at the corners
   give one point per corner, as the rigid model has it. In the plane (``planar=True``) the two
   in-plane corners (y = 0) carry the contact; a free 3-D block has all four, each with half the
-  stiffness, so ``point_stiffness`` is per bottom edge either way. ``hydroelastic`` makes the block
-  a compliant-hydroelastic box (modulus ``hydroelastic_modulus``) pressed into a rigid-hydroelastic
+  stiffness, so ``point_stiffness_n_m`` is per bottom edge either way. ``hydroelastic`` makes the block
+  a compliant-hydroelastic box (modulus ``hydroelastic_modulus_pa``) pressed into a rigid-hydroelastic
   table: the pressure field spreads the contact over the part of the base that penetrates.
 * **Discrete solver** (``approximation``): SAP (``sap``, default when calibrated), or the
   Hunt–Crossley approximations ``similar`` and ``lagged`` (Drake's own default). SAP models
-  dissipation with a linear Kelvin–Voigt law and a relaxation time ``relaxation_time`` [s]; the
-  others with Hunt–Crossley dissipation ``hunt_crossley_dissipation`` [s/m]. The table carries a
+  dissipation with a linear Kelvin–Voigt law and a relaxation time ``relaxation_time_s`` [s]; the
+  others with Hunt–Crossley dissipation ``hunt_crossley_dissipation_s_m`` [s/m]. The table carries a
   stiffness of 1e20 (point) or is rigid (hydroelastic) and no dissipation, so the block's values
   are the contact's (Drake combines the two materials in series).
 * **Planar** (default): a ``PlanarJoint`` keeps the block in the x–z plane (translation in x and
@@ -72,20 +72,21 @@ import time
 
 import numpy as np
 
-from ..reference_solver.classify import FLAT_ANGLE_RAD
 from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
+from ..reference_solver.model import Block
 from ..reference_solver.restitution import Restitution
 from . import calibration
-from .base import CalibrationResult, Case, EngineAdapter, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
+                      free_rocking_duration_s, free_rocking_etas, overturn_certain)
 
 #: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
 #: point stiffness per bottom edge [N/m], hydroelastic modulus [Pa], SAP relaxation time [s] and
 #: Hunt–Crossley dissipation [s/m]. Stiff enough that the block's static sinking (m·g/(2k), 3 µm
 #: for B3M) is far below the slip and jump tolerances, dissipative enough that the corner does not
 #: bounce: the impact is then plastic and η is Housner's (docs/drake.md).
-BASE_CONTACT = {"point_stiffness": 1e6, "hydroelastic_modulus": 1e8, "relaxation_time": 1e-3,
-                "hunt_crossley_dissipation": 0.1}
+BASE_CONTACT = {"point_stiffness_n_m": 1e6, "hydroelastic_modulus_pa": 1e8, "relaxation_time_s": 1e-3,
+                "hunt_crossley_dissipation_s_m": 0.1}
 
 #: Stiffnesses (factors of the base) where the calibration's search varies the dissipation. Point
 #: contact: softer ones, since only a contact the step resolves lets the dissipation change η (a
@@ -95,16 +96,13 @@ BASE_CONTACT = {"point_stiffness": 1e6, "hydroelastic_modulus": 1e8, "relaxation
 _STIFFNESS_FACTORS = {"point": (0.1, 0.03), "hydroelastic": (10.0, 100.0, 0.1, 0.03)}
 
 #: Dissipation ranges searched, log10 [-]: SAP relaxation time [s], Hunt–Crossley [s/m].
-_DISSIPATION_LOG10 = {"relaxation_time": (-5.0, -1.0), "hunt_crossley_dissipation": (-3.0, 1.5)}
+_DISSIPATION_LOG10 = {"relaxation_time_s": (-5.0, -1.0), "hunt_crossley_dissipation_s_m": (-3.0, 1.5)}
 
 #: Version of the calibration protocol (free-rocking test and search); part of the cache key.
-CALIBRATION_PROTOCOL = 2
+CALIBRATION_PROTOCOL = 3
 
 #: Largest per-impact spread of η (standard deviation over the target) a calibrated setting may show [-].
 _CAL_MAX_SPREAD = 0.02
-
-#: Free-rocking test: impacts measured after release [-].
-_CAL_IMPACTS = 4
 
 #: Trapped rule: stop when E < p² − _TRAPPED_MARGIN·p²(1 − cos α) (see the module docstring) [-].
 _TRAPPED_MARGIN = 0.05
@@ -161,16 +159,16 @@ class _Scene:
 
         def material(stiffness, edge_share: float = 1.0):
             props = pd.ProximityProperties()
-            diss = s["hunt_crossley_dissipation"]
+            diss = s["hunt_crossley_dissipation_s_m"]
             pd.AddContactMaterial(dissipation=diss, point_stiffness=(None if stiffness is None else stiffness * edge_share),
                                   friction=friction, properties=props)
-            if s["relaxation_time"] is not None:
-                props.AddProperty("material", "relaxation_time", float(s["relaxation_time"]))
+            if s["relaxation_time_s"] is not None:
+                props.AddProperty("material", "relaxation_time", float(s["relaxation_time_s"]))
             return props
 
         if hydro:
             props = material(None)
-            modulus = s["hydroelastic_modulus"] if s["hydroelastic_modulus"] is not None else 1e8
+            modulus = s["hydroelastic_modulus_pa"] if s["hydroelastic_modulus_pa"] is not None else 1e8
             pd.AddCompliantHydroelasticProperties(resolution_hint=min(b, d, h) / 4, hydroelastic_modulus=modulus,
                                                   properties=props)
             plant.RegisterCollisionGeometry(body, pd.RigidTransform(), pd.Box(b, d, h), "block", props)
@@ -181,7 +179,7 @@ class _Scene:
             for i, (sx, sy) in enumerate(corners):
                 plant.RegisterCollisionGeometry(
                     body, pd.RigidTransform([sx * (b / 2 - r), sy * (d / 2 - r), -h / 2 + r]), pd.Sphere(r),
-                    f"corner{i}", material(s["point_stiffness"], share))
+                    f"corner{i}", material(s["point_stiffness_n_m"], share))
 
         tprops = pd.ProximityProperties()
         if s["settings"] == "defaults" and not hydro:
@@ -281,7 +279,7 @@ class _Scene:
         return np.array(data[:, :n_steps + 1].T, dtype=float, copy=True)
 
 
-class DrakeAdapter(EngineAdapter):
+class DrakeAdapter(ContactEngineAdapter):
     """The rocking block in Drake (see the module docstring for the model and the end of a run).
 
     Settings
@@ -298,13 +296,13 @@ class DrakeAdapter(EngineAdapter):
         Keep the block in the vertical x–z plane (a planar joint), or a free 3-D body.
     friction : float
         Coulomb friction block–table, static = dynamic [-].
-    point_stiffness : float or None
+    point_stiffness_n_m : float or None
         Point-contact stiffness per bottom edge [N/m]; given, it replaces calibration.
-    hydroelastic_modulus : float or None
+    hydroelastic_modulus_pa : float or None
         The block's hydroelastic modulus [Pa]; given, it replaces calibration.
-    relaxation_time : float or None
+    relaxation_time_s : float or None
         SAP's Kelvin–Voigt dissipation time scale [s]; given, it replaces calibration.
-    hunt_crossley_dissipation : float or None
+    hunt_crossley_dissipation_s_m : float or None
         Hunt–Crossley dissipation of ``similar``/``lagged`` [s/m]; given, it replaces calibration.
     corner_radius_m : float
         Radius of the corner spheres of point contact [m] (they sit inside the corners, flush).
@@ -319,17 +317,16 @@ class DrakeAdapter(EngineAdapter):
     module = "pydrake"
     install_hint = "install it with `pip install 'rockbench[drake]'` (or `pip install drake`; 1.51.1 tested)."
     default_dt_s = 5e-4
+    #: no batch: one case at a time, maps spread cells over worker processes (like PyBullet)
+    batching = "none"
     SETTINGS = {
-        "settings": "calibrated",
+        **ContactEngineAdapter.SHARED_SETTINGS,
         "contact": "point",
         "approximation": None,
-        "drive": "inertial",
-        "planar": True,
-        "friction": 10.0,
-        "point_stiffness": None,
-        "hydroelastic_modulus": None,
-        "relaxation_time": None,
-        "hunt_crossley_dissipation": None,
+        "point_stiffness_n_m": None,
+        "hydroelastic_modulus_pa": None,
+        "relaxation_time_s": None,
+        "hunt_crossley_dissipation_s_m": None,
         "corner_radius_m": 1e-4,
         "table_mass_ratio": 1000.0,
         "tail_s": 2.0,
@@ -337,12 +334,7 @@ class DrakeAdapter(EngineAdapter):
         "segment_s": 0.1,
     }
     #: the settings that describe the contact (calibration chooses these)
-    CONTACT_KEYS = ("point_stiffness", "hydroelastic_modulus", "relaxation_time", "hunt_crossley_dissipation")
-
-    def __init__(self, **settings):
-        super().__init__(**settings)
-        self._scenes: dict = {}
-        self._memo: dict = {}
+    CONTACT_KEYS = ("point_stiffness_n_m", "hydroelastic_modulus_pa", "relaxation_time_s", "hunt_crossley_dissipation_s_m")
 
     @classmethod
     def version(cls) -> str:
@@ -354,29 +346,18 @@ class DrakeAdapter(EngineAdapter):
             return "unknown"
 
     # -- settings -----------------------------------------------------------------------------
-    def _validate_settings(self, s: dict) -> None:
-        for key, allowed in (("settings", ("calibrated", "defaults")), ("contact", _CONTACTS),
-                             ("drive", ("inertial", "table"))):
-            if s[key] not in allowed:
-                raise ConfigError(f"drake setting {key!r} must be one of {', '.join(allowed)}, got {s[key]!r}.")
+    def _validate_engine_settings(self, s: dict) -> None:
+        if s["contact"] not in _CONTACTS:
+            raise ConfigError(f"drake setting 'contact' must be one of {', '.join(_CONTACTS)}, got {s['contact']!r}.")
         if s["approximation"] is not None and s["approximation"] not in _APPROXIMATIONS:
             raise ConfigError(f"drake setting 'approximation' must be one of {', '.join(_APPROXIMATIONS)}, "
                               f"got {s['approximation']!r}.")
-        if isinstance(s["planar"], str) and s["planar"].lower() in ("true", "false", "1", "0"):
-            s["planar"] = s["planar"].lower() in ("true", "1")
-        if not isinstance(s["planar"], bool):
-            raise ConfigError(f"drake setting 'planar' must be true or false, got {s['planar']!r}.")
-        self._number_setting(s, "friction")
-        self._number_setting(s, "point_stiffness", "N/m")
-        self._number_setting(s, "hydroelastic_modulus", "Pa")
-        self._number_setting(s, "relaxation_time", "s", allow_zero=True)
-        self._number_setting(s, "hunt_crossley_dissipation", "s/m", allow_zero=True)
-        for key, unit in (("corner_radius_m", "m"), ("table_mass_ratio", ""), ("tail_s", "s"), ("segment_s", "s")):
+        self._number_setting(s, "point_stiffness_n_m", "N/m")
+        self._number_setting(s, "hydroelastic_modulus_pa", "Pa")
+        self._number_setting(s, "relaxation_time_s", "s", allow_zero=True)
+        self._number_setting(s, "hunt_crossley_dissipation_s_m", "s/m", allow_zero=True)
+        for key, unit in (("corner_radius_m", "m"), ("table_mass_ratio", "")):
             self._number_setting(s, key, unit, allow_none=False)
-        self._number_setting(s, "min_tail_s", "s", allow_zero=True, allow_none=False)
-        if s["min_tail_s"] > s["tail_s"]:
-            raise ConfigError(f"drake setting 'min_tail_s' ({s['min_tail_s']:g} s) must not exceed "
-                              f"'tail_s' ({s['tail_s']:g} s).")
         if s["corner_radius_m"] > 1e-3:
             raise ConfigError(f"drake setting 'corner_radius_m' must be <= 0.001 m (the spheres sit inside the "
                               f"corners and move the pivots inwards by their radius), got {s['corner_radius_m']!r}.")
@@ -388,10 +369,10 @@ class DrakeAdapter(EngineAdapter):
         return "lagged" if self.settings["settings"] == "defaults" else "sap"
 
     def _dissipation_key(self, approx: str) -> str:
-        return "relaxation_time" if approx == "sap" else "hunt_crossley_dissipation"
+        return "relaxation_time_s" if approx == "sap" else "hunt_crossley_dissipation_s_m"
 
     def _stiffness_key(self) -> str:
-        return "hydroelastic_modulus" if self.settings["contact"] == "hydroelastic" else "point_stiffness"
+        return "hydroelastic_modulus_pa" if self.settings["contact"] == "hydroelastic" else "point_stiffness_n_m"
 
     def _base_settings(self) -> dict:
         """Settings without calibration: the approximation made concrete, contact values as given."""
@@ -399,26 +380,20 @@ class DrakeAdapter(EngineAdapter):
         s["approximation"] = self._approximation()
         return s
 
-    def _explicit_contact(self) -> bool:
+    def explicit_contact(self) -> bool:
+        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
         return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
 
-    def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
-        """The concrete settings cases of ``block`` with ``restitution`` run with.
-
-        ``defaults`` or explicit contact settings are used as given (missing ones from
-        :data:`BASE_CONTACT` when not ``defaults``); ``calibrated`` looks up (or runs) the
-        calibration for the restitution's η at the time step ``dt_s`` [s].
-        """
+    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
+        """The approximation made concrete and the contact: as shipped (``defaults``), explicit (the
+        missing stiffness or dissipation from :data:`BASE_CONTACT`), or the calibration's."""
         s = self._base_settings()
-        if s["settings"] == "defaults":
+        if cal is not None:
+            s.update(cal.settings)
             return s
-        if self._explicit_contact():
-            return self._filled(s)
-        cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt_s)
-        s.update(cal.settings)
-        s["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
-                            "eta_std": cal.eta_std, "reached": cal.reached}
-        return s
+        if s["settings"] == "defaults" and not self.explicit_contact():
+            return s
+        return self._filled(s)
 
     def _filled(self, s: dict) -> dict:
         """``s`` with the stiffness and dissipation its contact and approximation use set (from
@@ -435,11 +410,7 @@ class DrakeAdapter(EngineAdapter):
     # -- simulation ---------------------------------------------------------------------------
     def _simulate(self, case: Case) -> Trajectory:
         dt = self.dt_for(case)
-        key = (case.block.width_m, case.block.height_m, case.block.depth_m, case.block.mass_kg,
-               case.restitution.eta(case.block.alpha_rad), dt)
-        if key not in self._memo:
-            self._memo[key] = self.resolve(case.block, case.restitution, dt_s=dt)
-        s = self._memo[key]
+        s = self.resolve(case.block, case.restitution, dt)
         tr = self._run(case.block, s, dt, case.pulse)
         tr.diagnostics["settings"] = s["settings"]
         if "calibration" in s:
@@ -490,11 +461,11 @@ class DrakeAdapter(EngineAdapter):
             a = np.abs(th)
             idx = np.arange(checked, checked + len(th))
             bad = ~(np.isfinite(th) & np.isfinite(om))
-            flat = a >= FLAT_ANGLE_RAD
-            rules = [("diverged", bad), ("flat", flat)]
+            rules = [("diverged", bad)]
+            if duration_s is not None:
+                rules.append(("flat", overturn_certain(0.0, th, om, alpha_rad=alpha, t_pulse_end_s=math.inf)))
             if duration_s is None:
-                after = idx >= n_pulse
-                rules.append(("overturn", after & (a > alpha) & (th * om > 0.0)))
+                rules.append(("overturn", overturn_certain(idx * dt, th, om, alpha_rad=alpha, t_pulse_end_s=t_end)))
                 energy = 0.5 * om * om + p * p * np.cos(alpha - np.minimum(a, math.pi))
                 rules.append(("trapped", (idx >= n_min) & (energy < e_trap)))
             first = None
@@ -524,7 +495,7 @@ class DrakeAdapter(EngineAdapter):
             u_tab = v_tab = np.zeros(n)
         corner_x, corner_z = _corners(block, xc, zc, th, u_tab)
         flags = [] if np.all(np.isfinite(data)) else ["diverged"]
-        energy = (0.5 * ((vx - v_tab) ** 2 + vz**2) + 0.5 * block.inertia_cm_kg_m2 / block.mass_kg * om**2 + G * zc)
+        energy = body_energy_j_kg(block, vx - v_tab, vz, om, zc)
         steps = n - 1
         diag.update(max_penetration_m=float(max(-np.nanmin(corner_z), 0.0)), steps=int(steps), wall_s=wall,
                     cpu_s=cpu, steps_per_s=(steps / wall if wall > 0 else None),
@@ -535,8 +506,6 @@ class DrakeAdapter(EngineAdapter):
         traj = Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=om, t_pulse_end_s=t_end, flags=flags,
                           diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
                           corner_x_m=corner_x, corner_z_m=corner_z, energy_j_kg=energy)
-        # kept for the free-rocking measurement (not part of the contract)
-        traj._body_state = (xc, zc, vx - v_tab, vz, om)
         return traj
 
     @staticmethod
@@ -554,37 +523,31 @@ class DrakeAdapter(EngineAdapter):
                             settings: dict | None = None) -> RestitutionMeasurement:
         """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation.
 
-        η of each of the first impacts from energies (as for PyBullet): ``η_i = √(K_{i+1}/K_i)``,
-        ``K`` the median of the block's mechanical energy above standing at rest over the middle
-        half of each swing. ``settings`` (resolved) default to the settings in force: for
+        η of each of the first impacts from the contact engines' shared measurement,
+        :func:`~rockbench.engines.contact.free_rocking_etas` (the energy-consistent ratio of
+        successive peak amplitudes, from θ(t) alone). ``settings`` (resolved) default to the settings in force: for
         ``calibrated`` without explicit contact settings, the calibration to Housner's η of this
         block (as for MuJoCo and Exudyn); Drake as shipped for ``defaults``.
         """
-        from .pybullet_adapter import _impact_etas
-
         if not 0.0 < float(theta0_frac) < 1.0:
             raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        if not math.isfinite(dt) or dt <= 0 or dt > 0.01:
+        dt = self.check_dt(dt_s)
+        if dt > 0.01:
             raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
         if settings is None:
             s = self.resolve(block, Restitution(), dt_s=dt)
         else:
             s = settings
-        # long enough for the swings around the measured impacts (each at most half the
-        # linearised free-rocking period from the release angle, DOMAIN.md §7), 20 % to spare
-        period = 4.0 / block.p_rad_s * math.acosh(1.0 / (1.0 - float(theta0_frac)))
-        duration = 1.2 * (_CAL_IMPACTS + 2) * period / 2.0
-        tr = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=duration)
-        etas = _impact_etas(block, tr, _CAL_IMPACTS)
+        theta0 = float(theta0_frac) * block.alpha_rad
+        duration = free_rocking_duration_s(block, theta0_frac, FREE_ROCKING_IMPACTS)
+        tr = self._run(block, s, dt, None, theta0=theta0, duration_s=duration)
+        etas, _ = free_rocking_etas(tr.theta_rad, block.alpha_rad, theta0, uplift_tol_rad(block), FREE_ROCKING_IMPACTS)
         mean = float(np.mean(etas)) if etas else float("nan")
         std = float(np.std(etas)) if etas else float("nan")
         shown = {k: s.get(k) for k in ("settings", "contact", "approximation", "friction", "planar", "drive")
                  + self.CONTACT_KEYS}
         return RestitutionMeasurement(etas=[float(e) for e in etas], eta_mean=mean, eta_std=std,
-                                      theta0_rad=theta0_frac * block.alpha_rad, dt_s=dt, settings=shown,
-                                      method=f"energy ratio of the first {_CAL_IMPACTS} impacts: "
-                                             "sqrt(K_next/K), K = mechanical energy above rest between impacts")
+                                      theta0_rad=theta0, dt_s=dt, settings=shown, method=FREE_ROCKING_METHOD)
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
@@ -605,10 +568,8 @@ class DrakeAdapter(EngineAdapter):
         ``reached`` says whether it is within 1 %. Cached on disk per engine version, block,
         target, time step, contact, approximation, planar flag, drive and friction.
         """
-        t = float(target_eta)
-        if not (math.isfinite(t) and 0.0 < t <= 1.0):
-            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        t = self.check_target_eta(target_eta)
+        dt = self.check_dt(dt_s)
         base = self._filled({**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}})
         kkey, dkey = self._stiffness_key(), self._dissipation_key(base["approximation"])
         key = calibration.cache_key(engine=self.name, version=self.version(), protocol=CALIBRATION_PROTOCOL,
