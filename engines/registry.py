@@ -19,6 +19,7 @@ BUILTIN = {
     "exudyn": "rockbench.engines.exudyn_adapter:ExudynAdapter",
     "mujoco": "rockbench.engines.mujoco_adapter:MujocoAdapter",
     "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
+    "drake": "rockbench.engines.drake_adapter:DrakeAdapter",
 }
 
 #: the entry-point group third parties register under

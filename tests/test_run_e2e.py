@@ -49,7 +49,11 @@ def test_run_quick_end_to_end(tmp_path):
     assert (out / "img" / "theta_b3m_sine_6_6.1.png").is_file()
     suite = json.loads((out / "suite.json").read_text())
     assert suite["suite_name"] == "quick" and suite["suite"]["grid"]["adaptive"] and len(suite["maps"]) >= 12
-    engines = [n for n in BUILTIN if n != "reference" and availability(n)["available"]]
+    left_out = suite["suite"]["engines"].get("exclude", [])   # engines the quick suite leaves out (drake)
+    engines = [n for n in BUILTIN if n != "reference" and n not in left_out and availability(n)["available"]]
+    for n in left_out:
+        if n in BUILTIN and availability(n)["available"]:
+            assert f"engine {n} left out by the suite" in r.stderr
     if engines:
         doc = json.loads((out / "score.json").read_text())
         assert {p["engine"] for p in doc["pairs"]} == set(engines)
