@@ -1,0 +1,495 @@
+"""MuJoCo Warp adapter: the CPU MuJoCo adapter's rocking block, every cell a world of one batch.
+
+The model
+---------
+The MJCF model is the CPU MuJoCo adapter's own (:class:`~rockbench.engines.mujoco_adapter.MujocoAdapter`
+builds it with ``MjSpec``; this adapter reuses the builder and the settled initial state) and is
+moved to the device with ``mujoco_warp.put_model``. What differs, because MuJoCo Warp allows no
+other (``docs/mujoco_warp.md``):
+
+* arithmetic in float32 on the device (the CPU engine computes in float64); the table drive is
+  evaluated in float64 and rounded once per step;
+* the constraint solver is Newton (MuJoCo's default, also on the CPU) or CG; PGS does not exist
+  in MuJoCo Warp. On a CUDA device the solver stops each world at its own convergence (a graph
+  conditional); on the CPU device it launches ``iterations`` passes, converged worlds skipping them;
+* the no-slip solver exists (``noslip_iterations``), as on the CPU.
+
+One batch of worlds
+-------------------
+``_simulate_many`` puts every case that shares a model into one ``mujoco_warp.Data`` with
+``nworld`` worlds (``nconmax``/``njmax`` sized for one block on one table, per world). Each world
+has its own table pulse: a kernel evaluates the pulse's table velocity ``u̇`` at both ends of the
+step (in float64, on the device) and writes the step-averaged inertial force
+``−m·(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` into that world's ``ctrl`` (the motor on the slide-x dof of the CPU
+adapter). Record pulses, which have no closed form, read ``u̇`` from a table computed on the host.
+A step is: drive kernel, ``mujoco_warp.step``, a kernel copying ``qpos``/``qvel`` into the segment
+buffer, a step counter. On a CUDA device one such step is captured once in a CUDA graph and the
+graph is launched for every step (no Python per step); on the CPU device the same launches run in a
+plain loop.
+
+End of a run
+------------
+As on the CPU: the batch runs in segments of ``segment_s`` on one global time grid; after each
+segment every world still running is checked with the CPU adapter's rule (overturn certain, or a
+turning point below α after ``min_tail_s`` past the pulse, or ``tail_s`` past the pulse). A world
+that is decided keeps being stepped with the others (a world cannot leave a batch cheaply) but its
+samples are no longer kept; the batch stops when every world is decided. A world's trajectory
+depends only on its own state, so a cell's result does not depend on the other cells of its batch
+(on the CPU device bit for bit, tested; on a GPU the contact order inside a world can differ
+between launches, so the last float32 bits can too).
+
+Kernel cache
+------------
+Warp compiles its kernels on first use (about a minute on a CPU, more on a GPU) and keeps them in
+``<rockbench cache>/warp`` (``$ROCKBENCH_CACHE``, default ``~/.cache/rockbench``), unless
+``WARP_CACHE_PATH`` names another folder, so reruns and CI reuse them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..reference_solver.classify import FLAT_ANGLE_RAD
+from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import Block
+from . import calibration as _cal
+from .base import Case, RestitutionMeasurement
+from .mujoco_adapter import CALIBRATION_THETA0_FRAC, ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
+
+#: Contacts and constraint rows allocated per world: a box on a plane keeps at most 4 contacts (8
+#: on a box table); an elliptic contact of condim 3 has 3 rows, a pyramidal one 4.
+NCONMAX_PER_WORLD = 8
+NJMAX_PER_WORLD = 4 * NCONMAX_PER_WORLD + 8
+
+#: Most worlds in one ``Data`` (larger batches run as several, each independent).
+MAX_WORLDS = 65536
+
+_SOLVERS = ("newton", "cg")
+_DEVICES = ("auto", "cpu", "cuda")
+
+_warp_ready = False
+
+
+def warp_cache_dir() -> str:
+    """Where Warp keeps its compiled kernels: ``$WARP_CACHE_PATH`` if set, else ``<rockbench cache>/warp``."""
+    env = os.environ.get("WARP_CACHE_PATH")
+    if env:
+        return env
+    return str(_cal.cache_dir().parent / "warp")
+
+
+def _warp():
+    """``(warp, mujoco_warp)``, Warp initialised once with its kernel cache in rockbench's cache."""
+    global _warp_ready
+    import warp as wp
+    if not _warp_ready:
+        wp.config.quiet = True
+        from warp._src import context as _ctx
+        if getattr(_ctx, "runtime", None) is None:   # not initialised yet in this process
+            wp.config.kernel_cache_dir = warp_cache_dir()
+            wp.init()
+        _warp_ready = True
+    import mujoco_warp as mjw
+    return wp, mjw
+
+
+def _kernels():
+    """The adapter's own kernels (:mod:`rockbench.engines._mujoco_warp_kernels`, imported once Warp is set up)."""
+    _warp()
+    from . import _mujoco_warp_kernels as k
+    return {"drive": k.drive, "record": k.record, "advance": k.advance}
+
+
+
+#: pulse kinds the drive kernel evaluates in closed form (3: a velocity table, 4: no pulse)
+_KIND_CODES = {"sine": 0, "cosine": 1, "half-sine": 2}
+_KIND_TABLE, _KIND_STILL = 3, 4
+
+
+@dataclass
+class _Run:
+    """The device objects of one batch."""
+
+    m: object
+    d: object
+    step: object
+    hist: object
+    drive_args: list
+    graph: object
+    nseg: int
+
+
+class MujocoWarpAdapter(MujocoAdapter):
+    """The rocking block in MuJoCo Warp, a map's cells as worlds of one batch (module docstring).
+
+    Settings
+    --------
+    All the CPU MuJoCo adapter's settings but ``threads`` (same meaning, same defaults:
+    ``settings``, ``drive``, ``planar``, ``friction``, ``timeconst``, ``dampratio``,
+    ``noslip_iterations``, ``cone``, ``integrator``, ``impratio``, ``tail_s``, ``min_tail_s``,
+    ``segment_s``, ``table_mass_ratio``), and:
+
+    device : {"auto", "cpu", "cuda"} or a Warp device name such as ``"cuda:1"``
+        Where the worlds run (``auto``: the first CUDA device when there is one, else the CPU).
+    solver : {"newton", "cg"}
+        MuJoCo Warp's constraint solver (Newton is MuJoCo's default).
+    iterations, ls_iterations : int
+        Solver and line-search iteration limits (MuJoCo's defaults 100 and 50).
+    """
+
+    name = "mujoco_warp"
+    module = "mujoco_warp"
+    install_hint = ("install it with `pip install 'rockbench[warp]'` (mujoco-warp 4.0 and warp-lang 1.19; "
+                    "a CUDA GPU is optional, Warp's CPU device runs small maps).")
+    parallel_batch = True
+    SETTINGS = {**{k: v for k, v in MujocoAdapter.SETTINGS.items() if k != "threads"},
+                "device": "auto", "solver": "newton", "iterations": 100, "ls_iterations": 50}
+
+    def __init__(self, **settings):
+        super().__init__(**settings)
+        self._device_models: dict = {}
+
+    # -- settings ----------------------------------------------------------------------------
+    def _validate_settings(self, s: dict) -> None:
+        s["threads"] = 0                      # the CPU validator expects it; dropped again below
+        try:
+            super()._validate_settings(s)
+        finally:
+            s.pop("threads", None)
+        dev = s["device"]
+        if not isinstance(dev, str) or not (dev in _DEVICES or dev.startswith("cuda:")):
+            raise ConfigError(f"mujoco_warp setting 'device' must be auto, cpu, cuda or cuda:N, got {dev!r}.")
+        if s["solver"] not in _SOLVERS:
+            raise ConfigError(f"mujoco_warp setting 'solver' must be newton or cg (MuJoCo Warp has no PGS), "
+                              f"got {s['solver']!r}.")
+        self._whole_setting(s, "iterations", 1, allow_none=False)
+        self._whole_setting(s, "ls_iterations", 1, allow_none=False)
+
+    def _threads(self) -> int:
+        return 1   # only the CPU engine's settle and its calibration helpers use threads here
+
+    @classmethod
+    def version(cls) -> str:
+        base = super().version()
+        try:
+            import warp
+            return f"{base} (warp-lang {warp.__version__})"
+        except Exception:  # noqa: BLE001 - mujoco_warp imported, so warp did too; be safe anyway
+            return base
+
+    @classmethod
+    def default_suite_exclusion(cls) -> str | None:
+        """Why the default suite leaves this engine out here (None: it is included).
+
+        Warp's CPU device runs its kernels on one thread: a whole suite there takes hours, so the
+        default suite runs ``mujoco_warp`` only where a CUDA device is present. Asked for by name
+        (``--engines mujoco_warp``, ``rockbench map --engine mujoco_warp``) it runs anywhere.
+        """
+        try:
+            wp, _ = _warp()
+            if wp.is_cuda_available():
+                return None
+        except Exception as e:  # noqa: BLE001 - unavailable engines are reported elsewhere
+            return f"Warp could not start ({e})"
+        return ("no CUDA device here (Warp's CPU device is single-threaded: too slow for a whole suite); "
+                "ask for it by name with --engines mujoco_warp")
+
+    def device_name(self) -> str:
+        """The Warp device the worlds run on."""
+        wp, _ = _warp()
+        dev = self.settings["device"]
+        if dev == "auto":
+            return "cuda:0" if wp.is_cuda_available() else "cpu"
+        if dev == "cuda":
+            dev = "cuda:0"
+        if dev.startswith("cuda") and not wp.is_cuda_available():
+            raise ConfigError(f"mujoco_warp setting device={dev!r}, but Warp finds no CUDA device here; "
+                              "use device=auto or device=cpu.")
+        return dev
+
+    def resolve(self, block: Block, restitution, dt_s: float | None = None) -> dict:
+        out = super().resolve(block, restitution, dt_s)
+        s = self.settings
+        out.update(solver=s["solver"], iterations=s["iterations"], ls_iterations=s["ls_iterations"])
+        return out
+
+    # -- model -------------------------------------------------------------------------------
+    def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> _Built:
+        import mujoco
+
+        bm = super()._build(block, p, dt, drive, planar)
+        s = self.settings
+        opt = bm.model.opt
+        opt.solver = mujoco.mjtSolver.mjSOL_NEWTON if s["solver"] == "newton" else mujoco.mjtSolver.mjSOL_CG
+        opt.iterations = int(s["iterations"])
+        opt.ls_iterations = int(s["ls_iterations"])
+        bm.s0 = self._settle(bm.model, mujoco)   # settled again with the solver in force
+        return bm
+
+    def _device_model(self, bm: _Built, dev: str, nsolref: int = 0):
+        """``mujoco_warp.put_model`` of a built model on ``dev`` (cached; ``nsolref`` > 0 gives
+        ``geom_solref`` one row per world, for calibration grids)."""
+        wp, mjw = _warp()
+        key = (id(bm), dev, nsolref)
+        if key not in self._device_models:
+            with wp.ScopedDevice(dev):
+                self._device_models[key] = (bm, mjw.put_model(bm.model, batch_sizes={"geom_solref": nsolref}
+                                                              if nsolref else None))
+        return self._device_models[key][1]
+
+    # -- the batch ---------------------------------------------------------------------------
+    def _simulate_many(self, cases: list[Case]) -> list:
+        out: list = [None] * len(cases)
+        groups: dict = {}
+        for i, c in enumerate(cases):
+            try:
+                dt = self.dt_for(c)
+                p = self.resolve(c.block, c.restitution, dt)
+                bm = self._model(c.block, p, dt)
+            except ConfigError:
+                raise
+            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
+                out[i] = e
+                continue
+            groups.setdefault(id(bm), (bm, []))[1].append(i)
+        for bm, idx in groups.values():
+            for k in range(0, len(idx), MAX_WORLDS):
+                part = idx[k:k + MAX_WORLDS]
+                try:
+                    states = self._run_batch(bm, [cases[i].pulse for i in part],
+                                             [self._stop_rule(cases[i]) for i in part])
+                    res = [self._trajectory(bm, cases[i], st) for i, st in zip(part, states)]
+                except ConfigError:
+                    raise
+                except Exception as e:  # noqa: BLE001 - the whole batch failed inside the engine
+                    res = [e] * len(part)
+                for i, r in zip(part, res):
+                    out[i] = r
+        return out
+
+    def _stop_rule(self, case: Case) -> dict:
+        b = case.block
+        return {"te": case.pulse.duration_s, "alpha": b.alpha_rad}
+
+    def _run_batch(self, bm: _Built, pulses: list, stops: list | None, *, init: np.ndarray | None = None,
+                   solref: np.ndarray | None = None, n_steps: int | None = None) -> list[np.ndarray]:
+        """Step one batch of worlds; returns each world's samples ``[t, qpos, qvel]`` (float64).
+
+        ``stops`` (one dict per world, :meth:`_stop_rule`) ends each world by the end-of-run rule
+        (module docstring); None runs every world ``n_steps`` steps. ``init`` gives each world its
+        own initial ``[t, qpos, qvel]`` row (default: the settled state), ``solref`` its own contact
+        ``(timeconst, dampratio)``.
+        """
+        wp, mjw = _warp()
+        k = _kernels()
+        dev = self.device_name()
+        model = bm.model
+        dt = float(model.opt.timestep)
+        nq, nv = model.nq, model.nv
+        n = len(pulses)
+        ncol = 1 + nq + nv
+        s0 = bm.s0[:ncol]
+        x0 = np.tile(s0, (n, 1)) if init is None else np.asarray(init, dtype=float).reshape(n, ncol)
+        nseg = self._seg_steps(bm)
+        s = self.settings
+        if stops is not None:
+            t_end = np.array([st["te"] for st in stops])
+            last_step = np.ceil((t_end + s["tail_s"]) / dt).astype(np.int64)
+            alpha = np.array([st["alpha"] for st in stops])
+        else:
+            last_step = np.full(n, int(n_steps), dtype=np.int64)
+        max_steps = int(last_step.max())
+
+        kind = np.array([_KIND_STILL if p is None else _KIND_CODES.get(p.kind, _KIND_TABLE) for p in pulses],
+                        dtype=np.int32)
+        closed = kind < _KIND_TABLE
+        amp = np.array([float(p.amplitude_mps2) if c else 0.0 for p, c in zip(pulses, closed)])
+        omega = np.array([float(p.omega_rad_s) if c else 1.0 for p, c in zip(pulses, closed)])
+        dur = np.array([0.0 if p is None else float(p.duration_s) for p in pulses])
+        rec = np.nonzero(kind == _KIND_TABLE)[0]
+        row = np.zeros(n, dtype=np.int32)
+        row[rec] = np.arange(rec.size, dtype=np.int32)
+        if rec.size:
+            tk = np.arange(max_steps + 1) * dt
+            vtab = np.stack([np.asarray(pulses[i].vel(tk), dtype=float) for i in rec])
+        else:
+            vtab = np.zeros((1, 1))
+
+        with wp.ScopedDevice(dev):
+            m = self._device_model(bm, dev, n if solref is not None else 0)
+            if solref is not None:
+                sr = np.repeat(np.asarray(solref, dtype=np.float32)[:, None, :], model.ngeom, axis=1)
+                m.geom_solref.assign(sr)
+            d = mjw.make_data(model, nworld=n, nconmax=NCONMAX_PER_WORLD, njmax=NJMAX_PER_WORLD)
+            d.qpos.assign(x0[:, 1:1 + nq].astype(np.float32))
+            d.qvel.assign(x0[:, 1 + nq:].astype(np.float32))
+            step = wp.zeros(1, dtype=wp.int32)
+            hist = wp.zeros((n, nseg, nq + nv), dtype=wp.float32)
+            dargs = [step, wp.array(kind, dtype=wp.int32), wp.array(amp, dtype=wp.float64),
+                     wp.array(omega, dtype=wp.float64), wp.array(dur, dtype=wp.float64),
+                     wp.array(row, dtype=wp.int32), wp.array(vtab, dtype=wp.float64),
+                     float(bm.mass_kg if bm.drive == "inertial" else bm.push_mass_kg), dt, d.ctrl]
+
+            def one_step():
+                wp.launch(k["drive"], dim=n, inputs=dargs)
+                mjw.step(m, d)
+                wp.launch(k["record"], dim=n, inputs=[step, nseg, d.qpos, d.qvel, hist])
+                wp.launch(k["advance"], dim=1, inputs=[step])
+
+            graph = None
+            if wp.get_device(dev).is_cuda:
+                self._warm_up(m, model, dev)
+                with wp.ScopedCapture(device=dev) as cap:
+                    one_step()
+                graph = cap.graph
+
+            parts: list[list[np.ndarray]] = [[x0[i][None, :]] for i in range(n)]
+            active = np.ones(n, dtype=bool)
+            certain = np.zeros(n, dtype=bool)
+            turned = np.zeros(n, dtype=bool)
+            prev_thd = np.zeros(n)                   # the settled state is at rest
+            k0 = 0
+            while active.any():
+                for _ in range(nseg):
+                    if graph is not None:
+                        wp.capture_launch(graph)
+                    else:
+                        one_step()
+                h = hist.numpy()                     # (n, nseg, nq + nv), float32
+                self._check_capacity(d)
+                t = (k0 + 1 + np.arange(nseg)) * dt
+                ia = np.nonzero(active)[0]
+                seg = np.empty((ia.size, nseg, ncol))
+                seg[:, :, 0] = t
+                seg[:, :, 1:] = h[ia]
+                for j, i in enumerate(ia):
+                    parts[i].append(seg[j])
+                k0 += nseg
+                done = ~np.all(np.isfinite(h[ia]), axis=(1, 2)) | (k0 >= last_step[ia])
+                if stops is not None:
+                    done |= self._decided_many(bm, seg[:, :, 1:], t, dt, t_end[ia], alpha[ia],
+                                               certain, turned, prev_thd, ia)
+                active[ia[done]] = False
+        self._last_device = dev
+        return [np.concatenate(p) for p in parts]
+
+    @staticmethod
+    def _warm_up(m, model, dev) -> None:
+        """One step of a throwaway one-world batch and the adapter's kernels: every kernel loaded
+        (compiled or read from the cache) before a CUDA graph is captured, since a capture cannot load."""
+        wp, mjw = _warp()
+        k = _kernels()
+        d = mjw.make_data(model, nworld=1, nconmax=NCONMAX_PER_WORLD, njmax=NJMAX_PER_WORLD)
+        step = wp.zeros(1, dtype=wp.int32)
+        hist = wp.zeros((1, 1, model.nq + model.nv), dtype=wp.float32)
+        one = [wp.zeros(1, dtype=wp.int32), wp.zeros(1, dtype=wp.float64)]
+        wp.launch(k["drive"], dim=1, inputs=[step, one[0], one[1], one[1], one[1], one[0],
+                                             wp.zeros((1, 1), dtype=wp.float64), 1.0, 1.0, d.ctrl])
+        mjw.step(m, d)
+        wp.launch(k["record"], dim=1, inputs=[step, 1, d.qpos, d.qvel, hist])
+        wp.launch(k["advance"], dim=1, inputs=[step])
+        wp.synchronize_device(dev)
+
+    @staticmethod
+    def _check_capacity(d) -> None:
+        """A RuntimeError (the batch's cells fail) if a world needed more contacts or rows than allocated."""
+        nacon = int(d.nacon.numpy()[0])
+        if nacon > d.naconmax:
+            raise RuntimeError(f"mujoco_warp: {nacon} contacts exceed the {d.naconmax} allocated")
+        nefc = d.nefc.numpy()
+        if nefc.size and int(nefc.max()) > d.njmax:
+            raise RuntimeError(f"mujoco_warp: {int(nefc.max())} constraint rows exceed the {d.njmax} allocated per world")
+
+    def _decided_many(self, bm: _Built, h: np.ndarray, t: np.ndarray, dt: float, te: np.ndarray, alpha: np.ndarray,
+                      certain: np.ndarray, turned: np.ndarray, prev_thd: np.ndarray, ia: np.ndarray) -> np.ndarray:
+        """The CPU adapter's end-of-run rule (:meth:`MujocoAdapter._decided`) for many worlds at once,
+        one segment at a time: ``certain``/``turned``/``prev_thd`` carry what earlier segments showed."""
+        th, thd = self._theta_columns(bm, h)
+        a = np.abs(th)
+        post = t[None, :] >= te[:, None]
+        cert = np.any((a >= FLAT_ANGLE_RAD) | (post & (a > alpha[:, None]) & (th * thd > 0)), axis=1)
+        certain[ia] |= cert
+        # a turning point after the pulse with |θ| ≤ α: θ̇ changes sign between consecutive samples
+        sg = np.sign(thd)
+        before = np.concatenate([np.sign(prev_thd[ia])[:, None], sg[:, :-1]], axis=1)
+        pair_post = (t - dt)[None, :] >= te[:, None]     # both samples of the pair after the pulse
+        turn = (before * sg <= 0) & pair_post & (a <= alpha[:, None])
+        turned[ia] |= turn.any(axis=1)
+        prev_thd[ia] = thd[:, -1]
+        enough = t[-1] >= te + self.settings["min_tail_s"]
+        return certain[ia] | (enough & turned[ia])
+
+    @staticmethod
+    def _theta_columns(bm: _Built, h: np.ndarray):
+        """θ and θ̇ of many worlds from recorded ``[qpos, qvel]`` rows ``(n, k, nq + nv)``, as the
+        CPU adapter's ``_read`` gives them."""
+        p, v = bm.qi["pos"] - 1, bm.qi["vel"] - 1
+        if bm.planar:
+            return h[:, :, p + 2], h[:, :, v + 2]
+        w, qx, qy, qz = (h[:, :, p + 3 + k] for k in range(4))
+        th = np.arctan2(2 * (qx * qz + w * qy), 1 - 2 * (qx * qx + qy * qy))
+        r10, r11, r12 = 2 * (qx * qy + w * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - w * qx)
+        wx, wy, wz = (h[:, :, v + 3 + k] for k in range(3))
+        return th, r10 * wx + r11 * wy + r12 * wz
+
+    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray):
+        tr = super()._trajectory(bm, case, st)
+        tr.diagnostics.update(device=getattr(self, "_last_device", None), precision="float32",
+                              solver=self.settings["solver"])
+        return tr
+
+    # -- restitution -------------------------------------------------------------------------
+    def _free_rocking(self, block: Block, params_list: list[dict], dt: float, theta0_frac: float,
+                      duration_s: float = 2.0) -> list[RestitutionMeasurement]:
+        """Free rocking from rest at ``theta0_frac·α`` about the +x edge: every contact setting a
+        world of one batch (per-world ``geom_solref``)."""
+        built = [self._model(block, p, dt) for p in params_list]
+        groups: dict = {}
+        for j, (bm, p) in enumerate(zip(built, params_list)):
+            key = tuple((k, p[k]) for k in ("cone", "integrator", "noslip_iterations", "impratio"))
+            groups.setdefault(key, []).append(j)
+        th0 = theta0_frac * block.alpha_rad
+        b, h = block.width_m, block.height_m
+        nstep = int(round(duration_s / dt))
+        out: list = [None] * len(built)
+        for idx in groups.values():
+            init, solref = [], []
+            for j in idx:
+                bm = built[j]
+                s = bm.s0.copy()
+                sink = s[bm.qi["pos"] + 1] if bm.planar else s[bm.qi["pos"] + 2] - 0.5 * h
+                cx = 0.5 * b - 0.5 * b * math.cos(th0) + 0.5 * h * math.sin(th0)
+                cz = 0.5 * b * math.sin(th0) + 0.5 * h * math.cos(th0)
+                if bm.planar:
+                    s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, cz - 0.5 * h + sink, th0]
+                else:
+                    s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, 0.0, cz + sink]
+                    s[bm.qi["pos"] + 3: bm.qi["pos"] + 7] = [math.cos(0.5 * th0), 0.0, math.sin(0.5 * th0), 0.0]
+                init.append(s[:1 + bm.model.nq + bm.model.nv])
+                solref.append([params_list[j]["timeconst"], params_list[j]["dampratio"]])
+            states = self._run_batch(built[idx[0]], [None] * len(idx), None, init=np.array(init), solref=np.array(solref),
+                                     n_steps=nstep)
+            for j, full in zip(idx, states):
+                bm, p = built[j], params_list[j]
+                _, th, thd, _, _ = self._read(bm, full, block)
+                etas = impact_etas(th, thd, block.alpha_rad, block.p_rad_s)
+                arr = np.array(etas) if etas else np.array([math.nan])
+                out[j] = RestitutionMeasurement(
+                    etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
+                    eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
+                    settings={k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator",
+                                                "noslip_iterations", "impratio")}
+                    | {"friction": self.settings["friction"], "solver": self.settings["solver"]},
+                    method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
+                            "carried to θ = 0 with the free-rocking energy; η = ratio after/before"))
+        return out
+
+    def _calibration_identity(self) -> dict:
+        import mujoco_warp
+        s = self.settings
+        return {"engine": self.name, "version": mujoco_warp.__version__,
+                "warp_solver": [s["solver"], s["iterations"], s["ls_iterations"]]}
