@@ -111,17 +111,36 @@ _KIND_CODES = {"sine": 0, "cosine": 1, "half-sine": 2}
 _KIND_TABLE, _KIND_STILL = 3, 4
 
 
-@dataclass
-class _Run:
-    """The device objects of one batch."""
+class _Samples:
+    """Each world's samples of one batch: ``[t, qpos, qvel]`` rows in float64, made world by world
+    when asked for (``samples[i]``), from the float32 rows the device recorded."""
 
-    m: object
-    d: object
-    step: object
-    hist: object
-    drive_args: list
-    graph: object
-    nseg: int
+    def __init__(self, parts: list, dt: float):
+        self.parts = parts
+        self.dt = dt
+
+    def __len__(self) -> int:
+        return len(self.parts)
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        h = np.concatenate(self.parts[i])
+        st = np.empty((h.shape[0], 1 + h.shape[1]))
+        st[:, 0] = np.arange(h.shape[0]) * self.dt
+        st[:, 1:] = h
+        return st
+
+    def __iter__(self):
+        return (self[i] for i in range(len(self)))
+
+
+def _judge_slice(bounds):
+    """Judge cases ``bounds[0]:bounds[1]`` of the batch a forked judge worker inherited."""
+    ad, cases, trajs, wall = _JUDGE_JOB
+    return [ad.judge(cases[k], trajs[k], wall) for k in range(*bounds)]
+
+
+#: the batch forked judge workers read (set only while a pool runs)
+_JUDGE_JOB = None
 
 
 class MujocoWarpAdapter(MujocoAdapter):
@@ -140,6 +159,8 @@ class MujocoWarpAdapter(MujocoAdapter):
         MuJoCo Warp's constraint solver (Newton is MuJoCo's default).
     iterations, ls_iterations : int
         Solver and line-search iteration limits (MuJoCo's defaults 100 and 50).
+    judge_workers : int
+        Forked processes that judge a large batch (0: one per core, at most 32; 1: in this process).
     """
 
     name = "mujoco_warp"
@@ -151,7 +172,8 @@ class MujocoWarpAdapter(MujocoAdapter):
     #: a GPU steps 40 000 worlds in little more time than 10 000
     max_batch = MAX_WORLDS
     SETTINGS = {**{k: v for k, v in MujocoAdapter.SETTINGS.items() if k != "threads"},
-                "device": "auto", "solver": "newton", "iterations": 100, "ls_iterations": 50}
+                "device": "auto", "solver": "newton", "iterations": 100, "ls_iterations": 50,
+                "judge_workers": 0}
 
     def __init__(self, **settings):
         super().__init__(**settings)
@@ -175,6 +197,7 @@ class MujocoWarpAdapter(MujocoAdapter):
             raise ConfigError(f"mujoco_warp setting 'solver' must be newton or cg (MuJoCo Warp has no PGS), "
                               f"got {s['solver']!r}.")
         self._whole_setting(s, "iterations", 1, allow_none=False)
+        self._whole_setting(s, "judge_workers", 0, allow_none=False)
         self._whole_setting(s, "ls_iterations", 1, allow_none=False)
 
     def _threads(self) -> int:
@@ -270,7 +293,10 @@ class MujocoWarpAdapter(MujocoAdapter):
                 try:
                     states = self._run_batch(bm, [cases[i].pulse for i in part],
                                              [self._stop_rule(cases[i]) for i in part])
-                    res = [self._trajectory(bm, cases[i], st) for i, st in zip(part, states)]
+                    res = []
+                    for j, i in enumerate(part):
+                        res.append(self._trajectory(bm, cases[i], states[j]))
+                        states.parts[j] = None    # the float32 rows are no longer needed
                 except ConfigError:
                     raise
                 except Exception as e:  # noqa: BLE001 - the whole batch failed inside the engine
@@ -278,6 +304,31 @@ class MujocoWarpAdapter(MujocoAdapter):
                 for i, r in zip(part, res):
                     out[i] = r
         return out
+
+    def run_many(self, cases) -> list:
+        """Simulate the batch, then judge its cells with the one classifier and validity rule
+        (:meth:`judge`); a large batch is judged in forked processes (``judge_workers``), since the
+        judge, not the device, is then what takes the time."""
+        import multiprocessing as mp
+        global _JUDGE_JOB
+
+        cases = list(cases)
+        t0 = time.perf_counter()
+        trajs = self._simulate_many(cases)
+        n = len(cases)
+        wall = (time.perf_counter() - t0) / max(n, 1)
+        workers = self.settings["judge_workers"] or min(os.cpu_count() or 1, 32)
+        workers = min(workers, n // 256)
+        if workers < 2 or "fork" not in mp.get_all_start_methods():
+            return [self.judge(c, tr, wall) for c, tr in zip(cases, trajs)]
+        _JUDGE_JOB = (self, cases, trajs, wall)
+        try:
+            bounds = np.linspace(0, n, 4 * workers + 1).astype(int)
+            with mp.get_context("fork").Pool(workers) as pool:
+                parts = pool.map(_judge_slice, list(zip(bounds[:-1].tolist(), bounds[1:].tolist())))
+        finally:
+            _JUDGE_JOB = None
+        return [r for p in parts for r in p]
 
     def _stop_rule(self, case: Case) -> dict:
         b = case.block
@@ -354,9 +405,14 @@ class MujocoWarpAdapter(MujocoAdapter):
                 with wp.ScopedCapture(device=dev) as cap:
                     one_step()
                 graph = cap.graph
+                wp.synchronize_device(dev)
 
             t_start = time.perf_counter()
-            parts: list[list[np.ndarray]] = [[x0[i][None, :]] for i in range(n)]
+            # each world's samples as float32 [qpos, qvel] rows (what the device computed); the
+            # times are k·Δt, added in float64 when the trajectory is made
+            x0_32 = x0[:, 1:].astype(np.float32)
+            parts: list[list[np.ndarray]] = [[x0_32[i][None, :]] for i in range(n)]
+            copy = not wp.get_device(dev).is_cuda     # a CPU array's numpy() is a view of the buffer
             active = np.ones(n, dtype=bool)
             certain = np.zeros(n, dtype=bool)
             turned = np.zeros(n, dtype=bool)
@@ -369,24 +425,23 @@ class MujocoWarpAdapter(MujocoAdapter):
                     else:
                         one_step()
                 h = hist.numpy()                     # (n, nseg, nq + nv), float32
+                if copy:
+                    h = h.copy()
                 self._check_capacity(d)
                 t = (k0 + 1 + np.arange(nseg)) * dt
                 ia = np.nonzero(active)[0]
-                seg = np.empty((ia.size, nseg, ncol))
-                seg[:, :, 0] = t
-                seg[:, :, 1:] = h[ia]
+                ha = h[ia] if ia.size < n else h
                 for j, i in enumerate(ia):
-                    parts[i].append(seg[j])
+                    parts[i].append(ha[j])
                 k0 += nseg
-                done = ~np.all(np.isfinite(h[ia]), axis=(1, 2)) | (k0 >= last_step[ia])
+                done = ~np.all(np.isfinite(ha), axis=(1, 2)) | (k0 >= last_step[ia])
                 if stops is not None:
-                    done |= self._decided_many(bm, seg[:, :, 1:], t, dt, t_end[ia], alpha[ia],
-                                               certain, turned, prev_thd, ia)
+                    done |= self._decided_many(bm, ha, t, dt, t_end[ia], alpha[ia], certain, turned, prev_thd, ia)
                 active[ia[done]] = False
             self.world_steps_run += n * k0
             self.stepping_s += time.perf_counter() - t_start
         self._last_device = dev
-        return [np.concatenate(p) for p in parts]
+        return _Samples(parts, dt)
 
     @staticmethod
     def _warm_up(m, model, dev) -> None:
@@ -438,6 +493,7 @@ class MujocoWarpAdapter(MujocoAdapter):
     def _theta_columns(bm: _Built, h: np.ndarray):
         """θ and θ̇ of many worlds from recorded ``[qpos, qvel]`` rows ``(n, k, nq + nv)``, as the
         CPU adapter's ``_read`` gives them."""
+        h = h.astype(np.float64)
         p, v = bm.qi["pos"] - 1, bm.qi["vel"] - 1
         if bm.planar:
             return h[:, :, p + 2], h[:, :, v + 2]
