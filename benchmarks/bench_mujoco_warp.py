@@ -98,6 +98,7 @@ def run_one_map(block_name, kind, n, engine, settings, out_dir: Path) -> dict:
         r["world_steps"] = int(ad.world_steps_run)
         r["world_steps_per_s"] = ad.world_steps_run / wall
         r["stepping_s"] = ad.stepping_s
+        r["trajectories_and_judge_s"] = ad.judging_s
     ex.close()
     return r
 

@@ -45,9 +45,15 @@ def drive(step: wp.array(dtype=wp.int32), kind: wp.array(dtype=wp.int32), amp: w
 
 @wp.kernel
 def record(step: wp.array(dtype=wp.int32), nseg: int, qpos: wp.array2d(dtype=wp.float32),
-           qvel: wp.array2d(dtype=wp.float32), hist: wp.array3d(dtype=wp.float32)):
-    """Copy world i's ``qpos``, ``qvel`` after step k into row ``k mod nseg`` of the segment buffer."""
+           qvel: wp.array2d(dtype=wp.float32), nefc: wp.array(dtype=wp.int32), nacon: wp.array(dtype=wp.int32),
+           hist: wp.array3d(dtype=wp.float32), peak: wp.array(dtype=wp.int32)):
+    """Copy world i's ``qpos``, ``qvel`` after step k into row ``k mod nseg`` of the segment buffer;
+    keep the most constraint rows world i needed (``peak[i]``) and the most contacts of the batch
+    (``peak[nworld]``), so an overflow at any step is seen."""
     i = wp.tid()
+    peak[i] = wp.max(peak[i], nefc[i])
+    if i == 0:
+        peak[qpos.shape[0]] = wp.max(peak[qpos.shape[0]], nacon[0])
     j = step[0] % nseg
     nq = qpos.shape[1]
     for c in range(nq):

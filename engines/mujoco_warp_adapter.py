@@ -61,10 +61,11 @@ from . import calibration as _cal
 from .base import Case, RestitutionMeasurement
 from .mujoco_adapter import CALIBRATION_THETA0_FRAC, ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
 
-#: Contacts and constraint rows allocated per world: a box on a plane keeps at most 4 contacts (8
-#: on a box table); an elliptic contact of condim 3 has 3 rows, a pyramidal one 4.
-NCONMAX_PER_WORLD = 8
-NJMAX_PER_WORLD = 4 * NCONMAX_PER_WORLD + 8
+#: Contacts allocated per world: a box on a plane keeps at most 4 contacts, a box on a box 8 (the
+#: table drive). Constraint rows per world follow (an elliptic contact of condim 3 has 3 rows, a
+#: pyramidal one 4). The solver's work grows with the rows allocated, so they are sized tightly; a
+#: world that needs more stops its batch with an error (:meth:`MujocoWarpAdapter._check_capacity`).
+NCONMAX_PLANE, NCONMAX_BOX = 4, 8
 
 #: Most worlds in one ``Data`` (larger batches run as several, each independent).
 MAX_WORLDS = 65536
@@ -135,8 +136,8 @@ class _Samples:
 
 def _judge_slice(bounds):
     """Judge cases ``bounds[0]:bounds[1]`` of the batch a forked judge worker inherited."""
-    ad, cases, trajs, wall = _JUDGE_JOB
-    return [ad.judge(cases[k], trajs[k], wall) for k in range(*bounds)]
+    ad, cases, raw, wall = _JUDGE_JOB
+    return [ad.judge(cases[k], ad._make_trajectory(cases[k], raw[k]), wall) for k in range(*bounds)]
 
 
 #: the batch forked judge workers read (set only while a pool runs)
@@ -182,6 +183,8 @@ class MujocoWarpAdapter(MujocoAdapter):
         #: (device work and the per-segment read-back; the judge and the rest of the map are not in it)
         self.world_steps_run = 0
         self.stepping_s = 0.0
+        #: wall time spent making trajectories and judging them in ``run_many`` [s]
+        self.judging_s = 0.0
 
     # -- settings ----------------------------------------------------------------------------
     def _validate_settings(self, s: dict) -> None:
@@ -273,7 +276,9 @@ class MujocoWarpAdapter(MujocoAdapter):
         return self._device_models[key][1]
 
     # -- the batch ---------------------------------------------------------------------------
-    def _simulate_many(self, cases: list[Case]) -> list:
+    def _simulate_raw(self, cases: list[Case]) -> list:
+        """Run the cases as batches of worlds; per case the exception that stopped it, or
+        ``(built model, the batch's samples, index in the batch)``."""
         out: list = [None] * len(cases)
         groups: dict = {}
         for i, c in enumerate(cases):
@@ -293,10 +298,7 @@ class MujocoWarpAdapter(MujocoAdapter):
                 try:
                     states = self._run_batch(bm, [cases[i].pulse for i in part],
                                              [self._stop_rule(cases[i]) for i in part])
-                    res = []
-                    for j, i in enumerate(part):
-                        res.append(self._trajectory(bm, cases[i], states[j]))
-                        states.parts[j] = None    # the float32 rows are no longer needed
+                    res = [(bm, states, j) for j in range(len(part))]
                 except ConfigError:
                     raise
                 except Exception as e:  # noqa: BLE001 - the whole batch failed inside the engine
@@ -305,30 +307,53 @@ class MujocoWarpAdapter(MujocoAdapter):
                     out[i] = r
         return out
 
+    def _make_trajectory(self, case: Case, raw):
+        """The trajectory of one case from :meth:`_simulate_raw`'s entry (or the exception)."""
+        if isinstance(raw, BaseException):
+            return raw
+        bm, states, j = raw
+        try:
+            return self._trajectory(bm, case, states[j])
+        except Exception as e:  # noqa: BLE001 - recorded for this cell
+            return e
+
+    def _simulate_many(self, cases: list[Case]) -> list:
+        raw = self._simulate_raw(cases)
+        out = []
+        for c, r in zip(cases, raw):
+            out.append(self._make_trajectory(c, r))
+            if not isinstance(r, BaseException):
+                r[1].parts[r[2]] = None      # the float32 rows are no longer needed
+        return out
+
     def run_many(self, cases) -> list:
-        """Simulate the batch, then judge its cells with the one classifier and validity rule
-        (:meth:`judge`); a large batch is judged in forked processes (``judge_workers``), since the
-        judge, not the device, is then what takes the time."""
+        """Simulate the batch, then make each cell's trajectory and judge it with the one
+        classifier and validity rule (:meth:`judge`). A large batch does that last part in forked
+        processes (``judge_workers``): on a GPU it takes longer than the stepping itself."""
         import multiprocessing as mp
         global _JUDGE_JOB
 
         cases = list(cases)
         t0 = time.perf_counter()
-        trajs = self._simulate_many(cases)
+        raw = self._simulate_raw(cases)
         n = len(cases)
         wall = (time.perf_counter() - t0) / max(n, 1)
+        t1 = time.perf_counter()
         workers = self.settings["judge_workers"] or min(os.cpu_count() or 1, 32)
         workers = min(workers, n // 256)
         if workers < 2 or "fork" not in mp.get_all_start_methods():
-            return [self.judge(c, tr, wall) for c, tr in zip(cases, trajs)]
-        _JUDGE_JOB = (self, cases, trajs, wall)
-        try:
-            bounds = np.linspace(0, n, 4 * workers + 1).astype(int)
-            with mp.get_context("fork").Pool(workers) as pool:
-                parts = pool.map(_judge_slice, list(zip(bounds[:-1].tolist(), bounds[1:].tolist())))
-        finally:
-            _JUDGE_JOB = None
-        return [r for p in parts for r in p]
+            res = [self.judge(c, self._make_trajectory(c, r), wall) for c, r in zip(cases, raw)]
+        else:
+            _JUDGE_JOB = (self, cases, raw, wall)
+            try:
+                bounds = np.linspace(0, n, 4 * workers + 1).astype(int)
+                with mp.get_context("fork").Pool(workers) as pool:
+                    parts = pool.map(_judge_slice, list(zip(bounds[:-1].tolist(), bounds[1:].tolist())))
+            finally:
+                _JUDGE_JOB = None
+            res = [r for p in parts for r in p]
+        self.judging_s += time.perf_counter() - t1
+        return res
 
     def _stop_rule(self, case: Case) -> dict:
         b = case.block
@@ -383,11 +408,13 @@ class MujocoWarpAdapter(MujocoAdapter):
             if solref is not None:
                 sr = np.repeat(np.asarray(solref, dtype=np.float32)[:, None, :], model.ngeom, axis=1)
                 m.geom_solref.assign(sr)
-            d = mjw.make_data(model, nworld=n, nconmax=NCONMAX_PER_WORLD, njmax=NJMAX_PER_WORLD)
+            ncon, njmax = self._capacity(bm)
+            d = mjw.make_data(model, nworld=n, nconmax=ncon, njmax=njmax)
             d.qpos.assign(x0[:, 1:1 + nq].astype(np.float32))
             d.qvel.assign(x0[:, 1 + nq:].astype(np.float32))
             step = wp.zeros(1, dtype=wp.int32)
             hist = wp.zeros((n, nseg, nq + nv), dtype=wp.float32)
+            peak = wp.zeros(n + 1, dtype=wp.int32)
             dargs = [step, wp.array(kind, dtype=wp.int32), wp.array(amp, dtype=wp.float64),
                      wp.array(omega, dtype=wp.float64), wp.array(dur, dtype=wp.float64),
                      wp.array(row, dtype=wp.int32), wp.array(vtab, dtype=wp.float64),
@@ -396,12 +423,12 @@ class MujocoWarpAdapter(MujocoAdapter):
             def one_step():
                 wp.launch(k["drive"], dim=n, inputs=dargs)
                 mjw.step(m, d)
-                wp.launch(k["record"], dim=n, inputs=[step, nseg, d.qpos, d.qvel, hist])
+                wp.launch(k["record"], dim=n, inputs=[step, nseg, d.qpos, d.qvel, d.nefc, d.nacon, hist, peak])
                 wp.launch(k["advance"], dim=1, inputs=[step])
 
             graph = None
             if wp.get_device(dev).is_cuda:
-                self._warm_up(m, model, dev)
+                self._warm_up(m, model, dev, ncon, njmax)
                 with wp.ScopedCapture(device=dev) as cap:
                     one_step()
                 graph = cap.graph
@@ -427,7 +454,7 @@ class MujocoWarpAdapter(MujocoAdapter):
                 h = hist.numpy()                     # (n, nseg, nq + nv), float32
                 if copy:
                     h = h.copy()
-                self._check_capacity(d)
+                self._check_capacity(peak.numpy(), d)
                 t = (k0 + 1 + np.arange(nseg)) * dt
                 ia = np.nonzero(active)[0]
                 ha = h[ia] if ia.size < n else h
@@ -444,31 +471,40 @@ class MujocoWarpAdapter(MujocoAdapter):
         return _Samples(parts, dt)
 
     @staticmethod
-    def _warm_up(m, model, dev) -> None:
+    def _capacity(bm: _Built) -> tuple[int, int]:
+        """``(nconmax, njmax)`` per world for this model."""
+        import mujoco
+        ncon = NCONMAX_PLANE if bm.drive == "inertial" else NCONMAX_BOX
+        rows = 3 if bm.model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else 4
+        return ncon, ncon * rows
+
+    @staticmethod
+    def _warm_up(m, model, dev, ncon: int, njmax: int) -> None:
         """One step of a throwaway one-world batch and the adapter's kernels: every kernel loaded
         (compiled or read from the cache) before a CUDA graph is captured, since a capture cannot load."""
         wp, mjw = _warp()
         k = _kernels()
-        d = mjw.make_data(model, nworld=1, nconmax=NCONMAX_PER_WORLD, njmax=NJMAX_PER_WORLD)
+        d = mjw.make_data(model, nworld=1, nconmax=ncon, njmax=njmax)
         step = wp.zeros(1, dtype=wp.int32)
         hist = wp.zeros((1, 1, model.nq + model.nv), dtype=wp.float32)
+        peak = wp.zeros(2, dtype=wp.int32)
         one = [wp.zeros(1, dtype=wp.int32), wp.zeros(1, dtype=wp.float64)]
         wp.launch(k["drive"], dim=1, inputs=[step, one[0], one[1], one[1], one[1], one[0],
                                              wp.zeros((1, 1), dtype=wp.float64), 1.0, 1.0, d.ctrl])
         mjw.step(m, d)
-        wp.launch(k["record"], dim=1, inputs=[step, 1, d.qpos, d.qvel, hist])
+        wp.launch(k["record"], dim=1, inputs=[step, 1, d.qpos, d.qvel, d.nefc, d.nacon, hist, peak])
         wp.launch(k["advance"], dim=1, inputs=[step])
         wp.synchronize_device(dev)
 
     @staticmethod
-    def _check_capacity(d) -> None:
-        """A RuntimeError (the batch's cells fail) if a world needed more contacts or rows than allocated."""
-        nacon = int(d.nacon.numpy()[0])
-        if nacon > d.naconmax:
-            raise RuntimeError(f"mujoco_warp: {nacon} contacts exceed the {d.naconmax} allocated")
-        nefc = d.nefc.numpy()
-        if nefc.size and int(nefc.max()) > d.njmax:
-            raise RuntimeError(f"mujoco_warp: {int(nefc.max())} constraint rows exceed the {d.njmax} allocated per world")
+    def _check_capacity(peak: np.ndarray, d) -> None:
+        """A RuntimeError (the batch's cells fail) if, at any step so far, a world needed more
+        constraint rows or the batch more contacts than allocated (MuJoCo Warp drops the excess)."""
+        if int(peak[-1]) > d.naconmax:
+            raise RuntimeError(f"mujoco_warp: {int(peak[-1])} contacts exceed the {d.naconmax} allocated")
+        worst = int(peak[:-1].max())
+        if worst > d.njmax:
+            raise RuntimeError(f"mujoco_warp: {worst} constraint rows exceed the {d.njmax} allocated per world")
 
     def _decided_many(self, bm: _Built, h: np.ndarray, t: np.ndarray, dt: float, te: np.ndarray, alpha: np.ndarray,
                       certain: np.ndarray, turned: np.ndarray, prev_thd: np.ndarray, ia: np.ndarray) -> np.ndarray:

@@ -103,8 +103,9 @@ def test_trajectory_contract_and_end_of_run(warp_results):
         assert tr.t_s[-1] >= tr.t_pulse_end_s
         assert tr.t_s[-1] <= tr.t_pulse_end_s + ad.settings["tail_s"] + ad.settings["segment_s"] + 1e-9
         assert tr.corner_x_m.shape == (tr.t_s.size, 2) and tr.energy_j_kg.shape == tr.t_s.shape
-    # the overturn is decided early: the run stops within one segment after |θ| passes the flat angle or α outward
-    assert many[2].t_s[-1] < many[1].t_s[-1]
+    # the overturn is decided early: the run stops at the end of the segment in which it became certain
+    assert res[2].outcome == "overturn"
+    assert many[2].t_s[-1] < many[2].t_pulse_end_s + ad.settings["tail_s"]
 
 
 def test_calibration_reaches_housner_on_b3m():
