@@ -113,6 +113,8 @@ def main(argv=None) -> int:
     ap.add_argument("--nsteps", type=int, default=2000)
     ap.add_argument("--parity", action="store_true", help="also CPU MuJoCo: free-rocking η and the first map size")
     ap.add_argument("--no-reference", action="store_true", help="skip the reference maps and the scores")
+    ap.add_argument("--also", nargs="*", default=[], metavar="BLOCK:PULSE:N",
+                    help="more maps after the size sweep, e.g. B6M:cosine:51")
     ap.add_argument("--out", default=None, help="folder for results.json and results.md")
     args = ap.parse_args(argv)
 
@@ -150,22 +152,27 @@ def main(argv=None) -> int:
         _log(f"steps: {nw} worlds × {args.nsteps} steps in {r['wall_s']:.2f} s = {r['world_steps_per_s']:.3g} world-steps/s")
 
     out["maps"] = []
+    jobs = [(args.block, args.pulse, n) for n in args.sizes]
+    for spec in args.also:
+        b, k, n = spec.split(":")
+        jobs.append((b, k, int(n)))
     with tempfile.TemporaryDirectory() as tmp:
-        for n in args.sizes:
-            d = Path(tmp) / f"warp-{n}"
-            r = run_one_map(args.block, args.pulse, n, "mujoco_warp", {"device": args.device}, d)
-            _log(f"map {n}×{n}: {r['wall_s']:.2f} s ({r['cells_per_s']:.0f} cells/s), failed {r['failed']}")
+        for block_name, kind, n in jobs:
+            d = Path(tmp) / f"warp-{block_name}-{kind}-{n}"
+            r = run_one_map(block_name, kind, n, "mujoco_warp", {"device": args.device}, d)
+            r.update(block=block_name, pulse=kind)
+            _log(f"map {block_name} {kind} {n}×{n}: {r['wall_s']:.2f} s ({r['cells_per_s']:.0f} cells/s), failed {r['failed']}")
             if not args.no_reference:
-                rd = Path(tmp) / f"ref-{n}"
-                rr = run_one_map(args.block, args.pulse, n, "reference", {}, rd)
+                rd = Path(tmp) / f"ref-{block_name}-{kind}-{n}"
+                rr = run_one_map(block_name, kind, n, "reference", {}, rd)
                 s = score(load_entry(d).label_map, load_entry(rd).label_map)
                 r["reference_wall_s"] = rr["wall_s"]
                 r["score"] = {k: s[k] for k in ("agreement", "overturn_agreement", "iou_overturn", "boundary_mean",
                                                 "spurious_invalid", "failed_cells", "consistency")}
                 _log(f"  against the reference: agreement {s['agreement']:.4f}, overturn {s['overturn_agreement']:.4f}")
-            if args.parity and n == args.sizes[0]:
+            if args.parity and (block_name, kind, n) == jobs[0]:
                 cd = Path(tmp) / f"cpu-{n}"
-                rc = run_one_map(args.block, args.pulse, n, "mujoco", {}, cd)
+                rc = run_one_map(block_name, kind, n, "mujoco", {}, cd)
                 ew, ec = load_entry(d).label_map, load_entry(cd).label_map
                 same = float(np.mean(ew.codes == ec.codes))
                 r["parity_cpu_mujoco"] = {"wall_s": rc["wall_s"], "same_outcome": same,
@@ -181,12 +188,16 @@ def main(argv=None) -> int:
             b = PRESETS[name].block()
             mw = ad.measure_restitution(b)
             mc = cpu.measure_restitution(b)
+            # the same contact in both: MuJoCo Warp at the CPU engine's calibrated solref
+            same = get_adapter("mujoco_warp", device=args.device, timeconst=mc.settings["timeconst"],
+                               dampratio=mc.settings["dampratio"]).measure_restitution(b)
             par[name] = {"eta_housner": housner_eta(b.alpha_rad), "warp": [mw.eta_mean, mw.eta_std, len(mw.etas)],
                          "cpu": [mc.eta_mean, mc.eta_std, len(mc.etas)],
+                         "warp_at_cpu_settings": [same.eta_mean, same.eta_std, len(same.etas)],
                          "warp_settings": {k: mw.settings[k] for k in ("timeconst", "dampratio")},
                          "cpu_settings": {k: mc.settings[k] for k in ("timeconst", "dampratio")}}
             _log(f"free rocking {name}: warp η {mw.eta_mean:.4f} ± {mw.eta_std:.4f}, cpu η {mc.eta_mean:.4f} ± "
-                 f"{mc.eta_std:.4f}, η_H {housner_eta(b.alpha_rad):.4f}")
+                 f"{mc.eta_std:.4f}, warp at the cpu's solref {same.eta_mean:.4f}, η_H {housner_eta(b.alpha_rad):.4f}")
         out["parity_free_rocking"] = par
 
     text = json.dumps(out, indent=2, default=float)
@@ -196,11 +207,13 @@ def main(argv=None) -> int:
         o.mkdir(parents=True, exist_ok=True)
         (o / "results.json").write_text(text)
         lines = [f"# bench_mujoco_warp {out['utc']} on {dev} ({out['machine'].get('gpu', platform.processor())})", "",
-                 "| map | cells | wall [s] | cells/s | agreement | overturn agreement | failed |",
-                 "|---|---|---|---|---|---|---|"]
+                 "| map | cells | wall [s] | stepping [s] | judge [s] | cells/s | agreement | overturn agreement | failed |",
+                 "|---|---|---|---|---|---|---|---|---|"]
         for r in out["maps"]:
             s = r.get("score", {})
-            lines.append(f"| {r['n']}×{r['n']} | {r['cells']} | {r['wall_s']:.2f} | {r['cells_per_s']:.0f} | "
+            lines.append(f"| {r['block']} {r['pulse']} {r['n']}×{r['n']} | {r['cells']} | {r['wall_s']:.2f} | "
+                         f"{r.get('stepping_s', float('nan')):.2f} | {r.get('trajectories_and_judge_s', float('nan')):.2f} | "
+                         f"{r['cells_per_s']:.0f} | "
                          f"{s.get('agreement', float('nan')):.4f} | {s.get('overturn_agreement', float('nan')):.4f} | "
                          f"{r['failed']} |")
         lines += ["", "| worlds | steps | wall [s] | world-steps/s |", "|---|---|---|---|"]

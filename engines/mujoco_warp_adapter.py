@@ -529,10 +529,10 @@ class MujocoWarpAdapter(MujocoAdapter):
     def _theta_columns(bm: _Built, h: np.ndarray):
         """θ and θ̇ of many worlds from recorded ``[qpos, qvel]`` rows ``(n, k, nq + nv)``, as the
         CPU adapter's ``_read`` gives them."""
-        h = h.astype(np.float64)
         p, v = bm.qi["pos"] - 1, bm.qi["vel"] - 1
-        if bm.planar:
-            return h[:, :, p + 2], h[:, :, v + 2]
+        if bm.planar:   # only the two columns read, in float64 (not the whole buffer)
+            return h[:, :, p + 2].astype(np.float64), h[:, :, v + 2].astype(np.float64)
+        h = h.astype(np.float64)
         w, qx, qy, qz = (h[:, :, p + 3 + k] for k in range(4))
         th = np.arctan2(2 * (qx * qz + w * qy), 1 - 2 * (qx * qx + qy * qy))
         r10, r11, r12 = 2 * (qx * qy + w * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - w * qx)
