@@ -67,6 +67,10 @@ from .mujoco_adapter import CALIBRATION_THETA0_FRAC, ETA_READ_FRAC, MujocoAdapte
 #: world that needs more stops its batch with an error (:meth:`MujocoWarpAdapter._check_capacity`).
 NCONMAX_PLANE, NCONMAX_BOX = 4, 8
 
+#: Steps captured in one CUDA graph: the largest of these that divides a segment's steps (fewer
+#: launches from Python; the device work is the same)
+STEPS_PER_GRAPH = (10, 8, 5, 4, 2, 1)
+
 #: Most worlds in one ``Data`` (larger batches run as several, each independent).
 MAX_WORLDS = 65536
 
@@ -427,10 +431,12 @@ class MujocoWarpAdapter(MujocoAdapter):
                 wp.launch(k["advance"], dim=1, inputs=[step])
 
             graph = None
+            per_graph = next(g for g in STEPS_PER_GRAPH if nseg % g == 0)
             if wp.get_device(dev).is_cuda:
                 self._warm_up(m, model, dev, ncon, njmax)
                 with wp.ScopedCapture(device=dev) as cap:
-                    one_step()
+                    for _ in range(per_graph):
+                        one_step()
                 graph = cap.graph
                 wp.synchronize_device(dev)
 
@@ -449,10 +455,11 @@ class MujocoWarpAdapter(MujocoAdapter):
             prev_thd = np.zeros(n)                   # the settled state is at rest
             k0 = 0
             while active.any():
-                for _ in range(nseg):
-                    if graph is not None:
+                if graph is not None:
+                    for _ in range(nseg // per_graph):
                         wp.capture_launch(graph)
-                    else:
+                else:
+                    for _ in range(nseg):
                         one_step()
                 if host is not hist:
                     wp.copy(host, hist)
