@@ -61,11 +61,13 @@ from . import calibration as _cal
 from .base import Case, RestitutionMeasurement
 from .mujoco_adapter import CALIBRATION_THETA0_FRAC, ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
 
-#: Contacts allocated per world: a box on a plane keeps at most 4 contacts, a box on a box 8 (the
-#: table drive). Constraint rows per world follow (an elliptic contact of condim 3 has 3 rows, a
-#: pyramidal one 4). The solver's work grows with the rows allocated, so they are sized tightly; a
-#: world that needs more stops its batch with an error (:meth:`MujocoWarpAdapter._check_capacity`).
-NCONMAX_PLANE, NCONMAX_BOX = 4, 8
+#: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
+#: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
+#: soft contact deeper than its own height (MuJoCo's shipped contact, ``settings=defaults``) all 8;
+#: a box on a box (the table drive) also up to 8. Constraint rows per world follow (an elliptic
+#: contact of condim 3 has 3 rows, a pyramidal one 4). A world that needs more stops its batch with
+#: an error rather than losing contacts (:meth:`MujocoWarpAdapter._check_capacity`).
+NCONMAX_PLANE, NCONMAX_BOX = 8, 8
 
 #: Steps captured in one CUDA graph: the largest of these that divides a segment's steps (fewer
 #: launches from Python; the device work is the same)
