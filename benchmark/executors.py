@@ -82,10 +82,7 @@ def worker_init(engine: str, settings: dict) -> dict:
     entries added in this process (as ``"module:Class"`` strings) and ``sys.path``."""
     from ..engines import registry
 
-    extra = {}
-    for name, target in registry._extra.items():
-        extra[name] = f"{target.__module__}:{target.__qualname__}" if isinstance(target, type) else str(target)
-    return {"engine": engine, "settings": dict(settings), "registry": extra,
+    return {"engine": engine, "settings": dict(settings), "registry": registry.registered(),
             "sys_path": [p for p in sys.path if p and os.path.isdir(p)]}
 
 
@@ -127,11 +124,11 @@ def make_executor(engine: str, settings: dict, *, jobs: int | None = None, sched
     if scheduler:
         return DaskExecutor(init, scheduler, jobs=jobs, scratch_dir=scratch_dir)
     from ..engines.registry import adapter_class
-    if getattr(adapter_class(engine), "parallel_batch", False):
+    if adapter_class(engine).batching == "parallel":
         # the adapter's own batch already uses every core: one call here beats worker processes
         # that would each pay the engine's start-up (for the reference, loading its kernels);
         # --jobs N gives it N threads
-        return SerialExecutor(init, kind="in-process batch (the adapter's parallel_batch)", threads=jobs)
+        return SerialExecutor(init, kind="in-process batch (the adapter's parallel batching)", threads=jobs)
     return ProcessExecutor(init, jobs=jobs or cpu_count(), log_path=log_path, threads_per_worker=threads_per_worker)
 
 
@@ -187,7 +184,7 @@ class SerialExecutor:
         self.adapter = get_adapter(init["engine"], **init["settings"])
         self.log_path = None
         self.n_threads = threads
-        self.parallel = bool(getattr(type(self.adapter), "parallel_batch", False))
+        self.parallel = self.adapter.batching == "parallel"
 
     def describe(self) -> dict:
         d = {"kind": self.kind, "jobs": 1}

@@ -566,7 +566,7 @@ def _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_time
                 bar.update(len(pairs))
 
             executor.run(list(enumerate(cases)), on_results, cell_timeout_s=cell_timeout_s,
-                         batch=_is_batching(adapter))
+                         batch=adapter.batching != "none")
 
         if adaptive:
             adaptive_mod.refine(key, result.simulated, evaluate, stride)
@@ -686,13 +686,6 @@ def _put(result: MapResult, i: int, j: int, row: dict) -> None:
     result.max_abs_theta_rad[i, j] = float(row["max_abs_theta_rad"]) if ok else math.nan
     result.valid[i, j] = ok and str(row["valid"]).lower() in ("true", "1")
     result.left_model[i, j] = ok and bool(LEFT_MODEL_FLAGS.intersection(str(row["flags"]).split(";")))
-
-
-def _is_batching(adapter) -> bool:
-    """Whether the adapter runs many cases at once natively (contract item 6): hand it big batches."""
-    from ..engines.base import EngineAdapter
-    cls = type(adapter)
-    return cls._simulate_many is not EngineAdapter._simulate_many or cls.run_many is not EngineAdapter.run_many
 
 
 def _available_memory_bytes() -> int | None:

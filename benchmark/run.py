@@ -629,14 +629,12 @@ def _cost_rank(engine: str) -> tuple:
     finer default time step costs more, and an engine with a native batch (MuJoCo's rollouts) less
     per cell than one stepped from Python at the same step. Lanes then end on the cheapest maps,
     when one core may have to wait for the other."""
-    from ..engines.base import EngineAdapter
     from ..engines.registry import adapter_class
     try:
         cls = adapter_class(engine)
     except Exception:  # noqa: BLE001 - an engine that cannot even load its adapter class goes last
         return (math.inf, 1)
-    batch = cls._simulate_many is not EngineAdapter._simulate_many or cls.run_many is not EngineAdapter.run_many
-    return (float(getattr(cls, "default_dt_s", 1.0)), 1 if batch else 0)
+    return (float(getattr(cls, "default_dt_s", 1.0)), 1 if cls.batching != "none" else 0)
 
 
 def _warm_report() -> None:

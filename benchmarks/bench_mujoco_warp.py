@@ -204,7 +204,7 @@ def main(argv=None) -> int:
             mw = ad.measure_restitution(b)
             mc = cpu.measure_restitution(b)
             # the same contact in both: MuJoCo Warp at the CPU engine's calibrated solref
-            same = get_adapter("mujoco_warp", device=args.device, timeconst=mc.settings["timeconst"],
+            same = get_adapter("mujoco_warp", device=args.device, timeconst_s=mc.settings["timeconst"],
                                dampratio=mc.settings["dampratio"]).measure_restitution(b)
             par[name] = {"eta_housner": housner_eta(b.alpha_rad), "warp": [mw.eta_mean, mw.eta_std, len(mw.etas)],
                          "cpu": [mc.eta_mean, mc.eta_std, len(mc.etas)],

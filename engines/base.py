@@ -34,13 +34,19 @@ The contract, for a subclass of :class:`EngineAdapter`:
 5. An exception inside the engine is not caught by ``_simulate``: :meth:`EngineAdapter.run`
    turns it into a failed :class:`CellResult` with the ``engine-error`` flag, so sweeps go on.
 6. ``_simulate_many(cases)`` may run many cases at once (native batches); the default loops over
-   :meth:`_simulate`. Results must not depend on how cases are batched. An adapter whose batch
-   already uses every core sets :attr:`parallel_batch`; maps then run it in one call in their own
-   process by default instead of spreading it over worker processes. Such an adapter may also
+   :meth:`_simulate`. Results must not depend on how cases are batched. The adapter declares how
+   it batches in :attr:`batching`: ``"none"`` (one case at a time; maps hand it small batches),
+   ``"native"`` (its ``_simulate_many`` runs a batch natively: maps hand it big batches) or
+   ``"parallel"`` (a native batch that already uses every core: maps run it in one call in their
+   own process instead of spreading it over worker processes). A native batch that also applies
+   the classifier's rule itself (compiled, as the reference's kernel) implements the hook
+   :meth:`_run_native`; :meth:`run_many` judges every other case. A ``parallel`` adapter may also
    offer ``run_grid(block, pulse_kind, restitution, omega_rad_s, amplitude_mps2, dt_s=None,
    linearized=False)``: the verdicts of many harmonic-pulse cases as :class:`CellColumns` (arrays,
    no object per case), equal to what :meth:`run_many` gives for the same cases; maps run in this
-   process use it from the grid to the file (the reference does).
+   process use it from the grid to the file (the reference does). Subclasses implement the
+   hooks (``_simulate``, ``_simulate_many``, ``_run_native``, ``_validate_settings``), never the
+   public ``run``, ``run_many`` or ``judge``.
 7. ``resolve(block, restitution, dt_s)`` returns the concrete settings a case will use (for example contact
    parameters calibrated to reach the restitution's η); they are recorded in run.json.
 8. ``measure_restitution(block, settings)`` and ``calibrate(block, target_eta)`` are optional
@@ -50,7 +56,9 @@ The contract, for a subclass of :class:`EngineAdapter`:
 10. ``default_suite_exclusion()`` (optional) says in one line why suites that run every available
    engine leave this one out on this machine (None: they include it); named explicitly, it runs.
 
-``rockbench check-adapter NAME`` runs a conformance suite on any registered adapter.
+``rockbench check-adapter NAME`` runs a conformance suite on any registered adapter
+(:mod:`rockbench.engines.checker`). Engines with a contact model derive from
+:class:`~rockbench.engines.contact.ContactEngineAdapter`, which owns their shared settings.
 """
 
 from __future__ import annotations
@@ -58,11 +66,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, asdict
-from typing import Any, ClassVar, Iterable, Mapping
+from typing import Any, ClassVar, Iterable, Literal, Mapping
 
 import numpy as np
 
-from ..reference_solver.classify import Classification, Outcome, classify
+from ..reference_solver.classify import Classification, classify
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.model import Block
 from ..reference_solver.pulses import Pulse
@@ -358,8 +366,19 @@ class EngineAdapter:
     SETTINGS: ClassVar[Mapping[str, Any]] = {}
     #: default time step [s]
     default_dt_s: ClassVar[float] = 1e-3
-    #: True when ``run_many`` is a native batch that already runs on every core (contract item 6)
-    parallel_batch: ClassVar[bool] = False
+    #: how the adapter batches cases (contract item 6): "none", "native" or "parallel"
+    batching: ClassVar[Literal["none", "native", "parallel"]] = "none"
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        # ``parallel_batch = True`` (before issue 15) is ``batching = "parallel"``: kept for one release
+        if cls.__dict__.get("parallel_batch") is True and "batching" not in cls.__dict__:
+            import warnings
+            warnings.warn(f"{cls.__name__}.parallel_batch is now batching = 'parallel'; the old attribute goes in "
+                          "the next release.", DeprecationWarning, stacklevel=2)
+            cls.batching = "parallel"
+        if cls.batching not in ("none", "native", "parallel"):
+            raise TypeError(f"{cls.__name__}.batching must be 'none', 'native' or 'parallel', got {cls.batching!r}")
 
     def __init__(self, **settings):
         unknown = sorted(set(settings) - set(self.SETTINGS))
@@ -476,12 +495,27 @@ class EngineAdapter:
         return self.run_many([case])[0]
 
     def run_many(self, cases: Iterable[Case]) -> list[CellResult]:
-        """Simulate and classify many cases; failures are recorded per case."""
+        """Simulate and classify many cases; failures are recorded per case.
+
+        Cases the adapter's :meth:`_run_native` hook returns verdicts for keep them; the others are
+        simulated (:meth:`_simulate_many`) and judged (:meth:`judge`).
+        """
         cases = list(cases)
-        t0 = time.perf_counter()
-        trajs = self._simulate_many(cases)
-        wall = (time.perf_counter() - t0) / max(len(cases), 1)
-        return [self.judge(c, tr, wall) for c, tr in zip(cases, trajs)]
+        out = list(self._run_native(cases))
+        todo = [i for i, r in enumerate(out) if r is None]
+        if todo:
+            t0 = time.perf_counter()
+            trajs = self._simulate_many([cases[i] for i in todo])
+            wall = (time.perf_counter() - t0) / len(todo)
+            for i, tr in zip(todo, trajs):
+                out[i] = self.judge(cases[i], tr, wall)
+        return out
+
+    def _run_native(self, cases: list[Case]) -> list[CellResult | None]:
+        """Hook: verdicts a native batch reaches by itself with the shared rules (the classifier's
+        rule compiled into the batch, floor 1's validity functions), None for every case it leaves
+        to :meth:`_simulate_many` and :meth:`judge`. The default leaves them all."""
+        return [None] * len(cases)
 
     @property
     def friction(self) -> float:

@@ -1,6 +1,8 @@
 """A conformance suite for engine adapters, in the spirit of Gymnasium's env checker.
 
-``check_adapter(adapter_or_name)`` runs a dozen short simulations and checks what the contract
+Each check is a public function ``check_<name>(adapter, block)`` that returns what it saw or raises
+:class:`CheckFailed` (testable alone); :data:`CHECKS` lists them and ``check_adapter(adapter_or_name)``
+runs them all: a dozen short simulations and checks what the contract
 (:mod:`rockbench.engines.base`) promises: the shape and units of the trajectory, the sign
 convention, mirror symmetry, no uplift below the threshold ``g·tanα``, determinism, batches equal
 to single runs, a clean :class:`~rockbench.reference_solver.errors.ConfigError` for a bad case or
@@ -87,8 +89,239 @@ def _mirror(case: Case) -> Case:
     return replace(case, pulse=make_pulse(p.kind, -p.amplitude_mps2, p.omega_rad_s))
 
 
+class CheckFailed(Exception):
+    """A check's clear failure message (what was wrong, what the contract asks)."""
+
+
+def _rocking(block: Block) -> Case:
+    """The plain rocking case most checks use: one sine wave at ω/p = 4, a0 = 1.6·g·tanα."""
+    return _case(block, "sine", 4.0, 1.6)
+
+
+def check_describe(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """describe() and resolve() are JSON-ready and the version is known."""
+    ad, b = adapter, block
+    try:
+        version = str(ad.version())
+    except Exception as e:  # noqa: BLE001 - a failed check
+        raise CheckFailed(f"version() raised {type(e).__name__}: {e}") from None
+    d = ad.describe()
+    json.dumps(d)
+    s = ad.resolve(b, Restitution())
+    json.dumps(s)
+    if not isinstance(d, dict) or "engine" not in d or "version" not in d:
+        raise CheckFailed(f"describe() must return a dict with engine and version, got {d!r}")
+    return f"describe() and resolve() are JSON-ready; version {version}"
+
+
+def check_unknown_setting(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """An unknown setting raises ConfigError (contract item 2)."""
+    ad = adapter
+    try:
+        type(ad)(__no_such_setting__=1)
+    except ConfigError:
+        return "an unknown setting raises ConfigError"
+    raise CheckFailed("an unknown setting was accepted; it must raise ConfigError (contract item 2)")
+
+
+def check_trajectory_shape(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """The trajectory of a rocking case: 1-D samples from t = 0 over the pulse, only the diverged flag (items 3, 4)."""
+    ad, b = adapter, block
+    rocking = _rocking(block)
+    tr = ad.simulate(rocking)
+    t, th, thd = (np.asarray(x) for x in (tr.t_s, tr.theta_rad, tr.theta_dot_rad_s))
+    if not (t.ndim == th.ndim == thd.ndim == 1 and t.shape == th.shape == thd.shape and t.size >= 2):
+        raise CheckFailed(f"t_s, theta_rad, theta_dot_rad_s must be 1-D of one length >= 2, got {t.shape}, "
+                    f"{th.shape}, {thd.shape}")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(th)) and np.all(np.isfinite(thd))):
+        raise CheckFailed("non-finite samples in a plain rocking case")
+    if abs(t[0]) > 1e-9:
+        raise CheckFailed(f"samples must start at t = 0 s, got {t[0]:g} s")
+    if not np.all(np.diff(t) > 0):
+        raise CheckFailed("sample times must increase strictly")
+    T = rocking.pulse.duration_s
+    if not math.isclose(tr.t_pulse_end_s, T, rel_tol=0.01, abs_tol=2 * ad.dt_for(rocking)):
+        raise CheckFailed(f"t_pulse_end_s = {tr.t_pulse_end_s:g} but the pulse lasts {T:g} s (seconds expected)")
+    if t[-1] < T - 2 * ad.dt_for(rocking):
+        raise CheckFailed(f"the samples end at {t[-1]:g} s, before the pulse does ({T:g} s) (contract item 3)")
+    bad = sorted(set(tr.flags) - {"diverged"})
+    if bad:
+        raise CheckFailed(f"the adapter set the flags {bad} itself; an adapter reports measurements and may only "
+                    "set 'diverged': slip, jump and energy-gain come from the one validity rule (contract item 4)")
+    json.dumps(tr.diagnostics)
+    if not (0.0 <= tr.uplift_tol_rad < b.alpha_rad):
+        raise CheckFailed(f"uplift_tol_rad = {tr.uplift_tol_rad:g} must be in [0, α = {b.alpha_rad:.4f}) rad")
+    return f"{t.size} samples over {t[-1]:.3f} s, pulse {T:.3f} s"
+
+
+def check_units(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """Radians and rad/s: max |θ| plausible and θ̇ the derivative of θ."""
+    ad = adapter
+    rocking = _rocking(block)
+    tr = ad.simulate(rocking)
+    t, th, thd = (np.asarray(x, float) for x in (tr.t_s, tr.theta_rad, tr.theta_dot_rad_s))
+    m = float(np.max(np.abs(th)))
+    if m > 0.5 * math.pi + 0.2:
+        raise CheckFailed(f"max |θ| = {m:.3g} in a rocking case: degrees instead of radians?")
+    if m <= tr.uplift_tol_rad:
+        raise CheckFailed(f"the block did not rock at a0/(g·tanα) = 1.6, ω/p = 4 (max |θ| = {m:.3g} rad)")
+    grad = np.gradient(th, t)
+    moving = np.abs(thd) > 0.1 * np.max(np.abs(thd))
+    err = np.median(np.abs(grad[moving] - thd[moving])) / np.median(np.abs(thd[moving]))
+    if not err < 0.2:
+        raise CheckFailed(f"theta_dot_rad_s is not the derivative of theta_rad (median relative mismatch {err:.2f})")
+    return f"max |θ| = {m:.4f} rad, θ̇ matches dθ/dt (median mismatch {100 * err:.1f} %)"
+
+
+def check_sign_convention(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """A positive table acceleration starts a negative θ (item 3)."""
+    ad = adapter
+    rocking = _rocking(block)
+    tr = ad.simulate(rocking)
+    th = np.asarray(tr.theta_rad, float)
+    lifted = np.nonzero(np.abs(th) > max(tr.uplift_tol_rad, 1e-12))[0]
+    if lifted.size == 0:
+        raise CheckFailed("the block never lifted off in the rocking case")
+    if th[lifted[0]] >= 0:
+        raise CheckFailed("a positive table acceleration started a positive θ; the contract's convention is the "
+                    "opposite (θ about +y, x along the excitation, z up) (contract item 3)")
+    return "a positive table acceleration starts a negative θ"
+
+
+def check_mirror_symmetry(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """−ü gives the mirrored motion: same outcome, impacts and max |θ|, θ on the other side."""
+    ad, b = adapter, block
+    msgs = []
+    for kind in ("sine", "cosine"):
+        c = _case(b, kind, 4.0, 1.6)
+        r1, r2 = ad.run(c), ad.run(_mirror(c))
+        if (r1.outcome, r1.n_impacts) != (r2.outcome, r2.n_impacts):
+            raise CheckFailed(f"{kind}: ü gives {r1.outcome} with {r1.n_impacts} impacts, −ü gives {r2.outcome} with "
+                        f"{r2.n_impacts} impacts")
+        if not math.isclose(r1.max_abs_theta_rad, r2.max_abs_theta_rad, rel_tol=0.02, abs_tol=1e-9):
+            raise CheckFailed(f"{kind}: max |θ| {r1.max_abs_theta_rad:.5g} for ü, {r2.max_abs_theta_rad:.5g} for −ü")
+        t1 = ad.simulate(c)
+        t2 = ad.simulate(_mirror(c))
+        i1 = np.argmax(np.abs(t1.theta_rad) > max(t1.uplift_tol_rad, 1e-12))
+        i2 = np.argmax(np.abs(t2.theta_rad) > max(t2.uplift_tol_rad, 1e-12))
+        if np.sign(t1.theta_rad[i1]) == np.sign(t2.theta_rad[i2]):
+            raise CheckFailed(f"{kind}: ü and −ü start θ on the same side")
+        msgs.append(f"{kind} {r1.outcome}/{r1.n_impacts}")
+    return "−ü gives −θ (" + ", ".join(msgs) + ")"
+
+
+def check_no_uplift_below_threshold(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """No uplift below a0 = g·tanα (sine and cosine, ω/p = 1 and 6)."""
+    ad, b = adapter, block
+    for kind in ("sine", "cosine"):
+        for w in (1.0, 6.0):
+            r = ad.run(_case(b, kind, w, 0.9))
+            if r.outcome != "rest":
+                raise CheckFailed(f"{kind}, ω/p = {w:g}, a0 = 0.9·g·tanα: {r.outcome} (max |θ| = "
+                            f"{r.max_abs_theta_rad:.3g} rad); no uplift is possible below g·tanα")
+    return "rest at a0 = 0.9·g·tanα (sine and cosine, ω/p = 1 and 6)"
+
+
+def check_determinism(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """Two runs of one case are bit-identical."""
+    ad = adapter
+    rocking = _rocking(block)
+    t1, t2 = ad.simulate(rocking), ad.simulate(rocking)
+    if not (np.array_equal(t1.t_s, t2.t_s) and np.array_equal(t1.theta_rad, t2.theta_rad)):
+        n = min(len(t1.theta_rad), len(t2.theta_rad))
+        d = float(np.max(np.abs(np.asarray(t1.theta_rad[:n]) - np.asarray(t2.theta_rad[:n])))) if n else math.nan
+        raise CheckFailed(f"two runs of one case differ (max |Δθ| = {d:.3g} rad); results must be reproducible")
+    return "two runs are bit-identical"
+
+
+def check_batch_equals_single(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """run_many equals run case by case (item 6)."""
+    ad, b = adapter, block
+    cases = [_case(b, "sine", 4.0, 1.6), _case(b, "cosine", 2.0, 3.0), _case(b, "sine", 1.0, 0.9)]
+    many = ad.run_many(cases)
+    one = [ad.run(c) for c in cases]
+    for k, (m, o) in enumerate(zip(many, one)):
+        if (m.outcome, m.n_impacts, m.status) != (o.outcome, o.n_impacts, o.status) or not math.isclose(
+                m.max_abs_theta_rad, o.max_abs_theta_rad, rel_tol=1e-9, abs_tol=1e-12):
+            raise CheckFailed(f"case {k}: run_many gives {m.outcome}/{m.n_impacts}, run gives {o.outcome}/{o.n_impacts} "
+                        "(contract item 6)")
+    return "run_many equals run case by case"
+
+
+def check_bad_case_config_error(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """A negative or too coarse time step raises ConfigError."""
+    ad = adapter
+    rocking = _rocking(block)
+    for dt in (-1e-3, 10.0):
+        bad = replace(rocking, dt_s=dt)
+        try:
+            ad.run(bad)
+        except ConfigError:
+            continue
+        except Exception as e:  # noqa: BLE001
+            raise CheckFailed(f"dt_s = {dt:g} s raised {type(e).__name__}, not ConfigError: {e}") from None
+        raise CheckFailed(f"dt_s = {dt:g} s was accepted; a bad case must raise ConfigError (use self.dt_for(case))")
+    return "a negative or too coarse time step raises ConfigError"
+
+
+def check_overturns_when_it_must(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """A long, strong sine wave (ω/p = 1, a0 = 5·g·tanα) overturns the block."""
+    ad, b = adapter, block
+    r = ad.run(_case(b, "sine", 1.0, 5.0))
+    if r.outcome != "overturn":
+        raise CheckFailed(f"one sine wave at ω/p = 1, a0 = 5·g·tanα gave {r.outcome}; every faithful model overturns")
+    return "overturns under a long, strong sine wave (ω/p = 1, a0 = 5·g·tanα)"
+
+
+def check_measurements(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """Measurements the one validity rule can judge; the mild rocking case is valid (item 4)."""
+    ad = adapter
+    rocking = _rocking(block)
+    tr = ad.simulate(rocking)
+    if tr.min_normal_mg is not None:
+        if not (math.isfinite(tr.min_normal_mg) and math.isfinite(tr.max_friction_ratio or 0.0)):
+            raise CheckFailed("the rigid model's contact demand must be finite")
+        return (f"rigid-model contact demand reported (min N/(m·g) = {tr.min_normal_mg:.3f}, "
+                f"max |F|/N = {tr.max_friction_ratio:.3f})")
+    m = tr.measurement()
+    if m is None:
+        raise CheckFailed("no corner_x_m/corner_z_m: a contact engine must report both bottom corners relative to the "
+                    "table so that the one validity rule can judge slip and jump (contract item 4)")
+    try:
+        Measurement(m.t_s, m.theta_rad, m.theta_dot_rad_s, m.corner_x_m, m.corner_z_m, m.energy_j_kg)
+    except ValueError as e:
+        raise CheckFailed(str(e)) from None
+    if not (np.all(np.isfinite(m.corner_x_m)) and np.all(np.isfinite(m.corner_z_m))):
+        raise CheckFailed("non-finite corner positions in a plain rocking case")
+    if m.energy_j_kg is not None and np.shape(m.energy_j_kg) != np.shape(m.t_s):
+        raise CheckFailed(f"energy_j_kg must have one value per sample, got shape {np.shape(m.energy_j_kg)}")
+    r = ad.judge(rocking, tr)
+    if not r.valid:
+        raise CheckFailed(f"a mild rocking case (a0/(g·tanα) = 1.6, ω/p = 4) was judged {r.flags}: the corner "
+                    "measurements are in the wrong frame or units, or the contact slides")
+    return (f"{m.corner_x_m.shape[1]} corners and {'the body energy' if m.energy_j_kg is not None else 'no energy'}"
+            " reported; the mild rocking case is valid by the one rule")
+
+
+#: every check, by the name the report gives it, in the order check_adapter runs them
+CHECKS: dict[str, Callable[[EngineAdapter, Block], str]] = {
+    "describe": check_describe,
+    "unknown-setting": check_unknown_setting,
+    "trajectory-shape": check_trajectory_shape,
+    "units": check_units,
+    "sign-convention": check_sign_convention,
+    "mirror-symmetry": check_mirror_symmetry,
+    "no-uplift-below-threshold": check_no_uplift_below_threshold,
+    "determinism": check_determinism,
+    "batch-equals-single": check_batch_equals_single,
+    "bad-case-config-error": check_bad_case_config_error,
+    "overturns-when-it-must": check_overturns_when_it_must,
+    "measurements": check_measurements,
+}
+
+
 def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport:
-    """Run the conformance suite on an adapter instance or a registered engine name.
+    """Run every check of :data:`CHECKS` on an adapter instance or a registered engine name.
 
     Parameters
     ----------
@@ -114,192 +347,23 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
     b = block or DEFAULT_BLOCK
     try:
         version = str(ad.version())
-    except Exception as e:  # noqa: BLE001 - reported as a failed check below
+    except Exception:  # noqa: BLE001 - the describe check reports it
         version = None
-        verr = e
     rep = CheckReport(ad.name or type(ad).__name__, version)
-    rocking = _case(b, "sine", 4.0, 1.6)
-
-    def run_check(name: str, fn: Callable[[], str]) -> None:
-        t0 = time.perf_counter()
-        try:
-            detail = fn()
-            ok = True
-        except _Fail as e:
-            ok, detail = False, str(e)
-        except Exception as e:  # noqa: BLE001 - any exception is a failed check, reported
-            ok, detail = False, f"raised {type(e).__name__}: {e}"
-        rep.checks.append(CheckResult(name, ok, detail, time.perf_counter() - t0))
-
-    def c_describe():
-        if version is None:
-            raise _Fail(f"version() raised {type(verr).__name__}: {verr}")
-        d = ad.describe()
-        json.dumps(d)
-        s = ad.resolve(b, Restitution())
-        json.dumps(s)
-        if not isinstance(d, dict) or "engine" not in d or "version" not in d:
-            raise _Fail(f"describe() must return a dict with engine and version, got {d!r}")
-        return f"describe() and resolve() are JSON-ready; version {version}"
-
-    def c_bad_setting():
-        try:
-            type(ad)(__no_such_setting__=1)
-        except ConfigError:
-            return "an unknown setting raises ConfigError"
-        raise _Fail("an unknown setting was accepted; it must raise ConfigError (contract item 2)")
-
-    def c_shape():
-        tr = ad.simulate(rocking)
-        t, th, thd = (np.asarray(x) for x in (tr.t_s, tr.theta_rad, tr.theta_dot_rad_s))
-        if not (t.ndim == th.ndim == thd.ndim == 1 and t.shape == th.shape == thd.shape and t.size >= 2):
-            raise _Fail(f"t_s, theta_rad, theta_dot_rad_s must be 1-D of one length >= 2, got {t.shape}, "
-                        f"{th.shape}, {thd.shape}")
-        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(th)) and np.all(np.isfinite(thd))):
-            raise _Fail("non-finite samples in a plain rocking case")
-        if abs(t[0]) > 1e-9:
-            raise _Fail(f"samples must start at t = 0 s, got {t[0]:g} s")
-        if not np.all(np.diff(t) > 0):
-            raise _Fail("sample times must increase strictly")
-        T = rocking.pulse.duration_s
-        if not math.isclose(tr.t_pulse_end_s, T, rel_tol=0.01, abs_tol=2 * ad.dt_for(rocking)):
-            raise _Fail(f"t_pulse_end_s = {tr.t_pulse_end_s:g} but the pulse lasts {T:g} s (seconds expected)")
-        if t[-1] < T - 2 * ad.dt_for(rocking):
-            raise _Fail(f"the samples end at {t[-1]:g} s, before the pulse does ({T:g} s) (contract item 3)")
-        bad = sorted(set(tr.flags) - {"diverged"})
-        if bad:
-            raise _Fail(f"the adapter set the flags {bad} itself; an adapter reports measurements and may only "
-                        "set 'diverged': slip, jump and energy-gain come from the one validity rule (contract item 4)")
-        json.dumps(tr.diagnostics)
-        if not (0.0 <= tr.uplift_tol_rad < b.alpha_rad):
-            raise _Fail(f"uplift_tol_rad = {tr.uplift_tol_rad:g} must be in [0, α = {b.alpha_rad:.4f}) rad")
-        return f"{t.size} samples over {t[-1]:.3f} s, pulse {T:.3f} s"
-
-    def c_units():
-        tr = ad.simulate(rocking)
-        t, th, thd = (np.asarray(x, float) for x in (tr.t_s, tr.theta_rad, tr.theta_dot_rad_s))
-        m = float(np.max(np.abs(th)))
-        if m > 0.5 * math.pi + 0.2:
-            raise _Fail(f"max |θ| = {m:.3g} in a rocking case: degrees instead of radians?")
-        if m <= tr.uplift_tol_rad:
-            raise _Fail(f"the block did not rock at a0/(g·tanα) = 1.6, ω/p = 4 (max |θ| = {m:.3g} rad)")
-        grad = np.gradient(th, t)
-        moving = np.abs(thd) > 0.1 * np.max(np.abs(thd))
-        err = np.median(np.abs(grad[moving] - thd[moving])) / np.median(np.abs(thd[moving]))
-        if not err < 0.2:
-            raise _Fail(f"theta_dot_rad_s is not the derivative of theta_rad (median relative mismatch {err:.2f})")
-        return f"max |θ| = {m:.4f} rad, θ̇ matches dθ/dt (median mismatch {100 * err:.1f} %)"
-
-    def c_sign():
-        tr = ad.simulate(rocking)
-        th = np.asarray(tr.theta_rad, float)
-        lifted = np.nonzero(np.abs(th) > max(tr.uplift_tol_rad, 1e-12))[0]
-        if lifted.size == 0:
-            raise _Fail("the block never lifted off in the rocking case")
-        if th[lifted[0]] >= 0:
-            raise _Fail("a positive table acceleration started a positive θ; the contract's convention is the "
-                        "opposite (θ about +y, x along the excitation, z up) (contract item 3)")
-        return "a positive table acceleration starts a negative θ"
-
-    def c_mirror():
-        msgs = []
-        for kind in ("sine", "cosine"):
-            c = _case(b, kind, 4.0, 1.6)
-            r1, r2 = ad.run(c), ad.run(_mirror(c))
-            if (r1.outcome, r1.n_impacts) != (r2.outcome, r2.n_impacts):
-                raise _Fail(f"{kind}: ü gives {r1.outcome} with {r1.n_impacts} impacts, −ü gives {r2.outcome} with "
-                            f"{r2.n_impacts} impacts")
-            if not math.isclose(r1.max_abs_theta_rad, r2.max_abs_theta_rad, rel_tol=0.02, abs_tol=1e-9):
-                raise _Fail(f"{kind}: max |θ| {r1.max_abs_theta_rad:.5g} for ü, {r2.max_abs_theta_rad:.5g} for −ü")
-            t1 = ad.simulate(c)
-            t2 = ad.simulate(_mirror(c))
-            i1 = np.argmax(np.abs(t1.theta_rad) > max(t1.uplift_tol_rad, 1e-12))
-            i2 = np.argmax(np.abs(t2.theta_rad) > max(t2.uplift_tol_rad, 1e-12))
-            if np.sign(t1.theta_rad[i1]) == np.sign(t2.theta_rad[i2]):
-                raise _Fail(f"{kind}: ü and −ü start θ on the same side")
-            msgs.append(f"{kind} {r1.outcome}/{r1.n_impacts}")
-        return "−ü gives −θ (" + ", ".join(msgs) + ")"
-
-    def c_threshold():
-        for kind in ("sine", "cosine"):
-            for w in (1.0, 6.0):
-                r = ad.run(_case(b, kind, w, 0.9))
-                if r.outcome != "rest":
-                    raise _Fail(f"{kind}, ω/p = {w:g}, a0 = 0.9·g·tanα: {r.outcome} (max |θ| = "
-                                f"{r.max_abs_theta_rad:.3g} rad); no uplift is possible below g·tanα")
-        return "rest at a0 = 0.9·g·tanα (sine and cosine, ω/p = 1 and 6)"
-
-    def c_determinism():
-        t1, t2 = ad.simulate(rocking), ad.simulate(rocking)
-        if not (np.array_equal(t1.t_s, t2.t_s) and np.array_equal(t1.theta_rad, t2.theta_rad)):
-            n = min(len(t1.theta_rad), len(t2.theta_rad))
-            d = float(np.max(np.abs(np.asarray(t1.theta_rad[:n]) - np.asarray(t2.theta_rad[:n])))) if n else math.nan
-            raise _Fail(f"two runs of one case differ (max |Δθ| = {d:.3g} rad); results must be reproducible")
-        return "two runs are bit-identical"
-
-    def c_batch():
-        cases = [_case(b, "sine", 4.0, 1.6), _case(b, "cosine", 2.0, 3.0), _case(b, "sine", 1.0, 0.9)]
-        many = ad.run_many(cases)
-        one = [ad.run(c) for c in cases]
-        for k, (m, o) in enumerate(zip(many, one)):
-            if (m.outcome, m.n_impacts, m.status) != (o.outcome, o.n_impacts, o.status) or not math.isclose(
-                    m.max_abs_theta_rad, o.max_abs_theta_rad, rel_tol=1e-9, abs_tol=1e-12):
-                raise _Fail(f"case {k}: run_many gives {m.outcome}/{m.n_impacts}, run gives {o.outcome}/{o.n_impacts} "
-                            "(contract item 6)")
-        return "run_many equals run case by case"
-
-    def c_bad_case():
-        for dt in (-1e-3, 10.0):
-            bad = replace(rocking, dt_s=dt)
-            try:
-                ad.run(bad)
-            except ConfigError:
-                continue
-            except Exception as e:  # noqa: BLE001
-                raise _Fail(f"dt_s = {dt:g} s raised {type(e).__name__}, not ConfigError: {e}") from None
-            raise _Fail(f"dt_s = {dt:g} s was accepted; a bad case must raise ConfigError (use self.dt_for(case))")
-        return "a negative or too coarse time step raises ConfigError"
-
-    def c_measurements():
-        tr = ad.simulate(rocking)
-        if tr.min_normal_mg is not None:
-            if not (math.isfinite(tr.min_normal_mg) and math.isfinite(tr.max_friction_ratio or 0.0)):
-                raise _Fail("the rigid model's contact demand must be finite")
-            return (f"rigid-model contact demand reported (min N/(m·g) = {tr.min_normal_mg:.3f}, "
-                    f"max |F|/N = {tr.max_friction_ratio:.3f})")
-        m = tr.measurement()
-        if m is None:
-            raise _Fail("no corner_x_m/corner_z_m: a contact engine must report both bottom corners relative to the "
-                        "table so that the one validity rule can judge slip and jump (contract item 4)")
-        try:
-            Measurement(m.t_s, m.theta_rad, m.theta_dot_rad_s, m.corner_x_m, m.corner_z_m, m.energy_j_kg)
-        except ValueError as e:
-            raise _Fail(str(e)) from None
-        if not (np.all(np.isfinite(m.corner_x_m)) and np.all(np.isfinite(m.corner_z_m))):
-            raise _Fail("non-finite corner positions in a plain rocking case")
-        if m.energy_j_kg is not None and np.shape(m.energy_j_kg) != np.shape(m.t_s):
-            raise _Fail(f"energy_j_kg must have one value per sample, got shape {np.shape(m.energy_j_kg)}")
-        r = ad.judge(rocking, tr)
-        if not r.valid:
-            raise _Fail(f"a mild rocking case (a0/(g·tanα) = 1.6, ω/p = 4) was judged {r.flags}: the corner "
-                        "measurements are in the wrong frame or units, or the contact slides")
-        return (f"{m.corner_x_m.shape[1]} corners and {'the body energy' if m.energy_j_kg is not None else 'no energy'}"
-                " reported; the mild rocking case is valid by the one rule")
-
-    def c_overturn():
-        r = ad.run(_case(b, "sine", 1.0, 5.0))
-        if r.outcome != "overturn":
-            raise _Fail(f"one sine wave at ω/p = 1, a0 = 5·g·tanα gave {r.outcome}; every faithful model overturns")
-        return "overturns under a long, strong sine wave (ω/p = 1, a0 = 5·g·tanα)"
-
-    for name, fn in [("describe", c_describe), ("unknown-setting", c_bad_setting), ("trajectory-shape", c_shape),
-                     ("units", c_units), ("sign-convention", c_sign), ("mirror-symmetry", c_mirror),
-                     ("no-uplift-below-threshold", c_threshold), ("determinism", c_determinism),
-                     ("batch-equals-single", c_batch), ("bad-case-config-error", c_bad_case),
-                     ("overturns-when-it-must", c_overturn), ("measurements", c_measurements)]:
-        run_check(name, fn)
+    for name, check in CHECKS.items():
+        rep.checks.append(run_check(name, check, ad, b))
     return rep
 
 
-class _Fail(Exception):
-    """A check's clear failure message."""
+def run_check(name: str, check: Callable[[EngineAdapter, Block], str], adapter: EngineAdapter,
+              block: Block = DEFAULT_BLOCK) -> CheckResult:
+    """Run one check: passed with its detail, or failed with the :class:`CheckFailed` message or
+    the exception it raised."""
+    t0 = time.perf_counter()
+    try:
+        detail, ok = check(adapter, block), True
+    except CheckFailed as e:
+        ok, detail = False, str(e)
+    except Exception as e:  # noqa: BLE001 - any exception is a failed check, reported
+        ok, detail = False, f"raised {type(e).__name__}: {e}"
+    return CheckResult(name, ok, detail, time.perf_counter() - t0)

@@ -41,7 +41,7 @@ Model
 
 End of a run
 ------------
-The run is integrated in chunks of ``chunk_s`` inside Exudyn's C++ solver; between chunks the
+The run is integrated in segments of ``segment_s`` inside Exudyn's C++ solver; between chunks the
 adapter reads the state and stops when
 
 1. the block lies flat on its side (``|θ| ≥ π/2 − 0.01``), or, after the pulse, ``|θ| > α``
@@ -50,7 +50,7 @@ adapter reads the state and stops when
 2. after the pulse, at least ``min_tail_s`` has passed and the ideal-model energy above rest is
    below ``1 − ENERGY_GAIN_TOL`` of the barrier: the block can then only overturn by gaining more
    energy than the ``energy-gain`` flag allows, so the verdict "not overturned" is settled;
-3. ``max_tail_s`` after the pulse has passed.
+3. ``tail_s`` after the pulse has passed.
 
 The shared classifier decides the outcome from the samples.
 
@@ -78,7 +78,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..reference_solver.classify import FLAT_ANGLE_RAD
 from ..reference_solver.energy import energy
 from ..reference_solver.errors import ConfigError, EngineError
 from ..reference_solver.model import G, Block
@@ -86,7 +85,9 @@ from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
 from . import calibration
 from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
-from .base import CalibrationResult, Case, EngineAdapter, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
+                      free_rocking_duration_s, free_rocking_etas, overturn_certain)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range DOMAIN.md §8 found to
@@ -96,8 +97,8 @@ STATIC_PENETRATION_M = 1.34e-6
 #: Exudyn contact restitution coefficients (impact model 2) tried by the calibration's scan [-].
 CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 
-#: Impacts averaged by the free-rocking measurement [-].
-CALIBRATION_IMPACTS = 4
+#: Impacts averaged by the free-rocking measurement [-] (the one count of all contact engines).
+CALIBRATION_IMPACTS = FREE_ROCKING_IMPACTS
 
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].
 CALIBRATION_RTOL = 0.01
@@ -162,52 +163,65 @@ class _Model:
     def __init__(self, block: Block, contact: dict, drive: str, planar: bool, dt_s: float,
                  pulse: Pulse | None, theta0_rad: float = 0.0):
         import exudyn as exu
-        from exudyn.itemInterface import (CoordinateConstraint, Force, MarkerBodyRigid,
-                                          MarkerNodeCoordinate, MarkerNodePosition, NodeGenericData,
-                                          NodePointGround, NodeRigidBody2D, ObjectContactSphereTriangle,
-                                          ObjectGround, ObjectRigidBody2D, SensorNode)
 
         self.exu = exu
         self.block, self.drive, self.planar, self.dt_s = block, drive, planar, dt_s
         self.contact = dict(contact)
         self.uses_symbolic = pulse is None or pulse.kind != "record"
-        esym = exu.symbolic
         # Exudyn's symbolic variables live in one process-wide table: a unique prefix per model
         # keeps two models of one process (a map and a calibration) from sharing pulse values.
         self._pre = f"rb{next(_COUNTER)}_"
         for nm in ("a0", "w", "tb", "cs", "utb", "vtb"):
-            esym.variables.Set(self._pre + nm, 0.0)
+            exu.symbolic.variables.Set(self._pre + nm, 0.0)
+        self.r = contact["sphere_radius_m"]
+        self.SC = exu.SystemContainer()
+        self.mbs = self.SC.AddSystem()
+        # the items in this order (Exudyn numbers them as they come)
+        table_marker = self._add_table()
+        tri, gravity = self._add_block(theta0_rad)
+        mcom = self._add_contacts(table_marker, tri, gravity)
+        self._inertial_load = None
+        if drive == "inertial":
+            from exudyn.itemInterface import Force
+            self._inertial_load = self.mbs.AddLoad(Force(markerNumber=mcom, loadVector=[0.0, 0.0, 0.0]))
+        self._add_sensors()
+        self._pulse_funcs = []  # keep symbolic expression trees alive as long as the system
+        self._install_pulse_functions(pulse)
+        self.mbs.Assemble()
+        self.ss = self._simulation_settings()
 
-        b, h, m = block.width_m, block.height_m, block.mass_kg
-        d = block.depth_m
-        r = contact["sphere_radius_m"]
-        k = contact["stiffness_n_m"]
-        self.r = r
-        SC = exu.SystemContainer()
-        mbs = SC.AddSystem()
-        self.SC, self.mbs = SC, mbs
+    # -- building -------------------------------------------------------------------------
+    def _add_table(self) -> int:
+        """The ground and the table: the ground itself (inertial drive) or a body driven along u(t);
+        returns the marker the contacts attach to."""
+        from exudyn.itemInterface import (CoordinateConstraint, MarkerBodyRigid, MarkerNodeCoordinate,
+                                          NodePointGround, NodeRigidBody2D, ObjectGround, ObjectRigidBody2D)
+
+        mbs = self.mbs
         ground = mbs.AddObject(ObjectGround())
+        if self.drive != "table":
+            return mbs.AddMarker(MarkerBodyRigid(bodyNumber=ground, localPosition=[0, 0, 0]))
+        # a planar body carries the table in both models: its x follows u(t), its height and
+        # angle are held at 0 (the triangle lies in its local frame, so it moves with it)
+        tnode = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0, 0, 0]))
+        table = mbs.AddObject(ObjectRigidBody2D(nodeNumber=tnode, mass=100.0 * self.block.mass_kg, inertia=1.0))
+        gnode = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
+        mg0 = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnode, coordinate=0))
+        self._table_constraints = []
+        for c in range(3):
+            mc = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=tnode, coordinate=c))
+            self._table_constraints.append(mbs.AddObject(CoordinateConstraint(markerNumbers=[mg0, mc], offset=0.0)))
+        return mbs.AddMarker(MarkerBodyRigid(bodyNumber=table, localPosition=[0, 0, 0]))
 
-        # the table: the ground itself (inertial drive) or a body driven along u(t)
-        if drive == "table":
-            # a planar body carries the table in both models: its x follows u(t), its height and
-            # angle are held at 0 (the triangle lies in its local frame, so it moves with it)
-            tnode = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0, 0, 0]))
-            table = mbs.AddObject(ObjectRigidBody2D(nodeNumber=tnode, mass=100.0 * m, inertia=1.0))
-            n_coords = 3
-            gnode = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
-            mg0 = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnode, coordinate=0))
-            self._table_constraints = []
-            for c in range(n_coords):
-                mc = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=tnode, coordinate=c))
-                self._table_constraints.append(
-                    mbs.AddObject(CoordinateConstraint(markerNumbers=[mg0, mc], offset=0.0)))
-            table_marker = mbs.AddMarker(MarkerBodyRigid(bodyNumber=table, localPosition=[0, 0, 0]))
-        else:
-            table_marker = mbs.AddMarker(MarkerBodyRigid(bodyNumber=ground, localPosition=[0, 0, 0]))
+    def _add_block(self, theta0_rad: float):
+        """The block (planar or free 3-D body) at rest, or tilted by ``theta0_rad`` onto a corner;
+        sets ``node``, ``body`` and ``corners_local``; returns the table triangle and the weight."""
+        from exudyn.itemInterface import NodeRigidBody2D, ObjectRigidBody2D
 
+        exu, mbs, block, r = self.exu, self.mbs, self.block, self.r
+        b, h, m, d = block.width_m, block.height_m, block.mass_kg, block.depth_m
         L = _TABLE_HALF_SIZE_M
-        if planar:
+        if self.planar:
             # Exudyn's planar bodies move in its x-y plane, y up: the table is the plane y = 0
             # (a triangle spanning x and the out-of-plane z), our θ is minus Exudyn's φ.
             tri = [[-L, 0.0, L], [L, 0.0, L], [0.0, 0.0, -L]]
@@ -233,48 +247,61 @@ class _Model:
             gravity = [0.0, 0.0, -m * G]
         self.node, self.body = node, body
         self.corners_local = np.array(corners)
+        return tri, gravity
 
-        mcom = mbs.AddMarker(MarkerNodePosition(nodeNumber=node))
+    def _add_contacts(self, table_marker: int, tri: list, gravity: list) -> int:
+        """The weight at the centre of mass and one sphere–triangle contact per bottom corner;
+        returns the centre-of-mass marker."""
+        from exudyn.itemInterface import (Force, MarkerBodyRigid, MarkerNodePosition, NodeGenericData,
+                                          ObjectContactSphereTriangle)
+
+        exu, mbs, contact = self.exu, self.mbs, self.contact
+        mcom = mbs.AddMarker(MarkerNodePosition(nodeNumber=self.node))
         mbs.AddLoad(Force(markerNumber=mcom, loadVector=gravity))
-        for c in corners:
-            mc = mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=c))
+        for c in self.corners_local.tolist():
+            mc = mbs.AddMarker(MarkerBodyRigid(bodyNumber=self.body, localPosition=c))
             dn = mbs.AddNode(NodeGenericData(numberOfDataCoordinates=4, initialCoordinates=[0, 0, 0, 0]))
             mbs.AddObject(ObjectContactSphereTriangle(
-                markerNumbers=[mc, table_marker], nodeNumber=dn, sphereRadius=r,
+                markerNumbers=[mc, table_marker], nodeNumber=dn, sphereRadius=self.r,
                 trianglePoints=exu.Vector3DList(tri), includeEdges=0,
                 dynamicFriction=contact["friction"], frictionProportionalZone=contact["friction_zone_m_s"],
-                contactStiffness=k, contactDamping=contact["damping_n_s_m"],
+                contactStiffness=contact["stiffness_n_m"], contactDamping=contact["damping_n_s_m"],
                 contactStiffnessExponent=1.0, restitutionCoefficient=contact["restitution_coefficient"],
                 impactModel=contact["impact_model"]))
+        return mcom
 
-        self._inertial_load = None
-        if drive == "inertial":
-            self._inertial_load = mbs.AddLoad(Force(markerNumber=mcom, loadVector=[0.0, 0.0, 0.0]))
+    def _add_sensors(self) -> None:
+        """Sensors that store the block's state at every step (read by :meth:`samples`)."""
+        from exudyn.itemInterface import SensorNode
 
-        OVT = exu.OutputVariableType
-        if planar:
-            self.s_q = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Coordinates))
-            self.s_v = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Coordinates_t))
+        mbs, node, OVT = self.mbs, self.node, self.exu.OutputVariableType
+
+        def sensor(kind):
+            return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=kind))
+
+        if self.planar:
+            self.s_q = sensor(OVT.Coordinates)
+            self.s_v = sensor(OVT.Coordinates_t)
         else:
-            self.s_pos = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Position))
-            self.s_rot = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.RotationMatrix))
-            self.s_omg = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.AngularVelocity))
-            self.s_vel = mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=OVT.Velocity))
-        self._pulse_funcs = []  # keep symbolic expression trees alive as long as the system
-        self._install_pulse_functions(pulse)
-        mbs.Assemble()
+            self.s_pos = sensor(OVT.Position)
+            self.s_rot = sensor(OVT.RotationMatrix)
+            self.s_omg = sensor(OVT.AngularVelocity)
+            self.s_vel = sensor(OVT.Velocity)
 
-        ss = exu.SimulationSettings()
+    def _simulation_settings(self):
+        """Exudyn's implicit generalized-α with adaptive steps, the loosened Newton tolerances and
+        the Jacobian refresh of the settings (module docstring, "Solver")."""
+        ss = self.exu.SimulationSettings()
         ti = ss.timeIntegration
         ti.verboseMode = 0
         ti.newton.relativeTolerance = 1e-6
         ti.newton.absoluteTolerance = 1e-6
-        ti.generalizedAlpha.spectralRadius = contact["spectral_radius"]
-        ti.newton.maxModifiedNewtonIterations = contact["modified_newton_iterations"]
+        ti.generalizedAlpha.spectralRadius = self.contact["spectral_radius"]
+        ti.newton.maxModifiedNewtonIterations = self.contact["modified_newton_iterations"]
         ti.adaptiveStep = True
         ss.solution.file.write = False
-        ss.solution.sensors.writePeriod = dt_s
-        self.ss = ss
+        ss.solution.sensors.writePeriod = self.dt_s
+        return ss
 
     # -- geometry -------------------------------------------------------------------------
     def _rest_pose_planar(self, theta_rad: float):
@@ -301,7 +328,6 @@ class _Model:
 
         mbs, esym, pre = self.mbs, self.exu.symbolic, self._pre
         m = self.block.mass_kg
-        planar = self.planar
 
         def acc_sym(t):
             v = esym.variables
@@ -463,7 +489,7 @@ class _Model:
         return t[keep], theta[keep], theta_dot[keep], both[keep, :nc], both[keep, nc:], com[keep]
 
 
-class ExudynAdapter(EngineAdapter):
+class ExudynAdapter(ContactEngineAdapter):
     """Exudyn (multibody dynamics, C++ core): the block on a table through penalty contact.
 
     Settings
@@ -478,12 +504,12 @@ class ExudynAdapter(EngineAdapter):
         Coulomb friction coefficient of the corner contacts [-] (default 10, see the module notes).
     friction_zone_m_s : float
         Sliding speed below which Exudyn's friction is proportional to the speed [m/s].
-    stiffness_n_m : float or None
+    contact_stiffness_n_m : float or None
         Contact stiffness of each corner [N/m]; None: :func:`default_stiffness_n_m`.
     contact_restitution : float or None
         Exudyn's normal restitution coefficient of the corner contacts with its impact model 2
         (Gonthier et al.) [-]; None: calibrated to the case's η (with ``calibrated``).
-    damping_n_s_m : float
+    contact_damping_n_s_m : float
         Linear normal contact damping [N s/m], added by Exudyn to every impact model (default 0).
     sphere_radius_m : float
         Radius of the corner contact spheres [m].
@@ -495,30 +521,28 @@ class ExudynAdapter(EngineAdapter):
         must still meet the same tolerances, so this changes the cost, not the accuracy asked
         for; 3 measured 10–14 % faster calibrated and 27 % faster as shipped than 8 (the stiff
         regularised friction makes an old Jacobian converge slowly), docs/exudyn.md.
-    chunk_s, min_tail_s, max_tail_s : float
-        Length of the integration chunks between stop checks, and the shortest and longest tail
-        after the pulse [s] (see the module notes on the end of a run).
+    segment_s, min_tail_s, tail_s : float
+        Length of the integration segments between stop checks, and the shortest and longest tail
+        after the pulse [s] (see the module notes on the end of a run). Old names, accepted for one
+        release: ``chunk_s``, ``max_tail_s``, ``stiffness_n_m``, ``damping_n_s_m``
+        (:data:`~rockbench.engines.contact.RENAMED_SETTINGS`).
     """
 
     name = "exudyn"
     module = "exudyn"
-    install_hint = "install it with `pip install exudyn`."
+    install_hint = "install it with `pip install 'rockbench[exudyn]'` (or `pip install exudyn`)."
     default_dt_s = 1e-4
     SETTINGS = {
-        "settings": "calibrated",
-        "drive": "inertial",
-        "planar": True,
-        "friction": 10.0,
+        **ContactEngineAdapter.SHARED_SETTINGS,
         "friction_zone_m_s": 1e-3,
-        "stiffness_n_m": None,
+        "contact_stiffness_n_m": None,
         "contact_restitution": None,
-        "damping_n_s_m": 0.0,
+        "contact_damping_n_s_m": 0.0,
         "sphere_radius_m": 5e-4,
         "spectral_radius": 0.9,
         "modified_newton_iterations": 3,
-        "chunk_s": 0.05,
+        "segment_s": 0.05,
         "min_tail_s": 0.3,
-        "max_tail_s": 3.0,
     }
 
     def __init__(self, **settings):
@@ -527,22 +551,13 @@ class ExudynAdapter(EngineAdapter):
         self._calibrations: dict = {}
 
     # -- settings -------------------------------------------------------------------------
-    def _validate_settings(self, s: dict) -> None:
-        if s["settings"] not in ("calibrated", "defaults"):
-            raise ConfigError(f"exudyn setting 'settings' must be calibrated or defaults, got {s['settings']!r}.")
-        if s["drive"] not in ("inertial", "table"):
-            raise ConfigError(f"exudyn setting 'drive' must be inertial or table, got {s['drive']!r}.")
-        if isinstance(s["planar"], str) and s["planar"].lower() in ("true", "false"):
-            s["planar"] = s["planar"].lower() == "true"
-        if not isinstance(s["planar"], bool):
-            raise ConfigError(f"exudyn setting 'planar' must be true or false, got {s['planar']!r}.")
-        self._number_setting(s, "friction", "-", allow_none=False)
+    def _validate_engine_settings(self, s: dict) -> None:
         self._number_setting(s, "friction_zone_m_s", "m/s", allow_none=False)
-        self._number_setting(s, "stiffness_n_m", "N/m")
+        self._number_setting(s, "contact_stiffness_n_m", "N/m")
         self._number_setting(s, "contact_restitution", "-")
         if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
             raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {s['contact_restitution']!r}.")
-        self._number_setting(s, "damping_n_s_m", "N s/m", allow_zero=True, allow_none=False)
+        self._number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True, allow_none=False)
         self._number_setting(s, "sphere_radius_m", "m", allow_none=False)
         try:
             rho = float(s["spectral_radius"])
@@ -552,11 +567,9 @@ class ExudynAdapter(EngineAdapter):
             raise ConfigError(f"exudyn setting 'spectral_radius' must be in [0, 1], got {s['spectral_radius']!r}.")
         s["spectral_radius"] = rho
         self._whole_setting(s, "modified_newton_iterations", 1, allow_none=False)
-        for key in ("chunk_s", "min_tail_s", "max_tail_s"):
-            self._number_setting(s, key, "s", allow_none=False)
 
     def _stiffness(self, block: Block) -> float:
-        return self.settings["stiffness_n_m"] or default_stiffness_n_m(block)
+        return self.settings["contact_stiffness_n_m"] or default_stiffness_n_m(block)
 
     def _contact(self, block: Block, contact_restitution: float | None) -> dict:
         """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model."""
@@ -567,29 +580,21 @@ class ExudynAdapter(EngineAdapter):
             model, e = 0, 1.0
         else:
             model, e = 2, float(contact_restitution)
-        return {"stiffness_n_m": self._stiffness(block), "damping_n_s_m": s["damping_n_s_m"],
+        return {"stiffness_n_m": self._stiffness(block), "damping_n_s_m": s["contact_damping_n_s_m"],
                 "impact_model": model, "restitution_coefficient": e,
                 "friction": s["friction"], "friction_zone_m_s": s["friction_zone_m_s"],
                 "sphere_radius_m": s["sphere_radius_m"], "spectral_radius": s["spectral_radius"],
                 "modified_newton_iterations": s["modified_newton_iterations"]}
 
-    def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
-        """Concrete settings for a block and restitution, calibrating (and caching) on first use."""
-        dt = dt_s or self.default_dt_s
-        s = dict(self.settings)
-        cal = None
-        if s["contact_restitution"] is not None:
-            e = s["contact_restitution"]
-        elif s["settings"] == "defaults":
-            e = None
-        else:
-            cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt)
-            e = cal.settings["restitution_coefficient"]
-        out = {**s, **self._contact(block, e), "dt_s": dt}
-        if cal is not None:
-            out["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
-                                  "eta_std": cal.eta_std, "reached": cal.reached}
-        return out
+    def explicit_contact(self) -> bool:
+        """Whether ``contact_restitution`` was given (then nothing is calibrated)."""
+        return self.settings["contact_restitution"] is not None
+
+    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
+        """The settings and Exudyn's contact parameters (``contact_restitution``: explicit, None for
+        the shipped model, or calibrated)."""
+        e = self.settings["contact_restitution"] if cal is None else cal.settings["restitution_coefficient"]
+        return {**self.settings, **self._contact(block, e), "dt_s": dt}
 
     # -- simulation -----------------------------------------------------------------------
     def _model(self, block: Block, contact: dict, dt: float, pulse: Pulse) -> _Model:
@@ -616,12 +621,10 @@ class ExudynAdapter(EngineAdapter):
 
         def stop(state):
             t, th, thd = state
-            if abs(th) >= FLAT_ANGLE_RAD:
+            if overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=t_pe):
                 return True
             if t < t_pe:
                 return False
-            if abs(th) > alpha and th * thd > 0.0:
-                return True
             E = float(energy(th, thd, alpha, p))
             return t >= t_pe + s["min_tail_s"] and E < settle
 
@@ -633,9 +636,9 @@ class ExudynAdapter(EngineAdapter):
             model = self._model(block, contact, dt_run, case.pulse)
             if case.pulse.kind != "record":
                 model.set_pulse(case.pulse)
-            ok, message, steps, wall = model.run(t_pe, stop, s["chunk_s"], t_pe + s["max_tail_s"], full_newton)
+            ok, message, steps, wall = model.run(t_pe, stop, s["segment_s"], t_pe + s["tail_s"], full_newton)
             t, th, thd, corners, edges, com = model.samples()
-            over = (np.abs(th) >= FLAT_ANGLE_RAD) | ((t >= t_pe) & (np.abs(th) > alpha) & (th * thd > 0))
+            over = overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=t_pe)
             if ok or over.any():
                 break
             retried = message
@@ -672,7 +675,7 @@ class ExudynAdapter(EngineAdapter):
         table_x = case.pulse.disp(t) if drive_table else np.zeros(t.size)
         table_v = case.pulse.vel(t) if drive_table else np.zeros(t.size)
         zc, vx, vz = com[:, 0], com[:, 1] - table_v, com[:, 2]
-        e_body = 0.5 * (vx**2 + vz**2) + 0.5 * block.inertia_cm_kg_m2 / block.mass_kg * thd**2 + G * zc
+        e_body = body_energy_j_kg(block, vx, vz, thd, zc)
         return Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=thd, t_pulse_end_s=t_pe, flags=flags,
                           diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
                           corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=corners[..., 1] - r,
@@ -689,36 +692,16 @@ class ExudynAdapter(EngineAdapter):
         of two such energies. This is robust against the few steps a soft impact lasts, where
         θ̇⁺/θ̇⁻ read at θ ≈ 0 depends on where one samples.
         """
-        dt = dt_s or self.default_dt_s
-        alpha, p = block.alpha_rad, block.p_rad_s
+        dt = self.check_dt(dt_s)
+        alpha = block.alpha_rad
         th0 = theta0_frac * alpha
-        # a quarter period from θ0 to the first impact; later half-cycles are shorter
-        quarter = math.acosh(1.0 / (1.0 - theta0_frac)) / p
-        duration = quarter * (2 * n_impacts + 1) * 1.2 + 0.05
+        duration = free_rocking_duration_s(block, theta0_frac, n_impacts)
         contact = self._contact(block, contact_restitution)
         model = _Model(block, contact, "inertial", self.settings["planar"], dt, None, theta0_rad=th0)
         model.set_pulse(None)
         ok, message, steps, wall = model.run(0.0, lambda st: False, duration, duration)
         t, th, thd, corners, edges, _ = model.samples()
-        tol = uplift_tol_rad(block)
-        side = np.where(th > tol, 1, np.where(th < -tol, -1, 0))
-        nz = np.nonzero(side)[0]
-        peaks = [abs(th0)]
-        if nz.size:
-            seg_start = nz[0]
-            for a_, b_ in zip(nz[:-1], nz[1:]):
-                if side[b_] != side[a_]:
-                    peaks.append(float(np.max(np.abs(th[seg_start:a_ + 1]))))
-                    seg_start = b_
-            peaks.append(float(np.max(np.abs(th[seg_start:]))))
-        # the first half-cycle is the release (its peak is θ0 itself): keep θ0 once
-        peaks = [peaks[0]] + peaks[2:]
-        ke = np.cos(alpha - np.asarray(peaks)) - math.cos(alpha)
-        etas = []
-        for i in range(min(len(ke) - 1, n_impacts)):
-            if ke[i] <= 0 or ke[i + 1] <= 0:
-                break
-            etas.append(float(math.sqrt(ke[i + 1] / ke[i])))
+        etas, peaks = free_rocking_etas(th, alpha, th0, uplift_tol_rad(block), n_impacts)
         if not ok and len(etas) < n_impacts:
             raise EngineError(f"free rocking: {message}")
         # the jump measure of the one validity rule (its slip and energy checks do not apply here)
@@ -726,12 +709,12 @@ class ExudynAdapter(EngineAdapter):
                                  block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        return FreeRocking(etas, mean, std, peaks[: n_impacts + 1], th0, jump, contact, dt, steps, wall)
+        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall)
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:
         """Free rocking with this adapter's settings (``calibrated``: those for Housner's η)."""
-        dt = dt_s or self.default_dt_s
+        dt = self.check_dt(dt_s)
         s = self.settings
         if s["contact_restitution"] is not None:
             e = s["contact_restitution"]
@@ -743,7 +726,7 @@ class ExudynAdapter(EngineAdapter):
         return RestitutionMeasurement(etas=fr.etas, eta_mean=fr.eta_mean, eta_std=fr.eta_std,
                                       theta0_rad=fr.theta0_rad, dt_s=dt,
                                       settings={**fr.contact, "planar": s["planar"]},
-                                      method="energy-consistent amplitude ratio of successive peaks")
+                                      method=FREE_ROCKING_METHOD)
 
     def _cal_key(self, block: Block, target_eta: float, dt: float) -> str:
         s = self.settings
@@ -752,7 +735,7 @@ class ExudynAdapter(EngineAdapter):
             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=float(target_eta),
             dt=float(dt), planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
             zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
-            damping=s["damping_n_s_m"], newton=s["modified_newton_iterations"])
+            damping=s["contact_damping_n_s_m"], newton=s["modified_newton_iterations"])
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
@@ -764,10 +747,8 @@ class ExudynAdapter(EngineAdapter):
         ``reached`` when the mean η is within 1 % of the target; otherwise the closest η is
         returned with the reason. Results are cached on disk (:mod:`.calibration`).
         """
-        dt = dt_s or self.default_dt_s
-        target = float(target_eta)
-        if not (0.0 < target <= 1.0):
-            raise ConfigError(f"the calibration target η must be in (0, 1], got {target_eta!r}.")
+        dt = self.check_dt(dt_s)
+        target = self.check_target_eta(target_eta)
         key = self._cal_key(block, target, dt)
         if key in self._calibrations:
             return self._calibrations[key]
@@ -796,28 +777,7 @@ class ExudynAdapter(EngineAdapter):
 
         measured = [(e, measure(e)) for e in CALIBRATION_RESTITUTIONS]
         good = [(e, fr) for e, fr in measured if regular(fr)]
-        best = None
-        if good:
-            best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
-            if abs(best[1].eta_mean - target) > 0.2 * CALIBRATION_RTOL * target:
-                for (e1, f1), (e2, f2) in zip(good[:-1], good[1:]):
-                    if (f1.eta_mean - target) * (f2.eta_mean - target) >= 0:
-                        continue
-                    lo, hi, flo = e1, e2, f1
-                    for _ in range(5):
-                        em = 0.5 * (lo + hi)
-                        fm = measure(em)
-                        if not regular(fm):
-                            break
-                        if abs(fm.eta_mean - target) < abs(best[1].eta_mean - target):
-                            best = (em, fm)
-                        if abs(fm.eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
-                            break
-                        if (fm.eta_mean - target) * (flo.eta_mean - target) < 0:
-                            hi = em
-                        else:
-                            lo, flo = em, fm
-                    break
+        best = _refine(good, target, measure, regular) if good else None
         irregular = best is None
         if irregular:
             # no regular free rocking at all (e.g. a friction too low to hold the pivot): keep the
@@ -831,23 +791,7 @@ class ExudynAdapter(EngineAdapter):
         e, fr = best
         rel = abs(fr.eta_mean - target) / target
         reached = rel <= CALIBRATION_RTOL and not irregular
-        lo_eta = min(f.eta_mean for _, f in good)
-        hi_eta = max(f.eta_mean for _, f in good)
-        if irregular:
-            note = (f"not reached: no contact restitution gave regular free rocking (spread < 2 %, no jump); "
-                    f"the closest η is {fr.eta_mean:.4f} ± {fr.eta_std:.4f} (target {target:.4f}). The block "
-                    "slides or bounces in free rocking with these settings (friction "
-                    f"{self.settings['friction']:g}).")
-        elif reached:
-            note = (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
-                    f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}.")
-        else:
-            note = (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
-                    f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
-                    f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
-                    "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
-                    "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
-                    "impulse inside the base, where corner contacts cannot put it.")
+        note = _calibration_note(e, fr, good, target, irregular, reached, self.settings["friction"])
         settings = {**self._contact(block, e), "planar": self.settings["planar"]}
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan))
@@ -857,6 +801,55 @@ class ExudynAdapter(EngineAdapter):
                                 "etas": fr.etas, "scan": scan})
         self._calibrations[key] = res
         return res
+
+
+def _refine(good: list, target: float, measure, regular):
+    """The best of the scan's regular points ``(e, FreeRocking)``, refined by bisection between the
+    first neighbours that bracket ``target`` until within 0.2·CALIBRATION_RTOL (5 halvings at most;
+    an irregular midpoint ends it)."""
+    best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
+    if abs(best[1].eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
+        return best
+    for (e1, f1), (e2, f2) in zip(good[:-1], good[1:]):
+        if (f1.eta_mean - target) * (f2.eta_mean - target) >= 0:
+            continue
+        lo, hi, flo = e1, e2, f1
+        for _ in range(5):
+            em = 0.5 * (lo + hi)
+            fm = measure(em)
+            if not regular(fm):
+                break
+            if abs(fm.eta_mean - target) < abs(best[1].eta_mean - target):
+                best = (em, fm)
+            if abs(fm.eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
+                break
+            if (fm.eta_mean - target) * (flo.eta_mean - target) < 0:
+                hi = em
+            else:
+                lo, flo = em, fm
+        break
+    return best
+
+
+def _calibration_note(e: float, fr: FreeRocking, good: list, target: float, irregular: bool, reached: bool,
+                      friction: float) -> str:
+    """What the calibration found, in words."""
+    rel = abs(fr.eta_mean - target) / target
+    if irregular:
+        return (f"not reached: no contact restitution gave regular free rocking (spread < 2 %, no jump); "
+                f"the closest η is {fr.eta_mean:.4f} ± {fr.eta_std:.4f} (target {target:.4f}). The block "
+                f"slides or bounces in free rocking with these settings (friction {friction:g}).")
+    if reached:
+        return (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
+                f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}.")
+    lo_eta = min(f.eta_mean for _, f in good)
+    hi_eta = max(f.eta_mean for _, f in good)
+    return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
+            f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
+            f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
+            "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
+            "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
+            "impulse inside the base, where corner contacts cannot put it.")
 
 
 #: the contact parameters a model is built from

@@ -71,12 +71,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..reference_solver.classify import FLAT_ANGLE_RAD
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
 from . import calibration as _cal
-from .base import Case, CalibrationResult, EngineAdapter, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import Case, CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import ContactEngineAdapter, overturn_certain
 
 #: MuJoCo's own defaults for what ``settings="defaults"`` leaves alone (MuJoCo 3.x/4.0 docs).
 MUJOCO_SHIPPED = {"timeconst": 0.02, "dampratio": 1.0, "cone": "pyramidal", "integrator": "euler",
@@ -114,7 +114,7 @@ class _Built:
     params: dict            # the contact settings in force
 
 
-class MujocoAdapter(EngineAdapter):
+class MujocoAdapter(ContactEngineAdapter):
     """The rocking block in MuJoCo (see the module docstring).
 
     Settings
@@ -130,8 +130,9 @@ class MujocoAdapter(EngineAdapter):
         Motion kept in the x–z plane (default) or a free 3-D body.
     friction : float
         Sliding friction coefficient on block and table [-] (default 10, see module docstring).
-    timeconst, dampratio : float or None
+    timeconst_s, dampratio : float or None
         Contact ``solref`` [s], [-]; given, they replace calibration (and MuJoCo's defaults).
+        (``timeconst`` is the old name of ``timeconst_s``, accepted for one release.)
     noslip_iterations : int or None
         MuJoCo's no-slip solver passes (None: 10 calibrated, 0 defaults).
     cone, integrator : str or None
@@ -149,21 +150,19 @@ class MujocoAdapter(EngineAdapter):
 
     name = "mujoco"
     module = "mujoco"
-    install_hint = "install it with `pip install mujoco` (3.2 or newer; 4.0 tested)."
+    install_hint = ("install it with `pip install 'rockbench[mujoco]'` (or `pip install mujoco`: 3.2 or newer; "
+                    "4.0 tested).")
     default_dt_s = 5e-4
+    #: cells run through native multi-threaded rollouts (``_simulate_many``)
+    batching = "native"
     SETTINGS = {
-        "settings": "calibrated",
-        "drive": "inertial",
-        "planar": True,
-        "friction": 10.0,
-        "timeconst": None,
+        **ContactEngineAdapter.SHARED_SETTINGS,
+        "timeconst_s": None,
         "dampratio": None,
         "noslip_iterations": None,
         "cone": None,
         "integrator": None,
         "impratio": None,
-        "tail_s": 3.0,
-        "min_tail_s": 0.5,
         "segment_s": 0.25,
         "table_mass_ratio": 1000.0,
         "threads": 0,
@@ -172,37 +171,14 @@ class MujocoAdapter(EngineAdapter):
     def __init__(self, **settings):
         super().__init__(**settings)
         self._models: dict = {}
-        self._resolved: dict = {}
 
     # -- settings ----------------------------------------------------------------------------
-    def _validate_settings(self, s: dict) -> None:
-        if s["settings"] not in ("calibrated", "defaults"):
-            raise ConfigError(f"mujoco setting 'settings' must be calibrated or defaults, got {s['settings']!r}.")
-        if s["drive"] not in ("inertial", "table"):
-            raise ConfigError(f"mujoco setting 'drive' must be inertial or table, got {s['drive']!r}.")
-        if isinstance(s["planar"], str):
-            if s["planar"].lower() not in ("true", "false", "1", "0"):
-                raise ConfigError(f"mujoco setting 'planar' must be true or false, got {s['planar']!r}.")
-            s["planar"] = s["planar"].lower() in ("true", "1")
-        s["planar"] = bool(s["planar"])
-        for key, unit in (("friction", ""), ("timeconst", "s"), ("dampratio", ""), ("impratio", ""),
-                          ("tail_s", "s"), ("min_tail_s", "s"), ("segment_s", "s"),
-                          ("table_mass_ratio", "")):
+    def _validate_engine_settings(self, s: dict) -> None:
+        for key, unit in (("timeconst_s", "s"), ("dampratio", ""), ("impratio", "")):
             self._number_setting(s, key, unit)
-        if s["min_tail_s"] > s["tail_s"]:
-            raise ConfigError(f"mujoco setting 'min_tail_s' ({s['min_tail_s']:g} s) must not exceed "
-                              f"'tail_s' ({s['tail_s']:g} s).")
-        for key in ("noslip_iterations", "threads"):
-            v = s[key]
-            if v is None:
-                continue
-            try:
-                iv = int(v)
-            except (TypeError, ValueError):
-                raise ConfigError(f"mujoco setting {key!r} must be a whole number >= 0, got {v!r}.") from None
-            if iv != float(v) or iv < 0:
-                raise ConfigError(f"mujoco setting {key!r} must be a whole number >= 0, got {v!r}.")
-            s[key] = iv
+        self._number_setting(s, "table_mass_ratio", allow_none=False)
+        self._whole_setting(s, "noslip_iterations", 0)
+        self._whole_setting(s, "threads", 0, allow_none=False)
         if s["cone"] is not None and s["cone"] not in _CONES:
             raise ConfigError(f"mujoco setting 'cone' must be one of {', '.join(_CONES)}, got {s['cone']!r}.")
         if s["integrator"] is not None and s["integrator"] not in _INTEGRATORS:
@@ -220,35 +196,30 @@ class MujocoAdapter(EngineAdapter):
                 base[k] = s[k]
         return base
 
-    def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
-        """The concrete settings cases of this block and restitution run with (for run.json).
+    def explicit_contact(self) -> bool:
+        """Whether ``timeconst_s`` or ``dampratio`` was given (then nothing is calibrated)."""
+        return self.settings["timeconst_s"] is not None or self.settings["dampratio"] is not None
 
-        With ``settings="calibrated"`` and no explicit ``timeconst``/``dampratio`` this runs (or
-        reads from the cache) the calibration to the restitution's η.
-        """
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        if dt <= 0.0 or not math.isfinite(dt):
-            raise ConfigError(f"--dt must be > 0 s, got {dt_s!r}.")
-        eta = restitution.eta(block.alpha_rad)
-        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
-        if key in self._resolved:
-            return dict(self._resolved[key])
+    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
+        """The mode's solver settings and the contact ``solref``: calibrated, or explicit with
+        MuJoCo's shipped value for what is not given. ``timeconst`` is the resolved contact time
+        constant [s] (the key MuJoCo's calibration records and the model cache use)."""
         s = self.settings
         out = {"settings": s["settings"], "drive": s["drive"], "planar": s["planar"], "friction": s["friction"],
                "dt_s": dt, **self._solver_params()}
-        if s["timeconst"] is not None or s["dampratio"] is not None or s["settings"] == "defaults":
-            out["timeconst"] = s["timeconst"] if s["timeconst"] is not None else MUJOCO_SHIPPED["timeconst"]
+        if cal is None:
+            out["timeconst"] = s["timeconst_s"] if s["timeconst_s"] is not None else MUJOCO_SHIPPED["timeconst"]
             out["dampratio"] = s["dampratio"] if s["dampratio"] is not None else MUJOCO_SHIPPED["dampratio"]
             out["calibration"] = None
         else:
-            c = self.calibrate(block, eta, dt_s=dt)
-            out["timeconst"] = c.settings["timeconst"]
-            out["dampratio"] = c.settings["dampratio"]
-            out["calibration"] = {"eta_target": c.eta_target, "eta_measured": c.eta_measured,
-                                  "eta_std": c.eta_std, "reached": c.reached, "note": c.note,
-                                  "rest_sink_m": c.settings.get("rest_sink_m")}
-        self._resolved[key] = out
-        return dict(out)
+            out["timeconst"] = cal.settings["timeconst"]
+            out["dampratio"] = cal.settings["dampratio"]
+        return out
+
+    @staticmethod
+    def _calibration_summary(cal: CalibrationResult) -> dict:
+        return {**ContactEngineAdapter._calibration_summary(cal), "note": cal.note,
+                "rest_sink_m": cal.settings.get("rest_sink_m")}
 
     # -- model -------------------------------------------------------------------------------
     def _model(self, block: Block, p: dict, dt: float, drive: str | None = None) -> _Built:
@@ -279,7 +250,7 @@ class MujocoAdapter(EngineAdapter):
         if solref[0] < 2.0 * dt:
             # MuJoCo silently stiffens nothing below 2Δt (refsafe clamps it): say so instead
             raise ConfigError(f"mujoco timeconst {solref[0]:g} s is below 2·dt = {2 * dt:g} s, which MuJoCo "
-                              "clamps; use a larger timeconst or a smaller --dt.")
+                              "clamps; use a larger timeconst_s or a smaller --dt.")
         world = spec.worldbody
         if drive == "inertial":
             table = world.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
@@ -470,7 +441,7 @@ class MujocoAdapter(EngineAdapter):
         t, th, thd, _, _ = self._read(bm, st, block)
         te = case.pulse.duration_s
         a = np.abs(th)
-        if np.any(a >= FLAT_ANGLE_RAD) or np.any((t >= te) & (a > block.alpha_rad) & (th * thd > 0)):
+        if np.any(overturn_certain(t, th, thd, alpha_rad=block.alpha_rad, t_pulse_end_s=te)):
             return True
         if t[-1] < te + self.settings["min_tail_s"]:
             return False
@@ -576,9 +547,7 @@ class MujocoAdapter(EngineAdapter):
         Uses the settings in force (for ``calibrated`` without explicit contact settings: the
         calibration to Housner's η of this block).
         """
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ConfigError(f"--dt must be > 0 s, got {dt_s!r}.")
+        dt = self.check_dt(dt_s)
         p = self.resolve(block, Restitution("housner"), dt)
         return self._free_rocking(block, [p], dt, theta0_frac)[0]
 
@@ -593,12 +562,8 @@ class MujocoAdapter(EngineAdapter):
         """
         import mujoco
 
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ConfigError(f"--dt must be > 0 s, got {dt_s!r}.")
-        target = float(target_eta)
-        if not (0.0 < target <= 1.0):
-            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
+        dt = self.check_dt(dt_s)
+        target = self.check_target_eta(target_eta)
         solver = self._solver_params()
         key = _cal.cache_key(**self._calibration_identity(), procedure=CALIBRATION_VERSION,
                              block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],

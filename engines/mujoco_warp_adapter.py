@@ -54,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..reference_solver.classify import FLAT_ANGLE_RAD
+from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from . import calibration as _cal
@@ -174,7 +174,8 @@ class MujocoWarpAdapter(MujocoAdapter):
     module = "mujoco_warp"
     install_hint = ("install it with `pip install 'rockbench[warp]'` (mujoco-warp 4.0 and warp-lang 1.19; "
                     "a CUDA GPU is optional, Warp's CPU device runs small maps).")
-    parallel_batch = True
+    #: a native batch (every cell a world) judged in forked processes: maps run it in their own process
+    batching = "parallel"
     #: a map in this process hands up to this many cells to one ``run_many`` (one batch of worlds):
     #: a GPU steps 40 000 worlds in little more time than 10 000
     max_batch = MAX_WORLDS
@@ -193,10 +194,10 @@ class MujocoWarpAdapter(MujocoAdapter):
         self.judging_s = 0.0
 
     # -- settings ----------------------------------------------------------------------------
-    def _validate_settings(self, s: dict) -> None:
+    def _validate_engine_settings(self, s: dict) -> None:
         s["threads"] = 0                      # the CPU validator expects it; dropped again below
         try:
-            super()._validate_settings(s)
+            super()._validate_engine_settings(s)
         finally:
             s.pop("threads", None)
         dev = s["device"]
@@ -251,8 +252,8 @@ class MujocoWarpAdapter(MujocoAdapter):
                               "use device=auto or device=cpu.")
         return dev
 
-    def resolve(self, block: Block, restitution, dt_s: float | None = None) -> dict:
-        out = super().resolve(block, restitution, dt_s)
+    def _resolved_settings(self, block: Block, dt: float, cal) -> dict:
+        out = super()._resolved_settings(block, dt, cal)
         s = self.settings
         out.update(solver=s["solver"], iterations=s["iterations"], ls_iterations=s["ls_iterations"])
         return out
@@ -332,10 +333,10 @@ class MujocoWarpAdapter(MujocoAdapter):
                 r[1].parts[r[2]] = None      # the float32 rows are no longer needed
         return out
 
-    def run_many(self, cases) -> list:
-        """Simulate the batch, then make each cell's trajectory and judge it with the one
-        classifier and validity rule (:meth:`judge`). A large batch does that last part in forked
-        processes (``judge_workers``): on a GPU it takes longer than the stepping itself."""
+    def _run_native(self, cases: list[Case]) -> list:
+        """Every case's verdict: the batch simulated, then each cell's trajectory made and judged
+        with the one classifier and validity rule (:meth:`judge`), for a large batch in forked
+        processes (``judge_workers``): on a GPU that takes longer than the stepping itself."""
         import multiprocessing as mp
         global _JUDGE_JOB
 
@@ -524,8 +525,8 @@ class MujocoWarpAdapter(MujocoAdapter):
         one segment at a time: ``certain``/``turned``/``prev_thd`` carry what earlier segments showed."""
         th, thd = self._theta_columns(bm, h)
         a = np.abs(th)
-        post = t[None, :] >= te[:, None]
-        cert = np.any((a >= FLAT_ANGLE_RAD) | (post & (a > alpha[:, None]) & (th * thd > 0)), axis=1)
+        cert = np.any(overturn_certain(t[None, :], th, thd, alpha_rad=alpha[:, None], t_pulse_end_s=te[:, None]),
+                      axis=1)
         certain[ia] |= cert
         # a turning point after the pulse with |θ| ≤ α: θ̇ changes sign between consecutive samples
         sg = np.sign(thd)

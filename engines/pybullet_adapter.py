@@ -56,9 +56,9 @@ import numpy as np
 from ..reference_solver.classify import FLAT_ANGLE_RAD
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
-from ..reference_solver.restitution import Restitution
 from . import calibration
-from .base import CalibrationResult, Case, EngineAdapter, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import ContactEngineAdapter, body_energy_j_kg, overturn_certain
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
@@ -200,8 +200,8 @@ class _Scene:
         common = dict(lateralFriction=1.0, restitution=1.0 if s.get("restitution_coef") else 0.0)
         blk = dict(lateralFriction=float(s["friction"]), restitution=float(s.get("restitution_coef") or 0.0),
                    frictionAnchor=1 if s.get("friction_anchor") else 0)
-        if s.get("contact_stiffness") is not None:
-            kp, kd = float(s["contact_stiffness"]), float(s["contact_damping"])
+        if s.get("contact_stiffness_n_m") is not None:
+            kp, kd = float(s["contact_stiffness_n_m"]), float(s["contact_damping_n_s_m"])
             common.update(contactStiffness=kp, contactDamping=kd)
             blk.update(contactStiffness=kp, contactDamping=kd)
         pb.changeDynamics(self.table, -1, physicsClientId=cid, **common)
@@ -249,7 +249,7 @@ def _scene() -> _Scene:
     return _SCENE
 
 
-class PybulletAdapter(EngineAdapter):
+class PybulletAdapter(ContactEngineAdapter):
     """The rocking block in PyBullet (see the module docstring for the model and the end of a run).
 
     Settings
@@ -269,36 +269,37 @@ class PybulletAdapter(EngineAdapter):
         sequential-impulse solver is not fully converged at 30 (a mirrored pulse gives the mirrored
         θ(t) to about 1e-3 of its peak, against 1e-2 at 20 and 1e-1 at 10; 50 gives 4e-6), and
         a step costs about 25 % less than at 50.
-    contact_stiffness, contact_damping : float or None
+    contact_stiffness_n_m, contact_damping_n_s_m : float or None
         Explicit compliant contact [N/m], [N s/m] (give both); overrides calibration.
     restitution_coef : float or None
         Bullet's restitution of the block (the table carries 1) [-]; overrides calibration.
-    contact_breaking_threshold : float or None
-        Bullet's contact-breaking distance [m] (its default is 0.02 m).
+    contact_breaking_threshold_m : float or None
+        Bullet's contact-breaking distance [m] (its default is 0.02 m). Old names, accepted for one
+        release: ``contact_stiffness``, ``contact_damping``, ``contact_breaking_threshold``
+        (:data:`~rockbench.engines.contact.RENAMED_SETTINGS`).
     tail_s, min_tail_s : float
         Longest and shortest simulated time after the pulse [s].
     """
 
     name = "pybullet"
     module = "pybullet"
-    install_hint = "install it with `pip install pybullet` (wheels for Linux, macOS and Windows)."
+    install_hint = ("install it with `pip install 'rockbench[pybullet]'` (or `pip install pybullet`: wheels for Linux, "
+                    "macOS and Windows).")
     default_dt_s = 5e-4
     SETTINGS = {
-        "settings": "calibrated",
-        "drive": "inertial",
-        "planar": True,
+        **ContactEngineAdapter.SHARED_SETTINGS,
         "friction": BULLET_MAX_FRICTION,
         "friction_anchor": True,
         "solver_iterations": None,
-        "contact_stiffness": None,
-        "contact_damping": None,
+        "contact_stiffness_n_m": None,
+        "contact_damping_n_s_m": None,
         "restitution_coef": None,
-        "contact_breaking_threshold": None,
+        "contact_breaking_threshold_m": None,
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
     #: the settings that describe the contact (calibration chooses these)
-    CONTACT_KEYS = ("contact_stiffness", "contact_damping", "restitution_coef", "contact_breaking_threshold")
+    CONTACT_KEYS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "restitution_coef", "contact_breaking_threshold_m")
 
     @classmethod
     def version(cls) -> str:
@@ -314,32 +315,24 @@ class PybulletAdapter(EngineAdapter):
             return "unknown"
 
     # -- settings -----------------------------------------------------------------------------
-    def _validate_settings(self, s: dict) -> None:
-        if s["settings"] not in ("calibrated", "defaults"):
-            raise ConfigError(f"pybullet setting 'settings' must be calibrated or defaults, got {s['settings']!r}.")
-        if s["drive"] not in ("inertial", "table"):
-            raise ConfigError(f"pybullet setting 'drive' must be inertial or table, got {s['drive']!r}.")
-        for key in ("planar", "friction_anchor"):
-            if not isinstance(s[key], bool):
-                raise ConfigError(f"pybullet setting {key!r} must be true or false, got {s[key]!r}.")
-        self._number_setting(s, "friction")
+    def _validate_engine_settings(self, s: dict) -> None:
+        self._bool_setting(s, "friction_anchor")
         if s["friction"] > BULLET_MAX_FRICTION:
             raise ConfigError(f"pybullet setting 'friction' must be <= {BULLET_MAX_FRICTION:g} (Bullet clamps the "
                               f"combined coefficient there), got {s['friction']!r}.")
-        self._number_setting(s, "contact_stiffness", "N/m")
-        self._number_setting(s, "contact_damping", "N s/m", allow_zero=True)
+        self._number_setting(s, "contact_stiffness_n_m", "N/m")
+        self._number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True)
         self._number_setting(s, "restitution_coef", allow_zero=True)
-        self._number_setting(s, "contact_breaking_threshold", "m")
-        self._number_setting(s, "tail_s", "s")
-        self._number_setting(s, "min_tail_s", "s", allow_zero=True)
-        if (s["contact_stiffness"] is None) != (s["contact_damping"] is None):
-            raise ConfigError("pybullet settings contact_stiffness and contact_damping go together: give both "
-                              "(Bullet ignores one without the other).")
+        self._number_setting(s, "contact_breaking_threshold_m", "m")
+        if (s["contact_stiffness_n_m"] is None) != (s["contact_damping_n_s_m"] is None):
+            raise ConfigError("pybullet settings contact_stiffness_n_m and contact_damping_n_s_m go together: "
+                              "give both (Bullet ignores one without the other).")
         if s["restitution_coef"] is not None and s["restitution_coef"] > 1.0:
             raise ConfigError(f"pybullet setting 'restitution_coef' must be in [0, 1], got {s['restitution_coef']!r}.")
         self._whole_setting(s, "solver_iterations", 1)
 
-    def _explicit_contact(self) -> bool:
+    def explicit_contact(self) -> bool:
+        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
         return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
 
     def _base_settings(self) -> dict:
@@ -349,25 +342,17 @@ class PybulletAdapter(EngineAdapter):
             s["solver_iterations"] = 50 if s["settings"] == "defaults" else 30
         return s
 
-    def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
-        """The concrete settings cases of ``block`` with ``restitution`` run with.
-
-        ``defaults`` or explicit contact settings are used as given; ``calibrated`` looks up (or
-        runs) the calibration for the restitution's η at the time step ``dt_s`` [s].
-        """
+    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
+        """The settings with the solver iterations of the mode and, calibrated, the contact found."""
         s = self._base_settings()
-        if s["settings"] == "defaults" or self._explicit_contact():
-            return s
-        cal = self.calibrate(block, restitution.eta(block.alpha_rad), dt_s=dt_s)
-        s.update(cal.settings)
-        s["calibration"] = {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured,
-                            "eta_std": cal.eta_std, "reached": cal.reached}
+        if cal is not None:
+            s.update(self.canonical_settings(cal.settings))
         return s
 
     # -- simulation ---------------------------------------------------------------------------
     def _simulate(self, case: Case) -> Trajectory:
         dt = self.dt_for(case)
-        s = self._resolved_cached(case.block, case.restitution, dt)
+        s = self.resolve(case.block, case.restitution, dt)
         tr = self._run(case.block, s, dt, case.pulse)
         # what the contact really gives in free rocking, next to the η the case asked for
         tr.diagnostics["settings"] = s["settings"]
@@ -375,23 +360,17 @@ class PybulletAdapter(EngineAdapter):
             tr.diagnostics["calibration"] = dict(s["calibration"])
         return tr
 
-    def _resolved_cached(self, block: Block, restitution: Restitution, dt: float) -> dict:
-        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, restitution.eta(block.alpha_rad), dt)
-        memo = self.__dict__.setdefault("_memo", {})
-        if key not in memo:
-            memo[key] = self.resolve(block, restitution, dt_s=dt)
-        return memo[key]
-
     def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
-             duration_s: float | None = None) -> Trajectory:
+             duration_s: float | None = None, with_state: bool = False):
         """Simulate one run: a pulse with the end-of-run rules, or free rocking for ``duration_s``.
 
-        Returns the trajectory with its flags and diagnostics.
+        Returns the trajectory with its flags and diagnostics (and, ``with_state``, the body's state
+        ``(x_c, z_c, ẋ_c, ż_c, θ̇)`` as a second item).
         """
         sc = _scene()
         pb, cid = sc.pb, sc.cid
         planar = bool(s["planar"])
-        sc.build(block, planar, s.get("contact_breaking_threshold"),
+        sc.build(block, planar, s.get("contact_breaking_threshold_m"),
                  tuple(s.get(k) for k in self.CONTACT_KEYS + ("friction", "friction_anchor")))
         sc.apply(s, dt)
         sc.place(block, planar, theta0)
@@ -402,6 +381,8 @@ class PybulletAdapter(EngineAdapter):
         n_max = int(math.ceil(t_stop / dt - 1e-9))
         n_pulse = int(math.ceil(t_end / dt - 1e-9))
         n_min = n_pulse + int(math.ceil(float(s["min_tail_s"]) / dt - 1e-9)) if duration_s is None else n_max
+        # the overturn rule's "after the pulse", in steps (free rocking: only the flat rule applies)
+        i_after = n_pulse if duration_s is None else math.inf
         steps_t = (np.arange(n_max) + 0.5) * dt  # midpoint of each step
         inertial = s["drive"] == "inertial"
         if pulse is not None:
@@ -455,17 +436,26 @@ class PybulletAdapter(EngineAdapter):
             if a != a:  # NaN: the engine diverged, nothing more to learn
                 ended_by = "diverged"
                 break
-            if a >= FLAT_ANGLE_RAD:
-                ended_by = "flat"
+            # the time axis of the rule in steps: i ≥ n_pulse is "after the pulse"
+            if overturn_certain(i, th, om, alpha_rad=alpha, t_pulse_end_s=i_after):
+                ended_by = "flat" if a >= FLAT_ANGLE_RAD else "overturn"
                 break
-            if duration_s is None and i >= n_pulse:
-                if a > alpha and th * om > 0.0:
-                    ended_by = "overturn"
-                    break
-                if i >= n_min and 0.5 * om * om + p2 * math.cos(alpha - a) < e_trap:
-                    ended_by = "trapped"
-                    break
+            if duration_s is None and i >= n_min and 0.5 * om * om + p2 * math.cos(alpha - a) < e_trap:
+                ended_by = "trapped"
+                break
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        diag = {"steps": int(i), "wall_s": wall, "cpu_s": cpu, "ended_by": ended_by}
+        traj, state = self._record(block, s, dt, pulse, t_end, rows, diag)
+        return (traj, state) if with_state else traj
+
+    def _record(self, block: Block, s: dict, dt: float, pulse, t_end: float, rows: list,
+                run: dict) -> tuple[Trajectory, tuple]:
+        """The trajectory from the state rows a run read (``(x, z, θ, ẋ, ż, θ̇)`` per sample planar,
+        position, quaternion and velocities free): θ, θ̇, both bottom corners relative to the table,
+        the block's energy, and diagnostics (``run``: steps, wall and CPU time, how it ended); and
+        the body's state ``(x_c, z_c, ẋ_c, ż_c, θ̇)`` for the free-rocking measurement."""
+        planar = bool(s["planar"])
+        inertial = s["drive"] == "inertial"
         data = np.asarray(rows, dtype=float)
         n = data.shape[0]
         t = np.arange(n) * dt
@@ -488,20 +478,18 @@ class PybulletAdapter(EngineAdapter):
         # the block's own energy per unit mass in the table's frame (the table is at rest after the
         # pulse in both drives; during it only the inertial drive's frame moves)
         v_tab = np.zeros(n) if pulse is None or inertial else pulse.vel(t)
-        energy = (0.5 * ((vx - v_tab) ** 2 + vz**2) + 0.5 * block.inertia_cm_kg_m2 / block.mass_kg * om**2
-                  + G * zc)
+        energy = body_energy_j_kg(block, vx - v_tab, vz, om, zc)
         # CPU time too: on a shared machine the wall time says more about the neighbours
-        diag.update(steps=int(i), wall_s=wall, cpu_s=cpu, steps_per_s=(i / wall if wall > 0 else None),
-                    steps_per_cpu_s=(i / cpu if cpu > 0 else None), ended_by=ended_by,
+        i, wall, cpu = run["steps"], run["wall_s"], run["cpu_s"]
+        diag.update(steps=i, wall_s=wall, cpu_s=cpu, steps_per_s=(i / wall if wall > 0 else None),
+                    steps_per_cpu_s=(i / cpu if cpu > 0 else None), ended_by=run["ended_by"],
                     drive=s["drive"], planar=planar)
         if not planar:
             diag.update(max_lateral_drift_m=out_of_plane, max_out_of_plane_tilt_rad=out_of_plane_tilt)
         traj = Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=om, t_pulse_end_s=t_end, flags=flags,
                           diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
                           corner_x_m=corner_x, corner_z_m=corner_z, energy_j_kg=energy)
-        # kept for the free-rocking measurement (not part of the contract)
-        traj._body_state = (xc, zc, vx, vz, om)
-        return traj
+        return traj, (xc, zc, vx, vz, om)
 
     @staticmethod
     def _corners(block: Block, xc, zc, th, u_tab):
@@ -524,7 +512,9 @@ class PybulletAdapter(EngineAdapter):
         which an impact falls: between impacts the block's mechanical energy is constant, and its
         excess over standing at rest is the kinetic energy at ``θ = 0``. So
         ``η_i = √(K_{i+1}/K_i)``, with ``K`` the median of ``E − m g h/2`` over the middle half of
-        each swing, ``E = ½m(ẋ² + ż²) + ½I_c θ̇² + m g z_c``.
+        each swing, ``E = ½m(ẋ² + ż²) + ½I_c θ̇² + m g z_c``. (The contact engines' shared peak
+        ratio, :func:`~rockbench.engines.contact.free_rocking_etas`, scatters by ±0.03 between the
+        impacts of a compliant contact, which the calibration then refuses: docs/engines.md.)
 
         Parameters
         ----------
@@ -538,8 +528,8 @@ class PybulletAdapter(EngineAdapter):
         """
         if not 0.0 < float(theta0_frac) < 1.0:
             raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        if not math.isfinite(dt) or dt <= 0 or dt > 0.01:
+        dt = self.check_dt(dt_s)
+        if dt > 0.01:
             raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
         s = self._base_settings() if settings is None else settings
         # long enough for the swings around the measured impacts: each lasts at most half the
@@ -547,8 +537,9 @@ class PybulletAdapter(EngineAdapter):
         # (DOMAIN.md §7; amplitudes only shrink, and so do the swings), with 20 % to spare
         period = 4.0 / block.p_rad_s * math.acosh(1.0 / (1.0 - float(theta0_frac)))
         duration = 1.2 * (_CAL_IMPACTS + 2) * period / 2.0
-        tr = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=duration)
-        etas = _impact_etas(block, tr, _CAL_IMPACTS)
+        tr, state = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=duration,
+                              with_state=True)
+        etas = _impact_etas(block, tr.theta_rad, state, _CAL_IMPACTS)
         mean = float(np.mean(etas)) if etas else float("nan")
         std = float(np.std(etas)) if etas else float("nan")
         shown = {k: s[k] for k in ("friction", "friction_anchor", "solver_iterations", "planar") + self.CONTACT_KEYS}
@@ -578,10 +569,8 @@ class PybulletAdapter(EngineAdapter):
         give the block one restitution coefficient); ``reached`` says whether it is within 1 %. The result is cached on
         disk per engine version, block, target, time step, planar flag and friction.
         """
-        t = float(target_eta)
-        if not (math.isfinite(t) and 0.0 < t <= 1.0):
-            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        t = self.check_target_eta(target_eta)
+        dt = self.check_dt(dt_s)
         base = self._base_settings()
         for k in self.CONTACT_KEYS:
             base[k] = None
@@ -592,7 +581,8 @@ class PybulletAdapter(EngineAdapter):
         if use_cache:
             rec = calibration.load(key)
             if rec is not None:
-                return CalibrationResult(**rec)
+                # records written before issue 15 name the contact settings by their old names
+                return CalibrationResult(**{**rec, "settings": self.canonical_settings(rec["settings"])})
         tried = []
 
         def evaluate(extra: dict) -> float:
@@ -601,81 +591,101 @@ class PybulletAdapter(EngineAdapter):
             tried.append((m.eta_mean, m.eta_std, extra))
             return m.eta_mean
 
-        def err(e):
-            return abs(e - t) / t if math.isfinite(e) else math.inf
-
         e0 = evaluate({})
         # Bullet's own rigid contact is preferred whenever it is within 1 %: every departure from it
         # (softness, restitution) brings side effects of its own (penetration, bouncing corners)
-        if err(e0) > 0.01:
+        if _rel_err(e0, t) > 0.01:
             if e0 > t:
-                # log10 k: lo gives low η, hi high η. The contact's natural frequency √(k/m) must be
-                # resolved by the step (√(k/m)·Δt ≤ 1): stiffer springs pass the free-rocking test
-                # but gain energy and bounce under a pulse.
-                lo, hi = 3.0, max(3.5, math.log10(block.mass_kg / dt**2))
-                for _ in range(12):
-                    mid = 0.5 * (lo + hi)
-                    k = 10.0 ** mid
-                    e = evaluate({"contact_stiffness": k, "contact_damping": 2.0 * math.sqrt(k * block.mass_kg)})
-                    if not math.isfinite(e) or e < t:
-                        lo = mid
-                    else:
-                        hi = mid
-                    if err(e) <= 0.0025:
-                        break
+                _search_compliant(evaluate, t, block.mass_kg, dt)
             else:
-                extra0 = {"contact_breaking_threshold": 1e-4}
-                grid = np.round(np.arange(0.5, 0.981, 0.04), 3)
-                vals = [evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
-                # refine between the neighbours that bracket the target, if any
-                for j in range(len(grid) - 1):
-                    if (vals[j] - t) * (vals[j + 1] - t) < 0:
-                        lo, hi = float(grid[j]), float(grid[j + 1])
-                        for _ in range(5):
-                            mid = 0.5 * (lo + hi)
-                            e = evaluate({**extra0, "restitution_coef": mid})
-                            if err(e) <= 0.0025:
-                                break
-                            if (e - t) * (vals[j] - t) > 0:
-                                lo = mid
-                            else:
-                                hi = mid
-                        break
+                _search_restitution(evaluate, t)
         # a setting whose impacts scatter does not give the block one restitution coefficient
         consistent = [r for r in tried if math.isfinite(r[1]) and r[1] <= _CAL_MAX_SPREAD * t]
-        eta, std, extra = min(consistent or tried, key=lambda r: err(r[0]))
-        reached = bool(consistent) and err(eta) <= 0.01
+        eta, std, extra = min(consistent or tried, key=lambda r: _rel_err(r[0], t))
+        reached = bool(consistent) and _rel_err(eta, t) <= 0.01
         settings = {k: None for k in self.CONTACT_KEYS}
         settings.update(extra)
-        if not extra:
-            note = ("Bullet's rigid contact (its default) gives this η." if reached else
-                    f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
-        elif "restitution_coef" in extra:
-            note = ("reached with Bullet's restitution." if reached else
-                    f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
-                    f"per-impact spread within {100 * _CAL_MAX_SPREAD:g} % of the target.")
-        else:
-            note = ("reached with a compliant contact (damping ratio 1)." if reached else
-                    f"not reached: softening the contact lowers η only to {eta:.4f}.")
-        scattered = [r for r in tried if r not in consistent and err(r[0]) <= 0.01]
-        if not reached and scattered:
-            r = min(scattered, key=lambda r: r[1])
-            note += (f" Bullet's restitution e = {r[2].get('restitution_coef', float('nan')):.3g} gives a mean of "
-                     f"{r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (the corner bounces), so it is not taken.")
+        note = _calibration_note(tried, consistent, eta, extra, reached, t)
         res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
                                 settings=settings, note=note, evaluations=len(tried))
         calibration.store(key, {k: v for k, v in res.to_dict().items() if k != "rel_error"})
         return res
 
 
-def _impact_etas(block: Block, tr: Trajectory, n_impacts: int) -> list[float]:
+def _rel_err(e: float, t: float) -> float:
+    """|e − t|/t, infinite for a non-finite e [-]."""
+    return abs(e - t) / t if math.isfinite(e) else math.inf
+
+
+def _search_compliant(evaluate, t: float, mass_kg: float, dt: float) -> None:
+    """A target below the rigid contact's η: bisection on log10 of a compliant contact's stiffness
+    at damping ratio 1 (``c = 2√(k m)``); a softer contact loses more energy at the impact."""
+    # log10 k: lo gives low η, hi high η. The contact's natural frequency √(k/m) must be
+    # resolved by the step (√(k/m)·Δt ≤ 1): stiffer springs pass the free-rocking test
+    # but gain energy and bounce under a pulse.
+    lo, hi = 3.0, max(3.5, math.log10(mass_kg / dt**2))
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        k = 10.0 ** mid
+        e = evaluate({"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * mass_kg)})
+        if not math.isfinite(e) or e < t:
+            lo = mid
+        else:
+            hi = mid
+        if _rel_err(e, t) <= 0.0025:
+            break
+
+
+def _search_restitution(evaluate, t: float) -> None:
+    """A target above the rigid contact's η: Bullet's restitution with a 0.1 mm contact-breaking
+    threshold, scanned over [0.5, 0.98] and bisected between the neighbours that bracket ``t``."""
+    extra0 = {"contact_breaking_threshold_m": 1e-4}
+    grid = np.round(np.arange(0.5, 0.981, 0.04), 3)
+    vals = [evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
+    # refine between the neighbours that bracket the target, if any
+    for j in range(len(grid) - 1):
+        if (vals[j] - t) * (vals[j + 1] - t) < 0:
+            lo, hi = float(grid[j]), float(grid[j + 1])
+            for _ in range(5):
+                mid = 0.5 * (lo + hi)
+                e = evaluate({**extra0, "restitution_coef": mid})
+                if _rel_err(e, t) <= 0.0025:
+                    break
+                if (e - t) * (vals[j] - t) > 0:
+                    lo = mid
+                else:
+                    hi = mid
+            break
+
+
+def _calibration_note(tried: list, consistent: list, eta: float, extra: dict, reached: bool, t: float) -> str:
+    """What the calibration found, in words (``tried``: ``(η mean, η spread, settings)`` per run)."""
+    if not extra:
+        note = ("Bullet's rigid contact (its default) gives this η." if reached else
+                f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
+    elif "restitution_coef" in extra:
+        note = ("reached with Bullet's restitution." if reached else
+                f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
+                f"per-impact spread within {100 * _CAL_MAX_SPREAD:g} % of the target.")
+    else:
+        note = ("reached with a compliant contact (damping ratio 1)." if reached else
+                f"not reached: softening the contact lowers η only to {eta:.4f}.")
+    scattered = [r for r in tried if r not in consistent and _rel_err(r[0], t) <= 0.01]
+    if not reached and scattered:
+        r = min(scattered, key=lambda r: r[1])
+        note += (f" Bullet's restitution e = {r[2].get('restitution_coef', float('nan')):.3g} gives a mean of "
+                 f"{r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (the corner bounces), so it is not taken.")
+    return note
+
+
+def _impact_etas(block: Block, theta_rad, body_state: tuple, n_impacts: int) -> list[float]:
     """η of the first ``n_impacts`` impacts of a free-rocking trajectory, from energies (see
-    :meth:`PybulletAdapter.measure_restitution`)."""
-    xc, zc, vx, vz, om = tr._body_state
+    :meth:`PybulletAdapter.measure_restitution`); ``body_state`` is ``(x_c, z_c, ẋ_c, ż_c, θ̇)``."""
+    xc, zc, vx, vz, om = body_state
     m, h = block.mass_kg, block.height_m
     E = 0.5 * m * (vx * vx + vz * vz) + 0.5 * block.inertia_cm_kg_m2 * om * om + m * G * zc
     K = E - m * G * h / 2
-    th = tr.theta_rad
+    th = theta_rad
     tol = uplift_tol_rad(block)
     side = np.where(th > tol, 1, np.where(th < -tol, -1, 0))
     # swings: maximal runs of samples on one side; an impact separates two swings of opposite sides

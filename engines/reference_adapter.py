@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Iterable
-
 import numpy as np
 
 from ..reference_solver.classify import OUTCOME_FROM_CODE, Outcome
@@ -51,7 +49,7 @@ class ReferenceAdapter(EngineAdapter):
     SETTINGS = {"mode": "energy", "friction": DEFAULT_FRICTION}
     default_dt_s = 1e-3
     #: solve_batch runs the cases in parallel on all cores: maps call it once, in-process
-    parallel_batch = True
+    batching = "parallel"
 
     def _validate_settings(self, settings: dict) -> None:
         if settings["mode"] not in MODES:
@@ -123,21 +121,19 @@ class ReferenceAdapter(EngineAdapter):
                            flag_names=DOMAIN_FLAGS, min_normal_mg=r.min_normal_mg,
                            max_friction_ratio=r.max_friction_ratio, wall_s=(time.perf_counter() - t0) / n)
 
-    def run_many(self, cases: Iterable[Case]) -> list[CellResult]:
-        """Classify many cases; harmonic pulses of one kind and model run in one batch call.
+    def _run_native(self, cases: list[Case]) -> list[CellResult | None]:
+        """Harmonic pulses of one kind and model run in one :func:`solve_batch` call, whose kernel
+        applies the classifier's rule sample by sample; the contact demand goes through the one
+        rule :func:`contact_flags`. Records are left to the per-case path (None).
 
         The results equal those of the per-case path (:meth:`run`) in outcome, impacts, max |θ|,
         uplift and overturn times; their diagnostics hold the step counts but no impact list.
         """
-        cases = list(cases)
         out: list[CellResult | None] = [None] * len(cases)
         groups: dict[tuple, list[int]] = {}
-        rest: list[int] = []
         for i, c in enumerate(cases):
             if c.pulse.kind in _BATCH_KINDS:
                 groups.setdefault((c.pulse.kind, bool(c.linearized)), []).append(i)
-            else:
-                rest.append(i)
         for (kind, lin), idx in groups.items():
             sel = [cases[i] for i in idx]
             dts = np.array([self.dt_for(c) for c in sel])  # ConfigError on a step too coarse
@@ -161,7 +157,4 @@ class ReferenceAdapter(EngineAdapter):
                     wall_s=wall, diagnostics={"mode": self.settings["mode"], "dt_s": float(dts[j]),
                                               "n_steps": int(r.n_steps[j]), "n_newton": int(r.n_newton[j])},
                     min_normal_mg=n_min, max_friction_ratio=f_max)
-        if rest:
-            for i, res in zip(rest, super().run_many([cases[i] for i in rest])):
-                out[i] = res
-        return out  # type: ignore[return-value]
+        return out

@@ -34,7 +34,15 @@ def register(name: str, target) -> None:
 
 
 def unregister(name: str) -> None:
+    """Forget an adapter registered in this process (nothing happens for an unknown name)."""
     _extra.pop(name, None)
+
+
+def registered() -> dict[str, str]:
+    """The adapters registered in this process, as ``"module:Class"`` strings (what a worker
+    process needs to register them again)."""
+    return {name: f"{t.__module__}:{t.__qualname__}" if isinstance(t, type) else str(t)
+            for name, t in _extra.items()}
 
 
 def names() -> list[str]:
@@ -56,17 +64,31 @@ def _target(name: str):
     raise ConfigError(f"unknown engine {name!r}; known engines: {', '.join(names())}.{hint}")
 
 
-def adapter_class(name: str):
-    """The adapter class registered under ``name`` (imports its module, not the engine)."""
+def adapter_class(name: str) -> type:
+    """The adapter class registered under ``name`` (imports its module, not the engine).
+
+    Raises ConfigError when the target is not a subclass of :class:`EngineAdapter` (or names no
+    class in its module), EngineUnavailableError when its module cannot be imported.
+    """
+    from .base import EngineAdapter  # not at import time: listing engines stays light
+
     target = _target(name)
     if isinstance(target, type):
-        return target
-    mod_name, _, cls_name = str(target).partition(":")
-    try:
-        mod = importlib.import_module(mod_name)
-    except ImportError as e:
-        raise EngineUnavailableError(f"engine {name!r}: cannot import its adapter {mod_name!r} ({e}).") from None
-    return getattr(mod, cls_name)
+        cls = target
+    else:
+        mod_name, _, cls_name = str(target).partition(":")
+        try:
+            mod = importlib.import_module(mod_name)
+        except ImportError as e:
+            raise EngineUnavailableError(f"engine {name!r}: cannot import its adapter {mod_name!r} ({e}).") from None
+        cls = getattr(mod, cls_name, None)
+        if cls is None:
+            raise ConfigError(f"engine {name!r}: module {mod_name!r} has no {cls_name!r}; register it as "
+                              "'module:Class'.")
+    if not (isinstance(cls, type) and issubclass(cls, EngineAdapter)):
+        raise ConfigError(f"engine {name!r}: {target!r} is not a subclass of rockbench.engines.base.EngineAdapter; "
+                          "an adapter must derive from it (see the contract in engines/base.py).")
+    return cls
 
 
 def get_adapter(name: str, **settings):

@@ -128,6 +128,17 @@ def classify(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: floa
     return Classification(outcome, n_imp, max_th, float(t[i_up]), t_over)
 
 
+def overturn_certain(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pulse_end_s: float):
+    """Where the overturn is certain (the classifier's rule 2): flat on its side (``|θ| ≥ π/2 − 0.01``)
+    at any time, or after the excitation ``|θ| > α`` moving outward.
+
+    Works element by element on arrays (a boolean array) and on plain floats (a bool, no NumPy call:
+    adapters test it after every step). Every adapter's early stop and :func:`decision_index` use it.
+    """
+    a = abs(theta_rad)
+    return (a >= FLAT_ANGLE_RAD) | ((t_s >= t_pulse_end_s) & (a > alpha_rad) & (theta_rad * theta_dot_rad_s > 0.0))
+
+
 def decision_index(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pulse_end_s: float) -> tuple[int, bool]:
     """The sample at which the classifier decides, and whether that decision is an overturn.
 
@@ -139,8 +150,7 @@ def decision_index(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pulse
     t = np.asarray(t_s, dtype=float)
     th = np.asarray(theta_rad, dtype=float)
     thd = np.asarray(theta_dot_rad_s, dtype=float)
-    a = np.abs(th)
-    certain = (a >= FLAT_ANGLE_RAD) | ((t >= t_pulse_end_s) & (a > alpha_rad) & (th * thd > 0.0))
+    certain = overturn_certain(t, th, thd, alpha_rad=alpha_rad, t_pulse_end_s=t_pulse_end_s)
     if certain.any():
         return int(np.argmax(certain)), True
     return th.size - 1, False

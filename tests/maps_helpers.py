@@ -96,6 +96,7 @@ class BatchAnalyticAdapter(AnalyticAdapter):
     """The same picture through a native batch (``_simulate_many``)."""
 
     name = "analytic-batch"
+    batching = "native"
 
     def _simulate_many(self, cases):
         return [self._simulate(c) for c in cases]

@@ -112,3 +112,53 @@ def test_whole_setting_checks_and_converts_for_every_adapter():
         bound = 0 if key == "n" else 1
         with pytest.raises(ConfigError, match=rf"probe setting '{key}' must be a whole number >= {bound}, got "):
             Probe(**bad)
+
+
+def test_each_check_is_a_public_function_that_runs_alone():
+    from rockbench.engines import checker
+
+    ok = mh.AnalyticAdapter()
+    wrong = mh.WrongAdapter()
+    assert list(checker.CHECKS) == [c.name for c in check_adapter(ok).checks]
+    for name, check in checker.CHECKS.items():
+        assert check.__name__ == "check_" + name.replace("-", "_") and getattr(checker, check.__name__) is check
+        assert isinstance(check(ok), str)   # a passing check returns what it saw
+    with pytest.raises(checker.CheckFailed, match="degrees instead of radians"):
+        checker.check_units(wrong)
+    res = checker.run_check("determinism", checker.check_determinism, wrong)
+    assert not res.passed and "differ" in res.detail
+
+
+def test_registry_refuses_a_class_that_is_not_an_adapter():
+    from rockbench.engines import registry
+    from rockbench.reference_solver.errors import ConfigError
+
+    registry.register("not-an-adapter", dict)
+    registry.register("no-such-class", "rockbench.engines.base:NoSuchAdapter")
+    try:
+        with pytest.raises(ConfigError, match="not a subclass of rockbench.engines.base.EngineAdapter"):
+            registry.adapter_class("not-an-adapter")
+        with pytest.raises(ConfigError, match="has no 'NoSuchAdapter'"):
+            registry.adapter_class("no-such-class")
+        assert registry.registered()["not-an-adapter"] == "builtins:dict"
+    finally:
+        registry.unregister("not-an-adapter")
+        registry.unregister("no-such-class")
+
+
+def test_batching_is_declared_and_the_old_parallel_batch_still_reads():
+    import warnings
+
+    from rockbench.engines.base import EngineAdapter
+
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+
+        class Old(EngineAdapter):
+            name = "old"
+            parallel_batch = True
+    assert Old.batching == "parallel" and "batching = 'parallel'" in str(w[0].message)
+    assert mh.BatchAnalyticAdapter.batching == "native" and mh.AnalyticAdapter.batching == "none"
+    with pytest.raises(TypeError, match="batching must be"):
+        class Bad(EngineAdapter):
+            batching = "sometimes"

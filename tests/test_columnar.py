@@ -149,7 +149,7 @@ def test_resume_after_partial_columnar_map(tmp_path, monkeypatch):
 
 def test_jobs_are_threads_for_the_reference():
     ex = make_executor("reference", {}, jobs=1)
-    assert ex.describe() == {"kind": "in-process batch (the adapter's parallel_batch)", "jobs": 1, "threads": 1}
+    assert ex.describe() == {"kind": "in-process batch (the adapter's parallel batching)", "jobs": 1, "threads": 1}
     import numba
     before = numba.get_num_threads()
     with ex.threads():

@@ -7,19 +7,16 @@ one calibration per block, shared by every test through a per-module calibration
 
 from __future__ import annotations
 
-import json
-import math
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 
 pytest.importorskip("exudyn")
 
 from rockbench.benchmark.presets import get_preset
 from rockbench.engines import exudyn_adapter
-from rockbench.engines.base import FLAGS, Case, Trajectory
+from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
@@ -123,31 +120,6 @@ def test_modified_target_is_reported_not_reached(exudyn):
     assert cal.eta_measured < target
 
 
-def test_low_friction_is_flagged_slip():
-    # the contact restitution of the Housner calibration, given directly: a calibration at this
-    # friction would only find irregular (sliding) free rocking
-    ad = get_adapter("exudyn", friction=0.2, contact_restitution=0.05)
-    res = ad.run(_case("B3M", "sine", 6.0, 3.0))
-    assert res.status == "ok", res.message
-    assert "slip" in res.flags
-    assert not res.valid
-    assert res.diagnostics["max_slip_m"] > 0.01 * 0.045
-
-
-def test_mirror_symmetry(exudyn):
-    """ü → −ü gives θ → −θ (the model is symmetric; so must the engine's be)."""
-    c_pos = _case("B3M", "sine", 6.0, 3.0)
-    block = c_pos.block
-    neg = make_pulse("sine", -c_pos.pulse.amplitude_mps2, c_pos.pulse.omega_rad_s)
-    t_pos = exudyn.simulate(c_pos)
-    t_neg = exudyn.simulate(Case(block, neg, c_pos.restitution))
-    n = min(t_pos.t_s.size, t_neg.t_s.size)
-    assert np.max(np.abs(t_pos.theta_rad[:n] + t_neg.theta_rad[:n])) < 0.02 * block.alpha_rad
-    # a positive table acceleration starts a negative θ
-    i = int(np.argmax(np.abs(t_pos.theta_rad) > 0.05 * block.alpha_rad))
-    assert t_pos.theta_rad[i] < 0
-
-
 def test_free_3d_body():
     """``planar=False``: a free 3-D body on four corner spheres rocks and keeps Housner's η.
 
@@ -163,18 +135,11 @@ def test_free_3d_body():
     assert res.outcome == "rocking"
 
 
-def test_trajectory_contract(exudyn):
+def test_run_ends_early_once_the_overturn_is_certain(exudyn):
+    # the contract's conventions and mirror symmetry: tests/engines/test_contract.py
     case = _case("B3M", "sine", 2.0, 2.0)
     tr = exudyn.simulate(case)
-    assert isinstance(tr, Trajectory)
-    assert tr.t_s[0] == 0.0 and np.all(np.diff(tr.t_s) > 0)
-    assert tr.t_s.shape == tr.theta_rad.shape == tr.theta_dot_rad_s.shape
-    assert tr.t_s[-1] >= case.pulse.duration_s - 1e-9 or np.max(np.abs(tr.theta_rad)) > case.block.alpha_rad
-    assert set(tr.flags) <= set(FLAGS)
-    json.dumps(tr.diagnostics)
-    assert tr.uplift_tol_rad > 0
-    # the run ends early once the overturn is certain: far less than the bounded tail
-    assert tr.t_s[-1] < case.pulse.duration_s + exudyn.settings["max_tail_s"]
+    assert tr.t_s[-1] < case.pulse.duration_s + exudyn.settings["tail_s"]
 
 
 def test_defaults_settings_run_the_shipped_contact():
@@ -187,8 +152,8 @@ def test_defaults_settings_run_the_shipped_contact():
 
 
 @pytest.mark.parametrize("settings", [
-    {"nonsense": 1}, {"settings": "tuned"}, {"drive": "belt"}, {"stiffness_n_m": -1.0},
-    {"friction": 0}, {"contact_restitution": 1.5}, {"spectral_radius": 2}, {"planar": "maybe"},
+    {"contact_stiffness_n_m": -1.0}, {"contact_restitution": 1.5}, {"spectral_radius": 2},
+    {"friction_zone_m_s": 0}, {"sphere_radius_m": -1e-3}, {"contact_damping_n_s_m": -1.0},
     {"modified_newton_iterations": 0}, {"modified_newton_iterations": 2.5},
     {"modified_newton_iterations": "many"}, {"modified_newton_iterations": True},
     {"modified_newton_iterations": "5"}, {"modified_newton_iterations": None},
@@ -211,37 +176,14 @@ def test_modified_newton_iterations_reach_exudyns_solver():
         assert model.ss.timeIntegration.newton.maxModifiedNewtonIterations == used
 
 
-def test_negative_time_step_is_config_error(exudyn):
-    with pytest.raises(ConfigError):
-        exudyn.run(_case("B3M", "sine", 6.0, 3.0, dt_s=-1e-4))
-
-
 def _cli(*args):
     return subprocess.run([sys.executable, "-m", "rockbench.benchmark.cli", *args], capture_output=True,
                           text=True, timeout=300)
 
 
-@pytest.mark.parametrize("extra", [["--set", "stiffness_n_m=-5"], ["--set", "colour=red"], ["--dt", "-0.001"]])
+@pytest.mark.parametrize("extra", [["--set", "contact_stiffness_n_m=-5"], ["--set", "contact_restitution=2"]])
 def test_cli_bad_settings_exit_2_one_line(extra):
     r = _cli("calibrate", "--engine", "exudyn", "--block", "B3M", *extra)
     assert r.returncode == 2, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
     assert "Traceback" not in r.stderr
-
-
-def test_cli_calibrate_json():
-    r = _cli("calibrate", "--engine", "exudyn", "--block", "B3M", "--target", "housner", "--json")
-    assert r.returncode == 0, r.stderr
-    out = json.loads(r.stdout)
-    assert out["reached"] is True
-    assert out["eta_target"] == pytest.approx(housner_eta(get_preset("B3M").block().alpha_rad))
-    assert abs(out["eta_measured"] - out["eta_target"]) <= 0.01 * out["eta_target"]
-    assert out["settings"]["impact_model"] == 2
-    assert math.isfinite(out["settings"]["restitution_coefficient"])
-
-
-def test_check_adapter_passes():
-    """The project's conformance suite (``rockbench check-adapter exudyn``)."""
-    from rockbench.engines.checker import check_adapter
-    rep = check_adapter("exudyn")
-    assert rep.passed, rep.text()

@@ -7,7 +7,6 @@ neighbourhood, so a cell that drifts onto the boundary fails loudly rather than 
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -123,14 +122,6 @@ def test_calibration_is_cached_and_reused():
     assert again.to_dict() == first.to_dict()
 
 
-def test_low_friction_at_high_amplitude_is_flagged_slip():
-    ad = get_adapter("mujoco", friction=0.2, timeconst=0.001, dampratio=1.0)
-    r = ad.run(_case("B3M", "sine", 5.0, 3.0))
-    assert "slip" in r.flags
-    assert not r.valid
-    assert r.diagnostics["max_slip_m"] > 0.01 * PRESETS["B3M"].block().width_m
-
-
 def test_batches_equal_single_runs_bit_for_bit():
     ad = get_adapter("mujoco")
     cases = [_case("B3M", "sine", 6.0, 2.0), _case("B3M", "sine", 3.0, 2.5), _case("B3M", "sine", 4.0, 0.8)]
@@ -141,26 +132,13 @@ def test_batches_equal_single_runs_bit_for_bit():
         assert np.array_equal(one.theta_dot_rad_s, tr.theta_dot_rad_s)
 
 
-def test_trajectory_contract():
+def test_run_ends_within_the_tail_bounds():
+    # the contract's conventions and mirror symmetry: tests/engines/test_contract.py
     ad = get_adapter("mujoco")
-    c = _case("B3M", "sine", 6.0, 2.0)
-    tr = ad.simulate(c)
-    assert tr.t_s[0] == 0.0 and np.all(np.diff(tr.t_s) > 0)
+    tr = ad.simulate(_case("B3M", "sine", 6.0, 2.0))
     assert tr.t_s[-1] >= tr.t_pulse_end_s + ad.settings["min_tail_s"] - 1e-9
     assert tr.t_s[-1] <= tr.t_pulse_end_s + ad.settings["tail_s"] + ad.settings["segment_s"]
-    assert tr.theta_rad.shape == tr.theta_dot_rad_s.shape == tr.t_s.shape
-    # a positive table acceleration starts a negative θ
-    lifted = np.abs(tr.theta_rad) > tr.uplift_tol_rad
-    assert tr.theta_rad[np.argmax(lifted)] < 0
-    # mirror symmetry: ü → −ü gives θ → −θ (to the engine's round-off)
-    blk = c.block
-    mirror = ad.simulate(Case(blk, make_pulse("sine", -c.pulse.amplitude_mps2, c.pulse.omega_rad_s)))
-    n = min(len(mirror.t_s), len(tr.t_s))
-    assert np.max(np.abs(mirror.theta_rad[:n] + tr.theta_rad[:n])) < 1e-3 * blk.alpha_rad
     assert isinstance(MujocoAdapter.version(), str)
-    d = ad.describe()
-    assert d["engine"] == "mujoco"
-    json.dumps(ad.resolve(blk, c.restitution))
 
 
 def test_free_3d_body_gives_the_same_outcomes():
@@ -187,43 +165,22 @@ def test_impact_etas_reads_a_known_ratio():
 
 
 @pytest.mark.parametrize("settings", [
-    {"nonsense": 1}, {"timeconst": -0.004}, {"dampratio": 0}, {"friction": -1}, {"settings": "fast"},
-    {"drive": "mocap"}, {"cone": "round"}, {"noslip_iterations": -2}, {"tail_s": "long"},
+    {"timeconst_s": -0.004}, {"dampratio": 0}, {"cone": "round"}, {"noslip_iterations": -2},
+    {"threads": -1}, {"table_mass_ratio": 0},
 ])
 def test_bad_settings_raise_config_error(settings):
     with pytest.raises(ConfigError):
         get_adapter("mujoco", **settings)
 
 
-def test_negative_time_step_raises_config_error():
-    ad = get_adapter("mujoco", timeconst=0.004, dampratio=1.0)
-    with pytest.raises(ConfigError):
-        ad.run(Case(PRESETS["B3M"].block(), make_pulse("sine", 10.0, 60.0), dt_s=-1e-4))
-
-
 @pytest.mark.parametrize("argv", [
-    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "timeconst=-0.004"],
+    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "timeconst_s=-0.004"],
     ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "stiffness=1e6"],
-    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--dt", "-0.0005"],
-    ["calibrate", "--engine", "mujoco", "--block", "B3M", "--settings", "shipped"],
 ])
 def test_cli_bad_settings_exit_2_with_one_line(argv, capsys):
     assert cli_main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err and "\n" not in err and "Traceback" not in err
-
-
-def test_cli_calibrate_json(capsys):
-    assert cli_main(["calibrate", "--engine", "mujoco", "--block", "B6M", "--target", "housner", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert out["reached"] is True
-    assert abs(out["eta_measured"] - out["eta_target"]) <= 0.01 * out["eta_target"]
-    assert {"timeconst", "dampratio"} <= set(out["settings"])
-
-
-def test_check_adapter_passes(capsys):
-    assert cli_main(["check-adapter", "mujoco"]) == 0
-    assert "checks passed" in capsys.readouterr().out
 
 
 def test_shipped_defaults_with_friction_10_are_flagged_not_scored():

