@@ -156,7 +156,7 @@ class MujocoWarpAdapter(MujocoAdapter):
     Settings
     --------
     All the CPU MuJoCo adapter's settings but ``threads`` (same meaning, same defaults:
-    ``settings``, ``drive``, ``planar``, ``friction``, ``timeconst``, ``dampratio``,
+    ``settings``, ``drive``, ``planar``, ``friction``, ``timeconst_s``, ``dampratio``,
     ``noslip_iterations``, ``cone``, ``integrator``, ``impratio``, ``tail_s``, ``min_tail_s``,
     ``segment_s``, ``table_mass_ratio``), and:
 
@@ -190,7 +190,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         #: (device work and the per-segment read-back; the judge and the rest of the map are not in it)
         self.world_steps_run = 0
         self.stepping_s = 0.0
-        #: wall time spent making trajectories and judging them in ``run_many`` [s]
+        #: wall time spent making trajectories and judging them (``_run_native``) [s]
         self.judging_s = 0.0
 
     # -- settings ----------------------------------------------------------------------------
