@@ -95,7 +95,11 @@ def _warp():
     global _warp_ready
     import warp as wp
     if not _warp_ready:
-        wp.config.quiet = True
+        # no start-up banner and no line per loaded kernel module on stderr (Warp ≥ 1.19: log_level)
+        if hasattr(wp, "LOG_WARNING"):
+            wp.config.log_level = wp.LOG_WARNING
+        else:  # pragma: no cover - older Warp
+            wp.config.quiet = True
         from warp._src import context as _ctx
         if getattr(_ctx, "runtime", None) is None:   # not initialised yet in this process
             wp.config.kernel_cache_dir = warp_cache_dir()
