@@ -23,9 +23,11 @@ step (in float64, on the device) and writes the step-averaged inertial force
 ``−m·(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` into that world's ``ctrl`` (the motor on the slide-x dof of the CPU
 adapter). Record pulses, which have no closed form, read ``u̇`` from a table computed on the host.
 A step is: drive kernel, ``mujoco_warp.step``, a kernel copying ``qpos``/``qvel`` into the segment
-buffer, a step counter. On a CUDA device one such step is captured once in a CUDA graph and the
-graph is launched for every step (no Python per step); on the CPU device the same launches run in a
-plain loop.
+buffer, a step counter. On a CUDA device up to ten such steps are captured once in a CUDA graph
+and the graph is launched for the rest of the run (no Python per step); on the CPU device the same
+launches run in a plain loop. Each world's samples come back once per segment; trajectories and the
+verdicts (the one judge, :meth:`EngineAdapter.judge`) are then made per cell, for a large batch in
+forked processes (the ``_run_native`` hook).
 
 End of a run
 ------------
@@ -34,9 +36,10 @@ segment every world still running is checked with the CPU adapter's rule (overtu
 turning point below α after ``min_tail_s`` past the pulse, or ``tail_s`` past the pulse). A world
 that is decided keeps being stepped with the others (a world cannot leave a batch cheaply) but its
 samples are no longer kept; the batch stops when every world is decided. A world's trajectory
-depends only on its own state, so a cell's result does not depend on the other cells of its batch
-(on the CPU device bit for bit, tested; on a GPU the contact order inside a world can differ
-between launches, so the last float32 bits can too).
+depends only on its own state, so a cell's result does not depend on the other cells of its batch:
+on the CPU device bit for bit (tested); on an H100 ``check-adapter`` found batches equal to single
+runs and reruns bit-identical, though MuJoCo Warp does not promise it (contacts are gathered with
+atomic counters, so their order inside a world could change the last float32 bits).
 
 Kernel cache
 ------------
@@ -50,7 +53,6 @@ from __future__ import annotations
 import math
 import os
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -59,7 +61,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from . import calibration as _cal
 from .base import Case, RestitutionMeasurement
-from .mujoco_adapter import CALIBRATION_THETA0_FRAC, ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
+from .mujoco_adapter import ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
