@@ -14,13 +14,13 @@ import argparse
 import json
 import re
 import tempfile
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..reference_solver.errors import ConfigError
+from .results import MapEntry as RunMap   # one map of a Run: the same record the scores read
 
 __all__ = ["simulate", "stability_map", "load_run", "Simulation", "Run", "RunMap"]
 
@@ -135,8 +135,8 @@ class Simulation:
 
     def to_dataframe(self):
         """The history as a ``pandas.DataFrame`` (columns ``t_s``, ``theta_rad``, ``theta_dot_rad_s``)."""
-        from .export import _need
-        pd = _need("pandas")
+        from .export import need
+        pd = need("pandas")
         return pd.DataFrame({"t_s": self.t_s, "theta_rad": self.theta_rad, "theta_dot_rad_s": self.theta_dot_rad_s})
 
 
@@ -174,26 +174,16 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
     >>> sim.outcome
     'overturn'
     """
-    from ..engines.base import CellResult
     from ..engines.registry import get_adapter
-    from ..reference_solver.errors import RockbenchError
     from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
-    from .cases import case_from_args, engine_settings_from_args
+    from .cli_options import case_from_args, engine_settings_from_args
+    from .simulation import run_case
 
     ns = _checked(_namespace, block, **case)
     c, _ = _checked(case_from_args, ns)
     settings = _checked(engine_settings_from_args, ns)
     adapter = _checked(get_adapter, ns.engine, **settings)
-    t0 = time.perf_counter()
-    tr = None
-    try:
-        tr = adapter.simulate(c)
-    except RockbenchError:
-        raise
-    except Exception as e:  # noqa: BLE001 - the engine failed: a failed result, as in a map
-        res = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
-    else:
-        res = adapter.judge(c, tr, time.perf_counter() - t0)
+    tr, res = run_case(adapter, c)
     from .histories import impact_times
     empty = np.zeros(0)
     b, p = c.block, c.pulse
@@ -252,15 +242,15 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     -------
     xarray.Dataset or pandas.DataFrame
     """
-    from .cases import block_from_args, dt_from_args, engine_settings_from_args, restitution_from_args
+    from .cli_options import block_from_args, dt_from_args, engine_settings_from_args, restitution_from_args
     from .export import full_grid_rows, rows_to_dataframe, rows_to_dataset
     from .maps import MAP_PULSES, MapSpec, run_map
 
     if output not in ("dataset", "dataframe"):
         raise ConfigError(f"output must be 'dataset' or 'dataframe', got {output!r}.")
     if output == "dataset":
-        from .export import _need
-        _need("xarray")
+        from .export import need
+        need("xarray")
     bad = sorted(set(case) & {"w_ratio", "a_ratio", "omega", "period", "amplitude", "amplitude_g"})
     if bad:
         raise ConfigError(f"a map takes its axes as w_ratio=(LO, HI, N) and a_ratio=(LO, HI, N), not {bad[0]}=.")
@@ -288,29 +278,6 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
 
 
 @dataclass
-class RunMap:
-    """One map of a run (:attr:`Run.maps`): its folder and what it holds."""
-
-    path: Path
-    engine: str
-    variant: str
-    block: str
-    pulse: str
-    restitution: str
-    eta: float
-
-    def to_dataframe(self):
-        """Every cell of the full grid (adaptive fills marked ``filled``), outcome categorical."""
-        from .export import full_grid_rows, rows_to_dataframe
-        return rows_to_dataframe(full_grid_rows(self.path))
-
-    def to_dataset(self):
-        """The full grid as an ``xarray.Dataset`` on dims ``(a_ratio, w_ratio)``."""
-        from .export import full_grid_rows, rows_to_dataset
-        return rows_to_dataset(full_grid_rows(self.path))
-
-
-@dataclass
 class Run:
     """A finished ``rockbench run`` (or ``map``) folder, as :func:`load_run` reads it.
 
@@ -319,7 +286,8 @@ class Run:
     path : Path
         The folder.
     maps : list of RunMap
-        Every map found in or below it.
+        Every map found in or below it (``RunMap`` is :class:`~rockbench.benchmark.results.MapEntry`: its folder,
+        engine, variant, block, pulse, restitution, η, outcome grid; ``to_dataframe()``, ``to_dataset()``).
     score : dict or None
         score.json (metric definitions, every scored pair), when the folder has one.
     """
@@ -331,8 +299,8 @@ class Run:
     def cells(self):
         """All maps' cells on their full grids in one tidy ``pandas.DataFrame`` (``variant``,
         ``block``, ``pulse`` and ``restitution`` keep them apart)."""
-        from .export import _need, full_grid_rows, rows_to_dataframe
-        pd = _need("pandas")
+        from .export import need, full_grid_rows, rows_to_dataframe
+        pd = need("pandas")
         frames = [rows_to_dataframe(full_grid_rows(m.path)) for m in self.maps]
         df = pd.concat(frames, ignore_index=True)
         for c in ("engine", "variant", "block", "pulse", "restitution"):
@@ -341,8 +309,8 @@ class Run:
 
     def scores(self):
         """Every scored pair of score.json, one row each, one column per metric (``pandas.DataFrame``)."""
-        from .export import _need
-        pd = _need("pandas")
+        from .export import need
+        pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
         rows = [{"variant": p["variant"], "block": p["block"], "pulse": p["pulse"], "restitution": p["restitution"],
@@ -353,9 +321,9 @@ class Run:
     def summary(self):
         """Per engine variant, the mean of each metric over its like-for-like pairs (counts summed),
         as the report's summary table shows it (``pandas.DataFrame`` indexed by variant)."""
-        from .export import _need
+        from .export import need
         from .tables import summary
-        pd = _need("pandas")
+        pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
         return pd.DataFrame.from_dict(summary(self.score), orient="index")
@@ -364,7 +332,7 @@ class Run:
         """Metric name → its definition in words (from score.json, else from this rockbench)."""
         if self.score and self.score.get("metrics"):
             return {m["name"]: m["definition"] for m in self.score["metrics"]}
-        from .scores import METRICS
+        from .metrics import METRICS
         return {k: m.definition for k, m in METRICS.items()}
 
 
@@ -376,19 +344,12 @@ def load_run(path) -> Run:
     ConfigError
         Nothing there, or no map in it.
     """
-    from .scoring import find_map_dirs
-    from .store import read_run, spec_variant
-    from .maps import MapSpec
+    from .results import load_entries
 
     p = Path(path)
-    maps = []
-    for d in find_map_dirs([p]):
-        meta, _ = read_run(d)
-        spec = MapSpec.from_dict(meta["spec"])
-        maps.append(RunMap(d, spec.engine, spec_variant(spec), spec.block.name, spec.pulse, spec.restitution.label,
-                           float(spec.eta)))
+    maps = load_entries([p])
     score = None
     if (p / "score.json").is_file():
-        from .scoring import load_score
+        from .score_runs import load_score
         score = load_score(p / "score.json")
     return Run(p, maps, score)

@@ -1,12 +1,12 @@
 """Atomic file writes: write a temporary file in the target's folder, flush it to disk, then rename.
 
 A reader (or a rerun after ``kill -9``) sees the old file or the new one, never a torn one, and a
-failed write leaves nothing behind. Every file rockbench writes for a user goes through here.
+failed write leaves nothing behind. Every file rockbench writes for a user goes through here (JSON
+through :func:`rockbench.benchmark.results.write_json`, the one JSON writer).
 """
 
 from __future__ import annotations
 
-import json
 import os
 import tempfile
 from pathlib import Path
@@ -48,12 +48,6 @@ def write_atomic(path, write: Callable[[str], None]) -> Path:
 def write_bytes_atomic(path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically."""
     return write_atomic(path, lambda tmp: Path(tmp).write_bytes(data))
-
-
-def write_json_atomic(path, data, default=None) -> Path:
-    """Write ``data`` as indented JSON (with a final newline) to ``path`` atomically."""
-    text = json.dumps(data, indent=2, default=default) + "\n"
-    return write_bytes_atomic(path, text.encode())
 
 
 def _probe_folder(folder: Path, option: str, target: Path) -> None:

@@ -333,7 +333,7 @@ _ALWAYS, _IF_OVERTURN, _EMPTY_IF_NAN = 0, 1, 2
 @njit(cache=True)
 def _row(k, write, buf, pos, head, ax_txt, ax_off, ii, jj, outcome, words, word_off, n_imp, fl_bits, theta,
          t_over, t_up, n_min, f_max):
-    """One row of cells.csv (store.COLUMNS) for cell ``k`` of the chunk; see :func:`format_rows`."""
+    """One row of cells.csv (results.COLUMNS) for cell ``k`` of the chunk; see :func:`format_rows`."""
     i, j = ii[k], jj[k]
     pos = _put_bytes(buf, pos, head, 0, head.size) if write else pos + head.size
     # w_ratio, a_ratio, omega, amplitude: texts of the axes, by column j and row i

@@ -49,6 +49,7 @@ import subprocess
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -160,7 +161,7 @@ def _run_in_process(adapter, items, batch: bool) -> list:
     if batch:
         try:
             rs = adapter.run_many([c for _, c in items])
-            return [(k, wire._strip(r)) for (k, _), r in zip(items, rs)]
+            return [(k, wire.without_diagnostics(r)) for (k, _), r in zip(items, rs)]
         except Exception:  # noqa: BLE001 - find the culprit cell by cell
             pass
     out = []
@@ -170,7 +171,7 @@ def _run_in_process(adapter, items, batch: bool) -> list:
             r = adapter.run_many([c])[0]
         except Exception as e:  # noqa: BLE001 - recorded per cell, the map goes on
             r = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
-        out.append((k, wire._strip(r)))
+        out.append((k, wire.without_diagnostics(r)))
     return out
 
 
@@ -328,6 +329,16 @@ def _death_reason(code: int | None) -> str:
     return f"the worker process exited with code {code}"
 
 
+@dataclass
+class _RunState:
+    """What one :meth:`ProcessExecutor.run` tracks: chunks not yet given out, chunks being worked on."""
+
+    pending: collections.deque
+    on_results: Callable
+    cell_timeout_s: float
+    busy: int = 0
+
+
 class ProcessExecutor:
     """``jobs`` worker processes; time limits and crash isolation per cell (module docstring)."""
 
@@ -371,64 +382,89 @@ class ProcessExecutor:
     def run(self, items, on_results: Callable, *, cell_timeout_s: float, batch: bool) -> None:
         if not items:
             return
+        self._drop_stale_workers()
+        chunks = [_Chunk(c, batch) for c in _guided_chunks(items, self.jobs, None if batch else 64)]
+        st = _RunState(collections.deque(chunks), on_results, cell_timeout_s)
+        while len(self.workers) < min(self.jobs, len(st.pending)):
+            self._spawn()
+        while st.pending or st.busy:
+            if self._cancelled:
+                raise Cancelled("the run was cancelled")
+            self._hand_out(st)
+            try:
+                w, msg = self.q.get(timeout=0.05)
+            except queue.Empty:
+                msg = None
+            if msg is not None:
+                handler = self._HANDLERS.get(msg[0])
+                if handler is not None:
+                    handler(self, st, w, msg)
+            self._enforce_time_limits()
+            self._top_up(st)
+
+    def _drop_stale_workers(self) -> None:
         for w in list(self.workers):
             if w.chunk is not None:   # left busy by an earlier run that raised: start clean
                 w.kill("stale")
                 w.proc.wait()
                 w.dead = True
                 self.workers.remove(w)
-        chunks = [_Chunk(c, batch) for c in _guided_chunks(items, self.jobs, None if batch else 64)]
-        pending = collections.deque(chunks)
-        busy = 0
-        while len(self.workers) < min(self.jobs, len(pending)):
+
+    def _hand_out(self, st: "_RunState") -> None:
+        for w in self.workers:
+            if w.ready and w.chunk is None and not w.dead and st.pending:
+                w.give(st.pending.popleft(), st.cell_timeout_s)
+                st.busy += 1
+
+    def _enforce_time_limits(self) -> None:
+        now = time.monotonic()
+        for w in self.workers:
+            if w.dead:
+                continue
+            if not w.ready and now > w.spawned + self.START_TIMEOUT_S:
+                w.kill("start-timeout")
+            elif w.chunk is not None and now > w.deadline:
+                w.kill("timeout")
+
+    def _top_up(self, st: "_RunState") -> None:
+        """Replace dead workers while work is left, up to ``jobs``."""
+        alive = sum(not w.dead for w in self.workers)
+        if st.pending and (alive == 0 or alive < min(self.jobs, len(st.pending) + st.busy)):
             self._spawn()
-        while pending or busy:
-            if self._cancelled:
-                raise Cancelled("the run was cancelled")
-            for w in self.workers:
-                if w.ready and w.chunk is None and not w.dead and pending:
-                    w.give(pending.popleft(), cell_timeout_s)
-                    busy += 1
-            try:
-                w, msg = self.q.get(timeout=0.05)
-            except queue.Empty:
-                w, msg = None, None
-            if msg is not None:
-                kind = msg[0]
-                if kind == "ready":
-                    w.ready = True
-                    self._start_failures = 0
-                elif kind == "init-error":
-                    w.init_error = msg[1]
-                elif kind == "start":
-                    w.current = msg[1]
-                    w.deadline = time.monotonic() + cell_timeout_s
-                elif kind == "result":
-                    self._deliver(w.chunk, [(msg[1], msg[2])], on_results)
-                    w.current = None
-                    w.deadline = time.monotonic() + cell_timeout_s   # until the next "start"
-                elif kind == "results":
-                    self._deliver(w.chunk, msg[2], on_results)
-                elif kind == "batch-failed":
-                    pending.appendleft(_Chunk(list(w.chunk.remaining.items()), False))
-                    w.chunk.remaining.clear()
-                elif kind == "done":
-                    w.chunk, w.current, w.deadline = None, None, math.inf
-                    busy -= 1
-                elif kind == "eof":
-                    busy -= self._bury(w, pending, on_results)
-            now = time.monotonic()
-            for w in self.workers:
-                if w.dead:
-                    continue
-                if not w.ready and now > w.spawned + self.START_TIMEOUT_S:
-                    w.kill("start-timeout")
-                elif w.chunk is not None and now > w.deadline:
-                    w.kill("timeout")
-            if pending and not any(not w.dead for w in self.workers):
-                self._spawn()
-            elif pending and sum(not w.dead for w in self.workers) < min(self.jobs, len(pending) + busy):
-                self._spawn()
+
+    # -- one handler per message a worker sends (worker.py) --
+    def _on_ready(self, st, w, msg) -> None:
+        w.ready = True
+        self._start_failures = 0
+
+    def _on_init_error(self, st, w, msg) -> None:
+        w.init_error = msg[1]
+
+    def _on_start(self, st, w, msg) -> None:
+        w.current = msg[1]
+        w.deadline = time.monotonic() + st.cell_timeout_s
+
+    def _on_result(self, st, w, msg) -> None:
+        self._deliver(w.chunk, [(msg[1], msg[2])], st.on_results)
+        w.current = None
+        w.deadline = time.monotonic() + st.cell_timeout_s   # until the next "start"
+
+    def _on_results(self, st, w, msg) -> None:
+        self._deliver(w.chunk, msg[2], st.on_results)
+
+    def _on_batch_failed(self, st, w, msg) -> None:
+        st.pending.appendleft(_Chunk(list(w.chunk.remaining.items()), False))
+        w.chunk.remaining.clear()
+
+    def _on_done(self, st, w, msg) -> None:
+        w.chunk, w.current, w.deadline = None, None, math.inf
+        st.busy -= 1
+
+    def _on_eof(self, st, w, msg) -> None:
+        st.busy -= self._bury(w, st.pending, st.on_results)
+
+    _HANDLERS = {"ready": _on_ready, "init-error": _on_init_error, "start": _on_start, "result": _on_result,
+                 "results": _on_results, "batch-failed": _on_batch_failed, "done": _on_done, "eof": _on_eof}
 
     def _deliver(self, chunk: _Chunk | None, pairs, on_results) -> None:
         if chunk is None or self._cancelled:
@@ -451,9 +487,8 @@ class ProcessExecutor:
         if not w.ready:
             self._start_failures += 1
             if w.init_error:
-                from ..reference_solver.errors import ConfigError as _CE, EngineUnavailableError
                 if w.init_error.startswith(("ConfigError", "EngineUnavailableError")):
-                    err = EngineUnavailableError if w.init_error.startswith("EngineUnavailable") else _CE
+                    err = EngineUnavailableError if w.init_error.startswith("EngineUnavailable") else ConfigError
                     raise err(w.init_error.split(": ", 1)[-1])
                 raise EngineError(f"a worker could not start the engine {self.init['engine']!r}: {w.init_error}")
             if self._start_failures >= self.MAX_START_FAILURES:

@@ -30,7 +30,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, amplitude_to_a_ratio
 from ..reference_solver.restitution import housner_eta, modified_eta
 from .presets import PRESETS
-from .scores import FAILED, OVERTURN, REST, ROCKING, LabelMap
+from .metrics import FAILED, OVERTURN, REST, ROCKING, LabelMap
 
 #: Largest table acceleration the Quanser ST-III still performed as one sine wave (paper §5.1,
 #: "ST limit" in Figs 13–16) [m/s^2].

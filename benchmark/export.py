@@ -50,7 +50,7 @@ def full_grid_rows(map_dir) -> list[dict]:
         rigid model: slip, jump, lift-required, slip-required).
     """
     from .maps import load_map
-    from .store import COLUMNS, read_run, spec_variant
+    from .results import COLUMNS, read_run, spec_variant
 
     meta, rows = read_run(map_dir)
     res = load_map(map_dir)
@@ -81,7 +81,7 @@ def full_grid_rows(map_dir) -> list[dict]:
 
 def write_full_grid(map_dir, path=None) -> Path:
     """Write :func:`full_grid_rows` of ``map_dir`` as CSV (default ``map_dir/cells-full.csv``), atomically."""
-    from .store import COLUMNS
+    from .results import COLUMNS
 
     rows = full_grid_rows(map_dir)
     path = Path(path) if path is not None else Path(map_dir) / FULL_GRID_FILE
@@ -111,7 +111,8 @@ _FLOAT = ("eta", "w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2", "max_abs
           "t_uplift_s", "min_normal_mg", "max_friction_ratio")
 
 
-def _need(module: str):
+def need(module: str):
+    """The optional module ``module`` (pandas, xarray), or an ImportError saying how to install it."""
     import importlib
     try:
         return importlib.import_module(module)
@@ -123,7 +124,7 @@ def rows_to_dataframe(rows: list[dict]):
     """A tidy ``pandas.DataFrame`` of full-grid rows: numbers as floats, ``outcome`` categorical
     (:data:`OUTCOME_CATEGORIES`), ``valid``, ``filled`` and ``left_model`` boolean, ``flags`` a
     string (``;``-separated), ``n_impacts`` a nullable integer (missing for filled cells)."""
-    pd = _need("pandas")
+    pd = need("pandas")
     df = pd.DataFrame(rows)
     if df.empty:
         return df
@@ -155,7 +156,7 @@ def rows_to_dataset(rows: list[dict]):
     ``max_friction_ratio``, ``wall_s``; the map's engine, variant, block, pulse, restitution and η
     as attributes.
     """
-    xr = _need("xarray")
+    xr = need("xarray")
     df = rows_to_dataframe(rows)
     if df.empty:
         raise ConfigError("the map has no cells yet; let `rockbench map` finish (rerun it to resume).")

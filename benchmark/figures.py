@@ -28,14 +28,12 @@ A_RANGE = (0.5, 10.0)
 class Curve:
     block: str
     pulse: str
-    restitution: str      # "housner", "k=0.75", "average"
+    restitution: str      # "housner", "k=0.75", "average" (short: they name the map folders)
 
     def law(self) -> Restitution:
-        if self.restitution == "housner":
-            return Restitution()
-        if self.restitution == "average":
-            return Restitution("modified", k=get_preset(self.block).k_average)
-        return Restitution("modified", k=float(self.restitution.split("=")[1]))
+        pre = get_preset(self.block)
+        spelling = {"average": "modified-average"}.get(self.restitution, self.restitution.replace("k=", "modified:"))
+        return Restitution.parse(spelling, k_average=pre.k_average, k_exact=pre.k_exact)
 
     def label(self) -> str:
         """``B6M, η_H = 0.9294`` / ``B3M, η_M (k = 0.75) = 0.8532``."""

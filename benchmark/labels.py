@@ -7,8 +7,6 @@ files and scores; pictures and the report say "MuJoCo 4.0, calibrated to η_H" a
 
 from __future__ import annotations
 
-import math
-import re
 
 #: Display names of the engines (registry name → name).
 ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet": "PyBullet", "exudyn": "Exudyn",
@@ -38,25 +36,20 @@ def restitution_symbol(label: str, block: str | None = None) -> str:
     ``housner`` → ``η_H``; ``modified(k=0.8608)`` → ``η_M, k = 0.8608`` with "(average k)" or
     "(exact k)" when it is the preset's; a number → ``η = 0.75``.
     """
-    t = str(label).strip().lower()
-    if t == "housner":
-        return "η_H"
-    m = re.fullmatch(r"modified\(k=([0-9.eE+-]+)\)", t)
-    if m:
-        k = float(m.group(1))
-        which = ""
-        if block:
-            from .presets import PRESETS
-            pre = PRESETS.get(str(block).upper())
-            if pre is not None and math.isclose(k, pre.k_average, abs_tol=5e-5):
-                which = ", average k"
-            elif pre is not None and math.isclose(k, pre.k_exact, abs_tol=5e-5):
-                which = ", exact k"
-        return f"η_M (k = {k:g}{which})"
+    from ..reference_solver.errors import ConfigError
+    from ..reference_solver.restitution import Restitution
     try:
-        return f"η = {float(t):.4g}"
-    except ValueError:
+        law = Restitution.parse(label)
+    except ConfigError:
         return str(label)
+    if law.kind == "housner":
+        return "η_H"
+    if law.kind == "constant":
+        return f"η = {law.value:.4g}"
+    from .presets import PRESETS
+    pre = PRESETS.get(str(block).upper()) if block else None
+    which = pre.which_k(law.k) if pre is not None else None
+    return f"η_M (k = {law.k:g}{f', {which} k' if which else ''})"
 
 
 def _setting_words(key: str, value) -> str | None:
@@ -112,7 +105,7 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
 
 
 def entry_label(entry, *, with_restitution: bool = True) -> str:
-    """:func:`variant_label` of a :class:`~rockbench.benchmark.scoring.MapEntry` (from its run.json)."""
+    """:func:`variant_label` of a :class:`~rockbench.benchmark.results.MapEntry` (from its run.json)."""
     run = entry.run or {}
     spec = run.get("spec") or {}
     version = (run.get("engine") or {}).get("version")

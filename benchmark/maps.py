@@ -188,7 +188,7 @@ class MapSpec:
         if cells > MAX_CELLS:
             raise ConfigError(f"a {self.y.n}×{self.x.n} map has {cells:,} cells, more than the {MAX_CELLS:,} "
                               f"one map may hold; use fewer points (e.g. 2000×2000) or split the range.")
-        check_accel(float(np.max(np.abs(self._amplitudes))), f"the top of this map's amplitude axis "
+        check_accel(float(np.max(np.abs(self.amplitude_axis))), f"the top of this map's amplitude axis "
                     f"({AXIS_OPTION[self.y.name]} up to {self.y.hi:g})")
         need = cells * BYTES_PER_CELL
         avail = _available_memory_bytes()
@@ -218,45 +218,49 @@ class MapSpec:
     def n_cells(self) -> int:
         return self.x.n * self.y.n
 
+    # the axis arrays are computed once per spec (a 200×200 map asks for them 40 000 times) and
+    # shared read-only; the methods below hand out copies
     @functools.cached_property
-    def _omegas(self) -> np.ndarray:
+    def omega_axis(self) -> np.ndarray:
+        """ω of each column [rad/s] (read-only)."""
         v = self.x.values()
-        return v * self.block.p_rad_s if self.x.name == "w_ratio" else v
+        return _read_only(v * self.block.p_rad_s if self.x.name == "w_ratio" else v)
 
     @functools.cached_property
-    def _amplitudes(self) -> np.ndarray:
+    def amplitude_axis(self) -> np.ndarray:
+        """a₀ of each row [m/s^2] (read-only)."""
         v = self.y.values()
         if self.y.name == "a_ratio":
-            return a_ratio_to_amplitude(self.block, v)
-        return v * G if self.y.name == "amplitude_g" else v
+            return _read_only(a_ratio_to_amplitude(self.block, v))
+        return _read_only(v * G if self.y.name == "amplitude_g" else v)
 
     @functools.cached_property
-    def _w_ratios(self) -> np.ndarray:
+    def w_ratio_axis(self) -> np.ndarray:
+        """ω/p of each column [-] (read-only)."""
         v = self.x.values()
-        return v if self.x.name == "w_ratio" else v / self.block.p_rad_s
+        return _read_only(v if self.x.name == "w_ratio" else v / self.block.p_rad_s)
 
     @functools.cached_property
-    def _a_ratios(self) -> np.ndarray:
+    def a_ratio_axis(self) -> np.ndarray:
+        """a₀/(g·tanα) of each row [-] (read-only)."""
         v = self.y.values()
-        return v if self.y.name == "a_ratio" else amplitude_to_a_ratio(self.block, self._amplitudes)
+        return _read_only(v if self.y.name == "a_ratio" else amplitude_to_a_ratio(self.block, self.amplitude_axis))
 
-    # the axis arrays are computed once per spec (a 200×200 map asks for them 40 000 times); copies
-    # go out so no caller can change the spec's own
     def omegas(self) -> np.ndarray:
         """ω of each column [rad/s]."""
-        return self._omegas.copy()
+        return self.omega_axis.copy()
 
     def amplitudes(self) -> np.ndarray:
         """a₀ of each row [m/s^2]."""
-        return self._amplitudes.copy()
+        return self.amplitude_axis.copy()
 
     def w_ratios(self) -> np.ndarray:
         """ω/p of each column [-]."""
-        return self._w_ratios.copy()
+        return self.w_ratio_axis.copy()
 
     def a_ratios(self) -> np.ndarray:
         """a₀/(g·tanα) of each row [-]."""
-        return self._a_ratios.copy()
+        return self.a_ratio_axis.copy()
 
     @property
     def eta(self) -> float:
@@ -269,7 +273,7 @@ class MapSpec:
 
     def cases(self, cells) -> list[Case]:
         """The cases of many cells ``[(i, j), ...]`` (axis values computed once)."""
-        amp, om = self._amplitudes, self._omegas
+        amp, om = self.amplitude_axis, self.omega_axis
         return [Case(self.block, make_pulse(self.pulse, float(amp[i]), float(om[j])), self.restitution,
                      self.dt_s, self.linearized) for i, j in cells]
 
@@ -408,11 +412,56 @@ def empty_result(spec: MapSpec) -> MapResult:
                      np.full(shape, np.nan), np.zeros(shape, bool))
 
 
-def outcome_code(r: CellResult) -> int:
-    """The grid code of a cell result (:data:`FAILED` for a failed one)."""
-    if r.status != "ok" or r.outcome is None:
-        return FAILED
-    return OUTCOME_CODES[Outcome(r.outcome)]
+@dataclass(frozen=True)
+class MapOptions:
+    """How a map is computed (what it computes is its :class:`MapSpec`); made and checked once by
+    :meth:`checked`, then handed down whole instead of one argument per layer.
+
+    Attributes
+    ----------
+    jobs : int or None
+        Worker processes (None: all cores) or, with ``scheduler="local"``, Dask workers.
+    scheduler : str or None
+        A Dask scheduler address, ``"local"``, or None (local processes).
+    serial : bool
+        Run in this process, one batch after another.
+    adaptive : bool
+        Refine a coarse grid where neighbours disagree.
+    stride : int
+        Spacing of the adaptive coarse grid in cells (1 when not adaptive).
+    cell_timeout_s : float
+        Wall-time limit of one cell [s].
+    progress : bool or None
+        Progress bar on stderr (None: when stderr is a terminal).
+    log : callable or None
+        Receives one-line notes.
+    """
+
+    jobs: int | None = None
+    scheduler: str | None = None
+    serial: bool = False
+    adaptive: bool = False
+    stride: int = 1
+    cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S
+    progress: bool | None = None
+    log: Callable[[str], None] | None = None
+
+    @classmethod
+    def checked(cls, *, coarse_stride: int | None = None, **kw) -> "MapOptions":
+        """The options of :func:`run_map`'s keywords; ConfigError for a time limit or stride out of range."""
+        from .adaptive import DEFAULT_STRIDE
+
+        t = kw.get("cell_timeout_s", DEFAULT_CELL_TIMEOUT_S)
+        if not (isinstance(t, (int, float)) and math.isfinite(t) and t > 0):
+            raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {t!r}.")
+        stride = DEFAULT_STRIDE if coarse_stride is None else int(coarse_stride)
+        if stride < 1:
+            raise ConfigError(f"the coarse stride must be a whole number >= 1, got {coarse_stride!r}.")
+        return cls(stride=stride if kw.get("adaptive") else 1, **kw)
+
+    def note(self, text: str) -> None:
+        if self.log:
+            self.log(text)
 
 
 def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str | None = None,
@@ -457,125 +506,69 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     -------
     MapResult
     """
-    from . import adaptive as adaptive_mod
     from .plots.picture import MapPicture
 
-    if not (isinstance(cell_timeout_s, (int, float)) and math.isfinite(cell_timeout_s) and cell_timeout_s > 0):
-        raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {cell_timeout_s!r}.")
-    stride = adaptive_mod.DEFAULT_STRIDE if coarse_stride is None else int(coarse_stride)
-    if stride < 1:
-        raise ConfigError(f"the coarse stride must be a whole number >= 1, got {coarse_stride!r}.")
-    if not adaptive:
-        stride = 1
+    opts = MapOptions.checked(jobs=jobs, scheduler=scheduler, serial=serial, adaptive=adaptive,
+                              coarse_stride=coarse_stride, cell_timeout_s=cell_timeout_s, progress=progress,
+                              log=log)
     # map.png's helper process loads matplotlib on another core while this one computes the map
     picture = MapPicture() if plot else None
     try:
-        return _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_timeout_s, progress, log,
-                        executor, picture)
+        result = _compute_map(spec, Path(out_dir), opts, executor)
+        if picture is not None:
+            picture.draw(result, Path(out_dir) / "map.png")
+        return result
     finally:
         if picture is not None:
             picture.close()
 
 
-def _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_timeout_s, progress, log, executor,
-             picture) -> MapResult:
+def _executor_for(spec: MapSpec, out_dir: Path, opts: MapOptions, executor):
+    """``(executor, own)``: the one given (checked against the spec) or a new one this map owns."""
+    from .executors import DASK_SCRATCH, cap_jobs, make_executor
+
+    if executor is not None:
+        if executor.init["engine"] != spec.engine or executor.init["settings"] != dict(spec.engine_settings):
+            raise ConfigError(f"the executor given runs engine {executor.init['engine']!r} with settings "
+                              f"{executor.init['settings']}, the map needs {spec.engine!r} with "
+                              f"{dict(spec.engine_settings)}.")
+        return executor, False
+    jobs, note = cap_jobs(opts.jobs, spec.n_cells)
+    if note:
+        opts.note(note)
+    return make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=opts.scheduler, serial=opts.serial,
+                         log_path=None,
+                         scratch_dir=out_dir / DASK_SCRATCH if opts.scheduler == "local" else None), True
+
+
+def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> MapResult:
+    """:func:`run_map` without the picture: open the store, resume, sweep, fill, finish."""
     from ..engines.registry import get_adapter
     from . import adaptive as adaptive_mod
-    from .executors import DASK_SCRATCH, cap_jobs, make_executor
     from .store import RunStore
 
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
     t0 = time.perf_counter()
-    own = executor is None
-    if own:
-        jobs, note = cap_jobs(jobs, spec.n_cells)
-        if note and log:
-            log(note)
-        executor = make_executor(spec.engine, spec.engine_settings, jobs=jobs, scheduler=scheduler, serial=serial,
-                                 log_path=None,
-                                 scratch_dir=Path(out_dir) / DASK_SCRATCH if scheduler == "local" else None)
-    elif executor.init["engine"] != spec.engine or executor.init["settings"] != dict(spec.engine_settings):
-        raise ConfigError(f"the executor given runs engine {executor.init['engine']!r} with settings "
-                          f"{executor.init['settings']}, the map needs {spec.engine!r} with {dict(spec.engine_settings)}.")
+    executor, own = _executor_for(spec, out_dir, opts, executor)
     store = RunStore(out_dir)
     try:
-        done = store.open(spec, adapter, options={"adaptive": adaptive, "coarse_stride": stride,
-                                                  "cell_timeout_s": cell_timeout_s, "executor": executor.describe()})
-        if done and log:
-            log(f"resuming {out_dir}: {len(done)} cells already done")
+        done = store.open(spec, adapter, options={"adaptive": opts.adaptive, "coarse_stride": opts.stride,
+                                                  "cell_timeout_s": opts.cell_timeout_s,
+                                                  "executor": executor.describe()})
+        if done:
+            opts.note(f"resuming {out_dir}: {len(done)} cells already done")
         if own:
             executor.log_path = store.dir / "workers.log"
-        result = empty_result(spec)
-        result.adaptive, result.coarse_stride = adaptive, stride
-        for (i, j), row in done.items():
-            _put(result, i, j, row)
-        result.n_resumed = len(done)
-        key = adaptive_mod.regime_key(result.outcome, result.n_impacts)   # what adaptive neighbours compare
-        show = (sys.stderr.isatty() if progress is None else progress)
-        bar = _Progress(show, spec.label())
-        grid = _grid_runner(executor, spec)
-
-        def evaluate_arrays(ii: np.ndarray, jj: np.ndarray) -> None:
-            # each cell once, in the order given, even if a caller lists it twice
-            keep = ~result.simulated[ii, jj]
-            ii, jj = ii[keep], jj[keep]
-            _, first = np.unique(ii * spec.x.n + jj, return_index=True)
-            if first.size < ii.size:
-                first.sort()
-                ii, jj = ii[first], jj[first]
-            if not ii.size:
-                return
-            bar.add(ii.size)
-            if grid is None:
-                evaluate_cases(list(zip(ii.tolist(), jj.tolist())))
-                return
-            run_grid, threads = grid
-            for k in range(0, ii.size, COLUMNAR_CHUNK):
-                a, b = ii[k:k + COLUMNAR_CHUNK], jj[k:k + COLUMNAR_CHUNK]
-                try:
-                    with threads:
-                        cols = run_grid(spec.block, spec.pulse, spec.restitution, spec._omegas[b],
-                                        spec._amplitudes[a], dt_s=spec.dt_s, linearized=spec.linearized)
-                except Exception:  # noqa: BLE001 - the per-case path records each cell's failure
-                    evaluate_cases(list(zip(a.tolist(), b.tolist())))
-                    continue
-                _put_columns(result, a, b, cols)
-                key[a, b] = adaptive_mod.regime_key(cols.outcome, cols.n_impacts)
-                with threads:
-                    store.append_columns(spec, a, b, cols)
-                bar.update(a.size)
-
-        def evaluate(cells: list[tuple[int, int]]) -> None:
-            if cells:
-                ij = np.array(cells, dtype=np.int64).reshape(-1, 2)
-                evaluate_arrays(ij[:, 0], ij[:, 1])
-
-        def evaluate_cases(todo: list[tuple[int, int]]) -> None:
-            """The cells one object each, through the executor (workers, time limits, crash isolation)."""
-            cases = spec.cases(todo)
-
-            def on_results(pairs):
-                triples = []
-                for k, r in pairs:
-                    i, j = todo[k]
-                    triples.append((i, j, r))
-                    o = _put_result(result, i, j, r)
-                    # regime_key of one cell, without numpy's per-scalar overhead
-                    key[i, j] = 2 + 10 * min(max(int(r.n_impacts), 0), 3) if o == 2 else o
-                store.append_results(spec, triples)
-                bar.update(len(pairs))
-
-            executor.run(list(enumerate(cases)), on_results, cell_timeout_s=cell_timeout_s,
-                         batch=adapter.batching != "none")
-
-        if adaptive:
-            adaptive_mod.refine(key, result.simulated, evaluate, stride)
+        sweep = _Sweep(spec, adapter, executor, store, opts, done)
+        if opts.adaptive:
+            adaptive_mod.refine(sweep.key, sweep.result.simulated, sweep.evaluate, opts.stride)
         else:
             ii, jj = np.indices(spec.shape).reshape(2, -1)
-            evaluate_arrays(ii, jj)
-        bar.close()
-        if adaptive:
-            adaptive_mod.fill(result.outcome, result.simulated, stride)
+            sweep.evaluate_arrays(ii, jj)
+        sweep.bar.close()
+        result = sweep.result
+        if opts.adaptive:
+            adaptive_mod.fill(result.outcome, result.simulated, opts.stride)
         result.wall_s = time.perf_counter() - t0
         result.failures = store.failures()
         store.finish(result.summary())
@@ -583,9 +576,86 @@ def _run_map(spec, out_dir, jobs, scheduler, serial, adaptive, stride, cell_time
         if own:
             executor.close()
         store.close()
-    if picture is not None:
-        picture.draw(result, Path(out_dir) / "map.png")
     return result
+
+
+class _Sweep:
+    """The cells of one map being computed: its grids, its store, its progress bar, and the two ways a
+    batch of cells runs (as arrays in this process, or one case each through the executor)."""
+
+    def __init__(self, spec: MapSpec, adapter, executor, store, opts: MapOptions, done: dict):
+        from . import adaptive as adaptive_mod
+
+        self.spec, self.adapter, self.executor, self.store, self.opts = spec, adapter, executor, store, opts
+        self.result = empty_result(spec)
+        self.result.adaptive, self.result.coarse_stride = opts.adaptive, opts.stride
+        for (i, j), row in done.items():
+            _put(self.result, i, j, row)
+        self.result.n_resumed = len(done)
+        # what adaptive neighbours compare
+        self.key = adaptive_mod.regime_key(self.result.outcome, self.result.n_impacts)
+        self.bar = _Progress(sys.stderr.isatty() if opts.progress is None else opts.progress, spec.label())
+        self.grid = _grid_runner(executor, spec)
+
+    def evaluate(self, cells: list[tuple[int, int]]) -> None:
+        """Compute the cells ``[(i, j), ...]`` (the adaptive sweep's callback)."""
+        if cells:
+            ij = np.array(cells, dtype=np.int64).reshape(-1, 2)
+            self.evaluate_arrays(ij[:, 0], ij[:, 1])
+
+    def evaluate_arrays(self, ii: np.ndarray, jj: np.ndarray) -> None:
+        """Compute the cells ``(ii[k], jj[k])`` not yet simulated, each once, in the order given (even if
+        a caller lists one twice)."""
+        keep = ~self.result.simulated[ii, jj]
+        ii, jj = ii[keep], jj[keep]
+        _, first = np.unique(ii * self.spec.x.n + jj, return_index=True)
+        if first.size < ii.size:
+            first.sort()
+            ii, jj = ii[first], jj[first]
+        if not ii.size:
+            return
+        self.bar.add(ii.size)
+        if self.grid is None:
+            self.evaluate_cases(list(zip(ii.tolist(), jj.tolist())))
+            return
+        for k in range(0, ii.size, COLUMNAR_CHUNK):
+            self._evaluate_columns(ii[k:k + COLUMNAR_CHUNK], jj[k:k + COLUMNAR_CHUNK])
+
+    def _evaluate_columns(self, a: np.ndarray, b: np.ndarray) -> None:
+        """One chunk as arrays (contract item 6); a chunk that raises goes case by case instead."""
+        from . import adaptive as adaptive_mod
+
+        spec, (run_grid, threads) = self.spec, self.grid
+        try:
+            with threads:
+                cols = run_grid(spec.block, spec.pulse, spec.restitution, spec.omega_axis[b], spec.amplitude_axis[a],
+                                dt_s=spec.dt_s, linearized=spec.linearized)
+        except Exception:  # noqa: BLE001 - the per-case path records each cell's failure
+            self.evaluate_cases(list(zip(a.tolist(), b.tolist())))
+            return
+        _put_columns(self.result, a, b, cols)
+        self.key[a, b] = adaptive_mod.regime_key(cols.outcome, cols.n_impacts)
+        with threads:
+            self.store.append_columns(spec, a, b, cols)
+        self.bar.update(a.size)
+
+    def evaluate_cases(self, todo: list[tuple[int, int]]) -> None:
+        """The cells one object each, through the executor (workers, time limits, crash isolation)."""
+        result, key = self.result, self.key
+
+        def on_results(pairs):
+            triples = []
+            for k, r in pairs:
+                i, j = todo[k]
+                triples.append((i, j, r))
+                o = record_result(result, i, j, r)
+                # regime_key of one cell, without numpy's per-scalar overhead
+                key[i, j] = 2 + 10 * min(max(int(r.n_impacts), 0), 3) if o == 2 else o
+            self.store.append_results(self.spec, triples)
+            self.bar.update(len(pairs))
+
+        self.executor.run(list(enumerate(self.spec.cases(todo))), on_results,
+                          cell_timeout_s=self.opts.cell_timeout_s, batch=self.adapter.batching != "none")
 
 
 def load_map(out_dir) -> MapResult:
@@ -599,7 +669,7 @@ def load_map(out_dir) -> MapResult:
         When the directory holds no map (no ``run.json``) or a map of another schema.
     """
     from . import adaptive as adaptive_mod
-    from .store import read_run
+    from .results import read_run
 
     meta, rows = read_run(out_dir)
     spec, adaptive, stride = _spec_of_run(meta, Path(out_dir) / "run.json")
@@ -636,11 +706,17 @@ def _spec_of_run(meta: dict, where: Path) -> tuple[MapSpec, bool, int]:
     return spec, adaptive, stride
 
 
+def _read_only(v: np.ndarray) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    v.flags.writeable = False
+    return v
+
+
 # -- helpers ----------------------------------------------------------------------------------
 _CODES = {o.value: c for o, c in OUTCOME_CODES.items()}
 
 
-def _put_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
+def record_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
     """Record a fresh cell result in the grids; returns its outcome code."""
     ok = r.status == "ok" and r.outcome
     code = _CODES[r.outcome] if ok else FAILED

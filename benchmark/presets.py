@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass
 
 from ..reference_solver.errors import ConfigError
@@ -37,6 +38,15 @@ class Preset:
 
     def block(self) -> Block:
         return Block(self.width_m, self.height_m, mass_kg=self.mass_kg, name=self.name)
+
+    def which_k(self, k: float) -> str | None:
+        """``"average"`` or ``"exact"`` when ``k`` is this block's average or exact k (to the 4 decimals
+        they are given with), else None."""
+        if math.isclose(k, self.k_average, abs_tol=5e-5):
+            return "average"
+        if math.isclose(k, self.k_exact, abs_tol=5e-5):
+            return "exact"
+        return None
 
     def row(self) -> dict:
         """The Table 1 row, with the derived values [SI]."""

@@ -2,7 +2,7 @@
 
 The first screen answers "which engine is how faithful, and why": the summary table (one row per
 engine variant, in words such as "MuJoCo 4.0, calibrated to η_H"), each metric explained in words
-(the definitions of :data:`~rockbench.benchmark.scores.METRICS`), then one stability figure per
+(the definitions of :data:`~rockbench.benchmark.metrics.METRICS`), then one stability figure per
 engine variant (small multiples, one panel per block and pulse). Then θ(t) of the reference and
 every engine for chosen cases (the paper's Fig. 17 case by default), the calibration (η per engine
 against Housner, the modified η and the experiment), speed against accuracy and the experiments.
@@ -17,21 +17,19 @@ a temporary file and a rename.
 from __future__ import annotations
 
 import base64
-import csv
 import html
 import io
-import json
 import math
 import sys
 from dataclasses import dataclass
-from datetime import datetime, timezone
 from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from .atomic import write_bytes_atomic
 from .labels import case_title, entry_label, for_html, restitution_symbol
-from .scoring import MapEntry, at_own_eta, load_entries, score_entries, write_json_atomic
-from .tables import _vs, fmt, summary
+from .results import DISPLAY_UTC, MapEntry, load_entries, map_cell_rows, utc_stamp, write_json
+from .score_runs import at_own_eta, score_entries
+from .tables import fmt, reference_label, summary
 
 
 @dataclass(frozen=True)
@@ -140,19 +138,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    from .scoring import load_own_eta, load_runs, mark_runs, pair_within_runs
-    entries, run_of = load_runs(run_dirs)
-    refs = load_entries(against) if against else [e for e in entries if e.is_reference]
-    cands = entries if against else [e for e in entries if not e.is_reference]
-    pair_with, notes = (None, []) if against else pair_within_runs(cands, refs, run_of)
-    doc = None
-    own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
-    try:
-        doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with)
-        mark_runs(doc, run_of, against=bool(against), notes=notes)
-    except IncomparableError as e:
-        notes.append(f"No scores: {e}")
-
+    sc = _Scored.of(run_dirs, against, experiments)
+    notes = sc.notes
     images: dict[str, bytes] = {}
 
     def save(fig, name):
@@ -161,50 +148,87 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         images[name] = buf.getvalue()
         return name
 
+    cands, refs, own_eta = sc.cands, sc.refs, sc.own_eta
     labels = _variant_labels(cands)
-    pair_of = _like_pairs(doc)
+    pair_of = _like_pairs(sc.doc)
     variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
+    traj_imgs = _trajectory_figures(cases, cands, labels, save, log, notes) if trajectories else []
+    speed = _speed_rows(sc.entries, sc.doc)
+    ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
+           "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
+           "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
+           "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC)}
+    paths = _write_report(out, images, sc.doc, _markdown(ctx), _html(ctx, images))
+    log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
+    return {**paths, "doc": sc.doc, "notes": notes}
 
-    traj_imgs = []
-    if trajectories:
-        for case in cases:
-            try:
-                name, case_notes = _trajectory_figure(case, cands, labels, save, log)
-                notes += case_notes
-                if name:
-                    traj_imgs.append((case, name))
-            except RockbenchError as e:
-                notes.append(f"θ(t) for {case.title or case.block}: not drawn ({e})")
 
-    calib = _calibration_rows(cands, own_eta)
-    speed = _speed_rows(entries, doc)
-    speed_img = None
-    if any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
-        from .plots.speed import plot_speed_accuracy
-        drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
-                                     if r["variant"] != "reference"])
-        speed_img = save(drawn["ax"].figure, "speed_accuracy.png")
+@dataclass
+class _Scored:
+    """The maps of a report and their scores: every map (``entries``), the engine maps (``cands``) and
+    the references they are judged against, the score document (None when nothing could be scored),
+    the engines' own η, and notes for the page."""
 
-    ctx = {"entries": entries, "refs": refs, "doc": doc, "variant_graphs": variant_graphs, "case_graphs": case_graphs,
-           "traj": traj_imgs, "calib": calib, "speed": speed, "speed_img": speed_img, "notes": notes,
-           "labels": labels, "run_dirs": [str(d) for d in run_dirs],
-           "created": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
-    md = _markdown(ctx)
-    page = _html(ctx, images)
+    entries: list
+    cands: list
+    refs: list
+    doc: dict | None
+    own_eta: dict
+    notes: list
 
+    @classmethod
+    def of(cls, run_dirs, against, experiments) -> "_Scored":
+        from .score_runs import load_own_eta, load_runs, mark_runs, pair_within_runs
+        entries, run_of = load_runs(run_dirs)
+        refs = load_entries(against) if against else [e for e in entries if e.is_reference]
+        cands = entries if against else [e for e in entries if not e.is_reference]
+        pair_with, notes = (None, []) if against else pair_within_runs(cands, refs, run_of)
+        doc = None
+        own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
+        try:
+            doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with)
+            mark_runs(doc, run_of, against=bool(against), notes=notes)
+        except IncomparableError as e:
+            notes.append(f"No scores: {e}")
+        return cls(entries, cands, refs, doc, own_eta, notes)
+
+
+def _trajectory_figures(cases, cands, labels, save, log, notes: list) -> list:
+    """``[(case, image name)]`` of the θ(t) comparisons drawn; a case that cannot be drawn is a note."""
+    out = []
+    for case in cases:
+        try:
+            name, case_notes = _trajectory_figure(case, cands, labels, save, log)
+            notes += case_notes
+            if name:
+                out.append((case, name))
+        except RockbenchError as e:
+            notes.append(f"θ(t) for {case.title or case.block}: not drawn ({e})")
+    return out
+
+
+def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:
+    """The speed-against-agreement picture of the engines (None when no engine has wall times)."""
+    if not any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
+        return None
+    from .plots.speed import plot_speed_accuracy
+    drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
+                                 if r["variant"] != "reference"])
+    return save(drawn["ax"].figure, "speed_accuracy.png")
+
+
+def _write_report(out: Path, images: dict, doc: dict | None, md: str, page: str) -> dict:
+    """Write the pictures, score.json, report.md and index.html (each atomically); their paths."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "img").mkdir(exist_ok=True)
-    written = []
-    for name, data in images.items():
-        written.append(write_bytes_atomic(out / "img" / name, data))
+    written = [write_bytes_atomic(out / "img" / name, data) for name, data in images.items()]
     paths = {"images": [str(p) for p in written]}
     if doc is not None:
-        paths["score"] = str(write_json_atomic(out / "score.json", doc))
+        paths["score"] = str(write_json(out / "score.json", doc))
     paths["markdown"] = str(write_bytes_atomic(out / "report.md", md.encode()))
     paths["html"] = str(write_bytes_atomic(out / "index.html", page.encode()))
-    log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
-    return {**paths, "doc": doc, "notes": notes}
+    return paths
 
 
 #: Resolution of the report's pictures [dots per inch]: a 3.4-inch panel is 374 pixels wide, its
@@ -249,17 +273,13 @@ def _like_pairs(doc) -> dict:
 
 def _ref_order(r: MapEntry):
     from .presets import PRESETS
-    t = r.restitution.lower()
+    law = _restitution_from_label(r.restitution)
     pre = PRESETS.get(r.block.upper())
-    if t == "housner":
+    if law is not None and law.kind == "housner":
         return (0, 0.0)
-    if t.startswith("modified(k="):
-        k = float(t[len("modified(k="):-1])
-        if pre is not None and abs(k - pre.k_average) < 5e-5:
-            return (1, k)
-        if pre is not None and abs(k - pre.k_exact) < 5e-5:
-            return (2, k)
-        return (3, k)
+    if law is not None and law.kind == "modified":
+        which = pre.which_k(law.k) if pre is not None else None
+        return ({"average": 1, "exact": 2}.get(which, 3), law.k)
     return (4, r.eta)
 
 
@@ -275,7 +295,6 @@ def _ref_line(r: MapEntry) -> tuple[str, dict]:
 def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experiments, pair, title: str,
            block: str, pulse: str) -> dict:
     """Keyword arguments of :func:`~rockbench.benchmark.plots.stability.plot_panel` for one map."""
-    from .experiments import st_limit_a_ratio
     from .presets import PRESETS
 
     from .plots.stability import REFERENCE_STYLES
@@ -409,7 +428,7 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict
         settings = dict((e.run.get("spec") or {}).get("engine_settings") or {})
         variants.setdefault((e.variant, e.restitution), (e.engine, settings, e))
     for (variant, rest_label), (engine, settings, e) in sorted(variants.items()):
-        rest = _restitution_from_label(rest_label, case.block)
+        rest = _restitution_from_label(rest_label)
         if rest is None:
             notes.append(f"θ(t): restitution {rest_label!r} of {variant} not understood; skipped")
             continue
@@ -444,16 +463,12 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict
     return save(drawn["figure"], f"theta_{_slug(case.block)}_{_slug(case.pulse)}_{case.w_ratio:g}_{case.a_ratio:g}.png"), notes
 
 
-def _restitution_from_label(label: str, block: str):
+def _restitution_from_label(label: str):
+    """The law a run folder's restitution label names (:meth:`Restitution.parse`), None if not understood."""
     from ..reference_solver.restitution import Restitution
-    t = label.strip().lower()
-    if t == "housner":
-        return Restitution()
-    if t.startswith("modified(k=") and t.endswith(")"):
-        return Restitution("modified", k=float(t[len("modified(k="):-1]))
     try:
-        return Restitution("constant", value=float(t))
-    except (ValueError, RockbenchError):
+        return Restitution.parse(label)
+    except ConfigError:
         return None
 
 
@@ -524,18 +539,17 @@ def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
     acc = summary(doc) if doc else {}
     per: dict[str, list[float]] = {}
     for e in entries:
-        path = e.path / "cells.csv"
         try:
-            with open(path, newline="") as f:
-                for row in csv.DictReader(f):
-                    try:
-                        w = float(row.get("wall_s") or "nan")
-                    except ValueError:
-                        continue
-                    if math.isfinite(w) and row.get("status", "ok") == "ok":
-                        per.setdefault(e.variant, []).append(w)
-        except OSError:
+            rows = map_cell_rows(e.path)
+        except (OSError, ConfigError):
             continue
+        for row in rows:
+            try:
+                w = float(row.get("wall_s") or "nan")
+            except ValueError:
+                continue
+            if math.isfinite(w) and row.get("status", "ok") == "ok":
+                per.setdefault(e.variant, []).append(w)
     rows = []
     for v in sorted({e.variant for e in entries}):
         ws = per.get(v, [])
@@ -554,7 +568,7 @@ def _num(x, spec=".4f"):
 
 def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
     """Head, body, the variant key of each row (most faithful first) and the best value per metric."""
-    from .scores import METRICS
+    from .metrics import METRICS
 
     s = summary(doc)
     names = sorted(s, key=lambda v: (-(s[v]["agreement"] if math.isfinite(s[v]["agreement"]) else -1.0),
@@ -571,7 +585,7 @@ def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], d
 
 def _verdict(doc, labels) -> list[str]:
     """One sentence per headline metric: which variant does best."""
-    from .scores import METRICS
+    from .metrics import METRICS
 
     s = summary(doc)
     out = []
@@ -619,11 +633,11 @@ def _exp_table(doc, labels):
 
 
 def _pairs_table(doc, labels):
-    from .scores import METRICS
+    from .metrics import METRICS
     head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
         [METRIC_TITLES.get(m, m) for m in METRICS]
     body = [[labels.get(p["variant"], p["variant"]), p["block"], p["pulse"], restitution_symbol(p["restitution"], p["block"]),
-             _vs(p), "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
+             reference_label(p), "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
             for p in (doc or {}).get("pairs", [])]
     return head, body
 
@@ -695,7 +709,7 @@ def _md_table(head, body):
 
 def _metric_words(doc) -> list[tuple[str, str, str]]:
     """``(title, how read, definition)`` of each metric (score.json's definitions, else this version's)."""
-    from .scores import METRICS
+    from .metrics import METRICS
     ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
     return [(METRIC_TITLES.get(m["name"], m["name"]) + f" ({m['name']})",
              f"{m['direction']} is better, perfect {m['perfect']:g}" + (f", unit {m['unit']}" if m["unit"] != "-" else ""),
@@ -717,7 +731,7 @@ def _markdown(ctx) -> str:
     L += ["", "## Summary: which engine is how faithful", ""]
     if doc:
         head, body, _, best = _summary_rows(doc, labels)
-        from .scores import METRICS
+        from .metrics import METRICS
         mnames = list(METRICS)
         for m, (_, flags) in best.items():
             col = 2 + mnames.index(m)
@@ -847,7 +861,7 @@ def _html(ctx, images: dict) -> str:
     P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
     P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
     if doc:
-        from .scores import METRICS
+        from .metrics import METRICS
         head, body, _, best = _summary_rows(doc, labels)
         mnames = list(METRICS)
         best_cols = {2 + mnames.index(m): flags for m, (_, flags) in best.items()}

@@ -6,7 +6,7 @@
     ``adapter.resolve()``), the sweep spec, run options and, once finished, a summary. Always
     written atomically (a temporary file, then ``os.replace``).
 ``DIR/cells.csv``
-    one row per simulation (:data:`COLUMNS`), appended and flushed as cells finish, each row
+    one row per simulation (:data:`~rockbench.benchmark.results.COLUMNS`), appended and flushed as cells finish, each row
     written whole with one ``write`` call. A ``kill -9`` can at worst leave a torn last line; it is
     cut off when the directory is opened again, so the rerun neither recomputes finished cells nor
     writes duplicates.
@@ -22,42 +22,20 @@ from __future__ import annotations
 import csv
 import functools
 import io
-import json
 import os
 import platform
 import subprocess
 import sys
-from datetime import datetime, timezone
 from pathlib import Path
 
-from ..reference_solver.errors import ConfigError, IncomparableError
-from .atomic import write_json_atomic as _write_json
-
-#: Version of the run-directory layout; bumped when columns or run.json keys change meaning
-#: (3: the ``variant`` column).
-SCHEMA_VERSION = 3
-
-#: The columns of cells.csv, in order (CLI.md's required ones first, ``variant`` beside the engine:
-#: the engine with its non-default settings and time step, e.g. ``mujoco[settings=defaults]``, so
-#: that tables of several maps concatenated stay apart).
-COLUMNS = ["engine", "variant", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s",
-           "amplitude_mps2", "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags", "status", "message", "wall_s",
-           "t_overturn_s", "t_uplift_s", "min_normal_mg", "max_friction_ratio", "i", "j"]
-
-
-def spec_variant(spec) -> str:
-    """The ``variant`` column of a map: its engine with the non-default settings and time step."""
-    from .scoring import variant_name
-    return variant_name(spec.engine, spec.engine_settings, spec.dt_s)
+from ..reference_solver.errors import ConfigError
+from .results import (COLUMNS, NEW_OUT, SCHEMA_VERSION, check_map_schema, read_cells_file, read_json,
+                      spec_variant, utc_stamp, write_json)
 
 
 #: what a map directory may hold before its run.json exists: the lock, and the scratch space of a
 #: ``--scheduler local`` cluster (executors.DASK_SCRATCH)
 _OURS = frozenset((".lock", ".dask-scratch"))
-
-
-def utc_now() -> str:
-    return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 def git_info() -> dict:
@@ -91,20 +69,6 @@ def rockbench_version() -> str:
         return version("rockbench")
     except PackageNotFoundError:
         return "source"
-
-
-def write_json_atomic(path: Path, data: dict) -> None:
-    """Write JSON to ``path`` through a temporary file in the same folder and ``os.replace``."""
-    _write_json(path, data, default=_json_default)
-
-
-def _json_default(x):
-    import numpy as np
-    if isinstance(x, (np.floating, np.integer, np.bool_)):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    return str(x)
 
 
 def _fmt(x) -> str:
@@ -149,8 +113,8 @@ class RunStore:
                               "give a new or empty directory.")
         previous = None
         if run_json.exists():
-            previous = _read_json(run_json)
-            _check_schema(previous, d)
+            previous = read_json(run_json, NEW_OUT)
+            check_map_schema(previous, d)
             before = previous.get("spec_identity")
             if before != spec.identity():
                 diff = _differences(before if isinstance(before, dict) else {}, spec.identity())
@@ -166,8 +130,8 @@ class RunStore:
         meta = {
             "schema_version": SCHEMA_VERSION,
             "kind": "rockbench-map",
-            "created_utc": previous.get("created_utc") if previous else utc_now(),
-            "updated_utc": utc_now(),
+            "created_utc": previous.get("created_utc") if previous else utc_stamp(),
+            "updated_utc": utc_stamp(),
             "rockbench_version": rockbench_version(),
             "git": git_info(),
             "python": sys.version.split()[0],
@@ -177,7 +141,7 @@ class RunStore:
             "spec": spec.to_dict(),
             "spec_identity": spec.identity(),
             "options": options,
-            "runs": _list(previous, "runs") + [{"started_utc": utc_now()}],
+            "runs": _list(previous, "runs") + [{"started_utc": utc_stamp()}],
             "summary": None,
         }
         before = _dict(previous, "engine").get("version")
@@ -187,7 +151,7 @@ class RunStore:
         done, good = self._read_csv(spec.shape)
         self._cut_torn_tail(good)
         self._meta = meta
-        write_json_atomic(run_json, meta)
+        write_json(run_json, meta)
         self._csv = open(d / "cells.csv", "a", newline="")
         if self._csv.tell() == 0:
             self._write_line(COLUMNS)
@@ -210,7 +174,7 @@ class RunStore:
         path = self.dir / "cells.csv"
         if not path.exists():
             return {}, None
-        rows, good = _read_cells_file(path, shape)
+        rows, good = read_cells_file(path, shape)
         for r in rows.values():
             if r["status"] != "ok":
                 self._failures.append(r)
@@ -230,9 +194,9 @@ class RunStore:
             self._spec_cache = (spec, spec.block.name, spec.restitution.label, spec.eta, spec_variant(spec))
         _, bname, rlabel, eta, variant = self._spec_cache
         return {"engine": spec.engine, "variant": variant, "block": bname, "pulse": spec.pulse,
-                "restitution": rlabel, "eta": eta, "w_ratio": float(spec._w_ratios[j]),
-                "a_ratio": float(spec._a_ratios[i]), "omega_rad_s": float(spec._omegas[j]),
-                "amplitude_mps2": float(spec._amplitudes[i]),
+                "restitution": rlabel, "eta": eta, "w_ratio": float(spec.w_ratio_axis[j]),
+                "a_ratio": float(spec.a_ratio_axis[i]), "omega_rad_s": float(spec.omega_axis[j]),
+                "amplitude_mps2": float(spec.amplitude_axis[i]),
                 "outcome": r.outcome or "", "n_impacts": int(r.n_impacts), "max_abs_theta_rad": r.max_abs_theta_rad,
                 "valid": bool(r.valid), "flags": ";".join(r.flags), "status": r.status,
                 "message": " ".join(str(r.message).split()), "wall_s": float(r.wall_s),
@@ -294,9 +258,9 @@ class RunStore:
             head = io.StringIO()
             csv.writer(head, lineterminator="").writerow([spec.engine, spec_variant(spec), spec.block.name, spec.pulse,
                                                           spec.restitution.label, repr(float(spec.eta))])
-            self._line_cache = (spec, head.getvalue() + ",", [repr(float(x)) for x in spec._w_ratios],
-                                [repr(float(x)) for x in spec._a_ratios], [repr(float(x)) for x in spec._omegas],
-                                [repr(float(x)) for x in spec._amplitudes])
+            self._line_cache = (spec, head.getvalue() + ",", [repr(float(x)) for x in spec.w_ratio_axis],
+                                [repr(float(x)) for x in spec.a_ratio_axis], [repr(float(x)) for x in spec.omega_axis],
+                                [repr(float(x)) for x in spec.amplitude_axis])
         return self._line_cache[1:]
 
     def append(self, rows: list[dict], _prefix: str = "") -> None:
@@ -344,10 +308,10 @@ class RunStore:
         """Record the summary and the end time in run.json (atomically)."""
         if self._meta is None:
             return
-        self._meta["updated_utc"] = utc_now()
-        self._meta["runs"][-1]["finished_utc"] = utc_now()
+        self._meta["updated_utc"] = utc_stamp()
+        self._meta["runs"][-1]["finished_utc"] = utc_stamp()
         self._meta["summary"] = summary
-        write_json_atomic(self.dir / "run.json", self._meta)
+        write_json(self.dir / "run.json", self._meta)
 
     def close(self) -> None:
         if self._csv is not None:
@@ -358,143 +322,6 @@ class RunStore:
             self._lock = None
 
 
-# -- reading ----------------------------------------------------------------------------------
-def read_run(out_dir) -> tuple[dict, dict]:
-    """``(run.json as a dict, {(i, j): row})`` of a map directory (a torn last line is ignored)."""
-    d = Path(out_dir)
-    run_json = d / "run.json"
-    if not run_json.exists():
-        raise ConfigError(f"{str(d)!r} holds no map (no run.json); give a directory written by `rockbench map`.")
-    meta = _read_json(run_json)
-    _check_schema(meta, d)
-    path = d / "cells.csv"
-    if not path.exists():
-        return meta, {}
-    rows, _ = _read_cells_file(path, spec_shape(meta, run_json))
-    return meta, rows
-
-
-def spec_shape(meta: dict, where) -> tuple[int, int]:
-    """``(n_amplitudes, n_frequencies)`` of the map a run.json describes (ConfigError when damaged)."""
-    spec = meta.get("spec")
-    if not isinstance(spec, dict):
-        raise ConfigError(f"{str(where)!r} is damaged: it lacks the map's 'spec' object; give a new --out directory.")
-    try:
-        return int(spec["y"]["n"]), int(spec["x"]["n"])
-    except (KeyError, TypeError, ValueError) as e:
-        raise ConfigError(f"{str(where)!r} is damaged: its spec has no whole-number grid size x.n, y.n "
-                          f"({type(e).__name__}: {e}); give a new --out directory.") from None
-
-
-_BOM = b"\xef\xbb\xbf"
-_DAMAGED = "the file was edited or damaged: fix or delete that line (rerunning `rockbench map` recomputes it)"
-
-
-def _read_cells_file(path: Path, shape=None) -> tuple[dict, int]:
-    """Rows of a cells.csv by cell and the byte length of its well-formed prefix.
-
-    A torn last line (a kill in mid-write) is not a row; a byte-order mark (a spreadsheet saved the
-    file) is skipped. Anything else that is not what this rockbench writes is a ConfigError naming
-    the line (an IncomparableError for the header of another version).
-    """
-    if path.is_dir():
-        raise ConfigError(f"{str(path)!r} is a folder, not the map's cell table; remove it, or give a new --out "
-                          "directory.")
-    data = path.read_bytes()
-    start = len(_BOM) if data.startswith(_BOM) else 0
-    end = data.rfind(b"\n") + 1       # a row is only complete with its newline
-    try:
-        text = data[start:end].decode("utf-8")
-    except UnicodeDecodeError as e:
-        line = data[:start + e.start].count(b"\n") + 1
-        raise ConfigError(f"{str(path)!r} line {line} is not UTF-8 text (byte 0x{data[start + e.start]:02x}); "
-                          f"{_DAMAGED}.") from None
-    rows, good = _parse_rows(text, path, shape)
-    return rows, (start + good) if good else 0
-
-
-def _parse_rows(text: str, path: Path, shape=None) -> tuple[dict, int]:
-    """Rows by cell and the byte length of the well-formed prefix (header plus whole rows)."""
-    lines = text.splitlines(keepends=True)
-    if not lines:
-        return {}, 0
-    header = next(csv.reader([lines[0]]), [])
-    if header != COLUMNS:
-        raise IncomparableError(f"{str(path)!r} has other columns than this rockbench writes; it comes from "
-                                "another version: give a new --out directory.")
-    rows: dict = {}
-    good = len(lines[0].encode())
-    for n, line in enumerate(lines[1:], start=2):
-        vals = next(csv.reader([line]), [])
-        if len(vals) != len(COLUMNS):
-            if n == len(lines):
-                break   # a torn last row that still ended in a newline inside a quoted field
-            raise ConfigError(f"{str(path)!r} line {n} is malformed ({len(vals)} fields, expected {len(COLUMNS)}); "
-                              f"{_DAMAGED}.")
-        r = dict(zip(COLUMNS, vals))
-        rows[_check_row(r, n, path, shape)] = r   # a repeated cell keeps its last row
-        good += len(line.encode())
-    return rows, good
-
-
-_OUTCOMES = frozenset(("rest", "rocking", "overturn"))
-_STATUSES = frozenset(("ok", "failed"))
-_BOOLS = frozenset(("true", "false"))
-
-
-def _check_row(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
-    """The cell ``(i, j)`` of a row, after checking the fields a map is read from (ConfigError naming the
-    line and the field otherwise)."""
-    # the common case, a whole successful row, in as few steps as possible (a 200×200 map has 40 000)
-    try:
-        if r["status"] == "ok" and r["outcome"] in _OUTCOMES and r["valid"] in _BOOLS:
-            int(r["n_impacts"])
-            float(r["max_abs_theta_rad"])
-            i, j = int(r["i"]), int(r["j"])
-            if shape is None or (0 <= i < shape[0] and 0 <= j < shape[1]):
-                return i, j
-    except ValueError:
-        pass
-    return _check_row_slowly(r, n, path, shape)
-
-
-def _check_row_slowly(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
-    """:func:`_check_row` field by field, to name the first bad one."""
-    def bad(col: str, what: str):
-        return ConfigError(f"{str(path)!r} line {n}: {col} {r[col]!r} is not {what}; {_DAMAGED}.")
-
-    ij = []
-    for col in ("i", "j"):
-        try:
-            ij.append(int(r[col]))
-        except ValueError:
-            raise bad(col, "a whole number") from None
-    i, j = ij
-    if shape is not None:
-        for col, v, size in (("i", i, shape[0]), ("j", j, shape[1])):
-            if not 0 <= v < size:
-                raise bad(col, f"a cell index of this {shape[0]}×{shape[1]} map (0 to {size - 1})")
-    if r["status"] not in _STATUSES:
-        raise bad("status", "ok or failed")
-    ok = r["status"] == "ok"
-    if ok and r["outcome"] not in _OUTCOMES:
-        raise bad("outcome", "rest, rocking or overturn")
-    if not ok and r["outcome"] not in _OUTCOMES and r["outcome"] != "":
-        raise bad("outcome", "rest, rocking, overturn or empty")
-    if r["valid"] not in _BOOLS:
-        raise bad("valid", "true or false")
-    if ok:
-        try:
-            int(r["n_impacts"])
-        except ValueError:
-            raise bad("n_impacts", "a whole number") from None
-        try:
-            float(r["max_abs_theta_rad"])
-        except ValueError:
-            raise bad("max_abs_theta_rad", "a number") from None
-    return i, j
-
-
 def _list(d: dict | None, key: str) -> list:
     v = (d or {}).get(key)
     return v if isinstance(v, list) else []
@@ -503,29 +330,6 @@ def _list(d: dict | None, key: str) -> list:
 def _dict(d: dict | None, key: str) -> dict:
     v = (d or {}).get(key)
     return v if isinstance(v, dict) else {}
-
-
-def _read_json(path: Path) -> dict:
-    """A JSON object from ``path`` (ConfigError naming the file when it is unreadable or not an object)."""
-    try:
-        data = json.loads(path.read_bytes().decode("utf-8-sig"))
-    except IsADirectoryError:
-        raise ConfigError(f"{str(path)!r} is a folder, not a rockbench file; give a new --out directory.") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ConfigError(f"cannot read {str(path)!r} ({e}); give a new --out directory.") from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"{str(path)!r} is damaged: it holds {type(data).__name__ if data is not None else 'null'}, "
-                          "not a JSON object; give a new --out directory.")
-    return data
-
-
-def _check_schema(meta: dict, d: Path) -> None:
-    if meta.get("kind") != "rockbench-map":
-        raise ConfigError(f"{str(d)!r} is not a rockbench map directory (its run.json is of kind "
-                          f"{meta.get('kind')!r}); give a new or empty directory.")
-    if meta.get("schema_version") != SCHEMA_VERSION:
-        raise IncomparableError(f"{str(d)!r} was written with schema {meta.get('schema_version')}, this rockbench "
-                                f"reads schema {SCHEMA_VERSION}; give a new --out directory.")
 
 
 def _differences(a: dict, b: dict, prefix: str = "") -> str:

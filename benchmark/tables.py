@@ -5,7 +5,7 @@ from __future__ import annotations
 import html as _html
 import math
 
-from .scores import METRICS
+from .metrics import METRICS
 
 #: short column titles
 SHORT = {"agreement": "agree", "overturn_agreement": "agree O", "iou_overturn": "IoU O",
@@ -43,13 +43,15 @@ def render(head: list[str], rows: list[list[str]], markdown: bool) -> str:
 def pairs_table(doc: dict, markdown: bool = False) -> str:
     """One row per scored pair, one column per metric."""
     head = ["engine", "block", "pulse", "restitution", "vs reference", "like"] + [SHORT[m] for m in METRICS]
-    rows = [[p["variant"], p["block"], p["pulse"], p["restitution"], _vs(p),
+    rows = [[p["variant"], p["block"], p["pulse"], p["restitution"], reference_label(p),
              "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
             for p in doc["pairs"]]
     return render(head, rows, markdown)
 
 
-def _vs(p: dict) -> str:
+def reference_label(p: dict) -> str:
+    """The reference a scored pair was judged against: its restitution, and "(own η)" for a reference
+    run at the engine's own measured η."""
     r = p["reference"]
     return r["restitution"] + (" (own η)" if r.get("kind") == "own-eta" else "")
 

@@ -63,8 +63,9 @@ def _read_exact(f, n: int):
     return bytes(buf)
 
 
-def _strip(r):
-    # diagnostics can hold long impact lists; cells.csv does not store them
+def without_diagnostics(r):
+    """The cell result ``r`` with its diagnostics dropped (they can hold long impact lists; cells.csv
+    does not store them, so they are not sent between processes either)."""
     r.diagnostics = {}
     return r
 
@@ -100,7 +101,7 @@ def serve(inp, out) -> int:
             except Exception as e:  # noqa: BLE001 - the parent reruns the cells one by one
                 send(out, ("batch-failed", chunk_id, f"{type(e).__name__}: {e}"))
             else:
-                send(out, ("results", chunk_id, [(k, _strip(r)) for (k, _), r in zip(items, rs)]))
+                send(out, ("results", chunk_id, [(k, without_diagnostics(r)) for (k, _), r in zip(items, rs)]))
         else:
             for k, c in items:
                 send(out, ("start", k))
@@ -109,7 +110,7 @@ def serve(inp, out) -> int:
                     r = adapter.run_many([c])[0]
                 except Exception as e:  # noqa: BLE001 - a bad cell is recorded and the map goes on
                     r = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
-                send(out, ("result", k, _strip(r)))
+                send(out, ("result", k, without_diagnostics(r)))
         send(out, ("done", chunk_id))
 
 

@@ -41,8 +41,8 @@ import numpy as np
 
 from rockbench.benchmark.maps import Axis, MapSpec, run_map
 from rockbench.benchmark.presets import PRESETS
-from rockbench.benchmark.scores import score
-from rockbench.benchmark.scoring import load_entry
+from rockbench.benchmark.metrics import score
+from rockbench.benchmark.results import load_entry
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G

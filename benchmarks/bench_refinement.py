@@ -43,7 +43,7 @@ import numpy as np
 from rockbench.benchmark import adaptive
 from rockbench.benchmark.maps import MISSING, MapSpec, load_map, parse_range
 from rockbench.benchmark.presets import PRESETS, get_preset
-from rockbench.benchmark.run import restitution_for
+from rockbench.benchmark.suite_runner import restitution_for
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.solver import solve_batch
 

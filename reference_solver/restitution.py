@@ -128,9 +128,46 @@ class Restitution:
         return cls(d["kind"], d.get("k"), d.get("value"))
 
     @classmethod
-    def parse(cls, text: str, k: float | None = None) -> "Restitution":
-        """From the CLI's ``--restitution`` text and ``--k``."""
+    def parse(cls, text, k: float | None = None, *, k_average: float | None = None,
+              k_exact: float | None = None, option: str = "--restitution") -> "Restitution":
+        """A restitution law from any of its spellings; the one parser of them all.
+
+        Parameters
+        ----------
+        text : str or float
+            ``housner``; ``modified`` (with ``k``, else ``k_average``); ``modified-average`` or
+            ``modified-exact`` (a preset's average or exact k, as suite files write them);
+            ``modified:K``; ``modified(k=K)`` (:attr:`label`, as run folders record it); or a number
+            in (0, 1] (a constant coefficient).
+        k : float, optional
+            The impulse position given apart (the CLI's ``--k``) [-]; only with ``modified``.
+        k_average, k_exact : float, optional
+            The block's average and exact k [-] (a preset's; None for a custom block).
+        option : str
+            The option that gave ``text``, named in error messages.
+
+        Raises
+        ------
+        ConfigError
+            An unknown spelling, ``k`` with another law, a k the block has not got, or a value out
+            of range; the message names ``option``.
+        """
         t = str(text).strip().lower()
-        if t in ("housner", "modified"):
-            return cls(t, k=k if t == "modified" else None)
+        if k is not None and t != "modified":
+            raise ConfigError(f"--k applies to {option} modified only, got {option} {text}.")
+        if t == "housner":
+            return cls()
+        if t in ("modified", "modified-average", "modified-exact"):
+            kk = k if k is not None else k_exact if t == "modified-exact" else k_average
+            if kk is None:
+                which = "exact" if t == "modified-exact" else "average"
+                raise ConfigError(f"{option} {t} on a custom block needs --k (the impulse position in [0, 1])."
+                                  if t == "modified" else
+                                  f"{option} {t} needs a preset block (it takes the preset's {which} k); give "
+                                  "modified:K for another block.")
+            return cls("modified", k=kk)
+        if t.startswith("modified:"):
+            return cls("modified", k=t[len("modified:"):])
+        if t.startswith("modified(k=") and t.endswith(")"):
+            return cls("modified", k=t[len("modified(k="):-1])
         return cls("constant", value=check_eta(text))

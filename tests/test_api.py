@@ -85,10 +85,9 @@ def test_stability_map_as_a_dataset_and_a_tidy_frame():
         rockbench.stability_map("B3M", output="csv")
 
 
-def test_load_run_reads_maps_and_scores(tmp_path):
+def test_load_run_reads_maps_and_scores(write_map, band, tmp_path):
     from rockbench.benchmark.cli import main
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
-    from mapdirs import band, write_map
     write_map(tmp_path / "run" / "ref", band(6, 7, 3), block="B3M")
     write_map(tmp_path / "run" / "eng", band(6, 7, 4), engine="mujoco", block="B3M", settings={"settings": "defaults"})
     assert main(["score", str(tmp_path / "run"), "--no-write", "--json"]) == 0

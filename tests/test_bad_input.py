@@ -15,14 +15,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import maps_helpers as mh
-from mapdirs import band, write_map
 from rockbench.benchmark.cli import main
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    mh.register_all()
+pytestmark = pytest.mark.usefixtures("fake_engines")
 
 
 def run_cli(capsys, *argv):
@@ -39,7 +35,7 @@ def assert_one_line(code, err, expected, *needles):
 
 
 @pytest.fixture
-def run(tmp_path):
+def run(write_map, band, tmp_path):
     """A run folder with a reference map and an engine map (hand-made, 6 × 5 cells)."""
     root = tmp_path / "run"
     write_map(root / "ref", band(6, 5, 3))
@@ -123,7 +119,7 @@ def test_cells_csv_with_a_byte_order_mark_is_read(run, capsys):
     assert strip(after) == strip(before)
 
 
-def test_results_of_another_version_exit_5(run, capsys):
+def test_results_of_another_version_exit_5(write_map, band, run, capsys):
     _edit_json(run / "eng" / "run.json", lambda d: {**d, "schema_version": 99})
     code, _, err = run_cli(capsys, "score", run, "--no-write")
     assert_one_line(code, err, 5, "schema")
@@ -252,7 +248,7 @@ _VALUES = st.one_of(st.text(max_size=8), st.sampled_from(["", "nan", "inf", "-1"
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(row=st.integers(1, 30), col=st.integers(0, 20), value=_VALUES)
-def test_any_damaged_cells_csv_field_is_a_clean_error(tmp_path_factory, row, col, value):
+def test_any_damaged_cells_csv_field_is_a_clean_error(write_map, band, tmp_path_factory, row, col, value):
     root = tmp_path_factory.mktemp("fuzz")
     write_map(root / "ref", band(6, 5, 3))
     write_map(root / "eng", band(6, 5, 3), engine="mujoco")
@@ -284,7 +280,7 @@ def _paths(d, prefix=()):
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(pick=st.integers(0, 10_000), value=_JSON)
-def test_any_damaged_run_json_value_is_a_clean_error(tmp_path_factory, pick, value):
+def test_any_damaged_run_json_value_is_a_clean_error(write_map, band, tmp_path_factory, pick, value):
     root = tmp_path_factory.mktemp("fuzz")
     write_map(root / "ref", band(6, 5, 3))
     write_map(root / "eng", band(6, 5, 3), engine="mujoco")
@@ -314,7 +310,7 @@ def _assert_clean(argv, allowed=(0, 2, 5)):
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(pick=st.integers(0, 10_000), value=_JSON)
-def test_any_damaged_score_json_value_is_a_clean_error(tmp_path_factory, pick, value):
+def test_any_damaged_score_json_value_is_a_clean_error(write_map, band, tmp_path_factory, pick, value):
     root = tmp_path_factory.mktemp("fuzz")
     write_map(root / "ref", band(6, 5, 3))
     write_map(root / "eng", band(6, 5, 3), engine="mujoco")
@@ -333,7 +329,7 @@ def test_any_damaged_score_json_value_is_a_clean_error(tmp_path_factory, pick, v
     _assert_clean(["compare", str(root / "base.json"), str(root / "score.json"), "--markdown"], (0, 1, 2, 5))
 
 
-def test_a_full_disk_while_writing_cells_names_the_file_and_the_rerun_resumes(tmp_path, capsys, monkeypatch):
+def test_a_full_disk_while_writing_cells_names_the_file_and_the_rerun_resumes(fake_engines, tmp_path, capsys, monkeypatch):
     import builtins
 
     import rockbench.benchmark.store as store
@@ -361,7 +357,7 @@ def test_a_full_disk_while_writing_cells_names_the_file_and_the_rerun_resumes(tm
     code, _, err = run_cli(capsys, *m)
     assert_one_line(code, err, 2, "cells.csv", "No space left")
     monkeypatch.undo()
-    mh.register_all()
+    fake_engines.register_all()
     code, _, err = run_cli(capsys, *m)
     assert code == 0 and "resuming" in err, err
     rows = (tmp_path / "m" / "cells.csv").read_text().splitlines()[1:]

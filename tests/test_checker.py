@@ -4,14 +4,11 @@ import json
 
 import pytest
 
-import maps_helpers as mh
 from rockbench.benchmark.cli import main
 from rockbench.engines.checker import check_adapter
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    mh.register_all()
+pytestmark = pytest.mark.usefixtures("fake_engines")
 
 
 def test_a_conforming_adapter_passes():
@@ -20,8 +17,8 @@ def test_a_conforming_adapter_passes():
     assert len(rep.checks) >= 10
 
 
-def test_a_wrong_adapter_fails_with_a_clear_report():
-    rep = check_adapter(mh.WrongAdapter())
+def test_a_wrong_adapter_fails_with_a_clear_report(fake_engines):
+    rep = check_adapter(fake_engines.WrongAdapter())
     assert not rep.passed
     failed = {c.name for c in rep.failed}
     assert {"units", "determinism", "no-uplift-below-threshold"} <= failed
@@ -114,11 +111,11 @@ def test_whole_setting_checks_and_converts_for_every_adapter():
             Probe(**bad)
 
 
-def test_each_check_is_a_public_function_that_runs_alone():
+def test_each_check_is_a_public_function_that_runs_alone(fake_engines):
     from rockbench.engines import checker
 
-    ok = mh.AnalyticAdapter()
-    wrong = mh.WrongAdapter()
+    ok = fake_engines.AnalyticAdapter()
+    wrong = fake_engines.WrongAdapter()
     assert list(checker.CHECKS) == [c.name for c in check_adapter(ok).checks]
     for name, check in checker.CHECKS.items():
         assert check.__name__ == "check_" + name.replace("-", "_") and getattr(checker, check.__name__) is check
@@ -146,7 +143,7 @@ def test_registry_refuses_a_class_that_is_not_an_adapter():
         registry.unregister("no-such-class")
 
 
-def test_batching_is_declared_and_the_old_parallel_batch_still_reads():
+def test_batching_is_declared_and_the_old_parallel_batch_still_reads(fake_engines):
     import warnings
 
     from rockbench.engines.base import EngineAdapter
@@ -158,7 +155,7 @@ def test_batching_is_declared_and_the_old_parallel_batch_still_reads():
             name = "old"
             parallel_batch = True
     assert Old.batching == "parallel" and "batching = 'parallel'" in str(w[0].message)
-    assert mh.BatchAnalyticAdapter.batching == "native" and mh.AnalyticAdapter.batching == "none"
+    assert fake_engines.BatchAnalyticAdapter.batching == "native" and fake_engines.AnalyticAdapter.batching == "none"
     with pytest.raises(TypeError, match="batching must be"):
         class Bad(EngineAdapter):
             batching = "sometimes"

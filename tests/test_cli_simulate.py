@@ -185,9 +185,8 @@ def test_subprocess_entry_point(tmp_path):
 
 # -- issue 13 --------------------------------------------------------------------------------------
 
-def test_a_failed_simulation_exits_1(capsys):
-    import maps_helpers as mh
-    mh.register_all()
+def test_a_failed_simulation_exits_1(fake_engines, capsys):
+    fake_engines.register_all()
     args = ["simulate", "--engine", "raising", "--set", "bad_above=0", "--block", "B3M", "--w-ratio", "6",
             "--a-ratio", "6.1"]
     assert main(args) == 1

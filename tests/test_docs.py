@@ -116,10 +116,10 @@ def _run_shell(cmds: list[str], tmp: Path, capsys) -> int:
 
 
 @pytest.mark.parametrize("path", FILES, ids=_ids(FILES))
-def test_every_code_example_runs(path, tmp_path, monkeypatch, capsys):
+def test_every_code_example_runs(write_map, band, path, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    _fake_run_folder(tmp_path)
+    _fake_run_folder(tmp_path, write_map, band)
     ns: dict = {"__name__": "__docs__"}
     checked = 0
     for lang, text in blocks(path):
@@ -146,18 +146,18 @@ def test_every_code_example_runs(path, tmp_path, monkeypatch, capsys):
     assert checked or not blocks(path)
 
 
-def _fake_run_folder(tmp: Path) -> None:
+def _fake_run_folder(tmp: Path, write_map, band) -> None:
     """``rockbench-results/quick`` as `rockbench run --quick` would leave it (small hand-made maps,
     scored), for the examples that read a finished run."""
     sys.path.insert(0, str(Path(__file__).parent))
-    from mapdirs import band, write_map
 
-    from rockbench.benchmark.scoring import score_dirs, write_json_atomic
+    from rockbench.benchmark.results import write_json
+    from rockbench.benchmark.score_runs import score_dirs
     root = tmp / "rockbench-results" / "quick"
     write_map(root / "maps" / "reference" / "B3M-sine-housner", band(9, 11, 4), block="B3M")
     write_map(root / "maps" / "mujoco-settings=calibrated" / "B3M-sine-housner", band(9, 11, 5), engine="mujoco",
               block="B3M", settings={"settings": "calibrated"})
-    write_json_atomic(root / "score.json", score_dirs([root / "maps"]))
+    write_json(root / "score.json", score_dirs([root / "maps"]))
 
 
 def test_the_notebook_example_is_ten_lines():

@@ -7,7 +7,6 @@ import time
 import numpy as np
 import pytest
 
-import maps_helpers as mh
 from rockbench.benchmark.cli import main
 from rockbench.benchmark.executors import DaskExecutor, worker_init
 from rockbench.benchmark.maps import FAILED, MapSpec, load_map, make_axis, run_map
@@ -16,9 +15,7 @@ from rockbench.reference_solver.errors import ConfigError, EngineError
 from rockbench.reference_solver.restitution import Restitution
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    mh.register_all()
+pytestmark = pytest.mark.usefixtures("fake_engines")
 
 
 def spec(engine, n=16, **settings):
@@ -26,17 +23,13 @@ def spec(engine, n=16, **settings):
                    make_axis("--a-ratio", "a_ratio", 0.5, 9.0, n), engine=engine, engine_settings=settings)
 
 
-def truth(s):
-    return mh.analytic_grid(s.w_ratios(), s.a_ratios())
-
-
 @pytest.mark.parametrize("engine", ["analytic", "analytic-batch"])
-def test_serial_equals_processes(tmp_path, engine):
+def test_serial_equals_processes(analytic_truth, tmp_path, engine):
     s = spec(engine)
     a = run_map(s, tmp_path / "serial", serial=True, plot=False)
     b = run_map(s, tmp_path / "proc1", jobs=1, plot=False)
     c = run_map(s, tmp_path / "proc2", jobs=2, plot=False)
-    assert np.array_equal(a.outcome, truth(s))
+    assert np.array_equal(a.outcome, analytic_truth(s))
     for r in (b, c):
         assert np.array_equal(r.outcome, a.outcome)
         assert np.array_equal(r.n_impacts, a.n_impacts)
@@ -55,7 +48,7 @@ def cluster():
     c.close()
 
 
-def test_dask_equals_serial_and_isolates_crashes(tmp_path, cluster):
+def test_dask_equals_serial_and_isolates_crashes(analytic_truth, tmp_path, cluster):
     s = spec("analytic-batch", n=12)
     ref = run_map(s, tmp_path / "serial", serial=True, plot=False)
     d = run_map(s, tmp_path / "dask", scheduler=cluster, plot=False)
@@ -66,7 +59,7 @@ def test_dask_equals_serial_and_isolates_crashes(tmp_path, cluster):
     r = run_map(s2, tmp_path / "dask-crash", scheduler=cluster, plot=False, cell_timeout_s=30)
     bad = s2.w_ratios() > 7.5
     assert (r.outcome[:, bad] == FAILED).all()
-    assert np.array_equal(r.outcome[:, ~bad], truth(s2)[:, ~bad])
+    assert np.array_equal(r.outcome[:, ~bad], analytic_truth(s2)[:, ~bad])
     assert {f["flag"] for f in r.failures} == {"crashed"}
 
 
@@ -76,13 +69,13 @@ def test_dask_equals_serial_and_isolates_crashes(tmp_path, cluster):
     ("diverging", "diverged", "non-finite"),
     ("crashing-batch", "crashed", "SIGSEGV"),   # a native batch that segfaults: only its bad cells fail
 ])
-def test_bad_cells_are_recorded_and_the_map_goes_on(tmp_path, engine, flag, text):
+def test_bad_cells_are_recorded_and_the_map_goes_on(analytic_truth, tmp_path, engine, flag, text):
     s = spec(engine, n=6, bad_above=7.5)
     r = run_map(s, tmp_path / "m", jobs=2, plot=False)
     bad = s.w_ratios() > 7.5
     assert bad.sum() == 1
     assert (r.outcome[:, bad] == FAILED).all()
-    assert np.array_equal(r.outcome[:, ~bad], truth(s)[:, ~bad])
+    assert np.array_equal(r.outcome[:, ~bad], analytic_truth(s)[:, ~bad])
     assert len(r.failures) == 6
     assert all(f["flag"] == flag and text in f["message"] for f in r.failures)
     back = load_map(tmp_path / "m")
@@ -90,7 +83,7 @@ def test_bad_cells_are_recorded_and_the_map_goes_on(tmp_path, engine, flag, text
     assert not back.valid[:, bad].any()
 
 
-def test_hanging_cell_times_out(tmp_path):
+def test_hanging_cell_times_out(analytic_truth, tmp_path):
     s = spec("hanging", n=4, bad_above=7.5)      # one column: four hanging cells
     t0 = time.monotonic()
     r = run_map(s, tmp_path / "m", jobs=2, plot=False, cell_timeout_s=1.0)
@@ -98,7 +91,7 @@ def test_hanging_cell_times_out(tmp_path):
     bad = s.w_ratios() > 7.5
     assert (r.outcome[:, bad] == FAILED).all()
     assert {f["flag"] for f in r.failures} == {"timeout"} and len(r.failures) == 4
-    assert np.array_equal(r.outcome[:, ~bad], truth(s)[:, ~bad])
+    assert np.array_equal(r.outcome[:, ~bad], analytic_truth(s)[:, ~bad])
 
 
 def test_worker_that_never_starts_stops_the_map_with_the_reason(tmp_path, monkeypatch):
@@ -126,7 +119,7 @@ def test_unreachable_scheduler_cli_exit_2(tmp_path, capsys):
     assert not (tmp_path / "m").exists()       # nothing half-written
 
 
-def test_one_executor_serves_many_maps(tmp_path):
+def test_one_executor_serves_many_maps(analytic_truth, tmp_path):
     from rockbench.benchmark.executors import make_executor
     ex = make_executor("analytic", {}, jobs=2)
     try:
@@ -134,7 +127,7 @@ def test_one_executor_serves_many_maps(tmp_path):
             s = MapSpec(get_preset("B6L").block(), pulse, Restitution(), make_axis("--w-ratio", "w_ratio", 0.5, 8, 9),
                         make_axis("--a-ratio", "a_ratio", 0.5, 9, 9), engine="analytic")
             r = run_map(s, tmp_path / f"m{k}", executor=ex, plot=False)
-            assert np.array_equal(r.outcome, truth(s))
+            assert np.array_equal(r.outcome, analytic_truth(s))
         pids = {w.proc.pid for w in ex.workers}
         assert len(pids) == 2                         # the same two workers did both maps
         with pytest.raises(ConfigError, match="the executor given runs engine 'analytic'"):
@@ -145,7 +138,7 @@ def test_one_executor_serves_many_maps(tmp_path):
 
 # -- issue 13: bounded waits, no orphans, a cap on --jobs -----------------------------------------------
 
-def test_jobs_are_capped_at_cores_and_cells(tmp_path):
+def test_jobs_are_capped_at_cores_and_cells(analytic_truth, tmp_path):
     from rockbench.benchmark.executors import cap_jobs, cpu_count
     assert cap_jobs(None) == (None, None)
     n, note = cap_jobs(1000, 4)
@@ -155,7 +148,7 @@ def test_jobs_are_capped_at_cores_and_cells(tmp_path):
     s = spec("analytic", n=2)
     t0 = time.monotonic()
     r = run_map(s, tmp_path / "m", jobs=1000, plot=False, log=logs.append)
-    assert np.array_equal(r.outcome, truth(s))
+    assert np.array_equal(r.outcome, analytic_truth(s))
     assert any("--jobs 1000 capped at" in m for m in logs), logs
     import json
     jobs = json.loads((tmp_path / "m" / "run.json").read_text())["options"]["executor"]["jobs"]
@@ -289,7 +282,7 @@ def test_a_port_that_is_not_a_dask_scheduler_is_refused_within_seconds(tmp_path,
             c.close()
 
 
-def test_local_cluster_leaves_no_scratch_space(tmp_path, monkeypatch):
+def test_local_cluster_leaves_no_scratch_space(analytic_truth, tmp_path, monkeypatch):
     import tempfile
     monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp"))
     (tmp_path / "tmp").mkdir()
@@ -297,7 +290,7 @@ def test_local_cluster_leaves_no_scratch_space(tmp_path, monkeypatch):
     try:
         s = spec("analytic-batch", n=4)
         r = run_map(s, tmp_path / "m", scheduler="local", jobs=1, plot=False)
-        assert np.array_equal(r.outcome, truth(s))
+        assert np.array_equal(r.outcome, analytic_truth(s))
     finally:
         tempfile.tempdir = None
     assert list((tmp_path / "tmp").iterdir()) == []

@@ -9,7 +9,7 @@ from rockbench.benchmark.experiments import (SHAKING_TABLE_LIMIT_MPS2, experimen
                                              load_restitution, parse_outcomes, restitution_errors,
                                              restitution_targets, score_outcomes, st_limit_a_ratio)
 from rockbench.benchmark.presets import PRESETS
-from rockbench.benchmark.scores import OVERTURN, REST, ROCKING, LabelMap
+from rockbench.benchmark.metrics import OVERTURN, REST, ROCKING, LabelMap
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G
 

@@ -7,7 +7,6 @@ import json
 import numpy as np
 import pytest
 
-import maps_helpers as mh
 from rockbench.benchmark import adaptive
 from rockbench.benchmark.cli import main
 from rockbench.benchmark.maps import MISSING, MapSpec, load_map, make_axis, parse_range, run_map
@@ -17,9 +16,7 @@ from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    mh.register_all()
+pytestmark = pytest.mark.usefixtures("fake_engines")
 
 
 def test_parse_range():
@@ -84,11 +81,11 @@ def _refine_grid(truth, stride):
 
 
 @pytest.mark.parametrize("n", [100, 157])
-def test_adaptive_equals_full_on_the_analytic_picture(n):
+def test_adaptive_equals_full_on_the_analytic_picture(fake_engines, n):
     # thin features: a safe band 0.1 wide (about 1 cell at n = 100) and a tongue 0.12 wide
     w = np.linspace(0.5, 10.0, n)
     a = np.linspace(0.5, 12.0, n)
-    truth = mh.analytic_grid(w, a)
+    truth = fake_engines.analytic_grid(w, a)
     out, sim = _refine_grid(truth, adaptive.DEFAULT_STRIDE)
     assert np.array_equal(out, truth)
     assert sim.mean() < 0.5
@@ -102,12 +99,12 @@ def test_adaptive_cannot_see_an_island_between_nodes():
     assert (out == 0).all() and sim.sum() == 11 * 11
 
 
-def test_adaptive_run_map_and_load_agree(tmp_path):
+def test_adaptive_run_map_and_load_agree(analytic_truth, tmp_path):
     b = get_preset("B6M").block()
     s = MapSpec(b, "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 0.5, 10, 50),
                 make_axis("--a-ratio", "a_ratio", 0.5, 12, 50), engine="analytic-batch")
     r = run_map(s, tmp_path / "m", adaptive=True, serial=True)
-    assert np.array_equal(r.outcome, mh.analytic_grid(s.w_ratios(), s.a_ratios()))
+    assert np.array_equal(r.outcome, analytic_truth(s))
     assert r.n_simulated < s.n_cells
     # every simulated cell was simulated once: one row each in cells.csv
     with open(tmp_path / "m" / "cells.csv") as f:

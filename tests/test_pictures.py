@@ -5,9 +5,8 @@ import re
 import numpy as np
 import pytest
 
-from rockbench.benchmark.scores import LabelMap
+from rockbench.benchmark.metrics import LabelMap
 
-from mapdirs import band
 
 matplotlib = pytest.importorskip("matplotlib")
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
@@ -77,7 +76,7 @@ def _labels(legend):
 
 # -- maps for the pictures ---------------------------------------------------------------------
 
-def _maps():
+def _maps(band):
     w = np.linspace(1.0, 10.0, 12)
     a = np.linspace(1.0, 8.0, 10)
     ref_codes = band(10, 12, 5)
@@ -95,9 +94,9 @@ def _maps():
     return w, a, ref, mod, eng
 
 
-def test_panel_draws_every_layer_where_it_belongs():
+def test_panel_draws_every_layer_where_it_belongs(band):
     from rockbench.benchmark.plots.stability import plot_panel
-    w, a, ref, mod, eng = _maps()
+    w, a, ref, mod, eng = _maps(band)
     d = plot_panel(eng, [("reference, η_H", ref), ("reference, η_M with the average k", mod)], like=ref,
                    points=[(3.0, 2.0, "R", 1), (9.0, 7.0, "O", 2), (50.0, 2.0, "T", 1)], st_limit=6.5,
                    title="MuJoCo 4.0, calibrated to η_H")
@@ -118,17 +117,17 @@ def test_panel_draws_every_layer_where_it_belongs():
     assert_nothing_off_axes(ax)
 
 
-def test_panel_leaves_out_an_st_limit_off_the_chart():
+def test_panel_leaves_out_an_st_limit_off_the_chart(band):
     from rockbench.benchmark.plots.stability import plot_panel
-    _, _, ref, _, eng = _maps()
+    _, _, ref, _, eng = _maps(band)
     d = plot_panel(eng, [("reference, η_H", ref)], st_limit=20.0)
     assert d["st_limit"] is None and "st" not in d["handles"]
     assert not any("ST limit" in t.get_text() for t in d["ax"].texts)
 
 
-def test_small_multiples_share_one_legend_below_the_panels():
+def test_small_multiples_share_one_legend_below_the_panels(band):
     from rockbench.benchmark.plots.stability import plot_panels
-    _, _, ref, mod, eng = _maps()
+    _, _, ref, mod, eng = _maps(band)
     panels = [{"engine": eng, "references": [("reference, η_H", ref), ("reference, η_M with the average k", mod)],
                "like": ref, "st_limit": 6.5, "title": t} for t in ("MuJoCo 4.0, calibrated to η_H",
                                                                    "PyBullet 3.2.7, as shipped",
@@ -176,14 +175,14 @@ def test_boundary_lines_are_smooth_and_keep_every_cell_on_its_side():
                 assert (a[i] > line_a[j]) == (codes[i, j] == 2), (i, j)
 
 
-def test_map_picture_overlays_the_reference_and_marks_invalid_cells(tmp_path):
+def test_map_picture_overlays_the_reference_and_marks_invalid_cells(band, tmp_path):
     from types import SimpleNamespace
 
     from rockbench.benchmark.maps import MapSpec, make_axis
     from rockbench.benchmark.plots.stability import plot_map, plot_map_png
     from rockbench.benchmark.presets import get_preset
     from rockbench.reference_solver.restitution import Restitution
-    _, _, ref, _, eng = _maps()
+    _, _, ref, _, eng = _maps(band)
     spec = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 10, 12),
                    make_axis("--a-ratio", "a_ratio", 1, 8, 10), engine="mujoco", engine_settings={"settings": "calibrated"})
     res = SimpleNamespace(spec=spec, outcome=eng.codes, valid=eng.valid, left_model=eng.left_model,

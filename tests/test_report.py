@@ -12,14 +12,13 @@ import pytest
 
 from rockbench.benchmark.cli import main
 from rockbench.benchmark.report import build_report
-from rockbench.benchmark.scores import LabelMap
+from rockbench.benchmark.metrics import LabelMap
 from rockbench.reference_solver.restitution import Restitution
 
-from mapdirs import band, write_map
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
+def report(write_map, band, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("report")
     root = tmp / "run"
     ref = band(20, 16, 10)
@@ -114,9 +113,9 @@ def test_index_html_renders_in_headless_chromium(report, tmp_path):
     print(f"screenshot of the report's first screen: {shot}")
 
 
-def test_report_pairs_each_own_eta_reference_with_its_engine():
+def test_report_pairs_each_own_eta_reference_with_its_engine(band):
     from rockbench.benchmark.report import _split_own_eta_refs
-    from rockbench.benchmark.scoring import MapEntry
+    from rockbench.benchmark.results import MapEntry
     m = LabelMap(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
 
     def entry(engine, variant, restitution, eta):
@@ -134,7 +133,7 @@ def test_report_pairs_each_own_eta_reference_with_its_engine():
     assert [(label, k) for label, _, k in paired] == [("reference at own η of b[x=1], c (η = 0.7493)", 1)]
 
 
-def test_report_cli_bad_input(tmp_path, capsys):
+def test_report_cli_bad_input(write_map, band, tmp_path, capsys):
     write_map(tmp_path / "r", band(5, 5, 2))
     f = tmp_path / "file"
     f.write_text("x")
@@ -146,7 +145,7 @@ def test_report_cli_bad_input(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_report_draws_fig17_with_the_reference(tmp_path):
+def test_report_draws_fig17_with_the_reference(write_map, band, tmp_path):
     """θ(t) of the paper's Fig. 17 case with the real reference solver (both k of B3M)."""
     write_map(tmp_path / "run" / "ref", band(6, 6, 3), block="B3M")
     write_map(tmp_path / "run" / "eng", band(6, 6, 2), engine="nosuchengine", block="B3M")

@@ -52,3 +52,37 @@ def test_parse_and_labels():
 def test_bad_restitution(text, k):
     with pytest.raises(ConfigError):
         Restitution.parse(text, k=k)
+
+
+@pytest.mark.parametrize("text,k,want", [
+    ("housner", None, Restitution()),
+    (" Housner ", None, Restitution()),
+    ("modified", 0.5, Restitution("modified", k=0.5)),
+    ("modified", None, Restitution("modified", k=0.8608)),          # the preset's average k
+    ("modified-average", None, Restitution("modified", k=0.8608)),
+    ("modified-exact", None, Restitution("modified", k=0.7595)),
+    ("modified:0.25", None, Restitution("modified", k=0.25)),
+    ("modified(k=0.8608)", None, Restitution("modified", k=0.8608)),   # a run folder's label
+    ("0.9", None, Restitution("constant", value=0.9)),
+    (0.9, None, Restitution("constant", value=0.9)),
+])
+def test_parse_reads_every_spelling(text, k, want):
+    assert Restitution.parse(text, k, k_average=0.8608, k_exact=0.7595) == want
+
+
+def test_parse_reads_back_every_label():
+    for law in (Restitution(), Restitution("modified", k=0.7306), Restitution("constant", value=0.75)):
+        assert Restitution.parse(law.label) == law
+
+
+@pytest.mark.parametrize("text,k,kw,match", [
+    ("housner", 0.5, {}, "--k applies to --restitution modified only"),
+    ("modified", None, {}, "--restitution modified on a custom block needs --k"),
+    ("modified-exact", None, {"option": "--target"}, "--target modified-exact needs a preset block"),
+    ("modified:2", None, {}, "--k must be in"),
+    ("bouncy", None, {}, "must be housner, modified or a number"),
+    ("1.5", None, {}, r"constant restitution must be in \(0, 1\]"),
+])
+def test_parse_refuses_with_one_line(text, k, kw, match):
+    with pytest.raises(ConfigError, match=match):
+        Restitution.parse(text, k, **kw)

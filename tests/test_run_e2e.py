@@ -9,7 +9,7 @@ import pytest
 from rockbench.benchmark.cli import main
 from rockbench.benchmark.maps import MapSpec, parse_range, run_map
 from rockbench.benchmark.presets import get_preset
-from rockbench.benchmark.scoring import score_dirs
+from rockbench.benchmark.score_runs import score_dirs
 from rockbench.engines.registry import BUILTIN, adapter_class, availability
 from rockbench.reference_solver.restitution import Restitution
 

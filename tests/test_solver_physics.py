@@ -1,15 +1,13 @@
 """Physics of the reference solver against closed forms, invariants and an independent solution.
 
 DOMAIN.md §7 and issue 2 ("What must hold"). The independent event-driven solution lives in
-``benchmarks/ivp_baseline.py`` (SciPy ``solve_ivp`` with events); it shares nothing with the
+``tests/ivp_baseline.py`` (SciPy ``solve_ivp`` with events); it shares nothing with the
 Newmark kernels but the pulses' ``ü(t)``.
 """
 
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,8 +21,7 @@ from rockbench.reference_solver.pulses import CosinePulse, RecordPulse, SinePuls
 from rockbench.reference_solver.restitution import housner_eta, modified_eta
 from rockbench.reference_solver.solver import solve, solve_batch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from ivp_baseline import critical_amplitude, solve_events  # noqa: E402
+from ivp_baseline import critical_amplitude, solve_events
 
 B3M = get_preset("B3M").block()
 B6M = get_preset("B6M").block()

@@ -12,20 +12,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import maps_helpers as mh
 from rockbench.benchmark.cli import main
 from rockbench.benchmark.maps import MapSpec, load_map, make_axis, run_map
 from rockbench.benchmark.presets import get_preset
-from rockbench.benchmark.store import COLUMNS, SCHEMA_VERSION
+from rockbench.benchmark.results import COLUMNS, SCHEMA_VERSION
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.restitution import Restitution
 
 HERE = Path(__file__).resolve().parent
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    mh.register_all()
+pytestmark = pytest.mark.usefixtures("fake_engines")
 
 
 def spec(n=20, engine="analytic", settings=None, pulse="sine"):
@@ -39,7 +36,7 @@ def rows_of(d):
     return list(csv.DictReader(data[: data.rfind("\n") + 1].splitlines()))
 
 
-def test_run_dir_contents_and_provenance(tmp_path):
+def test_run_dir_contents_and_provenance(analytic_truth, tmp_path):
     s = spec(12)
     r = run_map(s, tmp_path / "m", jobs=1)
     meta = json.loads((tmp_path / "m" / "run.json").read_text())
@@ -57,10 +54,10 @@ def test_run_dir_contents_and_provenance(tmp_path):
         assert float(row["omega_rad_s"]) == pytest.approx(float(row["w_ratio"]) * s.block.p_rad_s)
     back = load_map(tmp_path / "m")
     assert np.array_equal(back.outcome, r.outcome)
-    assert np.array_equal(back.outcome, mh.analytic_grid(s.w_ratios(), s.a_ratios()))
+    assert np.array_equal(back.outcome, analytic_truth(s))
 
 
-def test_torn_last_line_is_cut_and_recomputed(tmp_path):
+def test_torn_last_line_is_cut_and_recomputed(analytic_truth, tmp_path):
     s = spec(10)
     run_map(s, tmp_path / "m", serial=True, plot=False)
     path = tmp_path / "m" / "cells.csv"
@@ -71,7 +68,7 @@ def test_torn_last_line_is_cut_and_recomputed(tmp_path):
     rows = rows_of(tmp_path / "m")
     keys = [(int(x["i"]), int(x["j"])) for x in rows]
     assert len(keys) == len(set(keys)) == 100
-    assert np.array_equal(r.outcome, mh.analytic_grid(s.w_ratios(), s.a_ratios()))
+    assert np.array_equal(r.outcome, analytic_truth(s))
 
 
 def test_other_spec_is_refused(tmp_path):
@@ -101,7 +98,7 @@ def test_not_a_map_directory_is_refused(tmp_path):
     assert sorted(p.name for p in (tmp_path / "d").iterdir()) == ["notes.txt"]
 
 
-def test_resume_after_kill_9(tmp_path):
+def test_resume_after_kill_9(analytic_truth, tmp_path):
     out = tmp_path / "m"
     n = 24
     cmd = [sys.executable, "-c",
@@ -128,7 +125,7 @@ def test_resume_after_kill_9(tmp_path):
     keys = [(int(x["i"]), int(x["j"])) for x in rows]
     assert len(keys) == len(set(keys)) == n * n          # no duplicates, every cell
     assert rows[: len(first)] == first                   # finished cells were kept, not recomputed
-    assert np.array_equal(r.outcome, mh.analytic_grid(s.w_ratios(), s.a_ratios()))
+    assert np.array_equal(r.outcome, analytic_truth(s))
     meta = json.loads((out / "run.json").read_text())
     assert len(meta["runs"]) == 2 and meta["summary"]["complete"]
 
@@ -142,7 +139,7 @@ def test_cells_carry_their_variant_so_concatenated_maps_stay_apart(tmp_path):
     assert {r["engine"] for r in a + b} == {"analytic"}
 
 
-def test_an_adaptive_map_written_out_on_its_full_grid(tmp_path, capsys):
+def test_an_adaptive_map_written_out_on_its_full_grid(analytic_truth, tmp_path, capsys):
     from rockbench.benchmark.export import FULL_GRID_FILE, full_grid_rows
     s = spec(13)
     r = run_map(s, tmp_path / "m", serial=True, adaptive=True, coarse_stride=4, plot=False)
@@ -154,7 +151,7 @@ def test_an_adaptive_map_written_out_on_its_full_grid(tmp_path, capsys):
     assert len(filled) == 169 - r.n_simulated
     # the fill rule's outcomes, and nothing invented about those cells' runs
     assert all(x["status"] == "filled" and x["n_impacts"] == "" and x["flags"] == "" for x in filled)
-    grid = mh.analytic_grid(s.w_ratios(), s.a_ratios())
+    grid = analytic_truth(s)
     names = {0: "rest", 1: "rocking", 2: "overturn"}
     assert [x["outcome"] for x in rows] == [names[int(grid[int(x["i"]), int(x["j"])])] for x in rows]
     # the CLI writes it beside cells.csv

@@ -6,8 +6,8 @@ import json
 
 from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError
-from ...reference_solver.restitution import Restitution
-from ..cases import add_block_options, block_from_args, dt_from_args, engine_settings_from_args
+from ..cli_options import (add_block_options, block_from_args, dt_from_args, engine_settings_from_args,
+                           restitution_from_args)
 
 
 def register(sub) -> None:
@@ -44,13 +44,7 @@ def run(args) -> int:
                "eta_target": None, "n_impacts": len(m.etas), "etas": m.etas, "settings": m.settings,
                "dt_s": m.dt_s, "method": m.method}
     else:
-        k = None if args.k is None else float(args.k)
-        law = args.target.strip().lower()
-        if law == "modified" and k is None:
-            if preset is None:
-                raise ConfigError("--target modified on a custom block needs --k (the impulse position in [0, 1]).")
-            k = preset.k_average
-        rest = Restitution.parse(law if law in ("housner", "modified") else args.target, k=k)
+        rest = restitution_from_args(args, preset, option="--target")
         target = rest.eta(block.alpha_rad)
         c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
         out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict()}

@@ -10,7 +10,7 @@ import json
 
 from ...engines.checker import check_adapter
 from ...engines.registry import get_adapter
-from ..cases import engine_settings_from_args
+from ..cli_options import engine_settings_from_args
 
 
 def register(sub) -> None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from ..scores import METRICS
-from ..scoring import DEFAULT_TOLERANCE_CELLS
+from ..metrics import METRICS
+from ..score_runs import DEFAULT_TOLERANCE_CELLS
 
 
 def register(sub) -> None:
@@ -28,13 +28,14 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..scoring import _clean, compare_scores, load_score, parse_tolerances
+    from ..results import json_safe
+    from ..score_runs import compare_scores, load_score, parse_tolerances
     from ..tables import compare_table
 
     tol = parse_tolerances(args.tolerance)
     res = compare_scores(load_score(args.baseline), load_score(args.current), tol)
     if args.json:
-        print(json.dumps(_clean(res), indent=2))
+        print(json.dumps(json_safe(res), indent=2))
     else:
         print(compare_table(res, markdown=args.markdown))
     return 1 if res["status"] != "ok" else 0

@@ -7,6 +7,7 @@ import sys
 
 from ...reference_solver.errors import ConfigError
 from ..atomic import check_output_dir
+from ..cli_options import jobs_from_args
 from ..figures import FIGURES, make_figures
 
 
@@ -37,12 +38,7 @@ def run(args) -> int:
         bad = [f for f in figs if f not in FIGURES]
         if bad:
             raise ConfigError(f"--figure takes numbers 4–9, got {bad[0]}.")
-    jobs = None
-    if args.jobs is not None:
-        try:
-            jobs = int(args.jobs)
-        except ValueError:
-            raise ConfigError(f"--jobs must be a whole number >= 1, got {args.jobs!r}.") from None
+    jobs = jobs_from_args(args)
     check_output_dir(args.out, "--out")
     out = make_figures(args.out, resolution=n, figures=figs, jobs=jobs, serial=args.serial,
                        progress=not args.json and sys.stderr.isatty())

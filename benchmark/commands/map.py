@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
 from ..atomic import check_output_dir
-from ..cases import (add_block_options, add_model_options, block_from_args, dt_from_args,
+from ..cli_options import (add_block_options, add_model_options, block_from_args, dt_from_args, jobs_from_args,
                      engine_settings_from_args, restitution_from_args)
 from ..maps import DEFAULT_CELL_TIMEOUT_S, MAP_PULSES, MapSpec, parse_range, run_map
 
@@ -77,18 +77,6 @@ def spec_from_args(args) -> MapSpec:
                    dt_s=dt_from_args(args), linearized=bool(args.linearized))
 
 
-def _jobs(text):
-    if text is None:
-        return None
-    try:
-        n = int(text)
-    except ValueError:
-        raise ConfigError(f"--jobs must be a whole number >= 1, got {text!r}.") from None
-    if n < 1:
-        raise ConfigError(f"--jobs must be a whole number >= 1, got {text!r}.")
-    return n
-
-
 def run(args) -> int:
     spec = spec_from_args(args)
     try:
@@ -99,7 +87,7 @@ def run(args) -> int:
         raise ConfigError(f"--coarse-stride must be >= 1, got {args.coarse_stride}.")
     check_output_dir(args.out, "--out")
     quiet = args.json or not sys.stderr.isatty()
-    result = run_map(spec, args.out, jobs=_jobs(args.jobs), scheduler=args.scheduler, serial=args.serial,
+    result = run_map(spec, args.out, jobs=jobs_from_args(args), scheduler=args.scheduler, serial=args.serial,
                      adaptive=args.adaptive, coarse_stride=args.coarse_stride, cell_timeout_s=timeout,
                      progress=not quiet, plot=not args.no_plot,
                      log=None if args.json else (lambda s: print(s, file=sys.stderr)))

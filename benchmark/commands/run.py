@@ -32,7 +32,8 @@ def run(args) -> int:
 
     from ...reference_solver.errors import ConfigError
     from ..atomic import check_output_dir
-    from ..run import check_suite, engine_names, load_suite, parse_engines, plan, run_suite, suite_path
+    from ..cli_options import jobs_from_args
+    from ..suite_runner import check_suite, engine_names, load_suite, parse_engines, plan, run_suite, suite_path
 
     if args.show_suite is not None:
         if args.suite is not None or args.quick:
@@ -46,14 +47,7 @@ def run(args) -> int:
         raise ConfigError(f"give either a suite ({args.suite}) or --quick, not both.")
     only = parse_engines(args.engines)
     suite = load_suite(suite_path(args.suite, args.quick))
-    jobs = None
-    if args.jobs is not None:
-        try:
-            jobs = int(args.jobs)
-        except ValueError:
-            jobs = 0
-        if jobs < 1:
-            raise ConfigError(f"--jobs must be a whole number >= 1, got {args.jobs!r}.")
+    jobs = jobs_from_args(args)
     out = Path(args.out) if args.out else Path("rockbench-results") / suite.name
     if args.plan:
         engines, notes = engine_names(suite, only)

@@ -6,14 +6,14 @@ import json
 import sys
 from pathlib import Path
 
-from ..scores import METRICS, parse_thresholds
+from ..metrics import METRICS, parse_thresholds
 
 
 def register(sub) -> None:
     import argparse
     import textwrap
 
-    from ..scores import METRICS_VERSION
+    from ..metrics import METRICS_VERSION
 
     defs = "\n".join(textwrap.fill(f"{m.name} ({m.direction} is better, perfect {m.perfect:g}): {m.definition}",
                                    width=96, initial_indent="  ", subsequent_indent="    ")
@@ -43,7 +43,8 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..atomic import check_output_file
-    from ..scoring import _clean, gate, score_dirs, write_json_atomic
+    from ..results import json_safe, write_json
+    from ..score_runs import gate, score_dirs
     from ..tables import pairs_table, summary_table
 
     thresholds = {**parse_thresholds(args.fail_under, "higher", "--fail-under"),
@@ -61,10 +62,10 @@ def run(args) -> int:
     failures = gate(doc, thresholds)
     doc["gate"] = {"thresholds": thresholds, "failed": failures, "passed": not failures}
     if out is not None:
-        write_json_atomic(out, doc)
+        write_json(out, doc)
         print(f"rockbench: scores written to {out}", file=sys.stderr)
     if args.json:
-        print(json.dumps(_clean(doc), indent=2))
+        print(json.dumps(json_safe(doc), indent=2))
     else:
         md = args.markdown
         print(("### Summary (mean over like-for-like pairs)\n\n" if md else "Summary (mean over like-for-like pairs)\n")

@@ -639,13 +639,13 @@ def reference_for(result):
         from dataclasses import replace
 
         from ...engines.registry import get_adapter
-        from ..maps import _put_result, empty_result
+        from ..maps import record_result, empty_result
 
         spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
         ref = empty_result(spec)
         cells = [(i, j) for i in range(spec.y.n) for j in range(spec.x.n)]
         for (i, j), r in zip(cells, get_adapter("reference").run_many(spec.cases(cells))):
-            _put_result(ref, i, j, r)
+            record_result(ref, i, j, r)
         return ref
     except Exception:  # noqa: BLE001 - a picture without the overlay is still a picture
         return None

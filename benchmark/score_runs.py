@@ -1,8 +1,8 @@
-"""From run directories to scores: find the maps, pair engines with references, score, write score.json.
+"""From run directories to scores: pair engines with references, score, check and compare score.json.
 
-This is the glue between the results store (run directories of ``rockbench map``) and the pure
-metrics of :mod:`rockbench.benchmark.scores`; the ``score``, ``compare``, ``report`` and ``run``
-commands call it.
+This is the glue between the run folders (found and read by :mod:`rockbench.benchmark.results`) and
+the pure metrics of :mod:`rockbench.benchmark.metrics`; the ``score``, ``compare``, ``report`` and
+``run`` commands call it.
 
 Pairing rule. Every map whose engine is not ``reference`` is scored against every reference map of
 the same block and pulse over the same grid (Housner, modified with the average k, modified with
@@ -27,199 +27,19 @@ missing) rather than scored on the cells it happens to have.
 
 from __future__ import annotations
 
-import csv
-import json
 import math
-from dataclasses import dataclass, field
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Iterable
 
-import numpy as np
-
 from ..reference_solver.errors import ConfigError, IncomparableError
 from ..reference_solver.pulses import is_number
-from .scores import (FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, cell_counts, check_gate, domain,
-                     from_cells, score)
-from .atomic import write_json_atomic as _write_json
+from .metrics import FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, cell_counts, check_gate, domain, score
+from .results import (MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta, read_json,
+                      utc_stamp)
 
 #: Version of score.json's layout.
 SCORE_SCHEMA_VERSION = 1
 SCORE_KIND = "rockbench-score"
-
-#: cells.csv columns every map directory has (CLI.md)
-CELL_COLUMNS = ("engine", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s",
-                "amplitude_mps2", "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags")
-
-
-@dataclass
-class MapEntry:
-    """One map found on disk.
-
-    Attributes
-    ----------
-    path : Path
-        Its run directory.
-    label_map : LabelMap
-        The outcome grid.
-    engine : str
-        Registry name of the engine.
-    variant : str
-        The engine with its non-default settings and time step, e.g. ``mujoco[settings=defaults]``;
-        equals ``engine`` when nothing was set.
-    block, pulse, restitution : str
-        Block name, pulse kind and restitution label (``housner``, ``modified(k=0.8608)``, ``0.9``).
-    eta : float
-        The restitution coefficient of the map [-].
-    run : dict
-        The run.json contents.
-    """
-
-    path: Path
-    label_map: LabelMap
-    engine: str
-    variant: str
-    block: str
-    pulse: str
-    restitution: str
-    eta: float
-    run: dict = field(default_factory=dict)
-
-    @property
-    def is_reference(self) -> bool:
-        return self.engine == "reference"
-
-    def describe(self) -> dict:
-        m = self.label_map
-        return {"dir": str(self.path), "engine": self.engine, "variant": self.variant, "block": self.block,
-                "pulse": self.pulse, "restitution": self.restitution, "eta": self.eta,
-                "grid": grid_of(m)}
-
-
-def grid_of(m: LabelMap) -> dict:
-    """The grid of a map, as score.json records it (for comparability checks)."""
-    return {"n_w": int(m.w_ratio.size), "n_a": int(m.a_ratio.size), "w_lo": float(m.w_ratio[0]),
-            "w_hi": float(m.w_ratio[-1]), "a_lo": float(m.a_ratio[0]), "a_hi": float(m.a_ratio[-1])}
-
-
-# -- finding and reading maps ----------------------------------------------------------------------
-
-def find_map_dirs(paths: Iterable) -> list[Path]:
-    """Map directories at or below each path (a directory with cells.csv), sorted, no duplicates.
-
-    Raises
-    ------
-    ConfigError
-        A path that does not exist, or holds no map at all.
-    """
-    out: list[Path] = []
-    for p in paths:
-        p = Path(p)
-        if not p.is_dir():
-            raise ConfigError(f"{str(p)!r} is not a directory; give run directories written by `rockbench map` "
-                              "or `rockbench run`.")
-        found = [p] if (p / "cells.csv").is_file() else sorted(c.parent for c in p.rglob("cells.csv"))
-        if not found:
-            raise ConfigError(f"{str(p)!r} holds no map (no cells.csv in it or below); compute one with "
-                              "`rockbench map ... --out DIR`.")
-        out.extend(f for f in found if f not in out)
-    return out
-
-
-def load_entry(d: Path) -> MapEntry:
-    """Read one map directory into a :class:`MapEntry`.
-
-    Uses the maps harness's loader when it is installed (:func:`rockbench.benchmark.maps.load_map`),
-    so adaptive maps get their inferred cells by the harness's own rule; otherwise reads the
-    CLI.md columns of cells.csv.
-    """
-    d = Path(d)
-    run = _read_json(d / "run.json") if (d / "run.json").is_file() else {}
-    try:
-        from .maps import load_map  # the store of the maps harness
-    except ImportError:
-        load_map = None
-    if load_map is not None and run.get("kind") == "rockbench-map":
-        res = load_map(d)
-        spec = res.spec
-        codes = np.where(np.asarray(res.outcome) < 0, FAILED, np.asarray(res.outcome, dtype=int))
-        sim = np.asarray(res.simulated, bool)
-        # cells an adaptive sweep inferred were never simulated, so nothing in them broke the model
-        lm = LabelMap(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool) | ~sim,
-                      np.asarray(res.left_model, bool) & sim, sim,
-                      filled=int(np.count_nonzero(~sim & (codes != FAILED))))
-        lm.meta["missing_cells"] = int(res.counts()["missing"])
-        engine, block, pulse = spec.engine, spec.block.name, spec.pulse
-        restitution, eta = spec.restitution.label, float(spec.eta)
-        settings, dt = dict(spec.engine_settings or {}), spec.dt_s
-    else:
-        lm, first = _read_cells(d / "cells.csv")
-        engine, block, pulse, restitution = first["engine"], first["block"], first["pulse"], first["restitution"]
-        eta = float(first["eta"])
-        spec = run.get("spec") or {}
-        settings, dt = dict(spec.get("engine_settings") or {}), spec.get("dt_s")
-    variant = variant_name(engine, settings, dt)
-    lm.meta.update({"engine": engine, "variant": variant, "block": block, "pulse": pulse,
-                    "restitution": restitution, "eta": eta})
-    return MapEntry(d, lm, engine, variant, block, pulse, restitution, eta, run)
-
-
-def variant_name(engine: str, settings: dict | None = None, dt_s: float | None = None) -> str:
-    """``engine[k=v,...,dt=...]``: the engine with its non-default settings and time step."""
-    parts = [f"{k}={v}" for k, v in sorted((settings or {}).items())]
-    if dt_s is not None:
-        parts.append(f"dt={dt_s:g}")
-    return f"{engine}[{','.join(parts)}]" if parts else engine
-
-
-def _read_json(p: Path) -> dict:
-    """A JSON object from ``p``; ConfigError naming the file when it is unreadable or not an object."""
-    try:
-        doc = json.loads(p.read_bytes().decode("utf-8-sig"))
-    except (OSError, ValueError) as e:   # UnicodeDecodeError and JSONDecodeError are ValueErrors
-        why = e.strerror if isinstance(e, OSError) and e.strerror else e
-        raise ConfigError(f"cannot read {str(p)!r} ({why}); is it a rockbench file?") from None
-    if not isinstance(doc, dict):
-        raise ConfigError(f"{str(p)!r} is damaged: it holds {'null' if doc is None else type(doc).__name__}, not a "
-                          "JSON object; is it a rockbench file?")
-    return doc
-
-
-def _read_cells(path: Path) -> tuple[LabelMap, dict]:
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except OSError as e:
-        raise ConfigError(f"cannot read {str(path)!r}: {e.strerror or e}.") from None
-    except UnicodeDecodeError as e:
-        raise ConfigError(f"{str(path)!r} is not UTF-8 text (byte {e.start}); is it a cells.csv?") from None
-    # a torn last line (the run was killed mid-write) is not a row
-    text = text[: text.rfind("\n") + 1]
-    rows = list(csv.DictReader(text.splitlines()))
-    header = rows[0].keys() if rows else next(csv.reader(text.splitlines()), [])
-    missing = [c for c in CELL_COLUMNS if c not in header]
-    if missing:
-        raise IncomparableError(f"{str(path)!r} lacks the column {missing[0]!r} of cells.csv (CLI.md); it was "
-                                "written by another tool or version.")
-    if not rows:
-        raise ConfigError(f"{str(path)!r} has no cells yet; let `rockbench map` finish (rerun it to resume).")
-    keys = {(r["engine"], r["block"], r["pulse"], r["restitution"]) for r in rows}
-    if len(keys) > 1:
-        raise ConfigError(f"{str(path)!r} mixes maps ({len(keys)} engine/block/pulse/restitution combinations); "
-                          "one run directory holds one map.")
-    ok = [r.get("status", "ok") in ("ok", "") for r in rows]
-    outcome = [r["outcome"] if good else "" for r, good in zip(rows, ok)]
-    valid = [str(r["valid"]).strip().lower() in ("true", "1") for r in rows]
-    try:
-        w = [float(r["w_ratio"]) for r in rows]
-        a = [float(r["a_ratio"]) for r in rows]
-    except ValueError as e:
-        raise ConfigError(f"{str(path)!r} has a non-numeric w_ratio or a_ratio ({e}).") from None
-    return from_cells(w, a, outcome, valid, flags=[r["flags"] for r in rows]), rows[0]
-
-
-def load_entries(paths: Iterable) -> list[MapEntry]:
-    """Every map at or below ``paths`` (see :func:`find_map_dirs`)."""
-    return [load_entry(d) for d in find_map_dirs(paths)]
 
 
 # -- scoring ---------------------------------------------------------------------------------------
@@ -298,7 +118,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
                                 "(or pass it with --against).")
     pairs.sort(key=lambda p: p["key"])
     doc = {"kind": SCORE_KIND, "schema_version": SCORE_SCHEMA_VERSION, "metrics_version": METRICS_VERSION,
-           "created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+           "created_utc": utc_stamp(),
            "metrics": [m.to_dict() for m in METRICS.values()], "pairs": pairs, "skipped": skipped}
     if experiments is not None:
         doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
@@ -342,28 +162,6 @@ def score_experiments(entries: list[MapEntry], points) -> list[dict]:
         s = score_outcomes(points, e.label_map, e.block, e.pulse)
         if s["points"]:
             out.append({"variant": e.variant, "restitution": e.restitution, "dir": str(e.path), **s})
-    return out
-
-
-#: File of each engine variant's free-rocking η written by ``rockbench run`` at the top of its output.
-CALIBRATION_FILE = "calibration.json"
-
-
-def load_own_eta(paths: Iterable) -> dict:
-    """``{(variant, block): η}`` from the calibration.json files at the top of ``paths``."""
-    out = {}
-    for p in paths:
-        f = Path(p) / CALIBRATION_FILE
-        if f.is_file():
-            doc = _read_json(f)
-            rows = doc.get("measurements", [])
-            try:
-                for row in rows:
-                    if row.get("eta_measured") is not None:
-                        out[(str(row["variant"]), str(row["block"]))] = float(row["eta_measured"])
-            except (AttributeError, KeyError, TypeError, ValueError) as e:
-                raise ConfigError(f"{str(f)!r} is damaged ({type(e).__name__}: {e}); delete it (`rockbench run` "
-                                  "measures the engines' η again).") from None
     return out
 
 
@@ -498,28 +296,6 @@ def gate(doc: dict, thresholds: dict) -> list[str]:
     return out
 
 
-def write_json_atomic(path, data: dict) -> Path:
-    """Write ``data`` as JSON through a temporary file and a rename (never a torn file)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return _write_json(path, _clean(data))
-
-
-def _clean(x):
-    """JSON-safe copy: NaN and infinities become null, numpy scalars and arrays plain Python."""
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    if isinstance(x, (np.floating, np.integer, np.bool_)):
-        x = x.item()
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
 def load_score(path) -> dict:
     """A score document from a score.json file, or computed from a run directory.
 
@@ -541,7 +317,7 @@ def load_score(path) -> dict:
             return score_dirs([p])
     if not p.is_file():
         raise ConfigError(f"{str(p)!r} does not exist; give a score.json or a run directory.")
-    doc = _read_json(p)
+    doc = read_json(p)
     if doc.get("kind") != SCORE_KIND:
         raise IncomparableError(f"{str(p)!r} is not a rockbench score file (kind {doc.get('kind')!r}).")
     if doc.get("schema_version") != SCORE_SCHEMA_VERSION:

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from rockbench.benchmark.cli import main
-from rockbench.benchmark.run import load_suite, plan, restitution_for, run_suite, suite_path
+from rockbench.benchmark.suite_runner import load_suite, plan, restitution_for, run_suite, suite_path
 from rockbench.reference_solver.errors import ConfigError
 
 
@@ -62,12 +62,11 @@ def test_run_cli_usage(tmp_path, capsys):
     assert "Traceback" not in err and err.count("\n") == 4
 
 
-def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(tmp_path, monkeypatch):
-    import maps_helpers as mh
+def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(fake_engines, tmp_path, monkeypatch):
     from rockbench.benchmark import executors
-    from rockbench.benchmark.run import run_suite
+    from rockbench.benchmark.suite_runner import run_suite
 
-    mh.register_all()
+    fake_engines.register_all()
     (tmp_path / "s.toml").write_text(
         "[suite]\nname = 't'\n[grid]\nw_ratio = '1:8:5'\na_ratio = '1:9:5'\n"
         "[cases]\nblocks = ['B3M', 'B6L']\npulses = ['sine']\n[reference]\nrestitutions = ['housner']\n"
@@ -112,9 +111,8 @@ GRID = "[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\n[cases]\nblocks = ['B3M
     ("[engines]\nvariants = []\n", "engines.variants"),
     ("[grid]\nadaptive = 'yes'\n", None),
 ])
-def test_bad_suite_fails_before_the_first_map_and_in_plan(tmp_path, capsys, extra, needle):
-    import maps_helpers as mh
-    mh.register_all()
+def test_bad_suite_fails_before_the_first_map_and_in_plan(fake_engines, tmp_path, capsys, extra, needle):
+    fake_engines.register_all()
     text = GRID + extra if not extra.startswith("[grid]") else GRID.replace("[cases]", extra.split("\n", 1)[1] + "[cases]")
     p = tmp_path / "s.toml"
     p.write_text(text)
@@ -163,9 +161,8 @@ def test_a_folder_is_never_a_suite_file(tmp_path, capsys, monkeypatch):
     assert main(["run", "./mysuite", "--plan"]) == 0
 
 
-def test_run_engines_option(tmp_path, capsys):
-    import maps_helpers as mh
-    mh.register_all()
+def test_run_engines_option(fake_engines, tmp_path, capsys):
+    fake_engines.register_all()
     p = tmp_path / "s.toml"
     p.write_text(GRID + "[engines]\nvariants = [{ sleep_s = 0.0 }]\n")
     assert main(["run", str(p), "--plan", "--engines", "analytic"]) == 0
@@ -186,14 +183,13 @@ def _rows(d):
         return {(r["i"], r["j"]): {k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(f)}
 
 
-def test_lanes_and_helpers_give_what_one_worker_gives(tmp_path):
+def test_lanes_and_helpers_give_what_one_worker_gives(fake_engines, tmp_path):
     """Engine maps on two lanes at once and the η measured by two helpers: the same maps, cell for
     cell, and the same calibration.json as one worker doing everything in turn; each η measured once,
     and not again on a rerun."""
-    import maps_helpers as mh
-    from rockbench.benchmark.run import run_suite
+    from rockbench.benchmark.suite_runner import run_suite
 
-    mh.register_all()
+    fake_engines.register_all()
     log = tmp_path / "measured.txt"
     (tmp_path / "s.toml").write_text(
         "[suite]\nname = 't'\n[grid]\nw_ratio = '1:8:9'\na_ratio = '1:9:9'\nadaptive = true\ncoarse_stride = 2\n"
@@ -218,17 +214,16 @@ def test_lanes_and_helpers_give_what_one_worker_gives(tmp_path):
     assert len(log.read_text().splitlines()) == 8       # the rerun reuses calibration.json
 
 
-def test_a_lane_that_fails_stops_the_suite(tmp_path, monkeypatch):
+def test_a_lane_that_fails_stops_the_suite(fake_engines, tmp_path, monkeypatch):
     """Workers that cannot start their engine stop the whole suite with the reason, whichever lane
     meets them first; the other lane is cancelled, nothing hangs."""
     import os
 
-    import maps_helpers as mh
     from rockbench.benchmark import executors
-    from rockbench.benchmark.run import run_suite
+    from rockbench.benchmark.suite_runner import run_suite
     from rockbench.reference_solver.errors import EngineError
 
-    mh.register_all()
+    fake_engines.register_all()
     monkeypatch.setenv("RB_TEST_PARENT_PID", str(os.getpid()))
     monkeypatch.setattr(executors.ProcessExecutor, "START_TIMEOUT_S", 1.0)
     (tmp_path / "s.toml").write_text(

@@ -75,16 +75,27 @@ def block_from_args(args) -> tuple[Block, object]:
                  density_kg_m3=None if args.density is None else _num("--density", args.density)), None
 
 
-def restitution_from_args(args, preset) -> Restitution:
+def jobs_from_args(args) -> int | None:
+    """``--jobs N``: a whole number >= 1 of worker processes, or None (not given: all cores)."""
+    text = args.jobs
+    if text is None:
+        return None
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise ConfigError(f"--jobs must be a whole number >= 1, got {text!r}.")
+    return n
+
+
+def restitution_from_args(args, preset, option: str = "--restitution") -> Restitution:
+    """``--restitution`` (or ``option``) and ``--k`` into a Restitution (:meth:`Restitution.parse`; a preset
+    supplies its average and exact k)."""
     k = None if args.k is None else _num("--k", args.k)
-    law = str(args.restitution).strip().lower()
-    if law == "modified" and k is None:
-        if preset is None:
-            raise ConfigError("--restitution modified on a custom block needs --k (the impulse position in [0, 1]).")
-        k = preset.k_average
-    elif law != "modified" and k is not None:
-        raise ConfigError(f"--k applies to --restitution modified only, got --restitution {args.restitution}.")
-    return Restitution.parse(law if law in ("housner", "modified") else args.restitution, k=k)
+    return Restitution.parse(getattr(args, option.lstrip("-")), k, option=option,
+                             k_average=None if preset is None else preset.k_average,
+                             k_exact=None if preset is None else preset.k_exact)
 
 
 def _one_of(args, names: list[str], what: str):

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
 
-from rockbench.benchmark.scores import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING, LabelMap,
+from rockbench.benchmark.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING, LabelMap,
                                         boundary_points, check_gate, critical_amplitude, from_cells,
                                         cell_counts, is_perfect, parse_thresholds, score)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
@@ -321,7 +321,7 @@ def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(
 
 
 def test_metrics_version_two_refuses_version_one():
-    from rockbench.benchmark.scoring import compare_scores
+    from rockbench.benchmark.score_runs import compare_scores
     doc = {"metrics_version": "1", "pairs": []}
     with pytest.raises(IncomparableError, match="metrics version 1, current 2"):
         compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})

@@ -8,7 +8,8 @@ certain (after the pulse, ``|θ|`` passes α moving outward, or ``|θ|`` reaches
 the block has rocked freely through two impacts after the pulse without overturning (free rocking
 only loses energy, so a block that falls back twice never goes over), or when it is at rest.
 
-Used by ``tests/test_solver_physics.py`` and ``benchmarks/bench_reference.py``.
+Used by ``tests/test_solver_physics.py`` (the independent check of the solver) and
+``benchmarks/bench_reference.py`` (the timing against it).
 """
 
 from __future__ import annotations

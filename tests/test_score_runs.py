@@ -8,13 +8,12 @@ import pytest
 from rockbench.benchmark.cli import main
 from rockbench.reference_solver.restitution import Restitution
 
-from mapdirs import band, write_map
 
 MOD = Restitution("modified", k=0.8608)
 
 
 @pytest.fixture
-def suite(tmp_path):
+def suite(write_map, band, tmp_path):
     """reference Housner + modified, and an engine one row off the Housner reference."""
     root = tmp_path / "run"
     write_map(root / "ref-h", band(12, 10, 6))
@@ -65,7 +64,7 @@ def test_score_json_and_markdown(suite, capsys):
     assert code == 0 and "| engine |" in out and "|---|" in out
 
 
-def test_score_against(tmp_path, capsys):
+def test_score_against(write_map, band, tmp_path, capsys):
     write_map(tmp_path / "a", band(8, 8, 3))
     write_map(tmp_path / "b", band(8, 8, 4))
     code, out, err = run_cli(capsys, "score", tmp_path / "b", "--against", tmp_path / "a", "--no-write", "--json")
@@ -74,7 +73,7 @@ def test_score_against(tmp_path, capsys):
     assert p["scores"]["critical_error_max"] == pytest.approx(7.5 / 7)
 
 
-def test_score_incomparable_and_bad_input(tmp_path, capsys):
+def test_score_incomparable_and_bad_input(write_map, band, tmp_path, capsys):
     write_map(tmp_path / "r", band(8, 8, 3))
     code, _, err = run_cli(capsys, "score", tmp_path / "r")
     assert code == 5 and "only reference maps" in err
@@ -103,7 +102,7 @@ def test_score_with_experiments(suite, tmp_path, capsys):
     assert len(ex) == 3 and all(e["accuracy"] == 1.0 and e["runs"] == 1 for e in ex)
 
 
-def test_compare_identical_and_worsened(tmp_path, capsys):
+def test_compare_identical_and_worsened(write_map, band, tmp_path, capsys):
     base, cur = tmp_path / "base", tmp_path / "cur"
     for root in (base, cur):
         write_map(root / "ref", band(12, 10, 6))
@@ -132,7 +131,7 @@ def test_compare_identical_and_worsened(tmp_path, capsys):
     assert code == 0 and json.loads(out)["improvements"]
 
 
-def test_compare_incomparable(tmp_path, capsys):
+def test_compare_incomparable(write_map, band, tmp_path, capsys):
     a, b = tmp_path / "a", tmp_path / "b"
     write_map(a / "ref", band(8, 8, 3))
     write_map(a / "eng", band(8, 8, 3), engine="mujoco")
@@ -155,7 +154,7 @@ def test_compare_incomparable(tmp_path, capsys):
     assert code == 2
 
 
-def test_missing_pair_is_a_regression(tmp_path, capsys):
+def test_missing_pair_is_a_regression(write_map, band, tmp_path, capsys):
     a, b = tmp_path / "a", tmp_path / "b"
     for root in (a, b):
         write_map(root / "ref", band(8, 8, 3))
@@ -165,7 +164,7 @@ def test_missing_pair_is_a_regression(tmp_path, capsys):
     assert code == 1 and "MISSING" in out and "pybullet" in out
 
 
-def test_own_eta_reference_is_marked(tmp_path, capsys):
+def test_own_eta_reference_is_marked(write_map, band, tmp_path, capsys):
     """(d): a reference map with the engine's own measured η is recognised from calibration.json."""
     root = tmp_path / "run"
     write_map(root / "maps" / "ref-h", band(8, 8, 3))
@@ -182,7 +181,7 @@ def test_own_eta_reference_is_marked(tmp_path, capsys):
 
 
 def test_own_eta_jobs():
-    from rockbench.benchmark.run import load_suite, own_eta_jobs, suite_path
+    from rockbench.benchmark.suite_runner import load_suite, own_eta_jobs, suite_path
     s = load_suite(suite_path("default", False))
     assert s.own_eta
     jobs = own_eta_jobs(s, [{"variant": "a", "block": "B3M", "eta_measured": 0.91234},
@@ -193,7 +192,7 @@ def test_own_eta_jobs():
     assert jobs[0].restitution.value == 0.9123
 
 
-def test_cells_csv_from_another_tool_is_read_by_its_cli_columns(tmp_path, capsys):
+def test_cells_csv_from_another_tool_is_read_by_its_cli_columns(write_map, band, tmp_path, capsys):
     """A map directory without the store's run.json: cells.csv with only the CLI.md columns."""
     write_map(tmp_path / "ref", band(4, 3, 2))
     d = tmp_path / "foreign"
@@ -214,7 +213,7 @@ def test_cells_csv_from_another_tool_is_read_by_its_cli_columns(tmp_path, capsys
     assert code == 5 and "lacks the column" in err
 
 
-def test_compare_refuses_metrics_version_one(tmp_path, capsys):
+def test_compare_refuses_metrics_version_one(write_map, band, tmp_path, capsys):
     a = tmp_path / "a"
     write_map(a / "ref", band(8, 8, 3))
     write_map(a / "eng", band(8, 8, 3), engine="mujoco")
@@ -226,7 +225,7 @@ def test_compare_refuses_metrics_version_one(tmp_path, capsys):
     assert code == 5 and "metrics version 1, current 2" in err and "Traceback" not in err
 
 
-def test_scoring_half_a_reference_map_exits_5(tmp_path, capsys):
+def test_scoring_half_a_reference_map_exits_5(write_map, band, tmp_path, capsys):
     """A reference map with 20 of its 36 rows (an unfinished run) is refused, never scored."""
     root = tmp_path / "run"
     write_map(root / "ref", band(36, 6, 20))
@@ -242,7 +241,7 @@ def test_scoring_half_a_reference_map_exits_5(tmp_path, capsys):
     assert code == 5 and "216 of its 216 cells are missing" in err
 
 
-def test_score_json_records_the_domain_per_pair(tmp_path, capsys):
+def test_score_json_records_the_domain_per_pair(write_map, band, tmp_path, capsys):
     root = tmp_path / "run"
     lift = np.zeros((10, 8), bool)
     lift[7:, :3] = True                      # the reference needs the table to pull the block here
@@ -268,7 +267,7 @@ def _md_rows(text):
     return rows
 
 
-def test_compare_markdown_tables_are_well_formed_and_always_there(tmp_path, capsys):
+def test_compare_markdown_tables_are_well_formed_and_always_there(write_map, band, tmp_path, capsys):
     base, cur = tmp_path / "base", tmp_path / "cur"
     for root in (base, cur):
         write_map(root / "ref", band(12, 10, 6))
@@ -289,7 +288,7 @@ def test_compare_markdown_tables_are_well_formed_and_always_there(tmp_path, caps
     assert any("exudyn \\| B6M \\| sine" in r[1] for r in rows)
 
 
-def test_runs_given_together_are_paired_within_each_run(tmp_path, capsys):
+def test_runs_given_together_are_paired_within_each_run(write_map, band, tmp_path, capsys):
     a, b = tmp_path / "a", tmp_path / "b"
     write_map(a / "ref", band(12, 10, 6))
     write_map(a / "eng", band(12, 10, 6), engine="mujoco")           # perfect against its own reference
@@ -306,7 +305,7 @@ def test_runs_given_together_are_paired_within_each_run(tmp_path, capsys):
     assert "across runs" not in err
 
 
-def test_a_run_without_its_reference_is_paired_across_runs_and_says_so(tmp_path, capsys):
+def test_a_run_without_its_reference_is_paired_across_runs_and_says_so(write_map, band, tmp_path, capsys):
     refs, engs = tmp_path / "refs", tmp_path / "engs"
     write_map(refs / "ref", band(12, 10, 6))
     write_map(engs / "eng", band(12, 10, 6), engine="mujoco")
@@ -316,7 +315,7 @@ def test_a_run_without_its_reference_is_paired_across_runs_and_says_so(tmp_path,
     assert p["across_runs"] and "paired across runs" in err and str(refs) in err
 
 
-def test_compare_refuses_a_document_holding_a_pair_twice(tmp_path, capsys):
+def test_compare_refuses_a_document_holding_a_pair_twice(write_map, band, tmp_path, capsys):
     a, b = tmp_path / "a", tmp_path / "b"
     for root in (a, b):
         write_map(root / "ref", band(8, 8, 3))
@@ -326,7 +325,7 @@ def test_compare_refuses_a_document_holding_a_pair_twice(tmp_path, capsys):
     assert code == 5 and "twice" in err
 
 
-def test_tolerances_are_stated_in_cells(tmp_path, capsys):
+def test_tolerances_are_stated_in_cells(write_map, band, tmp_path, capsys):
     """On a 9 × 11 grid one flipped cell moves agreement by 1/99 > 0.005: not a regression by default;
     a shifted boundary is."""
     base, cur = tmp_path / "base", tmp_path / "cur"

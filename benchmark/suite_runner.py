@@ -53,10 +53,11 @@ from importlib import resources
 from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
+from ..reference_solver.pulses import is_number
 from ..reference_solver.restitution import Restitution
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
-from .scoring import CALIBRATION_FILE, variant_name
+from .results import CALIBRATION_FILE, variant_name
 
 SUITE_KEYS = {
     "suite": {"name", "description"},
@@ -323,22 +324,15 @@ def _dt(v, name, table):
 
 
 def restitution_for(token: str, block: str, where: str = "suite") -> Restitution:
-    """``housner``, ``modified-average``, ``modified-exact``, ``modified:K`` or a number → a Restitution."""
-    t = str(token).strip().lower()
+    """A suite's restitution token (``housner``, ``modified-average``, ``modified-exact``,
+    ``modified:K`` or a number) for a preset block: :meth:`Restitution.parse` with the preset's k."""
     pre = PRESETS[block]
-    if t == "housner":
-        return Restitution()
-    if t == "modified-average":
-        return Restitution("modified", k=pre.k_average)
-    if t == "modified-exact":
-        return Restitution("modified", k=pre.k_exact)
     try:
-        if t.startswith("modified:"):
-            return Restitution("modified", k=float(t.split(":", 1)[1]))
-        return Restitution("constant", value=float(t))
-    except ConfigError as e:    # a number out of range
-        raise ConfigError(f"{where}: restitution {token!r}: {e}") from None
-    except ValueError:
+        return Restitution.parse(token, k_average=pre.k_average, k_exact=pre.k_exact)
+    except ConfigError as e:
+        t = str(token).strip().lower()
+        if t.startswith("modified") or is_number(t):    # a known spelling with a value out of range
+            raise ConfigError(f"{where}: restitution {token!r}: {e}") from None
         raise ConfigError(f"{where}: restitution {token!r} is not one of housner, modified-average, modified-exact, "
                           "modified:K or a number in (0, 1].") from None
 
@@ -449,16 +443,6 @@ def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:
     return jobs
 
 
-def measure_own_eta(suite: Suite, engines: list[str], out: Path, log, workers: int = 1) -> tuple[list[dict], list[str]]:
-    """Each engine variant's free-rocking η on each block (kept in OUT/calibration.json and reused).
-
-    With ``workers`` > 1 the measurements run in that many helper processes at once (see
-    :func:`prepare_engines`). Returns the measurements and notes on the ones that failed.
-    """
-    rows, notes, _ = prepare_engines(suite, engines, out, log, workers=workers, own_eta=True)
-    return rows, notes
-
-
 def _variant_blocks(suite: Suite, engines: list[str]):
     for engine in engines:
         for variant in suite.engine_variants:
@@ -514,14 +498,14 @@ class _Preparation:
 
     def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
                  own_eta: bool | None = None):
-        from .scoring import _read_json
+        from .results import read_json
 
         self.t0 = time.perf_counter()
         self.suite, self.out = suite, out
         self.own_eta = suite.own_eta if own_eta is None else own_eta
         self.path = out / CALIBRATION_FILE
         self.old = {(r["variant"], r["block"]): r
-                    for r in (_read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
+                    for r in (read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
         self.tasks = []
         for engine, variant, block in _variant_blocks(suite, engines):
             vname = variant_name(engine, variant, suite.engine_dt_s)
@@ -570,7 +554,7 @@ class _Preparation:
     def finish(self) -> tuple[list[dict], list[str], float]:
         from concurrent.futures.process import BrokenProcessPool
 
-        from .scoring import write_json_atomic
+        from .results import write_json
 
         suite = self.suite
         try:
@@ -600,7 +584,7 @@ class _Preparation:
                 else:
                     notes.append(f"η of {vname} on {block} not measured: {r['error']}")
             self.out.mkdir(parents=True, exist_ok=True)
-            write_json_atomic(self.path, {"kind": "rockbench-calibration", "measurements": rows})
+            write_json(self.path, {"kind": "rockbench-calibration", "measurements": rows})
         return rows, notes, time.perf_counter() - self.t0
 
 
@@ -776,7 +760,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     """
     from .executors import cpu_count
     from .maps import MapSpec, parse_range
-    from .scoring import write_json_atomic
+    from .results import write_json
 
     from .atomic import check_output_dir
     from .executors import cap_jobs
@@ -874,10 +858,10 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
         from ..reference_solver.errors import IncomparableError
-        from .scoring import score_dirs
+        from .score_runs import score_dirs
         try:
             result["score"] = score_dirs([out / "maps"], experiments=experiments)
-            write_json_atomic(out / "score.json", result["score"])
+            write_json(out / "score.json", result["score"])
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
     result["report_wall_s"] = time.perf_counter() - t2
@@ -885,7 +869,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     if result["score"] is not None:
         from .tables import summary_table
         result["summary"] = summary_table(result["score"])
-    write_json_atomic(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,
+    write_json(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,
                                            **{k: v for k, v in result.items() if k not in ("suite", "score", "summary")},
                                            "suite_name": suite.name})
     return result
