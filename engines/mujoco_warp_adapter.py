@@ -209,6 +209,8 @@ class MujocoWarpAdapter(MujocoAdapter):
         dev = s["device"]
         if not isinstance(dev, str) or not (dev in _DEVICES or dev.startswith("cuda:")):
             raise ConfigError(f"mujoco_warp setting 'device' must be auto, cpu, cuda or cuda:N, got {dev!r}.")
+        if dev.startswith("cuda"):
+            self._device_available(dev)
         if s["solver"] not in _SOLVERS:
             raise ConfigError(f"mujoco_warp setting 'solver' must be newton or cg (MuJoCo Warp has no PGS), "
                               f"got {s['solver']!r}.")
@@ -245,18 +247,23 @@ class MujocoWarpAdapter(MujocoAdapter):
         return ("no CUDA device here (Warp's CPU device is single-threaded: too slow for a whole suite); "
                 "ask for it by name with --engines mujoco_warp")
 
+    @staticmethod
+    def _device_available(dev: str) -> None:
+        """ConfigError (one line, exit 2 in the CLI) when ``dev`` names a CUDA device Warp does not find."""
+        wp, _ = _warp()
+        name = "cuda:0" if dev == "cuda" else dev
+        if not wp.is_cuda_available() or name not in [str(d) for d in wp.get_cuda_devices()]:
+            found = ", ".join(str(d) for d in wp.get_cuda_devices()) or "none"
+            raise ConfigError(f"mujoco_warp setting device={dev!r}, but Warp finds no such CUDA device here "
+                              f"(CUDA devices: {found}); use device=auto or device=cpu.")
+
     def device_name(self) -> str:
         """The Warp device the worlds run on."""
         wp, _ = _warp()
         dev = self.settings["device"]
         if dev == "auto":
             return "cuda:0" if wp.is_cuda_available() else "cpu"
-        if dev == "cuda":
-            dev = "cuda:0"
-        if dev.startswith("cuda") and not wp.is_cuda_available():
-            raise ConfigError(f"mujoco_warp setting device={dev!r}, but Warp finds no CUDA device here; "
-                              "use device=auto or device=cpu.")
-        return dev
+        return "cuda:0" if dev == "cuda" else dev
 
     def _resolved_settings(self, block: Block, dt: float, cal) -> dict:
         out = super()._resolved_settings(block, dt, cal)

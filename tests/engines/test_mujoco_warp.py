@@ -131,9 +131,14 @@ def test_free_rocking_is_cpu_mujocos():
 
 
 def test_settings_are_checked():
-    for bad in ({"solver": "pgs"}, {"device": "tpu"}, {"iterations": 0}, {"threads": 2}, {"timeconst_s": -1.0}):
+    import warp as wp
+    bad = [{"solver": "pgs"}, {"device": "tpu"}, {"iterations": 0}, {"threads": 2}, {"timeconst_s": -1.0},
+           {"device": "cuda:7"}]
+    if not wp.is_cuda_available():
+        bad.append({"device": "cuda"})      # asked for, absent: one line, not failed cells later
+    for b in bad:
         with pytest.raises(ConfigError):
-            get_adapter("mujoco_warp", **bad)
+            get_adapter("mujoco_warp", **b)
 
 
 def test_default_suite_leaves_it_out_without_cuda_and_says_why():
