@@ -377,7 +377,7 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
     EngineUnavailableError
         An engine named explicitly (in the suite or in ``only``) is not installed.
     """
-    from ..engines.registry import availability, names
+    from ..engines.registry import adapter_class, availability, names
 
     notes = []
     if only is not None:
@@ -397,10 +397,14 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
                              f"or the full suite")
                 continue
             a = availability(n)
-            if a["available"]:
-                out.append(n)
-            else:
+            if not a["available"]:
                 notes.append(f"engine {n} skipped: {a['reason']}")
+                continue
+            why_not = adapter_class(n).default_suite_exclusion()
+            if why_not:
+                notes.append(f"engine {n} skipped: {why_not}")
+            else:
+                out.append(n)
         return out, notes
     for n in suite.engine_names:
         a = availability(n)

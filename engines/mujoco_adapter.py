@@ -565,7 +565,7 @@ class MujocoAdapter(ContactEngineAdapter):
         dt = self.check_dt(dt_s)
         target = self.check_target_eta(target_eta)
         solver = self._solver_params()
-        key = _cal.cache_key(engine="mujoco", version=mujoco.__version__, procedure=CALIBRATION_VERSION,
+        key = _cal.cache_key(**self._calibration_identity(), procedure=CALIBRATION_VERSION,
                              block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
                              target=target, dt=dt, drive=self.settings["drive"], planar=self.settings["planar"],
                              friction=self.settings["friction"], solver=solver)
@@ -605,10 +605,15 @@ class MujocoAdapter(ContactEngineAdapter):
                                           "friction": self.settings["friction"], "dt_s": dt,
                                           "rest_sink_m": sink_mm * 1e-3},
                                 note=note, evaluations=len(results))
-        _cal.store(key, {"key": key, "block": block.name, "mujoco": mujoco.__version__,
+        _cal.store(key, {"key": key, "block": block.name, "mujoco": mujoco.__version__, "engine": self.name,
                          "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
                          "grid": [list(r) for r in results]})
         return res
+
+    def _calibration_identity(self) -> dict:
+        """What names this engine in the calibration cache key (an adapter built on this one adds its own)."""
+        import mujoco
+        return {"engine": "mujoco", "version": mujoco.__version__}
 
     def _rest_sink_m(self, block: Block, params: dict, dt: float) -> float:
         """How deep the block at rest sinks into its soft contact [m] (a measure of the softness)."""
