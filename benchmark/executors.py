@@ -206,7 +206,8 @@ class SerialExecutor:
     def run(self, items, on_results, *, cell_timeout_s: float, batch: bool) -> None:
         if not items:
             return
-        size = self.MAX_BATCH if batch else 64
+        # an adapter whose batch gains from size (worlds on a GPU) may ask for more per call
+        size = max(self.MAX_BATCH, int(getattr(type(self.adapter), "max_batch", 0))) if batch else 64
         for chunk in _chunks(items, math.ceil(len(items) / size)):
             if self.parallel:
                 with self.threads():

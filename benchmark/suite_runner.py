@@ -23,6 +23,7 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
 
     [engines]
     names = "available"          # every installed engine but the reference, or a list of names
+    exclude = ["drake"]          # with "available": engines left out even when installed (a note says so)
     variants = [{settings = "calibrated"}, {settings = "defaults"}]    # engine settings, one map each
                                  # a variant may carry its own restitution = "modified-average" (...):
                                  # its η target and its maps' label (scored like for like against
@@ -68,7 +69,7 @@ SUITE_KEYS = {
     "grid": {"w_ratio", "a_ratio", "adaptive", "coarse_stride"},
     "cases": {"blocks", "pulses"},
     "reference": {"restitutions", "dt_s"},
-    "engines": {"names", "variants", "restitution", "dt_s", "own_eta"},
+    "engines": {"names", "exclude", "variants", "restitution", "dt_s", "own_eta"},
     "run": {"cell_timeout_s"},
     "report": {"cases", "experiments"},
 }
@@ -127,6 +128,7 @@ class Suite:
     report_cases: list
     experiments: str | None
     raw: dict = field(default_factory=dict)
+    engine_exclude: list = field(default_factory=list)
 
 
 #: the shipped suites, by name
@@ -228,6 +230,10 @@ def load_suite(path) -> Suite:
     names = get("engines", "names", "available")
     if not (names == "available" or (isinstance(names, list) and all(isinstance(n, str) for n in names))):
         raise ConfigError(f"suite {p.name}: engines.names must be \"available\" or a list of names, got {names!r}.")
+    exclude = str_list("engines", "exclude", [], empty=True)
+    if exclude and names != "available":
+        raise ConfigError(f"suite {p.name}: engines.exclude goes with names = \"available\"; with a list of "
+                          f"names, leave the engine out of the list instead.")
     variants = get("engines", "variants", [{}])
     if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants) or not variants:
         raise ConfigError(f"suite {p.name}: engines.variants must be a non-empty list of tables of settings.")
@@ -281,7 +287,7 @@ def load_suite(path) -> Suite:
                   engine_names=names, engine_variants=variants, engine_restitution=eng_rest,
                   engine_dt_s=_dt(get("engines", "dt_s"), p.name, "engines"),
                   own_eta=bool(get("engines", "own_eta", False)), cell_timeout_s=float(timeout),
-                  report_cases=cases, experiments=exp, raw=raw)
+                  report_cases=cases, experiments=exp, raw=raw, engine_exclude=exclude)
     # every map's spec, built once here, checks the grid's size and each time step against the
     # highest frequency of each block
     for block in blocks:
@@ -388,7 +394,7 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
     EngineUnavailableError
         An engine named explicitly (in the suite or in ``only``) is not installed.
     """
-    from ..engines.registry import availability, names
+    from ..engines.registry import adapter_class, availability, names
 
     notes = []
     if only is not None:
@@ -403,11 +409,19 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
         for n in names():
             if n == "reference":
                 continue
+            if n in suite.engine_exclude:
+                notes.append(f"engine {n} left out by the suite (engines.exclude); run it with --engines {n} "
+                             f"or the full suite")
+                continue
             a = availability(n)
-            if a["available"]:
-                out.append(n)
-            else:
+            if not a["available"]:
                 notes.append(f"engine {n} skipped: {a['reason']}")
+                continue
+            why_not = adapter_class(n).default_suite_exclusion()
+            if why_not:
+                notes.append(f"engine {n} skipped: {why_not}")
+            else:
+                out.append(n)
         return out, notes
     for n in suite.engine_names:
         a = availability(n)

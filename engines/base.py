@@ -53,6 +53,8 @@ The contract, for a subclass of :class:`EngineAdapter`:
    (engines with a contact model implement them; the reference solver does not need them).
 9. ``version()`` returns the engine's version string, or raises
    :class:`~rockbench.reference_solver.errors.EngineUnavailableError` with an install hint.
+10. ``default_suite_exclusion()`` (optional) says in one line why suites that run every available
+   engine leave this one out on this machine (None: they include it); named explicitly, it runs.
 
 ``rockbench check-adapter NAME`` runs a conformance suite on any registered adapter
 (:mod:`rockbench.engines.checker`). Engines with a contact model derive from
@@ -463,6 +465,14 @@ class EngineAdapter:
         """Search the engine's contact settings so its free-rocking η reaches ``target_eta`` (1 %)."""
         raise ConfigError(f"engine {self.name!r} has no contact model to calibrate; "
                           "calibrate applies to engines such as mujoco, pybullet, exudyn.")
+
+    @classmethod
+    def default_suite_exclusion(cls) -> str | None:
+        """Why a suite that runs every available engine (``names = "available"``) leaves this one
+        out on this machine, in one line; None (the default) when it takes part. Asked for by name,
+        an engine always runs. (MuJoCo Warp, for one, needs a CUDA device to run a whole suite in
+        reasonable time.)"""
+        return None
 
     @classmethod
     def version(cls) -> str:

@@ -207,6 +207,10 @@ class MujocoAdapter(ContactEngineAdapter):
         "threads": 0,
     }
 
+    #: whether this adapter builds the contact along the base (issue 18); a subclass that does not
+    #: (MuJoCo Warp) sets it False: ``auto`` then keeps the corners for every target
+    distributed_contact = True
+
     def __init__(self, **settings):
         super().__init__(**settings)
         self._models: dict = {}
@@ -219,7 +223,10 @@ class MujocoAdapter(ContactEngineAdapter):
         self._whole_setting(s, "noslip_iterations", 0)
         self._whole_setting(s, "threads", 0, allow_none=False)
         if s["contact"] not in _CONTACTS:
-            raise ConfigError(f"mujoco setting 'contact' must be one of {', '.join(_CONTACTS)}, got {s['contact']!r}.")
+            raise ConfigError(f"{self.name} setting 'contact' must be one of {', '.join(_CONTACTS)}, got {s['contact']!r}.")
+        if s["contact"] == "distributed" and not self.distributed_contact:
+            raise ConfigError(f"{self.name} setting contact='distributed' is not supported by this adapter "
+                              "(its contact along the base was not built or tested); use corners or auto.")
         if s["contact_points"] is not None:
             try:
                 n = int(s["contact_points"])
@@ -660,7 +667,8 @@ class MujocoAdapter(ContactEngineAdapter):
         """
         kind = self.settings["contact"]
         if kind == "auto":
-            kind = "corners" if float(target_eta) <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
+            kind = ("corners" if float(target_eta) <= 1.01 * housner_eta(block.alpha_rad)
+                    or not self.distributed_contact else "distributed")
         if kind == "distributed":
             return self._calibrate_distributed(block, target_eta, dt_s=dt_s, use_cache=use_cache)
         return self._calibrate_corners(block, target_eta, dt_s=dt_s, use_cache=use_cache)
@@ -813,7 +821,7 @@ class MujocoAdapter(ContactEngineAdapter):
         dt = self.check_dt(dt_s)
         target = self.check_target_eta(target_eta)
         solver = self._solver_params()
-        key = _cal.cache_key(engine="mujoco", version=mujoco.__version__, procedure=CALIBRATION_VERSION,
+        key = _cal.cache_key(**self._calibration_identity(), procedure=CALIBRATION_VERSION,
                              block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
                              target=target, dt=dt, drive=self.settings["drive"], planar=self.settings["planar"],
                              friction=self.settings["friction"], solver=solver)
@@ -853,10 +861,15 @@ class MujocoAdapter(ContactEngineAdapter):
                                           "friction": self.settings["friction"], "dt_s": dt,
                                           "rest_sink_m": sink_mm * 1e-3},
                                 note=note, evaluations=len(results))
-        _cal.store(key, {"key": key, "block": block.name, "mujoco": mujoco.__version__,
+        _cal.store(key, {"key": key, "block": block.name, "mujoco": mujoco.__version__, "engine": self.name,
                          "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
                          "grid": [list(r) for r in results]})
         return res
+
+    def _calibration_identity(self) -> dict:
+        """What names this engine in the calibration cache key (an adapter built on this one adds its own)."""
+        import mujoco
+        return {"engine": "mujoco", "version": mujoco.__version__}
 
     def _rest_sink_m(self, block: Block, params: dict, dt: float) -> float:
         """How deep the block at rest sinks into its soft contact [m] (a measure of the softness)."""

@@ -18,7 +18,9 @@ BUILTIN = {
     "reference": "rockbench.engines.reference_adapter:ReferenceAdapter",
     "exudyn": "rockbench.engines.exudyn_adapter:ExudynAdapter",
     "mujoco": "rockbench.engines.mujoco_adapter:MujocoAdapter",
+    "mujoco_warp": "rockbench.engines.mujoco_warp_adapter:MujocoWarpAdapter",
     "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
+    "drake": "rockbench.engines.drake_adapter:DrakeAdapter",
 }
 
 #: the entry-point group third parties register under

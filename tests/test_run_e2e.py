@@ -10,7 +10,7 @@ from rockbench.benchmark.cli import main
 from rockbench.benchmark.maps import MapSpec, parse_range, run_map
 from rockbench.benchmark.presets import get_preset
 from rockbench.benchmark.score_runs import score_dirs
-from rockbench.engines.registry import BUILTIN, availability
+from rockbench.engines.registry import BUILTIN, adapter_class, availability
 from rockbench.reference_solver.restitution import Restitution
 
 
@@ -49,13 +49,20 @@ def test_run_quick_end_to_end(tmp_path):
     assert (out / "img" / "theta_b3m_sine_6_6.1.png").is_file()
     suite = json.loads((out / "suite.json").read_text())
     assert suite["suite_name"] == "quick" and suite["suite"]["grid"]["adaptive"] and len(suite["maps"]) >= 12
-    engines = [n for n in BUILTIN if n != "reference" and availability(n)["available"]]
+    # the engines the suite's "available" picks: installed, not in its `exclude` list (drake), and not
+    # left out on this machine by the adapter itself (MuJoCo Warp without a CUDA device)
+    left_out = suite["suite"]["engines"].get("exclude", [])
+    engines = [n for n in BUILTIN if n != "reference" and n not in left_out and availability(n)["available"]
+               and not adapter_class(n).default_suite_exclusion()]
+    for n in left_out:
+        if n in BUILTIN and availability(n)["available"]:
+            assert f"engine {n} left out by the suite" in r.stderr
     if engines:
         doc = json.loads((out / "score.json").read_text())
         assert {p["engine"] for p in doc["pairs"]} == set(engines)
         assert "agree" in r.stdout
         # one pool of workers per engine variant, kept for all its maps: one workers.log each
-        for e in engines:
+        for e in (e for e in engines if adapter_class(e).batching != "parallel"):   # in-process: no workers
             variant_dirs = [d for d in (out / "maps").iterdir() if d.name.startswith(e)]
             assert variant_dirs and all((d / "workers.log").is_file() for d in variant_dirs)
             assert not any((m / "workers.log").exists() for d in variant_dirs for m in d.iterdir() if m.is_dir())

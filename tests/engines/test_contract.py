@@ -1,4 +1,4 @@
-"""The adapter contract, one test for every contact engine (MuJoCo, PyBullet, Exudyn).
+"""The adapter contract, one test for every contact engine (MuJoCo, PyBullet, Exudyn, Drake).
 
 What each engine's own test file used to check the same way: the conformance suite passes, the
 shared settings are checked, a bad time step is a ConfigError, the command line says what was
@@ -28,8 +28,11 @@ from rockbench.reference_solver.restitution import Restitution, housner_eta
 
 pytestmark = pytest.mark.engine
 
-ENGINES = [pytest.param(n, marks=pytest.mark.skipif(importlib.util.find_spec(n) is None, reason=f"{n} not installed"))
-           for n in ("mujoco", "pybullet", "exudyn")]
+#: engine name → its Python module (what must be importable for the engine to run)
+MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "drake": "pydrake"}
+
+ENGINES = [pytest.param(n, marks=pytest.mark.skipif(importlib.util.find_spec(m) is None, reason=f"{n} not installed"))
+           for n, m in MODULES.items()]
 
 #: per engine: the rocking case of the trajectory test (block, pulse, ω/p, a₀/(g·tanα)), the mirror
 #: test's case and tolerance (max |θ(ü) + θ(−ü)| over α, or over max |θ| for PyBullet, whose
@@ -55,6 +58,12 @@ SPEC = {
         slip=(("B3M", "sine", 6.0, 3.0), dict(friction=0.2, contact_restitution=0.05)),
         cli_block="B3M",
         cli_settings=lambda s: s["impact_model"] == 2 and math.isfinite(s["restitution_coefficient"])),
+    "drake": dict(
+        trajectory=("B3M", "sine", 4.0, 3.0),
+        mirror=(("B3M", "sine", 4.0, 3.0), 1e-6, "peak"),
+        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, point_stiffness_n_m=1e6, relaxation_time_s=1e-3)),
+        cli_block="B6M",
+        cli_settings=lambda s: s["point_stiffness_n_m"] > 0 and s["relaxation_time_s"] > 0),
 }
 
 

@@ -1,0 +1,649 @@
+"""Drake adapter: the rocking block in Drake's compliant contact (``MultibodyPlant``).
+
+The model
+---------
+A box of full width ``b`` (x), depth ``d`` (y) and height ``h`` (z), with the block's mass and
+uniform density, stands on a table in a discrete ``MultibodyPlant`` (time step = the case's Δt)
+wired to a ``SceneGraph``. They touch only through Drake's own compliant contact; no constraint
+and no impact law of ours replaces it.
+
+* **Contact** (``contact``): ``point`` (default) puts small spheres (radius ``corner_radius_m``)
+  inside the bottom corners of the block, flush with its base and sides, against the table (a half
+  space, or a box for the table drive). Drake's point contact between a box and a plane gives one
+  contact point, the deepest, which cannot hold a block standing on its base; spheres at the corners
+  give one point per corner, as the rigid model has it. In the plane (``planar=True``) the two
+  in-plane corners (y = 0) carry the contact; a free 3-D block has all four, each with half the
+  stiffness, so ``point_stiffness_n_m`` is per bottom edge either way. ``hydroelastic`` makes the block
+  a compliant-hydroelastic box (modulus ``hydroelastic_modulus_pa``) pressed into a rigid-hydroelastic
+  table: the pressure field spreads the contact over the part of the base that penetrates.
+* **Discrete solver** (``approximation``): SAP (``sap``, default when calibrated), or the
+  Hunt–Crossley approximations ``similar`` and ``lagged`` (Drake's own default). SAP models
+  dissipation with a linear Kelvin–Voigt law and a relaxation time ``relaxation_time_s`` [s]; the
+  others with Hunt–Crossley dissipation ``hunt_crossley_dissipation_s_m`` [s/m]. The table carries a
+  stiffness of 1e20 (point) or is rigid (hydroelastic) and no dissipation, so the block's values
+  are the contact's (Drake combines the two materials in series).
+* **Planar** (default): a ``PlanarJoint`` keeps the block in the x–z plane (translation in x and
+  z, rotation about +y, so θ > 0 tilts the top towards +x: the contract's sign). ``planar=False``
+  makes it a free body.
+* **Anti-slip**: Coulomb friction 10 (``friction``, static = dynamic) on block and table.
+* **Drives** (``drive``): ``inertial`` (default): the table is fixed and the block feels ``−m·ü``
+  at its centre of mass as a generalized force on its x translation; ``table``: the table is a
+  heavy body (``table_mass_ratio`` × the block's mass) on a prismatic joint along x, pushed by
+  ``(M_table + m)·ü``, so it moves along ``u(t)`` with the velocity its contact needs; the largest
+  tracking error is recorded as ``table_track_err_rel``. Either force, over step ``[tₙ, tₙ₊₁]``, is
+  the step average ``(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` of ``ü`` times the mass: the impulse per step is exact.
+* **Restitution**: Drake has no η. ``settings="calibrated"`` (default) runs the contact parameters
+  :meth:`DrakeAdapter.calibrate` found for the case's η (cached on disk, see
+  :mod:`rockbench.engines.calibration`); ``settings="defaults"`` runs Drake as shipped: its default
+  discrete approximation (``lagged``) and contact parameters (stiffness and dissipation from its
+  default penetration allowance of 1 mm), with only the time step, the geometry and the anti-slip
+  friction set.
+
+Speed
+-----
+The diagram (plant, scene graph, a ``TrajectorySource`` for the drive force and a
+``VectorLogSink`` sampling the plant's state at every step) is built once per geometry and contact
+and kept in the process; a case only resets the context (time, state, log) and hands the drive
+to the source as a zero-order hold, then a ``Simulator`` advances it in segments of ``segment_s``:
+no Python call per step. After each segment the end-of-run rules are tested on the new samples.
+
+End of a run
+------------
+The pulse is simulated whole. Afterwards the run stops at the first sample where
+
+1. overturn is certain (the classifier's rule): ``|θ| > α`` moving outward after the pulse, or
+   the block lying on its side (``|θ| ≥ π/2 − 0.01``) at any time;
+2. trapped: at least ``min_tail_s`` after the pulse, the ideal free-rocking energy
+   ``E = ½θ̇² + p²cos(α − |θ|)`` is below the barrier ``p²`` by more than 5 % of the barrier
+   height ``p²(1 − cos α)``: free rocking only loses energy (the ``energy-gain`` check watches
+   for engines that break this), so the block can no longer overturn;
+3. ``tail_s`` after the pulse.
+
+Samples after that point are dropped, so the result does not depend on ``segment_s``. The shared
+classifier decides the outcome from θ(t); the adapter reports θ, θ̇, both bottom corners relative
+to the table and the block's own energy, and sets no flag but ``diverged``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import Block
+from ..reference_solver.restitution import Restitution
+from . import calibration
+from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
+                      free_rocking_duration_s, free_rocking_etas, overturn_certain)
+
+#: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
+#: point stiffness per bottom edge [N/m], hydroelastic modulus [Pa], SAP relaxation time [s] and
+#: Hunt–Crossley dissipation [s/m]. Stiff enough that the block's static sinking (m·g/(2k), 3 µm
+#: for B3M) is far below the slip and jump tolerances, dissipative enough that the corner does not
+#: bounce: the impact is then plastic and η is Housner's (docs/drake.md).
+BASE_CONTACT = {"point_stiffness_n_m": 1e6, "hydroelastic_modulus_pa": 1e8, "relaxation_time_s": 1e-3,
+                "hunt_crossley_dissipation_s_m": 0.1}
+
+#: Stiffnesses (factors of the base) where the calibration's search varies the dissipation. Point
+#: contact: softer ones, since only a contact the step resolves lets the dissipation change η (a
+#: stiffer one is near-rigid and plastic whatever its dissipation). Hydroelastic: stiffer ones
+#: first (a stiffer pressure field concentrates the contact towards the corner, which lowers η
+#: towards Housner's), then softer [-].
+_STIFFNESS_FACTORS = {"point": (0.1, 0.03), "hydroelastic": (10.0, 100.0, 0.1, 0.03)}
+
+#: Dissipation ranges searched, log10 [-]: SAP relaxation time [s], Hunt–Crossley [s/m].
+_DISSIPATION_LOG10 = {"relaxation_time_s": (-5.0, -1.0), "hunt_crossley_dissipation_s_m": (-3.0, 1.5)}
+
+#: Version of the calibration protocol (free-rocking test and search); part of the cache key.
+CALIBRATION_PROTOCOL = 3
+
+#: Largest per-impact spread of η (standard deviation over the target) a calibrated setting may show [-].
+_CAL_MAX_SPREAD = 0.02
+
+#: Trapped rule: stop when E < p² − _TRAPPED_MARGIN·p²(1 − cos α) (see the module docstring) [-].
+_TRAPPED_MARGIN = 0.05
+
+#: Half extents of the table box of the table drive [m]: wider than any table stroke.
+_TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
+
+#: Stiffness of the table's point-contact material [N/m]: so stiff that the block's sets the contact.
+_TABLE_POINT_STIFFNESS = 1e20
+
+_APPROXIMATIONS = ("sap", "similar", "lagged")
+_CONTACTS = ("point", "hydroelastic")
+
+#: Scenes kept per process (one per geometry and contact); the oldest goes first.
+_MAX_SCENES = 8
+
+
+def _import_pydrake():
+    """Import pydrake's pieces; silence the warnings Drake logs while a model is built."""
+    import logging
+
+    import pydrake.all as pd  # noqa: F401 - the whole API in one import
+
+    logging.getLogger("drake").setLevel(logging.ERROR)
+    return pd
+
+
+class _Scene:
+    """One built diagram: a block (planar or free) and a table (fixed or driven), contact as given.
+
+    ``key`` is everything the diagram depends on; a case with the same key reuses it.
+    """
+
+    def __init__(self, block: Block, s: dict, dt: float):
+        pd = _import_pydrake()
+        self.pid = os.getpid()
+        self.dt = dt
+        self.planar = bool(s["planar"])
+        self.drive = s["drive"]
+        b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
+        builder = pd.DiagramBuilder()
+        plant, _sg = pd.AddMultibodyPlantSceneGraph(builder, time_step=dt)
+        approx = s["approximation"]
+        if approx is not None:
+            plant.set_discrete_contact_approximation({
+                "sap": pd.DiscreteContactApproximation.kSap,
+                "similar": pd.DiscreteContactApproximation.kSimilar,
+                "lagged": pd.DiscreteContactApproximation.kLagged}[approx])
+        hydro = s["contact"] == "hydroelastic"
+        plant.set_contact_model(pd.ContactModel.kHydroelasticWithFallback if hydro else pd.ContactModel.kPoint)
+        mu = float(s["friction"])
+        friction = pd.CoulombFriction(mu, mu)
+        body = plant.AddRigidBody("block", pd.SpatialInertia.SolidBoxWithMass(m, b, d, h))
+
+        def material(stiffness, edge_share: float = 1.0):
+            props = pd.ProximityProperties()
+            diss = s["hunt_crossley_dissipation_s_m"]
+            pd.AddContactMaterial(dissipation=diss, point_stiffness=(None if stiffness is None else stiffness * edge_share),
+                                  friction=friction, properties=props)
+            if s["relaxation_time_s"] is not None:
+                props.AddProperty("material", "relaxation_time", float(s["relaxation_time_s"]))
+            return props
+
+        if hydro:
+            props = material(None)
+            modulus = s["hydroelastic_modulus_pa"] if s["hydroelastic_modulus_pa"] is not None else 1e8
+            pd.AddCompliantHydroelasticProperties(resolution_hint=min(b, d, h) / 4, hydroelastic_modulus=modulus,
+                                                  properties=props)
+            plant.RegisterCollisionGeometry(body, pd.RigidTransform(), pd.Box(b, d, h), "block", props)
+        else:
+            r = float(s["corner_radius_m"])
+            corners = [(1, 0.0), (-1, 0.0)] if self.planar else [(sx, sy) for sx in (1, -1) for sy in (1, -1)]
+            share = 1.0 if self.planar else 0.5
+            for i, (sx, sy) in enumerate(corners):
+                plant.RegisterCollisionGeometry(
+                    body, pd.RigidTransform([sx * (b / 2 - r), sy * (d / 2 - r), -h / 2 + r]), pd.Sphere(r),
+                    f"corner{i}", material(s["point_stiffness_n_m"], share))
+
+        tprops = pd.ProximityProperties()
+        if s["settings"] == "defaults" and not hydro:
+            pd.AddContactMaterial(friction=friction, properties=tprops)
+        else:
+            pd.AddContactMaterial(dissipation=0.0, point_stiffness=_TABLE_POINT_STIFFNESS, friction=friction,
+                                  properties=tprops)
+            tprops.AddProperty("material", "relaxation_time", 0.0)
+        if hydro:
+            pd.AddRigidHydroelasticProperties(properties=tprops)
+        if self.drive == "table":
+            mt = float(s["table_mass_ratio"]) * m
+            hx, hy, hz = _TABLE_HALF_EXTENTS_M
+            table = plant.AddRigidBody("table", pd.SpatialInertia.SolidBoxWithMass(mt, 2 * hx, 2 * hy, 2 * hz))
+            plant.RegisterCollisionGeometry(table, pd.RigidTransform([0, 0, -hz]), pd.Box(2 * hx, 2 * hy, 2 * hz),
+                                            "table", tprops)
+            self.table_joint = plant.AddJoint(pd.PrismaticJoint("table_x", plant.world_frame(), table.body_frame(),
+                                                                [1.0, 0.0, 0.0]))
+            self.push_mass = mt + m
+        else:
+            plant.RegisterCollisionGeometry(plant.world_body(), pd.RigidTransform(), pd.HalfSpace(), "table", tprops)
+            self.table_joint = None
+            self.push_mass = m
+        if self.planar:
+            # joint frame F: x along world z, y along world x, z along world +y (so the joint's
+            # rotation is the contract's θ about +y); the block's frame M is rotated the same way
+            rot = pd.RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+            F = plant.AddFrame(pd.FixedOffsetFrame("plane_F", plant.world_frame(), pd.RigidTransform(rot)))
+            M = plant.AddFrame(pd.FixedOffsetFrame("plane_M", body.body_frame(), pd.RigidTransform(rot)))
+            joint = plant.AddJoint(pd.PlanarJoint("plane", F, M, np.zeros(3)))
+        plant.Finalize()
+        nq, nv = plant.num_positions(), plant.num_velocities()
+        if self.planar:
+            q0, v0 = joint.position_start(), joint.velocity_start()
+            # q: (z, x, θ); v: (ż, ẋ, θ̇)
+            self.iq = {"z": q0, "x": q0 + 1, "th": q0 + 2}
+            self.iv = {"z": nq + v0, "x": nq + v0 + 1, "th": nq + v0 + 2}
+            self.force_index = v0 + 1
+        else:
+            q0, v0 = body.floating_positions_start(), body.floating_velocities_start_in_v()
+            # q: (qw, qx, qy, qz, x, y, z); v: (ω_W, v_W)
+            self.iq = {"quat": q0, "x": q0 + 4, "y": q0 + 5, "z": q0 + 6}
+            self.iv = {"wx": nq + v0, "th": nq + v0 + 1, "x": nq + v0 + 3, "z": nq + v0 + 5}
+            self.force_index = v0 + 3
+        if self.table_joint is not None:
+            self.iq["table"] = self.table_joint.position_start()
+            self.iv["table"] = nq + self.table_joint.velocity_start()
+            self.force_index = self.table_joint.velocity_start()
+        self.nq, self.nv = nq, nv
+        self.source = builder.AddSystem(pd.TrajectorySource(pd.PiecewisePolynomial(np.zeros((nv, 1)))))
+        builder.Connect(self.source.get_output_port(), plant.get_applied_generalized_force_input_port())
+        self.logger = pd.LogVectorOutput(plant.get_state_output_port(), builder, dt)
+        self.diagram = builder.Build()
+        self.plant, self.body = plant, body
+        self.context = self.diagram.CreateDefaultContext()
+        self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
+        self.simulator = pd.Simulator(self.diagram, self.context)
+        self._pd = pd
+
+    def place(self, block: Block, theta0: float) -> None:
+        """Block at rest at angle ``theta0`` (pivoting on the lower corner), table at rest at x = 0."""
+        b = block.width_m
+        s = 1.0 if theta0 >= 0 else -1.0
+        R, alpha = block.half_diagonal_m, block.alpha_rad
+        xc = s * (b / 2 - R * math.sin(alpha - abs(theta0)))
+        zc = R * math.cos(alpha - abs(theta0))
+        q = np.zeros(self.nq)
+        if self.planar:
+            q[self.iq["z"]], q[self.iq["x"]], q[self.iq["th"]] = zc, xc, theta0
+        else:
+            i = self.iq["quat"]
+            q[i:i + 4] = (math.cos(theta0 / 2), 0.0, math.sin(theta0 / 2), 0.0)
+            q[self.iq["x"]], q[self.iq["z"]] = xc, zc
+        self.plant.SetPositions(self.plant_context, q)
+        self.plant.SetVelocities(self.plant_context, np.zeros(self.nv))
+
+    def set_drive(self, force_per_step: np.ndarray) -> None:
+        """The generalized force on the driven dof during each step ``[tₙ, tₙ₊₁]`` (zero after them)."""
+        pd, dt = self._pd, self.dt
+        n = len(force_per_step)
+        # a hold centred on the step starts, so a step's update at tₙ (± round-off) sees value n
+        breaks = np.concatenate(([-0.5 * dt], (np.arange(n) + 0.5) * dt, [(n + 0.5) * dt + 1e9]))
+        values = np.zeros((self.nv, n + 2))
+        values[self.force_index, :n] = force_per_step
+        self.source.UpdateTrajectory(pd.PiecewisePolynomial.ZeroOrderHold(breaks, values))
+
+    def start(self) -> None:
+        self.context.SetTime(0.0)
+        self.logger.FindMutableLog(self.context).Clear()
+        self.simulator.Initialize()
+
+    def advance(self, n_steps: int) -> np.ndarray:
+        """Advance to step ``n_steps`` and return every logged state so far, ``(n_steps + 1, nq + nv)``."""
+        self.simulator.AdvanceTo(n_steps * self.dt)
+        data = self.logger.FindLog(self.context).data()
+        # a copy: the log's buffer is reused by the next case, a view would change under the caller
+        return np.array(data[:, :n_steps + 1].T, dtype=float, copy=True)
+
+
+class DrakeAdapter(ContactEngineAdapter):
+    """The rocking block in Drake (see the module docstring for the model and the end of a run).
+
+    Settings
+    --------
+    settings : {"calibrated", "defaults"}
+        Contact parameters calibrated to the case's η, or Drake as shipped.
+    contact : {"point", "hydroelastic"}
+        Point contact at the bottom corners, or hydroelastic contact of the whole base.
+    approximation : {"sap", "similar", "lagged"} or None
+        Drake's discrete contact approximation (None: ``sap`` calibrated, Drake's ``lagged`` as shipped).
+    drive : {"inertial", "table"}
+        How the pulse enters (inertial force at the centre of mass, or a driven table body).
+    planar : bool
+        Keep the block in the vertical x–z plane (a planar joint), or a free 3-D body.
+    friction : float
+        Coulomb friction block–table, static = dynamic [-].
+    point_stiffness_n_m : float or None
+        Point-contact stiffness per bottom edge [N/m]; given, it replaces calibration.
+    hydroelastic_modulus_pa : float or None
+        The block's hydroelastic modulus [Pa]; given, it replaces calibration.
+    relaxation_time_s : float or None
+        SAP's Kelvin–Voigt dissipation time scale [s]; given, it replaces calibration.
+    hunt_crossley_dissipation_s_m : float or None
+        Hunt–Crossley dissipation of ``similar``/``lagged`` [s/m]; given, it replaces calibration.
+    corner_radius_m : float
+        Radius of the corner spheres of point contact [m] (they sit inside the corners, flush).
+    table_mass_ratio : float
+        Table mass over block mass for ``drive="table"`` [-].
+    tail_s, min_tail_s, segment_s : float
+        Longest and shortest simulated time after the pulse, and the length of one simulator
+        advance between end-of-run tests [s].
+    """
+
+    name = "drake"
+    module = "pydrake"
+    install_hint = "install it with `pip install 'rockbench[drake]'` (or `pip install drake`; 1.51.1 tested)."
+    default_dt_s = 5e-4
+    #: no batch: one case at a time, maps spread cells over worker processes (like PyBullet)
+    batching = "none"
+    SETTINGS = {
+        **ContactEngineAdapter.SHARED_SETTINGS,
+        "contact": "point",
+        "approximation": None,
+        "point_stiffness_n_m": None,
+        "hydroelastic_modulus_pa": None,
+        "relaxation_time_s": None,
+        "hunt_crossley_dissipation_s_m": None,
+        "corner_radius_m": 1e-4,
+        "table_mass_ratio": 1000.0,
+        "tail_s": 2.0,
+        "min_tail_s": 0.25,
+        "segment_s": 0.1,
+    }
+    #: the settings that describe the contact (calibration chooses these)
+    CONTACT_KEYS = ("point_stiffness_n_m", "hydroelastic_modulus_pa", "relaxation_time_s", "hunt_crossley_dissipation_s_m")
+
+    @classmethod
+    def version(cls) -> str:
+        super().version()  # raises EngineUnavailableError with the hint when pydrake cannot be imported
+        from importlib.metadata import PackageNotFoundError, version
+        try:
+            return version("drake")
+        except PackageNotFoundError:
+            return "unknown"
+
+    # -- settings -----------------------------------------------------------------------------
+    def _validate_engine_settings(self, s: dict) -> None:
+        if s["contact"] not in _CONTACTS:
+            raise ConfigError(f"drake setting 'contact' must be one of {', '.join(_CONTACTS)}, got {s['contact']!r}.")
+        if s["approximation"] is not None and s["approximation"] not in _APPROXIMATIONS:
+            raise ConfigError(f"drake setting 'approximation' must be one of {', '.join(_APPROXIMATIONS)}, "
+                              f"got {s['approximation']!r}.")
+        self._number_setting(s, "point_stiffness_n_m", "N/m")
+        self._number_setting(s, "hydroelastic_modulus_pa", "Pa")
+        self._number_setting(s, "relaxation_time_s", "s", allow_zero=True)
+        self._number_setting(s, "hunt_crossley_dissipation_s_m", "s/m", allow_zero=True)
+        for key, unit in (("corner_radius_m", "m"), ("table_mass_ratio", "")):
+            self._number_setting(s, key, unit, allow_none=False)
+        if s["corner_radius_m"] > 1e-3:
+            raise ConfigError(f"drake setting 'corner_radius_m' must be <= 0.001 m (the spheres sit inside the "
+                              f"corners and move the pivots inwards by their radius), got {s['corner_radius_m']!r}.")
+
+    def _approximation(self) -> str:
+        a = self.settings["approximation"]
+        if a is not None:
+            return a
+        return "lagged" if self.settings["settings"] == "defaults" else "sap"
+
+    def _dissipation_key(self, approx: str) -> str:
+        return "relaxation_time_s" if approx == "sap" else "hunt_crossley_dissipation_s_m"
+
+    def _stiffness_key(self) -> str:
+        return "hydroelastic_modulus_pa" if self.settings["contact"] == "hydroelastic" else "point_stiffness_n_m"
+
+    def _base_settings(self) -> dict:
+        """Settings without calibration: the approximation made concrete, contact values as given."""
+        s = dict(self.settings)
+        s["approximation"] = self._approximation()
+        return s
+
+    def explicit_contact(self) -> bool:
+        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
+        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
+
+    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
+        """The approximation made concrete and the contact: as shipped (``defaults``), explicit (the
+        missing stiffness or dissipation from :data:`BASE_CONTACT`), or the calibration's."""
+        s = self._base_settings()
+        if cal is not None:
+            s.update(cal.settings)
+            return s
+        if s["settings"] == "defaults" and not self.explicit_contact():
+            return s
+        return self._filled(s)
+
+    def _filled(self, s: dict) -> dict:
+        """``s`` with the stiffness and dissipation its contact and approximation use set (from
+        :data:`BASE_CONTACT` where not given) and the other contact keys None."""
+        out = dict(s)
+        keep = (self._stiffness_key(), self._dissipation_key(out["approximation"]))
+        for k in self.CONTACT_KEYS:
+            if k in keep:
+                out[k] = BASE_CONTACT[k] if out[k] is None else out[k]
+            else:
+                out[k] = None
+        return out
+
+    # -- simulation ---------------------------------------------------------------------------
+    def _simulate(self, case: Case) -> Trajectory:
+        dt = self.dt_for(case)
+        s = self.resolve(case.block, case.restitution, dt)
+        tr = self._run(case.block, s, dt, case.pulse)
+        tr.diagnostics["settings"] = s["settings"]
+        if "calibration" in s:
+            tr.diagnostics["calibration"] = dict(s["calibration"])
+        return tr
+
+    def _scene(self, block: Block, s: dict, dt: float) -> _Scene:
+        key = (os.getpid(), block.width_m, block.height_m, block.depth_m, block.mass_kg, dt,
+               tuple((k, s.get(k)) for k in sorted(self.SETTINGS) if k not in ("tail_s", "min_tail_s", "segment_s")),
+               s.get("approximation"))
+        sc = _SCENES.get(key)
+        if sc is None:
+            sc = _Scene(block, s, dt)
+            if len(_SCENES) >= _MAX_SCENES:
+                _SCENES.pop(next(iter(_SCENES)))
+            _SCENES[key] = sc
+        return sc
+
+    def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
+             duration_s: float | None = None) -> Trajectory:
+        """Simulate one run: a pulse with the end-of-run rules, or free rocking for ``duration_s``."""
+        sc = self._scene(block, s, dt)
+        alpha, p = block.alpha_rad, block.p_rad_s
+        t_end = pulse.duration_s if pulse is not None else 0.0
+        t_stop = (t_end + float(s["tail_s"])) if duration_s is None else float(duration_s)
+        n_max = int(math.ceil(t_stop / dt - 1e-9))
+        n_pulse = int(math.ceil(t_end / dt - 1e-9))
+        n_min = n_pulse + int(math.ceil(float(s["min_tail_s"]) / dt - 1e-9)) if duration_s is None else n_max
+        if pulse is not None:
+            v = pulse.vel(np.arange(n_pulse + 1) * dt)
+            sign = -1.0 if sc.drive == "inertial" else 1.0
+            sc.set_drive(sign * sc.push_mass * np.diff(v) / dt)
+        else:
+            sc.set_drive(np.zeros(0))
+        sc.place(block, theta0)
+        sc.start()
+        seg = max(1, int(round(float(s["segment_s"]) / dt)))
+        e_trap = p * p - _TRAPPED_MARGIN * p * p * (1.0 - math.cos(alpha))
+        iq, iv = sc.iq, sc.iv
+        n_done, checked = 0, 0
+        ended_by, stop_at = "tail", None
+        t0, c0 = time.perf_counter(), time.process_time()
+        data = sc.advance(0)
+        while n_done < n_max:
+            n_done = min(n_max, n_done + seg)
+            data = sc.advance(n_done)
+            th, om = self._theta(sc, data[checked:])
+            a = np.abs(th)
+            idx = np.arange(checked, checked + len(th))
+            bad = ~(np.isfinite(th) & np.isfinite(om))
+            rules = [("diverged", bad)]
+            if duration_s is not None:
+                rules.append(("flat", overturn_certain(0.0, th, om, alpha_rad=alpha, t_pulse_end_s=math.inf)))
+            if duration_s is None:
+                rules.append(("overturn", overturn_certain(idx * dt, th, om, alpha_rad=alpha, t_pulse_end_s=t_end)))
+                energy = 0.5 * om * om + p * p * np.cos(alpha - np.minimum(a, math.pi))
+                rules.append(("trapped", (idx >= n_min) & (energy < e_trap)))
+            first = None
+            for name, hit in rules:
+                k = np.flatnonzero(hit)
+                if k.size and (first is None or k[0] < first[1]):
+                    first = (name, int(k[0]))
+            checked = len(data)
+            if first is not None:
+                ended_by, stop_at = first[0], checked - len(th) + first[1]
+                break
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        if stop_at is not None:
+            data = data[:stop_at + 1]
+        n = len(data)
+        t = np.arange(n) * dt
+        th, om = self._theta(sc, data)
+        xc, zc, vx, vz = data[:, iq["x"]], data[:, iq["z"]], data[:, iv["x"]], data[:, iv["z"]]
+        diag: dict = {}
+        if sc.table_joint is not None:
+            u_tab, v_tab = data[:, iq["table"]], data[:, iv["table"]]
+            if pulse is not None:
+                u = np.asarray(pulse.disp(t), dtype=float)
+                scale = max(float(np.max(np.abs(u))), 1e-12)
+                diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / scale)
+        else:
+            u_tab = v_tab = np.zeros(n)
+        corner_x, corner_z = _corners(block, xc, zc, th, u_tab)
+        flags = [] if np.all(np.isfinite(data)) else ["diverged"]
+        energy = body_energy_j_kg(block, vx - v_tab, vz, om, zc)
+        steps = n - 1
+        diag.update(max_penetration_m=float(max(-np.nanmin(corner_z), 0.0)), steps=int(steps), wall_s=wall,
+                    cpu_s=cpu, steps_per_s=(steps / wall if wall > 0 else None),
+                    steps_per_cpu_s=(steps / cpu if cpu > 0 else None), ended_by=ended_by, drive=s["drive"],
+                    planar=bool(s["planar"]), contact=s["contact"], approximation=s["approximation"])
+        if not sc.planar:
+            diag["max_lateral_drift_m"] = float(np.nanmax(np.abs(data[:, iq["y"]])))
+        traj = Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=om, t_pulse_end_s=t_end, flags=flags,
+                          diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
+                          corner_x_m=corner_x, corner_z_m=corner_z, energy_j_kg=energy)
+        return traj
+
+    @staticmethod
+    def _theta(sc: _Scene, data: np.ndarray):
+        """θ (rotation about +y) and θ̇ from logged states."""
+        if sc.planar:
+            return data[:, sc.iq["th"]], data[:, sc.iv["th"]]
+        i = sc.iq["quat"]
+        w, x, y, z = data[:, i], data[:, i + 1], data[:, i + 2], data[:, i + 3]
+        th = np.arctan2(2.0 * (x * z + w * y), 1.0 - 2.0 * (x * x + y * y))
+        return th, data[:, sc.iv["th"]]
+
+    # -- restitution --------------------------------------------------------------------------
+    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
+                            settings: dict | None = None) -> RestitutionMeasurement:
+        """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation.
+
+        η of each of the first impacts from the contact engines' shared measurement,
+        :func:`~rockbench.engines.contact.free_rocking_etas` (the energy-consistent ratio of
+        successive peak amplitudes, from θ(t) alone). ``settings`` (resolved) default to the settings in force: for
+        ``calibrated`` without explicit contact settings, the calibration to Housner's η of this
+        block (as for MuJoCo and Exudyn); Drake as shipped for ``defaults``.
+        """
+        if not 0.0 < float(theta0_frac) < 1.0:
+            raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
+        dt = self.check_dt(dt_s)
+        if dt > 0.01:
+            raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
+        if settings is None:
+            s = self.resolve(block, Restitution(), dt_s=dt)
+        else:
+            s = settings
+        theta0 = float(theta0_frac) * block.alpha_rad
+        duration = free_rocking_duration_s(block, theta0_frac, FREE_ROCKING_IMPACTS)
+        tr = self._run(block, s, dt, None, theta0=theta0, duration_s=duration)
+        etas, _ = free_rocking_etas(tr.theta_rad, block.alpha_rad, theta0, uplift_tol_rad(block), FREE_ROCKING_IMPACTS)
+        mean = float(np.mean(etas)) if etas else float("nan")
+        std = float(np.std(etas)) if etas else float("nan")
+        shown = {k: s.get(k) for k in ("settings", "contact", "approximation", "friction", "planar", "drive")
+                 + self.CONTACT_KEYS}
+        return RestitutionMeasurement(etas=[float(e) for e in etas], eta_mean=mean, eta_std=std,
+                                      theta0_rad=theta0, dt_s=dt, settings=shown, method=FREE_ROCKING_METHOD)
+
+    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                  use_cache: bool = True) -> CalibrationResult:
+        """Search Drake's contact parameters so the free-rocking η reaches ``target_eta`` within 1 %.
+
+        The search, in order:
+
+        1. The stiff contact of :data:`BASE_CONTACT` (point stiffness 1e6 N/m per edge or
+           modulus 1e8 Pa; relaxation time 1 ms for SAP, Hunt–Crossley 0.1 s/m otherwise): a
+           near-rigid, plastic impact, which gives η close to Housner's. Kept when within 0.5 %.
+        2. Otherwise other stiffnesses (point: × 0.1, then × 0.03; hydroelastic: × 10, × 100,
+           × 0.1, × 0.03), each with a bisection on
+           the logarithm of the dissipation (relaxation time 1e-5–0.1 s, or Hunt–Crossley
+           1e-3–30 s/m): less dissipation, higher η (the corner comes off the table more
+           elastically); the search stops at 0.25 %.
+
+        The closest setting whose per-impact spread stays within 2 % of the target wins;
+        ``reached`` says whether it is within 1 %. Cached on disk per engine version, block,
+        target, time step, contact, approximation, planar flag, drive and friction.
+        """
+        t = self.check_target_eta(target_eta)
+        dt = self.check_dt(dt_s)
+        base = self._filled({**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}})
+        kkey, dkey = self._stiffness_key(), self._dissipation_key(base["approximation"])
+        key = calibration.cache_key(engine=self.name, version=self.version(), protocol=CALIBRATION_PROTOCOL,
+                                    block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
+                                    target=t, dt=dt, planar=base["planar"], friction=base["friction"],
+                                    contact=base["contact"], approximation=base["approximation"],
+                                    drive=base["drive"], corner_radius=base["corner_radius_m"],
+                                    table_mass_ratio=base["table_mass_ratio"])
+        if use_cache:
+            rec = calibration.load(key)
+            if rec is not None:
+                return CalibrationResult(**rec)
+        tried = []
+
+        def evaluate(k: float, d: float) -> float:
+            m = self.measure_restitution(block, dt_s=dt, settings={**base, kkey: k, dkey: d})
+            tried.append((m.eta_mean, m.eta_std, {kkey: k, dkey: d}))
+            return m.eta_mean
+
+        def err(e):
+            return abs(e - t) / t if math.isfinite(e) else math.inf
+
+        k0, d0 = BASE_CONTACT[kkey], BASE_CONTACT[dkey]
+        e0 = evaluate(k0, d0)
+        if err(e0) > 0.005:
+            lo0, hi0 = _DISSIPATION_LOG10[dkey]
+            for f in _STIFFNESS_FACTORS[base["contact"]]:
+                k = k0 * f
+                # η falls as the dissipation grows: lo (little) gives the high end
+                e_lo, e_hi = evaluate(k, 10.0 ** lo0), evaluate(k, 10.0 ** hi0)
+                if not (math.isfinite(e_lo) and math.isfinite(e_hi)) or not (min(e_lo, e_hi) <= t <= max(e_lo, e_hi)):
+                    continue
+                lo, hi = lo0, hi0
+                for _ in range(10):
+                    mid = 0.5 * (lo + hi)
+                    e = evaluate(k, 10.0 ** mid)
+                    if err(e) <= 0.0025:
+                        break
+                    if math.isfinite(e) and (e - t) * (e_lo - t) > 0:
+                        lo = mid
+                    else:
+                        hi = mid
+                if min(err(r[0]) for r in tried) <= 0.0025:
+                    break
+        consistent = [r for r in tried if math.isfinite(r[1]) and r[1] <= _CAL_MAX_SPREAD * t]
+        eta, std, extra = min(consistent or tried, key=lambda r: err(r[0]))
+        reached = bool(consistent) and err(eta) <= 0.01
+        settings = {k: None for k in self.CONTACT_KEYS}
+        settings.update(extra)
+        if extra[kkey] == k0 and extra[dkey] == d0:
+            note = ("the stiff, plastic base contact gives this η." if reached else
+                    f"not reached: the closest consistent η is the base contact's, {eta:.4f}.")
+        else:
+            note = ("reached with a softer contact and its dissipation." if reached else
+                    f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in _STIFFNESS_FACTORS[base['contact']])} "
+                    f"the base with "
+                    f"dissipation over the searched range give at best {eta:.4f}.")
+        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
+                                settings=settings, note=note, evaluations=len(tried))
+        calibration.store(key, {k: v for k, v in res.to_dict().items() if k != "rel_error"})
+        return res
+
+
+#: This process's scenes, by everything a diagram depends on (a forked worker builds its own).
+_SCENES: dict = {}
+
+
+def _corners(block: Block, xc, zc, th, u_tab):
+    """The (+x, −x) bottom corners relative to the table: x and height above its top, ``(n, 2)`` each [m]."""
+    b, h = block.width_m, block.height_m
+    c, s = np.cos(th), np.sin(th)
+    xs, zs = [], []
+    for side in (1.0, -1.0):
+        # rotation about +y by θ: body (x, z) -> (x cosθ + z sinθ, −x sinθ + z cosθ)
+        xs.append(xc + side * b / 2 * c - h / 2 * s - u_tab)
+        zs.append(zc - side * b / 2 * s - h / 2 * c)
+    return np.stack(xs, axis=1), np.stack(zs, axis=1)

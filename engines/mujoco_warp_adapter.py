@@ -1,0 +1,637 @@
+"""MuJoCo Warp adapter: the CPU MuJoCo adapter's rocking block, every cell a world of one batch.
+
+The model
+---------
+The MJCF model is the CPU MuJoCo adapter's own (:class:`~rockbench.engines.mujoco_adapter.MujocoAdapter`
+builds it with ``MjSpec``; this adapter reuses the builder and the settled initial state) and is
+moved to the device with ``mujoco_warp.put_model``. What differs, because MuJoCo Warp allows no
+other (``docs/mujoco_warp.md``):
+
+* arithmetic in float32 on the device (the CPU engine computes in float64); the table drive is
+  evaluated in float64 and rounded once per step;
+* the constraint solver is Newton (MuJoCo's default, also on the CPU) or CG; PGS does not exist
+  in MuJoCo Warp. On a CUDA device the solver stops each world at its own convergence (a graph
+  conditional); on the CPU device it launches ``iterations`` passes, converged worlds skipping them;
+* the no-slip solver exists (``noslip_iterations``), as on the CPU.
+
+One batch of worlds
+-------------------
+``_simulate_many`` puts every case that shares a model into one ``mujoco_warp.Data`` with
+``nworld`` worlds (``nconmax``/``njmax`` sized for one block on one table, per world). Each world
+has its own table pulse: a kernel evaluates the pulse's table velocity ``u̇`` at both ends of the
+step (in float64, on the device) and writes the step-averaged inertial force
+``−m·(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` into that world's ``ctrl`` (the motor on the slide-x dof of the CPU
+adapter). Record pulses, which have no closed form, read ``u̇`` from a table computed on the host.
+A step is: drive kernel, ``mujoco_warp.step``, a kernel copying ``qpos``/``qvel`` into the segment
+buffer, a step counter. On a CUDA device up to ten such steps are captured once in a CUDA graph
+and the graph is launched for the rest of the run (no Python per step); on the CPU device the same
+launches run in a plain loop. Each world's samples come back once per segment; trajectories and the
+verdicts (the one judge, :meth:`EngineAdapter.judge`) are then made per cell, for a large batch in
+forked processes (the ``_run_native`` hook).
+
+End of a run
+------------
+As on the CPU: the batch runs in segments of ``segment_s`` on one global time grid; after each
+segment every world still running is checked with the CPU adapter's rule (overturn certain, or a
+turning point below α after ``min_tail_s`` past the pulse, or ``tail_s`` past the pulse). A world
+that is decided keeps being stepped with the others (a world cannot leave a batch cheaply) but its
+samples are no longer kept; the batch stops when every world is decided. A world's trajectory
+depends only on its own state, so a cell's result does not depend on the other cells of its batch:
+on the CPU device bit for bit (tested); on an H100 ``check-adapter`` found batches equal to single
+runs and reruns bit-identical, though MuJoCo Warp does not promise it (contacts are gathered with
+atomic counters, so their order inside a world could change the last float32 bits).
+
+Kernel cache
+------------
+Warp compiles its kernels on first use (about a minute on a CPU, more on a GPU) and keeps them in
+``<rockbench cache>/warp`` (``$ROCKBENCH_CACHE``, default ``~/.cache/rockbench``), unless
+``WARP_CACHE_PATH`` names another folder, so reruns and CI reuse them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+from ..reference_solver.classify import overturn_certain
+from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import Block
+from . import calibration as _cal
+from .base import Case, RestitutionMeasurement
+from .mujoco_adapter import ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
+
+#: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
+#: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
+#: soft contact deeper than its own height (MuJoCo's shipped contact, ``settings=defaults``) all 8;
+#: a box on a box (the table drive) also up to 8. Constraint rows per world follow (an elliptic
+#: contact of condim 3 has 3 rows, a pyramidal one 4). A world that needs more stops its batch with
+#: an error rather than losing contacts (:meth:`MujocoWarpAdapter._check_capacity`).
+NCONMAX_PLANE, NCONMAX_BOX = 8, 8
+
+#: Steps captured in one CUDA graph: the largest of these that divides a segment's steps (fewer
+#: launches from Python; the device work is the same)
+STEPS_PER_GRAPH = (10, 8, 5, 4, 2, 1)
+
+#: Most worlds in one ``Data`` (larger batches run as several, each independent).
+MAX_WORLDS = 65536
+
+_SOLVERS = ("newton", "cg")
+_DEVICES = ("auto", "cpu", "cuda")
+
+_warp_ready = False
+
+
+def warp_cache_dir() -> str:
+    """Where Warp keeps its compiled kernels: ``$WARP_CACHE_PATH`` if set, else ``<rockbench cache>/warp``."""
+    env = os.environ.get("WARP_CACHE_PATH")
+    if env:
+        return env
+    return str(_cal.cache_dir().parent / "warp")
+
+
+def _warp():
+    """``(warp, mujoco_warp)``, Warp initialised once with its kernel cache in rockbench's cache."""
+    global _warp_ready
+    import warp as wp
+    if not _warp_ready:
+        # no start-up banner and no line per loaded kernel module on stderr (Warp ≥ 1.19: log_level)
+        if hasattr(wp, "LOG_WARNING"):
+            wp.config.log_level = wp.LOG_WARNING
+        else:  # pragma: no cover - older Warp
+            wp.config.quiet = True
+        from warp._src import context as _ctx
+        if getattr(_ctx, "runtime", None) is None:   # not initialised yet in this process
+            wp.config.kernel_cache_dir = warp_cache_dir()
+            wp.init()
+        _warp_ready = True
+    import mujoco_warp as mjw
+    return wp, mjw
+
+
+def _kernels():
+    """The adapter's own kernels (:mod:`rockbench.engines._mujoco_warp_kernels`, imported once Warp is set up)."""
+    _warp()
+    from . import _mujoco_warp_kernels as k
+    return {"drive": k.drive, "record": k.record, "advance": k.advance}
+
+
+
+#: pulse kinds the drive kernel evaluates in closed form (3: a velocity table, 4: no pulse)
+_KIND_CODES = {"sine": 0, "cosine": 1, "half-sine": 2}
+_KIND_TABLE, _KIND_STILL = 3, 4
+
+
+class _Samples:
+    """Each world's samples of one batch: ``[t, qpos, qvel]`` rows in float64, made world by world
+    when asked for (``samples[i]``), from the float32 rows the device recorded."""
+
+    def __init__(self, parts: list, dt: float):
+        self.parts = parts
+        self.dt = dt
+
+    def __len__(self) -> int:
+        return len(self.parts)
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        h = np.concatenate(self.parts[i])
+        st = np.empty((h.shape[0], 1 + h.shape[1]))
+        st[:, 0] = np.arange(h.shape[0]) * self.dt
+        st[:, 1:] = h
+        return st
+
+    def __iter__(self):
+        return (self[i] for i in range(len(self)))
+
+
+def _judge_slice(bounds):
+    """Judge cases ``bounds[0]:bounds[1]`` of the batch a forked judge worker inherited."""
+    ad, cases, raw, wall = _JUDGE_JOB
+    return [ad.judge(cases[k], ad._make_trajectory(cases[k], raw[k]), wall) for k in range(*bounds)]
+
+
+#: the batch forked judge workers read (set only while a pool runs)
+_JUDGE_JOB = None
+
+
+class MujocoWarpAdapter(MujocoAdapter):
+    """The rocking block in MuJoCo Warp, a map's cells as worlds of one batch (module docstring).
+
+    Settings
+    --------
+    All the CPU MuJoCo adapter's settings but ``threads`` (same meaning, same defaults:
+    ``settings``, ``drive``, ``planar``, ``friction``, ``timeconst_s``, ``dampratio``,
+    ``noslip_iterations``, ``cone``, ``integrator``, ``impratio``, ``tail_s``, ``min_tail_s``,
+    ``segment_s``, ``table_mass_ratio``), and:
+
+    device : {"auto", "cpu", "cuda"} or a Warp device name such as ``"cuda:1"``
+        Where the worlds run (``auto``: the first CUDA device when there is one, else the CPU).
+    solver : {"newton", "cg"}
+        MuJoCo Warp's constraint solver (Newton is MuJoCo's default).
+    iterations, ls_iterations : int
+        Solver and line-search iteration limits (MuJoCo's defaults 100 and 50).
+    judge_workers : int
+        Forked processes that judge a large batch (0: one per core, at most 32; 1: in this process).
+    """
+
+    name = "mujoco_warp"
+    module = "mujoco_warp"
+    install_hint = ("install it with `pip install 'rockbench[warp]'` (mujoco-warp 4.0 and warp-lang 1.19; "
+                    "a CUDA GPU is optional, Warp's CPU device runs small maps).")
+    #: a native batch (every cell a world) judged in forked processes: maps run it in their own process
+    batching = "parallel"
+    #: a map in this process hands up to this many cells to one ``run_many`` (one batch of worlds):
+    #: a GPU steps 40 000 worlds in little more time than 10 000
+    max_batch = MAX_WORLDS
+    #: the contact along the base (issue 18) is the CPU adapter's only: not built or tested here
+    distributed_contact = False
+    SETTINGS = {**{k: v for k, v in MujocoAdapter.SETTINGS.items() if k != "threads"},
+                "device": "auto", "solver": "newton", "iterations": 100, "ls_iterations": 50,
+                "judge_workers": 0}
+
+    def __init__(self, **settings):
+        super().__init__(**settings)
+        self._device_models: dict = {}
+        #: world-steps stepped by this adapter, and the wall time of the stepping itself [s]
+        #: (device work and the per-segment read-back; the judge and the rest of the map are not in it)
+        self.world_steps_run = 0
+        self.stepping_s = 0.0
+        #: wall time spent making trajectories and judging them (``_run_native``) [s]
+        self.judging_s = 0.0
+
+    # -- settings ----------------------------------------------------------------------------
+    def _validate_engine_settings(self, s: dict) -> None:
+        s["threads"] = 0                      # the CPU validator expects it; dropped again below
+        try:
+            super()._validate_engine_settings(s)
+        finally:
+            s.pop("threads", None)
+        dev = s["device"]
+        if not isinstance(dev, str) or not (dev in _DEVICES or dev.startswith("cuda:")):
+            raise ConfigError(f"mujoco_warp setting 'device' must be auto, cpu, cuda or cuda:N, got {dev!r}.")
+        if dev.startswith("cuda"):
+            self._device_available(dev)
+        if s["solver"] not in _SOLVERS:
+            raise ConfigError(f"mujoco_warp setting 'solver' must be newton or cg (MuJoCo Warp has no PGS), "
+                              f"got {s['solver']!r}.")
+        self._whole_setting(s, "iterations", 1, allow_none=False)
+        self._whole_setting(s, "judge_workers", 0, allow_none=False)
+        self._whole_setting(s, "ls_iterations", 1, allow_none=False)
+
+    def _threads(self) -> int:
+        return 1   # only the CPU engine's settle and its calibration helpers use threads here
+
+    @classmethod
+    def version(cls) -> str:
+        base = super().version()
+        try:
+            import warp
+            return f"{base} (warp-lang {warp.__version__})"
+        except Exception:  # noqa: BLE001 - mujoco_warp imported, so warp did too; be safe anyway
+            return base
+
+    @classmethod
+    def default_suite_exclusion(cls) -> str | None:
+        """Why the default suite leaves this engine out here (None: it is included).
+
+        Warp's CPU device runs its kernels on one thread: a whole suite there takes hours, so the
+        default suite runs ``mujoco_warp`` only where a CUDA device is present. Asked for by name
+        (``--engines mujoco_warp``, ``rockbench map --engine mujoco_warp``) it runs anywhere.
+        """
+        try:
+            wp, _ = _warp()
+            if wp.is_cuda_available():
+                return None
+        except Exception as e:  # noqa: BLE001 - unavailable engines are reported elsewhere
+            return f"Warp could not start ({e})"
+        return ("no CUDA device here (Warp's CPU device is single-threaded: too slow for a whole suite); "
+                "ask for it by name with --engines mujoco_warp")
+
+    @staticmethod
+    def _device_available(dev: str) -> None:
+        """ConfigError (one line, exit 2 in the CLI) when ``dev`` names a CUDA device Warp does not find."""
+        wp, _ = _warp()
+        name = "cuda:0" if dev == "cuda" else dev
+        if not wp.is_cuda_available() or name not in [str(d) for d in wp.get_cuda_devices()]:
+            found = ", ".join(str(d) for d in wp.get_cuda_devices()) or "none"
+            raise ConfigError(f"mujoco_warp setting device={dev!r}, but Warp finds no such CUDA device here "
+                              f"(CUDA devices: {found}); use device=auto or device=cpu.")
+
+    def device_name(self) -> str:
+        """The Warp device the worlds run on."""
+        wp, _ = _warp()
+        dev = self.settings["device"]
+        if dev == "auto":
+            return "cuda:0" if wp.is_cuda_available() else "cpu"
+        return "cuda:0" if dev == "cuda" else dev
+
+    def _resolved_settings(self, block: Block, dt: float, cal) -> dict:
+        out = super()._resolved_settings(block, dt, cal)
+        s = self.settings
+        out.update(solver=s["solver"], iterations=s["iterations"], ls_iterations=s["ls_iterations"])
+        return out
+
+    # -- model -------------------------------------------------------------------------------
+    def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> _Built:
+        import mujoco
+
+        bm = super()._build(block, p, dt, drive, planar)
+        s = self.settings
+        opt = bm.model.opt
+        opt.solver = mujoco.mjtSolver.mjSOL_NEWTON if s["solver"] == "newton" else mujoco.mjtSolver.mjSOL_CG
+        opt.iterations = int(s["iterations"])
+        opt.ls_iterations = int(s["ls_iterations"])
+        bm.s0 = self._settle(bm.model, mujoco)   # settled again with the solver in force
+        return bm
+
+    def _device_model(self, bm: _Built, dev: str, nsolref: int = 0):
+        """``mujoco_warp.put_model`` of a built model on ``dev`` (cached; ``nsolref`` > 0 gives
+        ``geom_solref`` one row per world, for calibration grids)."""
+        wp, mjw = _warp()
+        key = (id(bm), dev, nsolref)
+        if key not in self._device_models:
+            with wp.ScopedDevice(dev):
+                self._device_models[key] = (bm, mjw.put_model(bm.model, batch_sizes={"geom_solref": nsolref}
+                                                              if nsolref else None))
+        return self._device_models[key][1]
+
+    # -- the batch ---------------------------------------------------------------------------
+    def _simulate_raw(self, cases: list[Case]) -> list:
+        """Run the cases as batches of worlds; per case the exception that stopped it, or
+        ``(built model, the batch's samples, index in the batch)``."""
+        out: list = [None] * len(cases)
+        groups: dict = {}
+        for i, c in enumerate(cases):
+            try:
+                dt = self.dt_for(c)
+                p = self.resolve(c.block, c.restitution, dt)
+                bm = self._model(c.block, p, dt)
+            except ConfigError:
+                raise
+            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
+                out[i] = e
+                continue
+            groups.setdefault(id(bm), (bm, []))[1].append(i)
+        for bm, idx in groups.values():
+            for k in range(0, len(idx), MAX_WORLDS):
+                part = idx[k:k + MAX_WORLDS]
+                try:
+                    states = self._run_batch(bm, [cases[i].pulse for i in part],
+                                             [self._stop_rule(cases[i]) for i in part])
+                    res = [(bm, states, j) for j in range(len(part))]
+                except ConfigError:
+                    raise
+                except Exception as e:  # noqa: BLE001 - the whole batch failed inside the engine
+                    res = [e] * len(part)
+                for i, r in zip(part, res):
+                    out[i] = r
+        return out
+
+    def _make_trajectory(self, case: Case, raw):
+        """The trajectory of one case from :meth:`_simulate_raw`'s entry (or the exception)."""
+        if isinstance(raw, BaseException):
+            return raw
+        bm, states, j = raw
+        try:
+            return self._trajectory(bm, case, states[j])
+        except Exception as e:  # noqa: BLE001 - recorded for this cell
+            return e
+
+    def _simulate_many(self, cases: list[Case]) -> list:
+        raw = self._simulate_raw(cases)
+        out = []
+        for c, r in zip(cases, raw):
+            out.append(self._make_trajectory(c, r))
+            if not isinstance(r, BaseException):
+                r[1].parts[r[2]] = None      # the float32 rows are no longer needed
+        return out
+
+    def _run_native(self, cases: list[Case]) -> list:
+        """Every case's verdict: the batch simulated, then each cell's trajectory made and judged
+        with the one classifier and validity rule (:meth:`judge`), for a large batch in forked
+        processes (``judge_workers``): on a GPU that takes longer than the stepping itself."""
+        import multiprocessing as mp
+        global _JUDGE_JOB
+
+        cases = list(cases)
+        t0 = time.perf_counter()
+        raw = self._simulate_raw(cases)
+        n = len(cases)
+        wall = (time.perf_counter() - t0) / max(n, 1)
+        t1 = time.perf_counter()
+        workers = self.settings["judge_workers"] or min(os.cpu_count() or 1, 32)
+        workers = min(workers, n // 256)
+        if workers < 2 or "fork" not in mp.get_all_start_methods():
+            res = [self.judge(c, self._make_trajectory(c, r), wall) for c, r in zip(cases, raw)]
+        else:
+            _JUDGE_JOB = (self, cases, raw, wall)
+            try:
+                bounds = np.linspace(0, n, 4 * workers + 1).astype(int)
+                with mp.get_context("fork").Pool(workers) as pool:
+                    parts = pool.map(_judge_slice, list(zip(bounds[:-1].tolist(), bounds[1:].tolist())))
+            finally:
+                _JUDGE_JOB = None
+            res = [r for p in parts for r in p]
+        self.judging_s += time.perf_counter() - t1
+        return res
+
+    def _stop_rule(self, case: Case) -> dict:
+        b = case.block
+        return {"te": case.pulse.duration_s, "alpha": b.alpha_rad}
+
+    def _run_batch(self, bm: _Built, pulses: list, stops: list | None, *, init: np.ndarray | None = None,
+                   solref: np.ndarray | None = None, n_steps: int | None = None) -> list[np.ndarray]:
+        """Step one batch of worlds; returns each world's samples ``[t, qpos, qvel]`` (float64).
+
+        ``stops`` (one dict per world, :meth:`_stop_rule`) ends each world by the end-of-run rule
+        (module docstring); None runs every world ``n_steps`` steps. ``init`` gives each world its
+        own initial ``[t, qpos, qvel]`` row (default: the settled state), ``solref`` its own contact
+        ``(timeconst, dampratio)``.
+        """
+        wp, mjw = _warp()
+        k = _kernels()
+        dev = self.device_name()
+        model = bm.model
+        dt = float(model.opt.timestep)
+        nq, nv = model.nq, model.nv
+        n = len(pulses)
+        ncol = 1 + nq + nv
+        s0 = bm.s0[:ncol]
+        x0 = np.tile(s0, (n, 1)) if init is None else np.asarray(init, dtype=float).reshape(n, ncol)
+        nseg = self._seg_steps(bm)
+        s = self.settings
+        if stops is not None:
+            t_end = np.array([st["te"] for st in stops])
+            last_step = np.ceil((t_end + s["tail_s"]) / dt).astype(np.int64)
+            alpha = np.array([st["alpha"] for st in stops])
+        else:
+            last_step = np.full(n, int(n_steps), dtype=np.int64)
+        max_steps = int(last_step.max())
+
+        kind = np.array([_KIND_STILL if p is None else _KIND_CODES.get(p.kind, _KIND_TABLE) for p in pulses],
+                        dtype=np.int32)
+        closed = kind < _KIND_TABLE
+        amp = np.array([float(p.amplitude_mps2) if c else 0.0 for p, c in zip(pulses, closed)])
+        omega = np.array([float(p.omega_rad_s) if c else 1.0 for p, c in zip(pulses, closed)])
+        dur = np.array([0.0 if p is None else float(p.duration_s) for p in pulses])
+        rec = np.nonzero(kind == _KIND_TABLE)[0]
+        row = np.zeros(n, dtype=np.int32)
+        row[rec] = np.arange(rec.size, dtype=np.int32)
+        if rec.size:
+            tk = np.arange(max_steps + 1) * dt
+            vtab = np.stack([np.asarray(pulses[i].vel(tk), dtype=float) for i in rec])
+        else:
+            vtab = np.zeros((1, 1))
+
+        with wp.ScopedDevice(dev):
+            m = self._device_model(bm, dev, n if solref is not None else 0)
+            if solref is not None:
+                sr = np.repeat(np.asarray(solref, dtype=np.float32)[:, None, :], model.ngeom, axis=1)
+                m.geom_solref.assign(sr)
+            ncon, njmax = self._capacity(bm)
+            d = mjw.make_data(model, nworld=n, nconmax=ncon, njmax=njmax)
+            d.qpos.assign(x0[:, 1:1 + nq].astype(np.float32))
+            d.qvel.assign(x0[:, 1 + nq:].astype(np.float32))
+            step = wp.zeros(1, dtype=wp.int32)
+            hist = wp.zeros((n, nseg, nq + nv), dtype=wp.float32)
+            peak = wp.zeros(n + 1, dtype=wp.int32)
+            dargs = [step, wp.array(kind, dtype=wp.int32), wp.array(amp, dtype=wp.float64),
+                     wp.array(omega, dtype=wp.float64), wp.array(dur, dtype=wp.float64),
+                     wp.array(row, dtype=wp.int32), wp.array(vtab, dtype=wp.float64),
+                     float(bm.mass_kg if bm.drive == "inertial" else bm.push_mass_kg), dt, d.ctrl]
+
+            def one_step():
+                wp.launch(k["drive"], dim=n, inputs=dargs)
+                mjw.step(m, d)
+                wp.launch(k["record"], dim=n, inputs=[step, nseg, d.qpos, d.qvel, d.nefc, d.nacon, hist, peak])
+                wp.launch(k["advance"], dim=1, inputs=[step])
+
+            graph = None
+            per_graph = next(g for g in STEPS_PER_GRAPH if nseg % g == 0)
+            if wp.get_device(dev).is_cuda:
+                self._warm_up(m, model, dev, ncon, njmax)
+                with wp.ScopedCapture(device=dev) as cap:
+                    for _ in range(per_graph):
+                        one_step()
+                graph = cap.graph
+                wp.synchronize_device(dev)
+
+            t_start = time.perf_counter()
+            # each world's samples as float32 [qpos, qvel] rows (what the device computed); the
+            # times are k·Δt, added in float64 when the trajectory is made
+            x0_32 = x0[:, 1:].astype(np.float32)
+            parts: list[list[np.ndarray]] = [[x0_32[i][None, :]] for i in range(n)]
+            # on a GPU the segment comes back through a pinned host buffer (faster copies); either
+            # way the host buffer is reused, so each segment's rows are copied out of it
+            host = (wp.empty((n, nseg, nq + nv), dtype=wp.float32, device="cpu", pinned=True)
+                    if wp.get_device(dev).is_cuda else hist)
+            active = np.ones(n, dtype=bool)
+            certain = np.zeros(n, dtype=bool)
+            turned = np.zeros(n, dtype=bool)
+            prev_thd = np.zeros(n)                   # the settled state is at rest
+            k0 = 0
+            while active.any():
+                if graph is not None:
+                    for _ in range(nseg // per_graph):
+                        wp.capture_launch(graph)
+                else:
+                    for _ in range(nseg):
+                        one_step()
+                if host is not hist:
+                    wp.copy(host, hist)
+                self._check_capacity(peak.numpy(), d)     # (waits for the device)
+                h = host.numpy()                          # (n, nseg, nq + nv), float32, a view
+                t = (k0 + 1 + np.arange(nseg)) * dt
+                ia = np.nonzero(active)[0]
+                ha = h[ia] if ia.size < n else h.copy()
+                for j, i in enumerate(ia):
+                    parts[i].append(ha[j])
+                k0 += nseg
+                done = ~np.all(np.isfinite(ha), axis=(1, 2)) | (k0 >= last_step[ia])
+                if stops is not None:
+                    done |= self._decided_many(bm, ha, t, dt, t_end[ia], alpha[ia], certain, turned, prev_thd, ia)
+                active[ia[done]] = False
+            self.world_steps_run += n * k0
+            self.stepping_s += time.perf_counter() - t_start
+        self._last_device = dev
+        return _Samples(parts, dt)
+
+    @staticmethod
+    def _capacity(bm: _Built) -> tuple[int, int]:
+        """``(nconmax, njmax)`` per world for this model."""
+        import mujoco
+        ncon = NCONMAX_PLANE if bm.drive == "inertial" else NCONMAX_BOX
+        rows = 3 if bm.model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else 4
+        return ncon, ncon * rows
+
+    @staticmethod
+    def _warm_up(m, model, dev, ncon: int, njmax: int) -> None:
+        """One step of a throwaway one-world batch and the adapter's kernels: every kernel loaded
+        (compiled or read from the cache) before a CUDA graph is captured, since a capture cannot load."""
+        wp, mjw = _warp()
+        k = _kernels()
+        d = mjw.make_data(model, nworld=1, nconmax=ncon, njmax=njmax)
+        step = wp.zeros(1, dtype=wp.int32)
+        hist = wp.zeros((1, 1, model.nq + model.nv), dtype=wp.float32)
+        peak = wp.zeros(2, dtype=wp.int32)
+        one = [wp.zeros(1, dtype=wp.int32), wp.zeros(1, dtype=wp.float64)]
+        wp.launch(k["drive"], dim=1, inputs=[step, one[0], one[1], one[1], one[1], one[0],
+                                             wp.zeros((1, 1), dtype=wp.float64), 1.0, 1.0, d.ctrl])
+        mjw.step(m, d)
+        wp.launch(k["record"], dim=1, inputs=[step, 1, d.qpos, d.qvel, d.nefc, d.nacon, hist, peak])
+        wp.launch(k["advance"], dim=1, inputs=[step])
+        wp.synchronize_device(dev)
+
+    @staticmethod
+    def _check_capacity(peak: np.ndarray, d) -> None:
+        """A RuntimeError (the batch's cells fail) if, at any step so far, a world needed more
+        constraint rows or the batch more contacts than allocated (MuJoCo Warp drops the excess)."""
+        if int(peak[-1]) > d.naconmax:
+            raise RuntimeError(f"mujoco_warp: {int(peak[-1])} contacts exceed the {d.naconmax} allocated")
+        worst = int(peak[:-1].max())
+        if worst > d.njmax:
+            raise RuntimeError(f"mujoco_warp: {worst} constraint rows exceed the {d.njmax} allocated per world")
+
+    def _decided_many(self, bm: _Built, h: np.ndarray, t: np.ndarray, dt: float, te: np.ndarray, alpha: np.ndarray,
+                      certain: np.ndarray, turned: np.ndarray, prev_thd: np.ndarray, ia: np.ndarray) -> np.ndarray:
+        """The CPU adapter's end-of-run rule (:meth:`MujocoAdapter._decided`) for many worlds at once,
+        one segment at a time: ``certain``/``turned``/``prev_thd`` carry what earlier segments showed."""
+        th, thd = self._theta_columns(bm, h)
+        a = np.abs(th)
+        cert = np.any(overturn_certain(t[None, :], th, thd, alpha_rad=alpha[:, None], t_pulse_end_s=te[:, None]),
+                      axis=1)
+        certain[ia] |= cert
+        # a turning point after the pulse with |θ| ≤ α: θ̇ changes sign between consecutive samples
+        sg = np.sign(thd)
+        before = np.concatenate([np.sign(prev_thd[ia])[:, None], sg[:, :-1]], axis=1)
+        pair_post = (t - dt)[None, :] >= te[:, None]     # both samples of the pair after the pulse
+        turn = (before * sg <= 0) & pair_post & (a <= alpha[:, None])
+        turned[ia] |= turn.any(axis=1)
+        prev_thd[ia] = thd[:, -1]
+        enough = t[-1] >= te + self.settings["min_tail_s"]
+        return certain[ia] | (enough & turned[ia])
+
+    @staticmethod
+    def _theta_columns(bm: _Built, h: np.ndarray):
+        """θ and θ̇ of many worlds from recorded ``[qpos, qvel]`` rows ``(n, k, nq + nv)``, as the
+        CPU adapter's ``_read`` gives them."""
+        p, v = bm.qi["pos"] - 1, bm.qi["vel"] - 1
+        if bm.planar:   # only the two columns read, in float64 (not the whole buffer)
+            return h[:, :, p + 2].astype(np.float64), h[:, :, v + 2].astype(np.float64)
+        h = h.astype(np.float64)
+        w, qx, qy, qz = (h[:, :, p + 3 + k] for k in range(4))
+        th = np.arctan2(2 * (qx * qz + w * qy), 1 - 2 * (qx * qx + qy * qy))
+        r10, r11, r12 = 2 * (qx * qy + w * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - w * qx)
+        wx, wy, wz = (h[:, :, v + 3 + k] for k in range(3))
+        return th, r10 * wx + r11 * wy + r12 * wz
+
+    def _read(self, bm: _Built, st: np.ndarray, block: Block):
+        # the CPU adapter's _trajectory reads the same samples twice (angles, then energy): keep
+        # the last reading, tied to the array itself (held here, so its identity cannot be reused)
+        memo = getattr(self, "_read_memo", None)
+        if memo is not None and memo[0] is st and memo[1] is bm and memo[2] is block:
+            return memo[3]
+        out = super()._read(bm, st, block)
+        self._read_memo = (st, bm, block, out)
+        return out
+
+    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray):
+        tr = super()._trajectory(bm, case, st)
+        self._read_memo = None
+        tr.diagnostics.update(device=getattr(self, "_last_device", None), precision="float32",
+                              solver=self.settings["solver"])
+        return tr
+
+    # -- restitution -------------------------------------------------------------------------
+    def _free_rocking(self, block: Block, params_list: list[dict], dt: float, theta0_frac: float,
+                      duration_s: float = 2.0) -> list[RestitutionMeasurement]:
+        """Free rocking from rest at ``theta0_frac·α`` about the +x edge: every contact setting a
+        world of one batch (per-world ``geom_solref``)."""
+        built = [self._model(block, p, dt) for p in params_list]
+        groups: dict = {}
+        for j, (bm, p) in enumerate(zip(built, params_list)):
+            key = tuple((k, p[k]) for k in ("cone", "integrator", "noslip_iterations", "impratio"))
+            groups.setdefault(key, []).append(j)
+        th0 = theta0_frac * block.alpha_rad
+        b, h = block.width_m, block.height_m
+        nstep = int(round(duration_s / dt))
+        out: list = [None] * len(built)
+        for idx in groups.values():
+            init, solref = [], []
+            for j in idx:
+                bm = built[j]
+                s = bm.s0.copy()
+                sink = s[bm.qi["pos"] + 1] if bm.planar else s[bm.qi["pos"] + 2] - 0.5 * h
+                cx = 0.5 * b - 0.5 * b * math.cos(th0) + 0.5 * h * math.sin(th0)
+                cz = 0.5 * b * math.sin(th0) + 0.5 * h * math.cos(th0)
+                if bm.planar:
+                    s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, cz - 0.5 * h + sink, th0]
+                else:
+                    s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, 0.0, cz + sink]
+                    s[bm.qi["pos"] + 3: bm.qi["pos"] + 7] = [math.cos(0.5 * th0), 0.0, math.sin(0.5 * th0), 0.0]
+                init.append(s[:1 + bm.model.nq + bm.model.nv])
+                solref.append([params_list[j]["timeconst"], params_list[j]["dampratio"]])
+            states = self._run_batch(built[idx[0]], [None] * len(idx), None, init=np.array(init), solref=np.array(solref),
+                                     n_steps=nstep)
+            for j, full in zip(idx, states):
+                bm, p = built[j], params_list[j]
+                _, th, thd, _, _ = self._read(bm, full, block)
+                etas = impact_etas(th, thd, block.alpha_rad, block.p_rad_s)
+                arr = np.array(etas) if etas else np.array([math.nan])
+                out[j] = RestitutionMeasurement(
+                    etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
+                    eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
+                    settings={k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator",
+                                                "noslip_iterations", "impratio")}
+                    | {"friction": self.settings["friction"], "solver": self.settings["solver"]},
+                    method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
+                            "carried to θ = 0 with the free-rocking energy; η = ratio after/before"))
+        return out
+
+    def _calibration_identity(self) -> dict:
+        import mujoco_warp
+        s = self.settings
+        return {"engine": self.name, "version": mujoco_warp.__version__,
+                "warp_solver": [s["solver"], s["iterations"], s["ls_iterations"]]}
