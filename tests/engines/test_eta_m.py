@@ -184,3 +184,12 @@ def test_explicit_distributed_settings_measure_the_calibrated_eta(engine, explic
     fixed = get_adapter(engine, contact="distributed", **{k: c.settings[v] for k, v in explicit.items()})
     m = fixed.measure_restitution(b)
     assert m.eta_mean == pytest.approx(c.eta_measured, rel=2e-3)
+
+
+def test_mujoco_warp_keeps_the_corners():
+    """MuJoCo Warp inherits the CPU adapter's settings, not its contact along the base."""
+    pytest.importorskip("mujoco_warp")
+    from rockbench.reference_solver.errors import ConfigError
+    with pytest.raises(ConfigError, match="contact='distributed' is not supported"):
+        get_adapter("mujoco_warp", contact="distributed")
+    assert get_adapter("mujoco_warp").distributed_contact is False
