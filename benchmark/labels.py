@@ -63,6 +63,8 @@ def _setting_words(key: str, value) -> str | None:
         return "planar" if value else "3-D body"
     if key == "mode":
         return "integrated to rest" if value == "to-rest" else None
+    if key == "contact":
+        return {"distributed": "contact along the base", "corners": "corner contact"}.get(value)
     return f"{key} = {value}"
 
 

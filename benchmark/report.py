@@ -524,8 +524,12 @@ def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> lis
         measured = _find_key(eng.get("resolved_settings") or {}, "eta_measured")
         if measured is None:
             measured = (own_eta or {}).get((e.variant, e.block))
+        resolved = eng.get("resolved_settings") or {}
+        points = _find_key(resolved, "contact_points")
         r = {"variant": e.variant, "block": e.block, "restitution": e.restitution, "eta_target": e.eta,
-             "eta_measured": float(measured) if measured is not None else math.nan}
+             "eta_measured": float(measured) if measured is not None else math.nan,
+             "reached": _find_key(resolved, "reached"), "price": _find_key(resolved, "price"),
+             "contact": f"{int(points)} points along the base" if points and int(points) > 2 else "corners"}
         if e.block.upper() in PRESETS:
             for k, v in restitution_targets(e.block).items():
                 r[f"{k}_eta"] = v
@@ -611,6 +615,38 @@ def _calib_table(rows, labels):
                  r.get(f"{k}_rel_error", math.nan)) else "")
                for k in ("housner", "modified_average_k", "experiment"))] for r in rows]
     return head, body
+
+
+def _price_table(rows, labels):
+    """Per engine variant and block with a measured contact price (issue 18): reached or not, the
+    contact, and what it costs."""
+    from ..engines.price import UPLIFT_RTOL
+
+    head = ["engine variant", "block", "target", "η measured", "reached", "contact", "static uplift / g·tanα",
+            "slip / jump cells", "quarter period vs rigid", "steps/s"]
+    body = []
+    for r in rows:
+        pr = r.get("price")
+        if not pr:
+            continue
+        up, sl = pr.get("uplift") or {}, pr.get("anti_slip") or {}
+        ratio = up.get("ratio", math.nan)
+        counts = pr.get("counts")
+        body.append([labels.get(r["variant"], r["variant"]), r["block"], restitution_symbol(r["restitution"], r["block"]),
+                     _num(r["eta_measured"]), "yes" if r.get("reached") and counts else "no", r["contact"],
+                     _num(ratio) + ("" if up.get("within") else f" (outside {100 * UPLIFT_RTOL:g} %)"),
+                     f"{sl.get('n_slip', '–')} / {sl.get('n_jump', '–')} of {sl.get('cells', '–')}",
+                     (_num(100 * pr["period_change"], "+.2f") + " %") if pr.get("period_change") is not None else "–",
+                     f"{pr['steps_per_s']:.3g}" if pr.get("steps_per_s") else "–"])
+    return head, body
+
+
+_PRICE_WORDS = ("Where an engine variant was calibrated to a target its corner contact cannot reach (the modified "
+                "η_M), the calibration searched a contact along the base and measured its price: the table "
+                "acceleration at which the block lifts under a slow ramp (must be within 2 % of g·tanα), slip and "
+                "jump flags of the one validity rule in default-suite cells the rigid model rocks through without "
+                "lift or slip, the free-rocking quarter period against the rigid model's, and engine steps per "
+                "second. See docs/contact.md.")
 
 
 def _speed_table(rows, labels):
@@ -750,6 +786,9 @@ def _markdown(ctx) -> str:
     L += ["## θ(t) comparison", ""]
     L += [f"![{c.title}](img/{img})" for c, img in ctx["traj"]] or ["_not drawn_"]
     L += ["", "## Calibration: η per engine", "", _md_table(*_calib_table(ctx["calib"], labels)), ""]
+    ph, pb = _price_table(ctx["calib"], labels)
+    if pb:
+        L += ["### What reaching the target costs", "", _PRICE_WORDS, "", _md_table(ph, pb), ""]
     L += ["## Speed and accuracy", "", _md_table(*_speed_table(ctx["speed"], labels)), ""]
     if ctx["speed_img"]:
         L += [f"![speed and accuracy](img/{ctx['speed_img']})", ""]
@@ -886,6 +925,9 @@ def _html(ctx, images: dict) -> str:
               "acceleration beneath.") for c, name in ctx["traj"]] or ["<p><em>not drawn</em></p>"]
     P += ["</section><section id='calibration'><h2>Calibration: η per engine</h2>",
           _h_table(*_calib_table(ctx["calib"], labels), num_from=3)]
+    ph, pb = _price_table(ctx["calib"], labels)
+    if pb:
+        P += ["<h3>What reaching the target costs</h3>", f"<p>{for_html(_PRICE_WORDS)}</p>", _h_table(ph, pb, num_from=3)]
     P += ["</section><section id='speed'><h2>Speed and accuracy</h2>",
           _h_table(*_speed_table(ctx["speed"], labels), num_from=1)]
     if ctx["speed_img"]:

@@ -25,6 +25,10 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     names = "available"          # every installed engine but the reference, or a list of names
     exclude = ["drake"]          # with "available": engines left out even when installed (a note says so)
     variants = [{settings = "calibrated"}, {settings = "defaults"}]    # engine settings, one map each
+                                 # a variant may carry its own restitution = "modified-average" (...):
+                                 # its η target and its maps' label (scored like for like against
+                                 # the reference maps with that restitution), and engines = [...] (the
+                                 # engines it applies to, default all); neither is an engine setting
     restitution = "housner"      # the η calibrated variants are tuned to (and their maps' label)
     own_eta = true               # (d): measure each variant's η in free rocking, add reference maps with it
     # dt_s = 0.0005
@@ -132,7 +136,7 @@ SHIPPED_SUITES = ("default", "quick", "full")
 
 
 def suite_path(name_or_path: str | None, quick: bool) -> Path | None:
-    """The suite file to run: a shipped suite by name (``default``, ``quick``), or a path.
+    """The suite file to run: a shipped suite by name (``default``, ``quick``, ``full``), or a path.
 
     A bare name (no ``.toml``, no folder part) always means a shipped suite, whatever the working
     directory holds (an output folder called ``quick`` is not a suite file); a path must be a file.
@@ -239,6 +243,17 @@ def load_suite(path) -> Suite:
     eng_rest = str(eng_rest)
     for b in blocks:
         restitution_for(eng_rest, b, where("engines", "restitution"))
+    for k, v in enumerate(variants):
+        if "engines" in v and not (isinstance(v["engines"], list) and v["engines"]
+                                   and all(isinstance(n, str) for n in v["engines"])):
+            raise ConfigError(f"suite {p.name}: engines.variants[{k}].engines must be a non-empty list of engine "
+                              f"names, got {v['engines']!r}.")
+        if "restitution" in v:
+            if not isinstance(v["restitution"], (str, int, float)) or isinstance(v["restitution"], bool):
+                raise ConfigError(f"suite {p.name}: engines.variants[{k}].restitution must be a text or a number, "
+                                  f"got {v['restitution']!r}.")
+            for b in blocks:
+                restitution_for(str(v["restitution"]), b, f"suite {p.name}: engines.variants[{k}].restitution")
     for table, key in (("grid", "adaptive"), ("engines", "own_eta")):
         if not isinstance(get(table, key, False), bool):
             raise ConfigError(f"suite {p.name}: {table}.{key} must be true or false, got {get(table, key)!r}.")
@@ -307,10 +322,12 @@ def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[lis
     for engine in engines:
         cls = adapter_class(engine)
         for k, variant in enumerate(suite.engine_variants):
+            if not variant_applies(engine, variant):
+                continue
             try:
                 # the base class's check of names and values, without the adapter's own constructor
                 # (which may start its engine: nothing may run for --plan)
-                EngineAdapter.__init__(object.__new__(cls), **variant)
+                EngineAdapter.__init__(object.__new__(cls), **variant_settings(variant))
             except ConfigError as e:
                 refused[engine] = f"engines.variants[{k}] {variant}: {e}"
                 break
@@ -428,11 +445,13 @@ def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
                                    f"maps/reference/{block}-{pulse}-{_slug(r.label)}"))
     for engine in engines:
         for variant in suite.engine_variants:
-            vname = variant_name(engine, variant, suite.engine_dt_s)
+            if not variant_applies(engine, variant):
+                continue
+            vname = variant_name(engine, variant_settings(variant) | _rest_part(variant), suite.engine_dt_s)
             for block in suite.blocks:
-                r = restitution_for(suite.engine_restitution, block)
+                r = restitution_for(variant_restitution(suite, variant), block)
                 for pulse in suite.pulses:
-                    jobs.append(MapJob(engine, dict(variant), block, pulse, r, suite.engine_dt_s,
+                    jobs.append(MapJob(engine, variant_settings(variant), block, pulse, r, suite.engine_dt_s,
                                        f"maps/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}"))
     return jobs
 
@@ -456,8 +475,29 @@ def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:
 def _variant_blocks(suite: Suite, engines: list[str]):
     for engine in engines:
         for variant in suite.engine_variants:
+            if not variant_applies(engine, variant):
+                continue
             for block in suite.blocks:
                 yield engine, variant, block
+
+
+def variant_settings(variant: dict) -> dict:
+    """A suite variant's engine settings (its ``restitution`` and ``engines``, suite keys, left out)."""
+    return {k: v for k, v in variant.items() if k not in ("restitution", "engines")}
+
+
+def variant_applies(engine: str, variant: dict) -> bool:
+    """Whether a suite variant runs for ``engine`` (its ``engines`` list, default every engine)."""
+    return "engines" not in variant or engine in variant["engines"]
+
+
+def _rest_part(variant: dict) -> dict:
+    return {"restitution": variant["restitution"]} if "restitution" in variant else {}
+
+
+def variant_restitution(suite: "Suite", variant: dict) -> str:
+    """The restitution a suite variant is calibrated to and labelled with: its own, else the suite's."""
+    return str(variant.get("restitution", suite.engine_restitution))
 
 
 def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s, measure: bool) -> dict:
@@ -467,6 +507,7 @@ def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s,
     from ..engines.registry import get_adapter
 
     b = get_preset(block).block()
+    variant = variant_settings(variant)
     out: dict = {"measurement": None, "error": None}
     try:
         get_adapter(engine, **variant).resolve(b, restitution_for(restitution, block), dt_s=dt_s)
@@ -518,9 +559,11 @@ class _Preparation:
                     for r in (read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
         self.tasks = []
         for engine, variant, block in _variant_blocks(suite, engines):
-            vname = variant_name(engine, variant, suite.engine_dt_s)
+            vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
             cached = (vname, block) in self.old and self.old[(vname, block)].get("eta_measured") is not None
-            self.tasks.append((engine, variant, block, self.own_eta and not cached))
+            # a variant with its own restitution is scored against that restitution's reference
+            # maps; its own-η map (d) would measure the Housner calibration, so it has none
+            self.tasks.append((engine, variant, block, self.own_eta and not cached and "restitution" not in variant))
         self.results: dict = {}
         # work to do: a measurement, or a calibration (an engine with none has nothing to prepare);
         # the costliest engines first (finer default steps), so the last tasks are short
@@ -529,7 +572,7 @@ class _Preparation:
         for k in self.todo:
             engine, variant, block, measure = self.tasks[k]
             if measure:
-                log(f"measuring η of {variant_name(engine, variant, suite.engine_dt_s)} on {block} (free rocking)")
+                log(f"measuring η of {variant_name(engine, variant_settings(variant), suite.engine_dt_s)} on {block} (free rocking)")
         self.pool, self.futs = None, {}
         if workers > 1 and len(self.todo) > 1:
             self._start_helpers(workers)
@@ -551,7 +594,7 @@ class _Preparation:
                                             initializer=_helper_init, initargs=(init["registry"], init["sys_path"]))
             for k in self.todo:
                 engine, variant, block, measure = self.tasks[k]
-                self.futs[k] = self.pool.submit(_prepare_one, engine, variant, block, suite.engine_restitution,
+                self.futs[k] = self.pool.submit(_prepare_one, engine, variant, block, variant_restitution(suite, variant),
                                                 suite.engine_dt_s, measure)
         except (OSError, RuntimeError, ValueError):
             self._stop()
@@ -578,12 +621,14 @@ class _Preparation:
         for k in self.todo:   # here: one worker, or what the helpers could not do
             if k not in self.results:
                 engine, variant, block, measure = self.tasks[k]
-                self.results[k] = _prepare_one(engine, variant, block, suite.engine_restitution, suite.engine_dt_s,
+                self.results[k] = _prepare_one(engine, variant, block, variant_restitution(suite, variant), suite.engine_dt_s,
                                                measure)
         rows, notes = [], []
         if self.own_eta:
             for k, (engine, variant, block, measure) in enumerate(self.tasks):
-                vname = variant_name(engine, variant, suite.engine_dt_s)
+                vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
+                if "restitution" in variant:
+                    continue      # no own-η map for a variant with its own restitution (see above)
                 if not measure:
                     rows.append(self.old[(vname, block)])
                     continue

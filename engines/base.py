@@ -298,6 +298,11 @@ class RestitutionMeasurement:
         The engine settings used.
     method : str
         How η was read from the motion (e.g. velocities around θ = 0, or amplitude ratios).
+    first_quarter_s : float or None
+        Time from the release to the first impact (θ = 0) [s], where the adapter reports it: a
+        quarter of the free-rocking period, compared with the rigid model's in the contact price.
+    steps_per_s : float or None
+        Engine time steps per second of wall time in this measurement (one core), where reported.
     """
 
     etas: list
@@ -307,6 +312,8 @@ class RestitutionMeasurement:
     dt_s: float
     settings: dict
     method: str = ""
+    first_quarter_s: float | None = None
+    steps_per_s: float | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -332,6 +339,9 @@ class CalibrationResult:
         Why a target could not be reached, or how it was.
     evaluations : int
         Free-rocking runs spent in the search.
+    price : dict or None
+        What the contact costs (:func:`rockbench.engines.price.contact_price`): static uplift
+        threshold, anti-slip, free-rocking period change, steps per second; None where not measured.
     """
 
     eta_target: float
@@ -341,6 +351,7 @@ class CalibrationResult:
     settings: dict
     note: str = ""
     evaluations: int = 0
+    price: dict | None = None
 
     @property
     def rel_error(self) -> float:

@@ -192,7 +192,7 @@ class ContactEngineAdapter(EngineAdapter):
     def _calibration_summary(cal: CalibrationResult) -> dict:
         """What run.json records of the calibration behind the resolved settings."""
         return {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured, "eta_std": cal.eta_std,
-                "reached": cal.reached}
+                "reached": cal.reached, "price": cal.price}
 
     @staticmethod
     def check_target_eta(target_eta) -> float:

@@ -71,6 +71,7 @@ shipped value is 0 (no contact at all) and is set by the same rule as the calibr
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -82,7 +83,7 @@ from ..reference_solver.energy import energy
 from ..reference_solver.errors import ConfigError, EngineError
 from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
-from ..reference_solver.restitution import Restitution
+from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration
 from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
@@ -96,6 +97,13 @@ STATIC_PENETRATION_M = 1.34e-6
 
 #: Exudyn contact restitution coefficients (impact model 2) tried by the calibration's scan [-].
 CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
+
+#: The scan for the distributed contact (issue 18): its η rises with the coefficient from about
+#: η_H, and the probe (benchmarks/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
+CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
+
+#: Spheres the distributed calibration tries along the base when ``contact_points`` is not set.
+_POINTS_TRIED = (9, 5, 17)
 
 #: Impacts averaged by the free-rocking measurement [-] (the one count of all contact engines).
 CALIBRATION_IMPACTS = FREE_ROCKING_IMPACTS
@@ -140,6 +148,8 @@ class FreeRocking:
         Time steps integrated [-].
     wall_s : float
         Wall time of the run [s].
+    first_quarter_s : float or None
+        Time from the release to the first θ = 0 [s] (a quarter of the free-rocking period).
     """
 
     etas: list
@@ -152,6 +162,7 @@ class FreeRocking:
     dt_s: float
     steps: int
     wall_s: float
+    first_quarter_s: float | None = None
 
 
 _COUNTER = itertools.count()
@@ -174,6 +185,10 @@ class _Model:
         for nm in ("a0", "w", "tb", "cs", "utb", "vtb"):
             exu.symbolic.variables.Set(self._pre + nm, 0.0)
         self.r = contact["sphere_radius_m"]
+        # contact spheres: one per bottom corner, or a row of ``contact_points`` along the base
+        # (issue 18: the outer ones stay under the corners, so the static pivots do not move)
+        self.n_points = int(contact.get("contact_points") or 2)
+        self.exponent = float(contact.get("stiffness_exponent") or 1.0)
         self.SC = exu.SystemContainer()
         self.mbs = self.SC.AddSystem()
         # the items in this order (Exudyn numbers them as they come)
@@ -215,12 +230,14 @@ class _Model:
 
     def _add_block(self, theta0_rad: float):
         """The block (planar or free 3-D body) at rest, or tilted by ``theta0_rad`` onto a corner;
-        sets ``node``, ``body`` and ``corners_local``; returns the table triangle and the weight."""
+        sets ``node``, ``body``, ``corners_local`` (the bottom corners, measured) and ``spheres_local``
+        (the contact spheres' centres); returns the table triangle and the weight."""
         from exudyn.itemInterface import NodeRigidBody2D, ObjectRigidBody2D
 
         exu, mbs, block, r = self.exu, self.mbs, self.block, self.r
         b, h, m, d = block.width_m, block.height_m, block.mass_kg, block.depth_m
         L = _TABLE_HALF_SIZE_M
+        row = np.linspace(-b / 2, b / 2, self.n_points)
         if self.planar:
             # Exudyn's planar bodies move in its x-y plane, y up: the table is the plane y = 0
             # (a triangle spanning x and the out-of-plane z), our θ is minus Exudyn's φ.
@@ -230,6 +247,7 @@ class _Model:
                                                initialCoordinates=[x0, y0, phi0]))
             body = mbs.AddObject(ObjectRigidBody2D(nodeNumber=node, mass=m, inertia=block.inertia_cm_kg_m2))
             corners = [[-b / 2, -h / 2 + r, 0.0], [b / 2, -h / 2 + r, 0.0]]
+            spheres = [[float(x), -h / 2 + r, 0.0] for x in row]
             gravity = [0.0, -m * G, 0.0]
         else:
             import exudyn.utilities as eu
@@ -244,21 +262,23 @@ class _Model:
                                       returnDict=True)
             node, body = res["nodeNumber"], res["bodyNumber"]
             corners = [[sx * b / 2, sy * d / 2, -h / 2 + r] for sy in (-1, 1) for sx in (-1, 1)]
+            spheres = [[float(x), sy * d / 2, -h / 2 + r] for sy in (-1, 1) for x in row]
             gravity = [0.0, 0.0, -m * G]
         self.node, self.body = node, body
         self.corners_local = np.array(corners)
+        self.spheres_local = np.array(spheres)
         return tri, gravity
 
     def _add_contacts(self, table_marker: int, tri: list, gravity: list) -> int:
-        """The weight at the centre of mass and one sphere–triangle contact per bottom corner;
-        returns the centre-of-mass marker."""
+        """The weight at the centre of mass and one sphere–triangle contact per contact sphere (the
+        bottom corners, or the row along the base); returns the centre-of-mass marker."""
         from exudyn.itemInterface import (Force, MarkerBodyRigid, MarkerNodePosition, NodeGenericData,
                                           ObjectContactSphereTriangle)
 
         exu, mbs, contact = self.exu, self.mbs, self.contact
         mcom = mbs.AddMarker(MarkerNodePosition(nodeNumber=self.node))
         mbs.AddLoad(Force(markerNumber=mcom, loadVector=gravity))
-        for c in self.corners_local.tolist():
+        for c in self.spheres_local.tolist():
             mc = mbs.AddMarker(MarkerBodyRigid(bodyNumber=self.body, localPosition=c))
             dn = mbs.AddNode(NodeGenericData(numberOfDataCoordinates=4, initialCoordinates=[0, 0, 0, 0]))
             mbs.AddObject(ObjectContactSphereTriangle(
@@ -266,7 +286,7 @@ class _Model:
                 trianglePoints=exu.Vector3DList(tri), includeEdges=0,
                 dynamicFriction=contact["friction"], frictionProportionalZone=contact["friction_zone_m_s"],
                 contactStiffness=contact["stiffness_n_m"], contactDamping=contact["damping_n_s_m"],
-                contactStiffnessExponent=1.0, restitutionCoefficient=contact["restitution_coefficient"],
+                contactStiffnessExponent=self.exponent, restitutionCoefficient=contact["restitution_coefficient"],
                 impactModel=contact["impact_model"]))
         return mcom
 
@@ -309,8 +329,8 @@ class _Model:
         onto one corner (θ ≠ 0), its corner sphere(s) pressed in by their static penetration."""
         b, h = self.block.width_m, self.block.height_m
         k = self.contact["stiffness_n_m"]
-        n = 2.0 if theta_rad == 0.0 else 1.0
-        pen = self.block.mass_kg * G / (n * k)
+        n = float(self.n_points) if theta_rad == 0.0 else 1.0
+        pen = (self.block.mass_kg * G / (n * k)) ** (1.0 / self.exponent)
         if theta_rad == 0.0:
             return 0.0, h / 2 - pen, 0.0
         s = 1.0 if theta_rad > 0 else -1.0
@@ -513,6 +533,17 @@ class ExudynAdapter(ContactEngineAdapter):
         Linear normal contact damping [N s/m], added by Exudyn to every impact model (default 0).
     sphere_radius_m : float
         Radius of the corner contact spheres [m].
+    contact : {"auto", "corners", "distributed"}
+        ``corners``: one contact sphere per bottom corner. ``distributed``: a row of
+        ``contact_points`` spheres along the base, the outer ones under the corners, with the
+        corners' total stiffness shared among them (same static sink), so an impact's impulse can
+        spread into the base while the static pivots stay at the corners (issue 18). ``auto``
+        (default): the corners for targets up to 1 % above Housner's η_H, the distributed
+        contact above (the modified η_M); explicit ``contact_restitution`` with ``auto``: corners.
+    contact_points : int or None
+        Spheres of the distributed contact along the base (≥ 3). None (default): the calibration
+        tries 9, then 5, then 17 until one reaches the target at an acceptable price; an explicit
+        ``contact_restitution`` then uses 9.
     spectral_radius : float
         Generalized-α spectral radius ρ∞ [-] (Exudyn's default 0.9).
     modified_newton_iterations : int
@@ -539,6 +570,8 @@ class ExudynAdapter(ContactEngineAdapter):
         "contact_restitution": None,
         "contact_damping_n_s_m": 0.0,
         "sphere_radius_m": 5e-4,
+        "contact": "auto",
+        "contact_points": None,
         "spectral_radius": 0.9,
         "modified_newton_iterations": 3,
         "segment_s": 0.05,
@@ -554,6 +587,17 @@ class ExudynAdapter(ContactEngineAdapter):
     def _validate_engine_settings(self, s: dict) -> None:
         self._number_setting(s, "friction_zone_m_s", "m/s", allow_none=False)
         self._number_setting(s, "contact_stiffness_n_m", "N/m")
+        if s["contact"] not in ("auto", "corners", "distributed"):
+            raise ConfigError(f"exudyn setting 'contact' must be auto, corners or distributed, got {s['contact']!r}.")
+        if s["contact_points"] is not None:
+            try:
+                n = int(s["contact_points"])
+            except (TypeError, ValueError):
+                n = -1
+            if n < 3 or n != float(s["contact_points"]) or n > 101:
+                raise ConfigError(f"exudyn setting 'contact_points' must be a whole number from 3 to 101, "
+                                  f"got {s['contact_points']!r}.")
+            s["contact_points"] = n
         self._number_setting(s, "contact_restitution", "-")
         if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
             raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {s['contact_restitution']!r}.")
@@ -571,8 +615,19 @@ class ExudynAdapter(ContactEngineAdapter):
     def _stiffness(self, block: Block) -> float:
         return self.settings["contact_stiffness_n_m"] or default_stiffness_n_m(block)
 
-    def _contact(self, block: Block, contact_restitution: float | None) -> dict:
-        """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model."""
+    def _points_for(self, block: Block, target_eta: float | None) -> int:
+        """Contact spheres for a target η: 2 (the corners) or the distributed row (``contact`` setting)."""
+        kind = self.settings["contact"]
+        if kind == "auto":
+            kind = ("distributed" if target_eta is not None and target_eta > 1.01 * housner_eta(block.alpha_rad)
+                    else "corners")
+        return (self.settings["contact_points"] or _POINTS_TRIED[0]) if kind == "distributed" else 2
+
+    def _contact(self, block: Block, contact_restitution: float | None, points: int = 2) -> dict:
+        """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model.
+
+        ``points`` > 2: a row of that many spheres along the base sharing the corners' total stiffness.
+        """
         s = self.settings
         if contact_restitution is None:
             # shipped: linear impact model (0) with restitution coefficient 1, i.e. only the
@@ -580,7 +635,8 @@ class ExudynAdapter(ContactEngineAdapter):
             model, e = 0, 1.0
         else:
             model, e = 2, float(contact_restitution)
-        return {"stiffness_n_m": self._stiffness(block), "damping_n_s_m": s["contact_damping_n_s_m"],
+        return {"stiffness_n_m": self._stiffness(block) * 2.0 / points, "contact_points": points,
+                "damping_n_s_m": s["contact_damping_n_s_m"],
                 "impact_model": model, "restitution_coefficient": e,
                 "friction": s["friction"], "friction_zone_m_s": s["friction_zone_m_s"],
                 "sphere_radius_m": s["sphere_radius_m"], "spectral_radius": s["spectral_radius"],
@@ -593,8 +649,14 @@ class ExudynAdapter(ContactEngineAdapter):
     def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
         """The settings and Exudyn's contact parameters (``contact_restitution``: explicit, None for
         the shipped model, or calibrated)."""
-        e = self.settings["contact_restitution"] if cal is None else cal.settings["restitution_coefficient"]
-        return {**self.settings, **self._contact(block, e), "dt_s": dt}
+        s = self.settings
+        if cal is None:
+            e = s["contact_restitution"]
+            points = (s["contact_points"] or _POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
+        else:
+            e = cal.settings["restitution_coefficient"]
+            points = int(cal.settings.get("contact_points") or 2)
+        return {**s, **self._contact(block, e, points), "dt_s": dt}
 
     # -- simulation -----------------------------------------------------------------------
     def _model(self, block: Block, contact: dict, dt: float, pulse: Pulse) -> _Model:
@@ -683,7 +745,8 @@ class ExudynAdapter(ContactEngineAdapter):
 
     # -- restitution ----------------------------------------------------------------------
     def free_rocking(self, block: Block, contact_restitution: float | None, *, theta0_frac: float = 0.5,
-                     dt_s: float | None = None, n_impacts: int = CALIBRATION_IMPACTS) -> FreeRocking:
+                     dt_s: float | None = None, n_impacts: int = CALIBRATION_IMPACTS,
+                     contact: dict | None = None) -> FreeRocking:
         """Free rocking from rest at ``θ0 = theta0_frac·α``, no excitation, with given contact.
 
         η of each impact comes from the energy-consistent amplitude ratio of successive peaks:
@@ -696,7 +759,8 @@ class ExudynAdapter(ContactEngineAdapter):
         alpha = block.alpha_rad
         th0 = theta0_frac * alpha
         duration = free_rocking_duration_s(block, theta0_frac, n_impacts)
-        contact = self._contact(block, contact_restitution)
+        if contact is None:
+            contact = self._contact(block, contact_restitution)
         model = _Model(block, contact, "inertial", self.settings["planar"], dt, None, theta0_rad=th0)
         model.set_pulse(None)
         ok, message, steps, wall = model.run(0.0, lambda st: False, duration, duration)
@@ -709,28 +773,57 @@ class ExudynAdapter(ContactEngineAdapter):
                                  block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall)
+        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
+        quarter = None
+        if zc.size:
+            i = int(zc[0])
+            quarter = float(t[i] + (t[i + 1] - t[i]) * th[i] / (th[i] - th[i + 1]))
+        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall, quarter)
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:
         """Free rocking with this adapter's settings (``calibrated``: those for Housner's η)."""
         dt = self.check_dt(dt_s)
         s = self.settings
+        points = (s["contact_points"] or _POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
         if s["contact_restitution"] is not None:
             e = s["contact_restitution"]
         elif s["settings"] == "defaults":
             e = None
         else:
-            e = self.calibrate(block, Restitution().eta(block.alpha_rad), dt_s=dt).settings["restitution_coefficient"]
-        fr = self.free_rocking(block, e, theta0_frac=theta0_frac, dt_s=dt)
+            cal = self.calibrate(block, Restitution().eta(block.alpha_rad), dt_s=dt)
+            e = cal.settings["restitution_coefficient"]
+            points = int(cal.settings.get("contact_points") or 2)
+        fr = self.free_rocking(block, e, theta0_frac=theta0_frac, dt_s=dt, contact=self._contact(block, e, points))
         return RestitutionMeasurement(etas=fr.etas, eta_mean=fr.eta_mean, eta_std=fr.eta_std,
                                       theta0_rad=fr.theta0_rad, dt_s=dt,
                                       settings={**fr.contact, "planar": s["planar"]},
-                                      method=FREE_ROCKING_METHOD)
+                                      method=FREE_ROCKING_METHOD, first_quarter_s=fr.first_quarter_s)
 
-    def _cal_key(self, block: Block, target_eta: float, dt: float) -> str:
+    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
+        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
+        st = c.settings
+        e = st.get("restitution_coefficient") if st.get("impact_model") == 2 else None
+        dt = self.check_dt(dt_s)
+        points = int(st.get("contact_points") or 2)
+        fr = self.free_rocking(block, e, dt_s=dt, contact=self._contact(block, e, points))
+        return self._price(block, e, points, c.eta_target, dt, fr.first_quarter_s)
+
+    def _price(self, block: Block, e: float | None, points: int, target: float, dt: float,
+               first_quarter_s: float | None = None) -> dict:
+        """The price of this adapter with the contact fixed (restitution coefficient ``e``, ``points`` spheres)."""
+        from . import price as _price
+
+        fixed = ExudynAdapter(**{**self.settings, "contact_restitution": e,
+                                 "contact": "distributed" if points > 2 else "corners",
+                                 "contact_points": points if points > 2 else None})
+        return _price.contact_price(fixed, block, Restitution("constant", value=target), dt,
+                                    first_quarter_s=first_quarter_s)
+
+    def _cal_key(self, block: Block, target_eta: float, dt: float, points: int = 2) -> str:
         s = self.settings
-        return calibration.cache_key(
+        extra = {} if points == 2 else {"contact_points": points, "price_procedure": 2}
+        return calibration.cache_key(**extra,
             engine=self.name, version=self.version(), procedure=CALIBRATION_VERSION,
             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=float(target_eta),
             dt=float(dt), planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
@@ -739,6 +832,23 @@ class ExudynAdapter(ContactEngineAdapter):
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
+        """Contact settings for ``target_eta`` (:meth:`_calibrate_points`): the corners, or the
+        distributed contact with the set number of spheres, or (``contact_points`` unset) 9, then
+        5, then 17 spheres until one reaches the target at an acceptable price."""
+        points = self._points_for(block, self.check_target_eta(target_eta))
+        if points == 2 or self.settings["contact_points"] is not None:
+            return self._calibrate_points(block, target_eta, points, dt_s=dt_s, use_cache=use_cache)
+        tried = []
+        for n in _POINTS_TRIED:
+            c = self._calibrate_points(block, target_eta, n, dt_s=dt_s, use_cache=use_cache)
+            if c.reached:
+                return c
+            tried.append(c)
+        best = min(tried, key=lambda c: abs(c.rel_error) if math.isfinite(c.rel_error) else math.inf)
+        return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} spheres: {c.note}" for c in tried))
+
+    def _calibrate_points(self, block: Block, target_eta: float, points: int, *, dt_s: float | None = None,
+                          use_cache: bool = True) -> CalibrationResult:
         """Find Exudyn's contact restitution coefficient whose free-rocking η is closest to the target.
 
         A coarse scan over :data:`CALIBRATION_RESTITUTIONS`, then bisection between neighbours
@@ -749,7 +859,7 @@ class ExudynAdapter(ContactEngineAdapter):
         """
         dt = self.check_dt(dt_s)
         target = self.check_target_eta(target_eta)
-        key = self._cal_key(block, target, dt)
+        key = self._cal_key(block, target, dt, points)
         if key in self._calibrations:
             return self._calibrations[key]
         if use_cache:
@@ -763,7 +873,7 @@ class ExudynAdapter(ContactEngineAdapter):
 
         def measure(e):
             try:
-                fr = self.free_rocking(block, e, dt_s=dt)
+                fr = self.free_rocking(block, e, dt_s=dt, contact=self._contact(block, e, points))
             except EngineError as ex:
                 scan.append({"contact_restitution": e, "error": str(ex)})
                 return None
@@ -775,7 +885,7 @@ class ExudynAdapter(ContactEngineAdapter):
             return (fr is not None and len(fr.etas) >= 2 and math.isfinite(fr.eta_mean)
                     and fr.eta_std < 0.02 and fr.max_jump_m <= jump_tol_m(block))
 
-        measured = [(e, measure(e)) for e in CALIBRATION_RESTITUTIONS]
+        measured = [(e, measure(e)) for e in (CALIBRATION_RESTITUTIONS if points == 2 else CALIBRATION_RESTITUTIONS_DIST)]
         good = [(e, fr) for e, fr in measured if regular(fr)]
         best = _refine(good, target, measure, regular) if good else None
         irregular = best is None
@@ -792,9 +902,31 @@ class ExudynAdapter(ContactEngineAdapter):
         rel = abs(fr.eta_mean - target) / target
         reached = rel <= CALIBRATION_RTOL and not irregular
         note = _calibration_note(e, fr, good, target, irregular, reached, self.settings["friction"])
-        settings = {**self._contact(block, e), "planar": self.settings["planar"]}
+        price = None
+        if points > 2:
+            lo_eta = min(f.eta_mean for _, f in good)
+            hi_eta = max(f.eta_mean for _, f in good)
+            span = (f"{points} spheres along the base sharing the corners' stiffness (issue 18); regular free "
+                    f"rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
+                    f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}")
+            if reached:
+                note += f" Contact: {span}."
+                price = self._price(block, e, points, target, dt, fr.first_quarter_s)
+                if not price["counts"]:
+                    reached = False
+                    why = ("its static uplift threshold is not within 2 % of g·tanα" if not price["uplift"].get("within")
+                           else f"{price['anti_slip']['n_slip']} of the {price['anti_slip']['cells']} anti-slip cells slip")
+                    note = (f"not reached at an acceptable price: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} "
+                            f"({100 * rel:.2f} % off target {target:.4f}) with impact model 2 and restitution "
+                            f"coefficient {e:.3g}, {span}, but {why}.")
+            elif not irregular:
+                note = (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
+                        f"({100 * rel:.1f} % off target {target:.4f}) with {span}; smaller coefficients make the "
+                        "rocking irregular (impact-to-impact spread above 2 %), larger ones let the landing "
+                        "corner hop (jumps).")
+        settings = {**self._contact(block, e, points), "planar": self.settings["planar"]}
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
-                                reached=reached, settings=settings, note=note, evaluations=len(scan))
+                                reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
         calibration.store(key, {"engine": self.name, "version": self.version(), "block": block.to_dict(),
                                 "dt_s": dt, "procedure_version": CALIBRATION_VERSION,
                                 "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
@@ -853,5 +985,5 @@ def _calibration_note(e: float, fr: FreeRocking, good: list, target: float, irre
 
 
 #: the contact parameters a model is built from
-_CONTACT_KEYS = ("stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient", "friction",
+_CONTACT_KEYS = ("contact_points", "stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient", "friction",
                  "friction_zone_m_s", "sphere_radius_m", "spectral_radius", "modified_newton_iterations")

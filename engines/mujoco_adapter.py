@@ -65,6 +65,7 @@ which other cells share its batch (tested bit for bit).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass
@@ -73,7 +74,7 @@ import numpy as np
 
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
-from ..reference_solver.restitution import Restitution
+from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration as _cal
 from .base import Case, CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import ContactEngineAdapter, overturn_certain
@@ -98,6 +99,22 @@ _INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
 
 #: version of the calibration procedure (part of the cache key)
 CALIBRATION_VERSION = 3
+
+#: Distributed-contact calibration (issue 18): solimp impedances d (dmin = dmax = d), time
+#: constants as multiples of the time step, damping ratios. The probe
+#: (benchmarks/probe_eta_m_mujoco.py) found η rising from about η_H at d = 0.9 to 0.88 (B3M) and
+#: 0.97 (B6M) at d = 0.3 with a row of points along the base.
+_D_VALUES = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
+_TC_FACTORS_DIST = (2.0, 4.0, 8.0, 16.0)
+_DR_VALUES_DIST = (0.5, 1.0, 2.0)
+#: version of the distributed-contact calibration procedure (part of its cache key)
+CALIBRATION_VERSION_DIST = 2
+#: How many candidates within 1 % of the target the distributed calibration tries for the uplift check.
+_MAX_PRICE_TRIES = 8
+
+_CONTACTS = ("auto", "corners", "distributed")
+#: Points along the base the distributed calibration tries when ``contact_points`` is not set.
+_POINTS_TRIED = (9, 5, 17)
 
 
 @dataclass
@@ -139,6 +156,24 @@ class MujocoAdapter(ContactEngineAdapter):
         ``elliptic``/``pyramidal``; ``euler``/``implicitfast``/``implicit``/``rk4`` (None: by mode).
     impratio : float or None
         Ratio of frictional to normal constraint impedance [-] (None: MuJoCo's 1).
+    contact : {"auto", "corners", "distributed"}
+        ``corners``: the box's own contact with the table (MuJoCo keeps its corner contacts).
+        ``distributed``: the box's contact switched off and ``contact_points`` small spheres
+        (radius ``contact_radius_m``) in a row along the base, the outer ones under the bottom
+        edges, so the static pivots stay at the edges while an impact's impulse can spread into
+        the base (issue 18); its calibration also searches ``solimp_d``. ``auto`` (default): the
+        corners for targets up to 1 % above η_H, the distributed contact above (the modified η_M);
+        explicit contact settings (timeconst, dampratio) with ``auto`` use the corners.
+    contact_points : int or None
+        Points of the distributed contact along the base (≥ 3). None (default): the calibration
+        tries 9, then 5, then 17 until one reaches the target at an acceptable price; explicit
+        contact settings then use 9.
+    contact_radius_m : float
+        Radius of those points [m] (default 0.5 mm: the pivot rolls on it, an error of order r/h).
+    solimp_d : float or None
+        MuJoCo's constraint impedance d of the contacts (``solimp = d d 0.001 0.5 2``), in (0, 1):
+        the share of each contact enforced as a hard constraint, the rest being solref's
+        spring-damper (None: MuJoCo's default solimp).
     tail_s, min_tail_s, segment_s : float
         Longest and shortest simulated time after the pulse, and the segment length [s].
     table_mass_ratio : float
@@ -163,10 +198,18 @@ class MujocoAdapter(ContactEngineAdapter):
         "cone": None,
         "integrator": None,
         "impratio": None,
+        "contact": "auto",
+        "contact_points": None,
+        "contact_radius_m": 5e-4,
+        "solimp_d": None,
         "segment_s": 0.25,
         "table_mass_ratio": 1000.0,
         "threads": 0,
     }
+
+    #: whether this adapter builds the contact along the base (issue 18); a subclass that does not
+    #: (MuJoCo Warp) sets it False: ``auto`` then keeps the corners for every target
+    distributed_contact = True
 
     def __init__(self, **settings):
         super().__init__(**settings)
@@ -179,6 +222,24 @@ class MujocoAdapter(ContactEngineAdapter):
         self._number_setting(s, "table_mass_ratio", allow_none=False)
         self._whole_setting(s, "noslip_iterations", 0)
         self._whole_setting(s, "threads", 0, allow_none=False)
+        if s["contact"] not in _CONTACTS:
+            raise ConfigError(f"{self.name} setting 'contact' must be one of {', '.join(_CONTACTS)}, got {s['contact']!r}.")
+        if s["contact"] == "distributed" and not self.distributed_contact:
+            raise ConfigError(f"{self.name} setting contact='distributed' is not supported by this adapter "
+                              "(its contact along the base was not built or tested); use corners or auto.")
+        if s["contact_points"] is not None:
+            try:
+                n = int(s["contact_points"])
+            except (TypeError, ValueError):
+                n = -1
+            if n < 3 or n != float(s["contact_points"]) or n > 101:
+                raise ConfigError(f"mujoco setting 'contact_points' must be a whole number from 3 to 101, "
+                                  f"got {s['contact_points']!r}.")
+            s["contact_points"] = n
+        self._number_setting(s, "contact_radius_m", "m", allow_none=False)
+        self._number_setting(s, "solimp_d", "")
+        if s["solimp_d"] is not None and not 0.0 < s["solimp_d"] < 1.0:
+            raise ConfigError(f"mujoco setting 'solimp_d' must be in (0, 1), got {s['solimp_d']!r}.")
         if s["cone"] is not None and s["cone"] not in _CONES:
             raise ConfigError(f"mujoco setting 'cone' must be one of {', '.join(_CONES)}, got {s['cone']!r}.")
         if s["integrator"] is not None and s["integrator"] not in _INTEGRATORS:
@@ -210,16 +271,27 @@ class MujocoAdapter(ContactEngineAdapter):
         if cal is None:
             out["timeconst"] = s["timeconst_s"] if s["timeconst_s"] is not None else MUJOCO_SHIPPED["timeconst"]
             out["dampratio"] = s["dampratio"] if s["dampratio"] is not None else MUJOCO_SHIPPED["dampratio"]
+            out.update(self._contact_geometry())
             out["calibration"] = None
         else:
             out["timeconst"] = cal.settings["timeconst"]
             out["dampratio"] = cal.settings["dampratio"]
+            out.update(_contact_of(cal.settings))
         return out
 
     @staticmethod
     def _calibration_summary(cal: CalibrationResult) -> dict:
         return {**ContactEngineAdapter._calibration_summary(cal), "note": cal.note,
                 "rest_sink_m": cal.settings.get("rest_sink_m")}
+
+    def _contact_geometry(self) -> dict:
+        """The contact geometry for explicit (uncalibrated) contact settings."""
+        s = self.settings
+        kind = "distributed" if s["contact"] == "distributed" else "corners"
+        n = s["contact_points"] if s["contact_points"] is not None else _POINTS_TRIED[0]
+        return {"contact": kind, "contact_points": n if kind == "distributed" else None,
+                "contact_radius_m": s["contact_radius_m"] if kind == "distributed" else None,
+                "solimp_d": s["solimp_d"]}
 
     # -- model -------------------------------------------------------------------------------
     def _model(self, block: Block, p: dict, dt: float, drive: str | None = None) -> _Built:
@@ -228,7 +300,8 @@ class MujocoAdapter(ContactEngineAdapter):
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, dt, drive, planar,
                self.settings["friction"], self.settings["table_mass_ratio"],
                tuple(sorted((k, p[k]) for k in ("timeconst", "dampratio", "cone", "integrator",
-                                                 "noslip_iterations", "impratio"))))
+                                                 "noslip_iterations", "impratio"))),
+               tuple(sorted(_contact_of(p).items())))
         if key not in self._models:
             self._models[key] = self._build(block, p, dt, drive, planar)
         return self._models[key]
@@ -268,9 +341,26 @@ class MujocoAdapter(ContactEngineAdapter):
         else:
             body.add_freejoint(name="free")
         box = body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * b, 0.5 * d, 0.5 * h], mass=m)
-        for g in (table, box):
+        touching = [table, box]
+        contact = _contact_of(p)
+        if contact["contact"] == "distributed":
+            # the box carries the mass and inertia only; a row of small spheres along the base
+            # touches the table, the outer ones with their lowest points under the bottom edges
+            box.contype = 0
+            box.conaffinity = 0
+            r = float(contact["contact_radius_m"])
+            touching = [table]
+            # a planar block needs one row; a free block two (front and back), or it tips sideways
+            rows = (0.0,) if planar else (-0.5 * d + r, 0.5 * d - r)
+            for x in np.linspace(-0.5 * b, 0.5 * b, int(contact["contact_points"])):
+                for y in rows:
+                    touching.append(body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0.0, 0.0],
+                                                 pos=[float(x), y, -0.5 * h + r], mass=0.0))
+        for g in touching:
             g.friction = [mu, 0.005, 0.0001]
             g.solref = solref
+            if contact["solimp_d"] is not None:
+                g.solimp = [float(contact["solimp_d"]), float(contact["solimp_d"]), 0.001, 0.5, 2.0]
         act = spec.add_actuator()
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
         act.target = ("x" if planar else "free") if drive == "inertial" else "table_x"
@@ -503,6 +593,17 @@ class MujocoAdapter(ContactEngineAdapter):
         from mujoco import rollout
 
         built = [self._model(block, p, dt) for p in params_list]
+        groups: dict = {}
+        for i, bm in enumerate(built):
+            # one native batch per model structure (the rollout's data must fit every model)
+            groups.setdefault((bm.model.ngeom, bm.model.nv), []).append(i)
+        if len(groups) > 1:
+            out: list = [None] * len(built)
+            for idx in groups.values():
+                res = self._free_rocking(block, [params_list[i] for i in idx], dt, theta0_frac, duration_s)
+                for i, r in zip(idx, res):
+                    out[i] = r
+            return out
         th0 = theta0_frac * block.alpha_rad
         b, h = block.width_m, block.height_m
         init = []
@@ -531,13 +632,17 @@ class MujocoAdapter(ContactEngineAdapter):
             _, th, thd, _, _ = self._read(bm, full, block)
             etas = impact_etas(th, thd, block.alpha_rad, block.p_rad_s)
             arr = np.array(etas) if etas else np.array([math.nan])
+            zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
+            quarter = float(zc[0] + th[zc[0]] / (th[zc[0]] - th[zc[0] + 1])) * dt if zc.size else None
             out.append(RestitutionMeasurement(
                 etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
                 eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
                 settings={k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator",
-                                            "noslip_iterations", "impratio")} | {"friction": self.settings["friction"]},
+                                            "noslip_iterations", "impratio")} | _contact_of(p)
+                | {"friction": self.settings["friction"]},
                 method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
-                        "carried to θ = 0 with the free-rocking energy; η = ratio after/before")))
+                        "carried to θ = 0 with the free-rocking energy; η = ratio after/before"),
+                first_quarter_s=quarter))
         return out
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = CALIBRATION_THETA0_FRAC,
@@ -553,6 +658,157 @@ class MujocoAdapter(ContactEngineAdapter):
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
+        """Contact settings so that free rocking gives ``target_eta``, by the ``contact`` setting.
+
+        ``corners``: :meth:`_calibrate_corners`; ``distributed``: :meth:`_calibrate_distributed`;
+        ``auto``: the corners for targets up to 1 % above Housner's η_H (a plastic impact at a corner
+        point is Housner's impact), the distributed contact above (the modified η_M): a corner
+        contact reaches more only by a softness that lets the block slip (issue 18).
+        """
+        kind = self.settings["contact"]
+        if kind == "auto":
+            kind = ("corners" if float(target_eta) <= 1.01 * housner_eta(block.alpha_rad)
+                    or not self.distributed_contact else "distributed")
+        if kind == "distributed":
+            return self._calibrate_distributed(block, target_eta, dt_s=dt_s, use_cache=use_cache)
+        return self._calibrate_corners(block, target_eta, dt_s=dt_s, use_cache=use_cache)
+
+    def _calibrate_distributed(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                               use_cache: bool = True) -> CalibrationResult:
+        """The distributed contact's search with the set number of points, or (``contact_points``
+        unset) with 9, then 5, then 17 points until one reaches the target at an acceptable price."""
+        n_set = self.settings["contact_points"]
+        tried = []
+        for n in ((n_set,) if n_set is not None else _POINTS_TRIED):
+            c = self._calibrate_distributed_n(block, target_eta, n, dt_s=dt_s, use_cache=use_cache)
+            if c.reached:
+                return c
+            tried.append(c)
+        if len(tried) == 1:
+            return tried[0]
+        best = min(tried, key=lambda c: abs(c.rel_error))
+        return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} points: {c.note}" for c in tried))
+
+    def _calibrate_distributed_n(self, block: Block, target_eta: float, n: int, *, dt_s: float | None = None,
+                                 use_cache: bool = True) -> CalibrationResult:
+        """Search a row of contact points along the base (issue 18) for ``target_eta``, at a price.
+
+        A grid of solimp impedance d (0.3–0.9) × time constant (2–16·Δt) × damping ratio (0.5–2)
+        in native batches, then a finer grid around the best point. Candidates within 1 % of the
+        target with regular rocking (impact-to-impact spread below 2 %) are tried closest first
+        until one keeps the static uplift threshold within 2 % of g·tanα without rocking below it
+        and raises no ``slip`` flag in the anti-slip cells (:func:`rockbench.engines.price.contact_price`);
+        its price (uplift, anti-slip, period change, speed) is recorded with it.
+        """
+        import mujoco
+
+        from . import price as _price
+
+        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise ConfigError(f"--dt must be > 0 s, got {dt_s!r}.")
+        target = float(target_eta)
+        if not (0.0 < target <= 1.0):
+            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
+        solver = self._solver_params()
+        r = self.settings["contact_radius_m"]
+        geo = {"contact": "distributed", "contact_points": n, "contact_radius_m": r}
+        key = _cal.cache_key(engine="mujoco", version=mujoco.__version__, procedure=CALIBRATION_VERSION_DIST,
+                             contact=geo, block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
+                             target=target, dt=dt, drive=self.settings["drive"], planar=self.settings["planar"],
+                             friction=self.settings["friction"], solver=solver, price_cells=list(_price.PRICE_CELLS))
+        if use_cache:
+            rec = _cal.load(key)
+            if rec is not None:
+                return CalibrationResult(**rec["result"])
+        grid = [(f * dt, dr, dd) for dd in _D_VALUES for f in _TC_FACTORS_DIST for dr in _DR_VALUES_DIST]
+        results = self._eval_grid(block, dt, solver, grid, geo)
+        good = [x for x in results if math.isfinite(x[3])]
+        if good:
+            b0 = min(good, key=lambda x: abs(x[3] - target))
+            fine = [(b0[0] * f, b0[1] * g, min(0.95, max(0.05, b0[2] + e)))
+                    for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25) for e in (-0.05, 0.0, 0.05)
+                    if b0[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)]
+            results += self._eval_grid(block, dt, solver, fine, geo)
+        good = [x for x in results if math.isfinite(x[3])]
+        if not good:
+            raise ConfigError("mujoco calibration: no distributed contact setting gave a measurable free rocking "
+                              "(fewer than two impacts); try a smaller --dt.")
+        # regular rocking only (impact-to-impact spread below 2 %, as Exudyn's calibration asks)
+        within = sorted((x for x in good if abs(x[3] - target) <= 0.01 * target and x[4] < 0.02),
+                        key=lambda x: abs(x[3] - target))
+        tried, chosen, price = [], None, None
+        rest = Restitution("constant", value=target)
+        for x in within[:_MAX_PRICE_TRIES]:
+            probe = self._fixed(x[0], x[1], x[2], geo)
+            up = _price.uplift_threshold(probe, block, rest, dt)
+            row = {"timeconst": x[0], "dampratio": x[1], "solimp_d": x[2], "eta": x[3], "uplift": up}
+            tried.append(row)
+            if not up.get("within"):
+                continue
+            m = probe._free_rocking(block, [{"timeconst": x[0], "dampratio": x[1], **solver, **geo, "solimp_d": x[2]}],
+                                    dt, CALIBRATION_THETA0_FRAC)[0]
+            price = _price.contact_price(probe, block, rest, dt, first_quarter_s=m.first_quarter_s)
+            row["anti_slip"] = {k: v for k, v in price["anti_slip"].items() if k.startswith("n_") or k == "cells"}
+            if price["counts"]:
+                chosen = x
+                break
+            price = None
+        etas_all = np.array([x[3] for x in good])
+        lo, hi = float(etas_all.min()), float(etas_all.max())
+        span = (f"over solimp d {min(_D_VALUES):g}–{max(_D_VALUES):g}, time constants "
+                f"{_TC_FACTORS_DIST[0]:g}–{_TC_FACTORS_DIST[-1]:g}·dt and damping ratios "
+                f"{_DR_VALUES_DIST[0]:g}–{_DR_VALUES_DIST[-1]:g} ({n} points along the base) η spans {lo:.4f}–{hi:.4f}")
+        if chosen is not None:
+            tc, dr, dd, eta, std, n_imp = chosen
+            reached = True
+            note = (f"reached with {n} contact points along the base, solref ({tc:.4g} s, {dr:.3g}), solimp d {dd:.3g} "
+                    f"at dt {dt:g} s, {n_imp} impacts measured; {_price.price_line(price)}; {span}.")
+        else:
+            tc, dr, dd, eta, std, n_imp = (within[0] if within else min(good, key=lambda x: abs(x[3] - target)))
+            reached = False
+            why = (f"{len(within)} settings reach η within 1 % with regular rocking, but none keeps the static "
+                   f"uplift threshold within {100 * _price.UPLIFT_RTOL:g} % of g·tanα and the default-suite cells "
+                   f"free of slip (the first {len(tried)} tried: "
+                   + "; ".join(f"uplift {t['uplift'].get('ratio', math.nan):.3f}"
+                               + (f", {t['anti_slip']['n_slip']} slip/{t['anti_slip']['n_jump']} jump"
+                                  if "anti_slip" in t else "") for t in tried) + ")"
+                   if within else f"the closest regular η is {eta:.4f} ({100 * (eta - target) / target:+.2f} %)")
+            note = f"not reached with the distributed contact: {why}; {span}."
+        sink_mm = 1e3 * self._rest_sink_m(block, {"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd}, dt)
+        res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
+                                settings={"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd,
+                                          "friction": self.settings["friction"], "dt_s": dt,
+                                          "rest_sink_m": sink_mm * 1e-3},
+                                note=note, evaluations=len(results), price=price)
+        _cal.store(key, {"key": key, "block": block.name, "mujoco": mujoco.__version__,
+                         "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
+                         "grid": [list(x) for x in results], "uplift_tried": tried})
+        return res
+
+    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
+        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
+        from . import price as _price
+
+        dt = float(c.settings.get("dt_s") or (self.default_dt_s if dt_s is None else dt_s))
+        st = c.settings
+        geo = _contact_of(st)
+        probe = self._fixed(st["timeconst"], st["dampratio"], geo["solimp_d"], geo)
+        p = {k: st[k] for k in ("timeconst", "dampratio", "cone", "integrator", "noslip_iterations", "impratio")}
+        m = probe._free_rocking(block, [{**p, **geo}], dt, CALIBRATION_THETA0_FRAC)[0]
+        return _price.contact_price(probe, block, Restitution("constant", value=c.eta_target), dt,
+                                    first_quarter_s=m.first_quarter_s)
+
+    def _fixed(self, tc: float, dr: float, solimp_d: float | None, geo: dict) -> "MujocoAdapter":
+        """A copy of this adapter with explicit contact settings (no calibration behind its runs)."""
+        s = {**self.settings, "timeconst_s": tc, "dampratio": dr, "solimp_d": solimp_d,
+             "contact": geo["contact"] if geo["contact"] != "auto" else "corners"}
+        if geo["contact"] == "distributed":
+            s["contact_points"], s["contact_radius_m"] = geo["contact_points"], geo["contact_radius_m"]
+        return MujocoAdapter(**s)
+
+    def _calibrate_corners(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                           use_cache: bool = True) -> CalibrationResult:
         """Search the contact time constant and damping ratio so free rocking gives ``target_eta``.
 
         A grid of ``timeconst = f·Δt`` (f from 2 to 48) × ``dampratio`` (0.5 to 2) runs in one
@@ -621,14 +877,21 @@ class MujocoAdapter(ContactEngineAdapter):
         z = bm.s0[bm.qi["pos"] + 1] if bm.planar else bm.s0[bm.qi["pos"] + 2] - 0.5 * block.height_m
         return float(-z)
 
-    def _eval_grid(self, block: Block, dt: float, solver: dict, grid: list) -> list:
-        params = [{"timeconst": float(tc), "dampratio": float(dr), **solver} for tc, dr in grid]
-        ms = self._free_rocking(block, params, dt, CALIBRATION_THETA0_FRAC)
+    def _eval_grid(self, block: Block, dt: float, solver: dict, grid: list, geo: dict | None = None) -> list:
+        """Free rocking for each grid point: ``(tc, dr)`` rows for the corners, ``(tc, dr, d)`` with ``geo``."""
+        if geo is None:
+            params = [{"timeconst": float(tc), "dampratio": float(dr), **solver} for tc, dr in grid]
+        else:
+            params = [{"timeconst": float(g[0]), "dampratio": float(g[1]), **solver, **geo, "solimp_d": float(g[2])}
+                      for g in grid]
+        ms = []
+        for k in range(0, len(params), 64):          # bounded native batches
+            ms += self._free_rocking(block, params[k:k + 64], dt, CALIBRATION_THETA0_FRAC)
         out = []
-        for (tc, dr), m in zip(grid, ms):
+        for g, m in zip(grid, ms):
             ok = len(m.etas) >= 2 and all(0.0 < e < 1.0 for e in m.etas)
             # a corner that bounces (η ≥ 1 at some impact) is not rocking: never pick it
-            out.append((float(tc), float(dr), m.eta_mean if ok else math.nan,
+            out.append((*(float(v) for v in g), m.eta_mean if ok else math.nan,
                         m.eta_std if ok else math.nan, len(m.etas)))
         return out
 
@@ -695,3 +958,14 @@ def impact_etas(theta_rad, theta_dot_rad_s, alpha_rad: float, p_rad_s: float,
             break  # it came back out on the same side: no impact, the rocking has died out
         etas.append(v0(j) / v0(i))
     return etas
+
+
+def _contact_of(p: dict) -> dict:
+    """The contact geometry keys of a settings dict (records without them are the corners)."""
+    kind = p.get("contact") or "corners"
+    if kind == "auto":
+        kind = "corners"
+    dist = kind == "distributed"
+    return {"contact": kind, "contact_points": int(p["contact_points"]) if dist else None,
+            "contact_radius_m": float(p["contact_radius_m"]) if dist else None,
+            "solimp_d": None if p.get("solimp_d") is None else float(p["solimp_d"])}

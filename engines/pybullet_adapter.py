@@ -46,6 +46,7 @@ None), since the engine must decide the motion after the pulse by itself.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
@@ -56,6 +57,7 @@ import numpy as np
 from ..reference_solver.classify import FLAT_ANGLE_RAD
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
+from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import ContactEngineAdapter, body_energy_j_kg, overturn_certain
@@ -76,6 +78,16 @@ CALIBRATION_PROTOCOL = 4
 #: Largest spread (standard deviation) of the per-impact η, as a fraction of the target, that a
 #: calibrated setting may show: beyond it the block has no single restitution coefficient [-].
 _CAL_MAX_SPREAD = 0.02
+
+#: Distributed contact (issue 18): spheres along the base by default, the version of its
+#: calibration (part of the cache key) and how many candidates its price check tries.
+_DEFAULT_POINTS = 9
+_POINTS_TRIED = (9, 5, 17)
+CALIBRATION_PROTOCOL_DIST = 3
+_MAX_PRICE_TRIES = 8
+
+#: Radius of the spheres of a distributed contact (``contact_points``) [m].
+_POINT_RADIUS_M = 5e-4
 
 #: Free-rocking test: impacts measured after release [-].
 _CAL_IMPACTS = 4
@@ -143,13 +155,14 @@ class _Scene:
     def alive(self) -> bool:
         return self.pid == os.getpid() and self.pb.isConnected(physicsClientId=self.cid)
 
-    def build(self, block: Block, planar: bool, breaking_threshold_m: float | None, contact: tuple = ()) -> None:
+    def build(self, block: Block, planar: bool, breaking_threshold_m: float | None, contact: tuple = (),
+              points: int | None = None) -> None:
         """Create the table and the block (planar chain or free body) if the geometry or the contact changed.
 
         ``contact`` identifies the contact settings: Bullet cannot switch a compliant contact back to
         its rigid one, so another contact means new bodies, never a leftover of the previous case.
         """
-        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, planar, breaking_threshold_m, contact)
+        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, planar, breaking_threshold_m, contact, points)
         if key == self.key:
             return
         pb, cid = self.pb, self.cid
@@ -160,7 +173,17 @@ class _Scene:
         tcol = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=_TABLE_HALF_EXTENTS_M, physicsClientId=cid)
         self.table = pb.createMultiBody(0.0, tcol, -1, [0, 0, -_TABLE_HALF_EXTENTS_M[2]], physicsClientId=cid)
         b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
-        bcol = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[b / 2, d / 2, h / 2], physicsClientId=cid)
+        if points:
+            # a row of small spheres along the base (issue 18), the outer ones under the bottom
+            # edges; two rows (front and back) for a free block. Bullet takes the inertia from the
+            # shape, so the box's is set below.
+            r = _POINT_RADIUS_M
+            rows = (0.0,) if planar else (-d / 2 + r, d / 2 - r)
+            pos = [[float(x), y, -h / 2 + r] for y in rows for x in np.linspace(-b / 2, b / 2, int(points))]
+            bcol = pb.createCollisionShapeArray([pb.GEOM_SPHERE] * len(pos), radii=[r] * len(pos),
+                                                collisionFramePositions=pos, physicsClientId=cid)
+        else:
+            bcol = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[b / 2, d / 2, h / 2], physicsClientId=cid)
         if planar:
             n = 3
             self.block = pb.createMultiBody(
@@ -184,6 +207,9 @@ class _Scene:
             # Bullet damps multibody motion by default (0.04): the model has no damping at all
             pb.changeDynamics(self.block, j, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
                               physicsClientId=cid)
+        if points:
+            box_i = [m * (d * d + h * h) / 12.0, m * (b * b + h * h) / 12.0, m * (b * b + d * d) / 12.0]
+            pb.changeDynamics(self.block, self.block_link, localInertiaDiagonal=box_i, physicsClientId=cid)
         # a block resting on the table for 2 s would fall asleep and ignore a later pulse
         pb.changeDynamics(self.block, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
         self.key = key
@@ -277,6 +303,17 @@ class PybulletAdapter(ContactEngineAdapter):
         Bullet's contact-breaking distance [m] (its default is 0.02 m). Old names, accepted for one
         release: ``contact_stiffness``, ``contact_damping``, ``contact_breaking_threshold``
         (:data:`~rockbench.engines.contact.RENAMED_SETTINGS`).
+    contact : {"auto", "corners", "distributed"}
+        ``corners``: the block's box touches the table (Bullet keeps up to 4 corner contacts).
+        ``distributed``: a row of ``contact_points`` small spheres along the base instead, the
+        outer ones under the bottom edges (issue 18), calibrated over a compliant contact's
+        stiffness and damping ratio. ``auto`` (default): the corners for targets up to 1 % above
+        Housner's η_H, the distributed contact above (the modified η_M); explicit contact
+        settings with ``auto`` use the corners.
+    contact_points : int or None
+        Spheres of the distributed contact (≥ 3). None (default): the calibration tries 9, then
+        5, then 17 until one reaches the target at an acceptable price; explicit contact
+        settings then use 9.
     tail_s, min_tail_s : float
         Longest and shortest simulated time after the pulse [s].
     """
@@ -295,6 +332,8 @@ class PybulletAdapter(ContactEngineAdapter):
         "contact_damping_n_s_m": None,
         "restitution_coef": None,
         "contact_breaking_threshold_m": None,
+        "contact": "auto",
+        "contact_points": None,
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
@@ -330,6 +369,10 @@ class PybulletAdapter(ContactEngineAdapter):
         if s["restitution_coef"] is not None and s["restitution_coef"] > 1.0:
             raise ConfigError(f"pybullet setting 'restitution_coef' must be in [0, 1], got {s['restitution_coef']!r}.")
         self._whole_setting(s, "solver_iterations", 1)
+        if s["contact_points"] is not None:
+            self._whole_setting(s, "contact_points", 3)
+        if s["contact"] not in ("auto", "corners", "distributed"):
+            raise ConfigError(f"pybullet setting 'contact' must be auto, corners or distributed, got {s['contact']!r}.")
 
     def explicit_contact(self) -> bool:
         """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
@@ -340,6 +383,7 @@ class PybulletAdapter(ContactEngineAdapter):
         s = dict(self.settings)
         if s["solver_iterations"] is None:
             s["solver_iterations"] = 50 if s["settings"] == "defaults" else 30
+        s["contact_points"] = (s["contact_points"] or _DEFAULT_POINTS) if s["contact"] == "distributed" else None
         return s
 
     def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
@@ -371,7 +415,8 @@ class PybulletAdapter(ContactEngineAdapter):
         pb, cid = sc.pb, sc.cid
         planar = bool(s["planar"])
         sc.build(block, planar, s.get("contact_breaking_threshold_m"),
-                 tuple(s.get(k) for k in self.CONTACT_KEYS + ("friction", "friction_anchor")))
+                 tuple(s.get(k) for k in self.CONTACT_KEYS + ("friction", "friction_anchor")),
+                 points=s.get("contact_points"))
         sc.apply(s, dt)
         sc.place(block, planar, theta0)
 
@@ -542,14 +587,159 @@ class PybulletAdapter(ContactEngineAdapter):
         etas = _impact_etas(block, tr.theta_rad, state, _CAL_IMPACTS)
         mean = float(np.mean(etas)) if etas else float("nan")
         std = float(np.std(etas)) if etas else float("nan")
-        shown = {k: s[k] for k in ("friction", "friction_anchor", "solver_iterations", "planar") + self.CONTACT_KEYS}
+        shown = {k: s[k] for k in ("friction", "friction_anchor", "solver_iterations", "planar", "contact_points")
+                 + self.CONTACT_KEYS}
+        th = np.asarray(tr.theta_rad)
+        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
+        quarter = None
+        if zc.size:
+            i = int(zc[0])
+            quarter = float(tr.t_s[i] + (tr.t_s[i + 1] - tr.t_s[i]) * th[i] / (th[i] - th[i + 1]))
         return RestitutionMeasurement(etas=[float(e) for e in etas], eta_mean=mean, eta_std=std,
                                       theta0_rad=theta0_frac * block.alpha_rad, dt_s=dt, settings=shown,
                                       method=f"energy ratio of the first {_CAL_IMPACTS} impacts: "
-                                             "sqrt(K_next/K), K = mechanical energy above rest between impacts")
+                                             "sqrt(K_next/K), K = mechanical energy above rest between impacts",
+                                      first_quarter_s=quarter)
 
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
                   use_cache: bool = True) -> CalibrationResult:
+        """Contact settings whose free-rocking η reaches ``target_eta``, by the ``contact`` setting:
+        :meth:`_calibrate_corners`, or :meth:`_calibrate_distributed` (``auto``: the corners up to
+        1 % above η_H, the distributed contact above)."""
+        kind = self.settings["contact"]
+        if kind == "auto":
+            kind = "corners" if float(target_eta) <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
+        if kind == "distributed":
+            return self._calibrate_distributed(block, target_eta, dt_s=dt_s, use_cache=use_cache)
+        return self._calibrate_corners(block, target_eta, dt_s=dt_s, use_cache=use_cache)
+
+    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
+        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
+        from . import price as _price
+
+        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        fixed = self._fixed(c.settings)
+        m = fixed.measure_restitution(block, dt_s=dt)
+        return _price.contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt,
+                                    first_quarter_s=m.first_quarter_s)
+
+    def _fixed(self, contact: dict) -> "PybulletAdapter":
+        """A copy of this adapter with explicit contact settings (no calibration behind its runs)."""
+        contact = self.canonical_settings(contact)
+        st = {**self.settings, **{k: contact.get(k) for k in self.CONTACT_KEYS}}
+        if contact.get("contact_points"):
+            st.update(contact="distributed", contact_points=contact["contact_points"])
+        else:
+            st.update(contact="corners", contact_points=None)
+        return PybulletAdapter(**st)
+
+    def _calibrate_distributed(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                               use_cache: bool = True) -> CalibrationResult:
+        """The distributed search with the set number of spheres, or (``contact_points`` unset)
+        with 9, then 5, then 17 until one reaches the target at an acceptable price."""
+        n_set = self.settings["contact_points"]
+        tried = []
+        for n in ((n_set,) if n_set is not None else _POINTS_TRIED):
+            c = self._calibrate_distributed_n(block, target_eta, n, dt_s=dt_s, use_cache=use_cache)
+            if c.reached:
+                return c
+            tried.append(c)
+        if len(tried) == 1:
+            return tried[0]
+        ok = [c for c in tried if math.isfinite(c.eta_measured)] or tried
+        best = min(ok, key=lambda c: abs(c.rel_error) if math.isfinite(c.rel_error) else math.inf)
+        return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} spheres: {c.note}" for c in tried))
+
+    def _calibrate_distributed_n(self, block: Block, target_eta: float, n: int, *, dt_s: float | None = None,
+                                 use_cache: bool = True) -> CalibrationResult:
+        """A row of ``n`` spheres along the base (issue 18) with a compliant contact, for ``target_eta``.
+
+        Bullet's rigid contact and a grid of stiffness ``k`` (100 × 10^(−2…0)·m/Δt², nine values up
+        to the stiffest the step resolves) × damping ratio ζ (0.05–1, ``c = 2ζ√(k·m)``). Candidates
+        within 1 % of the target whose impacts agree within 2 % are tried closest first until one
+        keeps the static uplift threshold within 2 % of g·tanα and raises no ``slip`` flag in the
+        anti-slip cells (:func:`rockbench.engines.price.contact_price`); its price is recorded.
+        """
+        from . import price as _price
+
+        t = float(target_eta)
+        if not (math.isfinite(t) and 0.0 < t <= 1.0):
+            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
+        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        base = self._base_settings()
+        for k in self.CONTACT_KEYS:
+            base[k] = None
+        base["contact_points"] = n
+        key = calibration.cache_key(engine=self.name, version=self.version(), protocol=CALIBRATION_PROTOCOL_DIST,
+                                    block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
+                                    target=t, dt=dt, planar=base["planar"], friction=base["friction"],
+                                    anchor=base["friction_anchor"], iterations=base["solver_iterations"], points=n,
+                                    price_cells=[list(c) for c in _price.PRICE_CELLS])
+        if use_cache:
+            rec = calibration.load(key)
+            if rec is not None:
+                return CalibrationResult(**rec["result"])
+        m_kg = block.mass_kg
+        kmax = m_kg / dt**2
+        grid = [{}] + [{"contact_stiffness_n_m": float(k), "contact_damping_n_s_m": float(2 * z * math.sqrt(k * m_kg)), "zeta": z}
+                       for k in np.logspace(math.log10(kmax) - 2.0, math.log10(kmax), 9)
+                       for z in (0.05, 0.1, 0.2, 0.5, 1.0)]
+        rows = []
+        for g in grid:
+            st = {**base, **{k: v for k, v in g.items() if k != "zeta"}}
+            try:
+                mm = self.measure_restitution(block, dt_s=dt, settings=st)
+                rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "n": len(mm.etas)})
+            except Exception as e:  # noqa: BLE001 - a setting that breaks is recorded, the search goes on
+                rows.append({**g, "eta": math.nan, "eta_std": math.nan, "n": 0, "error": f"{type(e).__name__}: {e}"})
+        regular = [r for r in rows if math.isfinite(r["eta"]) and r["n"] >= 2 and r["eta_std"] <= _CAL_MAX_SPREAD * r["eta"]]
+        within = sorted((r for r in regular if abs(r["eta"] - t) <= 0.01 * t), key=lambda r: abs(r["eta"] - t))
+        chosen, price, tried = None, None, []
+        rest = Restitution("constant", value=t)
+        for r in within[:_MAX_PRICE_TRIES]:
+            contact = {k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}
+            fixed = self._fixed(contact)
+            pr = _price.contact_price(fixed, block, rest, dt)
+            tried.append({**r, "uplift_ratio": pr["uplift"].get("ratio"), "n_slip": pr["anti_slip"]["n_slip"],
+                          "n_jump": pr["anti_slip"]["n_jump"]})
+            if pr["counts"]:
+                chosen, price = r, pr
+                break
+        lo = min((r["eta"] for r in regular), default=math.nan)
+        hi = max((r["eta"] for r in regular), default=math.nan)
+        span = (f"{n} spheres along the base; Bullet's rigid contact and stiffness {kmax / 100:.3g}–{kmax:.3g} N/m × "
+                f"damping ratio 0.05–1: regular free rocking spans η = {lo:.4f}–{hi:.4f}")
+        if chosen is not None:
+            r = chosen
+            m = self._fixed({k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}).measure_restitution(block, dt_s=dt)
+            price["period_change"] = (m.first_quarter_s / price["rigid_first_quarter_s"] - 1.0) if m.first_quarter_s else None
+            price["first_quarter_s"] = m.first_quarter_s
+            how = (f"stiffness {r['contact_stiffness_n_m']:.4g} N/m, damping ratio {r['zeta']:g}" if r.get("contact_stiffness_n_m")
+                   else "Bullet's rigid contact")
+            note = f"reached with {n} spheres along the base, {how}; {_price.price_line(price)}; {span}."
+            reached = True
+        else:
+            r = (min(within, key=lambda r: abs(r["eta"] - t)) if within else
+                 min(regular or [x for x in rows if math.isfinite(x["eta"])] or rows,
+                     key=lambda r: abs(r["eta"] - t) if math.isfinite(r["eta"]) else math.inf))
+            reached = False
+            if within:
+                why = (f"{len(within)} settings give η within 1 % with regular impacts, but none keeps the static uplift "
+                       f"threshold within 2 % of g·tanα and the anti-slip cells free of slip (tried: "
+                       + "; ".join(f"k {x.get('contact_stiffness_n_m') or 0:.3g} ζ {x.get('zeta', 0):g}: uplift "
+                                   f"{x['uplift_ratio']:.3f}, {x['n_slip']} slip" for x in tried) + ")")
+            else:
+                why = f"the closest regular η is {r['eta']:.4f} ({100 * (r['eta'] - t) / t:+.2f} %)"
+            note = f"not reached with the distributed contact: {why}; {span}."
+        settings = {k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}
+        res = CalibrationResult(eta_target=t, eta_measured=float(r["eta"]), eta_std=float(r["eta_std"]), reached=reached,
+                                settings=settings, note=note, evaluations=len(rows), price=price)
+        calibration.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
+                                "grid": rows, "price_tried": tried})
+        return res
+
+    def _calibrate_corners(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                           use_cache: bool = True) -> CalibrationResult:
         """Search Bullet's contact settings so the free-rocking η reaches ``target_eta`` within 1 %.
 
         The search, in order:

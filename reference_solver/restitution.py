@@ -36,6 +36,20 @@ def modified_eta(alpha_rad: float, k: float) -> float:
     return (4.0 - 3.0 * s2 * (1.0 + k * k)) / (4.0 - 3.0 * s2 * (1.0 - k * k))
 
 
+def effective_k(alpha_rad: float, eta: float) -> float:
+    """The impulse position ``k`` for which eq. (10) gives ``eta`` (its inverse) [-].
+
+    ``k = √[(4 − 3·sin²α)(1 − η) / (3·sin²α·(1 + η))]``: 1 at Housner's η_H, 0 at η = 1, above 1
+    for η below η_H (an impulse outside the base: more loss than a plastic corner impact). Used to
+    read an engine's measured free-rocking η as the position of its impact impulse.
+    """
+    s2 = math.sin(alpha_rad) ** 2
+    e = float(eta)
+    if not (0.0 < e <= 1.0) or s2 == 0.0:
+        return math.nan
+    return math.sqrt((4.0 - 3.0 * s2) * (1.0 - e) / (3.0 * s2 * (1.0 + e)))
+
+
 def check_k(k) -> float:
     """Validate the impulse position ``k`` in [0, 1]."""
     try:

@@ -155,3 +155,24 @@ def test_report_draws_fig17_with_the_reference(write_map, band, tmp_path):
     assert not any(n.startswith("θ(t) reference") for n in res["notes"]), res["notes"]
     assert any("nosuchengine" in n for n in res["notes"])
     assert "theta_b3m_sine_6_6.1.png" in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_price_table_shows_reach_contact_and_cost():
+    """Issue 18: a calibration with a measured price gets a row: reached only if the price counts."""
+    from rockbench.benchmark.report import _price_table
+
+    price = {"uplift": {"ratio": 0.986, "within": True}, "anti_slip": {"n_slip": 0, "n_jump": 1, "cells": 27},
+             "period_change": -0.0051, "steps_per_s": 4.0e4, "counts": True}
+    rows = [{"variant": "mujoco[contact=distributed,settings=calibrated]", "block": "B3M",
+             "restitution": "modified(k=0.8608)", "eta_measured": 0.811, "reached": True, "price": price,
+             "contact": "9 points along the base"},
+            {"variant": "mujoco[settings=calibrated]", "block": "B3M", "restitution": "housner",
+             "eta_measured": 0.7558, "reached": True, "price": None, "contact": "corners"},
+            {"variant": "pybullet[contact=distributed,settings=calibrated]", "block": "B3L",
+             "restitution": "modified(k=0.7306)", "eta_measured": 0.8596, "reached": False, "contact": "5 points along the base",
+             "price": {**price, "uplift": {"ratio": 0.9, "within": False}, "counts": False}}]
+    head, body = _price_table(rows, {})
+    assert len(body) == 2 and "static uplift / g·tanα" in head
+    assert body[0][4] == "yes" and body[0][5] == "9 points along the base" and body[0][6] == "0.9860"
+    assert body[0][7] == "0 / 1 of 27" and body[0][8] == "-0.51 %"
+    assert body[1][4] == "no" and "outside 2 %" in body[1][6]

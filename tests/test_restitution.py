@@ -54,6 +54,23 @@ def test_bad_restitution(text, k):
         Restitution.parse(text, k=k)
 
 
+@pytest.mark.parametrize("alpha", [0.05, 0.2187, 0.4182, 0.9])
+@pytest.mark.parametrize("k", [0.0, 0.25, 0.7306, 0.8608, 1.0])
+def test_effective_k_inverts_eq_10(alpha, k):
+    from rockbench.reference_solver.restitution import effective_k
+    assert effective_k(alpha, modified_eta(alpha, k)) == pytest.approx(k, abs=1e-12)
+
+
+def test_effective_k_edges():
+    import math
+    from rockbench.reference_solver.restitution import effective_k
+    a = 0.4182
+    assert effective_k(a, housner_eta(a)) == pytest.approx(1.0, abs=1e-14)
+    assert effective_k(a, 1.0) == 0.0
+    assert effective_k(a, 0.7) > 1.0          # more loss than Housner: impulse "outside" the base
+    assert math.isnan(effective_k(a, 0.0)) and math.isnan(effective_k(a, 1.2))
+
+
 @pytest.mark.parametrize("text,k,want", [
     ("housner", None, Restitution()),
     (" Housner ", None, Restitution()),

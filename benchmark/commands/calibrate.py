@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from ...engines.price import price_line
 from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError
 from ..cli_options import (add_block_options, block_from_args, dt_from_args, engine_settings_from_args,
@@ -15,14 +16,18 @@ def register(sub) -> None:
                        "its contact settings to reach it")
     add_block_options(p)
     p.add_argument("--engine", required=True, help="engine name (see `rockbench engines`)")
-    p.add_argument("--target", default=None, help="housner | modified | a number in (0, 1] (default: measure only)")
-    p.add_argument("--k", default=None, help="impulse position for --target modified (default: the preset's average k)")
+    p.add_argument("--target", default=None, help="housner | modified | modified-average | modified-exact | a number "
+                   "in (0, 1] (default: measure only); above Housner's η the contact along the base is searched")
+    p.add_argument("--k", default=None, help="impulse position for --target modified (default: the preset's average k; "
+                   "--target modified-exact: its exact k)")
     p.add_argument("--dt", default=None, help="time step [s] (default: the engine's)")
     p.add_argument("--theta0", default="0.5", help="release angle as a fraction of α (measurement only; default 0.5)")
     p.add_argument("--settings", default=None, help="calibrated | defaults (measurement only)")
     p.add_argument("--drive", default=None, help="inertial | table")
     p.add_argument("--friction", default=None, help="friction coefficient [-]")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="any other engine setting")
+    p.add_argument("--price", action="store_true", help="with --target: also measure what the contact found costs "
+                   "(static uplift threshold, anti-slip, period change, speed) when the calibration has not")
     p.add_argument("--no-cache", action="store_true", help="search again even when a stored calibration exists")
     p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
     p.set_defaults(func=run)
@@ -47,6 +52,11 @@ def run(args) -> int:
         rest = restitution_from_args(args, preset, option="--target")
         target = rest.eta(block.alpha_rad)
         c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
+        if args.price and c.price is None:
+            if not hasattr(adapter, "contact_price"):
+                raise ConfigError(f"--price: engine {adapter.name!r} does not measure a contact price; "
+                                  "leave --price out.")
+            c.price = adapter.contact_price(block, c, dt)
         out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict()}
     if args.json:
         print(json.dumps(out, indent=2, default=float))
@@ -56,5 +66,7 @@ def run(args) -> int:
              f"{100 * out['rel_error']:+.2f} %)" if out.get("eta_target") is not None else ""))
     if out.get("note"):
         print(out["note"])
+    if out.get("price") is not None and "price:" not in (out.get("note") or ""):
+        print(price_line(out["price"]))
     print("settings: " + json.dumps(out["settings"], default=float))
     return 0
