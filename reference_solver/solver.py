@@ -397,6 +397,40 @@ def _impact_time(th, thd, thdd, h, t, s, post, code, a0, w, t_end, tk, ak, alpha
 
 
 @njit(cache=True)
+def _verdict(cs, dm, steps, newton, ni, energy_mode, t_end, alpha, p2, eta, lin):
+    """The stats vector of :func:`_integrate`: the classifier's verdict on the samples (rules of
+    classify.classify, from the running state ``cs``), step counts and the contact demand ``dm``."""
+    stats = np.empty(_N_STATS)
+    stats[_S_STEPS] = steps
+    stats[_S_NEWTON] = newton
+    stats[_S_NEVENTS] = ni
+    stats[_S_MAXTH] = cs[_C_MAX]
+    stats[_S_MINN] = dm[D_MIN_N]
+    stats[_S_MAXF] = dm[D_MAX_F]
+    if cs[_C_LIFTED] == 0.0:
+        stats[_S_OUTCOME] = _REST
+        stats[_S_NIMP] = 0.0
+        stats[_S_TUP] = np.nan
+        stats[_S_TOVER] = np.nan
+    else:
+        stats[_S_TUP] = cs[_C_TUP]
+        nimp = cs[_C_NIMP]
+        if cs[_C_CERTAIN] != 0.0:
+            stats[_S_OUTCOME] = _OVERTURN
+            stats[_S_TOVER] = cs[_C_TCROSS]
+        else:
+            stats[_S_OUTCOME] = _ROCKING
+            stats[_S_TOVER] = np.nan
+            if energy_mode and cs[_C_LASTT] >= t_end:
+                goes, extra = _fate(cs[_C_LASTTH], cs[_C_LASTTHD], alpha, p2, eta, lin)
+                if goes:
+                    stats[_S_OUTCOME] = _OVERTURN
+                    nimp += extra
+        stats[_S_NIMP] = nimp
+    return stats
+
+
+@njit(cache=True)
 def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, t_max, record, th0, thd0, events):
     """Integrate one case; see the module docstring.
 
@@ -632,34 +666,7 @@ def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, 
         if steps + ni > max_loops:
             break  # a guard only: no case in the tests comes near it
 
-    # the classifier's verdict on the samples (rules of classify.classify)
-    stats = np.empty(_N_STATS)
-    stats[_S_STEPS] = steps
-    stats[_S_NEWTON] = newton
-    stats[_S_NEVENTS] = ni
-    stats[_S_MAXTH] = cs[_C_MAX]
-    stats[_S_MINN] = dm[D_MIN_N]
-    stats[_S_MAXF] = dm[D_MAX_F]
-    if cs[_C_LIFTED] == 0.0:
-        stats[_S_OUTCOME] = _REST
-        stats[_S_NIMP] = 0.0
-        stats[_S_TUP] = np.nan
-        stats[_S_TOVER] = np.nan
-    else:
-        stats[_S_TUP] = cs[_C_TUP]
-        nimp = cs[_C_NIMP]
-        if cs[_C_CERTAIN] != 0.0:
-            stats[_S_OUTCOME] = _OVERTURN
-            stats[_S_TOVER] = cs[_C_TCROSS]
-        else:
-            stats[_S_OUTCOME] = _ROCKING
-            stats[_S_TOVER] = np.nan
-            if energy_mode and cs[_C_LASTT] >= t_end:
-                goes, extra = _fate(cs[_C_LASTTH], cs[_C_LASTTHD], alpha, p2, eta, lin)
-                if goes:
-                    stats[_S_OUTCOME] = _OVERTURN
-                    nimp += extra
-        stats[_S_NIMP] = nimp
+    stats = _verdict(cs, dm, steps, newton, ni, energy_mode, t_end, alpha, p2, eta, lin)
     return hist[:n] if record else hist[:0], imps[:ni] if events else imps[:0], \
         upls[:nu, 0] if events else upls[:0, 0], stats
 
