@@ -422,17 +422,19 @@ class EngineAdapter:
             raise ConfigError(f"{self.name} setting {key!r} must be a finite number {bound}{in_unit}, got {v!r}.")
         settings[key] = x
 
-    def _whole_setting(self, settings: dict, key: str, minimum: int, *, allow_none: bool = True) -> None:
-        """Check that ``settings[key]`` is a whole number ≥ ``minimum`` given as an int or an
-        integral float (not a bool or a string; None passes with ``allow_none``) and store it as an
-        int; otherwise one ConfigError line naming the engine, the setting, the bound and the value
-        given."""
+    def _whole_setting(self, settings: dict, key: str, minimum: int, *, allow_none: bool = True,
+                       maximum: int | None = None) -> None:
+        """Check that ``settings[key]`` is a whole number ≥ ``minimum`` (and ≤ ``maximum`` when given)
+        given as an int or an integral float (not a bool or a string; None passes with
+        ``allow_none``) and store it as an int; otherwise one ConfigError line naming the engine, the
+        setting, the bounds and the value given."""
         v = settings[key]
         if v is None and allow_none:
             return
         if (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v != int(v)
-                or v < minimum):
-            raise ConfigError(f"{self.name} setting {key!r} must be a whole number >= {minimum}, got {v!r}.")
+                or v < minimum or (maximum is not None and v > maximum)):
+            bounds = f">= {minimum}" if maximum is None else f"from {minimum} to {maximum}"
+            raise ConfigError(f"{self.name} setting {key!r} must be a whole number {bounds}, got {v!r}.")
         settings[key] = int(v)
 
     def _simulate(self, case: Case) -> Trajectory:  # pragma: no cover - abstract

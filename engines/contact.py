@@ -27,6 +27,7 @@ so it needs the same few things whatever the engine:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from typing import Any, ClassVar, Mapping
@@ -41,7 +42,7 @@ from .base import CalibrationResult, EngineAdapter
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "FREE_ROCKING_IMPACTS",
            "FREE_ROCKING_METHOD", "body_energy_j_kg", "free_rocking_duration_s", "free_rocking_etas",
-           "overturn_certain"]
+           "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS", "first_reached"]
 
 #: ``settings`` values: contact calibrated to the case's η, or the engine as shipped
 SETTINGS_MODES = ("calibrated", "defaults")
@@ -65,6 +66,17 @@ FREE_ROCKING_IMPACTS = 4
 #: How :func:`free_rocking_etas` reads η (recorded with every restitution measurement)
 FREE_ROCKING_METHOD = ("energy-consistent amplitude ratio of successive peaks: "
                        "η = sqrt[(cos(α − θ_next) − cos α)/(cos(α − θ) − cos α)]")
+
+#: ``contact`` values: the corners alone, a row of points along the base, or the corners unless the
+#: target η is above Housner's (then the row); see docs/contact.md
+CONTACT_LAYOUTS = ("auto", "corners", "distributed")
+
+#: Points of a contact along the base that a calibration tries in turn when ``contact_points`` is not
+#: set (the first is also the default row)
+POINTS_TRIED = (9, 5, 17)
+
+#: The most points a contact along the base may have
+MAX_CONTACT_POINTS = 101
 
 _TRUE, _FALSE = ("true", "1"), ("false", "0")
 
@@ -135,6 +147,15 @@ class ContactEngineAdapter(EngineAdapter):
     def _validate_engine_settings(self, s: dict) -> None:
         """Raise ConfigError for a bad value of an engine-specific setting (default: none)."""
 
+    def _contact_layout_settings(self, s: dict) -> None:
+        """Check the ``contact`` layout (:data:`CONTACT_LAYOUTS`) and ``contact_points`` (None, or a
+        whole number from 3 to :data:`MAX_CONTACT_POINTS`) of an engine that offers a contact along
+        the base."""
+        if s["contact"] not in CONTACT_LAYOUTS:
+            raise ConfigError(f"{self.name} setting 'contact' must be one of {', '.join(CONTACT_LAYOUTS)}, "
+                              f"got {s['contact']!r}.")
+        self._whole_setting(s, "contact_points", 3, maximum=MAX_CONTACT_POINTS)
+
     def _bool_setting(self, s: dict, key: str) -> None:
         """Check that ``s[key]`` is a bool, or a string true/false/1/0, and store it as a bool."""
         v = s[key]
@@ -204,6 +225,23 @@ class ContactEngineAdapter(EngineAdapter):
         if not (math.isfinite(t) and 0.0 < t <= 1.0):
             raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
         return t
+
+
+def first_reached(calibrate_n, counts, unit: str) -> CalibrationResult:
+    """Calibrate a contact along the base with each number of points in ``counts`` in turn
+    (``calibrate_n(n)`` → :class:`CalibrationResult`) and return the first that reaches its target
+    at an acceptable price; when none does, the closest (finite η first), its note listing every
+    count tried (``"9 points: …"``, ``unit`` naming what the points are)."""
+    tried = []
+    for n in counts:
+        c = calibrate_n(n)
+        if c.reached:
+            return c
+        tried.append(c)
+    if len(tried) == 1:
+        return tried[0]
+    best = min(tried, key=lambda c: abs(c.rel_error) if math.isfinite(c.rel_error) else math.inf)
+    return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} {unit}: {c.note}" for c in tried))
 
 
 def body_energy_j_kg(block: Block, vx_m_s, vz_m_s, omega_rad_s, zc_m):

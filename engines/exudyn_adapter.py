@@ -71,7 +71,6 @@ shipped value is 0 (no contact at all) and is set by the same rule as the calibr
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
 import time
@@ -87,8 +86,9 @@ from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration
 from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
-                      free_rocking_duration_s, free_rocking_etas, overturn_certain)
+from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, POINTS_TRIED, ContactEngineAdapter,
+                      body_energy_j_kg, first_reached, free_rocking_duration_s, free_rocking_etas,
+                      overturn_certain)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range DOMAIN.md §8 found to
@@ -101,9 +101,6 @@ CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 #: The scan for the distributed contact (issue 18): its η rises with the coefficient from about
 #: η_H, and the probe (benchmarks/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
 CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
-
-#: Spheres the distributed calibration tries along the base when ``contact_points`` is not set.
-_POINTS_TRIED = (9, 5, 17)
 
 #: Impacts averaged by the free-rocking measurement [-] (the one count of all contact engines).
 CALIBRATION_IMPACTS = FREE_ROCKING_IMPACTS
@@ -587,17 +584,7 @@ class ExudynAdapter(ContactEngineAdapter):
     def _validate_engine_settings(self, s: dict) -> None:
         self._number_setting(s, "friction_zone_m_s", "m/s", allow_none=False)
         self._number_setting(s, "contact_stiffness_n_m", "N/m")
-        if s["contact"] not in ("auto", "corners", "distributed"):
-            raise ConfigError(f"exudyn setting 'contact' must be auto, corners or distributed, got {s['contact']!r}.")
-        if s["contact_points"] is not None:
-            try:
-                n = int(s["contact_points"])
-            except (TypeError, ValueError):
-                n = -1
-            if n < 3 or n != float(s["contact_points"]) or n > 101:
-                raise ConfigError(f"exudyn setting 'contact_points' must be a whole number from 3 to 101, "
-                                  f"got {s['contact_points']!r}.")
-            s["contact_points"] = n
+        self._contact_layout_settings(s)
         self._number_setting(s, "contact_restitution", "-")
         if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
             raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {s['contact_restitution']!r}.")
@@ -621,7 +608,7 @@ class ExudynAdapter(ContactEngineAdapter):
         if kind == "auto":
             kind = ("distributed" if target_eta is not None and target_eta > 1.01 * housner_eta(block.alpha_rad)
                     else "corners")
-        return (self.settings["contact_points"] or _POINTS_TRIED[0]) if kind == "distributed" else 2
+        return (self.settings["contact_points"] or POINTS_TRIED[0]) if kind == "distributed" else 2
 
     def _contact(self, block: Block, contact_restitution: float | None, points: int = 2) -> dict:
         """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model.
@@ -652,7 +639,7 @@ class ExudynAdapter(ContactEngineAdapter):
         s = self.settings
         if cal is None:
             e = s["contact_restitution"]
-            points = (s["contact_points"] or _POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
+            points = (s["contact_points"] or POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
         else:
             e = cal.settings["restitution_coefficient"]
             points = int(cal.settings.get("contact_points") or 2)
@@ -785,7 +772,7 @@ class ExudynAdapter(ContactEngineAdapter):
         """Free rocking with this adapter's settings (``calibrated``: those for Housner's η)."""
         dt = self.check_dt(dt_s)
         s = self.settings
-        points = (s["contact_points"] or _POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
+        points = (s["contact_points"] or POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
         if s["contact_restitution"] is not None:
             e = s["contact_restitution"]
         elif s["settings"] == "defaults":
@@ -838,14 +825,8 @@ class ExudynAdapter(ContactEngineAdapter):
         points = self._points_for(block, self.check_target_eta(target_eta))
         if points == 2 or self.settings["contact_points"] is not None:
             return self._calibrate_points(block, target_eta, points, dt_s=dt_s, use_cache=use_cache)
-        tried = []
-        for n in _POINTS_TRIED:
-            c = self._calibrate_points(block, target_eta, n, dt_s=dt_s, use_cache=use_cache)
-            if c.reached:
-                return c
-            tried.append(c)
-        best = min(tried, key=lambda c: abs(c.rel_error) if math.isfinite(c.rel_error) else math.inf)
-        return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} spheres: {c.note}" for c in tried))
+        return first_reached(lambda n: self._calibrate_points(block, target_eta, n, dt_s=dt_s, use_cache=use_cache),
+                             POINTS_TRIED, "spheres")
 
     def _calibrate_points(self, block: Block, target_eta: float, points: int, *, dt_s: float | None = None,
                           use_cache: bool = True) -> CalibrationResult:

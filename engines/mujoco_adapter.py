@@ -65,7 +65,6 @@ which other cells share its batch (tested bit for bit).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 from dataclasses import dataclass
@@ -77,7 +76,7 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration as _cal
 from .base import Case, CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import ContactEngineAdapter, overturn_certain
+from .contact import POINTS_TRIED, ContactEngineAdapter, first_reached, overturn_certain
 
 #: MuJoCo's own defaults for what ``settings="defaults"`` leaves alone (MuJoCo 3.x/4.0 docs).
 MUJOCO_SHIPPED = {"timeconst": 0.02, "dampratio": 1.0, "cone": "pyramidal", "integrator": "euler",
@@ -112,9 +111,6 @@ CALIBRATION_VERSION_DIST = 2
 #: How many candidates within 1 % of the target the distributed calibration tries for the uplift check.
 _MAX_PRICE_TRIES = 8
 
-_CONTACTS = ("auto", "corners", "distributed")
-#: Points along the base the distributed calibration tries when ``contact_points`` is not set.
-_POINTS_TRIED = (9, 5, 17)
 
 
 @dataclass
@@ -222,20 +218,10 @@ class MujocoAdapter(ContactEngineAdapter):
         self._number_setting(s, "table_mass_ratio", allow_none=False)
         self._whole_setting(s, "noslip_iterations", 0)
         self._whole_setting(s, "threads", 0, allow_none=False)
-        if s["contact"] not in _CONTACTS:
-            raise ConfigError(f"{self.name} setting 'contact' must be one of {', '.join(_CONTACTS)}, got {s['contact']!r}.")
+        self._contact_layout_settings(s)
         if s["contact"] == "distributed" and not self.distributed_contact:
             raise ConfigError(f"{self.name} setting contact='distributed' is not supported by this adapter "
                               "(its contact along the base was not built or tested); use corners or auto.")
-        if s["contact_points"] is not None:
-            try:
-                n = int(s["contact_points"])
-            except (TypeError, ValueError):
-                n = -1
-            if n < 3 or n != float(s["contact_points"]) or n > 101:
-                raise ConfigError(f"mujoco setting 'contact_points' must be a whole number from 3 to 101, "
-                                  f"got {s['contact_points']!r}.")
-            s["contact_points"] = n
         self._number_setting(s, "contact_radius_m", "m", allow_none=False)
         self._number_setting(s, "solimp_d", "")
         if s["solimp_d"] is not None and not 0.0 < s["solimp_d"] < 1.0:
@@ -288,7 +274,7 @@ class MujocoAdapter(ContactEngineAdapter):
         """The contact geometry for explicit (uncalibrated) contact settings."""
         s = self.settings
         kind = "distributed" if s["contact"] == "distributed" else "corners"
-        n = s["contact_points"] if s["contact_points"] is not None else _POINTS_TRIED[0]
+        n = s["contact_points"] if s["contact_points"] is not None else POINTS_TRIED[0]
         return {"contact": kind, "contact_points": n if kind == "distributed" else None,
                 "contact_radius_m": s["contact_radius_m"] if kind == "distributed" else None,
                 "solimp_d": s["solimp_d"]}
@@ -442,8 +428,11 @@ class MujocoAdapter(ContactEngineAdapter):
             raise out
         return out
 
-    def _simulate_many(self, cases: list[Case]) -> list:
-        """Run many cases through native rollouts, grouped by model; failures recorded per case."""
+    def _cases_by_model(self, cases: list[Case]) -> tuple[list, list]:
+        """The cases grouped by the model they run on: ``(out, groups)`` where ``groups`` lists
+        ``(built model, indices of its cases)`` and ``out`` holds, per case, the exception that kept
+        it from getting a model (recorded per cell, the sweep goes on), else None. A ConfigError
+        (bad user input) is raised."""
         out: list = [None] * len(cases)
         groups: dict = {}
         for i, c in enumerate(cases):
@@ -457,7 +446,12 @@ class MujocoAdapter(ContactEngineAdapter):
                 out[i] = e
                 continue
             groups.setdefault(id(bm), (bm, []))[1].append(i)
-        for bm, idx in groups.values():
+        return out, list(groups.values())
+
+    def _simulate_many(self, cases: list[Case]) -> list:
+        """Run many cases through native rollouts, grouped by model; failures recorded per case."""
+        out, groups = self._cases_by_model(cases)
+        for bm, idx in groups:
             # bounded chunks keep the state buffers small (about 20 MB per segment)
             chunk = max(1, int(2.5e6 // (self._seg_steps(bm) * bm.s0.size)))
             for k in range(0, len(idx), chunk):
@@ -678,16 +672,8 @@ class MujocoAdapter(ContactEngineAdapter):
         """The distributed contact's search with the set number of points, or (``contact_points``
         unset) with 9, then 5, then 17 points until one reaches the target at an acceptable price."""
         n_set = self.settings["contact_points"]
-        tried = []
-        for n in ((n_set,) if n_set is not None else _POINTS_TRIED):
-            c = self._calibrate_distributed_n(block, target_eta, n, dt_s=dt_s, use_cache=use_cache)
-            if c.reached:
-                return c
-            tried.append(c)
-        if len(tried) == 1:
-            return tried[0]
-        best = min(tried, key=lambda c: abs(c.rel_error))
-        return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} points: {c.note}" for c in tried))
+        return first_reached(lambda n: self._calibrate_distributed_n(block, target_eta, n, dt_s=dt_s, use_cache=use_cache),
+                             (n_set,) if n_set is not None else POINTS_TRIED, "points")
 
     def _calibrate_distributed_n(self, block: Block, target_eta: float, n: int, *, dt_s: float | None = None,
                                  use_cache: bool = True) -> CalibrationResult:

@@ -301,20 +301,8 @@ class MujocoWarpAdapter(MujocoAdapter):
     def _simulate_raw(self, cases: list[Case]) -> list:
         """Run the cases as batches of worlds; per case the exception that stopped it, or
         ``(built model, the batch's samples, index in the batch)``."""
-        out: list = [None] * len(cases)
-        groups: dict = {}
-        for i, c in enumerate(cases):
-            try:
-                dt = self.dt_for(c)
-                p = self.resolve(c.block, c.restitution, dt)
-                bm = self._model(c.block, p, dt)
-            except ConfigError:
-                raise
-            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
-                out[i] = e
-                continue
-            groups.setdefault(id(bm), (bm, []))[1].append(i)
-        for bm, idx in groups.values():
+        out, groups = self._cases_by_model(cases)
+        for bm, idx in groups:
             for k in range(0, len(idx), MAX_WORLDS):
                 part = idx[k:k + MAX_WORLDS]
                 try:

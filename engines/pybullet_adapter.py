@@ -46,7 +46,6 @@ None), since the engine must decide the motion after the pulse by itself.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import time
@@ -60,7 +59,7 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import ContactEngineAdapter, body_energy_j_kg, overturn_certain
+from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, first_reached, overturn_certain
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
@@ -79,10 +78,8 @@ CALIBRATION_PROTOCOL = 4
 #: calibrated setting may show: beyond it the block has no single restitution coefficient [-].
 _CAL_MAX_SPREAD = 0.02
 
-#: Distributed contact (issue 18): spheres along the base by default, the version of its
-#: calibration (part of the cache key) and how many candidates its price check tries.
-_DEFAULT_POINTS = 9
-_POINTS_TRIED = (9, 5, 17)
+#: Distributed contact (issue 18): the version of its calibration (part of the cache key) and how
+#: many candidates its price check tries.
 CALIBRATION_PROTOCOL_DIST = 3
 _MAX_PRICE_TRIES = 8
 
@@ -369,10 +366,7 @@ class PybulletAdapter(ContactEngineAdapter):
         if s["restitution_coef"] is not None and s["restitution_coef"] > 1.0:
             raise ConfigError(f"pybullet setting 'restitution_coef' must be in [0, 1], got {s['restitution_coef']!r}.")
         self._whole_setting(s, "solver_iterations", 1)
-        if s["contact_points"] is not None:
-            self._whole_setting(s, "contact_points", 3)
-        if s["contact"] not in ("auto", "corners", "distributed"):
-            raise ConfigError(f"pybullet setting 'contact' must be auto, corners or distributed, got {s['contact']!r}.")
+        self._contact_layout_settings(s)
 
     def explicit_contact(self) -> bool:
         """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
@@ -383,7 +377,7 @@ class PybulletAdapter(ContactEngineAdapter):
         s = dict(self.settings)
         if s["solver_iterations"] is None:
             s["solver_iterations"] = 50 if s["settings"] == "defaults" else 30
-        s["contact_points"] = (s["contact_points"] or _DEFAULT_POINTS) if s["contact"] == "distributed" else None
+        s["contact_points"] = (s["contact_points"] or POINTS_TRIED[0]) if s["contact"] == "distributed" else None
         return s
 
     def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
@@ -638,17 +632,8 @@ class PybulletAdapter(ContactEngineAdapter):
         """The distributed search with the set number of spheres, or (``contact_points`` unset)
         with 9, then 5, then 17 until one reaches the target at an acceptable price."""
         n_set = self.settings["contact_points"]
-        tried = []
-        for n in ((n_set,) if n_set is not None else _POINTS_TRIED):
-            c = self._calibrate_distributed_n(block, target_eta, n, dt_s=dt_s, use_cache=use_cache)
-            if c.reached:
-                return c
-            tried.append(c)
-        if len(tried) == 1:
-            return tried[0]
-        ok = [c for c in tried if math.isfinite(c.eta_measured)] or tried
-        best = min(ok, key=lambda c: abs(c.rel_error) if math.isfinite(c.rel_error) else math.inf)
-        return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} spheres: {c.note}" for c in tried))
+        return first_reached(lambda n: self._calibrate_distributed_n(block, target_eta, n, dt_s=dt_s, use_cache=use_cache),
+                             (n_set,) if n_set is not None else POINTS_TRIED, "spheres")
 
     def _calibrate_distributed_n(self, block: Block, target_eta: float, n: int, *, dt_s: float | None = None,
                                  use_cache: bool = True) -> CalibrationResult:

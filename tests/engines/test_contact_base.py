@@ -121,3 +121,40 @@ def test_old_setting_names_are_mapped_in_one_table(engine):
         assert "now called" in str(w[0].message)
         with pytest.raises(ConfigError, match=f"give only '{new}'"):
             cls.canonical_settings({old: 1.0, new: 2.0})
+
+
+def _cal(n, eta, reached):
+    from rockbench.engines.base import CalibrationResult
+    return CalibrationResult(eta_target=0.8, eta_measured=eta, eta_std=0.0, reached=reached,
+                             settings={"contact_points": n}, note=f"η {eta}")
+
+
+def test_first_reached_stops_at_the_first_count_that_reaches_the_target():
+    from rockbench.engines.contact import first_reached
+    asked = []
+    results = {9: _cal(9, 0.75, False), 5: _cal(5, 0.801, True), 17: _cal(17, 0.8, True)}
+
+    def calibrate_n(n):
+        asked.append(n)
+        return results[n]
+
+    assert first_reached(calibrate_n, (9, 5, 17), "points") is results[5]
+    assert asked == [9, 5]
+
+
+def test_first_reached_without_success_gives_the_closest_finite_eta_and_lists_every_count():
+    from rockbench.engines.contact import first_reached
+    results = {9: _cal(9, math.nan, False), 5: _cal(5, 0.70, False), 17: _cal(17, 0.77, False)}
+    best = first_reached(results.__getitem__, (9, 5, 17), "spheres")
+    assert best.settings["contact_points"] == 17 and best.eta_measured == 0.77
+    assert best.note == "9 spheres: η nan | 5 spheres: η 0.7 | 17 spheres: η 0.77"
+    only = first_reached(results.__getitem__, (9,), "spheres")
+    assert only is results[9]       # one count tried: its own result, note untouched
+
+
+@pytest.mark.parametrize("value", [2, 102, 9.5, True, "nine"])
+def test_contact_points_must_be_a_whole_number_from_3_to_101(value):
+    from rockbench.engines.registry import adapter_class
+    for name in ("mujoco", "pybullet", "exudyn"):
+        with pytest.raises(ConfigError, match=rf"{name} setting 'contact_points' must be a whole number from 3 to 101"):
+            adapter_class(name)(contact_points=value)
