@@ -10,6 +10,8 @@ the shortest decimal that reads back to the same double (Ryu: Ulf Adams, "Ryū: 
 conversion", PLDI 2018, the ``d2d`` step of the reference implementation), laid out by
 ``repr``'s rule (positional for decimal exponents −4 ≤ e < 16, else ``d.ddde±XX``). The tests
 compare it with ``repr`` on millions of doubles and the rows with the per-cell path's, byte for byte.
+Chunks of fewer than :data:`COMPILED_MIN_ROWS` rows are formatted by ``repr`` itself (the same text;
+the compiled writer would cost more to compile on a fresh install than it saves there).
 """
 
 from __future__ import annotations
@@ -429,6 +431,29 @@ def _texts(strings: list[str]) -> tuple[np.ndarray, np.ndarray]:
     return np.frombuffer(b"".join(raw), np.uint8).copy() if raw else np.zeros(0, np.uint8), off
 
 
+#: Chunks of fewer rows are formatted by Python's own ``repr`` (:func:`_format_rows_py`, the same
+#: text): a few milliseconds for the default suite's 51 × 51 maps, where the compiled writer's first
+#: compile on a fresh install costs about 9 s of one core.
+COMPILED_MIN_ROWS = 10_000
+
+_OUTCOME_WORDS = ("rest", "rocking", "overturn")
+
+
+def _format_rows_py(head, axes, ii, jj, outcome, n_impacts, flag_bits, flag_texts, theta, t_over, t_up, n_min,
+                    f_max, wall_s: str) -> bytes:
+    """:func:`format_rows` by Python's ``repr``: the per-cell path's text (``RunStore.append_results``)."""
+    wr, ar, om, am = axes
+    tail = f",ok,,{wall_s},"
+    cols = [np.asarray(a).tolist() for a in (ii, jj, outcome, n_impacts, flag_bits)]
+    flts = [np.asarray(a, dtype=np.float64).tolist() for a in (theta, t_over, t_up, n_min, f_max)]
+    lines = []
+    for i, j, o, n, b, th, tov, tup, nmin, fmax in zip(*cols, *flts):
+        lines.append(f"{head}{wr[j]},{ar[i]},{om[j]},{am[i]},{_OUTCOME_WORDS[o]},{n},{th!r},"
+                     f"{'true' if b == 0 else 'false'},{flag_texts[b]}{tail}{repr(tov) if o == 2 else ''},"
+                     f"{'' if tup != tup else repr(tup)},{nmin!r},{fmax!r},{i},{j}\n")
+    return "".join(lines).encode("utf-8")
+
+
 def format_rows(head: str, axes: list[list[str]], ii, jj, outcome, n_impacts, flag_bits, flag_texts: list[str],
                 max_abs_theta_rad, t_overturn_s, t_uplift_s, min_normal_mg, max_friction_ratio,
                 wall_s: str) -> bytes:
@@ -461,6 +486,15 @@ def format_rows(head: str, axes: list[list[str]], ii, jj, outcome, n_impacts, fl
     n = len(ii)
     if n == 0:
         return b""
+    oc = np.ascontiguousarray(outcome, np.int64)
+    if oc.size and (oc.min() < 0 or oc.max() > 2):
+        raise ValueError("format_rows writes successful cells only (outcome codes 0, 1, 2)")
+    fb = np.ascontiguousarray(flag_bits, np.int64)
+    if fb.size and (fb.min() < 0 or fb.max() >= len(flag_texts)):
+        raise ValueError(f"flag bits beyond the {len(flag_texts)} flag texts given")
+    if n < COMPILED_MIN_ROWS:
+        return _format_rows_py(head, axes, ii, jj, oc, n_impacts, fb, flag_texts, max_abs_theta_rad, t_overturn_s,
+                               t_uplift_s, min_normal_mg, max_friction_ratio, wall_s)
     ax_txt, ax_off = [], []
     for a in axes:
         t, o = _texts(a)
@@ -473,12 +507,6 @@ def format_rows(head: str, axes: list[list[str]], ii, jj, outcome, n_impacts, fl
         off[k, :o.size] = o + base
         base += int(o[-1])
     words, word_off = _texts(["rest", "rocking", "overturn", "true", "false", f",ok,,{wall_s},", *flag_texts])
-    oc = np.ascontiguousarray(outcome, np.int64)
-    if oc.size and (oc.min() < 0 or oc.max() > 2):
-        raise ValueError("format_rows writes successful cells only (outcome codes 0, 1, 2)")
-    fb = np.ascontiguousarray(flag_bits, np.int64)
-    if fb.size and (fb.min() < 0 or fb.max() >= len(flag_texts)):
-        raise ValueError(f"flag bits beyond the {len(flag_texts)} flag texts given")
 
     def u64(a):
         return np.ascontiguousarray(a, dtype=np.float64).view(np.uint64)

@@ -696,7 +696,59 @@ def _variant_key(job: MapJob):
     return None if job.engine == "reference" else (job.engine, json.dumps(dict(job.settings), sort_keys=True))
 
 
-def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, announce, one_map) -> None:
+class _ReferenceThread:
+    """The suite's reference maps, computed one after another by one thread while the calibrations
+    and the engine maps run (:func:`run_suite`): ``add`` hands it maps, ``close`` says no more will
+    come, ``abort`` lets it start no more, ``join`` waits for the last and raises what stopped it."""
+
+    def __init__(self, announce, one_map):
+        import queue
+        import threading
+
+        self.q = queue.Queue()
+        self.error: list = []
+        self.closed = False
+        self.aborted = False
+
+        def work():
+            while True:
+                k = self.q.get()
+                if k is None or self.error or self.aborted:
+                    return
+                try:
+                    announce(k)
+                    one_map(k, None)
+                except BaseException as e:  # noqa: BLE001 - raised by join() in the main thread
+                    self.error.append(e)
+                    return
+
+        self.thread = threading.Thread(target=work, name="rockbench-reference", daemon=True)
+        self.thread.start()
+
+    def add(self, ks) -> None:
+        for k in ks:
+            self.q.put(k)
+
+    def close(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self.q.put(None)
+
+    def abort(self) -> None:
+        self.aborted = True
+        self.close()
+
+    def failed(self) -> bool:
+        return bool(self.error)
+
+    def join(self) -> None:
+        while self.thread.is_alive():
+            self.thread.join(0.2)
+        if self.error:
+            raise self.error[0]
+
+
+def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, announce, one_map, stop=None) -> None:
     """Run the engine maps ``todo[k]`` for ``k`` in ``order`` on ``lanes`` lanes at once.
 
     Each lane is a thread that takes the next map from the shared queue and runs it with its own
@@ -734,6 +786,8 @@ def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, anno
         try:
             while True:
                 with lock:
+                    if stop is not None and stop():
+                        return
                     if errors or not queue:
                         if not errors:
                             lend(n)
@@ -869,33 +923,36 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
 
     # The reference runs in this process: its compiled batch kernel is parallel already, and worker
     # processes would each load it again; engines keep the workers' time limit and crash isolation.
+    # Its maps are computed by one thread (one caller of the parallel kernel at a time) beside the
+    # calibrations and then the engine maps, which need none of them: on a fresh install the
+    # kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
+    refs = _ReferenceThread(announce, one_map)
+    refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
     try:
-        for k, job in enumerate(todo):
-            if job.engine == "reference":
-                announce(k)
-                one_map(k, None)
-    finally:
         if prep is not None:
             etas, more, _ = prep.finish()
-    if prep is not None:
-        notes += more
-        if suite.own_eta:
-            extra = own_eta_jobs(suite, etas)
-            first = len(todo)
-            todo += extra
-            specs += specs_of(extra)
-            for k in range(first, len(todo)):
-                announce(k)
-                one_map(k, None)
-    if report:
-        # the report's start-up (matplotlib, the reference's history kernel) costs a few seconds of one
-        # core at the end; a thread pays it while the workers compute the engine maps
-        import threading
-        threading.Thread(target=_warm_report, name="rockbench-warm-report", daemon=True).start()
-    engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
-    # the costliest engines first, so that the last maps, when one core may wait for the other, are short
-    engine_maps.sort(key=lambda k: _cost_rank(todo[k].engine))
-    _run_lanes(engine_maps, todo, out, min(workers, max(1, len(engine_maps))), announce, one_map)
+            notes += more
+            if suite.own_eta:
+                extra = own_eta_jobs(suite, etas)
+                first = len(todo)
+                specs += specs_of(extra)
+                todo += extra
+                refs.add(range(first, len(todo)))
+        refs.close()
+        if report:
+            # the report's start-up (matplotlib, the reference's history kernel) costs a few seconds of one
+            # core at the end; a thread pays it while the workers compute the engine maps
+            import threading
+            threading.Thread(target=_warm_report, name="rockbench-warm-report", daemon=True).start()
+        engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
+        # the costliest engines first, so that the last maps, when one core may wait for the other, are short
+        engine_maps.sort(key=lambda k: _cost_rank(todo[k].engine))
+        _run_lanes(engine_maps, todo, out, min(workers, max(1, len(engine_maps))), announce, one_map,
+                   stop=refs.failed)
+    except BaseException:
+        refs.abort()   # e.g. Ctrl-C: no reference map is started after the one running now
+        raise
+    refs.join()
     done = [records[k] for k in sorted(records)]
     maps_wall = time.perf_counter() - t0
     result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(notes),

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rockbench.benchmark import maps
+from rockbench.benchmark import columnar, maps
 from rockbench.benchmark.columnar import format_rows, repr_floats
 from rockbench.benchmark.executors import ProcessExecutor, make_executor, worker_init
 from rockbench.benchmark.maps import MapSpec, load_map, make_axis, run_map
@@ -75,9 +75,13 @@ def _per_cell_path(monkeypatch):
     monkeypatch.setattr(maps, "_grid_runner", lambda executor, spec: None)
 
 
+@pytest.mark.parametrize("compiled", [False, True])
 @pytest.mark.parametrize("adaptive", [False, True])
-def test_columnar_cells_csv_equals_per_cell_path(tmp_path, monkeypatch, adaptive):
-    # B3M under strong sine waves: rest, rocking and overturn, lift-required and slip-required cells
+def test_columnar_cells_csv_equals_per_cell_path(tmp_path, monkeypatch, adaptive, compiled):
+    # B3M under strong sine waves: rest, rocking and overturn, lift-required and slip-required cells;
+    # chunks this small are written by Python's repr unless the compiled writer is asked for
+    if compiled:
+        monkeypatch.setattr(columnar, "COMPILED_MIN_ROWS", 0)
     s = _spec(36)
     a = run_map(s, tmp_path / "columnar", serial=True, plot=False, adaptive=adaptive)
     with monkeypatch.context() as m:
@@ -162,3 +166,22 @@ def test_format_rows_refuses_failed_cells():
         format_rows("a,b,c,d,e,", [["1.0"]] * 4, np.array([0]), np.array([0]), np.array([-1]), np.array([0]),
                     np.array([0]), [""], np.array([0.0]), np.array([0.0]), np.array([0.0]), np.array([0.0]),
                     np.array([0.0]), "0.0")
+
+
+def test_small_chunks_are_written_by_python_with_the_same_text(monkeypatch):
+    """Below COMPILED_MIN_ROWS rows, format_rows uses repr; both writers give the same bytes on every
+    kind of double (the edge cases, random bit patterns), NaN uplift times, every outcome and flag."""
+    rng = np.random.default_rng(8)
+    n = 3000
+    pool = np.concatenate([EDGES, rng.integers(0, 2**64, 2000, dtype=np.uint64).view(np.float64), rng.random(500)])
+    floats = [rng.choice(pool, n) for _ in range(5)]
+    floats[2][rng.random(n) < 0.3] = math.nan          # t_uplift: never lifted
+    axes = [[repr(float(v)) for v in rng.random(7)] for _ in range(4)]
+    args = ('"my, block",b,c,d,e,', axes, rng.integers(0, 7, n), rng.integers(0, 7, n), rng.integers(0, 3, n),
+            rng.integers(0, 1000, n), rng.integers(0, 4, n), ["", "lift-required", "slip-required",
+                                                               "lift-required;slip-required"], *floats, "0.25")
+    assert n < columnar.COMPILED_MIN_ROWS
+    py = format_rows(*args)
+    monkeypatch.setattr(columnar, "COMPILED_MIN_ROWS", 0)
+    assert format_rows(*args) == py
+    assert py.count(b"\n") == n
