@@ -38,7 +38,7 @@ from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
-from .base import CalibrationResult, EngineAdapter
+from .base import CalibrationResult, Case, EngineAdapter, Trajectory
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "FREE_ROCKING_IMPACTS",
            "FREE_ROCKING_METHOD", "body_energy_j_kg", "free_rocking_duration_s", "free_rocking_etas",
@@ -208,6 +208,25 @@ class ContactEngineAdapter(EngineAdapter):
         """The concrete settings for ``block`` at step ``dt`` [s], with the calibration ``cal`` (None:
         explicit or default contact)."""
         raise NotImplementedError  # pragma: no cover - every contact adapter implements it
+
+    # -- simulation ----------------------------------------------------------------------------
+    def _simulate(self, case: Case) -> Trajectory:
+        """One case with the resolved settings, for engines that run one case at a time through
+        ``self._run(block, settings, dt, pulse)`` (PyBullet, Drake); MuJoCo and Exudyn run their own."""
+        dt = self.dt_for(case)
+        s = self.resolve(case.block, case.restitution, dt)
+        tr = self._run(case.block, s, dt, case.pulse)
+        tr.diagnostics.update(self._settings_diagnostics(s))
+        return tr
+
+    @staticmethod
+    def _settings_diagnostics(resolved: dict) -> dict:
+        """What a trajectory's diagnostics record of the resolved settings it ran with: the settings'
+        name and, calibrated, the calibration's summary."""
+        out = {"settings": resolved["settings"]}
+        if "calibration" in resolved:
+            out["calibration"] = dict(resolved["calibration"])
+        return out
 
     @staticmethod
     def _calibration_summary(cal: CalibrationResult) -> dict:

@@ -76,7 +76,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from ..reference_solver.restitution import Restitution
 from . import calibration
-from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
                       free_rocking_duration_s, free_rocking_etas, overturn_certain)
 
@@ -407,16 +407,7 @@ class DrakeAdapter(ContactEngineAdapter):
                 out[k] = None
         return out
 
-    # -- simulation ---------------------------------------------------------------------------
-    def _simulate(self, case: Case) -> Trajectory:
-        dt = self.dt_for(case)
-        s = self.resolve(case.block, case.restitution, dt)
-        tr = self._run(case.block, s, dt, case.pulse)
-        tr.diagnostics["settings"] = s["settings"]
-        if "calibration" in s:
-            tr.diagnostics["calibration"] = dict(s["calibration"])
-        return tr
-
+    # -- simulation (one case: ContactEngineAdapter._simulate through _run) ---------------------
     def _scene(self, block: Block, s: dict, dt: float) -> _Scene:
         key = (os.getpid(), block.width_m, block.height_m, block.depth_m, block.mass_kg, dt,
                tuple((k, s.get(k)) for k in sorted(self.SETTINGS) if k not in ("tail_s", "min_tail_s", "segment_s")),

@@ -693,11 +693,9 @@ class ExudynAdapter(ContactEngineAdapter):
             retried = message
         r = contact["sphere_radius_m"]
         diag = {"steps": int(steps), "wall_engine_s": wall, "steps_per_s": steps / wall if wall > 0 else None,
-                "dt_s": dt, "settings": s["settings"], "drive": s["drive"], "planar": s["planar"],
+                "dt_s": dt, **self._settings_diagnostics(res), "drive": s["drive"], "planar": s["planar"],
                 **{k: contact[k] for k in ("stiffness_n_m", "damping_n_s_m", "impact_model",
                                            "restitution_coefficient", "friction")}}
-        if "calibration" in res:
-            diag["calibration"] = res["calibration"]
         if retried is not None:
             diag["retried_at_dt_s"] = dt_run
             diag["retried_full_newton"] = full_newton

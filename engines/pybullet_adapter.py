@@ -58,7 +58,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration
-from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, first_reached, overturn_certain
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
@@ -387,17 +387,7 @@ class PybulletAdapter(ContactEngineAdapter):
             s.update(self.canonical_settings(cal.settings))
         return s
 
-    # -- simulation ---------------------------------------------------------------------------
-    def _simulate(self, case: Case) -> Trajectory:
-        dt = self.dt_for(case)
-        s = self.resolve(case.block, case.restitution, dt)
-        tr = self._run(case.block, s, dt, case.pulse)
-        # what the contact really gives in free rocking, next to the η the case asked for
-        tr.diagnostics["settings"] = s["settings"]
-        if "calibration" in s:
-            tr.diagnostics["calibration"] = dict(s["calibration"])
-        return tr
-
+    # -- simulation (one case: ContactEngineAdapter._simulate through _run) ---------------------
     def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
              duration_s: float | None = None, with_state: bool = False):
         """Simulate one run: a pulse with the end-of-run rules, or free rocking for ``duration_s``.
