@@ -441,17 +441,16 @@ _OUTCOME_WORDS = ("rest", "rocking", "overturn")
 
 def _format_rows_py(head, axes, ii, jj, outcome, n_impacts, flag_bits, flag_texts, theta, t_over, t_up, n_min,
                     f_max, wall_s: str) -> bytes:
-    """:func:`format_rows` by Python's ``repr``: the per-cell path's text (``RunStore.append_results``)."""
+    """:func:`format_rows` by Python's ``repr``: the per-cell path's line (:func:`~.store.plain_row`)."""
+    from .store import plain_row
+
     wr, ar, om, am = axes
-    tail = f",ok,,{wall_s},"
     cols = [np.asarray(a).tolist() for a in (ii, jj, outcome, n_impacts, flag_bits)]
     flts = [np.asarray(a, dtype=np.float64).tolist() for a in (theta, t_over, t_up, n_min, f_max)]
-    lines = []
-    for i, j, o, n, b, th, tov, tup, nmin, fmax in zip(*cols, *flts):
-        lines.append(f"{head}{wr[j]},{ar[i]},{om[j]},{am[i]},{_OUTCOME_WORDS[o]},{n},{th!r},"
-                     f"{'true' if b == 0 else 'false'},{flag_texts[b]}{tail}{repr(tov) if o == 2 else ''},"
-                     f"{'' if tup != tup else repr(tup)},{nmin!r},{fmax!r},{i},{j}\n")
-    return "".join(lines).encode("utf-8")
+    return "".join(
+        plain_row(head, wr[j], ar[i], om[j], am[i], i, j, _OUTCOME_WORDS[o], n, th, b == 0, flag_texts[b], wall_s,
+                  tov if o == 2 else None, None if tup != tup else tup, nmin, fmax)
+        for i, j, o, n, b, th, tov, tup, nmin, fmax in zip(*cols, *flts)).encode("utf-8")
 
 
 def format_rows(head: str, axes: list[list[str]], ii, jj, outcome, n_impacts, flag_bits, flag_texts: list[str],

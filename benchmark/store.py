@@ -84,6 +84,20 @@ def _fmt(x) -> str:
     return str(x)
 
 
+def plain_row(head: str, wr: str, ar: str, om: str, am: str, i: int, j: int, outcome: str, n_impacts: int,
+              theta: float, valid: bool, flags: str, wall_s: str, t_overturn_s, t_uplift_s, min_normal_mg,
+              max_friction_ratio) -> str:
+    """One cells.csv line of a successful cell without a message, every float as ``repr`` writes it
+    (``head``: the first five fields and their commas; ``wr``..``am``: the axis texts; ``wall_s`` as
+    text; the last four None where empty). The text :mod:`.columnar`'s compiled writer reproduces."""
+    def opt(x):
+        return "" if x is None else repr(float(x))
+
+    return (f"{head}{wr},{ar},{om},{am},{outcome},{int(n_impacts)},{float(theta)!r},"
+            f"{'true' if valid else 'false'},{flags},ok,,{wall_s},{opt(t_overturn_s)},{opt(t_uplift_s)},"
+            f"{opt(min_normal_mg)},{opt(max_friction_ratio)},{i},{j}\n")
+
+
 class RunStore:
     """Writes one map's run directory (see the module docstring)."""
 
@@ -214,12 +228,9 @@ class RunStore:
         lines, others = [], []
         for i, j, r in triples:
             if r.status == "ok" and not r.flags and not r.message and r.outcome:
-                tov, tup, nmin, fmax = r.t_overturn_s, r.t_uplift_s, r.min_normal_mg, r.max_friction_ratio
-                lines.append(f"{head}{wr[j]},{ar[i]},{om[j]},{am[i]},{r.outcome},{int(r.n_impacts)},"
-                             f"{float(r.max_abs_theta_rad)!r},{'true' if r.valid else 'false'},,ok,,"
-                             f"{float(r.wall_s)!r},{'' if tov is None else repr(float(tov))},"
-                             f"{'' if tup is None else repr(float(tup))},{'' if nmin is None else repr(float(nmin))},"
-                             f"{'' if fmax is None else repr(float(fmax))},{i},{j}\n")
+                lines.append(plain_row(head, wr[j], ar[i], om[j], am[i], i, j, r.outcome, r.n_impacts,
+                                       r.max_abs_theta_rad, r.valid, "", repr(float(r.wall_s)), r.t_overturn_s,
+                                       r.t_uplift_s, r.min_normal_mg, r.max_friction_ratio))
             else:
                 others.append(self.row(spec, i, j, r))
         if others:
