@@ -29,7 +29,7 @@ import numpy as np
 
 from bench_refinement import VARIANTS, fill_regions, trace
 from rockbench.benchmark import adaptive
-from rockbench.benchmark.maps import MISSING, load_map, record_result
+from rockbench.benchmark.maps import MISSING, empty_result, load_map, record_result
 
 #: the tracer variant checked (bench_refinement.VARIANTS)
 VARIANT = "trace-w3+tips0"
@@ -46,16 +46,16 @@ def check_map(d: str, view: bool = False) -> dict:
     oracle = {(int(i), int(j)): (int(run.outcome[i, j]), int(run.n_impacts[i, j]))
               for i, j in zip(*np.nonzero(run.simulated))}
     extra = [0]
+    scratch = empty_result(spec)    # turns CellResults into outcome codes and impacts
 
     def simulate(cells):
         cells = [c for c in cells if c not in oracle]
         if not cells:
             return
         extra[0] += len(cells)
-        tmp = load_map(d)    # a scratch MapResult to turn CellResults into codes
         for (i, j), r in zip(cells, adapter.run_many(spec.cases(cells))):
-            o = record_result(tmp, i, j, r)
-            oracle[(i, j)] = (int(o), int(tmp.n_impacts[i, j]))
+            o = record_result(scratch, i, j, r)
+            oracle[(i, j)] = (int(o), int(scratch.n_impacts[i, j]))
 
     shape = spec.shape
     out = np.full(shape, MISSING, np.int8)
