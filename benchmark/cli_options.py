@@ -133,6 +133,9 @@ def amplitude_from_args(args, block: Block) -> float:
 
 def pulse_from_args(args, block: Block) -> Pulse:
     kind = str(args.pulse)
+    if Path(kind).is_dir():
+        raise ConfigError(f"--pulse names a directory ({kind!r}); give sine, cosine, half-sine or the path of a "
+                          "PATH.csv record with columns t_s,accel_mps2.")
     if kind.lower().endswith(".csv") or Path(kind).suffix:
         freq_given = any(getattr(args, n, None) is not None for n in ("w_ratio", "omega", "period"))
         if freq_given:

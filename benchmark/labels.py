@@ -133,3 +133,24 @@ def for_html(text: str) -> str:
     """The paper's symbols in HTML (escaped): ``η_H`` → ``η<sub>H</sub>``."""
     import html
     return html.escape(str(text)).replace("η_H", "η<sub>H</sub>").replace("η_M", "η<sub>M</sub>")
+
+
+def variant_labels(cands) -> dict[str, str]:
+    """Engine variant key → its label in words ("MuJoCo 4.0, calibrated to η_H") for the maps ``cands``
+    (:class:`~rockbench.benchmark.results.MapEntry`); two variants that would read alike keep their keys."""
+    by: dict[str, list] = {}
+    for e in cands:
+        by.setdefault(e.variant, []).append(e)
+    out = {}
+    for v, es in by.items():
+        same = len({e.restitution for e in es}) == 1
+        out[v] = entry_label(es[0], with_restitution=same)
+    # two variants that read alike keep their keys apart
+    seen: dict[str, list[str]] = {}
+    for v, lab in out.items():
+        seen.setdefault(lab, []).append(v)
+    for lab, vs in seen.items():
+        if len(vs) > 1:
+            for v in vs:
+                out[v] = f"{lab} [{v}]"
+    return out

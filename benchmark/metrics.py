@@ -44,7 +44,7 @@ from ..reference_solver.errors import ConfigError, IncomparableError
 from ..reference_solver.validity import LEFT_MODEL_FLAGS
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
-METRICS_VERSION = "2"
+METRICS_VERSION = "3"
 
 #: Code of a cell without an outcome (failed, or not computed).
 FAILED = -1
@@ -71,9 +71,15 @@ class Metric:
     perfect : float
         The value of ``score(x, x)``.
     unit : str
-        ``"-"`` for fractions and counts, ``"w/a units"`` for distances in the normalised plane.
+        ``"-"`` for fractions and counts, ``"w/a units"`` for distances in the normalised plane
+        (ω/p, a₀/(g·tanα)), ``"a units"`` for differences of a₀/(g·tanα).
     tolerance : float
         Default change in the worse direction that ``rockbench compare`` still accepts.
+    question : str
+        The question it answers, in one line (the report and ``score --help`` print it).
+    role : str
+        ``"primary"`` for :data:`PRIMARY_METRIC`, the one measure verdicts, ranks and highlights
+        follow; ``"secondary"`` for every other.
     """
 
     name: str
@@ -82,6 +88,8 @@ class Metric:
     perfect: float
     unit: str
     tolerance: float
+    question: str = ""
+    role: str = "secondary"
 
     def worse(self, new: float, old: float, tol: float | None = None) -> bool:
         """True when ``new`` is worse than ``old`` by more than ``tol`` (default :attr:`tolerance`).
@@ -94,9 +102,16 @@ class Metric:
         delta = (old - new) if self.direction == "higher" else (new - old)
         return delta > tol + 1e-12
 
+    def better(self, a: float, b: float) -> bool:
+        """True when ``a`` is strictly better than ``b`` (NaN is never better)."""
+        if _isnan(a):
+            return False
+        return _isnan(b) or (a > b if self.direction == "higher" else a < b)
+
     def to_dict(self) -> dict:
         return {"name": self.name, "definition": self.definition, "direction": self.direction,
-                "perfect": self.perfect, "unit": self.unit, "tolerance": self.tolerance}
+                "perfect": self.perfect, "unit": self.unit, "tolerance": self.tolerance,
+                "question": self.question, "role": self.role}
 
 
 def _isnan(x) -> bool:
@@ -107,53 +122,72 @@ _METRIC_LIST = [
     Metric("agreement",
            "Fraction of judged cells (reference has an outcome) where the engine's outcome (rest, rocking, "
            "overturn) equals the reference's; a failed engine cell counts as a disagreement.",
-           "higher", 1.0, "-", 0.005),
+           "higher", 1.0, "-", 0.005,
+           question=("In how many judged cells does the engine give the reference's outcome? (Diluted by the "
+                     "many easy cells far from the boundary.)")),
     Metric("overturn_agreement",
            "As agreement, with only two classes: overturn and not overturn.",
-           "higher", 1.0, "-", 0.005),
+           "higher", 1.0, "-", 0.005,
+           question="In how many judged cells does the engine get overturn-or-not right?"),
     Metric("iou_overturn",
            "Intersection over union of the overturn regions over judged cells, |E∩R|/|E∪R∪F| with F the "
            "engine's failed cells (a failure never counts as a match); 1 when both regions are empty.",
-           "higher", 1.0, "-", 0.01),
+           "higher", 1.0, "-", 0.01,
+           question="How well do the two overturn regions overlap?"),
     Metric("boundary_mean",
            "Mean distance, in the normalised plane (ω/p, a0/(g·tanα)), from each engine boundary edge to the "
            "nearest reference boundary edge and from each reference edge to the nearest engine edge (both "
            "sets pooled). A boundary edge is the midpoint of a cell edge between an overturn and a "
            "not-overturn cell, both with an outcome. 0 when both boundaries are empty; the map diagonal "
            "when only one is.",
-           "lower", 0.0, "w/a units", 0.02),
+           "lower", 0.0, "w/a units", 0.02,
+           question="How far, on average, is the engine's overturning boundary from the reference's?",
+           role="primary"),
     Metric("boundary_max",
            "Largest of those distances (the symmetric Hausdorff distance between the boundaries); same "
            "conventions for empty boundaries.",
-           "lower", 0.0, "w/a units", 0.05),
+           "lower", 0.0, "w/a units", 0.05,
+           question="How far is the engine's boundary from the reference's at its worst point?"),
     Metric("critical_error_mean",
            "Mean over frequency columns where at least one map overturns of |Δ a_crit|, with a_crit the "
            "LOWEST overturning a0/(g·tanα) of the column; a column that does not overturn is censored at "
            "one grid step above the top of the axis (so that error is a lower bound).",
-           "lower", 0.0, "a units", 0.02),
+           "lower", 0.0, "a units", 0.02,
+           question="How wrong is the lowest overturning amplitude, on average over the frequencies?"),
     Metric("critical_error_max",
            "Largest |Δ a_crit| over those columns (same censoring).",
-           "lower", 0.0, "a units", 0.05),
+           "lower", 0.0, "a units", 0.05,
+           question="How wrong is the lowest overturning amplitude at the worst frequency?"),
     Metric("critical_one_sided",
            "Number of frequency columns where only one of the two maps overturns.",
-           "lower", 0.0, "-", 0.0),
+           "lower", 0.0, "-", 0.0,
+           question="At how many frequencies does only one of the two overturn at all?"),
     Metric("consistency",
            "Outside the reference's domain (cells where the rigid model needs the table to pull the block "
            "down or more friction than μ: lift-required, slip-required), the fraction of the engine's "
-           "simulated cells where it flags jump or slip, as a real block would; 1 when there is no such cell.",
-           "higher", 1.0, "-", 0.01),
+           "simulated cells where it flags jump or slip, as a real block would; n/a (null) when there is no "
+           "such cell.",
+           "higher", 1.0, "-", 0.01,
+           question="Where the rigid model itself breaks down, does the engine say so (flag jump or slip)?"),
     Metric("spurious_invalid",
            "Number of engine cells with an outcome flagged invalid (slip, jump, energy gain) inside the "
            "reference's domain, where the rigid model says nothing should break.",
-           "lower", 0.0, "-", 0.0),
+           "lower", 0.0, "-", 0.0,
+           question="Where the rigid model holds, how often does the engine flag slip, jump or energy gain?"),
     Metric("failed_cells",
            "Number of cells where the reference has an outcome and the engine produced none (error, "
            "divergence, timeout, missing), inside the domain or outside it.",
-           "lower", 0.0, "-", 0.0),
+           "lower", 0.0, "-", 0.0,
+           question="How many cells did the engine fail to simulate?"),
 ]
 
 #: The metrics, by name, in the order tables show them.
 METRICS: dict[str, Metric] = {m.name: m for m in _METRIC_LIST}
+
+#: The one measure of how faithful an engine's overturning boundary is (docs/scores.md argues the
+#: choice): verdicts, ranks, the summary's order and its highlights follow it.
+PRIMARY_METRIC = "boundary_mean"
+PRIMARY = METRICS[PRIMARY_METRIC]
 
 
 @dataclass
@@ -420,8 +454,18 @@ def domain(ref: LabelMap) -> tuple[np.ndarray, np.ndarray]:
     return has & ref.valid, has & ~ref.valid
 
 
+def missing(m: LabelMap) -> np.ndarray:
+    """Cells a map does not have at all: neither simulated nor inferred (an unfinished or damaged map,
+    scored only with ``--allow-incomplete``). A cell that was simulated and failed is not missing."""
+    return (m.codes == FAILED) & ~m.simulated
+
+
 def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
     """Every metric of :data:`METRICS` for an engine map against a reference map.
+
+    Cells the engine map does not have (:func:`missing`) are left out of every metric, as if the
+    reference had no outcome there; a metric with no cell to judge is NaN (``null`` in score.json,
+    "n/a" in tables), never its perfect value.
 
     Raises
     ------
@@ -434,56 +478,88 @@ def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
             f"{eng.w_ratio[0]:g}..{eng.w_ratio[-1]:g}, a-ratio {eng.a_ratio[0]:g}..{eng.a_ratio[-1]:g}; reference "
             f"{ref.shape[1]}×{ref.shape[0]} over {ref.w_ratio[0]:g}..{ref.w_ratio[-1]:g}, "
             f"{ref.a_ratio[0]:g}..{ref.a_ratio[-1]:g}); compute both with the same --w-ratio and --a-ratio.")
-    judged, outside = domain(ref)
+    judged, outside = judged_cells(eng, ref)
     n = int(judged.sum())
+    if n == 0:
+        out = {name: math.nan for name in METRICS}
+        out.update(_outside_scores(eng, outside))
+        return out
     ce, cr = eng.codes, ref.codes
     eng_failed = judged & (ce == FAILED)
-    if n:
-        agreement = float(np.count_nonzero(judged & (ce == cr)) / n)
-        o_agree = judged & ~eng_failed & ((ce == OVERTURN) == (cr == OVERTURN))
-        overturn_agreement = float(np.count_nonzero(o_agree) / n)
-    else:
-        agreement = overturn_agreement = math.nan
+    o_agree = judged & ~eng_failed & ((ce == OVERTURN) == (cr == OVERTURN))
     oe, orr = judged & (ce == OVERTURN), judged & (cr == OVERTURN)
     union = np.count_nonzero(oe | orr | eng_failed)
-    iou = 1.0 if union == 0 else float(np.count_nonzero(oe & orr) / union)
-    # boundaries and critical amplitudes see only the domain: outside it both maps are unknown
-    eng_in = LabelMap(eng.w_ratio, eng.a_ratio, np.where(judged, ce, FAILED))
-    ref_in = LabelMap(ref.w_ratio, ref.a_ratio, np.where(judged, cr, FAILED))
+    eng_in, ref_in = within(eng, judged), within(ref, judged)
     b_mean, b_max = boundary_distance(eng_in, ref_in)
     crit = critical_errors(eng_in, ref_in)
-    # only simulated engine cells can say whether they left the model (an adaptive map infers outcomes)
-    out_sim = outside & eng.simulated
-    n_out = int(out_sim.sum())
-    consistency = 1.0 if n_out == 0 else float(np.count_nonzero(out_sim & eng.left_model) / n_out)
     return {
-        "agreement": agreement,
-        "overturn_agreement": overturn_agreement,
-        "iou_overturn": iou,
+        "agreement": float(np.count_nonzero(judged & (ce == cr)) / n),
+        "overturn_agreement": float(np.count_nonzero(o_agree) / n),
+        "iou_overturn": 1.0 if union == 0 else float(np.count_nonzero(oe & orr) / union),
         "boundary_mean": b_mean,
         "boundary_max": b_max,
         "critical_error_mean": crit["mean"],
         "critical_error_max": crit["max"],
         "critical_one_sided": float(crit["one_sided"]),
-        "consistency": consistency,
         "spurious_invalid": float(np.count_nonzero(judged & (ce != FAILED) & ~eng.valid)),
+        **_outside_scores(eng, outside),
         "failed_cells": float(np.count_nonzero((judged | outside) & (ce == FAILED))),
     }
 
 
+def judged_cells(eng: LabelMap, ref: LabelMap) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`domain` less the cells the engine map does not have."""
+    inside, outside = domain(ref)
+    have = ~missing(eng)
+    return inside & have, outside & have
+
+
+def within(m: LabelMap, cells: np.ndarray) -> LabelMap:
+    """``m`` with only ``cells`` known: boundaries and critical amplitudes see only the domain, since
+    outside it both maps are unknown."""
+    return LabelMap(m.w_ratio, m.a_ratio, np.where(cells, m.codes, FAILED))
+
+
+def boundary_edges(eng: LabelMap, ref: LabelMap) -> int:
+    """How many boundary edges (both maps', within the judged cells) ``boundary_mean`` averages over."""
+    judged, _ = judged_cells(eng, ref)
+    return int(boundary_points(within(eng, judged)).shape[0] + boundary_points(within(ref, judged)).shape[0])
+
+
+def _outside_scores(eng: LabelMap, outside: np.ndarray) -> dict[str, float]:
+    """``consistency`` (NaN without a simulated engine cell outside the domain; an adaptive map
+    infers outcomes, not flags, so only simulated cells can say whether they left the model) and
+    ``failed_cells`` there."""
+    out_sim = outside & eng.simulated
+    n_out = int(out_sim.sum())
+    return {"consistency": math.nan if n_out == 0 else float(np.count_nonzero(out_sim & eng.left_model) / n_out),
+            "failed_cells": float(np.count_nonzero(outside & (eng.codes == FAILED)))}
+
+
 def cell_counts(eng: LabelMap, ref: LabelMap) -> dict[str, int]:
-    """How many cells a pair judged inside and outside the reference's domain (and of those outside,
-    how many the engine simulated, which ``consistency`` is computed over), and the engine's invalid
-    cells in all (for score.json beside the metrics)."""
-    judged, outside = domain(ref)
+    """What a pair's numbers rest on, for score.json beside the metrics: the cells judged inside the
+    reference's domain and those outside it (and of those, how many the engine simulated, which
+    ``consistency`` is computed over), the engine's invalid cells in all, the cells the engine map
+    does not have (``cells_missing``), and inside the domain the engine's wrong overturns
+    (``overturn_extra``: it overturns, the reference does not, of ``reference_standing`` cells) and
+    missed ones (``overturn_missed`` of ``reference_overturn``), and its boundary edges."""
+    judged, outside = judged_cells(eng, ref)
+    ce, cr = eng.codes, ref.codes
+    ov_ref = judged & (cr == OVERTURN)
     return {"cells_in_domain": int(judged.sum()), "cells_outside_domain": int(outside.sum()),
             "cells_outside_domain_simulated": int(np.count_nonzero(outside & eng.simulated)),
-            "invalid_cells": int(np.count_nonzero((eng.codes != FAILED) & ~eng.valid))}
+            "invalid_cells": int(np.count_nonzero((ce != FAILED) & ~eng.valid)),
+            "cells_missing": int(np.count_nonzero(missing(eng))),
+            "reference_overturn": int(ov_ref.sum()), "reference_standing": int(np.count_nonzero(judged & ~ov_ref)),
+            "overturn_extra": int(np.count_nonzero(judged & ~ov_ref & (ce == OVERTURN))),
+            "overturn_missed": int(np.count_nonzero(ov_ref & (ce != OVERTURN))),
+            "failed_in_domain": int(np.count_nonzero(judged & (ce == FAILED))),
+            "invalid_in_domain": int(np.count_nonzero(judged & (ce != FAILED) & ~eng.valid))}
 
 
 def is_perfect(scores: Mapping[str, float]) -> bool:
-    """Whether every metric in ``scores`` has its perfect value."""
-    return all(scores[k] == METRICS[k].perfect for k in METRICS if k in scores)
+    """Whether every metric in ``scores`` that has a value has its perfect value (n/a ones say nothing)."""
+    return all(scores[k] == METRICS[k].perfect for k in METRICS if k in scores and not _isnan(scores[k]))
 
 
 def check_gate(scores: Mapping[str, float], thresholds: Mapping[str, float]) -> list[str]:

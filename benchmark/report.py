@@ -26,10 +26,10 @@ from pathlib import Path
 
 from ..reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from .atomic import write_bytes_atomic
-from .labels import case_title, entry_label, for_html, restitution_symbol
+from .labels import case_title, for_html, restitution_symbol, variant_labels
 from .results import DISPLAY_UTC, MapEntry, load_entries, map_cell_rows, utc_stamp, write_json
 from .score_runs import at_own_eta, score_entries
-from .tables import fmt, reference_label, summary
+from .tables import fmt, incomplete_note, reference_label, summary
 
 
 @dataclass(frozen=True)
@@ -104,7 +104,7 @@ def parse_case(text: str, where: str = "--case"):
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
-                 trajectories: bool = True, log=None) -> dict:
+                 trajectories: bool = True, log=None, allow_incomplete: bool = False) -> dict:
     """Write the report of the maps under ``run_dirs`` into ``out_dir``.
 
     Parameters
@@ -123,6 +123,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         Simulate and draw the θ(t) comparisons (needs the engines).
     log : callable, optional
         Progress messages (default: stderr).
+    allow_incomplete : bool
+        Score engine maps that lack cells on what they have (flagged) instead of refusing them.
 
     Returns
     -------
@@ -132,13 +134,14 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     Raises
     ------
     ConfigError
-        ``out_dir`` is a file, or no map was found.
+        ``out_dir`` is a file, no map was found, or an engine map is incomplete (without
+        ``allow_incomplete``).
     """
     log = log or (lambda msg: print(f"rockbench: {msg}", file=sys.stderr))
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    sc = _Scored.of(run_dirs, against, experiments)
+    sc = _Scored.of(run_dirs, against, experiments, allow_incomplete)
     notes = sc.notes
     images: dict[str, bytes] = {}
 
@@ -149,7 +152,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         return name
 
     cands, refs, own_eta = sc.cands, sc.refs, sc.own_eta
-    labels = _variant_labels(cands)
+    labels = variant_labels(cands)
     pair_of = _like_pairs(sc.doc)
     variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
@@ -178,7 +181,7 @@ class _Scored:
     notes: list
 
     @classmethod
-    def of(cls, run_dirs, against, experiments) -> "_Scored":
+    def of(cls, run_dirs, against, experiments, allow_incomplete: bool = False) -> "_Scored":
         from .score_runs import load_own_eta, load_runs, mark_runs, pair_within_runs
         entries, run_of = load_runs(run_dirs)
         refs = load_entries(against) if against else [e for e in entries if e.is_reference]
@@ -187,7 +190,8 @@ class _Scored:
         doc = None
         own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
         try:
-            doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with)
+            doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with,
+                                allow_incomplete=allow_incomplete)
             mark_runs(doc, run_of, against=bool(against), notes=notes)
         except IncomparableError as e:
             notes.append(f"No scores: {e}")
@@ -240,26 +244,6 @@ DPI = 110
 
 def _slug(s: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in str(s)).strip("-").lower()
-
-
-def _variant_labels(cands: list[MapEntry]) -> dict[str, str]:
-    """Engine variant key → its label in words ("MuJoCo 4.0, calibrated to η_H")."""
-    by: dict[str, list[MapEntry]] = {}
-    for e in cands:
-        by.setdefault(e.variant, []).append(e)
-    out = {}
-    for v, es in by.items():
-        same = len({e.restitution for e in es}) == 1
-        out[v] = entry_label(es[0], with_restitution=same)
-    # two variants that read alike keep their keys apart
-    seen: dict[str, list[str]] = {}
-    for v, lab in out.items():
-        seen.setdefault(lab, []).append(v)
-    for lab, vs in seen.items():
-        if len(vs) > 1:
-            for v in vs:
-                out[v] = f"{lab} [{v}]"
-    return out
 
 
 def _like_pairs(doc) -> dict:
@@ -571,39 +555,33 @@ def _num(x, spec=".4f"):
 
 
 def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
-    """Head, body, the variant key of each row (most faithful first) and the best value per metric."""
-    from .metrics import METRICS
+    """Head, body and the variant key of each row, in the verdict's order (rank, then the primary
+    value), and per metric which rows to highlight (:func:`~rockbench.benchmark.tables.best_group_marks`)."""
+    from .metrics import METRICS, PRIMARY_METRIC
+    from .tables import best_group_marks, primary_cell, ranked_summary
 
-    s = summary(doc)
-    names = sorted(s, key=lambda v: (-(s[v]["agreement"] if math.isfinite(s[v]["agreement"]) else -1.0),
-                                     labels.get(v, v)))
-    best = {}
-    for m, spec in METRICS.items():
-        vals = [s[n][m] for n in names if math.isfinite(s[n][m])]
-        if vals and len(names) > 1 and len(set(vals)) > 1:   # a tie everywhere says nothing
-            best[m] = max(vals) if spec.direction == "higher" else min(vals)
-    head = ["engine variant", "pairs"] + [METRIC_TITLES.get(m, m) for m in METRICS]
-    body = [[labels.get(n, n), str(s[n]["pairs"])] + [fmt(m, s[n][m]) for m in METRICS] for n in names]
-    return head, body, names, {m: (best[m], [s[n][m] == best[m] for n in names]) for m in best}
+    ranked = ranked_summary(doc)
+    second = [m for m in METRICS if m != PRIMARY_METRIC]
+    head = (["rank", "engine variant", "pairs", f"{METRIC_TITLES[PRIMARY_METRIC]} [95 % interval] (primary)"]
+            + [METRIC_TITLES.get(m, m) for m in second])
+    body = []
+    for r, row in ranked:
+        name = labels.get(r["variant"], r["label"])
+        if r["cells_missing"]:
+            name += f" (incomplete: {r['cells_missing']} cells missing)"
+        if r["fails"]:
+            name += " (fails)"
+        body.append([str(r["rank"] or "-"), name, str(row["pairs"]), primary_cell(r)]
+                    + [fmt(m, row[m]) for m in second])
+    cols = {PRIMARY_METRIC: 3, **{m: 4 + k for k, m in enumerate(second)}}
+    marks = {cols[m]: flags for m, flags in best_group_marks(ranked).items()}
+    return head, body, [r["variant"] for r, _ in ranked], marks
 
 
-def _verdict(doc, labels) -> list[str]:
-    """One sentence per headline metric: which variant does best."""
-    from .metrics import METRICS
-
-    s = summary(doc)
-    out = []
-    for m, what in (("agreement", "Most cells right"), ("boundary_mean", "Overturn boundary closest to the reference"),
-                    ("consistency", "Flags jump or slip in the largest share of the cells where the rigid model "
-                                    "breaks down")):
-        vals = {v: r[m] for v, r in s.items() if math.isfinite(r[m])}
-        if not vals:
-            continue
-        pick = max if METRICS[m].direction == "higher" else min
-        best = pick(vals.values())
-        who = [labels.get(v, v) for v, x in vals.items() if x == best]
-        out.append(f"{what}: {' and '.join(who)} ({METRIC_TITLES[m]} {fmt(m, best)}).")
-    return out
+def _verdict(doc) -> list[str]:
+    """The verdict's sentences (score.json's ``verdict.text``)."""
+    from .tables import verdict_text
+    return verdict_text(doc)
 
 
 def _calib_table(rows, labels):
@@ -672,7 +650,8 @@ def _pairs_table(doc, labels):
     from .metrics import METRICS
     head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
         [METRIC_TITLES.get(m, m) for m in METRICS]
-    body = [[labels.get(p["variant"], p["variant"]), p["block"], p["pulse"], restitution_symbol(p["restitution"], p["block"]),
+    body = [[labels.get(p["variant"], p["variant"]) + incomplete_note(p), p["block"], p["pulse"],
+             restitution_symbol(p["restitution"], p["block"]),
              reference_label(p), "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
             for p in (doc or {}).get("pairs", [])]
     return head, body
@@ -744,13 +723,20 @@ def _md_table(head, body):
 
 
 def _metric_words(doc) -> list[tuple[str, str, str]]:
-    """``(title, how read, definition)`` of each metric (score.json's definitions, else this version's)."""
+    """``(title, how read, question and definition)`` of each metric, the primary first (score.json's
+    definitions, else this version's)."""
     from .metrics import METRICS
     ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
-    return [(METRIC_TITLES.get(m["name"], m["name"]) + f" ({m['name']})",
+    ms = sorted(ms, key=lambda m: m.get("role") != "primary")
+    return [(METRIC_TITLES.get(m["name"], m["name"]) + f" ({m['name']}, {m.get('role', 'secondary')})",
              f"{m['direction']} is better, perfect {m['perfect']:g}" + (f", unit {m['unit']}" if m["unit"] != "-" else ""),
-             m["definition"]) for m in ms]
+             (m.get("question", "") + " " + m["definition"]).strip()) for m in ms]
 
+
+_HIGHLIGHTS = ("Rows are ranked by the primary measure, the mean distance between the overturning boundaries; "
+               "equal ranks are ties (the paired 95 % interval of the two variants' ratio contains 1). Bold: the "
+               "best group of that measure, and within it the best value of each other column; no other row is "
+               "highlighted.")
 
 _INTRO = ("Each row is one engine variant; each number is the mean over its like-for-like pairs (its map "
           "against the reference map with the same restitution law, same block, pulse and grid); counts are "
@@ -764,18 +750,16 @@ def _markdown(ctx) -> str:
     L = ["# rockbench report", "", f"Generated {ctx['created']} from {', '.join(ctx['run_dirs'])}.", ""]
     for n in ctx["notes"]:
         L.append(f"> {n}")
+    if doc:
+        L += ["", "## Verdict", ""] + [f"- {s}" for s in _verdict(doc)] + [""]
     L += ["", "## Summary: which engine is how faithful", ""]
     if doc:
-        head, body, _, best = _summary_rows(doc, labels)
-        from .metrics import METRICS
-        mnames = list(METRICS)
-        for m, (_, flags) in best.items():
-            col = 2 + mnames.index(m)
+        head, body, _, marks = _summary_rows(doc, labels)
+        for col, flags in marks.items():
             for row, is_best in zip(body, flags):
                 if is_best:
                     row[col] = f"**{row[col]}**"
-        L += [_INTRO + " Best value of each column in bold.", "", _md_table(head, body), ""]
-        L += [f"- {s}" for s in _verdict(doc, labels)] + [""]
+        L += [_INTRO + " " + _HIGHLIGHTS, "", _md_table(head, body), ""]
         L += ["What each column measures:", ""]
         L += [f"- **{t}**, {how}: {d}" for t, how, d in _metric_words(doc)] + [""]
     else:
@@ -897,16 +881,15 @@ def _html(ctx, images: dict) -> str:
          f"<p class='meta'>Generated {html.escape(ctx['created'])} from {html.escape(', '.join(ctx['run_dirs']))}: "
          f"{len(ctx['entries'])} maps, {n_var} engine variant(s)"
          + (f", metrics version {html.escape(str(doc['metrics_version']))}" if doc else "") + ".</p>"]
+    if doc:
+        P.append("<section id='verdict'><h2>Verdict</h2><ul class='verdict'>"
+                 + "".join(f"<li>{for_html(s)}</li>" for s in _verdict(doc)) + "</ul></section>")
     P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
     P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
     if doc:
-        from .metrics import METRICS
-        head, body, _, best = _summary_rows(doc, labels)
-        mnames = list(METRICS)
-        best_cols = {2 + mnames.index(m): flags for m, (_, flags) in best.items()}
-        P.append(f"<p class='lead'>{html.escape(_INTRO)} Best value of each column in bold.</p>")
-        P.append(_h_table(head, body, id_="summary-table", num_from=1, best=best_cols))
-        P.append("<ul class='verdict'>" + "".join(f"<li>{for_html(s)}</li>" for s in _verdict(doc, labels)) + "</ul>")
+        head, body, _, marks = _summary_rows(doc, labels)
+        P.append(f"<p class='lead'>{html.escape(_INTRO)} {html.escape(_HIGHLIGHTS)}</p>")
+        P.append(_h_table(head, body, id_="summary-table", num_from=2, best=marks))
         P.append("<dl class='metrics'>" + "".join(
             f"<dt>{for_html(t)} <span>({html.escape(how)})</span></dt><dd>{html.escape(d)}</dd>"
             for t, how, d in _metric_words(doc)) + "</dl>")

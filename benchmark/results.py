@@ -364,7 +364,9 @@ def grid_of(m: LabelMap) -> dict:
 
 
 def find_map_dirs(paths: Iterable) -> list[Path]:
-    """Map directories at or below each path (a directory with cells.csv), sorted, no duplicates.
+    """Map directories at or below each path, sorted, no duplicates: a directory with cells.csv, or
+    with a run.json of a map whose cells.csv is gone (so a deleted cell table is found, and refused
+    as an incomplete map, instead of the map silently dropping out of the scores).
 
     Raises
     ------
@@ -377,12 +379,39 @@ def find_map_dirs(paths: Iterable) -> list[Path]:
         if not p.is_dir():
             raise ConfigError(f"{str(p)!r} is not a directory; give run directories written by `rockbench map` "
                               "or `rockbench run`.")
-        found = [p] if (p / "cells.csv").is_file() else sorted(c.parent for c in p.rglob("cells.csv"))
+        if (p / "cells.csv").is_file() or _is_map_run(p):
+            found = [p]
+        else:
+            found = sorted({c.parent for c in p.rglob("cells.csv")}
+                           | {c.parent for c in p.rglob("run.json") if _is_map_run(c.parent)})
         if not found:
             raise ConfigError(f"{str(p)!r} holds no map (no cells.csv in it or below); compute one with "
                               "`rockbench map ... --out DIR`.")
         out.extend(f for f in found if f not in out)
     return out
+
+
+def _is_map_run(d: Path) -> bool:
+    """Whether ``d`` holds the run.json of a map (readable or not: a damaged one is reported when read)."""
+    f = d / "run.json"
+    if not f.is_file():
+        return False
+    try:
+        return json.loads(f.read_bytes().decode("utf-8-sig")).get("kind") == "rockbench-map"
+    except (OSError, ValueError, AttributeError):
+        return True
+
+
+def missing_cells(res, meta: dict) -> int:
+    """Cells a map on disk lacks: those neither simulated nor inferred, or, when its run.json says the
+    map finished with more simulated cells than cells.csv now holds (a cut or emptied file), at least
+    that many."""
+    gone = int(res.counts()["missing"])
+    summary = meta.get("summary")
+    declared = summary.get("n_simulated") if isinstance(summary, dict) else None
+    if isinstance(declared, int) and not isinstance(declared, bool):
+        gone = max(gone, declared - res.n_simulated)
+    return gone
 
 
 def load_entry(d: Path) -> MapEntry:
@@ -404,7 +433,7 @@ def load_entry(d: Path) -> MapEntry:
         lm = LabelMap(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool) | ~sim,
                       np.asarray(res.left_model, bool) & sim, sim,
                       filled=int(np.count_nonzero(~sim & (codes != FAILED))))
-        lm.meta["missing_cells"] = int(res.counts()["missing"])
+        lm.meta["missing_cells"] = missing_cells(res, run)
         engine, block, pulse = spec.engine, spec.block.name, spec.pulse
         restitution, eta = spec.restitution.label, float(spec.eta)
         settings, dt = dict(spec.engine_settings or {}), spec.dt_s

@@ -22,7 +22,14 @@ than the metric's absolute default, so a one-cell change on a coarse grid is not
 
 A reference map must be complete for its grid: every cell simulated, or (adaptive maps) inferred by
 its own fill rule. An unfinished one is refused (:class:`IncomparableError`, exit 5, naming what is
-missing) rather than scored on the cells it happens to have.
+missing) rather than scored on the cells it happens to have. An engine map must be complete too
+(:func:`check_complete`: cells neither simulated nor inferred, or fewer rows in cells.csv than its
+run.json says it finished with): it is refused with exit 2 naming the map, the cells missing and the
+command that completes it, unless ``allow_incomplete``; then its pair is scored on the cells it has
+and marked ``"complete": false`` with ``cells_missing``.
+
+The document's ``verdict`` (:mod:`rockbench.benchmark.verdict`) ranks the variants by the primary
+metric with 95 % intervals and ties, and says in words which are closest and which fail.
 """
 
 from __future__ import annotations
@@ -33,12 +40,13 @@ from typing import Iterable
 
 from ..reference_solver.errors import ConfigError, IncomparableError
 from ..reference_solver.pulses import is_number
-from .metrics import FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, cell_counts, check_gate, domain, score
+from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, boundary_edges, cell_counts, check_gate,
+                      judged_cells, score)
 from .results import (MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta, read_json,
                       utc_stamp)
 
-#: Version of score.json's layout.
-SCORE_SCHEMA_VERSION = 1
+#: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
+SCORE_SCHEMA_VERSION = 2
 SCORE_KIND = "rockbench-score"
 
 
@@ -50,7 +58,7 @@ def pair_key(p: dict) -> str:
 
 
 def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None,
-                  own_eta: dict | None = None, pair_with=None) -> dict:
+                  own_eta: dict | None = None, pair_with=None, allow_incomplete: bool = False) -> dict:
     """Score every candidate against every reference of its block and pulse (see the module docstring).
 
     Parameters
@@ -67,6 +75,9 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     pair_with : callable, optional
         ``pair_with(candidate)`` → the references that candidate may be paired with (default: all
         of ``references``); :func:`pair_within_runs` makes one that keeps runs apart.
+    allow_incomplete : bool
+        Score engine maps that lack cells on the cells they have (marked in their pairs) instead of
+        refusing them.
 
     Returns
     -------
@@ -74,15 +85,23 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         The score.json document: ``kind``, ``schema_version``, ``metrics_version``, ``metrics``
         (definitions), ``created_utc``, ``pairs`` (one per scored pair, with ``key``, the maps,
         ``like_for_like``, ``scores``), ``skipped`` (pairs on different grids, with the reason),
-        ``experiments`` (per map, when given).
+        ``experiments`` (per map, when given), ``verdict``.
 
     Raises
     ------
+    ConfigError
+        An engine map lacks cells and ``allow_incomplete`` is False.
     IncomparableError
         No candidate has a reference of its block and pulse on its grid.
     """
+    from .labels import variant_labels
+    from .verdict import settings_class, verdict
+
+    labels = variant_labels(candidates)
     pairs, skipped = [], []
     for c in candidates:
+        if not c.is_reference:
+            check_complete(c, allow_incomplete)
         for r in (references if pair_with is None else pair_with(c)):
             if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
                 continue
@@ -99,12 +118,18 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
                 kind = "own-eta"
             else:
                 kind = "other"
-            p = {"variant": c.variant, "engine": c.engine, "block": c.block, "pulse": c.pulse,
+            settings = dict(((c.run or {}).get("spec") or {}).get("engine_settings") or {})
+            p = {"variant": c.variant, "engine": c.engine, "label": labels[c.variant],
+                 "settings": settings_class(settings, c.variant) if not c.is_reference else c.variant,
+                 "block": c.block, "pulse": c.pulse,
                  "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
                  "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
                  "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
                  "filled_cells": c.label_map.filled, **cell_counts(c.label_map, r.label_map),
                  "cells": grid_cells(c.label_map, r.label_map), "scores": s}
+            # the map's own count (run.json against cells.csv) can see rows the grid's fill hides
+            p["cells_missing"] = max(p["cells_missing"], int(c.label_map.meta.get("missing_cells", 0)))
+            p["complete"] = p["cells_missing"] == 0
             p["key"] = pair_key(p)
             pairs.append(p)
     if not pairs:
@@ -123,24 +148,46 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     if experiments is not None:
         doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
                                                experiments)
+    doc["verdict"] = verdict(doc)
     return doc
 
 
-def check_complete(ref: MapEntry) -> None:
-    """Refuse a reference map that does not cover its grid (module docstring).
+#: What ``score``, ``report`` and ``compare`` take to score incomplete engine maps anyway.
+ALLOW_INCOMPLETE = "--allow-incomplete"
+
+
+def check_complete(entry: MapEntry, allow_incomplete: bool = False) -> None:
+    """Refuse a map that does not cover its grid (module docstring): a reference map always, an engine
+    map unless ``allow_incomplete``.
 
     Raises
     ------
     IncomparableError
-        Cells of the grid are neither simulated nor inferred by the map's own fill rule.
+        A reference map's cells are neither simulated nor inferred by its own fill rule.
+    ConfigError
+        The same of an engine map, or fewer rows than its run.json says it finished with.
     """
-    missing = int(ref.label_map.meta.get("missing_cells", 0))
-    if missing:
-        n = ref.label_map.codes.size
-        raise IncomparableError(
-            f"the reference map {str(ref.path)!r} is incomplete: {missing} of its {n} cells are missing "
-            f"(neither simulated nor inferred); finish it (rerun the same `rockbench map` or `rockbench run` "
-            "to resume) before scoring against it.")
+    missing = int(entry.label_map.meta.get("missing_cells", 0))
+    if not missing or (allow_incomplete and not entry.is_reference):
+        return
+    n = entry.label_map.codes.size
+    what = f"{missing} of its {n} cells are missing (cut, emptied or deleted cells.csv, or an unfinished run)"
+    if entry.is_reference:
+        raise IncomparableError(f"the reference map {str(entry.path)!r} is incomplete: {what}; finish it ("
+                                f"{completing_command(entry.path)}) before scoring against it.")
+    raise ConfigError(f"the engine map {str(entry.path)!r} is incomplete: {what}; complete it with "
+                      f"{completing_command(entry.path)}, or score what is there with {ALLOW_INCOMPLETE}.")
+
+
+def completing_command(map_dir: Path) -> str:
+    """The command that completes a map: the same ``rockbench run`` for a map of a run folder (it resumes
+    and recomputes what is missing), else the same ``rockbench map ... --out DIR``."""
+    d = Path(map_dir)
+    runs = [q for q in d.parents if (q / "suite.json").is_file()]
+    if runs or d.parent.parent.name == "maps":   # <run>/maps/<variant>/<case>: a `rockbench run` output
+        run = runs[0] if runs else d.parent.parent.parent
+        return f"`rockbench run --out {run}` with the suite it was run with"
+    return f"the `rockbench map` that wrote it, with --out {map_dir}"
 
 
 def at_own_eta(reference: MapEntry, candidate: MapEntry, own_eta: dict | None) -> bool:
@@ -165,7 +212,8 @@ def score_experiments(entries: list[MapEntry], points) -> list[dict]:
     return out
 
 
-def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None) -> dict:
+def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None,
+               allow_incomplete: bool = False) -> dict:
     """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`),
     each engine map against the reference maps of its own run (see the module docstring).
 
@@ -183,7 +231,8 @@ def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=
         refs = [e for e in entries if e.is_reference]
         cands = [e for e in entries if not e.is_reference]
         pair_with, notes = pair_within_runs(cands, refs, run_of)
-    doc = score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs), pair_with=pair_with)
+    doc = score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs), pair_with=pair_with,
+                        allow_incomplete=allow_incomplete)
     mark_runs(doc, run_of, against=bool(against), notes=notes)
     return doc
 
@@ -246,13 +295,15 @@ def mark_runs(doc: dict, run_of: dict, *, against: bool = False, notes: list | N
 
 def grid_cells(eng: LabelMap, ref: LabelMap) -> dict:
     """How many cells a pair's metrics are taken over: ``judged`` (the reference's domain: it has an
-    outcome and is valid), ``overturn_union`` (judged cells where either map overturns or the engine
-    failed), and the grid's steps, from which :func:`cell_units` turns a number of cells into each
+    outcome and is valid, less the cells the engine map lacks), ``overturn_union`` (judged cells where
+    either map overturns or the engine failed), the boundary edges the boundary distance averages
+    over, and the grid's steps, from which :func:`cell_units` turns a number of cells into each
     metric's units."""
-    judged, _ = domain(ref)
+    judged, _ = judged_cells(eng, ref)
     union = judged & ((eng.codes == OVERTURN) | (ref.codes == OVERTURN) | (eng.codes == FAILED))
     w, a = eng.w_ratio, eng.a_ratio
     return {"judged": int(judged.sum()), "overturn_union": int(union.sum()),
+            "boundary_edges": boundary_edges(eng, ref),
             "w_step": float((w[-1] - w[0]) / (w.size - 1)) if w.size > 1 else 0.0,
             "a_step": float((a[-1] - a[0]) / (a.size - 1)) if a.size > 1 else 0.0}
 
@@ -296,7 +347,7 @@ def gate(doc: dict, thresholds: dict) -> list[str]:
     return out
 
 
-def load_score(path) -> dict:
+def load_score(path, allow_incomplete: bool = False) -> dict:
     """A score document from a score.json file, or computed from a run directory.
 
     A directory with a ``score.json`` gives that file; otherwise its maps are scored (engine maps
@@ -305,25 +356,34 @@ def load_score(path) -> dict:
     Raises
     ------
     ConfigError
-        The path does not exist or is not readable JSON.
+        The path does not exist, is not readable JSON or not a score file at all, or holds pairs of
+        incomplete maps and ``allow_incomplete`` is False.
     IncomparableError
-        Not a score document, or another schema.
+        A score file of another schema.
     """
     p = Path(path)
     if p.is_dir():
         if (p / "score.json").is_file():
             p = p / "score.json"
         else:
-            return score_dirs([p])
+            return score_dirs([p], allow_incomplete=allow_incomplete)
     if not p.is_file():
         raise ConfigError(f"{str(p)!r} does not exist; give a score.json or a run directory.")
     doc = read_json(p)
     if doc.get("kind") != SCORE_KIND:
-        raise IncomparableError(f"{str(p)!r} is not a rockbench score file (kind {doc.get('kind')!r}).")
+        raise ConfigError(f"{str(p)!r} is not a rockbench score file (it has no \"kind\": \"{SCORE_KIND}\"); give "
+                          "the score.json written by `rockbench score` or `rockbench run`, or a run directory.")
     if doc.get("schema_version") != SCORE_SCHEMA_VERSION:
-        raise IncomparableError(f"{str(p)!r} has score schema {doc.get('schema_version')}, this rockbench reads "
-                                f"{SCORE_SCHEMA_VERSION}; rescore both runs with one version.")
+        raise IncomparableError(f"{str(p)!r} has score schema {doc.get('schema_version')} (metrics version "
+                                f"{doc.get('metrics_version')}), this rockbench reads schema {SCORE_SCHEMA_VERSION} "
+                                f"(metrics version {METRICS_VERSION}); rescore its run with this rockbench "
+                                "(`rockbench score RUN_DIR`) and compare again.")
     check_score_doc(doc, p)
+    gaps = [q for q in doc["pairs"] if q.get("complete") is False]
+    if gaps and not allow_incomplete:
+        raise ConfigError(f"{str(p)!r} scores {len(gaps)} pair(s) of incomplete maps (the first, {gaps[0]['key']!r}, "
+                          f"lacks {gaps[0].get('cells_missing')} cells); complete the maps and rescore, or compare "
+                          f"anyway with {ALLOW_INCOMPLETE}.")
     return doc
 
 
@@ -423,9 +483,9 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
     tol = dict(parse_tolerances([]) if tolerances is None else tolerances)
     if base.get("metrics_version") != cur.get("metrics_version"):
         raise IncomparableError(f"the scores use other metric definitions (baseline metrics version "
-                                f"{base.get('metrics_version')}, current {cur.get('metrics_version')}; version 2 "
-                                "judges engines only where the reference is valid and adds consistency and "
-                                "spurious_invalid); rescore both with one rockbench (`rockbench score RUN_DIR`).")
+                                f"{base.get('metrics_version')}, current {cur.get('metrics_version')}; docs/scores.md "
+                                "says what each version changed); rescore both with one rockbench "
+                                "(`rockbench score RUN_DIR`).")
     b = _pairs_by_key(base, "baseline")
     c = _pairs_by_key(cur, "current")
     common = sorted(set(b) & set(c))

@@ -43,10 +43,15 @@ def render(head: list[str], rows: list[list[str]], markdown: bool) -> str:
 def pairs_table(doc: dict, markdown: bool = False) -> str:
     """One row per scored pair, one column per metric."""
     head = ["engine", "block", "pulse", "restitution", "vs reference", "like"] + [SHORT[m] for m in METRICS]
-    rows = [[p["variant"], p["block"], p["pulse"], p["restitution"], reference_label(p),
+    rows = [[p["variant"] + incomplete_note(p), p["block"], p["pulse"], p["restitution"], reference_label(p),
              "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
             for p in doc["pairs"]]
     return render(head, rows, markdown)
+
+
+def incomplete_note(p: dict) -> str:
+    """`` (incomplete: N cells missing)`` for a pair scored on an incomplete engine map, else nothing."""
+    return f" (incomplete: {p['cells_missing']} cells missing)" if p.get("complete") is False else ""
 
 
 def reference_label(p: dict) -> str:
@@ -81,30 +86,86 @@ def summary(doc: dict) -> dict:
     return out
 
 
-def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
-    """Engine × metric, best value of each column in bold (``**`` in Markdown, ``*`` in text)."""
+def primary_cell(row: dict) -> str:
+    """A verdict row's primary value with its 95 % interval: ``0.008 [0.003, 0.013]``."""
+    from .verdict import number
+    if row.get("value") is None:
+        return "n/a (nothing judged)"
+    lo, hi = row["ci95"]
+    return f"{number(row['value'])} [{number(lo)}, {number(hi)}]"
+
+
+def ranked_summary(doc: dict) -> list[tuple[dict, dict]]:
+    """``[(verdict row, summary row)]`` in the verdict's order (rank, then value): the rows of every
+    summary table."""
+    from .verdict import verdict
     s = summary(doc)
-    names = list(s)
-    best = {}
+    rows = (doc.get("verdict") or verdict(doc))["variants"]
+    return [(r, s[r["variant"]]) for r in rows if r["variant"] in s]
+
+
+def best_group_marks(ranked: list[tuple[dict, dict]]) -> dict[str, list[bool]]:
+    """Per metric, which rows to highlight: the primary metric's best group (rank 1, unless it fails),
+    and, when that group has two or more rows, for every secondary metric its best value among those
+    rows only (a secondary column never praises a variant outside the best group)."""
+    from .metrics import PRIMARY_METRIC
+    top = [r["rank"] == 1 and not r["fails"] for r, _ in ranked]
+    if len(ranked) < 2 or not any(top):
+        return {}
+    marks = {PRIMARY_METRIC: top}
+    if sum(top) < 2:
+        return marks
     for m, spec in METRICS.items():
-        vals = [s[n][m] for n in names if math.isfinite(s[n][m])]
-        if vals:
-            best[m] = max(vals) if spec.direction == "higher" else min(vals)
-    head = ["engine", "pairs"] + [SHORT[m] for m in METRICS]
+        if m == PRIMARY_METRIC:
+            continue
+        vals = [row[m] for (r, row), t in zip(ranked, top) if t and math.isfinite(row[m])]
+        all_vals = {row[m] for _, row in ranked if math.isfinite(row[m])}
+        if vals and len(all_vals) > 1:
+            best = max(vals) if spec.direction == "higher" else min(vals)
+            marks[m] = [t and row[m] == best for (r, row), t in zip(ranked, top)]
+    return marks
+
+
+def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
+    """Engine variant × metric in the verdict's order: rank (equal ranks tie), the primary metric with its
+    95 % interval, then the secondary metrics; highlights as :func:`best_group_marks` (``**`` in
+    Markdown, ``*`` in text, bold in HTML)."""
+    from .metrics import PRIMARY_METRIC
+    ranked = ranked_summary(doc)
+    marks = best_group_marks(ranked)
+    second = [m for m in METRICS if m != PRIMARY_METRIC]
+    head = ["rank", "engine", "pairs", f"{SHORT[PRIMARY_METRIC]} [95 % CI]"] + [SHORT[m] for m in second]
     rows = []
-    for n in names:
-        r = [_html.escape(n) if html else n, str(s[n]["pairs"])]
-        for m in METRICS:
-            t = fmt(m, s[n][m])
-            if m in best and s[n][m] == best[m] and len(names) > 1:
-                t = f"<b>{t}</b>" if html else (f"**{t}**" if markdown else f"*{t}")
-            r.append(t)
-        rows.append(r)
+    for k, (r, row) in enumerate(ranked):
+        name = r["label"] + (f" (incomplete: {r['cells_missing']} cells missing)" if r["cells_missing"] else "")
+        if r["fails"]:
+            name += " (fails)"
+        cells = [str(r["rank"] or "-"), _html.escape(name) if html else name, str(row["pairs"])]
+        for m, text in [(PRIMARY_METRIC, primary_cell(r))] + [(m, fmt(m, row[m])) for m in second]:
+            if marks.get(m, [False] * len(ranked))[k]:
+                text = f"<b>{text}</b>" if html else (f"**{text}**" if markdown else f"*{text}")
+            cells.append(text)
+        rows.append(cells)
     if html:
         th = "".join(f"<th>{_html.escape(h)}</th>" for h in head)
         trs = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in r) + "</tr>" for r in rows)
         return f"<table><thead><tr>{th}</tr></thead><tbody>{trs}</tbody></table>"
     return render(head, rows, markdown)
+
+
+def verdict_text(doc: dict) -> list[str]:
+    """The verdict's sentences (computed when an older document has none)."""
+    from .verdict import verdict
+    return list((doc.get("verdict") or verdict(doc))["text"])
+
+
+def verdict_block(doc: dict, markdown: bool = False) -> str:
+    """The verdict under its title: a Markdown list, or for a terminal sentences folded at 100 columns."""
+    import textwrap
+    lines = verdict_text(doc)
+    if markdown:
+        return "### Verdict\n\n" + "\n".join(f"- {md_cell(t)}" for t in lines)
+    return "Verdict\n" + "\n".join(textwrap.fill(t, 100, initial_indent="- ", subsequent_indent="  ") for t in lines)
 
 
 def compare_table(res: dict, markdown: bool = False) -> str:

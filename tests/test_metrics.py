@@ -41,7 +41,8 @@ def test_shifted_boundary_by_one_row():
     assert s["critical_error_mean"] == pytest.approx(1.0)
     assert s["critical_error_max"] == pytest.approx(1.0)
     assert s["critical_one_sided"] == 0
-    assert s["spurious_invalid"] == 0 and s["failed_cells"] == 0 and s["consistency"] == 1.0
+    assert s["spurious_invalid"] == 0 and s["failed_cells"] == 0
+    assert math.isnan(s["consistency"])   # no cell outside the domain: n/a, never perfect
 
 
 def test_shift_scales_with_axis_spacing():
@@ -317,11 +318,11 @@ def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(
     m = LabelMap(np.linspace(1, 10, 7), np.linspace(0.5, 8, 6), codes, ~mask, mask)
     s = score(m, m)
     assert is_perfect(s)
-    assert s["consistency"] == 1.0
+    assert s["consistency"] == 1.0 or (math.isnan(s["consistency"]) and not mask.any())
 
 
-def test_metrics_version_two_refuses_version_one():
+def test_metrics_version_three_refuses_version_two():
     from rockbench.benchmark.score_runs import compare_scores
-    doc = {"metrics_version": "1", "pairs": []}
-    with pytest.raises(IncomparableError, match="metrics version 1, current 2"):
+    doc = {"metrics_version": "2", "pairs": []}
+    with pytest.raises(IncomparableError, match="metrics version 2, current 3"):
         compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})

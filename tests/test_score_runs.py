@@ -222,7 +222,7 @@ def test_compare_refuses_metrics_version_one(write_map, band, tmp_path, capsys):
     old["metrics_version"] = "1"
     (tmp_path / "v1.json").write_text(json.dumps(old))
     code, _, err = run_cli(capsys, "compare", tmp_path / "v1.json", a / "score.json")
-    assert code == 5 and "metrics version 1, current 2" in err and "Traceback" not in err
+    assert code == 5 and "metrics version 1, current 3" in err and "Traceback" not in err
 
 
 def test_scoring_half_a_reference_map_exits_5(write_map, band, tmp_path, capsys):

@@ -24,6 +24,9 @@ def register(sub) -> None:
                    "on the pair's grid); alone for every metric, METRIC=... for one (repeatable)")
     p.add_argument("--json", action="store_true", help="print the comparison as JSON on stdout")
     p.add_argument("--markdown", action="store_true", help="print a Markdown table (for a pull-request comment)")
+    p.add_argument("--allow-incomplete", action="store_true",
+                   help="compare score files (or run directories) whose pairs come from incomplete maps instead of "
+                   "exiting 2")
     p.set_defaults(func=run)
 
 
@@ -33,7 +36,8 @@ def run(args) -> int:
     from ..tables import compare_table
 
     tol = parse_tolerances(args.tolerance)
-    res = compare_scores(load_score(args.baseline), load_score(args.current), tol)
+    allow = args.allow_incomplete
+    res = compare_scores(load_score(args.baseline, allow), load_score(args.current, allow), tol)
     if args.json:
         print(json.dumps(json_safe(res), indent=2))
     else:

@@ -19,6 +19,7 @@ def register(sub) -> None:
     p.add_argument("--case", action="append", default=[], metavar="BLOCK:PULSE:W_RATIO:A_RATIO",
                    help="θ(t) comparison case (repeatable; default the paper's Fig. 17 case B3M:sine:6:6.1)")
     p.add_argument("--no-trajectories", action="store_true", help="skip the θ(t) comparison (no simulation)")
+    p.add_argument("--allow-incomplete", action="store_true", help="score engine maps that lack cells (cut, emptied or deleted cells.csv, an unfinished run) on the cells they have, marked incomplete, instead of exiting 2")
     p.set_defaults(func=run)
 
 
@@ -33,7 +34,7 @@ def run(args) -> int:
         from ..experiments import load_outcomes
         points = load_outcomes(args.experiments)
     res = build_report(args.run_dirs, args.out, against=args.against or None, experiments=points, cases=cases,
-                       trajectories=not args.no_trajectories)
+                       trajectories=not args.no_trajectories, allow_incomplete=args.allow_incomplete)
     for n in res["notes"]:
         print(f"rockbench: note: {n}", file=sys.stderr)
     print(res["html"])

@@ -38,6 +38,7 @@ def register(sub) -> None:
     p.add_argument("--no-write", action="store_true", help="do not write score.json")
     p.add_argument("--json", action="store_true", help="print the score document on stdout")
     p.add_argument("--markdown", action="store_true", help="print Markdown tables (for a pull-request comment)")
+    p.add_argument("--allow-incomplete", action="store_true", help="score engine maps that lack cells (cut, emptied or deleted cells.csv, an unfinished run) on the cells they have, marked incomplete, instead of exiting 2")
     p.set_defaults(func=run)
 
 
@@ -45,7 +46,7 @@ def run(args) -> int:
     from ..atomic import check_output_file
     from ..results import json_safe, write_json
     from ..score_runs import gate, score_dirs
-    from ..tables import pairs_table, summary_table
+    from ..tables import pairs_table, summary_table, verdict_block
 
     thresholds = {**parse_thresholds(args.fail_under, "higher", "--fail-under"),
                   **parse_thresholds(args.fail_over, "lower", "--fail-over")}
@@ -56,7 +57,7 @@ def run(args) -> int:
     out = None
     if not args.no_write:   # refused before the scoring, not after it
         out = check_output_file(Path(args.out) if args.out else Path(args.run_dirs[0]) / "score.json", "--out")
-    doc = score_dirs(args.run_dirs, args.against or None, points)
+    doc = score_dirs(args.run_dirs, args.against or None, points, allow_incomplete=args.allow_incomplete)
     for n in doc.get("pairing", {}).get("notes", []):
         print(f"rockbench: note: {n}", file=sys.stderr)
     failures = gate(doc, thresholds)
@@ -68,7 +69,8 @@ def run(args) -> int:
         print(json.dumps(json_safe(doc), indent=2))
     else:
         md = args.markdown
-        print(("### Summary (mean over like-for-like pairs)\n\n" if md else "Summary (mean over like-for-like pairs)\n")
+        print(verdict_block(doc, markdown=md))
+        print(("\n### Summary (mean over like-for-like pairs)\n\n" if md else "\nSummary (mean over like-for-like pairs)\n")
               + summary_table(doc, markdown=md))
         print(("\n### Pairs\n\n" if md else "\nPairs\n") + pairs_table(doc, markdown=md))
         for e in doc.get("experiments", []):
