@@ -328,6 +328,20 @@ class Run:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
         return pd.DataFrame.from_dict(summary(self.score), orient="index")
 
+    def verdict(self):
+        """The verdict of score.json, one row per variant in rank order (``pandas.DataFrame`` indexed by
+        variant: label, settings, the primary value, ``ci95_lo``, ``ci95_hi``, rank, pairs, fails,
+        reasons); its sentences are ``run.score["verdict"]["text"]``."""
+        from .export import need
+        from .tables import ranked_summary
+        pd = need("pandas")
+        if not self.score:
+            raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
+        keep = ("label", "settings", "value", "rank", "pairs", "fails", "reasons", "cells_missing")
+        rows = {r["variant"]: {**{k: r[k] for k in keep}, "ci95_lo": (r["ci95"] or [np.nan, np.nan])[0],
+                               "ci95_hi": (r["ci95"] or [np.nan, np.nan])[1]} for r, _ in ranked_summary(self.score)}
+        return pd.DataFrame.from_dict(rows, orient="index")
+
     def metrics(self) -> dict:
         """Metric name → its definition in words (from score.json, else from this rockbench)."""
         if self.score and self.score.get("metrics"):

@@ -100,3 +100,7 @@ def test_load_run_reads_maps_and_scores(write_map, band, tmp_path):
     assert list(s.index) == ["mujoco[settings=defaults]"] and s.loc["mujoco[settings=defaults]", "agreement"] < 1
     assert set(run.scores().columns) >= {"variant", "agreement", "consistency", "spurious_invalid"}
     assert "rigid model" in run.metrics()["consistency"]
+    v = run.verdict()
+    assert list(v.index) == ["mujoco[settings=defaults]"] and v.loc["mujoco[settings=defaults]", "rank"] == 1
+    assert v.loc["mujoco[settings=defaults]", "ci95_lo"] <= v.loc["mujoco[settings=defaults]", "value"]
+    assert v.loc["mujoco[settings=defaults]", "settings"] == "as-shipped"

@@ -46,10 +46,14 @@ def test_report_files_and_tables(report):
     assert imgs == ["speed_accuracy.png", "stability_b6l_cosine.png", "stability_b6l_sine.png",
                     "variant_mujoco-settings-calibrated.png", "variant_pybullet.png"]
     md = (out / "report.md").read_text()
-    assert "## Summary: which engine is how faithful" in md and "| engine variant | pairs |" in md
-    # words, not keys; best values in bold (mujoco is one row off, pybullet two rows off the reference)
-    row = next(ln for ln in md.splitlines() if ln.startswith("| MuJoCo, calibrated to η_H | 1 |"))
+    assert "## Summary: which engine is how faithful" in md and "| rank | engine variant | pairs |" in md
+    # words, not keys; ranked by the boundary (mujoco is one row off, pybullet two rows off the reference:
+    # one scenario, a difference of more than half a cell is resolved), its best group in bold
+    row = next(ln for ln in md.splitlines() if ln.startswith("| 1 | MuJoCo, calibrated to η_H | 1 |"))
     assert "**" in row and "mujoco[settings=calibrated]" not in md.split("<details>")[0]
+    other = next(ln for ln in md.splitlines() if ln.startswith("| 2 | PyBullet"))
+    assert "**" not in other
+    assert md.index("## Verdict") < md.index("## Summary") and "Best achievable" in md
     for img in imgs:
         assert f"(img/{img})" in md
     # every metric explained in words, with the definition score.json carries
