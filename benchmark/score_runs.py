@@ -95,43 +95,22 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         No candidate has a reference of its block and pulse on its grid.
     """
     from .labels import variant_labels
-    from .verdict import settings_class, verdict
+    from .verdict import verdict
 
     labels = variant_labels(candidates)
     pairs, skipped = [], []
     for c in candidates:
-        if not c.is_reference:
-            check_complete(c, allow_incomplete)
+        check_complete(c, allow_incomplete)
         for r in (references if pair_with is None else pair_with(c)):
             if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
                 continue
-            check_complete(r)
+            check_complete(r, reference=True)
             if not c.label_map.same_axes(r.label_map):
                 skipped.append({"engine_dir": str(c.path), "reference_dir": str(r.path),
                                 "reason": "different grids", "engine_grid": grid_of(c.label_map),
                                 "reference_grid": grid_of(r.label_map)})
                 continue
-            s = score(c.label_map, r.label_map)
-            if c.restitution == r.restitution:
-                kind = "same-law"
-            elif at_own_eta(r, c, own_eta):
-                kind = "own-eta"
-            else:
-                kind = "other"
-            settings = dict(((c.run or {}).get("spec") or {}).get("engine_settings") or {})
-            p = {"variant": c.variant, "engine": c.engine, "label": labels[c.variant],
-                 "settings": settings_class(settings, c.variant) if not c.is_reference else c.variant,
-                 "block": c.block, "pulse": c.pulse,
-                 "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
-                 "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
-                 "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
-                 "filled_cells": c.label_map.filled, **cell_counts(c.label_map, r.label_map),
-                 "cells": grid_cells(c.label_map, r.label_map), "scores": s}
-            # the map's own count (run.json against cells.csv) can see rows the grid's fill hides
-            p["cells_missing"] = max(p["cells_missing"], int(c.label_map.meta.get("missing_cells", 0)))
-            p["complete"] = p["cells_missing"] == 0
-            p["key"] = pair_key(p)
-            pairs.append(p)
+            pairs.append(scored_pair(c, r, labels[c.variant], own_eta))
     if not pairs:
         if not candidates:
             raise IncomparableError("nothing to score: the run directories hold only reference maps; give engine "
@@ -152,30 +131,57 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     return doc
 
 
+def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> dict:
+    """One pair of score.json: the engine map ``c`` (shown as ``label``) scored against the reference
+    map ``r``, with what the scores rest on."""
+    from .verdict import settings_class
+
+    if c.restitution == r.restitution:
+        kind = "same-law"
+    elif at_own_eta(r, c, own_eta):
+        kind = "own-eta"
+    else:
+        kind = "other"
+    settings = dict(((c.run or {}).get("spec") or {}).get("engine_settings") or {})
+    p = {"variant": c.variant, "engine": c.engine, "label": label,
+         "settings": c.variant if c.is_reference else settings_class(settings, c.variant),
+         "block": c.block, "pulse": c.pulse, "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
+         "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
+         "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
+         "filled_cells": c.label_map.filled, **cell_counts(c.label_map, r.label_map),
+         "cells": grid_cells(c.label_map, r.label_map), "scores": score(c.label_map, r.label_map)}
+    # the map's own count (run.json against cells.csv) can see rows the grid's fill hides
+    p["cells_missing"] = max(p["cells_missing"], int(c.label_map.meta.get("missing_cells", 0)))
+    p["complete"] = p["cells_missing"] == 0
+    p["key"] = pair_key(p)
+    return p
+
+
 #: What ``score``, ``report`` and ``compare`` take to score incomplete engine maps anyway.
 ALLOW_INCOMPLETE = "--allow-incomplete"
 
 
-def check_complete(entry: MapEntry, allow_incomplete: bool = False) -> None:
-    """Refuse a map that does not cover its grid (module docstring): a reference map always, an engine
-    map unless ``allow_incomplete``.
+def check_complete(entry: MapEntry, allow_incomplete: bool = False, *, reference: bool = False) -> None:
+    """Refuse a map that does not cover its grid (module docstring): a map scored against as the
+    ``reference`` always, a map being scored (an engine map) unless ``allow_incomplete``.
 
     Raises
     ------
     IncomparableError
-        A reference map's cells are neither simulated nor inferred by its own fill rule.
+        A reference's cells are neither simulated nor inferred by its own fill rule.
     ConfigError
-        The same of an engine map, or fewer rows than its run.json says it finished with.
+        The same of a map being scored, or fewer rows than its run.json says it finished with.
     """
     missing = int(entry.label_map.meta.get("missing_cells", 0))
-    if not missing or (allow_incomplete and not entry.is_reference):
+    if not missing or (allow_incomplete and not reference):
         return
     n = entry.label_map.codes.size
     what = f"{missing} of its {n} cells are missing (cut, emptied or deleted cells.csv, or an unfinished run)"
-    if entry.is_reference:
+    if reference:
         raise IncomparableError(f"the reference map {str(entry.path)!r} is incomplete: {what}; finish it ("
                                 f"{completing_command(entry.path)}) before scoring against it.")
-    raise ConfigError(f"the engine map {str(entry.path)!r} is incomplete: {what}; complete it with "
+    raise ConfigError(f"the {'reference' if entry.is_reference else 'engine'} map {str(entry.path)!r} is "
+                      f"incomplete: {what}; complete it with "
                       f"{completing_command(entry.path)}, or score what is there with {ALLOW_INCOMPLETE}.")
 
 
