@@ -979,8 +979,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     result["report_wall_s"] = time.perf_counter() - t2
     result["wall_s"] = time.perf_counter() - t0
     if result["score"] is not None:
-        from .tables import summary_table, verdict_block
-        result["summary"] = verdict_block(result["score"]) + "\n\n" + summary_table(result["score"])
+        from .tables import SUMMARY_TITLE, summary_table, verdict_block
+        result["summary"] = "\n".join([verdict_block(result["score"]), SUMMARY_TITLE, summary_table(result["score"])])
     write_json(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,
                                            **{k: v for k, v in result.items() if k not in ("suite", "score", "summary")},
                                            "suite_name": suite.name})

@@ -153,6 +153,10 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
     return render(head, rows, markdown)
 
 
+#: The title of the summary table on a terminal and in Markdown.
+SUMMARY_TITLE = "Summary (mean over like-for-like pairs; ranked by the boundary distance, equal ranks tie)"
+
+
 def verdict_text(doc: dict) -> list[str]:
     """The verdict's sentences (computed when an older document has none)."""
     from .verdict import verdict

@@ -312,7 +312,7 @@ def sentences(vs: list[Variant], rows: list[dict]) -> list[str]:
 
 
 def _class_sentence(title: str, members: list[Variant], by: dict) -> str:
-    group = [by[v.name] for v in best_group(members)]
+    group = sorted((by[v.name] for v in best_group(members)), key=lambda r: r["value"])
     passing = [r for r in group if not r["fails"]]
     if not passing:
         if len(members) == 1:
@@ -321,13 +321,18 @@ def _class_sentence(title: str, members: list[Variant], by: dict) -> str:
     head, rest = passing[0], passing[1:]
     text = f"{title}: {head['label']}, {_figure(head)}"
     if rest:
-        text += "; tied with " + " and ".join(f"{r['label']}, {number(r['value'])}" for r in rest) \
+        text += "; tied with " + _and([f"{r['label']}, {number(r['value'])}" for r in rest]) \
                 + " (the differences are not resolved)"
     farther = [by[v.name] for v in members if by[v.name] not in group and not by[v.name]["fails"]]
     if farther:
         text += ". Farther, resolved: " + "; ".join(
             f"{r['label']}, {number(r['value'])} (rank {r['rank']})" for r in farther)
     return text + "."
+
+
+def _and(items: list[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
 
 
 def _failure(row: dict) -> str:

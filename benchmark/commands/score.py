@@ -46,7 +46,7 @@ def run(args) -> int:
     from ..atomic import check_output_file
     from ..results import json_safe, write_json
     from ..score_runs import gate, score_dirs
-    from ..tables import pairs_table, summary_table, verdict_block
+    from ..tables import SUMMARY_TITLE, pairs_table, summary_table, verdict_block
 
     thresholds = {**parse_thresholds(args.fail_under, "higher", "--fail-under"),
                   **parse_thresholds(args.fail_over, "lower", "--fail-over")}
@@ -70,8 +70,7 @@ def run(args) -> int:
     else:
         md = args.markdown
         print(verdict_block(doc, markdown=md))
-        print(("\n### Summary (mean over like-for-like pairs)\n\n" if md else "\nSummary (mean over like-for-like pairs)\n")
-              + summary_table(doc, markdown=md))
+        print((f"\n### {SUMMARY_TITLE}\n\n" if md else f"\n{SUMMARY_TITLE}\n") + summary_table(doc, markdown=md))
         print(("\n### Pairs\n\n" if md else "\nPairs\n") + pairs_table(doc, markdown=md))
         for e in doc.get("experiments", []):
             print(f"\nexperiments vs {e['variant']} {e.get('restitution', '')} ({Path(e['dir']).name}): "
