@@ -15,14 +15,17 @@ def register(sub) -> None:
 
     from ..metrics import METRICS_VERSION
 
-    defs = "\n".join(textwrap.fill(f"{m.name} ({m.direction} is better, perfect {m.perfect:g}): {m.definition}",
+    defs = "\n".join(textwrap.fill(f"{m.name} ({m.role}; {m.direction} is better, perfect {m.perfect:g}): "
+                                   f"{m.question} {m.definition}",
                                    width=96, initial_indent="  ", subsequent_indent="    ")
                       for m in METRICS.values())
     p = sub.add_parser("score", help="score engine maps against reference maps; gate with --fail-under",
                        formatter_class=argparse.RawDescriptionHelpFormatter,
                        description="Scores every engine map found in or below RUN_DIR against the reference "
-                       "maps of the same block and pulse (or those of --against).\nExit 0 ok, 1 a gate failed, "
-                       "2 bad usage, 5 nothing comparable.",
+                       "maps of the same block and pulse (or those of --against), and prints the verdict: the "
+                       "variants ranked by the primary metric (boundary_mean) with 95 % intervals over the "
+                       "scenarios, ties where a difference is not resolved, and which fail and why.\nExit 0 ok, "
+                       "1 a gate failed, 2 bad usage or an incomplete engine map, 5 nothing comparable.",
                        epilog=f"metrics (version {METRICS_VERSION}), as score.json also records them:\n{defs}")
     p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="map directories, or folders holding them")
     p.add_argument("--against", action="append", default=[], metavar="REF_DIR",
