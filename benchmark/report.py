@@ -733,9 +733,10 @@ def _metric_words(doc) -> list[tuple[str, str, str]]:
              (m.get("question", "") + " " + m["definition"]).strip()) for m in ms]
 
 
-_HIGHLIGHTS = ("Rows are ranked by the primary measure, the mean distance between the overturning boundaries; "
-               "equal ranks are ties (the paired 95 % interval of the two variants' ratio contains 1). Bold: the "
-               "best group of that measure, and within it the best value of each other column; no other row is "
+_HIGHLIGHTS = ("Rows are ranked by the primary measure, the mean distance between the overturning boundaries: "
+               "a variant's rank is 1 + the number of variants resolved closer to the reference (the paired 95 % "
+               "interval of their ratio over the scenarios both have excludes 1), so equal ranks tie. Bold: the "
+               "best group (rank 1), and within it the best value of each other column; no other row is "
                "highlighted.")
 
 _INTRO = ("Each row is one engine variant; each number is the mean over its like-for-like pairs (its map "

@@ -154,7 +154,8 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
 
 
 #: The title of the summary table on a terminal and in Markdown.
-SUMMARY_TITLE = "Summary (mean over like-for-like pairs; ranked by the boundary distance, equal ranks tie)"
+SUMMARY_TITLE = ("Summary (mean over like-for-like pairs; rank = 1 + the variants resolved closer to the reference "
+                 "on the boundary distance, paired over scenarios)")
 
 
 def verdict_text(doc: dict) -> list[str]:

@@ -14,9 +14,8 @@ no file, no plotting. docs/scores.md argues every rule below; in short:
   spread to measure: the interval is half a cell either side (the grid's resolution only).
 - **Ties**: two variants are compared over the scenarios they share, by the same interval on the
   per-scenario log ratios (distances span orders of magnitude); a ratio whose interval contains 1 is
-  not resolved. Ranks are
-  competition ranks of groups: a variant joins the group of the best variant not yet placed unless
-  it is resolved worse than that variant. Equal rank means a tie with the group's best.
+  not resolved. A variant's rank is 1 + the number of variants resolved closer to the reference:
+  rank 1 is every variant that no other beats, and a variant's rank says how many beat it.
 - **Failing**: a variant fails when its boundary lies on average more than :data:`FAIL_CELLS` cell
   diagonal from the reference's (the grid itself resolves that), or nothing it simulated could be
   judged; the reasons are read from its cell counts (what it gets wrong, in what share of which cells).
@@ -151,15 +150,20 @@ def paired(a: Variant, b: Variant) -> dict:
 # -- ranks -------------------------------------------------------------------------------------------
 
 def rank(variants: list[Variant]) -> dict[str, int]:
-    """Competition ranks of tie groups (module docstring); variants without a value get none."""
+    """Competition ranks by resolved comparisons: 1 + the number of variants resolved closer to the
+    reference (module docstring). Rank 1 is every variant no other is resolved better than; variants
+    without a value get none."""
     valued = [v for v in variants if math.isfinite(v.value)]
-    valued.sort(key=lambda v: (v.value if PRIMARY.direction == "lower" else -v.value, v.label))
-    ranks, leader, place = {}, None, 0
-    for k, v in enumerate(valued):
-        if leader is None or paired(v, leader)["resolved"]:
-            leader, place = v, k + 1
-        ranks[v.name] = place
-    return ranks
+    out = {}
+    for v in valued:
+        beaten_by = 0
+        for o in valued:
+            if o is not v:
+                res = paired(o, v)
+                better = res["ratio"] < 1 if PRIMARY.direction == "lower" else res["ratio"] > 1
+                beaten_by += bool(res["resolved"] and better)
+        out[v.name] = 1 + beaten_by
+    return out
 
 
 def best_group(variants: list[Variant]) -> list[Variant]:
@@ -307,7 +311,9 @@ def sentences(vs: list[Variant], rows: list[dict]) -> list[str]:
                    + "; ".join(f"{r['label']} lacks {r['cells_missing']} cell(s)" for r in incomplete) + ".")
     out.append(f"Measure: the mean distance between the engine's and the reference's overturning boundaries in "
                f"the normalised plane (ω/p, a₀/(g·tanα)), lower is better, like-for-like pairs; 95 % intervals over "
-               f"scenarios (block × pulse); two variants tie when the paired 95 % interval of their ratio contains 1.")
+               f"scenarios (block × pulse); two variants tie when the paired 95 % interval of their ratio over the "
+               f"scenarios they share contains 1, and a rank is 1 + the number of variants resolved closer, so a "
+               f"variant whose mean is raised by one scenario can outrank one that is consistently farther.")
     return out
 
 
@@ -325,7 +331,7 @@ def _class_sentence(title: str, members: list[Variant], by: dict) -> str:
                 + " (the differences are not resolved)"
     farther = [by[v.name] for v in members if by[v.name] not in group and not by[v.name]["fails"]]
     if farther:
-        text += ". Farther, resolved: " + "; ".join(
+        text += ". Resolved farther (rank − 1 variants are resolved closer): " + "; ".join(
             f"{r['label']}, {number(r['value'])} (rank {r['rank']})" for r in farther)
     return text + "."
 
