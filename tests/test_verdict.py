@@ -185,3 +185,14 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     assert rows[CALIBRATED]["value"] == 0.0 and rows[CALIBRATED]["rank"] == 1
     assert rows[AS_SHIPPED]["fails"] and "overturns in 100 %" in rows[AS_SHIPPED]["reasons"][0]
     assert all(p["complete"] is True and p["cells_missing"] == 0 for p in doc["pairs"])
+
+
+def test_a_variant_tied_with_the_best_is_never_ranked_behind_one_the_best_beats():
+    """The default suite's case: m's mean is raised by one bad scenario but it wins four of eight, so it
+    ties with p; e is farther than p in every scenario, though its mean is smaller than m's."""
+    p = _variant("p", [0.006, 0.0, 0.0, 0.005, 0.023, 0.014, 0.007, 0.012])
+    m = _variant("m", [0.0, 0.0, 0.006, 0.005, 0.549, 0.007, 0.012, 0.024])
+    e = _variant("e", [0.083, 0.024, 0.064, 0.024, 0.029, 0.037, 0.041, 0.059])
+    assert e.value < m.value
+    assert not paired(m, p)["resolved"] and paired(e, p)["resolved"]
+    assert rank([p, m, e]) == {"p": 1, "m": 1, "e": 2}
