@@ -157,8 +157,10 @@ def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> d
     return p
 
 
-#: What ``score``, ``report`` and ``compare`` take to score incomplete engine maps anyway.
+#: What ``score``, ``report`` and ``compare`` take to score incomplete engine maps anyway, and its help.
 ALLOW_INCOMPLETE = "--allow-incomplete"
+ALLOW_INCOMPLETE_HELP = ("score engine maps that lack cells (cut, emptied or deleted cells.csv, an unfinished run) on "
+                         "the cells they have, marked incomplete, instead of exiting 2")
 
 
 def check_complete(entry: MapEntry, allow_incomplete: bool = False, *, reference: bool = False) -> None:

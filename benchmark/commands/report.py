@@ -19,7 +19,8 @@ def register(sub) -> None:
     p.add_argument("--case", action="append", default=[], metavar="BLOCK:PULSE:W_RATIO:A_RATIO",
                    help="θ(t) comparison case (repeatable; default the paper's Fig. 17 case B3M:sine:6:6.1)")
     p.add_argument("--no-trajectories", action="store_true", help="skip the θ(t) comparison (no simulation)")
-    p.add_argument("--allow-incomplete", action="store_true", help="score engine maps that lack cells (cut, emptied or deleted cells.csv, an unfinished run) on the cells they have, marked incomplete, instead of exiting 2")
+    from ..score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
+    p.add_argument(ALLOW_INCOMPLETE, action="store_true", help=ALLOW_INCOMPLETE_HELP)
     p.set_defaults(func=run)
 
 

@@ -41,7 +41,8 @@ def register(sub) -> None:
     p.add_argument("--no-write", action="store_true", help="do not write score.json")
     p.add_argument("--json", action="store_true", help="print the score document on stdout")
     p.add_argument("--markdown", action="store_true", help="print Markdown tables (for a pull-request comment)")
-    p.add_argument("--allow-incomplete", action="store_true", help="score engine maps that lack cells (cut, emptied or deleted cells.csv, an unfinished run) on the cells they have, marked incomplete, instead of exiting 2")
+    from ..score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
+    p.add_argument(ALLOW_INCOMPLETE, action="store_true", help=ALLOW_INCOMPLETE_HELP)
     p.set_defaults(func=run)
 
 
