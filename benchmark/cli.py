@@ -1,4 +1,4 @@
-"""The ``rockbench`` command line (CLI.md): parse, call one Python function, map errors to exit codes.
+"""The ``rockbench`` command line (docs/cli.md): parse, call one Python function, map errors to exit codes.
 
 Each subcommand lives in :mod:`rockbench.benchmark.commands` as a module with a
 ``register(subparsers)`` function; :data:`COMMANDS` lists them in the order ``--help`` shows, with

@@ -1,4 +1,4 @@
-"""Describing a case on the command line (CLI.md, "Describing a case"), shared by every subcommand."""
+"""Describing a case on the command line (docs/cli.md, "Describing a case"), shared by every subcommand."""
 
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 θ(t) comparison, :meth:`rockbench.Simulation.plot`).
 
 The reference solver's default mode decides at the pulse's end by the energy test (paper §2.2,
-DOMAIN.md §2), so its trajectory may stop at the pulse's end, before the impact that decides the
+docs/physics.md §2), so its trajectory may stop at the pulse's end, before the impact that decides the
 case: the paper's Fig. 17 pair (B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1) turns at the impact at
 0.1465 s, after its pulse ended at 0.091 s. A picture therefore integrates on (``mode="to-rest"``)
 over one span that depends on the pulse only, so that two runs of one case (two k, two engines)

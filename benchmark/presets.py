@@ -1,4 +1,4 @@
-"""The paper's blocks (Table 1, DOMAIN.md §5): aluminium, depth = width.
+"""The paper's blocks (Table 1, docs/physics.md §5): aluminium, depth = width.
 
 ``k_average`` is the average impulse position of the free-rocking tests of nine blocks of one size
 (0.8608 for b = 45 mm, 0.7306 for b = 60 mm); ``k_exact`` is the block's own measured value.

@@ -60,7 +60,7 @@ class TrajectoryCase:
 
 
 #: The paper's Fig. 17: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1 rocks with k = 0.8608 and
-#: overturns with k = 0.7595 (DOMAIN.md §6).
+#: overturns with k = 0.7595 (paper §5.2, docs/physics.md §6).
 FIG17 = TrajectoryCase("B3M", "sine", 6.0, 6.1, (0.8608, 0.7595),
                        "Fig. 17 case: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1")
 

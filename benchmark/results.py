@@ -1,4 +1,4 @@
-"""Run folders on disk: the one module that reads and writes them (STYLE.md "Data and files").
+"""Run folders on disk: the one module that reads and writes them (docs/data.md, "The files rockbench writes").
 
 A map's run directory holds
 
@@ -7,10 +7,10 @@ A map's run directory holds
     Python, platform, the engine's name, version, settings and resolved settings, the sweep spec,
     run options and, once finished, a summary.
 ``DIR/cells.csv``
-    one row per simulation, the columns :data:`COLUMNS` (CLI.md's :data:`REQUIRED_COLUMNS` among
-    them); written by :class:`~rockbench.benchmark.store.RunStore`, read by :func:`read_run` (this
-    rockbench's own files, every field checked) and :func:`read_cell_table` (any table with the
-    CLI.md columns, e.g. one written by another tool).
+    one row per simulation, the columns :data:`COLUMNS` (the required ones of docs/cli.md,
+    :data:`REQUIRED_COLUMNS`, among them); written by :class:`~rockbench.benchmark.store.RunStore`,
+    read by :func:`read_run` (this rockbench's own files, every field checked) and
+    :func:`read_cell_table` (any table with the required columns, e.g. one written by another tool).
 
 A ``rockbench run`` folder adds ``suite.json``, ``calibration.json`` and ``score.json``. Every JSON
 file goes through :func:`write_json`: atomic (a temporary file, then a rename), and with **one
@@ -38,11 +38,12 @@ from .metrics import FAILED, LabelMap, from_cells
 #: (3: the ``variant`` column).
 SCHEMA_VERSION = 3
 
-#: The cells.csv columns every map directory has (CLI.md), in the order the store writes them.
+#: The cells.csv columns every map directory has (docs/cli.md, "The columns of cells.csv"), in the
+#: order the store writes them.
 REQUIRED_COLUMNS = ("engine", "block", "pulse", "restitution", "eta", "w_ratio", "a_ratio", "omega_rad_s",
                     "amplitude_mps2", "outcome", "n_impacts", "max_abs_theta_rad", "valid", "flags")
 
-#: The columns of cells.csv as this rockbench writes them, in order: CLI.md's required ones, with
+#: The columns of cells.csv as this rockbench writes them, in order: the required ones, with
 #: ``variant`` beside the engine (the engine with its non-default settings and time step, e.g.
 #: ``mujoco[settings=defaults]``, so that tables of several maps concatenated stay apart), then the
 #: store's own.
@@ -258,7 +259,7 @@ def check_map_schema(meta: dict, d: Path) -> None:
 
 
 def read_cell_table(path) -> list[dict]:
-    """The rows of any cells.csv that has the CLI.md columns (:data:`REQUIRED_COLUMNS`, in any order,
+    """The rows of any cells.csv that has the required columns (:data:`REQUIRED_COLUMNS`, in any order,
     others allowed), as dicts of text; for tables without this rockbench's run.json (another tool's).
     A torn last line (the run was killed mid-write) is not a row.
 
@@ -281,7 +282,7 @@ def read_cell_table(path) -> list[dict]:
     header = rows[0].keys() if rows else next(csv.reader(text.splitlines()), [])
     missing = [c for c in REQUIRED_COLUMNS if c not in header]
     if missing:
-        raise IncomparableError(f"{str(path)!r} lacks the column {missing[0]!r} of cells.csv (CLI.md); it was "
+        raise IncomparableError(f"{str(path)!r} lacks the column {missing[0]!r} of cells.csv; it was "
                                 "written by another tool or version.")
     if not rows:
         raise ConfigError(f"{str(path)!r} has no cells yet; let `rockbench map` finish (rerun it to resume).")
@@ -294,7 +295,7 @@ def read_cell_table(path) -> list[dict]:
 
 def map_cell_rows(d) -> list[dict]:
     """The cells.csv rows of the map directory ``d``: this rockbench's own (:func:`read_run`, one row per
-    cell) when its run.json says so, else any table with the CLI.md columns (:func:`read_cell_table`)."""
+    cell) when its run.json says so, else any table with the required columns (:func:`read_cell_table`)."""
     d = Path(d)
     if (d / "run.json").is_file() and read_json(d / "run.json").get("kind") == "rockbench-map":
         return list(read_run(d)[1].values())
@@ -419,7 +420,7 @@ def load_entry(d: Path) -> MapEntry:
 
     A map this rockbench wrote (run.json of kind ``rockbench-map``) is read by
     :func:`rockbench.benchmark.maps.load_map`, so adaptive maps get their inferred cells by the
-    harness's own rule; any other folder by the CLI.md columns of its cells.csv.
+    harness's own rule; any other folder by the required columns of its cells.csv.
     """
     d = Path(d)
     run = read_json(d / "run.json") if (d / "run.json").is_file() else {}
@@ -458,7 +459,7 @@ def variant_name(engine: str, settings: dict | None = None, dt_s: float | None =
 
 
 def _label_map(path: Path) -> tuple[LabelMap, dict]:
-    """The :class:`LabelMap` of a cells.csv with the CLI.md columns, and its first row."""
+    """The :class:`LabelMap` of a cells.csv with the required columns, and its first row."""
     rows = read_cell_table(path)
     ok = [r.get("status", "ok") in ("ok", "") for r in rows]
     outcome = [r["outcome"] if good else "" for r, good in zip(rows, ok)]

@@ -1,7 +1,7 @@
 """One case through one engine, as ``rockbench simulate`` and :func:`rockbench.simulate` show it.
 
 :func:`run_case` simulates and judges (an engine that raises gives a failed result, as a map's cell
-does); :func:`simulate_case` builds the command's JSON object (CLI.md), writes the θ(t) history and
+does); :func:`simulate_case` builds the command's JSON object (docs/cli.md), writes the θ(t) history and
 the picture when asked. The command only checks the options and prints.
 
 In the object, ``n_impacts`` and ``t_uplift_s`` are the classifier's (as in a map's cells.csv: sign
@@ -49,7 +49,7 @@ def _num(x):
 
 
 def simulation_record(adapter, case, res, dt_s: float) -> dict:
-    """The JSON object of one simulation (CLI.md ``simulate --json``), from the case, its result and
+    """The JSON object of one simulation (docs/cli.md, "What ``simulate --json`` prints"), from the case, its result and
     the time step it ran with [s]."""
     block, pulse = case.block, case.pulse
     out = {

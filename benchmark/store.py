@@ -1,4 +1,4 @@
-"""The results store of a map: one run directory (STYLE.md "Data and files").
+"""The results store of a map: one run directory (docs/maps.md, "The run directory").
 
 ``DIR/run.json``
     schema version, UTC times, rockbench version, git commit and dirty flag, Python, platform, the

@@ -274,7 +274,7 @@ def body_energy_j_kg(block: Block, vx_m_s, vz_m_s, omega_rad_s, zc_m):
 def free_rocking_duration_s(block: Block, theta0_frac: float, n_impacts: int = FREE_ROCKING_IMPACTS) -> float:
     """How long a free-rocking test from rest at ``theta0_frac·α`` runs to see ``n_impacts`` whole
     swings [s]: ``2n + 1`` quarter periods of the linearised rocking from θ0 (later swings are only
-    shorter, DOMAIN.md §7), ``T/4 = arcosh(1/(1 − θ0/α))/p``, with 20 % and 0.05 s to spare."""
+    shorter, docs/physics.md §7), ``T/4 = arcosh(1/(1 − θ0/α))/p``, with 20 % and 0.05 s to spare."""
     quarter = math.acosh(1.0 / (1.0 - float(theta0_frac))) / block.p_rad_s
     return quarter * (2 * n_impacts + 1) * 1.2 + 0.05
 

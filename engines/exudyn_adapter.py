@@ -20,7 +20,7 @@ Model
 - **Anti-slip**: friction coefficient ``friction`` = 10 by default. The tapes of the experiments
   keep the blocks in place, and a block pivoting on a corner needs a friction coefficient of at
   least the ratio of horizontal to vertical contact force, which reaches a few units in the
-  strongest pulses (DOMAIN.md §8: friction 1 lets blocks slide above 3–4 g). Exudyn's contact has
+  strongest pulses (docs/physics.md §8: friction 1 lets blocks slide above 3–4 g). Exudyn's contact has
   no separate no-slip mode; its friction is regularised below ``friction_zone_m_s``, which lets a
   loaded corner creep at about ``friction_zone_m_s · (F_t / (μ F_n))``: 1e-3 m/s keeps that below
   0.1 mm per second of rocking while the Newton iterations still converge.
@@ -91,15 +91,15 @@ from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, POINTS_TRIED, C
                       overturn_certain)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
-#: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range DOMAIN.md §8 found to
-#: reproduce Housner's η (2e6–2e7 N/m at Δt ≤ 1e-4 s).
+#: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as
+#: reproducing Housner's η (2e6–2e7 N/m at Δt ≤ 1e-4 s).
 STATIC_PENETRATION_M = 1.34e-6
 
 #: Exudyn contact restitution coefficients (impact model 2) tried by the calibration's scan [-].
 CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 
 #: The scan for the distributed contact (issue 18): its η rises with the coefficient from about
-#: η_H, and the probe (benchmarks/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
+#: η_H, and the probe (benchmarks/probes/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
 CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
 
 #: Impacts averaged by the free-rocking measurement [-] (the one count of all contact engines).

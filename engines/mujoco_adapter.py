@@ -11,7 +11,7 @@ hinge angle tilts the top towards +x, the contract's θ); ``planar=False`` gives
 
 Anti-slip: friction coefficient 10 on both geoms (MuJoCo takes the larger of the two). A block
 pivoting on a corner needs ``|F_t/N|`` up to a few units at the pulse amplitudes of the maps; 1
-lets the paper's blocks slide above about 3–4 g (DOMAIN.md §8), 10 keeps the friction cone out of
+lets the paper's blocks slide above about 3–4 g (docs/physics.md §8), 10 keeps the friction cone out of
 the way until the normal force itself vanishes (then no coefficient helps and the run is flagged).
 ``settings="calibrated"`` also uses elliptic friction cones and MuJoCo's no-slip solver
 (``noslip_iterations``), which remove the creep that soft friction allows.
@@ -101,7 +101,7 @@ CALIBRATION_VERSION = 3
 
 #: Distributed-contact calibration (issue 18): solimp impedances d (dmin = dmax = d), time
 #: constants as multiples of the time step, damping ratios. The probe
-#: (benchmarks/probe_eta_m_mujoco.py) found η rising from about η_H at d = 0.9 to 0.88 (B3M) and
+#: (benchmarks/probes/probe_eta_m_mujoco.py) found η rising from about η_H at d = 0.9 to 0.88 (B3M) and
 #: 0.97 (B6M) at d = 0.3 with a row of points along the base.
 _D_VALUES = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 _TC_FACTORS_DIST = (2.0, 4.0, 8.0, 16.0)
@@ -841,7 +841,7 @@ class MujocoAdapter(ContactEngineAdapter):
                     "the corner contact of a box dissipates about what Housner's impact predicts "
                     "(η_H follows from the impact at the far edge), and the contact's softness and damping "
                     "move η only a few per cent; lower damping ratios make the corner bounce rather than "
-                    "rock, and moving the contact inwards would change the pivots (DOMAIN.md §8).")
+                    "rock, and moving the contact inwards would change the pivots (docs/physics.md §8).")
         res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
                                 settings={"timeconst": tc, "dampratio": dr, **solver,
                                           "friction": self.settings["friction"], "dt_s": dt,

@@ -47,7 +47,7 @@ PRICE_CELLS = tuple((pulse, w, a) for pulse in ("sine", "cosine") for w in (2.0,
 def rigid_first_quarter_s(block: Block, theta0_frac: float = 0.5) -> float:
     """Time for the rigid block released from rest at ``theta0_frac·α`` to reach θ = 0 [s].
 
-    Nonlinear free rocking (DOMAIN.md §1): ``θ̇² = 2p²(cos(α − θ₀) − cos(α − θ))``; the integral
+    Nonlinear free rocking (docs/physics.md §1): ``θ̇² = 2p²(cos(α − θ₀) − cos(α − θ))``; the integral
     ``∫dθ/|θ̇|`` is taken with ``θ = θ₀(1 − s²)``, which removes the square-root singularity at the
     release (the integrand tends to ``2θ₀/(p·√(2θ₀·sin(α − θ₀)))`` there).
     """

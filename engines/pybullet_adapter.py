@@ -13,7 +13,7 @@ law of ours replaces it, since that contact is what the benchmark measures.
   it but the contact. ``planar=False`` makes it a free 3-D floating body instead.
 * **Anti-slip**: the friction coefficient is 10 (``friction``), the largest Bullet allows: it
   multiplies the two bodies' coefficients and clamps the product at 10, so the table gets 1 and
-  the block the requested value. Friction 1 lets blocks slide above 3–4 g (DOMAIN.md §8); a
+  the block the requested value. Friction 1 lets blocks slide above 3–4 g (docs/physics.md §8); a
   rocking block's impacts ask for far more than the static ratio ``ü/g``. Bullet's friction
   anchors (``friction_anchor``), its no-slip feature that pins a contact point's tangential
   position while it sticks, are on.
@@ -563,7 +563,7 @@ class PybulletAdapter(ContactEngineAdapter):
         s = self._base_settings() if settings is None else settings
         # long enough for the swings around the measured impacts: each lasts at most half the
         # linearised free-rocking period from the release angle, T = (4/p)·arcosh(1/(1 − θ0/α))
-        # (DOMAIN.md §7; amplitudes only shrink, and so do the swings), with 20 % to spare
+        # (docs/physics.md §7; amplitudes only shrink, and so do the swings), with 20 % to spare
         period = 4.0 / block.p_rad_s * math.acosh(1.0 / (1.0 - float(theta0_frac)))
         duration = 1.2 * (_CAL_IMPACTS + 2) * period / 2.0
         tr, state = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=duration,

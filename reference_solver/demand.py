@@ -1,4 +1,4 @@
-"""What the rigid rocking model asks of the table: the pivot's normal and friction force (DOMAIN.md §9).
+"""What the rigid rocking model asks of the table: the pivot's normal and friction force (docs/physics.md §9).
 
 The rigid model assumes the pivot corner neither lifts nor slides. Along a trajectory the pivot must
 then supply, in the table's frame, with ``φ = α·s − θ`` (``s`` the side it pivots on) and the centre

@@ -1,4 +1,4 @@
-"""The block's energy and the exact fate of free rocking after the pulse (DOMAIN.md §2).
+"""The block's energy and the exact fate of free rocking after the pulse (docs/physics.md §2).
 
 Energies here are per unit corner inertia ``I_A`` [rad^2/s^2]:
 

@@ -1,4 +1,4 @@
-"""The rigid block: geometry, mass and the derived rocking parameters (DOMAIN.md §1).
+"""The rigid block: geometry, mass and the derived rocking parameters (docs/physics.md §1).
 
 A rectangular block of full width ``b`` (in the plane of excitation), full height ``h`` and depth
 ``d`` (default ``b``) rocks about one bottom corner at a time. Everything the equation of motion

@@ -1,7 +1,7 @@
 """Table motions: one full sine or cosine wave (the paper's §4.2), a half-sine, or a record.
 
 Every pulse gives the table's acceleration ``ü(t)``, velocity ``u̇(t)`` and displacement ``u(t)``
-exactly (DOMAIN.md §4; the paper's eq. (12) for the sine displacement is misprinted, the right
+exactly (docs/physics.md §4; the paper's eq. (12) for the sine displacement is misprinted, the right
 form is ``u = (a₀/ω²)(ωt − sin ωt)``), its duration, and a compact description the compiled
 solver understands (:meth:`Pulse.kernel_spec`). Time starts at 0 with the table at rest.
 """

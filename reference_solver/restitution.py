@@ -1,4 +1,4 @@
-"""Coefficients of restitution for the rocking impact (DOMAIN.md §3, paper §2.3 and eq. (10)).
+"""Coefficients of restitution for the rocking impact (docs/physics.md §3, paper §2.3 and eq. (10)).
 
 The coefficient ``η`` multiplies the angular velocity at every impact, ``θ̇⁺ = η·θ̇⁻``, so the
 kinetic energy at ``θ = 0`` drops by ``η²``.

@@ -1,6 +1,6 @@
 """The reference solution: the paper's Newmark scheme with exact uplift and impacts (paper §2.2).
 
-Equation of motion (paper eqs (1)–(2) in one line, DOMAIN.md §1), per unit corner inertia::
+Equation of motion (paper eqs (1)–(2) in one line, docs/physics.md §1), per unit corner inertia::
 
     θ̈ = −p²·[sin(α·s − θ) + (ü/g)·cos(α·s − θ)]        (nonlinear, the default)
     θ̈ =  p²·[θ − α·s − ü/g]                             (linearised)

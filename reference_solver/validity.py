@@ -58,7 +58,7 @@ DOMAIN_FLAGS = ("lift-required", "slip-required")
 #: Every flag a cell can carry.
 FLAGS = MEASURED_FLAGS + ("diverged", "engine-error", "timeout", "crashed") + DOMAIN_FLAGS
 #: Flags by which a run says it left the rigid model through its contact: an engine's slip or jump,
-#: the reference's need of either (DOMAIN.md §9).
+#: the reference's need of either (docs/physics.md §9).
 LEFT_MODEL_FLAGS = frozenset({"slip", "jump", "lift-required", "slip-required"})
 
 #: Slip tolerance as a fraction of the block's width b [-].

@@ -18,7 +18,7 @@ from rockbench.reference_solver.model import G, Block
 
 
 def _quarter_ivp(block: Block, frac: float) -> float:
-    """Release at frac·α, nonlinear equation of motion (DOMAIN.md §1), until θ = 0."""
+    """Release at frac·α, nonlinear equation of motion (docs/physics.md §1), until θ = 0."""
     a, p = block.alpha_rad, block.p_rad_s
 
     def f(t, y):
@@ -39,7 +39,7 @@ def test_rigid_quarter_period_matches_an_independent_integration(name, frac):
 
 
 def test_rigid_quarter_period_domain_value():
-    # DOMAIN.md §7: B3M, θ0 = α/2, nonlinear full period 0.45947 s (four quarters)
+    # docs/physics.md §7: B3M, θ0 = α/2, nonlinear full period 0.45947 s (four quarters)
     assert 4 * P.rigid_first_quarter_s(PRESETS["B3M"].block(), 0.5) == pytest.approx(0.45947, abs=2e-5)
 
 

@@ -176,3 +176,17 @@ def test_no_document_points_at_files_a_user_does_not_have():
             if "://" in target:
                 continue
             assert (path.parent / target).exists(), f"{path.name} links to {target}, which does not exist"
+
+
+def test_every_cited_section_of_physics_md_exists():
+    """Code, tests and docs cite the physics by section ("docs/physics.md §7"): each § they name exists."""
+    sections = set(re.findall(r"^## (\d+)\. ", (ROOT / "docs" / "physics.md").read_text(), re.M))
+    cited = {}
+    for folder in ("reference_solver", "engines", "benchmark", "benchmarks", "tests", "docs"):
+        for path in (ROOT / folder).rglob("*"):
+            if path.suffix in (".py", ".md", ".toml") and path.is_file():
+                for n in re.findall(r"physics\.md[^§\n]{0,3}§(\d+)", path.read_text(errors="replace")):
+                    cited.setdefault(n, path.relative_to(ROOT).as_posix())
+    assert cited, "no citation of docs/physics.md found"
+    missing = {n: where for n, where in cited.items() if n not in sections}
+    assert not missing, f"docs/physics.md has no section(s) {missing} cited there"

@@ -1,4 +1,4 @@
-"""Energy, the exact post-pulse decision (DOMAIN.md §2) and the shared classifier."""
+"""Energy, the exact post-pulse decision (docs/physics.md §2) and the shared classifier."""
 
 import math
 

@@ -13,7 +13,8 @@ from rockbench.benchmark.metrics import OVERTURN, REST, ROCKING, LabelMap
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G
 
-# Table 1 and section 5 of the paper, as printed (DOMAIN.md §5)
+# η_H and η_M (average k) as the paper's Table 1 prints them, and η_M with the exact k of its section 5
+# from eq. (10) (docs/physics.md §5)
 PRINTED = {"B3M": (0.7526, 0.8106, 0.8494), "B6M": (0.9294, 0.9472, 0.9515),
            "B3L": (0.7526, 0.8598, 0.8615), "B6L": (0.9294, 0.9617, 0.9626)}
 

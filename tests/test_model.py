@@ -1,4 +1,4 @@
-"""Block geometry and Table 1 of the paper (DOMAIN.md §5)."""
+"""Block geometry and Table 1 of the paper (docs/physics.md §5)."""
 
 import math
 
@@ -33,7 +33,7 @@ def test_table1_printed_digits(name):
     assert _round_to(blk.alpha_rad, alpha) == alpha
     assert _round_to(blk.half_diagonal_m * 1e3, R) == R
     # The paper computed p from R rounded to 0.1 mm (B6M: 8.4232 from 103.7 mm, the exact R gives
-    # 8.4224; B3L: 9.9781 from 73.9 mm vs 9.9797): reproduce that, and stay within 0.03 % exactly.
+    # 8.4224; B3L: 9.9780 from 73.9 mm vs 9.9803): reproduce that, and stay within 0.03 % exactly.
     p_from_printed_R = math.sqrt(3 * G / (4 * R / 1e3))
     assert _round_to(p_from_printed_R, p) == p
     assert blk.p_rad_s == pytest.approx(p, rel=3e-4)

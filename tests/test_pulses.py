@@ -1,4 +1,4 @@
-"""Table pulses: ü, u̇, u consistent and exact (DOMAIN.md §4; the paper's eq. (12) is misprinted)."""
+"""Table pulses: ü, u̇, u consistent and exact (docs/physics.md §4; the paper's eq. (12) is misprinted)."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Restitution laws (DOMAIN.md §3, paper eq. (10))."""
+"""Restitution laws (docs/physics.md §3, paper eq. (10))."""
 
 import math
 

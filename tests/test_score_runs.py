@@ -193,7 +193,7 @@ def test_own_eta_jobs():
 
 
 def test_cells_csv_from_another_tool_is_read_by_its_cli_columns(write_map, band, tmp_path, capsys):
-    """A map directory without the store's run.json: cells.csv with only the CLI.md columns."""
+    """A map directory without the store's run.json: cells.csv with only the required columns of docs/cli.md."""
     write_map(tmp_path / "ref", band(4, 3, 2))
     d = tmp_path / "foreign"
     d.mkdir()

@@ -1,6 +1,6 @@
 """Physics of the reference solver against closed forms, invariants and an independent solution.
 
-DOMAIN.md §7 and issue 2 ("What must hold"). The independent event-driven solution lives in
+docs/physics.md §7 and issue 2 ("What must hold"). The independent event-driven solution lives in
 ``tests/ivp_baseline.py`` (SciPy ``solve_ivp`` with events); it shares nothing with the
 Newmark kernels but the pulses' ``ü(t)``.
 """
@@ -49,7 +49,7 @@ def period_from_impacts(imp):
 
 
 def linear_period(block, theta0):
-    """DOMAIN.md §7: T = (4/p)·arcosh(1/(1 − θ0/α))."""
+    """docs/physics.md §7: T = (4/p)·arcosh(1/(1 − θ0/α))."""
     return 4.0 / block.p_rad_s * math.acosh(1.0 / (1.0 - theta0 / block.alpha_rad))
 
 
@@ -73,7 +73,7 @@ def nonlinear_period(block, theta0):
 # -- free rocking ---------------------------------------------------------------------------------
 def test_closed_form_periods_match_domain_numbers():
     th0 = 0.5 * B3M.alpha_rad
-    # DOMAIN.md prints five digits; the last one may differ by one with p from the exact sizes
+    # docs/physics.md §7 gives five digits; the last one may differ by one with p from the exact sizes
     assert linear_period(B3M, th0) == pytest.approx(0.45712, abs=1.5e-5)
     assert nonlinear_period(B3M, th0) == pytest.approx(0.45947, abs=1.5e-5)
 

@@ -1,4 +1,4 @@
-"""The one validity rule and the rigid model's contact demand (DOMAIN.md §9), against independent results."""
+"""The one validity rule and the rigid model's contact demand (docs/physics.md §9), against independent results."""
 
 import math
 
@@ -127,7 +127,7 @@ def test_contact_demand_matches_an_independent_computation(name, kind, wr, ar, e
     sol = solve(b, pulse, eta, dt_s=1e-3, history=False)
     indep = _independent_min_normal(b, pulse, eta)
     assert sol.min_normal_mg == pytest.approx(indep, abs=0.05)
-    assert sol.min_normal_mg == pytest.approx(expected, abs=0.05)   # DOMAIN.md §9
+    assert sol.min_normal_mg == pytest.approx(expected, abs=0.05)   # docs/physics.md §9
     assert contact_flags(sol.min_normal_mg, sol.max_friction_ratio) == []
 
 

@@ -1,4 +1,4 @@
-"""``rockbench simulate``: one case through one engine (CLI.md).
+"""``rockbench simulate``: one case through one engine (docs/cli.md).
 
 Everything the user typed is checked before anything runs or is written; the simulation, its JSON
 object and its files are :func:`rockbench.benchmark.simulation.simulate_case`'s; this command prints

@@ -4,7 +4,7 @@ Normalised axes: ω/p horizontal, a₀/(g·tanα) vertical. A boundary is drawn 
 0.5 contour of the map's overturn indicator (cells are values at grid points; the contour runs
 half-way between an overturn and a not-overturn point), not as cell staircases. The rigid model's
 own domain ends where its trajectory needs the table to pull the block down or more friction than
-μ (the reference's ``lift-required`` / ``slip-required`` cells, DOMAIN.md §9): that region is
+μ (the reference's ``lift-required`` / ``slip-required`` cells, docs/physics.md §9): that region is
 hatched in every picture. Experimental outcomes are the paper's letters T, R, O; the shaking
 table's faithful limit (25 m/s², paper §5) is a dashed line labelled on the chart, drawn only where
 it lies inside the chart.

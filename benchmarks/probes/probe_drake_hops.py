@@ -2,7 +2,7 @@
 invalid" cells in the full suite, almost all under the cosine pulse)? Measures and prints; it passes
 or fails nothing.
 
-    python benchmarks/probe_drake_hops.py [--cells N] [--json FILE]
+    python benchmarks/probes/probe_drake_hops.py [--cells N] [--json FILE]
 
 For N cells per block and pulse (B3M and B6L, sine and cosine; ω/p and a₀/(g·tanα) drawn at random
 over the default suite's grid) the reference and calibrated Drake are run. Kept are the cells whose

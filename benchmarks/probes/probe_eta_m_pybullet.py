@@ -13,7 +13,7 @@ iterations, Δt = 0.5 ms), free rocking from rest at α/2, η by the adapter's e
 For the settings closest to each target, the static uplift threshold (slow ramp) and the
 anti-slip cells are measured with :func:`rockbench.engines.price.contact_price`.
 
-Run: ``python benchmarks/probe_eta_m_pybullet.py``; writes
+Run: ``python benchmarks/probes/probe_eta_m_pybullet.py``; writes
 ``benchmarks/results/probe-eta-m-pybullet-<date>.json``.
 """
 
@@ -98,7 +98,7 @@ def main():
             print("  ", k, round(v["eta"], 4), f"{100 * v['rel_error']:+.2f} %",
                   {kk: v.get(kk) for kk in ("contact_stiffness_n_m", "zeta")},
                   v.get("price", {}).get("uplift", {}).get("ratio"), v.get("price", {}).get("counts"), flush=True)
-    p = Path(__file__).parent / "results" / f"probe-eta-m-pybullet-{out['date']}.json"
+    p = Path(__file__).resolve().parent.parent / "results" / f"probe-eta-m-pybullet-{out['date']}.json"
     p.write_text(json.dumps(out, indent=1, default=float))
     print("wrote", p)
 

@@ -1,7 +1,7 @@
 """Could an engine run stop once the block has settled after the pulse, before the minimum tail ends
 (issue 16)? Measures and prints; it passes or fails nothing.
 
-    python benchmarks/probe_settle_stop.py [--cells N] [--json FILE]
+    python benchmarks/probes/probe_settle_stop.py [--cells N] [--json FILE]
 
 For N cells per engine variant (the four blocks, sine and cosine, ω/p and a₀/(g·tanα) drawn at
 random over the default suite's grid), each run as the adapter runs it today, the candidate rule

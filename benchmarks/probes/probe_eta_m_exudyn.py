@@ -9,7 +9,7 @@ peak-ratio method (:meth:`ExudynAdapter.free_rocking`, the one its calibration u
 * ``distributed``: a row of ``n`` spheres along the base (outer ones under the corners), the
   same models, over per-point stiffness, damping / restitution coefficient and exponent.
 
-Run: ``python benchmarks/probe_eta_m_exudyn.py [--quick]``; writes
+Run: ``python benchmarks/probes/probe_eta_m_exudyn.py [--quick]``; writes
 ``benchmarks/results/probe-eta-m-exudyn-<date>.json``.
 """
 
@@ -99,7 +99,7 @@ def main():
         print(name, "span", out["blocks"][name]["eta_span"], flush=True)
         for k, v in best.items():
             print("  ", k, round(v["eta"], 4), f"{100 * v['rel_error']:+.2f} %", flush=True)
-    p = Path(__file__).parent / "results" / f"probe-eta-m-exudyn-{out['date']}.json"
+    p = Path(__file__).resolve().parent.parent / "results" / f"probe-eta-m-exudyn-{out['date']}.json"
     p.write_text(json.dumps(out, indent=1, default=float))
     print("wrote", p)
 

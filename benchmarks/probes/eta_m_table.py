@@ -6,7 +6,7 @@ calibrations are reused; a missing one is computed, which takes about a minute p
 with the price of the contact found (:func:`rockbench.engines.price.contact_price`; measured for the
 η_H corner calibrations too, for comparison).
 
-Run: ``python benchmarks/eta_m_table.py [--engines mujoco,pybullet,exudyn] [--blocks B3M,...]``;
+Run: ``python benchmarks/probes/eta_m_table.py [--engines mujoco,pybullet,exudyn] [--blocks B3M,...]``;
 writes ``benchmarks/results/eta-m-table-<date>.json`` and ``.md``.
 """
 
@@ -78,7 +78,7 @@ def main():
                 print(eng, bname, label, f"{c.eta_measured:.4f} ({100 * c.rel_error:+.2f} %)", c.reached,
                       r["contact"], f"uplift {p['uplift'].get('ratio', math.nan):.4f}", flush=True)
     date = str(_dt.date.today())
-    out = Path(__file__).parent / "results" / (args.out or f"eta-m-table-{date}")
+    out = Path(__file__).resolve().parent.parent / "results" / (args.out or f"eta-m-table-{date}")
     out.with_suffix(".json").write_text(json.dumps({"date": date, "rows": rows}, indent=1, default=float))
     lines = ["| engine | block | target | η target | η measured (± spread) | error | k of the measured η | reached | contact | "
              "uplift / g·tanα | slip / jump (cells) | quarter period vs rigid | steps/s |",

@@ -1,7 +1,7 @@
 """Where an Exudyn cell's time goes (issue 16: Exudyn's maps are about 70 % of the main job's engine
 time). Measures and prints; it passes or fails nothing.
 
-    python benchmarks/probe_exudyn_cost.py [--cells N] [--json FILE]
+    python benchmarks/probes/probe_exudyn_cost.py [--cells N] [--json FILE]
 
 1. The cost of one step, and Exudyn's own timers (``show.computationTime``) over one run of a
    rocking B3M cell, calibrated contact.

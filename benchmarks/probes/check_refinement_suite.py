@@ -1,10 +1,10 @@
 """The boundary tracer against the block-wise refinement on every engine map of a suite run (issue 16).
 Measures and prints; it passes or fails nothing.
 
-    python benchmarks/check_refinement_suite.py RUN_DIR [--jobs N] [--json FILE]
+    python benchmarks/probes/check_refinement_suite.py RUN_DIR [--jobs N] [--json FILE]
 
 RUN_DIR is the output of ``rockbench run`` (block-wise refinement), e.g. the README's first command
-on commit 96434a9. For each adaptive engine map under it, a tracer of ``bench_refinement.py``
+on commit 96434a9. For each adaptive engine map under it, a tracer of ``benchmarks/bench_refinement.py``
 (:data:`VARIANT`: width 3, the blocks around isolated cells and the tips of one-cell lines) is run
 from scratch as if it computed the map: a cell it asks for is taken from the run when the run
 simulated it, and simulated here by the same engine and settings otherwise (the engines are
@@ -27,9 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_refinement import VARIANTS, fill_regions, trace
-from rockbench.benchmark import adaptive
-from rockbench.benchmark.maps import MISSING, empty_result, load_map, record_result
+# the tracer is the rerunnable benchmark's, one folder up (benchmarks/bench_refinement.py)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from bench_refinement import VARIANTS, fill_regions, trace  # noqa: E402
+from rockbench.benchmark import adaptive  # noqa: E402
+from rockbench.benchmark.maps import MISSING, empty_result, load_map, record_result  # noqa: E402
 
 #: the tracer variant checked (bench_refinement.VARIANTS)
 VARIANT = "trace-w3+tips0"

@@ -5,7 +5,7 @@
 calibrated to η_H (corners) and to η_M (the contact along the base). One letter per cell: O
 overturn, R rocking (or rest); a lower-case letter is an invalid cell.
 
-Run: ``python benchmarks/eta_m_strip.py``; writes ``benchmarks/results/eta-m-strip-<date>.md``.
+Run: ``python benchmarks/probes/eta_m_strip.py``; writes ``benchmarks/results/eta-m-strip-<date>.md``.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def main():
              "R rocking/rest, lower case: invalid.", "",
              "| ω/p | engine | calibrated to / restitution | cells | overturns |", "|---|---|---|---|---|"]
     lines += [f"| {w:g} | {eng} | {label} | `{letters}` | {n} of {len(letters)} |" for w, eng, label, letters, n in rows]
-    out = Path(__file__).parent / "results" / f"eta-m-strip-{_dt.date.today()}.md"
+    out = Path(__file__).resolve().parent.parent / "results" / f"eta-m-strip-{_dt.date.today()}.md"
     out.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     print("wrote", out)

@@ -21,7 +21,7 @@ time from the release at α/2 to the first impact against the rigid model's (her
 are picked by η alone: some of them fail the uplift check (one B6M setting tips over during the
 ramp), which is why the adapter's calibration checks the price of each candidate.
 
-Run: ``python benchmarks/probe_eta_m_mujoco.py [--quick]``; writes
+Run: ``python benchmarks/probes/probe_eta_m_mujoco.py [--quick]``; writes
 ``benchmarks/results/probe-eta-m-mujoco-<date>.json``.
 """
 
@@ -256,7 +256,7 @@ def main():
               f"{wall:.1f}s", flush=True)
         for k, v in best.items():
             print("  ", k, {kk: (round(vv, 4) if isinstance(vv, float) else vv) for kk, vv in v.items()}, flush=True)
-    out = Path(__file__).parent / "results" / f"probe-eta-m-mujoco-{results['date']}.json"
+    out = Path(__file__).resolve().parent.parent / "results" / f"probe-eta-m-mujoco-{results['date']}.json"
     out.write_text(json.dumps(results, indent=1, default=float))
     print("wrote", out)
 
