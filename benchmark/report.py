@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import math
 import sys
 from dataclasses import dataclass
@@ -104,7 +103,7 @@ def parse_case(text: str, where: str = "--case"):
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
-                 trajectories: bool = True, log=None) -> dict:
+                 trajectories: bool = True, log=None, figure_formats=("png",)) -> dict:
     """Write the report of the maps under ``run_dirs`` into ``out_dir``.
 
     Parameters
@@ -123,6 +122,9 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         Simulate and draw the θ(t) comparisons (needs the engines).
     log : callable, optional
         Progress messages (default: stderr).
+    figure_formats : sequence of str
+        The formats of the pictures in ``img/`` (``png``, ``svg``, ``pdf``); the PNG is always
+        written too, since index.html embeds it and report.md links it.
 
     Returns
     -------
@@ -141,11 +143,14 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     sc = _Scored.of(run_dirs, against, experiments)
     notes = sc.notes
     images: dict[str, bytes] = {}
+    widths: dict[str, float] = {}
 
     def save(fig, name):
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=DPI)
-        images[name] = buf.getvalue()
+        from .plots.output import figure_bytes
+        widths[name] = fig.get_figwidth()
+        stem = name[: -len(".png")]
+        for fmt in dict.fromkeys(("png", *figure_formats)):
+            images[f"{stem}.{fmt}"] = figure_bytes(fig, fmt)
         return name
 
     cands, refs, own_eta = sc.cands, sc.refs, sc.own_eta
@@ -158,7 +163,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
            "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
            "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
-           "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC)}
+           "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
     paths = _write_report(out, images, sc.doc, _markdown(ctx), _html(ctx, images))
     log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
     return {**paths, "doc": sc.doc, "notes": notes}
@@ -229,11 +234,6 @@ def _write_report(out: Path, images: dict, doc: dict | None, md: str, page: str)
     paths["markdown"] = str(write_bytes_atomic(out / "report.md", md.encode()))
     paths["html"] = str(write_bytes_atomic(out / "index.html", page.encode()))
     return paths
-
-
-#: Resolution of the report's pictures [dots per inch]: a 3.4-inch panel is 374 pixels wide, its
-#: 7.5-point labels 11 pixels high at the size the page shows them (1:1 up to 1200 pixels).
-DPI = 110
 
 
 # -- pieces ----------------------------------------------------------------------------------------
@@ -830,7 +830,7 @@ td.pre{white-space:pre-line;font-size:12px}img{max-width:100%;border:1px solid #
 dl.metrics{font-size:12.5px;columns:2 30em;column-gap:2em;margin:.4em 0}dl.metrics dt{font-weight:600;break-after:avoid}
 dl.metrics dd{margin:0 0 .5em 0;break-inside:avoid}dl.metrics dt span{font-weight:400;color:#555}
 details{margin:.8em 0;border:1px solid #ddd;border-radius:4px;padding:.3em .7em}summary{cursor:pointer;font-weight:600}
-figure{margin:.6em 0 1.2em}figcaption{font-size:12.5px;color:#444}
+figure{margin:.6em 0 1.2em}figure img{width:100%;height:auto;display:block}figcaption{font-size:12.5px;color:#444}
 .note{background:#fff6d6;padding:.3em .6em}#img-warning{display:none;background:#fdd;padding:.5em}"""
 
 # After load: mark the page when a picture fails to load (a visible warning, and attributes a headless
@@ -882,13 +882,23 @@ def _h_table(head, body, *, id_=None, num_from=None, best=None):
             "<p class='wide-note'>This table is wider than the page: scroll it sideways.</p>")
 
 
+def _page_share(width_in: float | None) -> float:
+    """How much of the page's width a figure takes [%]: a double-column figure (175 mm) the whole
+    width, a narrower one in proportion, so that every figure's text shows at one size."""
+    from .plots.style import DOUBLE_COLUMN_IN
+    if not width_in:
+        return 100.0
+    return min(100.0, 100.0 * width_in / DOUBLE_COLUMN_IN)
+
+
 def _html(ctx, images: dict) -> str:
     doc, labels = ctx["doc"], ctx["labels"]
 
     def img(name, alt, caption=None):
         b64 = base64.b64encode(images[name]).decode()
         cap = f"<figcaption>{for_html(caption)}</figcaption>" if caption else ""
-        return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{b64}">{cap}</figure>'
+        return (f'<figure style="width:{_page_share(ctx["fig_widths"].get(name)):.0f}%"><img alt="{html.escape(alt)}" '
+                f'src="data:image/png;base64,{b64}">{cap}</figure>')
 
     n_var = len(labels)
     P = ["<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"

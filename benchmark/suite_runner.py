@@ -856,10 +856,11 @@ def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, anno
 
 
 def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=None, report: bool = True,
-              log=None, engines: list[str] | None = None) -> dict:
+              log=None, engines: list[str] | None = None, figure_formats=("png",)) -> dict:
     """Compute what is missing, score, and write the report (see the module docstring).
 
-    ``engines`` (``run --engines``) restricts the engine maps to those engines.
+    ``engines`` (``run --engines``) restricts the engine maps to those engines; ``figure_formats``
+    are the formats of the report's pictures (png, svg, pdf).
 
     Returns
     -------
@@ -964,7 +965,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     if report:
         from .report import build_report, parse_case
         cases = tuple(parse_case(c) for c in suite.report_cases)
-        rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log)
+        rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
+                           figure_formats=figure_formats)
         result["score"] = rep["doc"]
         result["notes"] += rep["notes"]
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
