@@ -309,11 +309,23 @@ def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experim
     note = None
     if pair is not None:
         sc = pair["scores"]
-        note = (f"agreement {fmt('agreement', sc.get('agreement'))}, boundary {fmt('boundary_mean', sc.get('boundary_mean'))}"
-                f", consistency {fmt('consistency', sc.get('consistency'))}")
+        note = _panel_note(sc)
     return {"engine": e.label_map if e is not None else None, "references": references, "like": like,
             "domain": domain, "points": pts, "st_limit": st if block.upper() in PRESETS else None, "title": title,
             "note": note}
+
+
+def _panel_note(sc: dict) -> str:
+    """The scores under a panel's title in words (:data:`_READ_GRAPHS` explains them): the share of
+    cells with the reference's outcome, the boundary distance in the chart's own normalised units,
+    and the share of the cells outside the rigid model's domain that the engine flags."""
+    def num(m, f):
+        x = sc.get(m)
+        return f(x) if x is not None and math.isfinite(x) else "n/a"
+
+    return (f"agrees {num('agreement', lambda x: f'{100 * x:.1f} %')}, "
+            f"boundary off {num('boundary_mean', lambda x: f'{x:.2f}')}, "
+            f"flags {num('consistency', lambda x: f'{100 * x:.0f} %')} off-model")
 
 
 def _groups(cands, refs, own_eta):
@@ -566,8 +578,11 @@ def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
 
 # -- tables ------------------------------------------------------------------------------------------
 
-def _num(x, spec=".4f"):
-    return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+def _num(x, spec=".4f", why: str | None = None):
+    """``x`` formatted, or "n/a" with the reason where one is given."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return f"n/a ({why})" if why else "n/a"
+    return format(x, spec)
 
 
 def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
@@ -607,14 +622,21 @@ def _verdict(doc, labels) -> list[str]:
 
 
 def _calib_table(rows, labels):
-    head = ["engine variant", "block", "target", "η target", "η measured", "vs Housner", "vs modified (avg k)",
-            "vs experiment (exact k)"]
+    head = ["engine variant", "block", "calibrated to", "η target", "η measured in free rocking",
+            "measured vs η_H (Housner)", "measured vs η_M (size's average k)",
+            "measured vs the block's own free-rocking test (η_M, exact k)"]
     body = [[labels.get(r["variant"], r["variant"]), r["block"], restitution_symbol(r["restitution"], r["block"]),
-             _num(r["eta_target"]), _num(r["eta_measured"]),
-             *(_num(100 * r.get(f"{k}_rel_error", math.nan), "+.2f") + (" %" if math.isfinite(
-                 r.get(f"{k}_rel_error", math.nan)) else "")
-               for k in ("housner", "modified_average_k", "experiment"))] for r in rows]
+             _num(r["eta_target"], why="no target: the engine runs as shipped"),
+             _num(r["eta_measured"], why="not measured (no calibration or own-η measurement recorded)"),
+             *(_pct(r.get(f"{k}_rel_error"), "η not measured" if math.isfinite(r["eta_measured"]) is False
+                    else "a custom block has no published η") for k in ("housner", "modified_average_k", "experiment"))]
+            for r in rows]
     return head, body
+
+
+def _pct(x, why: str) -> str:
+    """A relative difference in per cent, or "n/a (why)"."""
+    return _num(None if x is None else 100 * x, "+.2f", why=why) + (" %" if x is not None and math.isfinite(x) else "")
 
 
 def _price_table(rows, labels):
@@ -650,10 +672,20 @@ _PRICE_WORDS = ("Where an engine variant was calibrated to a target its corner c
 
 
 def _speed_table(rows, labels):
-    head = ["engine variant", "cells", "ms per cell", "agreement", "boundary distance, mean"]
-    body = [[labels.get(r["variant"], r["variant"]), str(r["cells"]), _num(r["ms_per_cell"], ".2f"),
-             fmt("agreement", r["agreement"]), fmt("boundary_mean", r["boundary_mean"])] for r in rows]
+    head = ["engine variant", "simulated cells", "wall time per simulated cell [ms]", "agreement",
+            "boundary distance, mean"]
+    body = [[labels.get(r["variant"], r["variant"]), str(r["cells"]),
+             _num(r["ms_per_cell"], ".2f", why="no wall times in cells.csv"),
+             *(_speed_score(r, m) for m in ("agreement", "boundary_mean"))] for r in rows]
     return head, body
+
+
+def _speed_score(row: dict, metric: str) -> str:
+    """A score of the speed table, or "n/a" with the reason."""
+    x = row.get(metric)
+    if x is not None and math.isfinite(x):
+        return fmt(metric, x)
+    return "n/a (the yardstick itself)" if row["variant"] == "reference" else "n/a (no like-for-like reference map)"
 
 
 def _exp_table(doc, labels):
@@ -748,8 +780,18 @@ def _metric_words(doc) -> list[tuple[str, str, str]]:
     from .metrics import METRICS
     ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
     return [(METRIC_TITLES.get(m["name"], m["name"]) + f" ({m['name']})",
-             f"{m['direction']} is better, perfect {m['perfect']:g}" + (f", unit {m['unit']}" if m["unit"] != "-" else ""),
+             f"{m['direction']} is better, perfect {m['perfect']:g}" + _unit_words(m["unit"]),
              m["definition"]) for m in ms]
+
+
+#: Units of score.json's metrics in words for the report (the keys stay score.json's).
+UNIT_WORDS = {"w/a units": "measured in the normalised plane (ω/p, a₀/(g·tanα))",
+              "a units": "measured in a₀/(g·tanα)", "-": ""}
+
+
+def _unit_words(unit: str) -> str:
+    words = UNIT_WORDS.get(unit, f"unit {unit}")
+    return f", {words}" if words else ""
 
 
 _INTRO = ("Each row is one engine variant; each number is the mean over its like-for-like pairs (its map "
@@ -808,11 +850,17 @@ def _markdown(ctx) -> str:
 
 _READ_GRAPHS = ("How to read them: the engine's overturn region is filled; the reference's overturn boundaries "
                 "are lines (η_H solid black, η_M with the block's average k dashed, with its exact k dash-dotted, "
-                "at the engine's own measured η dotted); cells where the engine disagrees with the reference of "
-                "its own restitution law are marked by kind (▲ overturns where the reference does not, ○ misses an "
-                "overturn, × flagged slip, jump or energy gain, ■ failed); the hatched region is where the rigid "
-                "model itself needs lift-off or sliding, so the reference is not valid there; the dashed ST limit "
-                "is the shaking table's faithful limit (25 m/s²); T, R, O are experimental outcomes when given.")
+                "at the engine's own measured η dotted), and where a boundary encloses only one or a few cells "
+                "those cells are outlined; cells where the engine disagrees with the reference of its own "
+                "restitution law are marked by kind (▲ overturns where the reference does not, ○ misses an "
+                "overturn, ■ failed); dotted areas are where the engine flagged slip, jump or energy gain (on an "
+                "adaptive grid, the cells each flagged simulation stands for); the hatched region is outside the "
+                "rigid model's domain (it would need lift-off or sliding), so the reference is not valid there; "
+                "the dashed ST limit is the shaking table's faithful limit (25 m/s²); T, R, O are experimental "
+                "outcomes when given. Under each panel's title: the share of cells with the reference's outcome "
+                "(agrees), the mean distance between the two overturn boundaries in the chart's normalised units "
+                "(boundary off), and the share of the cells outside the rigid model's domain where the engine "
+                "flags slip or jump, as a real block would (flags ... off-model).")
 
 
 # -- HTML --------------------------------------------------------------------------------------------

@@ -62,6 +62,7 @@ from ..reference_solver.pulses import is_number
 from ..reference_solver.restitution import Restitution
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
+from .progress import SuiteConsole
 from .results import CALIBRATION_FILE, variant_name
 
 SUITE_KEYS = {
@@ -577,6 +578,13 @@ class _Preparation:
         if workers > 1 and len(self.todo) > 1:
             self._start_helpers(workers)
 
+    def own_eta_slots(self) -> int:
+        """How many (variant, block) pairs get a reference map at their own measured η, at most (per
+        pulse): the upper bound of :func:`own_eta_jobs`, known before any η is measured."""
+        if not self.own_eta:
+            return 0
+        return sum(1 for _, variant, _, _ in self.tasks if "restitution" not in variant)
+
     def _start_helpers(self, workers: int) -> None:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
@@ -904,9 +912,12 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     # calibrations (and the engines' own η) once, on every core, before the engine maps need them;
     # the helpers start now and work while this process computes the reference maps
     prep = _Preparation(suite, engines, out, log, workers=workers) if engines else None
+    # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
+    own_planned = prep.own_eta_slots() * len(suite.pulses) if prep is not None else 0
+    console = SuiteConsole(len(todo) + own_planned, log)
 
     def announce(k: int) -> None:
-        log(f"[{k + 1}/{len(todo)}] {specs[k].label()} → {out / todo[k].subdir}")
+        pass   # a map is reported when it finishes (console.finished), so the lines come in order
 
     def one_map(k: int, ex) -> None:
         from .maps import run_map
@@ -921,6 +932,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
                       log=log, executor=ex)
         records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                       "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
+        console.finished(spec.label(), d, records[k]["wall_s"])
 
     # The reference runs in this process: its compiled batch kernel is parallel already, and worker
     # processes would each load it again; engines keep the workers' time limit and crash isolation.
@@ -935,6 +947,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
             notes += more
             if suite.own_eta:
                 extra = own_eta_jobs(suite, etas)
+                console.not_needed(own_planned - len(extra), "variants with the same measured η on a block share "
+                                   "one reference map, and a failed η measurement has none")
                 first = len(todo)
                 specs += specs_of(extra)
                 todo += extra
@@ -956,7 +970,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     refs.join()
     done = [records[k] for k in sorted(records)]
     maps_wall = time.perf_counter() - t0
-    result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(notes),
+    result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(dict.fromkeys(notes)),
               "score": None, "report": None, "summary": ""}
     if experiments is None and suite.experiments:
         from .experiments import load_outcomes
@@ -968,7 +982,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
                            figure_formats=figure_formats)
         result["score"] = rep["doc"]
-        result["notes"] += rep["notes"]
+        result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
         from ..reference_solver.errors import IncomparableError

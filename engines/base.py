@@ -477,6 +477,13 @@ class EngineAdapter:
         return None
 
     @classmethod
+    def device_note(cls) -> str:
+        """Where the engine runs on this machine, when a reader should know (``rockbench engines``):
+        "" for an engine that runs on the CPU by design; a GPU-first engine without a GPU says
+        "CPU only (slow)"."""
+        return ""
+
+    @classmethod
     def version(cls) -> str:
         """The engine's version; raises EngineUnavailableError when it cannot be imported."""
         if cls.module is None:

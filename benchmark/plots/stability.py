@@ -67,10 +67,10 @@ ISLAND_LABEL = "reference: single cells across its boundary (outlined)"
 #: Disagreement kinds: label, marker style.
 MARKS = {
     "false_overturn": ("overturns where the reference does not", {"marker": "^", "color": OKABE_ITO["vermillion"],
-                                                                   "ms": 3.6, "mec": OKABE_ITO["vermillion"],
+                                                                   "ms": 4.6, "mec": "white", "mew": 0.4,
                                                                    "mfc": OKABE_ITO["vermillion"]}),
-    "missed_overturn": ("misses an overturn of the reference", {"marker": "o", "color": OKABE_ITO["blue"], "ms": 3.4,
-                                                                "mfc": "none", "mec": OKABE_ITO["blue"], "mew": 0.9}),
+    "missed_overturn": ("misses an overturn of the reference", {"marker": "o", "color": OKABE_ITO["blue"], "ms": 4.2,
+                                                                "mfc": "white", "mec": OKABE_ITO["blue"], "mew": 1.1}),
     "failed": ("simulation failed", {"marker": "s", "color": "#000000", "ms": 3.0, "mfc": "#000000"}),
 }
 #: Experimental outcomes: the paper's letters.
