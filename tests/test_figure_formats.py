@@ -133,3 +133,8 @@ def test_one_palette_stays_apart_under_colour_vision_deficiencies():
         for kind in (None, "protanopia", "deuteranopia", "tritanopia"):
             worst = min(delta_e(a, b, kind) for k, a in enumerate(colours) for b in colours[k + 1:])
             assert worst >= 12.0, (group, kind, worst)
+    # the first four engine curves of a θ(t) plot against the reference's black and greys
+    from rockbench.benchmark.plots.trajectories import REFERENCE_STYLES
+    for kind in (None, "protanopia", "deuteranopia", "tritanopia"):
+        worst = min(delta_e(c, r["color"], kind) for c in CYCLE[:4] for r in REFERENCE_STYLES)
+        assert worst >= 12.0, (kind, worst)

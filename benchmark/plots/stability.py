@@ -62,7 +62,7 @@ FLAG_COLOUR = "#444444"
 ISLAND_CELLS = 4
 DOMAIN_LABEL = "outside the rigid model's domain (lift-off or sliding)"
 FLAG_LABEL = "engine flagged slip, jump or energy gain (dotted)"
-ISLAND_LABEL = "reference: single cells across its boundary (outlined)"
+ISLAND_LABEL = "reference: single cells across its boundary (outlined in its colour)"
 
 #: Disagreement kinds: label, marker style.
 MARKS = {
@@ -396,6 +396,24 @@ def _frame(ax, g: Grid, *, xlabel=True, ylabel=True):
         ax.set_ylabel("a₀/(g·tanα) [-]")
 
 
+def _wrap_to(ax, text: str, size_pt: float) -> str:
+    """``text`` broken at commas into lines that fit the width of ``ax`` at ``size_pt`` (about half an
+    em a character)."""
+    spec = ax.get_subplotspec()
+    ncols = spec.get_gridspec().ncols if spec is not None else 1
+    width_pt = (ax.figure.get_figwidth() / ncols - 0.3) * 72.0   # the panel's share, less its tick labels
+    fit = max(12, int(width_pt / (0.5 * size_pt)))
+    lines, cur = [], ""
+    for part in text.split(", "):
+        cand = f"{cur}, {part}" if cur else part
+        if cur and len(cand) > fit:
+            lines.append(cur + ",")
+            cur = part
+        else:
+            cur = cand
+    return "\n".join(lines + [cur])
+
+
 def _print_sizes(ax) -> None:
     """Tick labels and axis labels at their print sizes (:mod:`.style`)."""
     ax.tick_params(labelsize=SMALL_PT)
@@ -507,7 +525,8 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
                                                               ms=6.5, color=colour,
                                                               label=f"experiment {letter}: {words}")
     if title:
-        ax.set_title(for_matplotlib(title + (f"\n{note}" if note else "")), fontsize=TITLE_PT, loc="left")
+        ax.set_title(for_matplotlib(title + (f"\n{_wrap_to(ax, note, TITLE_PT)}" if note else "")), fontsize=TITLE_PT,
+                     loc="left")
     _print_sizes(ax)
     return {"ax": ax, "fill": fill, "hatch": hatch, "references": lines, "islands": islands, "flags": flags,
             "marks": marks, "st_limit": st_art, "points": pts, "handles": handles}
@@ -591,7 +610,7 @@ def _panels_size(ncols: int, nrows: int, panel_size=None) -> tuple[float, float]
         return panel_size[0] * ncols + 0.6, panel_size[1] * nrows + 1.3
     width = SINGLE_COLUMN_IN if ncols == 1 else DOUBLE_COLUMN_IN
     panel_w = (width - 0.5) / ncols
-    return width, panel_w * 0.8 * nrows + 0.45 + (1.3 if ncols == 1 else 0.9)
+    return width, (panel_w * 0.8 + 0.35) * nrows + (1.3 if ncols == 1 else 0.9)
 
 
 # -- several maps on one graph (the paper's Figs 4–9) -----------------------------------------------
@@ -648,11 +667,11 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     _frame(ax, as_grid(first))
     if shade and (as_grid(first).codes == 2).any():
         draw_fill(ax, first, color=ENGINE_FILL)
-        handles.append(Patch(color=ENGINE_FILL, label=for_matplotlib(f"overturn ({labels[0]})")))
+        handles.append(Patch(color=ENGINE_FILL, label=for_matplotlib(f"overturn, shaded map ({labels[0]})")))
     hatch = draw_domain_hatch(ax, first)
     if hatch is not None:
         handles.append(Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0,
-                             label=for_matplotlib(f"{DOMAIN_LABEL}, {labels[0]}")))
+                             label=f"{DOMAIN_LABEL}, shaded map"))
     for k, (res, lab) in enumerate(zip(maps, labels)):
         st = {**REFERENCE_STYLES[k % len(REFERENCE_STYLES)], "color": COLORS[k % len(COLORS)]}
         cs, isl = draw_boundary(ax, res, label=for_matplotlib(lab), zorder=3.5 - 0.1 * k, **st)

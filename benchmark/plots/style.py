@@ -19,8 +19,9 @@ OKABE_ITO = {"black": "#000000", "orange": "#E69F00", "sky_blue": "#56B4E9", "gr
              "yellow": "#F0E442", "blue": "#0072B2", "vermillion": "#D55E00", "purple": "#CC79A7"}
 
 #: A cycle for curves of different runs (engines, maps): no black (the reference's), no yellow
-#: (too light for a thin line on white).
-CYCLE = [OKABE_ITO[k] for k in ("orange", "blue", "green", "vermillion", "purple", "sky_blue")]
+#: (too light for a thin line on white); green and purple last, since under deuteranopia they come
+#: close to the greys of the reference curves.
+CYCLE = [OKABE_ITO[k] for k in ("orange", "blue", "vermillion", "sky_blue", "green", "purple")]
 
 #: Journal column widths [in]: 85 mm and 175 mm.
 SINGLE_COLUMN_IN = 85 / 25.4
