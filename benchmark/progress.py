@@ -57,3 +57,20 @@ def _duration(s: float) -> str:
         return f"{s:.1f} s"
     m, sec = divmod(int(round(s)), 60)
     return f"{m} min {sec:02d} s"
+
+
+def say_device_notes(engines, console: SuiteConsole) -> None:
+    """One line per engine that runs somewhere a reader should know of (a GPU-first engine on the
+    CPU: :meth:`~rockbench.engines.base.EngineAdapter.device_note`), before the first map; the
+    engines' worker processes then stay quiet about it."""
+    import os
+
+    from ..engines.base import DEVICE_NOTED_ENV
+    from ..engines.registry import adapter_class
+
+    for e in engines:
+        note = adapter_class(e).device_note()
+        if note:
+            console.line(f"{e}: {note}")
+            os.environ[DEVICE_NOTED_ENV] = "1"
+

@@ -62,7 +62,7 @@ from ..reference_solver.pulses import is_number
 from ..reference_solver.restitution import Restitution
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
-from .progress import SuiteConsole
+from .progress import SuiteConsole, say_device_notes
 from .results import CALIBRATION_FILE, variant_name
 
 SUITE_KEYS = {
@@ -915,6 +915,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
     own_planned = prep.own_eta_slots() * len(suite.pulses) if prep is not None else 0
     console = SuiteConsole(len(todo) + own_planned, log)
+    say_device_notes(engines, console)
 
     def announce(k: int) -> None:
         pass   # a map is reported when it finishes (console.finished), so the lines come in order

@@ -60,7 +60,7 @@ from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from . import calibration as _cal
-from .base import Case, RestitutionMeasurement
+from .base import DEVICE_NOTED_ENV, Case, RestitutionMeasurement
 from .mujoco_adapter import ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
@@ -155,8 +155,8 @@ def _init_on_cpu(wp) -> None:
                  if ln.strip() and "CUDA driver" not in ln]
     for ln in other:   # anything else Warp said is kept
         print(ln, file=sys.stderr)
-    if not os.environ.get("ROCKBENCH_WARP_CPU_SAID"):
-        os.environ["ROCKBENCH_WARP_CPU_SAID"] = "1"
+    if not os.environ.get(DEVICE_NOTED_ENV):
+        os.environ[DEVICE_NOTED_ENV] = "1"
         print(CPU_LINE, file=sys.stderr)
 
 

@@ -87,8 +87,32 @@ def test_warp_asked_for_on_the_cpu_says_so_in_one_line_of_its_own():
     from rockbench.engines.mujoco_warp_adapter import CPU_LINE, cuda_driver_present
     if cuda_driver_present():
         pytest.skip("a CUDA driver is present")
-    code = ("import os\nos.environ.pop('ROCKBENCH_WARP_CPU_SAID', None)\n"
+    code = ("import os\nos.environ.pop('ROCKBENCH_DEVICE_NOTED', None)\n"
             "from rockbench.engines.mujoco_warp_adapter import _warp\n_warp()\n_warp()\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert r.stderr.splitlines() == [CPU_LINE]
+
+
+def test_device_notes_are_said_once_before_the_maps(monkeypatch):
+    import os
+
+    from rockbench.benchmark.progress import say_device_notes
+    from rockbench.engines import registry
+    from rockbench.engines.base import DEVICE_NOTED_ENV
+
+    class Gpu:
+        @classmethod
+        def device_note(cls):
+            return "CPU only (slow): no CUDA device here"
+
+    class Cpu:
+        @classmethod
+        def device_note(cls):
+            return ""
+
+    monkeypatch.delenv(DEVICE_NOTED_ENV, raising=False)
+    monkeypatch.setattr(registry, "adapter_class", lambda n: {"gpu": Gpu, "cpu": Cpu}[n])
+    lines = []
+    say_device_notes(["cpu", "gpu"], SuiteConsole(1, lines.append))
+    assert lines == ["gpu: CPU only (slow): no CUDA device here"] and os.environ[DEVICE_NOTED_ENV] == "1"

@@ -21,7 +21,7 @@ REFERENCE_STYLES = [{"color": "#000000", "ls": "solid"}, {"color": "#555555", "l
 #: Engine curve colours, in order: the one palette's cycle (no black or grey: those are the reference's).
 ENGINE_COLOURS = CYCLE
 #: The overturning threshold |θ| = α and the table's acceleration.
-THRESHOLD_COLOUR = OKABE_ITO["vermillion"]
+THRESHOLD_COLOUR = "#444444"
 PULSE_COLOUR = OKABE_ITO["black"]
 
 
