@@ -109,7 +109,37 @@ def _all_figures():
                        pulse=make_pulse("sine", 5.0, 12.0), title="B3M, sine")
     speed = plot_speed_accuracy([{"variant": "a", "ms_per_cell": 1.0, "agreement": 0.99},
                                  {"variant": "b", "ms_per_cell": 40.0, "agreement": 1.0}])
-    return {"panels": _panel_figure()["figure"], "theta": theta["figure"], "speed": speed["ax"].figure}
+    return {"panels": _panel_figure()["figure"], "theta": theta["figure"], "speed": speed["ax"].figure,
+            "paper figure": _paper_figure(), "map.png": _map_figure()}
+
+
+def _maps():
+    n = 20
+    w, a = np.linspace(1, 12, n), np.linspace(1, 10, n)
+    ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    return LabelMap(w, a, np.where(ii > jj, 2, 1)), LabelMap(w, a, np.where(ii > jj + 2, 2, 1))
+
+
+def _paper_figure():
+    from rockbench.benchmark.plots.stability import plot_stability
+    return plot_stability(list(_maps()), ["B3M, η_H = 0.7526", "B3L, η_H = 0.7526"], st_limit_mps2=None,
+                          title="Fig. 6: one sine wave")["ax"].figure
+
+
+def _map_figure():
+    from types import SimpleNamespace
+
+    from rockbench.benchmark.maps import MapSpec, make_axis
+    from rockbench.benchmark.plots.stability import map_figure
+    from rockbench.benchmark.presets import get_preset
+    from rockbench.reference_solver.restitution import Restitution
+    ref, eng = _maps()
+    spec = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 12, 20),
+                   make_axis("--a-ratio", "a_ratio", 1, 10, 20), engine="mujoco", engine_settings={})
+    res = SimpleNamespace(spec=spec, outcome=eng.codes, valid=eng.valid, left_model=eng.left_model,
+                          simulated=np.ones(eng.codes.shape, bool), w_ratio=eng.w_ratio, a_ratio=eng.a_ratio,
+                          adaptive=False, fraction_simulated=1.0)
+    return map_figure(res, reference=ref)
 
 
 def test_figures_suit_a_journal_column_with_fonts_of_7_pt_or_more():

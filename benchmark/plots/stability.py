@@ -801,14 +801,19 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
 def plot_map_files(result, stem, *, reference=None, formats=("png",)) -> list[Path]:
     """Draw :func:`plot_map` into ``stem.<format>`` for each of ``formats`` (``map.png``, ...), without
     pyplot; returns the paths."""
+    from .output import save_formats
+    return save_formats(map_figure(result, reference=reference), stem, formats)
+
+
+def map_figure(result, *, reference=None):
+    """:func:`plot_map` on a figure of its own, three quarters of a journal's double column wide."""
     from matplotlib.figure import Figure
 
-    from .output import save_formats
     from .style import DOUBLE_COLUMN_IN
 
     fig = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained")
     plot_map(result, reference=reference, ax=fig.add_subplot())
-    return save_formats(fig, stem, formats)
+    return fig
 
 
 def reference_for(result):
