@@ -201,8 +201,12 @@ def test_lanes_and_helpers_give_what_one_worker_gives(fake_engines, tmp_path):
         "[engines]\nnames = ['analytic-eta']\nvariants = [{ sleep_s = 0.0, work_s = 0.2, log_path = '%s' }, "
         "{ sleep_s = 1e-4, work_s = 0.2, log_path = '%s' }]\nown_eta = true\n" % (log, log))
     suite = load_suite(tmp_path / "s.toml")
+    said = []
     one = run_suite(suite, tmp_path / "one", jobs=1, report=False, log=lambda m: None)
-    two = run_suite(suite, tmp_path / "two", jobs=2, report=False, log=lambda m: None)
+    two = run_suite(suite, tmp_path / "two", jobs=2, report=False, log=said.append)
+    # [k/N]: N planned before the first map, own-η reference maps included; k in order (issue 25)
+    prog = [m for m in said if m.startswith("[")]
+    assert [m.split("]")[0] for m in prog] == [f"[{k}/20" for k in range(1, 21)]
     assert [m["label"] for m in one["maps"]] == [m["label"] for m in two["maps"]]
     assert len(one["maps"]) == 4 + 2 * 4 + 2 * 2 * 2    # reference, engine maps, own-η reference maps
     for m1, m2 in zip(one["maps"], two["maps"]):
