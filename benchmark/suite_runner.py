@@ -863,6 +863,11 @@ def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, anno
         raise errors[0]
 
 
+def _started(k: int) -> None:
+    """A map starts: nothing is printed (a map is reported when it finishes, by
+    :meth:`SuiteConsole.finished`, so that the lines come in order)."""
+
+
 def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=None, report: bool = True,
               log=None, engines: list[str] | None = None, figure_formats=("png",)) -> dict:
     """Compute what is missing, score, and write the report (see the module docstring).
@@ -917,9 +922,6 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     console = SuiteConsole(len(todo) + own_planned, log)
     say_device_notes(engines, console)
 
-    def announce(k: int) -> None:
-        pass   # a map is reported when it finishes (console.finished), so the lines come in order
-
     def one_map(k: int, ex) -> None:
         from .maps import run_map
         job, spec = todo[k], specs[k]
@@ -940,7 +942,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     # Its maps are computed by one thread (one caller of the parallel kernel at a time) beside the
     # calibrations and then the engine maps, which need none of them: on a fresh install the
     # kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
-    refs = _ReferenceThread(announce, one_map)
+    refs = _ReferenceThread(_started, one_map)
     refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
     try:
         if prep is not None:
@@ -963,7 +965,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
         # the costliest engines first, so that the last maps, when one core may wait for the other, are short
         engine_maps.sort(key=lambda k: _cost_rank(todo[k].engine))
-        _run_lanes(engine_maps, todo, out, min(workers, max(1, len(engine_maps))), announce, one_map,
+        _run_lanes(engine_maps, todo, out, min(workers, max(1, len(engine_maps))), _started, one_map,
                    stop=refs.failed)
     except BaseException:
         refs.abort()   # e.g. Ctrl-C: no reference map is started after the one running now
