@@ -209,3 +209,16 @@ def _auto(v: str):
     if "," in v:
         return [_auto(x) for x in v.split(",")]
     return v
+
+
+def add_figure_format_option(p, default: str = "png", what: str = "figures") -> None:
+    """``--figure-format png,svg,pdf`` (one or more; :mod:`rockbench.benchmark.plots.output`)."""
+    p.add_argument("--figure-format", default=default, metavar="FMT[,FMT...]",
+                   help=f"write the {what} as png, svg and/or pdf, comma-separated (default {default}); "
+                   "PNG at 300 dpi, SVG and PDF with their text as text")
+
+
+def figure_formats_from_args(args) -> tuple[str, ...]:
+    """The formats ``--figure-format`` names, checked (ConfigError otherwise)."""
+    from .plots.output import parse_formats
+    return parse_formats(args.figure_format)

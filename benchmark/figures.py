@@ -7,7 +7,7 @@
 - Fig. 8 / 9: the same blocks under one cosine wave.
 
 Each map is a run directory under ``OUT/maps/`` (so a second call reuses it); each figure is
-written as ``OUT/figN.png`` and ``OUT/figN.svg``.
+written as ``OUT/figN.png`` and ``OUT/figN.svg`` (or the formats asked for: png, svg, pdf).
 """
 
 from __future__ import annotations
@@ -64,8 +64,9 @@ def curve_spec(c: Curve, n: int) -> MapSpec:
 
 
 def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, serial: bool = False,
-                 progress: bool = False) -> dict:
-    """Compute the maps and draw the figures; returns ``{figure: [png, svg]}`` and the map folders."""
+                 progress: bool = False, formats=("png", "svg")) -> dict:
+    """Compute the maps and draw the figures; returns ``{figure: [paths, one per format]}`` and the map
+    folders."""
     from .plots.stability import plot_stability, save
 
     out = Path(out_dir)
@@ -82,5 +83,5 @@ def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, ser
                                     progress=progress, plot=False)
             results.append(done[key])
         drawn = plot_stability(results, [c.label() for c in curves], title=title + " (reference solver)")
-        written[num] = [str(p) for p in save(drawn["ax"].figure, out / f"fig{num}")]
+        written[num] = [str(p) for p in save(drawn["ax"].figure, out / f"fig{num}", formats)]
     return {"figures": written, "maps": sorted(str(out / "maps" / k) for k in done)}

@@ -467,7 +467,8 @@ class MapOptions:
 def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str | None = None,
             serial: bool = False, adaptive: bool = False, coarse_stride: int | None = None,
             cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S, progress: bool | None = None,
-            plot: bool = True, log: Callable[[str], None] | None = None, executor=None) -> MapResult:
+            plot: bool = True, log: Callable[[str], None] | None = None, executor=None,
+            figure_formats=("png",)) -> MapResult:
     """Compute a map into ``out_dir``, resuming whatever a previous run of the same spec finished.
 
     Parameters
@@ -495,6 +496,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         Progress bar on stderr; default: when stderr is a terminal.
     plot : bool
         Draw ``map.png`` at the end.
+    figure_formats : sequence of str
+        The formats of the map's picture (``png``, ``svg``, ``pdf``): ``map.png``, ``map.svg``, ...
     log : callable, optional
         Receives one-line notes (resumed cells, ...).
     executor : optional
@@ -516,7 +519,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     try:
         result = _compute_map(spec, Path(out_dir), opts, executor)
         if picture is not None:
-            picture.draw(result, Path(out_dir) / "map.png")
+            picture.draw(result, Path(out_dir) / "map", figure_formats)
         return result
     finally:
         if picture is not None:

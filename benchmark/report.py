@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import math
 import sys
 from dataclasses import dataclass
@@ -104,7 +103,8 @@ def parse_case(text: str, where: str = "--case"):
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
-                 trajectories: bool = True, log=None, allow_incomplete: bool = False) -> dict:
+                 trajectories: bool = True, log=None, allow_incomplete: bool = False,
+                 figure_formats=("png",)) -> dict:
     """Write the report of the maps under ``run_dirs`` into ``out_dir``.
 
     Parameters
@@ -125,6 +125,9 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         Progress messages (default: stderr).
     allow_incomplete : bool
         Score engine maps that lack cells on what they have (flagged) instead of refusing them.
+    figure_formats : sequence of str
+        The formats of the pictures in ``img/`` (``png``, ``svg``, ``pdf``); the PNG is always
+        written too, since index.html embeds it and report.md links it.
 
     Returns
     -------
@@ -144,11 +147,14 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     sc = _Scored.of(run_dirs, against, experiments, allow_incomplete)
     notes = sc.notes
     images: dict[str, bytes] = {}
+    widths: dict[str, float] = {}
 
     def save(fig, name):
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=DPI)
-        images[name] = buf.getvalue()
+        from .plots.output import figure_bytes
+        widths[name] = fig.get_figwidth()
+        stem = name[: -len(".png")]
+        for fmt in dict.fromkeys(("png", *figure_formats)):
+            images[f"{stem}.{fmt}"] = figure_bytes(fig, fmt)
         return name
 
     cands, refs, own_eta = sc.cands, sc.refs, sc.own_eta
@@ -161,7 +167,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
            "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
            "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
-           "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC)}
+           "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
     paths = _write_report(out, images, sc.doc, _markdown(ctx), _html(ctx, images))
     log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
     return {**paths, "doc": sc.doc, "notes": notes}
@@ -213,12 +219,14 @@ def _trajectory_figures(cases, cands, labels, save, log, notes: list) -> list:
 
 
 def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:
-    """The speed-against-agreement picture of the engines (None when no engine has wall times)."""
+    """The speed-against-accuracy picture of the engines, accuracy by the primary metric (None when no
+    engine has wall times)."""
     if not any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
         return None
+    from .metrics import PRIMARY_METRIC
     from .plots.speed import plot_speed_accuracy
     drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
-                                 if r["variant"] != "reference"])
+                                 if r["variant"] != "reference"], metric=PRIMARY_METRIC)
     return save(drawn["ax"].figure, "speed_accuracy.png")
 
 
@@ -233,11 +241,6 @@ def _write_report(out: Path, images: dict, doc: dict | None, md: str, page: str)
     paths["markdown"] = str(write_bytes_atomic(out / "report.md", md.encode()))
     paths["html"] = str(write_bytes_atomic(out / "index.html", page.encode()))
     return paths
-
-
-#: Resolution of the report's pictures [dots per inch]: a 3.4-inch panel is 374 pixels wide, its
-#: 7.5-point labels 11 pixels high at the size the page shows them (1:1 up to 1200 pixels).
-DPI = 110
 
 
 # -- pieces ----------------------------------------------------------------------------------------
@@ -293,11 +296,23 @@ def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experim
     note = None
     if pair is not None:
         sc = pair["scores"]
-        note = (f"agreement {fmt('agreement', sc.get('agreement'))}, boundary {fmt('boundary_mean', sc.get('boundary_mean'))}"
-                f", consistency {fmt('consistency', sc.get('consistency'))}")
+        note = _panel_note(sc)
     return {"engine": e.label_map if e is not None else None, "references": references, "like": like,
             "domain": domain, "points": pts, "st_limit": st if block.upper() in PRESETS else None, "title": title,
             "note": note}
+
+
+def _panel_note(sc: dict) -> str:
+    """The scores under a panel's title in words (:data:`_READ_GRAPHS` explains them): the share of
+    cells with the reference's outcome, the boundary distance in the chart's own normalised units,
+    and the share of the cells outside the rigid model's domain that the engine flags."""
+    def num(m, f):
+        x = sc.get(m)
+        return f(x) if x is not None and math.isfinite(x) else "n/a"
+
+    return (f"agrees {num('agreement', lambda x: f'{100 * x:.1f} %')}, "
+            f"boundary off {num('boundary_mean', lambda x: f'{x:.2f}')}, "
+            f"flags {num('consistency', lambda x: f'{100 * x:.0f} %')} off-model")
 
 
 def _groups(cands, refs, own_eta):
@@ -550,8 +565,11 @@ def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
 
 # -- tables ------------------------------------------------------------------------------------------
 
-def _num(x, spec=".4f"):
-    return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+def _num(x, spec=".4f", why: str | None = None):
+    """``x`` formatted, or "n/a" with the reason where one is given."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return f"n/a ({why})" if why else "n/a"
+    return format(x, spec)
 
 
 def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
@@ -585,14 +603,21 @@ def _verdict(doc) -> list[str]:
 
 
 def _calib_table(rows, labels):
-    head = ["engine variant", "block", "target", "η target", "η measured", "vs Housner", "vs modified (avg k)",
-            "vs experiment (exact k)"]
+    head = ["engine variant", "block", "calibrated to", "η target", "η measured in free rocking",
+            "measured vs η_H (Housner)", "measured vs η_M (size's average k)",
+            "measured vs the block's own free-rocking test (η_M, exact k)"]
     body = [[labels.get(r["variant"], r["variant"]), r["block"], restitution_symbol(r["restitution"], r["block"]),
-             _num(r["eta_target"]), _num(r["eta_measured"]),
-             *(_num(100 * r.get(f"{k}_rel_error", math.nan), "+.2f") + (" %" if math.isfinite(
-                 r.get(f"{k}_rel_error", math.nan)) else "")
-               for k in ("housner", "modified_average_k", "experiment"))] for r in rows]
+             _num(r["eta_target"], why="no target: the engine runs as shipped"),
+             _num(r["eta_measured"], why="not measured (no calibration or own-η measurement recorded)"),
+             *(_pct(r.get(f"{k}_rel_error"), "η not measured" if math.isfinite(r["eta_measured"]) is False
+                    else "a custom block has no published η") for k in ("housner", "modified_average_k", "experiment"))]
+            for r in rows]
     return head, body
+
+
+def _pct(x, why: str) -> str:
+    """A relative difference in per cent, or "n/a (why)"."""
+    return _num(None if x is None else 100 * x, "+.2f", why=why) + (" %" if x is not None and math.isfinite(x) else "")
 
 
 def _price_table(rows, labels):
@@ -628,10 +653,20 @@ _PRICE_WORDS = ("Where an engine variant was calibrated to a target its corner c
 
 
 def _speed_table(rows, labels):
-    head = ["engine variant", "cells", "ms per cell", "agreement", "boundary distance, mean"]
-    body = [[labels.get(r["variant"], r["variant"]), str(r["cells"]), _num(r["ms_per_cell"], ".2f"),
-             fmt("agreement", r["agreement"]), fmt("boundary_mean", r["boundary_mean"])] for r in rows]
+    head = ["engine variant", "simulated cells", "wall time per simulated cell [ms]",
+            "boundary distance, mean (primary)", "agreement"]
+    body = [[labels.get(r["variant"], r["variant"]), str(r["cells"]),
+             _num(r["ms_per_cell"], ".2f", why="no wall times in cells.csv"),
+             *(_speed_score(r, m) for m in ("boundary_mean", "agreement"))] for r in rows]
     return head, body
+
+
+def _speed_score(row: dict, metric: str) -> str:
+    """A score of the speed table, or "n/a" with the reason."""
+    x = row.get(metric)
+    if x is not None and math.isfinite(x):
+        return fmt(metric, x)
+    return "n/a (the yardstick itself)" if row["variant"] == "reference" else "n/a (no like-for-like reference map)"
 
 
 def _exp_table(doc, labels):
@@ -642,7 +677,8 @@ def _exp_table(doc, labels):
         conf = "; ".join(f"{k}: " + "/".join(str(v) for v in row.values()) for k, row in e["confusion"].items())
         body.append([f"{labels.get(e['variant'], e['variant'])}, {e['block']} {e['pulse']}",
                      restitution_symbol(e["restitution"], e["block"]), str(e["runs"]), str(e["outside"]),
-                     _num(e["accuracy"], ".3f"), _num(e["overturn_accuracy"], ".3f"), conf])
+                     *(_num(e[k], ".3f", why="no shaking-table run inside the map") for k in
+                       ("accuracy", "overturn_accuracy")), conf])
     return head, body
 
 
@@ -729,8 +765,18 @@ def _metric_words(doc) -> list[tuple[str, str, str]]:
     ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
     ms = sorted(ms, key=lambda m: m.get("role") != "primary")
     return [(METRIC_TITLES.get(m["name"], m["name"]) + f" ({m['name']}, {m.get('role', 'secondary')})",
-             f"{m['direction']} is better, perfect {m['perfect']:g}" + (f", unit {m['unit']}" if m["unit"] != "-" else ""),
+             f"{m['direction']} is better, perfect {m['perfect']:g}" + _unit_words(m["unit"]),
              (m.get("question", "") + " " + m["definition"]).strip()) for m in ms]
+
+
+#: Units of score.json's metrics in words for the report (the keys stay score.json's).
+UNIT_WORDS = {"w/a units": "measured in the normalised plane (ω/p, a₀/(g·tanα))",
+              "a units": "measured in a₀/(g·tanα)", "-": ""}
+
+
+def _unit_words(unit: str) -> str:
+    words = UNIT_WORDS.get(unit, f"unit {unit}")
+    return f", {words}" if words else ""
 
 
 _HIGHLIGHTS = ("Rows are ranked by the primary measure, the mean distance between the overturning boundaries: "
@@ -793,11 +839,17 @@ def _markdown(ctx) -> str:
 
 _READ_GRAPHS = ("How to read them: the engine's overturn region is filled; the reference's overturn boundaries "
                 "are lines (η_H solid black, η_M with the block's average k dashed, with its exact k dash-dotted, "
-                "at the engine's own measured η dotted); cells where the engine disagrees with the reference of "
-                "its own restitution law are marked by kind (▲ overturns where the reference does not, ○ misses an "
-                "overturn, × flagged slip, jump or energy gain, ■ failed); the hatched region is where the rigid "
-                "model itself needs lift-off or sliding, so the reference is not valid there; the dashed ST limit "
-                "is the shaking table's faithful limit (25 m/s²); T, R, O are experimental outcomes when given.")
+                "at the engine's own measured η dotted), and where a boundary encloses only one or a few cells "
+                "those cells are outlined; cells where the engine disagrees with the reference of its own "
+                "restitution law are marked by kind (▲ overturns where the reference does not, ○ misses an "
+                "overturn, ■ failed); dotted areas are where the engine flagged slip, jump or energy gain (on an "
+                "adaptive grid, the cells each flagged simulation stands for); the hatched region is outside the "
+                "rigid model's domain (it would need lift-off or sliding), so the reference is not valid there; "
+                "the dashed ST limit is the shaking table's faithful limit (25 m/s²); T, R, O are experimental "
+                "outcomes when given. Under each panel's title: the share of cells with the reference's outcome "
+                "(agrees), the mean distance between the two overturn boundaries in the chart's normalised units "
+                "(boundary off), and the share of the cells outside the rigid model's domain where the engine "
+                "flags slip or jump, as a real block would (flags ... off-model).")
 
 
 # -- HTML --------------------------------------------------------------------------------------------
@@ -815,7 +867,7 @@ td.pre{white-space:pre-line;font-size:12px}img{max-width:100%;border:1px solid #
 dl.metrics{font-size:12.5px;columns:2 30em;column-gap:2em;margin:.4em 0}dl.metrics dt{font-weight:600;break-after:avoid}
 dl.metrics dd{margin:0 0 .5em 0;break-inside:avoid}dl.metrics dt span{font-weight:400;color:#555}
 details{margin:.8em 0;border:1px solid #ddd;border-radius:4px;padding:.3em .7em}summary{cursor:pointer;font-weight:600}
-figure{margin:.6em 0 1.2em}figcaption{font-size:12.5px;color:#444}
+figure{margin:.6em 0 1.2em}figure img{width:100%;height:auto;display:block}figcaption{font-size:12.5px;color:#444}
 .note{background:#fff6d6;padding:.3em .6em}#img-warning{display:none;background:#fdd;padding:.5em}"""
 
 # After load: mark the page when a picture fails to load (a visible warning, and attributes a headless
@@ -867,13 +919,23 @@ def _h_table(head, body, *, id_=None, num_from=None, best=None):
             "<p class='wide-note'>This table is wider than the page: scroll it sideways.</p>")
 
 
+def _page_share(width_in: float | None) -> float:
+    """How much of the page's width a figure takes [%]: a double-column figure (175 mm) the whole
+    width, a narrower one in proportion, so that every figure's text shows at one size."""
+    from .plots.style import DOUBLE_COLUMN_IN
+    if not width_in:
+        return 100.0
+    return min(100.0, 100.0 * width_in / DOUBLE_COLUMN_IN)
+
+
 def _html(ctx, images: dict) -> str:
     doc, labels = ctx["doc"], ctx["labels"]
 
     def img(name, alt, caption=None):
         b64 = base64.b64encode(images[name]).decode()
         cap = f"<figcaption>{for_html(caption)}</figcaption>" if caption else ""
-        return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{b64}">{cap}</figure>'
+        return (f'<figure style="width:{_page_share(ctx["fig_widths"].get(name)):.0f}%"><img alt="{html.escape(alt)}" '
+                f'src="data:image/png;base64,{b64}">{cap}</figure>')
 
     n_var = len(labels)
     P = ["<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
@@ -915,7 +977,11 @@ def _html(ctx, images: dict) -> str:
     P += ["</section><section id='speed'><h2>Speed and accuracy</h2>",
           _h_table(*_speed_table(ctx["speed"], labels), num_from=1)]
     if ctx["speed_img"]:
-        P.append(img(ctx["speed_img"], "speed and accuracy"))
+        P.append(img(ctx["speed_img"], "speed and accuracy", "Each point is one engine variant: its wall time per "
+                     "simulated cell across, the primary measure up (the mean distance between its overturning "
+                     "boundary and the reference's, lower is better), both on logarithmic axes where the range "
+                     "calls for it; a variant whose boundary matches the reference's exactly sits on the dotted "
+                     "line marked “none”."))
     P.append("</section>")
     if doc and doc.get("experiments"):
         P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*_exp_table(doc, labels), num_from=2),

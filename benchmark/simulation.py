@@ -142,5 +142,5 @@ def plot_simulation(path: Path, engine: str, settings: dict, case, tr, res, out:
                          "reference": engine == "reference", "outcome": outcome}],
                        alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=span, title=title)
     out["_span"] = span
-    write_atomic(path, lambda tmp: drawn["figure"].savefig(tmp, format="png", dpi=130))
-    return path
+    from .plots.output import save_figure
+    return save_figure(drawn["figure"], path)

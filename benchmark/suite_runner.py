@@ -62,6 +62,7 @@ from ..reference_solver.pulses import is_number
 from ..reference_solver.restitution import Restitution
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
+from .progress import SuiteConsole, say_device_notes
 from .results import CALIBRATION_FILE, variant_name
 
 SUITE_KEYS = {
@@ -577,6 +578,13 @@ class _Preparation:
         if workers > 1 and len(self.todo) > 1:
             self._start_helpers(workers)
 
+    def own_eta_slots(self) -> int:
+        """How many (variant, block) pairs get a reference map at their own measured η, at most (per
+        pulse): the upper bound of :func:`own_eta_jobs`, known before any η is measured."""
+        if not self.own_eta:
+            return 0
+        return sum(1 for _, variant, _, _ in self.tasks if "restitution" not in variant)
+
     def _start_helpers(self, workers: int) -> None:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
@@ -855,11 +863,17 @@ def _run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, anno
         raise errors[0]
 
 
+def _started(k: int) -> None:
+    """A map starts: nothing is printed (a map is reported when it finishes, by
+    :meth:`SuiteConsole.finished`, so that the lines come in order)."""
+
+
 def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=None, report: bool = True,
-              log=None, engines: list[str] | None = None) -> dict:
+              log=None, engines: list[str] | None = None, figure_formats=("png",)) -> dict:
     """Compute what is missing, score, and write the report (see the module docstring).
 
-    ``engines`` (``run --engines``) restricts the engine maps to those engines.
+    ``engines`` (``run --engines``) restricts the engine maps to those engines; ``figure_formats``
+    are the formats of the report's pictures (png, svg, pdf).
 
     Returns
     -------
@@ -903,9 +917,10 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     # calibrations (and the engines' own η) once, on every core, before the engine maps need them;
     # the helpers start now and work while this process computes the reference maps
     prep = _Preparation(suite, engines, out, log, workers=workers) if engines else None
-
-    def announce(k: int) -> None:
-        log(f"[{k + 1}/{len(todo)}] {specs[k].label()} → {out / todo[k].subdir}")
+    # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
+    own_planned = prep.own_eta_slots() * len(suite.pulses) if prep is not None else 0
+    console = SuiteConsole(len(todo) + own_planned, log)
+    say_device_notes(engines, console)
 
     def one_map(k: int, ex) -> None:
         from .maps import run_map
@@ -920,13 +935,14 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
                       log=log, executor=ex)
         records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                       "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
+        console.finished(spec.label(), d, records[k]["wall_s"])
 
     # The reference runs in this process: its compiled batch kernel is parallel already, and worker
     # processes would each load it again; engines keep the workers' time limit and crash isolation.
     # Its maps are computed by one thread (one caller of the parallel kernel at a time) beside the
     # calibrations and then the engine maps, which need none of them: on a fresh install the
     # kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
-    refs = _ReferenceThread(announce, one_map)
+    refs = _ReferenceThread(_started, one_map)
     refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
     try:
         if prep is not None:
@@ -934,6 +950,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
             notes += more
             if suite.own_eta:
                 extra = own_eta_jobs(suite, etas)
+                console.not_needed(own_planned - len(extra), "variants with the same measured η on a block share "
+                                   "one reference map, and a failed η measurement has none")
                 first = len(todo)
                 specs += specs_of(extra)
                 todo += extra
@@ -947,7 +965,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
         # the costliest engines first, so that the last maps, when one core may wait for the other, are short
         engine_maps.sort(key=lambda k: _cost_rank(todo[k].engine))
-        _run_lanes(engine_maps, todo, out, min(workers, max(1, len(engine_maps))), announce, one_map,
+        _run_lanes(engine_maps, todo, out, min(workers, max(1, len(engine_maps))), _started, one_map,
                    stop=refs.failed)
     except BaseException:
         refs.abort()   # e.g. Ctrl-C: no reference map is started after the one running now
@@ -955,7 +973,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     refs.join()
     done = [records[k] for k in sorted(records)]
     maps_wall = time.perf_counter() - t0
-    result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(notes),
+    result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(dict.fromkeys(notes)),
               "score": None, "report": None, "summary": ""}
     if experiments is None and suite.experiments:
         from .experiments import load_outcomes
@@ -964,9 +982,10 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     if report:
         from .report import build_report, parse_case
         cases = tuple(parse_case(c) for c in suite.report_cases)
-        rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log)
+        rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
+                           figure_formats=figure_formats)
         result["score"] = rep["doc"]
-        result["notes"] += rep["notes"]
+        result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
         from ..reference_solver.errors import IncomparableError

@@ -79,7 +79,11 @@ from ..reference_solver.validity import (DEFAULT_FRICTION, FLAGS, Measurement, c
                                          jump_tol_m, slip_tol_m, uplift_tol_rad)
 
 __all__ = ["Case", "Trajectory", "CellResult", "CellColumns", "RestitutionMeasurement", "CalibrationResult",
-           "EngineAdapter", "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad"]
+           "EngineAdapter", "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad", "DEVICE_NOTED_ENV"]
+
+#: Set (to "1") in the environment once the user has been told where an engine runs
+#: (:meth:`EngineAdapter.device_note`): worker processes inherit it and stay quiet.
+DEVICE_NOTED_ENV = "ROCKBENCH_DEVICE_NOTED"
 
 
 @dataclass(frozen=True)
@@ -475,6 +479,14 @@ class EngineAdapter:
         an engine always runs. (MuJoCo Warp, for one, needs a CUDA device to run a whole suite in
         reasonable time.)"""
         return None
+
+    @classmethod
+    def device_note(cls) -> str:
+        """Where the engine runs on this machine, when a reader should know (``rockbench engines``):
+        "" for an engine that runs on the CPU by design; a GPU-first engine without a GPU says
+        "CPU only (slow)". A caller that shows the note sets ``os.environ[DEVICE_NOTED_ENV]``, so
+        that the engine's own processes do not say it again."""
+        return ""
 
     @classmethod
     def version(cls) -> str:

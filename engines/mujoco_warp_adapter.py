@@ -60,7 +60,7 @@ from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from . import calibration as _cal
-from .base import Case, RestitutionMeasurement
+from .base import DEVICE_NOTED_ENV, Case, RestitutionMeasurement
 from .mujoco_adapter import ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
@@ -92,6 +92,28 @@ def warp_cache_dir() -> str:
     return str(_cal.cache_dir().parent / "warp")
 
 
+def cuda_driver_present() -> bool:
+    """Whether the NVIDIA CUDA driver library loads here: asked without starting Warp, which prints
+    a warning of its own on a machine without one."""
+    import ctypes
+    import sys
+    names = {"win32": ["nvcuda.dll"]}.get(sys.platform, ["libcuda.so.1", "libcuda.so"])
+    if sys.platform == "darwin":
+        return False
+    for name in names:
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return False
+
+
+#: What rockbench says, once per run, where Warp starts without a CUDA driver (instead of Warp's
+#: own warning).
+CPU_LINE = "rockbench: mujoco_warp runs on the CPU here (no NVIDIA CUDA driver found): expect it to be slow"
+
+
 def _warp():
     """``(warp, mujoco_warp)``, Warp initialised once with its kernel cache in rockbench's cache."""
     global _warp_ready
@@ -105,10 +127,37 @@ def _warp():
         from warp._src import context as _ctx
         if getattr(_ctx, "runtime", None) is None:   # not initialised yet in this process
             wp.config.kernel_cache_dir = warp_cache_dir()
-            wp.init()
+            if cuda_driver_present():
+                wp.init()
+            else:
+                _init_on_cpu(wp)
         _warp_ready = True
     import mujoco_warp as mjw
     return wp, mjw
+
+
+def _init_on_cpu(wp) -> None:
+    """``wp.init()`` without the driver warning Warp's native code writes to stderr, and rockbench's
+    own line (:data:`CPU_LINE`) instead: once per run (worker processes inherit the mark)."""
+    import sys
+    import tempfile
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        try:
+            os.dup2(tmp.fileno(), 2)
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        other = [ln for ln in tmp.read().decode(errors="replace").splitlines()
+                 if ln.strip() and "CUDA driver" not in ln]
+    for ln in other:   # anything else Warp said is kept
+        print(ln, file=sys.stderr)
+    if not os.environ.get(DEVICE_NOTED_ENV):
+        os.environ[DEVICE_NOTED_ENV] = "1"
+        print(CPU_LINE, file=sys.stderr)
 
 
 def _kernels():
@@ -240,14 +289,20 @@ class MujocoWarpAdapter(MujocoAdapter):
         default suite runs ``mujoco_warp`` only where a CUDA device is present. Asked for by name
         (``--engines mujoco_warp``, ``rockbench map --engine mujoco_warp``) it runs anywhere.
         """
-        try:
-            wp, _ = _warp()
-            if wp.is_cuda_available():
-                return None
-        except Exception as e:  # noqa: BLE001 - unavailable engines are reported elsewhere
-            return f"Warp could not start ({e})"
+        if cuda_driver_present():   # else Warp is not started at all: there is nothing to find
+            try:
+                wp, _ = _warp()
+                if wp.is_cuda_available():
+                    return None
+            except Exception as e:  # noqa: BLE001 - unavailable engines are reported elsewhere
+                return f"Warp could not start ({e})"
         return ("no CUDA device here (Warp's CPU device is single-threaded: too slow for a whole suite); "
                 "ask for it by name with --engines mujoco_warp")
+
+    @classmethod
+    def device_note(cls) -> str:
+        """"CPU only (slow)" where Warp finds no CUDA device (its CPU device runs on one thread)."""
+        return "" if cls.default_suite_exclusion() is None else "CPU only (slow): no CUDA device here"
 
     @staticmethod
     def _device_available(dev: str) -> None:

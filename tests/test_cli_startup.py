@@ -77,7 +77,7 @@ print(sorted(m for m in sys.modules if m.startswith("matplotlib.pyplot")), "matp
 def test_picture_by_helper_equals_picture_drawn_here(tmp_path):
     out = {}
     for how in ("helper", "here"):
-        r = subprocess.run([sys.executable, "-c", _DRAW, how, str(tmp_path / f"{how}.png")], capture_output=True,
+        r = subprocess.run([sys.executable, "-c", _DRAW, how, str(tmp_path / how)], capture_output=True,
                            text=True, check=True)
         out[how] = r.stdout.split()
     assert out["helper"] == ["[]", "False"]        # the helper drew it: this process loaded no matplotlib

@@ -109,7 +109,12 @@ def test_panel_draws_every_layer_where_it_belongs(band):
     assert got["missed_overturn"] == [(round(w[7], 6), round(a[5], 6))]
     assert got["false_overturn"] == [(round(w[2], 6), round(a[4], 6))]
     assert got["failed"] == [(round(w[9], 6), round(a[2], 6))]
-    assert got["invalid"] == [(round(w[0], 6), round(a[9], 6))]
+    # the flagged cell as a dotted area over that cell, its edges half-way to the neighbours
+    (box,) = [p.get_extents() for p in d["flags"].get_paths()]
+    x0, y0, x1, y1 = box.x0, box.y0, box.x1, box.y1
+    assert x0 == pytest.approx(w[0]) and x1 == pytest.approx((w[0] + w[1]) / 2)
+    assert y0 == pytest.approx((a[8] + a[9]) / 2) and y1 == pytest.approx(a[9])
+    assert "engine flagged slip, jump or energy gain (dotted)" in d["handles"]
     # the ST limit on the chart, the point outside it left out
     assert d["st_limit"] is not None and d["st_limit"][1].get_text() == "ST limit"
     assert set(d["points"]) == {"R", "O"}
@@ -136,7 +141,7 @@ def test_small_multiples_share_one_legend_below_the_panels(band):
     fig = d["figure"]
     assert len(d["axes"]) == 4 and sum(ax.get_visible() for ax in fig.axes) == 4
     labels = _labels(d["legend"])
-    assert labels[:2] == ["engine overturns", "rigid model needs lift-off or sliding"]
+    assert labels[:2] == ["engine overturns", "outside the rigid model's domain (lift-off or sliding)"]
     assert "overturns where the reference does not" in labels and "ST limit (shaking table, 25 m/s²)" in labels
     assert len(labels) == len(set(labels))
     assert not any(INTERNAL_KEY.search(t) for t in labels)
@@ -179,7 +184,7 @@ def test_map_picture_overlays_the_reference_and_marks_invalid_cells(band, tmp_pa
     from types import SimpleNamespace
 
     from rockbench.benchmark.maps import MapSpec, make_axis
-    from rockbench.benchmark.plots.stability import plot_map, plot_map_png
+    from rockbench.benchmark.plots.stability import plot_map, plot_map_files
     from rockbench.benchmark.presets import get_preset
     from rockbench.reference_solver.restitution import Restitution
     _, _, ref, _, eng = _maps(band)
@@ -191,14 +196,14 @@ def test_map_picture_overlays_the_reference_and_marks_invalid_cells(band, tmp_pa
     fig = Figure(figsize=(6.4, 5.6), layout="constrained")
     d = plot_map(res, reference=ref, ax=fig.add_subplot())
     assert d["boundary"] is not None and d["hatch"] is not None
-    assert len(d["marks"]["invalid"].get_xdata()) == 1 and len(d["marks"]["failed"].get_xdata()) == 1
+    assert len(d["flags"].get_paths()) == 1 and len(d["marks"]["failed"].get_xdata()) == 1
     labels = _labels(d["legend"])
-    assert "reference boundary ($\\eta_\\mathrm{H}$)" in labels and any(t.startswith("invalid") for t in labels)
+    assert "reference boundary ($\\eta_\\mathrm{H}$)" in labels and any(t.startswith("engine flagged") for t in labels)
     assert d["ax"].get_title(loc="left").startswith("MuJoCo, calibrated to")
     assert_legend_clear(fig, d["legend"])
     assert_nothing_off_axes(d["ax"])
-    p = plot_map_png(res, tmp_path / "map.png", reference=ref)
-    assert p.read_bytes()[:4] == b"\x89PNG"
+    (p,) = plot_map_files(res, tmp_path / "map", reference=ref)
+    assert p.name == "map.png" and p.read_bytes()[:4] == b"\x89PNG"
 
 
 def test_theta_plot_draws_references_in_front_and_each_curve_to_its_own_end():
@@ -234,21 +239,29 @@ def test_theta_plot_caps_the_range_of_an_overturning_curve():
     assert d["ends"]["x"].get_ydata()[0] == pytest.approx(1.0)
 
 
-def test_speed_accuracy_axes_do_not_exaggerate():
+def test_speed_accuracy_spreads_the_points_and_labels_each_variant():
     from rockbench.benchmark.plots.speed import plot_speed_accuracy
     rows = [{"variant": "a", "label": "MuJoCo 4.0, calibrated to η_H", "ms_per_cell": 0.8, "agreement": 0.97},
-            {"variant": "a[x=1]", "ms_per_cell": 12.0, "agreement": 0.96},
+            {"variant": "a[x=1]", "ms_per_cell": 12.0, "agreement": 0.999},
+            {"variant": "c", "ms_per_cell": 11.0, "agreement": 1.0},
             {"variant": "b", "ms_per_cell": None, "agreement": 0.5}]
     d = plot_speed_accuracy(rows)
     ax = d["ax"]
-    assert set(d["points"]) == {"a", "a[x=1]"}
-    assert ax.get_ylim() == pytest.approx((0.0, 1.02)) and "0–1" in ax.get_ylabel()
+    assert set(d["points"]) == {"a", "a[x=1]", "c"}
+    # disagreement in per cent on a log axis: 3 % and 0.1 % a decade and more apart, 0 on the floor
+    assert d["logy"] and ax.get_yscale() == "log" and ax.get_xscale() == "log"
+    ys = {v: float(p.get_offsets()[0][1]) for v, p in d["points"].items()}
+    assert ys["a"] == pytest.approx(3.0) and ys["a[x=1]"] == pytest.approx(0.1)
+    assert ys["c"] < ys["a[x=1]"] and ax.get_ylim()[0] < ys["c"]
+    assert "[%]" in ax.get_ylabel()
     fig = ax.figure
-    _renderer(fig)
+    r = _renderer(fig)
     ticks = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
     assert ticks and all(re.fullmatch(r"[0-9.]+", t) for t in ticks), ticks   # plain numbers, no 10^x
-    assert _labels(d["legend"])[0] == "MuJoCo 4.0, calibrated to $\\eta_\\mathrm{H}$"
-    assert_legend_clear(fig, d["legend"])
+    # every variant labelled beside its point, the labels apart from each other
+    assert d["labels"]["a"].get_text() == "MuJoCo 4.0, calibrated to $\\eta_\\mathrm{H}$"
+    boxes = [t.get_window_extent(r) for t in d["labels"].values()]
+    assert not any(b1.overlaps(b2) for k, b1 in enumerate(boxes) for b2 in boxes[k + 1:])
 
 
 def test_labels_in_words():

@@ -68,6 +68,15 @@ def test_run_quick_end_to_end(tmp_path):
             assert not any((m / "workers.log").exists() for d in variant_dirs for m in d.iterdir() if m.is_dir())
     else:
         assert "no scores" in r.stdout
+    # a console that reads cleanly (issue 25): one total N, k counting finished maps in order, no blank
+    # line, each note once, and no line of Warp's own
+    prog = [ln for ln in r.stderr.splitlines() if ln.startswith("rockbench: [")]
+    assert [int(ln.split("[")[1].split("/")[0]) for ln in prog] == list(range(1, len(prog) + 1))
+    assert {ln.split("/")[1].split("]")[0] for ln in prog} == {str(len(prog))}
+    assert all(ln.strip() for ln in r.stderr.splitlines())
+    notes = [ln for ln in r.stderr.splitlines() if ln.startswith("rockbench: note:")]
+    assert len(notes) == len(set(notes))
+    assert not any(ln.startswith("Warp") for ln in r.stderr.splitlines())
     # a rerun resumes: every map is already complete
     r = _rockbench("run", "--quick", "--out", str(out))
     assert r.returncode == 0 and "resuming" in r.stderr, r.stderr[-3000:]

@@ -89,10 +89,12 @@ def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(fake_engine
     seen = [m.split(" → ")[0].split(" B")[0] if m.startswith("[") else m for m in logs
             if m.startswith(("[", "open", "close"))]
     # the reference maps are computed by their own thread, beside the engine maps
-    assert [m for m in seen if m.endswith("reference")] == ["[1/6] reference", "[2/6] reference"]
-    assert [m for m in seen if not m.endswith("reference")] == [
-        "[3/6] analytic", "open analytic 0.0", "[4/6] analytic", "close analytic 0.0",
-        "[5/6] analytic", "open analytic 0.0001", "[6/6] analytic", "close analytic 0.0001"]
+    # [k/6]: k counts finished maps, in order whichever thread finished them (issue 25)
+    assert [int(m[1:m.index("/")]) for m in seen if m.startswith("[")] == [1, 2, 3, 4, 5, 6]
+    assert sum(m.endswith("reference") for m in seen) == 2
+    assert [m.split("] ")[-1] for m in seen if not m.endswith("reference")] == [
+        "open analytic 0.0", "analytic", "analytic", "close analytic 0.0",
+        "open analytic 0.0001", "analytic", "analytic", "close analytic 0.0001"]
 
 
 # -- issue 13: the whole suite is checked before the first map, and --plan fails the same way -------------
@@ -199,8 +201,12 @@ def test_lanes_and_helpers_give_what_one_worker_gives(fake_engines, tmp_path):
         "[engines]\nnames = ['analytic-eta']\nvariants = [{ sleep_s = 0.0, work_s = 0.2, log_path = '%s' }, "
         "{ sleep_s = 1e-4, work_s = 0.2, log_path = '%s' }]\nown_eta = true\n" % (log, log))
     suite = load_suite(tmp_path / "s.toml")
+    said = []
     one = run_suite(suite, tmp_path / "one", jobs=1, report=False, log=lambda m: None)
-    two = run_suite(suite, tmp_path / "two", jobs=2, report=False, log=lambda m: None)
+    two = run_suite(suite, tmp_path / "two", jobs=2, report=False, log=said.append)
+    # [k/N]: N planned before the first map, own-η reference maps included; k in order (issue 25)
+    prog = [m for m in said if m.startswith("[")]
+    assert [m.split("]")[0] for m in prog] == [f"[{k}/20" for k in range(1, 21)]
     assert [m["label"] for m in one["maps"]] == [m["label"] for m in two["maps"]]
     assert len(one["maps"]) == 4 + 2 * 4 + 2 * 2 * 2    # reference, engine maps, own-η reference maps
     for m1, m2 in zip(one["maps"], two["maps"]):

@@ -1,10 +1,11 @@
-"""``rockbench engines``: every known engine, whether it is available, its version, and why not."""
+"""``rockbench engines``: every known engine, whether it is available, its version, and why not; a
+GPU-first engine without a GPU here says "CPU only (slow)" (``note``, also in ``--json``)."""
 
 from __future__ import annotations
 
 import json
 
-from ...engines.registry import availability, names
+from ...engines.registry import adapter_class, availability, names
 
 
 def register(sub) -> None:
@@ -14,13 +15,17 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    rows = [availability(n) for n in names()]
+    rows = [{**availability(n), "note": ""} for n in names()]
+    for r in rows:
+        if r["available"]:
+            r["note"] = adapter_class(r["engine"]).device_note()
     if args.json:
         print(json.dumps(rows, indent=2))
         return 0
-    w = max([len(r["engine"]) for r in rows] + [6])
-    print(f"{'engine':{w}}  {'available':9}  {'version':12}  why not")
-    for r in rows:
-        why = r["reason"] or ""
-        print(f"{r['engine']:{w}}  {'yes' if r['available'] else 'no':9}  {str(r['version'] or '-'):12}  {why}")
+    table = [("engine", "available", "version", "note")]
+    table += [(r["engine"], "yes" if r["available"] else "no", str(r["version"] or "-"),
+               r["note"] if r["available"] else f"not available: {r['reason']}") for r in rows]
+    widths = [max(len(t[c]) for t in table) for c in range(3)]
+    for t in table:
+        print(("  ".join(f"{v:{w}}" for v, w in zip(t[:3], widths)) + "  " + t[3]).rstrip())
     return 0

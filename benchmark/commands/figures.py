@@ -7,7 +7,7 @@ import sys
 
 from ...reference_solver.errors import ConfigError
 from ..atomic import check_output_dir
-from ..cli_options import jobs_from_args
+from ..cli_options import add_figure_format_option, figure_formats_from_args, jobs_from_args
 from ..figures import FIGURES, make_figures
 
 
@@ -19,6 +19,7 @@ def register(sub) -> None:
     p.add_argument("--jobs", type=str, default=None, metavar="N", help="worker processes (default: all cores)")
     p.add_argument("--serial", action="store_true", help="run in this process")
     p.add_argument("--json", action="store_true", help="print the written files as JSON")
+    add_figure_format_option(p, default="png,svg")
     p.set_defaults(func=run)
 
 
@@ -39,9 +40,10 @@ def run(args) -> int:
         if bad:
             raise ConfigError(f"--figure takes numbers 4–9, got {bad[0]}.")
     jobs = jobs_from_args(args)
+    formats = figure_formats_from_args(args)
     check_output_dir(args.out, "--out")
     out = make_figures(args.out, resolution=n, figures=figs, jobs=jobs, serial=args.serial,
-                       progress=not args.json and sys.stderr.isatty())
+                       progress=not args.json and sys.stderr.isatty(), formats=formats)
     if args.json:
         print(json.dumps(out, indent=2))
     else:

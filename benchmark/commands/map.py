@@ -8,8 +8,9 @@ from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
 from ..atomic import check_output_dir
-from ..cli_options import (add_block_options, add_model_options, block_from_args, dt_from_args, jobs_from_args,
-                     engine_settings_from_args, restitution_from_args)
+from ..cli_options import (add_block_options, add_figure_format_option, add_model_options, block_from_args,
+                           dt_from_args, engine_settings_from_args, figure_formats_from_args, jobs_from_args,
+                           restitution_from_args)
 from ..maps import DEFAULT_CELL_TIMEOUT_S, MAP_PULSES, MapSpec, parse_range, run_map
 
 
@@ -40,6 +41,7 @@ def register(sub) -> None:
     g.add_argument("--cell-timeout", type=str, default=str(DEFAULT_CELL_TIMEOUT_S), metavar="S",
                    help=f"wall-time limit of one cell [s] (default {DEFAULT_CELL_TIMEOUT_S:g})")
     g.add_argument("--no-plot", action="store_true", help="do not draw DIR/map.png")
+    add_figure_format_option(g, what="map's picture (DIR/map.png, map.svg, map.pdf)")
     g.add_argument("--full-grid", action="store_true",
                    help="also write DIR/cells-full.csv: every cell of the grid, those an adaptive map inferred "
                    "by its fill rule marked filled=true")
@@ -85,11 +87,12 @@ def run(args) -> int:
         raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {args.cell_timeout!r}.") from None
     if args.coarse_stride is not None and args.coarse_stride < 1:
         raise ConfigError(f"--coarse-stride must be >= 1, got {args.coarse_stride}.")
+    formats = figure_formats_from_args(args)
     check_output_dir(args.out, "--out")
     quiet = args.json or not sys.stderr.isatty()
     result = run_map(spec, args.out, jobs=jobs_from_args(args), scheduler=args.scheduler, serial=args.serial,
                      adaptive=args.adaptive, coarse_stride=args.coarse_stride, cell_timeout_s=timeout,
-                     progress=not quiet, plot=not args.no_plot,
+                     progress=not quiet, plot=not args.no_plot, figure_formats=formats,
                      log=None if args.json else (lambda s: print(s, file=sys.stderr)))
     summary = {**result.summary(), "out": str(args.out)}
     if args.full_grid:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import sys
 
+from ..cli_options import add_figure_format_option
+
 #: the outcomes CSV format (kept here so that --help needs no import of the harness)
 _FORMAT = ("block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
            "outcome T, R or O")
@@ -21,21 +23,25 @@ def register(sub) -> None:
     p.add_argument("--no-trajectories", action="store_true", help="skip the θ(t) comparison (no simulation)")
     from ..score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
     p.add_argument(ALLOW_INCOMPLETE, action="store_true", help=ALLOW_INCOMPLETE_HELP)
+    add_figure_format_option(p, what="pictures in DIR/img/ (index.html embeds the PNG, which is always written)")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     from ..atomic import check_output_dir
+    from ..cli_options import figure_formats_from_args
     from ..report import FIG17, build_report, parse_case
 
     cases = tuple(parse_case(c) for c in args.case) or (FIG17,)
+    formats = figure_formats_from_args(args)
     check_output_dir(args.out, "--out")
     points = None
     if args.experiments:
         from ..experiments import load_outcomes
         points = load_outcomes(args.experiments)
     res = build_report(args.run_dirs, args.out, against=args.against or None, experiments=points, cases=cases,
-                       trajectories=not args.no_trajectories, allow_incomplete=args.allow_incomplete)
+                       trajectories=not args.no_trajectories, allow_incomplete=args.allow_incomplete,
+                       figure_formats=formats)
     for n in res["notes"]:
         print(f"rockbench: note: {n}", file=sys.stderr)
     print(res["html"])

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import sys
 
+from ..cli_options import add_figure_format_option
+
 
 def register(sub) -> None:
     p = sub.add_parser("run", help="the whole benchmark: every engine, block and pulse, reference maps, scores, "
@@ -24,6 +26,7 @@ def register(sub) -> None:
                    "outcome T, R or O")
     p.add_argument("--no-report", action="store_true", help="maps and score.json only")
     p.add_argument("--plan", action="store_true", help="list the maps the suite would compute and exit")
+    add_figure_format_option(p, what="report's pictures in DIR/img/ (index.html embeds the PNG, always written)")
     p.set_defaults(func=run)
 
 
@@ -32,7 +35,7 @@ def run(args) -> int:
 
     from ...reference_solver.errors import ConfigError
     from ..atomic import check_output_dir
-    from ..cli_options import jobs_from_args
+    from ..cli_options import figure_formats_from_args, jobs_from_args
     from ..suite_runner import check_suite, engine_names, load_suite, parse_engines, plan, run_suite, suite_path
 
     if args.show_suite is not None:
@@ -48,6 +51,7 @@ def run(args) -> int:
     only = parse_engines(args.engines)
     suite = load_suite(suite_path(args.suite, args.quick))
     jobs = jobs_from_args(args)
+    formats = figure_formats_from_args(args)
     out = Path(args.out) if args.out else Path("rockbench-results") / suite.name
     if args.plan:
         engines, notes = engine_names(suite, only)
@@ -63,7 +67,8 @@ def run(args) -> int:
     if args.experiments:
         from ..experiments import load_outcomes
         points = load_outcomes(args.experiments)
-    res = run_suite(suite, out, jobs=jobs, experiments=points, report=not args.no_report, engines=only)
+    res = run_suite(suite, out, jobs=jobs, experiments=points, report=not args.no_report, engines=only,
+                    figure_formats=formats)
     for n in res["notes"]:
         print(f"rockbench: note: {n}", file=sys.stderr)
     print(f"rockbench: {len(res['maps'])} maps in {res['maps_wall_s']:.0f} s, total {res['wall_s']:.0f} s; "

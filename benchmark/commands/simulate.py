@@ -26,16 +26,18 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.add_argument("--history", metavar="FILE.csv", default=None,
                    help="write t_s,theta_rad,theta_dot_rad_s[,theta_ddot_rad_s2] to FILE.csv")
-    p.add_argument("--plot", metavar="FILE.png", default=None, help="draw θ(t), the impacts and the pulse to FILE.png")
+    p.add_argument("--plot", metavar="FILE.png", default=None,
+                   help="draw θ(t), the impacts and the pulse to FILE.png, FILE.svg or FILE.pdf (by the suffix)")
     p.set_defaults(func=run)
 
 
-def _check_output(path: str | None, suffix: str, option: str) -> Path | None:
+def _check_output(path: str | None, suffixes: tuple[str, ...], option: str) -> Path | None:
     if path is None:
         return None
     p = Path(path)
-    if p.suffix.lower() != suffix:
-        raise ConfigError(f"{option} must name a {suffix} file, got {path!r}.")
+    if p.suffix.lower() not in suffixes:
+        names = ", ".join(suffixes[:-1]) + " or " + suffixes[-1] if len(suffixes) > 1 else suffixes[0]
+        raise ConfigError(f"{option} must name a {names} file, got {path!r}.")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise ConfigError(f"{option}: the folder {str(parent)!r} does not exist; create it or choose another path.")
@@ -55,8 +57,8 @@ def run(args) -> int:
         settings["mode"] = args.mode
     if case.linearized and args.engine != "reference":
         raise ConfigError(f"--linearized applies to the reference engine only, got --engine {args.engine}.")
-    hist_path = _check_output(args.history, ".csv", "--history")
-    plot_path = _check_output(args.plot, ".png", "--plot")
+    hist_path = _check_output(args.history, (".csv",), "--history")
+    plot_path = _check_output(args.plot, (".png", ".svg", ".pdf"), "--plot")
     out = simulate_case(args.engine, settings, case, history=hist_path, plot=plot_path)
     if args.json:
         print(json.dumps(out, indent=2))

@@ -4,7 +4,7 @@ being computed (issue 16).
 Importing matplotlib costs about as much CPU as a 200×200 reference map takes to solve on two
 cores. :class:`MapPicture`, made when a map starts, forks a helper that imports matplotlib on
 another core while this process loads the solver and runs the map; the helper then waits for the
-result on a pipe and draws it with :func:`~rockbench.benchmark.plots.stability.plot_map_png` (the
+result on a pipe and draws it with :func:`~rockbench.benchmark.plots.stability.plot_map_files` (the
 same function, so the same picture). The fork adds no start-up of its own (the helper shares what is
 imported already) and, on a busy machine, no more work than drawing here would.
 
@@ -79,28 +79,31 @@ class MapPicture:
         os.close(r)
         self.pid, self.w = pid, w
 
-    def draw(self, result, path) -> Path:
-        """Draw ``result`` (a MapResult) into ``path``: by the helper if it runs, else here."""
-        path = Path(path)
+    def draw(self, result, stem, formats=("png",)) -> list[Path]:
+        """Draw ``result`` (a MapResult) into ``stem.<format>`` for each of ``formats``: by the helper
+        if it runs, else here. Returns the paths."""
+        stem = Path(stem)
+        formats = tuple(formats)
+        paths = [stem.with_name(f"{stem.name}.{f}") for f in formats]
         pid, w = self.pid, self.w
         self.pid = self.w = None
         if pid is not None:
             ok = False
             try:
-                data = pickle.dumps((result, str(path)), protocol=pickle.HIGHEST_PROTOCOL)
+                data = pickle.dumps((result, str(stem), formats), protocol=pickle.HIGHEST_PROTOCOL)
                 with os.fdopen(w, "wb") as f:
                     w = None
                     f.write(data)
-                ok = _wait(pid, DRAW_TIMEOUT_S) == 0 and path.is_file()
+                ok = _wait(pid, DRAW_TIMEOUT_S) == 0 and all(p.is_file() for p in paths)
                 pid = None
             except (OSError, pickle.PicklingError):
                 pass
             finally:
                 _stop(pid, w)
             if ok:
-                return path
-        from .stability import plot_map_png, reference_for
-        return plot_map_png(result, path, reference=reference_for(result))
+                return paths
+        from .stability import plot_map_files, reference_for
+        return plot_map_files(result, stem, reference=reference_for(result), formats=formats)
 
     def close(self) -> None:
         """Let the helper go if no picture was asked for (the map failed, or was interrupted)."""
@@ -156,6 +159,6 @@ def _helper(r: int) -> int:
             chunks.append(b)
     if not chunks:
         return 0   # no picture wanted after all
-    result, path = pickle.loads(b"".join(chunks))
-    stability.plot_map_png(result, path, reference=stability.reference_for(result))
+    result, stem, formats = pickle.loads(b"".join(chunks))
+    stability.plot_map_files(result, stem, reference=stability.reference_for(result), formats=formats)
     return 0

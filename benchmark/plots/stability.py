@@ -29,40 +29,53 @@ import numpy as np
 from ...reference_solver.model import G
 from ..experiments import SHAKING_TABLE_LIMIT_MPS2
 from ..labels import for_matplotlib
+from .style import LABEL_PT, OKABE_ITO, SMALL_PT, SUPTITLE_PT, TITLE_PT, tint
 
 #: The Quanser ST-III table's faithful limit for one sine wave (paper §5) [m/s^2].
 ST_LIMIT_MPS2 = SHAKING_TABLE_LIMIT_MPS2
 
 #: Line styles of the reference boundaries, in the order given (η_H, η_M average k, η_M exact k,
-#: a constant η such as an engine's own measured one).
+#: a constant η such as an engine's own measured one): each has its own dash as well as its own
+#: colour of the one palette (:mod:`.style`).
 REFERENCE_STYLES = [
-    {"color": "#000000", "linestyle": "solid", "linewidth": 1.7},
-    {"color": "#1f5fa8", "linestyle": (0, (5, 2)), "linewidth": 1.5},
-    {"color": "#1b7f3b", "linestyle": (0, (6, 2, 1.5, 2)), "linewidth": 1.5},
-    {"color": "#8e44ad", "linestyle": (0, (1.5, 1.5)), "linewidth": 1.6},
+    {"color": OKABE_ITO["black"], "linestyle": "solid", "linewidth": 1.7},
+    {"color": OKABE_ITO["blue"], "linestyle": (0, (5, 2)), "linewidth": 1.5},
+    {"color": OKABE_ITO["green"], "linestyle": (0, (6, 2, 1.5, 2)), "linewidth": 1.5},
+    {"color": OKABE_ITO["purple"], "linestyle": (0, (1.5, 1.5)), "linewidth": 1.6},
     {"color": "#7f7f7f", "linestyle": (0, (3, 1, 1, 1, 1, 1)), "linewidth": 1.3},
 ]
 #: Line colours of overlaid maps in :func:`plot_stability` (first one also shaded).
-COLORS = ["#000000", "#1f5fa8", "#c0392b", "#1b7f3b", "#8e44ad", "#d35400", "#16a085"]
+COLORS = [OKABE_ITO["black"], OKABE_ITO["blue"], OKABE_ITO["vermillion"], OKABE_ITO["green"], OKABE_ITO["purple"],
+          OKABE_ITO["orange"], OKABE_ITO["sky_blue"]]
 
-ENGINE_FILL = "#f9c99b"          # the engine's overturn region
-OUTCOME_COLOURS = ("#ffffff", "#d6e6f5", "#f9c99b")   # rest, rocking, overturn (map.png)
+ENGINE_FILL = tint(OKABE_ITO["orange"], 0.45)          # the engine's overturn region
+#: rest, rocking, overturn (map.png)
+OUTCOME_COLOURS = ("#ffffff", tint(OKABE_ITO["sky_blue"], 0.35), tint(OKABE_ITO["orange"], 0.45))
 HATCH = "////"
 HATCH_COLOUR = "#8a8a8a"
+#: The engine's flagged cells (slip, jump, energy gain): a dotted area over the cells each flagged
+#: simulation stands for (:func:`flag_area`), not a mark per simulated cell.
+FLAG_HATCH = "...."
+FLAG_COLOUR = "#444444"
+#: A reference boundary that encloses at most this many cells is an island: drawn as the outline
+#: of its cells, not as a line loop (a loop around one cell is a blob at print size).
+ISLAND_CELLS = 4
+DOMAIN_LABEL = "outside the rigid model's domain (lift-off or sliding)"
+FLAG_LABEL = "engine flagged slip, jump or energy gain (dotted)"
+ISLAND_LABEL = "reference: single cells across its boundary (outlined in its colour)"
 
 #: Disagreement kinds: label, marker style.
 MARKS = {
-    "false_overturn": ("overturns where the reference does not", {"marker": "^", "color": "#b2182b", "ms": 3.6,
-                                                                   "mec": "#b2182b", "mfc": "#b2182b"}),
-    "missed_overturn": ("misses an overturn of the reference", {"marker": "o", "color": "#1f5fa8", "ms": 3.4,
-                                                                "mfc": "none", "mec": "#1f5fa8", "mew": 0.9}),
-    "invalid": ("engine flagged slip, jump or energy gain", {"marker": "x", "color": "#555555", "ms": 2.6,
-                                                             "mew": 0.7}),
+    "false_overturn": ("overturns where the reference does not", {"marker": "^", "color": OKABE_ITO["vermillion"],
+                                                                   "ms": 4.6, "mec": "white", "mew": 0.4,
+                                                                   "mfc": OKABE_ITO["vermillion"]}),
+    "missed_overturn": ("misses an overturn of the reference", {"marker": "o", "color": OKABE_ITO["blue"], "ms": 4.2,
+                                                                "mfc": "white", "mec": OKABE_ITO["blue"], "mew": 1.1}),
     "failed": ("simulation failed", {"marker": "s", "color": "#000000", "ms": 3.0, "mfc": "#000000"}),
 }
 #: Experimental outcomes: the paper's letters.
-POINT_STYLE = {"T": ("translation (no uplift)", "#1b7f3b"), "R": ("rocking", "#1f5fa8"),
-               "O": ("overturning", "#b2182b")}
+POINT_STYLE = {"T": ("translation (no uplift)", OKABE_ITO["green"]), "R": ("rocking", OKABE_ITO["blue"]),
+               "O": ("overturning", OKABE_ITO["vermillion"])}
 
 
 def st_limit_a_ratio(alpha_rad: float, st_limit_mps2: float = ST_LIMIT_MPS2) -> float:
@@ -126,6 +139,44 @@ def boundary_lines(m) -> list[np.ndarray]:
     staircase of an oblique boundary without moving the line by more than a fraction of a cell.
     Failed cells take the value of the nearest cell with an outcome (they are marked separately).
     """
+    return [_smooth_polyline(p) for p in _raw_lines(m)]
+
+
+def boundary_parts(m) -> tuple[list[np.ndarray], list[tuple[float, float, float, float]]]:
+    """:func:`boundary_lines` split into lines and islands: ``(lines, boxes)``.
+
+    A closed loop around at most :data:`ISLAND_CELLS` cells (an overturn cell amid others, or a
+    not-overturn cell amid overturns) is an island: it is returned as the box ``(w0, a0, w1, a1)``
+    of the cells it encloses, edges half-way to the neighbours, to be drawn as an outline.
+    """
+    from matplotlib.path import Path as MPath
+
+    g = as_grid(m)
+    lines, boxes = [], []
+    pts = np.column_stack([np.tile(g.w, g.a.size), np.repeat(g.a, g.w.size)])
+    we, ae = _edges(g.w), _edges(g.a)
+    for p in _raw_lines(m):
+        inside = None
+        if len(p) > 3 and np.allclose(p[0], p[-1]):
+            inside = np.nonzero(MPath(p).contains_points(pts))[0]
+        if inside is None or not 0 < inside.size <= ISLAND_CELLS:
+            lines.append(_smooth_polyline(p))
+            continue
+        i, j = inside // g.w.size, inside % g.w.size
+        boxes.append((we[j.min()], ae[i.min()], we[j.max() + 1], ae[i.max() + 1]))
+    return lines, boxes
+
+
+def _edges(c: np.ndarray) -> np.ndarray:
+    """Cell edges of centres ``c``: half-way between neighbours, the outer ones on the centres (the
+    chart ends at the first and last centre)."""
+    c = np.asarray(c, float)
+    if c.size < 2:
+        return np.array([c[0], c[0]]) if c.size else c
+    return np.concatenate([[c[0]], (c[1:] + c[:-1]) / 2.0, [c[-1]]])
+
+
+def _raw_lines(m) -> list[np.ndarray]:
     from contourpy import contour_generator
     from scipy import ndimage
 
@@ -140,7 +191,7 @@ def boundary_lines(m) -> list[np.ndarray]:
         idx = ndimage.distance_transform_edt(~g.known, return_distances=False, return_indices=True)
         ind = ind[tuple(idx)]
     lines = contour_generator(g.w, g.a, ind).lines(0.5)
-    return [_smooth_polyline(np.asarray(p, float)) for p in lines if len(p) >= 2]
+    return [np.asarray(p, float) for p in lines if len(p) >= 2]
 
 
 def _smooth_polyline(p: np.ndarray) -> np.ndarray:
@@ -159,17 +210,79 @@ def _smooth_polyline(p: np.ndarray) -> np.ndarray:
 
 
 def draw_boundary(ax, m, *, label=None, zorder=3, **style):
-    """Draw :func:`boundary_lines` of map ``m``. Returns the LineCollection, or None when the map
-    has no boundary."""
-    from matplotlib.collections import LineCollection
+    """Draw the boundary of map ``m``: its lines (:func:`boundary_parts`) as a LineCollection, its
+    islands as thin outlines of their cells in the same colour. Returns ``(lines, islands)``: the
+    LineCollection and the PatchCollection, each None when there is none."""
+    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.patches import Rectangle
 
-    lines = boundary_lines(m)
-    if not lines:
-        return None
+    lines, boxes = boundary_parts(m)
     st = {**REFERENCE_STYLES[0], **style}
-    lc = LineCollection(lines, colors=st["color"], linewidths=st["linewidth"], linestyles=[st["linestyle"]],
-                        zorder=zorder, label=label, capstyle="round", joinstyle="round")
-    return ax.add_collection(lc)
+    lc = isl = None
+    if lines:
+        lc = ax.add_collection(LineCollection(lines, colors=st["color"], linewidths=st["linewidth"],
+                                              linestyles=[st["linestyle"]], zorder=zorder, label=label,
+                                              capstyle="round", joinstyle="round"))
+    if boxes:
+        rects = [Rectangle((w0, a0), w1 - w0, a1 - a0) for w0, a0, w1, a1 in boxes]
+        isl = ax.add_collection(PatchCollection(rects, facecolor="none", edgecolor=st["color"], linewidth=0.9,
+                                                zorder=zorder))
+    return lc, isl
+
+
+def island_handle():
+    """The legend entry of the islands' outlines."""
+    from matplotlib.patches import Patch
+    return Patch(facecolor="none", edgecolor="#000000", lw=0.9, label=ISLAND_LABEL)
+
+
+def flag_area(m) -> np.ndarray:
+    """The cells each flagged simulation stands for: every cell with an outcome takes the flag of
+    the nearest simulated cell (itself on a full grid; on an adaptive grid the inferred cells around
+    it, as the outcomes are inferred), so the flags form areas rather than rows of the coarse grid."""
+    from scipy import ndimage
+
+    g = as_grid(m)
+    flagged = g.known & g.simulated & ~g.valid
+    if not flagged.any():
+        return flagged
+    if not g.simulated.all():
+        idx = ndimage.distance_transform_edt(~g.simulated, return_distances=False, return_indices=True)
+        flagged = flagged[tuple(idx)]
+    return flagged & g.known
+
+
+def draw_flags(ax, m, mask, *, zorder=2.5):
+    """A dotted area over each cell of ``mask`` (cell edges half-way to the neighbours). Returns the
+    PatchCollection, or None when no cell is marked."""
+    from matplotlib.collections import PatchCollection
+    from matplotlib.patches import Rectangle
+
+    if not np.asarray(mask).any():
+        return None
+    g = as_grid(m)
+    we, ae = _edges(g.w), _edges(g.a)
+    rects = []
+    for i in range(mask.shape[0]):
+        j = 0
+        while j < mask.shape[1]:   # one rectangle per run of marked cells in a row
+            if not mask[i, j]:
+                j += 1
+                continue
+            k = j
+            while k + 1 < mask.shape[1] and mask[i, k + 1]:
+                k += 1
+            rects.append(Rectangle((we[j], ae[i]), we[k + 1] - we[j], ae[i + 1] - ae[i]))
+            j = k + 1
+    pc = PatchCollection(rects, facecolor="none", edgecolor=FLAG_COLOUR, hatch=FLAG_HATCH, linewidth=0.0,
+                         zorder=zorder)
+    return ax.add_collection(pc)
+
+
+def flag_handle():
+    """The legend entry of the flagged cells."""
+    from matplotlib.patches import Patch
+    return Patch(facecolor="white", edgecolor=FLAG_COLOUR, hatch=FLAG_HATCH, lw=0.0, label=FLAG_LABEL)
 
 
 def draw_domain_hatch(ax, ref, *, zorder=1):
@@ -283,6 +396,44 @@ def _frame(ax, g: Grid, *, xlabel=True, ylabel=True):
         ax.set_ylabel("a₀/(g·tanα) [-]")
 
 
+def _wrap_to(ax, text: str, size_pt: float) -> str:
+    """``text`` broken at commas into lines that fit the width of ``ax`` at ``size_pt`` (about half an
+    em a character)."""
+    spec = ax.get_subplotspec()
+    ncols = spec.get_gridspec().ncols if spec is not None else 1
+    width_pt = (ax.figure.get_figwidth() / ncols - 0.3) * 72.0   # the panel's share, less its tick labels
+    fit = max(12, int(width_pt / (0.5 * size_pt)))
+    lines, cur = [], ""
+    for part in text.split(", "):
+        cand = f"{cur}, {part}" if cur else part
+        if cur and len(cand) > fit:
+            lines.append(cur + ",")
+            cur = part
+        else:
+            cur = cand
+    return "\n".join(lines + [cur])
+
+
+def _print_sizes(ax) -> None:
+    """Tick labels and axis labels at their print sizes (:mod:`.style`)."""
+    ax.tick_params(labelsize=SMALL_PT)
+    ax.xaxis.label.set_size(LABEL_PT)
+    ax.yaxis.label.set_size(LABEL_PT)
+
+
+def _axes_legend(ax, handles, where: str, below: float):
+    """A legend outside the axes, never over the data: ``below`` them (two columns when the labels
+    fit, else one: it never sticks out sideways), ``right`` of them, or ``none``."""
+    if where == "below":
+        long = max((len(h.get_label()) for h in handles), default=0) > 44
+        return ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, below), ncols=1 if long else 2,
+                         fontsize=SMALL_PT, frameon=False, borderaxespad=0.0)
+    if where == "right":
+        return ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=SMALL_PT,
+                         frameon=False)
+    return None
+
+
 # -- one panel ------------------------------------------------------------------------------------
 
 def plot_panel(engine=None, references=(), *, domain=None, like=None, points=None, st_limit=None, title=None,
@@ -315,7 +466,9 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
     Returns
     -------
     dict
-        ``ax``, ``fill``, ``hatch``, ``references`` (label → ContourSet), ``marks`` (kind → Line2D),
+        ``ax``, ``fill``, ``hatch``, ``references`` (label → LineCollection or None), ``islands``
+        (label → PatchCollection of the islands' outlines), ``flags`` (the dotted flagged cells, or
+        None), ``marks`` (kind → Line2D),
         ``st_limit`` (``(line, text)`` or None), ``points`` (letter → Line2D) and ``handles``
         (legend label → proxy artist, for a figure legend).
     """
@@ -339,19 +492,26 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
     hatch = draw_domain_hatch(ax, domain) if domain is not None else None
     if domain is not None:
         handles["hatch"] = Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0.0,
-                                 label="rigid model needs lift-off or sliding")
-    lines = {}
+                                 label=DOMAIN_LABEL)
+    lines, islands = {}, {}
     for k, item in enumerate(refs):
         label, m = item[0], item[1]
         st = item[2] if len(item) > 2 else REFERENCE_STYLES[k % len(REFERENCE_STYLES)]
         # the first reference (the like-for-like one) on top where the lines coincide
-        cs = draw_boundary(ax, m, label=for_matplotlib(label), zorder=3.5 - 0.1 * k, **st)
+        cs, isl = draw_boundary(ax, m, label=for_matplotlib(label), zorder=3.5 - 0.1 * k, **st)
         lines[label] = cs
         handles[label] = Line2D([], [], color=st["color"], ls=st["linestyle"], lw=st["linewidth"],
                                 label=for_matplotlib(label))
-    marks = {}
+        if isl is not None:
+            islands[label] = isl
+            handles[ISLAND_LABEL] = island_handle()
+    marks, flags = {}, None
+    if engine is not None:
+        flags = draw_flags(ax, engine, flag_area(engine))
+        if flags is not None:
+            handles[FLAG_LABEL] = flag_handle()
     if engine is not None and like is not None:
-        marks = draw_marks(ax, engine, disagreements(engine, like))
+        marks = draw_marks(ax, engine, {k: v for k, v in disagreements(engine, like).items() if k in MARKS})
         for kind, (label, st) in MARKS.items():
             if kind in marks:   # only the kinds this panel has
                 handles[label] = Line2D([], [], ls="none", label=label, **st)
@@ -365,18 +525,20 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
                                                               ms=6.5, color=colour,
                                                               label=f"experiment {letter}: {words}")
     if title:
-        ax.set_title(for_matplotlib(title + (f"\n{note}" if note else "")), fontsize=8.5, loc="left")
-    ax.tick_params(labelsize=7.5)
-    ax.xaxis.label.set_size(8)
-    ax.yaxis.label.set_size(8)
-    return {"ax": ax, "fill": fill, "hatch": hatch, "references": lines, "marks": marks, "st_limit": st_art,
-            "points": pts, "handles": handles}
+        ax.set_title(for_matplotlib(title + (f"\n{_wrap_to(ax, note, TITLE_PT)}" if note else "")), fontsize=TITLE_PT,
+                     loc="left")
+    _print_sizes(ax)
+    return {"ax": ax, "fill": fill, "hatch": hatch, "references": lines, "islands": islands, "flags": flags,
+            "marks": marks, "st_limit": st_art, "points": pts, "handles": handles}
 
 
 def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str | None = None,
-                panel_size=(3.4, 2.75), fig=None) -> dict:
+                panel_size=None, fig=None) -> dict:
     """Small multiples: one :func:`plot_panel` per entry of ``panels`` (its keyword arguments), on
     shared axes, with one legend for the whole figure below the panels.
+
+    The figure is as wide as a journal's double column (175 mm; a single column for one panel),
+    so that its fonts keep their point sizes in print; ``panel_size`` (inches) overrides that.
 
     Returns
     -------
@@ -391,7 +553,7 @@ def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str |
     ncols = ncols or min(n, 3)
     nrows = math.ceil(n / ncols)
     if fig is None:
-        fig = Figure(figsize=(panel_size[0] * ncols + 0.6, panel_size[1] * nrows + 1.3), layout="constrained")
+        fig = Figure(figsize=_panels_size(ncols, nrows, panel_size), layout="constrained")
     axes = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False)
     drawn, handles = [], {}
     for k, kw in enumerate(panels):
@@ -408,7 +570,7 @@ def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str |
             axes[r - 1][c].xaxis.set_tick_params(labelbottom=True)
             axes[r - 1][c].set_xlabel("ω/p [-]")
     if suptitle:
-        fig.suptitle(for_matplotlib(suptitle), fontsize=10.5, x=0.01, ha="left")
+        fig.suptitle(for_matplotlib(suptitle), fontsize=SUPTITLE_PT, x=0.01, ha="left")
     # one order whatever panel brought an entry in: fill, hatch, references, marks, ST limit, points
     marks = [label for label, _ in MARKS.values()]
 
@@ -418,6 +580,10 @@ def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str |
             return (0, k)
         if label == "hatch":
             return (1, k)
+        if label == ISLAND_LABEL:
+            return (2.5, k)
+        if label == FLAG_LABEL:
+            return (2.7, k)
         if label in marks:
             return (3, marks.index(label))
         if label == "st":
@@ -427,12 +593,24 @@ def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str |
         return (2, k)
 
     handles = dict(v for _, v in sorted(enumerate(handles.items()), key=rank))
-    # as many legend columns as fit the figure's width (about 3.6 inches each)
+    # as many legend columns as fit the figure's width (about 3.3 inches each at 7 pt)
     width_in = fig.get_figwidth()
     legend = fig.legend(handles=list(handles.values()), loc="outside lower center",
-                        ncols=max(1, min(3, len(handles), int(width_in / 3.6 + 0.05))), fontsize=7.5, frameon=False,
-                        handlelength=2.6, columnspacing=1.4)
+                        ncols=max(1, min(3, len(handles), int(width_in / 3.3 + 0.05))), fontsize=SMALL_PT,
+                        frameon=False, handlelength=2.6, columnspacing=1.2)
     return {"figure": fig, "axes": [ax for row in axes for ax in row][:n], "panels": drawn, "legend": legend}
+
+
+def _panels_size(ncols: int, nrows: int, panel_size=None) -> tuple[float, float]:
+    """Figure size [in] of ``ncols`` × ``nrows`` panels: a journal's double column wide (one column
+    for a single panel), panels about 0.8 as high as wide, and room for the legend below."""
+    from .style import DOUBLE_COLUMN_IN, SINGLE_COLUMN_IN
+
+    if panel_size is not None:
+        return panel_size[0] * ncols + 0.6, panel_size[1] * nrows + 1.3
+    width = SINGLE_COLUMN_IN if ncols == 1 else DOUBLE_COLUMN_IN
+    panel_w = (width - 0.5) / ncols
+    return width, (panel_w * 0.8 + 0.35) * nrows + (1.3 if ncols == 1 else 0.9)
 
 
 # -- several maps on one graph (the paper's Figs 4–9) -----------------------------------------------
@@ -480,25 +658,30 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
         maps = [maps]
     if ax is None:
         from matplotlib.figure import Figure
-        ax = Figure(figsize=(6.4, 5.6), layout="constrained").add_subplot()
+        from .style import DOUBLE_COLUMN_IN
+        ax = Figure(figsize=(DOUBLE_COLUMN_IN * 0.7, DOUBLE_COLUMN_IN * 0.66), layout="constrained").add_subplot()
     labels = list(labels) if labels is not None else [_label(m) for m in maps]
     handles, drawn = list(extra_handles), []
+    islands = False
     first = maps[0]
     _frame(ax, as_grid(first))
     if shade and (as_grid(first).codes == 2).any():
-        draw_fill(ax, first, color="#d9d9d9")
-        handles.append(Patch(color="#d9d9d9", label=for_matplotlib(f"overturn ({labels[0]})")))
+        draw_fill(ax, first, color=ENGINE_FILL)
+        handles.append(Patch(color=ENGINE_FILL, label=for_matplotlib(f"overturn, shaded map ({labels[0]})")))
     hatch = draw_domain_hatch(ax, first)
     if hatch is not None:
         handles.append(Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0,
-                             label=for_matplotlib(f"rigid model needs lift-off or sliding ({labels[0]})")))
+                             label=f"{DOMAIN_LABEL}, shaded map"))
     for k, (res, lab) in enumerate(zip(maps, labels)):
         st = {**REFERENCE_STYLES[k % len(REFERENCE_STYLES)], "color": COLORS[k % len(COLORS)]}
-        cs = draw_boundary(ax, res, label=for_matplotlib(lab), zorder=3.5 - 0.1 * k, **st)
+        cs, isl = draw_boundary(ax, res, label=for_matplotlib(lab), zorder=3.5 - 0.1 * k, **st)
         if cs is not None:
             drawn.append(cs)
         handles.append(Line2D([], [], color=st["color"], lw=st["linewidth"], ls=st["linestyle"],
                               label=for_matplotlib(lab)))
+        islands = islands or isl is not None
+    if islands:
+        handles.append(island_handle())
     if show_failed:
         nfail = 0
         for res in maps:
@@ -521,15 +704,9 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
             handles.append(Line2D([], [], color="k", ls=(0, (4, 2)), lw=0.9,
                                   label=f"ST limit (shaking table, {st_limit_mps2:g} m/s²)"))
     if title:
-        ax.set_title(for_matplotlib(title), fontsize=10, loc="left")
-    leg = None
-    if legend == "below":
-        # two columns when they fit under the axes, else one (a legend never sticks out sideways)
-        long = max((len(h.get_label()) for h in handles), default=0) > 44
-        leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.13), ncols=1 if long else 2,
-                        fontsize=7.5, frameon=False, borderaxespad=0.0)
-    elif legend == "right":
-        leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7.5, frameon=False)
+        ax.set_title(for_matplotlib(title), fontsize=SUPTITLE_PT, loc="left")
+    leg = _axes_legend(ax, handles, legend, below=-0.13)
+    _print_sizes(ax)
     return {"ax": ax, "boundaries": drawn, "st_limit_a_ratio": st, "hatch": hatch, "legend": leg}
 
 
@@ -539,15 +716,10 @@ def _label(res) -> str:
     return f"{s.block.name}, {restitution_symbol(s.restitution.label, s.block.name)} = {s.eta:.4f}"
 
 
-def save(fig, stem) -> list[Path]:
-    """Save ``fig`` as ``stem.png`` and ``stem.svg``; returns the paths."""
-    stem = Path(stem)
-    out = []
-    for ext in (".png", ".svg"):
-        p = stem.with_suffix(ext)
-        fig.savefig(p, dpi=150, bbox_inches="tight")
-        out.append(p)
-    return out
+def save(fig, stem, formats=("png", "svg")) -> list[Path]:
+    """Save ``fig`` as ``stem.<format>`` for each of ``formats`` (:mod:`.output`); returns the paths."""
+    from .output import save_formats
+    return save_formats(fig, stem, formats)
 
 
 # -- one map's picture ----------------------------------------------------------------------------
@@ -567,7 +739,8 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
     Returns
     -------
     dict
-        ``ax``, ``image`` (the outcome cells), ``boundary`` (ContourSet or None), ``hatch``, ``marks``,
+        ``ax``, ``image`` (the outcome cells), ``boundary`` (LineCollection or None), ``hatch``,
+        ``flags`` (the dotted flagged cells or None), ``marks`` (failed cells),
         ``st_limit`` and ``legend``.
     """
     from matplotlib.colors import ListedColormap
@@ -578,7 +751,8 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
 
     if ax is None:
         from matplotlib.figure import Figure
-        ax = Figure(figsize=(6.4, 5.4), layout="constrained").add_subplot()
+        from .style import DOUBLE_COLUMN_IN
+        ax = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained").add_subplot()
     g = as_grid(result)
     s = result.spec
     is_ref = s.engine == "reference"
@@ -594,15 +768,21 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
         hatch = draw_domain_hatch(ax, ref)
         if hatch is not None:
             handles.append(Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0,
-                                 label="rigid model needs lift-off or sliding"))
+                                 label=DOMAIN_LABEL))
         label = for_matplotlib(f"reference boundary ({restitution_symbol(s.restitution.label, s.block.name)})")
-        boundary = draw_boundary(ax, ref, label=label)
+        boundary, islands = draw_boundary(ax, ref, label=label)
         if boundary is not None:
             handles.append(Line2D([], [], color="k", lw=1.7, label=label))
-    marks = draw_marks(ax, result, {"invalid": g.known & g.simulated & ~g.valid & ~is_ref, "failed": g.codes == -1})
-    labels = {"invalid": "invalid: engine flagged slip, jump or energy gain", "failed": "failed"}
+        if islands is not None:
+            handles.append(island_handle())
+    flags = None if is_ref else draw_flags(ax, result, flag_area(result))
+    if flags is not None:
+        n = int(np.count_nonzero(g.known & g.simulated & ~g.valid))
+        handles.append(flag_handle())
+        handles[-1].set_label(f"engine flagged slip, jump or energy gain in {n} simulated cell(s) (dotted)")
+    marks = draw_marks(ax, result, {"failed": g.codes == -1})
     for kind, line in marks.items():
-        handles.append(Line2D([], [], ls="none", label=f"{labels[kind]} ({int(len(line.get_xdata()))})",
+        handles.append(Line2D([], [], ls="none", label=f"simulation failed ({int(len(line.get_xdata()))})",
                               **MARKS[kind][1]))
     st = draw_st_limit(ax, st_limit_a_ratio(s.block.alpha_rad))
     if st is not None:
@@ -610,24 +790,30 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
     who = variant_label(s.engine, s.engine_settings, restitution=s.restitution.label, dt_s=s.dt_s, block=s.block.name)
     frac = f"; {100 * result.fraction_simulated:.0f} % of the cells simulated" if result.adaptive else ""
     ax.set_title(for_matplotlib(f"{who}\n{s.block.name}, {s.pulse}, η = {s.eta:.4f}, {s.y.n}×{s.x.n} cells{frac}"),
-                 fontsize=9, loc="left")
-    leg = ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.12), ncols=2, fontsize=7.5,
-                    frameon=False, borderaxespad=0.0)
-    return {"ax": ax, "image": image, "boundary": boundary, "hatch": hatch, "marks": marks, "st_limit": st,
+                 fontsize=TITLE_PT, loc="left")
+    _print_sizes(ax)
+    leg = _axes_legend(ax, handles, "below", below=-0.12)
+    return {"ax": ax, "image": image, "boundary": boundary, "hatch": hatch, "marks": marks, "flags": flags,
+            "st_limit": st,
             "legend": leg}
 
 
-def plot_map_png(result, path, *, reference=None) -> Path:
-    """Draw :func:`plot_map` into ``path`` (PNG), without pyplot."""
+def plot_map_files(result, stem, *, reference=None, formats=("png",)) -> list[Path]:
+    """Draw :func:`plot_map` into ``stem.<format>`` for each of ``formats`` (``map.png``, ...), without
+    pyplot; returns the paths."""
+    from .output import save_formats
+    return save_formats(map_figure(result, reference=reference), stem, formats)
+
+
+def map_figure(result, *, reference=None):
+    """:func:`plot_map` on a figure of its own, three quarters of a journal's double column wide."""
     from matplotlib.figure import Figure
 
-    from ..atomic import write_atomic
+    from .style import DOUBLE_COLUMN_IN
 
-    fig = Figure(figsize=(6.4, 5.6), layout="constrained")
+    fig = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained")
     plot_map(result, reference=reference, ax=fig.add_subplot())
-    path = Path(path)
-    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=120))
-    return path
+    return fig
 
 
 def reference_for(result):

@@ -13,11 +13,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from .style import CYCLE, DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, SUPTITLE_PT
+
 #: Reference curve styles, in order (black solid first).
 REFERENCE_STYLES = [{"color": "#000000", "ls": "solid"}, {"color": "#555555", "ls": (0, (5, 2))},
                     {"color": "#8c8c8c", "ls": (0, (6, 2, 1.5, 2))}, {"color": "#8c8c8c", "ls": (0, (1.5, 1.5))}]
-#: Engine curve colours, in order (no black or grey: those are the reference's).
-ENGINE_COLOURS = ["#e66101", "#1f78b4", "#33a02c", "#b2182b", "#6a3d9a", "#b15928", "#01665e", "#e7298a"]
+#: Engine curve colours, in order: the one palette's cycle (no black or grey: those are the reference's).
+ENGINE_COLOURS = CYCLE
+#: The overturning threshold |θ| = α and the table's acceleration.
+THRESHOLD_COLOUR = "#444444"
+PULSE_COLOUR = OKABE_ITO["black"]
 
 
 def _runs(histories):
@@ -69,7 +74,7 @@ def plot_theta(histories, *, alpha_rad=None, pulse=None, t_end_s=None, t_pulse_e
     runs = _runs(histories)
     if ax is None:
         from matplotlib.figure import Figure
-        fig = Figure(figsize=(7.6, 5.2 if pulse is not None else 4.2), layout="constrained")
+        fig = Figure(figsize=(DOUBLE_COLUMN_IN, 4.7 if pulse is not None else 3.8), layout="constrained")
         if pulse is not None:
             ax, ax_pulse = fig.subplots(2, 1, sharex=True, height_ratios=[3.2, 1])
         else:
@@ -122,7 +127,7 @@ def plot_theta(histories, *, alpha_rad=None, pulse=None, t_end_s=None, t_pulse_e
         threshold = lim >= 1.0   # the threshold lies on the chart: show it (named in the legend)
         if threshold:
             for s in (-1.0, 1.0):
-                ax.axhline(s, color="#b2182b", lw=0.7, ls=(0, (2, 2)), zorder=1)
+                ax.axhline(s, color=THRESHOLD_COLOUR, lw=0.7, ls=(0, (2, 2)), zorder=1)
         ax.set_ylabel("θ/α [-]")
     else:
         ax.set_ylabel("θ [rad]")
@@ -140,20 +145,22 @@ def plot_theta(histories, *, alpha_rad=None, pulse=None, t_end_s=None, t_pulse_e
         if alpha_rad:
             from ...reference_solver.model import G
             acc = acc / (G * np.tan(alpha_rad))
-            ax_pulse.set_ylabel("ü/(g·tanα)", fontsize=8)
+            ax_pulse.set_ylabel("ü/(g·tanα) [-]", fontsize=LABEL_PT)
         else:
-            ax_pulse.set_ylabel("ü [m/s²]", fontsize=8)
-        (pulse_line,) = ax_pulse.plot(tt, acc, color="#1f5fa8", lw=1.1)
+            ax_pulse.set_ylabel("ü [m/s²]", fontsize=LABEL_PT)
+        (pulse_line,) = ax_pulse.plot(tt, acc, color=PULSE_COLOUR, lw=1.1)
         ax_pulse.axhline(0.0, color="0.75", lw=0.6)
         m = float(np.max(np.abs(acc))) or 1.0
         ax_pulse.set_ylim(-1.15 * m, 1.15 * m)
-        ax_pulse.set_xlabel("t [s]")
-        ax_pulse.tick_params(labelsize=7.5)
+        ax_pulse.set_xlabel("t [s]", fontsize=LABEL_PT)
+        ax_pulse.tick_params(labelsize=SMALL_PT)
         ax.tick_params(labelbottom=False)
     else:
-        ax.set_xlabel("t [s]")
+        ax.set_xlabel("t [s]", fontsize=LABEL_PT)
+    ax.tick_params(labelsize=SMALL_PT)
+    ax.yaxis.label.set_size(LABEL_PT)
     if title:
-        (fig.suptitle if ax_pulse is not None else ax.set_title)(for_matplotlib(title), fontsize=10)
+        (fig.suptitle if ax_pulse is not None else ax.set_title)(for_matplotlib(title), fontsize=SUPTITLE_PT)
     leg = None
     if legend == "below" and lines:
         from matplotlib.lines import Line2D
@@ -161,7 +168,8 @@ def plot_theta(histories, *, alpha_rad=None, pulse=None, t_end_s=None, t_pulse_e
         if impacts:
             handles.append(Line2D([], [], ls="none", marker="o", ms=3.6, mfc="white", mec="k", label="impact"))
         if threshold:
-            handles.append(Line2D([], [], color="#b2182b", lw=0.7, ls=(0, (2, 2)), label="overturning threshold |θ| = α"))
+            handles.append(Line2D([], [], color=THRESHOLD_COLOUR, lw=0.7, ls=(0, (2, 2)),
+                                  label="overturning threshold |θ| = α"))
         if tpe is not None and tpe <= t_end:
             handles.append(Line2D([], [], color="0.45", lw=0.8, ls=":", label="end of the pulse"))
         drawn_ends = [r.get("outcome") for r in runs if r["label"] in ends]
@@ -169,7 +177,7 @@ def plot_theta(histories, *, alpha_rad=None, pulse=None, t_end_s=None, t_pulse_e
             handles.append(Line2D([], [], ls="none", marker="X", ms=6, color="k", label="|θ| passes α: overturns"))
         if "rocking" in drawn_ends or "rest" in drawn_ends:
             handles.append(Line2D([], [], ls="none", marker="o", ms=4.5, color="k", label="run ends: decided, no overturn"))
-        leg = fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=7.5, frameon=False)
+        leg = fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=SMALL_PT, frameon=False)
     return {"figure": fig, "ax": ax, "ax_pulse": ax_pulse, "lines": lines, "impacts": impacts, "ends": ends,
             "pulse": pulse_line, "ylim": (-lim, lim), "legend": leg}
 
