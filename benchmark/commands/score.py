@@ -17,7 +17,7 @@ def register(sub) -> None:
 
     defs = "\n".join(textwrap.fill(f"{m.name} ({m.role}; {m.direction} is better, perfect {m.perfect:g}): "
                                    f"{m.question} {m.definition}",
-                                   width=96, initial_indent="  ", subsequent_indent="    ")
+                                   width=96, initial_indent="  ", subsequent_indent="    ", break_on_hyphens=False)
                       for m in METRICS.values())
     p = sub.add_parser("score", help="score engine maps against reference maps; gate with --fail-under",
                        formatter_class=argparse.RawDescriptionHelpFormatter,

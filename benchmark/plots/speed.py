@@ -115,7 +115,8 @@ def _ylabel(metric: str) -> str:
 
 
 def _spread_labels(ax, texts: dict, gap_pt: float = 9.0) -> None:
-    """Push the point labels apart vertically where two would overlap (in points, on the page)."""
+    """Push the point labels apart vertically where two would overlap, or where a label would run over
+    another variant's point (in points, on the page)."""
     if len(texts) < 2:
         return
     fig = ax.figure
@@ -125,13 +126,16 @@ def _spread_labels(ax, texts: dict, gap_pt: float = 9.0) -> None:
         x, y = ax.transData.transform(t.xy)
         items.append([y * to_pt, x * to_pt, t])
     items.sort(key=lambda it: it[0])
+    marks = [(y, x) for y, x, _ in items]
     placed = []
     for y, x, t in items:
-        want, moved = y, True
-        while moved:   # up past every label it would overlap (labels run right of their points)
-            moved = False
-            for py, px, _ in placed:
-                if abs(px - x) < 150 and abs(want - py) < gap_pt:
-                    want, moved = py + gap_pt, True
+        # up past every label it would overlap (labels run right of their points) and every point its
+        # label would run over; each obstacle is passed once, so the loop ends
+        obstacles = sorted([py for py, px, _ in placed if abs(px - x) < 150]
+                           + [my for my, mx in marks if 0 < mx - x < 150])
+        want = y
+        for oy in obstacles:
+            if abs(want - oy) < gap_pt:
+                want = max(want, oy + gap_pt)
         placed.append((want, x, t))
         t.set_position((6, want - y))
