@@ -57,9 +57,10 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-from ..reference_solver.errors import ConfigError, EngineUnavailableError
+from ..reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
 from ..reference_solver.pulses import is_number
 from ..reference_solver.restitution import Restitution
+from .engine_health import EngineHealth
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
 from .results import CALIBRATION_FILE, variant_name
@@ -911,13 +912,23 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         from .maps import run_map
         job, spec = todo[k], specs[k]
         d = out / job.subdir
+        if job.engine != "reference" and health.skip(job.engine):
+            return   # the engine cannot simulate (its first map said so): its other maps are skipped
         t1 = time.perf_counter()
         # reference maps are computed in full: they cost milliseconds, and scoring needs the
         # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked
-        res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference",
-                      adaptive=suite.adaptive and job.engine != "reference",
-                      coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False,
-                      log=log, executor=ex)
+        try:
+            res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference",
+                          adaptive=suite.adaptive and job.engine != "reference",
+                          coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False,
+                          log=log, executor=ex)
+        except (EngineError, EngineUnavailableError) as e:
+            if job.engine == "reference":
+                raise
+            health.record_start_error(job.engine, e)   # its workers could not start it: the others go on
+            return
+        if job.engine != "reference":
+            health.record_map(job.engine, res.failures, res.n_simulated)
         records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                       "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
 
@@ -926,6 +937,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     # Its maps are computed by one thread (one caller of the parallel kernel at a time) beside the
     # calibrations and then the engine maps, which need none of them: on a fresh install the
     # kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
+    health = EngineHealth()
     refs = _ReferenceThread(announce, one_map)
     refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
     try:
@@ -956,7 +968,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     done = [records[k] for k in sorted(records)]
     maps_wall = time.perf_counter() - t0
     result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(notes),
-              "score": None, "report": None, "summary": ""}
+              "score": None, "report": None, "summary": "", "cannot_simulate": health.broken_lines(),
+              "failed_cells": health.failure_lines()}
     if experiments is None and suite.experiments:
         from .experiments import load_outcomes
         experiments = load_outcomes(suite.experiments)

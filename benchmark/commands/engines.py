@@ -1,4 +1,5 @@
-"""``rockbench engines``: every known engine, whether it is available, its version, and why not."""
+"""``rockbench engines``: every known engine, whether it is available, its version, and why not (an
+installed version outside the supported range is said there too)."""
 
 from __future__ import annotations
 
@@ -19,8 +20,13 @@ def run(args) -> int:
         print(json.dumps(rows, indent=2))
         return 0
     w = max([len(r["engine"]) for r in rows] + [6])
-    print(f"{'engine':{w}}  {'available':9}  {'version':12}  why not")
+    v = max([len(str(r["version"] or "-")) for r in rows] + [7])
+    s = max([len(r.get("supported") or "-") for r in rows] + [9])
+    print(f"{'engine':{w}}  {'available':9}  {'version':{v}}  {'supported':{s}}  why not")
     for r in rows:
         why = r["reason"] or ""
-        print(f"{r['engine']:{w}}  {'yes' if r['available'] else 'no':9}  {str(r['version'] or '-'):12}  {why}")
+        if r.get("outside_range"):
+            why = f"{r['outside_range']}: its maps may fail or differ" + (f"; {why}" if why else "")
+        print(f"{r['engine']:{w}}  {'yes' if r['available'] else 'no':9}  {str(r['version'] or '-'):{v}}  "
+              f"{r.get('supported') or '-':{s}}  {why}".rstrip())
     return 0
