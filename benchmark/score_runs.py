@@ -33,6 +33,7 @@ from typing import Iterable
 
 from ..reference_solver.errors import ConfigError, IncomparableError
 from ..reference_solver.pulses import is_number
+from .engine_versions import version_of
 from .metrics import FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, cell_counts, check_gate, domain, score
 from .results import (MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta, read_json,
                       utc_stamp)
@@ -105,6 +106,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
                  "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
                  "filled_cells": c.label_map.filled, **cell_counts(c.label_map, r.label_map),
                  "cells": grid_cells(c.label_map, r.label_map), "scores": s}
+            p["engine_version"] = version_of(c)    # from the map's run.json (engine_versions.py)
             p["key"] = pair_key(p)
             pairs.append(p)
     if not pairs:

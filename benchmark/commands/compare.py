@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from ..engine_versions import differences, differences_line
 from ..metrics import METRICS
 from ..score_runs import DEFAULT_TOLERANCE_CELLS
 
@@ -33,9 +34,13 @@ def run(args) -> int:
     from ..tables import compare_table
 
     tol = parse_tolerances(args.tolerance)
-    res = compare_scores(load_score(args.baseline), load_score(args.current), tol)
+    base, cur = load_score(args.baseline), load_score(args.current)
+    res = compare_scores(base, cur, tol)
+    res["engine_versions"] = differences(base, cur)      # engines compared at other versions (engine_versions.py)
     if args.json:
         print(json.dumps(json_safe(res), indent=2))
     else:
+        if res["engine_versions"]:
+            print(differences_line(base, cur))
         print(compare_table(res, markdown=args.markdown))
     return 1 if res["status"] != "ok" else 0
