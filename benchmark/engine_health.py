@@ -58,6 +58,13 @@ def cannot_simulate_line(engine: str, error: str, where: str) -> str:
     return f"engine {engine!r}{version} cannot simulate: {where} failed with {_short(error)}{supported}{todo}."
 
 
+def refuse_outside_range(engine: str, error: BaseException, where: str) -> None:
+    """Raise :class:`EngineCannotSimulate` (exit 3, one line) for an error an engine raised when its
+    installed version is outside the supported range; return (the caller re-raises) otherwise."""
+    if outside_range(engine):
+        raise EngineCannotSimulate(cannot_simulate_line(engine, f"{type(error).__name__}: {error}", where)) from None
+
+
 class EngineHealth:
     """Which engines of a run cannot simulate, and every engine's failed cells (thread-safe: the
     run's lanes report to it from their threads)."""

@@ -199,6 +199,9 @@ class BrokenAdapter(AnalyticAdapter):
     def _misbehave(self, w):
         raise TypeError("ObjectRigidBody2D.__init__() got an unexpected keyword argument 'mass'")
 
+    def measure_restitution(self, block, *, theta0_frac=0.5, dt_s=None):
+        self._misbehave(0.0)
+
 
 class UnstartableAdapter(AnalyticAdapter):
     """Cannot be set up in a worker process (its start-up fails there); in the process named by

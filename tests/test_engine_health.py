@@ -136,3 +136,13 @@ def test_the_ranges_come_from_the_installed_metadata():
     mujoco = next(r for r in reqs if r.startswith("mujoco>=") and 'extra == "mujoco"' in r)
     assert support.supported_range("mujoco") == mujoco.split(";")[0].strip()
     assert support.supported_range("reference") == ""
+
+
+def test_calibrate_refuses_an_engine_outside_its_range_with_exit_3(fake_engines, old_version, capsys):
+    assert main(["calibrate", "--engine", "broken", "--block", "B3M"]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "calibrating it failed with TypeError" in err and "fakedist>=3.3" in err
+
+
+def test_calibrate_error_inside_the_range_stays_a_bug(fake_engines, capsys):
+    assert main(["calibrate", "--engine", "broken", "--block", "B3M"]) == 70
