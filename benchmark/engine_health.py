@@ -14,7 +14,7 @@ import collections
 import threading
 
 from ..engines.support import install_advice, installed_label, outside_range, supported_range
-from ..reference_solver.errors import EngineUnavailableError
+from ..reference_solver.errors import EngineError, EngineUnavailableError
 
 #: longest error text quoted in a line [characters]
 MAX_REASON = 160
@@ -75,6 +75,22 @@ class EngineHealth:
         self.skipped: collections.Counter = collections.Counter()
         self.cells: collections.Counter = collections.Counter()
         self.failed: dict[str, collections.Counter] = collections.defaultdict(collections.Counter)
+
+    def guard(self, engine: str, run_map):
+        """``run_map()`` for one map of ``engine``, watched: None (nothing run) when the engine cannot
+        simulate, or when its workers could not start it (recorded; the run goes on); otherwise the
+        map's result, its failures recorded. The reference is run as it is."""
+        if engine == "reference":
+            return run_map()
+        if self.skip(engine):
+            return None
+        try:
+            res = run_map()
+        except (EngineError, EngineUnavailableError) as e:
+            self.record_start_error(engine, e)
+            return None
+        self.record_map(engine, res.failures, res.n_simulated)
+        return res
 
     def skip(self, engine: str) -> bool:
         """True (and counted) when ``engine``'s map should not run: the engine cannot simulate."""

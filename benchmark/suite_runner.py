@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-from ..reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
+from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.pulses import is_number
 from ..reference_solver.restitution import Restitution
 from .engine_health import EngineHealth
@@ -912,23 +912,15 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         from .maps import run_map
         job, spec = todo[k], specs[k]
         d = out / job.subdir
-        if job.engine != "reference" and health.skip(job.engine):
-            return   # the engine cannot simulate (its first map said so): its other maps are skipped
         t1 = time.perf_counter()
         # reference maps are computed in full: they cost milliseconds, and scoring needs the
-        # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked
-        try:
-            res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference",
-                          adaptive=suite.adaptive and job.engine != "reference",
-                          coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False,
-                          log=log, executor=ex)
-        except (EngineError, EngineUnavailableError) as e:
-            if job.engine == "reference":
-                raise
-            health.record_start_error(job.engine, e)   # its workers could not start it: the others go on
+        # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked;
+        # an engine that cannot simulate is stopped after its first map (EngineHealth.guard)
+        res = health.guard(job.engine, lambda: run_map(
+            spec, d, jobs=jobs, serial=job.engine == "reference", adaptive=suite.adaptive and job.engine != "reference",
+            coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False, log=log, executor=ex))
+        if res is None:
             return
-        if job.engine != "reference":
-            health.record_map(job.engine, res.failures, res.n_simulated)
         records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                       "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
 
