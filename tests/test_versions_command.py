@@ -24,6 +24,7 @@ from rockbench.reference_solver.errors import EngineUnavailableError
     (["mujoco==x.y", "mujoco==4.0.0"], "not a version"),
     (["mujoco==3.3.7"], "two ENGINE==VERSION"),
     (["mujoco==3.3.7", "mujoco==4.0.0", "quick", "--quick"], "not both"),
+    (["mujoco==3.3.7", "mujoco==4.0.0", "--source", "/no/such/dir"], "not a rockbench source tree"),
 ])
 def test_bad_input_exits_2_with_one_line(argv, needle, capsys, tmp_path, monkeypatch):
     monkeypatch.setenv("ROCKBENCH_CACHE", str(tmp_path))
