@@ -40,6 +40,8 @@ COMMANDS = {
     "report": "write the benchmark report (index.html, report.md) for run directories",
     "run": "the whole benchmark: every engine, block and pulse, reference maps, scores, report (a suite file; "
            "default: the shipped suite 'default', see --show-suite)",
+    "versions": "one engine release against another: a cached environment per version, the same suite in each, "
+                "compare's verdict",
 }
 
 

@@ -61,6 +61,12 @@ from . import worker as wire
 CONNECT_TIMEOUT_S = 5.0
 #: Seconds a map on a Dask cluster waits with no worker in the cluster before it stops.
 NO_WORKER_TIMEOUT_S = 60.0
+#: How a worker process is started: this interpreter with -P (Python 3.11+), which keeps the working
+#: folder off sys.path. Without it `python -m` puts that folder first, and run from the repository's
+#: root the top-level rockbench/ folder (the package's glue alone, its subpackages mapped from other
+#: folders) shadows a regular install: "No module named 'rockbench.benchmark'".
+WORKER_COMMAND = [sys.executable, "-P", "-m", "rockbench.benchmark.worker"]
+
 #: Name of the folder a LocalCluster keeps its scratch space in (removed when it closes).
 DASK_SCRATCH = ".dask-scratch"
 
@@ -260,7 +266,9 @@ class _Chunk:
 
 class _Worker:
     def __init__(self, init: dict, env: dict, log, q: queue.Queue):
-        self.proc = subprocess.Popen([sys.executable, "-m", "rockbench.benchmark.worker"], stdin=subprocess.PIPE,
+        # WORKER_COMMAND's -P: run from the repository's root, the top-level rockbench/ folder
+        # would otherwise shadow a regular install in the worker
+        self.proc = subprocess.Popen(WORKER_COMMAND, stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=log if log is not None else subprocess.DEVNULL,
                                      env=env)
         self.ready = False

@@ -40,6 +40,7 @@ from typing import Iterable
 
 from ..reference_solver.errors import ConfigError, IncomparableError
 from ..reference_solver.pulses import is_number
+from .engine_versions import version_of
 from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, boundary_edges, cell_counts, check_gate,
                       judged_cells, score)
 from .results import (MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta, read_json,
@@ -153,6 +154,7 @@ def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> d
     # the map's own count (run.json against cells.csv) can see rows the grid's fill hides
     p["cells_missing"] = max(p["cells_missing"], int(c.label_map.meta.get("missing_cells", 0)))
     p["complete"] = p["cells_missing"] == 0
+    p["engine_version"] = version_of(c)    # from the map's run.json (engine_versions.py)
     p["key"] = pair_key(p)
     return p
 

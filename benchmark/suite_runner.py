@@ -60,6 +60,7 @@ from pathlib import Path
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
 from ..reference_solver.pulses import is_number
 from ..reference_solver.restitution import Restitution
+from .engine_health import EngineHealth
 from .maps import MapSpec, parse_range
 from .presets import PRESETS, get_preset
 from .progress import SuiteConsole, say_device_notes
@@ -928,11 +929,14 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         d = out / job.subdir
         t1 = time.perf_counter()
         # reference maps are computed in full: they cost milliseconds, and scoring needs the
-        # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked
-        res = run_map(spec, d, jobs=jobs, serial=job.engine == "reference",
-                      adaptive=suite.adaptive and job.engine != "reference",
-                      coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False,
-                      log=log, executor=ex)
+        # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked;
+        # an engine that cannot simulate is stopped after its first map (EngineHealth.guard)
+        res = health.guard(job.engine, lambda: run_map(
+            spec, d, jobs=jobs, serial=job.engine == "reference", adaptive=suite.adaptive and job.engine != "reference",
+            coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False, log=log, executor=ex))
+        if res is None:   # the engine cannot simulate: its map is skipped, and counted off
+            console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
+            return
         records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                       "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
         console.finished(spec.label(), d, records[k]["wall_s"])
@@ -942,6 +946,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     # Its maps are computed by one thread (one caller of the parallel kernel at a time) beside the
     # calibrations and then the engine maps, which need none of them: on a fresh install the
     # kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
+    health = EngineHealth()
     refs = _ReferenceThread(_started, one_map)
     refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
     try:
@@ -974,7 +979,8 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     done = [records[k] for k in sorted(records)]
     maps_wall = time.perf_counter() - t0
     result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(dict.fromkeys(notes)),
-              "score": None, "report": None, "summary": ""}
+              "score": None, "report": None, "summary": "", "cannot_simulate": health.broken_lines(),
+              "failed_cells": health.failure_lines()}
     if experiments is None and suite.experiments:
         from .experiments import load_outcomes
         experiments = load_outcomes(suite.experiments)

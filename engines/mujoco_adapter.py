@@ -181,8 +181,8 @@ class MujocoAdapter(ContactEngineAdapter):
 
     name = "mujoco"
     module = "mujoco"
-    install_hint = ("install it with `pip install 'rockbench[mujoco]'` (or `pip install mujoco`: 3.2 or newer; "
-                    "4.0 tested).")
+    install_hint = ("install it with `pip install 'rockbench[mujoco]'` (or `pip install mujoco`: a version "
+                    "`rockbench engines` lists as supported; 4.0 tested).")
     default_dt_s = 5e-4
     #: cells run through native multi-threaded rollouts (``_simulate_many``)
     batching = "native"

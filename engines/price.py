@@ -27,6 +27,7 @@ import math
 import time
 
 import numpy as np
+from scipy.integrate import trapezoid
 
 from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import RecordPulse, make_pulse
@@ -59,7 +60,7 @@ def rigid_first_quarter_s(block: Block, theta0_frac: float = 0.5) -> float:
     f = np.empty_like(s)
     f[1:] = 2.0 * th0 * s[1:] / v[1:]
     f[0] = 2.0 * th0 / (p * math.sqrt(2.0 * th0 * math.sin(a - th0)))
-    return float(np.trapezoid(f, s))
+    return float(trapezoid(f, s))   # SciPy's: np.trapezoid is NumPy 2 only, and NumPy 1.26 is supported
 
 
 def ramp_pulse(block: Block) -> RecordPulse:

@@ -100,11 +100,16 @@ def get_adapter(name: str, **settings):
 
 
 def availability(name: str) -> dict:
-    """``{"engine", "available", "version", "reason", "install_hint"}`` for one engine."""
+    """``{"engine", "available", "version", "reason", "install_hint", "supported", "outside_range"}``
+    for one engine: ``supported`` is the range rockbench declares ("" if none, :mod:`.support`),
+    ``outside_range`` a phrase when the installed version is outside it (else None)."""
+    from .support import outside_range, supported_range
+
+    rng = {"supported": supported_range(name), "outside_range": outside_range(name)}
     try:
         cls = adapter_class(name)
         v = cls.version()
         return {"engine": name, "available": True, "version": v, "reason": "",
-                "install_hint": getattr(cls, "install_hint", "")}
+                "install_hint": getattr(cls, "install_hint", ""), **rng}
     except Exception as e:  # noqa: BLE001 - reported, not raised
-        return {"engine": name, "available": False, "version": None, "reason": str(e), "install_hint": ""}
+        return {"engine": name, "available": False, "version": None, "reason": str(e), "install_hint": "", **rng}

@@ -190,9 +190,34 @@ class EtaAnalyticAdapter(AnalyticAdapter):
                                       dict(self.settings), "analytic")
 
 
+class BrokenAdapter(AnalyticAdapter):
+    """An engine version that cannot simulate: every cell fails with one and the same error (what
+    Exudyn 1.9.0 does with rockbench's adapter)."""
+
+    name = "broken"
+
+    def _misbehave(self, w):
+        raise TypeError("ObjectRigidBody2D.__init__() got an unexpected keyword argument 'mass'")
+
+    def measure_restitution(self, block, *, theta0_frac=0.5, dt_s=None):
+        self._misbehave(0.0)
+
+
+class UnstartableAdapter(AnalyticAdapter):
+    """Cannot be set up in a worker process (its start-up fails there); in the process named by
+    ``RB_TEST_PARENT_PID`` it builds, as run.json needs."""
+
+    name = "unstartable"
+
+    def __init__(self, **settings):
+        if str(os.getpid()) != os.environ.get("RB_TEST_PARENT_PID"):
+            raise RuntimeError("the engine's library could not load its solver")
+        super().__init__(**settings)
+
+
 ALL = {c.name: c for c in (AnalyticAdapter, BatchAnalyticAdapter, RaisingAdapter, CrashingAdapter,
                            HangingAdapter, HangingStartAdapter, DivergingAdapter, CrashingBatchAdapter,
-                           WrongAdapter, EtaAnalyticAdapter)}
+                           WrongAdapter, EtaAnalyticAdapter, BrokenAdapter, UnstartableAdapter)}
 
 
 def register_all():

@@ -34,8 +34,23 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from ...reference_solver.errors import RockbenchError
+    from ..engine_health import refuse_outside_range
+
     block, preset = block_from_args(args)
     adapter = get_adapter(args.engine, **engine_settings_from_args(args))
+    try:
+        out = _calibrate(args, adapter, block, preset)
+    except RockbenchError:
+        raise
+    except Exception as e:  # noqa: BLE001 - an engine version outside the supported range: exit 3, one line
+        refuse_outside_range(args.engine, e, "calibrating it")
+        raise
+    return _print(args, out)
+
+
+def _calibrate(args, adapter, block, preset) -> dict:
+    """What ``calibrate`` prints: the measured η, or the search for a target (and its price)."""
     dt = dt_from_args(args)
     if args.target is None:
         try:
@@ -58,6 +73,10 @@ def run(args) -> int:
                                   "leave --price out.")
             c.price = adapter.contact_price(block, c, dt)
         out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict()}
+    return out
+
+
+def _print(args, out: dict) -> int:
     if args.json:
         print(json.dumps(out, indent=2, default=float))
         return 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from ..engine_versions import differences, differences_line
 from ..metrics import METRICS
 from ..score_runs import DEFAULT_TOLERANCE_CELLS
 
@@ -37,9 +38,13 @@ def run(args) -> int:
 
     tol = parse_tolerances(args.tolerance)
     allow = args.allow_incomplete
-    res = compare_scores(load_score(args.baseline, allow), load_score(args.current, allow), tol)
+    base, cur = load_score(args.baseline, allow), load_score(args.current, allow)
+    res = compare_scores(base, cur, tol)
+    res["engine_versions"] = differences(base, cur)      # engines compared at other versions (engine_versions.py)
     if args.json:
         print(json.dumps(json_safe(res), indent=2))
     else:
+        if res["engine_versions"]:
+            print(differences_line(base, cur))
         print(compare_table(res, markdown=args.markdown))
     return 1 if res["status"] != "ok" else 0

@@ -1,5 +1,6 @@
-"""``rockbench engines``: every known engine, whether it is available, its version, and why not; a
-GPU-first engine without a GPU here says "CPU only (slow)" (``note``, also in ``--json``)."""
+"""``rockbench engines``: every known engine, whether it is available, its version, the versions rockbench
+supports, and why not (an installed version outside the supported range is said there too); a GPU-first
+engine without a GPU here says "CPU only (slow)" (``note``, also in ``--json``)."""
 
 from __future__ import annotations
 
@@ -22,10 +23,14 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(rows, indent=2))
         return 0
-    table = [("engine", "available", "version", "note")]
-    table += [(r["engine"], "yes" if r["available"] else "no", str(r["version"] or "-"),
-               r["note"] if r["available"] else f"not available: {r['reason']}") for r in rows]
-    widths = [max(len(t[c]) for t in table) for c in range(3)]
+    table = [("engine", "available", "version", "supported", "note")]
+    for r in rows:
+        note = r["note"] if r["available"] else f"not available: {r['reason']}"
+        if r.get("outside_range"):
+            note = f"{r['outside_range']}: its maps may fail or differ" + (f"; {note}" if note else "")
+        table.append((r["engine"], "yes" if r["available"] else "no", str(r["version"] or "-"),
+                      r.get("supported") or "-", note or ""))
+    widths = [max(len(t[c]) for t in table) for c in range(4)]
     for t in table:
-        print(("  ".join(f"{v:{w}}" for v, w in zip(t[:3], widths)) + "  " + t[3]).rstrip())
+        print(("  ".join(f"{v:{w}}" for v, w in zip(t[:4], widths)) + "  " + t[4]).rstrip())
     return 0

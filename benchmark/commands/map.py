@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from ...reference_solver.errors import ConfigError
+from ...reference_solver.errors import ConfigError, EngineError
 from ..atomic import check_output_dir
 from ..cli_options import (add_block_options, add_figure_format_option, add_model_options, block_from_args,
                            dt_from_args, engine_settings_from_args, figure_formats_from_args, jobs_from_args,
@@ -90,17 +90,22 @@ def run(args) -> int:
     formats = figure_formats_from_args(args)
     check_output_dir(args.out, "--out")
     quiet = args.json or not sys.stderr.isatty()
-    result = run_map(spec, args.out, jobs=jobs_from_args(args), scheduler=args.scheduler, serial=args.serial,
-                     adaptive=args.adaptive, coarse_stride=args.coarse_stride, cell_timeout_s=timeout,
-                     progress=not quiet, plot=not args.no_plot, figure_formats=formats,
-                     log=None if args.json else (lambda s: print(s, file=sys.stderr)))
+    try:
+        result = run_map(spec, args.out, jobs=jobs_from_args(args), scheduler=args.scheduler, serial=args.serial,
+                         adaptive=args.adaptive, coarse_stride=args.coarse_stride, cell_timeout_s=timeout,
+                         progress=not quiet, plot=not args.no_plot, figure_formats=formats,
+                         log=None if args.json else (lambda s: print(s, file=sys.stderr)))
+    except EngineError as e:   # its workers could not start the engine: exit 3, the line says why
+        from ..engine_health import EngineCannotSimulate, cannot_simulate_line
+        raise EngineCannotSimulate(cannot_simulate_line(spec.engine, str(e), "starting it")) from None
     summary = {**result.summary(), "out": str(args.out)}
+    broken = _cannot_simulate(spec, result)
     if args.full_grid:
         from ..export import write_full_grid
         summary["full_grid"] = str(write_full_grid(args.out))
     if args.json:
         print(json.dumps(summary, indent=2))
-        return 0
+        return _exit(broken)
     c = summary["counts"]
     print(f"{spec.label()}: {summary['shape'][0]}×{summary['shape'][1]} cells, "
           f"{summary['n_simulated']} simulated ({100 * summary['fraction_simulated']:.1f} %), "
@@ -108,4 +113,22 @@ def run(args) -> int:
           + (f", missing {c['missing']}" if c["missing"] else "") + f"; {summary['wall_s']:.1f} s → {args.out}")
     if "full_grid" in summary:
         print(f"every cell of the grid: {summary['full_grid']}")
+    return _exit(broken)
+
+
+def _cannot_simulate(spec, result) -> str | None:
+    """The line for an engine whose every simulated cell of this map failed with one error, else None."""
+    from ..engine_health import cannot_simulate_line, common_error
+
+    err = common_error(result.failures, result.n_simulated) if spec.engine != "reference" else None
+    if err is None:
+        return None
+    return cannot_simulate_line(spec.engine, err, f"every one of the {result.n_simulated} simulated cells of the map")
+
+
+def _exit(broken: str | None) -> int:
+    """0, or (the map is written and summarised) the engine-cannot-simulate error, exit code 3."""
+    if broken:
+        from ..engine_health import EngineCannotSimulate
+        raise EngineCannotSimulate(broken)
     return 0

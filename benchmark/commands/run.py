@@ -1,4 +1,9 @@
-"""``rockbench run``: the whole benchmark (a suite): maps (resumed), scores, report, summary table."""
+"""``rockbench run``: the whole benchmark (a suite): maps (resumed), scores, report, summary table.
+
+Exit code 3 when an engine cannot simulate (:mod:`rockbench.benchmark.engine_health`): its other maps
+are skipped, the other engines' maps and the report still come out, and one line per such engine
+ends the output.
+"""
 
 from __future__ import annotations
 
@@ -74,6 +79,10 @@ def run(args) -> int:
     print(f"rockbench: {len(res['maps'])} maps in {res['maps_wall_s']:.0f} s, total {res['wall_s']:.0f} s; "
           f"results in {out}", file=sys.stderr)
     print(res["summary"] or "no scores (no engine map could be paired with a reference map)")
+    for line in res["failed_cells"]:
+        print(f"failed cells: {line}")
     if res.get("report"):
         print(f"report: {res['report']['html']}")
-    return 0
+    for line in res["cannot_simulate"]:
+        print(f"rockbench: error: {line}", file=sys.stderr)
+    return 3 if res["cannot_simulate"] else 0

@@ -1,0 +1,109 @@
+"""The engine versions rockbench supports, and whether the installed ones are among them.
+
+The ranges live in one place: ``pyproject.toml``'s optional dependencies (``[mujoco]``, ``[pybullet]``,
+``[exudyn]``, ``[warp]``, ``[drake]``), whose lower bounds are the lowest versions the engine tests
+pass with (``.ci/floors`` keeps them true). Here they are read back from the installed rockbench's
+metadata (``importlib.metadata.requires``), so `rockbench engines`, `check-adapter` and the
+"engine cannot simulate" line of `run` and `map` name the range the install was made with. Run
+from a source tree without an install, no range is known and nothing is said.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, requires, version
+
+#: the Python distributions each built-in engine is, in the order they are named
+DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
+    "mujoco": ("mujoco",),
+    "pybullet": ("pybullet",),
+    "exudyn": ("exudyn",),
+    "mujoco_warp": ("mujoco-warp", "warp-lang"),
+    "drake": ("drake",),
+}
+
+#: the extra of pyproject.toml that installs each engine
+EXTRAS = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "mujoco_warp": "warp", "drake": "drake"}
+
+
+def _canonical(name: str) -> str:
+    return name.lower().replace("_", "-").replace(".", "-")
+
+
+def _declared(extra: str) -> dict[str, str]:
+    """``{distribution: specifier}`` that rockbench's extra ``extra`` declares ({} without an install)."""
+    from packaging.requirements import InvalidRequirement, Requirement
+
+    try:
+        reqs = requires("rockbench") or []
+    except PackageNotFoundError:
+        return {}
+    out = {}
+    for text in reqs:
+        try:
+            req = Requirement(text)
+        except InvalidRequirement:
+            continue
+        if req.marker is not None and req.marker.evaluate({"extra": extra}) and str(req.specifier) \
+                and not req.marker.evaluate({"extra": ""}):
+            out[_canonical(req.name)] = str(req.specifier)
+    return out
+
+
+def supported_range(engine: str) -> str:
+    """The supported versions of ``engine``'s distributions, e.g. ``"mujoco>=3.3"`` (several joined by
+    " and "); "" for an engine rockbench declares no range for (the reference, a third-party engine)."""
+    extra = EXTRAS.get(engine)
+    if extra is None:
+        return ""
+    declared = _declared(extra)
+    parts = [f"{d}{declared[_canonical(d)]}" for d in DISTRIBUTIONS[engine] if _canonical(d) in declared]
+    return " and ".join(parts)
+
+
+def installed_versions(engine: str) -> dict[str, str]:
+    """``{distribution: installed version}`` of ``engine``'s distributions that are installed."""
+    out = {}
+    for d in DISTRIBUTIONS.get(engine, ()):
+        try:
+            out[d] = version(d)
+        except PackageNotFoundError:
+            pass
+    return out
+
+
+def installed_label(engine: str) -> str:
+    """The installed versions as one phrase, e.g. ``"mujoco 3.2.0"``; "" when none is known."""
+    return ", ".join(f"{d} {v}" for d, v in installed_versions(engine).items())
+
+
+def outside_range(engine: str) -> str | None:
+    """One phrase when an installed distribution of ``engine`` is outside the supported range, e.g.
+    ``"mujoco 3.2.0 is outside the supported range mujoco>=3.3"``; None when every installed one is
+    inside it, or nothing is known."""
+    from packaging.specifiers import SpecifierSet
+    from packaging.version import InvalidVersion, Version
+
+    extra = EXTRAS.get(engine)
+    if extra is None:
+        return None
+    declared = _declared(extra)
+    bad = []
+    for d, v in installed_versions(engine).items():
+        spec = declared.get(_canonical(d))
+        if not spec:
+            continue
+        try:
+            inside = SpecifierSet(spec).contains(Version(v), prereleases=True)
+        except InvalidVersion:
+            continue
+        if not inside:
+            bad.append(f"{d} {v}")
+    if not bad:
+        return None
+    return f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} outside the supported range {supported_range(engine)}"
+
+
+def install_advice(engine: str) -> str:
+    """How to get a supported version, e.g. ``"pip install 'mujoco>=3.3'"``; "" when no range is known."""
+    rng = supported_range(engine)
+    return "pip install " + " ".join(f"'{r}'" for r in rng.split(" and ")) if rng else ""
