@@ -685,6 +685,30 @@ def _cost_rank(engine: str) -> tuple:
     return (float(getattr(cls, "default_dt_s", 1.0)), 1 if cls.batching != "none" else 0)
 
 
+def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report: bool, figure_formats, log) -> None:
+    """The run's scores (``result["score"]``), its report (or score.json alone) and the console's verdict
+    and summary table (``result["summary"]``)."""
+    if report:
+        from .report import build_report, parse_case
+        cases = tuple(parse_case(c) for c in suite.report_cases)
+        rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
+                           figure_formats=figure_formats)
+        result["score"] = rep["doc"]
+        result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
+        result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
+    else:
+        from ..reference_solver.errors import IncomparableError
+        from .score_runs import score_dirs
+        try:
+            result["score"] = score_dirs([out / "maps"], experiments=experiments)
+            write_json(out / "score.json", result["score"])
+        except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
+            result["notes"].append(f"No scores: {e}")
+    if result["score"] is not None:
+        from .tables import SUMMARY_TITLE, summary_table, verdict_block
+        result["summary"] = "\n".join([verdict_block(result["score"]), SUMMARY_TITLE, summary_table(result["score"])])
+
+
 def _warm_report() -> None:
     """Import what the report draws with and load the reference solver's history kernel (numba's
     cache), so that the report, which needs every map, starts at once when the last one is done."""
@@ -985,27 +1009,9 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         from .experiments import load_outcomes
         experiments = load_outcomes(suite.experiments)
     t2 = time.perf_counter()
-    if report:
-        from .report import build_report, parse_case
-        cases = tuple(parse_case(c) for c in suite.report_cases)
-        rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
-                           figure_formats=figure_formats)
-        result["score"] = rep["doc"]
-        result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
-        result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
-    else:
-        from ..reference_solver.errors import IncomparableError
-        from .score_runs import score_dirs
-        try:
-            result["score"] = score_dirs([out / "maps"], experiments=experiments)
-            write_json(out / "score.json", result["score"])
-        except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
-            result["notes"].append(f"No scores: {e}")
+    _score_and_report(suite, out, result, experiments, report, figure_formats, log)
     result["report_wall_s"] = time.perf_counter() - t2
     result["wall_s"] = time.perf_counter() - t0
-    if result["score"] is not None:
-        from .tables import SUMMARY_TITLE, summary_table, verdict_block
-        result["summary"] = "\n".join([verdict_block(result["score"]), SUMMARY_TITLE, summary_table(result["score"])])
     write_json(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,
                                            **{k: v for k, v in result.items() if k not in ("suite", "score", "summary")},
                                            "suite_name": suite.name})
