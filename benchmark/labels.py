@@ -108,10 +108,14 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
 
 def entry_label(entry, *, with_restitution: bool = True) -> str:
     """:func:`variant_label` of a :class:`~rockbench.benchmark.results.MapEntry` (from its run.json)."""
-    run = entry.run or {}
-    spec = run.get("spec") or {}
-    version = (run.get("engine") or {}).get("version")
-    return variant_label(entry.engine, spec.get("engine_settings") or {}, version=version,
+    def part(d, key) -> dict:   # a damaged run.json (a value of another type) reads as empty
+        v = d.get(key) if isinstance(d, dict) else None
+        return v if isinstance(v, dict) else {}
+
+    run = entry.run if isinstance(entry.run, dict) else {}
+    spec = part(run, "spec")
+    version = part(run, "engine").get("version")
+    return variant_label(entry.engine, part(spec, "engine_settings"), version=version,
                          restitution=entry.restitution if with_restitution else None, dt_s=spec.get("dt_s"),
                          block=entry.block)
 

@@ -103,7 +103,7 @@ def parse_case(text: str, where: str = "--case"):
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
-                 trajectories: bool = True, log=None, allow_incomplete: bool = False,
+                 trajectories: bool = True, log=None, allow_incomplete=False,
                  figure_formats=("png",)) -> dict:
     """Write the report of the maps under ``run_dirs`` into ``out_dir``.
 
@@ -123,8 +123,9 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         Simulate and draw the θ(t) comparisons (needs the engines).
     log : callable, optional
         Progress messages (default: stderr).
-    allow_incomplete : bool
-        Score engine maps that lack cells on what they have (flagged) instead of refusing them.
+    allow_incomplete : bool or collection of Path
+        Score engine maps that lack cells on what they have (flagged) instead of refusing them: all
+        (True) or those of these map directories (:func:`~rockbench.benchmark.score_runs.score_entries`).
     figure_formats : sequence of str
         The formats of the pictures in ``img/`` (``png``, ``svg``, ``pdf``); the PNG is always
         written too, since index.html embeds it and report.md links it.
@@ -187,7 +188,7 @@ class _Scored:
     notes: list
 
     @classmethod
-    def of(cls, run_dirs, against, experiments, allow_incomplete: bool = False) -> "_Scored":
+    def of(cls, run_dirs, against, experiments, allow_incomplete=False) -> "_Scored":
         from .score_runs import load_own_eta, load_runs, mark_runs, pair_within_runs
         entries, run_of = load_runs(run_dirs)
         refs = load_entries(against) if against else [e for e in entries if e.is_reference]

@@ -59,7 +59,7 @@ def pair_key(p: dict) -> str:
 
 
 def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None,
-                  own_eta: dict | None = None, pair_with=None, allow_incomplete: bool = False) -> dict:
+                  own_eta: dict | None = None, pair_with=None, allow_incomplete=False) -> dict:
     """Score every candidate against every reference of its block and pulse (see the module docstring).
 
     Parameters
@@ -76,9 +76,10 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     pair_with : callable, optional
         ``pair_with(candidate)`` → the references that candidate may be paired with (default: all
         of ``references``); :func:`pair_within_runs` makes one that keeps runs apart.
-    allow_incomplete : bool
+    allow_incomplete : bool or collection of Path
         Score engine maps that lack cells on the cells they have (marked in their pairs) instead of
-        refusing them.
+        refusing them: every such map (True), or those of these map directories (``rockbench run``
+        passes the maps of an engine that could not simulate, so its report still comes out).
 
     Returns
     -------
@@ -165,7 +166,7 @@ ALLOW_INCOMPLETE_HELP = ("score engine maps that lack cells (cut, emptied or del
                          "the cells they have, marked incomplete, instead of exiting 2")
 
 
-def check_complete(entry: MapEntry, allow_incomplete: bool = False, *, reference: bool = False) -> None:
+def check_complete(entry: MapEntry, allow_incomplete=False, *, reference: bool = False) -> None:
     """Refuse a map that does not cover its grid (module docstring): a map scored against as the
     ``reference`` always, a map being scored (an engine map) unless ``allow_incomplete``.
 
@@ -177,7 +178,9 @@ def check_complete(entry: MapEntry, allow_incomplete: bool = False, *, reference
         The same of a map being scored, or fewer rows than its run.json says it finished with.
     """
     missing = int(entry.label_map.meta.get("missing_cells", 0))
-    if not missing or (allow_incomplete and not reference):
+    allowed = allow_incomplete is True or (not isinstance(allow_incomplete, bool)
+                                           and Path(entry.path) in {Path(d) for d in allow_incomplete})
+    if not missing or (allowed and not reference):
         return
     n = entry.label_map.codes.size
     what = f"{missing} of its {n} cells are missing (cut, emptied or deleted cells.csv, or an unfinished run)"
@@ -223,7 +226,7 @@ def score_experiments(entries: list[MapEntry], points) -> list[dict]:
 
 
 def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None,
-               allow_incomplete: bool = False) -> dict:
+               allow_incomplete=False) -> dict:
     """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`),
     each engine map against the reference maps of its own run (see the module docstring).
 

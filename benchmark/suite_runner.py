@@ -685,22 +685,25 @@ def _cost_rank(engine: str) -> tuple:
     return (float(getattr(cls, "default_dt_s", 1.0)), 1 if cls.batching != "none" else 0)
 
 
-def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report: bool, figure_formats, log) -> None:
+def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report: bool, figure_formats, log,
+                      unfinished: set) -> None:
     """The run's scores (``result["score"]``), its report (or score.json alone) and the console's verdict
-    and summary table (``result["summary"]``)."""
+    and summary table (``result["summary"]``); the ``unfinished`` maps (of an engine that cannot
+    simulate) are scored as incomplete instead of refused."""
     if report:
         from .report import build_report, parse_case
         cases = tuple(parse_case(c) for c in suite.report_cases)
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
-                           figure_formats=figure_formats)
+                           figure_formats=figure_formats, allow_incomplete=unfinished)
         result["score"] = rep["doc"]
         result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
         from ..reference_solver.errors import IncomparableError
+        from .results import write_json
         from .score_runs import score_dirs
         try:
-            result["score"] = score_dirs([out / "maps"], experiments=experiments)
+            result["score"] = score_dirs([out / "maps"], experiments=experiments, allow_incomplete=unfinished)
             write_json(out / "score.json", result["score"])
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
@@ -960,6 +963,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
             coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False, log=log, executor=ex))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
+            unfinished.add(d)
             return
         records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                       "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
@@ -971,6 +975,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     # calibrations and then the engine maps, which need none of them: on a fresh install the
     # kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
     health = EngineHealth()
+    unfinished: set = set()   # map folders of engines that cannot simulate: scored as incomplete, not refused
     refs = _ReferenceThread(_started, one_map)
     refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
     try:
@@ -1009,7 +1014,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         from .experiments import load_outcomes
         experiments = load_outcomes(suite.experiments)
     t2 = time.perf_counter()
-    _score_and_report(suite, out, result, experiments, report, figure_formats, log)
+    _score_and_report(suite, out, result, experiments, report, figure_formats, log, unfinished)
     result["report_wall_s"] = time.perf_counter() - t2
     result["wall_s"] = time.perf_counter() - t0
     write_json(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,

@@ -115,4 +115,4 @@ def _compare(base: Path, cur: Path) -> int:
 
     from . import compare
     return compare.run(argparse.Namespace(baseline=str(base), current=str(cur), tolerance=[], json=False,
-                                          markdown=False))
+                                          markdown=False, allow_incomplete=False))
