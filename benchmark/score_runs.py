@@ -414,6 +414,9 @@ def check_score_doc(doc: dict, where) -> None:
         for key, kind in (("key", str), ("grid", dict), ("scores", dict)):
             if not isinstance(p.get(key), kind):
                 raise bad(f"pairs[{n}] has no {key!r} {'text' if kind is str else 'object'}")
+        for key in ("engine", "variant", "engine_version"):
+            if p.get(key) is not None and not isinstance(p[key], str):
+                raise bad(f"pairs[{n}].{key} is {p[key]!r}, not a text")
         if "cells" in p and not isinstance(p["cells"], dict):
             raise bad(f"pairs[{n}].cells is {p['cells']!r}, not an object")
         for part in ("scores", "grid", "cells"):
