@@ -80,6 +80,18 @@ class Metric:
     role : str
         ``"primary"`` for :data:`PRIMARY_METRIC`, the one measure verdicts, ranks and highlights
         follow; ``"secondary"`` for every other.
+    kind : str
+        ``"fraction"`` (of cells, 0–1, four decimals), ``"distance"`` (three decimals) or
+        ``"count"`` (a whole number): how tables write it and plots draw it.
+    short : str
+        Its column title on a terminal (narrow).
+    title : str
+        Its column title in the report, in words.
+    cell_unit : str
+        What one flipped cell changes it by, for ``compare``'s tolerances in cells
+        (:func:`rockbench.benchmark.score_runs.cell_units` turns it into a number per pair):
+        ``"1/judged"``, ``"1/overturn_union"``, ``"1/outside_simulated"``, ``"diagonal"`` (of a
+        cell), ``"a_step"``, ``"a_step/columns"`` or ``"one"``.
     """
 
     name: str
@@ -90,6 +102,10 @@ class Metric:
     tolerance: float
     question: str = ""
     role: str = "secondary"
+    kind: str = "distance"
+    short: str = ""
+    title: str = ""
+    cell_unit: str = "one"
 
     def worse(self, new: float, old: float, tol: float | None = None) -> bool:
         """True when ``new`` is worse than ``old`` by more than ``tol`` (default :attr:`tolerance`).
@@ -108,10 +124,18 @@ class Metric:
             return False
         return _isnan(b) or (a > b if self.direction == "higher" else a < b)
 
+    def format(self, value) -> str:
+        """``value`` as tables write it: ``n/a`` when there is none, else by :attr:`kind`."""
+        if _isnan(value):
+            return "n/a"
+        if self.kind == "count":
+            return f"{int(round(value))}"
+        return f"{value:.4f}" if self.kind == "fraction" else f"{value:.3f}"
+
     def to_dict(self) -> dict:
         return {"name": self.name, "definition": self.definition, "direction": self.direction,
                 "perfect": self.perfect, "unit": self.unit, "tolerance": self.tolerance,
-                "question": self.question, "role": self.role}
+                "question": self.question, "role": self.role, "kind": self.kind, "title": self.title}
 
 
 def _isnan(x) -> bool:
@@ -124,16 +148,19 @@ _METRIC_LIST = [
            "overturn) equals the reference's; a failed engine cell counts as a disagreement.",
            "higher", 1.0, "-", 0.005,
            question=("In how many judged cells does the engine give the reference's outcome? (Diluted by the "
-                     "many easy cells far from the boundary.)")),
+                     "many easy cells far from the boundary.)"),
+           kind="fraction", short="agree", title="agreement", cell_unit="1/judged"),
     Metric("overturn_agreement",
            "As agreement, with only two classes: overturn and not overturn.",
            "higher", 1.0, "-", 0.005,
-           question="In how many judged cells does the engine get overturn-or-not right?"),
+           question="In how many judged cells does the engine get overturn-or-not right?",
+           kind="fraction", short="agree O", title="overturn agreement", cell_unit="1/judged"),
     Metric("iou_overturn",
            "Intersection over union of the overturn regions over judged cells, |E∩R|/|E∪R∪F| with F the "
            "engine's failed cells (a failure never counts as a match); 1 when both regions are empty.",
            "higher", 1.0, "-", 0.01,
-           question="How well do the two overturn regions overlap?"),
+           question="How well do the two overturn regions overlap?",
+           kind="fraction", short="IoU O", title="IoU of overturn regions", cell_unit="1/overturn_union"),
     Metric("boundary_mean",
            "Mean distance, in the normalised plane (ω/p, a0/(g·tanα)), from each engine boundary edge to the "
            "nearest reference boundary edge and from each reference edge to the nearest engine edge (both "
@@ -142,43 +169,51 @@ _METRIC_LIST = [
            "when only one is.",
            "lower", 0.0, "w/a units", 0.02,
            question="How far, on average, is the engine's overturning boundary from the reference's?",
-           role="primary"),
+           role="primary",
+           short="bnd mean", title="boundary distance, mean", cell_unit="diagonal"),
     Metric("boundary_max",
            "Largest of those distances (the symmetric Hausdorff distance between the boundaries); same "
            "conventions for empty boundaries.",
            "lower", 0.0, "w/a units", 0.05,
-           question="How far is the engine's boundary from the reference's at its worst point?"),
+           question="How far is the engine's boundary from the reference's at its worst point?",
+           short="bnd max", title="boundary distance, max", cell_unit="diagonal"),
     Metric("critical_error_mean",
            "Mean over frequency columns where at least one map overturns of |Δ a_crit|, with a_crit the "
            "LOWEST overturning a0/(g·tanα) of the column; a column that does not overturn is censored at "
            "one grid step above the top of the axis (so that error is a lower bound).",
            "lower", 0.0, "a units", 0.02,
-           question="How wrong is the lowest overturning amplitude, on average over the frequencies?"),
+           question="How wrong is the lowest overturning amplitude, on average over the frequencies?",
+           short="a_crit err", title="a_crit error, mean", cell_unit="a_step/columns"),
     Metric("critical_error_max",
            "Largest |Δ a_crit| over those columns (same censoring).",
            "lower", 0.0, "a units", 0.05,
-           question="How wrong is the lowest overturning amplitude at the worst frequency?"),
+           question="How wrong is the lowest overturning amplitude at the worst frequency?",
+           short="a_crit max", title="a_crit error, max", cell_unit="a_step"),
     Metric("critical_one_sided",
            "Number of frequency columns where only one of the two maps overturns.",
            "lower", 0.0, "-", 0.0,
-           question="At how many frequencies does only one of the two overturn at all?"),
+           question="At how many frequencies does only one of the two overturn at all?",
+           kind="count", short="1-sided", title="one-sided columns"),
     Metric("consistency",
            "Outside the reference's domain (cells where the rigid model needs the table to pull the block "
            "down or more friction than μ: lift-required, slip-required), the fraction of the engine's "
            "simulated cells where it flags jump or slip, as a real block would; n/a (null) when there is no "
            "such cell.",
            "higher", 1.0, "-", 0.01,
-           question="Where the rigid model itself breaks down, does the engine say so (flag jump or slip)?"),
+           question="Where the rigid model itself breaks down, does the engine say so (flag jump or slip)?",
+           kind="fraction", short="consistent", title="consistency", cell_unit="1/outside_simulated"),
     Metric("spurious_invalid",
            "Number of engine cells with an outcome flagged invalid (slip, jump, energy gain) inside the "
            "reference's domain, where the rigid model says nothing should break.",
            "lower", 0.0, "-", 0.0,
-           question="Where the rigid model holds, how often does the engine flag slip, jump or energy gain?"),
+           question="Where the rigid model holds, how often does the engine flag slip, jump or energy gain?",
+           kind="count", short="spurious inv", title="spurious invalid cells"),
     Metric("failed_cells",
            "Number of cells where the reference has an outcome and the engine produced none (error, "
            "divergence, timeout, missing), inside the domain or outside it.",
            "lower", 0.0, "-", 0.0,
-           question="How many cells did the engine fail to simulate?"),
+           question="How many cells did the engine fail to simulate?",
+           kind="count", short="failed", title="failed cells"),
 ]
 
 #: The metrics, by name, in the order tables show them.

@@ -63,15 +63,6 @@ class TrajectoryCase:
 FIG17 = TrajectoryCase("B3M", "sine", 6.0, 6.1, (0.8608, 0.7595),
                        "Fig. 17 case: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1")
 
-#: Column titles of the metrics in the report's tables (the keys stay the score.json names).
-METRIC_TITLES = {"agreement": "agreement", "overturn_agreement": "overturn agreement",
-                 "iou_overturn": "IoU of overturn regions", "boundary_mean": "boundary distance, mean",
-                 "boundary_max": "boundary distance, max", "critical_error_mean": "a_crit error, mean",
-                 "critical_error_max": "a_crit error, max", "critical_one_sided": "one-sided columns",
-                 "consistency": "consistency", "spurious_invalid": "spurious invalid cells",
-                 "failed_cells": "failed cells"}
-
-
 def parse_case(text: str, where: str = "--case"):
     """``BLOCK:PULSE:W_RATIO:A_RATIO`` into a TrajectoryCase (ConfigError when malformed).
 
@@ -581,8 +572,8 @@ def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], d
 
     ranked = ranked_summary(doc)
     second = [m for m in METRICS if m != PRIMARY_METRIC]
-    head = (["rank", "engine variant", "pairs", f"{METRIC_TITLES[PRIMARY_METRIC]} [95 % interval] (primary)"]
-            + [METRIC_TITLES.get(m, m) for m in second])
+    head = (["rank", "engine variant", "pairs", f"{METRICS[PRIMARY_METRIC].title} [95 % interval] (primary)"]
+            + [METRICS[m].title for m in second])
     body = []
     for r, row in ranked:
         name = labels.get(r["variant"], r["label"])
@@ -686,7 +677,7 @@ def _exp_table(doc, labels):
 def _pairs_table(doc, labels):
     from .metrics import METRICS
     head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
-        [METRIC_TITLES.get(m, m) for m in METRICS]
+        [METRICS[m].title for m in METRICS]
     body = [[labels.get(p["variant"], p["variant"]) + incomplete_note(p), p["block"], p["pulse"],
              restitution_symbol(p["restitution"], p["block"]),
              reference_label(p), "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
@@ -765,7 +756,7 @@ def _metric_words(doc) -> list[tuple[str, str, str]]:
     from .metrics import METRICS
     ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
     ms = sorted(ms, key=lambda m: m.get("role") != "primary")
-    return [(METRIC_TITLES.get(m["name"], m["name"]) + f" ({m['name']}, {m.get('role', 'secondary')})",
+    return [((m.get("title") or m["name"]) + f" ({m['name']}, {m.get('role', 'secondary')})",
              f"{m['direction']} is better, perfect {m['perfect']:g}" + _unit_words(m["unit"]),
              (m.get("question", "") + " " + m["definition"]).strip()) for m in ms]
 

@@ -328,23 +328,21 @@ DEFAULT_TOLERANCE_CELLS = 2.0
 def cell_units(pair: dict) -> dict:
     """What one flipped cell can change in each metric of ``pair`` (in the metric's own units).
 
-    Fractions of cells change by one over the cells they are taken over; distances in the
-    normalised plane by a cell's diagonal; critical amplitudes by an amplitude step (the mean by one
-    step over the columns); counts by one. Metrics not listed have no cell unit (absolute
-    tolerances only). A pair without ``cells`` (an older score.json) uses its whole grid.
+    Each metric says which (its ``cell_unit``): fractions of cells change by one over the cells they
+    are taken over; distances in the normalised plane by a cell's diagonal; critical amplitudes by an
+    amplitude step (the mean by one step over the columns); counts by one. A pair without ``cells``
+    (an older score.json) uses its whole grid.
     """
     g = pair.get("grid") or {}
     n_w, n_a = int(g.get("n_w", 1) or 1), int(g.get("n_a", 1) or 1)
     c = pair.get("cells") or {}
     dw = c.get("w_step", (g.get("w_hi", 0) - g.get("w_lo", 0)) / max(n_w - 1, 1))
     da = c.get("a_step", (g.get("a_hi", 0) - g.get("a_lo", 0)) / max(n_a - 1, 1))
-    judged = max(int(c.get("judged", n_w * n_a)), 1)
-    union = max(int(c.get("overturn_union", n_w * n_a)), 1)
-    return {"agreement": 1.0 / judged, "overturn_agreement": 1.0 / judged, "iou_overturn": 1.0 / union,
-            "boundary_mean": math.hypot(dw, da), "boundary_max": math.hypot(dw, da),
-            "critical_error_mean": da / n_w, "critical_error_max": da, "critical_one_sided": 1.0,
-            "consistency": 1.0 / max(pair.get("cells_outside_domain_simulated", n_w * n_a), 1),
-            "spurious_invalid": 1.0, "failed_cells": 1.0}
+    base = {"1/judged": 1.0 / max(int(c.get("judged", n_w * n_a)), 1),
+            "1/overturn_union": 1.0 / max(int(c.get("overturn_union", n_w * n_a)), 1),
+            "1/outside_simulated": 1.0 / max(pair.get("cells_outside_domain_simulated", n_w * n_a), 1),
+            "diagonal": math.hypot(dw, da), "a_step": da, "a_step/columns": da / n_w, "one": 1.0}
+    return {name: base[m.cell_unit] for name, m in METRICS.items()}
 
 
 def gate(doc: dict, thresholds: dict) -> list[str]:

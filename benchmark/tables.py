@@ -7,20 +7,9 @@ import math
 
 from .metrics import METRICS
 
-#: short column titles
-SHORT = {"agreement": "agree", "overturn_agreement": "agree O", "iou_overturn": "IoU O",
-         "boundary_mean": "bnd mean", "boundary_max": "bnd max", "critical_error_mean": "a_crit err",
-         "critical_error_max": "a_crit max", "critical_one_sided": "1-sided", "consistency": "consistent",
-         "spurious_invalid": "spurious inv", "failed_cells": "failed"}
-COUNTS = ("critical_one_sided", "spurious_invalid", "failed_cells")
-
-
 def fmt(name: str, v) -> str:
-    if v is None or (isinstance(v, float) and math.isnan(v)):
-        return "n/a"
-    if name in COUNTS:
-        return f"{int(round(v))}"
-    return f"{v:.4f}" if name in ("agreement", "overturn_agreement", "iou_overturn", "consistency") else f"{v:.3f}"
+    """A metric's value as tables write it (:meth:`~rockbench.benchmark.metrics.Metric.format`)."""
+    return METRICS[name].format(v)
 
 
 def md_cell(text: str) -> str:
@@ -42,7 +31,7 @@ def render(head: list[str], rows: list[list[str]], markdown: bool) -> str:
 
 def pairs_table(doc: dict, markdown: bool = False) -> str:
     """One row per scored pair, one column per metric."""
-    head = ["engine", "block", "pulse", "restitution", "vs reference", "like"] + [SHORT[m] for m in METRICS]
+    head = ["engine", "block", "pulse", "restitution", "vs reference", "like"] + [METRICS[m].short for m in METRICS]
     rows = [[p["variant"] + incomplete_note(p), p["block"], p["pulse"], p["restitution"], reference_label(p),
              "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
             for p in doc["pairs"]]
@@ -77,7 +66,7 @@ def summary(doc: dict) -> dict:
         for m in METRICS:
             vals = [p["scores"].get(m) for p in use]
             vals = [math.nan if x is None else float(x) for x in vals]
-            if m in COUNTS:
+            if METRICS[m].kind == "count":
                 row[m] = float(sum(vals))
             else:
                 finite = [x for x in vals if math.isfinite(x)]
@@ -134,7 +123,7 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
     ranked = ranked_summary(doc)
     marks = best_group_marks(ranked)
     second = [m for m in METRICS if m != PRIMARY_METRIC]
-    head = ["rank", "engine", "pairs", f"{SHORT[PRIMARY_METRIC]} [95 % CI]"] + [SHORT[m] for m in second]
+    head = ["rank", "engine", "pairs", f"{METRICS[PRIMARY_METRIC].short} [95 % CI]"] + [METRICS[m].short for m in second]
     rows = []
     for k, (r, row) in enumerate(ranked):
         name = r["label"] + (f" (incomplete: {r['cells_missing']} cells missing)" if r["cells_missing"] else "")

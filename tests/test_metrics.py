@@ -326,3 +326,17 @@ def test_metrics_version_three_refuses_version_two():
     doc = {"metrics_version": "2", "pairs": []}
     with pytest.raises(IncomparableError, match="metrics version 2, current 3"):
         compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})
+
+
+def test_every_metric_is_one_complete_object():
+    """A metric carries everything tables, the report, plots and compare read (adding one touches
+    metrics.py and its test only)."""
+    from rockbench.benchmark.score_runs import cell_units
+    units = cell_units({"grid": {"n_w": 5, "n_a": 4, "w_lo": 1, "w_hi": 5, "a_lo": 1, "a_hi": 4}})
+    for m in METRICS.values():
+        assert m.short and m.title and m.question and m.definition
+        assert m.kind in ("fraction", "distance", "count") and m.direction in ("higher", "lower")
+        assert units[m.name] > 0
+        assert m.format(math.nan) == "n/a" and m.format(m.perfect)
+    assert [m.name for m in METRICS.values() if m.role == "primary"] == ["boundary_mean"]
+    assert len({m.short for m in METRICS.values()}) == len(METRICS)

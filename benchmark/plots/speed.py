@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import math
 
-#: Metrics that are fractions of agreement: drawn as the share of disagreeing cells (1 − metric).
-FRACTIONS = ("agreement", "overturn_agreement", "iou_overturn", "consistency")
+def _is_fraction(metric: str) -> bool:
+    """A fraction of cells (the metric's ``kind``): drawn as the share of disagreeing cells (1 − metric)."""
+    from ..metrics import METRICS
+    return metric in METRICS and METRICS[metric].kind == "fraction"
 
 #: Ratio of the largest to the smallest value above which an axis is logarithmic.
 LOG_RANGE = 10.0
@@ -25,7 +27,7 @@ def _points(rows, metric):
         x, y = r.get("ms_per_cell"), r.get(metric)
         if x is None or y is None or not (math.isfinite(x) and math.isfinite(y)) or x <= 0:
             continue
-        out.append((r, float(x), (1.0 - float(y)) * 100.0 if metric in FRACTIONS else float(y)))
+        out.append((r, float(x), (1.0 - float(y)) * 100.0 if _is_fraction(metric) else float(y)))
     return out
 
 
@@ -44,7 +46,7 @@ def plot_speed_accuracy(rows, *, metric="agreement", ax=None):
         ``{"variant", "ms_per_cell", metric}`` per engine variant, optionally ``label`` (the text
         beside the point; default the variant).
     metric : str
-        The score drawn: a fraction of agreement (:data:`FRACTIONS`) as ``100·(1 − value)`` [%],
+        The score drawn: a fraction of cells (its ``kind``) as ``100·(1 − value)`` [%],
         any other metric as it is.
     ax : matplotlib Axes, optional
         Where to draw (a new figure, without pyplot, when None).
@@ -111,7 +113,7 @@ def _ylabel(metric: str) -> str:
     if metric == "boundary_mean":
         return "mean distance between the\noverturning boundaries\n(normalised ω/p, a₀/(g·tanα))"
     words = metric.replace("_", " ")
-    return f"100 % − {words} [%]" if metric in FRACTIONS else words
+    return f"100 % − {words} [%]" if _is_fraction(metric) else words
 
 
 def _spread_labels(ax, texts: dict, gap_pt: float = 9.0) -> None:
