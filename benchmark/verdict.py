@@ -331,8 +331,9 @@ def _class_sentence(title: str, members: list[Variant], by: dict) -> str:
                 + " (the differences are not resolved)"
     farther = [by[v.name] for v in members if by[v.name] not in group and not by[v.name]["fails"]]
     if farther:
-        text += ". Resolved farther (rank − 1 variants are resolved closer): " + "; ".join(
-            f"{r['label']}, {number(r['value'])} (rank {r['rank']})" for r in farther)
+        text += ". Resolved farther: " + "; ".join(
+            f"{r['label']}, {number(r['value'])} (rank {r['rank']}: {r['rank'] - 1} variant"
+            f"{'s are' if r['rank'] > 2 else ' is'} resolved closer)" for r in farther)
     return text + "."
 
 
