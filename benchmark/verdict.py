@@ -244,7 +244,12 @@ def _scenario(p: dict) -> Scenario:
     c = p.get("cells") or {}
     cell = math.hypot(float(c.get("w_step", 0.0)), float(c.get("a_step", 0.0)))
     edges = max(int(c.get("boundary_edges", 0) or 0), 1)
-    return Scenario(math.nan if value is None else float(value), cell / edges, cell)
+    # a grid of one row or column has no cell diagonal: a tiny unit keeps the ratios finite
+    return Scenario(math.nan if value is None else float(value), max(cell / edges, _TINY), cell)
+
+
+#: The grid unit of a grid without one (one row or column), so that ratios of zeros stay defined.
+_TINY = 1e-12
 
 
 def verdict(doc: dict) -> dict:

@@ -196,3 +196,15 @@ def test_a_variant_tied_with_the_best_is_never_ranked_behind_one_the_best_beats(
     assert e.value < m.value
     assert not paired(m, p)["resolved"] and paired(e, p)["resolved"]
     assert rank([p, m, e]) == {"p": 1, "m": 1, "e": 2}
+
+
+def test_a_one_cell_grid_gives_a_verdict_not_an_error(write_map, tmp_path, capsys):
+    """A one-cell map has no cell diagonal: the units stay positive, the ratios of two perfect maps defined."""
+    root = tmp_path / "run"
+    codes = np.array([[2]])
+    write_map(root / "ref", codes, w=(3.0, 3.0), a=(2.0, 2.0))
+    write_map(root / "a", codes, engine="mujoco", w=(3.0, 3.0), a=(2.0, 2.0))
+    write_map(root / "b", codes, engine="pybullet", w=(3.0, 3.0), a=(2.0, 2.0))
+    code, out, err = run_cli(capsys, "score", root, "--no-write")
+    assert code == 0, err
+    assert "tied with" in out
