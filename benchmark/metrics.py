@@ -118,12 +118,6 @@ class Metric:
         delta = (old - new) if self.direction == "higher" else (new - old)
         return delta > tol + 1e-12
 
-    def better(self, a: float, b: float) -> bool:
-        """True when ``a`` is strictly better than ``b`` (NaN is never better)."""
-        if _isnan(a):
-            return False
-        return _isnan(b) or (a > b if self.direction == "higher" else a < b)
-
     def format(self, value) -> str:
         """``value`` as tables write it: ``n/a`` when there is none, else by :attr:`kind`."""
         if _isnan(value):
@@ -515,11 +509,12 @@ def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
             f"{ref.a_ratio[0]:g}..{ref.a_ratio[-1]:g}); compute both with the same --w-ratio and --a-ratio.")
     judged, outside = judged_cells(eng, ref)
     n = int(judged.sum())
-    if n == 0:
-        out = {name: math.nan for name in METRICS}
-        out.update(_outside_scores(eng, outside))
-        return out
     ce, cr = eng.codes, ref.codes
+    # what both branches report: consistency outside the domain, and failed cells anywhere judged
+    consistency = _consistency(eng, outside)
+    failed = float(np.count_nonzero((judged | outside) & (ce == FAILED)))
+    if n == 0:
+        return {**{name: math.nan for name in METRICS}, "consistency": consistency, "failed_cells": failed}
     eng_failed = judged & (ce == FAILED)
     o_agree = judged & ~eng_failed & ((ce == OVERTURN) == (cr == OVERTURN))
     oe, orr = judged & (ce == OVERTURN), judged & (cr == OVERTURN)
@@ -536,9 +531,9 @@ def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
         "critical_error_mean": crit["mean"],
         "critical_error_max": crit["max"],
         "critical_one_sided": float(crit["one_sided"]),
+        "consistency": consistency,
         "spurious_invalid": float(np.count_nonzero(judged & (ce != FAILED) & ~eng.valid)),
-        **_outside_scores(eng, outside),
-        "failed_cells": float(np.count_nonzero((judged | outside) & (ce == FAILED))),
+        "failed_cells": failed,
     }
 
 
@@ -561,14 +556,12 @@ def boundary_edges(eng: LabelMap, ref: LabelMap) -> int:
     return int(boundary_points(within(eng, judged)).shape[0] + boundary_points(within(ref, judged)).shape[0])
 
 
-def _outside_scores(eng: LabelMap, outside: np.ndarray) -> dict[str, float]:
-    """``consistency`` (NaN without a simulated engine cell outside the domain; an adaptive map
-    infers outcomes, not flags, so only simulated cells can say whether they left the model) and
-    ``failed_cells`` there."""
+def _consistency(eng: LabelMap, outside: np.ndarray) -> float:
+    """``consistency``: NaN without a simulated engine cell outside the domain (an adaptive map infers
+    outcomes, not flags, so only simulated cells can say whether they left the model)."""
     out_sim = outside & eng.simulated
     n_out = int(out_sim.sum())
-    return {"consistency": math.nan if n_out == 0 else float(np.count_nonzero(out_sim & eng.left_model) / n_out),
-            "failed_cells": float(np.count_nonzero(outside & (eng.codes == FAILED)))}
+    return math.nan if n_out == 0 else float(np.count_nonzero(out_sim & eng.left_model) / n_out)
 
 
 def cell_counts(eng: LabelMap, ref: LabelMap) -> dict[str, int]:
@@ -577,7 +570,8 @@ def cell_counts(eng: LabelMap, ref: LabelMap) -> dict[str, int]:
     ``consistency`` is computed over), the engine's invalid cells in all, the cells the engine map
     does not have (``cells_missing``), and inside the domain the engine's wrong overturns
     (``overturn_extra``: it overturns, the reference does not, of ``reference_standing`` cells) and
-    missed ones (``overturn_missed`` of ``reference_overturn``), and its boundary edges."""
+    missed ones (``overturn_missed`` of ``reference_overturn``), its failed and its invalid cells there
+    (``failed_in_domain``, ``invalid_in_domain``)."""
     judged, outside = judged_cells(eng, ref)
     ce, cr = eng.codes, ref.codes
     ov_ref = judged & (cr == OVERTURN)
