@@ -149,26 +149,33 @@ def paired(a: Variant, b: Variant) -> dict:
 
 # -- ranks -------------------------------------------------------------------------------------------
 
-def rank(variants: list[Variant]) -> dict[str, int]:
+def comparisons(variants: list[Variant]) -> dict[tuple[str, str], dict]:
+    """:func:`paired` for every ordered pair of ``variants``, by ``(name, other name)``: computed once,
+    read by the ranks, the best groups and score.json's ``versus``."""
+    return {(a.name, b.name): paired(a, b) for a in variants for b in variants if a is not b}
+
+
+def rank(variants: list[Variant], versus: dict | None = None) -> dict[str, int]:
     """Competition ranks by resolved comparisons: 1 + the number of variants resolved closer to the
     reference (module docstring). Rank 1 is every variant no other is resolved better than; variants
-    without a value get none."""
+    without a value get none. ``versus`` is :func:`comparisons` of these variants or more."""
+    versus = comparisons(variants) if versus is None else versus
     valued = [v for v in variants if math.isfinite(v.value)]
     out = {}
     for v in valued:
         beaten_by = 0
         for o in valued:
             if o is not v:
-                res = paired(o, v)
+                res = versus[(o.name, v.name)]
                 better = res["ratio"] < 1 if PRIMARY.direction == "lower" else res["ratio"] > 1
                 beaten_by += bool(res["resolved"] and better)
         out[v.name] = 1 + beaten_by
     return out
 
 
-def best_group(variants: list[Variant]) -> list[Variant]:
+def best_group(variants: list[Variant], versus: dict | None = None) -> list[Variant]:
     """The variants of rank 1 among ``variants`` (empty when none has a value)."""
-    r = rank(variants)
+    r = rank(variants, versus)
     return [v for v in variants if r.get(v.name) == 1]
 
 
@@ -255,7 +262,8 @@ _TINY = 1e-12
 def verdict(doc: dict) -> dict:
     """The ``verdict`` object of score.json (docs/scores.md, "The verdict")."""
     vs = variants_of(doc)
-    ranks = rank(vs)
+    versus = comparisons(vs)
+    ranks = rank(vs, versus)
     rows = []
     for v in vs:
         iv = variant_interval(v)
@@ -265,11 +273,11 @@ def verdict(doc: dict) -> dict:
                      "pairs": len(v.scenarios), "scenarios_with_value": len(v.finite()),
                      "cells_judged": v.counts.get("cells_in_domain", 0), "cell_diagonal": mean_cell(v),
                      "fails": fails(v, iv), "reasons": reasons(v), "cells_missing": v.cells_missing,
-                     "versus": [paired(v, o) for o in vs if o is not v]})
+                     "versus": [versus[(v.name, o.name)] for o in vs if o is not v]})
     rows.sort(key=lambda r: (r["rank"] is None, r["rank"] or 0, r["value"] or 0.0, r["label"]))
     return {"metric": PRIMARY_METRIC, "direction": PRIMARY.direction, "unit": PRIMARY.unit,
             "confidence": CONFIDENCE, "fail_cells": FAIL_CELLS, "variants": rows,
-            "text": sentences(vs, rows)}
+            "text": sentences(vs, rows, versus)}
 
 
 # -- in words ----------------------------------------------------------------------------------------
@@ -294,15 +302,16 @@ def _figure(row: dict) -> str:
            f"{'s' if row['scenarios_with_value'] != 1 else ''})"
 
 
-def sentences(vs: list[Variant], rows: list[dict]) -> list[str]:
+def sentences(vs: list[Variant], rows: list[dict], versus: dict) -> list[str]:
     """The verdict in words: the closest variants of each settings class (ties named), those that
-    fail and why, the others, the incomplete maps, and what the numbers mean."""
+    fail and why, the others, the incomplete maps, and what the numbers mean (``versus``:
+    :func:`comparisons` of ``vs``)."""
     by = {r["variant"]: r for r in rows}
     out = []
     for cls, title in _CLASSES:
         members = [v for v in vs if v.settings == cls]
         if members:
-            out.append(_class_sentence(title, members, by))
+            out.append(_class_sentence(title, members, by, versus))
     custom = [by[v.name] for v in vs if v.settings not in (CALIBRATED, AS_SHIPPED) and not by[v.name]["fails"]]
     if custom:
         out.append("Other settings: " + "; ".join(f"{r['label']}, {_figure(r)}" for r in custom) + ".")
@@ -322,8 +331,8 @@ def sentences(vs: list[Variant], rows: list[dict]) -> list[str]:
     return out
 
 
-def _class_sentence(title: str, members: list[Variant], by: dict) -> str:
-    group = sorted((by[v.name] for v in best_group(members)), key=lambda r: r["value"])
+def _class_sentence(title: str, members: list[Variant], by: dict, versus: dict) -> str:
+    group = sorted((by[v.name] for v in best_group(members, versus)), key=lambda r: r["value"])
     passing = [r for r in group if not r["fails"]]
     if not passing:
         if len(members) == 1:
