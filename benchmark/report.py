@@ -568,7 +568,7 @@ def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], d
     """Head, body and the variant key of each row, in the verdict's order (rank, then the primary
     value), and per metric which rows to highlight (:func:`~rockbench.benchmark.tables.best_group_marks`)."""
     from .metrics import METRICS, PRIMARY_METRIC
-    from .tables import best_group_marks, primary_cell, ranked_summary
+    from .tables import best_group_marks, primary_cell, ranked_summary, row_label
 
     ranked = ranked_summary(doc)
     second = [m for m in METRICS if m != PRIMARY_METRIC]
@@ -576,12 +576,7 @@ def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], d
             + [METRICS[m].title for m in second])
     body = []
     for r, row in ranked:
-        name = labels.get(r["variant"], r["label"])
-        if r["cells_missing"]:
-            name += f" (incomplete: {r['cells_missing']} cells missing)"
-        if r["fails"]:
-            name += " (fails)"
-        body.append([str(r["rank"] or "-"), name, str(row["pairs"]), primary_cell(r)]
+        body.append([str(r["rank"] or "-"), row_label(r, labels.get(r["variant"])), str(row["pairs"]), primary_cell(r)]
                     + [fmt(m, row[m]) for m in second])
     cols = {PRIMARY_METRIC: 3, **{m: 4 + k for k, m in enumerate(second)}}
     marks = {cols[m]: flags for m, flags in best_group_marks(ranked).items()}

@@ -84,13 +84,26 @@ def primary_cell(row: dict) -> str:
     return f"{number(row['value'])} [{number(lo)}, {number(hi)}]"
 
 
+def verdict_of(doc: dict) -> dict:
+    """The document's verdict (computed when an older document has none)."""
+    from .verdict import verdict
+    return doc.get("verdict") or verdict(doc)
+
+
 def ranked_summary(doc: dict) -> list[tuple[dict, dict]]:
     """``[(verdict row, summary row)]`` in the verdict's order (rank, then value): the rows of every
     summary table."""
-    from .verdict import verdict
     s = summary(doc)
-    rows = (doc.get("verdict") or verdict(doc))["variants"]
-    return [(r, s[r["variant"]]) for r in rows if r["variant"] in s]
+    return [(r, s[r["variant"]]) for r in verdict_of(doc)["variants"] if r["variant"] in s]
+
+
+def row_label(r: dict, label: str | None = None) -> str:
+    """A summary row's variant (``label``, default the verdict row's) with what the reader must know:
+    "(incomplete: N cells missing)", "(fails)"."""
+    name = label or r["label"]
+    if r["cells_missing"]:
+        name += f" (incomplete: {r['cells_missing']} cells missing)"
+    return name + (" (fails)" if r["fails"] else "")
 
 
 def best_group_marks(ranked: list[tuple[dict, dict]]) -> dict[str, list[bool]]:
@@ -126,9 +139,7 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
     head = ["rank", "engine", "pairs", f"{METRICS[PRIMARY_METRIC].short} [95 % CI]"] + [METRICS[m].short for m in second]
     rows = []
     for k, (r, row) in enumerate(ranked):
-        name = r["label"] + (f" (incomplete: {r['cells_missing']} cells missing)" if r["cells_missing"] else "")
-        if r["fails"]:
-            name += " (fails)"
+        name = row_label(r)
         cells = [str(r["rank"] or "-"), _html.escape(name) if html else name, str(row["pairs"])]
         for m, text in [(PRIMARY_METRIC, primary_cell(r))] + [(m, fmt(m, row[m])) for m in second]:
             if marks.get(m, [False] * len(ranked))[k]:
@@ -148,9 +159,8 @@ SUMMARY_TITLE = ("Summary (mean over like-for-like pairs; rank = 1 + the variant
 
 
 def verdict_text(doc: dict) -> list[str]:
-    """The verdict's sentences (computed when an older document has none)."""
-    from .verdict import verdict
-    return list((doc.get("verdict") or verdict(doc))["text"])
+    """The verdict's sentences."""
+    return list(verdict_of(doc)["text"])
 
 
 def verdict_block(doc: dict, markdown: bool = False) -> str:
