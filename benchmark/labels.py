@@ -107,16 +107,11 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
 
 
 def entry_label(entry, *, with_restitution: bool = True) -> str:
-    """:func:`variant_label` of a :class:`~rockbench.benchmark.results.MapEntry` (from its run.json)."""
-    def part(d, key) -> dict:   # a damaged run.json (a value of another type) reads as empty
-        v = d.get(key) if isinstance(d, dict) else None
-        return v if isinstance(v, dict) else {}
-
-    run = entry.run if isinstance(entry.run, dict) else {}
-    spec = part(run, "spec")
-    version = part(run, "engine").get("version")
-    return variant_label(entry.engine, part(spec, "engine_settings"), version=version,
-                         restitution=entry.restitution if with_restitution else None, dt_s=spec.get("dt_s"),
+    """:func:`variant_label` of a :class:`~rockbench.benchmark.results.MapEntry` (its settings and time
+    step, and the engine version its run.json recorded)."""
+    from .engine_versions import version_of
+    return variant_label(entry.engine, entry.settings, version=version_of(entry),
+                         restitution=entry.restitution if with_restitution else None, dt_s=entry.dt_s,
                          block=entry.block)
 
 

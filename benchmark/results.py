@@ -324,6 +324,10 @@ class MapEntry:
         The restitution coefficient of the map [-].
     run : dict
         The run.json contents.
+    settings : dict
+        The engine settings the map was run with (those given; what ``variant`` names).
+    dt_s : float or None
+        Its time step when not the engine's default [s].
     """
 
     path: Path
@@ -335,6 +339,8 @@ class MapEntry:
     restitution: str
     eta: float
     run: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+    dt_s: float | None = None
 
     @property
     def is_reference(self) -> bool:
@@ -383,8 +389,10 @@ def find_map_dirs(paths: Iterable) -> list[Path]:
         if (p / "cells.csv").is_file() or _is_map_run(p):
             found = [p]
         else:
-            found = sorted({c.parent for c in p.rglob("cells.csv")}
-                           | {c.parent for c in p.rglob("run.json") if _is_map_run(c.parent)})
+            with_cells = {c.parent for c in p.rglob("cells.csv")}
+            # a run.json is read here only where its cells.csv is gone
+            found = sorted(with_cells | {c.parent for c in p.rglob("run.json")
+                                         if c.parent not in with_cells and _is_map_run(c.parent)})
         if not found:
             raise ConfigError(f"{str(p)!r} holds no map (no cells.csv in it or below); compute one with "
                               "`rockbench map ... --out DIR`.")
@@ -447,7 +455,7 @@ def load_entry(d: Path) -> MapEntry:
     variant = variant_name(engine, settings, dt)
     lm.meta.update({"engine": engine, "variant": variant, "block": block, "pulse": pulse,
                     "restitution": restitution, "eta": eta})
-    return MapEntry(d, lm, engine, variant, block, pulse, restitution, eta, run)
+    return MapEntry(d, lm, engine, variant, block, pulse, restitution, eta, run, settings, dt)
 
 
 def variant_name(engine: str, settings: dict | None = None, dt_s: float | None = None) -> str:

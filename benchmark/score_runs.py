@@ -144,9 +144,8 @@ def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> d
         kind = "own-eta"
     else:
         kind = "other"
-    settings = dict(((c.run or {}).get("spec") or {}).get("engine_settings") or {})
     p = {"variant": c.variant, "engine": c.engine, "label": label,
-         "settings": c.variant if c.is_reference else settings_class(settings, c.variant),
+         "settings": c.variant if c.is_reference else settings_class(c.settings, c.variant),
          "block": c.block, "pulse": c.pulse, "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
          "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
          "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),

@@ -136,7 +136,8 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
     ranked = ranked_summary(doc)
     marks = best_group_marks(ranked)
     second = [m for m in METRICS if m != PRIMARY_METRIC]
-    head = ["rank", "engine", "pairs", f"{METRICS[PRIMARY_METRIC].short} [95 % CI]"] + [METRICS[m].short for m in second]
+    head = (["rank", "engine", "pairs", f"{METRICS[PRIMARY_METRIC].short} [95 % CI]"]
+            + [METRICS[m].short for m in second])
     rows = []
     for k, (r, row) in enumerate(ranked):
         name = row_label(r)
