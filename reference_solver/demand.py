@@ -107,9 +107,17 @@ N_DEMAND = 2
 
 
 @njit(cache=True)
+def demand_start():
+    """A running demand with no sample yet: ``[1, 0]`` (``N = m·g`` and no friction: never lifted)."""
+    dm = np.zeros(N_DEMAND)
+    dm[D_MIN_N] = 1.0
+    return dm
+
+
+@njit(cache=True)
 def demand_update(dm, th, thd, thdd, u_g, s, alpha, p2):
     """Add one sample on side ``s`` (0: at rest, skipped) to a running demand ``dm``
-    (``[min N/(m·g), max |F|/N]``, start ``[1, 0]``: never lifted); ``|F|/N`` counts where ``N > 0``."""
+    (``[min N/(m·g), max |F|/N]``, from :func:`demand_start`); ``|F|/N`` counts where ``N > 0``."""
     if s == 0.0:
         return
     n, f = demand_point(th, thd, thdd, u_g, s, alpha, p2)

@@ -75,7 +75,7 @@ import numpy as np
 from numba import njit, prange, set_parallel_chunksize
 
 from .classify import FLAT_ANGLE_RAD, OUTCOME_CODES, Outcome, OUTCOME_FROM_CODE, classify
-from .demand import D_MAX_F, D_MIN_N, N_DEMAND, demand_update
+from .demand import D_MAX_F, D_MIN_N, demand_start, demand_update
 from .errors import ConfigError, check_positive
 from .model import G, Block
 from .pulses import MIN_STEPS_PER_WAVE, PULSE_CODES, Pulse
@@ -106,10 +106,17 @@ _N_STATS = 10
 
 # --------------------------------------------------------------------------------------------
 # compiled pieces
+#
+# ``pulse`` is the tuple ``(code, a0 [m/s^2], ω [rad/s], t_end [s], t_knots [s], a_knots [m/s^2])``
+# of :meth:`~rockbench.reference_solver.pulses.Pulse.kernel_spec`. What runs at every step takes
+# scalars only: a compiled function that takes an array (or a tuple holding one) pays for its
+# reference count at each call, and passing ``pulse`` to the per-step helpers made a map 10–30 %
+# slower. Events (uplifts, impacts, the pulse's end) are rare enough to take it.
 # --------------------------------------------------------------------------------------------
 @njit(cache=True)
-def _pulse_acc(t, code, a0, w, t_end, tk, ak):
+def _pulse_acc(t, pulse):
     """Table acceleration ü(t) [m/s^2]; 0 outside [0, t_end] (and before a record's first sample)."""
+    code, a0, w, t_end, tk, ak = pulse
     if t < 0.0 or t > t_end:
         return 0.0
     if code == 0 or code == 2:
@@ -126,7 +133,8 @@ def _pulse_acc(t, code, a0, w, t_end, tk, ak):
 
 @njit(cache=True)
 def _harmonic_acc(t, code, a0, w, t_end):
-    """ü(t) [m/s^2] of the harmonic pulses (codes 0–2) without the record arrays (the hot path)."""
+    """ü(t) [m/s^2] of the harmonic pulses (codes 0–2), the same value as :func:`_pulse_acc`, without
+    the record arrays (the per-step path)."""
     if t < 0.0 or t > t_end:
         return 0.0
     if code == 1:
@@ -135,8 +143,15 @@ def _harmonic_acc(t, code, a0, w, t_end):
 
 
 @njit(cache=True)
-def _pulse_jerk(t, code, a0, w, t_end, tk, ak):
+def _table_acc_g(t, post, pulse):
+    """ü(t)/g [-], 0 once the pulse has ended (``post``)."""
+    return 0.0 if post else _pulse_acc(t, pulse) / G
+
+
+@njit(cache=True)
+def _pulse_jerk(t, pulse):
     """Time derivative of ü [m/s^3] (for Newton on the impact step length)."""
+    code, a0, w, t_end, tk, ak = pulse
     if t < 0.0 or t > t_end:
         return 0.0
     if code == 0 or code == 2:
@@ -152,40 +167,53 @@ def _pulse_jerk(t, code, a0, w, t_end, tk, ak):
 
 
 @njit(cache=True)
-def _next_uplift(t0, code, a0, w, t_end, tk, ak, thr):
+def _next_uplift(t0, pulse, thr):
     """First instant t ≥ t0 (t ≤ t_end) at which |ü| exceeds ``thr``; −1 if none [s].
 
     Harmonic pulses in closed form, records exactly on their linear segments. When |ü(t0)| is
     already above the threshold the answer is t0 itself.
     """
+    code, a0, w, t_end, tk, ak = pulse
     if t0 > t_end:
         return -1.0
-    if abs(_pulse_acc(t0, code, a0, w, t_end, tk, ak)) > thr:
+    if abs(_pulse_acc(t0, pulse)) > thr:
         return t0
     if code <= 2:
-        A = abs(a0)
-        if A <= thr:
-            return -1.0
-        r = thr / A
-        phi0 = w * t0
-        if code == 1:
-            # |cos φ| > r on [0, c), (π − c, π + c), (2π − c, 2π]
-            c = math.acos(r)
-            cands = (0.0, math.pi - c, 2.0 * math.pi - c)
-        elif code == 0:
-            b = math.asin(r)
-            cands = (b, math.pi + b, 1e300)
-        else:
-            b = math.asin(r)
-            cands = (b, 1e300, 1e300)
-        for phi in cands:
-            if phi >= phi0:
-                tc = phi / w
-                if tc > t_end:
-                    return -1.0
-                return max(tc, t0)
+        return _next_harmonic_uplift(t0, code, a0, w, t_end, thr)
+    return _next_record_uplift(t0, tk, ak, thr)
+
+
+@njit(cache=True)
+def _next_harmonic_uplift(t0, code, a0, w, t_end, thr):
+    """:func:`_next_uplift` of a harmonic pulse with |ü(t0)| ≤ ``thr``, in closed form [s]."""
+    A = abs(a0)
+    if A <= thr:
         return -1.0
-    # record: walk the segments from the one holding t0
+    r = thr / A
+    phi0 = w * t0
+    if code == 1:
+        # |cos φ| > r on [0, c), (π − c, π + c), (2π − c, 2π]
+        c = math.acos(r)
+        cands = (0.0, math.pi - c, 2.0 * math.pi - c)
+    elif code == 0:
+        b = math.asin(r)
+        cands = (b, math.pi + b, 1e300)
+    else:
+        b = math.asin(r)
+        cands = (b, 1e300, 1e300)
+    for phi in cands:
+        if phi >= phi0:
+            tc = phi / w
+            if tc > t_end:
+                return -1.0
+            return max(tc, t0)
+    return -1.0
+
+
+@njit(cache=True)
+def _next_record_uplift(t0, tk, ak, thr):
+    """:func:`_next_uplift` of a record with |ü(t0)| ≤ ``thr``: walk the linear segments from the one
+    holding t0 [s]."""
     n = tk.size
     if t0 < tk[0]:
         t0 = tk[0]
@@ -254,23 +282,42 @@ def _fate(th, thd, alpha, p2, eta, lin):
     return False, 0
 
 
+@njit(cache=True)
+def _fate_at_pulse_end(th, thd, alpha, p2, eta, lin):
+    """Energy mode's decision at the end of the pulse: (overturns, impacts allowed on the way).
+
+    When the pulse ended right at an impact (θ = 0), θ̇ is already the post-impact velocity: the
+    block overturns when its energy exceeds the barrier, with no impact on the way.
+    """
+    if th == 0.0:
+        return _energy(th, thd, alpha, p2, lin) > (0.0 if lin else p2), 0
+    return _fate(th, thd, alpha, p2, eta, lin)
+
+
 # classifier state vector (the rule of classify.classify, applied one sample at a time)
 _C_LIFTED, _C_TUP, _C_SIDE, _C_NIMP, _C_MAX, _C_PREVA, _C_PREVT, _C_TCROSS, _C_CERTAIN, _C_N, \
     _C_LASTT, _C_LASTTH, _C_LASTTHD = range(13)
 
 
 @njit(cache=True)
-def _push(hist, n, t, th, thd, thdd):
-    """Append one sample to the history; returns the (possibly reallocated) array."""
-    if n >= hist.shape[0]:
-        new = np.empty((2 * hist.shape[0] + 16, 4))
-        new[:n] = hist[:n]
-        hist = new
-    hist[n, 0] = t
-    hist[n, 1] = th
-    hist[n, 2] = thd
-    hist[n, 3] = thdd
-    return hist
+def _new_classifier():
+    """A running classification with no sample yet (state vector indexed by ``_C_*``)."""
+    cs = np.zeros(13)
+    cs[_C_TCROSS] = np.nan
+    return cs
+
+
+@njit(cache=True)
+def _new_records(t_end, dt, record, events):
+    """Buffers for the samples (n, 4), the impacts (m, 3) and the uplifts (k, 1); one row each when
+    not kept. The history holds the pulse's steps and a second of free motion before it grows."""
+    cap = 64
+    if record:
+        cap = int((t_end + 1.0) / dt) + 64
+    hist = np.empty((cap if record else 1, 4))
+    imps = np.empty((16 if events else 1, 3))
+    upls = np.empty((8 if events else 1, 1))
+    return hist, imps, upls
 
 
 @njit(cache=True)
@@ -304,6 +351,28 @@ def _emit(cs, t, th, thd, alpha, t_end):
 
 
 @njit(cache=True)
+def _sample(hist, n, record, cs, t, th, thd, thdd, alpha, t_end):
+    """Take sample ``n``: into the history (when ``record``; the caller keeps a free row) and the
+    running classification ``cs``; returns the new count of samples."""
+    if record:
+        hist[n, 0] = t
+        hist[n, 1] = th
+        hist[n, 2] = thd
+        hist[n, 3] = thdd
+    _emit(cs, t, th, thd, alpha, t_end)
+    return n + 1
+
+
+@njit(cache=True)
+def _sample_if_new(hist, n, record, cs, t, th, thd, thdd, alpha, t_end):
+    """:func:`_sample` unless the time ``t`` is not later than the last sample's (an event that
+    coincides with a sample already taken)."""
+    if t > cs[_C_LASTT]:
+        return _sample(hist, n, record, cs, t, th, thd, thdd, alpha, t_end)
+    return n
+
+
+@njit(cache=True)
 def _grow(a, n):
     if n >= a.shape[0]:
         new = np.empty((2 * a.shape[0] + 8,) + a.shape[1:])
@@ -313,12 +382,111 @@ def _grow(a, n):
 
 
 @njit(cache=True)
+def _log_uplift(upls, nu, t, events):
+    """Count an uplift at ``t`` [s] and list it when ``events``; returns the list and the count."""
+    if events:
+        upls = _grow(upls, nu)
+        upls[nu, 0] = t
+    return upls, nu + 1
+
+
+@njit(cache=True)
+def _log_impact(imps, ni, t, vm, vp, events):
+    """Count an impact at ``t`` [s] with θ̇⁻ = ``vm``, θ̇⁺ = ``vp`` [rad/s] and list it when
+    ``events``; returns the list and the count."""
+    if events:
+        imps = _grow(imps, ni)
+        imps[ni, 0] = t
+        imps[ni, 1] = vm
+        imps[ni, 2] = vp
+    return imps, ni + 1
+
+
+@njit(cache=True)
+def _start(dm, th0, thd0, pulse, alpha, p2, lin):
+    """The side a run starts on (that of θ0, else of θ̇0; 0, at rest, when both are 0) and θ̈ at t = 0
+    [rad/s^2] (0 at rest); counts the initial state in the contact demand ``dm``."""
+    s = 0.0
+    if th0 != 0.0:
+        s = 1.0 if th0 > 0.0 else -1.0
+    elif thd0 != 0.0:
+        s = 1.0 if thd0 > 0.0 else -1.0
+    u = _pulse_acc(0.0, pulse) / G
+    thdd = 0.0 if s == 0.0 else _acc(th0, u, s, alpha, p2, lin)
+    demand_update(dm, th0, thd0, thdd, u, s, alpha, p2)
+    return s, thdd
+
+
+@njit(cache=True)
+def _lift_off(dm, tu, pulse, alpha, p2, lin):
+    """The block lifts at ``tu`` with θ = θ̇ = 0: returns (side, θ̈ [rad/s^2]) and counts the state in
+    the contact demand ``dm``. A positive table acceleration tips the block to negative θ."""
+    ua = _pulse_acc(tu, pulse)
+    s = -1.0 if ua > 0.0 else 1.0
+    thdd = _acc(0.0, ua / G, s, alpha, p2, lin)
+    demand_update(dm, 0.0, 0.0, thdd, ua / G, s, alpha, p2)
+    return s, thdd
+
+
+@njit(cache=True)
+def _step_length(t, dt, t_end, post):
+    """Length of the next step [s] and whether it ends the pulse: the pulse's end is always hit
+    exactly (a step that would reach within 1e-6·Δt of it is shortened or stretched to it)."""
+    if not post and t + dt >= t_end - 1e-6 * dt:
+        return t_end - t, True
+    return dt, False
+
+
+# The θ̈ trend along a smooth stretch (the steps since the last event), for the Newton start:
+# (length of the previous step [s] (0: no step yet), steps of that length in a row, θ̈ one, two and
+# three steps back [rad/s^2]).
+@njit(cache=True)
+def _no_trend():
+    """The trend at an event: the step grid restarts, nothing to extrapolate from."""
+    return (0.0, 0, 0.0, 0.0, 0.0)
+
+
+@njit(cache=True)
+def _extend_trend(trend, h, thdd):
+    """The trend after an accepted step of length ``h`` that started with θ̈ = ``thdd``."""
+    h_prev, n_same, a1, a2, a3 = trend
+    n_same = n_same + 1 if (h == h_prev and h_prev > 0.0) else 1
+    return (h, n_same, thdd, a1, a2)
+
+
+@njit(cache=True)
+def _extrapolate_thdd(trend, h, thdd):
+    """A guess of θ̈_{n+1} [rad/s^2] for the Newton start of a step of length ``h`` along a smooth
+    stretch (``trend[0] > 0``): extrapolated through up to four steps (cubic or quadratic when the
+    last steps had the same length ``h``, else linear)."""
+    h_prev, n_same, a1, a2, a3 = trend
+    if n_same >= 3 and h == h_prev:
+        return 4.0 * (thdd + a2) - 6.0 * a1 - a3   # cubic, last four
+    if n_same >= 2 and h == h_prev:
+        return 3.0 * (thdd - a1) + a2   # quadratic through the last three
+    return thdd + (thdd - a1) * (h / h_prev)
+
+
+@njit(cache=True)
+def _thdd_after_event(h, t, th, thd, thdd, s, post, pulse, alpha, p2, lin):
+    """A guess of θ̈_{n+1} [rad/s^2] for the Newton start of the first step after an event (nothing
+    to extrapolate from): ``θ̈_n + h·dθ̈/dt`` from the equation of motion."""
+    un = _table_acc_g(t, post, pulse)
+    jn = 0.0 if post else _pulse_jerk(t, pulse) / G
+    if lin:
+        return thdd + h * p2 * (thd - jn)
+    z = alpha * s - th
+    cz = math.cos(z)
+    return thdd + h * p2 * ((cz - un * math.sin(z)) * thd - cz * jn)
+
+
+@njit(cache=True)
 def _newton_step(th, thd, thdd, a_pred, h, u1, s, alpha, p2, lin):
     """Solve the Newmark equation (paper eqs (5)/(6)) for θ_{n+1}; returns (θ_{n+1}, iterations).
 
     Newton–Raphson until ``|update| < 1e-9`` rad, from the start ``θ_n + Δt·θ̇_n + ¼Δt²·(θ̈_n +
-    a_pred)`` where ``a_pred`` is a guess of θ̈_{n+1} (extrapolated, see :func:`_integrate`), so
-    the first update is usually already below the tolerance.
+    a_pred)`` where ``a_pred`` is a guess of θ̈_{n+1} (:func:`_extrapolate_thdd`), so the first update is
+    usually already below the tolerance.
     """
     c = 4.0 / (h * h)
     rhs = c * th + 4.0 / h * thd + thdd  # c·θ_{n+1} − θ̈(θ_{n+1}) = rhs
@@ -342,11 +510,19 @@ def _newton_step(th, thd, thdd, a_pred, h, u1, s, alpha, p2, lin):
 
 
 @njit(cache=True)
-def _impact_g(tau, th, thd, thdd, t, s, post, code, a0, w, t_end, tk, ak, alpha, p2, lin, cg):
+def _newmark_rates(x, th, thd, thdd, h):
+    """θ̇_{n+1} and θ̈_{n+1} of a step of length ``h`` that ends at θ_{n+1} = ``x`` (paper eqs (3), (4))."""
+    thd1 = 2.0 / h * (x - th) - thd                          # eq (3)
+    thdd1 = 4.0 / (h * h) * (x - th) - 4.0 / h * thd - thdd  # eq (4)
+    return thd1, thdd1
+
+
+@njit(cache=True)
+def _impact_g(tau, th, thd, thdd, t, s, post, pulse, alpha, p2, lin, cg):
     """F(τ) (or F(τ)/τ when θ_n = 0) of :func:`_impact_time` and its derivative."""
     tt = t + tau
-    ug = 0.0 if post else _pulse_acc(tt, code, a0, w, t_end, tk, ak) / G
-    jg = 0.0 if post else _pulse_jerk(tt, code, a0, w, t_end, tk, ak) / G
+    ug = 0.0 if post else _pulse_acc(tt, pulse) / G
+    jg = 0.0 if post else _pulse_jerk(tt, pulse) / G
     a_0 = _acc(0.0, ug, s, alpha, p2, lin)
     da_0 = -p2 * cg * jg
     q = thdd + a_0
@@ -356,7 +532,7 @@ def _impact_g(tau, th, thd, thdd, t, s, post, code, a0, w, t_end, tk, ak, alpha,
 
 
 @njit(cache=True)
-def _impact_time(th, thd, thdd, h, t, s, post, code, a0, w, t_end, tk, ak, alpha, p2, lin, x_end):
+def _impact_time(th, thd, thdd, h, t, s, post, pulse, alpha, p2, lin, x_end):
     """Length Δt' of the step that ends at θ = 0 (θ_{n+1} := 0, paper §2.2); returns (Δt', iterations).
 
     With θ_{n+1} = 0 the trapezoidal rule reads F(τ) = θ_n + τθ̇_n + τ²/4·(θ̈_n + θ̈(0, t_n + τ)) = 0;
@@ -366,7 +542,7 @@ def _impact_time(th, thd, thdd, h, t, s, post, code, a0, w, t_end, tk, ak, alpha
     cg = math.cos(alpha) if not lin else 1.0
     lo = 0.0
     hi = h
-    ghi, _ = _impact_g(hi, th, thd, thdd, t, s, post, code, a0, w, t_end, tk, ak, alpha, p2, lin, cg)
+    ghi, _ = _impact_g(hi, th, thd, thdd, t, s, post, pulse, alpha, p2, lin, cg)
     if s * ghi > 0.0:
         # the sign change came only from θ̈ at θ_{n+1} ≠ 0 versus θ = 0: a grazing contact at the
         # very end of the step
@@ -381,7 +557,7 @@ def _impact_time(th, thd, thdd, h, t, s, post, code, a0, w, t_end, tk, ak, alpha
     tol = IMPACT_TOL_REL * h
     while it < 100:
         it += 1
-        g, dg = _impact_g(tau, th, thd, thdd, t, s, post, code, a0, w, t_end, tk, ak, alpha, p2, lin, cg)
+        g, dg = _impact_g(tau, th, thd, thdd, t, s, post, pulse, alpha, p2, lin, cg)
         if s * g > 0.0:
             lo = tau
         else:
@@ -394,6 +570,71 @@ def _impact_time(th, thd, thdd, h, t, s, post, code, a0, w, t_end, tk, ak, alpha
             break
         tau = new
     return tau, it
+
+
+@njit(cache=True)
+def _locate_impact(th, thd, thdd, h, t, t1, hits_end, s, post, pulse, alpha, p2, lin, x_end):
+    """The impact inside the step from ``t`` to ``t1`` (side ``s``, Newton end ``x_end`` past zero).
+
+    Returns
+    -------
+    t_imp : float
+        The impact instant [s]: ``t + Δt'`` (:func:`_impact_time`), the step's end for a grazing
+        contact, the pulse's end when the step hits it and Δt' is within 1e-12·Δt of the full step.
+    post : bool
+        Whether the pulse has ended at the impact.
+    vm : float
+        θ̇⁻ from eq (7) with θ_{n+1} = 0 [rad/s].
+    iterations : int
+        Newton iterations on Δt'.
+    """
+    tau, it = _impact_time(th, thd, thdd, h, t, s, post, pulse, alpha, p2, lin, x_end)
+    vm = 2.0 / tau * (0.0 - th) - thd                        # eq (7)
+    t_imp = t1 if tau >= h else t + tau
+    if hits_end and tau >= h * (1.0 - 1e-12):
+        t_imp = pulse[3]
+        post = True
+    return t_imp, post, vm, it
+
+
+@njit(cache=True)
+def _zeno_rest(vp, thdd, s, eta, dt):
+    """Whether the impacts after one with θ̇⁺ = ``vp`` (then θ̈⁺ = ``thdd`` on side ``s``) form a
+    Zeno series that ends within one step Δt (module docstring, "Coming back to rest").
+
+    With η = 1 there is no series: only a flight shorter than 1e-9·Δt counts.
+    """
+    return s * thdd < 0.0 and 2.0 * abs(vp) < dt * abs(thdd) * max(1.0 - eta, 1e-9)
+
+
+@njit(cache=True)
+def _restitute(vm, u, s, eta, dt, alpha, p2, lin):
+    """The state just after an impact on side ``s`` with θ̇⁻ = ``vm`` and ü/g = ``u``: returns the new
+    (side, θ̇, θ̈) at θ = 0 (θ̇⁺ = η·θ̇⁻ on the other side, or all 0 when :func:`_zeno_rest` puts the
+    block to rest)."""
+    s = -s
+    vp = eta * vm
+    thdd = _acc(0.0, u, s, alpha, p2, lin)
+    if _zeno_rest(vp, thdd, s, eta, dt):
+        return 0.0, 0.0, 0.0
+    return s, vp, thdd
+
+
+@njit(cache=True)
+def _impact(dm, th, thd, thdd, h, t, t1, hits_end, s, post, pulse, eta, dt, alpha, p2, lin, x_end):
+    """The impact inside a step on side ``s`` whose Newton solution ``x_end`` crossed θ = 0.
+
+    Locates it (:func:`_locate_impact`), applies the restitution (:func:`_restitute`) and counts the
+    states just before and just after it in the contact demand ``dm`` (the impulse itself is not a
+    force). Returns (t_imp [s], post, new side, θ̇⁺ [rad/s], θ̈⁺ [rad/s^2], θ̇⁻ [rad/s], iterations);
+    θ = 0 after it.
+    """
+    t, post, vm, it = _locate_impact(th, thd, thdd, h, t, t1, hits_end, s, post, pulse, alpha, p2, lin, x_end)
+    u = _table_acc_g(t, post, pulse)
+    demand_update(dm, 0.0, vm, _acc(0.0, u, s, alpha, p2, lin), u, s, alpha, p2)
+    s, thd, thdd = _restitute(vm, u, s, eta, dt, alpha, p2, lin)
+    demand_update(dm, 0.0, thd, thdd, u, s, alpha, p2)
+    return t, post, s, thd, thdd, vm, it
 
 
 @njit(cache=True)
@@ -431,244 +672,117 @@ def _verdict(cs, dm, steps, newton, ni, energy_mode, t_end, alpha, p2, eta, lin)
 
 
 @njit(cache=True)
-def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, t_max, record, th0, thd0, events):
-    """Integrate one case; see the module docstring.
+def _excitation_off(dm, th, thd, s, alpha, p2, lin):
+    """θ̈ [rad/s^2] of the state (θ, θ̇) on side ``s`` once the excitation stops (ü = 0, the end of the
+    pulse); that state also counts in the contact demand ``dm``."""
+    thdd = _acc(th, 0.0, s, alpha, p2, lin)
+    demand_update(dm, th, thd, thdd, 0.0, s, alpha, p2)
+    return thdd
 
-    Returns
-    -------
-    hist : ndarray (n, 4)
-        Samples t, θ, θ̇, θ̈ (empty unless ``record``).
-    impacts : ndarray (m, 3)
-        Impact time, θ̇⁻, θ̇⁺ (empty unless ``events``).
-    uplifts : ndarray (k,)
-        Uplift instants (empty unless ``events``).
-    stats : ndarray
-        Outcome code, impacts, max |θ|, t_uplift, t_overturn (by the classifier's rule), steps,
-        Newton iterations, impacts by the integrator, and the rigid model's contact demand
-        (smallest N/(m·g), largest |F|/N; :mod:`~rockbench.reference_solver.demand`).
+
+@njit(cache=True)
+def _run_ends(certain, post, s, t, th, thd, cont, extra_left, energy_mode, t_max, alpha, p2, eta, lin):
+    """Whether the run ends here (module docstring, "How a run ends"); returns (ends, cont, extra_left).
+
+    It ends when the classifier is ``certain`` of the overturn, or after the pulse when the block rests,
+    when ``t_max`` is reached, or (energy mode) when the decision at the pulse's end says it will
+    not overturn; when it will, ``cont`` turns on and ``extra_left`` is the impacts allowed on the way.
     """
+    if certain:
+        return True, cont, extra_left
+    if not post:
+        return False, cont, extra_left
+    if s == 0.0:
+        return True, cont, extra_left
+    if energy_mode and not cont:
+        goes, extra_left = _fate_at_pulse_end(th, thd, alpha, p2, eta, lin)
+        if not goes:
+            return True, cont, extra_left
+        cont = True
+    return t >= t_max, cont, extra_left
+
+
+@njit(cache=True)
+def _integrate(alpha, p, eta, code, a0, w, t_end, tk, ak, dt, lin, energy_mode, t_max, record, th0, thd0, events):
+    """Integrate one case (module docstring). Returns the samples t, θ, θ̇, θ̈ (n, 4; empty unless
+    ``record``), each impact's time, θ̇⁻ and θ̇⁺ (m, 3) and each uplift's time (k,) (both empty unless
+    ``events``), and the stats vector (:func:`_verdict`)."""
+    pulse = (code, a0, w, t_end, tk, ak)
     p2 = p * p
-    thr = G * (alpha if lin else math.tan(alpha))
+    thr = G * (alpha if lin else math.tan(alpha))   # uplift threshold on |ü| [m/s^2]
     max_loops = 10.0 * t_max / dt + 1e6
-    cap = 64
-    if record:
-        cap = int((t_end + 1.0) / dt) + 64
-    hist = np.empty((cap if record else 1, 4))
-    imps = np.empty((16 if events else 1, 3))
-    upls = np.empty((8 if events else 1, 1))
-    n = 0
-    ni = 0
-    nu = 0
-    cs = np.zeros(13)
-    cs[_C_TCROSS] = np.nan
-    dm = np.zeros(N_DEMAND)   # running contact demand (demand.demand_update): never lifted yet
-    dm[D_MIN_N] = 1.0
-
-    t = 0.0
-    th = th0
-    thd = thd0
-    s = 0.0           # 0 at rest, else the pivot side
-    if th0 != 0.0:
-        s = 1.0 if th0 > 0.0 else -1.0
-    elif thd0 != 0.0:
-        s = 1.0 if thd0 > 0.0 else -1.0
-    thdd = 0.0 if s == 0.0 else _acc(th, _pulse_acc(0.0, code, a0, w, t_end, tk, ak) / G, s, alpha, p2, lin)
-    post = False      # the pulse has ended
-    cont = False      # energy mode: continuing a certain overturn after the pulse
-    extra_left = 0    # impacts the energy decision allows on the way
-    stop_next = False
-    thdd_prev = 0.0   # θ̈ one and two steps back, for the Newton start (see _newton_step)
-    thdd_prev2 = 0.0
-    thdd_prev3 = 0.0
-    h_prev = 0.0      # length of the previous step of this smooth stretch (0: none yet)
-    n_same = 0        # accepted steps of length h_prev in a row since the last event
-    steps = 0
-    newton = 0
-    if record:
-        hist = _push(hist, n, t, th, thd, thdd)
-    _emit(cs, t, th, thd, alpha, t_end)
-    demand_update(dm, th, thd, thdd, _pulse_acc(0.0, code, a0, w, t_end, tk, ak) / G, s, alpha, p2)
-    n += 1
-
+    hist, imps, upls = _new_records(t_end, dt, record, events)
+    cs, dm = _new_classifier(), demand_start()      # running classification and contact demand
+    n = ni = nu = steps = newton = 0                # samples, impacts, uplifts, steps, Newton iterations
+    t, th, thd = 0.0, th0, thd0
+    s, thdd = _start(dm, th0, thd0, pulse, alpha, p2, lin)   # s: 0 at rest, else the pivot side
+    # the pulse has ended; energy mode goes on to a certain overturn (extra_left impacts allowed)
+    post, cont, extra_left, stop_next = False, False, 0, False
+    trend = _no_trend()
+    n = _sample(hist, n, record, cs, t, th, thd, thdd, alpha, t_end)
     while True:
+        if record and n >= hist.shape[0]:
+            hist = _grow(hist, n)   # room for this pass's sample (one at most)
         if s == 0.0:
-            if post:
-                break
-            tu = _next_uplift(t, code, a0, w, t_end, tk, ak, thr)
+            # at rest: lift at the next uplift instant, or rest to the end of the pulse
+            tu = -1.0 if post else _next_uplift(t, pulse, thr)
             if tu < 0.0:
-                if t < t_end:
-                    t = t_end
-                    if record:
-                        hist = _push(hist, n, t, 0.0, 0.0, 0.0)
-                    _emit(cs, t, 0.0, 0.0, alpha, t_end)
-                    n += 1
-                post = True
+                if t < t_end and not post:
+                    n = _sample(hist, n, record, cs, t_end, 0.0, 0.0, 0.0, alpha, t_end)
                 break
-            ua = _pulse_acc(tu, code, a0, w, t_end, tk, ak)
-            s = -1.0 if ua > 0.0 else 1.0
-            t = tu
-            th = 0.0
-            thd = 0.0
-            thdd = _acc(0.0, ua / G, s, alpha, p2, lin)
-            h_prev = 0.0
-            if events:
-                upls = _grow(upls, nu)
-                upls[nu, 0] = tu
-            nu += 1
-            if t > cs[_C_LASTT]:
-                if record:
-                    hist = _push(hist, n, t, th, thd, thdd)
-                _emit(cs, t, th, thd, alpha, t_end)
-                n += 1
-            demand_update(dm, th, thd, thdd, ua / G, s, alpha, p2)
+            t, th, thd = tu, 0.0, 0.0
+            s, thdd = _lift_off(dm, tu, pulse, alpha, p2, lin)
+            trend = _no_trend()
+            upls, nu = _log_uplift(upls, nu, tu, events)
+            n = _sample_if_new(hist, n, record, cs, t, th, thd, thdd, alpha, t_end)
             continue
-
-        # one step on side s (shortened to land exactly on the pulse's end)
-        h = dt
-        hits_end = False
-        did_step = True
-        if not post and t + dt >= t_end - 1e-6 * dt:
-            h = t_end - t
-            hits_end = True
-            if h <= 1e-12 * dt:
-                # an event landed on the end already: only switch the excitation off
-                t = t_end
-                post = True
-                thdd = _acc(th, 0.0, s, alpha, p2, lin)
-                h_prev = 0.0
-                if t > cs[_C_LASTT]:
-                    if record:
-                        hist = _push(hist, n, t, th, thd, thdd)
-                    _emit(cs, t, th, thd, alpha, t_end)
-                    n += 1
-                demand_update(dm, th, thd, thdd, 0.0, s, alpha, p2)
-                did_step = False
-        if did_step:
+        h, hits_end = _step_length(t, dt, t_end, post)
+        if hits_end and h <= 1e-12 * dt:
+            # an event landed on the pulse's end already: only switch the excitation off
+            t, post, trend = t_end, True, _no_trend()
+            thdd = _excitation_off(dm, th, thd, s, alpha, p2, lin)
+            n = _sample_if_new(hist, n, record, cs, t, th, thd, thdd, alpha, t_end)
+        else:
+            # one Newmark step of length h on side s
             t1 = t_end if hits_end else t + h
-            if post:
-                u1 = 0.0
-            elif code < 3:
-                u1 = _harmonic_acc(t1, code, a0, w, t_end) / G
-            else:
-                u1 = _pulse_acc(t1, code, a0, w, t_end, tk, ak) / G
-            # a guess of θ̈_{n+1}: extrapolated along this smooth stretch, or from dθ̈/dt after an event
-            if h_prev > 0.0 and n_same >= 3 and h == h_prev:
-                a_pred = 4.0 * (thdd + thdd_prev2) - 6.0 * thdd_prev - thdd_prev3   # cubic, last four
-            elif h_prev > 0.0 and n_same >= 2 and h == h_prev:
-                a_pred = 3.0 * (thdd - thdd_prev) + thdd_prev2   # quadratic through the last three
-            elif h_prev > 0.0:
-                a_pred = thdd + (thdd - thdd_prev) * (h / h_prev)
-            else:
-                # first step after an event: θ̈_{n+1} ≈ θ̈_n + Δt·dθ̈/dt, from the equation of motion
-                un = 0.0 if post else _pulse_acc(t, code, a0, w, t_end, tk, ak) / G
-                jn = 0.0 if post else _pulse_jerk(t, code, a0, w, t_end, tk, ak) / G
-                if lin:
-                    a_pred = thdd + h * p2 * (thd - jn)
-                else:
-                    z = alpha * s - th
-                    cz = math.cos(z)
-                    a_pred = thdd + h * p2 * ((cz - un * math.sin(z)) * thd - cz * jn)
+            u1 = 0.0 if post else (_harmonic_acc(t1, code, a0, w, t_end) if code < 3 else _pulse_acc(t1, pulse)) / G
+            a_pred = _extrapolate_thdd(trend, h, thdd) if trend[0] > 0.0 else \
+                _thdd_after_event(h, t, th, thd, thdd, s, post, pulse, alpha, p2, lin)
             x, it = _newton_step(th, thd, thdd, a_pred, h, u1, s, alpha, p2, lin)
-            steps += 1
-            newton += it
-
+            steps, newton = steps + 1, newton + it
             if s * x > 0.0:
-                thd1 = 2.0 / h * (x - th) - thd                          # eq (3)
-                thdd1 = 4.0 / (h * h) * (x - th) - 4.0 / h * thd - thdd  # eq (4)
-                n_same = n_same + 1 if (h == h_prev and h_prev > 0.0) else 1
-                thdd_prev3 = thdd_prev2
-                thdd_prev2 = thdd_prev
-                thdd_prev = thdd
-                h_prev = h
-                t, th, thd, thdd = t1, x, thd1, thdd1
+                # still on side s: accept the step; at the pulse's end the grid restarts
+                trend = _extend_trend(trend, h, thdd)
+                thd, thdd = _newmark_rates(x, th, thd, thdd, h)
+                t, th = t1, x
                 demand_update(dm, th, thd, thdd, u1, s, alpha, p2)
                 if hits_end:
-                    post = True
-                    thdd = _acc(th, 0.0, s, alpha, p2, lin)
-                    h_prev = 0.0
-                    demand_update(dm, th, thd, thdd, 0.0, s, alpha, p2)
-                if record:
-                    hist = _push(hist, n, t, th, thd, thdd)
-                _emit(cs, t, th, thd, alpha, t_end)
-                n += 1
+                    post, trend = True, _no_trend()
+                    thdd = _excitation_off(dm, th, thd, s, alpha, p2, lin)
+                n = _sample(hist, n, record, cs, t, th, thd, thdd, alpha, t_end)
             elif th == 0.0 and thd == 0.0:
                 # lifted only on paper: the first step already pushes it back into the table
-                t = t1
-                s = 0.0
-                thdd = 0.0
-                if hits_end:
-                    post = True
-                if record:
-                    hist = _push(hist, n, t, 0.0, 0.0, 0.0)
-                _emit(cs, t, 0.0, 0.0, alpha, t_end)
-                n += 1
+                t, s, thdd, post = t1, 0.0, 0.0, post or hits_end
+                n = _sample(hist, n, record, cs, t, 0.0, 0.0, 0.0, alpha, t_end)
             else:
-                tau, it2 = _impact_time(th, thd, thdd, h, t, s, post, code, a0, w, t_end, tk, ak,
-                                        alpha, p2, lin, x)
-                newton += it2
-                h_prev = 0.0
-                vm = 2.0 / tau * (0.0 - th) - thd                        # eq (7)
-                vp = eta * vm
-                t = t1 if tau >= h else t + tau
-                if hits_end and tau >= h * (1.0 - 1e-12):
-                    t = t_end
-                    post = True
-                u = 0.0 if post else _pulse_acc(t, code, a0, w, t_end, tk, ak) / G
-                # the states just before and just after the impulse (the impulse itself is not a force)
-                demand_update(dm, 0.0, vm, _acc(0.0, u, s, alpha, p2, lin), u, s, alpha, p2)
-                s = -s
-                th = 0.0
-                thd = vp
-                thdd = _acc(0.0, u, s, alpha, p2, lin)
-                if events:
-                    imps = _grow(imps, ni)
-                    imps[ni, 0] = t
-                    imps[ni, 1] = vm
-                    imps[ni, 2] = vp
-                ni += 1
-                # Zeno: the rest of the shrinking series of impacts fits inside one step
-                # (with η = 1 only a flight shorter than 1e-9·Δt counts: nothing left to integrate)
-                if s * thdd < 0.0 and 2.0 * abs(vp) < dt * abs(thdd) * max(1.0 - eta, 1e-9):
-                    thd = 0.0
-                    thdd = 0.0
-                    s = 0.0
-                demand_update(dm, th, thd, thdd, u, s, alpha, p2)
-                if record:
-                    hist = _push(hist, n, t, th, thd, thdd)
-                _emit(cs, t, th, thd, alpha, t_end)
-                n += 1
+                # θ crossed 0 inside the step: an impact
+                t, post, s, thd, thdd, vm, it = _impact(dm, th, thd, thdd, h, t, t1, hits_end, s, post, pulse, eta,
+                                                        dt, alpha, p2, lin, x)
+                th, trend = 0.0, _no_trend()
+                newton += it
+                imps, ni = _log_impact(imps, ni, t, vm, eta * vm, events)
+                n = _sample(hist, n, record, cs, t, th, thd, thdd, alpha, t_end)
                 if cont:
-                    if extra_left > 0:
-                        extra_left -= 1
-                    else:
-                        stop_next = True
+                    if extra_left == 0:
+                        stop_next = True   # one more step, then the run ends
                         continue
-
-        if cs[_C_CERTAIN] != 0.0:
+                    extra_left -= 1
+        ends, cont, extra_left = _run_ends(cs[_C_CERTAIN] != 0.0, post, s, t, th, thd, cont, extra_left,
+                                           energy_mode, t_max, alpha, p2, eta, lin)
+        if ends or stop_next or steps + ni > max_loops:   # the last: a guard only, no test comes near it
             break
-        if stop_next:
-            break
-        if post:
-            if s == 0.0:
-                break
-            if energy_mode and not cont:
-                if th == 0.0:
-                    # the pulse ended right at an impact: θ̇ is already the post-impact velocity
-                    goes, extra = _energy(th, thd, alpha, p2, lin) > (0.0 if lin else p2), 0
-                else:
-                    goes, extra = _fate(th, thd, alpha, p2, eta, lin)
-                if not goes:
-                    break
-                cont = True
-                extra_left = extra
-            if t >= t_max:
-                break
-        if steps + ni > max_loops:
-            break  # a guard only: no case in the tests comes near it
-
     stats = _verdict(cs, dm, steps, newton, ni, energy_mode, t_end, alpha, p2, eta, lin)
-    return hist[:n] if record else hist[:0], imps[:ni] if events else imps[:0], \
-        upls[:nu, 0] if events else upls[:0, 0], stats
+    return hist[:n if record else 0], imps[:ni if events else 0], upls[:nu if events else 0, 0], stats
 
 
 @njit(parallel=True, cache=True)
