@@ -902,6 +902,21 @@ class BatchResult:
     min_normal_mg: np.ndarray
     max_friction_ratio: np.ndarray
 
+    @classmethod
+    def from_stats(cls, out: np.ndarray, shape: tuple) -> "BatchResult":
+        """The result from the kernels' stats vectors (one row per case), shaped ``shape``."""
+        return cls(
+            outcome=out[:, _S_OUTCOME].astype(np.int8).reshape(shape),
+            n_impacts=out[:, _S_NIMP].astype(np.int64).reshape(shape),
+            max_abs_theta_rad=out[:, _S_MAXTH].reshape(shape),
+            t_uplift_s=out[:, _S_TUP].reshape(shape),
+            t_overturn_s=np.where(out[:, _S_OUTCOME] == _OVERTURN, out[:, _S_TOVER], np.nan).reshape(shape),
+            n_steps=out[:, _S_STEPS].astype(np.int64).reshape(shape),
+            n_newton=out[:, _S_NEWTON].astype(np.int64).reshape(shape),
+            min_normal_mg=out[:, _S_MINN].reshape(shape),
+            max_friction_ratio=out[:, _S_MAXF].reshape(shape),
+        )
+
     def outcomes(self) -> np.ndarray:
         """The outcomes as strings (an object array of ``"rest"``/``"rocking"``/``"overturn"``)."""
         names = np.array([OUTCOME_FROM_CODE[i].value for i in range(3)], dtype=object)
@@ -1020,10 +1035,26 @@ def solve_batch(alpha_rad, p_rad_s, eta, pulse_kind: str, omega_rad_s, amplitude
     if pulse_kind not in _HARMONIC_CODES:
         raise ConfigError(f"solve_batch takes pulse_kind sine, cosine or half-sine, got {pulse_kind!r}; "
                           "run records one at a time with solve().")
+    shape, (al, p, et, w, a0, dt) = _batch_cases(alpha_rad, p_rad_s, eta, omega_rad_s, amplitude_mps2, dt_s)
+    t_end, t_max = _batch_times(pulse_kind, w, p, dt, t_max_s, shape)
+    out = np.empty((al.size, _N_STATS))
+    # cases differ a lot in cost (a rocking tail is long, an early overturn short): hand them out in
+    # small chunks rather than one static half per core
+    old = set_parallel_chunksize(BATCH_CHUNK)
+    try:
+        _batch(al, p, et, np.full(al.size, _HARMONIC_CODES[pulse_kind], dtype=np.int64), a0, w, t_end, dt,
+               bool(linearized), energy_mode, t_max, out)
+    finally:
+        set_parallel_chunksize(old)
+    return BatchResult.from_stats(out, shape)
+
+
+def _batch_cases(alpha_rad, p_rad_s, eta, omega_rad_s, amplitude_mps2, dt_s):
+    """:func:`solve_batch`'s case arrays, broadcast against each other, checked, and flattened into
+    contiguous float arrays; returns ``(shape, (α, p, η, ω, a0, Δt))``."""
     arrs = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in
                                  (alpha_rad, p_rad_s, eta, omega_rad_s, amplitude_mps2, dt_s)))
-    shape = arrs[0].shape
-    al, p, et, w, a0, dt = (np.ascontiguousarray(a.ravel()) for a in arrs)
+    al, p, et, w, a0, dt = flat = tuple(np.ascontiguousarray(a.ravel()) for a in arrs)
     if not (np.all(np.isfinite(al)) and np.all((al > 0) & (al < 0.5 * math.pi))):
         raise ConfigError("alpha_rad must be finite and in (0, π/2) rad.")
     if not (np.all(np.isfinite(p)) and np.all(p > 0)):
@@ -1036,7 +1067,13 @@ def solve_batch(alpha_rad, p_rad_s, eta, pulse_kind: str, omega_rad_s, amplitude
         raise ConfigError("amplitude_mps2 must be finite and non-zero m/s^2.")
     if not (np.all(np.isfinite(dt)) and np.all(dt > 0)):
         raise ConfigError("dt_s must be finite and > 0 s.")
-    code = _HARMONIC_CODES[pulse_kind]
+    return arrs[0].shape, flat
+
+
+def _batch_times(pulse_kind: str, w, p, dt, t_max_s, shape):
+    """Each case's pulse end and latest end of the run [s] (:func:`default_t_max_s` unless
+    ``t_max_s`` is given), after checking each Δt against its wave (the rule of
+    :meth:`~rockbench.reference_solver.pulses.Pulse.check_dt`)."""
     t_end = (math.pi if pulse_kind == "half-sine" else 2.0 * math.pi) / w
     period = 2.0 * math.pi / w
     if np.any(dt > period / MIN_STEPS_PER_WAVE):
@@ -1044,31 +1081,11 @@ def solve_batch(alpha_rad, p_rad_s, eta, pulse_kind: str, omega_rad_s, amplitude
         raise ConfigError(f"dt_s {dt[i]:g} s is too coarse for a wave of period {period[i]:.4g} s: "
                           f"use dt_s <= {period[i] / MIN_STEPS_PER_WAVE:.3g} s.")
     if t_max_s is None:
-        t_max = t_end + TAIL_PERIODS * 2.0 * math.pi / p
-    else:
-        t_max = np.ascontiguousarray(np.broadcast_to(np.asarray(t_max_s, dtype=float), shape).ravel())
-        if np.any(~np.isfinite(t_max)) or np.any(t_max <= t_end):
-            raise ConfigError("t_max_s must be finite and later than the pulse's end.")
-    out = np.empty((al.size, _N_STATS))
-    # cases differ a lot in cost (a rocking tail is long, an early overturn short): hand them out in
-    # small chunks rather than one static half per core
-    old = set_parallel_chunksize(BATCH_CHUNK)
-    try:
-        _batch(al, p, et, np.full(al.size, code, dtype=np.int64), a0, w, t_end, dt, bool(linearized),
-               energy_mode, t_max, out)
-    finally:
-        set_parallel_chunksize(old)
-    return BatchResult(
-        outcome=out[:, _S_OUTCOME].astype(np.int8).reshape(shape),
-        n_impacts=out[:, _S_NIMP].astype(np.int64).reshape(shape),
-        max_abs_theta_rad=out[:, _S_MAXTH].reshape(shape),
-        t_uplift_s=out[:, _S_TUP].reshape(shape),
-        t_overturn_s=np.where(out[:, _S_OUTCOME] == _OVERTURN, out[:, _S_TOVER], np.nan).reshape(shape),
-        n_steps=out[:, _S_STEPS].astype(np.int64).reshape(shape),
-        n_newton=out[:, _S_NEWTON].astype(np.int64).reshape(shape),
-        min_normal_mg=out[:, _S_MINN].reshape(shape),
-        max_friction_ratio=out[:, _S_MAXF].reshape(shape),
-    )
+        return t_end, default_t_max_s(t_end, p)
+    t_max = np.ascontiguousarray(np.broadcast_to(np.asarray(t_max_s, dtype=float), shape).ravel())
+    if np.any(~np.isfinite(t_max)) or np.any(t_max <= t_end):
+        raise ConfigError("t_max_s must be finite and later than the pulse's end.")
+    return t_end, t_max
 
 
 def _check_eta(eta) -> float:
