@@ -40,9 +40,9 @@ series (each flight lasts about ``2|θ̇|/|θ̈|`` and the velocity shrinks by �
 after about ``T_Z = 2|θ̇⁺| / (|θ̈⁺|·(1 − η))``: a Zeno series. When ``T_Z < Δt`` the whole
 series fits inside one step, and the block is put to rest at the impact (``θ = θ̇ = 0``): it then
 waits for the next uplift condition, exactly as at the start. (With ``η = 1`` there is no Zeno
-series; only a flight shorter than ``1e-9·Δt`` puts such a block to rest, so that time advances.) A block that "lifts" but whose first step already puts it back through zero
-did not really lift: it stays at rest to the end of that step and the uplift condition is
-checked again from there.
+series; only a flight shorter than ``1e-9·Δt`` puts such a block to rest, so that time advances.)
+A block that "lifts" but whose first step already puts it back through zero did not really lift:
+it stays at rest to the end of that step and the uplift condition is checked again from there.
 
 **How a run ends** (both modes stop at once when the block lies on its side,
 ``|θ| ≥ π/2 − 0.01``; a guard also stops any run after ``10·t_max/Δt + 10⁶`` steps and events):
@@ -245,16 +245,9 @@ def _acc(th, u, s, alpha, p2, lin):
 
 
 @njit(cache=True)
-def _dacc(th, u, s, alpha, p2, lin):
-    """∂θ̈/∂θ on side s [1/s^2]."""
-    if lin:
-        return p2
-    x = alpha * s - th
-    return p2 * (math.cos(x) - u * math.sin(x))
-
-
-@njit(cache=True)
 def _energy(th, thd, alpha, p2, lin):
+    """Compiled twin of :func:`~rockbench.reference_solver.energy.energy` with ``p² = p2``
+    [rad^2/s^2]."""
     a = abs(th)
     if lin:
         return 0.5 * thd * thd - 0.5 * p2 * (a - alpha) ** 2
@@ -374,6 +367,7 @@ def _sample_if_new(hist, n, record, cs, t, th, thd, thdd, alpha, t_end):
 
 @njit(cache=True)
 def _grow(a, n):
+    """``a`` with room for row ``n``: a copy about twice as long when it is full."""
     if n >= a.shape[0]:
         new = np.empty((2 * a.shape[0] + 8,) + a.shape[1:])
         new[:n] = a[:n]
