@@ -25,9 +25,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from rockbench.benchmark.report import build_report  # noqa: E402
-from rockbench.benchmark.metrics import LabelMap, from_cells, score  # noqa: E402
-from rockbench.benchmark.score_runs import score_dirs  # noqa: E402
+from rockbench.harness.report.html import build_report  # noqa: E402
+from rockbench.harness.scoring.metrics import LabelMap, from_cells, score  # noqa: E402
+from rockbench.harness.scoring.score_runs import score_dirs  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution  # noqa: E402
 
 from mapdirs import write_map  # noqa: E402

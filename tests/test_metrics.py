@@ -7,9 +7,9 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
 
-from rockbench.benchmark.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING, LabelMap,
-                                        boundary_points, check_gate, critical_amplitude, from_cells,
-                                        cell_counts, is_perfect, parse_thresholds, score)
+from rockbench.harness.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING, LabelMap,
+                                               boundary_points, check_gate, critical_amplitude, from_cells,
+                                               cell_counts, is_perfect, parse_thresholds, score)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
 
 N = 10
@@ -322,7 +322,7 @@ def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(
 
 
 def test_metrics_version_three_refuses_version_two():
-    from rockbench.benchmark.score_runs import compare_scores
+    from rockbench.harness.scoring.score_runs import compare_scores
     doc = {"metrics_version": "2", "pairs": []}
     with pytest.raises(IncomparableError, match="metrics version 2, current 3"):
         compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})
@@ -331,7 +331,7 @@ def test_metrics_version_three_refuses_version_two():
 def test_every_metric_is_one_complete_object():
     """A metric carries everything tables, the report, plots and compare read (adding one touches
     metrics.py and its test only)."""
-    from rockbench.benchmark.score_runs import cell_units
+    from rockbench.harness.scoring.score_runs import cell_units
     units = cell_units({"grid": {"n_w": 5, "n_a": 4, "w_lo": 1, "w_hi": 5, "a_lo": 1, "a_hi": 4}})
     for m in METRICS.values():
         assert m.short and m.title and m.question and m.definition

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from rockbench.benchmark.cli import main
-from rockbench.benchmark.suite_runner import load_suite, plan, restitution_for, run_suite, suite_path
+from rockbench.harness.cli.main import main
+from rockbench.harness.suites.runner import load_suite, plan, restitution_for, run_suite, suite_path
 from rockbench.reference_solver.errors import ConfigError
 
 
@@ -63,8 +63,8 @@ def test_run_cli_usage(tmp_path, capsys):
 
 
 def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(fake_engines, tmp_path, monkeypatch):
-    from rockbench.benchmark import executors
-    from rockbench.benchmark.suite_runner import run_suite
+    from rockbench.harness.maps import executors
+    from rockbench.harness.suites.runner import run_suite
 
     fake_engines.register_all()
     (tmp_path / "s.toml").write_text(
@@ -191,7 +191,7 @@ def test_lanes_and_helpers_give_what_one_worker_gives(fake_engines, tmp_path):
     """Engine maps on two lanes at once and the η measured by two helpers: the same maps, cell for
     cell, and the same calibration.json as one worker doing everything in turn; each η measured once,
     and not again on a rerun."""
-    from rockbench.benchmark.suite_runner import run_suite
+    from rockbench.harness.suites.runner import run_suite
 
     fake_engines.register_all()
     log = tmp_path / "measured.txt"
@@ -229,8 +229,8 @@ def test_a_lane_whose_workers_cannot_start_stops_that_engine_and_the_suite_goes_
     reference maps and the scores still come out."""
     import os
 
-    from rockbench.benchmark import executors
-    from rockbench.benchmark.suite_runner import run_suite
+    from rockbench.harness.maps import executors
+    from rockbench.harness.suites.runner import run_suite
 
     fake_engines.register_all()
     monkeypatch.setenv("RB_TEST_PARENT_PID", str(os.getpid()))
