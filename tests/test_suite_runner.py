@@ -6,7 +6,9 @@ from pathlib import Path
 import pytest
 
 from rockbench.harness.cli.main import main
-from rockbench.harness.suites.runner import load_suite, plan, restitution_for, run_suite, suite_path
+from rockbench.harness.suites.model import load_suite, restitution_for, suite_path
+from rockbench.harness.suites.plan import plan
+from rockbench.harness.suites.runner import run_suite
 from rockbench.reference_solver.errors import ConfigError
 
 
@@ -42,12 +44,33 @@ def test_restitution_tokens():
     ("[grid]\nw_ratio = '1:2:3'\na_ratio = '1:2:3'\n[cases]\npulses = ['square']\n", "cases.pulses"),
     ("[grid]\nw_ratio = '1:2:3'\na_ratio = '1:2:3'\n[engines]\nnames = 3\n", "engines.names"),
     ("[grid\n", "not valid TOML"),
+    ("[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\n[reference]\ndt_s = true\n",
+     "reference.dt_s must be a number of seconds > 0, got True."),
 ])
 def test_bad_suites(tmp_path, text, match):
     p = tmp_path / "s.toml"
     p.write_text(text)
     with pytest.raises(ConfigError, match=match):
         load_suite(p)
+
+
+@pytest.mark.parametrize("text, line", [
+    ("[grid]\nw_ratio = 5\na_ratio = '1:2:3'\n", "suite s.toml: grid.w_ratio must be a string LO:HI:N, got 5."),
+    ("[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\n[engines]\nvariants = [{}, {restitution = 'nope'}]\n",
+     "suite s.toml: engines.variants[1].restitution: restitution 'nope' is not one of housner, modified-average, "
+     "modified-exact, modified:K or a number in (0, 1]."),
+    ("[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\ncoarse_stride = 0\n",
+     "suite s.toml: grid.coarse_stride must be a whole number >= 1, got 0."),
+    ("[grid]\nw_ratio = '16:1:5'\na_ratio = '1:2:3'\n",
+     "suite s.toml: grid.w_ratio range is reversed (16 > 1); give LO:HI:N with LO < HI."),
+])
+def test_a_bad_suite_is_one_line_in_the_words_of_its_key(tmp_path, text, line):
+    """The typed model (pydantic) words each problem as the suite's own rule does, nothing of pydantic's."""
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    with pytest.raises(ConfigError) as e:
+        load_suite(p)
+    assert str(e.value) == line
 
 
 def test_run_cli_usage(tmp_path, capsys):

@@ -41,7 +41,9 @@ def run(args) -> int:
     from ....reference_solver.errors import ConfigError
     from ...store.atomic import check_output_dir
     from ..options import figure_formats_from_args, jobs_from_args
-    from ...suites.runner import check_suite, engine_names, load_suite, parse_engines, plan, run_suite, suite_path
+    from ...suites.model import load_suite, suite_path
+    from ...suites.plan import check_suite, engine_names, parse_engines, plan
+    from ...suites.runner import run_suite
 
     if args.show_suite is not None:
         if args.suite is not None or args.quick:
