@@ -5,8 +5,12 @@ engine maps on lanes, one worker process per lane and engine variant (:func:`run
 from __future__ import annotations
 
 import json
+import queue
+import threading
+from collections import deque
 from pathlib import Path
 
+from ..maps import executors as ex_mod
 from .plan import MapJob
 
 
@@ -21,9 +25,6 @@ class ReferenceThread:
     come, ``abort`` lets it start no more, ``join`` waits for the last and raises what stopped it."""
 
     def __init__(self, announce, one_map):
-        import queue
-        import threading
-
         self.q = queue.Queue()
         self.error: list = []
         self.closed = False
@@ -80,59 +81,97 @@ def run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, annou
     maps do not run on one core while the other waits. On an interrupt every lane's workers are
     stopped and nothing more is recorded; finished cells stay, and a rerun resumes.
     """
-    import threading
-    from collections import deque
+    _Lanes(order, todo, out, lanes, announce, one_map, stop).run()
 
-    from ..maps import executors as ex_mod
 
-    queue = deque(order)
-    lock = threading.Lock()
-    live: list = []
-    running: dict = {}   # lane → the executor running its map now
-    errors: list = []
-    cores = ex_mod.cpu_count()
+class _Lanes:
+    """:func:`run_lanes`' shared state: the queue of maps, the executors alive and running, the errors."""
 
-    def lend(n: int) -> None:
+    def __init__(self, order, todo, out: Path, lanes: int, announce, one_map, stop):
+        self.queue = deque(order)
+        self.todo, self.out, self.lanes, self.announce, self.one_map, self.stop = todo, out, lanes, announce, one_map, stop
+        self.lock = threading.Lock()
+        self.live: list = []
+        self.running: dict = {}   # lane → the executor running its map now
+        self.errors: list = []
+        self.cores = ex_mod.cpu_count()
+
+    def run(self) -> None:
+        if self.lanes <= 1:
+            self.lane(0)
+        else:
+            threads = [threading.Thread(target=self.lane, args=(n,), name=f"rockbench-lane-{n}", daemon=True)
+                       for n in range(self.lanes)]
+            for t in threads:
+                t.start()
+            try:
+                while any(t.is_alive() for t in threads):
+                    for t in threads:
+                        t.join(0.2)
+            except BaseException:
+                # Ctrl-C (delivered to this thread only): stop every lane's workers, record nothing more
+                with self.lock:
+                    self.queue.clear()
+                    for e in list(self.live):
+                        if hasattr(e, "cancel"):
+                            e.cancel()
+                for t in threads:
+                    t.join(10.0)
+                raise
+        if self.errors:
+            raise self.errors[0]
+
+    def lend(self, n: int) -> None:
         """Nothing left to start: this lane's core goes to the lane running with the fewest workers
         (its executor starts one more worker for the rest of that map's rounds)."""
-        others = [e for m, e in running.items() if m != n and isinstance(e, ex_mod.ProcessExecutor)]
+        others = [e for m, e in self.running.items() if m != n and isinstance(e, ex_mod.ProcessExecutor)]
         if others:
             e = min(others, key=lambda e: e.jobs)
             e.jobs += 1
 
-    def lane(n: int) -> None:
+    def _next(self, n: int) -> int | None:
+        """The next map for lane ``n``, or None when the lane stops (lending its core if all went well)."""
+        with self.lock:
+            if self.stop is not None and self.stop():
+                return None
+            if self.errors or not self.queue:
+                if not self.errors:
+                    self.lend(n)
+                return None
+            return self.queue.popleft()
+
+    def _executor(self, job: MapJob):
+        """A fresh one-worker executor for the job's engine variant."""
+        d = self.out / job.subdir
+        d.parent.mkdir(parents=True, exist_ok=True)
+        ex = ex_mod.make_executor(job.engine, dict(job.settings), jobs=1, log_path=d.parent / "workers.log",
+                                  threads_per_worker=max(1, self.cores // self.lanes))
+        with self.lock:
+            self.live.append(ex)
+        return ex
+
+    def _run_one(self, n: int, k: int, ex) -> None:
+        with self.lock:
+            self.running[n] = ex
+        try:
+            self.one_map(k, ex)
+        finally:
+            with self.lock:
+                self.running.pop(n, None)
+
+    def lane(self, n: int) -> None:
         key, ex = None, None
         try:
-            while True:
-                with lock:
-                    if stop is not None and stop():
-                        return
-                    if errors or not queue:
-                        if not errors:
-                            lend(n)
-                        return
-                    k = queue.popleft()
-                job = todo[k]
-                announce(k)
+            while (k := self._next(n)) is not None:
+                job = self.todo[k]
+                self.announce(k)
                 if _variant_key(job) != key:
                     if ex is not None:
                         ex.close()
-                    key = _variant_key(job)
-                    d = out / job.subdir
-                    d.parent.mkdir(parents=True, exist_ok=True)
-                    ex = ex_mod.make_executor(job.engine, dict(job.settings), jobs=1, log_path=d.parent / "workers.log",
-                                              threads_per_worker=max(1, cores // lanes))
-                    with lock:
-                        live.append(ex)
-                with lock:
-                    running[n] = ex
-                try:
-                    one_map(k, ex)
-                finally:
-                    with lock:
-                        running.pop(n, None)
-                with lock:
-                    more = any(_variant_key(todo[q]) == key for q in queue)
+                    key, ex = _variant_key(job), self._executor(job)
+                self._run_one(n, k, ex)
+                with self.lock:
+                    more = any(_variant_key(self.todo[q]) == key for q in self.queue)
                 if not more:
                     # a variant's worker stops after its last map, so idle engines do not hold their memory
                     ex.close()
@@ -140,35 +179,11 @@ def run_lanes(order: list[int], todo: list[MapJob], out: Path, lanes: int, annou
         except ex_mod.Cancelled:
             pass
         except BaseException as e:  # noqa: BLE001 - handed to the main thread, which raises it
-            with lock:
-                errors.append(e)
-            for other in list(live):
+            with self.lock:
+                self.errors.append(e)
+            for other in list(self.live):
                 if other is not ex and hasattr(other, "cancel"):
                     other.cancel()
         finally:
             if ex is not None:
                 ex.close()
-
-    if lanes <= 1:
-        lane(0)
-    else:
-        threads = [threading.Thread(target=lane, args=(n,), name=f"rockbench-lane-{n}", daemon=True)
-                   for n in range(lanes)]
-        for t in threads:
-            t.start()
-        try:
-            while any(t.is_alive() for t in threads):
-                for t in threads:
-                    t.join(0.2)
-        except BaseException:
-            # Ctrl-C (delivered to this thread only): stop every lane's workers, record nothing more
-            with lock:
-                queue.clear()
-                for e in list(live):
-                    if hasattr(e, "cancel"):
-                        e.cancel()
-            for t in threads:
-                t.join(10.0)
-            raise
-    if errors:
-        raise errors[0]

@@ -48,13 +48,19 @@ Layout of the output directory: ``OUT/maps/<engine variant>/<block>-<pulse>-<res
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
+from ..blocks.experiments import load_outcomes
 from ..blocks.presets import get_preset
 from ..engine_info.health import EngineHealth
+from ..maps.executors import cap_jobs, cpu_count
 from ..maps.grid import MapSpec, parse_range
+from ..maps.sweep import run_map
+from ..store.atomic import check_output_dir
+from ..store.files import write_json
 from .lanes import ReferenceThread, run_lanes
 from .model import Suite
 from .plan import check_suite, engine_names, own_eta_jobs, plan
@@ -123,12 +129,6 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
         ``maps`` (per map: dir and wall time), ``wall_s``, ``score`` (the score document or None),
         ``notes``, ``report`` (paths) and ``summary`` (the summary table as text).
     """
-    from ..maps.executors import cpu_count
-    from ..store.files import write_json
-
-    from ..store.atomic import check_output_dir
-    from ..maps.executors import cap_jobs
-
     log = log or (lambda m: print(f"rockbench: {m}", file=sys.stderr))
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
@@ -137,100 +137,120 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     jobs, note = cap_jobs(jobs)
     if note:
         log(note)
-    x = parse_range("grid.w_ratio", suite.w_ratio, "w_ratio")
-    y = parse_range("grid.a_ratio", suite.a_ratio, "a_ratio")
-    explicit = engines is not None or suite.engine_names != "available"
-    engines, notes = engine_names(suite, engines)
-    engines, more = check_suite(suite, engines, explicit)
-    notes += more
-    todo = plan(suite, engines)
-    workers = max(1, jobs or cpu_count())
+    run = _SuiteRun(suite, out, jobs, log, engines)
+    run.compute_maps(report)
+    return run.finish(experiments, report, figure_formats)
 
-    def specs_of(jobs_):
-        return [MapSpec(get_preset(j.block).block(), j.pulse, j.restitution, x, y, engine=j.engine,
+
+class _SuiteRun:
+    """One :func:`run_suite`: its plan of maps and their specs, the console, what finished and what could not."""
+
+    def __init__(self, suite: Suite, out: Path, jobs: int | None, log, engines: list[str] | None):
+        self.suite, self.out, self.jobs, self.log = suite, out, jobs, log
+        self.x = parse_range("grid.w_ratio", suite.w_ratio, "w_ratio")
+        self.y = parse_range("grid.a_ratio", suite.a_ratio, "a_ratio")
+        explicit = engines is not None or suite.engine_names != "available"
+        engines, self.notes = engine_names(suite, engines)
+        self.engines, more = check_suite(suite, engines, explicit)
+        self.notes += more
+        self.todo = plan(suite, self.engines)
+        self.workers = max(1, jobs or cpu_count())
+        # every spec is built (and so checked) before the first map runs (the own-η reference maps, which
+        # wait for the measured η, differ from the others only in a constant restitution)
+        self.specs = self.specs_of(self.todo)
+        self.t0 = time.perf_counter()
+        self.records: dict = {}
+        # calibrations (and the engines' own η) once, on every core, before the engine maps need them;
+        # the helpers start now and work while this process computes the reference maps
+        self.prep = Preparation(suite, self.engines, out, log, workers=self.workers) if self.engines else None
+        # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
+        self.own_planned = self.prep.own_eta_slots() * len(suite.pulses) if self.prep is not None else 0
+        self.console = SuiteConsole(len(self.todo) + self.own_planned, log)
+        say_device_notes(self.engines, self.console)
+        self.health = EngineHealth()
+        self.unfinished: set = set()   # map folders of engines that cannot simulate: scored as incomplete
+
+    def specs_of(self, jobs_) -> list[MapSpec]:
+        return [MapSpec(get_preset(j.block).block(), j.pulse, j.restitution, self.x, self.y, engine=j.engine,
                         engine_settings=dict(j.settings), dt_s=j.dt_s) for j in jobs_]
 
-    # every spec is built (and so checked) before the first map runs (the own-η reference maps, which
-    # wait for the measured η, differ from the others only in a constant restitution)
-    specs = specs_of(todo)
-    t0 = time.perf_counter()
-    records: dict = {}
-    # calibrations (and the engines' own η) once, on every core, before the engine maps need them;
-    # the helpers start now and work while this process computes the reference maps
-    prep = Preparation(suite, engines, out, log, workers=workers) if engines else None
-    # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
-    own_planned = prep.own_eta_slots() * len(suite.pulses) if prep is not None else 0
-    console = SuiteConsole(len(todo) + own_planned, log)
-    say_device_notes(engines, console)
-
-    def one_map(k: int, ex) -> None:
-        from ..maps.sweep import run_map
-        job, spec = todo[k], specs[k]
-        d = out / job.subdir
+    def one_map(self, k: int, ex) -> None:
+        job, spec, suite = self.todo[k], self.specs[k], self.suite
+        d = self.out / job.subdir
         t1 = time.perf_counter()
         # reference maps are computed in full: they cost milliseconds, and scoring needs the
         # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked;
         # an engine that cannot simulate is stopped after its first map (EngineHealth.guard)
-        res = health.guard(job.engine, lambda: run_map(
-            spec, d, jobs=jobs, serial=job.engine == "reference", adaptive=suite.adaptive and job.engine != "reference",
-            coarse_stride=suite.coarse_stride, cell_timeout_s=suite.cell_timeout_s, plot=False, log=log, executor=ex))
+        res = self.health.guard(job.engine, lambda: run_map(
+            spec, d, jobs=self.jobs, serial=job.engine == "reference",
+            adaptive=suite.adaptive and job.engine != "reference", coarse_stride=suite.coarse_stride,
+            cell_timeout_s=suite.cell_timeout_s, plot=False, log=self.log, executor=ex))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
-            console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
-            unfinished.add(d)
+            self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
+            self.unfinished.add(d)
             return
-        records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
-                      "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
-        console.finished(spec.label(), d, records[k]["wall_s"])
+        self.records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
+                           "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
+        self.console.finished(spec.label(), d, self.records[k]["wall_s"])
 
-    # The reference runs in this process: its compiled batch kernel is parallel already, and worker
-    # processes would each load it again; engines keep the workers' time limit and crash isolation.
-    # Its maps are computed by one thread (one caller of the parallel kernel at a time) beside the
-    # calibrations and then the engine maps, which need none of them: on a fresh install the
-    # kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
-    health = EngineHealth()
-    unfinished: set = set()   # map folders of engines that cannot simulate: scored as incomplete, not refused
-    refs = ReferenceThread(_started, one_map)
-    refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
-    try:
-        if prep is not None:
-            etas, more, _ = prep.finish()
-            notes += more
-            if suite.own_eta:
-                extra = own_eta_jobs(suite, etas)
-                console.not_needed(own_planned - len(extra), "variants with the same measured η on a block share "
-                                   "one reference map, and a failed η measurement has none")
-                first = len(todo)
-                specs += specs_of(extra)
-                todo += extra
-                refs.add(range(first, len(todo)))
-        refs.close()
-        if report:
-            # the report's start-up (matplotlib, the reference's history kernel) costs a few seconds of one
-            # core at the end; a thread pays it while the workers compute the engine maps
-            import threading
-            threading.Thread(target=_warm_report, name="rockbench-warm-report", daemon=True).start()
-        engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
-        # the costliest engines first, so that the last maps, when one core may wait for the other, are short
-        engine_maps.sort(key=lambda k: cost_rank(todo[k].engine))
-        run_lanes(engine_maps, todo, out, min(workers, max(1, len(engine_maps))), _started, one_map,
-                   stop=refs.failed)
-    except BaseException:
-        refs.abort()   # e.g. Ctrl-C: no reference map is started after the one running now
-        raise
-    refs.join()
-    done = [records[k] for k in sorted(records)]
-    maps_wall = time.perf_counter() - t0
-    result = {"suite": suite.name, "maps": done, "maps_wall_s": maps_wall, "notes": list(dict.fromkeys(notes)),
-              "score": None, "report": None, "summary": "", "cannot_simulate": health.broken_lines(),
-              "failed_cells": health.failure_lines()}
-    if experiments is None and suite.experiments:
-        from ..blocks.experiments import load_outcomes
-        experiments = load_outcomes(suite.experiments)
-    t2 = time.perf_counter()
-    _score_and_report(suite, out, result, experiments, report, figure_formats, log, unfinished)
-    result["report_wall_s"] = time.perf_counter() - t2
-    result["wall_s"] = time.perf_counter() - t0
-    write_json(out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": jobs,
-                                           **{k: v for k, v in result.items() if k not in ("suite", "score", "summary")},
-                                           "suite_name": suite.name})
-    return result
+    def compute_maps(self, report: bool) -> None:
+        """Every map: the reference maps on one thread, the engine maps on lanes.
+
+        The reference runs in this process: its compiled batch kernel is parallel already, and worker
+        processes would each load it again; engines keep the workers' time limit and crash isolation.
+        Its maps are computed by one thread (one caller of the parallel kernel at a time) beside the
+        calibrations and then the engine maps, which need none of them: on a fresh install the
+        kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
+        """
+        todo = self.todo
+        refs = ReferenceThread(_started, self.one_map)
+        refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
+        try:
+            if self.prep is not None:
+                self._own_eta_maps(refs)
+            refs.close()
+            if report:
+                # the report's start-up (matplotlib, the reference's history kernel) costs a few seconds of
+                # one core at the end; a thread pays it while the workers compute the engine maps
+                threading.Thread(target=_warm_report, name="rockbench-warm-report", daemon=True).start()
+            engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
+            # the costliest engines first, so that the last maps, when one core may wait for the other, are short
+            engine_maps.sort(key=lambda k: cost_rank(todo[k].engine))
+            run_lanes(engine_maps, todo, self.out, min(self.workers, max(1, len(engine_maps))), _started,
+                      self.one_map, stop=refs.failed)
+        except BaseException:
+            refs.abort()   # e.g. Ctrl-C: no reference map is started after the one running now
+            raise
+        refs.join()
+
+    def _own_eta_maps(self, refs: ReferenceThread) -> None:
+        """Wait for the calibrations and η measurements; with own_eta, hand the reference thread a map
+        at each variant's measured η."""
+        etas, more, _ = self.prep.finish()
+        self.notes += more
+        if self.suite.own_eta:
+            extra = own_eta_jobs(self.suite, etas)
+            self.console.not_needed(self.own_planned - len(extra), "variants with the same measured η on a block "
+                                    "share one reference map, and a failed η measurement has none")
+            first = len(self.todo)
+            self.specs += self.specs_of(extra)
+            self.todo += extra
+            refs.add(range(first, len(self.todo)))
+
+    def finish(self, experiments, report: bool, figure_formats) -> dict:
+        """Scores, report and suite.json once every map is done; the run's result."""
+        suite, health = self.suite, self.health
+        done = [self.records[k] for k in sorted(self.records)]
+        result = {"suite": suite.name, "maps": done, "maps_wall_s": time.perf_counter() - self.t0,
+                  "notes": list(dict.fromkeys(self.notes)), "score": None, "report": None, "summary": "",
+                  "cannot_simulate": health.broken_lines(), "failed_cells": health.failure_lines()}
+        if experiments is None and suite.experiments:
+            experiments = load_outcomes(suite.experiments)
+        t2 = time.perf_counter()
+        _score_and_report(suite, self.out, result, experiments, report, figure_formats, self.log, self.unfinished)
+        result["report_wall_s"] = time.perf_counter() - t2
+        result["wall_s"] = time.perf_counter() - self.t0
+        write_json(self.out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": self.jobs,
+                                             **{k: v for k, v in result.items() if k not in ("suite", "score", "summary")},
+                                             "suite_name": suite.name})
+        return result
