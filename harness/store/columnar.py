@@ -90,7 +90,12 @@ def _pow5_factor(v):
 @njit(cache=True)
 def _shortest(bits):
     """The shortest decimal ``digits·10^exp`` that reads back to the finite, non-zero double of
-    IEEE bits ``bits`` (sign ignored); the closest such one, ties to even (Ryu's d2d)."""
+    IEEE bits ``bits`` (sign ignored); the closest such one, ties to even (Ryu's d2d).
+
+    Long (89 lines) on purpose: it is Ryu's d2d step for step, one numba kernel called per float, so
+    that the columnar writer's text equals Python's ``repr`` byte for byte (tests/test_columnar.py);
+    split into helpers it would be harder to check against the algorithm and slower to compile.
+    """
     ieee_m = bits & _M52
     ieee_e = np.int64((bits >> _U52) & np.uint64(0x7FF))
     if ieee_e == 0:

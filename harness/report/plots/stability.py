@@ -485,6 +485,29 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
     if domain is not None:
         handles["hatch"] = Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0.0,
                                  label=DOMAIN_LABEL)
+    lines, islands = _panel_references(ax, refs, handles)
+    marks, flags = {}, None
+    if engine is not None:
+        flags, marks = _panel_engine_marks(ax, engine, like, handles)
+    st_art = draw_st_limit(ax, st_limit)
+    if st_art is not None:
+        handles["st"] = Line2D([], [], color="k", ls=(0, (4, 2)), lw=0.9, label="ST limit (shaking table, 25 m/s²)")
+    pts = draw_points(ax, points)
+    for h in _point_handles(pts):
+        handles[h.get_label()] = h
+    if title:
+        ax.set_title(for_matplotlib(title + (f"\n{_wrap_to(ax, note, TITLE_PT)}" if note else "")), fontsize=TITLE_PT,
+                     loc="left")
+    _print_sizes(ax)
+    return {"ax": ax, "fill": fill, "hatch": hatch, "references": lines, "islands": islands, "flags": flags,
+            "marks": marks, "st_limit": st_art, "points": pts, "handles": handles}
+
+
+def _panel_references(ax, refs, handles: dict) -> tuple[dict, dict]:
+    """Each reference's boundary (its own style, else :data:`REFERENCE_STYLES` in order) and islands;
+    their legend handles go into ``handles``. Returns the lines and the islands by label."""
+    from matplotlib.lines import Line2D
+
     lines, islands = {}, {}
     for k, item in enumerate(refs):
         label, m = item[0], item[1]
@@ -497,31 +520,33 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
         if isl is not None:
             islands[label] = isl
             handles[ISLAND_LABEL] = island_handle()
-    marks, flags = {}, None
-    if engine is not None:
-        flags = draw_flags(ax, engine, flag_area(engine))
-        if flags is not None:
-            handles[FLAG_LABEL] = flag_handle()
-    if engine is not None and like is not None:
+    return lines, islands
+
+
+def _panel_engine_marks(ax, engine, like, handles: dict):
+    """The engine map's flagged cells (dotted) and, against ``like``, its disagreements (marks);
+    their legend handles go into ``handles``. Returns the flags (or None) and the marks by kind."""
+    from matplotlib.lines import Line2D
+
+    marks = {}
+    flags = draw_flags(ax, engine, flag_area(engine))
+    if flags is not None:
+        handles[FLAG_LABEL] = flag_handle()
+    if like is not None:
         marks = draw_marks(ax, engine, {k: v for k, v in disagreements(engine, like).items() if k in MARKS})
         for kind, (label, st) in MARKS.items():
             if kind in marks:   # only the kinds this panel has
                 handles[label] = Line2D([], [], ls="none", label=label, **st)
-    st_art = draw_st_limit(ax, st_limit)
-    if st_art is not None:
-        handles["st"] = Line2D([], [], color="k", ls=(0, (4, 2)), lw=0.9, label="ST limit (shaking table, 25 m/s²)")
-    pts = draw_points(ax, points)
-    for letter, (words, colour) in POINT_STYLE.items():
-        if letter in pts:
-            handles[f"experiment {letter}: {words}"] = Line2D([], [], ls="none", marker=f"$\\mathrm{{{letter}}}$",
-                                                              ms=6.5, color=colour,
-                                                              label=f"experiment {letter}: {words}")
-    if title:
-        ax.set_title(for_matplotlib(title + (f"\n{_wrap_to(ax, note, TITLE_PT)}" if note else "")), fontsize=TITLE_PT,
-                     loc="left")
-    _print_sizes(ax)
-    return {"ax": ax, "fill": fill, "hatch": hatch, "references": lines, "islands": islands, "flags": flags,
-            "marks": marks, "st_limit": st_art, "points": pts, "handles": handles}
+    return flags, marks
+
+
+def _point_handles(drawn: dict) -> list:
+    """Legend entries of the experimental outcomes drawn (:func:`draw_points`), in :data:`POINT_STYLE` order."""
+    from matplotlib.lines import Line2D
+
+    return [Line2D([], [], ls="none", marker=f"$\\mathrm{{{letter}}}$", ms=6.5, color=colour,
+                   label=f"experiment {letter}: {words}")
+            for letter, (words, colour) in POINT_STYLE.items() if letter in drawn]
 
 
 def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str | None = None,
@@ -653,8 +678,7 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
         from .style import DOUBLE_COLUMN_IN
         ax = Figure(figsize=(DOUBLE_COLUMN_IN * 0.7, DOUBLE_COLUMN_IN * 0.66), layout="constrained").add_subplot()
     labels = list(labels) if labels is not None else [_label(m) for m in maps]
-    handles, drawn = list(extra_handles), []
-    islands = False
+    handles = list(extra_handles)
     first = maps[0]
     _frame(ax, as_grid(first))
     if shade and (as_grid(first).codes == 2).any():
@@ -664,30 +688,10 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     if hatch is not None:
         handles.append(Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0,
                              label=f"{DOMAIN_LABEL}, shaded map"))
-    for k, (res, lab) in enumerate(zip(maps, labels)):
-        st = {**REFERENCE_STYLES[k % len(REFERENCE_STYLES)], "color": COLORS[k % len(COLORS)]}
-        cs, isl = draw_boundary(ax, res, label=for_matplotlib(lab), zorder=3.5 - 0.1 * k, **st)
-        if cs is not None:
-            drawn.append(cs)
-        handles.append(Line2D([], [], color=st["color"], lw=st["linewidth"], ls=st["linestyle"],
-                              label=for_matplotlib(lab)))
-        islands = islands or isl is not None
-    if islands:
-        handles.append(island_handle())
+    drawn = _boundaries(ax, maps, labels, handles)
     if show_failed:
-        nfail = 0
-        for res in maps:
-            failed = as_grid(res).codes == -1
-            if failed.any():
-                draw_marks(ax, res, {"failed": failed})
-                nfail += int(failed.sum())
-        if nfail:
-            handles.append(Line2D([], [], ls="none", label=f"failed cells ({nfail})", **MARKS["failed"][1]))
-    pts = draw_points(ax, experiments)
-    for letter, (words, colour) in POINT_STYLE.items():
-        if letter in pts:
-            handles.append(Line2D([], [], ls="none", marker=f"$\\mathrm{{{letter}}}$", ms=6.5, color=colour,
-                                  label=f"experiment {letter}: {words}"))
+        _failed_cells(ax, maps, handles)
+    handles += _point_handles(draw_points(ax, experiments))
     st = None
     if st_limit_mps2 is not None:
         st_a = st_limit_a_ratio(first.spec.block, st_limit_mps2)
@@ -700,6 +704,39 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     leg = _axes_legend(ax, handles, legend, below=-0.13)
     _print_sizes(ax)
     return {"ax": ax, "boundaries": drawn, "st_limit_a_ratio": st, "hatch": hatch, "legend": leg}
+
+
+def _boundaries(ax, maps, labels, handles: list) -> list:
+    """Each map's overturn boundary in its own colour and dash (and islands); legend entries appended
+    to ``handles``. Returns the ContourSets drawn."""
+    from matplotlib.lines import Line2D
+
+    drawn, islands = [], False
+    for k, (res, lab) in enumerate(zip(maps, labels)):
+        st = {**REFERENCE_STYLES[k % len(REFERENCE_STYLES)], "color": COLORS[k % len(COLORS)]}
+        cs, isl = draw_boundary(ax, res, label=for_matplotlib(lab), zorder=3.5 - 0.1 * k, **st)
+        if cs is not None:
+            drawn.append(cs)
+        handles.append(Line2D([], [], color=st["color"], lw=st["linewidth"], ls=st["linestyle"],
+                              label=for_matplotlib(lab)))
+        islands = islands or isl is not None
+    if islands:
+        handles.append(island_handle())
+    return drawn
+
+
+def _failed_cells(ax, maps, handles: list) -> None:
+    """Every map's failed cells marked, and one legend entry with their count."""
+    from matplotlib.lines import Line2D
+
+    nfail = 0
+    for res in maps:
+        failed = as_grid(res).codes == -1
+        if failed.any():
+            draw_marks(ax, res, {"failed": failed})
+            nfail += int(failed.sum())
+    if nfail:
+        handles.append(Line2D([], [], ls="none", label=f"failed cells ({nfail})", **MARKS["failed"][1]))
 
 
 def _label(res) -> str:
