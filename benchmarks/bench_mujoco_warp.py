@@ -181,7 +181,7 @@ def main(argv=None) -> int:
             if not args.no_reference:
                 rd = Path(tmp) / f"ref-{block_name}-{kind}-{n}"
                 rr = run_one_map(block_name, kind, n, "reference", {}, rd)
-                s = score(load_entry(d).label_map, load_entry(rd).label_map)
+                s = score(load_entry(d).map, load_entry(rd).map)
                 r["reference_wall_s"] = rr["wall_s"]
                 r["score"] = {k: s[k] for k in ("agreement", "overturn_agreement", "iou_overturn", "boundary_mean",
                                                 "spurious_invalid", "failed_cells", "consistency")}
@@ -189,8 +189,8 @@ def main(argv=None) -> int:
             if args.parity and (block_name, kind, n) == jobs[0]:
                 cd = Path(tmp) / f"cpu-{n}"
                 rc = run_one_map(block_name, kind, n, "mujoco", {}, cd)
-                ew, ec = load_entry(d).label_map, load_entry(cd).label_map
-                same = float(np.mean(ew.codes == ec.codes))
+                ew, ec = load_entry(d).map, load_entry(cd).map
+                same = float(np.mean(ew.outcome == ec.outcome))
                 r["parity_cpu_mujoco"] = {"wall_s": rc["wall_s"], "same_outcome": same,
                                           "score_vs_cpu": {k: v for k, v in score(ew, ec).items()
                                                            if k in ("agreement", "overturn_agreement")}}

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rockbench.harness.cli.main import main
-from rockbench.harness.scoring.metrics import LabelMap
+from rockbench.harness.maps.result import MapResult
 from rockbench.reference_solver.errors import ConfigError
 
 matplotlib = pytest.importorskip("matplotlib")
@@ -26,13 +26,13 @@ def _panel_figure():
     n = 24
     w, a = np.linspace(1, 12, n), np.linspace(1, 10, n)
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    ref = LabelMap(w, a, np.where(ii > jj, 2, 1))
-    ref.codes[5, 18] = 2                                  # an island of the reference
-    codes = ref.codes.copy()
+    ref = MapResult.from_outcomes(w, a, np.where(ii > jj, 2, 1))
+    ref.outcome[5, 18] = 2                                  # an island of the reference
+    codes = ref.outcome.copy()
     codes[3, 3] = 2
     valid = np.ones(codes.shape, bool)
     valid[20, 2] = False
-    eng = LabelMap(w, a, codes, valid=valid)
+    eng = MapResult.from_outcomes(w, a, codes, valid=valid)
     drawn = plot_panels([{"engine": eng, "references": [("reference, η_H", ref)], "like": ref, "st_limit": 6.0,
                           "title": "MuJoCo 4.0, calibrated to η_H"}] * 2, suptitle="B3M, one sine wave")
     return drawn
@@ -117,7 +117,7 @@ def _maps():
     n = 20
     w, a = np.linspace(1, 12, n), np.linspace(1, 10, n)
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    return LabelMap(w, a, np.where(ii > jj, 2, 1)), LabelMap(w, a, np.where(ii > jj + 2, 2, 1))
+    return MapResult.from_outcomes(w, a, np.where(ii > jj, 2, 1)), MapResult.from_outcomes(w, a, np.where(ii > jj + 2, 2, 1))
 
 
 def _paper_figure():
@@ -136,8 +136,8 @@ def _map_figure():
     ref, eng = _maps()
     spec = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 12, 20),
                    make_axis("--a-ratio", "a_ratio", 1, 10, 20), engine="mujoco", engine_settings={})
-    res = SimpleNamespace(spec=spec, outcome=eng.codes, valid=eng.valid, left_model=eng.left_model,
-                          simulated=np.ones(eng.codes.shape, bool), w_ratio=eng.w_ratio, a_ratio=eng.a_ratio,
+    res = SimpleNamespace(spec=spec, outcome=eng.outcome, valid=eng.valid, left_model=eng.left_model,
+                          simulated=np.ones(eng.outcome.shape, bool), w_ratio=eng.w_ratio, a_ratio=eng.a_ratio,
                           adaptive=False, fraction_simulated=1.0)
     return map_figure(res, reference=ref)
 

@@ -5,7 +5,7 @@ import re
 import numpy as np
 import pytest
 
-from rockbench.harness.scoring.metrics import LabelMap
+from rockbench.harness.maps.result import MapResult
 
 
 matplotlib = pytest.importorskip("matplotlib")
@@ -82,15 +82,15 @@ def _maps(band):
     ref_codes = band(10, 12, 5)
     ref_valid = np.ones((10, 12), bool)
     ref_valid[8:, :3] = False                       # lift-required in the top left
-    ref = LabelMap(w, a, ref_codes, ref_valid, ~ref_valid)
-    mod = LabelMap(w, a, band(10, 12, 6))
+    ref = MapResult.from_outcomes(w, a, ref_codes, ref_valid, ~ref_valid)
+    mod = MapResult.from_outcomes(w, a, band(10, 12, 6))
     eng_codes = band(10, 12, 5)
     eng_codes[5, 7] = 1                              # misses an overturn
     eng_codes[4, 2] = 2                              # overturns where the reference does not
     eng_codes[2, 9] = -1                             # failed
     eng_valid = eng_codes >= 0
     eng_valid[9, 0] = False                          # flagged (outside the domain: the right answer)
-    eng = LabelMap(w, a, eng_codes, eng_valid, ~eng_valid & (eng_codes >= 0))
+    eng = MapResult.from_outcomes(w, a, eng_codes, eng_valid, ~eng_valid & (eng_codes >= 0))
     return w, a, ref, mod, eng
 
 
@@ -161,7 +161,7 @@ def test_boundary_lines_are_smooth_and_keep_every_cell_on_its_side():
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     codes = np.where(ii > jj + 0.5, 2, 1)            # an oblique staircase boundary
     codes[5, 20] = 2                                  # an isolated overturn cell
-    lines = boundary_lines(LabelMap(w, a, codes))
+    lines = boundary_lines(MapResult.from_outcomes(w, a, codes))
     assert len(lines) == 2
     loop = next(p for p in lines if np.allclose(p[0], p[-1]))
     path = MPath(loop)
@@ -190,8 +190,8 @@ def test_map_picture_overlays_the_reference_and_marks_invalid_cells(band, tmp_pa
     _, _, ref, _, eng = _maps(band)
     spec = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 10, 12),
                    make_axis("--a-ratio", "a_ratio", 1, 8, 10), engine="mujoco", engine_settings={"settings": "calibrated"})
-    res = SimpleNamespace(spec=spec, outcome=eng.codes, valid=eng.valid, left_model=eng.left_model,
-                          simulated=np.ones(eng.codes.shape, bool), w_ratio=eng.w_ratio, a_ratio=eng.a_ratio,
+    res = SimpleNamespace(spec=spec, outcome=eng.outcome, valid=eng.valid, left_model=eng.left_model,
+                          simulated=np.ones(eng.outcome.shape, bool), w_ratio=eng.w_ratio, a_ratio=eng.a_ratio,
                           adaptive=False, fraction_simulated=1.0)
     fig = Figure(figsize=(6.4, 5.6), layout="constrained")
     d = plot_map(res, reference=ref, ax=fig.add_subplot())

@@ -12,7 +12,7 @@ import pytest
 
 from rockbench.harness.cli.main import main
 from rockbench.harness.report.html import build_report
-from rockbench.harness.scoring.metrics import LabelMap
+from rockbench.harness.maps.result import MapResult
 from rockbench.reference_solver.restitution import Restitution
 
 
@@ -120,10 +120,10 @@ def test_index_html_renders_in_headless_chromium(report, tmp_path):
 def test_report_pairs_each_own_eta_reference_with_its_engine(band):
     from rockbench.harness.report.html import _split_own_eta_refs
     from rockbench.harness.store.loading import MapEntry
-    m = LabelMap(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
+    m = MapResult.from_outcomes(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
 
     def entry(engine, variant, restitution, eta):
-        return MapEntry(path=f"/x/{variant}-{restitution}", label_map=m, engine=engine, variant=variant,
+        return MapEntry(path=f"/x/{variant}-{restitution}", map=m, engine=engine, variant=variant,
                         block="B3M", pulse="sine", restitution=restitution, eta=eta)
 
     refs = [entry("reference", "reference", "housner", 0.7526), entry("reference", "reference", "0.7493", 0.7493),

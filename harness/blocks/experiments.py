@@ -30,7 +30,8 @@ from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import G, amplitude_to_a_ratio
 from ...reference_solver.restitution import housner_eta, modified_eta
 from .presets import PRESETS
-from ..scoring.metrics import FAILED, OVERTURN, REST, ROCKING, LabelMap
+from ..maps.result import MapResult
+from ..scoring.metrics import FAILED, OVERTURN, REST, ROCKING
 
 #: Largest table acceleration the Quanser ST-III still performed as one sine wave (paper §5.1,
 #: "ST limit" in Figs 13–16) [m/s^2].
@@ -267,7 +268,7 @@ def _nearest_index(axis: np.ndarray, x: float) -> int | None:
     return int(np.searchsorted(mids, x, side="left"))
 
 
-def score_outcomes(points: Iterable[OutcomePoint], m: LabelMap, block: str, pulse: str) -> dict:
+def score_outcomes(points: Iterable[OutcomePoint], m: MapResult, block: str, pulse: str) -> dict:
     """Score a stability map against the experimental points of its block and pulse.
 
     Each point is placed at its (ω/p, a₀/(g·tanα)) for ``block`` and judged by the map cell it
@@ -294,7 +295,7 @@ def score_outcomes(points: Iterable[OutcomePoint], m: LabelMap, block: str, puls
         if i is None or j is None:
             outside += pt.repetitions
             continue
-        code = int(m.codes[i, j])
+        code = int(m.outcome[i, j])
         col = cols[3] if code == FAILED else cols[code]
         conf[pt.outcome][col] += pt.repetitions
         runs += pt.repetitions

@@ -1,6 +1,11 @@
 """A stability map in memory (:class:`MapResult`): an outcome per cell of its grid, with the
 simulation's impacts, θ and validity flags, and the codes of cells without an outcome
 (:data:`FAILED`, :data:`MISSING`).
+
+It is the one type of a map in memory: what :func:`~rockbench.harness.maps.sweep.run_map` computes,
+what :func:`~rockbench.harness.store.loading.load_map` reads back, what the scores compare
+(:meth:`MapResult.from_outcomes`, also for a cell table another tool wrote) and what the pictures
+draw. A map on disk is a :class:`~rockbench.harness.store.loading.MapEntry` (docs/maps.md).
 """
 
 from __future__ import annotations
@@ -21,15 +26,19 @@ from .grid import MapSpec
 FAILED = -1
 MISSING = -2
 
+#: Relative tolerance when deciding two axes are the same [-].
+AXIS_RTOL = 1e-9
+
 
 @dataclass
 class MapResult:
-    """A computed (or loaded) map.
+    """A map in memory: computed, loaded, or built from outcomes for the scores.
 
     Attributes
     ----------
-    spec : MapSpec
-        What was computed.
+    spec : MapSpec or None
+        What was computed; None for a map built from outcomes alone (:meth:`from_outcomes`), whose
+        axes are ``axes``.
     outcome : ndarray of int8, shape ``spec.shape``
         Outcome codes (:data:`~rockbench.reference_solver.classify.OUTCOME_CODES`: 0 rest,
         1 rocking, 2 overturn), :data:`FAILED` (-1) for a failed cell, :data:`MISSING` (-2) for a
@@ -55,6 +64,13 @@ class MapResult:
         Wall time of the run that produced it [s] (0 when loaded).
     n_resumed : int
         Cells found already done in the run directory when the run started.
+    axes : (ndarray, ndarray) or None
+        ``(w_ratio, a_ratio)`` of a map without a spec.
+    filled : int
+        Cells a table had no row for, filled from the nearest computed cell (adaptive maps; see
+        :func:`~rockbench.harness.scoring.metrics.from_cells`); 0 for a full grid.
+    meta : dict
+        Anything describing the map (engine, block, pulse, restitution, eta, missing cells, ...).
     """
 
     spec: MapSpec
@@ -69,6 +85,9 @@ class MapResult:
     coarse_stride: int = 1
     wall_s: float = 0.0
     n_resumed: int = 0
+    axes: tuple | None = None
+    filled: int = 0
+    meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if self.left_model is None:
@@ -77,12 +96,12 @@ class MapResult:
     @property
     def w_ratio(self) -> np.ndarray:
         """ω/p of each column [-]."""
-        return self.spec.w_ratios()
+        return self.spec.w_ratios() if self.spec is not None else self.axes[0]
 
     @property
     def a_ratio(self) -> np.ndarray:
         """a₀/(g·tanα) of each row [-]."""
-        return self.spec.a_ratios()
+        return self.spec.a_ratios() if self.spec is not None else self.axes[1]
 
     @property
     def n_simulated(self) -> int:
@@ -91,11 +110,82 @@ class MapResult:
     @property
     def fraction_simulated(self) -> float:
         """Simulated cells over all cells [-]."""
-        return self.n_simulated / self.spec.n_cells
+        return self.n_simulated / self.outcome.size
 
     @property
     def complete(self) -> bool:
         return not bool((self.outcome == MISSING).any())
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.outcome.shape
+
+    @property
+    def known(self) -> np.ndarray:
+        """Cells with an outcome."""
+        return self.outcome >= 0
+
+    @property
+    def outside_domain(self) -> np.ndarray:
+        """Cells with an outcome that are not valid (for a reference map: lift-/slip-required)."""
+        return self.known & ~self.valid
+
+    def same_axes(self, other: "MapResult") -> bool:
+        """Whether both maps lie on the same grid (within :data:`AXIS_RTOL`)."""
+        return (self.w_ratio.shape == other.w_ratio.shape and self.a_ratio.shape == other.a_ratio.shape
+                and np.allclose(self.w_ratio, other.w_ratio, rtol=AXIS_RTOL, atol=0.0)
+                and np.allclose(self.a_ratio, other.a_ratio, rtol=AXIS_RTOL, atol=0.0))
+
+    @classmethod
+    def from_outcomes(cls, w_ratio, a_ratio, outcome, valid=None, left_model=None, simulated=None, *,
+                      filled: int = 0, meta: dict | None = None) -> "MapResult":
+        """A map from its axes and outcome codes alone, as the scores compare maps.
+
+        Parameters
+        ----------
+        w_ratio : array_like, shape (n_w,)
+            ω/p of the columns [-], strictly increasing.
+        a_ratio : array_like, shape (n_a,)
+            a₀/(g·tanα) of the rows [-], strictly increasing.
+        outcome : array_like of int, shape (n_a, n_w)
+            0 rest, 1 rocking, 2 overturn, :data:`FAILED` for no outcome (no :data:`MISSING` here).
+        valid : array_like of bool, optional
+            False where the run broke the model's assumptions (default: every cell with an outcome);
+            a failed cell is never valid.
+        left_model : array_like of bool, optional
+            True where the run left the rigid model through its contact (default nowhere); never in a
+            failed cell.
+        simulated : array_like of bool, optional
+            True where the cell was simulated (default everywhere); an adaptive map infers the
+            others' outcomes, and knows nothing of their flags.
+        filled, meta
+            See the attributes.
+
+        Raises
+        ------
+        ValueError
+            Axes that are not finite and strictly increasing, shapes that do not match, unknown codes.
+        """
+        w = np.asarray(w_ratio, dtype=float)
+        a = np.asarray(a_ratio, dtype=float)
+        codes = np.asarray(outcome, dtype=int)
+        shape = (a.size, w.size)
+        if codes.shape != shape:
+            raise ValueError(f"codes must have shape (n_a, n_w) = {shape}, got {codes.shape}")
+        for name, ax in (("w_ratio", w), ("a_ratio", a)):
+            if ax.ndim != 1 or ax.size == 0 or not np.all(np.isfinite(ax)) or np.any(np.diff(ax) <= 0):
+                raise ValueError(f"{name} must be a non-empty, finite, strictly increasing 1-D axis")
+        if not np.all(np.isin(codes, (FAILED, *OUTCOME_CODES.values()))):
+            raise ValueError("codes must be -1 (failed), 0 (rest), 1 (rocking) or 2 (overturn)")
+        has = codes != FAILED
+        valid = has if valid is None else np.asarray(valid, dtype=bool) & has
+        left = np.zeros(shape, dtype=bool) if left_model is None else np.asarray(left_model, dtype=bool) & has
+        sim = np.ones(shape, bool) if simulated is None else np.asarray(simulated, dtype=bool)
+        for name, arr in (("valid", valid), ("left_model", left), ("simulated", sim)):
+            if arr.shape != shape:
+                raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+        return cls(None, codes, sim, np.full(shape, -1, np.int32), np.full(shape, np.nan), valid, left,
+                   axes=(w, a), filled=filled, meta=dict(meta or {}))
 
     def counts(self) -> dict:
         """Cells per outcome (``rest``, ``rocking``, ``overturn``, ``failed``, ``missing``)."""

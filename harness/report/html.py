@@ -279,18 +279,18 @@ def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experim
 
     from .plots.stability import REFERENCE_STYLES
 
-    references = [(*_ref_line(r)[:1], r.label_map, _ref_line(r)[1]) for r in std]
-    references += [("reference at the engine's own measured η", r.label_map, REFERENCE_STYLES[3]) for r in own]
+    references = [(*_ref_line(r)[:1], r.map, _ref_line(r)[1]) for r in std]
+    references += [("reference at the engine's own measured η", r.map, REFERENCE_STYLES[3]) for r in own]
     like = None
     if e is not None:
-        like = next((r.label_map for r in std + own if r.restitution == e.restitution), None)
-    domain = like if like is not None else (std[0].label_map if std else None)
+        like = next((r.map for r in std + own if r.restitution == e.restitution), None)
+    domain = like if like is not None else (std[0].map if std else None)
     pts, st = _points_and_limit(experiments, block, pulse)
     note = None
     if pair is not None:
         sc = pair["scores"]
         note = _panel_note(sc)
-    return {"engine": e.label_map if e is not None else None, "references": references, "like": like,
+    return {"engine": e.map if e is not None else None, "references": references, "like": like,
             "domain": domain, "points": pts, "st_limit": st if block.upper() in PRESETS else None, "title": title,
             "note": note}
 
@@ -483,7 +483,7 @@ def _find_key(d, key):
 
 def _split_own_eta_refs(refs: list[MapEntry], engines: list[MapEntry], own_eta: dict) -> tuple[list, list]:
     """The standard references of one graph, and the references at an engine's own η as
-    ``(label, label_map, engine index)``: a reference whose η is an engine variant's measured η
+    ``(label, map, engine index)``: a reference whose η is an engine variant's measured η
     (the pairing the scores call ``own-eta``) goes with the first such engine of ``engines``; one
     matching no engine of the graph stays a standard reference."""
     std, own = [], []
@@ -493,7 +493,7 @@ def _split_own_eta_refs(refs: list[MapEntry], engines: list[MapEntry], own_eta: 
             std.append(r)
             continue
         names = ", ".join(dict.fromkeys(engines[k].variant for k in owners))
-        own.append((f"reference at own η of {names} (η = {r.eta:.4f})", r.label_map, owners[0]))
+        own.append((f"reference at own η of {names} (η = {r.eta:.4f})", r.map, owners[0]))
     return std, own
 
 

@@ -34,7 +34,7 @@ failing and no engine is blamed for physics the reference cannot do:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Iterable, Mapping
 
 import numpy as np
@@ -42,7 +42,7 @@ import numpy as np
 from ...reference_solver.classify import OUTCOME_CODES, Outcome
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.validity import LEFT_MODEL_FLAGS
-from ..maps.result import FAILED
+from ..maps.result import FAILED, MapResult
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
 METRICS_VERSION = "3"
@@ -50,9 +50,6 @@ METRICS_VERSION = "3"
 REST = OUTCOME_CODES[Outcome.REST]
 ROCKING = OUTCOME_CODES[Outcome.ROCKING]
 OVERTURN = OUTCOME_CODES[Outcome.OVERTURN]
-
-#: Relative tolerance when deciding two axes are the same [-].
-AXIS_RTOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -218,81 +215,9 @@ PRIMARY_METRIC = "boundary_mean"
 PRIMARY = METRICS[PRIMARY_METRIC]
 
 
-@dataclass
-class LabelMap:
-    """Outcome codes on a grid.
-
-    Attributes
-    ----------
-    w_ratio : ndarray, shape (n_w,)
-        ω/p of the columns [-], strictly increasing.
-    a_ratio : ndarray, shape (n_a,)
-        a₀/(g·tanα) of the rows [-], strictly increasing.
-    codes : ndarray of int, shape (n_a, n_w)
-        0 rest, 1 rocking, 2 overturn, :data:`FAILED` for no outcome.
-    valid : ndarray of bool, shape (n_a, n_w)
-        False where the run broke the model's assumptions (or the cell failed).
-    left_model : ndarray of bool, shape (n_a, n_w)
-        True where the run left the rigid model through its contact (:data:`LEFT_MODEL_FLAGS`).
-    simulated : ndarray of bool, shape (n_a, n_w)
-        True where the cell was simulated (default everywhere); an adaptive map infers the others'
-        outcomes, and knows nothing of their flags.
-    filled : int
-        Cells that had no row in the cell table and were filled from the nearest computed cell
-        (adaptive maps); 0 for a full grid.
-    meta : dict
-        Anything describing the map (engine, block, pulse, restitution, eta, ...).
-    """
-
-    w_ratio: np.ndarray
-    a_ratio: np.ndarray
-    codes: np.ndarray
-    valid: np.ndarray | None = None
-    left_model: np.ndarray | None = None
-    simulated: np.ndarray | None = None
-    filled: int = 0
-    meta: dict = field(default_factory=dict)
-
-    def __post_init__(self):
-        self.w_ratio = np.asarray(self.w_ratio, dtype=float)
-        self.a_ratio = np.asarray(self.a_ratio, dtype=float)
-        self.codes = np.asarray(self.codes, dtype=int)
-        shape = (self.a_ratio.size, self.w_ratio.size)
-        if self.codes.shape != shape:
-            raise ValueError(f"codes must have shape (n_a, n_w) = {shape}, got {self.codes.shape}")
-        for name, ax in (("w_ratio", self.w_ratio), ("a_ratio", self.a_ratio)):
-            if ax.ndim != 1 or ax.size == 0 or not np.all(np.isfinite(ax)) or np.any(np.diff(ax) <= 0):
-                raise ValueError(f"{name} must be a non-empty, finite, strictly increasing 1-D axis")
-        if not np.all(np.isin(self.codes, (FAILED, REST, ROCKING, OVERTURN))):
-            raise ValueError("codes must be -1 (failed), 0 (rest), 1 (rocking) or 2 (overturn)")
-        if self.valid is None:
-            self.valid = self.codes != FAILED
-        self.valid = np.asarray(self.valid, dtype=bool) & (self.codes != FAILED)
-        if self.valid.shape != shape:
-            raise ValueError(f"valid must have shape {shape}, got {self.valid.shape}")
-        if self.left_model is None:
-            self.left_model = np.zeros(shape, dtype=bool)
-        self.left_model = np.asarray(self.left_model, dtype=bool) & (self.codes != FAILED)
-        if self.left_model.shape != shape:
-            raise ValueError(f"left_model must have shape {shape}, got {self.left_model.shape}")
-        self.simulated = np.ones(shape, bool) if self.simulated is None else np.asarray(self.simulated, dtype=bool)
-        if self.simulated.shape != shape:
-            raise ValueError(f"simulated must have shape {shape}, got {self.simulated.shape}")
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self.codes.shape
-
-    def same_axes(self, other: "LabelMap") -> bool:
-        """Whether both maps lie on the same grid (within :data:`AXIS_RTOL`)."""
-        return (self.w_ratio.shape == other.w_ratio.shape and self.a_ratio.shape == other.a_ratio.shape
-                and np.allclose(self.w_ratio, other.w_ratio, rtol=AXIS_RTOL, atol=0.0)
-                and np.allclose(self.a_ratio, other.a_ratio, rtol=AXIS_RTOL, atol=0.0))
-
-
 def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta: Mapping | None = None,
-               decimals: int = 9, flags=None) -> LabelMap:
-    """Build a :class:`LabelMap` from a table of cells, one row per simulation, in any order.
+               decimals: int = 9, flags=None) -> MapResult:
+    """Build a :class:`MapResult` from a table of cells, one row per simulation, in any order.
 
     Parameters
     ----------
@@ -305,14 +230,14 @@ def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta
         Per-row validity (default all valid).
     flags : array_like of str, shape (n,), optional
         Per-row flags as cells.csv writes them (``;``-separated); they give
-        :attr:`LabelMap.left_model`.
+        :attr:`MapResult.left_model`.
     fill : bool
         Cells of the grid (the product of the distinct ``w_ratio`` and ``a_ratio`` values) without a
         row take the outcome of the nearest computed cell in index space (ties: the lower index),
         which is what an adaptive sweep that skipped uniform regions implies. With False they stay
         :data:`FAILED`.
     meta : mapping, optional
-        Stored in :attr:`LabelMap.meta`.
+        Stored in :attr:`MapResult.meta`.
     decimals : int
         Axis values are rounded to this many decimals before grouping, so a value written as text
         and read back lands on the same row or column.
@@ -369,7 +294,7 @@ def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta
         grid[mi, mj] = grid[src_i, src_j]
         gvalid[mi, mj] = gvalid[src_i, src_j]
         gleft[mi, mj] = False   # an inferred cell's outcome is known, its flags are not
-    return LabelMap(wu, au, grid, gvalid, gleft, seen, filled=filled, meta=dict(meta or {}))
+    return MapResult.from_outcomes(wu, au, grid, gvalid, gleft, seen, filled=filled, meta=dict(meta or {}))
 
 
 def _name(code: int) -> str:
@@ -396,13 +321,13 @@ def _to_codes(outcome, n: int) -> np.ndarray:
 
 # -- the pieces ------------------------------------------------------------------------------------
 
-def boundary_points(m: LabelMap) -> np.ndarray:
+def boundary_points(m: MapResult) -> np.ndarray:
     """Midpoints of the cell edges between an overturn and a not-overturn cell [w/a units].
 
     Both cells must have an outcome; edges to failed cells and to the outside of the grid are not
     boundary. Returns an array of shape (n, 2) with columns (w_ratio, a_ratio).
     """
-    c = m.codes
+    c = m.outcome
     known = c != FAILED
     ov = c == OVERTURN
     pts = []
@@ -426,7 +351,7 @@ def _nearest_distances(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     return out
 
 
-def boundary_distance(eng: LabelMap, ref: LabelMap) -> tuple[float, float]:
+def boundary_distance(eng: MapResult, ref: MapResult) -> tuple[float, float]:
     """(mean, max) symmetric distance between the overturn boundaries [w/a units].
 
     See :data:`METRICS` ``boundary_mean`` and ``boundary_max``. Symmetric in its arguments.
@@ -441,18 +366,18 @@ def boundary_distance(eng: LabelMap, ref: LabelMap) -> tuple[float, float]:
     return float(d.mean()), float(d.max())
 
 
-def critical_amplitude(m: LabelMap) -> np.ndarray:
+def critical_amplitude(m: MapResult) -> np.ndarray:
     """The lowest overturning a₀/(g·tanα) of each frequency column [-]; NaN where none overturns.
 
     This is the lowest overturning cell, not the lower edge of "everything above a curve": a
     column whose overturn region starts with the one-impact tongue reports the tongue.
     """
-    ov = m.codes == OVERTURN
+    ov = m.outcome == OVERTURN
     first = np.argmax(ov, axis=0)
     return np.where(ov.any(axis=0), m.a_ratio[first], np.nan)
 
 
-def critical_errors(eng: LabelMap, ref: LabelMap) -> dict:
+def critical_errors(eng: MapResult, ref: MapResult) -> dict:
     """Per-column critical amplitudes and their errors (see :data:`METRICS`).
 
     Returns
@@ -476,19 +401,19 @@ def critical_errors(eng: LabelMap, ref: LabelMap) -> dict:
             "one_sided": one_sided}
 
 
-def domain(ref: LabelMap) -> tuple[np.ndarray, np.ndarray]:
+def domain(ref: MapResult) -> tuple[np.ndarray, np.ndarray]:
     """``(inside, outside)``: the reference's cells with an outcome where it is valid, and where it is not."""
-    has = ref.codes != FAILED
+    has = ref.outcome != FAILED
     return has & ref.valid, has & ~ref.valid
 
 
-def missing(m: LabelMap) -> np.ndarray:
+def missing(m: MapResult) -> np.ndarray:
     """Cells a map does not have at all: neither simulated nor inferred (an unfinished or damaged map,
     scored only with ``--allow-incomplete``). A cell that was simulated and failed is not missing."""
-    return (m.codes == FAILED) & ~m.simulated
+    return (m.outcome == FAILED) & ~m.simulated
 
 
-def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
+def score(eng: MapResult, ref: MapResult) -> dict[str, float]:
     """Every metric of :data:`METRICS` for an engine map against a reference map.
 
     Cells the engine map does not have (:func:`missing`) are left out of every metric, as if the
@@ -508,7 +433,7 @@ def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
             f"{ref.a_ratio[0]:g}..{ref.a_ratio[-1]:g}); compute both with the same --w-ratio and --a-ratio.")
     judged, outside = judged_cells(eng, ref)
     n = int(judged.sum())
-    ce, cr = eng.codes, ref.codes
+    ce, cr = eng.outcome, ref.outcome
     # what both branches report: consistency outside the domain, and failed cells anywhere judged
     consistency = _consistency(eng, outside)
     failed = float(np.count_nonzero((judged | outside) & (ce == FAILED)))
@@ -536,26 +461,26 @@ def score(eng: LabelMap, ref: LabelMap) -> dict[str, float]:
     }
 
 
-def judged_cells(eng: LabelMap, ref: LabelMap) -> tuple[np.ndarray, np.ndarray]:
+def judged_cells(eng: MapResult, ref: MapResult) -> tuple[np.ndarray, np.ndarray]:
     """:func:`domain` less the cells the engine map does not have."""
     inside, outside = domain(ref)
     have = ~missing(eng)
     return inside & have, outside & have
 
 
-def within(m: LabelMap, cells: np.ndarray) -> LabelMap:
+def within(m: MapResult, cells: np.ndarray) -> MapResult:
     """``m`` with only ``cells`` known: boundaries and critical amplitudes see only the domain, since
     outside it both maps are unknown."""
-    return LabelMap(m.w_ratio, m.a_ratio, np.where(cells, m.codes, FAILED))
+    return MapResult.from_outcomes(m.w_ratio, m.a_ratio, np.where(cells, m.outcome, FAILED))
 
 
-def boundary_edges(eng: LabelMap, ref: LabelMap) -> int:
+def boundary_edges(eng: MapResult, ref: MapResult) -> int:
     """How many boundary edges (both maps', within the judged cells) ``boundary_mean`` averages over."""
     judged, _ = judged_cells(eng, ref)
     return int(boundary_points(within(eng, judged)).shape[0] + boundary_points(within(ref, judged)).shape[0])
 
 
-def _consistency(eng: LabelMap, outside: np.ndarray) -> float:
+def _consistency(eng: MapResult, outside: np.ndarray) -> float:
     """``consistency``: NaN without a simulated engine cell outside the domain (an adaptive map infers
     outcomes, not flags, so only simulated cells can say whether they left the model)."""
     out_sim = outside & eng.simulated
@@ -563,7 +488,7 @@ def _consistency(eng: LabelMap, outside: np.ndarray) -> float:
     return math.nan if n_out == 0 else float(np.count_nonzero(out_sim & eng.left_model) / n_out)
 
 
-def cell_counts(eng: LabelMap, ref: LabelMap) -> dict[str, int]:
+def cell_counts(eng: MapResult, ref: MapResult) -> dict[str, int]:
     """What a pair's numbers rest on, for score.json beside the metrics: the cells judged inside the
     reference's domain and those outside it (and of those, how many the engine simulated, which
     ``consistency`` is computed over), the engine's invalid cells in all, the cells the engine map
@@ -572,7 +497,7 @@ def cell_counts(eng: LabelMap, ref: LabelMap) -> dict[str, int]:
     missed ones (``overturn_missed`` of ``reference_overturn``), its failed and its invalid cells there
     (``failed_in_domain``, ``invalid_in_domain``)."""
     judged, outside = judged_cells(eng, ref)
-    ce, cr = eng.codes, ref.codes
+    ce, cr = eng.outcome, ref.outcome
     ov_ref = judged & (cr == OVERTURN)
     return {"cells_in_domain": int(judged.sum()), "cells_outside_domain": int(outside.sum()),
             "cells_outside_domain_simulated": int(np.count_nonzero(outside & eng.simulated)),

@@ -41,9 +41,10 @@ from typing import Iterable
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.pulses import is_number
 from ..engine_info.versions import version_of
-from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, LabelMap, boundary_edges, cell_counts, check_gate,
+from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, boundary_edges, cell_counts, check_gate,
                       judged_cells, score)
 from ..store.files import read_json, utc_stamp
+from ..maps.result import MapResult
 from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
 
 #: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
@@ -107,10 +108,10 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
             if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
                 continue
             check_complete(r, reference=True)
-            if not c.label_map.same_axes(r.label_map):
+            if not c.map.same_axes(r.map):
                 skipped.append({"engine_dir": str(c.path), "reference_dir": str(r.path),
-                                "reason": "different grids", "engine_grid": grid_of(c.label_map),
-                                "reference_grid": grid_of(r.label_map)})
+                                "reason": "different grids", "engine_grid": grid_of(c.map),
+                                "reference_grid": grid_of(r.map)})
                 continue
             pairs.append(scored_pair(c, r, labels[c.variant], own_eta))
     if not pairs:
@@ -148,11 +149,11 @@ def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> d
          "settings": c.variant if c.is_reference else settings_class(c.settings, c.variant),
          "block": c.block, "pulse": c.pulse, "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
          "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
-         "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.label_map),
-         "filled_cells": c.label_map.filled, **cell_counts(c.label_map, r.label_map),
-         "cells": grid_cells(c.label_map, r.label_map), "scores": score(c.label_map, r.label_map)}
+         "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.map),
+         "filled_cells": c.map.filled, **cell_counts(c.map, r.map),
+         "cells": grid_cells(c.map, r.map), "scores": score(c.map, r.map)}
     # the map's own count (run.json against cells.csv) can see rows the grid's fill hides
-    p["cells_missing"] = max(p["cells_missing"], int(c.label_map.meta.get("missing_cells", 0)))
+    p["cells_missing"] = max(p["cells_missing"], int(c.map.meta.get("missing_cells", 0)))
     p["complete"] = p["cells_missing"] == 0
     p["engine_version"] = version_of(c)    # from the map's run.json (engine_versions.py)
     p["key"] = pair_key(p)
@@ -176,12 +177,12 @@ def check_complete(entry: MapEntry, allow_incomplete=False, *, reference: bool =
     ConfigError
         The same of a map being scored, or fewer rows than its run.json says it finished with.
     """
-    missing = int(entry.label_map.meta.get("missing_cells", 0))
+    missing = int(entry.map.meta.get("missing_cells", 0))
     allowed = allow_incomplete is True or (not isinstance(allow_incomplete, bool)
                                            and Path(entry.path) in {Path(d) for d in allow_incomplete})
     if not missing or (allowed and not reference):
         return
-    n = entry.label_map.codes.size
+    n = entry.map.outcome.size
     what = f"{missing} of its {n} cells are missing (cut, emptied or deleted cells.csv, or an unfinished run)"
     if reference:
         raise IncomparableError(f"the reference map {str(entry.path)!r} is incomplete: {what}; finish it ("
@@ -218,7 +219,7 @@ def score_experiments(entries: list[MapEntry], points) -> list[dict]:
     for e in entries:
         if e.block.upper() not in PRESETS:
             continue
-        s = score_outcomes(points, e.label_map, e.block, e.pulse)
+        s = score_outcomes(points, e.map, e.block, e.pulse)
         if s["points"]:
             out.append({"variant": e.variant, "restitution": e.restitution, "dir": str(e.path), **s})
     return out
@@ -305,14 +306,14 @@ def mark_runs(doc: dict, run_of: dict, *, against: bool = False, notes: list | N
                       "runs": sorted({str(r) for r in run_of.values()}), "notes": list(notes or [])}
 
 
-def grid_cells(eng: LabelMap, ref: LabelMap) -> dict:
+def grid_cells(eng: MapResult, ref: MapResult) -> dict:
     """How many cells a pair's metrics are taken over: ``judged`` (the reference's domain: it has an
     outcome and is valid, less the cells the engine map lacks), ``overturn_union`` (judged cells where
     either map overturns or the engine failed), the boundary edges the boundary distance averages
     over, and the grid's steps, from which :func:`cell_units` turns a number of cells into each
     metric's units."""
     judged, _ = judged_cells(eng, ref)
-    union = judged & ((eng.codes == OVERTURN) | (ref.codes == OVERTURN) | (eng.codes == FAILED))
+    union = judged & ((eng.outcome == OVERTURN) | (ref.outcome == OVERTURN) | (eng.outcome == FAILED))
     w, a = eng.w_ratio, eng.a_ratio
     return {"judged": int(judged.sum()), "overturn_union": int(union.sum()),
             "boundary_edges": boundary_edges(eng, ref),

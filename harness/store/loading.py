@@ -16,7 +16,7 @@ from ...reference_solver.errors import ConfigError
 from ..maps import adaptive as adaptive_mod
 from ..maps.grid import MapSpec
 from ..maps.result import MapResult, _put, empty_result
-from ..scoring.metrics import FAILED, LabelMap, from_cells
+from ..scoring.metrics import FAILED, from_cells
 from .files import COLUMNS, read_cell_table, read_json, read_run, spec_variant, variant_name
 from .frames import _FROM_CODE, rows_to_dataframe, rows_to_dataset
 
@@ -119,8 +119,9 @@ class MapEntry:
     ----------
     path : Path
         Its run directory.
-    label_map : LabelMap
-        The outcome grid.
+    map : MapResult
+        The map in memory, as the scores read it: a cell without an outcome is :data:`FAILED`, and an
+        inferred (adaptive) cell counts as valid.
     engine : str
         Registry name of the engine.
     variant : str
@@ -139,7 +140,7 @@ class MapEntry:
     """
 
     path: Path
-    label_map: LabelMap
+    map: MapResult
     engine: str
     variant: str
     block: str
@@ -164,13 +165,13 @@ class MapEntry:
         return rows_to_dataset(full_grid_rows(self.path))
 
     def describe(self) -> dict:
-        m = self.label_map
+        m = self.map
         return {"dir": str(self.path), "engine": self.engine, "variant": self.variant, "block": self.block,
                 "pulse": self.pulse, "restitution": self.restitution, "eta": self.eta,
                 "grid": grid_of(m)}
 
 
-def grid_of(m: LabelMap) -> dict:
+def grid_of(m: MapResult) -> dict:
     """The grid of a map, as score.json records it (for comparability checks)."""
     return {"n_w": int(m.w_ratio.size), "n_a": int(m.a_ratio.size), "w_lo": float(m.w_ratio[0]),
             "w_hi": float(m.w_ratio[-1]), "a_lo": float(m.a_ratio[0]), "a_hi": float(m.a_ratio[-1])}
@@ -244,7 +245,7 @@ def load_entry(d: Path) -> MapEntry:
         codes = np.where(np.asarray(res.outcome) < 0, FAILED, np.asarray(res.outcome, dtype=int))
         sim = np.asarray(res.simulated, bool)
         # cells an adaptive sweep inferred were never simulated, so nothing in them broke the model
-        lm = LabelMap(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool) | ~sim,
+        lm = MapResult.from_outcomes(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool) | ~sim,
                       np.asarray(res.left_model, bool) & sim, sim,
                       filled=int(np.count_nonzero(~sim & (codes != FAILED))))
         lm.meta["missing_cells"] = missing_cells(res, run)
@@ -263,8 +264,8 @@ def load_entry(d: Path) -> MapEntry:
     return MapEntry(d, lm, engine, variant, block, pulse, restitution, eta, run, settings, dt)
 
 
-def _label_map(path: Path) -> tuple[LabelMap, dict]:
-    """The :class:`LabelMap` of a cells.csv with the required columns, and its first row."""
+def _label_map(path: Path) -> tuple[MapResult, dict]:
+    """The :class:`MapResult` of a cells.csv with the required columns, and its first row."""
     rows = read_cell_table(path)
     ok = [r.get("status", "ok") in ("ok", "") for r in rows]
     outcome = [r["outcome"] if good else "" for r, good in zip(rows, ok)]

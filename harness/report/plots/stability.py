@@ -21,12 +21,12 @@ matplotlib is imported inside the functions only; figures are made without pyplo
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ...blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
+from ...maps.result import MapResult, empty_result, record_result
 from ...scoring.labels import for_matplotlib
 from .style import LABEL_PT, OKABE_ITO, SMALL_PT, SUPTITLE_PT, TITLE_PT, tint
 
@@ -77,30 +77,11 @@ POINT_STYLE = {"T": ("translation (no uplift)", OKABE_ITO["green"]), "R": ("rock
 
 # -- maps as grids -------------------------------------------------------------------------------
 
-@dataclass
-class Grid:
-    """A map as the pictures need it (from a ``MapResult`` or a ``LabelMap``)."""
-
-    w: np.ndarray
-    a: np.ndarray
-    codes: np.ndarray         # -2 missing, -1 failed, 0 rest, 1 rocking, 2 overturn
-    valid: np.ndarray
-    left_model: np.ndarray
-    simulated: np.ndarray
-
-    @property
-    def known(self) -> np.ndarray:
-        return self.codes >= 0
-
-    @property
-    def outside_domain(self) -> np.ndarray:
-        """Cells with an outcome that are not valid (for a reference map: lift-/slip-required)."""
-        return self.known & ~self.valid
-
-
-def as_grid(m) -> Grid:
-    """A :class:`Grid` of a ``MapResult`` (``outcome``) or a ``LabelMap`` (``codes``)."""
-    codes = np.asarray(m.outcome if hasattr(m, "outcome") else m.codes, dtype=int)
+def as_grid(m) -> MapResult:
+    """The map as the pictures draw it: its outcome codes as integers (:data:`MISSING` -2, :data:`FAILED`
+    -1, 0 rest, 1 rocking, 2 overturn), and an adaptive map's inferred cells valid and without flags
+    (it knows nothing of them). ``m`` is a :class:`MapResult` (or anything with its arrays)."""
+    codes = np.asarray(m.outcome, dtype=int)
     shape = codes.shape
     sim = getattr(m, "simulated", None)
     sim = np.ones(shape, bool) if sim is None else np.asarray(sim, bool)
@@ -110,7 +91,8 @@ def as_grid(m) -> Grid:
     left = np.zeros(shape, bool) if left is None else np.asarray(left, bool)
     # an adaptive map knows nothing of its inferred cells' flags: they count as valid
     valid = valid | ~sim
-    return Grid(np.asarray(m.w_ratio, float), np.asarray(m.a_ratio, float), codes, valid, left & sim, sim)
+    return MapResult(None, codes, sim, np.full(shape, -1, np.int32), np.full(shape, np.nan), valid, left & sim,
+                     axes=(np.asarray(m.w_ratio, float), np.asarray(m.a_ratio, float)))
 
 
 # -- pieces, each drawing on an Axes and returning what it drew ----------------------------------
@@ -145,8 +127,8 @@ def boundary_parts(m) -> tuple[list[np.ndarray], list[tuple[float, float, float,
 
     g = as_grid(m)
     lines, boxes = [], []
-    pts = np.column_stack([np.tile(g.w, g.a.size), np.repeat(g.a, g.w.size)])
-    we, ae = _edges(g.w), _edges(g.a)
+    pts = np.column_stack([np.tile(g.w_ratio, g.a_ratio.size), np.repeat(g.a_ratio, g.w_ratio.size)])
+    we, ae = _edges(g.w_ratio), _edges(g.a_ratio)
     for p in _raw_lines(m):
         inside = None
         if len(p) > 3 and np.allclose(p[0], p[-1]):
@@ -154,7 +136,7 @@ def boundary_parts(m) -> tuple[list[np.ndarray], list[tuple[float, float, float,
         if inside is None or not 0 < inside.size <= ISLAND_CELLS:
             lines.append(_smooth_polyline(p))
             continue
-        i, j = inside // g.w.size, inside % g.w.size
+        i, j = inside // g.w_ratio.size, inside % g.w_ratio.size
         boxes.append((we[j.min()], ae[i.min()], we[j.max() + 1], ae[i.max() + 1]))
     return lines, boxes
 
@@ -173,16 +155,16 @@ def _raw_lines(m) -> list[np.ndarray]:
     from scipy import ndimage
 
     g = as_grid(m)
-    if min(g.codes.shape) < 2:
+    if min(g.outcome.shape) < 2:
         return []
-    vals = g.codes[g.known] == 2
+    vals = g.outcome[g.known] == 2
     if vals.size == 0 or vals.all() or not vals.any():
         return []
-    ind = (g.codes == 2).astype(float)
+    ind = (g.outcome == 2).astype(float)
     if not g.known.all():
         idx = ndimage.distance_transform_edt(~g.known, return_distances=False, return_indices=True)
         ind = ind[tuple(idx)]
-    lines = contour_generator(g.w, g.a, ind).lines(0.5)
+    lines = contour_generator(g.w_ratio, g.a_ratio, ind).lines(0.5)
     return [np.asarray(p, float) for p in lines if len(p) >= 2]
 
 
@@ -253,7 +235,7 @@ def draw_flags(ax, m, mask, *, zorder=2.5):
     if not np.asarray(mask).any():
         return None
     g = as_grid(m)
-    we, ae = _edges(g.w), _edges(g.a)
+    we, ae = _edges(g.w_ratio), _edges(g.a_ratio)
     rects = []
     for i in range(mask.shape[0]):
         j = 0
@@ -284,7 +266,7 @@ def draw_domain_hatch(ax, ref, *, zorder=1):
     out = g.outside_domain
     if not out.any() or min(out.shape) < 2:
         return None
-    cs = ax.contourf(g.w, g.a, out.astype(float), levels=[0.5, 1.5], colors="none", hatches=[HATCH],
+    cs = ax.contourf(g.w_ratio, g.a_ratio, out.astype(float), levels=[0.5, 1.5], colors="none", hatches=[HATCH],
                      zorder=zorder)
     cs.set_edgecolor(HATCH_COLOUR)
     cs.set_linewidth(0.0)
@@ -294,11 +276,11 @@ def draw_domain_hatch(ax, ref, *, zorder=1):
 def draw_fill(ax, m, *, color=ENGINE_FILL, zorder=0):
     """Fill the overturn cells of ``m`` (each cell reaching half-way to its neighbours)."""
     g = as_grid(m)
-    z = np.where(g.codes == 2, 1.0, np.nan)
+    z = np.where(g.outcome == 2, 1.0, np.nan)
     if not np.isfinite(z).any():
         return None
     from matplotlib.colors import ListedColormap
-    return ax.pcolormesh(g.w, g.a, z, shading="nearest", cmap=ListedColormap([color]), vmin=0, vmax=1,
+    return ax.pcolormesh(g.w_ratio, g.a_ratio, z, shading="nearest", cmap=ListedColormap([color]), vmin=0, vmax=1,
                          zorder=zorder, rasterized=True)
 
 
@@ -317,17 +299,17 @@ def disagreements(eng, ref) -> dict:
     """
     e, r = as_grid(eng), as_grid(ref)
     inside = r.known & r.valid
-    return {"false_overturn": inside & e.known & (e.codes == 2) & (r.codes != 2),
-            "missed_overturn": inside & e.known & (e.codes != 2) & (r.codes == 2),
+    return {"false_overturn": inside & e.known & (e.outcome == 2) & (r.outcome != 2),
+            "missed_overturn": inside & e.known & (e.outcome != 2) & (r.outcome == 2),
             "invalid": e.known & e.simulated & ~e.valid,
-            "failed": r.known & (e.codes == -1)}
+            "failed": r.known & (e.outcome == -1)}
 
 
 def draw_marks(ax, m, cells: dict, *, zorder=4) -> dict:
     """A marker at the centre of each marked cell, one style per kind (:data:`MARKS`)."""
     g = as_grid(m)
     # about half a cell wide on a 50-cell axis, no smaller than legible on a fine grid
-    shrink = float(np.clip(50.0 / max(g.w.size, g.a.size, 1), 0.55, 1.0))
+    shrink = float(np.clip(50.0 / max(g.w_ratio.size, g.a_ratio.size, 1), 0.55, 1.0))
     out = {}
     for kind, mask in cells.items():
         i, j = np.nonzero(mask)
@@ -335,7 +317,7 @@ def draw_marks(ax, m, cells: dict, *, zorder=4) -> dict:
             continue
         _, st = MARKS[kind]
         st = {**st, "ms": st["ms"] * shrink}
-        (line,) = ax.plot(g.w[j], g.a[i], ls="none", zorder=zorder, **st)
+        (line,) = ax.plot(g.w_ratio[j], g.a_ratio[i], ls="none", zorder=zorder, **st)
         out[kind] = line
     return out
 
@@ -379,9 +361,9 @@ def draw_points(ax, points, *, zorder=5) -> dict:
     return out
 
 
-def _frame(ax, g: Grid, *, xlabel=True, ylabel=True):
-    ax.set_xlim(g.w[0], g.w[-1])
-    ax.set_ylim(g.a[0], g.a[-1])
+def _frame(ax, g: MapResult, *, xlabel=True, ylabel=True):
+    ax.set_xlim(g.w_ratio[0], g.w_ratio[-1])
+    ax.set_ylim(g.a_ratio[0], g.a_ratio[-1])
     if xlabel:
         ax.set_xlabel("ω/p [-]")
     if ylabel:
@@ -434,7 +416,7 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
 
     Parameters
     ----------
-    engine : MapResult or LabelMap, optional
+    engine : MapResult, optional
         The engine's map: its overturn cells are filled and its disagreements with ``like`` marked.
     references : list of (str, map) or (str, map, style)
         Reference maps and their legend labels, drawn as lines in :data:`REFERENCE_STYLES` order
@@ -681,7 +663,7 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
     handles = list(extra_handles)
     first = maps[0]
     _frame(ax, as_grid(first))
-    if shade and (as_grid(first).codes == 2).any():
+    if shade and (as_grid(first).outcome == 2).any():
         draw_fill(ax, first, color=ENGINE_FILL)
         handles.append(Patch(color=ENGINE_FILL, label=for_matplotlib(f"overturn, shaded map ({labels[0]})")))
     hatch = draw_domain_hatch(ax, first)
@@ -731,7 +713,7 @@ def _failed_cells(ax, maps, handles: list) -> None:
 
     nfail = 0
     for res in maps:
-        failed = as_grid(res).codes == -1
+        failed = as_grid(res).outcome == -1
         if failed.any():
             draw_marks(ax, res, {"failed": failed})
             nfail += int(failed.sum())
@@ -761,7 +743,7 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
     ----------
     result : MapResult
         The map.
-    reference : MapResult or LabelMap, optional
+    reference : MapResult, optional
         The reference map of the same case and grid (for an engine map); a reference map is its own.
     ax : matplotlib Axes, optional
 
@@ -787,8 +769,8 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
     is_ref = s.engine == "reference"
     ref = result if is_ref else reference
     _frame(ax, g)
-    show = np.where(g.codes >= 0, g.codes, np.nan).astype(float)
-    image = ax.pcolormesh(g.w, g.a, show, shading="nearest", cmap=ListedColormap(list(OUTCOME_COLOURS)), vmin=-0.5,
+    show = np.where(g.outcome >= 0, g.outcome, np.nan).astype(float)
+    image = ax.pcolormesh(g.w_ratio, g.a_ratio, show, shading="nearest", cmap=ListedColormap(list(OUTCOME_COLOURS)), vmin=-0.5,
                           vmax=2.5, zorder=0, rasterized=True)
     handles = [Patch(facecolor=c, edgecolor="#999999", lw=0.5, label=n)
                for c, n in zip(OUTCOME_COLOURS, ("rest", "rocking", "overturn"))]
@@ -809,7 +791,7 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
         n = int(np.count_nonzero(g.known & g.simulated & ~g.valid))
         handles.append(flag_handle())
         handles[-1].set_label(f"engine flagged slip, jump or energy gain in {n} simulated cell(s) (dotted)")
-    marks = draw_marks(ax, result, {"failed": g.codes == -1})
+    marks = draw_marks(ax, result, {"failed": g.outcome == -1})
     for kind, line in marks.items():
         handles.append(Line2D([], [], ls="none", label=f"simulation failed ({int(len(line.get_xdata()))})",
                               **MARKS[kind][1]))
@@ -854,7 +836,6 @@ def reference_for(result):
         from dataclasses import replace
 
         from ....engines.registry import get_adapter
-        from ...maps.result import record_result, empty_result
 
         spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
         ref = empty_result(spec)
