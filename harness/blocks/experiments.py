@@ -29,9 +29,9 @@ import numpy as np
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import G, amplitude_to_a_ratio
 from ...reference_solver.restitution import housner_eta, modified_eta
-from .presets import PRESETS
 from ..maps.result import MapResult
 from ..scoring.metrics import FAILED, OVERTURN, REST, ROCKING
+from .presets import PRESETS
 
 #: Largest table acceleration the Quanser ST-III still performed as one sine wave (paper §5.1,
 #: "ST limit" in Figs 13–16) [m/s^2].

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ...engines.base import Case
 from ...reference_solver.errors import ConfigError, check_positive
-from ...reference_solver.model import G, Block, a_ratio_to_amplitude
+from ...reference_solver.model import Block, G, a_ratio_to_amplitude
 from ...reference_solver.pulses import Pulse, RecordPulse, make_pulse
 from ...reference_solver.restitution import Restitution
 from ..blocks.presets import PRESETS, get_preset

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from ...engines import registry
 from ...engines.base import CellResult
 from ...reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
 from . import worker as wire
@@ -87,7 +88,6 @@ def cpu_count() -> int:
 def worker_init(engine: str, settings: dict) -> dict:
     """What a worker process needs to rebuild the adapter: engine, settings, the registry
     entries added in this process (as ``"module:Class"`` strings) and ``sys.path``."""
-    from ...engines import registry
 
     return {"engine": engine, "settings": dict(settings), "registry": registry.registered(),
             "sys_path": [p for p in sys.path if p and os.path.isdir(p)]}
@@ -579,7 +579,6 @@ class DaskExecutor:
         try:
             from dask.distributed import Client, LocalCluster
         except ImportError as e:  # pragma: no cover - a declared dependency
-            from ...reference_solver.errors import EngineUnavailableError
             raise EngineUnavailableError(f"--scheduler needs dask[distributed] ({e}); pip install 'dask[distributed]'.")
         self.init = init
         self.address = address

@@ -20,7 +20,7 @@ import numpy as np
 
 from ...engines.base import Case
 from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import G, Block, a_ratio_to_amplitude, amplitude_to_a_ratio
+from ...reference_solver.model import Block, G, a_ratio_to_amplitude, amplitude_to_a_ratio
 from ...reference_solver.pulses import MIN_STEPS_PER_WAVE, check_accel, check_step_count, make_pulse
 from ...reference_solver.restitution import Restitution
 

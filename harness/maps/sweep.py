@@ -29,6 +29,7 @@ import numpy as np
 from ...reference_solver.errors import ConfigError
 from ..store.run_folder import RunStore
 from . import adaptive as adaptive_mod
+from .adaptive import DEFAULT_STRIDE
 from .grid import MAP_PULSES, MapSpec
 from .result import MapResult, _put, _put_columns, empty_result, record_result
 
@@ -79,7 +80,6 @@ class MapOptions:
     @classmethod
     def checked(cls, *, coarse_stride: int | None = None, **kw) -> "MapOptions":
         """The options of :func:`run_map`'s keywords; ConfigError for a time limit or stride out of range."""
-        from .adaptive import DEFAULT_STRIDE
 
         t = kw.get("cell_timeout_s", DEFAULT_CELL_TIMEOUT_S)
         if not (isinstance(t, (int, float)) and math.isfinite(t) and t > 0):

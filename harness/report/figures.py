@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...reference_solver.restitution import Restitution
+from ..blocks.presets import get_preset
 from ..maps.grid import MapSpec, make_axis
 from ..maps.sweep import run_map
-from ..blocks.presets import get_preset
 
 #: The normalised ranges of the recomputed figures: ω/p and a0/(g·tanα).
 W_RANGE = (0.5, 10.0)

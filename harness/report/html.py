@@ -23,13 +23,19 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...engines.base import Case
 from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
-from ..store.atomic import write_bytes_atomic
+from ...reference_solver.model import a_ratio_to_amplitude
+from ...reference_solver.pulses import make_pulse
+from ...reference_solver.restitution import Restitution
 from ..scoring.labels import case_title, for_html, restitution_symbol, variant_labels
+from ..scoring.metrics import METRICS, PRIMARY_METRIC
+from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
+from ..scoring.tables import (best_group_marks, fmt, incomplete_note, primary_cell, ranked_summary,
+                              reference_label, render, row_label, summary, verdict_text)
+from ..store.atomic import write_bytes_atomic
 from ..store.files import DISPLAY_UTC, map_cell_rows, utc_stamp, write_json
 from ..store.loading import MapEntry, load_entries
-from ..scoring.score_runs import at_own_eta, score_entries
-from ..scoring.tables import fmt, incomplete_note, reference_label, summary
 
 
 @dataclass(frozen=True)
@@ -181,7 +187,6 @@ class _Scored:
 
     @classmethod
     def of(cls, run_dirs, against, experiments, allow_incomplete=False) -> "_Scored":
-        from ..scoring.score_runs import load_own_eta, load_runs, mark_runs, pair_within_runs
         entries, run_of = load_runs(run_dirs)
         refs = load_entries(against) if against else [e for e in entries if e.is_reference]
         cands = entries if against else [e for e in entries if not e.is_reference]
@@ -216,7 +221,6 @@ def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:
     engine has wall times)."""
     if not any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
         return None
-    from ..scoring.metrics import PRIMARY_METRIC
     from .plots.speed import plot_speed_accuracy
     drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
                                  if r["variant"] != "reference"], metric=PRIMARY_METRIC)
@@ -402,11 +406,7 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict
     """Simulate ``case`` with the reference (each relevant η) and every engine variant; draw θ(t)."""
     import numpy as np
 
-    from ...engines.base import Case
     from ...engines.registry import get_adapter
-    from ...reference_solver.model import a_ratio_to_amplitude
-    from ...reference_solver.pulses import make_pulse
-    from ...reference_solver.restitution import Restitution
     from .histories import impact_times, picture_span_s, trajectory_for_picture
     from .plots.trajectories import plot_theta
     from ..blocks.presets import get_preset
@@ -457,7 +457,6 @@ def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict
 
 def _restitution_from_label(label: str):
     """The law a run folder's restitution label names (:meth:`Restitution.parse`), None if not understood."""
-    from ...reference_solver.restitution import Restitution
     try:
         return Restitution.parse(label)
     except ConfigError:
@@ -551,8 +550,7 @@ def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
         ws = per.get(v, [])
         ms = 1e3 * sum(ws) / len(ws) if ws else math.nan
         rows.append({"variant": v, "cells": len(ws), "ms_per_cell": ms,
-                     "agreement": acc.get(v, {}).get("agreement", math.nan),
-                     "boundary_mean": acc.get(v, {}).get("boundary_mean", math.nan)})
+                     **{m: acc.get(v, {}).get(m, math.nan) for m in _SPEED_METRICS}})
     return rows
 
 
@@ -568,8 +566,6 @@ def _num(x, spec=".4f", why: str | None = None):
 def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
     """Head, body and the variant key of each row, in the verdict's order (rank, then the primary
     value), and per metric which rows to highlight (:func:`~rockbench.harness.scoring.tables.best_group_marks`)."""
-    from ..scoring.metrics import METRICS, PRIMARY_METRIC
-    from ..scoring.tables import best_group_marks, primary_cell, ranked_summary, row_label
 
     ranked = ranked_summary(doc)
     second = [m for m in METRICS if m != PRIMARY_METRIC]
@@ -586,7 +582,6 @@ def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], d
 
 def _verdict(doc) -> list[str]:
     """The verdict's sentences (score.json's ``verdict.text``)."""
-    from ..scoring.tables import verdict_text
     return verdict_text(doc)
 
 
@@ -640,12 +635,16 @@ _PRICE_WORDS = ("Where an engine variant was calibrated to a target its corner c
                 "second. See docs/contact.md.")
 
 
+#: The scores the speed table shows beside the wall time: the primary one and the plain agreement.
+_SPEED_METRICS = (PRIMARY_METRIC, "agreement")
+
+
 def _speed_table(rows, labels):
     head = ["engine variant", "simulated cells", "wall time per simulated cell [ms]",
-            "boundary distance, mean (primary)", "agreement"]
+            *(METRICS[m].title + (" (primary)" if m == PRIMARY_METRIC else "") for m in _SPEED_METRICS)]
     body = [[labels.get(r["variant"], r["variant"]), str(r["cells"]),
              _num(r["ms_per_cell"], ".2f", why="no wall times in cells.csv"),
-             *(_speed_score(r, m) for m in ("boundary_mean", "agreement"))] for r in rows]
+             *(_speed_score(r, m) for m in _SPEED_METRICS)] for r in rows]
     return head, body
 
 
@@ -671,7 +670,6 @@ def _exp_table(doc, labels):
 
 
 def _pairs_table(doc, labels):
-    from ..scoring.metrics import METRICS
     head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
         [METRICS[m].title for m in METRICS]
     body = [[labels.get(p["variant"], p["variant"]) + incomplete_note(p), p["block"], p["pulse"],
@@ -739,7 +737,6 @@ def _settings_tables(entries: list[MapEntry], labels) -> dict:
 # -- Markdown ----------------------------------------------------------------------------------------
 
 def _md_table(head, body):
-    from ..scoring.tables import render
     if not body:
         return "_none_"
     esc = [[c.replace("|", "\\|").replace("\n", "<br>") for c in r] for r in body]
@@ -749,7 +746,6 @@ def _md_table(head, body):
 def _metric_words(doc) -> list[tuple[str, str, str]]:
     """``(title, how read, question and definition)`` of each metric, the primary first (score.json's
     definitions, else this version's)."""
-    from ..scoring.metrics import METRICS
     ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
     ms = sorted(ms, key=lambda m: m.get("role") != "primary")
     return [((m.get("title") or m["name"]) + f" ({m['name']}, {m.get('role', 'secondary')})",

@@ -34,8 +34,9 @@ failing and no engine is blamed for physics the reference cannot do:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Iterable, Mapping
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
@@ -88,6 +89,19 @@ class Metric:
         (:func:`rockbench.harness.scoring.score_runs.cell_units` turns it into a number per pair):
         ``"1/judged"``, ``"1/overturn_union"``, ``"1/outside_simulated"``, ``"diagonal"`` (of a
         cell), ``"a_step"``, ``"a_step/columns"`` or ``"one"``.
+    value : callable
+        How it is computed: ``value(c)`` for a :class:`Compared` pair (an engine map against its
+        reference map) [its unit]. Only called when the pair has judged cells, unless ``always``.
+    always : bool
+        Computed even when the pair has no judged cell (else NaN then).
+    axis_label : str
+        Its axis title in the speed-against-accuracy picture (default: from its name and kind).
+    version : str
+        The :data:`METRICS_VERSION` its definition belongs to (a new or changed definition bumps both).
+
+    A new metric is one more entry of :data:`METRICS` (with its ``value``) and a test of it: the
+    scores, score.json, tables, the report, ``compare``'s tolerances and the pictures read it from
+    here (docs/scores.md).
     """
 
     name: str
@@ -102,6 +116,10 @@ class Metric:
     short: str = ""
     title: str = ""
     cell_unit: str = "one"
+    value: Callable[["Compared"], float] | None = field(default=None, compare=False, repr=False)
+    always: bool = False
+    axis_label: str = ""
+    version: str = METRICS_VERSION
 
     def worse(self, new: float, old: float, tol: float | None = None) -> bool:
         """True when ``new`` is worse than ``old`` by more than ``tol`` (default :attr:`tolerance`).
@@ -139,18 +157,22 @@ _METRIC_LIST = [
            "higher", 1.0, "-", 0.005,
            question=("In how many judged cells does the engine give the reference's outcome? (Diluted by the "
                      "many easy cells far from the boundary.)"),
-           kind="fraction", short="agree", title="agreement", cell_unit="1/judged"),
+           kind="fraction", short="agree", title="agreement", cell_unit="1/judged",
+           axis_label="cells whose outcome differs\nfrom the reference [%]",
+           value=lambda c: float(np.count_nonzero(c.judged & (c.ce == c.cr)) / c.n)),
     Metric("overturn_agreement",
            "As agreement, with only two classes: overturn and not overturn.",
            "higher", 1.0, "-", 0.005,
            question="In how many judged cells does the engine get overturn-or-not right?",
-           kind="fraction", short="agree O", title="overturn agreement", cell_unit="1/judged"),
+           kind="fraction", short="agree O", title="overturn agreement", cell_unit="1/judged",
+           value=lambda c: float(np.count_nonzero(c.overturn_agree) / c.n)),
     Metric("iou_overturn",
            "Intersection over union of the overturn regions over judged cells, |E∩R|/|E∪R∪F| with F the "
            "engine's failed cells (a failure never counts as a match); 1 when both regions are empty.",
            "higher", 1.0, "-", 0.01,
            question="How well do the two overturn regions overlap?",
-           kind="fraction", short="IoU O", title="IoU of overturn regions", cell_unit="1/overturn_union"),
+           kind="fraction", short="IoU O", title="IoU of overturn regions", cell_unit="1/overturn_union",
+           value=lambda c: c.iou_overturn),
     Metric("boundary_mean",
            "Mean distance, in the normalised plane (ω/p, a0/(g·tanα)), from each engine boundary edge to the "
            "nearest reference boundary edge and from each reference edge to the nearest engine edge (both "
@@ -160,30 +182,36 @@ _METRIC_LIST = [
            "lower", 0.0, "w/a units", 0.02,
            question="How far, on average, is the engine's overturning boundary from the reference's?",
            role="primary",
-           short="bnd mean", title="boundary distance, mean", cell_unit="diagonal"),
+           short="bnd mean", title="boundary distance, mean", cell_unit="diagonal",
+           axis_label="mean distance between the\noverturning boundaries\n(normalised ω/p, a₀/(g·tanα))",
+           value=lambda c: c.boundary[0]),
     Metric("boundary_max",
            "Largest of those distances (the symmetric Hausdorff distance between the boundaries); same "
            "conventions for empty boundaries.",
            "lower", 0.0, "w/a units", 0.05,
            question="How far is the engine's boundary from the reference's at its worst point?",
-           short="bnd max", title="boundary distance, max", cell_unit="diagonal"),
+           short="bnd max", title="boundary distance, max", cell_unit="diagonal",
+           value=lambda c: c.boundary[1]),
     Metric("critical_error_mean",
            "Mean over frequency columns where at least one map overturns of |Δ a_crit|, with a_crit the "
            "LOWEST overturning a0/(g·tanα) of the column; a column that does not overturn is censored at "
            "one grid step above the top of the axis (so that error is a lower bound).",
            "lower", 0.0, "a units", 0.02,
            question="How wrong is the lowest overturning amplitude, on average over the frequencies?",
-           short="a_crit err", title="a_crit error, mean", cell_unit="a_step/columns"),
+           short="a_crit err", title="a_crit error, mean", cell_unit="a_step/columns",
+           value=lambda c: c.critical["mean"]),
     Metric("critical_error_max",
            "Largest |Δ a_crit| over those columns (same censoring).",
            "lower", 0.0, "a units", 0.05,
            question="How wrong is the lowest overturning amplitude at the worst frequency?",
-           short="a_crit max", title="a_crit error, max", cell_unit="a_step"),
+           short="a_crit max", title="a_crit error, max", cell_unit="a_step",
+           value=lambda c: c.critical["max"]),
     Metric("critical_one_sided",
            "Number of frequency columns where only one of the two maps overturns.",
            "lower", 0.0, "-", 0.0,
            question="At how many frequencies does only one of the two overturn at all?",
-           kind="count", short="1-sided", title="one-sided columns"),
+           kind="count", short="1-sided", title="one-sided columns",
+           value=lambda c: float(c.critical["one_sided"])),
     Metric("consistency",
            "Outside the reference's domain (cells where the rigid model needs the table to pull the block "
            "down or more friction than μ: lift-required, slip-required), the fraction of the engine's "
@@ -191,19 +219,22 @@ _METRIC_LIST = [
            "such cell.",
            "higher", 1.0, "-", 0.01,
            question="Where the rigid model itself breaks down, does the engine say so (flag jump or slip)?",
-           kind="fraction", short="consistent", title="consistency", cell_unit="1/outside_simulated"),
+           kind="fraction", short="consistent", title="consistency", cell_unit="1/outside_simulated",
+           value=lambda c: _consistency(c.eng, c.outside), always=True),
     Metric("spurious_invalid",
            "Number of engine cells with an outcome flagged invalid (slip, jump, energy gain) inside the "
            "reference's domain, where the rigid model says nothing should break.",
            "lower", 0.0, "-", 0.0,
            question="Where the rigid model holds, how often does the engine flag slip, jump or energy gain?",
-           kind="count", short="spurious inv", title="spurious invalid cells"),
+           kind="count", short="spurious inv", title="spurious invalid cells",
+           value=lambda c: float(np.count_nonzero(c.judged & (c.ce != FAILED) & ~c.eng.valid))),
     Metric("failed_cells",
            "Number of cells where the reference has an outcome and the engine produced none (error, "
            "divergence, timeout, missing), inside the domain or outside it.",
            "lower", 0.0, "-", 0.0,
            question="How many cells did the engine fail to simulate?",
-           kind="count", short="failed", title="failed cells"),
+           kind="count", short="failed", title="failed cells",
+           value=lambda c: float(np.count_nonzero((c.judged | c.outside) & (c.ce == FAILED))), always=True),
 ]
 
 #: The metrics, by name, in the order tables show them.
@@ -431,34 +462,53 @@ def score(eng: MapResult, ref: MapResult) -> dict[str, float]:
             f"{eng.w_ratio[0]:g}..{eng.w_ratio[-1]:g}, a-ratio {eng.a_ratio[0]:g}..{eng.a_ratio[-1]:g}; reference "
             f"{ref.shape[1]}×{ref.shape[0]} over {ref.w_ratio[0]:g}..{ref.w_ratio[-1]:g}, "
             f"{ref.a_ratio[0]:g}..{ref.a_ratio[-1]:g}); compute both with the same --w-ratio and --a-ratio.")
-    judged, outside = judged_cells(eng, ref)
-    n = int(judged.sum())
-    ce, cr = eng.outcome, ref.outcome
-    # what both branches report: consistency outside the domain, and failed cells anywhere judged
-    consistency = _consistency(eng, outside)
-    failed = float(np.count_nonzero((judged | outside) & (ce == FAILED)))
-    if n == 0:
-        return {**{name: math.nan for name in METRICS}, "consistency": consistency, "failed_cells": failed}
-    eng_failed = judged & (ce == FAILED)
-    o_agree = judged & ~eng_failed & ((ce == OVERTURN) == (cr == OVERTURN))
-    oe, orr = judged & (ce == OVERTURN), judged & (cr == OVERTURN)
-    union = np.count_nonzero(oe | orr | eng_failed)
-    eng_in, ref_in = within(eng, judged), within(ref, judged)
-    b_mean, b_max = boundary_distance(eng_in, ref_in)
-    crit = critical_errors(eng_in, ref_in)
-    return {
-        "agreement": float(np.count_nonzero(judged & (ce == cr)) / n),
-        "overturn_agreement": float(np.count_nonzero(o_agree) / n),
-        "iou_overturn": 1.0 if union == 0 else float(np.count_nonzero(oe & orr) / union),
-        "boundary_mean": b_mean,
-        "boundary_max": b_max,
-        "critical_error_mean": crit["mean"],
-        "critical_error_max": crit["max"],
-        "critical_one_sided": float(crit["one_sided"]),
-        "consistency": consistency,
-        "spurious_invalid": float(np.count_nonzero(judged & (ce != FAILED) & ~eng.valid)),
-        "failed_cells": failed,
-    }
+    c = Compared(eng, ref)
+    if c.n == 0:
+        return {name: m.value(c) if m.always else math.nan for name, m in METRICS.items()}
+    return {name: m.value(c) for name, m in METRICS.items()}
+
+
+class Compared:
+    """An engine map against its reference map, as the metrics' ``value`` functions read it: the
+    judged cells and those outside the reference's domain (:func:`judged_cells`), their number ``n``,
+    both maps' outcome codes (``ce``, ``cr``), and what several metrics share, each computed once
+    when first read (the boundary distances, the critical amplitudes' errors)."""
+
+    def __init__(self, eng: MapResult, ref: MapResult):
+        self.eng, self.ref = eng, ref
+        self.judged, self.outside = judged_cells(eng, ref)
+        self.n = int(self.judged.sum())
+        self.ce, self.cr = eng.outcome, ref.outcome
+
+    @cached_property
+    def eng_failed(self) -> np.ndarray:
+        return self.judged & (self.ce == FAILED)
+
+    @cached_property
+    def overturn_agree(self) -> np.ndarray:
+        """Judged cells where the engine has an outcome and gets overturn-or-not right."""
+        return self.judged & ~self.eng_failed & ((self.ce == OVERTURN) == (self.cr == OVERTURN))
+
+    @cached_property
+    def iou_overturn(self) -> float:
+        oe, orr = self.judged & (self.ce == OVERTURN), self.judged & (self.cr == OVERTURN)
+        union = np.count_nonzero(oe | orr | self.eng_failed)
+        return 1.0 if union == 0 else float(np.count_nonzero(oe & orr) / union)
+
+    @cached_property
+    def inside(self) -> tuple[MapResult, MapResult]:
+        """Both maps with only the judged cells known (:func:`within`)."""
+        return within(self.eng, self.judged), within(self.ref, self.judged)
+
+    @cached_property
+    def boundary(self) -> tuple[float, float]:
+        """:func:`boundary_distance` (mean, max) of the judged cells."""
+        return boundary_distance(*self.inside)
+
+    @cached_property
+    def critical(self) -> dict:
+        """:func:`critical_errors` of the judged cells."""
+        return critical_errors(*self.inside)
 
 
 def judged_cells(eng: MapResult, ref: MapResult) -> tuple[np.ndarray, np.ndarray]:

@@ -41,11 +41,11 @@ from typing import Iterable
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.pulses import is_number
 from ..engine_info.versions import version_of
+from ..maps.result import MapResult
+from ..store.files import read_json, utc_stamp
+from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
 from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, boundary_edges, cell_counts, check_gate,
                       judged_cells, score)
-from ..store.files import read_json, utc_stamp
-from ..maps.result import MapResult
-from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
 
 #: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
 SCORE_SCHEMA_VERSION = 2

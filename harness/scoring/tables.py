@@ -5,7 +5,7 @@ from __future__ import annotations
 import html as _html
 import math
 
-from .metrics import METRICS
+from .metrics import METRICS, PRIMARY_METRIC
 
 def fmt(name: str, v) -> str:
     """A metric's value as tables write it (:meth:`~rockbench.harness.scoring.metrics.Metric.format`)."""
@@ -110,7 +110,6 @@ def best_group_marks(ranked: list[tuple[dict, dict]]) -> dict[str, list[bool]]:
     """Per metric, which rows to highlight: the primary metric's best group (rank 1, unless it fails),
     and, when that group has two or more rows, for every secondary metric its best value among those
     rows only (a secondary column never praises a variant outside the best group)."""
-    from .metrics import PRIMARY_METRIC
     top = [r["rank"] == 1 and not r["fails"] for r, _ in ranked]
     if len(ranked) < 2 or not any(top):
         return {}
@@ -132,7 +131,6 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
     """Engine variant × metric in the verdict's order: rank (equal ranks tie), the primary metric with its
     95 % interval, then the secondary metrics; highlights as :func:`best_group_marks` (``**`` in
     Markdown, ``*`` in text, bold in HTML)."""
-    from .metrics import PRIMARY_METRIC
     ranked = ranked_summary(doc)
     marks = best_group_marks(ranked)
     second = [m for m in METRICS if m != PRIMARY_METRIC]

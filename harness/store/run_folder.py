@@ -29,9 +29,9 @@ import sys
 from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
+from .files import (COLUMNS, NEW_OUT, SCHEMA_VERSION, check_map_schema, read_cells_file, read_json, spec_variant,
+                    utc_stamp, write_json)
 from .lines import _fmt, plain_row
-from .files import (COLUMNS, NEW_OUT, SCHEMA_VERSION, check_map_schema, read_cells_file, read_json,
-                      spec_variant, utc_stamp, write_json)
 
 
 #: what a map directory may hold before its run.json exists: the lock, and the scratch space of a

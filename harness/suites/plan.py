@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...engines.base import EngineAdapter
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
 from ..store.files import variant_name
@@ -57,7 +58,6 @@ def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[lis
         A setting an engine named explicitly (suite list or ``--engines``), or every engine, refuses:
         one line naming the suite key.
     """
-    from ...engines.base import EngineAdapter
     from ...engines.registry import adapter_class
 
     kept, refused = [], {}

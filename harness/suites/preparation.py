@@ -9,8 +9,9 @@ import sys
 import time
 from pathlib import Path
 
+from ...engines.base import EngineAdapter
 from ..blocks.presets import get_preset
-from ..store.files import variant_name
+from ..store.files import read_json, variant_name, write_json
 from ..store.loading import CALIBRATION_FILE
 from .model import Suite, restitution_for
 from .plan import variant_blocks, variant_restitution, variant_settings
@@ -66,7 +67,6 @@ class Preparation:
 
     def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
                  own_eta: bool | None = None):
-        from ..store.files import read_json
 
         self.t0 = time.perf_counter()
         self.suite, self.out = suite, out
@@ -131,7 +131,6 @@ class Preparation:
     def finish(self) -> tuple[list[dict], list[str], float]:
         from concurrent.futures.process import BrokenProcessPool
 
-        from ..store.files import write_json
 
         suite = self.suite
         try:
@@ -179,7 +178,6 @@ def _helper_init(registry: dict, sys_path: list) -> None:
 
 def _calibrates(engine: str) -> bool:
     """Whether the engine's adapter has a calibration of its own to compute (and cache)."""
-    from ...engines.base import EngineAdapter
     from ...engines.registry import adapter_class
     try:
         return adapter_class(engine).calibrate is not EngineAdapter.calibrate

@@ -52,7 +52,8 @@ import threading
 import time
 from pathlib import Path
 
-from ...reference_solver.errors import ConfigError
+from ...reference_solver.errors import ConfigError, IncomparableError
+from ...reference_solver.pulses import make_pulse
 from ..blocks.experiments import load_outcomes
 from ..blocks.presets import get_preset
 from ..engine_info.health import EngineHealth
@@ -82,8 +83,6 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
         result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
-        from ...reference_solver.errors import IncomparableError
-        from ..store.files import write_json
         from ..scoring.score_runs import score_dirs
         try:
             result["score"] = score_dirs([out / "maps"], experiments=experiments, allow_incomplete=unfinished)
@@ -102,10 +101,8 @@ def _warm_report() -> None:
         from matplotlib import figure  # noqa: F401
         from matplotlib.backends import backend_agg  # noqa: F401
 
-        from ...reference_solver.pulses import make_pulse
         from ...reference_solver.solver import solve
         from ..report import html as report  # noqa: F401
-        from ..blocks.presets import get_preset
         solve(get_preset("B3M").block(), make_pulse("sine", 30.0, 60.0), 0.8, history=True)
     except Exception:  # noqa: BLE001 - only a head start; the report imports what it needs itself
         pass

@@ -8,7 +8,7 @@ from ....engines.price import price_line
 from ....engines.registry import get_adapter
 from ....reference_solver.errors import ConfigError
 from ..options import (add_block_options, block_from_args, dt_from_args, engine_settings_from_args,
-                           restitution_from_args)
+                       restitution_from_args)
 
 
 def register(sub) -> None:

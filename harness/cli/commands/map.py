@@ -7,12 +7,12 @@ import sys
 from pathlib import Path
 
 from ....reference_solver.errors import ConfigError, EngineError
-from ...store.atomic import check_output_dir
-from ..options import (add_block_options, add_figure_format_option, add_model_options, block_from_args,
-                           dt_from_args, engine_settings_from_args, figure_formats_from_args, jobs_from_args,
-                           restitution_from_args)
 from ...maps.grid import MAP_PULSES, MapSpec, parse_range
 from ...maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
+from ...store.atomic import check_output_dir
+from ..options import (add_block_options, add_figure_format_option, add_model_options, block_from_args,
+                       dt_from_args, engine_settings_from_args, figure_formats_from_args, jobs_from_args,
+                       restitution_from_args)
 
 
 def register(sub) -> None:

@@ -14,9 +14,9 @@ from pathlib import Path
 
 from ....reference_solver.errors import ConfigError
 from ....reference_solver.solver import MODES
+from ...simulation import simulate_case
 from ...store.atomic import check_output_file
 from ..options import add_case_options, case_from_args, engine_settings_from_args
-from ...simulation import simulate_case
 
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="one simulation: outcome, impacts, θ(t) history and plot")

@@ -22,6 +22,7 @@ import os
 import pickle
 import time
 from pathlib import Path
+from . import stability
 
 #: Seconds the helper may take to draw once it has the map, before it is stopped and the picture
 #: is drawn here.
@@ -148,7 +149,6 @@ def _helper(r: int) -> int:
     from matplotlib import figure  # noqa: F401
     from matplotlib.backends import backend_agg  # noqa: F401
 
-    from . import stability
 
     chunks = []
     with os.fdopen(r, "rb") as f:

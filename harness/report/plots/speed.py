@@ -12,9 +12,13 @@ from __future__ import annotations
 
 import math
 
+from ...scoring.labels import for_matplotlib
+from ...scoring.metrics import METRICS
+from .style import CYCLE, DOUBLE_COLUMN_IN, LABEL_PT, SMALL_PT
+
+
 def _is_fraction(metric: str) -> bool:
     """A fraction of cells (the metric's ``kind``): drawn as the share of disagreeing cells (1 − metric)."""
-    from ...scoring.metrics import METRICS
     return metric in METRICS and METRICS[metric].kind == "fraction"
 
 #: Ratio of the largest to the smallest value above which an axis is logarithmic.
@@ -58,9 +62,6 @@ def plot_speed_accuracy(rows, *, metric="agreement", ax=None):
         ``legend`` (None: the points are labelled directly).
     """
     from matplotlib.ticker import FuncFormatter, LogLocator
-
-    from ...scoring.labels import for_matplotlib
-    from .style import CYCLE, DOUBLE_COLUMN_IN, LABEL_PT, SMALL_PT
 
     if ax is None:
         from matplotlib.figure import Figure
@@ -108,10 +109,9 @@ def plot_speed_accuracy(rows, *, metric="agreement", ax=None):
 
 
 def _ylabel(metric: str) -> str:
-    if metric == "agreement":
-        return "cells whose outcome differs\nfrom the reference [%]"
-    if metric == "boundary_mean":
-        return "mean distance between the\noverturning boundaries\n(normalised ω/p, a₀/(g·tanα))"
+    """The metric's own axis title (:attr:`Metric.axis_label`), else one from its name and kind."""
+    if metric in METRICS and METRICS[metric].axis_label:
+        return METRICS[metric].axis_label
     words = metric.replace("_", " ")
     return f"100 % − {words} [%]" if _is_fraction(metric) else words
 

@@ -27,8 +27,8 @@ import numpy as np
 
 from ...blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
 from ...maps.result import MapResult, empty_result, record_result
-from ...scoring.labels import for_matplotlib
-from .style import LABEL_PT, OKABE_ITO, SMALL_PT, SUPTITLE_PT, TITLE_PT, tint
+from ...scoring.labels import for_matplotlib, restitution_symbol, variant_label
+from .style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SINGLE_COLUMN_IN, SMALL_PT, SUPTITLE_PT, TITLE_PT, tint
 
 #: Line styles of the reference boundaries, in the order given (η_H, η_M average k, η_M exact k,
 #: a constant η such as an engine's own measured one): each has its own dash as well as its own
@@ -603,7 +603,6 @@ def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str |
 def _panels_size(ncols: int, nrows: int, panel_size=None) -> tuple[float, float]:
     """Figure size [in] of ``ncols`` × ``nrows`` panels: a journal's double column wide (one column
     for a single panel), panels about 0.8 as high as wide, and room for the legend below."""
-    from .style import DOUBLE_COLUMN_IN, SINGLE_COLUMN_IN
 
     if panel_size is not None:
         return panel_size[0] * ncols + 0.6, panel_size[1] * nrows + 1.3
@@ -657,7 +656,6 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
         maps = [maps]
     if ax is None:
         from matplotlib.figure import Figure
-        from .style import DOUBLE_COLUMN_IN
         ax = Figure(figsize=(DOUBLE_COLUMN_IN * 0.7, DOUBLE_COLUMN_IN * 0.66), layout="constrained").add_subplot()
     labels = list(labels) if labels is not None else [_label(m) for m in maps]
     handles = list(extra_handles)
@@ -722,7 +720,6 @@ def _failed_cells(ax, maps, handles: list) -> None:
 
 
 def _label(res) -> str:
-    from ...scoring.labels import restitution_symbol
     s = res.spec
     return f"{s.block.name}, {restitution_symbol(s.restitution.label, s.block.name)} = {s.eta:.4f}"
 
@@ -758,11 +755,9 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    from ...scoring.labels import restitution_symbol, variant_label
 
     if ax is None:
         from matplotlib.figure import Figure
-        from .style import DOUBLE_COLUMN_IN
         ax = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained").add_subplot()
     g = as_grid(result)
     s = result.spec
@@ -820,7 +815,6 @@ def map_figure(result, *, reference=None):
     """:func:`plot_map` on a figure of its own, three quarters of a journal's double column wide."""
     from matplotlib.figure import Figure
 
-    from .style import DOUBLE_COLUMN_IN
 
     fig = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained")
     plot_map(result, reference=reference, ax=fig.add_subplot())
