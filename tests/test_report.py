@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rockbench.harness.cli.main import main
-from rockbench.harness.report.html import build_report
+from rockbench.harness.report.build import build_report
 from rockbench.harness.maps.result import MapResult
 from rockbench.reference_solver.restitution import Restitution
 
@@ -118,7 +118,7 @@ def test_index_html_renders_in_headless_chromium(report, tmp_path):
 
 
 def test_report_pairs_each_own_eta_reference_with_its_engine(band):
-    from rockbench.harness.report.html import _split_own_eta_refs
+    from rockbench.harness.report.build import _split_own_eta_refs
     from rockbench.harness.store.loading import MapEntry
     m = MapResult.from_outcomes(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
 
@@ -163,7 +163,7 @@ def test_report_draws_fig17_with_the_reference(write_map, band, tmp_path):
 
 def test_price_table_shows_reach_contact_and_cost():
     """Issue 18: a calibration with a measured price gets a row: reached only if the price counts."""
-    from rockbench.harness.report.html import _price_table
+    from rockbench.harness.report.sections import _price_table
 
     price = {"uplift": {"ratio": 0.986, "within": True}, "anti_slip": {"n_slip": 0, "n_jump": 1, "cells": 27},
              "period_change": -0.0051, "steps_per_s": 4.0e4, "counts": True}

@@ -177,7 +177,7 @@ def _variants(v):
 
 
 def _report_case(v):
-    from ..report.html import parse_case   # the report's own reader of BLOCK:PULSE:W_RATIO:A_RATIO
+    from ..report.build import parse_case   # the report's own reader of BLOCK:PULSE:W_RATIO:A_RATIO
 
     for c in v:
         try:

@@ -75,7 +75,7 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
     and summary table (``result["summary"]``); the ``unfinished`` maps (of an engine that cannot
     simulate) are scored as incomplete instead of refused."""
     if report:
-        from ..report.html import build_report, parse_case
+        from ..report.build import build_report, parse_case
         cases = tuple(parse_case(c) for c in suite.report_cases)
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
                            figure_formats=figure_formats, allow_incomplete=unfinished)
@@ -102,7 +102,7 @@ def _warm_report() -> None:
         from matplotlib.backends import backend_agg  # noqa: F401
 
         from ...reference_solver.solver import solve
-        from ..report import html as report  # noqa: F401
+        from ..report import build as report  # noqa: F401
         solve(get_preset("B3M").block(), make_pulse("sine", 30.0, 60.0), 0.8, history=True)
     except Exception:  # noqa: BLE001 - only a head start; the report imports what it needs itself
         pass

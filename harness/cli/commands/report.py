@@ -30,7 +30,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from ...store.atomic import check_output_dir
     from ..options import figure_formats_from_args
-    from ...report.html import FIG17, build_report, parse_case
+    from ...report.build import FIG17, build_report, parse_case
 
     cases = tuple(parse_case(c) for c in args.case) or (FIG17,)
     formats = figure_formats_from_args(args)
