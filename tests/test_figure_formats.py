@@ -117,7 +117,8 @@ def _maps():
     n = 20
     w, a = np.linspace(1, 12, n), np.linspace(1, 10, n)
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    return MapResult.from_outcomes(w, a, np.where(ii > jj, 2, 1)), MapResult.from_outcomes(w, a, np.where(ii > jj + 2, 2, 1))
+    return (MapResult.from_outcomes(w, a, np.where(ii > jj, 2, 1)),
+            MapResult.from_outcomes(w, a, np.where(ii > jj + 2, 2, 1)))
 
 
 def _paper_figure():

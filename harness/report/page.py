@@ -111,7 +111,8 @@ def _html(ctx, images: dict) -> str:
     n_var = len(labels)
     P = ["<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
          "<meta name='viewport' content='width=device-width, initial-scale=1'><title>rockbench report</title>",
-         f"<style>{_asset('report.css').rstrip()}</style></head><body>", "<div id='img-warning'></div>", "<h1>rockbench report</h1>",
+         f"<style>{_asset('report.css').rstrip()}</style></head><body>", "<div id='img-warning'></div>",
+         "<h1>rockbench report</h1>",
          f"<p class='meta'>Generated {html.escape(ctx['created'])} from {html.escape(', '.join(ctx['run_dirs']))}: "
          f"{len(ctx['entries'])} maps, {n_var} engine variant(s)"
          + (f", metrics version {html.escape(str(doc['metrics_version']))}" if doc else "") + ".</p>"]

@@ -89,7 +89,8 @@ class _Lanes:
 
     def __init__(self, order, todo, out: Path, lanes: int, announce, one_map, stop):
         self.queue = deque(order)
-        self.todo, self.out, self.lanes, self.announce, self.one_map, self.stop = todo, out, lanes, announce, one_map, stop
+        self.todo, self.out, self.lanes = todo, out, lanes
+        self.announce, self.one_map, self.stop = announce, one_map, stop
         self.lock = threading.Lock()
         self.live: list = []
         self.running: dict = {}   # lane → the executor running its map now

@@ -247,7 +247,7 @@ class _SuiteRun:
         _score_and_report(suite, self.out, result, experiments, report, figure_formats, self.log, self.unfinished)
         result["report_wall_s"] = time.perf_counter() - t2
         result["wall_s"] = time.perf_counter() - self.t0
-        write_json(self.out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": self.jobs,
-                                             **{k: v for k, v in result.items() if k not in ("suite", "score", "summary")},
+        kept = {k: v for k, v in result.items() if k not in ("suite", "score", "summary")}
+        write_json(self.out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": self.jobs, **kept,
                                              "suite_name": suite.name})
         return result

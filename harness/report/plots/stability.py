@@ -614,7 +614,8 @@ def _panels_size(ncols: int, nrows: int, panel_size=None) -> tuple[float, float]
 # -- several maps on one graph (the paper's Figs 4–9) -----------------------------------------------
 
 def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiments=None,
-                   st_limit_mps2: float | None = SHAKING_TABLE_LIMIT_MPS2, title: str | None = None, show_failed: bool = True,
+                   st_limit_mps2: float | None = SHAKING_TABLE_LIMIT_MPS2, title: str | None = None,
+                   show_failed: bool = True,
                    extra_handles=(), legend: str = "below"):
     """Several maps' overturn boundaries on one graph (the paper's Figs 4–9).
 
@@ -765,8 +766,8 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
     ref = result if is_ref else reference
     _frame(ax, g)
     show = np.where(g.outcome >= 0, g.outcome, np.nan).astype(float)
-    image = ax.pcolormesh(g.w_ratio, g.a_ratio, show, shading="nearest", cmap=ListedColormap(list(OUTCOME_COLOURS)), vmin=-0.5,
-                          vmax=2.5, zorder=0, rasterized=True)
+    image = ax.pcolormesh(g.w_ratio, g.a_ratio, show, shading="nearest", cmap=ListedColormap(list(OUTCOME_COLOURS)),
+                          vmin=-0.5, vmax=2.5, zorder=0, rasterized=True)
     handles = [Patch(facecolor=c, edgecolor="#999999", lw=0.5, label=n)
                for c, n in zip(OUTCOME_COLOURS, ("rest", "rocking", "overturn"))]
     hatch = boundary = None
