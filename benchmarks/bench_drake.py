@@ -38,14 +38,14 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution, housner_eta
 
-#: The default suite's grid (benchmark/suites/default.toml)
+#: The default suite's grid (harness/suites/default.toml)
 GRID = ["--w-ratio", "1:16:51", "--a-ratio", "1:12:51", "--adaptive", "--coarse-stride", "4"]
 
 

@@ -48,7 +48,7 @@ _worker_cases = None
 
 
 def _grid(block_name, pulse, n):
-    from rockbench.benchmark.presets import get_preset
+    from rockbench.harness.blocks.presets import get_preset
     from rockbench.engines.base import Case
     from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
     from rockbench.reference_solver.pulses import make_pulse

@@ -35,7 +35,7 @@ W = A = (0.5, 10.0)
 
 KERNEL = ("import numpy as np; "
           "from rockbench.reference_solver.solver import solve_batch; "
-          "from rockbench.benchmark.presets import get_preset; b = get_preset('B6M').block(); "
+          "from rockbench.harness.blocks.presets import get_preset; b = get_preset('B6M').block(); "
           "w = np.linspace({w0}, {w1}, {n}) * b.p_rad_s; "
           "a = np.linspace({a0}, {a1}, {n}) * 9.81 * np.tan(b.alpha_rad); "
           "W, A = np.meshgrid(w, a); "

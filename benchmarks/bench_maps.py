@@ -27,9 +27,10 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from rockbench.benchmark.executors import make_executor  # noqa: E402
-from rockbench.benchmark.maps import MapSpec, make_axis, run_map  # noqa: E402
-from rockbench.benchmark.presets import PRESETS, get_preset  # noqa: E402
+from rockbench.harness.maps.executors import make_executor  # noqa: E402
+from rockbench.harness.maps.grid import MapSpec, make_axis  # noqa: E402
+from rockbench.harness.maps.sweep import run_map  # noqa: E402
+from rockbench.harness.blocks.presets import PRESETS, get_preset  # noqa: E402
 from rockbench.engines import registry  # noqa: E402
 from rockbench.engines.reference_adapter import ReferenceAdapter  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution  # noqa: E402
@@ -73,7 +74,7 @@ def bench_full_map(n: int, tmp: Path, repeat: int = 3) -> dict:
     solve_batch(*(np.ravel(a)[:4] if isinstance(a, np.ndarray) else a for a in args), dt_s=1e-3)   # load the kernel
     code = ("import time, numpy as np; "
             "from rockbench.reference_solver.solver import solve_batch; "
-            "from rockbench.benchmark.presets import get_preset; b = get_preset('B6M').block(); "
+            "from rockbench.harness.blocks.presets import get_preset; b = get_preset('B6M').block(); "
             f"w = np.linspace({W[0]}, {W[1]}, {n}) * b.p_rad_s; a = np.linspace({A[0]}, {A[1]}, {n}) * 9.81 * np.tan(b.alpha_rad); "
             "W, A = np.meshgrid(w, a); solve_batch(b.alpha_rad, b.p_rad_s, 1 - 1.5 * np.sin(b.alpha_rad) ** 2, 'sine', W, A, dt_s=1e-3)")
     rounds = []

@@ -40,7 +40,7 @@ from datetime import datetime, timezone
 
 import numpy as np
 
-from rockbench.benchmark.presets import PRESETS
+from rockbench.harness.blocks.presets import PRESETS
 from rockbench.engines.base import Case, uplift_tol_rad
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G

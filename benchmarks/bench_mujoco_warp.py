@@ -7,7 +7,7 @@ What it prints (and writes as JSON and Markdown into ``--out DIR``):
 2. ``steps``: the engine alone: one batch of ``nworld`` worlds stepped a fixed number of steps
    through the adapter's own batch (drive kernel, ``mujoco_warp.step``, record; CUDA graph on a GPU),
    world-steps per second.
-3. ``maps``: whole maps through ``rockbench.benchmark.maps.run_map`` (the CLI's ``rockbench map``
+3. ``maps``: whole maps through ``rockbench.harness.maps.sweep.run_map`` (the CLI's ``rockbench map``
    path: cells judged by the one classifier and validity rule, written to ``cells.csv``, no
    picture), N×N cells over ω/p × a₀/(g·tanα) (the default suite's axes), every cell simulated
    (no adaptive refinement), timed from the call to the written map; maps per second, cells per
@@ -39,10 +39,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.benchmark.maps import Axis, MapSpec, run_map
-from rockbench.benchmark.presets import PRESETS
-from rockbench.benchmark.metrics import score
-from rockbench.benchmark.results import load_entry
+from rockbench.harness.maps.grid import Axis, MapSpec
+from rockbench.harness.maps.sweep import run_map
+from rockbench.harness.blocks.presets import PRESETS
+from rockbench.harness.scoring.metrics import score
+from rockbench.harness.store.loading import load_entry
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
@@ -85,7 +86,7 @@ def map_spec(block_name: str, kind: str, n: int, engine: str, settings: dict) ->
 def run_one_map(block_name, kind, n, engine, settings, out_dir: Path) -> dict:
     """One whole map as ``rockbench map`` computes it, timed from the call to the written map (the
     executor is made here only to read the adapter's world-step count afterwards)."""
-    from rockbench.benchmark.executors import make_executor
+    from rockbench.harness.maps.executors import make_executor
     spec = map_spec(block_name, kind, n, engine, settings)
     t0 = time.perf_counter()
     ex = make_executor(engine, settings)
@@ -180,7 +181,7 @@ def main(argv=None) -> int:
             if not args.no_reference:
                 rd = Path(tmp) / f"ref-{block_name}-{kind}-{n}"
                 rr = run_one_map(block_name, kind, n, "reference", {}, rd)
-                s = score(load_entry(d).label_map, load_entry(rd).label_map)
+                s = score(load_entry(d).map, load_entry(rd).map)
                 r["reference_wall_s"] = rr["wall_s"]
                 r["score"] = {k: s[k] for k in ("agreement", "overturn_agreement", "iou_overturn", "boundary_mean",
                                                 "spurious_invalid", "failed_cells", "consistency")}
@@ -188,8 +189,8 @@ def main(argv=None) -> int:
             if args.parity and (block_name, kind, n) == jobs[0]:
                 cd = Path(tmp) / f"cpu-{n}"
                 rc = run_one_map(block_name, kind, n, "mujoco", {}, cd)
-                ew, ec = load_entry(d).label_map, load_entry(cd).label_map
-                same = float(np.mean(ew.codes == ec.codes))
+                ew, ec = load_entry(d).map, load_entry(cd).map
+                same = float(np.mean(ew.outcome == ec.outcome))
                 r["parity_cpu_mujoco"] = {"wall_s": rc["wall_s"], "same_outcome": same,
                                           "score_vs_cpu": {k: v for k, v in score(ew, ec).items()
                                                            if k in ("agreement", "overturn_agreement")}}

@@ -59,7 +59,7 @@ def main(argv=None) -> int:
 
     import numba
 
-    from rockbench.benchmark.presets import get_preset
+    from rockbench.harness.blocks.presets import get_preset
     from rockbench.reference_solver.model import G
     from rockbench.reference_solver.pulses import SinePulse
     from rockbench.reference_solver.restitution import modified_eta

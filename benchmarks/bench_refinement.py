@@ -40,10 +40,12 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.benchmark import adaptive
-from rockbench.benchmark.maps import MISSING, MapSpec, load_map, parse_range
-from rockbench.benchmark.presets import PRESETS, get_preset
-from rockbench.benchmark.suite_runner import restitution_for
+from rockbench.harness.maps import adaptive
+from rockbench.harness.maps.grid import MapSpec, parse_range
+from rockbench.harness.maps.result import MISSING
+from rockbench.harness.store.loading import load_map
+from rockbench.harness.blocks.presets import PRESETS, get_preset
+from rockbench.harness.suites.model import restitution_for
 from rockbench.reference_solver.errors import IncomparableError
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.solver import solve_batch

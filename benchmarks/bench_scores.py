@@ -25,9 +25,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from rockbench.benchmark.report import build_report  # noqa: E402
-from rockbench.benchmark.metrics import LabelMap, from_cells, score  # noqa: E402
-from rockbench.benchmark.score_runs import score_dirs  # noqa: E402
+from rockbench.harness.report.build import build_report  # noqa: E402
+from rockbench.harness.maps.result import MapResult  # noqa: E402
+from rockbench.harness.scoring.metrics import from_cells, score  # noqa: E402
+from rockbench.harness.scoring.score_runs import score_dirs  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution  # noqa: E402
 
 from mapdirs import write_map  # noqa: E402
@@ -45,7 +46,7 @@ def synthetic(n_a, n_w, shift=0.0, seed=0):
     c[band] = 1
     tongue = (A > crit - 1.5) & (A < crit - 1.2) & (W > 5) & (W < 7)
     c[tongue] = 2
-    return LabelMap(w, a, c)
+    return MapResult.from_outcomes(w, a, c)
 
 
 def best_of(f, repeat=5):
@@ -68,7 +69,7 @@ def main():
     print("\n2. from_cells, 200 x 200 shuffled cell table")
     m = synthetic(200, 200)
     W, A = np.meshgrid(m.w_ratio, m.a_ratio)
-    names = np.array(["rest", "rocking", "overturn"])[m.codes.ravel()]
+    names = np.array(["rest", "rocking", "overturn"])[m.outcome.ravel()]
     perm = np.random.default_rng(0).permutation(names.size)
     t = best_of(lambda: from_cells(W.ravel()[perm], A.ravel()[perm], names[perm]), 3)
     print(f"   {1e3 * t:8.1f} ms")
@@ -80,10 +81,10 @@ def main():
         for block in ("B3M", "B6M", "B3L", "B6L"):
             for pulse in ("sine", "cosine"):
                 for k, rest in enumerate([Restitution(), Restitution("modified", k=0.8), Restitution("modified", k=0.75)]):
-                    write_map(root / f"ref-{block}-{pulse}-{k}", synthetic(56, 76, shift=0.2 * k).codes,
+                    write_map(root / f"ref-{block}-{pulse}-{k}", synthetic(56, 76, shift=0.2 * k).outcome,
                               block=block, pulse=pulse, restitution=rest, w=(1, 16), a=(1, 12))
                 for e, eng in enumerate(("mujoco", "pybullet")):
-                    write_map(root / f"{eng}-{block}-{pulse}", synthetic(56, 76, shift=0.1 + 0.2 * e, seed=e + 2).codes,
+                    write_map(root / f"{eng}-{block}-{pulse}", synthetic(56, 76, shift=0.1 + 0.2 * e, seed=e + 2).outcome,
                               engine=eng, block=block, pulse=pulse, w=(1, 16), a=(1, 12))
         print(f"   writing 40 map directories: {time.perf_counter() - t0:.2f} s")
         t = best_of(lambda: score_dirs([root]), 3)

@@ -2,7 +2,7 @@
 shaking table (Čeh, Jelenić et al., Engineering Review 42 (2022) 149–162)?
 
 The notebook front door (everything else lives in the three floors: :mod:`rockbench.reference_solver`,
-:mod:`rockbench.engines`, :mod:`rockbench.benchmark`)::
+:mod:`rockbench.engines`, :mod:`rockbench.harness`)::
 
     import rockbench
     sim = rockbench.simulate("B3M", w_ratio=6, a_ratio=6.1, restitution="modified", k=0.7595)
@@ -35,7 +35,7 @@ _LAZY = {"simulate", "stability_map", "load_run", "Simulation", "Run"}
 def __getattr__(name: str):
     # the API pulls in numpy, numba and the engines' registry: load it on first use only
     if name in _LAZY:
-        from .benchmark import api
+        from .harness import api
         return getattr(api, name)
     raise AttributeError(f"module 'rockbench' has no attribute {name!r}")
 

@@ -27,7 +27,7 @@ def main() -> int:
     """``rockbench`` with the regressed MuJoCo in place of the shipped one."""
     import sys
 
-    from rockbench.benchmark.cli import main as cli
+    from rockbench.harness.cli.main import main as cli
     from rockbench.engines import registry
     registry.register("mujoco", f"{__name__}:RegressedMujoco")
     return cli(sys.argv[1:])

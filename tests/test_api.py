@@ -20,7 +20,7 @@ def test_version_and_a_cheap_import():
     assert out[0] == rockbench.__version__ and out[1:] == ["False", "False"]   # the solver loads on first use
     # the three floors stay where they were
     import importlib
-    for m in ("rockbench.benchmark.cli", "rockbench.engines.registry", "rockbench.reference_solver.solver"):
+    for m in ("rockbench.harness.cli.main", "rockbench.engines.registry", "rockbench.reference_solver.solver"):
         importlib.import_module(m)
 
 
@@ -86,7 +86,7 @@ def test_stability_map_as_a_dataset_and_a_tidy_frame():
 
 
 def test_load_run_reads_maps_and_scores(write_map, band, tmp_path):
-    from rockbench.benchmark.cli import main
+    from rockbench.harness.cli.main import main
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
     write_map(tmp_path / "run" / "ref", band(6, 7, 3), block="B3M")
     write_map(tmp_path / "run" / "eng", band(6, 7, 4), engine="mujoco", block="B3M", settings={"settings": "defaults"})

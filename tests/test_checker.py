@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from rockbench.benchmark.cli import main
+from rockbench.harness.cli.main import main
 from rockbench.engines.checker import check_adapter
 
 

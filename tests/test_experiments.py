@@ -5,11 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from rockbench.benchmark.experiments import (SHAKING_TABLE_LIMIT_MPS2, experimental_eta, load_outcomes,
-                                             load_restitution, parse_outcomes, restitution_errors,
-                                             restitution_targets, score_outcomes, st_limit_a_ratio)
-from rockbench.benchmark.presets import PRESETS
-from rockbench.benchmark.metrics import OVERTURN, REST, ROCKING, LabelMap
+from rockbench.harness.blocks.experiments import (SHAKING_TABLE_LIMIT_MPS2, experimental_eta, load_outcomes,
+                                                  load_restitution, parse_outcomes, restitution_errors,
+                                                  restitution_targets, score_outcomes, st_limit_a_ratio)
+from rockbench.harness.blocks.presets import PRESETS
+from rockbench.harness.maps.result import MapResult
+from rockbench.harness.scoring.metrics import OVERTURN, REST, ROCKING
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G
 
@@ -65,7 +66,7 @@ def _b6m_map():
     c = np.full((5, 5), REST)
     c[1:3] = ROCKING
     c[3:] = OVERTURN
-    return LabelMap(w, a, c)
+    return MapResult.from_outcomes(w, a, c)
 
 
 def _physical(w, a):

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rockbench.benchmark.cli import main
-from rockbench.benchmark.metrics import LabelMap
+from rockbench.harness.cli.main import main
+from rockbench.harness.maps.result import MapResult
 from rockbench.reference_solver.errors import ConfigError
 
 matplotlib = pytest.importorskip("matplotlib")
@@ -22,17 +22,17 @@ SVG = "{http://www.w3.org/2000/svg}"
 
 
 def _panel_figure():
-    from rockbench.benchmark.plots.stability import plot_panels
+    from rockbench.harness.report.plots.stability import plot_panels
     n = 24
     w, a = np.linspace(1, 12, n), np.linspace(1, 10, n)
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    ref = LabelMap(w, a, np.where(ii > jj, 2, 1))
-    ref.codes[5, 18] = 2                                  # an island of the reference
-    codes = ref.codes.copy()
+    ref = MapResult.from_outcomes(w, a, np.where(ii > jj, 2, 1))
+    ref.outcome[5, 18] = 2                                  # an island of the reference
+    codes = ref.outcome.copy()
     codes[3, 3] = 2
     valid = np.ones(codes.shape, bool)
     valid[20, 2] = False
-    eng = LabelMap(w, a, codes, valid=valid)
+    eng = MapResult.from_outcomes(w, a, codes, valid=valid)
     drawn = plot_panels([{"engine": eng, "references": [("reference, η_H", ref)], "like": ref, "st_limit": 6.0,
                           "title": "MuJoCo 4.0, calibrated to η_H"}] * 2, suptitle="B3M, one sine wave")
     return drawn
@@ -58,7 +58,7 @@ def check_file(path: Path, fmt: str, words=()):
 
 @pytest.mark.parametrize("fmt", ["png", "svg", "pdf"])
 def test_each_format_is_written_and_readable(tmp_path, fmt):
-    from rockbench.benchmark.plots.output import save_formats
+    from rockbench.harness.report.plots.output import save_formats
     drawn = _panel_figure()
     (p,) = save_formats(drawn["figure"], tmp_path / "panels", (fmt,))
     assert p == tmp_path / f"panels.{fmt}"
@@ -66,7 +66,7 @@ def test_each_format_is_written_and_readable(tmp_path, fmt):
 
 
 def test_formats_are_parsed_and_checked():
-    from rockbench.benchmark.plots.output import format_of, parse_formats
+    from rockbench.harness.report.plots.output import format_of, parse_formats
     assert parse_formats("png") == ("png",) and parse_formats(" PDF, svg,pdf ") == ("pdf", "svg")
     for bad in ("", "jpg", "png,eps"):
         with pytest.raises(ConfigError, match="--figure-format"):
@@ -100,8 +100,8 @@ def _texts(fig):
 
 
 def _all_figures():
-    from rockbench.benchmark.plots.speed import plot_speed_accuracy
-    from rockbench.benchmark.plots.trajectories import plot_theta
+    from rockbench.harness.report.plots.speed import plot_speed_accuracy
+    from rockbench.harness.report.plots.trajectories import plot_theta
     from rockbench.reference_solver.pulses import make_pulse
     t = np.linspace(0, 0.6, 200)
     theta = plot_theta([{"label": "reference, η_H: rocking", "t_s": t, "theta_rad": 0.1 * np.sin(20 * t),
@@ -117,11 +117,12 @@ def _maps():
     n = 20
     w, a = np.linspace(1, 12, n), np.linspace(1, 10, n)
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    return LabelMap(w, a, np.where(ii > jj, 2, 1)), LabelMap(w, a, np.where(ii > jj + 2, 2, 1))
+    return (MapResult.from_outcomes(w, a, np.where(ii > jj, 2, 1)),
+            MapResult.from_outcomes(w, a, np.where(ii > jj + 2, 2, 1)))
 
 
 def _paper_figure():
-    from rockbench.benchmark.plots.stability import plot_stability
+    from rockbench.harness.report.plots.stability import plot_stability
     return plot_stability(list(_maps()), ["B3M, η_H = 0.7526", "B3L, η_H = 0.7526"], st_limit_mps2=None,
                           title="Fig. 6: one sine wave")["ax"].figure
 
@@ -129,21 +130,21 @@ def _paper_figure():
 def _map_figure():
     from types import SimpleNamespace
 
-    from rockbench.benchmark.maps import MapSpec, make_axis
-    from rockbench.benchmark.plots.stability import map_figure
-    from rockbench.benchmark.presets import get_preset
+    from rockbench.harness.maps.grid import MapSpec, make_axis
+    from rockbench.harness.report.plots.stability import map_figure
+    from rockbench.harness.blocks.presets import get_preset
     from rockbench.reference_solver.restitution import Restitution
     ref, eng = _maps()
     spec = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 12, 20),
                    make_axis("--a-ratio", "a_ratio", 1, 10, 20), engine="mujoco", engine_settings={})
-    res = SimpleNamespace(spec=spec, outcome=eng.codes, valid=eng.valid, left_model=eng.left_model,
-                          simulated=np.ones(eng.codes.shape, bool), w_ratio=eng.w_ratio, a_ratio=eng.a_ratio,
+    res = SimpleNamespace(spec=spec, outcome=eng.outcome, valid=eng.valid, left_model=eng.left_model,
+                          simulated=np.ones(eng.outcome.shape, bool), w_ratio=eng.w_ratio, a_ratio=eng.a_ratio,
                           adaptive=False, fraction_simulated=1.0)
     return map_figure(res, reference=ref)
 
 
 def test_figures_suit_a_journal_column_with_fonts_of_7_pt_or_more():
-    from rockbench.benchmark.plots.style import DOUBLE_COLUMN_IN, MIN_FONT_PT
+    from rockbench.harness.report.plots.style import DOUBLE_COLUMN_IN, MIN_FONT_PT
     for name, fig in _all_figures().items():
         assert fig.get_figwidth() <= DOUBLE_COLUMN_IN + 1e-9, name
         small = [(t.get_text(), t.get_fontsize()) for t in _texts(fig) if t.get_fontsize() < MIN_FONT_PT]
@@ -153,8 +154,8 @@ def test_figures_suit_a_journal_column_with_fonts_of_7_pt_or_more():
 def test_one_palette_stays_apart_under_colour_vision_deficiencies():
     """Colours a picture sets side by side keep a CIE76 ΔE of at least 12 (clearly apart; 2.3 is
     just noticeable) under simulated protanopia, deuteranopia and tritanopia (Machado et al. 2009)."""
-    from rockbench.benchmark.plots import stability as s
-    from rockbench.benchmark.plots.style import CYCLE
+    from rockbench.harness.report.plots import stability as s
+    from rockbench.harness.report.plots.style import CYCLE
     groups = {"reference lines": [st["color"] for st in s.REFERENCE_STYLES[:4]], "curves": CYCLE,
               "marks on the fill": [s.MARKS["false_overturn"][1]["color"], s.MARKS["missed_overturn"][1]["color"],
                                     s.ENGINE_FILL, "#ffffff"],
@@ -164,7 +165,7 @@ def test_one_palette_stays_apart_under_colour_vision_deficiencies():
             worst = min(delta_e(a, b, kind) for k, a in enumerate(colours) for b in colours[k + 1:])
             assert worst >= 12.0, (group, kind, worst)
     # the first four engine curves of a θ(t) plot against the reference's black and greys
-    from rockbench.benchmark.plots.trajectories import REFERENCE_STYLES
+    from rockbench.harness.report.plots.trajectories import REFERENCE_STYLES
     for kind in (None, "protanopia", "deuteranopia", "tritanopia"):
         worst = min(delta_e(c, r["color"], kind) for c in CYCLE[:4] for r in REFERENCE_STYLES)
         assert worst >= 12.0, (kind, worst)

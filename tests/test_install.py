@@ -58,7 +58,7 @@ def test_regular_install_runs_a_map_with_workers_from_the_repository_root(tmp_pa
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     # the installed copy, not the source folder, is what a process outside the root imports
-    where = subprocess.run([py, "-P", "-c", "import rockbench.benchmark as b; print(b.__file__)"],
+    where = subprocess.run([py, "-P", "-c", "import rockbench.harness as b; print(b.__file__)"],
                            capture_output=True, text=True, cwd=tmp_path).stdout
     assert "site-packages" in where, where
     rb = tmp_path / "venv" / "bin" / "rockbench"

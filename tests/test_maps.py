@@ -7,10 +7,13 @@ import json
 import numpy as np
 import pytest
 
-from rockbench.benchmark import adaptive
-from rockbench.benchmark.cli import main
-from rockbench.benchmark.maps import MISSING, MapSpec, load_map, make_axis, parse_range, run_map
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.maps import adaptive
+from rockbench.harness.cli.main import main
+from rockbench.harness.maps.grid import MapSpec, make_axis, parse_range
+from rockbench.harness.maps.result import MISSING
+from rockbench.harness.maps.sweep import run_map
+from rockbench.harness.store.loading import load_map
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
@@ -152,7 +155,8 @@ def test_map_cli_json(tmp_path, capsys):
 
 
 def test_stability_plot_png_svg(tmp_path):
-    from rockbench.benchmark.plots.stability import plot_stability, save, st_limit_a_ratio
+    from rockbench.harness.blocks.experiments import st_limit_a_ratio
+    from rockbench.harness.report.plots.stability import plot_stability, save
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -167,7 +171,7 @@ def test_stability_plot_png_svg(tmp_path):
     got = plot_stability(maps, ["one", "two"], ax=ax, experiments=[{"w_ratio": 3, "a_ratio": 4, "outcome": "O"},
                                                                    {"w_ratio": 6, "a_ratio": 2, "outcome": "R"}])
     assert got["st_limit_a_ratio"] == pytest.approx(25.0 / (G * np.tan(b.alpha_rad)))
-    assert got["st_limit_a_ratio"] == pytest.approx(st_limit_a_ratio(b.alpha_rad))
+    assert got["st_limit_a_ratio"] == pytest.approx(st_limit_a_ratio(b))
     assert len(got["boundaries"]) == 2
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert "one" in labels and "two" in labels and any("ST limit" in t for t in labels)
@@ -177,7 +181,7 @@ def test_stability_plot_png_svg(tmp_path):
 
 
 def test_guided_chunks_fall_in_size_and_keep_every_item_in_order():
-    from rockbench.benchmark.executors import _guided_chunks
+    from rockbench.harness.maps.executors import _guided_chunks
     items = list(range(169))
     chunks = _guided_chunks(items, 2, 64)
     assert [x for c in chunks for x in c] == items

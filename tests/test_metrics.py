@@ -7,9 +7,10 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
 
-from rockbench.benchmark.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING, LabelMap,
-                                        boundary_points, check_gate, critical_amplitude, from_cells,
-                                        cell_counts, is_perfect, parse_thresholds, score)
+from rockbench.harness.maps.result import MapResult
+from rockbench.harness.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING,
+                                               boundary_points, check_gate, critical_amplitude, from_cells,
+                                               cell_counts, is_perfect, parse_thresholds, score)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
 
 N = 10
@@ -19,7 +20,7 @@ AX = np.arange(N, dtype=float)  # unit spacing on both axes: distances are easy 
 def band_map(first_overturn_row, below=ROCKING, n=N):
     c = np.full((n, n), below)
     c[first_overturn_row:, :] = OVERTURN
-    return LabelMap(np.arange(n, dtype=float), np.arange(n, dtype=float), c)
+    return MapResult.from_outcomes(np.arange(n, dtype=float), np.arange(n, dtype=float), c)
 
 
 def test_metrics_table_is_complete():
@@ -28,6 +29,27 @@ def test_metrics_table_is_complete():
         assert m.direction in ("higher", "lower")
         assert m.definition and m.unit
         assert m.tolerance >= 0
+
+
+def test_a_new_metric_is_one_object(monkeypatch):
+    """docs/scores.md's claim: a metric is one ``Metric`` (name, definition, direction, unit, titles,
+    tolerance, version and how it is computed); registered alone, it is scored, gets its column in the
+    pairs table and the summary, and ``compare`` its default tolerance, with nothing else changed."""
+    from rockbench.harness.scoring import metrics, score_runs, tables
+
+    m = metrics.Metric("overturn_cells", "Engine cells judged overturn.", "lower", 0.0, "-", 3.0,
+                       kind="count", short="ov cells", title="overturn cells",
+                       value=lambda c: float(np.count_nonzero(c.judged & (c.ce == OVERTURN))))
+    monkeypatch.setitem(metrics.METRICS, m.name, m)
+    s = score(band_map(4), band_map(5))
+    assert s["overturn_cells"] == 6 * N and s["boundary_mean"] == 1.0
+    pair = {"variant": "e", "block": "B3M", "pulse": "sine", "restitution": "housner", "like_for_like": True,
+            "reference": {"restitution": "housner"}, "scores": s}
+    head, row = tables.pairs_table({"pairs": [pair]}).splitlines()[0::2]
+    assert "ov cells" in head and f"{6 * N}" in row.split()
+    assert tables.summary({"pairs": [pair]})["e"]["overturn_cells"] == 6 * N
+    assert score_runs.parse_tolerances([])["overturn_cells"]["at_least"] == 3.0
+    assert m.version == METRICS_VERSION and m.to_dict()["title"] == "overturn cells"
 
 
 def test_shifted_boundary_by_one_row():
@@ -51,14 +73,14 @@ def test_shift_scales_with_axis_spacing():
     c_eng = np.full((N, N), REST)
     c_eng[7:] = OVERTURN
     a = np.linspace(1.0, 5.5, N)  # step 0.5
-    s = score(LabelMap(AX, a, c_eng), LabelMap(AX, a, c_ref))
+    s = score(MapResult.from_outcomes(AX, a, c_eng), MapResult.from_outcomes(AX, a, c_ref))
     assert s["boundary_mean"] == pytest.approx(1.0)  # two steps of 0.5
     assert s["critical_error_max"] == pytest.approx(1.0)
 
 
 def test_island_known_answer():
     ref = band_map(7)
-    ref.codes[2, 5] = OVERTURN  # an island of overturn far below the main region
+    ref.outcome[2, 5] = OVERTURN  # an island of overturn far below the main region
     eng = band_map(7)
     s = score(eng, ref)
     assert s["agreement"] == pytest.approx(0.99)
@@ -74,7 +96,7 @@ def test_island_known_answer():
 
 def test_tongue_below_a_safe_band():
     ref = band_map(7)
-    ref.codes[3, 2:5] = OVERTURN  # one-impact tongue below the safe band (rows 4-6)
+    ref.outcome[3, 2:5] = OVERTURN  # one-impact tongue below the safe band (rows 4-6)
     np.testing.assert_array_equal(critical_amplitude(ref)[2:5], [3.0, 3.0, 3.0])
     assert critical_amplitude(ref)[0] == 7.0
     s = score(band_map(7), ref)
@@ -87,7 +109,7 @@ def test_tongue_below_a_safe_band():
 
 def test_thin_safe_band_is_boundary():
     ref = band_map(5)
-    ref.codes[6, :] = ROCKING  # a safe band inside the overturn region
+    ref.outcome[6, :] = ROCKING  # a safe band inside the overturn region
     assert boundary_points(ref).shape == (30, 2)
     s = score(band_map(5), ref)
     # band edges at 5.5 and 6.5 lie 1 and 2 from the engine's only edge at 4.5
@@ -97,7 +119,7 @@ def test_thin_safe_band_is_boundary():
 
 
 def test_empty_maps():
-    empty = LabelMap(AX, AX, np.full((N, N), REST))
+    empty = MapResult.from_outcomes(AX, AX, np.full((N, N), REST))
     assert is_perfect(score(empty, empty))
     s = score(empty, band_map(5))
     diag = math.hypot(N - 1, N - 1)
@@ -113,7 +135,7 @@ def test_empty_maps():
 def test_failed_cells_never_match():
     ref = band_map(5)
     eng = band_map(5)
-    eng.codes[7, 3] = FAILED
+    eng.outcome[7, 3] = FAILED
     eng.valid[7, 3] = False
     s = score(eng, ref)
     assert s["failed_cells"] == 1
@@ -121,7 +143,7 @@ def test_failed_cells_never_match():
     assert s["iou_overturn"] < 1.0
     # a failed reference cell is not judged
     ref2 = band_map(5)
-    ref2.codes[7, 3] = FAILED
+    ref2.outcome[7, 3] = FAILED
     s2 = score(eng, ref2)
     assert s2["agreement"] == 1.0 and s2["failed_cells"] == 0
 
@@ -136,7 +158,7 @@ def test_invalid_cells_counted_but_judged():
 
 
 def test_different_grids_are_incomparable():
-    other = LabelMap(AX * 1.01, AX, np.zeros((N, N), int))
+    other = MapResult.from_outcomes(AX * 1.01, AX, np.zeros((N, N), int))
     with pytest.raises(IncomparableError):
         score(other, band_map(5))
 
@@ -145,12 +167,12 @@ def test_from_cells_and_duplicates():
     w, a = np.meshgrid([1.0, 2.0], [0.5, 1.5, 2.5])
     out = np.where(a.ravel() > 1, "overturn", "rest")
     m = from_cells(w.ravel(), a.ravel(), out)
-    np.testing.assert_array_equal(m.codes, [[0, 0], [2, 2], [2, 2]])
+    np.testing.assert_array_equal(m.outcome, [[0, 0], [2, 2], [2, 2]])
     # a failed row and an ok row for one cell: the ok row wins, in either order
     w2 = np.append(w.ravel(), 1.0)
     a2 = np.append(a.ravel(), 0.5)
     for o in (np.append(out, ""), np.concatenate([[""], out])[[1, 2, 3, 4, 5, 6, 0]]):
-        assert from_cells(w2, a2, o).codes[0, 0] == REST
+        assert from_cells(w2, a2, o).outcome[0, 0] == REST
     with pytest.raises(ConfigError, match="disagree"):
         from_cells(w2, a2, np.append(out, "overturn"))
     with pytest.raises(ConfigError, match="unknown outcome"):
@@ -163,8 +185,8 @@ def test_from_cells_fills_adaptive_gaps():
     a = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 2.0, 2.0]
     o = ["rest", "rest", "rest", "rest", "overturn", "overturn", "rest", "overturn"]
     m = from_cells(w, a, o)
-    assert m.filled == 1 and m.codes[2, 2] == OVERTURN
-    assert from_cells(w, a, o, fill=False).codes[2, 2] == FAILED
+    assert m.filled == 1 and m.outcome[2, 2] == OVERTURN
+    assert from_cells(w, a, o, fill=False).outcome[2, 2] == FAILED
 
 
 def test_gates_and_thresholds():
@@ -199,7 +221,7 @@ def _map(codes, failed=None):
     c = codes.copy()
     if failed is not None:
         c[failed[: n_a, : n_w]] = FAILED
-    return LabelMap(np.linspace(1, 10, n_w), np.linspace(0.5, 8, n_a), c)
+    return MapResult.from_outcomes(np.linspace(1, 10, n_w), np.linspace(0.5, 8, n_a), c)
 
 
 @settings(max_examples=60, deadline=None)
@@ -238,8 +260,8 @@ def test_cell_table_row_order_does_not_matter(codes, rnd):
     rnd.shuffle(perm)
     m1 = from_cells(W.ravel(), A.ravel(), names, valid)
     m2 = from_cells(W.ravel()[perm], A.ravel()[perm], names[perm], valid[perm])
-    np.testing.assert_array_equal(m1.codes, codes)
-    np.testing.assert_array_equal(m1.codes, m2.codes)
+    np.testing.assert_array_equal(m1.outcome, codes)
+    np.testing.assert_array_equal(m1.outcome, m2.outcome)
     np.testing.assert_array_equal(m1.valid, m2.valid)
     assert score(m1, m) == score(m2, m)
 
@@ -259,9 +281,9 @@ def test_failures_never_improve_a_score(codes, data):
 
 # -- metrics version 2: the reference's domain ------------------------------------------------------
 
-def _outside(ref: LabelMap, mask) -> LabelMap:
+def _outside(ref: MapResult, mask) -> MapResult:
     """``ref`` with the cells of ``mask`` outside its domain (lift-required: invalid, left the model)."""
-    return LabelMap(ref.w_ratio, ref.a_ratio, ref.codes, ~mask, mask)
+    return MapResult.from_outcomes(ref.w_ratio, ref.a_ratio, ref.outcome, ~mask, mask)
 
 
 def test_cells_outside_the_reference_domain_are_not_judged_by_outcome():
@@ -269,7 +291,7 @@ def test_cells_outside_the_reference_domain_are_not_judged_by_outcome():
     mask[7:, :4] = True                        # a lift-required patch inside the overturn region
     ref = _outside(band_map(5), mask)
     eng = band_map(5)
-    eng.codes[7:, :4] = ROCKING                # the engine disagrees only where the reference is invalid
+    eng.outcome[7:, :4] = ROCKING                # the engine disagrees only where the reference is invalid
     s = score(eng, ref)
     assert s["agreement"] == 1.0 and s["iou_overturn"] == 1.0
     assert s["boundary_mean"] == 0.0 and s["critical_error_max"] == 0.0
@@ -278,7 +300,7 @@ def test_cells_outside_the_reference_domain_are_not_judged_by_outcome():
     c = cell_counts(eng, ref)
     assert c["cells_in_domain"] == N * N - 12 and c["cells_outside_domain"] == 12
     # an engine that flags jump there is consistent
-    eng2 = LabelMap(eng.w_ratio, eng.a_ratio, eng.codes, ~mask, mask)
+    eng2 = MapResult.from_outcomes(eng.w_ratio, eng.a_ratio, eng.outcome, ~mask, mask)
     s2 = score(eng2, ref)
     assert s2["consistency"] == 1.0 and s2["spurious_invalid"] == 0
     # the same disagreement inside the domain counts
@@ -305,7 +327,7 @@ def test_consistency_counts_only_simulated_engine_cells():
     sim = np.ones((N, N), bool)
     sim[8:, 1] = False                         # an adaptive engine map inferred these
     left = mask & sim
-    eng = LabelMap(AX, AX, band_map(5).codes, None, left, sim)
+    eng = MapResult.from_outcomes(AX, AX, band_map(5).outcome, None, left, sim)
     assert score(eng, ref)["consistency"] == 1.0
     assert cell_counts(eng, ref)["cells_outside_domain_simulated"] == 2
 
@@ -315,14 +337,14 @@ def test_consistency_counts_only_simulated_engine_cells():
        hnp.arrays(np.bool_, (6, 7)))
 def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(codes, mask):
     assume(not mask.all())   # an empty domain leaves agreement undefined (NaN), which fails every gate
-    m = LabelMap(np.linspace(1, 10, 7), np.linspace(0.5, 8, 6), codes, ~mask, mask)
+    m = MapResult.from_outcomes(np.linspace(1, 10, 7), np.linspace(0.5, 8, 6), codes, ~mask, mask)
     s = score(m, m)
     assert is_perfect(s)
     assert s["consistency"] == 1.0 or (math.isnan(s["consistency"]) and not mask.any())
 
 
 def test_metrics_version_three_refuses_version_two():
-    from rockbench.benchmark.score_runs import compare_scores
+    from rockbench.harness.scoring.score_runs import compare_scores
     doc = {"metrics_version": "2", "pairs": []}
     with pytest.raises(IncomparableError, match="metrics version 2, current 3"):
         compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})
@@ -331,7 +353,7 @@ def test_metrics_version_three_refuses_version_two():
 def test_every_metric_is_one_complete_object():
     """A metric carries everything tables, the report, plots and compare read (adding one touches
     metrics.py and its test only)."""
-    from rockbench.benchmark.score_runs import cell_units
+    from rockbench.harness.scoring.score_runs import cell_units
     units = cell_units({"grid": {"n_w": 5, "n_a": 4, "w_lo": 1, "w_hi": 5, "a_lo": 1, "a_hi": 4}})
     for m in METRICS.values():
         assert m.short and m.title and m.question and m.definition

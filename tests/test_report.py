@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rockbench.benchmark.cli import main
-from rockbench.benchmark.report import build_report
-from rockbench.benchmark.metrics import LabelMap
+from rockbench.harness.cli.main import main
+from rockbench.harness.report.build import build_report
+from rockbench.harness.maps.result import MapResult
 from rockbench.reference_solver.restitution import Restitution
 
 
@@ -31,7 +31,7 @@ def report(write_map, band, tmp_path_factory):
     exp = tmp / "exp.csv"
     exp.write_text("# made up for the test\nblock,pulse,f_hz,amplitude_mps2,outcome,repetitions,source\n"
                    "B6L,sine,5.0,8.0,O,3,test\nB6L,sine,5.0,1.0,R,1,test\n")
-    from rockbench.benchmark.experiments import load_outcomes
+    from rockbench.harness.blocks.experiments import load_outcomes
     out = tmp / "out"
     res = build_report([root], out, experiments=load_outcomes(exp), trajectories=False, log=lambda m: None)
     return out, res
@@ -118,12 +118,12 @@ def test_index_html_renders_in_headless_chromium(report, tmp_path):
 
 
 def test_report_pairs_each_own_eta_reference_with_its_engine(band):
-    from rockbench.benchmark.report import _split_own_eta_refs
-    from rockbench.benchmark.results import MapEntry
-    m = LabelMap(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
+    from rockbench.harness.report.build import _split_own_eta_refs
+    from rockbench.harness.store.loading import MapEntry
+    m = MapResult.from_outcomes(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
 
     def entry(engine, variant, restitution, eta):
-        return MapEntry(path=f"/x/{variant}-{restitution}", label_map=m, engine=engine, variant=variant,
+        return MapEntry(path=f"/x/{variant}-{restitution}", map=m, engine=engine, variant=variant,
                         block="B3M", pulse="sine", restitution=restitution, eta=eta)
 
     refs = [entry("reference", "reference", "housner", 0.7526), entry("reference", "reference", "0.7493", 0.7493),
@@ -163,7 +163,7 @@ def test_report_draws_fig17_with_the_reference(write_map, band, tmp_path):
 
 def test_price_table_shows_reach_contact_and_cost():
     """Issue 18: a calibration with a measured price gets a row: reached only if the price counts."""
-    from rockbench.benchmark.report import _price_table
+    from rockbench.harness.report.sections import _price_table
 
     price = {"uplift": {"ratio": 0.986, "within": True}, "anti_slip": {"n_slip": 0, "n_jump": 1, "cells": 27},
              "period_change": -0.0051, "steps_per_s": 4.0e4, "counts": True}

@@ -7,8 +7,8 @@ import re
 import numpy as np
 import pytest
 
-from rockbench.benchmark.results import (COLUMNS, REQUIRED_COLUMNS, json_safe, read_cell_table, read_json, utc_stamp,
-                                         write_json)
+from rockbench.harness.store.files import (COLUMNS, REQUIRED_COLUMNS, json_safe, read_cell_table, read_json,
+                                           utc_stamp, write_json)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
 
 

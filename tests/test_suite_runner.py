@@ -5,8 +5,10 @@ from pathlib import Path
 
 import pytest
 
-from rockbench.benchmark.cli import main
-from rockbench.benchmark.suite_runner import load_suite, plan, restitution_for, run_suite, suite_path
+from rockbench.harness.cli.main import main
+from rockbench.harness.suites.model import load_suite, restitution_for, suite_path
+from rockbench.harness.suites.plan import plan
+from rockbench.harness.suites.runner import run_suite
 from rockbench.reference_solver.errors import ConfigError
 
 
@@ -42,12 +44,33 @@ def test_restitution_tokens():
     ("[grid]\nw_ratio = '1:2:3'\na_ratio = '1:2:3'\n[cases]\npulses = ['square']\n", "cases.pulses"),
     ("[grid]\nw_ratio = '1:2:3'\na_ratio = '1:2:3'\n[engines]\nnames = 3\n", "engines.names"),
     ("[grid\n", "not valid TOML"),
+    ("[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\n[reference]\ndt_s = true\n",
+     "reference.dt_s must be a number of seconds > 0, got True."),
 ])
 def test_bad_suites(tmp_path, text, match):
     p = tmp_path / "s.toml"
     p.write_text(text)
     with pytest.raises(ConfigError, match=match):
         load_suite(p)
+
+
+@pytest.mark.parametrize("text, line", [
+    ("[grid]\nw_ratio = 5\na_ratio = '1:2:3'\n", "suite s.toml: grid.w_ratio must be a string LO:HI:N, got 5."),
+    ("[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\n[engines]\nvariants = [{}, {restitution = 'nope'}]\n",
+     "suite s.toml: engines.variants[1].restitution: restitution 'nope' is not one of housner, modified-average, "
+     "modified-exact, modified:K or a number in (0, 1]."),
+    ("[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\ncoarse_stride = 0\n",
+     "suite s.toml: grid.coarse_stride must be a whole number >= 1, got 0."),
+    ("[grid]\nw_ratio = '16:1:5'\na_ratio = '1:2:3'\n",
+     "suite s.toml: grid.w_ratio range is reversed (16 > 1); give LO:HI:N with LO < HI."),
+])
+def test_a_bad_suite_is_one_line_in_the_words_of_its_key(tmp_path, text, line):
+    """The typed model (pydantic) words each problem as the suite's own rule does, nothing of pydantic's."""
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    with pytest.raises(ConfigError) as e:
+        load_suite(p)
+    assert str(e.value) == line
 
 
 def test_run_cli_usage(tmp_path, capsys):
@@ -63,8 +86,8 @@ def test_run_cli_usage(tmp_path, capsys):
 
 
 def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(fake_engines, tmp_path, monkeypatch):
-    from rockbench.benchmark import executors
-    from rockbench.benchmark.suite_runner import run_suite
+    from rockbench.harness.maps import executors
+    from rockbench.harness.suites.runner import run_suite
 
     fake_engines.register_all()
     (tmp_path / "s.toml").write_text(
@@ -191,7 +214,7 @@ def test_lanes_and_helpers_give_what_one_worker_gives(fake_engines, tmp_path):
     """Engine maps on two lanes at once and the η measured by two helpers: the same maps, cell for
     cell, and the same calibration.json as one worker doing everything in turn; each η measured once,
     and not again on a rerun."""
-    from rockbench.benchmark.suite_runner import run_suite
+    from rockbench.harness.suites.runner import run_suite
 
     fake_engines.register_all()
     log = tmp_path / "measured.txt"
@@ -229,8 +252,8 @@ def test_a_lane_whose_workers_cannot_start_stops_that_engine_and_the_suite_goes_
     reference maps and the scores still come out."""
     import os
 
-    from rockbench.benchmark import executors
-    from rockbench.benchmark.suite_runner import run_suite
+    from rockbench.harness.maps import executors
+    from rockbench.harness.suites.runner import run_suite
 
     fake_engines.register_all()
     monkeypatch.setenv("RB_TEST_PARENT_PID", str(os.getpid()))

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from rockbench.benchmark.metrics import METRICS, PRIMARY_METRIC
-from rockbench.benchmark.tables import best_group_marks, ranked_summary, summary_table
-from rockbench.benchmark.verdict import (AS_SHIPPED, CALIBRATED, Scenario, Variant, mean_interval, paired, rank,
-                                         settings_class, variant_interval, verdict)
+from rockbench.harness.scoring.metrics import METRICS, PRIMARY_METRIC
+from rockbench.harness.scoring.tables import best_group_marks, ranked_summary, summary_table
+from rockbench.harness.scoring.verdict import (AS_SHIPPED, CALIBRATED, Scenario, Variant, mean_interval, paired,
+                                               rank, settings_class, variant_interval, verdict)
 from test_score_runs import run_cli
 
 SCENARIOS = [(b, p) for b in ("B3M", "B6M", "B3L", "B6L") for p in ("sine", "cosine")]

@@ -31,8 +31,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench_refinement import VARIANTS, fill_regions, trace  # noqa: E402
-from rockbench.benchmark import adaptive  # noqa: E402
-from rockbench.benchmark.maps import MISSING, empty_result, load_map, record_result  # noqa: E402
+from rockbench.harness.maps import adaptive  # noqa: E402
+from rockbench.harness.maps.result import MISSING, empty_result, record_result  # noqa: E402
+from rockbench.harness.store.loading import load_map  # noqa: E402
 
 #: the tracer variant checked (bench_refinement.VARIANTS)
 VARIANT = "trace-w3+tips0"

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.benchmark.presets import PRESETS
+from rockbench.harness.blocks.presets import PRESETS
 from rockbench.engines.base import Case
 from rockbench.engines.registry import availability, get_adapter
 from rockbench.reference_solver.model import G

@@ -19,7 +19,7 @@ import math
 import time
 from pathlib import Path
 
-from rockbench.benchmark.presets import PRESETS
+from rockbench.harness.blocks.presets import PRESETS
 from rockbench.engines.price import UPLIFT_RTOL
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.restitution import Restitution, effective_k

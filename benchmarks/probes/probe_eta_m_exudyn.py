@@ -22,7 +22,7 @@ import math
 import time
 from pathlib import Path
 
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.exudyn_adapter import ExudynAdapter, default_stiffness_n_m
 from rockbench.reference_solver.restitution import housner_eta, modified_eta
 

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines import price as P
 from rockbench.engines.pybullet_adapter import PybulletAdapter
 from rockbench.reference_solver.restitution import Restitution, housner_eta, modified_eta

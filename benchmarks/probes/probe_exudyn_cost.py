@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.benchmark.api import _namespace
-from rockbench.benchmark.cli_options import case_from_args, engine_settings_from_args
+from rockbench.harness.api import _namespace
+from rockbench.harness.cli.options import case_from_args, engine_settings_from_args
 from rockbench.engines import exudyn_adapter as X
 from rockbench.engines.registry import get_adapter
 

@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.base import uplift_tol_rad
 from rockbench.engines.contact import RENAMED_SETTINGS, ContactEngineAdapter, free_rocking_etas
 from rockbench.reference_solver.classify import FLAT_ANGLE_RAD, decision_index, overturn_certain

@@ -17,8 +17,8 @@ import math
 import numpy as np
 import pytest
 
-from rockbench.benchmark.cli import main
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.cli.main import main
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.base import FLAGS, Case, Trajectory
 from rockbench.engines.registry import adapter_class, get_adapter
 from rockbench.reference_solver.errors import ConfigError

@@ -14,7 +14,7 @@ import pytest
 
 pytest.importorskip("exudyn")
 
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines import exudyn_adapter
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
@@ -178,7 +178,7 @@ def test_modified_newton_iterations_reach_exudyns_solver():
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "rockbench.benchmark.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "rockbench.harness.cli.main", *args], capture_output=True,
                           text=True, timeout=300)
 
 

@@ -11,7 +11,7 @@ import importlib.util
 
 import pytest
 
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import a_ratio_to_amplitude

@@ -14,8 +14,8 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 
-from rockbench.benchmark.cli import main as cli_main  # noqa: E402
-from rockbench.benchmark.presets import PRESETS  # noqa: E402
+from rockbench.harness.cli.main import main as cli_main  # noqa: E402
+from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
 from rockbench.engines.base import Case  # noqa: E402
 from rockbench.engines.mujoco_adapter import MujocoAdapter, impact_etas  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402

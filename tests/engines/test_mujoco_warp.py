@@ -17,8 +17,9 @@ import pytest
 pytest.importorskip("warp", reason="warp-lang is not installed (pip install 'rockbench[warp]')")
 pytest.importorskip("mujoco_warp", reason="mujoco-warp is not installed (pip install 'rockbench[warp]')")
 
-from rockbench.benchmark.presets import PRESETS  # noqa: E402
-from rockbench.benchmark.suite_runner import engine_names, load_suite, suite_path  # noqa: E402
+from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
+from rockbench.harness.suites.model import load_suite, suite_path
+from rockbench.harness.suites.plan import engine_names  # noqa: E402
 from rockbench.engines.base import Case  # noqa: E402
 from rockbench.engines.mujoco_warp_adapter import MujocoWarpAdapter, warp_cache_dir  # noqa: E402
 from rockbench.engines.registry import adapter_class, get_adapter  # noqa: E402

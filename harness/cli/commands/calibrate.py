@@ -1,0 +1,91 @@
+"""``rockbench calibrate``: an engine's restitution in free rocking, and contact settings that reach a target."""
+
+from __future__ import annotations
+
+import json
+
+from ....engines.price import price_line
+from ....engines.registry import get_adapter
+from ....reference_solver.errors import ConfigError
+from ..options import (add_block_options, block_from_args, dt_from_args, engine_settings_from_args,
+                       restitution_from_args)
+
+
+def register(sub) -> None:
+    p = sub.add_parser("calibrate", help="measure an engine's η in free rocking; with --target, search "
+                       "its contact settings to reach it")
+    add_block_options(p)
+    p.add_argument("--engine", required=True, help="engine name (see `rockbench engines`)")
+    p.add_argument("--target", default=None, help="housner | modified | modified-average | modified-exact | a number "
+                   "in (0, 1] (default: measure only); above Housner's η the contact along the base is searched")
+    p.add_argument("--k", default=None, help="impulse position for --target modified (default: the preset's average k; "
+                   "--target modified-exact: its exact k)")
+    p.add_argument("--dt", default=None, help="time step [s] (default: the engine's)")
+    p.add_argument("--theta0", default="0.5", help="release angle as a fraction of α (measurement only; default 0.5)")
+    p.add_argument("--settings", default=None, help="calibrated | defaults (measurement only)")
+    p.add_argument("--drive", default=None, help="inertial | table")
+    p.add_argument("--friction", default=None, help="friction coefficient [-]")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="any other engine setting")
+    p.add_argument("--price", action="store_true", help="with --target: also measure what the contact found costs "
+                   "(static uplift threshold, anti-slip, period change, speed) when the calibration has not")
+    p.add_argument("--no-cache", action="store_true", help="search again even when a stored calibration exists")
+    p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ....reference_solver.errors import RockbenchError
+    from ...engine_info.health import refuse_outside_range
+
+    block, preset = block_from_args(args)
+    adapter = get_adapter(args.engine, **engine_settings_from_args(args))
+    try:
+        out = _calibrate(args, adapter, block, preset)
+    except RockbenchError:
+        raise
+    except Exception as e:  # noqa: BLE001 - an engine version outside the supported range: exit 3, one line
+        refuse_outside_range(args.engine, e, "calibrating it")
+        raise
+    return _print(args, out)
+
+
+def _calibrate(args, adapter, block, preset) -> dict:
+    """What ``calibrate`` prints: the measured η, or the search for a target (and its price)."""
+    dt = dt_from_args(args)
+    if args.target is None:
+        try:
+            frac = float(args.theta0)
+        except ValueError:
+            raise ConfigError(f"--theta0 must be a number in (0, 1), got {args.theta0!r}.") from None
+        if not 0.0 < frac < 1.0:
+            raise ConfigError(f"--theta0 must be a fraction of α in (0, 1), got {args.theta0!r}.")
+        m = adapter.measure_restitution(block, theta0_frac=frac, dt_s=dt)
+        out = {"engine": adapter.name, "block": block.name, "eta_measured": m.eta_mean, "eta_std": m.eta_std,
+               "eta_target": None, "n_impacts": len(m.etas), "etas": m.etas, "settings": m.settings,
+               "dt_s": m.dt_s, "method": m.method}
+    else:
+        rest = restitution_from_args(args, preset, option="--target")
+        target = rest.eta(block.alpha_rad)
+        c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
+        if args.price and c.price is None:
+            if not hasattr(adapter, "contact_price"):
+                raise ConfigError(f"--price: engine {adapter.name!r} does not measure a contact price; "
+                                  "leave --price out.")
+            c.price = adapter.contact_price(block, c, dt)
+        out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict()}
+    return out
+
+
+def _print(args, out: dict) -> int:
+    if args.json:
+        print(json.dumps(out, indent=2, default=float))
+        return 0
+    print(f"{out['engine']} on {out['block']}: η measured {out['eta_measured']:.4f} ± {out['eta_std']:.4f}"
+          + (f", target {out['eta_target']:.4f} ({'reached' if out['reached'] else 'NOT reached'}, "
+             f"{100 * out['rel_error']:+.2f} %)" if out.get("eta_target") is not None else ""))
+    if out.get("note"):
+        print(out["note"])
+    if out.get("price") is not None and "price:" not in (out.get("note") or ""):
+        print(price_line(out["price"]))
+    print("settings: " + json.dumps(out["settings"], default=float))
+    return 0

@@ -1,0 +1,38 @@
+"""``rockbench check-adapter NAME``: the conformance suite on a registered adapter.
+
+Exit codes: 0 every check passed, 1 a check failed (the report says which), 2 unknown engine,
+3 engine not installed. An installed version outside the supported range (pyproject's extras, see
+:mod:`rockbench.engines.support`) is said on stderr before the report.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from ....engines.checker import check_adapter
+from ....engines.registry import get_adapter
+from ....engines.support import install_advice, outside_range, supported_range
+from ..options import engine_settings_from_args
+
+
+def register(sub) -> None:
+    p = sub.add_parser("check-adapter", help="run the adapter conformance suite on an engine")
+    p.add_argument("name", help="engine name (see `rockbench engines`)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="an engine setting (repeatable)")
+    p.add_argument("--json", action="store_true", help="machine-readable report on stdout")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    adapter = get_adapter(args.name, **engine_settings_from_args(args))
+    outside = outside_range(args.name)
+    if outside:
+        print(f"rockbench: warning: {outside}; {install_advice(args.name)} for a supported one.", file=sys.stderr)
+    rep = check_adapter(adapter)
+    if args.json:
+        print(json.dumps({**rep.to_dict(), "supported": supported_range(args.name), "outside_range": outside},
+                         indent=2))
+    else:
+        print(rep.text())
+    return 0 if rep.passed else 1

@@ -1,0 +1,88 @@
+"""``rockbench score``: score engine maps against reference maps (and experiments); a CI gate."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from ...scoring.metrics import METRICS, parse_thresholds
+
+
+def register(sub) -> None:
+    import argparse
+    import textwrap
+
+    from ...scoring.metrics import METRICS_VERSION
+
+    defs = "\n".join(textwrap.fill(f"{m.name} ({m.role}; {m.direction} is better, perfect {m.perfect:g}): "
+                                   f"{m.question} {m.definition}",
+                                   width=96, initial_indent="  ", subsequent_indent="    ", break_on_hyphens=False)
+                      for m in METRICS.values())
+    p = sub.add_parser("score", help="score engine maps against reference maps; gate with --fail-under",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       description="Scores every engine map found in or below RUN_DIR against the reference "
+                       "maps of the same block and pulse (or those of --against), and prints the verdict: the "
+                       "variants ranked by the primary metric (boundary_mean) with 95 % intervals over the "
+                       "scenarios, ties where a difference is not resolved, and which fail and why.\nExit 0 ok, "
+                       "1 a gate failed, 2 bad usage or an incomplete engine map, 5 nothing comparable.",
+                       epilog=f"metrics (version {METRICS_VERSION}), as score.json also records them:\n{defs}")
+    p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="map directories, or folders holding them")
+    p.add_argument("--against", action="append", default=[], metavar="REF_DIR",
+                   help="score every map of RUN_DIR against the maps found here (repeatable)")
+    p.add_argument("--fail-under", action="append", default=[], metavar="METRIC=VALUE",
+                   help="exit 1 when a higher-is-better metric is below VALUE (repeatable)")
+    p.add_argument("--fail-over", action="append", default=[], metavar="METRIC=VALUE",
+                   help="exit 1 when a lower-is-better metric is above VALUE (repeatable)")
+    p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score every map against: "
+                   "block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
+                   "outcome T, R or O")
+    p.add_argument("--out", metavar="FILE", help="where to write score.json (default: RUN_DIR/score.json of the first)")
+    p.add_argument("--no-write", action="store_true", help="do not write score.json")
+    p.add_argument("--json", action="store_true", help="print the score document on stdout")
+    p.add_argument("--markdown", action="store_true", help="print Markdown tables (for a pull-request comment)")
+    from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
+    p.add_argument(ALLOW_INCOMPLETE, action="store_true", help=ALLOW_INCOMPLETE_HELP)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ...store.atomic import check_output_file
+    from ...store.files import json_safe, write_json
+    from ...scoring.score_runs import gate, score_dirs
+    from ...scoring.tables import SUMMARY_TITLE, pairs_table, summary_table, verdict_block
+
+    thresholds = {**parse_thresholds(args.fail_under, "higher", "--fail-under"),
+                  **parse_thresholds(args.fail_over, "lower", "--fail-over")}
+    points = None
+    if args.experiments:
+        from ...blocks.experiments import load_outcomes
+        points = load_outcomes(args.experiments)
+    out = None
+    if not args.no_write:   # refused before the scoring, not after it
+        out = check_output_file(Path(args.out) if args.out else Path(args.run_dirs[0]) / "score.json", "--out")
+    doc = score_dirs(args.run_dirs, args.against or None, points, allow_incomplete=args.allow_incomplete)
+    for n in doc.get("pairing", {}).get("notes", []):
+        print(f"rockbench: note: {n}", file=sys.stderr)
+    failures = gate(doc, thresholds)
+    doc["gate"] = {"thresholds": thresholds, "failed": failures, "passed": not failures}
+    if out is not None:
+        write_json(out, doc)
+        print(f"rockbench: scores written to {out}", file=sys.stderr)
+    if args.json:
+        print(json.dumps(json_safe(doc), indent=2))
+    else:
+        md = args.markdown
+        print(verdict_block(doc, markdown=md))
+        print((f"\n### {SUMMARY_TITLE}\n\n" if md else f"\n{SUMMARY_TITLE}\n") + summary_table(doc, markdown=md))
+        print(("\n### Pairs\n\n" if md else "\nPairs\n") + pairs_table(doc, markdown=md))
+        for e in doc.get("experiments", []):
+            print(f"\nexperiments vs {e['variant']} {e.get('restitution', '')} ({Path(e['dir']).name}): "
+                  f"accuracy {e['accuracy']:.3f}, overturn accuracy {e['overturn_accuracy']:.3f} over {e['runs']} "
+                  f"run(s), {e['outside']} outside the map")
+        if thresholds:
+            print(("\n**gate: " if md else "\ngate: ") + ("passed" if not failures else f"FAILED ({len(failures)})")
+                  + ("**" if md else ""))
+    for line in failures:
+        print(f"rockbench: gate failed: {line}", file=sys.stderr)
+    return 1 if failures else 0

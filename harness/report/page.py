@@ -1,0 +1,172 @@
+"""The report's two pages: ``report.md`` (:func:`_markdown`) and the self-contained ``index.html``
+(:func:`_html`: pictures inlined, the style sheet ``report.css`` and the script ``report.js``, shipped
+beside this module as package data).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from importlib import resources
+
+from ..scoring.labels import case_title, for_html
+from .plots.style import DOUBLE_COLUMN_IN
+from .sections import (_HIGHLIGHTS, _INTRO, _PRICE_WORDS, _READ_GRAPHS, _calib_table, _exp_table, _md_table,
+                       _metric_words, _pairs_table, _price_table, _settings_tables, _speed_table, _summary_rows,
+                       _verdict)
+
+
+
+def _markdown(ctx) -> str:
+    doc, labels = ctx["doc"], ctx["labels"]
+    L = ["# rockbench report", "", f"Generated {ctx['created']} from {', '.join(ctx['run_dirs'])}.", ""]
+    for n in ctx["notes"]:
+        L.append(f"> {n}")
+    if doc:
+        L += ["", "## Verdict", ""] + [f"- {s}" for s in _verdict(doc)] + [""]
+    L += ["", "## Summary: which engine is how faithful", ""]
+    if doc:
+        head, body, _, marks = _summary_rows(doc, labels)
+        for col, flags in marks.items():
+            for row, is_best in zip(body, flags):
+                if is_best:
+                    row[col] = f"**{row[col]}**"
+        L += [_INTRO + " " + _HIGHLIGHTS, "", _md_table(head, body), ""]
+        L += ["What each column measures:", ""]
+        L += [f"- **{t}**, {how}: {d}" for t, how, d in _metric_words(doc)] + [""]
+    else:
+        L += ["_no scores_", ""]
+    L += ["## Stability graphs, one per engine variant", "", _READ_GRAPHS, ""]
+    for v, label, img in ctx["variant_graphs"]:
+        L += [f"### {label}", "", f"![{label}](img/{img})", ""]
+    L += ["## θ(t) comparison", ""]
+    L += [f"![{c.title}](img/{img})" for c, img in ctx["traj"]] or ["_not drawn_"]
+    L += ["", "## Calibration: η per engine", "", _md_table(*_calib_table(ctx["calib"], labels)), ""]
+    ph, pb = _price_table(ctx["calib"], labels)
+    if pb:
+        L += ["### What reaching the target costs", "", _PRICE_WORDS, "", _md_table(ph, pb), ""]
+    L += ["## Speed and accuracy", "", _md_table(*_speed_table(ctx["speed"], labels)), ""]
+    if ctx["speed_img"]:
+        L += [f"![speed and accuracy](img/{ctx['speed_img']})", ""]
+    if doc and doc.get("experiments"):
+        L += ["## Experiments", "", _md_table(*_exp_table(doc, labels)), ""]
+    L += ["<details><summary>Stability graphs by case: every engine variant side by side</summary>", ""]
+    for block, pulse, img, _ in ctx["case_graphs"]:
+        L += [f"### {case_title(block, pulse)}", "", f"![{block} {pulse}](img/{img})", ""]
+    L += ["</details>", "", "<details><summary>Every scored pair</summary>", "",
+          _md_table(*_pairs_table(doc, labels)) if doc else "_none_", "", "</details>", "",
+          "<details><summary>Versions and settings</summary>", ""]
+    t = _settings_tables(ctx["entries"], labels)
+    L += ["Run environment:", "", _md_table(*t["env"]), "", "Engine variants:", "", _md_table(*t["variants"]), "",
+          "Maps:", "", _md_table(*t["maps"]), "", "</details>", ""]
+    return "\n".join(L)
+
+
+def _asset(name: str) -> str:
+    """A file shipped beside this module (package data): the page's style sheet and its script."""
+    return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
+
+
+def _h_table(head, body, *, id_=None, num_from=None, best=None):
+    """An HTML table in a scrolling wrapper with a note shown when it is wider than the page."""
+    if not body:
+        return "<p><em>none</em></p>"
+    th = "".join(f"<th>{for_html(h)}</th>" for h in head)
+    rows = []
+    for ri, r in enumerate(body):
+        cells = []
+        for ci, c in enumerate(r):
+            cls = []
+            if num_from is not None and ci >= num_from:
+                cls.append("num")
+            if best and best.get(ci) and best[ci][ri]:
+                cls.append("best")
+            if "\n" in c:
+                cls.append("pre")
+            attr = f" class='{' '.join(cls)}'" if cls else ""
+            cells.append(f"<td{attr}>{for_html(c)}</td>")
+        rows.append("<tr>" + "".join(cells) + "</tr>")
+    ident = f" id='{id_}'" if id_ else ""
+    return (f"<div class='wrap'><table{ident}><thead><tr>{th}</tr></thead><tbody>{''.join(rows)}</tbody></table></div>"
+            "<p class='wide-note'>This table is wider than the page: scroll it sideways.</p>")
+
+
+def _page_share(width_in: float | None) -> float:
+    """How much of the page's width a figure takes [%]: a double-column figure (175 mm) the whole
+    width, a narrower one in proportion, so that every figure's text shows at one size."""
+    if not width_in:
+        return 100.0
+    return min(100.0, 100.0 * width_in / DOUBLE_COLUMN_IN)
+
+
+def _html(ctx, images: dict) -> str:
+    doc, labels = ctx["doc"], ctx["labels"]
+
+    def img(name, alt, caption=None):
+        b64 = base64.b64encode(images[name]).decode()
+        cap = f"<figcaption>{for_html(caption)}</figcaption>" if caption else ""
+        return (f'<figure style="width:{_page_share(ctx["fig_widths"].get(name)):.0f}%"><img alt="{html.escape(alt)}" '
+                f'src="data:image/png;base64,{b64}">{cap}</figure>')
+
+    n_var = len(labels)
+    P = ["<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+         "<meta name='viewport' content='width=device-width, initial-scale=1'><title>rockbench report</title>",
+         f"<style>{_asset('report.css').rstrip()}</style></head><body>", "<div id='img-warning'></div>",
+         "<h1>rockbench report</h1>",
+         f"<p class='meta'>Generated {html.escape(ctx['created'])} from {html.escape(', '.join(ctx['run_dirs']))}: "
+         f"{len(ctx['entries'])} maps, {n_var} engine variant(s)"
+         + (f", metrics version {html.escape(str(doc['metrics_version']))}" if doc else "") + ".</p>"]
+    if doc:
+        P.append("<section id='verdict'><h2>Verdict</h2><ul class='verdict'>"
+                 + "".join(f"<li>{for_html(s)}</li>" for s in _verdict(doc)) + "</ul></section>")
+    P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
+    P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
+    if doc:
+        head, body, _, marks = _summary_rows(doc, labels)
+        P.append(f"<p class='lead'>{html.escape(_INTRO)} {html.escape(_HIGHLIGHTS)}</p>")
+        P.append(_h_table(head, body, id_="summary-table", num_from=2, best=marks))
+        P.append("<dl class='metrics'>" + "".join(
+            f"<dt>{for_html(t)} <span>({html.escape(how)})</span></dt><dd>{html.escape(d)}</dd>"
+            for t, how, d in _metric_words(doc)) + "</dl>")
+    else:
+        P.append("<p><em>no scores</em></p>")
+    P.append("</section>")
+    P += ["<section id='stability'><h2>Stability graphs, one per engine variant</h2>",
+          f"<p class='lead'>{for_html(_READ_GRAPHS)}</p>"]
+    for v, label, name in ctx["variant_graphs"]:
+        P.append(img(name, f"stability graphs of {label}"))
+    if not ctx["variant_graphs"]:
+        P.append("<p><em>no engine maps</em></p>")
+    P.append("</section><section id='trajectories'><h2>θ(t) comparison</h2>")
+    P += [img(name, c.title, "The reference (black and grey, in front) and every engine; circles on the zero line "
+              "are impacts, × where a curve passes |θ| = α (overturn), ● where a run ended, decided not to overturn; the table's "
+              "acceleration beneath.") for c, name in ctx["traj"]] or ["<p><em>not drawn</em></p>"]
+    P += ["</section><section id='calibration'><h2>Calibration: η per engine</h2>",
+          _h_table(*_calib_table(ctx["calib"], labels), num_from=3)]
+    ph, pb = _price_table(ctx["calib"], labels)
+    if pb:
+        P += ["<h3>What reaching the target costs</h3>", f"<p>{for_html(_PRICE_WORDS)}</p>", _h_table(ph, pb, num_from=3)]
+    P += ["</section><section id='speed'><h2>Speed and accuracy</h2>",
+          _h_table(*_speed_table(ctx["speed"], labels), num_from=1)]
+    if ctx["speed_img"]:
+        P.append(img(ctx["speed_img"], "speed and accuracy", "Each point is one engine variant: its wall time per "
+                     "simulated cell across, the primary measure up (the mean distance between its overturning "
+                     "boundary and the reference's, lower is better), both on logarithmic axes where the range "
+                     "calls for it; a variant whose boundary matches the reference's exactly sits on the dotted "
+                     "line marked “none”."))
+    P.append("</section>")
+    if doc and doc.get("experiments"):
+        P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*_exp_table(doc, labels), num_from=2),
+              "</section>"]
+    P.append("<details><summary>Stability graphs by case: every engine variant side by side</summary>")
+    for block, pulse, name, _ in ctx["case_graphs"]:
+        P += [f"<h3>{html.escape(case_title(block, pulse))}</h3>", img(name, f"stability graph {block} {pulse}")]
+    P.append("</details>")
+    if doc:
+        P += [f"<details><summary>Every scored pair ({len(doc['pairs'])})</summary>",
+              _h_table(*_pairs_table(doc, labels), num_from=6), "</details>"]
+    t = _settings_tables(ctx["entries"], labels)
+    P += ["<details><summary>Versions and settings</summary><h3>Run environment</h3>", _h_table(*t["env"]),
+          "<h3>Engine variants</h3>", _h_table(*t["variants"]), "<h3>Maps</h3>", _h_table(*t["maps"], num_from=4),
+          "</details>", "<script>\n" + _asset("report.js") + "</script>", "</body></html>"]
+    return "\n".join(P)

@@ -1,0 +1,220 @@
+"""The maps a suite asks for (:func:`plan`, :class:`MapJob`): the reference maps, then each engine
+variant's maps on each block and pulse, and which engines run (:func:`engine_names`, :func:`check_suite`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from ...engines.base import EngineAdapter
+from ...reference_solver.errors import ConfigError, EngineUnavailableError
+from ...reference_solver.restitution import Restitution
+from ..store.files import variant_name
+from .model import Suite, restitution_for
+
+
+
+@dataclass(frozen=True)
+class MapJob:
+    """One map of a suite.
+
+    Attributes
+    ----------
+    engine : str
+        Registry name.
+    settings : dict
+        Engine settings (the variant).
+    block, pulse : str
+        Preset name and pulse kind.
+    restitution : Restitution
+        The restitution law.
+    dt_s : float or None
+        Time step [s] (None: the engine's default).
+    subdir : str
+        Where the run directory goes, relative to the output directory.
+    """
+
+    engine: str
+    settings: dict
+    block: str
+    pulse: str
+    restitution: Restitution
+    dt_s: float | None
+    subdir: str
+
+
+def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[list[str], list[str]]:
+    """What :func:`load_suite` cannot check alone: every engine variant's settings (the adapter is
+    built, nothing runs). Called by ``--plan`` and before the first map.
+
+    Returns the engines to run and notes. An engine picked because it is available (``explicit``
+    false) that cannot take a variant's settings is skipped with a note, as an engine that is not
+    installed is, unless no engine can take them (a typo).
+
+    Raises
+    ------
+    ConfigError
+        A setting an engine named explicitly (suite list or ``--engines``), or every engine, refuses:
+        one line naming the suite key.
+    """
+    from ...engines.registry import adapter_class
+
+    kept, refused = [], {}
+    for engine in engines:
+        cls = adapter_class(engine)
+        for k, variant in enumerate(suite.engine_variants):
+            if not variant_applies(engine, variant):
+                continue
+            try:
+                # the base class's check of names and values, without the adapter's own constructor
+                # (which may start its engine: nothing may run for --plan)
+                EngineAdapter.__init__(object.__new__(cls), **variant_settings(variant))
+            except ConfigError as e:
+                refused[engine] = f"engines.variants[{k}] {variant}: {e}"
+                break
+        else:
+            kept.append(engine)
+    if refused and (explicit or not kept):
+        raise ConfigError(f"suite {Path(suite.path).name}: {next(iter(refused.values()))}")
+    return kept, [f"engine {n} skipped: {why}" for n, why in refused.items()]
+
+
+def parse_engines(text: str | None) -> list[str] | None:
+    """``--engines NAME,...`` into a list of names (None when not given); every name must be known.
+
+    Raises
+    ------
+    ConfigError
+        An empty list or an unknown name (with a "did you mean").
+    """
+    from ...engines.registry import adapter_class
+
+    if text is None:
+        return None
+    items = [n.strip() for n in str(text).split(",")]
+    if not items or any(not n for n in items):
+        raise ConfigError(f"--engines takes NAME,... (e.g. --engines mujoco,pybullet), got {text!r}.")
+    for n in items:
+        try:
+            adapter_class(n)
+        except ConfigError as e:
+            raise ConfigError(f"--engines: {e}") from None
+        except EngineUnavailableError:
+            pass    # known but not installed: engine_names says so with exit code 3
+    return list(dict.fromkeys(items))
+
+
+def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str], list[str]]:
+    """(engines to run, notes on the ones skipped) for a suite; ``only`` (``run --engines``) replaces
+    the suite's ``engines.names`` (the reference maps are always computed).
+
+    Raises
+    ------
+    EngineUnavailableError
+        An engine named explicitly (in the suite or in ``only``) is not installed.
+    """
+    from ...engines.registry import adapter_class, availability, names
+
+    notes = []
+    if only is not None:
+        for n in only:
+            a = availability(n)
+            if not a["available"]:
+                raise EngineUnavailableError(f"--engines asks for engine {n!r}, which is not available: "
+                                             f"{a['reason']}")
+        return [n for n in only if n != "reference"], notes
+    if suite.engine_names == "available":
+        out = []
+        for n in names():
+            if n == "reference":
+                continue
+            if n in suite.engine_exclude:
+                notes.append(f"engine {n} left out by the suite (engines.exclude); run it with --engines {n} "
+                             f"or the full suite")
+                continue
+            a = availability(n)
+            if not a["available"]:
+                notes.append(f"engine {n} skipped: {a['reason']}")
+                continue
+            why_not = adapter_class(n).default_suite_exclusion()
+            if why_not:
+                notes.append(f"engine {n} skipped: {why_not}")
+            else:
+                out.append(n)
+        return out, notes
+    for n in suite.engine_names:
+        a = availability(n)
+        if not a["available"]:
+            raise EngineUnavailableError(f"the suite asks for engine {n!r}, which is not available: {a['reason']}")
+    return [n for n in suite.engine_names if n != "reference"], notes
+
+
+def _slug(s: str) -> str:
+    return "".join(c if (c.isalnum() or c in ".=") else "-" for c in str(s)).strip("-")
+
+
+def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
+    """Every map of the suite: the reference maps, then each engine variant's maps."""
+    jobs = []
+    for block in suite.blocks:
+        for pulse in suite.pulses:
+            for tok in suite.reference_restitutions:
+                r = restitution_for(tok, block)
+                jobs.append(MapJob("reference", {}, block, pulse, r, suite.reference_dt_s,
+                                   f"maps/reference/{block}-{pulse}-{_slug(r.label)}"))
+    for engine in engines:
+        for variant in suite.engine_variants:
+            if not variant_applies(engine, variant):
+                continue
+            vname = variant_name(engine, variant_settings(variant) | _rest_part(variant), suite.engine_dt_s)
+            for block in suite.blocks:
+                r = restitution_for(variant_restitution(suite, variant), block)
+                for pulse in suite.pulses:
+                    jobs.append(MapJob(engine, variant_settings(variant), block, pulse, r, suite.engine_dt_s,
+                                       f"maps/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}"))
+    return jobs
+
+
+def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:
+    """Reference maps with each engine variant's measured η (4 decimals), one per block and pulse."""
+    jobs, seen = [], set()
+    for m in etas:
+        if m.get("eta_measured") is None:
+            continue
+        eta = round(float(m["eta_measured"]), 4)
+        if not 0.0 < eta <= 1.0 or (m["block"], eta) in seen:
+            continue
+        seen.add((m["block"], eta))
+        for pulse in suite.pulses:
+            jobs.append(MapJob("reference", {}, m["block"], pulse, Restitution("constant", value=eta),
+                               suite.reference_dt_s, f"maps/reference/{m['block']}-{pulse}-own-eta-{eta:.4f}"))
+    return jobs
+
+
+def variant_blocks(suite: Suite, engines: list[str]):
+    for engine in engines:
+        for variant in suite.engine_variants:
+            if not variant_applies(engine, variant):
+                continue
+            for block in suite.blocks:
+                yield engine, variant, block
+
+
+def variant_settings(variant: dict) -> dict:
+    """A suite variant's engine settings (its ``restitution`` and ``engines``, suite keys, left out)."""
+    return {k: v for k, v in variant.items() if k not in ("restitution", "engines")}
+
+
+def variant_applies(engine: str, variant: dict) -> bool:
+    """Whether a suite variant runs for ``engine`` (its ``engines`` list, default every engine)."""
+    return "engines" not in variant or engine in variant["engines"]
+
+
+def _rest_part(variant: dict) -> dict:
+    return {"restitution": variant["restitution"]} if "restitution" in variant else {}
+
+
+def variant_restitution(suite: "Suite", variant: dict) -> str:
+    """The restitution a suite variant is calibrated to and labelled with: its own, else the suite's."""
+    return str(variant.get("restitution", suite.engine_restitution))

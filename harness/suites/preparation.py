@@ -1,0 +1,198 @@
+"""Before the engine maps: each engine variant's calibration on each block (cached on disk) and its
+free-rocking η, in helper processes while the reference maps run (:func:`prepare_engines`).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+from ...engines.base import EngineAdapter
+from ..blocks.presets import get_preset
+from ..store.files import read_json, variant_name, write_json
+from ..store.loading import CALIBRATION_FILE
+from .model import Suite, restitution_for
+from .plan import variant_blocks, variant_restitution, variant_settings
+
+
+
+def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s, measure: bool) -> dict:
+    """One engine variant on one block: its calibration for the suite's restitution (computed once
+    and cached on disk, where the map workers find it) and, with ``measure``, its free-rocking η
+    (by a fresh adapter, as measured before the maps always was)."""
+    from ...engines.registry import get_adapter
+
+    b = get_preset(block).block()
+    variant = variant_settings(variant)
+    out: dict = {"measurement": None, "error": None}
+    try:
+        get_adapter(engine, **variant).resolve(b, restitution_for(restitution, block), dt_s=dt_s)
+    except Exception:  # noqa: BLE001 - not fatal here: the maps meet it again and record it
+        pass
+    if measure:
+        try:
+            m = get_adapter(engine, **variant).measure_restitution(b, dt_s=dt_s)
+            out["measurement"] = {"eta_measured": float(m.eta_mean), "eta_std": float(m.eta_std),
+                                  "n_impacts": len(m.etas), "method": m.method}
+        except Exception as e:  # noqa: BLE001 - a failed measurement drops map (d) only
+            out["error"] = f"{type(e).__name__}: {e}"
+    return out
+
+
+def prepare_engines(suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
+                    own_eta: bool | None = None) -> tuple[list[dict], list[str], float]:
+    """Everything the engine maps need before they start, on ``workers`` cores at once: each engine
+    variant's calibration on each block (cached on disk) and, with ``own_eta`` (default: the
+    suite's), its free-rocking η (kept in OUT/calibration.json and reused).
+
+    The tasks run in helper processes (one per core; forked where that is safe, so they share what
+    this process has imported), the costliest engines first; a task that fails is noted, and if the
+    helpers themselves cannot run, the rest runs here one task after another. The measurements are
+    the same wherever they run (the simulations are deterministic).
+
+    Returns
+    -------
+    rows, notes, wall_s
+        The η measurements in suite order (engine, variant, block), notes on those that failed,
+        and the wall time spent [s].
+    """
+    return Preparation(suite, engines, out, log, workers=workers, own_eta=own_eta).finish()
+
+
+class Preparation:
+    """:func:`prepare_engines` in two halves: made, it starts the helpers; :meth:`finish` waits for
+    them (the suite computes its reference maps in between)."""
+
+    def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
+                 own_eta: bool | None = None):
+
+        self.t0 = time.perf_counter()
+        self.suite, self.out = suite, out
+        self.own_eta = suite.own_eta if own_eta is None else own_eta
+        self.path = out / CALIBRATION_FILE
+        self.old = {(r["variant"], r["block"]): r
+                    for r in (read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
+        self.tasks = []
+        for engine, variant, block in variant_blocks(suite, engines):
+            vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
+            cached = (vname, block) in self.old and self.old[(vname, block)].get("eta_measured") is not None
+            # a variant with its own restitution is scored against that restitution's reference
+            # maps; its own-η map (d) would measure the Housner calibration, so it has none
+            self.tasks.append((engine, variant, block, self.own_eta and not cached and "restitution" not in variant))
+        self.results: dict = {}
+        # work to do: a measurement, or a calibration (an engine with none has nothing to prepare);
+        # the costliest engines first (finer default steps), so the last tasks are short
+        self.todo = sorted((k for k, t in enumerate(self.tasks) if t[3] or _calibrates(t[0])),
+                           key=lambda k: cost_rank(self.tasks[k][0]))
+        for k in self.todo:
+            engine, variant, block, measure = self.tasks[k]
+            if measure:
+                log(f"measuring η of {variant_name(engine, variant_settings(variant), suite.engine_dt_s)} on {block} (free rocking)")
+        self.pool, self.futs = None, {}
+        if workers > 1 and len(self.todo) > 1:
+            self._start_helpers(workers)
+
+    def own_eta_slots(self) -> int:
+        """How many (variant, block) pairs get a reference map at their own measured η, at most (per
+        pulse): the upper bound of :func:`own_eta_jobs`, known before any η is measured."""
+        if not self.own_eta:
+            return 0
+        return sum(1 for _, variant, _, _ in self.tasks if "restitution" not in variant)
+
+    def _start_helpers(self, workers: int) -> None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        from ..maps.executors import worker_init
+        from ..report.plots.picture import can_fork_helper
+
+        suite = self.suite
+        try:
+            # a fork shares what this process has imported (the engines: seconds of start-up per
+            # helper); it is safe only from a single thread, else a fresh interpreter is spawned
+            ctx = multiprocessing.get_context("fork" if can_fork_helper() else "spawn")
+            init = worker_init("", {})   # this process's extra engines and sys.path, as map workers get them
+            self.pool = ProcessPoolExecutor(max_workers=min(workers, len(self.todo)), mp_context=ctx,
+                                            initializer=_helper_init, initargs=(init["registry"], init["sys_path"]))
+            for k in self.todo:
+                engine, variant, block, measure = self.tasks[k]
+                self.futs[k] = self.pool.submit(_prepare_one, engine, variant, block, variant_restitution(suite, variant),
+                                                suite.engine_dt_s, measure)
+        except (OSError, RuntimeError, ValueError):
+            self._stop()
+
+    def _stop(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool = None
+
+    def finish(self) -> tuple[list[dict], list[str], float]:
+        from concurrent.futures.process import BrokenProcessPool
+
+
+        suite = self.suite
+        try:
+            for k, f in self.futs.items():
+                try:
+                    self.results[k] = f.result()
+                except BrokenProcessPool:
+                    break
+        finally:
+            self._stop()
+        for k in self.todo:   # here: one worker, or what the helpers could not do
+            if k not in self.results:
+                engine, variant, block, measure = self.tasks[k]
+                self.results[k] = _prepare_one(engine, variant, block, variant_restitution(suite, variant), suite.engine_dt_s,
+                                               measure)
+        rows, notes = [], []
+        if self.own_eta:
+            for k, (engine, variant, block, measure) in enumerate(self.tasks):
+                vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
+                if "restitution" in variant:
+                    continue      # no own-η map for a variant with its own restitution (see above)
+                if not measure:
+                    rows.append(self.old[(vname, block)])
+                    continue
+                r = self.results[k]
+                if r["measurement"] is not None:
+                    rows.append({"variant": vname, "engine": engine, "settings": dict(variant), "block": block,
+                                 **r["measurement"]})
+                else:
+                    notes.append(f"η of {vname} on {block} not measured: {r['error']}")
+            self.out.mkdir(parents=True, exist_ok=True)
+            write_json(self.path, {"kind": "rockbench-calibration", "measurements": rows})
+        return rows, notes, time.perf_counter() - self.t0
+
+
+def _helper_init(registry: dict, sys_path: list) -> None:
+    import os
+    from ...engines.registry import register
+    for p in sys_path:
+        if p not in sys.path and os.path.isdir(p):
+            sys.path.append(p)
+    for name, target in registry.items():
+        register(name, target)
+
+
+def _calibrates(engine: str) -> bool:
+    """Whether the engine's adapter has a calibration of its own to compute (and cache)."""
+    from ...engines.registry import adapter_class
+    try:
+        return adapter_class(engine).calibrate is not EngineAdapter.calibrate
+    except Exception:  # noqa: BLE001 - an adapter that cannot load has nothing to prepare here
+        return False
+
+
+def cost_rank(engine: str) -> tuple:
+    """How costly an engine's cells are, roughly, for ordering work (smaller: costlier, first): a
+    finer default time step costs more, and an engine with a native batch (MuJoCo's rollouts) less
+    per cell than one stepped from Python at the same step. Lanes then end on the cheapest maps,
+    when one core may have to wait for the other."""
+    from ...engines.registry import adapter_class
+    try:
+        cls = adapter_class(engine)
+    except Exception:  # noqa: BLE001 - an engine that cannot even load its adapter class goes last
+        return (math.inf, 1)
+    return (float(getattr(cls, "default_dt_s", 1.0)), 1 if cls.batching != "none" else 0)
