@@ -86,9 +86,8 @@ from ..reference_solver.restitution import Restitution, housner_eta
 from . import calibration
 from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, POINTS_TRIED, ContactEngineAdapter,
-                      body_energy_j_kg, first_reached, free_rocking_duration_s, free_rocking_etas,
-                      overturn_certain)
+from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, first_reached, overturn_certain
+from .free_rocking import FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, free_rocking_duration_s, free_rocking_etas
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as
@@ -740,7 +739,7 @@ class ExudynAdapter(ContactEngineAdapter):
         of two such energies. This is robust against the few steps a soft impact lasts, where
         θ̇⁺/θ̇⁻ read at θ ≈ 0 depends on where one samples.
         """
-        dt = self.check_dt(dt_s)
+        dt = self.time_step_s(dt_s)
         alpha = block.alpha_rad
         th0 = theta0_frac * alpha
         duration = free_rocking_duration_s(block, theta0_frac, n_impacts)
@@ -768,7 +767,7 @@ class ExudynAdapter(ContactEngineAdapter):
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:
         """Free rocking with this adapter's settings (``calibrated``: those for Housner's η)."""
-        dt = self.check_dt(dt_s)
+        dt = self.time_step_s(dt_s)
         s = self.settings
         points = (s["contact_points"] or POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
         if s["contact_restitution"] is not None:
@@ -789,7 +788,7 @@ class ExudynAdapter(ContactEngineAdapter):
         """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
         st = c.settings
         e = st.get("restitution_coefficient") if st.get("impact_model") == 2 else None
-        dt = self.check_dt(dt_s)
+        dt = self.time_step_s(dt_s)
         points = int(st.get("contact_points") or 2)
         fr = self.free_rocking(block, e, dt_s=dt, contact=self._contact(block, e, points))
         return self._price(block, e, points, c.eta_target, dt, fr.first_quarter_s)
@@ -836,7 +835,7 @@ class ExudynAdapter(ContactEngineAdapter):
         ``reached`` when the mean η is within 1 % of the target; otherwise the closest η is
         returned with the reason. Results are cached on disk (:mod:`.calibration`).
         """
-        dt = self.check_dt(dt_s)
+        dt = self.time_step_s(dt_s)
         target = self.check_target_eta(target_eta)
         key = self._cal_key(block, target, dt, points)
         if key in self._calibrations:

@@ -646,7 +646,7 @@ class MujocoAdapter(ContactEngineAdapter):
         Uses the settings in force (for ``calibrated`` without explicit contact settings: the
         calibration to Housner's η of this block).
         """
-        dt = self.check_dt(dt_s)
+        dt = self.time_step_s(dt_s)
         p = self.resolve(block, Restitution("housner"), dt)
         return self._free_rocking(block, [p], dt, theta0_frac)[0]
 
@@ -804,7 +804,7 @@ class MujocoAdapter(ContactEngineAdapter):
         """
         import mujoco
 
-        dt = self.check_dt(dt_s)
+        dt = self.time_step_s(dt_s)
         target = self.check_target_eta(target_eta)
         solver = self._solver_params()
         key = _cal.cache_key(**self._calibration_identity(), procedure=CALIBRATION_VERSION,
