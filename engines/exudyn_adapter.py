@@ -86,7 +86,8 @@ from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, overturn_certain
-from .free_rocking import FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, free_rocking_duration_s, free_rocking_etas
+from .free_rocking import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, first_quarter_s, free_rocking_duration_s,
+                           free_rocking_etas)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as
@@ -745,12 +746,7 @@ class ExudynAdapter(ContactEngineAdapter):
                                  block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
-        quarter = None
-        if zc.size:
-            i = int(zc[0])
-            quarter = float(t[i] + (t[i + 1] - t[i]) * th[i] / (th[i] - th[i + 1]))
-        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall, quarter)
+        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall, first_quarter_s(t, th))
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:
