@@ -186,6 +186,10 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
 
+    def explicit_contact(self) -> bool:
+        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
+        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
+
     # -- hooks --------------------------------------------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - abstract
         raise NotImplementedError
