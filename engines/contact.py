@@ -11,18 +11,20 @@ so it needs the same few things whatever the engine:
 * **Old names** of settings (before issue 15) are accepted for one release and mapped to the new
   ones by :data:`RENAMED_SETTINGS`, the one table of them (``--set``, suite TOMLs, run.json files
   and cached calibration records all go through :meth:`ContactEngineAdapter.canonical_settings`).
-* **One time-step rule**: :meth:`ContactEngineAdapter.check_dt`.
+* **One time-step rule**: :meth:`ContactEngineAdapter.time_step_s` (not to be confused with
+  :meth:`~rockbench.reference_solver.pulses.Pulse.check_dt`, which checks a step against a pulse).
 * **One ``resolve()`` flow**: explicit contact settings, else the engine's defaults, else the
   calibration to the case's η (cached); an adapter only says which contact settings are explicit
   (:meth:`~ContactEngineAdapter.explicit_contact`) and builds its concrete settings
   (:meth:`~ContactEngineAdapter._resolved_settings`).
 * **One overturn-is-certain early stop**: :func:`~rockbench.reference_solver.classify.overturn_certain`,
-  the classifier's own rule, re-exported here.
-* **A free-rocking η measurement**: :func:`free_rocking_etas` (amplitude ratio of successive
-  peaks, energy-consistent); see its docstring for why this one. Exudyn uses it; MuJoCo and
-  PyBullet keep their own for now, since moving them made their calibrations pick worse settings
-  (docs/engines.md says what was measured).
+  the classifier's own rule, re-exported here (the whole end-of-run rule is
+  :func:`~rockbench.reference_solver.classify.run_end`).
 * **The body's energy**: :func:`body_energy_j_kg`.
+
+The stepping loop, the read-out, the free-rocking test and the calibration frame are the
+skeleton's (:class:`~rockbench.engines.skeleton.SteppedContactAdapter`); the ways η is read from
+free rocking are in :mod:`rockbench.engines.free_rocking`.
 """
 
 from __future__ import annotations
@@ -32,16 +34,14 @@ import math
 import warnings
 from typing import Any, ClassVar, Mapping
 
-import numpy as np
-
 from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
-from ..reference_solver.restitution import Restitution
-from .base import CalibrationResult, Case, EngineAdapter, Trajectory
+from ..reference_solver.restitution import Restitution, housner_eta
+from . import calibration
+from .base import CalibrationResult, EngineAdapter
 
-__all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "FREE_ROCKING_IMPACTS",
-           "FREE_ROCKING_METHOD", "body_energy_j_kg", "free_rocking_duration_s", "free_rocking_etas",
+__all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "body_energy_j_kg",
            "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS", "first_reached"]
 
 #: ``settings`` values: contact calibrated to the case's η, or the engine as shipped
@@ -59,13 +59,6 @@ RENAMED_SETTINGS: Mapping[str, Mapping[str, str]] = {
     "exudyn": {"chunk_s": "segment_s", "max_tail_s": "tail_s", "stiffness_n_m": "contact_stiffness_n_m",
                "damping_n_s_m": "contact_damping_n_s_m"},
 }
-
-#: Impacts a free-rocking test measures (calibrations average their η) [-]
-FREE_ROCKING_IMPACTS = 4
-
-#: How :func:`free_rocking_etas` reads η (recorded with every restitution measurement)
-FREE_ROCKING_METHOD = ("energy-consistent amplitude ratio of successive peaks: "
-                       "η = sqrt[(cos(α − θ_next) − cos α)/(cos(α − θ) − cos α)]")
 
 #: ``contact`` values: the corners alone, a row of points along the base, or the corners unless the
 #: target η is above Housner's (then the row); see docs/contact.md
@@ -102,6 +95,15 @@ class ContactEngineAdapter(EngineAdapter):
         "tail_s": 3.0,
         "min_tail_s": 0.5,
     }
+
+    #: version of the calibration (free-rocking test and search); part of the cache key
+    CALIBRATION_VERSION: ClassVar[int] = 1
+    #: version of the distributed contact's calibration; part of its cache key
+    CALIBRATION_VERSION_DIST: ClassVar[int] = 1
+    #: whether the adapter offers a row of contact points along the base (``contact`` layouts)
+    distributed_contact: ClassVar[bool] = False
+    #: what a point of the distributed contact is, in calibration notes
+    POINT_UNIT: ClassVar[str] = "points"
 
     def __init__(self, **settings):
         super().__init__(**self.canonical_settings(settings, warn=True))
@@ -166,7 +168,7 @@ class ContactEngineAdapter(EngineAdapter):
         s[key] = v
 
     # -- the time step ------------------------------------------------------------------------
-    def check_dt(self, dt_s: float | None) -> float:
+    def time_step_s(self, dt_s: float | None) -> float:
         """The time step a run or a calibration uses [s]: ``dt_s``, or the engine's default when
         None; a ConfigError unless it is a finite number > 0."""
         if dt_s is None:
@@ -191,7 +193,7 @@ class ContactEngineAdapter(EngineAdapter):
         calibration to the restitution's η at this time step (:meth:`calibrate`, cached on disk);
         then :meth:`_resolved_settings` builds the concrete settings. Memoised per block, η and step.
         """
-        dt = self.check_dt(dt_s)
+        dt = self.time_step_s(dt_s)
         eta = restitution.eta(block.alpha_rad)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
@@ -209,15 +211,56 @@ class ContactEngineAdapter(EngineAdapter):
         explicit or default contact)."""
         raise NotImplementedError  # pragma: no cover - every contact adapter implements it
 
-    # -- simulation ----------------------------------------------------------------------------
-    def _simulate(self, case: Case) -> Trajectory:
-        """One case with the resolved settings, for engines that run one case at a time through
-        ``self._run(block, settings, dt, pulse)`` (PyBullet, Drake); MuJoCo and Exudyn run their own."""
-        dt = self.dt_for(case)
-        s = self.resolve(case.block, case.restitution, dt)
-        tr = self._run(case.block, s, dt, case.pulse)
-        tr.diagnostics.update(self._settings_diagnostics(s))
-        return tr
+    # -- the calibration frame ----------------------------------------------------------------
+    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                  use_cache: bool = True) -> CalibrationResult:
+        """Contact settings whose free-rocking η reaches ``target_eta`` (1 %), by the ``contact``
+        layout where the engine offers one: :meth:`_calibrate_corners`, or a row of points along the
+        base (:meth:`_calibrate_distributed_n`, with the set number of points or 9, then 5, then 17
+        until one reaches the target at an acceptable price); ``auto``: the corners up to 1 % above
+        Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M)."""
+        t = self.check_target_eta(target_eta)
+        dt = self.time_step_s(dt_s)
+        kind = self.settings.get("contact") if self.distributed_contact else "corners"
+        if kind == "auto":
+            kind = "corners" if t <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
+        if kind != "distributed":
+            return self._calibrate_corners(block, t, dt, use_cache)
+        n_set = self.settings["contact_points"]
+        return first_reached(lambda n: self._calibrate_distributed_n(block, t, n, dt, use_cache),
+                             (n_set,) if n_set is not None else POINTS_TRIED, self.POINT_UNIT)
+
+    def _calibrate_corners(self, block: Block, target: float, dt: float,
+                           use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _calibrate_distributed_n(self, block: Block, t: float, n: int, dt: float,
+                                 use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _cache_identity(self) -> dict:
+        """What names the engine in the calibration cache key: its name and version (an adapter
+        that shares another engine's calibrations names that engine; one with solver settings of
+        its own adds them)."""
+        return {"engine": self.name, "version": self.version()}
+
+    def _cache_key(self, block: Block, target: float, dt: float, version: int, **identity) -> str:
+        """The calibration cache key: engine, its version, the calibration's ``version``, block,
+        target η, step [s] and what else the result depends on (``identity``)."""
+        return calibration.cache_key(**self._cache_identity(), calibration_version=version,
+                                     block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
+                                     target=target, dt=dt, **identity)
+
+    def _cached(self, key: str, use_cache: bool) -> CalibrationResult | None:
+        """The cached calibration under ``key``, or None (always None without ``use_cache``)."""
+        rec = calibration.load(key) if use_cache else None
+        return None if rec is None or "result" not in rec else CalibrationResult(**rec["result"])
+
+    @staticmethod
+    def _store(key: str, res: CalibrationResult, search: dict) -> None:
+        """Cache a calibration: ``{"result": …, "search": …}`` (``search``: what was tried)."""
+        calibration.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
+                                "search": search})
 
     @staticmethod
     def _settings_diagnostics(resolved: dict) -> dict:
@@ -270,71 +313,3 @@ def body_energy_j_kg(block: Block, vx_m_s, vz_m_s, omega_rad_s, zc_m):
     rigid model's ``½θ̇² + p²cos(α − |θ|)`` it sees a hop after an impact (the energy-gain check)."""
     return 0.5 * (vx_m_s**2 + vz_m_s**2) + 0.5 * block.inertia_cm_kg_m2 / block.mass_kg * omega_rad_s**2 + G * zc_m
 
-
-def free_rocking_duration_s(block: Block, theta0_frac: float, n_impacts: int = FREE_ROCKING_IMPACTS) -> float:
-    """How long a free-rocking test from rest at ``theta0_frac·α`` runs to see ``n_impacts`` whole
-    swings [s]: ``2n + 1`` quarter periods of the linearised rocking from θ0 (later swings are only
-    shorter, docs/physics.md §7), ``T/4 = arcosh(1/(1 − θ0/α))/p``, with 20 % and 0.05 s to spare."""
-    quarter = math.acosh(1.0 / (1.0 - float(theta0_frac))) / block.p_rad_s
-    return quarter * (2 * n_impacts + 1) * 1.2 + 0.05
-
-
-def free_rocking_etas(theta_rad, alpha_rad: float, theta0_rad: float, uplift_tol_rad: float,
-                      n_impacts: int) -> tuple[list[float], list[float]]:
-    """η of the first impacts of a block released at rest from ``theta0_rad``, from its θ(t) alone.
-
-    Between impacts a freely rocking rigid block keeps ``E = ½θ̇² + p²cos(α − |θ|)``, so the
-    kinetic energy at θ = 0 just before the impact that ends a swing of peak ``|θ|`` is
-    ``p²(cos(α − θ_peak) − cos α)``; η, the ratio of angular velocities at θ = 0 after and before
-    an impact, is then ``√[(cos(α − θ_{i+1}) − cos α)/(cos(α − θ_i) − cos α)]`` for successive
-    peaks. Of the three ways the engines read η this is the most robust for a rigid-like contact
-    (the others: |θ̇| read near θ = 0, MuJoCo; the ratio of the body's energy between impacts,
-    PyBullet):
-
-    * it needs only θ(t), which every engine reports (no body velocities, no energy bookkeeping);
-    * a peak is where θ̇ = 0, so reading it from samples errs by O((θ̇Δt)²) only, and the few
-      steps over which a soft contact spreads an impact do not enter (a velocity ratio read near
-      θ = 0, where θ̇ is largest and the contact is still acting, depends on where one samples);
-    * it is exact for the rigid model (tested against the reference solver, which applies η
-      exactly at every impact).
-
-    Parameters
-    ----------
-    theta_rad : array_like
-        θ samples from the release [rad].
-    alpha_rad : float
-        The block's α [rad].
-    theta0_rad : float
-        Release angle [rad] (the first peak).
-    uplift_tol_rad : float
-        |θ| below which the block counts as standing on its base (separates the swings) [rad].
-    n_impacts : int
-        Impacts measured at most [-].
-
-    Returns
-    -------
-    etas : list of float
-        η per impact [-] (fewer than ``n_impacts`` when the rocking dies out or the samples end).
-    peaks : list of float
-        The peak amplitudes |θ| used, the release angle first [rad].
-    """
-    th = np.asarray(theta_rad, dtype=float)
-    side = np.where(th > uplift_tol_rad, 1, np.where(th < -uplift_tol_rad, -1, 0))
-    nz = np.nonzero(side)[0]
-    peaks = [abs(float(theta0_rad))]
-    if nz.size:
-        start = nz[0]
-        for a, b in zip(nz[:-1], nz[1:]):
-            if side[b] != side[a]:
-                peaks.append(float(np.max(np.abs(th[start:a + 1]))))
-                start = b
-        peaks.append(float(np.max(np.abs(th[start:]))))
-    # the first swing is the release itself (its peak is θ0): keep θ0 once
-    peaks = [peaks[0]] + peaks[2:]
-    ke = np.cos(alpha_rad - np.asarray(peaks)) - math.cos(alpha_rad)
-    etas: list[float] = []
-    for i in range(min(len(ke) - 1, n_impacts)):
-        if ke[i] <= 0 or ke[i + 1] <= 0:
-            break
-        etas.append(float(math.sqrt(ke[i + 1] / ke[i])))
-    return etas, peaks[: n_impacts + 1]

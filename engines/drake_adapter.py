@@ -45,40 +45,29 @@ The diagram (plant, scene graph, a ``TrajectorySource`` for the drive force and 
 ``VectorLogSink`` sampling the plant's state at every step) is built once per geometry and contact
 and kept in the process; a case only resets the context (time, state, log) and hands the drive
 to the source as a zero-order hold, then a ``Simulator`` advances it in segments of ``segment_s``:
-no Python call per step. After each segment the end-of-run rules are tested on the new samples.
+no Python call per step.
 
-End of a run
-------------
-The pulse is simulated whole. Afterwards the run stops at the first sample where
-
-1. overturn is certain (the classifier's rule): ``|θ| > α`` moving outward after the pulse, or
-   the block lying on its side (``|θ| ≥ π/2 − 0.01``) at any time;
-2. trapped: at least ``min_tail_s`` after the pulse, the ideal free-rocking energy
-   ``E = ½θ̇² + p²cos(α − |θ|)`` is below the barrier ``p²`` by more than 5 % of the barrier
-   height ``p²(1 − cos α)``: free rocking only loses energy (the ``energy-gain`` check watches
-   for engines that break this), so the block can no longer overturn;
-3. ``tail_s`` after the pulse.
-
-Samples after that point are dropped, so the result does not depend on ``segment_s``. The shared
-classifier decides the outcome from θ(t); the adapter reports θ, θ̇, both bottom corners relative
-to the table and the block's own energy, and sets no flag but ``diverged``.
+The run, its end and the free-rocking test
+------------------------------------------
+The adapter fills in the hooks of the contact-engine skeleton
+(:class:`~rockbench.engines.skeleton.SteppedContactAdapter`): the diagram is the scene, a segment
+is one ``AdvanceTo``, and the logged plant state gives the block's pose and velocity. The skeleton
+tests floor 1's end-of-run rule (:func:`~rockbench.reference_solver.classify.run_end`) after each
+segment and drops the samples after the stop, so the result does not depend on ``segment_s``; η is
+read with the shared peak ratio (:data:`~rockbench.engines.free_rocking.PEAK_RATIO`).
 """
 
 from __future__ import annotations
 
 import math
 import os
-import time
 
 import numpy as np
 
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
-from ..reference_solver.restitution import Restitution
-from . import calibration
-from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, ContactEngineAdapter, body_energy_j_kg,
-                      free_rocking_duration_s, free_rocking_etas, overturn_certain)
+from .base import CalibrationResult
+from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
 #: point stiffness per bottom edge [N/m], hydroelastic modulus [Pa], SAP relaxation time [s] and
@@ -97,15 +86,6 @@ _STIFFNESS_FACTORS = {"point": (0.1, 0.03), "hydroelastic": (10.0, 100.0, 0.1, 0
 
 #: Dissipation ranges searched, log10 [-]: SAP relaxation time [s], Hunt–Crossley [s/m].
 _DISSIPATION_LOG10 = {"relaxation_time_s": (-5.0, -1.0), "hunt_crossley_dissipation_s_m": (-3.0, 1.5)}
-
-#: Version of the calibration protocol (free-rocking test and search); part of the cache key.
-CALIBRATION_PROTOCOL = 3
-
-#: Largest per-impact spread of η (standard deviation over the target) a calibrated setting may show [-].
-_CAL_MAX_SPREAD = 0.02
-
-#: Trapped rule: stop when E < p² − _TRAPPED_MARGIN·p²(1 − cos α) (see the module docstring) [-].
-_TRAPPED_MARGIN = 0.05
 
 #: Half extents of the table box of the table drive [m]: wider than any table stroke.
 _TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
@@ -241,11 +221,7 @@ class _Scene:
 
     def place(self, block: Block, theta0: float) -> None:
         """Block at rest at angle ``theta0`` (pivoting on the lower corner), table at rest at x = 0."""
-        b = block.width_m
-        s = 1.0 if theta0 >= 0 else -1.0
-        R, alpha = block.half_diagonal_m, block.alpha_rad
-        xc = s * (b / 2 - R * math.sin(alpha - abs(theta0)))
-        zc = R * math.cos(alpha - abs(theta0))
+        xc, zc = pivot_pose(block, theta0)
         q = np.zeros(self.nq)
         if self.planar:
             q[self.iq["z"]], q[self.iq["x"]], q[self.iq["th"]] = zc, xc, theta0
@@ -279,7 +255,7 @@ class _Scene:
         return np.array(data[:, :n_steps + 1].T, dtype=float, copy=True)
 
 
-class DrakeAdapter(ContactEngineAdapter):
+class DrakeAdapter(SteppedContactAdapter):
     """The rocking block in Drake (see the module docstring for the model and the end of a run).
 
     Settings
@@ -320,7 +296,7 @@ class DrakeAdapter(ContactEngineAdapter):
     #: no batch: one case at a time, maps spread cells over worker processes (like PyBullet)
     batching = "none"
     SETTINGS = {
-        **ContactEngineAdapter.SHARED_SETTINGS,
+        **SteppedContactAdapter.SHARED_SETTINGS,
         "contact": "point",
         "approximation": None,
         "point_stiffness_n_m": None,
@@ -333,8 +309,9 @@ class DrakeAdapter(ContactEngineAdapter):
         "min_tail_s": 0.25,
         "segment_s": 0.1,
     }
-    #: the settings that describe the contact (calibration chooses these)
     CONTACT_KEYS = ("point_stiffness_n_m", "hydroelastic_modulus_pa", "relaxation_time_s", "hunt_crossley_dissipation_s_m")
+    MEASURED_SETTINGS = ("settings", "contact", "approximation", "friction", "planar", "drive")
+    CALIBRATION_VERSION = 4
 
     @classmethod
     def version(cls) -> str:
@@ -380,10 +357,6 @@ class DrakeAdapter(ContactEngineAdapter):
         s["approximation"] = self._approximation()
         return s
 
-    def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
-
     def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
         """The approximation made concrete and the contact: as shipped (``defaults``), explicit (the
         missing stiffness or dissipation from :data:`BASE_CONTACT`), or the calibration's."""
@@ -407,8 +380,8 @@ class DrakeAdapter(ContactEngineAdapter):
                 out[k] = None
         return out
 
-    # -- simulation (one case: ContactEngineAdapter._simulate through _run) ---------------------
-    def _scene(self, block: Block, s: dict, dt: float) -> _Scene:
+    # -- the skeleton's hooks -----------------------------------------------------------------
+    def _world(self, block: Block, s: dict, dt: float) -> _Scene:
         key = (os.getpid(), block.width_m, block.height_m, block.depth_m, block.mass_kg, dt,
                tuple((k, s.get(k)) for k in sorted(self.SETTINGS) if k not in ("tail_s", "min_tail_s", "segment_s")),
                s.get("approximation"))
@@ -420,17 +393,9 @@ class DrakeAdapter(ContactEngineAdapter):
             _SCENES[key] = sc
         return sc
 
-    def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
-             duration_s: float | None = None) -> Trajectory:
-        """Simulate one run: a pulse with the end-of-run rules, or free rocking for ``duration_s``."""
-        sc = self._scene(block, s, dt)
-        alpha, p = block.alpha_rad, block.p_rad_s
-        t_end = pulse.duration_s if pulse is not None else 0.0
-        t_stop = (t_end + float(s["tail_s"])) if duration_s is None else float(duration_s)
-        n_max = int(math.ceil(t_stop / dt - 1e-9))
-        n_pulse = int(math.ceil(t_end / dt - 1e-9))
-        n_min = n_pulse + int(math.ceil(float(s["min_tail_s"]) / dt - 1e-9)) if duration_s is None else n_max
+    def _start(self, sc: _Scene, block: Block, s: dict, dt: float, pulse, theta0: float, n_steps: int) -> np.ndarray:
         if pulse is not None:
+            n_pulse = int(math.ceil(pulse.duration_s / dt - 1e-9))
             v = pulse.vel(np.arange(n_pulse + 1) * dt)
             sign = -1.0 if sc.drive == "inertial" else 1.0
             sc.set_drive(sign * sc.push_mass * np.diff(v) / dt)
@@ -438,69 +403,12 @@ class DrakeAdapter(ContactEngineAdapter):
             sc.set_drive(np.zeros(0))
         sc.place(block, theta0)
         sc.start()
-        seg = max(1, int(round(float(s["segment_s"]) / dt)))
-        e_trap = p * p - _TRAPPED_MARGIN * p * p * (1.0 - math.cos(alpha))
-        iq, iv = sc.iq, sc.iv
-        n_done, checked = 0, 0
-        ended_by, stop_at = "tail", None
-        t0, c0 = time.perf_counter(), time.process_time()
-        data = sc.advance(0)
-        while n_done < n_max:
-            n_done = min(n_max, n_done + seg)
-            data = sc.advance(n_done)
-            th, om = self._theta(sc, data[checked:])
-            a = np.abs(th)
-            idx = np.arange(checked, checked + len(th))
-            bad = ~(np.isfinite(th) & np.isfinite(om))
-            rules = [("diverged", bad)]
-            if duration_s is not None:
-                rules.append(("flat", overturn_certain(0.0, th, om, alpha_rad=alpha, t_pulse_end_s=math.inf)))
-            if duration_s is None:
-                rules.append(("overturn", overturn_certain(idx * dt, th, om, alpha_rad=alpha, t_pulse_end_s=t_end)))
-                energy = 0.5 * om * om + p * p * np.cos(alpha - np.minimum(a, math.pi))
-                rules.append(("trapped", (idx >= n_min) & (energy < e_trap)))
-            first = None
-            for name, hit in rules:
-                k = np.flatnonzero(hit)
-                if k.size and (first is None or k[0] < first[1]):
-                    first = (name, int(k[0]))
-            checked = len(data)
-            if first is not None:
-                ended_by, stop_at = first[0], checked - len(th) + first[1]
-                break
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-        if stop_at is not None:
-            data = data[:stop_at + 1]
-        n = len(data)
-        t = np.arange(n) * dt
-        th, om = self._theta(sc, data)
-        xc, zc, vx, vz = data[:, iq["x"]], data[:, iq["z"]], data[:, iv["x"]], data[:, iv["z"]]
-        diag: dict = {}
-        if sc.table_joint is not None:
-            u_tab, v_tab = data[:, iq["table"]], data[:, iv["table"]]
-            if pulse is not None:
-                u = np.asarray(pulse.disp(t), dtype=float)
-                scale = max(float(np.max(np.abs(u))), 1e-12)
-                diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / scale)
-        else:
-            u_tab = v_tab = np.zeros(n)
-        corner_x, corner_z = _corners(block, xc, zc, th, u_tab)
-        flags = [] if np.all(np.isfinite(data)) else ["diverged"]
-        energy = body_energy_j_kg(block, vx - v_tab, vz, om, zc)
-        steps = n - 1
-        diag.update(max_penetration_m=float(max(-np.nanmin(corner_z), 0.0)), steps=int(steps), wall_s=wall,
-                    cpu_s=cpu, steps_per_s=(steps / wall if wall > 0 else None),
-                    steps_per_cpu_s=(steps / cpu if cpu > 0 else None), ended_by=ended_by, drive=s["drive"],
-                    planar=bool(s["planar"]), contact=s["contact"], approximation=s["approximation"])
-        if not sc.planar:
-            diag["max_lateral_drift_m"] = float(np.nanmax(np.abs(data[:, iq["y"]])))
-        traj = Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=om, t_pulse_end_s=t_end, flags=flags,
-                          diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
-                          corner_x_m=corner_x, corner_z_m=corner_z, energy_j_kg=energy)
-        return traj
+        return sc.advance(0)
 
-    @staticmethod
-    def _theta(sc: _Scene, data: np.ndarray):
+    def _advance(self, sc: _Scene, n_from: int, n_to: int) -> np.ndarray:
+        return sc.advance(n_to)[n_from + 1:]
+
+    def _angles(self, sc: _Scene, data: np.ndarray):
         """θ (rotation about +y) and θ̇ from logged states."""
         if sc.planar:
             return data[:, sc.iq["th"]], data[:, sc.iv["th"]]
@@ -509,40 +417,28 @@ class DrakeAdapter(ContactEngineAdapter):
         th = np.arctan2(2.0 * (x * z + w * y), 1.0 - 2.0 * (x * x + y * y))
         return th, data[:, sc.iv["th"]]
 
-    # -- restitution --------------------------------------------------------------------------
-    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
-                            settings: dict | None = None) -> RestitutionMeasurement:
-        """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation.
+    def _motion(self, sc: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        iq, iv = sc.iq, sc.iv
+        th, om = self._angles(sc, data)
+        diag: dict = {"contact": s["contact"], "approximation": s["approximation"]}
+        u_tab = v_tab = None
+        if sc.table_joint is not None:
+            u_tab, v_tab = data[:, iq["table"]], data[:, iv["table"]]
+            if pulse is not None:
+                u = np.asarray(pulse.disp(t_s), dtype=float)
+                diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / max(float(np.max(np.abs(u))), 1e-12))
+        if not sc.planar:
+            diag["max_lateral_drift_m"] = float(np.nanmax(np.abs(data[:, iq["y"]])))
+        return Motion(data[:, iq["x"]], data[:, iq["z"]], th, data[:, iv["x"]], data[:, iv["z"]], om, u_tab, v_tab, diag)
 
-        η of each of the first impacts from the contact engines' shared measurement,
-        :func:`~rockbench.engines.contact.free_rocking_etas` (the energy-consistent ratio of
-        successive peak amplitudes, from θ(t) alone). ``settings`` (resolved) default to the settings in force: for
-        ``calibrated`` without explicit contact settings, the calibration to Housner's η of this
-        block (as for MuJoCo and Exudyn); Drake as shipped for ``defaults``.
-        """
-        if not 0.0 < float(theta0_frac) < 1.0:
-            raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
-        dt = self.check_dt(dt_s)
-        if dt > 0.01:
-            raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
-        if settings is None:
-            s = self.resolve(block, Restitution(), dt_s=dt)
-        else:
-            s = settings
-        theta0 = float(theta0_frac) * block.alpha_rad
-        duration = free_rocking_duration_s(block, theta0_frac, FREE_ROCKING_IMPACTS)
-        tr = self._run(block, s, dt, None, theta0=theta0, duration_s=duration)
-        etas, _ = free_rocking_etas(tr.theta_rad, block.alpha_rad, theta0, uplift_tol_rad(block), FREE_ROCKING_IMPACTS)
-        mean = float(np.mean(etas)) if etas else float("nan")
-        std = float(np.std(etas)) if etas else float("nan")
-        shown = {k: s.get(k) for k in ("settings", "contact", "approximation", "friction", "planar", "drive")
-                 + self.CONTACT_KEYS}
-        return RestitutionMeasurement(etas=[float(e) for e in etas], eta_mean=mean, eta_std=std,
-                                      theta0_rad=theta0, dt_s=dt, settings=shown, method=FREE_ROCKING_METHOD)
+    # -- calibration ---------------------------------------------------------------------------
+    def _calibration_identity(self, base: dict) -> dict:
+        return {**super()._calibration_identity(base), "contact": base["contact"],
+                "approximation": base["approximation"], "corner_radius": base["corner_radius_m"],
+                "table_mass_ratio": base["table_mass_ratio"]}
 
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Search Drake's contact parameters so the free-rocking η reaches ``target_eta`` within 1 %.
+    def _calibrate_corners(self, block: Block, t: float, dt: float, use_cache: bool) -> CalibrationResult:
+        """Search Drake's contact parameters so the free-rocking η reaches ``t`` within 1 %.
 
         The search, in order:
 
@@ -550,91 +446,60 @@ class DrakeAdapter(ContactEngineAdapter):
            modulus 1e8 Pa; relaxation time 1 ms for SAP, Hunt–Crossley 0.1 s/m otherwise): a
            near-rigid, plastic impact, which gives η close to Housner's. Kept when within 0.5 %.
         2. Otherwise other stiffnesses (point: × 0.1, then × 0.03; hydroelastic: × 10, × 100,
-           × 0.1, × 0.03), each with a bisection on
-           the logarithm of the dissipation (relaxation time 1e-5–0.1 s, or Hunt–Crossley
-           1e-3–30 s/m): less dissipation, higher η (the corner comes off the table more
-           elastically); the search stops at 0.25 %.
+           × 0.1, × 0.03), each with a bisection on the logarithm of the dissipation (relaxation
+           time 1e-5–0.1 s, or Hunt–Crossley 1e-3–30 s/m): less dissipation, higher η (the corner
+           comes off the table more elastically); the search stops at 0.25 %.
 
-        The closest setting whose per-impact spread stays within 2 % of the target wins;
-        ``reached`` says whether it is within 1 %. Cached on disk per engine version, block,
-        target, time step, contact, approximation, planar flag, drive and friction.
+        The closest setting whose per-impact spread stays within 2 % of the target wins
+        (:class:`~rockbench.engines.skeleton.Search`); ``reached`` says whether it is within 1 %.
         """
-        t = self.check_target_eta(target_eta)
-        dt = self.check_dt(dt_s)
         base = self._filled({**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}})
         kkey, dkey = self._stiffness_key(), self._dissipation_key(base["approximation"])
-        key = calibration.cache_key(engine=self.name, version=self.version(), protocol=CALIBRATION_PROTOCOL,
-                                    block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                                    target=t, dt=dt, planar=base["planar"], friction=base["friction"],
-                                    contact=base["contact"], approximation=base["approximation"],
-                                    drive=base["drive"], corner_radius=base["corner_radius_m"],
-                                    table_mass_ratio=base["table_mass_ratio"])
-        if use_cache:
-            rec = calibration.load(key)
-            if rec is not None:
-                return CalibrationResult(**rec)
-        tried = []
-
-        def evaluate(k: float, d: float) -> float:
-            m = self.measure_restitution(block, dt_s=dt, settings={**base, kkey: k, dkey: d})
-            tried.append((m.eta_mean, m.eta_std, {kkey: k, dkey: d}))
-            return m.eta_mean
-
-        def err(e):
-            return abs(e - t) / t if math.isfinite(e) else math.inf
-
+        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
+        search = self._search(block, dt, base, t)
         k0, d0 = BASE_CONTACT[kkey], BASE_CONTACT[dkey]
-        e0 = evaluate(k0, d0)
-        if err(e0) > 0.005:
+        if search.err(search.evaluate({kkey: k0, dkey: d0})) > 0.005:
             lo0, hi0 = _DISSIPATION_LOG10[dkey]
             for f in _STIFFNESS_FACTORS[base["contact"]]:
-                k = k0 * f
-                # η falls as the dissipation grows: lo (little) gives the high end
-                e_lo, e_hi = evaluate(k, 10.0 ** lo0), evaluate(k, 10.0 ** hi0)
-                if not (math.isfinite(e_lo) and math.isfinite(e_hi)) or not (min(e_lo, e_hi) <= t <= max(e_lo, e_hi)):
-                    continue
-                lo, hi = lo0, hi0
-                for _ in range(10):
-                    mid = 0.5 * (lo + hi)
-                    e = evaluate(k, 10.0 ** mid)
-                    if err(e) <= 0.0025:
-                        break
-                    if math.isfinite(e) and (e - t) * (e_lo - t) > 0:
-                        lo = mid
-                    else:
-                        hi = mid
-                if min(err(r[0]) for r in tried) <= 0.0025:
+                _bisect_dissipation(search, kkey, k0 * f, dkey, lo0, hi0)
+                if min(search.err(r[0]) for r in search.tried) <= 0.0025:
                     break
-        consistent = [r for r in tried if math.isfinite(r[1]) and r[1] <= _CAL_MAX_SPREAD * t]
-        eta, std, extra = min(consistent or tried, key=lambda r: err(r[0]))
-        reached = bool(consistent) and err(eta) <= 0.01
-        settings = {k: None for k in self.CONTACT_KEYS}
-        settings.update(extra)
+        eta, std, extra, reached = search.best()
         if extra[kkey] == k0 and extra[dkey] == d0:
             note = ("the stiff, plastic base contact gives this η." if reached else
                     f"not reached: the closest consistent η is the base contact's, {eta:.4f}.")
         else:
             note = ("reached with a softer contact and its dissipation." if reached else
                     f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in _STIFFNESS_FACTORS[base['contact']])} "
-                    f"the base with "
-                    f"dissipation over the searched range give at best {eta:.4f}.")
+                    f"the base with dissipation over the searched range give at best {eta:.4f}.")
         res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings=settings, note=note, evaluations=len(tried))
-        calibration.store(key, {k: v for k, v in res.to_dict().items() if k != "rel_error"})
+                                settings={k: None for k in self.CONTACT_KEYS} | extra, note=note,
+                                evaluations=len(search.tried))
+        self._store(key, res, {"tried": search.tried})
         return res
+
+
+def _bisect_dissipation(search, kkey: str, k: float, dkey: str, lo: float, hi: float) -> None:
+    """At stiffness ``k``, a bisection on log10 of the dissipation over ``[lo, hi]`` (η falls as the
+    dissipation grows: ``lo`` gives the high end) when the two ends bracket the target."""
+    t = search.target
+    e_lo, e_hi = search.evaluate({kkey: k, dkey: 10.0 ** lo}), search.evaluate({kkey: k, dkey: 10.0 ** hi})
+    if not (math.isfinite(e_lo) and math.isfinite(e_hi)) or not (min(e_lo, e_hi) <= t <= max(e_lo, e_hi)):
+        return
+    for _ in range(10):
+        mid = 0.5 * (lo + hi)
+        e = search.evaluate({kkey: k, dkey: 10.0 ** mid})
+        if search.err(e) <= 0.0025:
+            break
+        if math.isfinite(e) and (e - t) * (e_lo - t) > 0:
+            lo = mid
+        else:
+            hi = mid
 
 
 #: This process's scenes, by everything a diagram depends on (a forked worker builds its own).
 _SCENES: dict = {}
 
-
-def _corners(block: Block, xc, zc, th, u_tab):
-    """The (+x, −x) bottom corners relative to the table: x and height above its top, ``(n, 2)`` each [m]."""
-    b, h = block.width_m, block.height_m
-    c, s = np.cos(th), np.sin(th)
-    xs, zs = [], []
-    for side in (1.0, -1.0):
-        # rotation about +y by θ: body (x, z) -> (x cosθ + z sinθ, −x sinθ + z cosθ)
-        xs.append(xc + side * b / 2 * c - h / 2 * s - u_tab)
-        zs.append(zc - side * b / 2 * s - h / 2 * c)
-    return np.stack(xs, axis=1), np.stack(zs, axis=1)

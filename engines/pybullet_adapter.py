@@ -26,40 +26,32 @@ law of ours replaces it, since that contact is what the benchmark measures.
   :mod:`rockbench.engines.calibration`); ``settings="defaults"`` runs Bullet as shipped (its rigid
   contact, 50 solver iterations), with only the time step and the anti-slip friction set.
 
-End of a run
-------------
-The pulse is simulated whole. Afterwards the run stops at the first of
-
-1. overturn certain: ``|θ| > α`` moving outward after the pulse (the classifier's rule), or the
-   block lying on its side (``|θ| ≥ π/2 − 0.01``) at any time;
-2. trapped: at least ``min_tail_s`` after the pulse, the ideal free-rocking energy
-   ``E = ½θ̇² + p²cos(α − |θ|)`` is below the barrier ``p²`` by more than 5 % of the barrier
-   height ``p²(1 − cos α)``: free rocking only loses energy, so the block can no longer overturn
-   (a block at rest is the extreme case). ``min_tail_s`` is the window in which an energy gain
-   would be caught;
-3. ``tail_s`` after the pulse (a block balancing near ``|θ| = α``): the classifier then judges
-   what it sees (rocking unless it is already moving outward beyond α).
-
-The shared classifier decides the outcome from θ(t); no η is handed to it (``eta_for_tail`` is
-None), since the engine must decide the motion after the pulse by itself.
+The run, its end and the free-rocking test
+------------------------------------------
+The adapter fills in the hooks of the contact-engine skeleton
+(:class:`~rockbench.engines.skeleton.SteppedContactAdapter`): it builds the scene, sets the contact
+parameters, steps the engine (one Python call per step: drive, step, read the joint states) and
+reads the block's pose and velocity. The skeleton runs the pulse whole and stops the run by floor
+1's end-of-run rule (:func:`~rockbench.reference_solver.classify.run_end`: overturn certain, or
+trapped below the barrier after ``min_tail_s``, else ``tail_s`` after the pulse); the shared
+classifier decides the outcome from θ(t). η is read from the body's energy between impacts
+(:data:`~rockbench.engines.free_rocking.ENERGY_RATIO`, the reader this calibration was tuned with).
 """
 
 from __future__ import annotations
 
 import math
 import os
-import time
 from typing import Any
 
 import numpy as np
 
-from ..reference_solver.classify import FLAT_ANGLE_RAD
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
-from ..reference_solver.restitution import Restitution, housner_eta
-from . import calibration
-from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, first_reached, overturn_certain
+from .base import CalibrationResult
+from .contact import POINTS_TRIED
+from .free_rocking import ENERGY_RATIO
+from .skeleton import CAL_MAX_SPREAD, Motion, SteppedContactAdapter, pivot_pose
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
@@ -71,26 +63,8 @@ _SLIDER_MASS_KG = 1e-6
 #: Half extents of the table box [m]: wider than any table stroke, thick enough for stiff contact.
 _TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
 
-#: Version of the calibration protocol (free-rocking test and search); part of the cache key.
-CALIBRATION_PROTOCOL = 4
-
-#: Largest spread (standard deviation) of the per-impact η, as a fraction of the target, that a
-#: calibrated setting may show: beyond it the block has no single restitution coefficient [-].
-_CAL_MAX_SPREAD = 0.02
-
-#: Distributed contact (issue 18): the version of its calibration (part of the cache key) and how
-#: many candidates its price check tries.
-CALIBRATION_PROTOCOL_DIST = 3
-_MAX_PRICE_TRIES = 8
-
 #: Radius of the spheres of a distributed contact (``contact_points``) [m].
 _POINT_RADIUS_M = 5e-4
-
-#: Free-rocking test: impacts measured after release [-].
-_CAL_IMPACTS = 4
-
-#: Trapped rule: stop when E < p² − _TRAPPED_MARGIN·p²(1 − cos α) (see the module docstring) [-].
-_TRAPPED_MARGIN = 0.05
 
 
 def _import_pybullet():
@@ -160,6 +134,7 @@ class _Scene:
         its rigid one, so another contact means new bodies, never a leftover of the previous case.
         """
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, planar, breaking_threshold_m, contact, points)
+        self.planar = planar
         if key == self.key:
             return
         pb, cid = self.pb, self.cid
@@ -234,7 +209,7 @@ class _Scene:
         """Put the block at rest on the table at angle ``theta0`` (pivoting on the lower corner)
         and the table at rest at x = 0; clear the contact cache so the case starts fresh."""
         pb, cid = self.pb, self.cid
-        b, h = block.width_m, block.height_m
+        h = block.height_m
         # lift the block clear and run collision detection once: Bullet then drops the old contact
         # manifold, so no warm-start impulse of the previous case leaks into this one
         if planar:
@@ -245,13 +220,7 @@ class _Scene:
                                            physicsClientId=cid)
         pb.resetBaseVelocity(self.table, [0, 0, 0], [0, 0, 0], physicsClientId=cid)
         pb.performCollisionDetection(physicsClientId=cid)
-        # centre of mass for a rotation theta0 about the pivot corner (at x = ±b/2, z = 0)
-        s = 1.0 if theta0 >= 0 else -1.0
-        th = abs(theta0)
-        alpha = block.alpha_rad
-        R = block.half_diagonal_m
-        xc = s * (b / 2 - R * math.sin(alpha - th))
-        zc = R * math.cos(alpha - th)
+        xc, zc = pivot_pose(block, theta0)
         if planar:
             for j, q in ((0, xc), (1, zc - h / 2), (2, theta0)):
                 pb.resetJointState(self.block, j, q, 0.0, physicsClientId=cid)
@@ -259,6 +228,49 @@ class _Scene:
             quat = pb.getQuaternionFromEuler([0.0, theta0, 0.0])
             pb.resetBasePositionAndOrientation(self.block, [xc, 0, zc], quat, physicsClientId=cid)
             pb.resetBaseVelocity(self.block, [0, 0, 0], [0, 0, 0], physicsClientId=cid)
+
+    def load_drive(self, pulse, drive: str, dt_s: float, n_steps: int) -> None:
+        """The drive of each step: the inertial force through the gravity vector ``(−ü, 0, −g)``
+        (ü at the step's midpoint, during the pulse), or the table's pose u(tₙ) and velocity u̇ at
+        the step's midpoint (Bullet's contact drags the block only with a velocity)."""
+        self.inertial = drive == "inertial"
+        self.acc = None
+        self.n_pulse = int(math.ceil(pulse.duration_s / dt_s - 1e-9)) if pulse is not None else -1
+        self.drive_table = pulse is not None and not self.inertial
+        if pulse is not None:
+            mid = (np.arange(n_steps) + 0.5) * dt_s
+            # plain lists: indexing them in the loop costs less than numpy scalars
+            self.acc = (-pulse.accel(mid)).tolist() if self.inertial else None
+            self.u_pos = pulse.disp(np.arange(n_steps) * dt_s).tolist()
+            self.u_vel = pulse.vel(mid).tolist()
+        self.pb.setGravity(0.0, 0.0, -G, physicsClientId=self.cid)
+
+    def read(self, velocities: bool = True) -> tuple:
+        """The block's state: ``(x, z_slider, θ, ẋ, ż, θ̇)`` planar; position, quaternion and linear
+        and angular velocities free (zeros without ``velocities``)."""
+        pb, cid = self.pb, self.cid
+        if self.planar:
+            st = pb.getJointStates(self.block, [0, 1, 2], physicsClientId=cid)
+            return st[0][0], st[1][0], st[2][0], st[0][1], st[1][1], st[2][1]
+        pos, quat = pb.getBasePositionAndOrientation(self.block, physicsClientId=cid)
+        vel = sum(pb.getBaseVelocity(self.block, physicsClientId=cid), ()) if velocities else (0.0,) * 6
+        return pos + quat + vel
+
+    def advance(self, n_from: int, n_to: int) -> list:
+        """Steps ``n_from`` to ``n_to``: drive, step, read; the states after each step."""
+        pb, cid = self.pb, self.cid
+        step, set_g, table, table_z = pb.stepSimulation, pb.setGravity, self.table, -_TABLE_HALF_EXTENTS_M[2]
+        rows = []
+        for i in range(n_from, n_to):
+            if self.drive_table:
+                pb.resetBasePositionAndOrientation(table, (self.u_pos[i], 0.0, table_z), (0.0, 0.0, 0.0, 1.0),
+                                                   physicsClientId=cid)
+                pb.resetBaseVelocity(table, (self.u_vel[i], 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=cid)
+            elif self.acc is not None and i <= self.n_pulse:
+                set_g(self.acc[i], 0.0, -G, physicsClientId=cid)
+            step(physicsClientId=cid)
+            rows.append(self.read())
+        return rows
 
 
 _SCENE: _Scene | None = None
@@ -272,7 +284,7 @@ def _scene() -> _Scene:
     return _SCENE
 
 
-class PybulletAdapter(ContactEngineAdapter):
+class PybulletAdapter(SteppedContactAdapter):
     """The rocking block in PyBullet (see the module docstring for the model and the end of a run).
 
     Settings
@@ -321,7 +333,7 @@ class PybulletAdapter(ContactEngineAdapter):
                     "macOS and Windows).")
     default_dt_s = 5e-4
     SETTINGS = {
-        **ContactEngineAdapter.SHARED_SETTINGS,
+        **SteppedContactAdapter.SHARED_SETTINGS,
         "friction": BULLET_MAX_FRICTION,
         "friction_anchor": True,
         "solver_iterations": None,
@@ -334,8 +346,15 @@ class PybulletAdapter(ContactEngineAdapter):
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    #: the settings that describe the contact (calibration chooses these)
     CONTACT_KEYS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "restitution_coef", "contact_breaking_threshold_m")
+    MEASURED_SETTINGS = ("friction", "friction_anchor", "solver_iterations", "planar", "contact_points")
+    #: the energy ratio: its calibration was tuned with it; the peak ratio scatters by ±0.03 between
+    #: the impacts of a compliant contact, which the calibration then refuses (docs/engines.md)
+    eta_reader = ENERGY_RATIO
+    CALIBRATION_VERSION = 5
+    CALIBRATION_VERSION_DIST = 4
+    distributed_contact = True
+    POINT_UNIT = "spheres"
 
     @classmethod
     def version(cls) -> str:
@@ -368,10 +387,6 @@ class PybulletAdapter(ContactEngineAdapter):
         self._whole_setting(s, "solver_iterations", 1)
         self._contact_layout_settings(s)
 
-    def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
-
     def _base_settings(self) -> dict:
         """Settings without any calibration: Bullet's rigid contact unless given explicitly."""
         s = dict(self.settings)
@@ -387,335 +402,57 @@ class PybulletAdapter(ContactEngineAdapter):
             s.update(self.canonical_settings(cal.settings))
         return s
 
-    # -- simulation (one case: ContactEngineAdapter._simulate through _run) ---------------------
-    def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
-             duration_s: float | None = None, with_state: bool = False):
-        """Simulate one run: a pulse with the end-of-run rules, or free rocking for ``duration_s``.
-
-        Returns the trajectory with its flags and diagnostics (and, ``with_state``, the body's state
-        ``(x_c, z_c, ẋ_c, ż_c, θ̇)`` as a second item).
-        """
+    # -- the skeleton's hooks -----------------------------------------------------------------
+    def _world(self, block: Block, s: dict, dt_s: float) -> "_Scene":
         sc = _scene()
-        pb, cid = sc.pb, sc.cid
-        planar = bool(s["planar"])
-        sc.build(block, planar, s.get("contact_breaking_threshold_m"),
+        sc.build(block, bool(s["planar"]), s.get("contact_breaking_threshold_m"),
                  tuple(s.get(k) for k in self.CONTACT_KEYS + ("friction", "friction_anchor")),
                  points=s.get("contact_points"))
-        sc.apply(s, dt)
-        sc.place(block, planar, theta0)
+        sc.apply(s, dt_s)
+        return sc
 
-        alpha, p = block.alpha_rad, block.p_rad_s
-        t_end = pulse.duration_s if pulse is not None else 0.0
-        t_stop = (t_end + float(s["tail_s"])) if duration_s is None else float(duration_s)
-        n_max = int(math.ceil(t_stop / dt - 1e-9))
-        n_pulse = int(math.ceil(t_end / dt - 1e-9))
-        n_min = n_pulse + int(math.ceil(float(s["min_tail_s"]) / dt - 1e-9)) if duration_s is None else n_max
-        # the overturn rule's "after the pulse", in steps (free rocking: only the flat rule applies)
-        i_after = n_pulse if duration_s is None else math.inf
-        steps_t = (np.arange(n_max) + 0.5) * dt  # midpoint of each step
-        inertial = s["drive"] == "inertial"
-        if pulse is not None:
-            # plain lists: indexing them in the loop costs less than numpy scalars
-            acc = (-pulse.accel(steps_t)).tolist() if inertial else None
-            u_pos = pulse.disp(np.arange(n_max) * dt).tolist()
-            u_vel = pulse.vel(steps_t).tolist()
-        pb.setGravity(0.0, 0.0, -G, physicsClientId=cid)
+    def _start(self, sc: "_Scene", block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
+               n_steps: int) -> np.ndarray:
+        sc.place(block, bool(s["planar"]), theta0_rad)
+        sc.load_drive(pulse, s["drive"], dt_s, n_steps)
+        return np.array([sc.read(velocities=False)], dtype=float)
 
-        e_trap = p * p - _TRAPPED_MARGIN * p * p * (1.0 - math.cos(alpha))
-        p2 = p * p
-        body, table = sc.block, sc.table
-        step, set_g = pb.stepSimulation, pb.setGravity
-        reset_pose, reset_vel = pb.resetBasePositionAndOrientation, pb.resetBaseVelocity
-        table_z = -_TABLE_HALF_EXTENTS_M[2]
-        rows = []
-        if planar:
-            get = pb.getJointStates
-            joints = [0, 1, 2]
-            st = get(body, joints, physicsClientId=cid)
-            rows.append((st[0][0], st[1][0], st[2][0], st[0][1], st[1][1], st[2][1]))
-        else:
-            getp, getv = pb.getBasePositionAndOrientation, pb.getBaseVelocity
-            pos, quat = getp(body, physicsClientId=cid)
-            rows.append(pos + quat + (0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
-        drive_table = pulse is not None and not inertial
-        i = 0
-        ended_by = "tail"
-        t0, c0 = time.perf_counter(), time.process_time()
-        # the loop does only what PyBullet needs: drive, step, read the state, test the end rules
-        while i < n_max:
-            if drive_table:
-                reset_pose(table, (u_pos[i], 0.0, table_z), (0.0, 0.0, 0.0, 1.0), physicsClientId=cid)
-                reset_vel(table, (u_vel[i], 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=cid)
-            elif pulse is not None and i <= n_pulse:
-                set_g(acc[i], 0.0, -G, physicsClientId=cid)
-            step(physicsClientId=cid)
-            i += 1
-            if planar:
-                st = get(body, joints, physicsClientId=cid)
-                th, om = st[2][0], st[2][1]
-                rows.append((st[0][0], st[1][0], th, st[0][1], st[1][1], om))
-            else:
-                pos, quat = getp(body, physicsClientId=cid)
-                lin, ang = getv(body, physicsClientId=cid)
-                rows.append(pos + quat + lin + ang)
-                x, y, z, w = quat
-                th = math.atan2(2.0 * (x * z + w * y), 1.0 - 2.0 * (x * x + y * y))
-                om = ang[1]
-            a = abs(th)
-            if a != a:  # NaN: the engine diverged, nothing more to learn
-                ended_by = "diverged"
-                break
-            # the time axis of the rule in steps: i ≥ n_pulse is "after the pulse"
-            if overturn_certain(i, th, om, alpha_rad=alpha, t_pulse_end_s=i_after):
-                ended_by = "flat" if a >= FLAT_ANGLE_RAD else "overturn"
-                break
-            if duration_s is None and i >= n_min and 0.5 * om * om + p2 * math.cos(alpha - a) < e_trap:
-                ended_by = "trapped"
-                break
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-        diag = {"steps": int(i), "wall_s": wall, "cpu_s": cpu, "ended_by": ended_by}
-        traj, state = self._record(block, s, dt, pulse, t_end, rows, diag)
-        return (traj, state) if with_state else traj
+    def _advance(self, sc: "_Scene", n_from: int, n_to: int) -> np.ndarray:
+        return np.array(sc.advance(n_from, n_to), dtype=float)
 
-    def _record(self, block: Block, s: dict, dt: float, pulse, t_end: float, rows: list,
-                run: dict) -> tuple[Trajectory, tuple]:
-        """The trajectory from the state rows a run read (``(x, z, θ, ẋ, ż, θ̇)`` per sample planar,
-        position, quaternion and velocities free): θ, θ̇, both bottom corners relative to the table,
-        the block's energy, and diagnostics (``run``: steps, wall and CPU time, how it ended); and
-        the body's state ``(x_c, z_c, ẋ_c, ż_c, θ̇)`` for the free-rocking measurement."""
-        planar = bool(s["planar"])
-        inertial = s["drive"] == "inertial"
-        data = np.asarray(rows, dtype=float)
-        n = data.shape[0]
-        t = np.arange(n) * dt
-        u_tab = np.zeros(n) if pulse is None or inertial else pulse.disp(t)
-        if planar:
-            xc, zc, th, vx, vz, om = data[:, 0], data[:, 1] + block.height_m / 2, data[:, 2], data[:, 3], data[:, 4], data[:, 5]
-            out_of_plane = 0.0
-        else:
-            xc, zc = data[:, 0], data[:, 2]
-            qx, qy, qz, qw = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
-            th = np.arctan2(2.0 * (qx * qz + qw * qy), 1.0 - 2.0 * (qx * qx + qy * qy))
-            vx, vz, om = data[:, 7], data[:, 9], data[:, 11]
-            # how far the free body left the plane: lateral drift along y, tilt about x
-            roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
-            out_of_plane = float(max(np.max(np.abs(data[:, 1])), 0.0))
-            out_of_plane_tilt = float(np.max(np.abs(roll)))
-        corner_x, corner_z = self._corners(block, xc, zc, th, u_tab)
-        diag = {"max_penetration_m": float(max(-np.min(corner_z), 0.0))}
-        flags = [] if np.all(np.isfinite(data)) else ["diverged"]
-        # the block's own energy per unit mass in the table's frame (the table is at rest after the
-        # pulse in both drives; during it only the inertial drive's frame moves)
-        v_tab = np.zeros(n) if pulse is None or inertial else pulse.vel(t)
-        energy = body_energy_j_kg(block, vx - v_tab, vz, om, zc)
-        # CPU time too: on a shared machine the wall time says more about the neighbours
-        i, wall, cpu = run["steps"], run["wall_s"], run["cpu_s"]
-        diag.update(steps=i, wall_s=wall, cpu_s=cpu, steps_per_s=(i / wall if wall > 0 else None),
-                    steps_per_cpu_s=(i / cpu if cpu > 0 else None), ended_by=run["ended_by"],
-                    drive=s["drive"], planar=planar)
-        if not planar:
-            diag.update(max_lateral_drift_m=out_of_plane, max_out_of_plane_tilt_rad=out_of_plane_tilt)
-        traj = Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=om, t_pulse_end_s=t_end, flags=flags,
-                          diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
-                          corner_x_m=corner_x, corner_z_m=corner_z, energy_j_kg=energy)
-        return traj, (xc, zc, vx, vz, om)
+    def _angles(self, sc: "_Scene", rows: np.ndarray):
+        if sc.planar:
+            return rows[:, 2], rows[:, 5]
+        # the stop is decided on math.atan2's θ, as the step loop did before the skeleton (NumPy's
+        # arctan2 differs from it in the last bit for some arguments)
+        th = [math.atan2(2.0 * (x * z + w * y), 1.0 - 2.0 * (x * x + y * y)) for x, y, z, w in rows[:, 3:7].tolist()]
+        return np.array(th), rows[:, 11]
 
-    @staticmethod
-    def _corners(block: Block, xc, zc, th, u_tab):
-        """The (+x, −x) bottom corners relative to the table: x and height above its top, ``(n, 2)`` each [m]."""
-        b, h = block.width_m, block.height_m
-        c, s = np.cos(th), np.sin(th)
-        xs, zs = [], []
-        for side in (1.0, -1.0):
-            # rotation about +y by θ: body (x, z) -> (x cosθ + z sinθ, −x sinθ + z cosθ)
-            xs.append(xc + side * b / 2 * c - h / 2 * s - u_tab)
-            zs.append(zc - side * b / 2 * s - h / 2 * c)
-        return np.stack(xs, axis=1), np.stack(zs, axis=1)
+    def _motion(self, sc: "_Scene", block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        table = pulse is not None and s["drive"] != "inertial"
+        u_tab, v_tab = (pulse.disp(t_s), pulse.vel(t_s)) if table else (None, None)
+        if bool(s["planar"]):
+            return Motion(data[:, 0], data[:, 1] + block.height_m / 2, data[:, 2], data[:, 3], data[:, 4], data[:, 5],
+                          u_tab, v_tab)
+        qx, qy, qz, qw = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
+        th = np.arctan2(2.0 * (qx * qz + qw * qy), 1.0 - 2.0 * (qx * qx + qy * qy))
+        # how far the free body left the plane: lateral drift along y, tilt about x
+        roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
+        diag = {"max_lateral_drift_m": float(max(np.max(np.abs(data[:, 1])), 0.0)),
+                "max_out_of_plane_tilt_rad": float(np.max(np.abs(roll)))}
+        return Motion(data[:, 0], data[:, 2], th, data[:, 7], data[:, 9], data[:, 11], u_tab, v_tab, diag)
 
-    # -- restitution --------------------------------------------------------------------------
-    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
-                            settings: dict | None = None) -> RestitutionMeasurement:
-        """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation.
+    def _free_rocking_settings(self, block: Block, dt: float) -> dict:
+        """Bullet as set, without calibration (a restitution measurement of the contact in force)."""
+        return self._base_settings()
 
-        η of each of the first impacts is read from energies, which are robust to the step in
-        which an impact falls: between impacts the block's mechanical energy is constant, and its
-        excess over standing at rest is the kinetic energy at ``θ = 0``. So
-        ``η_i = √(K_{i+1}/K_i)``, with ``K`` the median of ``E − m g h/2`` over the middle half of
-        each swing, ``E = ½m(ẋ² + ż²) + ½I_c θ̇² + m g z_c``. (The contact engines' shared peak
-        ratio, :func:`~rockbench.engines.contact.free_rocking_etas`, scatters by ±0.03 between the
-        impacts of a compliant contact, which the calibration then refuses: docs/engines.md.)
+    # -- calibration ---------------------------------------------------------------------------
+    def _calibration_identity(self, base: dict) -> dict:
+        return {**super()._calibration_identity(base), "anchor": base["friction_anchor"],
+                "iterations": base["solver_iterations"]}
 
-        Parameters
-        ----------
-        block : Block
-        theta0_frac : float
-            Release angle as a fraction of α [-].
-        dt_s : float, optional
-            Time step [s] (default: the adapter's).
-        settings : dict, optional
-            Resolved settings to measure (default: the adapter's, without calibration).
-        """
-        if not 0.0 < float(theta0_frac) < 1.0:
-            raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
-        dt = self.check_dt(dt_s)
-        if dt > 0.01:
-            raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
-        s = self._base_settings() if settings is None else settings
-        # long enough for the swings around the measured impacts: each lasts at most half the
-        # linearised free-rocking period from the release angle, T = (4/p)·arcosh(1/(1 − θ0/α))
-        # (docs/physics.md §7; amplitudes only shrink, and so do the swings), with 20 % to spare
-        period = 4.0 / block.p_rad_s * math.acosh(1.0 / (1.0 - float(theta0_frac)))
-        duration = 1.2 * (_CAL_IMPACTS + 2) * period / 2.0
-        tr, state = self._run(block, s, dt, None, theta0=theta0_frac * block.alpha_rad, duration_s=duration,
-                              with_state=True)
-        etas = _impact_etas(block, tr.theta_rad, state, _CAL_IMPACTS)
-        mean = float(np.mean(etas)) if etas else float("nan")
-        std = float(np.std(etas)) if etas else float("nan")
-        shown = {k: s[k] for k in ("friction", "friction_anchor", "solver_iterations", "planar", "contact_points")
-                 + self.CONTACT_KEYS}
-        th = np.asarray(tr.theta_rad)
-        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
-        quarter = None
-        if zc.size:
-            i = int(zc[0])
-            quarter = float(tr.t_s[i] + (tr.t_s[i + 1] - tr.t_s[i]) * th[i] / (th[i] - th[i + 1]))
-        return RestitutionMeasurement(etas=[float(e) for e in etas], eta_mean=mean, eta_std=std,
-                                      theta0_rad=theta0_frac * block.alpha_rad, dt_s=dt, settings=shown,
-                                      method=f"energy ratio of the first {_CAL_IMPACTS} impacts: "
-                                             "sqrt(K_next/K), K = mechanical energy above rest between impacts",
-                                      first_quarter_s=quarter)
-
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Contact settings whose free-rocking η reaches ``target_eta``, by the ``contact`` setting:
-        :meth:`_calibrate_corners`, or :meth:`_calibrate_distributed` (``auto``: the corners up to
-        1 % above η_H, the distributed contact above)."""
-        kind = self.settings["contact"]
-        if kind == "auto":
-            kind = "corners" if float(target_eta) <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
-        if kind == "distributed":
-            return self._calibrate_distributed(block, target_eta, dt_s=dt_s, use_cache=use_cache)
-        return self._calibrate_corners(block, target_eta, dt_s=dt_s, use_cache=use_cache)
-
-    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
-        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
-        from . import price as _price
-
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        fixed = self._fixed(c.settings)
-        m = fixed.measure_restitution(block, dt_s=dt)
-        return _price.contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt,
-                                    first_quarter_s=m.first_quarter_s)
-
-    def _fixed(self, contact: dict) -> "PybulletAdapter":
-        """A copy of this adapter with explicit contact settings (no calibration behind its runs)."""
-        contact = self.canonical_settings(contact)
-        st = {**self.settings, **{k: contact.get(k) for k in self.CONTACT_KEYS}}
-        if contact.get("contact_points"):
-            st.update(contact="distributed", contact_points=contact["contact_points"])
-        else:
-            st.update(contact="corners", contact_points=None)
-        return PybulletAdapter(**st)
-
-    def _calibrate_distributed(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                               use_cache: bool = True) -> CalibrationResult:
-        """The distributed search with the set number of spheres, or (``contact_points`` unset)
-        with 9, then 5, then 17 until one reaches the target at an acceptable price."""
-        n_set = self.settings["contact_points"]
-        return first_reached(lambda n: self._calibrate_distributed_n(block, target_eta, n, dt_s=dt_s, use_cache=use_cache),
-                             (n_set,) if n_set is not None else POINTS_TRIED, "spheres")
-
-    def _calibrate_distributed_n(self, block: Block, target_eta: float, n: int, *, dt_s: float | None = None,
-                                 use_cache: bool = True) -> CalibrationResult:
-        """A row of ``n`` spheres along the base (issue 18) with a compliant contact, for ``target_eta``.
-
-        Bullet's rigid contact and a grid of stiffness ``k`` (100 × 10^(−2…0)·m/Δt², nine values up
-        to the stiffest the step resolves) × damping ratio ζ (0.05–1, ``c = 2ζ√(k·m)``). Candidates
-        within 1 % of the target whose impacts agree within 2 % are tried closest first until one
-        keeps the static uplift threshold within 2 % of g·tanα and raises no ``slip`` flag in the
-        anti-slip cells (:func:`rockbench.engines.price.contact_price`); its price is recorded.
-        """
-        from . import price as _price
-
-        t = float(target_eta)
-        if not (math.isfinite(t) and 0.0 < t <= 1.0):
-            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        base = self._base_settings()
-        for k in self.CONTACT_KEYS:
-            base[k] = None
-        base["contact_points"] = n
-        key = calibration.cache_key(engine=self.name, version=self.version(), protocol=CALIBRATION_PROTOCOL_DIST,
-                                    block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                                    target=t, dt=dt, planar=base["planar"], friction=base["friction"],
-                                    anchor=base["friction_anchor"], iterations=base["solver_iterations"], points=n,
-                                    price_cells=[list(c) for c in _price.PRICE_CELLS])
-        if use_cache:
-            rec = calibration.load(key)
-            if rec is not None:
-                return CalibrationResult(**rec["result"])
-        m_kg = block.mass_kg
-        kmax = m_kg / dt**2
-        grid = [{}] + [{"contact_stiffness_n_m": float(k), "contact_damping_n_s_m": float(2 * z * math.sqrt(k * m_kg)), "zeta": z}
-                       for k in np.logspace(math.log10(kmax) - 2.0, math.log10(kmax), 9)
-                       for z in (0.05, 0.1, 0.2, 0.5, 1.0)]
-        rows = []
-        for g in grid:
-            st = {**base, **{k: v for k, v in g.items() if k != "zeta"}}
-            try:
-                mm = self.measure_restitution(block, dt_s=dt, settings=st)
-                rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "n": len(mm.etas)})
-            except Exception as e:  # noqa: BLE001 - a setting that breaks is recorded, the search goes on
-                rows.append({**g, "eta": math.nan, "eta_std": math.nan, "n": 0, "error": f"{type(e).__name__}: {e}"})
-        regular = [r for r in rows if math.isfinite(r["eta"]) and r["n"] >= 2 and r["eta_std"] <= _CAL_MAX_SPREAD * r["eta"]]
-        within = sorted((r for r in regular if abs(r["eta"] - t) <= 0.01 * t), key=lambda r: abs(r["eta"] - t))
-        chosen, price, tried = None, None, []
-        rest = Restitution("constant", value=t)
-        for r in within[:_MAX_PRICE_TRIES]:
-            contact = {k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}
-            fixed = self._fixed(contact)
-            pr = _price.contact_price(fixed, block, rest, dt)
-            tried.append({**r, "uplift_ratio": pr["uplift"].get("ratio"), "n_slip": pr["anti_slip"]["n_slip"],
-                          "n_jump": pr["anti_slip"]["n_jump"]})
-            if pr["counts"]:
-                chosen, price = r, pr
-                break
-        lo = min((r["eta"] for r in regular), default=math.nan)
-        hi = max((r["eta"] for r in regular), default=math.nan)
-        span = (f"{n} spheres along the base; Bullet's rigid contact and stiffness {kmax / 100:.3g}–{kmax:.3g} N/m × "
-                f"damping ratio 0.05–1: regular free rocking spans η = {lo:.4f}–{hi:.4f}")
-        if chosen is not None:
-            r = chosen
-            m = self._fixed({k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}).measure_restitution(block, dt_s=dt)
-            price["period_change"] = (m.first_quarter_s / price["rigid_first_quarter_s"] - 1.0) if m.first_quarter_s else None
-            price["first_quarter_s"] = m.first_quarter_s
-            how = (f"stiffness {r['contact_stiffness_n_m']:.4g} N/m, damping ratio {r['zeta']:g}" if r.get("contact_stiffness_n_m")
-                   else "Bullet's rigid contact")
-            note = f"reached with {n} spheres along the base, {how}; {_price.price_line(price)}; {span}."
-            reached = True
-        else:
-            r = (min(within, key=lambda r: abs(r["eta"] - t)) if within else
-                 min(regular or [x for x in rows if math.isfinite(x["eta"])] or rows,
-                     key=lambda r: abs(r["eta"] - t) if math.isfinite(r["eta"]) else math.inf))
-            reached = False
-            if within:
-                why = (f"{len(within)} settings give η within 1 % with regular impacts, but none keeps the static uplift "
-                       f"threshold within 2 % of g·tanα and the anti-slip cells free of slip (tried: "
-                       + "; ".join(f"k {x.get('contact_stiffness_n_m') or 0:.3g} ζ {x.get('zeta', 0):g}: uplift "
-                                   f"{x['uplift_ratio']:.3f}, {x['n_slip']} slip" for x in tried) + ")")
-            else:
-                why = f"the closest regular η is {r['eta']:.4f} ({100 * (r['eta'] - t) / t:+.2f} %)"
-            note = f"not reached with the distributed contact: {why}; {span}."
-        settings = {k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}
-        res = CalibrationResult(eta_target=t, eta_measured=float(r["eta"]), eta_std=float(r["eta_std"]), reached=reached,
-                                settings=settings, note=note, evaluations=len(rows), price=price)
-        calibration.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
-                                "grid": rows, "price_tried": tried})
-        return res
-
-    def _calibrate_corners(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                           use_cache: bool = True) -> CalibrationResult:
-        """Search Bullet's contact settings so the free-rocking η reaches ``target_eta`` within 1 %.
+    def _calibrate_corners(self, block: Block, t: float, dt: float, use_cache: bool) -> CalibrationResult:
+        """Search Bullet's contact settings so the free-rocking η reaches ``t`` within 1 %.
 
         The search, in order:
 
@@ -731,58 +468,47 @@ class PybulletAdapter(ContactEngineAdapter):
 
         Step 1 is kept whenever it is within 1 %. Otherwise the closest setting whose per-impact
         spread stays within 2 % of the target wins (a bouncing corner that scatters η does not
-        give the block one restitution coefficient); ``reached`` says whether it is within 1 %. The result is cached on
-        disk per engine version, block, target, time step, planar flag and friction.
+        give the block one restitution coefficient); ``reached`` says whether it is within 1 %.
         """
-        t = self.check_target_eta(target_eta)
-        dt = self.check_dt(dt_s)
-        base = self._base_settings()
-        for k in self.CONTACT_KEYS:
-            base[k] = None
-        key = calibration.cache_key(engine=self.name, version=self.version(), protocol=CALIBRATION_PROTOCOL,
-                                    block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                                    target=t, dt=dt, planar=base["planar"], friction=base["friction"],
-                                    anchor=base["friction_anchor"], iterations=base["solver_iterations"])
-        if use_cache:
-            rec = calibration.load(key)
-            if rec is not None:
-                # records written before issue 15 name the contact settings by their old names
-                return CalibrationResult(**{**rec, "settings": self.canonical_settings(rec["settings"])})
-        tried = []
-
-        def evaluate(extra: dict) -> float:
-            s = {**base, **extra}
-            m = self.measure_restitution(block, dt_s=dt, settings=s)
-            tried.append((m.eta_mean, m.eta_std, extra))
-            return m.eta_mean
-
-        e0 = evaluate({})
+        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
+        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
+        search = self._search(block, dt, base, t)
+        e0 = search.evaluate({})
         # Bullet's own rigid contact is preferred whenever it is within 1 %: every departure from it
         # (softness, restitution) brings side effects of its own (penetration, bouncing corners)
-        if _rel_err(e0, t) > 0.01:
+        if search.err(e0) > 0.01:
             if e0 > t:
-                _search_compliant(evaluate, t, block.mass_kg, dt)
+                _search_compliant(search, t, block.mass_kg, dt)
             else:
-                _search_restitution(evaluate, t)
-        # a setting whose impacts scatter does not give the block one restitution coefficient
-        consistent = [r for r in tried if math.isfinite(r[1]) and r[1] <= _CAL_MAX_SPREAD * t]
-        eta, std, extra = min(consistent or tried, key=lambda r: _rel_err(r[0], t))
-        reached = bool(consistent) and _rel_err(eta, t) <= 0.01
-        settings = {k: None for k in self.CONTACT_KEYS}
-        settings.update(extra)
-        note = _calibration_note(tried, consistent, eta, extra, reached, t)
+                _search_restitution(search, t)
+        eta, std, extra, reached = search.best()
         res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings=settings, note=note, evaluations=len(tried))
-        calibration.store(key, {k: v for k, v in res.to_dict().items() if k != "rel_error"})
+                                settings={k: None for k in self.CONTACT_KEYS} | extra,
+                                note=_calibration_note(search, eta, extra, reached), evaluations=len(search.tried))
+        self._store(key, res, {"tried": search.tried})
         return res
 
+    def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:
+        """Bullet's rigid contact and a grid of stiffness ``k`` (100 × 10^(−2…0)·m/Δt², nine values
+        up to the stiffest the step resolves) × damping ratio ζ (0.05–1, ``c = 2ζ√(k·m)``)."""
+        m_kg = block.mass_kg
+        kmax = m_kg / dt**2
+        grid = [{}] + [{"contact_stiffness_n_m": float(k), "contact_damping_n_s_m": float(2 * z * math.sqrt(k * m_kg)),
+                        "zeta": z}
+                       for k in np.logspace(math.log10(kmax) - 2.0, math.log10(kmax), 9)
+                       for z in (0.05, 0.1, 0.2, 0.5, 1.0)]
+        return grid, f"Bullet's rigid contact and stiffness {kmax / 100:.3g}–{kmax:.3g} N/m × damping ratio 0.05–1"
 
-def _rel_err(e: float, t: float) -> float:
-    """|e − t|/t, infinite for a non-finite e [-]."""
-    return abs(e - t) / t if math.isfinite(e) else math.inf
+    def _describe_contact(self, row: dict) -> str:
+        if not row.get("contact_stiffness_n_m"):
+            return "Bullet's rigid contact"
+        return f"stiffness {row['contact_stiffness_n_m']:.4g} N/m, damping ratio {row['zeta']:g}"
 
 
-def _search_compliant(evaluate, t: float, mass_kg: float, dt: float) -> None:
+def _search_compliant(search, t: float, mass_kg: float, dt: float) -> None:
     """A target below the rigid contact's η: bisection on log10 of a compliant contact's stiffness
     at damping ratio 1 (``c = 2√(k m)``); a softer contact loses more energy at the impact."""
     # log10 k: lo gives low η, hi high η. The contact's natural frequency √(k/m) must be
@@ -792,29 +518,29 @@ def _search_compliant(evaluate, t: float, mass_kg: float, dt: float) -> None:
     for _ in range(12):
         mid = 0.5 * (lo + hi)
         k = 10.0 ** mid
-        e = evaluate({"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * mass_kg)})
+        e = search.evaluate({"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * mass_kg)})
         if not math.isfinite(e) or e < t:
             lo = mid
         else:
             hi = mid
-        if _rel_err(e, t) <= 0.0025:
+        if search.err(e) <= 0.0025:
             break
 
 
-def _search_restitution(evaluate, t: float) -> None:
+def _search_restitution(search, t: float) -> None:
     """A target above the rigid contact's η: Bullet's restitution with a 0.1 mm contact-breaking
     threshold, scanned over [0.5, 0.98] and bisected between the neighbours that bracket ``t``."""
     extra0 = {"contact_breaking_threshold_m": 1e-4}
     grid = np.round(np.arange(0.5, 0.981, 0.04), 3)
-    vals = [evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
+    vals = [search.evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
     # refine between the neighbours that bracket the target, if any
     for j in range(len(grid) - 1):
         if (vals[j] - t) * (vals[j + 1] - t) < 0:
             lo, hi = float(grid[j]), float(grid[j + 1])
             for _ in range(5):
                 mid = 0.5 * (lo + hi)
-                e = evaluate({**extra0, "restitution_coef": mid})
-                if _rel_err(e, t) <= 0.0025:
+                e = search.evaluate({**extra0, "restitution_coef": mid})
+                if search.err(e) <= 0.0025:
                     break
                 if (e - t) * (vals[j] - t) > 0:
                     lo = mid
@@ -823,56 +549,22 @@ def _search_restitution(evaluate, t: float) -> None:
             break
 
 
-def _calibration_note(tried: list, consistent: list, eta: float, extra: dict, reached: bool, t: float) -> str:
-    """What the calibration found, in words (``tried``: ``(η mean, η spread, settings)`` per run)."""
+def _calibration_note(search, eta: float, extra: dict, reached: bool) -> str:
+    """What the corner calibration found, in words."""
     if not extra:
         note = ("Bullet's rigid contact (its default) gives this η." if reached else
                 f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
     elif "restitution_coef" in extra:
         note = ("reached with Bullet's restitution." if reached else
                 f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
-                f"per-impact spread within {100 * _CAL_MAX_SPREAD:g} % of the target.")
+                f"per-impact spread within {100 * CAL_MAX_SPREAD:g} % of the target.")
     else:
         note = ("reached with a compliant contact (damping ratio 1)." if reached else
                 f"not reached: softening the contact lowers η only to {eta:.4f}.")
-    scattered = [r for r in tried if r not in consistent and _rel_err(r[0], t) <= 0.01]
+    consistent = search.consistent()
+    scattered = [r for r in search.tried if r not in consistent and search.err(r[0]) <= 0.01]
     if not reached and scattered:
         r = min(scattered, key=lambda r: r[1])
         note += (f" Bullet's restitution e = {r[2].get('restitution_coef', float('nan')):.3g} gives a mean of "
                  f"{r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (the corner bounces), so it is not taken.")
     return note
-
-
-def _impact_etas(block: Block, theta_rad, body_state: tuple, n_impacts: int) -> list[float]:
-    """η of the first ``n_impacts`` impacts of a free-rocking trajectory, from energies (see
-    :meth:`PybulletAdapter.measure_restitution`); ``body_state`` is ``(x_c, z_c, ẋ_c, ż_c, θ̇)``."""
-    xc, zc, vx, vz, om = body_state
-    m, h = block.mass_kg, block.height_m
-    E = 0.5 * m * (vx * vx + vz * vz) + 0.5 * block.inertia_cm_kg_m2 * om * om + m * G * zc
-    K = E - m * G * h / 2
-    th = theta_rad
-    tol = uplift_tol_rad(block)
-    side = np.where(th > tol, 1, np.where(th < -tol, -1, 0))
-    # swings: maximal runs of samples on one side; an impact separates two swings of opposite sides
-    idx = np.flatnonzero(side != 0)
-    if idx.size == 0:
-        return []
-    swings = []
-    start = idx[0]
-    for a, b in zip(idx[:-1], idx[1:]):
-        if side[b] != side[a]:
-            swings.append((start, a + 1))
-            start = b
-    swings.append((start, idx[-1] + 1))
-    Ks = []
-    for a, b in swings[:-1]:  # the last swing may be cut by the end of the run
-        if b - a < 8:
-            break
-        mid = K[a + (b - a) // 4: a + 3 * (b - a) // 4]
-        Ks.append(float(np.median(mid)))
-    etas = []
-    for k0, k1 in zip(Ks[:-1], Ks[1:]):
-        if k0 <= 0 or k1 < 0 or len(etas) >= n_impacts:
-            break
-        etas.append(math.sqrt(k1 / k0))
-    return etas

@@ -24,7 +24,7 @@ from enum import Enum
 
 import numpy as np
 
-from .energy import free_rocking_fate
+from .energy import ENERGY_GAIN_TOL, free_rocking_fate
 from .model import FLAT_ANGLE_RAD  # noqa: F401 - re-exported: the classifier's flat-on-its-side angle
 
 
@@ -137,6 +137,82 @@ def overturn_certain(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pul
     """
     a = abs(theta_rad)
     return (a >= FLAT_ANGLE_RAD) | ((t_s >= t_pulse_end_s) & (a > alpha_rad) & (theta_rad * theta_dot_rad_s > 0.0))
+
+
+#: The end-of-run rule's margin under the barrier, as a fraction of the barrier height ``p²(1 − cos α)``
+#: (:func:`overturn_impossible`) [-]: the energy gain the validity rule tolerates, so a trapped block
+#: could only overturn by gaining more energy than an engine may without the ``energy-gain`` flag.
+TRAPPED_MARGIN = ENERGY_GAIN_TOL
+
+#: Why a contact engine's run stopped (:func:`run_end`), besides reaching its longest tail (``"tail"``).
+END_REASONS = ("diverged", "flat", "overturn", "trapped")
+
+
+def overturn_impossible(theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: float):
+    """Where a freely rocking block can no longer overturn: its ideal free-rocking energy
+    ``E = ½θ̇² + p²cos(α − |θ|)`` is below the barrier ``p²`` by more than :data:`TRAPPED_MARGIN` of
+    the barrier height ``p²(1 − cos α)``.
+
+    Free rocking only loses energy (docs/physics.md §2), so such a block is trapped; a block at rest
+    on its base is the extreme case. The margin keeps a block balancing just under the barrier
+    running (the validity rule's ``energy-gain`` check watches for engines that gain energy).
+    Element by element on arrays (a boolean array).
+    """
+    p2 = p_rad_s * p_rad_s
+    e_trap = p2 - TRAPPED_MARGIN * p2 * (1.0 - math.cos(alpha_rad))
+    th = np.asarray(theta_rad, dtype=float)
+    om = np.asarray(theta_dot_rad_s, dtype=float)
+    return 0.5 * om * om + p2 * np.cos(alpha_rad - np.abs(th)) < e_trap
+
+
+def turned_back(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pulse_end_s: float) -> bool:
+    """Whether, after the excitation, the block passed a turning point (θ̇ changes sign between two
+    samples after ``t_pulse_end_s`` [s]) with ``|θ| ≤ α``: from there a freely rocking block's energy
+    is below the barrier and can only fall, so it cannot overturn any more.
+
+    MuJoCo's end-of-run test (and, segment by segment, MuJoCo Warp's), kept beside
+    :func:`overturn_impossible`: its calibrations and maps were measured with runs that end at the
+    segment where this holds, and another end changes the impacts counted (docs/engines.md).
+    """
+    t = np.asarray(t_s, dtype=float)
+    post = t >= t_pulse_end_s
+    sgn = np.sign(np.asarray(theta_dot_rad_s, dtype=float)[post])
+    a = np.abs(np.asarray(theta_rad, dtype=float))[post]
+    return bool(((sgn[:-1] * sgn[1:] <= 0) & (a[1:] <= alpha_rad)).any())
+
+
+def run_end(step, theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: float, pulse_end_step: float,
+            min_tail_step: float) -> tuple[int, str] | None:
+    """Where a contact engine's run may stop, on new samples: the first of them, and why.
+
+    The one end-of-run rule of every contact engine, tested on what the engine measured at each
+    sample (its step number ``step`` [-], θ [rad], θ̇ [rad/s]), in this order at a sample:
+
+    1. ``diverged``: θ or θ̇ is not finite;
+    2. ``flat`` / ``overturn``: the overturn is certain (:func:`overturn_certain`, the classifier's
+       rule: flat on its side, or from step ``pulse_end_step`` on ``|θ| > α`` moving outward);
+    3. ``trapped``: from step ``min_tail_step`` on the block can no longer overturn
+       (:func:`overturn_impossible`).
+
+    ``pulse_end_step`` and ``min_tail_step`` may be ``math.inf`` (a free-rocking test: only the flat
+    rule and divergence stop it). Returns ``(index into the new samples, reason)``, or None when the
+    run goes on (until its longest tail, ``"tail"``).
+    """
+    i = np.asarray(step)
+    th = np.asarray(theta_rad, dtype=float)
+    om = np.asarray(theta_dot_rad_s, dtype=float)
+    bad = ~(np.isfinite(th) & np.isfinite(om))
+    certain = overturn_certain(i, th, om, alpha_rad=alpha_rad, t_pulse_end_s=pulse_end_step)
+    trapped = (i >= min_tail_step) & overturn_impossible(th, om, alpha_rad=alpha_rad, p_rad_s=p_rad_s)
+    hit = np.flatnonzero(bad | certain | trapped)
+    if not hit.size:
+        return None
+    k = int(hit[0])
+    if bad[k]:
+        return k, "diverged"
+    if certain[k]:
+        return k, "flat" if abs(th[k]) >= FLAT_ANGLE_RAD else "overturn"
+    return k, "trapped"
 
 
 def decision_index(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pulse_end_s: float) -> tuple[int, bool]:

@@ -11,7 +11,8 @@ import pytest
 
 from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.base import uplift_tol_rad
-from rockbench.engines.contact import RENAMED_SETTINGS, ContactEngineAdapter, free_rocking_etas
+from rockbench.engines.contact import RENAMED_SETTINGS, ContactEngineAdapter
+from rockbench.engines.free_rocking import free_rocking_etas
 from rockbench.reference_solver.classify import FLAT_ANGLE_RAD, decision_index, overturn_certain
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.pulses import RecordPulse
@@ -104,8 +105,8 @@ def test_shared_settings_are_checked_once_for_every_contact_engine():
 @pytest.mark.parametrize("dt", [0.0, -1e-3, math.nan, "x"])
 def test_one_time_step_rule(dt):
     with pytest.raises(ConfigError, match="--dt must be > 0 s"):
-        _Toy().check_dt(dt)
-    assert _Toy().check_dt(None) == 1e-3
+        _Toy().time_step_s(dt)
+    assert _Toy().time_step_s(None) == 1e-3
 
 
 @pytest.mark.parametrize("engine", sorted(RENAMED_SETTINGS))
@@ -158,3 +159,23 @@ def test_contact_points_must_be_a_whole_number_from_3_to_101(value):
     for name in ("mujoco", "pybullet", "exudyn"):
         with pytest.raises(ConfigError, match=rf"{name} setting 'contact_points' must be a whole number from 3 to 101"):
             adapter_class(name)(contact_points=value)
+
+
+def test_run_end_is_one_rule_in_order_diverged_overturn_trapped():
+    from rockbench.reference_solver.classify import TRAPPED_MARGIN, overturn_impossible, run_end
+
+    alpha, p = 0.25, 3.0
+    kw = dict(alpha_rad=alpha, p_rad_s=p, pulse_end_step=10, min_tail_step=20)
+    steps = np.arange(5, 9)
+    # during the pulse, rocking freely: nothing stops it (trapped waits for min_tail_step)
+    assert run_end(steps, [0.01, 0.02, 0.01, 0.0], [0.1, 0.0, -0.1, -0.2], **kw) is None
+    assert run_end(steps, [0.01, np.nan, 0.01, 0.0], [0.1, 0.0, -0.1, -0.2], **kw) == (1, "diverged")
+    assert run_end(steps, [0.01, FLAT_ANGLE_RAD, 0.01, 0.0], [0.1, 0.0, -0.1, -0.2], **kw) == (1, "flat")
+    # past α moving outward counts only from the pulse's end on
+    assert run_end(np.arange(8, 12), [0.3, 0.3, 0.3, 0.3], [1.0] * 4, **kw) == (2, "overturn")
+    # at rest on the base: trapped from min_tail_step on
+    assert run_end(np.arange(18, 22), [0.0] * 4, [0.0] * 4, **kw) == (2, "trapped")
+    # the margin: just below the barrier is not trapped, 5 % of its height below it is
+    e_trap = p * p - TRAPPED_MARGIN * p * p * (1.0 - np.cos(alpha))
+    om = np.sqrt(2.0 * (np.array([e_trap * 1.001, e_trap * 0.999]) - p * p * np.cos(alpha)))
+    assert overturn_impossible([0.0, 0.0], om, alpha_rad=alpha, p_rad_s=p).tolist() == [False, True]

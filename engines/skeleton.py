@@ -1,0 +1,473 @@
+"""The contact-engine skeleton: one stepping loop, one end of a run, one free-rocking test, one
+calibration frame; an engine adapter fills in a few hooks.
+
+:class:`SteppedContactAdapter` owns everything a contact engine shares beyond its settings
+(:class:`~rockbench.engines.contact.ContactEngineAdapter`):
+
+* **the run** (:meth:`~SteppedContactAdapter._run`): the pulse is simulated whole, then the run
+  stops at the first sample where floor 1's end-of-run rule
+  (:func:`~rockbench.reference_solver.classify.run_end`: diverged, overturn certain, or trapped
+  below the barrier after ``min_tail_s``) says so, else ``tail_s`` after the pulse. The engine
+  advances in segments (``segment_s``, or :attr:`~SteppedContactAdapter.default_segment_s`) and the
+  rule is tested on each segment's samples; samples after the stop are dropped, so the result does
+  not depend on the segment length;
+* **the read-out** (:meth:`~SteppedContactAdapter._record`): both bottom corners relative to the
+  table (:func:`corners`), the block's own energy
+  (:func:`~rockbench.engines.contact.body_energy_j_kg`), penetration, steps and speed, from the
+  block's pose and velocity that the engine reports (a :class:`Motion`);
+* **the free-rocking test** (:meth:`~SteppedContactAdapter.measure_restitution`): a release from
+  rest at ``theta0_frac·α`` pivoting on the +x corner, η read by the adapter's
+  :attr:`~SteppedContactAdapter.eta_reader` (:mod:`rockbench.engines.free_rocking`);
+* **the calibration frame**: the target and step checks, the layout dispatch (corners, or a row of
+  points along the base tried with 9, 5, 17 points), one cache record shape
+  (:meth:`~SteppedContactAdapter._cached` / :meth:`~SteppedContactAdapter._store`), the closest
+  consistent setting (:class:`Search`) and the distributed contact's search at a price
+  (:meth:`~SteppedContactAdapter._calibrate_distributed_n`).
+
+The hooks an adapter implements (besides the settings hooks of ``ContactEngineAdapter``):
+
+``_world(block, s, dt_s) -> world``
+    Build (or reuse) the scene for the block and the resolved settings ``s``, contact parameters set.
+``_start(world, block, s, dt_s, pulse, theta0_rad, n_steps) -> ndarray (1, k)``
+    Put the block at rest at ``theta0_rad`` pivoting on its lower corner (:func:`pivot_pose`), the
+    table at rest at x = 0, load the drive of ``pulse`` (None: free rocking) for ``n_steps``
+    steps of ``dt_s``; return the state of sample 0 as one row of the engine's choice.
+``_advance(world, n_from, n_to) -> ndarray (n_to − n_from, k)``
+    Step from step ``n_from`` to ``n_to``; the states of samples ``n_from + 1 … n_to``.
+``_angles(world, rows) -> (θ [rad], θ̇ [rad/s])``
+    The rotation about +y and its rate from state rows.
+``_motion(world, block, s, data, t_s, pulse) -> Motion``
+    The block's centre of mass (x, height above the table top, velocities), θ, θ̇ and the table's
+    position and velocity from all the state rows of a run, plus engine diagnostics.
+
+and, for the calibration, ``_calibrate_corners`` (the engine's search on its own contact
+parameters) and, where it offers a row of points along the base, ``_distributed_grid``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..reference_solver.classify import run_end
+from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import Block
+from ..reference_solver.restitution import Restitution
+from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import ContactEngineAdapter, body_energy_j_kg
+from .free_rocking import PEAK_RATIO, EtaReader, first_quarter_s
+
+__all__ = ["SteppedContactAdapter", "Motion", "Search", "corners", "pivot_pose", "run_steps",
+           "CAL_MAX_SPREAD", "MAX_PRICE_TRIES"]
+
+#: Largest spread (standard deviation) of the per-impact η, as a fraction of the target, that a
+#: calibrated setting may show: beyond it the block has no single restitution coefficient [-].
+CAL_MAX_SPREAD = 0.02
+
+#: How many candidates within 1 % of the target the distributed contact's search prices at most.
+MAX_PRICE_TRIES = 8
+
+
+@dataclass
+class Motion:
+    """The block's state over a run, sample by sample, as the engine reports it (``(n,)`` arrays).
+
+    Attributes
+    ----------
+    x_m, z_m : ndarray
+        Centre of mass: x in the world, height above the table top [m].
+    theta_rad, theta_dot_rad_s : ndarray
+        Rotation about +y [rad] and its rate [rad/s].
+    vx_m_s, vz_m_s : ndarray
+        Velocity of the centre of mass in the world [m/s].
+    table_x_m, table_vx_m_s : ndarray or None
+        The table's position and velocity along x [m], [m/s]; None: at rest at 0.
+    diagnostics : dict
+        The engine's own figures for the trajectory (lateral drift, table tracking, ...).
+    """
+
+    x_m: np.ndarray
+    z_m: np.ndarray
+    theta_rad: np.ndarray
+    vx_m_s: np.ndarray
+    vz_m_s: np.ndarray
+    theta_dot_rad_s: np.ndarray
+    table_x_m: np.ndarray | None = None
+    table_vx_m_s: np.ndarray | None = None
+    diagnostics: dict = field(default_factory=dict)
+
+
+def corners(block: Block, xc, zc, th, u_tab):
+    """The (+x, −x) bottom corners relative to the table: x and height above its top, ``(n, 2)`` each
+    [m], from the centre of mass (x, height) [m], θ [rad] and the table's x [m]."""
+    b, h = block.width_m, block.height_m
+    c, s = np.cos(th), np.sin(th)
+    xs, zs = [], []
+    for side in (1.0, -1.0):
+        # rotation about +y by θ: body (x, z) -> (x cosθ + z sinθ, −x sinθ + z cosθ)
+        xs.append(xc + side * b / 2 * c - h / 2 * s - u_tab)
+        zs.append(zc - side * b / 2 * s - h / 2 * c)
+    return np.stack(xs, axis=1), np.stack(zs, axis=1)
+
+
+def pivot_pose(block: Block, theta0_rad: float) -> tuple[float, float]:
+    """The centre of mass (x, height above the table) [m] of a block at rest at ``theta0_rad``
+    pivoting on its lower corner (x = ±b/2, z = 0)."""
+    s = 1.0 if theta0_rad >= 0 else -1.0
+    R, alpha = block.half_diagonal_m, block.alpha_rad
+    return s * (block.width_m / 2 - R * math.sin(alpha - abs(theta0_rad))), R * math.cos(alpha - abs(theta0_rad))
+
+
+def _worlds(rows) -> np.ndarray:
+    """State rows with a leading world axis: ``(n, k)`` of one world becomes ``(1, n, k)``."""
+    rows = np.asarray(rows, dtype=float)
+    return rows[None] if rows.ndim == 2 else rows
+
+
+def run_steps(dt_s: float, t_pulse_end_s: float, tail_s: float, min_tail_s: float,
+              duration_s: float | None = None) -> tuple[int, int, float]:
+    """Steps of a run: the most, the pulse's and the first at which the trapped rule applies (inf
+    for a free-rocking test of ``duration_s`` [s]) [-]."""
+    t_stop = (t_pulse_end_s + tail_s) if duration_s is None else duration_s
+    n_max = int(math.ceil(t_stop / dt_s - 1e-9))
+    n_pulse = int(math.ceil(t_pulse_end_s / dt_s - 1e-9))
+    n_min = n_pulse + int(math.ceil(min_tail_s / dt_s - 1e-9)) if duration_s is None else math.inf
+    return n_max, n_pulse, n_min
+
+
+class Search:
+    """The free-rocking runs of a calibration search and its pick.
+
+    ``evaluate(extra)`` measures η with the base settings updated by ``extra`` (the contact
+    settings tried) and records ``(η mean, η spread, extra)``; :meth:`best` is the closest setting
+    whose per-impact spread stays within :data:`CAL_MAX_SPREAD` of the target (any setting when none
+    does), and whether it is within 1 %.
+    """
+
+    def __init__(self, measure, target: float):
+        self.measure, self.target, self.tried = measure, target, []
+
+    def evaluate(self, extra: dict) -> float:
+        m = self.measure(extra)
+        self.tried.append((m.eta_mean, m.eta_std, extra))
+        return m.eta_mean
+
+    def err(self, eta: float) -> float:
+        """|η − target|/target, infinite for a non-finite η [-]."""
+        return abs(eta - self.target) / self.target if math.isfinite(eta) else math.inf
+
+    def consistent(self) -> list:
+        return [r for r in self.tried if math.isfinite(r[1]) and r[1] <= CAL_MAX_SPREAD * self.target]
+
+    def best(self) -> tuple[float, float, dict, bool]:
+        """``(η, spread, extra, reached)`` of the pick."""
+        ok = self.consistent()
+        eta, std, extra = min(ok or self.tried, key=lambda r: self.err(r[0]))
+        return eta, std, extra, bool(ok) and self.err(eta) <= 0.01
+
+
+class SteppedContactAdapter(ContactEngineAdapter):
+    """A contact engine on the shared skeleton (module docstring): the adapter implements the hooks."""
+
+    #: how η is read from the free-rocking test (:mod:`rockbench.engines.free_rocking`)
+    eta_reader: ClassVar[EtaReader] = PEAK_RATIO
+    #: steps between end-of-run tests, in seconds, for engines without a ``segment_s`` setting [s]
+    default_segment_s: ClassVar[float] = 0.05
+    #: worlds an engine steps together (1: one case at a time); an engine that steps a batch sets
+    #: more, and ``batching = "native"``: cases of one block, settings and step run in batches
+    max_worlds: ClassVar[int] = 1
+    #: the settings that describe the contact (what a calibration chooses)
+    CONTACT_KEYS: ClassVar[tuple] = ()
+    #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
+    MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
+
+    def explicit_contact(self) -> bool:
+        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
+        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
+
+    # -- hooks --------------------------------------------------------------------------------
+    def _world(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _start(self, world, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
+               n_steps: int) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _advance(self, world, n_from: int, n_to: int) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _angles(self, world, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
+        raise NotImplementedError
+
+    def _motion(self, world, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray,
+                pulse) -> Motion:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    # -- the run ------------------------------------------------------------------------------
+    def _segment_steps(self, s: dict, dt_s: float) -> int:
+        return max(1, int(round(float(s.get("segment_s", self.default_segment_s)) / dt_s)))
+
+    def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
+             duration_s: float | None = None) -> tuple[Trajectory, Motion]:
+        """One run: a pulse with the end-of-run rule, or (``duration_s`` [s]) free rocking from rest
+        at ``theta0`` [rad]; the trajectory and the block's motion."""
+        return self._run_worlds(block, s, dt, [pulse], theta0, duration_s)[0]
+
+    def _run_worlds(self, block: Block, s: dict, dt: float, pulses: list, theta0: float = 0.0,
+                    duration_s: float | None = None) -> list[tuple[Trajectory, Motion]]:
+        """The stepping loop: one world per pulse (at most :attr:`max_worlds`), stepped together.
+
+        Every world's samples are tested with floor 1's end-of-run rule after each segment, up to
+        its own longest tail; a world that has stopped is stepped on with the others (a batch
+        cannot drop a world) but its later samples are dropped. With :attr:`max_worlds` 1 the
+        hooks see one world (``_start`` gets the pulse, ``_advance`` returns ``(n, k)``); with more,
+        ``_start`` gets the list of pulses and both return a leading world axis.
+        """
+        world = self._world(block, s, dt)
+        t_end = [p.duration_s if p is not None else 0.0 for p in pulses]
+        steps = [run_steps(dt, te, float(s["tail_s"]), float(s["min_tail_s"]), duration_s) for te in t_end]
+        n_max = [n for n, _, _ in steps]
+        one = self.max_worlds == 1
+        rows = [_worlds(self._start(world, block, s, dt, pulses[0] if one else pulses, theta0, max(n_max)))]
+        seg = self._segment_steps(s, dt)
+        stop: list = [None] * len(pulses)
+        ended = ["tail"] * len(pulses)
+        n_done = 0
+        t0, c0 = time.perf_counter(), time.process_time()
+        while n_done < max(n for n, e in zip(n_max, stop) if e is None):
+            n_to = min(max(n for n, e in zip(n_max, stop) if e is None), n_done + seg)
+            new = _worlds(self._advance(world, n_done, n_to))
+            rows.append(new)
+            for w, (n_w, n_pulse, n_min) in enumerate(steps):
+                if stop[w] is not None:
+                    continue
+                m = min(n_to, n_w) - n_done
+                th, om = self._angles(world, new[w, :m])
+                end = run_end(np.arange(n_done + 1, n_done + m + 1), th, om, alpha_rad=block.alpha_rad,
+                              p_rad_s=block.p_rad_s, pulse_end_step=n_pulse if duration_s is None else math.inf,
+                              min_tail_step=n_min)
+                if end is not None:
+                    stop[w], ended[w] = n_done + 1 + end[0], end[1]
+                elif n_done + m >= n_w:
+                    stop[w] = n_w
+            n_done = n_to
+            if all(e is not None for e in stop):
+                break
+        run = {"wall_s": (time.perf_counter() - t0) / len(pulses), "cpu_s": (time.process_time() - c0) / len(pulses)}
+        data = np.concatenate(rows, axis=1)
+        return [self._record(world, block, s, dt, p, te, data[w, :stop[w] + 1], {**run, "ended_by": ended[w]})
+                for w, (p, te) in enumerate(zip(pulses, t_end))]
+
+    def _record(self, world, block: Block, s: dict, dt: float, pulse, t_end: float, data: np.ndarray,
+                run: dict) -> tuple[Trajectory, Motion]:
+        """The trajectory from a run's state rows: θ, θ̇, both bottom corners relative to the table,
+        the block's own energy, and diagnostics (``run``: wall and CPU time, how it ended)."""
+        n = data.shape[0]
+        t = np.arange(n) * dt
+        m = self._motion(world, block, s, data, t, pulse)
+        u_tab = np.zeros(n) if m.table_x_m is None else m.table_x_m
+        v_tab = np.zeros(n) if m.table_vx_m_s is None else m.table_vx_m_s
+        corner_x, corner_z = corners(block, m.x_m, m.z_m, m.theta_rad, u_tab)
+        energy = body_energy_j_kg(block, m.vx_m_s - v_tab, m.vz_m_s, m.theta_dot_rad_s, m.z_m)
+        steps, wall, cpu = n - 1, run["wall_s"], run["cpu_s"]
+        # CPU time too: on a shared machine the wall time says more about the neighbours
+        diag = {"max_penetration_m": float(max(-np.nanmin(corner_z), 0.0)), "steps": int(steps), "wall_s": wall,
+                "cpu_s": cpu, "steps_per_s": (steps / wall if wall > 0 else None),
+                "steps_per_cpu_s": (steps / cpu if cpu > 0 else None), "ended_by": run["ended_by"],
+                "drive": s["drive"], "planar": bool(s["planar"]), **m.diagnostics}
+        flags = [] if np.all(np.isfinite(data)) else ["diverged"]
+        traj = Trajectory(t_s=t, theta_rad=m.theta_rad, theta_dot_rad_s=m.theta_dot_rad_s, t_pulse_end_s=t_end,
+                          flags=flags, diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
+                          corner_x_m=corner_x, corner_z_m=corner_z, energy_j_kg=energy)
+        return traj, m
+
+    def _simulate(self, case) -> Trajectory:
+        """One case with the resolved settings."""
+        dt = self.dt_for(case)
+        s = self.resolve(case.block, case.restitution, dt)
+        tr, _ = self._run(case.block, s, dt, case.pulse)
+        tr.diagnostics.update(self._settings_diagnostics(s))
+        return tr
+
+    def _simulate_many(self, cases: list) -> list:
+        """Cases one at a time (:attr:`max_worlds` 1), or in batches of worlds grouped by block,
+        resolved settings and step; an engine exception fails its case (its whole batch)."""
+        if self.max_worlds == 1:
+            return super()._simulate_many(cases)
+        out: list = [None] * len(cases)
+        groups: dict = {}
+        for i, c in enumerate(cases):
+            try:
+                dt = self.dt_for(c)
+                s = self.resolve(c.block, c.restitution, dt)
+            except ConfigError:
+                raise
+            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
+                out[i] = e
+                continue
+            key = (json.dumps(c.block.to_dict(), sort_keys=True), dt, json.dumps(s, sort_keys=True, default=str))
+            groups.setdefault(key, (c.block, s, dt, []))[3].append(i)
+        for block, s, dt, idx in groups.values():
+            for k in range(0, len(idx), self.max_worlds):
+                part = idx[k:k + self.max_worlds]
+                try:
+                    runs = self._run_worlds(block, s, dt, [cases[i].pulse for i in part])
+                except Exception as e:  # noqa: BLE001 - the batch failed inside the engine
+                    runs = [(e, None)] * len(part)
+                for i, (tr, _) in zip(part, runs):
+                    if not isinstance(tr, BaseException):
+                        tr.diagnostics.update(self._settings_diagnostics(s))
+                    out[i] = tr
+        return out
+
+    # -- the free-rocking test ----------------------------------------------------------------
+    def _free_rocking_settings(self, block: Block, dt: float) -> dict:
+        """The settings a restitution measurement uses when none are given: those in force (for
+        ``calibrated`` without explicit contact settings, the calibration to Housner's η)."""
+        return self.resolve(block, Restitution(), dt_s=dt)
+
+    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
+                            settings: dict | None = None) -> RestitutionMeasurement:
+        """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation: η impact by
+        impact, read by :attr:`eta_reader`.
+
+        Parameters
+        ----------
+        block : Block
+        theta0_frac : float
+            Release angle as a fraction of α [-].
+        dt_s : float, optional
+            Time step [s] (default: the adapter's).
+        settings : dict, optional
+            Resolved settings to measure (default: :meth:`_free_rocking_settings`).
+        """
+        if not 0.0 < float(theta0_frac) < 1.0:
+            raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
+        dt = self.time_step_s(dt_s)
+        if dt > 0.01:
+            raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
+        s = self._free_rocking_settings(block, dt) if settings is None else settings
+        theta0 = float(theta0_frac) * block.alpha_rad
+        reader = self.eta_reader
+        tr, motion = self._run(block, s, dt, None, theta0=theta0, duration_s=reader.duration_s(block, theta0_frac))
+        etas = reader.etas(block, motion, theta0)
+        shown = {k: s.get(k) for k in self.MEASURED_SETTINGS + self.CONTACT_KEYS}
+        return RestitutionMeasurement(etas=[float(e) for e in etas],
+                                      eta_mean=float(np.mean(etas)) if etas else math.nan,
+                                      eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0,
+                                      dt_s=dt, settings=shown, method=reader.method,
+                                      first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad))
+
+    # -- the calibration frame (the dispatch and the cache are ContactEngineAdapter's) -----------
+    def _search(self, block: Block, dt: float, base: dict, target: float) -> Search:
+        """A :class:`Search` measuring free rocking with ``base`` updated by each candidate."""
+        return Search(lambda extra: self.measure_restitution(block, dt_s=dt, settings={**base, **extra}), target)
+
+    def _fixed(self, contact: dict) -> "SteppedContactAdapter":
+        """A copy of this adapter with explicit contact settings (no calibration behind its runs);
+        ``contact`` holds :attr:`CONTACT_KEYS` and, for a row along the base, ``contact_points``."""
+        contact = self.canonical_settings(contact)
+        st = {**self.settings, **{k: contact.get(k) for k in self.CONTACT_KEYS}}
+        if self.distributed_contact:
+            pts = contact.get("contact_points")
+            st.update(contact="distributed" if pts else "corners", contact_points=pts or None)
+        return type(self)(**st)
+
+    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
+        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
+        from . import price as _price
+
+        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        fixed = self._fixed(c.settings)
+        m = fixed.measure_restitution(block, dt_s=dt)
+        return _price.contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt,
+                                    first_quarter_s=m.first_quarter_s)
+
+    # -- the distributed contact's search -----------------------------------------------------
+    def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:  # pragma: no cover
+        """The candidates of the distributed search (contact settings, plus keys of the engine's own
+        for notes) and a phrase describing the range searched."""
+        raise NotImplementedError
+
+    def _describe_contact(self, row: dict) -> str:  # pragma: no cover - engine wording
+        """One candidate of the distributed search in words, for the notes."""
+        raise NotImplementedError
+
+    def _calibrate_distributed_n(self, block: Block, t: float, n: int, dt: float,
+                                 use_cache: bool) -> CalibrationResult:
+        """A row of ``n`` points along the base (issue 18), calibrated to ``t`` at a price.
+
+        Every candidate of :meth:`_distributed_grid` is measured; those within 1 % of the target
+        whose impacts agree within :data:`CAL_MAX_SPREAD` are tried closest first (at most
+        :data:`MAX_PRICE_TRIES`) until one keeps the static uplift threshold within 2 % of g·tanα and
+        raises no ``slip`` flag in the anti-slip cells (:func:`rockbench.engines.price.contact_price`);
+        its price is recorded, with its free-rocking period change.
+        """
+        from . import price as _price
+
+        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}, "contact_points": n}
+        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION_DIST, **self._calibration_identity(base),
+                              points=n, price_cells=[list(c) for c in _price.PRICE_CELLS])
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
+        grid, searched = self._distributed_grid(block, dt)
+        rows = []
+        for g in grid:
+            try:
+                mm = self.measure_restitution(block, dt_s=dt, settings={**base, **{k: g.get(k) for k in self.CONTACT_KEYS}})
+                rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "n": len(mm.etas)})
+            except Exception as e:  # noqa: BLE001 - a setting that breaks is recorded, the search goes on
+                rows.append({**g, "eta": math.nan, "eta_std": math.nan, "n": 0, "error": f"{type(e).__name__}: {e}"})
+        regular = [r for r in rows if math.isfinite(r["eta"]) and r["n"] >= 2 and r["eta_std"] <= CAL_MAX_SPREAD * r["eta"]]
+        within = sorted((r for r in regular if abs(r["eta"] - t) <= 0.01 * t), key=lambda r: abs(r["eta"] - t))
+        chosen, price, tried = None, None, []
+        rest = Restitution("constant", value=t)
+        for r in within[:MAX_PRICE_TRIES]:
+            pr = _price.contact_price(self._fixed({k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}),
+                                      block, rest, dt)
+            tried.append({**r, "uplift_ratio": pr["uplift"].get("ratio"), "n_slip": pr["anti_slip"]["n_slip"],
+                          "n_jump": pr["anti_slip"]["n_jump"]})
+            if pr["counts"]:
+                chosen, price = r, pr
+                break
+        lo = min((r["eta"] for r in regular), default=math.nan)
+        hi = max((r["eta"] for r in regular), default=math.nan)
+        span = f"{n} {self.POINT_UNIT} along the base; {searched}: regular free rocking spans η = {lo:.4f}–{hi:.4f}"
+        if chosen is not None:
+            r = chosen
+            m = self._fixed({k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}).measure_restitution(block, dt_s=dt)
+            price["period_change"] = (m.first_quarter_s / price["rigid_first_quarter_s"] - 1.0) if m.first_quarter_s else None
+            price["first_quarter_s"] = m.first_quarter_s
+            note = (f"reached with {n} {self.POINT_UNIT} along the base, {self._describe_contact(r)}; "
+                    f"{_price.price_line(price)}; {span}.")
+        else:
+            r = (min(within, key=lambda r: abs(r["eta"] - t)) if within else
+                 min(regular or [x for x in rows if math.isfinite(x["eta"])] or rows,
+                     key=lambda r: abs(r["eta"] - t) if math.isfinite(r["eta"]) else math.inf))
+            note = f"not reached with the distributed contact: {self._why_not(r, within, tried, t)}; {span}."
+        res = CalibrationResult(eta_target=t, eta_measured=float(r["eta"]), eta_std=float(r["eta_std"]),
+                                reached=chosen is not None,
+                                settings={k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n},
+                                note=note, evaluations=len(rows), price=price)
+        self._store(key, res, {"grid": rows, "price_tried": tried})
+        return res
+
+    def _why_not(self, r: dict, within: list, tried: list, t: float) -> str:
+        """Why the distributed search reached nothing, in words."""
+        if not within:
+            return f"the closest regular η is {r['eta']:.4f} ({100 * (r['eta'] - t) / t:+.2f} %)"
+        return (f"{len(within)} settings give η within 1 % with regular impacts, but none keeps the static uplift "
+                f"threshold within 2 % of g·tanα and the anti-slip cells free of slip (tried: "
+                + "; ".join(f"{self._describe_contact(x)}: uplift {x['uplift_ratio']:.3f}, {x['n_slip']} slip"
+                            for x in tried) + ")")
+
+    def _calibration_identity(self, base: dict) -> dict:
+        """What besides block, target and step a calibration depends on (part of its cache key)."""
+        return {"planar": base["planar"], "friction": base["friction"], "drive": base["drive"]}
+
