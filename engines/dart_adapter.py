@@ -2,22 +2,28 @@
 
 The model
 ---------
-A box of full width ``b`` (x), depth ``d`` (y) and height ``h`` (z), with the block's mass and the
-inertia of a uniform box, stands on a box table whose top is z = 0, in a DART ``World`` whose time
-step is the case's Δt. They touch only through DART's own contact: the collision detector
-(``collision_detector``, FCL as shipped) finds the box–box contact points and the boxed-LCP
-constraint solver (Dantzig) computes impulses that keep every contact point from approaching, with
-Coulomb friction (a 4-sided friction pyramid per point). No constraint and no impact law of ours.
+A block of full width ``b`` (x), depth ``d`` (y) and height ``h`` (z), with the block's mass and
+the inertia of a uniform box, stands on a box table whose top is z = 0, in a DART ``World`` whose
+time step is the case's Δt. They touch only through DART's own contact: the collision detector
+(``collision_detector``, FCL as shipped) finds the contact points and the boxed-LCP constraint
+solver (Dantzig) computes impulses that keep every contact point from approaching, with Coulomb
+friction (a 4-sided friction pyramid per point). No constraint and no impact law of ours.
 
 * **Planar** (default): a ``PlanarJoint`` in the z–x plane (translation in z and x, rotation about
-  +y, so θ > 0 tilts the top towards +x: the contract's sign). ``planar=False`` makes it a
-  ``FreeJoint`` (DART reports its velocities in the world frame).
+  +y, so θ > 0 tilts the top towards +x: the contract's sign). Its collision shapes are two spheres
+  of radius ``corner_radius_m`` (0.1 mm) flush inside the bottom corners, in the plane y = 0: one
+  contact point per corner. A box would touch with two points per bottom edge (y = ±d/2) whose
+  constraint rows are identical for a planar joint; the LCP then splits the impulse between them
+  arbitrarily and the mirrored pulse gave a 3 % different max |θ| (docs/dart.md). With the spheres
+  the mirror is exact. ``planar=False`` makes it a box on a ``FreeJoint`` (DART as shipped; DART
+  reports its velocities in the world frame); its four base corners are independent rows, and it
+  is mirror-exact too.
 * **Anti-slip**: friction 10 on both shapes (``friction``; DART combines the two with ``min``).
 * **Restitution**: DART's impact is plastic (restitution 0 as shipped). ``restitution_coeff`` is
   the block's coefficient; the table's is set to 1, since DART multiplies the two. DART applies
   it only where the bounce velocity ``e·v_n`` exceeds 0.1 m/s, a compile-time constant
-  (``DART_BOUNCING_VELOCITY_THRESHOLD``), which the corners of the benchmark's blocks rarely reach
-  (docs/dart.md).
+  (``DART_BOUNCING_VELOCITY_THRESHOLD``), which the corners of the benchmark's blocks rarely reach;
+  where it acts, the landing corner's bounce launches the block off the table (docs/dart.md).
 * **Contact softness**: DART's error reduction (ERP 0.01, at most 1 mm/s) and constraint force
   mixing (1e-5) are static members of its ``ContactConstraint`` that dartpy does not expose; the
   contact stays rigid. ``split_impulse`` (dartpy exposes it) corrects penetration by a separate
@@ -334,8 +340,8 @@ class DartAdapter(SteppedContactAdapter):
 
         DART's contact is rigid and its impact plastic, which is Housner's η_H: the contact as
         shipped (:data:`SHIPPED_CONTACT`) is kept when within 0.5 % of the target. Otherwise the
-        other collision detectors and the split impulse, and (for a target above the shipped η)
-        the restitution coefficients :data:`_RESTITUTIONS_TRIED` are measured, and the closest
+        other collision detectors and the split impulse, and (for a target more than 1 % above the
+        shipped η) the restitution coefficients :data:`_RESTITUTIONS_TRIED` are measured, and the closest
         setting whose impacts agree within 2 % wins. Nothing softens the contact: dartpy does not
         expose its error reduction or constraint force mixing. Cached on disk per engine version,
         block, target, step, planar flag, friction and drive.
@@ -352,7 +358,7 @@ class DartAdapter(SteppedContactAdapter):
                 for split in (False, True):
                     if (det, split) != ("fcl", False):
                         search.evaluate({**SHIPPED_CONTACT, "collision_detector": det, "split_impulse": split})
-            if not (e0 >= target):
+            if not e0 >= 0.99 * target:  # more than 1 % below the target, or no η: try the bounce
                 for e in _RESTITUTIONS_TRIED:
                     search.evaluate({**SHIPPED_CONTACT, "restitution_coeff": e})
         eta, std, extra, reached = search.best()
@@ -372,17 +378,27 @@ class DartAdapter(SteppedContactAdapter):
         else:
             head = (f"reached with {_describe(extra)}" if reached else
                     f"not reached: the closest is {_describe(extra)}, η = {search.best()[0]:.4f}")
+        others = [r[0] for r in search.tried if r[2]["restitution_coeff"] == 0 and r[2] != SHIPPED_CONTACT]
+        if others:
+            head += f"; the other collision detectors and the split impulse give η = {min(others):.4f}–{max(others):.4f}"
         e_tried = [r for r in search.tried if r[2]["restitution_coeff"] > 0]
         if not e_tried:
             return head + "."
-        theta0 = 0.5 * block.alpha_rad
-        v_land = block.width_m * block.p_rad_s * math.sqrt(2.0 * (math.cos(block.alpha_rad - theta0)
-                                                               - math.cos(block.alpha_rad)))
+        v_land = landing_speed_m_s(block, 0.5)
         etas = ", ".join(f"e = {r[2]['restitution_coeff']:g}: {r[0]:.4f} ± {r[1]:.4f}" for r in e_tried)
         return (f"{head}; restitution ({etas}) acts only where e·v_n > {BOUNCE_THRESHOLD_M_S:g} m/s (a compile-time "
                 f"constant of DART; the landing corner of a release from α/2 arrives at {v_land:.3f} m/s), and where "
                 "it acts the corner's bounce launches the block off the table instead of raising η; DART's contact "
                 "softness (ERP, CFM) is not exposed by dartpy.")
+
+
+def landing_speed_m_s(block: Block, theta0_frac: float) -> float:
+    """The speed [m/s] at which the landing corner of a rigid block released from rest at
+    ``theta0_frac·α`` reaches the table: ``b·θ̇₀``, with ``θ̇₀ = p·√(2(cos(α − θ0) − cos α))`` the
+    free-rocking energy's angular speed at θ = 0."""
+    a = block.alpha_rad
+    return block.width_m * block.p_rad_s * math.sqrt(2.0 * (math.cos(a - theta0_frac * a) - math.cos(a)))
+
 
 def _describe(contact: dict) -> str:
     """A contact setting in words, for calibration notes."""
