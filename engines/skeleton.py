@@ -56,10 +56,9 @@ import numpy as np
 from ..reference_solver.classify import run_end
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
-from ..reference_solver.restitution import Restitution, housner_eta
-from . import calibration
+from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, first_reached
+from .contact import ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, EtaReader, first_quarter_s
 
 __all__ = ["SteppedContactAdapter", "Motion", "Search", "corners", "pivot_pose", "run_steps",
@@ -176,14 +175,6 @@ class SteppedContactAdapter(ContactEngineAdapter):
     CONTACT_KEYS: ClassVar[tuple] = ()
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
-    #: version of the calibration (free-rocking test and search); part of the cache key
-    CALIBRATION_VERSION: ClassVar[int] = 1
-    #: version of the distributed contact's calibration; part of its cache key
-    CALIBRATION_VERSION_DIST: ClassVar[int] = 1
-    #: whether the adapter offers a row of contact points along the base (``contact`` layouts)
-    distributed_contact: ClassVar[bool] = False
-    #: what a point of the distributed contact is, in calibration notes
-    POINT_UNIT: ClassVar[str] = "points"
 
     # -- hooks --------------------------------------------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - abstract
@@ -305,50 +296,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                       dt_s=dt, settings=shown, method=reader.method,
                                       first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad))
 
-    # -- the calibration frame ----------------------------------------------------------------
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Contact settings whose free-rocking η reaches ``target_eta`` (1 %), by the ``contact``
-        layout where the engine offers one: :meth:`_calibrate_corners`, or a row of points along the
-        base (:meth:`_calibrate_distributed_n`, with the set number of points or 9, then 5, then 17
-        until one reaches the target at an acceptable price); ``auto``: the corners up to 1 % above
-        Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M)."""
-        t = self.check_target_eta(target_eta)
-        dt = self.time_step_s(dt_s)
-        kind = self.settings.get("contact") if self.distributed_contact else "corners"
-        if kind == "auto":
-            kind = "corners" if t <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
-        if kind != "distributed":
-            return self._calibrate_corners(block, t, dt, use_cache)
-        n_set = self.settings["contact_points"]
-        return first_reached(lambda n: self._calibrate_distributed_n(block, t, n, dt, use_cache),
-                             (n_set,) if n_set is not None else POINTS_TRIED, self.POINT_UNIT)
-
-    def _calibrate_corners(self, block: Block, target: float, dt: float,
-                           use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def _cache_key(self, block: Block, target: float, dt: float, version: int, **identity) -> str:
-        """The calibration cache key: engine, its version, the calibration's ``version``, block,
-        target η, step [s] and what else the result depends on (``identity``)."""
-        return calibration.cache_key(engine=self.name, version=self.version(), calibration_version=version,
-                                     block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                                     target=target, dt=dt, **identity)
-
-    def _cached(self, key: str, use_cache: bool) -> CalibrationResult | None:
-        """The cached calibration under ``key`` (settings under their current names), or None."""
-        rec = calibration.load(key) if use_cache else None
-        if rec is None:
-            return None
-        res = rec["result"]
-        return CalibrationResult(**{**res, "settings": self.canonical_settings(res["settings"])})
-
-    @staticmethod
-    def _store(key: str, res: CalibrationResult, search: dict) -> None:
-        """Cache a calibration: ``{"result": …, "search": …}`` (``search``: what was tried)."""
-        calibration.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
-                                "search": search})
-
+    # -- the calibration frame (the dispatch and the cache are ContactEngineAdapter's) -----------
     def _search(self, block: Block, dt: float, base: dict, target: float) -> Search:
         """A :class:`Search` measuring free rocking with ``base`` updated by each candidate."""
         return Search(lambda extra: self.measure_restitution(block, dt_s=dt, settings={**base, **extra}), target)
