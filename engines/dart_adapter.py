@@ -233,6 +233,8 @@ class DartAdapter(SteppedContactAdapter):
     restitution_coeff : float or None
         The block's restitution coefficient in [0, 1] (the table's is 1; DART applies it only above
         a bounce velocity of 0.1 m/s); given, it replaces calibration.
+    corner_radius_m : float
+        Radius of the planar model's corner spheres [m] (at most 1 mm).
     tail_s, min_tail_s : float
         Longest and shortest simulated time after the pulse [s].
     """
@@ -328,7 +330,6 @@ class DartAdapter(SteppedContactAdapter):
                 diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / max(float(np.max(np.abs(u))), 1e-12))
         return Motion(x_m=x, z_m=z, theta_rad=th, vx_m_s=vx, vz_m_s=vz, theta_dot_rad_s=om, table_x_m=u_tab,
                       table_vx_m_s=v_tab, diagnostics=diag)
-
 
     # -- calibration --------------------------------------------------------------------------
     def _calibration_identity(self, base: dict) -> dict:
