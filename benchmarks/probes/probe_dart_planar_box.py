@@ -1,4 +1,5 @@
-"""Why DART's planar block touches the table through two corner spheres, not its box (issue 27).
+"""Why DART's planar block touches the table through two corner spheres, not its box, nor a row of
+spheres along its base (issue 27).
 
 A planar block whose collision shape is its box touches the table with two points per bottom edge
 (y = ±d/2) whose constraint rows are identical for a planar joint. This probe runs the mirror pair
@@ -6,12 +7,17 @@ A planar block whose collision shape is its box touches the table with two point
 adapter's planar model) and the free box (the adapter's ``planar=false``), and prints how far the
 mirrored run's max |θ| is from the run's, and whether the outcomes agree.
 
-Run from the repository root: ``python benchmarks/probes/probe_dart_planar_box.py``.
+``--row`` instead measures free rocking (η of the first four impacts, DART as shipped) with rows of
+3, 5, 9 and 17 spheres along the base (the corner spheres and evenly spaced ones between them), at
+Δt = 0.5 and 0.25 ms, for B3M and B6M: whether a contact along the base could raise η towards η_M.
+
+Run from the repository root: ``python benchmarks/probes/probe_dart_planar_box.py [--row]``.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 
 from rockbench.benchmark.presets import get_preset
 from rockbench.engines import dart_adapter as da
@@ -35,6 +41,39 @@ class _BoxScene(da._Scene):
         node.removeAllShapeNodes()
         da._contact_aspects(node.createShapeNode(dart.dynamics.BoxShape([block.width_m, block.depth_m, block.height_m])),
                             float(s["friction"]), float(s["restitution_coeff"]))
+
+
+def _row_scene(planar_scene, n: int):
+    """The planar scene with ``n`` spheres along the base (the two corner spheres among them)."""
+
+    class _Row(planar_scene):
+        def __init__(self, block, s, dt):
+            super().__init__(block, s, dt)
+            import dartpy as dart
+
+            node, r = self.block.getBodyNode(0), float(s["corner_radius_m"])
+            for i in range(1, n - 1):
+                x = -(block.width_m / 2 - r) + i * (block.width_m - 2 * r) / (n - 1)
+                sphere = node.createShapeNode(dart.dynamics.SphereShape(r))
+                sphere.setRelativeTranslation([x, 0.0, -block.height_m / 2 + r])
+                da._contact_aspects(sphere, float(s["friction"]), float(s["restitution_coeff"]))
+
+    return _Row
+
+
+def row() -> None:
+    print("| block | spheres along the base | Δt [s] | η measured (per-impact spread) | η of each impact |")
+    print("|---|---|---|---|---|")
+    planar_scene = da._Scene
+    for name in ("B3M", "B6M"):
+        for n in (3, 5, 9, 17):
+            for dt in (5e-4, 2.5e-4):
+                da._scene.cache_clear()
+                da._Scene = _row_scene(planar_scene, n)
+                m = get_adapter("dart", settings="defaults").measure_restitution(get_preset(name).block(), dt_s=dt)
+                print(f"| {name} | {n} | {dt:g} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | "
+                      f"{', '.join(f'{e:.4f}' for e in m.etas)} |")
+    da._Scene = planar_scene
 
 
 def _case(name, kind, w, a, sign):
@@ -63,4 +102,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    row() if "--row" in sys.argv[1:] else main()
