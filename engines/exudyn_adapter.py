@@ -47,9 +47,9 @@ adapter reads the state and stops when
 1. the block lies flat on its side (``|θ| ≥ π/2 − 0.01``), or, after the pulse, ``|θ| > α``
    moving outward: the shared classifier's overturn rule, after which the block would fall
    through the table (only its bottom corners carry contact spheres);
-2. after the pulse, at least ``min_tail_s`` has passed and the ideal-model energy above rest is
-   below ``1 − ENERGY_GAIN_TOL`` of the barrier: the block can then only overturn by gaining more
-   energy than the ``energy-gain`` flag allows, so the verdict "not overturned" is settled;
+2. after the pulse, at least ``min_tail_s`` has passed and the block is trapped below the barrier
+   (:func:`~rockbench.reference_solver.classify.overturn_impossible`, the contact engines' one rule:
+   it can then only overturn by gaining more energy than the ``energy-gain`` flag allows);
 3. ``tail_s`` after the pulse has passed.
 
 The shared classifier decides the outcome from the samples.
@@ -78,15 +78,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..reference_solver.energy import energy
+from ..reference_solver.classify import overturn_impossible
 from ..reference_solver.errors import ConfigError, EngineError
 from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
-from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
+from ..reference_solver.validity import Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, overturn_certain
-from .free_rocking import FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, free_rocking_duration_s, free_rocking_etas
+from .free_rocking import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, first_quarter_s, free_rocking_duration_s,
+                           free_rocking_etas)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as
@@ -656,18 +657,13 @@ class ExudynAdapter(ContactEngineAdapter):
         t_pe = float(case.pulse.duration_s)
         s = self.settings
         alpha, p = block.alpha_rad, block.p_rad_s
-        E0 = p**2 * math.cos(alpha)
-        Eb = p**2
-        settle = Eb - ENERGY_GAIN_TOL * (Eb - E0)
 
         def stop(state):
+            # floor 1's rules, tested on the state at the end of each segment (docs/engines.md)
             t, th, thd = state
             if overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=t_pe):
                 return True
-            if t < t_pe:
-                return False
-            E = float(energy(th, thd, alpha, p))
-            return t >= t_pe + s["min_tail_s"] and E < settle
+            return t >= t_pe + s["min_tail_s"] and bool(overturn_impossible(th, thd, alpha_rad=alpha, p_rad_s=p))
 
         # Newton occasionally stalls in a violent impact (deterministically, for a given cell);
         # a retry at half the step, then one with a full Newton method at the case's step, both
@@ -750,12 +746,7 @@ class ExudynAdapter(ContactEngineAdapter):
                                  block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
-        quarter = None
-        if zc.size:
-            i = int(zc[0])
-            quarter = float(t[i] + (t[i + 1] - t[i]) * th[i] / (th[i] - th[i + 1]))
-        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall, quarter)
+        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall, first_quarter_s(t, th))
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:

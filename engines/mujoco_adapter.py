@@ -71,6 +71,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..reference_solver.classify import turned_back
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
@@ -519,15 +520,11 @@ class MujocoAdapter(ContactEngineAdapter):
         block = case.block
         t, th, thd, _, _ = self._read(bm, st, block)
         te = case.pulse.duration_s
-        a = np.abs(th)
         if np.any(overturn_certain(t, th, thd, alpha_rad=block.alpha_rad, t_pulse_end_s=te)):
             return True
         if t[-1] < te + self.settings["min_tail_s"]:
             return False
-        post = t >= te
-        sgn = np.sign(thd[post])
-        turn = (sgn[:-1] * sgn[1:] <= 0) & (a[post][1:] <= block.alpha_rad)
-        return bool(turn.any())
+        return turned_back(t, th, thd, alpha_rad=block.alpha_rad, t_pulse_end_s=te)
 
     def _trajectory(self, bm: _Built, case: Case, st: np.ndarray) -> Trajectory:
         """What MuJoCo measured: θ, θ̇, both bottom edges relative to the table, the block's energy."""
