@@ -48,6 +48,9 @@ from rockbench.reference_solver.restitution import Restitution, housner_eta
 #: The default suite's grid (harness/suites/default.toml)
 GRID = ["--w-ratio", "1:16:51", "--a-ratio", "1:12:51", "--adaptive", "--coarse-stride", "4"]
 
+#: The engine ``maps`` runs, as ``rockbench map`` arguments (``bench_dart.py`` reuses ``maps`` with its own)
+ENGINE_ARGS = ["--engine", "drake"]
+
 
 def _case(block_name: str, pulse: str, w: float, a: float) -> Case:
     b = get_preset(block_name).block()
@@ -109,7 +112,7 @@ def cmd_maps(args) -> None:
         block, pulse = item.split(":")
         d = out / f"{args.settings}-{block}-{pulse}"
         t0 = time.perf_counter()
-        cmd = [sys.executable, "-m", "rockbench", "map", "--engine", "drake", "--block", block, "--pulse", pulse,
+        cmd = [sys.executable, "-m", "rockbench", "map", *ENGINE_ARGS, "--block", block, "--pulse", pulse,
                *GRID, "--jobs", str(args.jobs), "--out", str(d), "--no-plot", "--json"]
         if args.settings != "calibrated":
             cmd[cmd.index("--engine") + 2:cmd.index("--engine") + 2] = ["--settings", args.settings]

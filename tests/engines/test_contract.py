@@ -1,4 +1,4 @@
-"""The adapter contract, one test for every contact engine (MuJoCo, PyBullet, Exudyn, Drake).
+"""The adapter contract, one test for every contact engine (MuJoCo, PyBullet, Exudyn, Drake, DART).
 
 What each engine's own test file used to check the same way: the conformance suite passes, the
 shared settings are checked, a bad time step is a ConfigError, the command line says what was
@@ -29,7 +29,7 @@ from rockbench.reference_solver.restitution import Restitution, housner_eta
 pytestmark = pytest.mark.engine
 
 #: engine name → its Python module (what must be importable for the engine to run)
-MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "drake": "pydrake"}
+MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "drake": "pydrake", "dart": "dartpy"}
 
 ENGINES = [pytest.param(n, marks=pytest.mark.skipif(importlib.util.find_spec(m) is None, reason=f"{n} not installed"))
            for n, m in MODULES.items()]
@@ -64,6 +64,12 @@ SPEC = {
         slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, point_stiffness_n_m=1e6, relaxation_time_s=1e-3)),
         cli_block="B6M",
         cli_settings=lambda s: s["point_stiffness_n_m"] > 0 and s["relaxation_time_s"] > 0),
+    "dart": dict(
+        trajectory=("B3M", "sine", 4.0, 3.0),
+        mirror=(("B3M", "sine", 4.0, 3.0), 1e-9, "peak"),
+        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="defaults")),
+        cli_block="B6M",
+        cli_settings=lambda s: s["collision_detector"] == "fcl" and s["restitution_coeff"] == 0.0),
 }
 
 
