@@ -21,7 +21,7 @@ import os
 import sys
 
 import bench_drake
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.dart_adapter import landing_speed_m_s
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import Block

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import sys
 
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines import dart_adapter as da
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter

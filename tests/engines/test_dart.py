@@ -20,8 +20,8 @@ import pytest
 
 pytest.importorskip("dartpy", reason="dartpy is not installed (pip install 'rockbench[dart]')")
 
-from rockbench.benchmark.cli import main  # noqa: E402
-from rockbench.benchmark.presets import get_preset  # noqa: E402
+from rockbench.harness.cli.main import main  # noqa: E402
+from rockbench.harness.blocks.presets import get_preset  # noqa: E402
 from rockbench.engines.base import Case, CellResult  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
