@@ -79,11 +79,12 @@ def plot_speed_accuracy(rows, *, metric="agreement", ax=None):
     plain = FuncFormatter(lambda v, _: f"{v:g}")
     if pts:
         xs = [x for _, x, _ in pts]
+        # limits first: one point autoscales to a singular range, which the log scale warns about
+        ax.set_xlim(min(xs) / 2.0, max(xs) * 6.0)   # room on the right for the labels
         ax.set_xscale("log")
         ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
         ax.xaxis.set_major_formatter(plain)
         ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
-        ax.set_xlim(min(xs) / 2.0, max(xs) * 6.0)   # room on the right for the labels
     if logy:
         ax.set_yscale("log")
         ax.set_ylim(floor / 2.0, max(pos) * 2.0)
