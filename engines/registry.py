@@ -21,6 +21,7 @@ BUILTIN = {
     "mujoco_warp": "rockbench.engines.mujoco_warp_adapter:MujocoWarpAdapter",
     "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
     "drake": "rockbench.engines.drake_adapter:DrakeAdapter",
+    "newton": "rockbench.engines.newton_adapter:NewtonAdapter",
 }
 
 #: the entry-point group third parties register under

@@ -19,10 +19,11 @@ DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
     "exudyn": ("exudyn",),
     "mujoco_warp": ("mujoco-warp", "warp-lang"),
     "drake": ("drake",),
+    "newton": ("newton", "warp-lang"),
 }
 
 #: the extra of pyproject.toml that installs each engine
-EXTRAS = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "mujoco_warp": "warp", "drake": "drake"}
+EXTRAS = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "mujoco_warp": "warp", "drake": "drake", "newton": "newton"}
 
 
 def _canonical(name: str) -> str:
