@@ -38,9 +38,6 @@ Warp runs on its CPU device here (the drive and the read-out use NumPy views of 
 from __future__ import annotations
 
 import math
-import os
-import sys
-import tempfile
 from typing import Any
 
 import numpy as np
@@ -48,7 +45,7 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.classify import run_end
 from ..reference_solver.model import G, Block
-from .base import CalibrationResult, DEVICE_NOTED_ENV, Trajectory
+from .base import CalibrationResult, Trajectory
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose, run_steps
 
 #: The solvers offered, by their ``solver`` name
@@ -78,38 +75,20 @@ def _newton():
     global _warp_ready
     import warp as wp
     if not _warp_ready:
-        from .mujoco_warp_adapter import cuda_driver_present, warp_cache_dir
+        from .mujoco_warp_adapter import _init_on_cpu, cuda_driver_present, warp_cache_dir
         if hasattr(wp, "LOG_WARNING"):
             wp.config.log_level = wp.LOG_WARNING
         wp.config.quiet = True
         from warp._src import context as _ctx
         if getattr(_ctx, "runtime", None) is None:
             wp.config.kernel_cache_dir = warp_cache_dir()
-            _init_quietly(wp, note=not cuda_driver_present())
+            if cuda_driver_present():
+                wp.init()
+            else:
+                _init_on_cpu(wp, CPU_LINE)
         _warp_ready = True
     import newton
     return wp, newton
-
-
-def _init_quietly(wp, note: bool) -> None:
-    """``wp.init()`` without the driver warning Warp writes to stderr on a machine without CUDA;
-    rockbench's own line (:data:`CPU_LINE`) instead, once per run (worker processes inherit the mark)."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as tmp:
-        try:
-            os.dup2(tmp.fileno(), 2)
-            wp.init()
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-        tmp.seek(0)
-        other = [ln for ln in tmp.read().decode(errors="replace").splitlines() if ln.strip() and "CUDA driver" not in ln]
-    for ln in other:
-        print(ln, file=sys.stderr)
-    if note and not os.environ.get(DEVICE_NOTED_ENV):
-        os.environ[DEVICE_NOTED_ENV] = "1"
-        print(CPU_LINE, file=sys.stderr)
 
 
 def theta_of(rows: np.ndarray) -> np.ndarray:
@@ -342,6 +321,11 @@ class NewtonAdapter(SteppedContactAdapter):
         available engine leave Newton out; asked for by name it runs."""
         return ("Warp's CPU device is single-threaded: too slow for a whole suite; ask for it by name with "
                 "--engines newton")
+
+    @classmethod
+    def device_note(cls) -> str:
+        """Where the worlds run: always Warp's CPU device (the drive writes NumPy views of its arrays)."""
+        return "CPU only (Warp's CPU device, one thread)"
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_engine_settings(self, s: dict) -> None:
