@@ -304,7 +304,7 @@ class NewtonAdapter(SteppedContactAdapter):
     CONTACT_KEYS = ("iterations", "contact_relaxation", "contact_stiffness_n_m", "contact_damping_n_s_m",
                     "friction_gain_n_s_m")
     MEASURED_SETTINGS = ("solver", "friction", "planar", "sticky_contacts")
-    CALIBRATION_VERSION = 1
+    CALIBRATION_VERSION = 2
 
     @classmethod
     def version(cls) -> str:
@@ -463,8 +463,9 @@ class NewtonAdapter(SteppedContactAdapter):
           contact converges); above it, fewer iterations and less relaxation (:data:`_XPBD_DOWN`).
         * ``semi_implicit``, ``featherstone``: a penalty contact at damping ratio
           :data:`_PENALTY_ZETA` (``kd = 2ζ√(ke·m)``) and friction gain ``kf = 0.1·m/Δt`` (the stiffest
-          sticking the explicit step keeps stable), bisection on ``log10 ke`` up to ``0.1·m/Δt²``: a
-          softer contact gives a higher η here.
+          sticking the explicit step keeps stable), bisection on ``log10 ke`` from the softest contact
+          that keeps the block standing below the uplift threshold (:func:`_penalty_ke_min`) up to
+          ``0.1·m/Δt²``: a softer contact gives a higher η here.
         * ``vbd``: the solver as shipped, measured (no knob reaches a target; docs/newton.md).
 
         The closest setting whose per-impact spread stays within 2 % of the target wins.
@@ -479,7 +480,7 @@ class NewtonAdapter(SteppedContactAdapter):
         if solver == "xpbd":
             _search_xpbd(search, t)
         elif solver in ("semi_implicit", "featherstone"):
-            _search_penalty(search, t, block.mass_kg, dt)
+            _search_penalty(search, t, block, dt)
         else:
             search.evaluate({})
         eta, std, extra, reached = search.best()
@@ -515,10 +516,23 @@ def _search_xpbd(search, t: float) -> None:
             return
 
 
-def _search_penalty(search, t: float, mass_kg: float, dt: float) -> None:
-    """The penalty solvers: bisection on ``log10 ke`` at damping ratio :data:`_PENALTY_ZETA`."""
+def _penalty_ke_min(block: Block) -> float:
+    """The softest penalty contact a calibration tries [N/m]: four corner springs ``ke`` hold a block
+    under a lateral ``a`` at a tilt ``m·a·h/(2·ke·b²)``; at ``a = 0.9·g·tanα`` that is
+    ``0.9·m·g/(2·ke·b)``, kept below half the uplift tolerance (2 % of α) so that a
+    dynamic overshoot does not pass it either (a softer contact reaches higher η but rocks below the
+    uplift threshold)."""
+    tol = 0.5 * 0.02 * block.alpha_rad
+    return max(1e3, 0.9 * block.mass_kg * G / (2.0 * block.width_m * tol))
+
+
+def _search_penalty(search, t: float, block: Block, dt: float) -> None:
+    """The penalty solvers: bisection on ``log10 ke`` at damping ratio :data:`_PENALTY_ZETA`, from
+    :func:`_penalty_ke_min` to ``0.1·m/Δt²``."""
+    mass_kg = block.mass_kg
     kf = 0.1 * mass_kg / dt
-    lo, hi = 3.0, math.log10(_PENALTY_KE_MAX * mass_kg / dt**2)   # lo: soft, high η; hi: stiff, low η
+    # lo: soft, high η; hi: stiff, low η
+    lo, hi = math.log10(_penalty_ke_min(block)), math.log10(_PENALTY_KE_MAX * block.mass_kg / dt**2)
     for _ in range(10):
         mid = 0.5 * (lo + hi)
         ke = 10.0 ** mid

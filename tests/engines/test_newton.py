@@ -86,11 +86,13 @@ def test_table_drive_agrees_with_the_inertial_drive():
     assert get_adapter("newton", **XPBD, drive="table").run(case).outcome == "rocking"
 
 
-def test_xpbd_free_rocking_with_sticky_contacts_is_near_housner():
+def test_xpbd_calibration_comes_within_1_5_percent_of_housner_and_says_it_is_not_reached():
+    """B3M: XPBD's η levels off about 1.3 % below η_H as its contact converges (docs/newton.md)."""
     blk = PRESETS["B3M"].block()
-    m = get_adapter("newton", **XPBD).measure_restitution(blk)
-    assert len(m.etas) == 4 and m.eta_std < 0.01
-    assert abs(m.eta_mean / housner_eta(blk.alpha_rad) - 1.0) < 0.02
+    target = housner_eta(blk.alpha_rad)
+    cal = get_adapter("newton", solver="xpbd").calibrate(blk, target)
+    assert abs(cal.eta_measured / target - 1.0) < 0.015 and cal.eta_std < 0.01
+    assert not cal.reached and cal.note.startswith("not reached") and cal.settings["iterations"] >= 2
 
 
 def test_semi_implicit_penalty_contact_rocks_in_the_plane():
