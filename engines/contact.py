@@ -37,7 +37,8 @@ from typing import Any, ClassVar, Mapping
 from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
-from ..reference_solver.restitution import Restitution
+from ..reference_solver.restitution import Restitution, housner_eta
+from . import calibration
 from .base import CalibrationResult, EngineAdapter
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "body_energy_j_kg",
@@ -94,6 +95,15 @@ class ContactEngineAdapter(EngineAdapter):
         "tail_s": 3.0,
         "min_tail_s": 0.5,
     }
+
+    #: version of the calibration (free-rocking test and search); part of the cache key
+    CALIBRATION_VERSION: ClassVar[int] = 1
+    #: version of the distributed contact's calibration; part of its cache key
+    CALIBRATION_VERSION_DIST: ClassVar[int] = 1
+    #: whether the adapter offers a row of contact points along the base (``contact`` layouts)
+    distributed_contact: ClassVar[bool] = False
+    #: what a point of the distributed contact is, in calibration notes
+    POINT_UNIT: ClassVar[str] = "points"
 
     def __init__(self, **settings):
         super().__init__(**self.canonical_settings(settings, warn=True))
@@ -200,6 +210,57 @@ class ContactEngineAdapter(EngineAdapter):
         """The concrete settings for ``block`` at step ``dt`` [s], with the calibration ``cal`` (None:
         explicit or default contact)."""
         raise NotImplementedError  # pragma: no cover - every contact adapter implements it
+
+    # -- the calibration frame ----------------------------------------------------------------
+    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                  use_cache: bool = True) -> CalibrationResult:
+        """Contact settings whose free-rocking η reaches ``target_eta`` (1 %), by the ``contact``
+        layout where the engine offers one: :meth:`_calibrate_corners`, or a row of points along the
+        base (:meth:`_calibrate_distributed_n`, with the set number of points or 9, then 5, then 17
+        until one reaches the target at an acceptable price); ``auto``: the corners up to 1 % above
+        Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M)."""
+        t = self.check_target_eta(target_eta)
+        dt = self.time_step_s(dt_s)
+        kind = self.settings.get("contact") if self.distributed_contact else "corners"
+        if kind == "auto":
+            kind = "corners" if t <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
+        if kind != "distributed":
+            return self._calibrate_corners(block, t, dt, use_cache)
+        n_set = self.settings["contact_points"]
+        return first_reached(lambda n: self._calibrate_distributed_n(block, t, n, dt, use_cache),
+                             (n_set,) if n_set is not None else POINTS_TRIED, self.POINT_UNIT)
+
+    def _calibrate_corners(self, block: Block, target: float, dt: float,
+                           use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _calibrate_distributed_n(self, block: Block, t: float, n: int, dt: float,
+                                 use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _cache_identity(self) -> dict:
+        """What names the engine in the calibration cache key: its name and version (an adapter
+        that shares another engine's calibrations names that engine; one with solver settings of
+        its own adds them)."""
+        return {"engine": self.name, "version": self.version()}
+
+    def _cache_key(self, block: Block, target: float, dt: float, version: int, **identity) -> str:
+        """The calibration cache key: engine, its version, the calibration's ``version``, block,
+        target η, step [s] and what else the result depends on (``identity``)."""
+        return calibration.cache_key(**self._cache_identity(), calibration_version=version,
+                                     block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
+                                     target=target, dt=dt, **identity)
+
+    def _cached(self, key: str, use_cache: bool) -> CalibrationResult | None:
+        """The cached calibration under ``key``, or None (always None without ``use_cache``)."""
+        rec = calibration.load(key) if use_cache else None
+        return None if rec is None or "result" not in rec else CalibrationResult(**rec["result"])
+
+    @staticmethod
+    def _store(key: str, res: CalibrationResult, search: dict) -> None:
+        """Cache a calibration: ``{"result": …, "search": …}`` (``search``: what was tried)."""
+        calibration.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
+                                "search": search})
 
     @staticmethod
     def _settings_diagnostics(resolved: dict) -> dict:

@@ -357,10 +357,6 @@ class DrakeAdapter(SteppedContactAdapter):
         s["approximation"] = self._approximation()
         return s
 
-    def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
-
     def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
         """The approximation made concrete and the contact: as shipped (``defaults``), explicit (the
         missing stiffness or dissipation from :data:`BASE_CONTACT`), or the calibration's."""

@@ -47,9 +47,9 @@ adapter reads the state and stops when
 1. the block lies flat on its side (``|θ| ≥ π/2 − 0.01``), or, after the pulse, ``|θ| > α``
    moving outward: the shared classifier's overturn rule, after which the block would fall
    through the table (only its bottom corners carry contact spheres);
-2. after the pulse, at least ``min_tail_s`` has passed and the ideal-model energy above rest is
-   below ``1 − ENERGY_GAIN_TOL`` of the barrier: the block can then only overturn by gaining more
-   energy than the ``energy-gain`` flag allows, so the verdict "not overturned" is settled;
+2. after the pulse, at least ``min_tail_s`` has passed and the block is trapped below the barrier
+   (:func:`~rockbench.reference_solver.classify.overturn_impossible`, the contact engines' one rule:
+   it can then only overturn by gaining more energy than the ``energy-gain`` flag allows);
 3. ``tail_s`` after the pulse has passed.
 
 The shared classifier decides the outcome from the samples.
@@ -78,16 +78,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..reference_solver.energy import energy
+from ..reference_solver.classify import overturn_impossible
 from ..reference_solver.errors import ConfigError, EngineError
 from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
-from ..reference_solver.restitution import Restitution, housner_eta
-from . import calibration
-from ..reference_solver.validity import ENERGY_GAIN_TOL, Measurement, judge_measurement, jump_tol_m
+from ..reference_solver.restitution import Restitution
+from ..reference_solver.validity import Measurement, judge_measurement, jump_tol_m
 from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, first_reached, overturn_certain
-from .free_rocking import FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, free_rocking_duration_s, free_rocking_etas
+from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, overturn_certain
+from .free_rocking import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, first_quarter_s, free_rocking_duration_s,
+                           free_rocking_etas)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as
@@ -106,9 +106,6 @@ CALIBRATION_IMPACTS = FREE_ROCKING_IMPACTS
 
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].
 CALIBRATION_RTOL = 0.01
-
-#: Version of the calibration procedure; part of the cache key so that a change re-calibrates.
-CALIBRATION_VERSION = 1
 
 #: Half the side of the table triangle [m]: far larger than any table travel of a pulse.
 _TABLE_HALF_SIZE_M = 1.0e3
@@ -555,6 +552,11 @@ class ExudynAdapter(ContactEngineAdapter):
         (:data:`~rockbench.engines.contact.RENAMED_SETTINGS`).
     """
 
+    #: versions of the corner and distributed calibrations (part of their cache keys)
+    CALIBRATION_VERSION = 2
+    CALIBRATION_VERSION_DIST = 3
+    distributed_contact = True
+    POINT_UNIT = "spheres"
     name = "exudyn"
     module = "exudyn"
     install_hint = "install it with `pip install 'rockbench[exudyn]'` (or `pip install exudyn`)."
@@ -600,14 +602,6 @@ class ExudynAdapter(ContactEngineAdapter):
 
     def _stiffness(self, block: Block) -> float:
         return self.settings["contact_stiffness_n_m"] or default_stiffness_n_m(block)
-
-    def _points_for(self, block: Block, target_eta: float | None) -> int:
-        """Contact spheres for a target η: 2 (the corners) or the distributed row (``contact`` setting)."""
-        kind = self.settings["contact"]
-        if kind == "auto":
-            kind = ("distributed" if target_eta is not None and target_eta > 1.01 * housner_eta(block.alpha_rad)
-                    else "corners")
-        return (self.settings["contact_points"] or POINTS_TRIED[0]) if kind == "distributed" else 2
 
     def _contact(self, block: Block, contact_restitution: float | None, points: int = 2) -> dict:
         """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model.
@@ -663,18 +657,13 @@ class ExudynAdapter(ContactEngineAdapter):
         t_pe = float(case.pulse.duration_s)
         s = self.settings
         alpha, p = block.alpha_rad, block.p_rad_s
-        E0 = p**2 * math.cos(alpha)
-        Eb = p**2
-        settle = Eb - ENERGY_GAIN_TOL * (Eb - E0)
 
         def stop(state):
+            # floor 1's rules, tested on the state at the end of each segment (docs/engines.md)
             t, th, thd = state
             if overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=t_pe):
                 return True
-            if t < t_pe:
-                return False
-            E = float(energy(th, thd, alpha, p))
-            return t >= t_pe + s["min_tail_s"] and E < settle
+            return t >= t_pe + s["min_tail_s"] and bool(overturn_impossible(th, thd, alpha_rad=alpha, p_rad_s=p))
 
         # Newton occasionally stalls in a violent impact (deterministically, for a given cell);
         # a retry at half the step, then one with a full Newton method at the case's step, both
@@ -757,12 +746,7 @@ class ExudynAdapter(ContactEngineAdapter):
                                  block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
-        quarter = None
-        if zc.size:
-            i = int(zc[0])
-            quarter = float(t[i] + (t[i + 1] - t[i]) * th[i] / (th[i] - th[i + 1]))
-        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall, quarter)
+        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall, first_quarter_s(t, th))
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:
@@ -804,29 +788,16 @@ class ExudynAdapter(ContactEngineAdapter):
         return _price.contact_price(fixed, block, Restitution("constant", value=target), dt,
                                     first_quarter_s=first_quarter_s)
 
-    def _cal_key(self, block: Block, target_eta: float, dt: float, points: int = 2) -> str:
-        s = self.settings
-        extra = {} if points == 2 else {"contact_points": points, "price_procedure": 2}
-        return calibration.cache_key(**extra,
-            engine=self.name, version=self.version(), procedure=CALIBRATION_VERSION,
-            block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=float(target_eta),
-            dt=float(dt), planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
-            zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
-            damping=s["contact_damping_n_s_m"], newton=s["modified_newton_iterations"])
+    # -- calibration (the dispatch and the cache are ContactEngineAdapter's) ------------------
+    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
+        return self._calibrate_points(block, target, 2, dt, use_cache)
 
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Contact settings for ``target_eta`` (:meth:`_calibrate_points`): the corners, or the
-        distributed contact with the set number of spheres, or (``contact_points`` unset) 9, then
-        5, then 17 spheres until one reaches the target at an acceptable price."""
-        points = self._points_for(block, self.check_target_eta(target_eta))
-        if points == 2 or self.settings["contact_points"] is not None:
-            return self._calibrate_points(block, target_eta, points, dt_s=dt_s, use_cache=use_cache)
-        return first_reached(lambda n: self._calibrate_points(block, target_eta, n, dt_s=dt_s, use_cache=use_cache),
-                             POINTS_TRIED, "spheres")
+    def _calibrate_distributed_n(self, block: Block, target: float, n: int, dt: float,
+                                 use_cache: bool) -> CalibrationResult:
+        return self._calibrate_points(block, target, n, dt, use_cache)
 
-    def _calibrate_points(self, block: Block, target_eta: float, points: int, *, dt_s: float | None = None,
-                          use_cache: bool = True) -> CalibrationResult:
+    def _calibrate_points(self, block: Block, target: float, points: int, dt: float,
+                          use_cache: bool) -> CalibrationResult:
         """Find Exudyn's contact restitution coefficient whose free-rocking η is closest to the target.
 
         A coarse scan over :data:`CALIBRATION_RESTITUTIONS`, then bisection between neighbours
@@ -835,17 +806,18 @@ class ExudynAdapter(ContactEngineAdapter):
         ``reached`` when the mean η is within 1 % of the target; otherwise the closest η is
         returned with the reason. Results are cached on disk (:mod:`.calibration`).
         """
-        dt = self.time_step_s(dt_s)
-        target = self.check_target_eta(target_eta)
-        key = self._cal_key(block, target, dt, points)
+        s = self.settings
+        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION if points == 2 else self.CALIBRATION_VERSION_DIST,
+                              planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
+                              zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
+                              damping=s["contact_damping_n_s_m"], newton=s["modified_newton_iterations"],
+                              **({} if points == 2 else {"contact_points": points}))
         if key in self._calibrations:
             return self._calibrations[key]
-        if use_cache:
-            rec = calibration.load(key)
-            if rec is not None and "result" in rec:
-                res = CalibrationResult(**rec["result"])
-                self._calibrations[key] = res
-                return res
+        res = self._cached(key, use_cache)
+        if res is not None:
+            self._calibrations[key] = res
+            return res
 
         scan = []
 
@@ -905,10 +877,7 @@ class ExudynAdapter(ContactEngineAdapter):
         settings = {**self._contact(block, e, points), "planar": self.settings["planar"]}
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
-        calibration.store(key, {"engine": self.name, "version": self.version(), "block": block.to_dict(),
-                                "dt_s": dt, "procedure_version": CALIBRATION_VERSION,
-                                "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
-                                "etas": fr.etas, "scan": scan})
+        self._store(key, res, {"etas": fr.etas, "scan": scan})
         self._calibrations[key] = res
         return res
 

@@ -7,7 +7,7 @@ two engines keep their own, because their calibrations were tuned with them and 
 made them pick worse settings (measured, docs/engines.md):
 
 * :data:`ENERGY_RATIO` (PyBullet): the ratio of the body's mechanical energy between impacts;
-* MuJoCo's ``impact_etas`` (MuJoCo, MuJoCo Warp): ``|θ̇|`` read where ``|θ|`` crosses a small
+* :func:`crossing_velocity_etas` (MuJoCo, MuJoCo Warp): ``|θ̇|`` read where ``|θ|`` crosses a small
   angle around each impact, carried to θ = 0 with the free-rocking energy.
 
 An :class:`EtaReader` names a reader, how long its test runs and how it is recorded.
@@ -24,8 +24,9 @@ import numpy as np
 from ..reference_solver.model import G, Block
 from .base import uplift_tol_rad
 
-__all__ = ["FREE_ROCKING_IMPACTS", "FREE_ROCKING_METHOD", "EtaReader", "PEAK_RATIO", "ENERGY_RATIO",
-           "free_rocking_duration_s", "free_rocking_etas", "energy_ratio_etas", "first_quarter_s", "swings"]
+__all__ = ["FREE_ROCKING_IMPACTS", "FREE_ROCKING_METHOD", "ETA_READ_FRAC", "EtaReader", "PEAK_RATIO", "ENERGY_RATIO",
+           "free_rocking_duration_s", "free_rocking_etas", "energy_ratio_etas", "crossing_velocity_etas",
+           "first_quarter_s", "swings"]
 
 #: Impacts a free-rocking test measures (calibrations average their η) [-]
 FREE_ROCKING_IMPACTS = 4
@@ -33,6 +34,10 @@ FREE_ROCKING_IMPACTS = 4
 #: How :func:`free_rocking_etas` reads η (recorded with every restitution measurement)
 FREE_ROCKING_METHOD = ("energy-consistent amplitude ratio of successive peaks: "
                        "η = sqrt[(cos(α − θ_next) − cos α)/(cos(α − θ) − cos α)]")
+
+#: |θ| at which :func:`crossing_velocity_etas` reads η on the way into and out of an impact, as a
+#: fraction of α [-]
+ETA_READ_FRAC = 0.1
 
 
 @dataclass(frozen=True)
@@ -159,6 +164,56 @@ def energy_ratio_etas(block: Block, motion, n_impacts: int = FREE_ROCKING_IMPACT
         if k0 <= 0 or k1 < 0 or len(etas) >= n_impacts:
             break
         etas.append(math.sqrt(k1 / k0))
+    return etas
+
+
+def crossing_velocity_etas(theta_rad, theta_dot_rad_s, alpha_rad: float, p_rad_s: float,
+                            read_frac: float = ETA_READ_FRAC) -> list[float]:
+    """η of each impact of a freely rocking block from θ̇ read near each impact (MuJoCo's reader).
+
+    A soft contact spreads an impact over several steps, so velocities are not read at θ = 0
+    itself but where ``|θ|`` crosses ``θc = read_frac·α`` on the way in (the last crossing before
+    the sign change) and on the way out (the first after it), both carried to θ = 0 with the
+    rigid block's free-rocking energy ``½θ̇² + p²cos(α − |θ|)`` (paper eqs (1)–(2)):
+    ``θ̇₀² = θ̇c² + 2p²(cos(α − θc) − cos α)``. An excursion that does not reach ``θc`` ends
+    the measurement.
+
+    Parameters
+    ----------
+    theta_rad, theta_dot_rad_s : array_like
+        Samples of θ [rad] and θ̇ [rad/s].
+    alpha_rad, p_rad_s : float
+        The block's α [rad] and p [rad/s].
+    read_frac : float
+        ``θc/α`` [-].
+
+    Returns
+    -------
+    list of float
+        ``θ̇₀⁺/θ̇₀⁻`` per impact [-].
+    """
+    th = np.asarray(theta_rad, dtype=float)
+    thd = np.asarray(theta_dot_rad_s, dtype=float)
+    thc = read_frac * alpha_rad
+    a = np.abs(th)
+    inward = np.nonzero((a[:-1] > thc) & (a[1:] <= thc))[0]
+    outward = np.nonzero((a[:-1] < thc) & (a[1:] >= thc))[0]
+    add = 2.0 * p_rad_s**2 * (math.cos(alpha_rad - thc) - math.cos(alpha_rad))
+
+    def v0(i):
+        f = (a[i] - thc) / (a[i] - a[i + 1])
+        v = thd[i] + f * (thd[i + 1] - thd[i])
+        return math.sqrt(v * v + add)
+
+    etas = []
+    for i in inward:
+        later = outward[outward > i]
+        if later.size == 0:
+            break
+        j = int(later[0])
+        if np.sign(th[j + 1]) == np.sign(th[i]):
+            break  # it came back out on the same side: no impact, the rocking has died out
+        etas.append(v0(j) / v0(i))
     return etas
 
 

@@ -71,12 +71,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..reference_solver.classify import turned_back
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
-from ..reference_solver.restitution import Restitution, housner_eta
-from . import calibration as _cal
+from ..reference_solver.restitution import Restitution
 from .base import Case, CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import POINTS_TRIED, ContactEngineAdapter, first_reached, overturn_certain
+from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
+from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
 
 #: MuJoCo's own defaults for what ``settings="defaults"`` leaves alone (MuJoCo 3.x/4.0 docs).
 MUJOCO_SHIPPED = {"timeconst": 0.02, "dampratio": 1.0, "cone": "pyramidal", "integrator": "euler",
@@ -85,10 +86,6 @@ MUJOCO_SHIPPED = {"timeconst": 0.02, "dampratio": 1.0, "cone": "pyramidal", "int
 #: Free-rocking release angle used by calibration, as a fraction of α [-].
 CALIBRATION_THETA0_FRAC = 0.5
 
-#: |θ| at which η is read on the way into and out of an impact, as a fraction of α [-]; the
-#: velocities there are carried to θ = 0 with the free-rocking energy (see :func:`impact_etas`).
-ETA_READ_FRAC = 0.1
-
 #: Calibration grid: contact time constants as multiples of the time step, and damping ratios.
 _TC_FACTORS = (2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0, 48.0)
 _DR_VALUES = (0.5, 0.7, 1.0, 1.4, 2.0)
@@ -96,8 +93,6 @@ _DR_VALUES = (0.5, 0.7, 1.0, 1.4, 2.0)
 _CONES = ("elliptic", "pyramidal")
 _INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
 
-#: version of the calibration procedure (part of the cache key)
-CALIBRATION_VERSION = 3
 
 #: Distributed-contact calibration (issue 18): solimp impedances d (dmin = dmax = d), time
 #: constants as multiples of the time step, damping ratios. The probe
@@ -106,8 +101,6 @@ CALIBRATION_VERSION = 3
 _D_VALUES = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 _TC_FACTORS_DIST = (2.0, 4.0, 8.0, 16.0)
 _DR_VALUES_DIST = (0.5, 1.0, 2.0)
-#: version of the distributed-contact calibration procedure (part of its cache key)
-CALIBRATION_VERSION_DIST = 2
 #: How many candidates within 1 % of the target the distributed calibration tries for the uplift check.
 _MAX_PRICE_TRIES = 8
 
@@ -206,6 +199,9 @@ class MujocoAdapter(ContactEngineAdapter):
     #: whether this adapter builds the contact along the base (issue 18); a subclass that does not
     #: (MuJoCo Warp) sets it False: ``auto`` then keeps the corners for every target
     distributed_contact = True
+    #: versions of the corner and distributed calibrations (part of their cache keys)
+    CALIBRATION_VERSION = 4
+    CALIBRATION_VERSION_DIST = 3
 
     def __init__(self, **settings):
         super().__init__(**settings)
@@ -524,15 +520,11 @@ class MujocoAdapter(ContactEngineAdapter):
         block = case.block
         t, th, thd, _, _ = self._read(bm, st, block)
         te = case.pulse.duration_s
-        a = np.abs(th)
         if np.any(overturn_certain(t, th, thd, alpha_rad=block.alpha_rad, t_pulse_end_s=te)):
             return True
         if t[-1] < te + self.settings["min_tail_s"]:
             return False
-        post = t >= te
-        sgn = np.sign(thd[post])
-        turn = (sgn[:-1] * sgn[1:] <= 0) & (a[post][1:] <= block.alpha_rad)
-        return bool(turn.any())
+        return turned_back(t, th, thd, alpha_rad=block.alpha_rad, t_pulse_end_s=te)
 
     def _trajectory(self, bm: _Built, case: Case, st: np.ndarray) -> Trajectory:
         """What MuJoCo measured: θ, θ̇, both bottom edges relative to the table, the block's energy."""
@@ -624,7 +616,7 @@ class MujocoAdapter(ContactEngineAdapter):
         for bm, p, s_init, traj in zip(built, params_list, init, st):
             full = np.concatenate([s_init[None], traj])
             _, th, thd, _, _ = self._read(bm, full, block)
-            etas = impact_etas(th, thd, block.alpha_rad, block.p_rad_s)
+            etas = crossing_velocity_etas(th, thd, block.alpha_rad, block.p_rad_s)
             arr = np.array(etas) if etas else np.array([math.nan])
             zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
             quarter = float(zc[0] + th[zc[0]] / (th[zc[0]] - th[zc[0] + 1])) * dt if zc.size else None
@@ -650,33 +642,8 @@ class MujocoAdapter(ContactEngineAdapter):
         p = self.resolve(block, Restitution("housner"), dt)
         return self._free_rocking(block, [p], dt, theta0_frac)[0]
 
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Contact settings so that free rocking gives ``target_eta``, by the ``contact`` setting.
-
-        ``corners``: :meth:`_calibrate_corners`; ``distributed``: :meth:`_calibrate_distributed`;
-        ``auto``: the corners for targets up to 1 % above Housner's η_H (a plastic impact at a corner
-        point is Housner's impact), the distributed contact above (the modified η_M): a corner
-        contact reaches more only by a softness that lets the block slip (issue 18).
-        """
-        kind = self.settings["contact"]
-        if kind == "auto":
-            kind = ("corners" if float(target_eta) <= 1.01 * housner_eta(block.alpha_rad)
-                    or not self.distributed_contact else "distributed")
-        if kind == "distributed":
-            return self._calibrate_distributed(block, target_eta, dt_s=dt_s, use_cache=use_cache)
-        return self._calibrate_corners(block, target_eta, dt_s=dt_s, use_cache=use_cache)
-
-    def _calibrate_distributed(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                               use_cache: bool = True) -> CalibrationResult:
-        """The distributed contact's search with the set number of points, or (``contact_points``
-        unset) with 9, then 5, then 17 points until one reaches the target at an acceptable price."""
-        n_set = self.settings["contact_points"]
-        return first_reached(lambda n: self._calibrate_distributed_n(block, target_eta, n, dt_s=dt_s, use_cache=use_cache),
-                             (n_set,) if n_set is not None else POINTS_TRIED, "points")
-
-    def _calibrate_distributed_n(self, block: Block, target_eta: float, n: int, *, dt_s: float | None = None,
-                                 use_cache: bool = True) -> CalibrationResult:
+    def _calibrate_distributed_n(self, block: Block, target: float, n: int, dt: float,
+                                 use_cache: bool) -> CalibrationResult:
         """Search a row of contact points along the base (issue 18) for ``target_eta``, at a price.
 
         A grid of solimp impedance d (0.3–0.9) × time constant (2–16·Δt) × damping ratio (0.5–2)
@@ -686,27 +653,17 @@ class MujocoAdapter(ContactEngineAdapter):
         and raises no ``slip`` flag in the anti-slip cells (:func:`rockbench.engines.price.contact_price`);
         its price (uplift, anti-slip, period change, speed) is recorded with it.
         """
-        import mujoco
-
         from . import price as _price
 
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ConfigError(f"--dt must be > 0 s, got {dt_s!r}.")
-        target = float(target_eta)
-        if not (0.0 < target <= 1.0):
-            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
         solver = self._solver_params()
         r = self.settings["contact_radius_m"]
         geo = {"contact": "distributed", "contact_points": n, "contact_radius_m": r}
-        key = _cal.cache_key(engine="mujoco", version=mujoco.__version__, procedure=CALIBRATION_VERSION_DIST,
-                             contact=geo, block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                             target=target, dt=dt, drive=self.settings["drive"], planar=self.settings["planar"],
-                             friction=self.settings["friction"], solver=solver, price_cells=list(_price.PRICE_CELLS))
-        if use_cache:
-            rec = _cal.load(key)
-            if rec is not None:
-                return CalibrationResult(**rec["result"])
+        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION_DIST, contact=geo,
+                              drive=self.settings["drive"], planar=self.settings["planar"],
+                              friction=self.settings["friction"], solver=solver, price_cells=list(_price.PRICE_CELLS))
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
         grid = [(f * dt, dr, dd) for dd in _D_VALUES for f in _TC_FACTORS_DIST for dr in _DR_VALUES_DIST]
         results = self._eval_grid(block, dt, solver, grid, geo)
         good = [x for x in results if math.isfinite(x[3])]
@@ -767,9 +724,7 @@ class MujocoAdapter(ContactEngineAdapter):
                                           "friction": self.settings["friction"], "dt_s": dt,
                                           "rest_sink_m": sink_mm * 1e-3},
                                 note=note, evaluations=len(results), price=price)
-        _cal.store(key, {"key": key, "block": block.name, "mujoco": mujoco.__version__,
-                         "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
-                         "grid": [list(x) for x in results], "uplift_tried": tried})
+        self._store(key, res, {"grid": [list(x) for x in results], "uplift_tried": tried})
         return res
 
     def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
@@ -793,8 +748,7 @@ class MujocoAdapter(ContactEngineAdapter):
             s["contact_points"], s["contact_radius_m"] = geo["contact_points"], geo["contact_radius_m"]
         return MujocoAdapter(**s)
 
-    def _calibrate_corners(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                           use_cache: bool = True) -> CalibrationResult:
+    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
         """Search the contact time constant and damping ratio so free rocking gives ``target_eta``.
 
         A grid of ``timeconst = f·Δt`` (f from 2 to 48) × ``dampratio`` (0.5 to 2) runs in one
@@ -802,19 +756,12 @@ class MujocoAdapter(ContactEngineAdapter):
         target the stiffest (smallest time constant, least penetration) is taken, since a stiff
         contact is closest to the rigid model the target comes from; failing that, the closest η.
         """
-        import mujoco
-
-        dt = self.time_step_s(dt_s)
-        target = self.check_target_eta(target_eta)
         solver = self._solver_params()
-        key = _cal.cache_key(**self._calibration_identity(), procedure=CALIBRATION_VERSION,
-                             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                             target=target, dt=dt, drive=self.settings["drive"], planar=self.settings["planar"],
-                             friction=self.settings["friction"], solver=solver)
-        if use_cache:
-            rec = _cal.load(key)
-            if rec is not None:
-                return CalibrationResult(**rec["result"])
+        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION, drive=self.settings["drive"],
+                              planar=self.settings["planar"], friction=self.settings["friction"], solver=solver)
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
         grid = [(f * dt, dr) for f in _TC_FACTORS for dr in _DR_VALUES]
         results = self._eval_grid(block, dt, solver, grid)
         best = self._pick(results, target)
@@ -847,13 +794,11 @@ class MujocoAdapter(ContactEngineAdapter):
                                           "friction": self.settings["friction"], "dt_s": dt,
                                           "rest_sink_m": sink_mm * 1e-3},
                                 note=note, evaluations=len(results))
-        _cal.store(key, {"key": key, "block": block.name, "mujoco": mujoco.__version__, "engine": self.name,
-                         "result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
-                         "grid": [list(r) for r in results]})
+        self._store(key, res, {"grid": [list(r) for r in results]})
         return res
 
-    def _calibration_identity(self) -> dict:
-        """What names this engine in the calibration cache key (an adapter built on this one adds its own)."""
+    def _cache_identity(self) -> dict:
+        """MuJoCo and its version name the calibrations in the cache (MuJoCo Warp names its own)."""
         import mujoco
         return {"engine": "mujoco", "version": mujoco.__version__}
 
@@ -894,56 +839,6 @@ class MujocoAdapter(ContactEngineAdapter):
             near = [r for r in within if r[0] <= 1.5 * tc_min]
             return min(near, key=lambda r: (abs(r[2] - target), abs(math.log(r[1]))))
         return min(good, key=lambda r: abs(r[2] - target))
-
-
-def impact_etas(theta_rad, theta_dot_rad_s, alpha_rad: float, p_rad_s: float,
-                read_frac: float = ETA_READ_FRAC) -> list[float]:
-    """η of each impact of a freely rocking block, from its sampled motion.
-
-    A soft contact spreads an impact over several steps, so velocities are not read at θ = 0
-    itself but where ``|θ|`` crosses ``θc = read_frac·α`` on the way in (the last crossing before
-    the sign change) and on the way out (the first after it), both carried to θ = 0 with the
-    rigid block's free-rocking energy ``½θ̇² + p²cos(α − |θ|)`` (paper eqs (1)–(2)):
-    ``θ̇₀² = θ̇c² + 2p²(cos(α − θc) − cos α)``. An excursion that does not reach ``θc`` ends
-    the measurement.
-
-    Parameters
-    ----------
-    theta_rad, theta_dot_rad_s : array_like
-        Samples of θ [rad] and θ̇ [rad/s].
-    alpha_rad, p_rad_s : float
-        The block's α [rad] and p [rad/s].
-    read_frac : float
-        ``θc/α`` [-].
-
-    Returns
-    -------
-    list of float
-        ``θ̇₀⁺/θ̇₀⁻`` per impact [-].
-    """
-    th = np.asarray(theta_rad, dtype=float)
-    thd = np.asarray(theta_dot_rad_s, dtype=float)
-    thc = read_frac * alpha_rad
-    a = np.abs(th)
-    inward = np.nonzero((a[:-1] > thc) & (a[1:] <= thc))[0]
-    outward = np.nonzero((a[:-1] < thc) & (a[1:] >= thc))[0]
-    add = 2.0 * p_rad_s**2 * (math.cos(alpha_rad - thc) - math.cos(alpha_rad))
-
-    def v0(i):
-        f = (a[i] - thc) / (a[i] - a[i + 1])
-        v = thd[i] + f * (thd[i + 1] - thd[i])
-        return math.sqrt(v * v + add)
-
-    etas = []
-    for i in inward:
-        later = outward[outward > i]
-        if later.size == 0:
-            break
-        j = int(later[0])
-        if np.sign(th[j + 1]) == np.sign(th[i]):
-            break  # it came back out on the same side: no impact, the rocking has died out
-        etas.append(v0(j) / v0(i))
-    return etas
 
 
 def _contact_of(p: dict) -> dict:

@@ -61,7 +61,8 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from . import calibration as _cal
 from .base import DEVICE_NOTED_ENV, Case, RestitutionMeasurement
-from .mujoco_adapter import ETA_READ_FRAC, MujocoAdapter, _Built, impact_etas
+from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
+from .mujoco_adapter import MujocoAdapter, _Built
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
@@ -662,7 +663,7 @@ class MujocoWarpAdapter(MujocoAdapter):
             for j, full in zip(idx, states):
                 bm, p = built[j], params_list[j]
                 _, th, thd, _, _ = self._read(bm, full, block)
-                etas = impact_etas(th, thd, block.alpha_rad, block.p_rad_s)
+                etas = crossing_velocity_etas(th, thd, block.alpha_rad, block.p_rad_s)
                 arr = np.array(etas) if etas else np.array([math.nan])
                 out[j] = RestitutionMeasurement(
                     etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
@@ -674,7 +675,7 @@ class MujocoWarpAdapter(MujocoAdapter):
                             "carried to θ = 0 with the free-rocking energy; η = ratio after/before"))
         return out
 
-    def _calibration_identity(self) -> dict:
+    def _cache_identity(self) -> dict:
         import mujoco_warp
         s = self.settings
         return {"engine": self.name, "version": mujoco_warp.__version__,

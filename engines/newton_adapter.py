@@ -28,9 +28,10 @@ corrections: that contact is what the benchmark measures.
   ``settings="calibrated"`` (default) runs the settings :meth:`NewtonAdapter._calibrate_corners`
   found for the case's η (cached on disk). XPBD's own restitution (``enable_restitution``) is not
   used: it breaks rocking (docs/newton.md).
-* **Batches** (``batching = "native"``): the cells of a map with the same block, step and settings
-  run as the worlds of one model; every world advances by the same kernels, so a cell gives the
-  same trajectory alone or in a batch.
+* **Batches** (``batching = "native"``, :attr:`~NewtonAdapter.max_worlds`): the cells of a map with
+  the same block, step and settings run as the worlds of one model through the skeleton's loop for
+  batches of worlds; every world advances by the same kernels, so a cell gives the same trajectory
+  alone or in a batch.
 
 Warp runs on its CPU device here (the drive and the read-out use NumPy views of Warp's arrays).
 """
@@ -38,15 +39,12 @@ Warp runs on its CPU device here (the drive and the read-out use NumPy views of 
 from __future__ import annotations
 
 import math
-from typing import Any
-
 import numpy as np
 
 from ..reference_solver.errors import ConfigError
-from ..reference_solver.classify import run_end
 from ..reference_solver.model import G, Block
-from .base import CalibrationResult, Trajectory
-from .skeleton import Motion, SteppedContactAdapter, pivot_pose, run_steps
+from .base import CalibrationResult
+from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: The solvers offered, by their ``solver`` name
 SOLVERS = ("xpbd", "semi_implicit", "featherstone", "vbd")
@@ -289,6 +287,7 @@ class NewtonAdapter(SteppedContactAdapter):
                     "runs it without a GPU).")
     default_dt_s = 5e-4
     batching = "native"
+    max_worlds = MAX_WORLDS
     SETTINGS = {
         **SteppedContactAdapter.SHARED_SETTINGS,
         "solver": "xpbd",
@@ -342,10 +341,6 @@ class NewtonAdapter(SteppedContactAdapter):
         if s["solver"] in ("semi_implicit", "featherstone") and s["iterations"] is not None:
             raise ConfigError(f"newton setting 'iterations' does not apply to solver={s['solver']} (it steps once).")
 
-    def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
-
     def _base_settings(self) -> dict:
         return dict(self.settings)
 
@@ -360,22 +355,26 @@ class NewtonAdapter(SteppedContactAdapter):
         return self._base_settings()
 
     # -- the skeleton's hooks -----------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> _Scene:
-        return _Scene(block, s, dt_s, 1)
+    def _world(self, block: Block, s: dict, dt_s: float) -> dict:
+        """What a run's scene needs; :meth:`_start` builds it once it knows how many worlds."""
+        return {"block": block, "s": s, "dt": dt_s, "scene": None}
 
-    def _start(self, sc: _Scene, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
+    def _start(self, w: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
                n_steps: int) -> np.ndarray:
-        sc.place(block, np.array([theta0_rad]))
-        sc.load_drive([pulse], n_steps)
-        return sc.rows()
+        """A fresh model of one world per pulse, every block at rest at ``theta0_rad``, the drives loaded;
+        the blocks' states, ``(worlds, 1, 13)``."""
+        sc = w["scene"] = _Scene(block, s, dt_s, len(pulses))
+        sc.place(block, np.full(len(pulses), float(theta0_rad)))
+        sc.load_drive(pulses, n_steps)
+        return sc.rows()[:, None]
 
-    def _advance(self, sc: _Scene, n_from: int, n_to: int) -> np.ndarray:
-        return sc.advance(n_from, n_to)[:, 0]
+    def _advance(self, w: dict, n_from: int, n_to: int) -> np.ndarray:
+        return w["scene"].advance(n_from, n_to).transpose(1, 0, 2)
 
-    def _angles(self, sc: _Scene, rows: np.ndarray):
+    def _angles(self, w: dict, rows: np.ndarray):
         return theta_of(rows), rows[:, 11]
 
-    def _motion(self, sc: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+    def _motion(self, w: dict, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         table = pulse is not None and s["drive"] == "table"
         u_tab, v_tab = (pulse.disp(t_s), pulse.vel(t_s)) if table else (None, None)
         qx, qy, qz, qw = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
@@ -383,73 +382,6 @@ class NewtonAdapter(SteppedContactAdapter):
         diag = {"solver": s["solver"], "max_lateral_drift_m": float(np.max(np.abs(data[:, 1]))),
                 "max_out_of_plane_tilt_rad": float(np.max(np.abs(roll)))}
         return Motion(data[:, 0], data[:, 2], theta_of(data), data[:, 7], data[:, 9], data[:, 11], u_tab, v_tab, diag)
-
-    # -- batches: the cells of a map as the worlds of one model --------------------------------
-    def _simulate_many(self, cases: list) -> list:
-        """Cases of one block, step and settings run as the worlds of one model (at most
-        :data:`MAX_WORLDS` at a time); each trajectory is what :meth:`_simulate` gives alone."""
-        out: list[Any] = [None] * len(cases)
-        groups: dict = {}
-        for i, c in enumerate(cases):
-            try:
-                dt = self.dt_for(c)
-                s = self.resolve(c.block, c.restitution, dt)
-            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
-                out[i] = e
-                continue
-            key = (c.block.width_m, c.block.height_m, c.block.depth_m, c.block.mass_kg, dt, repr(sorted(s.items())))
-            groups.setdefault(key, (c.block, s, dt, []))[3].append(i)
-        for block, s, dt, idx in groups.values():
-            for lo in range(0, len(idx), MAX_WORLDS):
-                part = idx[lo:lo + MAX_WORLDS]
-                try:
-                    trajs = self._run_worlds(block, s, dt, [cases[i].pulse for i in part])
-                except Exception as e:  # noqa: BLE001 - the whole part failed: every cell says why
-                    trajs = [e] * len(part)
-                for i, tr in zip(part, trajs):
-                    if isinstance(tr, Trajectory):
-                        tr.diagnostics.update(self._settings_diagnostics(s))
-                    out[i] = tr
-        return out
-
-    def _run_worlds(self, block: Block, s: dict, dt: float, pulses: list) -> list[Trajectory]:
-        """The skeleton's run (:meth:`~SteppedContactAdapter._run`) for many pulses at once: one world
-        each, the end-of-run rule tested per world after every segment, samples after a world's stop
-        dropped."""
-        import time
-        w = len(pulses)
-        plan = [run_steps(dt, p.duration_s, float(s["tail_s"]), float(s["min_tail_s"])) for p in pulses]
-        n_all = max(p[0] for p in plan)
-        sc = _Scene(block, s, dt, w)
-        sc.place(block, np.zeros(w))
-        sc.load_drive(pulses, n_all)
-        parts, stop, ended = [sc.rows()[None]], [None] * w, ["tail"] * w
-        seg, n_done = self._segment_steps(s, dt), 0
-        t0, c0 = time.perf_counter(), time.process_time()
-        while n_done < n_all and any(stop[k] is None and n_done < plan[k][0] for k in range(w)):
-            n_to = min(n_all, n_done + seg)
-            new = sc.advance(n_done, n_to)
-            parts.append(new)
-            for k in range(w):
-                n_max, n_pulse, n_min = plan[k]
-                if stop[k] is not None or n_done >= n_max:
-                    continue
-                m = min(n_to, n_max) - n_done
-                end = run_end(np.arange(n_done + 1, n_done + m + 1), theta_of(new[:m, k]), new[:m, k, 11],
-                              alpha_rad=block.alpha_rad, p_rad_s=block.p_rad_s, pulse_end_step=n_pulse,
-                              min_tail_step=n_min)
-                if end is not None:
-                    stop[k], ended[k] = n_done + 1 + end[0], end[1]
-            n_done = n_to
-        data = np.concatenate(parts)
-        run = {"wall_s": (time.perf_counter() - t0) / w, "cpu_s": (time.process_time() - c0) / w}
-        out = []
-        for k, p in enumerate(pulses):
-            last = plan[k][0] if stop[k] is None else stop[k]
-            tr, _ = self._record(sc, block, s, dt, p, p.duration_s, data[:last + 1, k], {**run, "ended_by": ended[k]})
-            tr.diagnostics["worlds"] = w
-            out.append(tr)
-        return out
 
     # -- calibration ---------------------------------------------------------------------------
     def _calibration_identity(self, base: dict) -> dict:

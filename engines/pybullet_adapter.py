@@ -387,10 +387,6 @@ class PybulletAdapter(SteppedContactAdapter):
         self._whole_setting(s, "solver_iterations", 1)
         self._contact_layout_settings(s)
 
-    def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
-
     def _base_settings(self) -> dict:
         """Settings without any calibration: Bullet's rigid contact unless given explicitly."""
         s = dict(self.settings)

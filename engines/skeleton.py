@@ -46,6 +46,7 @@ parameters) and, where it offers a row of points along the base, ``_distributed_
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -56,10 +57,9 @@ import numpy as np
 from ..reference_solver.classify import run_end
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
-from ..reference_solver.restitution import Restitution, housner_eta
-from . import calibration
+from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, first_reached
+from .contact import ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, EtaReader, first_quarter_s
 
 __all__ = ["SteppedContactAdapter", "Motion", "Search", "corners", "pivot_pose", "run_steps",
@@ -123,6 +123,12 @@ def pivot_pose(block: Block, theta0_rad: float) -> tuple[float, float]:
     return s * (block.width_m / 2 - R * math.sin(alpha - abs(theta0_rad))), R * math.cos(alpha - abs(theta0_rad))
 
 
+def _worlds(rows) -> np.ndarray:
+    """State rows with a leading world axis: ``(n, k)`` of one world becomes ``(1, n, k)``."""
+    rows = np.asarray(rows, dtype=float)
+    return rows[None] if rows.ndim == 2 else rows
+
+
 def run_steps(dt_s: float, t_pulse_end_s: float, tail_s: float, min_tail_s: float,
               duration_s: float | None = None) -> tuple[int, int, float]:
     """Steps of a run: the most, the pulse's and the first at which the trapped rule applies (inf
@@ -172,18 +178,17 @@ class SteppedContactAdapter(ContactEngineAdapter):
     eta_reader: ClassVar[EtaReader] = PEAK_RATIO
     #: steps between end-of-run tests, in seconds, for engines without a ``segment_s`` setting [s]
     default_segment_s: ClassVar[float] = 0.05
+    #: worlds an engine steps together (1: one case at a time); an engine that steps a batch sets
+    #: more, and ``batching = "native"``: cases of one block, settings and step run in batches
+    max_worlds: ClassVar[int] = 1
     #: the settings that describe the contact (what a calibration chooses)
     CONTACT_KEYS: ClassVar[tuple] = ()
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
-    #: version of the calibration (free-rocking test and search); part of the cache key
-    CALIBRATION_VERSION: ClassVar[int] = 1
-    #: version of the distributed contact's calibration; part of its cache key
-    CALIBRATION_VERSION_DIST: ClassVar[int] = 1
-    #: whether the adapter offers a row of contact points along the base (``contact`` layouts)
-    distributed_contact: ClassVar[bool] = False
-    #: what a point of the distributed contact is, in calibration notes
-    POINT_UNIT: ClassVar[str] = "points"
+
+    def explicit_contact(self) -> bool:
+        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
+        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
 
     # -- hooks --------------------------------------------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - abstract
@@ -211,30 +216,52 @@ class SteppedContactAdapter(ContactEngineAdapter):
              duration_s: float | None = None) -> tuple[Trajectory, Motion]:
         """One run: a pulse with the end-of-run rule, or (``duration_s`` [s]) free rocking from rest
         at ``theta0`` [rad]; the trajectory and the block's motion."""
+        return self._run_worlds(block, s, dt, [pulse], theta0, duration_s)[0]
+
+    def _run_worlds(self, block: Block, s: dict, dt: float, pulses: list, theta0: float = 0.0,
+                    duration_s: float | None = None) -> list[tuple[Trajectory, Motion]]:
+        """The stepping loop: one world per pulse (at most :attr:`max_worlds`), stepped together.
+
+        Every world's samples are tested with floor 1's end-of-run rule after each segment, up to
+        its own longest tail; a world that has stopped is stepped on with the others (a batch
+        cannot drop a world) but its later samples are dropped. With :attr:`max_worlds` 1 the
+        hooks see one world (``_start`` gets the pulse, ``_advance`` returns ``(n, k)``); with more,
+        ``_start`` gets the list of pulses and both return a leading world axis.
+        """
         world = self._world(block, s, dt)
-        t_end = pulse.duration_s if pulse is not None else 0.0
-        n_max, n_pulse, n_min = run_steps(dt, t_end, float(s["tail_s"]), float(s["min_tail_s"]), duration_s)
-        rows = [self._start(world, block, s, dt, pulse, theta0, n_max)]
+        t_end = [p.duration_s if p is not None else 0.0 for p in pulses]
+        steps = [run_steps(dt, te, float(s["tail_s"]), float(s["min_tail_s"]), duration_s) for te in t_end]
+        n_max = [n for n, _, _ in steps]
+        one = self.max_worlds == 1
+        rows = [_worlds(self._start(world, block, s, dt, pulses[0] if one else pulses, theta0, max(n_max)))]
         seg = self._segment_steps(s, dt)
-        after = n_pulse if duration_s is None else math.inf
-        n_done, ended_by, stop = 0, "tail", None
+        stop: list = [None] * len(pulses)
+        ended = ["tail"] * len(pulses)
+        n_done = 0
         t0, c0 = time.perf_counter(), time.process_time()
-        while n_done < n_max:
-            n_to = min(n_max, n_done + seg)
-            new = self._advance(world, n_done, n_to)
+        while n_done < max(n for n, e in zip(n_max, stop) if e is None):
+            n_to = min(max(n for n, e in zip(n_max, stop) if e is None), n_done + seg)
+            new = _worlds(self._advance(world, n_done, n_to))
             rows.append(new)
-            th, om = self._angles(world, new)
-            end = run_end(np.arange(n_done + 1, n_to + 1), th, om, alpha_rad=block.alpha_rad,
-                          p_rad_s=block.p_rad_s, pulse_end_step=after, min_tail_step=n_min)
-            if end is not None:
-                stop, ended_by = n_done + 1 + end[0], end[1]
-                break
+            for w, (n_w, n_pulse, n_min) in enumerate(steps):
+                if stop[w] is not None:
+                    continue
+                m = min(n_to, n_w) - n_done
+                th, om = self._angles(world, new[w, :m])
+                end = run_end(np.arange(n_done + 1, n_done + m + 1), th, om, alpha_rad=block.alpha_rad,
+                              p_rad_s=block.p_rad_s, pulse_end_step=n_pulse if duration_s is None else math.inf,
+                              min_tail_step=n_min)
+                if end is not None:
+                    stop[w], ended[w] = n_done + 1 + end[0], end[1]
+                elif n_done + m >= n_w:
+                    stop[w] = n_w
             n_done = n_to
-        run = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0, "ended_by": ended_by}
-        data = np.concatenate(rows)
-        if stop is not None:
-            data = data[:stop + 1]
-        return self._record(world, block, s, dt, pulse, t_end, data, run)
+            if all(e is not None for e in stop):
+                break
+        run = {"wall_s": (time.perf_counter() - t0) / len(pulses), "cpu_s": (time.process_time() - c0) / len(pulses)}
+        data = np.concatenate(rows, axis=1)
+        return [self._record(world, block, s, dt, p, te, data[w, :stop[w] + 1], {**run, "ended_by": ended[w]})
+                for w, (p, te) in enumerate(zip(pulses, t_end))]
 
     def _record(self, world, block: Block, s: dict, dt: float, pulse, t_end: float, data: np.ndarray,
                 run: dict) -> tuple[Trajectory, Motion]:
@@ -266,6 +293,37 @@ class SteppedContactAdapter(ContactEngineAdapter):
         tr, _ = self._run(case.block, s, dt, case.pulse)
         tr.diagnostics.update(self._settings_diagnostics(s))
         return tr
+
+    def _simulate_many(self, cases: list) -> list:
+        """Cases one at a time (:attr:`max_worlds` 1), or in batches of worlds grouped by block,
+        resolved settings and step; an engine exception fails its case (its whole batch)."""
+        if self.max_worlds == 1:
+            return super()._simulate_many(cases)
+        out: list = [None] * len(cases)
+        groups: dict = {}
+        for i, c in enumerate(cases):
+            try:
+                dt = self.dt_for(c)
+                s = self.resolve(c.block, c.restitution, dt)
+            except ConfigError:
+                raise
+            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
+                out[i] = e
+                continue
+            key = (json.dumps(c.block.to_dict(), sort_keys=True), dt, json.dumps(s, sort_keys=True, default=str))
+            groups.setdefault(key, (c.block, s, dt, []))[3].append(i)
+        for block, s, dt, idx in groups.values():
+            for k in range(0, len(idx), self.max_worlds):
+                part = idx[k:k + self.max_worlds]
+                try:
+                    runs = self._run_worlds(block, s, dt, [cases[i].pulse for i in part])
+                except Exception as e:  # noqa: BLE001 - the batch failed inside the engine
+                    runs = [(e, None)] * len(part)
+                for i, (tr, _) in zip(part, runs):
+                    if not isinstance(tr, BaseException):
+                        tr.diagnostics.update(self._settings_diagnostics(s))
+                    out[i] = tr
+        return out
 
     # -- the free-rocking test ----------------------------------------------------------------
     def _free_rocking_settings(self, block: Block, dt: float) -> dict:
@@ -305,50 +363,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                       dt_s=dt, settings=shown, method=reader.method,
                                       first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad))
 
-    # -- the calibration frame ----------------------------------------------------------------
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Contact settings whose free-rocking η reaches ``target_eta`` (1 %), by the ``contact``
-        layout where the engine offers one: :meth:`_calibrate_corners`, or a row of points along the
-        base (:meth:`_calibrate_distributed_n`, with the set number of points or 9, then 5, then 17
-        until one reaches the target at an acceptable price); ``auto``: the corners up to 1 % above
-        Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M)."""
-        t = self.check_target_eta(target_eta)
-        dt = self.time_step_s(dt_s)
-        kind = self.settings.get("contact") if self.distributed_contact else "corners"
-        if kind == "auto":
-            kind = "corners" if t <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
-        if kind != "distributed":
-            return self._calibrate_corners(block, t, dt, use_cache)
-        n_set = self.settings["contact_points"]
-        return first_reached(lambda n: self._calibrate_distributed_n(block, t, n, dt, use_cache),
-                             (n_set,) if n_set is not None else POINTS_TRIED, self.POINT_UNIT)
-
-    def _calibrate_corners(self, block: Block, target: float, dt: float,
-                           use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def _cache_key(self, block: Block, target: float, dt: float, version: int, **identity) -> str:
-        """The calibration cache key: engine, its version, the calibration's ``version``, block,
-        target η, step [s] and what else the result depends on (``identity``)."""
-        return calibration.cache_key(engine=self.name, version=self.version(), calibration_version=version,
-                                     block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                                     target=target, dt=dt, **identity)
-
-    def _cached(self, key: str, use_cache: bool) -> CalibrationResult | None:
-        """The cached calibration under ``key`` (settings under their current names), or None."""
-        rec = calibration.load(key) if use_cache else None
-        if rec is None:
-            return None
-        res = rec["result"]
-        return CalibrationResult(**{**res, "settings": self.canonical_settings(res["settings"])})
-
-    @staticmethod
-    def _store(key: str, res: CalibrationResult, search: dict) -> None:
-        """Cache a calibration: ``{"result": …, "search": …}`` (``search``: what was tried)."""
-        calibration.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
-                                "search": search})
-
+    # -- the calibration frame (the dispatch and the cache are ContactEngineAdapter's) -----------
     def _search(self, block: Block, dt: float, base: dict, target: float) -> Search:
         """A :class:`Search` measuring free rocking with ``base`` updated by each candidate."""
         return Search(lambda extra: self.measure_restitution(block, dt_s=dt, settings={**base, **extra}), target)

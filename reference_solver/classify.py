@@ -24,7 +24,7 @@ from enum import Enum
 
 import numpy as np
 
-from .energy import free_rocking_fate
+from .energy import ENERGY_GAIN_TOL, free_rocking_fate
 from .model import FLAT_ANGLE_RAD  # noqa: F401 - re-exported: the classifier's flat-on-its-side angle
 
 
@@ -140,8 +140,9 @@ def overturn_certain(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pul
 
 
 #: The end-of-run rule's margin under the barrier, as a fraction of the barrier height ``p²(1 − cos α)``
-#: (:func:`overturn_impossible`) [-].
-TRAPPED_MARGIN = 0.05
+#: (:func:`overturn_impossible`) [-]: the energy gain the validity rule tolerates, so a trapped block
+#: could only overturn by gaining more energy than an engine may without the ``energy-gain`` flag.
+TRAPPED_MARGIN = ENERGY_GAIN_TOL
 
 #: Why a contact engine's run stopped (:func:`run_end`), besides reaching its longest tail (``"tail"``).
 END_REASONS = ("diverged", "flat", "overturn", "trapped")
@@ -162,6 +163,22 @@ def overturn_impossible(theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s
     th = np.asarray(theta_rad, dtype=float)
     om = np.asarray(theta_dot_rad_s, dtype=float)
     return 0.5 * om * om + p2 * np.cos(alpha_rad - np.abs(th)) < e_trap
+
+
+def turned_back(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pulse_end_s: float) -> bool:
+    """Whether, after the excitation, the block passed a turning point (θ̇ changes sign between two
+    samples after ``t_pulse_end_s`` [s]) with ``|θ| ≤ α``: from there a freely rocking block's energy
+    is below the barrier and can only fall, so it cannot overturn any more.
+
+    MuJoCo's end-of-run test (and, segment by segment, MuJoCo Warp's), kept beside
+    :func:`overturn_impossible`: its calibrations and maps were measured with runs that end at the
+    segment where this holds, and another end changes the impacts counted (docs/engines.md).
+    """
+    t = np.asarray(t_s, dtype=float)
+    post = t >= t_pulse_end_s
+    sgn = np.sign(np.asarray(theta_dot_rad_s, dtype=float)[post])
+    a = np.abs(np.asarray(theta_rad, dtype=float))[post]
+    return bool(((sgn[:-1] * sgn[1:] <= 0) & (a[1:] <= alpha_rad)).any())
 
 
 def run_end(step, theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: float, pulse_end_step: float,

@@ -17,6 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
+#: Relative rise of the energy after the pulse, over the barrier height, beyond which a run gained
+#: energy (the validity rule's ``energy-gain``) [-]; also the margin under the barrier below which a
+#: freely rocking block can no longer overturn (:func:`~rockbench.reference_solver.classify.overturn_impossible`).
+ENERGY_GAIN_TOL = 0.05
+
 
 def energy(theta_rad, theta_dot_rad_s, alpha_rad: float, p_rad_s: float, linearized: bool = False):
     """Mechanical energy per unit corner inertia [rad^2/s^2] (vectorised)."""

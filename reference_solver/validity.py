@@ -49,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .classify import decision_index
+from .energy import ENERGY_GAIN_TOL  # noqa: F401 - the rule's tolerance, defined with the energy
 from .model import G, Block
 
 #: Flags that the one rule raises from what an engine measured.
@@ -67,8 +68,6 @@ SLIP_TOL_FRAC = 0.01
 JUMP_TOL_FRAC = 0.005
 #: Uplift tolerance of soft-contact engines as a fraction of α [-] (see :func:`uplift_tol_rad`).
 UPLIFT_TOL_FRAC = 0.02
-#: Relative rise of the energy after the pulse, over the barrier, beyond which a run gained energy [-].
-ENERGY_GAIN_TOL = 0.05
 #: |θ| at or below this fraction of α is left out of the energy check [-].
 NEAR_UPRIGHT_FRAC = 0.1
 #: Default friction coefficient of the contact-demand test: the engines' anti-slip friction [-].

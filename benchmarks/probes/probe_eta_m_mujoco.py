@@ -44,7 +44,7 @@ import mujoco  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
 from rockbench.benchmark.presets import get_preset  # noqa: E402
-from rockbench.engines.mujoco_adapter import impact_etas  # noqa: E402
+from rockbench.engines.free_rocking import crossing_velocity_etas as impact_etas  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta, modified_eta  # noqa: E402
 from rockbench.reference_solver.validity import uplift_tol_rad  # noqa: E402

@@ -17,7 +17,8 @@ mujoco = pytest.importorskip("mujoco")
 from rockbench.benchmark.cli import main as cli_main  # noqa: E402
 from rockbench.benchmark.presets import PRESETS  # noqa: E402
 from rockbench.engines.base import Case  # noqa: E402
-from rockbench.engines.mujoco_adapter import MujocoAdapter, impact_etas  # noqa: E402
+from rockbench.engines.free_rocking import crossing_velocity_etas  # noqa: E402
+from rockbench.engines.mujoco_adapter import MujocoAdapter  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
@@ -149,7 +150,7 @@ def test_free_3d_body_gives_the_same_outcomes():
         assert r.outcome == expected, (b, k, w, a, r.outcome, r.flags)
 
 
-def test_impact_etas_reads_a_known_ratio():
+def test_crossing_velocity_etas_reads_a_known_ratio():
     # a synthetic free rocking with an exact velocity ratio of 0.8 at θ = 0
     blk = PRESETS["B3M"].block()
     al, p = blk.alpha_rad, blk.p_rad_s
@@ -157,7 +158,7 @@ def test_impact_etas_reads_a_known_ratio():
     th_in = 0.3 * al * (1 - t / 0.1)              # towards θ = 0 at 3·α/s
     th = np.where(t < 0.1, th_in, -0.8 * 0.3 * al * (t - 0.1) / 0.1)
     thd = np.where(t < 0.1, -3 * al, -0.8 * 3 * al)
-    etas = impact_etas(th, thd, al, p)
+    etas = crossing_velocity_etas(th, thd, al, p)
     assert len(etas) == 1
     v_in = math.sqrt((3 * al) ** 2 + 2 * p * p * (math.cos(0.9 * al) - math.cos(al)))
     v_out = math.sqrt((2.4 * al) ** 2 + 2 * p * p * (math.cos(0.9 * al) - math.cos(al)))
