@@ -137,9 +137,10 @@ def _warp():
     return wp, mjw
 
 
-def _init_on_cpu(wp) -> None:
+def _init_on_cpu(wp, line: str = CPU_LINE) -> None:
     """``wp.init()`` without the driver warning Warp's native code writes to stderr, and rockbench's
-    own line (:data:`CPU_LINE`) instead: once per run (worker processes inherit the mark)."""
+    own ``line`` (:data:`CPU_LINE`; the Newton adapter says its own) instead: once per run (worker
+    processes inherit the mark)."""
     import sys
     import tempfile
     sys.stderr.flush()
@@ -158,7 +159,7 @@ def _init_on_cpu(wp) -> None:
         print(ln, file=sys.stderr)
     if not os.environ.get(DEVICE_NOTED_ENV):
         os.environ[DEVICE_NOTED_ENV] = "1"
-        print(CPU_LINE, file=sys.stderr)
+        print(line, file=sys.stderr)
 
 
 def _kernels():

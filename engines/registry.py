@@ -22,6 +22,7 @@ BUILTIN = {
     "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
     "drake": "rockbench.engines.drake_adapter:DrakeAdapter",
     "dart": "rockbench.engines.dart_adapter:DartAdapter",
+    "newton": "rockbench.engines.newton_adapter:NewtonAdapter",
 }
 
 #: the entry-point group third parties register under

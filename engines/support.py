@@ -20,11 +20,12 @@ DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
     "mujoco_warp": ("mujoco-warp", "warp-lang"),
     "drake": ("drake",),
     "dart": ("dartpy",),
+    "newton": ("newton", "warp-lang"),
 }
 
 #: the extra of pyproject.toml that installs each engine
 EXTRAS = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "mujoco_warp": "warp", "drake": "drake",
-          "dart": "dart"}
+          "dart": "dart", "newton": "newton"}
 
 
 def _canonical(name: str) -> str:
