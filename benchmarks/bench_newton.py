@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from rockbench.benchmark.presets import get_preset
+from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G

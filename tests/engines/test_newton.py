@@ -16,7 +16,7 @@ import pytest
 pytest.importorskip("warp", reason="warp-lang is not installed (pip install 'rockbench[newton]')")
 pytest.importorskip("newton", reason="newton is not installed (pip install 'rockbench[newton]')")
 
-from rockbench.benchmark.presets import PRESETS  # noqa: E402
+from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
 from rockbench.engines.base import Case  # noqa: E402
 from rockbench.engines.mujoco_warp_adapter import warp_cache_dir  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
