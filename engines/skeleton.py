@@ -10,7 +10,9 @@ calibration frame; an engine adapter fills in a few hooks.
   below the barrier after ``min_tail_s``) says so, else ``tail_s`` after the pulse. The engine
   advances in segments (``segment_s``, or :attr:`~SteppedContactAdapter.default_segment_s`) and the
   rule is tested on each segment's samples; samples after the stop are dropped, so the result does
-  not depend on the segment length;
+  not depend on the segment length. An engine whose answers were fixed with the rule tested at
+  segment ends only, each segment kept whole, says so with
+  :attr:`~SteppedContactAdapter.stop_at` ``= "segment"``;
 * **the read-out** (:meth:`~SteppedContactAdapter._record`): both bottom corners relative to the
   table (:func:`corners`), the block's own energy
   (:func:`~rockbench.engines.contact.body_energy_j_kg`), penetration, steps and speed, from the
@@ -89,6 +91,11 @@ class Motion:
         The table's position and velocity along x [m], [m/s]; None: at rest at 0.
     diagnostics : dict
         The engine's own figures for the trajectory (lateral drift, table tracking, ...).
+    t_s : ndarray or None
+        The samples' times as the engine reports them [s]; None: step number × step.
+    corner_x_m, corner_z_m : ndarray or None
+        ``(n, c)`` bottom contact points as the engine measures them: x relative to the table and
+        clearance above its top [m]; None: :func:`corners` of the centre of mass and θ.
     """
 
     x_m: np.ndarray
@@ -100,6 +107,9 @@ class Motion:
     table_x_m: np.ndarray | None = None
     table_vx_m_s: np.ndarray | None = None
     diagnostics: dict = field(default_factory=dict)
+    t_s: np.ndarray | None = None
+    corner_x_m: np.ndarray | None = None
+    corner_z_m: np.ndarray | None = None
 
 
 def corners(block: Block, xc, zc, th, u_tab):
@@ -181,6 +191,13 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: worlds an engine steps together (1: one case at a time); an engine that steps a batch sets
     #: more, and ``batching = "native"``: cases of one block, settings and step run in batches
     max_worlds: ClassVar[int] = 1
+    #: where the end-of-run rule is tested: ``"sample"``, at every sample (the run stops at the first
+    #: sample the rule names); ``"segment"``, at the last sample of each whole segment, the run keeping
+    #: the segment to its end and ending with the first segment that ends within half a step of its
+    #: last instant. ``"segment"`` is for an engine whose answers were fixed with that rule (Exudyn:
+    #: the rule per sample changes n_impacts or the outcome in some cells, docs/engines.md); its
+    #: ``_advance`` may then return any number of rows for a segment (an engine's own sampling)
+    stop_at: ClassVar[str] = "sample"
     #: the settings that describe the contact (what a calibration chooses)
     CONTACT_KEYS: ClassVar[tuple] = ()
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
@@ -208,6 +225,11 @@ class SteppedContactAdapter(ContactEngineAdapter):
                 pulse) -> Motion:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def _halted(self, world) -> bool:
+        """Whether the engine stopped inside the last ``_advance`` (its rows end there); the run
+        then ends with the rows it has (``ended_by`` ``"halted"``). Default: never."""
+        return False
+
     # -- the run ------------------------------------------------------------------------------
     def _segment_steps(self, s: dict, dt_s: float) -> int:
         return max(1, int(round(float(s.get("segment_s", self.default_segment_s)) / dt_s)))
@@ -231,30 +253,42 @@ class SteppedContactAdapter(ContactEngineAdapter):
         world = self._world(block, s, dt)
         t_end = [p.duration_s if p is not None else 0.0 for p in pulses]
         steps = [run_steps(dt, te, float(s["tail_s"]), float(s["min_tail_s"]), duration_s) for te in t_end]
+        if self.stop_at == "segment":  # the last segment ends within half a step of the run's end
+            t_stop = [(te + float(s["tail_s"])) if duration_s is None else duration_s for te in t_end]
+            steps = [(int(math.ceil(ts / dt - 0.5)), n_p, n_m) for ts, (_, n_p, n_m) in zip(t_stop, steps)]
         n_max = [n for n, _, _ in steps]
         one = self.max_worlds == 1
-        rows = [_worlds(self._start(world, block, s, dt, pulses[0] if one else pulses, theta0, max(n_max)))]
         seg = self._segment_steps(s, dt)
+        n_load = max(n_max) if self.stop_at == "sample" else -(-max(n_max) // seg) * seg
+        rows = [_worlds(self._start(world, block, s, dt, pulses[0] if one else pulses, theta0, n_load))]
+        n_rows = rows[0].shape[1]
         stop: list = [None] * len(pulses)
         ended = ["tail"] * len(pulses)
         n_done = 0
         t0, c0 = time.perf_counter(), time.process_time()
         while n_done < max(n for n, e in zip(n_max, stop) if e is None):
-            n_to = min(max(n for n, e in zip(n_max, stop) if e is None), n_done + seg)
+            n_to = n_done + seg
+            if self.stop_at == "sample":
+                n_to = min(max(n for n, e in zip(n_max, stop) if e is None), n_to)
             new = _worlds(self._advance(world, n_done, n_to))
             rows.append(new)
+            n_rows += new.shape[1]
+            halted = self._halted(world)
             for w, (n_w, n_pulse, n_min) in enumerate(steps):
                 if stop[w] is not None:
                     continue
-                m = min(n_to, n_w) - n_done
-                th, om = self._angles(world, new[w, :m])
-                end = run_end(np.arange(n_done + 1, n_done + m + 1), th, om, alpha_rad=block.alpha_rad,
-                              p_rad_s=block.p_rad_s, pulse_end_step=n_pulse if duration_s is None else math.inf,
-                              min_tail_step=n_min)
+                if self.stop_at == "sample":
+                    m = min(min(n_to, n_w) - n_done, new.shape[1])
+                    i_new, th_om = np.arange(n_done + 1, n_done + m + 1), self._angles(world, new[w, :m])
+                else:
+                    m, i_new, th_om = new.shape[1], np.array([n_to]), self._angles(world, new[w, -1:])
+                end = run_end(i_new, *th_om, alpha_rad=block.alpha_rad, p_rad_s=block.p_rad_s,
+                              pulse_end_step=n_pulse if duration_s is None else math.inf, min_tail_step=n_min)
+                last = n_rows - new.shape[1] + m - 1
                 if end is not None:
-                    stop[w], ended[w] = n_done + 1 + end[0], end[1]
-                elif n_done + m >= n_w:
-                    stop[w] = n_w
+                    stop[w], ended[w] = (n_done + 1 + end[0] if self.stop_at == "sample" else last), end[1]
+                elif halted or (n_done + m if self.stop_at == "sample" else n_to) >= n_w:
+                    stop[w], ended[w] = last, ("halted" if halted else "tail")
             n_done = n_to
             if all(e is not None for e in stop):
                 break
@@ -270,9 +304,12 @@ class SteppedContactAdapter(ContactEngineAdapter):
         n = data.shape[0]
         t = np.arange(n) * dt
         m = self._motion(world, block, s, data, t, pulse)
+        t = t if m.t_s is None else m.t_s
         u_tab = np.zeros(n) if m.table_x_m is None else m.table_x_m
         v_tab = np.zeros(n) if m.table_vx_m_s is None else m.table_vx_m_s
         corner_x, corner_z = corners(block, m.x_m, m.z_m, m.theta_rad, u_tab)
+        if m.corner_z_m is not None:
+            corner_x, corner_z = m.corner_x_m, m.corner_z_m
         energy = body_energy_j_kg(block, m.vx_m_s - v_tab, m.vz_m_s, m.theta_dot_rad_s, m.z_m)
         steps, wall, cpu = n - 1, run["wall_s"], run["cpu_s"]
         # CPU time too: on a shared machine the wall time says more about the neighbours
