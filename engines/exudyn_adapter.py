@@ -41,8 +41,9 @@ Model
 
 End of a run
 ------------
-The run is integrated in segments of ``segment_s`` inside Exudyn's C++ solver; between chunks the
-adapter reads the state and stops when
+The run is the contact-engine skeleton's loop (:mod:`rockbench.engines.skeleton`) with the rule
+tested at segment ends (``stop_at = "segment"``): it is integrated in segments of ``segment_s``
+inside Exudyn's C++ solver, each segment kept whole, and stops at the end of the first segment where
 
 1. the block lies flat on its side (``|θ| ≥ π/2 − 0.01``), or, after the pulse, ``|θ| > α``
    moving outward: the shared classifier's overturn rule, after which the block would fall
@@ -75,17 +76,18 @@ import itertools
 import math
 import time
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
-from ..reference_solver.classify import overturn_impossible
 from ..reference_solver.errors import ConfigError, EngineError
 from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import Measurement, judge_measurement, jump_tol_m
-from .base import CalibrationResult, Case, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import POINTS_TRIED, ContactEngineAdapter, body_energy_j_kg, overturn_certain
+from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
+from .skeleton import Motion, SteppedContactAdapter
 from .free_rocking import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, first_quarter_s, free_rocking_duration_s,
                            free_rocking_etas)
 
@@ -407,102 +409,100 @@ class _Model:
         for nm, val in vals.items():
             v.Set(pre + nm, val)
 
-    # -- running --------------------------------------------------------------------------
-    def run(self, t_pulse_end_s: float, stop, chunk_s: float, max_time_s: float, full_newton: bool = False):
-        """Integrate from t = 0 in chunks of ``chunk_s`` until ``stop(state)`` or ``max_time_s``.
-
-        ``full_newton`` updates the Jacobian at every Newton iteration instead of Exudyn's default
-        modified Newton. Returns ``(ok, message, steps, wall_s)``; the samples stay in the sensors.
-        """
-        exu = self.exu
+    # -- running (the skeleton's hooks call these) ----------------------------------------
+    def start(self, chunk_steps: int, full_newton: bool) -> np.ndarray:
+        """Initialise Exudyn's solver for segments of ``chunk_steps`` steps (``full_newton``: a new
+        Jacobian at every Newton iteration); no samples yet (the first segment stores t = 0)."""
         ss = self.ss
         ss.timeIntegration.newton.useModifiedNewton = not full_newton
-        dt = self.dt_s
-        n_chunk = max(1, int(round(chunk_s / dt)))
-        t_end = n_chunk * dt
+        self.n_chunk, self.steps, self.n_raw, self.t_raw = chunk_steps, 0, 0, -math.inf
         ss.timeIntegration.startTime = 0.0
-        ss.timeIntegration.endTime = t_end
-        ss.timeIntegration.numberOfSteps = n_chunk
-        solver = exu.MainSolverImplicitSecondOrder()
-        t0 = time.perf_counter()
-        ok = solver.InitializeSolver(self.mbs, ss)
+        ss.timeIntegration.endTime = chunk_steps * self.dt_s
+        ss.timeIntegration.numberOfSteps = chunk_steps
+        self.solver = self.exu.MainSolverImplicitSecondOrder()
+        self.t0 = time.perf_counter()
+        ok = self.solver.InitializeSolver(self.mbs, ss)
+        self.message = None if ok else "Exudyn could not initialise its solver"
+        self.first = True
+        return np.empty((0, 7 if self.planar else 19))
+
+    def advance(self) -> np.ndarray:
+        """One segment; the state rows the sensors stored in it (:meth:`rows`)."""
+        if self.message is not None:
+            return np.empty((0, 7 if self.planar else 19))
+        if not self.first:
+            self.solver.it.endTime = self.mbs.systemData.GetTime() + self.n_chunk * self.dt_s
+        self.first = False
+        ok = self.solver.SolveSteps(self.mbs, self.ss)
+        self.steps += self.n_chunk
         if not ok:
-            return False, "Exudyn could not initialise its solver", 0, time.perf_counter() - t0
-        message = ""
-        steps = 0
-        try:
-            while True:
-                ok = solver.SolveSteps(self.mbs, ss)
-                steps += n_chunk
-                if not ok:
-                    message = f"Exudyn's solver stopped at t = {self.mbs.systemData.GetTime():.6g} s " \
-                              "(Newton did not converge even at the minimum step size)"
-                    break
-                t = self.mbs.systemData.GetTime()
-                if stop(self.state()) or t >= max_time_s - 0.5 * dt:
-                    break
-                solver.it.endTime = t + t_end
-        finally:
-            solver.FinalizeSolver(self.mbs, ss)
-        return ok, message, steps, time.perf_counter() - t0
+            self.message = (f"Exudyn's solver stopped at t = {self.mbs.systemData.GetTime():.6g} s "
+                            "(Newton did not converge even at the minimum step size)")
+        return self.rows()
 
-    def state(self):
-        """``(t, θ, θ̇)`` of the block now [s, rad, rad/s]."""
+    def finish(self) -> float:
+        """Close the solver; the wall time since :meth:`start` [s]."""
+        self.solver.FinalizeSolver(self.mbs, self.ss)
+        return time.perf_counter() - self.t0
+
+    def rows(self) -> np.ndarray:
+        """The sensors' rows stored since the last call: ``t, x, y, φ, ẋ, ẏ, φ̇`` (planar) or ``t``,
+        position, rotation matrix, angular velocity, velocity (3-D). Each segment boundary is stored
+        twice (end of one segment, start of the next): a row within half a step of the one
+        before is dropped."""
         mbs = self.mbs
-        OVT = self.exu.OutputVariableType
-        t = mbs.systemData.GetTime()
         if self.planar:
-            q = mbs.GetNodeOutput(self.node, OVT.Coordinates)
-            qd = mbs.GetNodeOutput(self.node, OVT.Coordinates_t)
-            return t, -float(q[2]), -float(qd[2])
-        A = np.asarray(mbs.GetNodeOutput(self.node, OVT.RotationMatrix)).reshape(3, 3)
-        w = mbs.GetNodeOutput(self.node, OVT.AngularVelocity)
-        return t, math.atan2(A[0, 2], A[2, 2]), float(w[1])
+            q, qd = mbs.GetSensorStoredData(self.s_q), mbs.GetSensorStoredData(self.s_v)
+            raw = np.concatenate([q, qd[:, 1:]], axis=1) if len(q) else np.empty((0, 7))
+        else:
+            parts = [mbs.GetSensorStoredData(s) for s in (self.s_pos, self.s_rot, self.s_omg, self.s_vel)]
+            raw = np.concatenate([parts[0]] + [x[:, 1:] for x in parts[1:]], axis=1) if len(parts[0]) else np.empty((0, 19))
+        raw = raw[self.n_raw:]
+        keep = np.diff(np.concatenate([[self.t_raw], raw[:, 0]])) > 0.5 * self.dt_s
+        self.n_raw += raw.shape[0]
+        if raw.shape[0]:
+            self.t_raw = raw[-1, 0]
+        return raw[keep]
 
-    def samples(self):
-        """Arrays ``t, θ, θ̇``, the corner sphere centres, the block's own bottom corners, and the
-        centre of mass's height and velocity.
+    def angles(self, rows: np.ndarray):
+        """θ [rad] and θ̇ [rad/s] of state rows (:meth:`rows`)."""
+        if self.planar:
+            return -rows[:, 3], -rows[:, 6]
+        A = rows[:, 4:13].reshape(-1, 3, 3)
+        return np.arctan2(A[:, 0, 2], A[:, 2, 2]), rows[:, 14]
+
+    def samples(self, rows: np.ndarray):
+        """From the state rows of a run: ``t, θ, θ̇``, the corner sphere centres, the block's own
+        bottom corners, the centre of mass's x, height and velocity.
 
         Both point sets are ``(n, ncorners, 2)`` arrays of (x, height) [m]. The sphere centres
         give the clearance to the table (``height − r``); the block's corners (one radius below
         the centres in the block's frame) give slip, since a sphere centre also moves by ``r·θ``
-        when its sphere rolls, which is not slip. The last array is ``(n, 3)``: the centre of
-        mass's height [m] and its horizontal and vertical velocity [m/s].
+        when its sphere rolls, which is not slip. The last array is ``(n, 4)``: the centre of
+        mass's x and height [m] and its horizontal and vertical velocity [m/s].
         """
-        mbs = self.mbs
         pts = np.concatenate([self.corners_local, self.corners_local], axis=0)
         up = 1 if self.planar else 2
         pts[len(self.corners_local):, up] -= self.r
+        t = rows[:, 0]
+        theta, theta_dot = self.angles(rows)
         if self.planar:
-            q = mbs.GetSensorStoredData(self.s_q)
-            qd = mbs.GetSensorStoredData(self.s_v)
-            t = q[:, 0]
-            x, y, phi = q[:, 1], q[:, 2], q[:, 3]
+            x, y, phi = rows[:, 1], rows[:, 2], rows[:, 3]
             c, s = np.cos(phi), np.sin(phi)
             wx = x[:, None] + c[:, None] * pts[None, :, 0] - s[:, None] * pts[None, :, 1]
             wz = y[:, None] + s[:, None] * pts[None, :, 0] + c[:, None] * pts[None, :, 1]
-            theta, theta_dot = -phi, -qd[:, 3]
-            com = np.stack([y, qd[:, 1], qd[:, 2]], axis=1)
+            com = np.stack([x, y, rows[:, 4], rows[:, 5]], axis=1)
         else:
-            pos = mbs.GetSensorStoredData(self.s_pos)
-            rot = mbs.GetSensorStoredData(self.s_rot)
-            omg = mbs.GetSensorStoredData(self.s_omg)
-            t = pos[:, 0]
-            A = rot[:, 1:10].reshape(-1, 3, 3)
-            theta = np.arctan2(A[:, 0, 2], A[:, 2, 2])
-            theta_dot = omg[:, 2]
-            world = pos[:, None, 1:4] + np.einsum("nij,cj->nci", A, pts)
+            A = rows[:, 4:13].reshape(-1, 3, 3)
+            world = rows[:, None, 1:4] + np.einsum("nij,cj->nci", A, pts)
             wx, wz = world[..., 0], world[..., 2]
-            vel = mbs.GetSensorStoredData(self.s_vel)
-            com = np.stack([pos[:, 3], vel[:, 1], vel[:, 3]], axis=1)
+            com = np.stack([rows[:, 1], rows[:, 3], rows[:, 16], rows[:, 18]], axis=1)
         both = np.stack([wx, wz], axis=-1)
         nc = len(self.corners_local)
-        # each chunk boundary is stored twice (end of one chunk, start of the next): keep the first
-        keep = np.concatenate([[True], np.diff(t) > 0.5 * self.dt_s])
-        return t[keep], theta[keep], theta_dot[keep], both[keep, :nc], both[keep, nc:], com[keep]
+        return t, theta, theta_dot, both[:, :nc], both[:, nc:], com
 
 
-class ExudynAdapter(ContactEngineAdapter):
+class ExudynAdapter(SteppedContactAdapter):
     """Exudyn (multibody dynamics, C++ core): the block on a table through penalty contact.
 
     Settings
@@ -556,6 +556,10 @@ class ExudynAdapter(ContactEngineAdapter):
     CALIBRATION_VERSION = 2
     CALIBRATION_VERSION_DIST = 3
     distributed_contact = True
+    #: the end-of-run rule at segment ends, the segment kept whole: the rule per sample changes
+    #: n_impacts in 52 of 888 cells (B3M sine calibrated) and 17 outcomes of the shipped contact
+    #: (B6L cosine defaults) (docs/engines.md)
+    stop_at = "segment"
     POINT_UNIT = "spheres"
     name = "exudyn"
     module = "exudyn"
@@ -638,89 +642,102 @@ class ExudynAdapter(ContactEngineAdapter):
             points = int(cal.settings.get("contact_points") or 2)
         return {**s, **self._contact(block, e, points), "dt_s": dt}
 
-    # -- simulation -----------------------------------------------------------------------
-    def _model(self, block: Block, contact: dict, dt: float, pulse: Pulse) -> _Model:
-        if pulse.kind == "record":  # a record's Python user function is bound to that pulse: no reuse
-            return _Model(block, contact, self.settings["drive"], self.settings["planar"], dt, pulse)
-        key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, tuple(sorted(contact.items())), dt)
-        model = self._models.get(key)
-        if model is None:
-            model = _Model(block, contact, self.settings["drive"], self.settings["planar"], dt, None)
-            self._models[key] = model
-        return model
+    # -- the skeleton's hooks (one case at a time; the rule tested at segment ends) -------------
+    def _world(self, block: Block, s: dict, dt_s: float) -> SimpleNamespace:
+        """A holder for the model :meth:`_start` picks (it depends on the pulse and the release angle)."""
+        return SimpleNamespace(model=None)
 
-    def _simulate(self, case: Case) -> Trajectory:
-        dt = self.dt_for(case)
-        block = case.block
-        res = self.resolve(block, case.restitution, dt)
-        contact = {k: res[k] for k in _CONTACT_KEYS}
-        t_pe = float(case.pulse.duration_s)
-        s = self.settings
-        alpha, p = block.alpha_rad, block.p_rad_s
+    def _start(self, world, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
+               n_steps: int) -> np.ndarray:
+        """The model: the one reused for the block, contact and step (a harmonic pulse loaded into its
+        symbolic variables), a new one for a recorded pulse or a release from ``theta0_rad``."""
+        contact = {k: s[k] for k in _CONTACT_KEYS}
+        if pulse is None or theta0_rad != 0.0:
+            model = _Model(block, contact, "inertial", s["planar"], dt_s, None, theta0_rad=theta0_rad)
+            model.set_pulse(pulse)
+        elif pulse.kind == "record":  # a record's Python user function is bound to that pulse: no reuse
+            model = _Model(block, contact, s["drive"], s["planar"], dt_s, pulse)
+        else:
+            key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, tuple(sorted(contact.items())), dt_s)
+            model = self._models.get(key)
+            if model is None:
+                model = self._models[key] = _Model(block, contact, s["drive"], s["planar"], dt_s, None)
+            model.set_pulse(pulse)
+        world.model = model
+        return model.start(self._segment_steps(s, dt_s), bool(s.get("full_newton")))
 
-        def stop(state):
-            # floor 1's rules, tested on the state at the end of each segment (docs/engines.md)
-            t, th, thd = state
-            if overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=t_pe):
-                return True
-            return t >= t_pe + s["min_tail_s"] and bool(overturn_impossible(th, thd, alpha_rad=alpha, p_rad_s=p))
+    def _advance(self, world, n_from: int, n_to: int) -> np.ndarray:
+        return world.model.advance()
 
+    def _halted(self, world) -> bool:
+        return world.model.message is not None
+
+    def _angles(self, world, rows: np.ndarray):
+        return world.model.angles(rows)
+
+    def _motion(self, world, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        """The block's motion from Exudyn's sensors, with its own contact points: the block's bottom
+        corners (x, relative to the table) and its contact spheres' clearance above the table."""
+        model = world.model
+        wall = model.finish()
+        t, th, thd, spheres, edges, com = model.samples(data)
+        drive_table = pulse is not None and s["drive"] == "table"
+        table_x = pulse.disp(t) if drive_table else np.zeros(t.size)
+        table_v = pulse.vel(t) if drive_table else None
+        # contact quality only up to the overturn decision: afterwards the block falls through the
+        # table by design (no spheres on its top corners)
+        over = overturn_certain(t, th, thd, alpha_rad=block.alpha_rad,
+                                t_pulse_end_s=pulse.duration_s if pulse is not None else 0.0)
+        n = int(np.argmax(over)) + 1 if over.any() else t.size
+        r = s["sphere_radius_m"]
+        diag = {"steps": int(model.steps), "wall_engine_s": wall,
+                "steps_per_s": model.steps / wall if wall > 0 else None,
+                "max_penetration_m": float(np.max(r - spheres[:n, :, 1])) if t.size else 0.0,
+                **{k: s[k] for k in ("stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient",
+                                     "friction")}}
+        if model.message is not None:
+            diag["solver_stopped"] = model.message
+        return Motion(x_m=com[:, 0], z_m=com[:, 1], theta_rad=th, vx_m_s=com[:, 2], vz_m_s=com[:, 3],
+                      theta_dot_rad_s=thd, table_x_m=table_x, table_vx_m_s=table_v, diagnostics=diag, t_s=t,
+                      corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=spheres[..., 1] - r)
+
+    def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
+             duration_s: float | None = None) -> tuple[Trajectory, Motion]:
+        """The skeleton's run; a case whose Newton stalls is retried (module notes, "Solver")."""
+        if duration_s is not None:
+            return super()._run(block, s, dt, pulse, theta0, duration_s)
         # Newton occasionally stalls in a violent impact (deterministically, for a given cell);
         # a retry at half the step, then one with a full Newton method at the case's step, both
         # with the same contact, resolved the cases met in probes and maps
         retried = None
         for dt_run, full_newton in ((dt, False), (0.5 * dt, False), (dt, True)):
-            model = self._model(block, contact, dt_run, case.pulse)
-            if case.pulse.kind != "record":
-                model.set_pulse(case.pulse)
-            ok, message, steps, wall = model.run(t_pe, stop, s["segment_s"], t_pe + s["tail_s"], full_newton)
-            t, th, thd, corners, edges, com = model.samples()
-            over = overturn_certain(t, th, thd, alpha_rad=alpha, t_pulse_end_s=t_pe)
-            if ok or over.any():
+            tr, m = super()._run(block, {**s, "full_newton": full_newton}, dt_run, pulse)
+            message = tr.diagnostics.get("solver_stopped")
+            over = overturn_certain(tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, alpha_rad=block.alpha_rad,
+                                    t_pulse_end_s=tr.t_pulse_end_s)
+            if message is None or over.any():
                 break
             retried = message
-        r = contact["sphere_radius_m"]
-        diag = {"steps": int(steps), "wall_engine_s": wall, "steps_per_s": steps / wall if wall > 0 else None,
-                "dt_s": dt, **self._settings_diagnostics(res), "drive": s["drive"], "planar": s["planar"],
-                **{k: contact[k] for k in ("stiffness_n_m", "damping_n_s_m", "impact_model",
-                                           "restitution_coefficient", "friction")}}
+        diag = tr.diagnostics
+        diag["dt_s"] = dt
         if retried is not None:
-            diag["retried_at_dt_s"] = dt_run
-            diag["retried_full_newton"] = full_newton
-            diag["earlier_attempt"] = retried
-        if not ok:
-            # a failure after the overturn was already certain does not change the verdict
-            if not over.any():
-                raise EngineError(message)
-            diag["solver_stopped"] = message
-        # judge contact quality only up to the overturn decision: afterwards the block falls
-        # through the table by design (no spheres on its top corners)
-        n = int(np.argmax(over)) + 1 if over.any() else t.size
-        pen = float(np.max(r - corners[:n, :, 1]))
-        diag["max_penetration_m"] = pen
+            diag.update(retried_at_dt_s=dt_run, retried_full_newton=full_newton, earlier_attempt=retried)
+        # a failure after the overturn was already certain does not change the verdict
+        if message is not None and not over.any():
+            raise EngineError(message)
+        pen, r = diag["max_penetration_m"], s["sphere_radius_m"]
         if pen >= 0.9 * r:
             raise EngineError(f"a corner contact sphere sank {pen:.3g} m into the table, about its radius "
                               f"{r:.3g} m: the contact broke through (stiffer contact or a larger "
                               "sphere_radius_m needed)")
-        flags = [] if np.all(np.isfinite(th)) and np.all(np.isfinite(thd)) else ["diverged"]
-        # what Exudyn measured, for the one validity rule: the block's own corners (x, relative
-        # to the table) and its contact spheres' clearance; the centre of mass's energy per unit
-        # mass in the table's frame
-        drive_table = s["drive"] == "table"
-        table_x = case.pulse.disp(t) if drive_table else np.zeros(t.size)
-        table_v = case.pulse.vel(t) if drive_table else np.zeros(t.size)
-        zc, vx, vz = com[:, 0], com[:, 1] - table_v, com[:, 2]
-        e_body = body_energy_j_kg(block, vx, vz, thd, zc)
-        return Trajectory(t_s=t, theta_rad=th, theta_dot_rad_s=thd, t_pulse_end_s=t_pe, flags=flags,
-                          diagnostics=diag, eta_for_tail=None, uplift_tol_rad=uplift_tol_rad(block),
-                          corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=corners[..., 1] - r,
-                          energy_j_kg=e_body)
+        return tr, m
 
     # -- restitution ----------------------------------------------------------------------
     def free_rocking(self, block: Block, contact_restitution: float | None, *, theta0_frac: float = 0.5,
                      dt_s: float | None = None, n_impacts: int = CALIBRATION_IMPACTS,
                      contact: dict | None = None) -> FreeRocking:
-        """Free rocking from rest at ``θ0 = theta0_frac·α``, no excitation, with given contact.
+        """Free rocking from rest at ``θ0 = theta0_frac·α``, no excitation, with given contact, in
+        one segment of the skeleton's loop.
 
         η of each impact comes from the energy-consistent amplitude ratio of successive peaks:
         between impacts ``E = ½θ̇² + p²cos(α − |θ|)`` is conserved, so the kinetic energy at θ = 0
@@ -734,19 +751,19 @@ class ExudynAdapter(ContactEngineAdapter):
         duration = free_rocking_duration_s(block, theta0_frac, n_impacts)
         if contact is None:
             contact = self._contact(block, contact_restitution)
-        model = _Model(block, contact, "inertial", self.settings["planar"], dt, None, theta0_rad=th0)
-        model.set_pulse(None)
-        ok, message, steps, wall = model.run(0.0, lambda st: False, duration, duration)
-        t, th, thd, corners, edges, _ = model.samples()
+        s = {**self.settings, **contact, "drive": "inertial", "segment_s": duration}
+        tr, _ = self._run(block, s, dt, None, theta0=th0, duration_s=duration)
+        t, th, diag = tr.t_s, tr.theta_rad, tr.diagnostics
         etas, peaks = free_rocking_etas(th, alpha, th0, uplift_tol_rad(block), n_impacts)
-        if not ok and len(etas) < n_impacts:
-            raise EngineError(f"free rocking: {message}")
+        if "solver_stopped" in diag and len(etas) < n_impacts:
+            raise EngineError(f"free rocking: {diag['solver_stopped']}")
         # the jump measure of the one validity rule (its slip and energy checks do not apply here)
-        jump = judge_measurement(Measurement(t, th, thd, edges[..., 0], corners[..., 1] - contact["sphere_radius_m"]),
+        jump = judge_measurement(Measurement(t, th, tr.theta_dot_rad_s, tr.corner_x_m, tr.corner_z_m),
                                  block, t_pulse_end_s=0.0).max_jump_m
         mean = float(np.mean(etas)) if etas else math.nan
         std = float(np.std(etas)) if etas else math.nan
-        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, steps, wall, first_quarter_s(t, th))
+        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, diag["steps"], diag["wall_engine_s"],
+                           first_quarter_s(t, th))
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
                             dt_s: float | None = None) -> RestitutionMeasurement:

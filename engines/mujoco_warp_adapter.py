@@ -60,7 +60,7 @@ from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from . import calibration as _cal
-from .base import DEVICE_NOTED_ENV, Case, RestitutionMeasurement
+from .base import DEVICE_NOTED_ENV, Case, RestitutionMeasurement, Trajectory
 from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
 from .mujoco_adapter import MujocoAdapter, _Built
 
@@ -355,6 +355,35 @@ class MujocoWarpAdapter(MujocoAdapter):
         return self._device_models[key][1]
 
     # -- the batch ---------------------------------------------------------------------------
+    def _simulate(self, case: Case) -> Trajectory:
+        out = self._simulate_many([case])[0]
+        if isinstance(out, BaseException):
+            raise out
+        return out
+
+    def _cases_by_model(self, cases: list[Case]) -> tuple[list, list]:
+        """The cases grouped by the model they run on: ``(out, groups)`` where ``groups`` lists
+        ``(built model, indices of its cases)`` and ``out`` holds, per case, the exception that kept
+        it from getting a model (recorded per cell, the sweep goes on), else None. A ConfigError
+        (bad user input) is raised."""
+        out: list = [None] * len(cases)
+        groups: dict = {}
+        for i, c in enumerate(cases):
+            try:
+                dt = self.dt_for(c)
+                p = self.resolve(c.block, c.restitution, dt)
+                bm = self._model(c.block, p, dt)
+            except ConfigError:
+                raise
+            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
+                out[i] = e
+                continue
+            groups.setdefault(id(bm), (bm, []))[1].append(i)
+        return out, list(groups.values())
+
+    def _seg_steps(self, bm: _Built) -> int:
+        return max(1, int(round(self.settings["segment_s"] / bm.model.opt.timestep)))
+
     def _simulate_raw(self, cases: list[Case]) -> list:
         """Run the cases as batches of worlds; per case the exception that stopped it, or
         ``(built model, the batch's samples, index in the batch)``."""

@@ -10,7 +10,9 @@ calibration frame; an engine adapter fills in a few hooks.
   below the barrier after ``min_tail_s``) says so, else ``tail_s`` after the pulse. The engine
   advances in segments (``segment_s``, or :attr:`~SteppedContactAdapter.default_segment_s`) and the
   rule is tested on each segment's samples; samples after the stop are dropped, so the result does
-  not depend on the segment length;
+  not depend on the segment length. An engine whose answers were fixed with the rule tested at
+  segment ends only, each segment kept whole, says so with
+  :attr:`~SteppedContactAdapter.stop_at` ``= "segment"``;
 * **the read-out** (:meth:`~SteppedContactAdapter._record`): both bottom corners relative to the
   table (:func:`corners`), the block's own energy
   (:func:`~rockbench.engines.contact.body_energy_j_kg`), penetration, steps and speed, from the
@@ -89,6 +91,14 @@ class Motion:
         The table's position and velocity along x [m], [m/s]; None: at rest at 0.
     diagnostics : dict
         The engine's own figures for the trajectory (lateral drift, table tracking, ...).
+    t_s : ndarray or None
+        The samples' times as the engine reports them [s]; None: step number × step.
+    corner_x_m, corner_z_m : ndarray or None
+        ``(n, c)`` bottom contact points as the engine measures them: x relative to the table and
+        clearance above its top [m]; None: :func:`corners` of the centre of mass and θ.
+    energy_j_kg : ndarray or None
+        The block's own energy as the engine computes it [J/kg]; None:
+        :func:`~rockbench.engines.contact.body_energy_j_kg`.
     """
 
     x_m: np.ndarray
@@ -100,6 +110,10 @@ class Motion:
     table_x_m: np.ndarray | None = None
     table_vx_m_s: np.ndarray | None = None
     diagnostics: dict = field(default_factory=dict)
+    t_s: np.ndarray | None = None
+    corner_x_m: np.ndarray | None = None
+    corner_z_m: np.ndarray | None = None
+    energy_j_kg: np.ndarray | None = None
 
 
 def corners(block: Block, xc, zc, th, u_tab):
@@ -181,6 +195,13 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: worlds an engine steps together (1: one case at a time); an engine that steps a batch sets
     #: more, and ``batching = "native"``: cases of one block, settings and step run in batches
     max_worlds: ClassVar[int] = 1
+    #: where the end-of-run rule is tested: ``"sample"``, at every sample (the run stops at the first
+    #: sample the rule names); ``"segment"``, at the last sample of each whole segment, the run keeping
+    #: the segment to its end and ending with the first segment that ends within half a step of its
+    #: last instant. ``"segment"`` is for an engine whose answers were fixed with that rule (Exudyn:
+    #: the rule per sample changes n_impacts or the outcome in some cells, docs/engines.md); its
+    #: ``_advance`` may then return any number of rows for a segment (an engine's own sampling)
+    stop_at: ClassVar[str] = "sample"
     #: the settings that describe the contact (what a calibration chooses)
     CONTACT_KEYS: ClassVar[tuple] = ()
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
@@ -208,9 +229,31 @@ class SteppedContactAdapter(ContactEngineAdapter):
                 pulse) -> Motion:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def _segment_end(self, world, block: Block, pulse, w: int, rows: list, n_to: int, steps: tuple,
+                     duration_s: float | None) -> str | None:
+        """With :attr:`stop_at` ``"segment"``: whether world ``w``'s run ends at this segment's end
+        (step ``n_to``), and why; ``rows``: the state rows so far, one ``(worlds, n, k)`` array per
+        segment; ``steps``: the run's last step, the pulse's and the first at which the trapped rule
+        applies. Default: floor 1's end-of-run rule on the segment's last sample, else the tail."""
+        n_last, n_pulse, n_min = steps
+        th, om = self._angles(world, rows[-1][w, -1:])
+        end = run_end(np.array([n_to]), th, om, alpha_rad=block.alpha_rad, p_rad_s=block.p_rad_s,
+                      pulse_end_step=n_pulse if duration_s is None else math.inf, min_tail_step=n_min)
+        return end[1] if end is not None else ("tail" if n_to >= n_last else None)
+
+    def _retire(self, world, w: int) -> None:
+        """World ``w`` has stopped: an engine that can may stop stepping it (its later rows are
+        dropped whatever they hold). Default: nothing."""
+
+    def _halted(self, world) -> bool:
+        """Whether the engine stopped inside the last ``_advance`` (its rows end there); the run
+        then ends with the rows it has (``ended_by`` ``"halted"``). Default: never."""
+        return False
+
     # -- the run ------------------------------------------------------------------------------
     def _segment_steps(self, s: dict, dt_s: float) -> int:
-        return max(1, int(round(float(s.get("segment_s", self.default_segment_s)) / dt_s)))
+        seg_s = s.get("segment_s", self.settings.get("segment_s", self.default_segment_s))
+        return max(1, int(round(float(seg_s) / dt_s)))
 
     def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
              duration_s: float | None = None) -> tuple[Trajectory, Motion]:
@@ -223,41 +266,61 @@ class SteppedContactAdapter(ContactEngineAdapter):
         """The stepping loop: one world per pulse (at most :attr:`max_worlds`), stepped together.
 
         Every world's samples are tested with floor 1's end-of-run rule after each segment, up to
-        its own longest tail; a world that has stopped is stepped on with the others (a batch
-        cannot drop a world) but its later samples are dropped. With :attr:`max_worlds` 1 the
+        its own longest tail (with :attr:`stop_at` ``"segment"``: :meth:`_segment_end` at each
+        segment's end); a world that has stopped is retired (:meth:`_retire`) and stepped on with the
+        others where a batch cannot drop a world, its later samples dropped. With :attr:`max_worlds` 1 the
         hooks see one world (``_start`` gets the pulse, ``_advance`` returns ``(n, k)``); with more,
         ``_start`` gets the list of pulses and both return a leading world axis.
         """
         world = self._world(block, s, dt)
         t_end = [p.duration_s if p is not None else 0.0 for p in pulses]
-        steps = [run_steps(dt, te, float(s["tail_s"]), float(s["min_tail_s"]), duration_s) for te in t_end]
+        # the tails: the resolved settings', else the adapter's (resolved settings may leave them out)
+        tail_s, min_tail_s = (float(s.get(k, self.settings.get(k))) for k in ("tail_s", "min_tail_s"))
+        steps = [run_steps(dt, te, tail_s, min_tail_s, duration_s) for te in t_end]
+        if self.stop_at == "segment":  # the last segment ends within half a step of the run's end
+            t_stop = [(te + tail_s) if duration_s is None else duration_s for te in t_end]
+            steps = [(int(math.ceil(ts / dt - 0.5)), n_p, n_m) for ts, (_, n_p, n_m) in zip(t_stop, steps)]
         n_max = [n for n, _, _ in steps]
         one = self.max_worlds == 1
-        rows = [_worlds(self._start(world, block, s, dt, pulses[0] if one else pulses, theta0, max(n_max)))]
         seg = self._segment_steps(s, dt)
+        n_load = max(n_max) if self.stop_at == "sample" else -(-max(n_max) // seg) * seg
+        rows = [_worlds(self._start(world, block, s, dt, pulses[0] if one else pulses, theta0, n_load))]
+        n_rows = rows[0].shape[1]
         stop: list = [None] * len(pulses)
         ended = ["tail"] * len(pulses)
+        retired = [False] * len(pulses)
         n_done = 0
         t0, c0 = time.perf_counter(), time.process_time()
-        while n_done < max(n for n, e in zip(n_max, stop) if e is None):
-            n_to = min(max(n for n, e in zip(n_max, stop) if e is None), n_done + seg)
+        while any(e is None for e in stop):
+            n_to = n_done + seg
+            if self.stop_at == "sample":
+                n_to = min(max(n for n, e in zip(n_max, stop) if e is None), n_to)
             new = _worlds(self._advance(world, n_done, n_to))
             rows.append(new)
+            n_rows += new.shape[1]
+            halted = self._halted(world)
             for w, (n_w, n_pulse, n_min) in enumerate(steps):
                 if stop[w] is not None:
                     continue
-                m = min(n_to, n_w) - n_done
+                if self.stop_at == "segment":
+                    why = self._segment_end(world, block, pulses[w], w, rows, n_to, steps[w], duration_s)
+                    if why is not None or halted:
+                        stop[w], ended[w] = n_rows - 1, why or "halted"
+                    continue
+                m = min(min(n_to, n_w) - n_done, new.shape[1])
                 th, om = self._angles(world, new[w, :m])
                 end = run_end(np.arange(n_done + 1, n_done + m + 1), th, om, alpha_rad=block.alpha_rad,
                               p_rad_s=block.p_rad_s, pulse_end_step=n_pulse if duration_s is None else math.inf,
                               min_tail_step=n_min)
                 if end is not None:
                     stop[w], ended[w] = n_done + 1 + end[0], end[1]
-                elif n_done + m >= n_w:
-                    stop[w] = n_w
+                elif halted or n_done + m >= n_w:
+                    stop[w], ended[w] = n_done + m, ("halted" if halted else "tail")
+            for w in range(len(pulses)):
+                if stop[w] is not None and not retired[w]:
+                    retired[w] = True
+                    self._retire(world, w)
             n_done = n_to
-            if all(e is not None for e in stop):
-                break
         run = {"wall_s": (time.perf_counter() - t0) / len(pulses), "cpu_s": (time.process_time() - c0) / len(pulses)}
         data = np.concatenate(rows, axis=1)
         return [self._record(world, block, s, dt, p, te, data[w, :stop[w] + 1], {**run, "ended_by": ended[w]})
@@ -267,13 +330,16 @@ class SteppedContactAdapter(ContactEngineAdapter):
                 run: dict) -> tuple[Trajectory, Motion]:
         """The trajectory from a run's state rows: θ, θ̇, both bottom corners relative to the table,
         the block's own energy, and diagnostics (``run``: wall and CPU time, how it ended)."""
-        n = data.shape[0]
-        t = np.arange(n) * dt
-        m = self._motion(world, block, s, data, t, pulse)
+        m = self._motion(world, block, s, data, np.arange(data.shape[0]) * dt, pulse)
+        n = m.theta_rad.size  # an engine may cut a diverged run at its first non-finite sample
+        t = np.arange(n) * dt if m.t_s is None else m.t_s
         u_tab = np.zeros(n) if m.table_x_m is None else m.table_x_m
         v_tab = np.zeros(n) if m.table_vx_m_s is None else m.table_vx_m_s
         corner_x, corner_z = corners(block, m.x_m, m.z_m, m.theta_rad, u_tab)
-        energy = body_energy_j_kg(block, m.vx_m_s - v_tab, m.vz_m_s, m.theta_dot_rad_s, m.z_m)
+        if m.corner_z_m is not None:
+            corner_x, corner_z = m.corner_x_m, m.corner_z_m
+        energy = (body_energy_j_kg(block, m.vx_m_s - v_tab, m.vz_m_s, m.theta_dot_rad_s, m.z_m)
+                  if m.energy_j_kg is None else m.energy_j_kg)
         steps, wall, cpu = n - 1, run["wall_s"], run["cpu_s"]
         # CPU time too: on a shared machine the wall time says more about the neighbours
         diag = {"max_penetration_m": float(max(-np.nanmin(corner_z), 0.0)), "steps": int(steps), "wall_s": wall,

@@ -15,7 +15,6 @@ import pytest
 pytest.importorskip("exudyn")
 
 from rockbench.harness.blocks.presets import get_preset
-from rockbench.engines import exudyn_adapter
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
@@ -172,9 +171,9 @@ def test_modified_newton_iterations_reach_exudyns_solver():
                          **({} if given is None else {"modified_newton_iterations": given}))
         res = ad.resolve(b, Restitution())
         assert res["modified_newton_iterations"] == used
-        model = ad._model(b, {k: res[k] for k in exudyn_adapter._CONTACT_KEYS}, 1e-4,
-                          make_pulse("sine", 1.0, 10.0))
-        assert model.ss.timeIntegration.newton.maxModifiedNewtonIterations == used
+        world = ad._world(b, res, 1e-4)
+        ad._start(world, b, res, 1e-4, make_pulse("sine", 1.0, 10.0), 0.0, 10)
+        assert world.model.ss.timeIntegration.newton.maxModifiedNewtonIterations == used
 
 
 def _cli(*args):

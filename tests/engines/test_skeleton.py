@@ -104,3 +104,29 @@ def _verdict(cell) -> dict:
     timing = ("wall_s", "cpu_s", "steps_per_s", "steps_per_cpu_s")
     return {**cell.to_dict(), "wall_s": 0.0,
             "diagnostics": {k: v for k, v in cell.diagnostics.items() if k not in timing}}
+
+
+class _Segments(_Toy):
+    """The toy with the end-of-run rule tested at segment ends (``stop_at = "segment"``)."""
+
+    stop_at = "segment"
+
+
+class _SegmentsOneAtATime(_Segments):
+    max_worlds = 1
+    batching = "none"
+
+
+def test_the_rule_at_segment_ends_keeps_whole_segments():
+    cases = _cases()
+    seg = _Segments()._segment_steps(_Segments().settings, 1e-4)
+    per_sample = [_OneAtATime()._simulate(c) for c in cases]
+    single = [_SegmentsOneAtATime()._simulate(c) for c in cases]
+    batch = _Segments()._simulate_many(cases)
+    for s, one, b in zip(per_sample, single, batch):
+        # whole segments, never shorter than the run stopped per sample, the same samples as far as both go
+        assert (one.t_s.size - 1) % seg == 0 and one.t_s.size >= s.t_s.size
+        assert np.array_equal(one.theta_rad[:s.t_s.size], s.theta_rad)
+        assert b.t_s.size == one.t_s.size and np.array_equal(b.theta_rad, one.theta_rad)
+        assert b.diagnostics["ended_by"] == one.diagnostics["ended_by"]
+    assert {tr.diagnostics["ended_by"] for tr in single} - {"tail"}
