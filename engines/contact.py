@@ -265,9 +265,9 @@ class ContactEngineAdapter(EngineAdapter):
     @staticmethod
     def _settings_diagnostics(resolved: dict) -> dict:
         """What a trajectory's diagnostics record of the resolved settings it ran with: the settings'
-        name and, calibrated, the calibration's summary."""
+        name and, calibrated, the calibration's summary (an explicit contact may resolve it to None)."""
         out = {"settings": resolved["settings"]}
-        if "calibration" in resolved:
+        if resolved.get("calibration") is not None:
             out["calibration"] = dict(resolved["calibration"])
         return out
 

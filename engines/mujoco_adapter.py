@@ -270,12 +270,6 @@ class MujocoAdapter(SteppedContactAdapter):
         return out
 
     @staticmethod
-    def _settings_diagnostics(resolved: dict) -> dict:
-        """The shared record of the settings; explicit contact settings resolve ``calibration`` to None."""
-        return ContactEngineAdapter._settings_diagnostics(
-            {k: v for k, v in resolved.items() if k != "calibration" or v is not None})
-
-    @staticmethod
     def _calibration_summary(cal: CalibrationResult) -> dict:
         return {**ContactEngineAdapter._calibration_summary(cal), "note": cal.note,
                 "rest_sink_m": cal.settings.get("rest_sink_m")}

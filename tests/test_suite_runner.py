@@ -266,3 +266,26 @@ def test_a_lane_whose_workers_cannot_start_stops_that_engine_and_the_suite_goes_
     (line,) = res["cannot_simulate"]
     assert "engine 'hanging-start' cannot simulate: starting it failed with" in line and "keep dying at start" in line
     assert len(res["maps"]) == 4                     # the four reference maps; no engine map was recorded
+
+
+def test_engines_include_takes_an_engine_that_leaves_every_available_suite(tmp_path, monkeypatch):
+    """engines.include: an engine whose default_suite_exclusion leaves "available" suites (Newton on a CPU)
+    takes part anyway; a name rockbench does not know, or include beside a list of names, is one line."""
+    from rockbench.engines.pybullet_adapter import PybulletAdapter
+    from rockbench.harness.suites.plan import engine_names
+    monkeypatch.setattr(PybulletAdapter, "default_suite_exclusion", classmethod(lambda cls: "slow here (test)"))
+    p = tmp_path / "s.toml"
+    p.write_text(GRID)
+    picked, notes = engine_names(load_suite(p))
+    assert "pybullet" not in picked and any("pybullet skipped: slow here (test)" in n for n in notes)
+    p.write_text(GRID + '[engines]\ninclude = ["pybullet"]\n')
+    picked, notes = engine_names(load_suite(p))
+    assert "pybullet" in picked and not any("pybullet" in n for n in notes)
+    p.write_text(GRID + '[engines]\ninclude = ["pybulet"]\n')
+    with pytest.raises(ConfigError, match="engines.include names engine 'pybulet'"):
+        engine_names(load_suite(p))
+    for extra, needle in (('names = ["mujoco"]\ninclude = ["pybullet"]\n', "engines.include goes with names"),
+                          ('include = ["pybullet"]\nexclude = ["pybullet"]\n', "in both engines.exclude and")):
+        p.write_text(GRID + "[engines]\n" + extra)
+        with pytest.raises(ConfigError, match=needle):
+            load_suite(p)

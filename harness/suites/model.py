@@ -60,6 +60,7 @@ class Suite:
     experiments: str | None
     raw: dict = field(default_factory=dict)
     engine_exclude: list = field(default_factory=list)
+    engine_include: list = field(default_factory=list)
 
 
 # -- one rule per kind of key ------------------------------------------------------------------------
@@ -252,6 +253,7 @@ class ReferenceTable(_Table):
 class EnginesTable(_Table):
     names: Annotated[Any, BeforeValidator(_names)] = "available"
     exclude: Annotated[list[str], _list([], empty=True)] = []
+    include: Annotated[list[str], _list([], empty=True)] = []
     variants: Annotated[list[dict], BeforeValidator(_variants)] = [{}]
     restitution: Annotated[str, BeforeValidator(_restitution_token)] = "housner"
     dt_s: Seconds = None
@@ -289,14 +291,20 @@ class SuiteFile(_Table):
         return self
 
     def _check_tokens(self, name: str) -> None:
-        """Every restitution token for every block, and engines.exclude only with every engine."""
+        """Every restitution token for every block, and engines.exclude/include only with every engine."""
         blocks = self.cases.blocks
         for r in self.reference.restitutions:
             for b in blocks:
                 restitution_for(r, b, f"suite {name}: reference.restitutions")  # every token for every block
-        if self.engines.exclude and self.engines.names != "available":
-            raise ConfigError(f"suite {name}: engines.exclude goes with names = \"available\"; with a list of "
-                              f"names, leave the engine out of the list instead.")
+        for key in ("exclude", "include"):
+            if getattr(self.engines, key) and self.engines.names != "available":
+                raise ConfigError(f"suite {name}: engines.{key} goes with names = \"available\"; with a list of "
+                                  f"names, {'leave the engine out of' if key == 'exclude' else 'put the engine in'} "
+                                  f"the list instead.")
+        both = sorted(set(self.engines.exclude) & set(self.engines.include))
+        if both:
+            raise ConfigError(f"suite {name}: engine {both[0]!r} is in both engines.exclude and engines.include; "
+                              f"keep it in one.")
         tokens = [("engines.restitution", self.engines.restitution)]
         tokens += [(f"engines.variants[{k}].restitution", str(v["restitution"]))
                    for k, v in enumerate(self.engines.variants) if "restitution" in v]
@@ -414,4 +422,5 @@ def load_suite(path) -> Suite:
                  engine_names=f.engines.names, engine_variants=f.engines.variants,
                  engine_restitution=f.engines.restitution, engine_dt_s=f.engines.dt_s, own_eta=f.engines.own_eta,
                  cell_timeout_s=f.run.cell_timeout_s, report_cases=f.report.cases, experiments=f.report.experiments,
-                 raw=raw, engine_exclude=f.engines.exclude)
+                 raw=raw, engine_exclude=f.engines.exclude,
+                 engine_include=f.engines.include)

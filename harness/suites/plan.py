@@ -125,6 +125,10 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
                                              f"{a['reason']}")
         return [n for n in only if n != "reference"], notes
     if suite.engine_names == "available":
+        unknown = [n for n in suite.engine_include if n not in names()]
+        if unknown:
+            raise ConfigError(f"suite {suite.name}: engines.include names engine {unknown[0]!r}, which rockbench does "
+                              f"not know; `rockbench engines` lists the engines.")
         out = []
         for n in names():
             if n == "reference":
@@ -137,7 +141,8 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
             if not a["available"]:
                 notes.append(f"engine {n} skipped: {a['reason']}")
                 continue
-            why_not = adapter_class(n).default_suite_exclusion()
+            # engines.include: taken wherever installed, even where it would leave such suites (Newton on a CPU)
+            why_not = None if n in suite.engine_include else adapter_class(n).default_suite_exclusion()
             if why_not:
                 notes.append(f"engine {n} skipped: {why_not}")
             else:
