@@ -8,8 +8,8 @@ collision detection finds the corner contacts and its constraint solver (MuJoCo'
 formulation: a time constant and a damping ratio, Newton's method, the elliptic friction cone) turns them into forces. No constraint and no impact law of ours.
 
 * **Free body**: the block has a free joint and stays in the x–z plane by symmetry (its drift out
-  of the plane is recorded). ``planar`` defaults to false and true is a ConfigError: with a
-  slide-x, slide-z, hinge-y chain Genesis 1.4.5 let the block sink through the table (measured).
+  of the plane is recorded). ``planar`` defaults to false and true is a ConfigError: a planar
+  joint chain (slide x, slide z, hinge y) is not offered yet.
 * **Anti-slip**: friction 10 on both geoms, from the MJCF (Genesis's ``Rigid`` material caps friction
   at 5; the MJCF value is kept), with the **elliptic** friction cone: with Genesis's default
   pyramidal cone and friction 10 the constraint solver lets a block at rest sink through the table
@@ -231,8 +231,8 @@ class GenesisAdapter(SteppedContactAdapter):
     # -- settings -----------------------------------------------------------------------------
     def _validate_engine_settings(self, s: dict) -> None:
         if s["planar"]:
-            raise ConfigError("genesis setting 'planar' must be false: Genesis's planar joints (slide x, slide z, hinge "
-                              "y) let the block sink through the table, so only the free body is offered.")
+            raise ConfigError("genesis setting 'planar' must be false: only the free body is offered (it stays in the "
+                              "x-z plane by symmetry).")
         self._number_setting(s, "timeconst_s", "s")
         self._number_setting(s, "table_mass_ratio", "", allow_none=False)
 
