@@ -7,9 +7,9 @@ with the case's mass (uniform density). They touch only through Genesis's own co
 collision detection finds the corner contacts and its constraint solver (MuJoCo's soft-constraint
 formulation: a time constant and a damping ratio, Newton's method, the elliptic friction cone) turns them into forces. No constraint and no impact law of ours.
 
-* **Free body**: the block has a free joint and stays in the x–z plane by symmetry (its drift out
-  of the plane is recorded). ``planar`` defaults to false and true is a ConfigError: a planar
-  joint chain (slide x, slide z, hinge y) is not offered yet.
+* **Free body** (default, ``planar=False``): the block has a free joint and stays in the x–z plane
+  by symmetry (its drift out of the plane is recorded). ``planar=True``: a slide-x, slide-z,
+  hinge-y joint chain through the centre of mass (the MuJoCo adapter's planar model).
 * **Anti-slip**: friction 10 on both geoms, from the MJCF (Genesis's ``Rigid`` material caps friction
   at 5; the MJCF value is kept), with the **elliptic** friction cone: with Genesis's default
   pyramidal cone and friction 10 the constraint solver lets a block at rest sink through the table
@@ -85,9 +85,11 @@ def _table_xml(drive: str, mu: float, mass_kg: float) -> str:
     return f'<mujoco><worldbody><body name="table" pos="0 0 {-hz}">{geom}/></body></worldbody></mujoco>'
 
 
-def _block_xml(block: Block, mu: float) -> str:
+def _block_xml(block: Block, mu: float, planar: bool) -> str:
     b, d, h = block.width_m, block.depth_m, block.height_m
-    return (f'<mujoco><worldbody><body name="block" pos="0 0 {h / 2}"><freejoint/>'
+    joints = ('<joint name="x" type="slide" axis="1 0 0"/><joint name="z" type="slide" axis="0 0 1"/>'
+              '<joint name="theta" type="hinge" axis="0 1 0"/>') if planar else '<freejoint/>'
+    return (f'<mujoco><worldbody><body name="block" pos="0 0 {h / 2}">{joints}'
             f'<geom type="box" size="{b / 2} {d / 2} {h / 2}" mass="{block.mass_kg}" friction="{mu}"/>'
             '</body></worldbody></mujoco>')
 
@@ -113,6 +115,7 @@ class _Scene:
     def __init__(self, block: Block, s: dict, dt_s: float, worlds: int):
         gs = _genesis()
         self.dt, self.worlds, self.table_drive = dt_s, worlds, s["drive"] == "table"
+        self.planar, self.half_h = bool(s["planar"]), block.height_m / 2
         mu = float(s["friction"])
         self.table_mass_kg = float(s["table_mass_ratio"]) * block.mass_kg
         self.push_mass_kg = self.table_mass_kg + block.mass_kg
@@ -121,7 +124,7 @@ class _Scene:
                                                               friction_cone=gs.friction_cone.elliptic),
                          show_viewer=False)
         self.table = scene.add_entity(gs.morphs.MJCF(file=_mjcf_file(_table_xml(s["drive"], mu, self.table_mass_kg))))
-        self.block = scene.add_entity(gs.morphs.MJCF(file=_mjcf_file(_block_xml(block, mu))))
+        self.block = scene.add_entity(gs.morphs.MJCF(file=_mjcf_file(_block_xml(block, mu, self.planar))))
         scene.build(n_envs=worlds)
         self.scene = scene
         self.acc = np.zeros((0, worlds))
@@ -133,6 +136,8 @@ class _Scene:
         for w, th in enumerate(np.asarray(theta0_rad, dtype=float)):
             x, z = pivot_pose(block, float(th))
             q[w] = (x, 0.0, z, math.cos(th / 2), 0.0, math.sin(th / 2), 0.0)
+        if self.planar:   # the chain's coordinates: x, z above the body's rest height, θ
+            q = np.stack([q[:, 0], q[:, 2] - self.half_h, np.asarray(theta0_rad, dtype=float)], axis=1)
         self.block.set_qpos(q, zero_velocity=True)
         if self.table_drive:
             self.table.set_qpos(np.zeros((self.worlds, 1)), zero_velocity=True)
@@ -140,10 +145,16 @@ class _Scene:
         self.scene.sim.set_gravity(np.tile([0.0, 0.0, -G], (self.worlds, 1)))
 
     def rows(self) -> np.ndarray:
-        """The state now, ``(worlds, k)``: the free joint's position (3) and quaternion w, x, y, z (4),
-        its velocity (3) and angular velocity (3), then the table's x and ẋ (table drive)."""
-        q = self.block.get_qpos().cpu().numpy().reshape(self.worlds, 7).astype(float)
-        v = self.block.get_dofs_velocity().cpu().numpy().reshape(self.worlds, 6).astype(float)
+        """The state now, ``(worlds, k)``: the block's position (3) and quaternion w, x, y, z (4), its
+        velocity (3) and angular velocity (3) (the planar chain's state written so), then the table's x
+        and ẋ (table drive)."""
+        n = 3 if self.planar else 7
+        q = self.block.get_qpos().cpu().numpy().reshape(self.worlds, n).astype(float)
+        v = self.block.get_dofs_velocity().cpu().numpy().reshape(self.worlds, n - 1 if n == 7 else 3).astype(float)
+        if self.planar:
+            zero, th = np.zeros(self.worlds), q[:, 2]
+            q = np.stack([q[:, 0], zero, q[:, 1] + self.half_h, np.cos(th / 2), zero, np.sin(th / 2), zero], axis=1)
+            v = np.stack([v[:, 0], zero, v[:, 1], zero, v[:, 2], zero], axis=1)
         out = [q, v]
         if self.table_drive:
             out += [self.table.get_qpos().cpu().numpy().reshape(self.worlds, 1).astype(float),
@@ -185,7 +196,7 @@ class GenesisAdapter(SteppedContactAdapter):
     drive : {"inertial", "table"}
         Gravity tilted by −ü per environment, or a table on a slide joint pushed along u(t).
     planar : bool
-        Only false (a free body, in the x–z plane by symmetry) is offered.
+        A slide-x, slide-z, hinge-y joint chain, or (default) a free body, in the x–z plane by symmetry.
     friction : float
         Coulomb friction block–table [-] (anti-slip: 10).
     timeconst_s : float or None
@@ -230,9 +241,6 @@ class GenesisAdapter(SteppedContactAdapter):
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_engine_settings(self, s: dict) -> None:
-        if s["planar"]:
-            raise ConfigError("genesis setting 'planar' must be false: only the free body is offered (it stays in the "
-                              "x-z plane by symmetry).")
         self._number_setting(s, "timeconst_s", "s")
         self._number_setting(s, "table_mass_ratio", "", allow_none=False)
 
@@ -257,7 +265,7 @@ class GenesisAdapter(SteppedContactAdapter):
 
     def _start(self, w: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
                n_steps: int) -> np.ndarray:
-        keys = ("drive", "friction", "timeconst_s", "table_mass_ratio")
+        keys = ("drive", "planar", "friction", "timeconst_s", "table_mass_ratio")
         sc = w["scene"] = _scene(os.getpid(), block, dt_s, tuple((k, s[k]) for k in keys), len(pulses))
         sc.place(block, np.full(len(pulses), float(theta0_rad)))
         acc = np.zeros((n_steps, len(pulses)))

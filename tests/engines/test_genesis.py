@@ -46,7 +46,6 @@ def _own_calibration_cache(tmp_path_factory):
 
 
 @pytest.mark.parametrize("bad, words", [
-    ({"planar": True}, "'planar' must be false"),
     ({"timeconst_s": -1.0}, "timeconst_s"),
     ({"table_mass_ratio": 0.0}, "table_mass_ratio"),
 ])
@@ -65,6 +64,15 @@ def test_cells_match_the_reference_and_a_batch_equals_one_by_one():
         one = ad.run(c)
         assert (one.outcome, one.n_impacts, one.flags) == (m.outcome, m.n_impacts, m.flags)
         assert one.max_abs_theta_rad == m.max_abs_theta_rad   # the same kernels per environment: bit for bit
+
+
+def test_the_planar_chain_agrees_with_the_free_body():
+    c = _case(6.0, 2.0)
+    free = get_adapter("genesis", **SHORT).simulate(c)
+    planar = get_adapter("genesis", planar=True, **SHORT).simulate(c)
+    n = min(len(free.theta_rad), len(planar.theta_rad))
+    assert np.max(np.abs(free.theta_rad[:n] - planar.theta_rad[:n])) < 0.01
+    assert planar.diagnostics["max_lateral_drift_m"] == 0.0
 
 
 def test_table_drive_agrees_with_the_inertial_drive():
