@@ -23,6 +23,7 @@ BUILTIN = {
     "drake": "rockbench.engines.drake_adapter:DrakeAdapter",
     "dart": "rockbench.engines.dart_adapter:DartAdapter",
     "newton": "rockbench.engines.newton_adapter:NewtonAdapter",
+    "genesis": "rockbench.engines.genesis_adapter:GenesisAdapter",
 }
 
 #: the entry-point group third parties register under

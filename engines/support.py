@@ -21,11 +21,12 @@ DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
     "drake": ("drake",),
     "dart": ("dartpy",),
     "newton": ("newton", "warp-lang"),
+    "genesis": ("genesis-world", "torch"),
 }
 
 #: the extra of pyproject.toml that installs each engine
 EXTRAS = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "mujoco_warp": "warp", "drake": "drake",
-          "dart": "dart", "newton": "newton"}
+          "dart": "dart", "newton": "newton", "genesis": "genesis"}
 
 
 def _canonical(name: str) -> str:

@@ -1,0 +1,331 @@
+"""Genesis adapter: the rocking block in Genesis's rigid solver (``genesis-world``, CPU backend).
+
+The model
+---------
+Two entities loaded from MJCF text: a table box whose top is ``z = 0`` and a block box ``b × d × h``
+with the case's mass (uniform density). They touch only through Genesis's own contact: its
+collision detection finds the corner contacts and its constraint solver (MuJoCo's soft-constraint
+formulation: a time constant and a damping ratio, Newton's method, the elliptic friction cone) turns them into forces. No constraint and no impact law of ours.
+
+* **Free body** (default, ``planar=False``): the block has a free joint and stays in the x–z plane
+  by symmetry (its drift out of the plane is recorded). ``planar=True``: a slide-x, slide-z,
+  hinge-y joint chain through the centre of mass (the MuJoCo adapter's planar model).
+* **Anti-slip**: friction 10 on both geoms, from the MJCF (Genesis's ``Rigid`` material caps friction
+  at 5; the MJCF value is kept), with the **elliptic** friction cone: with Genesis's default
+  pyramidal cone and friction 10 the constraint solver lets a block at rest sink through the table
+  (friction 5 already sinks it 4 mm in 0.2 s); the elliptic cone holds it at every friction tried.
+* **Drives** (``drive``): ``inertial`` (default) sets each environment's gravity to ``(−ü, 0, −g)``
+  for every step, ü the step average ``(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` (the impulse per step is exact);
+  ``table`` puts the table on a slide-x joint (its mass ``table_mass_ratio`` × the block's) pushed
+  by a force ``(M_table + m)·ü`` (the same step average), as the MuJoCo adapter does;
+  ``table_track_err_rel`` records how far the table strays from u(t).
+* **Contact softness**: Genesis's ``constraint_timeconst`` (``timeconst_s``; Genesis ships 0.01 s)
+  with damping ratio 1. ``settings="calibrated"`` keeps the shipped value where it gives the
+  case's η within 0.25 %, else searches the time constant (:meth:`GenesisAdapter._calibrate_corners`).
+
+Scenes and batches
+------------------
+The first scene on a machine compiles Genesis's kernels (minutes; then its disk cache serves later
+processes in seconds). Genesis takes part in suites of every available engine (a 51 × 51 map runs
+in about 90 s on two cores). A scene is built per block, step, contact setting and number of environments and kept
+in the process (:func:`_scene`); a run resets it and sets the pose. Cases of one block, setting and
+step run as the environments of one scene (``batching = "native"``, :attr:`GenesisAdapter.max_worlds`).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+import tempfile
+
+import numpy as np
+
+from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import G, Block
+from .base import CalibrationResult
+from .skeleton import Motion, SteppedContactAdapter, pivot_pose
+
+#: Genesis's shipped constraint time constant [s] (``RigidOptions.constraint_timeconst``)
+SHIPPED_TIMECONST_S = 0.01
+
+#: Time constants a calibration tries when the shipped one misses the target, as multiples of Δt
+_TC_FACTORS = (2.0, 4.0, 8.0, 12.0, 16.0, 32.0, 48.0)
+
+#: Half extents of the table box [m]: wider than any table stroke
+_TABLE_HALF_EXTENTS_M = (2.0, 1.0, 0.05)
+
+#: Scenes kept per process; the least recently used goes first
+_MAX_SCENES = 8
+
+#: Most environments in one scene
+MAX_WORLDS = 1024
+
+_ready = False
+
+
+def _genesis():
+    """The ``genesis`` module, initialised once per process on its CPU backend, quietly."""
+    global _ready
+    import genesis as gs
+    if not _ready:
+        import logging
+        gs.init(backend=gs.cpu, logging_level="warning")
+        logging.getLogger("genesis").setLevel(logging.WARNING)
+        _ready = True
+    return gs
+
+
+def _table_xml(drive: str, mu: float, mass_kg: float) -> str:
+    hx, hy, hz = _TABLE_HALF_EXTENTS_M
+    geom = f'<geom type="box" size="{hx} {hy} {hz}" friction="{mu}"'
+    if drive == "table":
+        return (f'<mujoco><worldbody><body name="table" pos="0 0 {-hz}"><joint name="table_x" type="slide" '
+                f'axis="1 0 0"/>{geom} mass="{mass_kg}"/></body></worldbody></mujoco>')
+    return f'<mujoco><worldbody><body name="table" pos="0 0 {-hz}">{geom}/></body></worldbody></mujoco>'
+
+
+def _block_xml(block: Block, mu: float, planar: bool) -> str:
+    b, d, h = block.width_m, block.depth_m, block.height_m
+    joints = ('<joint name="x" type="slide" axis="1 0 0"/><joint name="z" type="slide" axis="0 0 1"/>'
+              '<joint name="theta" type="hinge" axis="0 1 0"/>') if planar else '<freejoint/>'
+    return (f'<mujoco><worldbody><body name="block" pos="0 0 {h / 2}">{joints}'
+            f'<geom type="box" size="{b / 2} {d / 2} {h / 2}" mass="{block.mass_kg}" friction="{mu}"/>'
+            '</body></worldbody></mujoco>')
+
+
+def theta_of(rows: np.ndarray) -> np.ndarray:
+    """θ about +y [rad] from state rows (quaternion w, x, y, z in columns 3–6)."""
+    qw, qx, qy, qz = rows[..., 3], rows[..., 4], rows[..., 5], rows[..., 6]
+    return np.arctan2(2.0 * (qw * qy + qx * qz), 1.0 - 2.0 * (qx * qx + qy * qy))
+
+
+def _mjcf_file(text: str) -> str:
+    """A file holding ``text`` (Genesis loads MJCF from a path), named by its content."""
+    path = os.path.join(tempfile.gettempdir(), f"rockbench-genesis-{abs(hash(text)):x}.xml")
+    if not os.path.exists(path):
+        with open(path, "w") as f:
+            f.write(text)
+    return path
+
+
+class _Scene:
+    """One Genesis scene of ``worlds`` environments: the table and the block, contact as in ``s``."""
+
+    def __init__(self, block: Block, s: dict, dt_s: float, worlds: int):
+        gs = _genesis()
+        self.dt, self.worlds, self.table_drive = dt_s, worlds, s["drive"] == "table"
+        self.planar, self.half_h = bool(s["planar"]), block.height_m / 2
+        mu = float(s["friction"])
+        self.table_mass_kg = float(s["table_mass_ratio"]) * block.mass_kg
+        self.push_mass_kg = self.table_mass_kg + block.mass_kg
+        scene = gs.Scene(sim_options=gs.options.SimOptions(dt=dt_s, gravity=(0.0, 0.0, -G)),
+                         rigid_options=gs.options.RigidOptions(constraint_timeconst=float(s["timeconst_s"]),
+                                                              friction_cone=gs.friction_cone.elliptic),
+                         show_viewer=False)
+        self.table = scene.add_entity(gs.morphs.MJCF(file=_mjcf_file(_table_xml(s["drive"], mu, self.table_mass_kg))))
+        self.block = scene.add_entity(gs.morphs.MJCF(file=_mjcf_file(_block_xml(block, mu, self.planar))))
+        scene.build(n_envs=worlds)
+        self.scene = scene
+        self.acc = np.zeros((0, worlds))
+
+    def place(self, block: Block, theta0_rad: np.ndarray) -> None:
+        """Every block at rest at its ``theta0_rad`` pivoting on its lower corner, the table at 0."""
+        self.scene.reset()
+        q = np.zeros((self.worlds, 7))
+        for w, th in enumerate(np.asarray(theta0_rad, dtype=float)):
+            x, z = pivot_pose(block, float(th))
+            q[w] = (x, 0.0, z, math.cos(th / 2), 0.0, math.sin(th / 2), 0.0)
+        if self.planar:   # the chain's coordinates: x, z above the body's rest height, θ
+            q = np.stack([q[:, 0], q[:, 2] - self.half_h, np.asarray(theta0_rad, dtype=float)], axis=1)
+        self.block.set_qpos(q, zero_velocity=True)
+        if self.table_drive:
+            self.table.set_qpos(np.zeros((self.worlds, 1)), zero_velocity=True)
+            self.table.control_dofs_force(np.zeros((self.worlds, 1)))
+        self.scene.sim.set_gravity(np.tile([0.0, 0.0, -G], (self.worlds, 1)))
+
+    def rows(self) -> np.ndarray:
+        """The state now, ``(worlds, k)``: the block's position (3) and quaternion w, x, y, z (4), its
+        velocity (3) and angular velocity (3) (the planar chain's state written so), then the table's x
+        and ẋ (table drive)."""
+        n = 3 if self.planar else 7
+        q = self.block.get_qpos().cpu().numpy().reshape(self.worlds, n).astype(float)
+        v = self.block.get_dofs_velocity().cpu().numpy().reshape(self.worlds, n - 1 if n == 7 else 3).astype(float)
+        if self.planar:
+            zero, th = np.zeros(self.worlds), q[:, 2]
+            q = np.stack([q[:, 0], zero, q[:, 1] + self.half_h, np.cos(th / 2), zero, np.sin(th / 2), zero], axis=1)
+            v = np.stack([v[:, 0], zero, v[:, 1], zero, v[:, 2], zero], axis=1)
+        out = [q, v]
+        if self.table_drive:
+            out += [self.table.get_qpos().cpu().numpy().reshape(self.worlds, 1).astype(float),
+                    self.table.get_dofs_velocity().cpu().numpy().reshape(self.worlds, 1).astype(float)]
+        return np.concatenate(out, axis=1)
+
+    def advance(self, n_from: int, n_to: int) -> np.ndarray:
+        """Steps ``n_from … n_to − 1`` (each step's drive from :attr:`acc`); the states after each,
+        ``(worlds, n_to − n_from, k)``."""
+        out = []
+        n_acc = self.acc.shape[0]
+        grav = np.tile([0.0, 0.0, -G], (self.worlds, 1))
+        for i in range(n_from, n_to):
+            a = self.acc[i] if i < n_acc else np.zeros(self.worlds)
+            if self.table_drive:
+                self.table.control_dofs_force((self.push_mass_kg * a)[:, None])
+            else:
+                grav[:, 0] = -a
+                self.scene.sim.set_gravity(grav)
+            self.scene.step()
+            out.append(self.rows())
+        return np.stack(out, axis=1)
+
+
+@functools.lru_cache(maxsize=_MAX_SCENES)
+def _scene(pid: int, block: Block, dt_s: float, settings: tuple, worlds: int) -> _Scene:
+    """This process's scene for a block, step [s], the settings it depends on (``(name, value)``
+    pairs) and number of environments; ``pid`` keys it by process, so a forked worker builds its own."""
+    return _Scene(block, dict(settings), dt_s, worlds)
+
+
+class GenesisAdapter(SteppedContactAdapter):
+    """The rocking block in Genesis (see the module docstring for the model).
+
+    Settings
+    --------
+    settings : {"calibrated", "defaults"}
+        The constraint time constant calibrated to the case's η, or Genesis as shipped (0.01 s).
+    drive : {"inertial", "table"}
+        Gravity tilted by −ü per environment, or a table on a slide joint pushed along u(t).
+    planar : bool
+        A slide-x, slide-z, hinge-y joint chain, or (default) a free body, in the x–z plane by symmetry.
+    friction : float
+        Coulomb friction block–table [-] (anti-slip: 10).
+    timeconst_s : float or None
+        Genesis's ``constraint_timeconst`` [s] (at least 2·Δt); given, it replaces calibration.
+    table_mass_ratio : float
+        The table's mass over the block's (table drive) [-].
+    tail_s, min_tail_s : float
+        Longest and shortest simulated time after the pulse [s].
+    """
+
+    name = "genesis"
+    module = "genesis"
+    install_hint = ("install torch's CPU wheel first (pip install torch --index-url https://download.pytorch.org/whl/cpu), "
+                    "then `pip install 'rockbench[genesis]'`.")
+    default_dt_s = 5e-4
+    batching = "native"
+    max_worlds = MAX_WORLDS
+    SETTINGS = {
+        **SteppedContactAdapter.SHARED_SETTINGS,
+        "planar": False,
+        "timeconst_s": None,
+        "table_mass_ratio": 100.0,
+        "tail_s": 2.0,
+        "min_tail_s": 0.25,
+    }
+    CONTACT_KEYS = ("timeconst_s",)
+    MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
+    CALIBRATION_VERSION = 1
+
+    @classmethod
+    def version(cls) -> str:
+        super().version()   # raises EngineUnavailableError with the hint when the import fails
+        from importlib.metadata import PackageNotFoundError, version
+        try:
+            return f"{version('genesis-world')} (torch {version('torch')})"
+        except PackageNotFoundError:
+            return "unknown"
+
+    @classmethod
+    def device_note(cls) -> str:
+        return "CPU only (Genesis's CPU backend)"
+
+    # -- settings -----------------------------------------------------------------------------
+    def _validate_engine_settings(self, s: dict) -> None:
+        self._number_setting(s, "timeconst_s", "s")
+        self._number_setting(s, "table_mass_ratio", "", allow_none=False)
+
+    def _base_settings(self) -> dict:
+        return dict(self.settings)
+
+    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
+        s = self._base_settings()
+        if cal is not None:
+            s.update(cal.settings)
+        if s["timeconst_s"] is None:
+            s["timeconst_s"] = SHIPPED_TIMECONST_S
+        if s["timeconst_s"] < 2.0 * dt:
+            raise ConfigError(f"genesis setting 'timeconst_s' must be at least 2·dt = {2 * dt:g} s, "
+                              f"got {s['timeconst_s']!r}.")
+        return s
+
+    # -- the skeleton's hooks -----------------------------------------------------------------
+    def _world(self, block: Block, s: dict, dt_s: float) -> dict:
+        """What a run's scene needs; :meth:`_start` takes the scene once it knows how many worlds."""
+        return {"block": block, "s": s, "dt": dt_s, "scene": None}
+
+    def _start(self, w: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+               n_steps: int) -> np.ndarray:
+        keys = ("drive", "planar", "friction", "timeconst_s", "table_mass_ratio")
+        sc = w["scene"] = _scene(os.getpid(), block, dt_s, tuple((k, s[k]) for k in keys), len(pulses))
+        sc.place(block, np.full(len(pulses), float(theta0_rad)))
+        acc = np.zeros((n_steps, len(pulses)))
+        for j, p in enumerate(pulses):
+            if p is not None:
+                n_pulse = min(n_steps, int(math.ceil(p.duration_s / dt_s - 1e-9)))
+                vel = np.asarray(p.vel(np.arange(n_pulse + 1) * dt_s), dtype=float)
+                acc[:n_pulse, j] = np.diff(vel) / dt_s
+        sc.acc = acc
+        return sc.rows()[:, None]
+
+    def _advance(self, w: dict, n_from: int, n_to: int) -> np.ndarray:
+        return w["scene"].advance(n_from, n_to)
+
+    def _angles(self, w: dict, rows: np.ndarray):
+        return theta_of(rows), rows[..., 11]
+
+    def _motion(self, w: dict, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        qw, qx, qy, qz = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
+        roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
+        diag = {"timeconst_s": float(s["timeconst_s"]), "max_lateral_drift_m": float(np.max(np.abs(data[:, 1]))),
+                "max_out_of_plane_tilt_rad": float(np.max(np.abs(roll)))}
+        u_tab = v_tab = None
+        if s["drive"] == "table":
+            u_tab, v_tab = data[:, 13], data[:, 14]
+            if pulse is not None:
+                u = np.asarray(pulse.disp(t_s), dtype=float)
+                diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / max(float(np.max(np.abs(u))), 1e-12))
+        return Motion(x_m=data[:, 0], z_m=data[:, 2], theta_rad=theta_of(data), vx_m_s=data[:, 7], vz_m_s=data[:, 9],
+                      theta_dot_rad_s=data[:, 11], table_x_m=u_tab, table_vx_m_s=v_tab, diagnostics=diag)
+
+    # -- calibration --------------------------------------------------------------------------
+    def _calibrate_corners(self, block: Block, t: float, dt: float, use_cache: bool) -> CalibrationResult:
+        """Genesis's constraint time constant whose free-rocking η is closest to ``t``.
+
+        Genesis as shipped (0.01 s) first; kept when within 0.25 % of the target. Otherwise the time
+        constants :data:`_TC_FACTORS` × Δt are measured and the closest setting whose impacts agree
+        within 2 % wins (reached within 1 %). Cached on disk per engine version, block, target, step,
+        friction and drive.
+        """
+        base = {**self._base_settings(), "timeconst_s": None}
+        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base),
+                              table_mass_ratio=float(base["table_mass_ratio"]))
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
+        search = self._search(block, dt, base, t)
+        e0 = search.evaluate({"timeconst_s": SHIPPED_TIMECONST_S})
+        if search.err(e0) > 0.0025:
+            for f in _TC_FACTORS:
+                if abs(f * dt - SHIPPED_TIMECONST_S) > 1e-12:
+                    search.evaluate({"timeconst_s": f * dt})
+        eta, std, extra, reached = search.best()
+        lo = min((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
+        hi = max((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
+        how = ("Genesis as shipped (constraint time constant 0.01 s)" if extra["timeconst_s"] == SHIPPED_TIMECONST_S
+               else f"constraint time constant {extra['timeconst_s']:.4g} s")
+        head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
+        note = head + (f"; the time constants tried span η = {lo:.4f}–{hi:.4f}." if len(search.tried) > 1 else ".")
+        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
+                                settings=dict(extra), note=note, evaluations=len(search.tried))
+        self._store(key, res, {"tried": [{"eta": r[0], "eta_std": r[1], **r[2]} for r in search.tried]})
+        return res
