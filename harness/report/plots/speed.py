@@ -104,7 +104,11 @@ def plot_speed_accuracy(rows, *, metric="agreement", ax=None):
     for k, (r, x, y) in enumerate(pts):
         texts[r["variant"]] = ax.annotate(for_matplotlib(r.get("label", r["variant"])), (x, max(y, floor)),
                                           xytext=(6, 0), textcoords="offset points", va="center", ha="left",
-                                          fontsize=SMALL_PT, zorder=4)
+                                          fontsize=SMALL_PT, zorder=4,
+                                          # a leader line, shown only where the label had to move away
+                                          arrowprops=dict(arrowstyle="-", lw=0.5, color="0.45", relpos=(0.0, 0.5),
+                                                          shrinkA=1.0, shrinkB=4.0))
+        texts[r["variant"]].arrow_patch.set_visible(False)
     _spread_labels(ax, texts)
     return {"ax": ax, "points": drawn, "labels": texts, "logy": logy, "legend": None}
 
@@ -142,3 +146,4 @@ def _spread_labels(ax, texts: dict, gap_pt: float = 9.0) -> None:
                 want = max(want, oy + gap_pt)
         placed.append((want, x, t))
         t.set_position((6, want - y))
+        t.arrow_patch.set_visible(want - y > 2.0)   # moved: a line says whose label it is
