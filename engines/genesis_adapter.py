@@ -229,11 +229,8 @@ class GenesisAdapter(SteppedContactAdapter):
     @classmethod
     def version(cls) -> str:
         super().version()   # raises EngineUnavailableError with the hint when the import fails
-        from importlib.metadata import PackageNotFoundError, version
-        try:
-            return f"{version('genesis-world')} (torch {version('torch')})"
-        except PackageNotFoundError:
-            return "unknown"
+        from .support import version_label
+        return version_label(cls.name)
 
     @classmethod
     def device_note(cls) -> str:

@@ -308,11 +308,8 @@ class NewtonAdapter(SteppedContactAdapter):
     @classmethod
     def version(cls) -> str:
         super().version()   # raises EngineUnavailableError with the hint when the import fails
-        from importlib.metadata import PackageNotFoundError, version
-        try:
-            return f"{version('newton')} (warp-lang {version('warp-lang')})"
-        except PackageNotFoundError:
-            return "unknown"
+        from .support import version_label
+        return version_label(cls.name)
 
     @classmethod
     def default_suite_exclusion(cls) -> str | None:

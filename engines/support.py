@@ -80,6 +80,17 @@ def installed_label(engine: str) -> str:
     return ", ".join(f"{d} {v}" for d, v in installed_versions(engine).items())
 
 
+def version_label(engine: str) -> str:
+    """The engine's version for run.json and labels: its first distribution's version, then the others in
+    parentheses, e.g. ``"1.8.0 (warp-lang 1.19.0)"``; "unknown" when the first is not installed."""
+    v = installed_versions(engine)
+    first, *others = DISTRIBUTIONS[engine]
+    if first not in v:
+        return "unknown"
+    rest = ", ".join(f"{d} {v[d]}" for d in others if d in v)
+    return f"{v[first]} ({rest})" if rest else v[first]
+
+
 def outside_range(engine: str) -> str | None:
     """One phrase when an installed distribution of ``engine`` is outside the supported range, e.g.
     ``"mujoco 3.2.0 is outside the supported range mujoco>=3.3"``; None when every installed one is
