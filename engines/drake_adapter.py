@@ -122,7 +122,6 @@ class _Scene:
         self.dt = dt
         self.planar = bool(s["planar"])
         self.drive = s["drive"]
-        b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
         builder = pd.DiagramBuilder()
         plant, _sg = pd.AddMultibodyPlantSceneGraph(builder, time_step=dt)
         approx = s["approximation"]
@@ -133,8 +132,32 @@ class _Scene:
                 "lagged": pd.DiscreteContactApproximation.kLagged}[approx])
         hydro = s["contact"] == "hydroelastic"
         plant.set_contact_model(pd.ContactModel.kHydroelasticWithFallback if hydro else pd.ContactModel.kPoint)
-        mu = float(s["friction"])
-        friction = pd.CoulombFriction(mu, mu)
+        friction = pd.CoulombFriction(float(s["friction"]), float(s["friction"]))
+        body = self._add_block(pd, plant, block, s, friction)
+        self._add_table(pd, plant, block, s, friction)
+        if self.planar:
+            # joint frame F: x along world z, y along world x, z along world +y (so the joint's
+            # rotation is the contract's θ about +y); the block's frame M is rotated the same way
+            rot = pd.RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+            F = plant.AddFrame(pd.FixedOffsetFrame("plane_F", plant.world_frame(), pd.RigidTransform(rot)))
+            M = plant.AddFrame(pd.FixedOffsetFrame("plane_M", body.body_frame(), pd.RigidTransform(rot)))
+            joint = plant.AddJoint(pd.PlanarJoint("plane", F, M, np.zeros(3)))
+        plant.Finalize()
+        self._index_state(plant, body, joint if self.planar else None)
+        self.source = builder.AddSystem(pd.TrajectorySource(pd.PiecewisePolynomial(np.zeros((self.nv, 1)))))
+        builder.Connect(self.source.get_output_port(), plant.get_applied_generalized_force_input_port())
+        self.logger = pd.LogVectorOutput(plant.get_state_output_port(), builder, dt)
+        self.diagram = builder.Build()
+        self.plant, self.body = plant, body
+        self.context = self.diagram.CreateDefaultContext()
+        self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
+        self.simulator = pd.Simulator(self.diagram, self.context)
+        self._pd = pd
+
+    def _add_block(self, pd, plant, block: Block, s: dict, friction):
+        """The block's body and its contact geometry: a compliant hydroelastic box, or a small sphere
+        at each bottom corner (point contact); returns the body."""
+        b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
         body = plant.AddRigidBody("block", pd.SpatialInertia.SolidBoxWithMass(m, b, d, h))
 
         def material(stiffness, edge_share: float = 1.0):
@@ -146,21 +169,27 @@ class _Scene:
                 props.AddProperty("material", "relaxation_time", float(s["relaxation_time_s"]))
             return props
 
-        if hydro:
+        if s["contact"] == "hydroelastic":
             props = material(None)
             modulus = s["hydroelastic_modulus_pa"] if s["hydroelastic_modulus_pa"] is not None else 1e8
             pd.AddCompliantHydroelasticProperties(resolution_hint=min(b, d, h) / 4, hydroelastic_modulus=modulus,
                                                   properties=props)
             plant.RegisterCollisionGeometry(body, pd.RigidTransform(), pd.Box(b, d, h), "block", props)
-        else:
-            r = float(s["corner_radius_m"])
-            corners = [(1, 0.0), (-1, 0.0)] if self.planar else [(sx, sy) for sx in (1, -1) for sy in (1, -1)]
-            share = 1.0 if self.planar else 0.5
-            for i, (sx, sy) in enumerate(corners):
-                plant.RegisterCollisionGeometry(
-                    body, pd.RigidTransform([sx * (b / 2 - r), sy * (d / 2 - r), -h / 2 + r]), pd.Sphere(r),
-                    f"corner{i}", material(s["point_stiffness_n_m"], share))
+            return body
+        r = float(s["corner_radius_m"])
+        corners = [(1, 0.0), (-1, 0.0)] if self.planar else [(sx, sy) for sx in (1, -1) for sy in (1, -1)]
+        share = 1.0 if self.planar else 0.5
+        for i, (sx, sy) in enumerate(corners):
+            plant.RegisterCollisionGeometry(
+                body, pd.RigidTransform([sx * (b / 2 - r), sy * (d / 2 - r), -h / 2 + r]), pd.Sphere(r),
+                f"corner{i}", material(s["point_stiffness_n_m"], share))
+        return body
 
+    def _add_table(self, pd, plant, block: Block, s: dict, friction) -> None:
+        """The table: the world's half-space (inertial drive) or a heavy box on a prismatic joint
+        (table drive); sets ``table_joint`` and ``push_mass`` (the mass the drive force accelerates)."""
+        hydro = s["contact"] == "hydroelastic"
+        m = block.mass_kg
         tprops = pd.ProximityProperties()
         if s["settings"] == "defaults" and not hydro:
             pd.AddContactMaterial(friction=friction, properties=tprops)
@@ -183,14 +212,9 @@ class _Scene:
             plant.RegisterCollisionGeometry(plant.world_body(), pd.RigidTransform(), pd.HalfSpace(), "table", tprops)
             self.table_joint = None
             self.push_mass = m
-        if self.planar:
-            # joint frame F: x along world z, y along world x, z along world +y (so the joint's
-            # rotation is the contract's θ about +y); the block's frame M is rotated the same way
-            rot = pd.RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
-            F = plant.AddFrame(pd.FixedOffsetFrame("plane_F", plant.world_frame(), pd.RigidTransform(rot)))
-            M = plant.AddFrame(pd.FixedOffsetFrame("plane_M", body.body_frame(), pd.RigidTransform(rot)))
-            joint = plant.AddJoint(pd.PlanarJoint("plane", F, M, np.zeros(3)))
-        plant.Finalize()
+
+    def _index_state(self, plant, body, joint) -> None:
+        """Where θ, x, z (and the table) sit in the plant's state, and the dof the drive pushes."""
         nq, nv = plant.num_positions(), plant.num_velocities()
         if self.planar:
             q0, v0 = joint.position_start(), joint.velocity_start()
@@ -209,15 +233,6 @@ class _Scene:
             self.iv["table"] = nq + self.table_joint.velocity_start()
             self.force_index = self.table_joint.velocity_start()
         self.nq, self.nv = nq, nv
-        self.source = builder.AddSystem(pd.TrajectorySource(pd.PiecewisePolynomial(np.zeros((nv, 1)))))
-        builder.Connect(self.source.get_output_port(), plant.get_applied_generalized_force_input_port())
-        self.logger = pd.LogVectorOutput(plant.get_state_output_port(), builder, dt)
-        self.diagram = builder.Build()
-        self.plant, self.body = plant, body
-        self.context = self.diagram.CreateDefaultContext()
-        self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
-        self.simulator = pd.Simulator(self.diagram, self.context)
-        self._pd = pd
 
     def place(self, block: Block, theta0: float) -> None:
         """Block at rest at angle ``theta0`` (pivoting on the lower corner), table at rest at x = 0."""
