@@ -664,35 +664,31 @@ class ExudynAdapter(SteppedContactAdapter):
 
     def _calibrate_distributed_n(self, block: Block, target: float, points: int, dt: float,
                                  use_cache: bool) -> CalibrationResult:
-        """Exudyn's contact restitution coefficient for ``points`` spheres along the base (2: the
-        corners) whose free-rocking η is closest to the target (:meth:`_search_restitution`), from the
-        cache where it has it, memoised per adapter."""
+        """Find Exudyn's contact restitution coefficient for ``points`` spheres along the base (2: the
+        corners) whose free-rocking η is closest to the target.
+
+        A coarse scan over :data:`CALIBRATION_RESTITUTIONS` (the row: :data:`CALIBRATION_RESTITUTIONS_DIST`),
+        then bisection between neighbours that bracket the target (:func:`_refine`). A point counts
+        only when its free rocking is regular: impact to impact spread below 0.02 and no jump (both
+        corners off the table). The result is ``reached`` when the mean η is within 1 % of the target
+        (the row: and its price counts); otherwise the closest η is returned with the reason. Results
+        are cached on disk (:mod:`.calibration`) and memoised per adapter.
+        """
         s = self.settings
         key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION if points == 2 else self.CALIBRATION_VERSION_DIST,
                               planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
                               zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
                               damping=s["contact_damping_n_s_m"], newton=s["modified_newton_iterations"],
                               **({} if points == 2 else {"contact_points": points}))
-        if key not in self._calibrations:
-            self._calibrations[key] = self._cached(key, use_cache) or self._search_restitution(block, target, points,
-                                                                                               dt, key)
-        return self._calibrations[key]
-
-    def _search_restitution(self, block: Block, target: float, points: int, dt: float, key: str) -> CalibrationResult:
-        """Find Exudyn's contact restitution coefficient whose free-rocking η is closest to the target.
-
-        A coarse scan over :data:`CALIBRATION_RESTITUTIONS` (the distributed contact:
-        :data:`CALIBRATION_RESTITUTIONS_DIST`), then bisection between neighbours that bracket the
-        target. A point counts only when its free rocking is regular: impact to impact spread below
-        0.02 and no jump (both corners off the table). The result is ``reached`` when the mean η is
-        within 1 % of the target (the distributed contact: and its price counts); otherwise the
-        closest η is returned with the reason. The result is cached on disk (:mod:`.calibration`).
-        """
+        res = self._calibrations.get(key) or self._cached(key, use_cache)
+        if res is not None:
+            self._calibrations[key] = res
+            return res
         scan = []
 
         def measure(e):
             try:
-                m, tr = self._free_rocking(block, {**self.settings, **self._contact(block, e, points)}, dt)
+                m, tr = self._free_rocking(block, {**s, **self._contact(block, e, points)}, dt)
             except EngineError as ex:
                 scan.append({"contact_restitution": e, "error": str(ex)})
                 return None
@@ -721,17 +717,14 @@ class ExudynAdapter(SteppedContactAdapter):
             best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
         e, fr = best
         reached = abs(fr.eta_mean - target) / target <= CALIBRATION_RTOL and not irregular
-        settings = {**self._contact(block, e, points), "planar": self.settings["planar"]}
-        note = _calibration_note(e, fr, good, target, irregular, reached, self.settings["friction"])
-        price = None
-        if points > 2:
-            if reached:
-                price = _price.contact_price(self._fixed(settings), block, Restitution("constant", value=target), dt,
-                                             first_quarter_s=fr.first_quarter_s)
-            note, reached = _distributed_note(note, e, fr, good, target, irregular, points, price)
+        settings = {**self._contact(block, e, points), "planar": s["planar"]}
+        price = (_price.contact_price(self._fixed(settings), block, Restitution("constant", value=target), dt,
+                                      first_quarter_s=fr.first_quarter_s) if points > 2 and reached else None)
+        note, reached = _note(e, fr, good, target, irregular, reached, s["friction"], points, price)
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
         self._store(key, res, {"etas": fr.etas, "scan": scan})
+        self._calibrations[key] = res
         return res
 
 
@@ -763,46 +756,37 @@ def _refine(good: list, target: float, measure, regular):
     return best
 
 
-def _calibration_note(e: float, fr, good: list, target: float, irregular: bool, reached: bool,
-                      friction: float) -> str:
-    """What the calibration found, in words."""
+def _note(e: float, fr, good: list, target: float, irregular: bool, reached: bool, friction: float, points: int,
+          price: dict | None) -> tuple[str, bool]:
+    """What the calibration found, in words, and whether it is reached (the row along the base: at
+    its ``price``, None where η was not reached, with the span of η its regular free rocking covers)."""
     rel = abs(fr.eta_mean - target) / target
-    if irregular:
-        return (f"not reached: no contact restitution gave regular free rocking (spread < 2 %, no jump); "
-                f"the closest η is {fr.eta_mean:.4f} ± {fr.eta_std:.4f} (target {target:.4f}). The block "
-                f"slides or bounces in free rocking with these settings (friction {friction:g}).")
-    if reached:
-        return (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
-                f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}.")
-    lo_eta = min(f.eta_mean for _, f in good)
-    hi_eta = max(f.eta_mean for _, f in good)
-    return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
-            f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
-            f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
-            "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
-            "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
-            "impulse inside the base, where corner contacts cannot put it.")
-
-
-def _distributed_note(note: str, e: float, fr, good: list, target: float, irregular: bool, points: int,
-                      price: dict | None) -> tuple[str, bool]:
-    """The note of the distributed contact and whether it is reached: at its ``price`` (None: η was
-    not reached), with the span of η its regular free rocking covers."""
-    rel = abs(fr.eta_mean - target) / target
+    lo_eta, hi_eta = min(f.eta_mean for _, f in good), max(f.eta_mean for _, f in good)
     span = (f"{points} spheres along the base sharing the corners' stiffness (issue 18); regular free "
-            f"rocking spans η = {min(f.eta_mean for _, f in good):.4f}…{max(f.eta_mean for _, f in good):.4f} "
-            f"over restitution coefficients {min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}")
-    if price is not None and price["counts"]:
-        return note + f" Contact: {span}.", True
-    if price is not None:
+            f"rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
+            f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}")
+    if points > 2 and price is not None and not price["counts"]:
         why = ("its static uplift threshold is not within 2 % of g·tanα" if not price["uplift"].get("within")
                else f"{price['anti_slip']['n_slip']} of the {price['anti_slip']['cells']} anti-slip cells slip")
         return (f"not reached at an acceptable price: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} "
                 f"({100 * rel:.2f} % off target {target:.4f}) with impact model 2 and restitution "
                 f"coefficient {e:.3g}, {span}, but {why}."), False
+    if points > 2 and not reached and not irregular:
+        return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
+                f"({100 * rel:.1f} % off target {target:.4f}) with {span}; smaller coefficients make the "
+                "rocking irregular (impact-to-impact spread above 2 %), larger ones let the landing "
+                "corner hop (jumps)."), False
     if irregular:
-        return note, False
+        return (f"not reached: no contact restitution gave regular free rocking (spread < 2 %, no jump); "
+                f"the closest η is {fr.eta_mean:.4f} ± {fr.eta_std:.4f} (target {target:.4f}). The block "
+                f"slides or bounces in free rocking with these settings (friction {friction:g})."), False
+    if reached:
+        return (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
+                f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}."
+                + (f" Contact: {span}." if points > 2 else "")), True
     return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
-            f"({100 * rel:.1f} % off target {target:.4f}) with {span}; smaller coefficients make the "
-            "rocking irregular (impact-to-impact spread above 2 %), larger ones let the landing "
-            "corner hop (jumps)."), False
+            f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
+            f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
+            "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
+            "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
+            "impulse inside the base, where corner contacts cannot put it."), False
