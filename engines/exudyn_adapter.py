@@ -688,7 +688,7 @@ class ExudynAdapter(SteppedContactAdapter):
 
         def measure(e):
             try:
-                m, tr = self._free_rocking(block, {**s, **self._contact(block, e, points)}, dt)
+                m, tr = self._measure_free_rocking(block, {**s, **self._contact(block, e, points)}, dt)
             except EngineError as ex:
                 scan.append({"contact_restitution": e, "error": str(ex)})
                 return None

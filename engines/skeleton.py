@@ -418,10 +418,10 @@ class SteppedContactAdapter(ContactEngineAdapter):
         if dt > 0.01:
             raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
         s = self._free_rocking_settings(block, dt) if settings is None else settings
-        return self._free_rocking(block, s, dt, theta0_frac)[0]
+        return self._measure_free_rocking(block, s, dt, theta0_frac)[0]
 
-    def _free_rocking(self, block: Block, s: dict, dt: float,
-                      theta0_frac: float = 0.5) -> tuple[RestitutionMeasurement, Trajectory]:
+    def _measure_free_rocking(self, block: Block, s: dict, dt: float,
+                              theta0_frac: float = 0.5) -> tuple[RestitutionMeasurement, Trajectory]:
         """The free-rocking test of :meth:`measure_restitution` with the resolved settings ``s`` at
         step ``dt`` [s], unchecked: the measurement and the run's trajectory (for an engine whose
         calibration reads more from the run than η)."""
