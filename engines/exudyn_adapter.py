@@ -75,7 +75,6 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
@@ -85,11 +84,11 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import Measurement, judge_measurement, jump_tol_m
-from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from . import price as _price
+from .base import CalibrationResult, Trajectory
 from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
+from .free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, EtaReader
 from .skeleton import Motion, SteppedContactAdapter
-from .free_rocking import (FREE_ROCKING_IMPACTS, FREE_ROCKING_METHOD, first_quarter_s, free_rocking_duration_s,
-                           free_rocking_etas)
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as
@@ -103,14 +102,19 @@ CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 #: η_H, and the probe (benchmarks/probes/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
 CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
 
-#: Impacts averaged by the free-rocking measurement [-] (the one count of all contact engines).
-CALIBRATION_IMPACTS = FREE_ROCKING_IMPACTS
-
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].
 CALIBRATION_RTOL = 0.01
 
 #: Half the side of the table triangle [m]: far larger than any table travel of a pulse.
 _TABLE_HALF_SIZE_M = 1.0e3
+
+#: the contact parameters a model is built from (in the order a measurement records them)
+_CONTACT_KEYS = ("stiffness_n_m", "contact_points", "damping_n_s_m", "impact_model", "restitution_coefficient",
+                 "friction", "friction_zone_m_s", "sphere_radius_m", "spectral_radius", "modified_newton_iterations")
+
+#: the symbolic variables of a harmonic pulse: a₀, ω, its length, cosine (1) or sine (0), and the
+#: table's displacement and velocity at its end
+_PULSE_VARS = ("a0", "w", "tb", "cs", "utb", "vtb")
 
 
 def default_stiffness_n_m(block: Block) -> float:
@@ -118,46 +122,12 @@ def default_stiffness_n_m(block: Block) -> float:
     return block.mass_kg * G / (2.0 * STATIC_PENETRATION_M)
 
 
-@dataclass
-class FreeRocking:
-    """What a free-rocking test measured.
-
-    Attributes
-    ----------
-    etas : list of float
-        η of each impact, from the energy-consistent amplitude ratio
-        ``√[(cos(α−θ_{i+1}) − cos α) / (cos(α−θ_i) − cos α)]`` of successive peaks [-].
-    eta_mean, eta_std : float
-        Mean and standard deviation of ``etas`` [-] (NaN when fewer than one impact).
-    peaks_rad : list of float
-        Successive peak amplitudes |θ|, the release angle first [rad].
-    theta0_rad : float
-        Release angle [rad].
-    max_jump_m : float
-        Largest height of the lower corner above the table (a bouncing landing corner) [m].
-    contact : dict
-        The contact parameters used.
-    dt_s : float
-        Time step [s].
-    steps : int
-        Time steps integrated [-].
-    wall_s : float
-        Wall time of the run [s].
-    first_quarter_s : float or None
-        Time from the release to the first θ = 0 [s] (a quarter of the free-rocking period).
-    """
-
-    etas: list
-    eta_mean: float
-    eta_std: float
-    peaks_rad: list
-    theta0_rad: float
-    max_jump_m: float
-    contact: dict
-    dt_s: float
-    steps: int
-    wall_s: float
-    first_quarter_s: float | None = None
+def _peak_ratio_or_stop(block: Block, motion: Motion, theta0_rad: float) -> list:
+    """The shared peak ratio; a run whose solver stopped before all impacts is an EngineError."""
+    etas = PEAK_RATIO.etas(block, motion, theta0_rad)
+    if "solver_stopped" in motion.diagnostics and len(etas) < FREE_ROCKING_IMPACTS:
+        raise EngineError(f"free rocking: {motion.diagnostics['solver_stopped']}")
+    return etas
 
 
 _COUNTER = itertools.count()
@@ -169,17 +139,16 @@ class _Model:
     def __init__(self, block: Block, contact: dict, drive: str, planar: bool, dt_s: float,
                  pulse: Pulse | None, theta0_rad: float = 0.0):
         import exudyn as exu
+        import exudyn.itemInterface as ii
 
-        self.exu = exu
-        self.block, self.drive, self.planar, self.dt_s = block, drive, planar, dt_s
-        self.contact = dict(contact)
+        self.exu, self.ii, self.block, self.drive, self.planar, self.dt_s = exu, ii, block, drive, planar, dt_s
+        self.contact, self.r = dict(contact), contact["sphere_radius_m"]
         self.uses_symbolic = pulse is None or pulse.kind != "record"
         # Exudyn's symbolic variables live in one process-wide table: a unique prefix per model
         # keeps two models of one process (a map and a calibration) from sharing pulse values.
         self._pre = f"rb{next(_COUNTER)}_"
-        for nm in ("a0", "w", "tb", "cs", "utb", "vtb"):
+        for nm in _PULSE_VARS:
             exu.symbolic.variables.Set(self._pre + nm, 0.0)
-        self.r = contact["sphere_radius_m"]
         # contact spheres: one per bottom corner, or a row of ``contact_points`` along the base
         # (issue 18: the outer ones stay under the corners, so the static pivots do not move)
         self.n_points = int(contact.get("contact_points") or 2)
@@ -192,8 +161,7 @@ class _Model:
         mcom = self._add_contacts(table_marker, tri, gravity)
         self._inertial_load = None
         if drive == "inertial":
-            from exudyn.itemInterface import Force
-            self._inertial_load = self.mbs.AddLoad(Force(markerNumber=mcom, loadVector=[0.0, 0.0, 0.0]))
+            self._inertial_load = self.mbs.AddLoad(ii.Force(markerNumber=mcom, loadVector=[0.0, 0.0, 0.0]))
         self._add_sensors()
         self._pulse_funcs = []  # keep symbolic expression trees alive as long as the system
         self._install_pulse_functions(pulse)
@@ -204,104 +172,77 @@ class _Model:
     def _add_table(self) -> int:
         """The ground and the table: the ground itself (inertial drive) or a body driven along u(t);
         returns the marker the contacts attach to."""
-        from exudyn.itemInterface import (CoordinateConstraint, MarkerBodyRigid, MarkerNodeCoordinate,
-                                          NodePointGround, NodeRigidBody2D, ObjectGround, ObjectRigidBody2D)
-
-        mbs = self.mbs
-        ground = mbs.AddObject(ObjectGround())
+        mbs, ii = self.mbs, self.ii
+        ground = mbs.AddObject(ii.ObjectGround())
         if self.drive != "table":
-            return mbs.AddMarker(MarkerBodyRigid(bodyNumber=ground, localPosition=[0, 0, 0]))
+            return mbs.AddMarker(ii.MarkerBodyRigid(bodyNumber=ground, localPosition=[0, 0, 0]))
         # a planar body carries the table in both models: its x follows u(t), its height and
         # angle are held at 0 (the triangle lies in its local frame, so it moves with it)
-        tnode = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0, 0, 0]))
-        table = mbs.AddObject(ObjectRigidBody2D(nodeNumber=tnode, mass=100.0 * self.block.mass_kg, inertia=1.0))
-        gnode = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
-        mg0 = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnode, coordinate=0))
-        self._table_constraints = []
-        for c in range(3):
-            mc = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=tnode, coordinate=c))
-            self._table_constraints.append(mbs.AddObject(CoordinateConstraint(markerNumbers=[mg0, mc], offset=0.0)))
-        return mbs.AddMarker(MarkerBodyRigid(bodyNumber=table, localPosition=[0, 0, 0]))
+        tnode = mbs.AddNode(ii.NodeRigidBody2D(referenceCoordinates=[0, 0, 0]))
+        table = mbs.AddObject(ii.ObjectRigidBody2D(nodeNumber=tnode, mass=100.0 * self.block.mass_kg, inertia=1.0))
+        gnode = mbs.AddNode(ii.NodePointGround(referenceCoordinates=[0, 0, 0]))
+        mg0 = mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=gnode, coordinate=0))
+        self._table_constraints = [
+            mbs.AddObject(ii.CoordinateConstraint(markerNumbers=[
+                mg0, mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=tnode, coordinate=c))], offset=0.0))
+            for c in range(3)]
+        return mbs.AddMarker(ii.MarkerBodyRigid(bodyNumber=table, localPosition=[0, 0, 0]))
 
     def _add_block(self, theta0_rad: float):
         """The block (planar or free 3-D body) at rest, or tilted by ``theta0_rad`` onto a corner;
         sets ``node``, ``body``, ``corners_local`` (the bottom corners, measured) and ``spheres_local``
         (the contact spheres' centres); returns the table triangle and the weight."""
-        from exudyn.itemInterface import NodeRigidBody2D, ObjectRigidBody2D
-
-        exu, mbs, block, r = self.exu, self.mbs, self.block, self.r
+        exu, mbs, block, r, L = self.exu, self.mbs, self.block, self.r, _TABLE_HALF_SIZE_M
         b, h, m, d = block.width_m, block.height_m, block.mass_kg, block.depth_m
-        L = _TABLE_HALF_SIZE_M
         row = np.linspace(-b / 2, b / 2, self.n_points)
+        x0, z0, phi0 = self._rest_pose_planar(theta0_rad)
         if self.planar:
             # Exudyn's planar bodies move in its x-y plane, y up: the table is the plane y = 0
             # (a triangle spanning x and the out-of-plane z), our θ is minus Exudyn's φ.
             tri = [[-L, 0.0, L], [L, 0.0, L], [0.0, 0.0, -L]]
-            x0, y0, phi0 = self._rest_pose_planar(theta0_rad)
-            node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0, 0, 0],
-                                               initialCoordinates=[x0, y0, phi0]))
-            body = mbs.AddObject(ObjectRigidBody2D(nodeNumber=node, mass=m, inertia=block.inertia_cm_kg_m2))
-            corners = [[-b / 2, -h / 2 + r, 0.0], [b / 2, -h / 2 + r, 0.0]]
-            spheres = [[float(x), -h / 2 + r, 0.0] for x in row]
-            gravity = [0.0, -m * G, 0.0]
-        else:
-            import exudyn.utilities as eu
-            tri = [[-L, -L, 0.0], [L, -L, 0.0], [0.0, L, 0.0]]
-            x0, z0, th0 = self._rest_pose_planar(theta0_rad)
-            A0 = np.array([[math.cos(-th0), 0, math.sin(-th0)], [0, 1, 0],
-                           [-math.sin(-th0), 0, math.cos(-th0)]])
-            inertia = eu.InertiaCuboid(density=block.density_kg_m3, sideLengths=[b, d, h])
-            res = mbs.CreateRigidBody(inertia=inertia, referencePosition=[x0, 0.0, z0],
-                                      initialRotationMatrix=A0,
-                                      nodeType=exu.NodeType.RotationEulerParameters,
-                                      returnDict=True)
-            node, body = res["nodeNumber"], res["bodyNumber"]
-            corners = [[sx * b / 2, sy * d / 2, -h / 2 + r] for sy in (-1, 1) for sx in (-1, 1)]
-            spheres = [[float(x), sy * d / 2, -h / 2 + r] for sy in (-1, 1) for x in row]
-            gravity = [0.0, 0.0, -m * G]
-        self.node, self.body = node, body
-        self.corners_local = np.array(corners)
-        self.spheres_local = np.array(spheres)
-        return tri, gravity
+            self.node = mbs.AddNode(self.ii.NodeRigidBody2D(referenceCoordinates=[0, 0, 0],
+                                                            initialCoordinates=[x0, z0, phi0]))
+            self.body = mbs.AddObject(self.ii.ObjectRigidBody2D(nodeNumber=self.node, mass=m,
+                                                                inertia=block.inertia_cm_kg_m2))
+            self.corners_local = np.array([[-b / 2, -h / 2 + r, 0.0], [b / 2, -h / 2 + r, 0.0]])
+            self.spheres_local = np.array([[float(x), -h / 2 + r, 0.0] for x in row])
+            return tri, [0.0, -m * G, 0.0]
+        import exudyn.utilities as eu
+        A0 = np.array([[math.cos(-phi0), 0, math.sin(-phi0)], [0, 1, 0], [-math.sin(-phi0), 0, math.cos(-phi0)]])
+        res = mbs.CreateRigidBody(inertia=eu.InertiaCuboid(density=block.density_kg_m3, sideLengths=[b, d, h]),
+                                  referencePosition=[x0, 0.0, z0], initialRotationMatrix=A0,
+                                  nodeType=exu.NodeType.RotationEulerParameters, returnDict=True)
+        self.node, self.body = res["nodeNumber"], res["bodyNumber"]
+        self.corners_local = np.array([[sx * b / 2, sy * d / 2, -h / 2 + r] for sy in (-1, 1) for sx in (-1, 1)])
+        self.spheres_local = np.array([[float(x), sy * d / 2, -h / 2 + r] for sy in (-1, 1) for x in row])
+        return [[-L, -L, 0.0], [L, -L, 0.0], [0.0, L, 0.0]], [0.0, 0.0, -m * G]
 
     def _add_contacts(self, table_marker: int, tri: list, gravity: list) -> int:
         """The weight at the centre of mass and one sphere–triangle contact per contact sphere (the
         bottom corners, or the row along the base); returns the centre-of-mass marker."""
-        from exudyn.itemInterface import (Force, MarkerBodyRigid, MarkerNodePosition, NodeGenericData,
-                                          ObjectContactSphereTriangle)
-
-        exu, mbs, contact = self.exu, self.mbs, self.contact
-        mcom = mbs.AddMarker(MarkerNodePosition(nodeNumber=self.node))
-        mbs.AddLoad(Force(markerNumber=mcom, loadVector=gravity))
-        for c in self.spheres_local.tolist():
-            mc = mbs.AddMarker(MarkerBodyRigid(bodyNumber=self.body, localPosition=c))
-            dn = mbs.AddNode(NodeGenericData(numberOfDataCoordinates=4, initialCoordinates=[0, 0, 0, 0]))
-            mbs.AddObject(ObjectContactSphereTriangle(
+        exu, ii, mbs, c = self.exu, self.ii, self.mbs, self.contact
+        mcom = mbs.AddMarker(ii.MarkerNodePosition(nodeNumber=self.node))
+        mbs.AddLoad(ii.Force(markerNumber=mcom, loadVector=gravity))
+        for p in self.spheres_local.tolist():
+            mc = mbs.AddMarker(ii.MarkerBodyRigid(bodyNumber=self.body, localPosition=p))
+            dn = mbs.AddNode(ii.NodeGenericData(numberOfDataCoordinates=4, initialCoordinates=[0, 0, 0, 0]))
+            mbs.AddObject(ii.ObjectContactSphereTriangle(
                 markerNumbers=[mc, table_marker], nodeNumber=dn, sphereRadius=self.r,
                 trianglePoints=exu.Vector3DList(tri), includeEdges=0,
-                dynamicFriction=contact["friction"], frictionProportionalZone=contact["friction_zone_m_s"],
-                contactStiffness=contact["stiffness_n_m"], contactDamping=contact["damping_n_s_m"],
-                contactStiffnessExponent=self.exponent, restitutionCoefficient=contact["restitution_coefficient"],
-                impactModel=contact["impact_model"]))
+                dynamicFriction=c["friction"], frictionProportionalZone=c["friction_zone_m_s"],
+                contactStiffness=c["stiffness_n_m"], contactDamping=c["damping_n_s_m"],
+                contactStiffnessExponent=self.exponent, restitutionCoefficient=c["restitution_coefficient"],
+                impactModel=c["impact_model"]))
         return mcom
 
     def _add_sensors(self) -> None:
-        """Sensors that store the block's state at every step (read by :meth:`samples`)."""
-        from exudyn.itemInterface import SensorNode
-
-        mbs, node, OVT = self.mbs, self.node, self.exu.OutputVariableType
-
-        def sensor(kind):
-            return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=kind))
-
-        if self.planar:
-            self.s_q = sensor(OVT.Coordinates)
-            self.s_v = sensor(OVT.Coordinates_t)
-        else:
-            self.s_pos = sensor(OVT.Position)
-            self.s_rot = sensor(OVT.RotationMatrix)
-            self.s_omg = sensor(OVT.AngularVelocity)
-            self.s_vel = sensor(OVT.Velocity)
+        """Sensors that store the block's state at every step (read by :meth:`samples`): position and
+        velocity coordinates (planar), or position, rotation matrix, angular velocity and velocity."""
+        OVT = self.exu.OutputVariableType
+        kinds = ((OVT.Coordinates, OVT.Coordinates_t) if self.planar else
+                 (OVT.Position, OVT.RotationMatrix, OVT.AngularVelocity, OVT.Velocity))
+        self.sensors = [self.mbs.AddSensor(self.ii.SensorNode(nodeNumber=self.node, storeInternal=True,
+                                                             outputVariableType=k)) for k in kinds]
 
     def _simulation_settings(self):
         """Exudyn's implicit generalized-α with adaptive steps, the loosened Newton tolerances and
@@ -309,8 +250,7 @@ class _Model:
         ss = self.exu.SimulationSettings()
         ti = ss.timeIntegration
         ti.verboseMode = 0
-        ti.newton.relativeTolerance = 1e-6
-        ti.newton.absoluteTolerance = 1e-6
+        ti.newton.relativeTolerance = ti.newton.absoluteTolerance = 1e-6
         ti.generalizedAlpha.spectralRadius = self.contact["spectral_radius"]
         ti.newton.maxModifiedNewtonIterations = self.contact["modified_newton_iterations"]
         ti.adaptiveStep = True
@@ -318,49 +258,44 @@ class _Model:
         ss.solution.sensors.writePeriod = self.dt_s
         return ss
 
-    # -- geometry -------------------------------------------------------------------------
     def _rest_pose_planar(self, theta_rad: float):
         """Centre of mass (x, height) and Exudyn angle for the block standing (θ = 0) or tilted
         onto one corner (θ ≠ 0), its corner sphere(s) pressed in by their static penetration."""
         b, h = self.block.width_m, self.block.height_m
-        k = self.contact["stiffness_n_m"]
         n = float(self.n_points) if theta_rad == 0.0 else 1.0
-        pen = (self.block.mass_kg * G / (n * k)) ** (1.0 / self.exponent)
+        pen = (self.block.mass_kg * G / (n * self.contact["stiffness_n_m"])) ** (1.0 / self.exponent)
         if theta_rad == 0.0:
             return 0.0, h / 2 - pen, 0.0
         s = 1.0 if theta_rad > 0 else -1.0
-        # pivot sphere centre at (s·b/2, r − pen); COM = centre + R(θ)·(−s·b/2, h/2 − r), x–z frame
+        # pivot sphere centre at (s·b/2, r − pen); COM = centre + R(θ)·(−s·b/2, h/2 − r), x–z frame;
+        # rotation about +y by θ moves +z towards +x: x' = c·x + s·z, z' = −s·x + c·z
         c, sn = math.cos(theta_rad), math.sin(theta_rad)
         vx, vz = -s * b / 2, h / 2 - self.r
-        # rotation about +y by θ moves +z towards +x: x' = c·x + s·z, z' = −s·x + c·z
-        x = s * b / 2 + c * vx + sn * vz
-        z = self.r - pen + (-sn * vx + c * vz)
-        return x, z, -theta_rad
+        return s * b / 2 + c * vx + sn * vz, self.r - pen + (-sn * vx + c * vz), -theta_rad
 
     # -- pulse ----------------------------------------------------------------------------
     def _install_pulse_functions(self, pulse: Pulse | None):
+        """The drive as user functions: symbolic (evaluated in C++, the pulse's parameters in the
+        model's symbolic variables) for a harmonic pulse, Python for a recorded one."""
         from exudyn.advancedUtilities import CreateSymbolicUserFunction
 
-        mbs, esym, pre = self.mbs, self.exu.symbolic, self._pre
-        m = self.block.mass_kg
+        mbs, esym, m = self.mbs, self.exu.symbolic, self.block.mass_kg
+
+        def var():
+            return [esym.variables[self._pre + nm] for nm in _PULSE_VARS]
 
         def acc_sym(t):
-            v = esym.variables
-            a0, w, tb, cs = v[pre + "a0"], v[pre + "w"], v[pre + "tb"], v[pre + "cs"]
+            a0, w, tb, cs, _, _ = var()
             return esym.IfThenElse(t <= tb, a0 * ((1 - cs) * esym.sin(w * t) + cs * esym.cos(w * t)),
                                    esym.Real(0.0))
 
         def disp_sym(t):
-            v = esym.variables
-            a0, w, tb, cs = v[pre + "a0"], v[pre + "w"], v[pre + "tb"], v[pre + "cs"]
-            utb, vtb = v[pre + "utb"], v[pre + "vtb"]
+            a0, w, tb, cs, utb, vtb = var()
             inside = a0 / (w * w) * ((1 - cs) * (w * t - esym.sin(w * t)) + cs * (1 - esym.cos(w * t)))
             return esym.IfThenElse(t <= tb, inside, utb + vtb * (t - tb))
 
         def vel_sym(t):
-            v = esym.variables
-            a0, w, tb, cs = v[pre + "a0"], v[pre + "w"], v[pre + "tb"], v[pre + "cs"]
-            vtb = v[pre + "vtb"]
+            a0, w, tb, cs, _, vtb = var()
             inside = a0 / w * ((1 - cs) * (1 - esym.cos(w * t)) + cs * esym.sin(w * t))
             return esym.IfThenElse(t <= tb, inside, vtb)
 
@@ -375,39 +310,36 @@ class _Model:
                     return [-m * float(_p.accel(t)), 0.0, 0.0]
             self._pulse_funcs.append(uf)
             mbs.SetLoadParameter(self._inertial_load, "loadVectorUserFunction", uf)
+            return
+        cx = self._table_constraints[0]
+        if self.uses_symbolic:
+            def off_uf(mbs, t, itemNumber, lOffset):
+                return disp_sym(t)
+
+            def off_t_uf(mbs, t, itemNumber, lOffset):
+                return vel_sym(t)
+            f0 = CreateSymbolicUserFunction(mbs, off_uf, "offsetUserFunction", cx)
+            f1 = CreateSymbolicUserFunction(mbs, off_t_uf, "offsetUserFunction_t", cx)
         else:
-            cx = self._table_constraints[0]
-            if self.uses_symbolic:
-                def off_uf(mbs, t, itemNumber, lOffset):
-                    return disp_sym(t)
+            def f0(mbs, t, itemNumber, lOffset, _p=pulse):
+                return float(_p.disp(t))
 
-                def off_t_uf(mbs, t, itemNumber, lOffset):
-                    return vel_sym(t)
-                f0 = CreateSymbolicUserFunction(mbs, off_uf, "offsetUserFunction", cx)
-                f1 = CreateSymbolicUserFunction(mbs, off_t_uf, "offsetUserFunction_t", cx)
-            else:
-                def f0(mbs, t, itemNumber, lOffset, _p=pulse):
-                    return float(_p.disp(t))
-
-                def f1(mbs, t, itemNumber, lOffset, _p=pulse):
-                    return float(_p.vel(t))
-            self._pulse_funcs += [f0, f1]
-            mbs.SetObjectParameter(cx, "offsetUserFunction", f0)
-            mbs.SetObjectParameter(cx, "offsetUserFunction_t", f1)
+            def f1(mbs, t, itemNumber, lOffset, _p=pulse):
+                return float(_p.vel(t))
+        self._pulse_funcs += [f0, f1]
+        mbs.SetObjectParameter(cx, "offsetUserFunction", f0)
+        mbs.SetObjectParameter(cx, "offsetUserFunction_t", f1)
 
     def set_pulse(self, pulse: Pulse | None):
         """Load a harmonic pulse's parameters into the symbolic variables (None: no excitation)."""
-        v = self.exu.symbolic.variables
-        pre = self._pre
         if pulse is None:
-            vals = dict(a0=0.0, w=1.0, tb=-1.0, cs=0.0, utb=0.0, vtb=0.0)
+            vals = (0.0, 1.0, -1.0, 0.0, 0.0, 0.0)
         else:
             tb = pulse.duration_s
-            vals = dict(a0=float(pulse.amplitude_mps2), w=float(pulse.omega_rad_s), tb=float(tb),
-                        cs=1.0 if pulse.kind == "cosine" else 0.0,
-                        utb=float(pulse.disp(tb)), vtb=float(pulse.vel(tb)))
-        for nm, val in vals.items():
-            v.Set(pre + nm, val)
+            vals = (float(pulse.amplitude_mps2), float(pulse.omega_rad_s), float(tb),
+                    1.0 if pulse.kind == "cosine" else 0.0, float(pulse.disp(tb)), float(pulse.vel(tb)))
+        for nm, val in zip(_PULSE_VARS, vals):
+            self.exu.symbolic.variables.Set(self._pre + nm, val)
 
     # -- running (the skeleton's hooks call these) ----------------------------------------
     def start(self, chunk_steps: int, full_newton: bool) -> np.ndarray:
@@ -450,14 +382,9 @@ class _Model:
         position, rotation matrix, angular velocity, velocity (3-D). Each segment boundary is stored
         twice (end of one segment, start of the next): a row within half a step of the one
         before is dropped."""
-        mbs = self.mbs
-        if self.planar:
-            q, qd = mbs.GetSensorStoredData(self.s_q), mbs.GetSensorStoredData(self.s_v)
-            raw = np.concatenate([q, qd[:, 1:]], axis=1) if len(q) else np.empty((0, 7))
-        else:
-            parts = [mbs.GetSensorStoredData(s) for s in (self.s_pos, self.s_rot, self.s_omg, self.s_vel)]
-            raw = np.concatenate([parts[0]] + [x[:, 1:] for x in parts[1:]], axis=1) if len(parts[0]) else np.empty((0, 19))
-        raw = raw[self.n_raw:]
+        parts = [self.mbs.GetSensorStoredData(s) for s in self.sensors]
+        raw = (np.concatenate([parts[0]] + [x[:, 1:] for x in parts[1:]], axis=1) if len(parts[0])
+               else np.empty((0, 7 if self.planar else 19)))[self.n_raw:]
         keep = np.diff(np.concatenate([[self.t_raw], raw[:, 0]])) > 0.5 * self.dt_s
         self.n_raw += raw.shape[0]
         if raw.shape[0]:
@@ -472,8 +399,8 @@ class _Model:
         return np.arctan2(A[:, 0, 2], A[:, 2, 2]), rows[:, 14]
 
     def samples(self, rows: np.ndarray):
-        """From the state rows of a run: ``t, θ, θ̇``, the corner sphere centres, the block's own
-        bottom corners, the centre of mass's x, height and velocity.
+        """From the state rows of a run: the corner sphere centres, the block's own bottom corners,
+        the centre of mass's x, height and velocity.
 
         Both point sets are ``(n, ncorners, 2)`` arrays of (x, height) [m]. The sphere centres
         give the clearance to the table (``height − r``); the block's corners (one radius below
@@ -481,11 +408,9 @@ class _Model:
         when its sphere rolls, which is not slip. The last array is ``(n, 4)``: the centre of
         mass's x and height [m] and its horizontal and vertical velocity [m/s].
         """
+        nc = len(self.corners_local)
         pts = np.concatenate([self.corners_local, self.corners_local], axis=0)
-        up = 1 if self.planar else 2
-        pts[len(self.corners_local):, up] -= self.r
-        t = rows[:, 0]
-        theta, theta_dot = self.angles(rows)
+        pts[nc:, 1 if self.planar else 2] -= self.r
         if self.planar:
             x, y, phi = rows[:, 1], rows[:, 2], rows[:, 3]
             c, s = np.cos(phi), np.sin(phi)
@@ -493,13 +418,11 @@ class _Model:
             wz = y[:, None] + s[:, None] * pts[None, :, 0] + c[:, None] * pts[None, :, 1]
             com = np.stack([x, y, rows[:, 4], rows[:, 5]], axis=1)
         else:
-            A = rows[:, 4:13].reshape(-1, 3, 3)
-            world = rows[:, None, 1:4] + np.einsum("nij,cj->nci", A, pts)
+            world = rows[:, None, 1:4] + np.einsum("nij,cj->nci", rows[:, 4:13].reshape(-1, 3, 3), pts)
             wx, wz = world[..., 0], world[..., 2]
             com = np.stack([rows[:, 1], rows[:, 3], rows[:, 16], rows[:, 18]], axis=1)
         both = np.stack([wx, wz], axis=-1)
-        nc = len(self.corners_local)
-        return t, theta, theta_dot, both[:, :nc], both[:, nc:], com
+        return both[:, :nc], both[:, nc:], com
 
 
 class ExudynAdapter(SteppedContactAdapter):
@@ -560,6 +483,10 @@ class ExudynAdapter(SteppedContactAdapter):
     #: n_impacts in 52 of 888 cells (B3M sine calibrated) and 17 outcomes of the shipped contact
     #: (B6L cosine defaults) (docs/engines.md)
     stop_at = "segment"
+    #: the shared peak ratio, a run whose solver stopped before all impacts an EngineError
+    eta_reader = EtaReader(PEAK_RATIO.name, PEAK_RATIO.method, PEAK_RATIO.duration_s, _peak_ratio_or_stop)
+    #: a measurement records Exudyn's contact parameters
+    MEASURED_SETTINGS = _CONTACT_KEYS + ("planar",)
     POINT_UNIT = "spheres"
     name = "exudyn"
     module = "exudyn"
@@ -608,23 +535,14 @@ class ExudynAdapter(SteppedContactAdapter):
         return self.settings["contact_stiffness_n_m"] or default_stiffness_n_m(block)
 
     def _contact(self, block: Block, contact_restitution: float | None, points: int = 2) -> dict:
-        """Exudyn contact parameters for one block; ``None`` restitution: Exudyn's shipped model.
-
-        ``points`` > 2: a row of that many spheres along the base sharing the corners' total stiffness.
-        """
+        """Exudyn contact parameters for one block (:data:`_CONTACT_KEYS`); ``None`` restitution:
+        Exudyn's shipped model (linear impact model 0 with restitution coefficient 1, so only the
+        linear damping, default 0, dissipates). ``points`` > 2: a row of that many spheres along the
+        base sharing the corners' total stiffness."""
         s = self.settings
-        if contact_restitution is None:
-            # shipped: linear impact model (0) with restitution coefficient 1, i.e. only the
-            # linear damping (default 0) dissipates
-            model, e = 0, 1.0
-        else:
-            model, e = 2, float(contact_restitution)
-        return {"stiffness_n_m": self._stiffness(block) * 2.0 / points, "contact_points": points,
-                "damping_n_s_m": s["contact_damping_n_s_m"],
-                "impact_model": model, "restitution_coefficient": e,
-                "friction": s["friction"], "friction_zone_m_s": s["friction_zone_m_s"],
-                "sphere_radius_m": s["sphere_radius_m"], "spectral_radius": s["spectral_radius"],
-                "modified_newton_iterations": s["modified_newton_iterations"]}
+        model, e = (0, 1.0) if contact_restitution is None else (2, float(contact_restitution))
+        return dict(zip(_CONTACT_KEYS, (self._stiffness(block) * 2.0 / points, points, s["contact_damping_n_s_m"],
+                                        model, e, *(s[k] for k in _CONTACT_KEYS[5:]))))
 
     def explicit_contact(self) -> bool:
         """Whether ``contact_restitution`` was given (then nothing is calibrated)."""
@@ -642,6 +560,13 @@ class ExudynAdapter(SteppedContactAdapter):
             points = int(cal.settings.get("contact_points") or 2)
         return {**s, **self._contact(block, e, points), "dt_s": dt}
 
+    def _fixed(self, contact: dict) -> "ExudynAdapter":
+        """A copy of this adapter with the contact of a calibration's settings (explicit)."""
+        e = contact.get("restitution_coefficient") if contact.get("impact_model") == 2 else None
+        n = int(contact.get("contact_points") or 2)
+        return type(self)(**{**self.settings, "contact_restitution": e, "contact": "distributed" if n > 2 else "corners",
+                             "contact_points": n if n > 2 else None})
+
     # -- the skeleton's hooks (one case at a time; the rule tested at segment ends) -------------
     def _world(self, block: Block, s: dict, dt_s: float) -> SimpleNamespace:
         """A holder for the model :meth:`_start` picks (it depends on the pulse and the release angle)."""
@@ -654,14 +579,14 @@ class ExudynAdapter(SteppedContactAdapter):
         contact = {k: s[k] for k in _CONTACT_KEYS}
         if pulse is None or theta0_rad != 0.0:
             model = _Model(block, contact, "inertial", s["planar"], dt_s, None, theta0_rad=theta0_rad)
-            model.set_pulse(pulse)
         elif pulse.kind == "record":  # a record's Python user function is bound to that pulse: no reuse
             model = _Model(block, contact, s["drive"], s["planar"], dt_s, pulse)
         else:
             key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, tuple(sorted(contact.items())), dt_s)
-            model = self._models.get(key)
-            if model is None:
-                model = self._models[key] = _Model(block, contact, s["drive"], s["planar"], dt_s, None)
+            if key not in self._models:
+                self._models[key] = _Model(block, contact, s["drive"], s["planar"], dt_s, None)
+            model = self._models[key]
+        if model.uses_symbolic:
             model.set_pulse(pulse)
         world.model = model
         return model.start(self._segment_steps(s, dt_s), bool(s.get("full_newton")))
@@ -680,32 +605,33 @@ class ExudynAdapter(SteppedContactAdapter):
         corners (x, relative to the table) and its contact spheres' clearance above the table."""
         model = world.model
         wall = model.finish()
-        t, th, thd, spheres, edges, com = model.samples(data)
+        t, (th, thd) = data[:, 0], model.angles(data)
+        spheres, edges, com = model.samples(data)
         drive_table = pulse is not None and s["drive"] == "table"
         table_x = pulse.disp(t) if drive_table else np.zeros(t.size)
-        table_v = pulse.vel(t) if drive_table else None
         # contact quality only up to the overturn decision: afterwards the block falls through the
         # table by design (no spheres on its top corners)
         over = overturn_certain(t, th, thd, alpha_rad=block.alpha_rad,
                                 t_pulse_end_s=pulse.duration_s if pulse is not None else 0.0)
         n = int(np.argmax(over)) + 1 if over.any() else t.size
         r = s["sphere_radius_m"]
-        diag = {"steps": int(model.steps), "wall_engine_s": wall,
-                "steps_per_s": model.steps / wall if wall > 0 else None,
+        diag = {"steps": int(model.steps), "wall_engine_s": wall, "steps_per_s": model.steps / wall if wall > 0 else None,
                 "max_penetration_m": float(np.max(r - spheres[:n, :, 1])) if t.size else 0.0,
                 **{k: s[k] for k in ("stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient",
                                      "friction")}}
         if model.message is not None:
             diag["solver_stopped"] = model.message
         return Motion(x_m=com[:, 0], z_m=com[:, 1], theta_rad=th, vx_m_s=com[:, 2], vz_m_s=com[:, 3],
-                      theta_dot_rad_s=thd, table_x_m=table_x, table_vx_m_s=table_v, diagnostics=diag, t_s=t,
-                      corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=spheres[..., 1] - r)
+                      theta_dot_rad_s=thd, table_x_m=table_x, table_vx_m_s=pulse.vel(t) if drive_table else None,
+                      diagnostics=diag, t_s=t, corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=spheres[..., 1] - r)
 
     def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
              duration_s: float | None = None) -> tuple[Trajectory, Motion]:
-        """The skeleton's run; a case whose Newton stalls is retried (module notes, "Solver")."""
+        """The skeleton's run (free rocking in one segment); a case whose Newton stalls is retried
+        (module notes, "Solver")."""
         if duration_s is not None:
-            return super()._run(block, s, dt, pulse, theta0, duration_s)
+            return super()._run(block, {**s, "drive": "inertial", "segment_s": duration_s}, dt, pulse, theta0,
+                                duration_s)
         # Newton occasionally stalls in a violent impact (deterministically, for a given cell);
         # a retry at half the step, then one with a full Newton method at the case's step, both
         # with the same contact, resolved the cases met in probes and maps
@@ -732,96 +658,21 @@ class ExudynAdapter(SteppedContactAdapter):
                               "sphere_radius_m needed)")
         return tr, m
 
-    # -- restitution ----------------------------------------------------------------------
-    def free_rocking(self, block: Block, contact_restitution: float | None, *, theta0_frac: float = 0.5,
-                     dt_s: float | None = None, n_impacts: int = CALIBRATION_IMPACTS,
-                     contact: dict | None = None) -> FreeRocking:
-        """Free rocking from rest at ``θ0 = theta0_frac·α``, no excitation, with given contact, in
-        one segment of the skeleton's loop.
-
-        η of each impact comes from the energy-consistent amplitude ratio of successive peaks:
-        between impacts ``E = ½θ̇² + p²cos(α − |θ|)`` is conserved, so the kinetic energy at θ = 0
-        before an impact is ``p²(cos(α − θ_peak) − cos α)`` and η is the square root of the ratio
-        of two such energies. This is robust against the few steps a soft impact lasts, where
-        θ̇⁺/θ̇⁻ read at θ ≈ 0 depends on where one samples.
-        """
-        dt = self.time_step_s(dt_s)
-        alpha = block.alpha_rad
-        th0 = theta0_frac * alpha
-        duration = free_rocking_duration_s(block, theta0_frac, n_impacts)
-        if contact is None:
-            contact = self._contact(block, contact_restitution)
-        s = {**self.settings, **contact, "drive": "inertial", "segment_s": duration}
-        tr, _ = self._run(block, s, dt, None, theta0=th0, duration_s=duration)
-        t, th, diag = tr.t_s, tr.theta_rad, tr.diagnostics
-        etas, peaks = free_rocking_etas(th, alpha, th0, uplift_tol_rad(block), n_impacts)
-        if "solver_stopped" in diag and len(etas) < n_impacts:
-            raise EngineError(f"free rocking: {diag['solver_stopped']}")
-        # the jump measure of the one validity rule (its slip and energy checks do not apply here)
-        jump = judge_measurement(Measurement(t, th, tr.theta_dot_rad_s, tr.corner_x_m, tr.corner_z_m),
-                                 block, t_pulse_end_s=0.0).max_jump_m
-        mean = float(np.mean(etas)) if etas else math.nan
-        std = float(np.std(etas)) if etas else math.nan
-        return FreeRocking(etas, mean, std, peaks, th0, jump, contact, dt, diag["steps"], diag["wall_engine_s"],
-                           first_quarter_s(t, th))
-
-    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
-                            dt_s: float | None = None) -> RestitutionMeasurement:
-        """Free rocking with this adapter's settings (``calibrated``: those for Housner's η)."""
-        dt = self.time_step_s(dt_s)
-        s = self.settings
-        points = (s["contact_points"] or POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
-        if s["contact_restitution"] is not None:
-            e = s["contact_restitution"]
-        elif s["settings"] == "defaults":
-            e = None
-        else:
-            cal = self.calibrate(block, Restitution().eta(block.alpha_rad), dt_s=dt)
-            e = cal.settings["restitution_coefficient"]
-            points = int(cal.settings.get("contact_points") or 2)
-        fr = self.free_rocking(block, e, theta0_frac=theta0_frac, dt_s=dt, contact=self._contact(block, e, points))
-        return RestitutionMeasurement(etas=fr.etas, eta_mean=fr.eta_mean, eta_std=fr.eta_std,
-                                      theta0_rad=fr.theta0_rad, dt_s=dt,
-                                      settings={**fr.contact, "planar": s["planar"]},
-                                      method=FREE_ROCKING_METHOD, first_quarter_s=fr.first_quarter_s)
-
-    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
-        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
-        st = c.settings
-        e = st.get("restitution_coefficient") if st.get("impact_model") == 2 else None
-        dt = self.time_step_s(dt_s)
-        points = int(st.get("contact_points") or 2)
-        fr = self.free_rocking(block, e, dt_s=dt, contact=self._contact(block, e, points))
-        return self._price(block, e, points, c.eta_target, dt, fr.first_quarter_s)
-
-    def _price(self, block: Block, e: float | None, points: int, target: float, dt: float,
-               first_quarter_s: float | None = None) -> dict:
-        """The price of this adapter with the contact fixed (restitution coefficient ``e``, ``points`` spheres)."""
-        from . import price as _price
-
-        fixed = ExudynAdapter(**{**self.settings, "contact_restitution": e,
-                                 "contact": "distributed" if points > 2 else "corners",
-                                 "contact_points": points if points > 2 else None})
-        return _price.contact_price(fixed, block, Restitution("constant", value=target), dt,
-                                    first_quarter_s=first_quarter_s)
-
-    # -- calibration (the dispatch and the cache are ContactEngineAdapter's) ------------------
+    # -- calibration (the dispatch, the cache and the free-rocking test are the skeleton's) -----
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
-        return self._calibrate_points(block, target, 2, dt, use_cache)
+        return self._calibrate_distributed_n(block, target, 2, dt, use_cache)
 
-    def _calibrate_distributed_n(self, block: Block, target: float, n: int, dt: float,
+    def _calibrate_distributed_n(self, block: Block, target: float, points: int, dt: float,
                                  use_cache: bool) -> CalibrationResult:
-        return self._calibrate_points(block, target, n, dt, use_cache)
+        """Find Exudyn's contact restitution coefficient for ``points`` spheres along the base (2: the
+        corners) whose free-rocking η is closest to the target.
 
-    def _calibrate_points(self, block: Block, target: float, points: int, dt: float,
-                          use_cache: bool) -> CalibrationResult:
-        """Find Exudyn's contact restitution coefficient whose free-rocking η is closest to the target.
-
-        A coarse scan over :data:`CALIBRATION_RESTITUTIONS`, then bisection between neighbours
-        that bracket the target. A point counts only when its free rocking is regular: impact to
-        impact spread below 2 % and no jump (both corners off the table). The result is
-        ``reached`` when the mean η is within 1 % of the target; otherwise the closest η is
-        returned with the reason. Results are cached on disk (:mod:`.calibration`).
+        A coarse scan over :data:`CALIBRATION_RESTITUTIONS` (the row: :data:`CALIBRATION_RESTITUTIONS_DIST`),
+        then bisection between neighbours that bracket the target (:func:`_refine`). A point counts
+        only when its free rocking is regular: impact to impact spread below 0.02 and no jump (both
+        corners off the table). The result is ``reached`` when the mean η is within 1 % of the target
+        (the row: and its price counts); otherwise the closest η is returned with the reason. Results
+        are cached on disk (:mod:`.calibration`) and memoised per adapter.
         """
         s = self.settings
         key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION if points == 2 else self.CALIBRATION_VERSION_DIST,
@@ -829,24 +680,24 @@ class ExudynAdapter(SteppedContactAdapter):
                               zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
                               damping=s["contact_damping_n_s_m"], newton=s["modified_newton_iterations"],
                               **({} if points == 2 else {"contact_points": points}))
-        if key in self._calibrations:
-            return self._calibrations[key]
-        res = self._cached(key, use_cache)
+        res = self._calibrations.get(key) or self._cached(key, use_cache)
         if res is not None:
             self._calibrations[key] = res
             return res
-
         scan = []
 
         def measure(e):
             try:
-                fr = self.free_rocking(block, e, dt_s=dt, contact=self._contact(block, e, points))
+                m, tr = self._measure_free_rocking(block, {**s, **self._contact(block, e, points)}, dt)
             except EngineError as ex:
                 scan.append({"contact_restitution": e, "error": str(ex)})
                 return None
-            scan.append({"contact_restitution": e, "eta_mean": fr.eta_mean, "eta_std": fr.eta_std,
-                         "etas": fr.etas, "max_jump_m": fr.max_jump_m})
-            return fr
+            # the jump measure of the one validity rule (its slip and energy checks do not apply here)
+            jump = judge_measurement(Measurement(tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, tr.corner_x_m, tr.corner_z_m),
+                                     block, t_pulse_end_s=0.0).max_jump_m
+            scan.append({"contact_restitution": e, "eta_mean": m.eta_mean, "eta_std": m.eta_std, "etas": m.etas,
+                         "max_jump_m": jump})
+            return SimpleNamespace(**scan[-1], first_quarter_s=m.first_quarter_s)
 
         def regular(fr):
             return (fr is not None and len(fr.etas) >= 2 and math.isfinite(fr.eta_mean)
@@ -859,39 +710,17 @@ class ExudynAdapter(SteppedContactAdapter):
         if irregular:
             # no regular free rocking at all (e.g. a friction too low to hold the pivot): keep the
             # closest measured η so that cases still run, and say so; such runs get flagged
-            usable = [(e, fr) for e, fr in measured if fr is not None and fr.etas and math.isfinite(fr.eta_mean)]
-            if not usable:
+            good = [(e, fr) for e, fr in measured if fr is not None and fr.etas and math.isfinite(fr.eta_mean)]
+            if not good:
                 raise EngineError("calibration: free rocking failed for every contact restitution tried; scan: "
                                   + "; ".join(f"e={r['contact_restitution']:.3g}: {r.get('error', '')}" for r in scan))
-            best = min(usable, key=lambda ef: abs(ef[1].eta_mean - target))
-            good = usable
+            best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
         e, fr = best
-        rel = abs(fr.eta_mean - target) / target
-        reached = rel <= CALIBRATION_RTOL and not irregular
-        note = _calibration_note(e, fr, good, target, irregular, reached, self.settings["friction"])
-        price = None
-        if points > 2:
-            lo_eta = min(f.eta_mean for _, f in good)
-            hi_eta = max(f.eta_mean for _, f in good)
-            span = (f"{points} spheres along the base sharing the corners' stiffness (issue 18); regular free "
-                    f"rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
-                    f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}")
-            if reached:
-                note += f" Contact: {span}."
-                price = self._price(block, e, points, target, dt, fr.first_quarter_s)
-                if not price["counts"]:
-                    reached = False
-                    why = ("its static uplift threshold is not within 2 % of g·tanα" if not price["uplift"].get("within")
-                           else f"{price['anti_slip']['n_slip']} of the {price['anti_slip']['cells']} anti-slip cells slip")
-                    note = (f"not reached at an acceptable price: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} "
-                            f"({100 * rel:.2f} % off target {target:.4f}) with impact model 2 and restitution "
-                            f"coefficient {e:.3g}, {span}, but {why}.")
-            elif not irregular:
-                note = (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
-                        f"({100 * rel:.1f} % off target {target:.4f}) with {span}; smaller coefficients make the "
-                        "rocking irregular (impact-to-impact spread above 2 %), larger ones let the landing "
-                        "corner hop (jumps).")
-        settings = {**self._contact(block, e, points), "planar": self.settings["planar"]}
+        reached = abs(fr.eta_mean - target) / target <= CALIBRATION_RTOL and not irregular
+        settings = {**self._contact(block, e, points), "planar": s["planar"]}
+        price = (_price.contact_price(self._fixed(settings), block, Restitution("constant", value=target), dt,
+                                      first_quarter_s=fr.first_quarter_s) if points > 2 and reached else None)
+        note, reached = _note(e, fr, good, target, irregular, reached, s["friction"], points, price)
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
         self._store(key, res, {"etas": fr.etas, "scan": scan})
@@ -900,7 +729,7 @@ class ExudynAdapter(SteppedContactAdapter):
 
 
 def _refine(good: list, target: float, measure, regular):
-    """The best of the scan's regular points ``(e, FreeRocking)``, refined by bisection between the
+    """The best of the scan's regular points ``(e, measurement)``, refined by bisection between the
     first neighbours that bracket ``target`` until within 0.2·CALIBRATION_RTOL (5 halvings at most;
     an irregular midpoint ends it)."""
     best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
@@ -927,27 +756,37 @@ def _refine(good: list, target: float, measure, regular):
     return best
 
 
-def _calibration_note(e: float, fr: FreeRocking, good: list, target: float, irregular: bool, reached: bool,
-                      friction: float) -> str:
-    """What the calibration found, in words."""
+def _note(e: float, fr, good: list, target: float, irregular: bool, reached: bool, friction: float, points: int,
+          price: dict | None) -> tuple[str, bool]:
+    """What the calibration found, in words, and whether it is reached (the row along the base: at
+    its ``price``, None where η was not reached, with the span of η its regular free rocking covers)."""
     rel = abs(fr.eta_mean - target) / target
+    lo_eta, hi_eta = min(f.eta_mean for _, f in good), max(f.eta_mean for _, f in good)
+    span = (f"{points} spheres along the base sharing the corners' stiffness (issue 18); regular free "
+            f"rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
+            f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}")
+    if points > 2 and price is not None and not price["counts"]:
+        why = ("its static uplift threshold is not within 2 % of g·tanα" if not price["uplift"].get("within")
+               else f"{price['anti_slip']['n_slip']} of the {price['anti_slip']['cells']} anti-slip cells slip")
+        return (f"not reached at an acceptable price: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} "
+                f"({100 * rel:.2f} % off target {target:.4f}) with impact model 2 and restitution "
+                f"coefficient {e:.3g}, {span}, but {why}."), False
+    if points > 2 and not reached and not irregular:
+        return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
+                f"({100 * rel:.1f} % off target {target:.4f}) with {span}; smaller coefficients make the "
+                "rocking irregular (impact-to-impact spread above 2 %), larger ones let the landing "
+                "corner hop (jumps)."), False
     if irregular:
         return (f"not reached: no contact restitution gave regular free rocking (spread < 2 %, no jump); "
                 f"the closest η is {fr.eta_mean:.4f} ± {fr.eta_std:.4f} (target {target:.4f}). The block "
-                f"slides or bounces in free rocking with these settings (friction {friction:g}).")
+                f"slides or bounces in free rocking with these settings (friction {friction:g})."), False
     if reached:
         return (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
-                f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}.")
-    lo_eta = min(f.eta_mean for _, f in good)
-    hi_eta = max(f.eta_mean for _, f in good)
+                f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}."
+                + (f" Contact: {span}." if points > 2 else "")), True
     return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
             f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
             f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
             "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
             "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
-            "impulse inside the base, where corner contacts cannot put it.")
-
-
-#: the contact parameters a model is built from
-_CONTACT_KEYS = ("contact_points", "stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient", "friction",
-                 "friction_zone_m_s", "sphere_radius_m", "spectral_radius", "modified_newton_iterations")
+            "impulse inside the base, where corner contacts cannot put it."), False

@@ -418,6 +418,13 @@ class SteppedContactAdapter(ContactEngineAdapter):
         if dt > 0.01:
             raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt_s!r}.")
         s = self._free_rocking_settings(block, dt) if settings is None else settings
+        return self._measure_free_rocking(block, s, dt, theta0_frac)[0]
+
+    def _measure_free_rocking(self, block: Block, s: dict, dt: float,
+                              theta0_frac: float = 0.5) -> tuple[RestitutionMeasurement, Trajectory]:
+        """The free-rocking test of :meth:`measure_restitution` with the resolved settings ``s`` at
+        step ``dt`` [s], unchecked: the measurement and the run's trajectory (for an engine whose
+        calibration reads more from the run than η)."""
         theta0 = float(theta0_frac) * block.alpha_rad
         reader = self.eta_reader
         tr, motion = self._run(block, s, dt, None, theta0=theta0, duration_s=reader.duration_s(block, theta0_frac))
@@ -427,7 +434,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                       eta_mean=float(np.mean(etas)) if etas else math.nan,
                                       eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0,
                                       dt_s=dt, settings=shown, method=reader.method,
-                                      first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad))
+                                      first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad)), tr
 
     # -- the calibration frame (the dispatch and the cache are ContactEngineAdapter's) -----------
     def _search(self, block: Block, dt: float, base: dict, target: float) -> Search:
