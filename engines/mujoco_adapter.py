@@ -80,6 +80,7 @@ from ..reference_solver.restitution import Restitution
 from .base import Case, CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
 from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
+from .rotation import quat_matrix, theta_rate_of_body
 from .skeleton import Motion, SteppedContactAdapter
 
 #: MuJoCo's own defaults for what ``settings="defaults"`` leaves alone (MuJoCo 3.x/4.0 docs).
@@ -391,38 +392,21 @@ class MujocoAdapter(SteppedContactAdapter):
         qi = bm.qi
         b, h = block.width_m, block.height_m
         t = st[:, 0]
+        th, thd, r = _angles_of(bm, st)
         if bm.planar:
-            x, z, th = st[:, qi["pos"]], st[:, qi["pos"] + 1], st[:, qi["pos"] + 2]
-            thd = st[:, qi["vel"] + 2]
-            cx, cz = x, z + 0.5 * h
+            cx, cz = st[:, qi["pos"]], st[:, qi["pos"] + 1] + 0.5 * h
             c, s = np.cos(th), np.sin(th)
             # rotation about +y: local (lx, lz) -> (lx c + lz s, −lx s + lz c)
-            r = np.empty((len(t), 3, 3))
-            r[:] = np.eye(3)
-            r[:, 0, 0], r[:, 0, 2], r[:, 2, 0], r[:, 2, 2] = c, s, -s, c
+            r00, r02, r20, r22 = c, s, -s, c
         else:
             cx, cz = st[:, qi["pos"]], st[:, qi["pos"] + 2]
-            w, qx, qy, qz = (st[:, qi["pos"] + 3 + k] for k in range(4))
-            r = np.empty((len(t), 3, 3))
-            r[:, 0, 0] = 1 - 2 * (qy * qy + qz * qz)
-            r[:, 0, 1] = 2 * (qx * qy - w * qz)
-            r[:, 0, 2] = 2 * (qx * qz + w * qy)
-            r[:, 1, 0] = 2 * (qx * qy + w * qz)
-            r[:, 1, 1] = 1 - 2 * (qx * qx + qz * qz)
-            r[:, 1, 2] = 2 * (qy * qz - w * qx)
-            r[:, 2, 0] = 2 * (qx * qz - w * qy)
-            r[:, 2, 1] = 2 * (qy * qz + w * qx)
-            r[:, 2, 2] = 1 - 2 * (qx * qx + qy * qy)
-            th = np.arctan2(r[:, 0, 2], r[:, 2, 2])
-            # free-joint angular velocity is in the body frame: rotate it to the world, take y
-            wl = st[:, qi["vel"] + 3: qi["vel"] + 6]
-            thd = np.einsum("nj,nj->n", r[:, 1, :], wl)
+            r00, r02, r20, r22 = r[:, 0, 0], r[:, 0, 2], r[:, 2, 0], r[:, 2, 2]
         ut = st[:, qi["table"]] if qi["table"] is not None else np.zeros_like(t)
         # bottom edges at local (±b/2, 0, −h/2)
-        ex_p = cx + r[:, 0, 0] * 0.5 * b - r[:, 0, 2] * 0.5 * h - ut
-        ez_p = cz + r[:, 2, 0] * 0.5 * b - r[:, 2, 2] * 0.5 * h
-        ex_m = cx - r[:, 0, 0] * 0.5 * b - r[:, 0, 2] * 0.5 * h - ut
-        ez_m = cz - r[:, 2, 0] * 0.5 * b - r[:, 2, 2] * 0.5 * h
+        ex_p = cx + r00 * 0.5 * b - r02 * 0.5 * h - ut
+        ez_p = cz + r20 * 0.5 * b - r22 * 0.5 * h
+        ex_m = cx - r00 * 0.5 * b - r02 * 0.5 * h - ut
+        ez_m = cz - r20 * 0.5 * b - r22 * 0.5 * h
         return t, th, thd, (ex_p, ez_p, ex_m, ez_m), ut
 
     def _threads(self) -> int:
@@ -573,20 +557,7 @@ class MujocoAdapter(SteppedContactAdapter):
                     out[i] = r
             return out
         th0 = theta0_frac * block.alpha_rad
-        b, h = block.width_m, block.height_m
-        init = []
-        for bm in built:
-            s = bm.s0.copy()
-            # the +x edge stays where it rests (settled sink included); the block turns about it
-            sink = s[bm.qi["pos"] + 1] if bm.planar else s[bm.qi["pos"] + 2] - 0.5 * h
-            cx = 0.5 * b - 0.5 * b * math.cos(th0) + 0.5 * h * math.sin(th0)
-            cz = 0.5 * b * math.sin(th0) + 0.5 * h * math.cos(th0)
-            if bm.planar:
-                s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, cz - 0.5 * h + sink, th0]
-            else:
-                s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, 0.0, cz + sink]
-                s[bm.qi["pos"] + 3: bm.qi["pos"] + 7] = [math.cos(0.5 * th0), 0.0, math.sin(0.5 * th0), 0.0]
-            init.append(s)
+        init = [self._release_state(bm, block, th0) for bm in built]
         nstep = int(round(duration_s / dt))
         nthread = min(self._threads(), len(built))
         datas = [mujoco.MjData(built[0].model) for _ in range(nthread)]
@@ -594,24 +565,45 @@ class MujocoAdapter(SteppedContactAdapter):
             st, _ = ro.rollout([bm.model for bm in built], datas, np.array(init),
                                np.zeros((len(built), nstep, 1)),
                                initial_warmstart=np.zeros((len(built), built[0].model.nv)))
-        out = []
-        for bm, p, s_init, traj in zip(built, params_list, init, st):
-            full = np.concatenate([s_init[None], traj])
-            _, th, thd, _, _ = self._read(bm, full, block)
-            etas = crossing_velocity_etas(th, thd, block.alpha_rad, block.p_rad_s)
-            arr = np.array(etas) if etas else np.array([math.nan])
-            zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
-            quarter = float(zc[0] + th[zc[0]] / (th[zc[0]] - th[zc[0] + 1])) * dt if zc.size else None
-            out.append(RestitutionMeasurement(
-                etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
-                eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
-                settings={k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator",
-                                            "noslip_iterations", "impratio")} | _contact_of(p)
-                | {"friction": self.settings["friction"]},
-                method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
-                        "carried to θ = 0 with the free-rocking energy; η = ratio after/before"),
-                first_quarter_s=quarter))
-        return out
+        return [self._measurement(bm, p, np.concatenate([s_init[None], traj]), block, th0, dt)
+                for bm, p, s_init, traj in zip(built, params_list, init, st)]
+
+    @staticmethod
+    def _release_state(bm: _Built, block: Block, th0: float) -> np.ndarray:
+        """The settled state turned to ``th0`` [rad] about the +x edge, which stays where it rests
+        (settled sink included)."""
+        s = bm.s0.copy()
+        b, h = block.width_m, block.height_m
+        sink = s[bm.qi["pos"] + 1] if bm.planar else s[bm.qi["pos"] + 2] - 0.5 * h
+        cx = 0.5 * b - 0.5 * b * math.cos(th0) + 0.5 * h * math.sin(th0)
+        cz = 0.5 * b * math.sin(th0) + 0.5 * h * math.cos(th0)
+        if bm.planar:
+            s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, cz - 0.5 * h + sink, th0]
+        else:
+            s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, 0.0, cz + sink]
+            s[bm.qi["pos"] + 3: bm.qi["pos"] + 7] = [math.cos(0.5 * th0), 0.0, math.sin(0.5 * th0), 0.0]
+        return s
+
+    def _measured_settings(self, p: dict) -> dict:
+        """The settings a free-rocking measurement records."""
+        return ({k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator", "noslip_iterations", "impratio")}
+                | _contact_of(p) | {"friction": self.settings["friction"]})
+
+    def _measurement(self, bm: _Built, p: dict, full: np.ndarray, block: Block, th0: float,
+                     dt: float) -> RestitutionMeasurement:
+        """η impact by impact from one free-rocking run's states ``full`` (settings ``p``)."""
+        _, th, thd, _, _ = self._read(bm, full, block)
+        etas = crossing_velocity_etas(th, thd, block.alpha_rad, block.p_rad_s)
+        arr = np.array(etas) if etas else np.array([math.nan])
+        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
+        quarter = float(zc[0] + th[zc[0]] / (th[zc[0]] - th[zc[0] + 1])) * dt if zc.size else None
+        return RestitutionMeasurement(
+            etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
+            eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
+            settings=self._measured_settings(p),
+            method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
+                    "carried to θ = 0 with the free-rocking energy; η = ratio after/before"),
+            first_quarter_s=quarter)
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = CALIBRATION_THETA0_FRAC,
                             dt_s: float | None = None) -> RestitutionMeasurement:
@@ -821,6 +813,17 @@ class MujocoAdapter(SteppedContactAdapter):
             near = [r for r in within if r[0] <= 1.5 * tc_min]
             return min(near, key=lambda r: (abs(r[2] - target), abs(math.log(r[1]))))
         return min(good, key=lambda r: abs(r[2] - target))
+
+
+def _angles_of(bm: _Built, st: np.ndarray, skip: int = 0):
+    """θ and θ̇ from state rows ``(..., k)`` of a built model (``skip``: leading columns of the
+    FULLPHYSICS layout the rows leave out), and the block's rotation matrices (None: planar)."""
+    p, v = bm.qi["pos"] - skip, bm.qi["vel"] - skip
+    if bm.planar:
+        return st[..., p + 2], st[..., v + 2], None
+    r = quat_matrix(*(st[..., p + 3 + k] for k in range(4)))
+    # free-joint angular velocity is in the body frame: rotate it to the world, take y
+    return np.arctan2(r[..., 0, 2], r[..., 2, 2]), theta_rate_of_body(r, st[..., v + 3:v + 6]), r
 
 
 def _contact_of(p: dict) -> dict:
