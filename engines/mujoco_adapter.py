@@ -52,7 +52,7 @@ Measurements
 ------------
 The adapter decides nothing about validity: it reports θ, θ̇, both bottom edges relative to the
 table (x) and their heights (z) at every sample, and the block's own mechanical energy
-(:meth:`MujocoAdapter._energy`); the one validity rule of
+(``½v_c² + ½(R²/3)θ̇² + g·z_c``, which sees a hop after an impact); the one validity rule of
 :mod:`rockbench.reference_solver.validity` turns them into ``slip``, ``jump`` and ``energy-gain``
 for this engine exactly as for every other.
 
@@ -77,7 +77,7 @@ from ..reference_solver.classify import turned_back
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
-from .base import Case, CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, RestitutionMeasurement
 from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
 from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
 from .rotation import quat_matrix, theta_rate_of_body
@@ -491,10 +491,12 @@ class MujocoAdapter(SteppedContactAdapter):
         bm = world["bm"]
         qi = bm.qi
         t, th, thd, (xp, zp, xm, zm), ut = self._read(bm, data, block)
-        energy = self._energy(bm, data, block)
         z_off = 0.5 * block.height_m if bm.planar else 0.0
         x, z = data[:, qi["pos"]], data[:, qi["pos"] + (1 if bm.planar else 2)] + z_off
         vx, vz = data[:, qi["vel"]], data[:, qi["vel"] + (1 if bm.planar else 2)]
+        # the block's own energy: ½v_c² (relative to the table) + ½(R²/3)θ̇² + g·z_c [J/kg]
+        vx_rel = vx - data[:, qi["table_v"]] if qi["table_v"] is not None else vx
+        energy = 0.5 * (vx_rel**2 + vz**2) + 0.5 * block.half_diagonal_m**2 / 3.0 * thd**2 + G * z
         diag: dict = {"dt_s": float(bm.model.opt.timestep), "timeconst": bm.params["timeconst"],
                       "dampratio": bm.params["dampratio"]}
         arrays = (t, th, thd, xp, zp, xm, zm, ut, energy, x, z, vx, vz)
@@ -509,33 +511,6 @@ class MujocoAdapter(SteppedContactAdapter):
         return Motion(x_m=x, z_m=z, theta_rad=th, vx_m_s=vx, vz_m_s=vz, theta_dot_rad_s=thd, table_x_m=ut,
                       diagnostics=diag, t_s=t, corner_x_m=np.stack([xp, xm], axis=1),
                       corner_z_m=np.stack([zp, zm], axis=1), energy_j_kg=energy)
-
-    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray) -> Trajectory:
-        """The trajectory of one world's samples ``st`` (the skeleton's read-out; MuJoCo Warp's runs)."""
-        s = {"drive": bm.drive, "planar": bm.planar}
-        run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": None}
-        return self._record({"bm": bm}, case.block, s, bm.model.opt.timestep, case.pulse, case.pulse.duration_s,
-                            st, run)[0]
-
-    def _energy(self, bm: _Built, st: np.ndarray, block: Block) -> np.ndarray:
-        """The block's mechanical energy per unit mass in the table's frame at every sample [J/kg].
-
-        ``½v_c² + ½(R²/3)θ̇² + g·z_c`` (centre-of-mass velocity relative to the table and height;
-        ``R²/3`` is ``I_cm/m``): the body's own energy, which sees a hop after an impact that the
-        rigid model's ``½θ̇² + p²cos(α − |θ|)`` misreads.
-        """
-        qi = bm.qi
-        _, _, thd, _, _ = self._read(bm, st, block)
-        if bm.planar:
-            vx, vz = st[:, qi["vel"]], st[:, qi["vel"] + 1]
-            zc = st[:, qi["pos"] + 1] + 0.5 * block.height_m
-        else:
-            vx, vz = st[:, qi["vel"]], st[:, qi["vel"] + 2]
-            zc = st[:, qi["pos"] + 2]
-        if qi["table_v"] is not None:
-            vx = vx - st[:, qi["table_v"]]
-        R = block.half_diagonal_m
-        return 0.5 * (vx**2 + vz**2) + 0.5 * R**2 / 3.0 * thd**2 + G * zc
 
     # -- restitution -------------------------------------------------------------------------
     def _free_rocking(self, block: Block, params_list: list[dict], dt: float, theta0_frac: float,
@@ -657,14 +632,13 @@ class MujocoAdapter(SteppedContactAdapter):
         tried, chosen, price = [], None, None
         rest = Restitution("constant", value=target)
         for x in within[:_MAX_PRICE_TRIES]:
-            probe = self._fixed(x[0], x[1], x[2], geo)
+            probe = self._fixed({"timeconst": x[0], "dampratio": x[1], "solimp_d": x[2], **geo})
             up = _price.uplift_threshold(probe, block, rest, dt)
             row = {"timeconst": x[0], "dampratio": x[1], "solimp_d": x[2], "eta": x[3], "uplift": up}
             tried.append(row)
             if not up.get("within"):
                 continue
-            m = probe._free_rocking(block, [{"timeconst": x[0], "dampratio": x[1], **solver, **geo, "solimp_d": x[2]}],
-                                    dt, CALIBRATION_THETA0_FRAC)[0]
+            m = probe.measure_restitution(block, dt_s=dt)
             price = _price.contact_price(probe, block, rest, dt, first_quarter_s=m.first_quarter_s)
             row["anti_slip"] = {k: v for k, v in price["anti_slip"].items() if k.startswith("n_") or k == "cells"}
             if price["counts"]:
@@ -702,25 +676,18 @@ class MujocoAdapter(SteppedContactAdapter):
         return res
 
     def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
-        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
-        from . import price as _price
+        """The price of a calibration's contact (the skeleton's), at the step it was calibrated at."""
+        return super().contact_price(block, c, c.settings.get("dt_s") or dt_s)
 
-        dt = float(c.settings.get("dt_s") or (self.default_dt_s if dt_s is None else dt_s))
-        st = c.settings
-        geo = _contact_of(st)
-        probe = self._fixed(st["timeconst"], st["dampratio"], geo["solimp_d"], geo)
-        p = {k: st[k] for k in ("timeconst", "dampratio", "cone", "integrator", "noslip_iterations", "impratio")}
-        m = probe._free_rocking(block, [{**p, **geo}], dt, CALIBRATION_THETA0_FRAC)[0]
-        return _price.contact_price(probe, block, Restitution("constant", value=c.eta_target), dt,
-                                    first_quarter_s=m.first_quarter_s)
-
-    def _fixed(self, tc: float, dr: float, solimp_d: float | None, geo: dict) -> "MujocoAdapter":
-        """A copy of this adapter with explicit contact settings (no calibration behind its runs)."""
-        s = {**self.settings, "timeconst_s": tc, "dampratio": dr, "solimp_d": solimp_d,
-             "contact": geo["contact"] if geo["contact"] != "auto" else "corners"}
+    def _fixed(self, contact: dict) -> "MujocoAdapter":
+        """A copy of this adapter with explicit contact settings (no calibration behind its runs):
+        a calibration's ``timeconst``, ``dampratio`` and contact geometry (:func:`_contact_of`)."""
+        geo = _contact_of(contact)
+        s = {**self.settings, "timeconst_s": contact["timeconst"], "dampratio": contact["dampratio"],
+             "solimp_d": geo["solimp_d"], "contact": geo["contact"]}
         if geo["contact"] == "distributed":
             s["contact_points"], s["contact_radius_m"] = geo["contact_points"], geo["contact_radius_m"]
-        return MujocoAdapter(**s)
+        return type(self)(**s)
 
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
         """Search the contact time constant and damping ratio so free rocking gives ``target_eta``.

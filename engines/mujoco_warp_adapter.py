@@ -633,19 +633,12 @@ class MujocoWarpAdapter(MujocoAdapter):
         th, thd, _ = _angles_of(bm, h if bm.planar else h.astype(np.float64), skip=1)
         return th.astype(np.float64), thd.astype(np.float64)
 
-    def _read(self, bm: _Built, st: np.ndarray, block: Block):
-        # the CPU adapter's _trajectory reads the same samples twice (angles, then energy): keep
-        # the last reading, tied to the array itself (held here, so its identity cannot be reused)
-        memo = getattr(self, "_read_memo", None)
-        if memo is not None and memo[0] is st and memo[1] is bm and memo[2] is block:
-            return memo[3]
-        out = super()._read(bm, st, block)
-        self._read_memo = (st, bm, block, out)
-        return out
-
-    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray):
-        tr = super()._trajectory(bm, case, st)
-        self._read_memo = None
+    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray) -> Trajectory:
+        """The trajectory of one world's samples ``st`` (the skeleton's read-out)."""
+        s = {"drive": bm.drive, "planar": bm.planar}
+        run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": None}
+        tr = self._record({"bm": bm}, case.block, s, bm.model.opt.timestep, case.pulse, case.pulse.duration_s,
+                          st, run)[0]
         tr.diagnostics.update(device=getattr(self, "_last_device", None), precision="float32",
                               solver=self.settings["solver"])
         return tr
