@@ -59,9 +59,11 @@ import numpy as np
 from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
-from . import calibration as _cal
-from .base import DEVICE_NOTED_ENV, Case, RestitutionMeasurement, Trajectory
+from .base import Case, RestitutionMeasurement, Trajectory
 from .mujoco_adapter import MujocoAdapter, _angles_of, _Built
+# the Warp start-up shared with Newton (which imports it from here too)
+from .warp_start import cuda_driver_present, warp_cache_dir
+from .warp_start import init_on_cpu as _init_on_cpu
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
@@ -82,31 +84,6 @@ _SOLVERS = ("newton", "cg")
 _DEVICES = ("auto", "cpu", "cuda")
 
 _warp_ready = False
-
-
-def warp_cache_dir() -> str:
-    """Where Warp keeps its compiled kernels: ``$WARP_CACHE_PATH`` if set, else ``<rockbench cache>/warp``."""
-    env = os.environ.get("WARP_CACHE_PATH")
-    if env:
-        return env
-    return str(_cal.cache_dir().parent / "warp")
-
-
-def cuda_driver_present() -> bool:
-    """Whether the NVIDIA CUDA driver library loads here: asked without starting Warp, which prints
-    a warning of its own on a machine without one."""
-    import ctypes
-    import sys
-    names = {"win32": ["nvcuda.dll"]}.get(sys.platform, ["libcuda.so.1", "libcuda.so"])
-    if sys.platform == "darwin":
-        return False
-    for name in names:
-        try:
-            ctypes.CDLL(name)
-            return True
-        except OSError:
-            continue
-    return False
 
 
 #: What rockbench says, once per run, where Warp starts without a CUDA driver (instead of Warp's
@@ -130,35 +107,10 @@ def _warp():
             if cuda_driver_present():
                 wp.init()
             else:
-                _init_on_cpu(wp)
+                _init_on_cpu(wp, CPU_LINE)
         _warp_ready = True
     import mujoco_warp as mjw
     return wp, mjw
-
-
-def _init_on_cpu(wp, line: str = CPU_LINE) -> None:
-    """``wp.init()`` without the driver warning Warp's native code writes to stderr, and rockbench's
-    own ``line`` (:data:`CPU_LINE`; the Newton adapter says its own) instead: once per run (worker
-    processes inherit the mark)."""
-    import sys
-    import tempfile
-    sys.stderr.flush()
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as tmp:
-        try:
-            os.dup2(tmp.fileno(), 2)
-            wp.init()
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-        tmp.seek(0)
-        other = [ln for ln in tmp.read().decode(errors="replace").splitlines()
-                 if ln.strip() and "CUDA driver" not in ln]
-    for ln in other:   # anything else Warp said is kept
-        print(ln, file=sys.stderr)
-    if not os.environ.get(DEVICE_NOTED_ENV):
-        os.environ[DEVICE_NOTED_ENV] = "1"
-        print(line, file=sys.stderr)
 
 
 def _kernels():
