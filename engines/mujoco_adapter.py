@@ -231,11 +231,9 @@ class MujocoAdapter(SteppedContactAdapter):
         self._number_setting(s, "solimp_d", "")
         if s["solimp_d"] is not None and not 0.0 < s["solimp_d"] < 1.0:
             raise ConfigError(f"mujoco setting 'solimp_d' must be in (0, 1), got {s['solimp_d']!r}.")
-        if s["cone"] is not None and s["cone"] not in _CONES:
-            raise ConfigError(f"mujoco setting 'cone' must be one of {', '.join(_CONES)}, got {s['cone']!r}.")
-        if s["integrator"] is not None and s["integrator"] not in _INTEGRATORS:
-            raise ConfigError(f"mujoco setting 'integrator' must be one of {', '.join(_INTEGRATORS)}, "
-                              f"got {s['integrator']!r}.")
+        for key, allowed in (("cone", _CONES), ("integrator", _INTEGRATORS)):
+            if s[key] is not None and s[key] not in allowed:
+                raise ConfigError(f"mujoco setting {key!r} must be one of {', '.join(allowed)}, got {s[key]!r}.")
 
     def _solver_params(self) -> dict:
         """Cone, integrator, no-slip passes and impratio for this mode (explicit settings win)."""
@@ -614,18 +612,11 @@ class MujocoAdapter(SteppedContactAdapter):
         if cached is not None:
             return cached
         grid = [(f * dt, dr, dd) for dd in _D_VALUES for f in _TC_FACTORS_DIST for dr in _DR_VALUES_DIST]
-        results = self._eval_grid(block, dt, solver, grid, geo)
-        good = [x for x in results if math.isfinite(x[3])]
-        if good:
-            b0 = min(good, key=lambda x: abs(x[3] - target))
-            fine = [(b0[0] * f, b0[1] * g, min(0.95, max(0.05, b0[2] + e)))
-                    for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25) for e in (-0.05, 0.0, 0.05)
-                    if b0[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)]
-            results += self._eval_grid(block, dt, solver, fine, geo)
-        good = [x for x in results if math.isfinite(x[3])]
-        if not good:
-            raise ConfigError("mujoco calibration: no distributed contact setting gave a measurable free rocking "
-                              "(fewer than two impacts); try a smaller --dt.")
+        results, good = self._grid_search(block, dt, solver, grid, lambda g: min(g, key=lambda x: abs(x[3] - target)),
+                                          lambda b: [(b[0] * f, b[1] * g, min(0.95, max(0.05, b[2] + e)))
+                                                     for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25)
+                                                     for e in (-0.05, 0.0, 0.05)
+                                                     if b[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)], geo)
         # regular rocking only (impact-to-impact spread below 2 %, as Exudyn's calibration asks)
         within = sorted((x for x in good if abs(x[3] - target) <= 0.01 * target and x[4] < 0.02),
                         key=lambda x: abs(x[3] - target))
@@ -645,8 +636,7 @@ class MujocoAdapter(SteppedContactAdapter):
                 chosen = x
                 break
             price = None
-        etas_all = np.array([x[3] for x in good])
-        lo, hi = float(etas_all.min()), float(etas_all.max())
+        lo, hi = min(x[3] for x in good), max(x[3] for x in good)
         span = (f"over solimp d {min(_D_VALUES):g}–{max(_D_VALUES):g}, time constants "
                 f"{_TC_FACTORS_DIST[0]:g}–{_TC_FACTORS_DIST[-1]:g}·dt and damping ratios "
                 f"{_DR_VALUES_DIST[0]:g}–{_DR_VALUES_DIST[-1]:g} ({n} points along the base) η spans {lo:.4f}–{hi:.4f}")
@@ -666,12 +656,9 @@ class MujocoAdapter(SteppedContactAdapter):
                                   if "anti_slip" in t else "") for t in tried) + ")"
                    if within else f"the closest regular η is {eta:.4f} ({100 * (eta - target) / target:+.2f} %)")
             note = f"not reached with the distributed contact: {why}; {span}."
-        sink_mm = 1e3 * self._rest_sink_m(block, {"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd}, dt)
+        settings, _ = self._settings_record(block, dt, {"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd})
         res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
-                                settings={"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd,
-                                          "friction": self.settings["friction"], "dt_s": dt,
-                                          "rest_sink_m": sink_mm * 1e-3},
-                                note=note, evaluations=len(results), price=price)
+                                settings=settings, note=note, evaluations=len(results), price=price)
         self._store(key, res, {"grid": [list(x) for x in results], "uplift_tried": tried})
         return res
 
@@ -704,20 +691,15 @@ class MujocoAdapter(SteppedContactAdapter):
         if cached is not None:
             return cached
         grid = [(f * dt, dr) for f in _TC_FACTORS for dr in _DR_VALUES]
-        results = self._eval_grid(block, dt, solver, grid)
-        best = self._pick(results, target)
         # refine around the best point: time constants between its grid neighbours, finer ratios
-        tc0, dr0 = best[0], best[1]
-        fine = [(tc0 * f, dr0 * g) for f in (0.8, 0.9, 1.0, 1.12, 1.25) for g in (0.85, 0.92, 1.0, 1.08, 1.18)
-                if tc0 * f >= 2.0 * dt and (f, g) != (1.0, 1.0)]
-        results += self._eval_grid(block, dt, solver, fine)
-        best = self._pick(results, target)
-        tc, dr, eta, std, n_imp = best
+        results, good = self._grid_search(block, dt, solver, grid, lambda g: self._pick(g, target), lambda b: [
+            (b[0] * f, b[1] * g) for f in (0.8, 0.9, 1.0, 1.12, 1.25) for g in (0.85, 0.92, 1.0, 1.08, 1.18)
+            if b[0] * f >= 2.0 * dt and (f, g) != (1.0, 1.0)])
+        tc, dr, eta, std, n_imp = self._pick(good, target)
         rel = (eta - target) / target
         reached = abs(rel) <= 0.01
-        etas_all = np.array([r[2] for r in results if math.isfinite(r[2])])
-        lo, hi = (float(etas_all.min()), float(etas_all.max())) if etas_all.size else (math.nan, math.nan)
-        sink_mm = 1e3 * self._rest_sink_m(block, {"timeconst": tc, "dampratio": dr, **solver}, dt)
+        lo, hi = min(r[2] for r in good), max(r[2] for r in good)
+        settings, sink_mm = self._settings_record(block, dt, {"timeconst": tc, "dampratio": dr, **solver})
         if reached:
             note = (f"reached with solref ({tc:.4g} s, {dr:.3g}) at dt {dt:g} s, {n_imp} impacts measured; "
                     f"the block rests {sink_mm:.3g} mm deep in its contact; "
@@ -731,10 +713,7 @@ class MujocoAdapter(SteppedContactAdapter):
                     "move η only a few per cent; lower damping ratios make the corner bounce rather than "
                     "rock, and moving the contact inwards would change the pivots (docs/physics.md §8).")
         res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
-                                settings={"timeconst": tc, "dampratio": dr, **solver,
-                                          "friction": self.settings["friction"], "dt_s": dt,
-                                          "rest_sink_m": sink_mm * 1e-3},
-                                note=note, evaluations=len(results))
+                                settings=settings, note=note, evaluations=len(results))
         self._store(key, res, {"grid": [list(r) for r in results]})
         return res
 
@@ -742,6 +721,27 @@ class MujocoAdapter(SteppedContactAdapter):
         """MuJoCo and its version name the calibrations in the cache (MuJoCo Warp names its own)."""
         import mujoco
         return {"engine": "mujoco", "version": mujoco.__version__}
+
+    def _grid_search(self, block: Block, dt: float, solver: dict, grid: list, pick, around,
+                     geo: dict | None = None) -> tuple[list, list]:
+        """Free rocking over ``grid`` (:meth:`_eval_grid`), then over ``around(pick(rows))`` of its
+        measurable rows; all rows and the measurable ones (a ConfigError when there are none)."""
+        col = 2 if geo is None else 3                 # the η column
+        results = self._eval_grid(block, dt, solver, grid, geo)
+        good = [r for r in results if math.isfinite(r[col])]
+        if good:
+            results += self._eval_grid(block, dt, solver, around(pick(good)), geo)
+            good = [r for r in results if math.isfinite(r[col])]
+        if not good:
+            raise ConfigError(f"mujoco calibration: no {'distributed ' if geo else ''}contact setting gave a "
+                              "measurable free rocking (fewer than two impacts); try a smaller --dt.")
+        return results, good
+
+    def _settings_record(self, block: Block, dt: float, params: dict) -> tuple[dict, float]:
+        """A calibration's settings: the contact ``params``, friction, step and how deep the block
+        rests in its contact; and that depth [mm]."""
+        sink_mm = 1e3 * self._rest_sink_m(block, params, dt)
+        return {**params, "friction": self.settings["friction"], "dt_s": dt, "rest_sink_m": sink_mm * 1e-3}, sink_mm
 
     def _rest_sink_m(self, block: Block, params: dict, dt: float) -> float:
         """How deep the block at rest sinks into its soft contact [m] (a measure of the softness)."""
@@ -768,11 +768,8 @@ class MujocoAdapter(SteppedContactAdapter):
         return out
 
     @staticmethod
-    def _pick(results: list, target: float):
-        good = [r for r in results if math.isfinite(r[2])]
-        if not good:
-            raise ConfigError("mujoco calibration: no contact setting gave a measurable free rocking "
-                              "(fewer than two impacts); try a smaller --dt.")
+    def _pick(good: list, target: float):
+        """Among the stiffest measurable rows within 1 % of the target the closest, else the closest."""
         within = [r for r in good if abs(r[2] - target) <= 0.01 * target]
         if within:
             tc_min = min(r[0] for r in within)
