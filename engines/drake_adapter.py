@@ -67,6 +67,7 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from .base import CalibrationResult
+from .rotation import theta_of_quat
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
@@ -428,9 +429,7 @@ class DrakeAdapter(SteppedContactAdapter):
         if sc.planar:
             return data[:, sc.iq["th"]], data[:, sc.iv["th"]]
         i = sc.iq["quat"]
-        w, x, y, z = data[:, i], data[:, i + 1], data[:, i + 2], data[:, i + 3]
-        th = np.arctan2(2.0 * (x * z + w * y), 1.0 - 2.0 * (x * x + y * y))
-        return th, data[:, sc.iv["th"]]
+        return theta_of_quat(data[:, i], data[:, i + 1], data[:, i + 2], data[:, i + 3]), data[:, sc.iv["th"]]
 
     def _motion(self, sc: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         iq, iv = sc.iq, sc.iv

@@ -52,7 +52,7 @@ Measurements
 ------------
 The adapter decides nothing about validity: it reports θ, θ̇, both bottom edges relative to the
 table (x) and their heights (z) at every sample, and the block's own mechanical energy
-(:meth:`MujocoAdapter._energy`); the one validity rule of
+(``½v_c² + ½(R²/3)θ̇² + g·z_c``, which sees a hop after an impact); the one validity rule of
 :mod:`rockbench.reference_solver.validity` turns them into ``slip``, ``jump`` and ``energy-gain``
 for this engine exactly as for every other.
 
@@ -77,9 +77,10 @@ from ..reference_solver.classify import turned_back
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
-from .base import Case, CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
+from .base import CalibrationResult, RestitutionMeasurement
 from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
 from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
+from .rotation import quat_matrix, theta_rate_of_body
 from .skeleton import Motion, SteppedContactAdapter
 
 #: MuJoCo's own defaults for what ``settings="defaults"`` leaves alone (MuJoCo 3.x/4.0 docs).
@@ -230,11 +231,9 @@ class MujocoAdapter(SteppedContactAdapter):
         self._number_setting(s, "solimp_d", "")
         if s["solimp_d"] is not None and not 0.0 < s["solimp_d"] < 1.0:
             raise ConfigError(f"mujoco setting 'solimp_d' must be in (0, 1), got {s['solimp_d']!r}.")
-        if s["cone"] is not None and s["cone"] not in _CONES:
-            raise ConfigError(f"mujoco setting 'cone' must be one of {', '.join(_CONES)}, got {s['cone']!r}.")
-        if s["integrator"] is not None and s["integrator"] not in _INTEGRATORS:
-            raise ConfigError(f"mujoco setting 'integrator' must be one of {', '.join(_INTEGRATORS)}, "
-                              f"got {s['integrator']!r}.")
+        for key, allowed in (("cone", _CONES), ("integrator", _INTEGRATORS)):
+            if s[key] is not None and s[key] not in allowed:
+                raise ConfigError(f"mujoco setting {key!r} must be one of {', '.join(allowed)}, got {s[key]!r}.")
 
     def _solver_params(self) -> dict:
         """Cone, integrator, no-slip passes and impratio for this mode (explicit settings win)."""
@@ -391,38 +390,21 @@ class MujocoAdapter(SteppedContactAdapter):
         qi = bm.qi
         b, h = block.width_m, block.height_m
         t = st[:, 0]
+        th, thd, r = _angles_of(bm, st)
         if bm.planar:
-            x, z, th = st[:, qi["pos"]], st[:, qi["pos"] + 1], st[:, qi["pos"] + 2]
-            thd = st[:, qi["vel"] + 2]
-            cx, cz = x, z + 0.5 * h
+            cx, cz = st[:, qi["pos"]], st[:, qi["pos"] + 1] + 0.5 * h
             c, s = np.cos(th), np.sin(th)
             # rotation about +y: local (lx, lz) -> (lx c + lz s, −lx s + lz c)
-            r = np.empty((len(t), 3, 3))
-            r[:] = np.eye(3)
-            r[:, 0, 0], r[:, 0, 2], r[:, 2, 0], r[:, 2, 2] = c, s, -s, c
+            r00, r02, r20, r22 = c, s, -s, c
         else:
             cx, cz = st[:, qi["pos"]], st[:, qi["pos"] + 2]
-            w, qx, qy, qz = (st[:, qi["pos"] + 3 + k] for k in range(4))
-            r = np.empty((len(t), 3, 3))
-            r[:, 0, 0] = 1 - 2 * (qy * qy + qz * qz)
-            r[:, 0, 1] = 2 * (qx * qy - w * qz)
-            r[:, 0, 2] = 2 * (qx * qz + w * qy)
-            r[:, 1, 0] = 2 * (qx * qy + w * qz)
-            r[:, 1, 1] = 1 - 2 * (qx * qx + qz * qz)
-            r[:, 1, 2] = 2 * (qy * qz - w * qx)
-            r[:, 2, 0] = 2 * (qx * qz - w * qy)
-            r[:, 2, 1] = 2 * (qy * qz + w * qx)
-            r[:, 2, 2] = 1 - 2 * (qx * qx + qy * qy)
-            th = np.arctan2(r[:, 0, 2], r[:, 2, 2])
-            # free-joint angular velocity is in the body frame: rotate it to the world, take y
-            wl = st[:, qi["vel"] + 3: qi["vel"] + 6]
-            thd = np.einsum("nj,nj->n", r[:, 1, :], wl)
+            r00, r02, r20, r22 = r[:, 0, 0], r[:, 0, 2], r[:, 2, 0], r[:, 2, 2]
         ut = st[:, qi["table"]] if qi["table"] is not None else np.zeros_like(t)
         # bottom edges at local (±b/2, 0, −h/2)
-        ex_p = cx + r[:, 0, 0] * 0.5 * b - r[:, 0, 2] * 0.5 * h - ut
-        ez_p = cz + r[:, 2, 0] * 0.5 * b - r[:, 2, 2] * 0.5 * h
-        ex_m = cx - r[:, 0, 0] * 0.5 * b - r[:, 0, 2] * 0.5 * h - ut
-        ez_m = cz - r[:, 2, 0] * 0.5 * b - r[:, 2, 2] * 0.5 * h
+        ex_p = cx + r00 * 0.5 * b - r02 * 0.5 * h - ut
+        ez_p = cz + r20 * 0.5 * b - r22 * 0.5 * h
+        ex_m = cx - r00 * 0.5 * b - r02 * 0.5 * h - ut
+        ez_m = cz - r20 * 0.5 * b - r22 * 0.5 * h
         return t, th, thd, (ex_p, ez_p, ex_m, ez_m), ut
 
     def _threads(self) -> int:
@@ -507,10 +489,12 @@ class MujocoAdapter(SteppedContactAdapter):
         bm = world["bm"]
         qi = bm.qi
         t, th, thd, (xp, zp, xm, zm), ut = self._read(bm, data, block)
-        energy = self._energy(bm, data, block)
         z_off = 0.5 * block.height_m if bm.planar else 0.0
         x, z = data[:, qi["pos"]], data[:, qi["pos"] + (1 if bm.planar else 2)] + z_off
         vx, vz = data[:, qi["vel"]], data[:, qi["vel"] + (1 if bm.planar else 2)]
+        # the block's own energy: ½v_c² (relative to the table) + ½(R²/3)θ̇² + g·z_c [J/kg]
+        vx_rel = vx - data[:, qi["table_v"]] if qi["table_v"] is not None else vx
+        energy = 0.5 * (vx_rel**2 + vz**2) + 0.5 * block.half_diagonal_m**2 / 3.0 * thd**2 + G * z
         diag: dict = {"dt_s": float(bm.model.opt.timestep), "timeconst": bm.params["timeconst"],
                       "dampratio": bm.params["dampratio"]}
         arrays = (t, th, thd, xp, zp, xm, zm, ut, energy, x, z, vx, vz)
@@ -525,33 +509,6 @@ class MujocoAdapter(SteppedContactAdapter):
         return Motion(x_m=x, z_m=z, theta_rad=th, vx_m_s=vx, vz_m_s=vz, theta_dot_rad_s=thd, table_x_m=ut,
                       diagnostics=diag, t_s=t, corner_x_m=np.stack([xp, xm], axis=1),
                       corner_z_m=np.stack([zp, zm], axis=1), energy_j_kg=energy)
-
-    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray) -> Trajectory:
-        """The trajectory of one world's samples ``st`` (the skeleton's read-out; MuJoCo Warp's runs)."""
-        s = {"drive": bm.drive, "planar": bm.planar}
-        run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": None}
-        return self._record({"bm": bm}, case.block, s, bm.model.opt.timestep, case.pulse, case.pulse.duration_s,
-                            st, run)[0]
-
-    def _energy(self, bm: _Built, st: np.ndarray, block: Block) -> np.ndarray:
-        """The block's mechanical energy per unit mass in the table's frame at every sample [J/kg].
-
-        ``½v_c² + ½(R²/3)θ̇² + g·z_c`` (centre-of-mass velocity relative to the table and height;
-        ``R²/3`` is ``I_cm/m``): the body's own energy, which sees a hop after an impact that the
-        rigid model's ``½θ̇² + p²cos(α − |θ|)`` misreads.
-        """
-        qi = bm.qi
-        _, _, thd, _, _ = self._read(bm, st, block)
-        if bm.planar:
-            vx, vz = st[:, qi["vel"]], st[:, qi["vel"] + 1]
-            zc = st[:, qi["pos"] + 1] + 0.5 * block.height_m
-        else:
-            vx, vz = st[:, qi["vel"]], st[:, qi["vel"] + 2]
-            zc = st[:, qi["pos"] + 2]
-        if qi["table_v"] is not None:
-            vx = vx - st[:, qi["table_v"]]
-        R = block.half_diagonal_m
-        return 0.5 * (vx**2 + vz**2) + 0.5 * R**2 / 3.0 * thd**2 + G * zc
 
     # -- restitution -------------------------------------------------------------------------
     def _free_rocking(self, block: Block, params_list: list[dict], dt: float, theta0_frac: float,
@@ -573,20 +530,7 @@ class MujocoAdapter(SteppedContactAdapter):
                     out[i] = r
             return out
         th0 = theta0_frac * block.alpha_rad
-        b, h = block.width_m, block.height_m
-        init = []
-        for bm in built:
-            s = bm.s0.copy()
-            # the +x edge stays where it rests (settled sink included); the block turns about it
-            sink = s[bm.qi["pos"] + 1] if bm.planar else s[bm.qi["pos"] + 2] - 0.5 * h
-            cx = 0.5 * b - 0.5 * b * math.cos(th0) + 0.5 * h * math.sin(th0)
-            cz = 0.5 * b * math.sin(th0) + 0.5 * h * math.cos(th0)
-            if bm.planar:
-                s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, cz - 0.5 * h + sink, th0]
-            else:
-                s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, 0.0, cz + sink]
-                s[bm.qi["pos"] + 3: bm.qi["pos"] + 7] = [math.cos(0.5 * th0), 0.0, math.sin(0.5 * th0), 0.0]
-            init.append(s)
+        init = [self._release_state(bm, block, th0) for bm in built]
         nstep = int(round(duration_s / dt))
         nthread = min(self._threads(), len(built))
         datas = [mujoco.MjData(built[0].model) for _ in range(nthread)]
@@ -594,24 +538,45 @@ class MujocoAdapter(SteppedContactAdapter):
             st, _ = ro.rollout([bm.model for bm in built], datas, np.array(init),
                                np.zeros((len(built), nstep, 1)),
                                initial_warmstart=np.zeros((len(built), built[0].model.nv)))
-        out = []
-        for bm, p, s_init, traj in zip(built, params_list, init, st):
-            full = np.concatenate([s_init[None], traj])
-            _, th, thd, _, _ = self._read(bm, full, block)
-            etas = crossing_velocity_etas(th, thd, block.alpha_rad, block.p_rad_s)
-            arr = np.array(etas) if etas else np.array([math.nan])
-            zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
-            quarter = float(zc[0] + th[zc[0]] / (th[zc[0]] - th[zc[0] + 1])) * dt if zc.size else None
-            out.append(RestitutionMeasurement(
-                etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
-                eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
-                settings={k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator",
-                                            "noslip_iterations", "impratio")} | _contact_of(p)
-                | {"friction": self.settings["friction"]},
-                method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
-                        "carried to θ = 0 with the free-rocking energy; η = ratio after/before"),
-                first_quarter_s=quarter))
-        return out
+        return [self._measurement(bm, p, np.concatenate([s_init[None], traj]), block, th0, dt)
+                for bm, p, s_init, traj in zip(built, params_list, init, st)]
+
+    @staticmethod
+    def _release_state(bm: _Built, block: Block, th0: float) -> np.ndarray:
+        """The settled state turned to ``th0`` [rad] about the +x edge, which stays where it rests
+        (settled sink included)."""
+        s = bm.s0.copy()
+        b, h = block.width_m, block.height_m
+        sink = s[bm.qi["pos"] + 1] if bm.planar else s[bm.qi["pos"] + 2] - 0.5 * h
+        cx = 0.5 * b - 0.5 * b * math.cos(th0) + 0.5 * h * math.sin(th0)
+        cz = 0.5 * b * math.sin(th0) + 0.5 * h * math.cos(th0)
+        if bm.planar:
+            s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, cz - 0.5 * h + sink, th0]
+        else:
+            s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, 0.0, cz + sink]
+            s[bm.qi["pos"] + 3: bm.qi["pos"] + 7] = [math.cos(0.5 * th0), 0.0, math.sin(0.5 * th0), 0.0]
+        return s
+
+    def _measured_settings(self, p: dict) -> dict:
+        """The settings a free-rocking measurement records."""
+        return ({k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator", "noslip_iterations", "impratio")}
+                | _contact_of(p) | {"friction": self.settings["friction"]})
+
+    def _measurement(self, bm: _Built, p: dict, full: np.ndarray, block: Block, th0: float,
+                     dt: float) -> RestitutionMeasurement:
+        """η impact by impact from one free-rocking run's states ``full`` (settings ``p``)."""
+        _, th, thd, _, _ = self._read(bm, full, block)
+        etas = crossing_velocity_etas(th, thd, block.alpha_rad, block.p_rad_s)
+        arr = np.array(etas) if etas else np.array([math.nan])
+        zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
+        quarter = float(zc[0] + th[zc[0]] / (th[zc[0]] - th[zc[0] + 1])) * dt if zc.size else None
+        return RestitutionMeasurement(
+            etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
+            eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
+            settings=self._measured_settings(p),
+            method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
+                    "carried to θ = 0 with the free-rocking energy; η = ratio after/before"),
+            first_quarter_s=quarter)
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = CALIBRATION_THETA0_FRAC,
                             dt_s: float | None = None) -> RestitutionMeasurement:
@@ -647,40 +612,31 @@ class MujocoAdapter(SteppedContactAdapter):
         if cached is not None:
             return cached
         grid = [(f * dt, dr, dd) for dd in _D_VALUES for f in _TC_FACTORS_DIST for dr in _DR_VALUES_DIST]
-        results = self._eval_grid(block, dt, solver, grid, geo)
-        good = [x for x in results if math.isfinite(x[3])]
-        if good:
-            b0 = min(good, key=lambda x: abs(x[3] - target))
-            fine = [(b0[0] * f, b0[1] * g, min(0.95, max(0.05, b0[2] + e)))
-                    for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25) for e in (-0.05, 0.0, 0.05)
-                    if b0[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)]
-            results += self._eval_grid(block, dt, solver, fine, geo)
-        good = [x for x in results if math.isfinite(x[3])]
-        if not good:
-            raise ConfigError("mujoco calibration: no distributed contact setting gave a measurable free rocking "
-                              "(fewer than two impacts); try a smaller --dt.")
+        results, good = self._grid_search(block, dt, solver, grid, lambda g: min(g, key=lambda x: abs(x[3] - target)),
+                                          lambda b: [(b[0] * f, b[1] * g, min(0.95, max(0.05, b[2] + e)))
+                                                     for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25)
+                                                     for e in (-0.05, 0.0, 0.05)
+                                                     if b[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)], geo)
         # regular rocking only (impact-to-impact spread below 2 %, as Exudyn's calibration asks)
         within = sorted((x for x in good if abs(x[3] - target) <= 0.01 * target and x[4] < 0.02),
                         key=lambda x: abs(x[3] - target))
         tried, chosen, price = [], None, None
         rest = Restitution("constant", value=target)
         for x in within[:_MAX_PRICE_TRIES]:
-            probe = self._fixed(x[0], x[1], x[2], geo)
+            probe = self._fixed({"timeconst": x[0], "dampratio": x[1], "solimp_d": x[2], **geo})
             up = _price.uplift_threshold(probe, block, rest, dt)
             row = {"timeconst": x[0], "dampratio": x[1], "solimp_d": x[2], "eta": x[3], "uplift": up}
             tried.append(row)
             if not up.get("within"):
                 continue
-            m = probe._free_rocking(block, [{"timeconst": x[0], "dampratio": x[1], **solver, **geo, "solimp_d": x[2]}],
-                                    dt, CALIBRATION_THETA0_FRAC)[0]
+            m = probe.measure_restitution(block, dt_s=dt)
             price = _price.contact_price(probe, block, rest, dt, first_quarter_s=m.first_quarter_s)
             row["anti_slip"] = {k: v for k, v in price["anti_slip"].items() if k.startswith("n_") or k == "cells"}
             if price["counts"]:
                 chosen = x
                 break
             price = None
-        etas_all = np.array([x[3] for x in good])
-        lo, hi = float(etas_all.min()), float(etas_all.max())
+        lo, hi = min(x[3] for x in good), max(x[3] for x in good)
         span = (f"over solimp d {min(_D_VALUES):g}–{max(_D_VALUES):g}, time constants "
                 f"{_TC_FACTORS_DIST[0]:g}–{_TC_FACTORS_DIST[-1]:g}·dt and damping ratios "
                 f"{_DR_VALUES_DIST[0]:g}–{_DR_VALUES_DIST[-1]:g} ({n} points along the base) η spans {lo:.4f}–{hi:.4f}")
@@ -700,35 +656,25 @@ class MujocoAdapter(SteppedContactAdapter):
                                   if "anti_slip" in t else "") for t in tried) + ")"
                    if within else f"the closest regular η is {eta:.4f} ({100 * (eta - target) / target:+.2f} %)")
             note = f"not reached with the distributed contact: {why}; {span}."
-        sink_mm = 1e3 * self._rest_sink_m(block, {"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd}, dt)
+        settings, _ = self._settings_record(block, dt, {"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd})
         res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
-                                settings={"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd,
-                                          "friction": self.settings["friction"], "dt_s": dt,
-                                          "rest_sink_m": sink_mm * 1e-3},
-                                note=note, evaluations=len(results), price=price)
+                                settings=settings, note=note, evaluations=len(results), price=price)
         self._store(key, res, {"grid": [list(x) for x in results], "uplift_tried": tried})
         return res
 
     def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
-        """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
-        from . import price as _price
+        """The price of a calibration's contact (the skeleton's), at the step it was calibrated at."""
+        return super().contact_price(block, c, c.settings.get("dt_s") or dt_s)
 
-        dt = float(c.settings.get("dt_s") or (self.default_dt_s if dt_s is None else dt_s))
-        st = c.settings
-        geo = _contact_of(st)
-        probe = self._fixed(st["timeconst"], st["dampratio"], geo["solimp_d"], geo)
-        p = {k: st[k] for k in ("timeconst", "dampratio", "cone", "integrator", "noslip_iterations", "impratio")}
-        m = probe._free_rocking(block, [{**p, **geo}], dt, CALIBRATION_THETA0_FRAC)[0]
-        return _price.contact_price(probe, block, Restitution("constant", value=c.eta_target), dt,
-                                    first_quarter_s=m.first_quarter_s)
-
-    def _fixed(self, tc: float, dr: float, solimp_d: float | None, geo: dict) -> "MujocoAdapter":
-        """A copy of this adapter with explicit contact settings (no calibration behind its runs)."""
-        s = {**self.settings, "timeconst_s": tc, "dampratio": dr, "solimp_d": solimp_d,
-             "contact": geo["contact"] if geo["contact"] != "auto" else "corners"}
+    def _fixed(self, contact: dict) -> "MujocoAdapter":
+        """A copy of this adapter with explicit contact settings (no calibration behind its runs):
+        a calibration's ``timeconst``, ``dampratio`` and contact geometry (:func:`_contact_of`)."""
+        geo = _contact_of(contact)
+        s = {**self.settings, "timeconst_s": contact["timeconst"], "dampratio": contact["dampratio"],
+             "solimp_d": geo["solimp_d"], "contact": geo["contact"]}
         if geo["contact"] == "distributed":
             s["contact_points"], s["contact_radius_m"] = geo["contact_points"], geo["contact_radius_m"]
-        return MujocoAdapter(**s)
+        return type(self)(**s)
 
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
         """Search the contact time constant and damping ratio so free rocking gives ``target_eta``.
@@ -745,20 +691,15 @@ class MujocoAdapter(SteppedContactAdapter):
         if cached is not None:
             return cached
         grid = [(f * dt, dr) for f in _TC_FACTORS for dr in _DR_VALUES]
-        results = self._eval_grid(block, dt, solver, grid)
-        best = self._pick(results, target)
         # refine around the best point: time constants between its grid neighbours, finer ratios
-        tc0, dr0 = best[0], best[1]
-        fine = [(tc0 * f, dr0 * g) for f in (0.8, 0.9, 1.0, 1.12, 1.25) for g in (0.85, 0.92, 1.0, 1.08, 1.18)
-                if tc0 * f >= 2.0 * dt and (f, g) != (1.0, 1.0)]
-        results += self._eval_grid(block, dt, solver, fine)
-        best = self._pick(results, target)
-        tc, dr, eta, std, n_imp = best
+        results, good = self._grid_search(block, dt, solver, grid, lambda g: self._pick(g, target), lambda b: [
+            (b[0] * f, b[1] * g) for f in (0.8, 0.9, 1.0, 1.12, 1.25) for g in (0.85, 0.92, 1.0, 1.08, 1.18)
+            if b[0] * f >= 2.0 * dt and (f, g) != (1.0, 1.0)])
+        tc, dr, eta, std, n_imp = self._pick(good, target)
         rel = (eta - target) / target
         reached = abs(rel) <= 0.01
-        etas_all = np.array([r[2] for r in results if math.isfinite(r[2])])
-        lo, hi = (float(etas_all.min()), float(etas_all.max())) if etas_all.size else (math.nan, math.nan)
-        sink_mm = 1e3 * self._rest_sink_m(block, {"timeconst": tc, "dampratio": dr, **solver}, dt)
+        lo, hi = min(r[2] for r in good), max(r[2] for r in good)
+        settings, sink_mm = self._settings_record(block, dt, {"timeconst": tc, "dampratio": dr, **solver})
         if reached:
             note = (f"reached with solref ({tc:.4g} s, {dr:.3g}) at dt {dt:g} s, {n_imp} impacts measured; "
                     f"the block rests {sink_mm:.3g} mm deep in its contact; "
@@ -772,10 +713,7 @@ class MujocoAdapter(SteppedContactAdapter):
                     "move η only a few per cent; lower damping ratios make the corner bounce rather than "
                     "rock, and moving the contact inwards would change the pivots (docs/physics.md §8).")
         res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
-                                settings={"timeconst": tc, "dampratio": dr, **solver,
-                                          "friction": self.settings["friction"], "dt_s": dt,
-                                          "rest_sink_m": sink_mm * 1e-3},
-                                note=note, evaluations=len(results))
+                                settings=settings, note=note, evaluations=len(results))
         self._store(key, res, {"grid": [list(r) for r in results]})
         return res
 
@@ -783,6 +721,27 @@ class MujocoAdapter(SteppedContactAdapter):
         """MuJoCo and its version name the calibrations in the cache (MuJoCo Warp names its own)."""
         import mujoco
         return {"engine": "mujoco", "version": mujoco.__version__}
+
+    def _grid_search(self, block: Block, dt: float, solver: dict, grid: list, pick, around,
+                     geo: dict | None = None) -> tuple[list, list]:
+        """Free rocking over ``grid`` (:meth:`_eval_grid`), then over ``around(pick(rows))`` of its
+        measurable rows; all rows and the measurable ones (a ConfigError when there are none)."""
+        col = 2 if geo is None else 3                 # the η column
+        results = self._eval_grid(block, dt, solver, grid, geo)
+        good = [r for r in results if math.isfinite(r[col])]
+        if good:
+            results += self._eval_grid(block, dt, solver, around(pick(good)), geo)
+            good = [r for r in results if math.isfinite(r[col])]
+        if not good:
+            raise ConfigError(f"mujoco calibration: no {'distributed ' if geo else ''}contact setting gave a "
+                              "measurable free rocking (fewer than two impacts); try a smaller --dt.")
+        return results, good
+
+    def _settings_record(self, block: Block, dt: float, params: dict) -> tuple[dict, float]:
+        """A calibration's settings: the contact ``params``, friction, step and how deep the block
+        rests in its contact; and that depth [mm]."""
+        sink_mm = 1e3 * self._rest_sink_m(block, params, dt)
+        return {**params, "friction": self.settings["friction"], "dt_s": dt, "rest_sink_m": sink_mm * 1e-3}, sink_mm
 
     def _rest_sink_m(self, block: Block, params: dict, dt: float) -> float:
         """How deep the block at rest sinks into its soft contact [m] (a measure of the softness)."""
@@ -809,11 +768,8 @@ class MujocoAdapter(SteppedContactAdapter):
         return out
 
     @staticmethod
-    def _pick(results: list, target: float):
-        good = [r for r in results if math.isfinite(r[2])]
-        if not good:
-            raise ConfigError("mujoco calibration: no contact setting gave a measurable free rocking "
-                              "(fewer than two impacts); try a smaller --dt.")
+    def _pick(good: list, target: float):
+        """Among the stiffest measurable rows within 1 % of the target the closest, else the closest."""
         within = [r for r in good if abs(r[2] - target) <= 0.01 * target]
         if within:
             tc_min = min(r[0] for r in within)
@@ -821,6 +777,17 @@ class MujocoAdapter(SteppedContactAdapter):
             near = [r for r in within if r[0] <= 1.5 * tc_min]
             return min(near, key=lambda r: (abs(r[2] - target), abs(math.log(r[1]))))
         return min(good, key=lambda r: abs(r[2] - target))
+
+
+def _angles_of(bm: _Built, st: np.ndarray, skip: int = 0):
+    """θ and θ̇ from state rows ``(..., k)`` of a built model (``skip``: leading columns of the
+    FULLPHYSICS layout the rows leave out), and the block's rotation matrices (None: planar)."""
+    p, v = bm.qi["pos"] - skip, bm.qi["vel"] - skip
+    if bm.planar:
+        return st[..., p + 2], st[..., v + 2], None
+    r = quat_matrix(*(st[..., p + 3 + k] for k in range(4)))
+    # free-joint angular velocity is in the body frame: rotate it to the world, take y
+    return np.arctan2(r[..., 0, 2], r[..., 2, 2]), theta_rate_of_body(r, st[..., v + 3:v + 6]), r
 
 
 def _contact_of(p: dict) -> dict:

@@ -50,7 +50,7 @@ Warp compiles its kernels on first use (about a minute on a CPU, more on a GPU) 
 
 from __future__ import annotations
 
-import math
+import dataclasses
 import os
 import time
 
@@ -59,10 +59,11 @@ import numpy as np
 from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
-from . import calibration as _cal
-from .base import DEVICE_NOTED_ENV, Case, RestitutionMeasurement, Trajectory
-from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
-from .mujoco_adapter import MujocoAdapter, _Built
+from .base import Case, RestitutionMeasurement, Trajectory
+from .mujoco_adapter import MujocoAdapter, _angles_of, _Built
+# the Warp start-up shared with Newton (which imports it from here too)
+from .warp_start import cuda_driver_present, warp_cache_dir
+from .warp_start import init_on_cpu as _init_on_cpu
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
@@ -83,31 +84,6 @@ _SOLVERS = ("newton", "cg")
 _DEVICES = ("auto", "cpu", "cuda")
 
 _warp_ready = False
-
-
-def warp_cache_dir() -> str:
-    """Where Warp keeps its compiled kernels: ``$WARP_CACHE_PATH`` if set, else ``<rockbench cache>/warp``."""
-    env = os.environ.get("WARP_CACHE_PATH")
-    if env:
-        return env
-    return str(_cal.cache_dir().parent / "warp")
-
-
-def cuda_driver_present() -> bool:
-    """Whether the NVIDIA CUDA driver library loads here: asked without starting Warp, which prints
-    a warning of its own on a machine without one."""
-    import ctypes
-    import sys
-    names = {"win32": ["nvcuda.dll"]}.get(sys.platform, ["libcuda.so.1", "libcuda.so"])
-    if sys.platform == "darwin":
-        return False
-    for name in names:
-        try:
-            ctypes.CDLL(name)
-            return True
-        except OSError:
-            continue
-    return False
 
 
 #: What rockbench says, once per run, where Warp starts without a CUDA driver (instead of Warp's
@@ -131,35 +107,10 @@ def _warp():
             if cuda_driver_present():
                 wp.init()
             else:
-                _init_on_cpu(wp)
+                _init_on_cpu(wp, CPU_LINE)
         _warp_ready = True
     import mujoco_warp as mjw
     return wp, mjw
-
-
-def _init_on_cpu(wp, line: str = CPU_LINE) -> None:
-    """``wp.init()`` without the driver warning Warp's native code writes to stderr, and rockbench's
-    own ``line`` (:data:`CPU_LINE`; the Newton adapter says its own) instead: once per run (worker
-    processes inherit the mark)."""
-    import sys
-    import tempfile
-    sys.stderr.flush()
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as tmp:
-        try:
-            os.dup2(tmp.fileno(), 2)
-            wp.init()
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-        tmp.seek(0)
-        other = [ln for ln in tmp.read().decode(errors="replace").splitlines()
-                 if ln.strip() and "CUDA driver" not in ln]
-    for ln in other:   # anything else Warp said is kept
-        print(ln, file=sys.stderr)
-    if not os.environ.get(DEVICE_NOTED_ENV):
-        os.environ[DEVICE_NOTED_ENV] = "1"
-        print(line, file=sys.stderr)
 
 
 def _kernels():
@@ -630,30 +581,16 @@ class MujocoWarpAdapter(MujocoAdapter):
     @staticmethod
     def _theta_columns(bm: _Built, h: np.ndarray):
         """θ and θ̇ of many worlds from recorded ``[qpos, qvel]`` rows ``(n, k, nq + nv)``, as the
-        CPU adapter's ``_read`` gives them."""
-        p, v = bm.qi["pos"] - 1, bm.qi["vel"] - 1
-        if bm.planar:   # only the two columns read, in float64 (not the whole buffer)
-            return h[:, :, p + 2].astype(np.float64), h[:, :, v + 2].astype(np.float64)
-        h = h.astype(np.float64)
-        w, qx, qy, qz = (h[:, :, p + 3 + k] for k in range(4))
-        th = np.arctan2(2 * (qx * qz + w * qy), 1 - 2 * (qx * qx + qy * qy))
-        r10, r11, r12 = 2 * (qx * qy + w * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - w * qx)
-        wx, wy, wz = (h[:, :, v + 3 + k] for k in range(3))
-        return th, r10 * wx + r11 * wy + r12 * wz
+        CPU adapter's ``_read`` gives them (only the two columns read in float64 when planar)."""
+        th, thd, _ = _angles_of(bm, h if bm.planar else h.astype(np.float64), skip=1)
+        return th.astype(np.float64), thd.astype(np.float64)
 
-    def _read(self, bm: _Built, st: np.ndarray, block: Block):
-        # the CPU adapter's _trajectory reads the same samples twice (angles, then energy): keep
-        # the last reading, tied to the array itself (held here, so its identity cannot be reused)
-        memo = getattr(self, "_read_memo", None)
-        if memo is not None and memo[0] is st and memo[1] is bm and memo[2] is block:
-            return memo[3]
-        out = super()._read(bm, st, block)
-        self._read_memo = (st, bm, block, out)
-        return out
-
-    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray):
-        tr = super()._trajectory(bm, case, st)
-        self._read_memo = None
+    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray) -> Trajectory:
+        """The trajectory of one world's samples ``st`` (the skeleton's read-out)."""
+        s = {"drive": bm.drive, "planar": bm.planar}
+        run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": None}
+        tr = self._record({"bm": bm}, case.block, s, bm.model.opt.timestep, case.pulse, case.pulse.duration_s,
+                          st, run)[0]
         tr.diagnostics.update(device=getattr(self, "_last_device", None), precision="float32",
                               solver=self.settings["solver"])
         return tr
@@ -669,40 +606,21 @@ class MujocoWarpAdapter(MujocoAdapter):
             key = tuple((k, p[k]) for k in ("cone", "integrator", "noslip_iterations", "impratio"))
             groups.setdefault(key, []).append(j)
         th0 = theta0_frac * block.alpha_rad
-        b, h = block.width_m, block.height_m
         nstep = int(round(duration_s / dt))
         out: list = [None] * len(built)
         for idx in groups.values():
-            init, solref = [], []
-            for j in idx:
-                bm = built[j]
-                s = bm.s0.copy()
-                sink = s[bm.qi["pos"] + 1] if bm.planar else s[bm.qi["pos"] + 2] - 0.5 * h
-                cx = 0.5 * b - 0.5 * b * math.cos(th0) + 0.5 * h * math.sin(th0)
-                cz = 0.5 * b * math.sin(th0) + 0.5 * h * math.cos(th0)
-                if bm.planar:
-                    s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, cz - 0.5 * h + sink, th0]
-                else:
-                    s[bm.qi["pos"]: bm.qi["pos"] + 3] = [cx, 0.0, cz + sink]
-                    s[bm.qi["pos"] + 3: bm.qi["pos"] + 7] = [math.cos(0.5 * th0), 0.0, math.sin(0.5 * th0), 0.0]
-                init.append(s[:1 + bm.model.nq + bm.model.nv])
-                solref.append([params_list[j]["timeconst"], params_list[j]["dampratio"]])
+            init = [self._release_state(built[j], block, th0)[:1 + built[j].model.nq + built[j].model.nv] for j in idx]
+            solref = [[params_list[j]["timeconst"], params_list[j]["dampratio"]] for j in idx]
             states = self._run_batch(built[idx[0]], [None] * len(idx), None, init=np.array(init), solref=np.array(solref),
                                      n_steps=nstep)
             for j, full in zip(idx, states):
-                bm, p = built[j], params_list[j]
-                _, th, thd, _, _ = self._read(bm, full, block)
-                etas = crossing_velocity_etas(th, thd, block.alpha_rad, block.p_rad_s)
-                arr = np.array(etas) if etas else np.array([math.nan])
-                out[j] = RestitutionMeasurement(
-                    etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
-                    eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
-                    settings={k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator",
-                                                "noslip_iterations", "impratio")}
-                    | {"friction": self.settings["friction"], "solver": self.settings["solver"]},
-                    method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
-                            "carried to θ = 0 with the free-rocking energy; η = ratio after/before"))
+                m = self._measurement(built[j], params_list[j], full, block, th0, dt)
+                out[j] = dataclasses.replace(m, first_quarter_s=None)   # not recorded here (yet)
         return out
+
+    def _measured_settings(self, p: dict) -> dict:
+        return ({k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator", "noslip_iterations", "impratio")}
+                | {"friction": self.settings["friction"], "solver": self.settings["solver"]})
 
     def _cache_identity(self) -> dict:
         import mujoco_warp

@@ -51,6 +51,7 @@ from ..reference_solver.model import G, Block
 from .base import CalibrationResult
 from .contact import POINTS_TRIED
 from .free_rocking import ENERGY_RATIO
+from .rotation import theta_of_quat
 from .skeleton import CAL_MAX_SPREAD, Motion, SteppedContactAdapter, pivot_pose
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
@@ -435,7 +436,7 @@ class PybulletAdapter(SteppedContactAdapter):
             return Motion(data[:, 0], data[:, 1] + block.height_m / 2, data[:, 2], data[:, 3], data[:, 4], data[:, 5],
                           u_tab, v_tab)
         qx, qy, qz, qw = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
-        th = np.arctan2(2.0 * (qx * qz + qw * qy), 1.0 - 2.0 * (qx * qx + qy * qy))
+        th = theta_of_quat(qw, qx, qy, qz)
         # how far the free body left the plane: lateral drift along y, tilt about x
         roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
         diag = {"max_lateral_drift_m": float(max(np.max(np.abs(data[:, 1])), 0.0)),

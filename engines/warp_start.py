@@ -1,0 +1,62 @@
+"""Starting Warp for the adapters built on it (MuJoCo Warp, Newton): where its kernels are cached,
+whether a CUDA driver is there, and a start on the CPU that says so in one line of rockbench's own.
+"""
+
+from __future__ import annotations
+
+import os
+
+from . import calibration as _cal
+from .base import DEVICE_NOTED_ENV
+
+__all__ = ["warp_cache_dir", "cuda_driver_present", "init_on_cpu"]
+
+
+def warp_cache_dir() -> str:
+    """Where Warp keeps its compiled kernels: ``$WARP_CACHE_PATH`` if set, else ``<rockbench cache>/warp``."""
+    env = os.environ.get("WARP_CACHE_PATH")
+    if env:
+        return env
+    return str(_cal.cache_dir().parent / "warp")
+
+
+def cuda_driver_present() -> bool:
+    """Whether the NVIDIA CUDA driver library loads here: asked without starting Warp, which prints
+    a warning of its own on a machine without one."""
+    import ctypes
+    import sys
+    names = {"win32": ["nvcuda.dll"]}.get(sys.platform, ["libcuda.so.1", "libcuda.so"])
+    if sys.platform == "darwin":
+        return False
+    for name in names:
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return False
+
+
+def init_on_cpu(wp, line: str) -> None:
+    """``wp.init()`` without the driver warning Warp's native code writes to stderr, and rockbench's
+    own ``line`` (each Warp-based adapter says its own) instead: once per run (worker
+    processes inherit the mark)."""
+    import sys
+    import tempfile
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        try:
+            os.dup2(tmp.fileno(), 2)
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        other = [ln for ln in tmp.read().decode(errors="replace").splitlines()
+                 if ln.strip() and "CUDA driver" not in ln]
+    for ln in other:   # anything else Warp said is kept
+        print(ln, file=sys.stderr)
+    if not os.environ.get(DEVICE_NOTED_ENV):
+        os.environ[DEVICE_NOTED_ENV] = "1"
+        print(line, file=sys.stderr)
