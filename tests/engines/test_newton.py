@@ -125,3 +125,29 @@ def test_featherstone_overturns_where_it_must(drive):
     """Featherstone moves its kinematic table through the table's free joint (generalised coordinates)."""
     res = get_adapter("newton", solver="featherstone", drive=drive, **PENALTY).run(_case(3.0, 2.5))
     assert res.outcome == "overturn"
+
+
+def test_vbd_search_tries_stiff_contacts_only_and_stops_at_a_regular_hit():
+    """The VBD search (no engine run): stiffnesses from 1.5 × the penalty solvers' softest, each with
+    kd 100, 30, 10 N s/m; it stops at the first within 0.25 % whose impacts agree within 2 %."""
+    from types import SimpleNamespace
+
+    from rockbench.engines.newton_adapter import _penalty_ke_min, _search_vbd
+    from rockbench.engines.skeleton import Search
+
+    blk = PRESETS["B3M"].block()
+    t = housner_eta(blk.alpha_rad)
+    # η rises as kd falls; the kd-30 setting of the softest stiffness hits but scatters, the stiffer one's is regular
+    table = {(1.5, 100.0): (0.74, 0.005), (1.5, 30.0): (t, 0.05), (1.5, 10.0): (0.79, 0.03),
+             (3.0, 100.0): (0.739, 0.002), (3.0, 30.0): (t * 1.001, 0.006)}
+    ke0 = _penalty_ke_min(blk)
+
+    def measure(extra):
+        eta, std = table[(round(extra["contact_stiffness_n_m"] / ke0, 6), extra["contact_damping_n_s_m"])]
+        return SimpleNamespace(eta_mean=eta, eta_std=std)
+
+    search = Search(measure, t)
+    _search_vbd(search, t, blk)
+    assert len(search.tried) == 5 and all(extra for _, _, extra in search.tried)
+    eta, std, extra, reached = search.best()
+    assert reached and extra["contact_damping_n_s_m"] == 30.0 and extra["contact_stiffness_n_m"] == pytest.approx(3 * ke0)
