@@ -44,7 +44,7 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
-from .skeleton import Motion, SteppedContactAdapter, pivot_pose
+from .skeleton import CAL_MAX_SPREAD, Motion, SteppedContactAdapter, pivot_pose
 
 #: The solvers offered, by their ``solver`` name
 SOLVERS = ("xpbd", "semi_implicit", "featherstone", "vbd")
@@ -303,7 +303,7 @@ class NewtonAdapter(SteppedContactAdapter):
     CONTACT_KEYS = ("iterations", "contact_relaxation", "contact_stiffness_n_m", "contact_damping_n_s_m",
                     "friction_gain_n_s_m")
     MEASURED_SETTINGS = ("solver", "friction", "planar", "sticky_contacts")
-    CALIBRATION_VERSION = 2
+    CALIBRATION_VERSION = 3
 
     @classmethod
     def version(cls) -> str:
@@ -395,7 +395,9 @@ class NewtonAdapter(SteppedContactAdapter):
           sticking the explicit step keeps stable), bisection on ``log10 ke`` from the softest contact
           that keeps the block standing below the uplift threshold (:func:`_penalty_ke_min`) up to
           ``0.1·m/Δt²``: a softer contact gives a higher η here.
-        * ``vbd``: the solver as shipped, measured (no knob reaches a target; docs/newton.md).
+        * ``vbd``: the contact stiffness :data:`_VBD_KE_FACTORS` × :func:`_penalty_ke_min` (a stiffer
+          contact gives a lower η) with the damping :data:`_VBD_KD_N_S_M` (less damping, a higher η)
+          until one is within 0.25 % with regular impacts (:func:`_search_vbd`).
 
         The closest setting whose per-impact spread stays within 2 % of the target wins.
         """
@@ -411,7 +413,7 @@ class NewtonAdapter(SteppedContactAdapter):
         elif solver in ("semi_implicit", "featherstone"):
             _search_penalty(search, t, block, dt)
         else:
-            search.evaluate({})
+            _search_vbd(search, t, block)
         eta, std, extra, reached = search.best()
         res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
                                 settings={k: None for k in self.CONTACT_KEYS} | extra,
@@ -433,6 +435,13 @@ _PENALTY_KE_MAX = 0.1
 
 #: Damping ratio of the penalty contact a calibration of semi_implicit / featherstone uses [-]
 _PENALTY_ZETA = 0.2
+
+
+#: VBD: contact stiffnesses tried, as multiples of :func:`_penalty_ke_min` [-]
+_VBD_KE_FACTORS = (1.5, 3.0, 8.0)
+
+#: VBD: contact damping tried at each stiffness, Newton's material's first [N s/m]
+_VBD_KD_N_S_M = (100.0, 30.0, 10.0)
 
 
 def _search_xpbd(search, t: float) -> None:
@@ -475,12 +484,28 @@ def _search_penalty(search, t: float, block: Block, dt: float) -> None:
             hi = mid
 
 
+def _search_vbd(search, t: float, block: Block) -> None:
+    """VBD: each stiffness of :data:`_VBD_KE_FACTORS` × :func:`_penalty_ke_min` with each damping of
+    :data:`_VBD_KD_N_S_M` until one is within 0.25 % with regular impacts. Newton's material is not
+    tried: its ``ke`` (2500 N/m) is below that bound for every preset, and a B6M block on it tips
+    over under 0.9·g·tanα (docs/newton.md)."""
+    for f in _VBD_KE_FACTORS:
+        ke = f * _penalty_ke_min(block)
+        for kd in _VBD_KD_N_S_M:
+            search.evaluate({"contact_stiffness_n_m": ke, "contact_damping_n_s_m": kd})
+            eta, std, _ = search.tried[-1]
+            if search.err(eta) <= 0.0025 and std <= CAL_MAX_SPREAD * t:
+                return
+
+
 def _calibration_note(solver: str, search, eta: float, extra: dict, reached: bool) -> str:
     """What the calibration found, in words."""
     lo = min((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
     hi = max((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
     if not extra:
         how = f"Newton's {solver} as shipped"
+    elif solver == "vbd":
+        how = f"VBD with contact ke = {extra['contact_stiffness_n_m']:.4g} N/m, kd = {extra['contact_damping_n_s_m']:.4g} N s/m"
     elif "iterations" in extra:
         how = f"XPBD with {extra['iterations']} iterations, contact relaxation {extra['contact_relaxation']:g}"
     else:

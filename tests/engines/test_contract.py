@@ -1,4 +1,4 @@
-"""The adapter contract, one test for every contact engine (MuJoCo, PyBullet, Exudyn, Drake, DART).
+"""The adapter contract, one test for every contact engine (MuJoCo, PyBullet, Exudyn, Drake, DART, Genesis).
 
 What each engine's own test file used to check the same way: the conformance suite passes, the
 shared settings are checked, a bad time step is a ConfigError, the command line says what was
@@ -28,11 +28,14 @@ from rockbench.reference_solver.restitution import Restitution, housner_eta
 
 pytestmark = pytest.mark.engine
 
-#: engine name → its Python module (what must be importable for the engine to run)
-MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "drake": "pydrake", "dart": "dartpy"}
+#: engine name → the Python modules that must be importable for the engine to run (genesis-world
+#: imports torch without declaring it, docs/genesis.md)
+MODULES = {"mujoco": ("mujoco",), "pybullet": ("pybullet",), "exudyn": ("exudyn",), "drake": ("pydrake",),
+           "dart": ("dartpy",), "genesis": ("genesis", "torch")}
 
-ENGINES = [pytest.param(n, marks=pytest.mark.skipif(importlib.util.find_spec(m) is None, reason=f"{n} not installed"))
-           for n, m in MODULES.items()]
+ENGINES = [pytest.param(n, marks=pytest.mark.skipif(any(importlib.util.find_spec(m) is None for m in ms),
+                                                    reason=f"{n} not installed"))
+           for n, ms in MODULES.items()]
 
 #: per engine: the rocking case of the trajectory test (block, pulse, ω/p, a₀/(g·tanα)), the mirror
 #: test's case and tolerance (max |θ(ü) + θ(−ü)| over α, or over max |θ| for PyBullet, whose
@@ -70,6 +73,12 @@ SPEC = {
         slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="defaults")),
         cli_block="B6M",
         cli_settings=lambda s: s["collision_detector"] == "fcl" and s["restitution_coeff"] == 0.0),
+    "genesis": dict(
+        trajectory=("B3M", "sine", 6.0, 2.0),
+        mirror=(("B3M", "sine", 4.0, 3.0), 1e-3, "alpha"),
+        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, timeconst_s=0.002)),
+        cli_block="B3M",
+        cli_settings=lambda s: s["timeconst_s"] > 0),
 }
 
 

@@ -32,6 +32,9 @@ SHORT = {"tail_s": 0.6, "min_tail_s": 0.2}
 XPBD = {**SHORT, "solver": "xpbd", "iterations": 2, "contact_relaxation": 0.8}
 #: a penalty contact of the semi-implicit solver that rocks regularly (ke 3e4 N/m, damping ratio 0.2)
 PENALTY = {**SHORT, "contact_stiffness_n_m": 3e4, "contact_damping_n_s_m": 51.1, "friction_gain_n_s_m": 108.9}
+#: VBD with about the softest contact its calibration tries for B3M (1.5 × 1.28e4 N/m, Newton's damping
+#: 100 N s/m; given, so nothing is calibrated)
+VBD = {**SHORT, "solver": "vbd", "contact_stiffness_n_m": 2e4}
 
 #: (ω/p, a₀/(g·tanα), reference outcome) for B3M under one sine wave
 CELLS = [(4.0, 0.8, "rest"), (6.0, 2.0, "rocking"), (3.0, 2.5, "overturn")]
@@ -77,6 +80,21 @@ def test_xpbd_cells_match_the_reference_and_a_batch_equals_one_by_one():
         assert one.max_abs_theta_rad == m.max_abs_theta_rad   # the same kernels: bit for bit
 
 
+def test_vbd_cells_match_the_reference_and_a_batch_equals_one_by_one():
+    """VBD steps one world about 200 times a CPU second, so two cells (27 s with a cold kernel cache,
+    its own kernels' compile included, 15 s warm)."""
+    cells = [c for c in CELLS if c[2] != "rocking"]
+    ad = get_adapter("newton", **VBD)
+    cases = [_case(w, a) for w, a, _ in cells]
+    many = ad.run_many(cases)
+    assert [r.outcome for r in many] == [o for _, _, o in cells]
+    assert many[0].valid, many[0].flags   # the overturning corner may hop (`jump`, docs/newton.md)
+    for c, m in zip(cases, many):
+        one = ad.run(c)
+        assert (one.outcome, one.n_impacts, one.flags) == (m.outcome, m.n_impacts, m.flags)
+        assert one.max_abs_theta_rad == m.max_abs_theta_rad   # the same kernels: bit for bit
+
+
 def test_table_drive_agrees_with_the_inertial_drive():
     case = _case(6.0, 2.0)
     inertial = get_adapter("newton", **XPBD).simulate(case)
@@ -107,3 +125,29 @@ def test_featherstone_overturns_where_it_must(drive):
     """Featherstone moves its kinematic table through the table's free joint (generalised coordinates)."""
     res = get_adapter("newton", solver="featherstone", drive=drive, **PENALTY).run(_case(3.0, 2.5))
     assert res.outcome == "overturn"
+
+
+def test_vbd_search_tries_stiff_contacts_only_and_stops_at_a_regular_hit():
+    """The VBD search (no engine run): stiffnesses from 1.5 × the penalty solvers' softest, each with
+    kd 100, 30, 10 N s/m; it stops at the first within 0.25 % whose impacts agree within 2 %."""
+    from types import SimpleNamespace
+
+    from rockbench.engines.newton_adapter import _penalty_ke_min, _search_vbd
+    from rockbench.engines.skeleton import Search
+
+    blk = PRESETS["B3M"].block()
+    t = housner_eta(blk.alpha_rad)
+    # η rises as kd falls; the kd-30 setting of the softest stiffness hits but scatters, the stiffer one's is regular
+    table = {(1.5, 100.0): (0.74, 0.005), (1.5, 30.0): (t, 0.05), (1.5, 10.0): (0.79, 0.03),
+             (3.0, 100.0): (0.739, 0.002), (3.0, 30.0): (t * 1.001, 0.006)}
+    ke0 = _penalty_ke_min(blk)
+
+    def measure(extra):
+        eta, std = table[(round(extra["contact_stiffness_n_m"] / ke0, 6), extra["contact_damping_n_s_m"])]
+        return SimpleNamespace(eta_mean=eta, eta_std=std)
+
+    search = Search(measure, t)
+    _search_vbd(search, t, blk)
+    assert len(search.tried) == 5 and all(extra for _, _, extra in search.tried)
+    eta, std, extra, reached = search.best()
+    assert reached and extra["contact_damping_n_s_m"] == 30.0 and extra["contact_stiffness_n_m"] == pytest.approx(3 * ke0)
