@@ -73,7 +73,7 @@ def _newton():
     global _warp_ready
     import warp as wp
     if not _warp_ready:
-        from .mujoco_warp_adapter import _init_on_cpu, cuda_driver_present, warp_cache_dir
+        from .warp_start import cuda_driver_present, init_on_cpu, warp_cache_dir
         if hasattr(wp, "LOG_WARNING"):
             wp.config.log_level = wp.LOG_WARNING
         wp.config.quiet = True
@@ -83,7 +83,7 @@ def _newton():
             if cuda_driver_present():
                 wp.init()
             else:
-                _init_on_cpu(wp, CPU_LINE)
+                init_on_cpu(wp, CPU_LINE)
         _warp_ready = True
     import newton
     return wp, newton

@@ -18,7 +18,7 @@ pytest.importorskip("newton", reason="newton is not installed (pip install 'rock
 
 from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
 from rockbench.engines.base import Case  # noqa: E402
-from rockbench.engines.mujoco_warp_adapter import warp_cache_dir  # noqa: E402
+from rockbench.engines.warp_start import warp_cache_dir  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
