@@ -383,6 +383,9 @@ class EngineAdapter:
     default_dt_s: ClassVar[float] = 1e-3
     #: how the adapter batches cases (contract item 6): "none", "native" or "parallel"
     batching: ClassVar[Literal["none", "native", "parallel"]] = "none"
+    #: settings a variant's name shows even at their default (an engine with several solvers behind
+    #: one API: a reader must see which one ran)
+    LABELLED_SETTINGS: ClassVar[tuple] = ()
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

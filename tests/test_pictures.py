@@ -274,6 +274,19 @@ def test_labels_in_words():
     assert restitution_symbol("0.9") == "η = 0.9" and short_version("1.9.1") == "1.9.1"
 
 
+def test_labels_name_the_solver_of_an_engine_with_several():
+    """Newton's variants say which solver ran, its default (XPBD) included; a solver given to
+    another engine is named too; an engine whose adapter is unknown keeps what was given."""
+    from rockbench.harness.scoring.labels import variant_label
+    assert variant_label("newton", {"settings": "calibrated"}, version="1.8.0", restitution="housner") == \
+        "Newton 1.8, calibrated to η_H, XPBD solver"
+    assert variant_label("newton", {"settings": "defaults", "solver": "semi_implicit"}) == \
+        "Newton, as shipped, semi-implicit solver"
+    assert variant_label("mujoco_warp", {"solver": "cg"}, restitution="housner") == \
+        "MuJoCo Warp, calibrated to η_H, CG solver"
+    assert variant_label("no_such_engine", {"settings": "defaults"}) == "no_such_engine, as shipped"
+
+
 def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):
     """Fig. 5 (B6M): the table limit, a₀/(g·tanα) = 11.5, lies above the chart's 10: neither drawn nor
     listed; the legend sits below the axes and the labels read as the paper writes them."""

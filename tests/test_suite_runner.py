@@ -28,6 +28,19 @@ def test_shipped_suites_parse_and_plan():
     assert {j.settings["settings"] for j in jobs if j.engine == "mujoco"} == {"calibrated", "defaults"}
 
 
+def test_newton_suite_has_one_variant_per_solver():
+    """`rockbench run newton`: each of Newton's solvers a variant of its own, named in the map folder
+    and in the variant's words."""
+    from rockbench.harness.scoring.labels import variant_label
+    s = load_suite(suite_path("newton", False))
+    jobs = [j for j in plan(s, ["newton"]) if j.engine == "newton"]
+    solvers = {j.settings["solver"] for j in jobs}
+    assert solvers == {"xpbd", "semi_implicit", "featherstone", "vbd"}
+    assert len(jobs) == 4 * 2 * 2 and len({j.subdir for j in jobs}) == len(jobs)
+    assert {variant_label("newton", j.settings, restitution="housner").split(", ")[-1] for j in jobs} == \
+        {"XPBD solver", "semi-implicit solver", "Featherstone solver", "VBD solver"}
+
+
 def test_restitution_tokens():
     assert restitution_for("modified-exact", "B6L").k == 0.7214
     assert restitution_for("modified:0.5", "B6L").k == 0.5

@@ -15,6 +15,22 @@ ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet":
 #: Engine settings that say nothing a reader needs when they have their default value.
 _QUIET = {"settings"}
 
+#: How solvers are named in a variant's name (the engines' setting values → words).
+SOLVER_NAMES = {"xpbd": "XPBD", "semi_implicit": "semi-implicit", "featherstone": "Featherstone", "vbd": "VBD",
+                "newton": "Newton", "cg": "CG"}
+
+
+def _labelled_defaults(engine: str) -> dict:
+    """The defaults of the settings an engine's variant names always show
+    (:attr:`~rockbench.engines.base.EngineAdapter.LABELLED_SETTINGS`); {} for an engine whose
+    adapter cannot be imported here."""
+    from ...engines.registry import adapter_class
+    try:
+        cls = adapter_class(engine)
+    except Exception:  # noqa: BLE001 - a label never fails: the settings given are shown as they are
+        return {}
+    return {k: cls.SETTINGS[k] for k in getattr(cls, "LABELLED_SETTINGS", ()) if k in cls.SETTINGS}
+
 
 def engine_name(engine: str) -> str:
     """``mujoco`` → ``MuJoCo``; unknown engines keep their registry name."""
@@ -65,6 +81,8 @@ def _setting_words(key: str, value) -> str | None:
         return "integrated to rest" if value == "to-rest" else None
     if key == "contact":
         return {"distributed": "contact along the base", "corners": "corner contact"}.get(value)
+    if key == "solver":
+        return f"{SOLVER_NAMES.get(value, value)} solver"
     return f"{key} = {value}"
 
 
@@ -88,7 +106,7 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
     block : str, optional
         Names the preset's average or exact k in a modified target.
     """
-    s = dict(settings or {})
+    s = {**(_labelled_defaults(engine) if engine != "reference" else {}), **(settings or {})}
     name = engine_name(engine)
     v = short_version(version)
     head = f"{name} {v}" if v and v not in ("test", "source", "None") and engine != "reference" else name

@@ -29,7 +29,7 @@ from ..blocks.presets import PRESETS, get_preset
 from ..maps.grid import MapSpec, parse_range
 
 #: the shipped suites, by name
-SHIPPED_SUITES = ("default", "quick", "full")
+SHIPPED_SUITES = ("default", "quick", "full", "newton")
 
 #: the pulses a suite may name
 PULSES = ("sine", "cosine", "half-sine")

@@ -26,7 +26,7 @@ def register(sub) -> None:
                        "the two (the first is the baseline). Environments live under $ROCKBENCH_CACHE/versions.")
     p.add_argument("specs", nargs="*", metavar="ENGINE==VERSION [SUITE]",
                    help="two versions of one engine, e.g. mujoco==3.3.7 mujoco==4.0.0, then optionally a suite file "
-                   "or a shipped suite's name (default, quick, full)")
+                   "or a shipped suite's name (default, quick, full, newton)")
     p.add_argument("--quick", action="store_true", help="the reduced suite (what an engine project's CI runs)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="where the two runs go (default rockbench-results/versions/ENGINE-A-vs-B); rerunning resumes")
