@@ -383,9 +383,10 @@ class EngineAdapter:
     default_dt_s: ClassVar[float] = 1e-3
     #: how the adapter batches cases (contract item 6): "none", "native" or "parallel"
     batching: ClassVar[Literal["none", "native", "parallel"]] = "none"
-    #: settings a variant's name shows even at their default (an engine with several solvers behind
-    #: one API: a reader must see which one ran)
-    LABELLED_SETTINGS: ClassVar[tuple] = ()
+    #: settings that choose which of the engine's models runs (an engine with several solvers behind
+    #: one API): every variant's name shows them, their default included, and choosing one is not a
+    #: hand-set tweak (the verdict still counts the variant as calibrated or as shipped)
+    MODEL_SETTINGS: ClassVar[tuple] = ()
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -303,8 +303,8 @@ class NewtonAdapter(SteppedContactAdapter):
     CONTACT_KEYS = ("iterations", "contact_relaxation", "contact_stiffness_n_m", "contact_damping_n_s_m",
                     "friction_gain_n_s_m")
     MEASURED_SETTINGS = ("solver", "friction", "planar", "sticky_contacts")
-    #: every variant's name says which solver ran, XPBD (the default) included
-    LABELLED_SETTINGS = ("solver",)
+    #: the solver is the model: every variant's name says which ran, XPBD (the default) included
+    MODEL_SETTINGS = ("solver",)
     CALIBRATION_VERSION = 3
 
     @classmethod

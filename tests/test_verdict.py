@@ -169,6 +169,15 @@ def test_settings_class(settings, expected):
     assert settings_class(settings, "v[custom]") == expected
 
 
+def test_the_choice_of_an_engines_model_is_not_a_tweak():
+    """Newton's solver picks which of its models runs: calibrated VBD is calibrated, as shipped
+    semi-implicit as shipped; a solver of an engine without several is still set by hand."""
+    assert settings_class({"settings": "calibrated", "solver": "vbd"}, "v", "newton") == CALIBRATED
+    assert settings_class({"settings": "defaults", "solver": "semi_implicit"}, "v", "newton") == AS_SHIPPED
+    assert settings_class({"settings": "defaults", "solver": "semi_implicit", "friction": 1.0}, "v", "newton") == "v"
+    assert settings_class({"solver": "cg"}, "v", "pybullet") == "v"
+
+
 # -- end to end: score.json, the console, the report ------------------------------------------------------
 
 def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, band, tmp_path, capsys):

@@ -20,16 +20,16 @@ SOLVER_NAMES = {"xpbd": "XPBD", "semi_implicit": "semi-implicit", "featherstone"
                 "newton": "Newton", "cg": "CG"}
 
 
-def _labelled_defaults(engine: str) -> dict:
-    """The defaults of the settings an engine's variant names always show
-    (:attr:`~rockbench.engines.base.EngineAdapter.LABELLED_SETTINGS`); {} for an engine whose
-    adapter cannot be imported here."""
+def model_settings(engine: str) -> dict:
+    """The settings that choose which of an engine's models runs, with their defaults
+    (:attr:`~rockbench.engines.base.EngineAdapter.MODEL_SETTINGS`; Newton's solver); {} for an
+    engine without them, or whose adapter cannot be imported here."""
     from ...engines.registry import adapter_class
     try:
         cls = adapter_class(engine)
     except Exception:  # noqa: BLE001 - a label never fails: the settings given are shown as they are
         return {}
-    return {k: cls.SETTINGS[k] for k in getattr(cls, "LABELLED_SETTINGS", ()) if k in cls.SETTINGS}
+    return {k: cls.SETTINGS[k] for k in getattr(cls, "MODEL_SETTINGS", ()) if k in cls.SETTINGS}
 
 
 def engine_name(engine: str) -> str:
@@ -106,7 +106,7 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
     block : str, optional
         Names the preset's average or exact k in a modified target.
     """
-    s = {**(_labelled_defaults(engine) if engine != "reference" else {}), **(settings or {})}
+    s = {**(model_settings(engine) if engine != "reference" else {}), **(settings or {})}
     name = engine_name(engine)
     v = short_version(version)
     head = f"{name} {v}" if v and v not in ("test", "source", "None") and engine != "reference" else name

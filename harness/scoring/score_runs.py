@@ -146,7 +146,7 @@ def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> d
     else:
         kind = "other"
     p = {"variant": c.variant, "engine": c.engine, "label": label,
-         "settings": c.variant if c.is_reference else settings_class(c.settings, c.variant),
+         "settings": c.variant if c.is_reference else settings_class(c.settings, c.variant, c.engine),
          "block": c.block, "pulse": c.pulse, "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
          "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
          "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.map),

@@ -77,10 +77,15 @@ class Variant:
         return sum(vals) / len(vals) if vals else math.nan
 
 
-def settings_class(engine_settings: dict | None, variant: str) -> str:
+def settings_class(engine_settings: dict | None, variant: str, engine: str | None = None) -> str:
     """``calibrated`` (rockbench's calibration, any contact layout it chose), ``as-shipped`` (the
-    engine's defaults and nothing else) or, for anything else set by hand, the variant's own name."""
-    s = dict(engine_settings or {})
+    engine's defaults and nothing else) or, for anything else set by hand, the variant's own name.
+    The settings that choose the ``engine``'s model (:func:`~.labels.model_settings`: Newton's
+    solver) are the engine's, not a tweak: they leave the class as it is."""
+    from .labels import model_settings
+
+    model = model_settings(engine) if engine else {}
+    s = {k: v for k, v in (engine_settings or {}).items() if k not in model}
     kind = s.get("settings", "calibrated")
     if kind == "defaults" and set(s) <= {"settings"}:
         return AS_SHIPPED

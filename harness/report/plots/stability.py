@@ -371,11 +371,15 @@ def _frame(ax, g: MapResult, *, xlabel=True, ylabel=True):
 
 
 def _wrap_to(ax, text: str, size_pt: float) -> str:
-    """``text`` broken at commas into lines that fit the width of ``ax`` at ``size_pt`` (about half an
-    em a character)."""
+    """``text`` broken at commas into lines that fit the width of ``ax`` at ``size_pt``."""
     spec = ax.get_subplotspec()
     ncols = spec.get_gridspec().ncols if spec is not None else 1
-    width_pt = (ax.figure.get_figwidth() / ncols - 0.3) * 72.0   # the panel's share, less its tick labels
+    return _wrap(text, (ax.figure.get_figwidth() / ncols - 0.3) * 72.0, size_pt)   # less its tick labels
+
+
+def _wrap(text: str, width_pt: float, size_pt: float) -> str:
+    """``text`` broken at commas into lines of ``width_pt`` at ``size_pt`` (about half an em a
+    character)."""
     fit = max(12, int(width_pt / (0.5 * size_pt)))
     lines, cur = [], ""
     for part in text.split(", "):
@@ -478,8 +482,9 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
     for h in _point_handles(pts):
         handles[h.get_label()] = h
     if title:
-        ax.set_title(for_matplotlib(title + (f"\n{_wrap_to(ax, note, TITLE_PT)}" if note else "")), fontsize=TITLE_PT,
-                     loc="left")
+        # a variant's name can be long (a version with its parts, a solver): broken at commas like the note
+        ax.set_title(for_matplotlib(_wrap_to(ax, title, TITLE_PT) + (f"\n{_wrap_to(ax, note, TITLE_PT)}" if note else "")),
+                     fontsize=TITLE_PT, loc="left")
     _print_sizes(ax)
     return {"ax": ax, "fill": fill, "hatch": hatch, "references": lines, "islands": islands, "flags": flags,
             "marks": marks, "st_limit": st_art, "points": pts, "handles": handles}
@@ -569,7 +574,8 @@ def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str |
             axes[r - 1][c].xaxis.set_tick_params(labelbottom=True)
             axes[r - 1][c].set_xlabel("ω/p [-]")
     if suptitle:
-        fig.suptitle(for_matplotlib(suptitle), fontsize=SUPTITLE_PT, x=0.01, ha="left")
+        fig.suptitle(for_matplotlib(_wrap(suptitle, (fig.get_figwidth() - 0.2) * 72.0, SUPTITLE_PT)),
+                     fontsize=SUPTITLE_PT, x=0.01, ha="left")
     # one order whatever panel brought an entry in: fill, hatch, references, marks, ST limit, points
     marks = [label for label, _ in MARKS.values()]
 
