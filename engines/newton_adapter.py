@@ -349,10 +349,6 @@ class NewtonAdapter(SteppedContactAdapter):
             s.update(cal.settings)
         return s
 
-    def _free_rocking_settings(self, block: Block, dt: float) -> dict:
-        """The settings in force without calibration (a measurement of the solver as set)."""
-        return self._base_settings()
-
     # -- the skeleton's hooks -----------------------------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> dict:
         """What a run's scene needs; :meth:`_start` builds it once it knows how many worlds."""

@@ -151,3 +151,26 @@ def test_vbd_search_tries_stiff_contacts_only_and_stops_at_a_regular_hit():
     assert len(search.tried) == 5 and all(extra for _, _, extra in search.tried)
     eta, std, extra, reached = search.best()
     assert reached and extra["contact_damping_n_s_m"] == 30.0 and extra["contact_stiffness_n_m"] == pytest.approx(3 * ke0)
+
+
+def test_a_calibrated_variants_free_rocking_is_measured_with_its_calibration(monkeypatch):
+    """What a suite records as a variant's own η (and the report draws as the reference at it) is the
+    free rocking of the settings in force: a calibrated variant's calibration, the shipped solver
+    otherwise (checked here without running the engine: the settings handed to the test)."""
+    block = PRESETS["B3M"].block()
+    seen = {}
+
+    def measure(ad, b, s, dt, theta0_frac=0.5):
+        seen[ad.settings["settings"]] = s
+        raise StopIteration
+
+    monkeypatch.setattr(type(get_adapter("newton")), "_measure_free_rocking", measure)
+    for kind in ("calibrated", "defaults"):
+        ad = get_adapter("newton", settings=kind)
+        monkeypatch.setattr(ad, "calibrate", lambda b, t, **kw: type("Cal", (), {
+            "settings": {"contact_stiffness_n_m": 1.0e5}, "reached": True, "note": "", "eta_measured": t,
+            "eta_target": t, "eta_std": 0.0, "price": None, "evaluations": 1})())
+        with pytest.raises(StopIteration):
+            ad.measure_restitution(block)
+    assert seen["calibrated"].get("contact_stiffness_n_m") == 1.0e5
+    assert seen["defaults"].get("contact_stiffness_n_m") is None
