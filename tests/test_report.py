@@ -118,23 +118,27 @@ def test_index_html_renders_in_headless_chromium(report, tmp_path):
 
 
 def test_report_pairs_each_own_eta_reference_with_its_engine(band):
-    from rockbench.harness.report.build import _split_own_eta_refs
+    """A reference at variants' own η goes with those variants; one at a constant η nobody measured
+    stays a standard reference, unless `rockbench run` made it at an own η that no variant measures
+    any more (a stale map of a resumed run folder): then it is left out."""
+    from rockbench.harness.report.build import _groups
     from rockbench.harness.store.loading import MapEntry
     m = MapResult.from_outcomes(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
 
-    def entry(engine, variant, restitution, eta):
-        return MapEntry(path=f"/x/{variant}-{restitution}", map=m, engine=engine, variant=variant,
+    def entry(engine, variant, restitution, eta, name=None):
+        return MapEntry(path=f"/x/{name or f'{variant}-{restitution}'}", map=m, engine=engine, variant=variant,
                         block="B3M", pulse="sine", restitution=restitution, eta=eta)
 
-    refs = [entry("reference", "reference", "housner", 0.7526), entry("reference", "reference", "0.7493", 0.7493),
-            entry("reference", "reference", "0.9", 0.9)]
+    refs = [entry("reference", "reference", "housner", 0.7526),
+            entry("reference", "reference", "0.7493", 0.7493, "B3M-sine-own-eta-0.7493"),
+            entry("reference", "reference", "0.9", 0.9),
+            entry("reference", "reference", "0.8237", 0.8237, "B3M-sine-own-eta-0.8237")]
     engines = [entry("a", "a", "housner", 0.7526), entry("b", "b[x=1]", "housner", 0.7526),
                entry("c", "c", "housner", 0.7526)]
     own = {("b[x=1]", "B3M"): 0.74931, ("c", "B3M"): 0.74929, ("a", "B6M"): 0.7493}
-    std, paired = _split_own_eta_refs(refs, engines, own)
-    # the housner map and a constant η nobody measured stay standard references
+    std, paired, _ = _groups(engines, refs, own)[("B3M", "sine")]
     assert [r.restitution for r in std] == ["housner", "0.9"]
-    assert [(label, k) for label, _, k in paired] == [("reference at own η of b[x=1], c (η = 0.7493)", 1)]
+    assert {v: [r.eta for r in rs] for v, rs in paired.items()} == {"b[x=1]": [0.7493], "c": [0.7493]}
 
 
 def test_report_cli_bad_input(write_map, band, tmp_path, capsys):

@@ -313,7 +313,13 @@ def _panel_note(sc: dict) -> str:
 
 
 def _groups(cands, refs, own_eta):
-    """``{(block, pulse): (standard references, {variant: own-η references}, {variant: engine map})}``."""
+    """``{(block, pulse): (standard references, {variant: own-η references}, {variant: engine map})}``.
+
+    A reference that ``rockbench run`` made at a variant's own η which no variant measures any more
+    (the η was measured again after a recalibration or an engine upgrade, the run folder resumed) is
+    left out: drawn as a standard reference it would stand in every panel for nothing."""
+    from ..store.files import is_own_eta_map
+
     out: dict = {}
     for r in refs:
         out.setdefault((r.block, r.pulse), ([], {}, {}))
@@ -325,7 +331,7 @@ def _groups(cands, refs, own_eta):
         if owners:
             for v in owners:
                 own.setdefault(v, []).append(r)
-        else:
+        elif not (own_eta and is_own_eta_map(r.path)):
             std.append(r)
     for std, _, _ in out.values():
         std.sort(key=_ref_order)
@@ -478,22 +484,6 @@ def _find_key(d, key):
             if r is not None:
                 return r
     return None
-
-
-def _split_own_eta_refs(refs: list[MapEntry], engines: list[MapEntry], own_eta: dict) -> tuple[list, list]:
-    """The standard references of one graph, and the references at an engine's own η as
-    ``(label, map, engine index)``: a reference whose η is an engine variant's measured η
-    (the pairing the scores call ``own-eta``) goes with the first such engine of ``engines``; one
-    matching no engine of the graph stays a standard reference."""
-    std, own = [], []
-    for r in refs:
-        owners = [k for k, e in enumerate(engines) if at_own_eta(r, e, own_eta)]
-        if not owners:
-            std.append(r)
-            continue
-        names = ", ".join(dict.fromkeys(engines[k].variant for k in owners))
-        own.append((f"reference at own η of {names} (η = {r.eta:.4f})", r.map, owners[0]))
-    return std, own
 
 
 def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> list[dict]:

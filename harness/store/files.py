@@ -305,6 +305,20 @@ def variant_name(engine: str, settings: dict | None = None, dt_s: float | None =
     return f"{engine}[{','.join(parts)}]" if parts else engine
 
 
+#: what names a reference map at a variant's own measured η in a run folder (``maps/reference/<name>``)
+_OWN_ETA_TAG = "-own-eta-"
+
+
+def own_eta_map_name(block: str, pulse: str, eta: float) -> str:
+    """The folder name of the reference map at a variant's own measured η (4 decimals)."""
+    return f"{block}-{pulse}{_OWN_ETA_TAG}{eta:.4f}"
+
+
+def is_own_eta_map(path) -> bool:
+    """Whether a map folder is a reference at some variant's own measured η (:func:`own_eta_map_name`)."""
+    return _OWN_ETA_TAG in Path(path).name
+
+
 def spec_variant(spec) -> str:
     """The ``variant`` column of a map: its engine with the non-default settings and time step."""
     return variant_name(spec.engine, spec.engine_settings, spec.dt_s)

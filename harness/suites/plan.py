@@ -10,7 +10,7 @@ from pathlib import Path
 from ...engines.base import EngineAdapter
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
-from ..store.files import variant_name
+from ..store.files import own_eta_map_name, variant_name
 from .model import Suite, restitution_for
 
 
@@ -193,7 +193,7 @@ def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:
         seen.add((m["block"], eta))
         for pulse in suite.pulses:
             jobs.append(MapJob("reference", {}, m["block"], pulse, Restitution("constant", value=eta),
-                               suite.reference_dt_s, f"maps/reference/{m['block']}-{pulse}-own-eta-{eta:.4f}"))
+                               suite.reference_dt_s, f"maps/reference/{own_eta_map_name(m['block'], pulse, eta)}"))
     return jobs
 
 
