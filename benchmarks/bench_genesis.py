@@ -17,11 +17,10 @@ world-step of Δt = 0.5 ms is 1/2000 world-s) and the outcomes.
 from __future__ import annotations
 
 import argparse
-import time
 
 from rockbench.engines.registry import get_adapter
 
-from bench_newton import _cases
+from bench_newton import _cases, time_batches
 
 
 def main(argv=None) -> None:
@@ -32,16 +31,7 @@ def main(argv=None) -> None:
     extra = dict(kv.split("=", 1) for kv in args.set)
     ad = get_adapter("genesis", **extra)
     ad.run(_cases(1)[0])  # the kernels loaded and one scene built before the clock starts
-    for w in (int(x) for x in args.worlds.split(",")):
-        cases = _cases(w)
-        c0, t0 = time.process_time(), time.perf_counter()
-        res = ad.run_many(cases) if w > 1 else [ad.run(cases[0])]
-        cpu, wall = time.process_time() - c0, time.perf_counter() - t0
-        steps = sum((r.diagnostics or {}).get("steps", 0) for r in res)
-        outcomes = {o: sum(r.outcome == o for r in res) for o in ("rest", "rocking", "overturn")}
-        print(f"genesis {extra or ''} worlds={w}: CPU {cpu:.1f} s, wall {wall:.1f} s; "
-              f"{w / cpu:.2f} cells per CPU s, {steps / cpu:.0f} world-steps per CPU s; {outcomes}, "
-              f"{sum(not r.valid for r in res)} flagged", flush=True)
+    time_batches(ad, f"genesis {extra or ''}", args.worlds)
 
 
 if __name__ == "__main__":

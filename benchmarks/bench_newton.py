@@ -36,6 +36,22 @@ def _cases(n_cells: int) -> list:
     return [Case(blk, make_pulse("sine", a * G * math.tan(blk.alpha_rad), w * blk.p_rad_s)) for w, a in cells]
 
 
+def time_batches(ad, label: str, worlds: str) -> None:
+    """For each batch size of ``worlds`` (comma-separated), run that many cells of :func:`_cases`
+    (one: ``run``, more: ``run_many``) and print the CPU and wall time, the cells and world-steps
+    per CPU second, the outcomes and how many cells were flagged."""
+    for w in (int(x) for x in worlds.split(",")):
+        cases = _cases(w)
+        c0, t0 = time.process_time(), time.perf_counter()
+        res = ad.run_many(cases) if w > 1 else [ad.run(cases[0])]
+        cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+        steps = sum((r.diagnostics or {}).get("steps", 0) for r in res)
+        outcomes = {o: sum(r.outcome == o for r in res) for o in ("rest", "rocking", "overturn")}
+        print(f"{label} worlds={w}: CPU {cpu:.1f} s, wall {wall:.1f} s; "
+              f"{w / cpu:.2f} cells per CPU s, {steps / cpu:.0f} world-steps per CPU s; {outcomes}, "
+              f"{sum(not r.valid for r in res)} flagged", flush=True)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--solver", default="xpbd")
@@ -43,17 +59,7 @@ def main(argv=None) -> None:
     ap.add_argument("--worlds", default="1,16,64,256", help="batch sizes, comma-separated")
     args = ap.parse_args(argv)
     extra = dict(kv.split("=", 1) for kv in args.set)
-    ad = get_adapter("newton", solver=args.solver, **extra)
-    for w in (int(x) for x in args.worlds.split(",")):
-        cases = _cases(w)
-        c0, t0 = time.process_time(), time.perf_counter()
-        res = ad.run_many(cases) if w > 1 else [ad.run(cases[0])]
-        cpu, wall = time.process_time() - c0, time.perf_counter() - t0
-        steps = sum((r.diagnostics or {}).get("steps", 0) for r in res)
-        outcomes = {o: sum(r.outcome == o for r in res) for o in ("rest", "rocking", "overturn")}
-        print(f"newton {args.solver} {extra or ''} worlds={w}: CPU {cpu:.1f} s, wall {wall:.1f} s; "
-              f"{w / cpu:.2f} cells per CPU s, {steps / cpu:.0f} world-steps per CPU s; {outcomes}, "
-              f"{sum(not r.valid for r in res)} flagged", flush=True)
+    time_batches(get_adapter("newton", solver=args.solver, **extra), f"newton {args.solver} {extra or ''}", args.worlds)
 
 
 if __name__ == "__main__":
