@@ -62,8 +62,7 @@ from ..reference_solver.model import Block
 from .base import Case, RestitutionMeasurement, Trajectory
 from .mujoco_adapter import MujocoAdapter, _angles_of, _Built
 # the Warp start-up shared with Newton (which imports it from here too)
-from .warp_start import cuda_driver_present, warp_cache_dir
-from .warp_start import init_on_cpu as _init_on_cpu
+from .warp_start import cuda_driver_present, start_warp, warp_cache_dir
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
@@ -83,32 +82,14 @@ MAX_WORLDS = 65536
 _SOLVERS = ("newton", "cg")
 _DEVICES = ("auto", "cpu", "cuda")
 
-_warp_ready = False
-
-
 #: What rockbench says, once per run, where Warp starts without a CUDA driver (instead of Warp's
 #: own warning).
 CPU_LINE = "rockbench: mujoco_warp runs on the CPU here (no NVIDIA CUDA driver found): expect it to be slow"
 
 
 def _warp():
-    """``(warp, mujoco_warp)``, Warp initialised once with its kernel cache in rockbench's cache."""
-    global _warp_ready
-    import warp as wp
-    if not _warp_ready:
-        # no start-up banner and no line per loaded kernel module on stderr (Warp ≥ 1.19: log_level)
-        if hasattr(wp, "LOG_WARNING"):
-            wp.config.log_level = wp.LOG_WARNING
-        else:  # pragma: no cover - older Warp
-            wp.config.quiet = True
-        from warp._src import context as _ctx
-        if getattr(_ctx, "runtime", None) is None:   # not initialised yet in this process
-            wp.config.kernel_cache_dir = warp_cache_dir()
-            if cuda_driver_present():
-                wp.init()
-            else:
-                _init_on_cpu(wp, CPU_LINE)
-        _warp_ready = True
+    """``(warp, mujoco_warp)``, Warp started once (:func:`~rockbench.engines.warp_start.start_warp`)."""
+    wp = start_warp(CPU_LINE)
     import mujoco_warp as mjw
     return wp, mjw
 

@@ -65,26 +65,11 @@ _ROW = 13
 #: What rockbench says, once per run, where Warp starts without a CUDA driver
 CPU_LINE = "rockbench: newton runs on Warp's CPU device here (one thread): expect large maps to be slow"
 
-_warp_ready = False
-
 
 def _newton():
-    """``(warp, newton)``, Warp initialised once, quietly, with its kernels cached in rockbench's cache."""
-    global _warp_ready
-    import warp as wp
-    if not _warp_ready:
-        from .warp_start import cuda_driver_present, init_on_cpu, warp_cache_dir
-        if hasattr(wp, "LOG_WARNING"):
-            wp.config.log_level = wp.LOG_WARNING
-        wp.config.quiet = True
-        from warp._src import context as _ctx
-        if getattr(_ctx, "runtime", None) is None:
-            wp.config.kernel_cache_dir = warp_cache_dir()
-            if cuda_driver_present():
-                wp.init()
-            else:
-                init_on_cpu(wp, CPU_LINE)
-        _warp_ready = True
+    """``(warp, newton)``, Warp started once (:func:`~rockbench.engines.warp_start.start_warp`)."""
+    from .warp_start import start_warp
+    wp = start_warp(CPU_LINE)
     import newton
     return wp, newton
 

@@ -9,7 +9,32 @@ import os
 from . import calibration as _cal
 from .base import DEVICE_NOTED_ENV
 
-__all__ = ["warp_cache_dir", "cuda_driver_present", "init_on_cpu"]
+__all__ = ["warp_cache_dir", "cuda_driver_present", "init_on_cpu", "start_warp"]
+
+_started = False
+
+
+def start_warp(cpu_line: str):
+    """The ``warp`` module, started once per process: no banner and no line per loaded kernel module
+    on stderr, its kernels cached in rockbench's cache (:func:`warp_cache_dir`), and on a machine
+    without a CUDA driver started quietly on the CPU with the adapter's own ``cpu_line``
+    (:func:`init_on_cpu`). A runtime someone else started is left as it is."""
+    global _started
+    import warp as wp
+    if not _started:
+        if hasattr(wp, "LOG_WARNING"):   # Warp >= 1.19
+            wp.config.log_level = wp.LOG_WARNING
+        else:  # pragma: no cover - older Warp
+            wp.config.quiet = True
+        from warp._src import context as _ctx
+        if getattr(_ctx, "runtime", None) is None:   # not initialised yet in this process
+            wp.config.kernel_cache_dir = warp_cache_dir()
+            if cuda_driver_present():
+                wp.init()
+            else:
+                init_on_cpu(wp, cpu_line)
+        _started = True
+    return wp
 
 
 def warp_cache_dir() -> str:
