@@ -17,14 +17,14 @@ import math
 import numpy as np
 import pytest
 
+from cells import cell_case
+
 from rockbench.harness.cli.main import main
 from rockbench.harness.blocks.presets import get_preset
-from rockbench.engines.base import FLAGS, Case, Trajectory
+from rockbench.engines.base import FLAGS, Trajectory
 from rockbench.engines.registry import adapter_class, get_adapter
 from rockbench.reference_solver.errors import ConfigError
-from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
-from rockbench.reference_solver.pulses import make_pulse
-from rockbench.reference_solver.restitution import Restitution, housner_eta
+from rockbench.reference_solver.restitution import housner_eta
 
 pytestmark = pytest.mark.engine
 
@@ -91,10 +91,7 @@ def _calibration_cache(tmp_path_factory):
     mp.undo()
 
 
-def _case(block_name, pulse, w, a, *, sign=1.0, dt_s=None):
-    b = get_preset(block_name).block()
-    return Case(b, make_pulse(pulse, sign * a_ratio_to_amplitude(b, a), w_ratio_to_omega(b, w)), Restitution(),
-                dt_s)
+_case = cell_case
 
 
 @pytest.mark.parametrize("engine", ENGINES)

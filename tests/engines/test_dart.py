@@ -13,20 +13,20 @@ and the calibration says why; the planar model is mirror-exact; bad settings are
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest
+
+from cells import cell_case
 
 pytest.importorskip("dartpy", reason="dartpy is not installed (pip install 'rockbench[dart]')")
 
 from rockbench.harness.cli.main import main  # noqa: E402
 from rockbench.harness.blocks.presets import get_preset  # noqa: E402
-from rockbench.engines.base import Case, CellResult  # noqa: E402
+from rockbench.engines.base import CellResult  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G, Block  # noqa: E402
-from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution, housner_eta, modified_eta  # noqa: E402
 
 pytestmark = pytest.mark.engine
@@ -38,9 +38,7 @@ def _private_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("ROCKBENCH_CACHE", str(tmp_path / "cache"))
 
 
-def case(block_name: str, pulse: str, w_ratio: float, a_ratio: float, sign: float = 1.0) -> Case:
-    b = get_preset(block_name).block()
-    return Case(b, make_pulse(pulse, sign * a_ratio * G * math.tan(b.alpha_rad), w_ratio * b.p_rad_s), Restitution())
+case = cell_case
 
 
 #: (block, pulse, ω/p, a₀/(g·tanα)): overturn after an impact, rocking and rest, both blocks and

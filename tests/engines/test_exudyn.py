@@ -12,13 +12,13 @@ import sys
 
 import pytest
 
+from cells import cell_case
+
 pytest.importorskip("exudyn")
 
 from rockbench.harness.blocks.presets import get_preset
-from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
-from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution, housner_eta
 
@@ -58,10 +58,7 @@ def exudyn_table():
     return get_adapter("exudyn", drive="table")
 
 
-def _case(block_name, pulse, w, a, **kw):
-    block = get_preset(block_name).block()
-    p = make_pulse(pulse, a_ratio_to_amplitude(block, a), w_ratio_to_omega(block, w))
-    return Case(block, p, Restitution("housner"), **kw)
+_case = cell_case
 
 
 def _reference_outcome(case):

@@ -8,20 +8,18 @@ reference map's regions.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
+
+from cells import cell_case
 
 pytest.importorskip("torch", reason="torch is not installed (install torch's CPU wheel, then 'rockbench[genesis]')")
 pytest.importorskip("genesis", reason="genesis-world is not installed (pip install 'rockbench[genesis]', docs/genesis.md)")
 
 from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
-from rockbench.engines.base import Case  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
-from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
 
 pytestmark = pytest.mark.engine
 
@@ -33,8 +31,7 @@ CELLS = [(4.0, 0.8, "rest"), (6.0, 2.0, "rocking"), (3.0, 2.5, "overturn")]
 
 
 def _case(w, a, kind="sine", block="B3M"):
-    blk = PRESETS[block].block()
-    return Case(blk, make_pulse(kind, a * G * math.tan(blk.alpha_rad), w * blk.p_rad_s))
+    return cell_case(block, kind, w, a)
 
 
 @pytest.fixture(scope="module", autouse=True)

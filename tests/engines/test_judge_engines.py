@@ -11,12 +11,9 @@ import importlib.util
 
 import pytest
 
-from rockbench.harness.blocks.presets import get_preset
-from rockbench.engines.base import Case
+from cells import cell_case
+
 from rockbench.engines.registry import get_adapter
-from rockbench.reference_solver.model import a_ratio_to_amplitude
-from rockbench.reference_solver.pulses import make_pulse
-from rockbench.reference_solver.restitution import Restitution
 
 pytestmark = pytest.mark.engine
 
@@ -26,9 +23,7 @@ ENGINES = [pytest.param(n, marks=pytest.mark.skipif(importlib.util.find_spec(n) 
            for n in ("mujoco", "pybullet", "exudyn")]
 
 
-def _case(name, kind, wr, ar):
-    b = get_preset(name).block()
-    return Case(b, make_pulse(kind, a_ratio_to_amplitude(b, ar), wr * b.p_rad_s), Restitution())
+_case = cell_case
 
 
 @pytest.fixture(scope="module")

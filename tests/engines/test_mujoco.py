@@ -12,17 +12,16 @@ import math
 import numpy as np
 import pytest
 
+from cells import cell_case
+
 mujoco = pytest.importorskip("mujoco")
 
 from rockbench.harness.cli.main import main as cli_main  # noqa: E402
 from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
-from rockbench.engines.base import Case  # noqa: E402
 from rockbench.engines.free_rocking import crossing_velocity_etas  # noqa: E402
 from rockbench.engines.mujoco_adapter import MujocoAdapter  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
-from rockbench.reference_solver.model import G  # noqa: E402
-from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
 
 pytestmark = pytest.mark.engine
@@ -44,9 +43,7 @@ CELLS = [
 ]
 
 
-def _case(block_name, kind, w, a):
-    blk = PRESETS[block_name].block()
-    return Case(blk, make_pulse(kind, a * G * math.tan(blk.alpha_rad), w * blk.p_rad_s))
+_case = cell_case
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -9,10 +9,10 @@ inside the reference map's regions (checked against the reference in a ±10 % ne
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
+
+from cells import cell_case
 
 pytest.importorskip("warp", reason="warp-lang is not installed (pip install 'rockbench[warp]')")
 pytest.importorskip("mujoco_warp", reason="mujoco-warp is not installed (pip install 'rockbench[warp]')")
@@ -20,12 +20,9 @@ pytest.importorskip("mujoco_warp", reason="mujoco-warp is not installed (pip ins
 from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
 from rockbench.harness.suites.model import load_suite, suite_path
 from rockbench.harness.suites.plan import engine_names  # noqa: E402
-from rockbench.engines.base import Case  # noqa: E402
 from rockbench.engines.mujoco_warp_adapter import MujocoWarpAdapter, warp_cache_dir  # noqa: E402
 from rockbench.engines.registry import adapter_class, get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
-from rockbench.reference_solver.model import G  # noqa: E402
-from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
 
 pytestmark = pytest.mark.engine
@@ -43,8 +40,7 @@ CELLS = [
 
 
 def _case(block_name, kind, w, a, dt=DT):
-    blk = PRESETS[block_name].block()
-    return Case(blk, make_pulse(kind, a * G * math.tan(blk.alpha_rad), w * blk.p_rad_s), dt_s=dt)
+    return cell_case(block_name, kind, w, a, dt_s=dt)
 
 
 @pytest.fixture(scope="module", autouse=True)

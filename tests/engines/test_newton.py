@@ -8,21 +8,18 @@ the reference map's regions.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
+
+from cells import cell_case
 
 pytest.importorskip("warp", reason="warp-lang is not installed (pip install 'rockbench[newton]')")
 pytest.importorskip("newton", reason="newton is not installed (pip install 'rockbench[newton]')")
 
 from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
-from rockbench.engines.base import Case  # noqa: E402
 from rockbench.engines.warp_start import warp_cache_dir  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
-from rockbench.reference_solver.model import G  # noqa: E402
-from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
 
 pytestmark = pytest.mark.engine
@@ -41,8 +38,7 @@ CELLS = [(4.0, 0.8, "rest"), (6.0, 2.0, "rocking"), (3.0, 2.5, "overturn")]
 
 
 def _case(w, a, kind="sine", block="B3M"):
-    blk = PRESETS[block].block()
-    return Case(blk, make_pulse(kind, a * G * math.tan(blk.alpha_rad), w * blk.p_rad_s))
+    return cell_case(block, kind, w, a)
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -8,21 +8,19 @@ are a ConfigError (CLI exit 2, one line).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
+
+from cells import cell_case
 
 pytest.importorskip("pybullet")
 
 from rockbench.harness.cli.main import main  # noqa: E402
 from rockbench.harness.blocks.presets import get_preset  # noqa: E402
-from rockbench.engines.base import Case, CellResult  # noqa: E402
+from rockbench.engines.base import CellResult  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
-from rockbench.reference_solver.model import G  # noqa: E402
-from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
-from rockbench.reference_solver.restitution import Restitution, housner_eta  # noqa: E402
+from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
 
 pytestmark = pytest.mark.engine
 
@@ -33,9 +31,7 @@ def _private_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("ROCKBENCH_CACHE", str(tmp_path / "cache"))
 
 
-def case(block_name: str, pulse: str, w_ratio: float, a_ratio: float) -> Case:
-    b = get_preset(block_name).block()
-    return Case(b, make_pulse(pulse, a_ratio * G * math.tan(b.alpha_rad), w_ratio * b.p_rad_s), Restitution())
+case = cell_case
 
 
 # -- outcomes against the reference ---------------------------------------------------------
