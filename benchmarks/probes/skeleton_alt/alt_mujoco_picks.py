@@ -6,7 +6,7 @@ settings the search measured, how many lie within 1 % of the target and how many
 their per-impact spread within the skeleton's ``CAL_MAX_SPREAD`` (2 % of the target). Run it on
 branch ``main`` and on the branch with the patched pick to compare the two rules::
 
-    python benchmarks/probes/alt_mujoco_picks.py [--json OUT.json]
+    python benchmarks/probes/skeleton_alt/alt_mujoco_picks.py [--json OUT.json]
 """
 
 from __future__ import annotations
