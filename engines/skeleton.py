@@ -538,7 +538,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
         chosen, price, tried = self._first_that_counts(block, within, n, dt, t)
         lo = min((r["eta"] for r in regular), default=math.nan)
         hi = max((r["eta"] for r in regular), default=math.nan)
-        span = f"{n} {self.POINT_UNIT} along the base; {searched}: regular free rocking spans η = {lo:.4f}–{hi:.4f}"
+        span = f"{searched}: regular free rocking spans η = {lo:.4f}–{hi:.4f}"
         if chosen is not None:
             r = chosen
             m = self._fixed(self._distributed_contact(r, n)).measure_restitution(block, dt_s=dt)
@@ -550,7 +550,8 @@ class SteppedContactAdapter(ContactEngineAdapter):
             r = (within[0] if within else
                  min(regular or [x for x in rows if math.isfinite(x["eta"])] or rows,
                      key=lambda r: abs(r["eta"] - t) if math.isfinite(r["eta"]) else math.inf))
-            note = f"not reached with the distributed contact: {self._why_not(r, within, tried, t)}; {span}."
+            note = (f"not reached with {n} {self.POINT_UNIT} along the base: {self._why_not(r, within, tried, t)}; "
+                    f"{span}.")
         res = CalibrationResult(eta_target=t, eta_measured=float(r["eta"]), eta_std=float(r["eta_std"]),
                                 reached=chosen is not None, settings=self._distributed_settings(block, dt, r, n),
                                 note=note, evaluations=len(rows), price=price)
