@@ -105,8 +105,6 @@ _INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
 _D_VALUES = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 _TC_FACTORS_DIST = (2.0, 4.0, 8.0, 16.0)
 _DR_VALUES_DIST = (0.5, 1.0, 2.0)
-#: How many candidates within 1 % of the target the distributed calibration tries for the uplift check.
-_MAX_PRICE_TRIES = 8
 
 
 
@@ -211,6 +209,8 @@ class MujocoAdapter(SteppedContactAdapter):
     #: versions of the corner and distributed calibrations (part of their cache keys)
     CALIBRATION_VERSION = 4
     CALIBRATION_VERSION_DIST = 3
+    #: the distributed search's spread rule: below 0.02 absolute (the skeleton's CAL_SPREAD_ABSOLUTE)
+    CAL_SPREAD_ABSOLUTE = True
 
     def __init__(self, **settings):
         super().__init__(**settings)
@@ -589,78 +589,49 @@ class MujocoAdapter(SteppedContactAdapter):
         p = self.resolve(block, Restitution("housner"), dt)
         return self._free_rocking(block, [p], dt, theta0_frac)[0]
 
-    def _calibrate_distributed_n(self, block: Block, target: float, n: int, dt: float,
-                                 use_cache: bool) -> CalibrationResult:
-        """Search a row of contact points along the base (issue 18) for ``target_eta``, at a price.
+    # -- the distributed contact: the skeleton's search over MuJoCo's batched grid -------------
+    def _geometry(self, n: int) -> dict:
+        """The contact geometry of a row of ``n`` points along the base."""
+        return {"contact": "distributed", "contact_points": n, "contact_radius_m": self.settings["contact_radius_m"]}
 
-        A grid of solimp impedance d (0.3–0.9) × time constant (2–16·Δt) × damping ratio (0.5–2)
-        in native batches, then a finer grid around the best point. Candidates within 1 % of the
-        target with regular rocking (impact-to-impact spread below 2 %) are tried closest first
-        until one keeps the static uplift threshold within 2 % of g·tanα without rocking below it
-        and raises no ``slip`` flag in the anti-slip cells (:func:`rockbench.engines.price.contact_price`);
-        its price (uplift, anti-slip, period change, speed) is recorded with it.
-        """
+    def _distributed_key(self, block: Block, t: float, n: int, dt: float) -> str:
+        """MuJoCo's cache key of a distributed calibration (its solver settings and geometry)."""
         from . import price as _price
 
-        solver = self._solver_params()
-        r = self.settings["contact_radius_m"]
-        geo = {"contact": "distributed", "contact_points": n, "contact_radius_m": r}
-        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION_DIST, contact=geo,
-                              drive=self.settings["drive"], planar=self.settings["planar"],
-                              friction=self.settings["friction"], solver=solver, price_cells=list(_price.PRICE_CELLS))
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
+        return self._cache_key(block, t, dt, self.CALIBRATION_VERSION_DIST, contact=self._geometry(n),
+                               drive=self.settings["drive"], planar=self.settings["planar"],
+                               friction=self.settings["friction"], solver=self._solver_params(),
+                               price_cells=list(_price.PRICE_CELLS))
+
+    def _distributed_rows(self, block: Block, t: float, n: int, dt: float) -> tuple[list[dict], str]:
+        """A grid of solimp impedance d (0.3–0.9) × time constant (2–16·Δt) × damping ratio (0.5–2)
+        in native batches, then a finer grid around its closest measurable row (:meth:`_grid_search`)."""
         grid = [(f * dt, dr, dd) for dd in _D_VALUES for f in _TC_FACTORS_DIST for dr in _DR_VALUES_DIST]
-        results, good = self._grid_search(block, dt, solver, grid, lambda g: min(g, key=lambda x: abs(x[3] - target)),
-                                          lambda b: [(b[0] * f, b[1] * g, min(0.95, max(0.05, b[2] + e)))
-                                                     for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25)
-                                                     for e in (-0.05, 0.0, 0.05)
-                                                     if b[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)], geo)
-        # regular rocking only (impact-to-impact spread below 2 %, as Exudyn's calibration asks)
-        within = sorted((x for x in good if abs(x[3] - target) <= 0.01 * target and x[4] < 0.02),
-                        key=lambda x: abs(x[3] - target))
-        tried, chosen, price = [], None, None
-        rest = Restitution("constant", value=target)
-        for x in within[:_MAX_PRICE_TRIES]:
-            probe = self._fixed({"timeconst": x[0], "dampratio": x[1], "solimp_d": x[2], **geo})
-            up = _price.uplift_threshold(probe, block, rest, dt)
-            row = {"timeconst": x[0], "dampratio": x[1], "solimp_d": x[2], "eta": x[3], "uplift": up}
-            tried.append(row)
-            if not up.get("within"):
-                continue
-            m = probe.measure_restitution(block, dt_s=dt)
-            price = _price.contact_price(probe, block, rest, dt, first_quarter_s=m.first_quarter_s)
-            row["anti_slip"] = {k: v for k, v in price["anti_slip"].items() if k.startswith("n_") or k == "cells"}
-            if price["counts"]:
-                chosen = x
-                break
-            price = None
-        lo, hi = min(x[3] for x in good), max(x[3] for x in good)
-        span = (f"over solimp d {min(_D_VALUES):g}–{max(_D_VALUES):g}, time constants "
-                f"{_TC_FACTORS_DIST[0]:g}–{_TC_FACTORS_DIST[-1]:g}·dt and damping ratios "
-                f"{_DR_VALUES_DIST[0]:g}–{_DR_VALUES_DIST[-1]:g} ({n} points along the base) η spans {lo:.4f}–{hi:.4f}")
-        if chosen is not None:
-            tc, dr, dd, eta, std, n_imp = chosen
-            reached = True
-            note = (f"reached with {n} contact points along the base, solref ({tc:.4g} s, {dr:.3g}), solimp d {dd:.3g} "
-                    f"at dt {dt:g} s, {n_imp} impacts measured; {_price.price_line(price)}; {span}.")
-        else:
-            tc, dr, dd, eta, std, n_imp = (within[0] if within else min(good, key=lambda x: abs(x[3] - target)))
-            reached = False
-            why = (f"{len(within)} settings reach η within 1 % with regular rocking, but none keeps the static "
-                   f"uplift threshold within {100 * _price.UPLIFT_RTOL:g} % of g·tanα and the default-suite cells "
-                   f"free of slip (the first {len(tried)} tried: "
-                   + "; ".join(f"uplift {t['uplift'].get('ratio', math.nan):.3f}"
-                               + (f", {t['anti_slip']['n_slip']} slip/{t['anti_slip']['n_jump']} jump"
-                                  if "anti_slip" in t else "") for t in tried) + ")"
-                   if within else f"the closest regular η is {eta:.4f} ({100 * (eta - target) / target:+.2f} %)")
-            note = f"not reached with the distributed contact: {why}; {span}."
-        settings, _ = self._settings_record(block, dt, {"timeconst": tc, "dampratio": dr, **solver, **geo, "solimp_d": dd})
-        res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
-                                settings=settings, note=note, evaluations=len(results), price=price)
-        self._store(key, res, {"grid": [list(x) for x in results], "uplift_tried": tried})
-        return res
+        results, _ = self._grid_search(block, dt, self._solver_params(), grid, lambda g: min(g, key=lambda x: abs(x[3] - t)),
+                                       lambda b: [(b[0] * f, b[1] * g, min(0.95, max(0.05, b[2] + e)))
+                                                  for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25)
+                                                  for e in (-0.05, 0.0, 0.05)
+                                                  if b[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)],
+                                       self._geometry(n))
+        rows = [{"timeconst": tc, "dampratio": dr, "solimp_d": dd, "eta": eta, "eta_std": std, "n": n_imp}
+                for tc, dr, dd, eta, std, n_imp in results]
+        return rows, (f"solimp d {min(_D_VALUES):g}–{max(_D_VALUES):g} × time constants "
+                      f"{_TC_FACTORS_DIST[0]:g}–{_TC_FACTORS_DIST[-1]:g}·dt × damping ratios "
+                      f"{_DR_VALUES_DIST[0]:g}–{_DR_VALUES_DIST[-1]:g}, refined around the closest")
+
+    def _distributed_contact(self, row: dict, n: int) -> dict:
+        """A candidate row's contact with ``n`` points, as :meth:`_fixed` takes it."""
+        return {"timeconst": row["timeconst"], "dampratio": row["dampratio"], "solimp_d": row["solimp_d"],
+                **self._geometry(n)}
+
+    def _distributed_settings(self, block: Block, dt: float, row: dict, n: int) -> dict:
+        """The settings record of a row (:meth:`_settings_record`: solver, geometry, step, rest depth)."""
+        return self._settings_record(block, dt, {"timeconst": row["timeconst"], "dampratio": row["dampratio"],
+                                                 **self._solver_params(), **self._geometry(n),
+                                                 "solimp_d": row["solimp_d"]})[0]
+
+    def _describe_contact(self, row: dict) -> str:
+        return f"solref ({row['timeconst']:.4g} s, {row['dampratio']:.3g}), solimp d {row['solimp_d']:.3g}"
 
     def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
         """The price of a calibration's contact (the skeleton's), at the step it was calibrated at."""

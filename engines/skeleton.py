@@ -43,7 +43,8 @@ The hooks an adapter implements (besides the settings hooks of ``ContactEngineAd
     position and velocity from all the state rows of a run, plus engine diagnostics.
 
 and, for the calibration, ``_calibrate_corners`` (the engine's search on its own contact
-parameters) and, where it offers a row of points along the base, ``_distributed_grid``.
+parameters) and, where it offers a row of points along the base, ``_distributed_grid`` (or, for an
+engine that measures its candidates itself, ``_distributed_rows``).
 """
 
 from __future__ import annotations
@@ -206,6 +207,10 @@ class SteppedContactAdapter(ContactEngineAdapter):
     CONTACT_KEYS: ClassVar[tuple] = ()
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
+    #: how the distributed search reads :data:`CAL_MAX_SPREAD` (:meth:`_regular`): as a fraction of
+    #: the candidate's η (False), or as an absolute spread, strictly below (True: MuJoCo's η_M
+    #: calibrations were fixed with it, and with 5 or 17 points on B3M it picks another setting)
+    CAL_SPREAD_ABSOLUTE: ClassVar[bool] = False
 
     def explicit_contact(self) -> bool:
         """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
@@ -471,24 +476,16 @@ class SteppedContactAdapter(ContactEngineAdapter):
         """One candidate of the distributed search in words, for the notes."""
         raise NotImplementedError
 
-    def _calibrate_distributed_n(self, block: Block, t: float, n: int, dt: float,
-                                 use_cache: bool) -> CalibrationResult:
-        """A row of ``n`` points along the base (issue 18), calibrated to ``t`` at a price.
+    def _distributed_rows(self, block: Block, t: float, n: int, dt: float) -> tuple[list[dict], str]:
+        """The measured candidates of the distributed search with ``n`` points for the target ``t``,
+        in the order measured, and a phrase describing the range searched.
 
-        Every candidate of :meth:`_distributed_grid` is measured; those within 1 % of the target
-        whose impacts agree within :data:`CAL_MAX_SPREAD` are tried closest first (at most
-        :data:`MAX_PRICE_TRIES`) until one keeps the static uplift threshold within 2 % of g·tanα and
-        raises no ``slip`` flag in the anti-slip cells (:func:`rockbench.engines.price.contact_price`);
-        its price is recorded, with its free-rocking period change.
+        Each row holds a candidate's contact settings (and keys of the engine's own, for the notes)
+        with ``eta``, ``eta_std`` and ``n`` (impacts measured); ``eta`` is NaN where free rocking gave
+        none. Here every candidate of :meth:`_distributed_grid` is measured one by one; an engine
+        that measures its own grid (in batches, refined around the closest row) gives its rows.
         """
-        from . import price as _price
-
-        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}, "contact_points": n}
-        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION_DIST, **self._calibration_identity(base),
-                              points=n, price_cells=[list(c) for c in _price.PRICE_CELLS])
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
+        base = self._distributed_base(n)
         grid, searched = self._distributed_grid(block, dt)
         rows = []
         for g in grid:
@@ -497,48 +494,109 @@ class SteppedContactAdapter(ContactEngineAdapter):
                 rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "n": len(mm.etas)})
             except Exception as e:  # noqa: BLE001 - a setting that breaks is recorded, the search goes on
                 rows.append({**g, "eta": math.nan, "eta_std": math.nan, "n": 0, "error": f"{type(e).__name__}: {e}"})
-        regular = [r for r in rows if math.isfinite(r["eta"]) and r["n"] >= 2 and r["eta_std"] <= CAL_MAX_SPREAD * r["eta"]]
+        return rows, searched
+
+    def _distributed_base(self, n: int) -> dict:
+        """The settings of a distributed candidate with ``n`` points before its contact settings."""
+        return {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}, "contact_points": n}
+
+    def _distributed_key(self, block: Block, t: float, n: int, dt: float) -> str:
+        """The cache key of the distributed calibration with ``n`` points to ``t`` at step ``dt``."""
+        from . import price as _price
+
+        base = self._distributed_base(n)
+        return self._cache_key(block, t, dt, self.CALIBRATION_VERSION_DIST, **self._calibration_identity(base),
+                               points=n, price_cells=[list(c) for c in _price.PRICE_CELLS])
+
+    def _distributed_contact(self, row: dict, n: int) -> dict:
+        """A candidate row's contact with ``n`` points, as :meth:`_fixed` takes it."""
+        return {k: row.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}
+
+    def _distributed_settings(self, block: Block, dt: float, row: dict, n: int) -> dict:
+        """The settings a distributed calibration records for its row (here: its contact)."""
+        return self._distributed_contact(row, n)
+
+    def _calibrate_distributed_n(self, block: Block, t: float, n: int, dt: float,
+                                 use_cache: bool) -> CalibrationResult:
+        """A row of ``n`` points along the base (issue 18), calibrated to ``t`` at a price.
+
+        The candidates are :meth:`_distributed_rows`; those within 1 % of the target whose impacts
+        agree within :data:`CAL_MAX_SPREAD` are tried closest first (at most :data:`MAX_PRICE_TRIES`,
+        :meth:`_first_that_counts`) until one keeps the static uplift threshold within 2 % of g·tanα
+        and raises no ``slip`` flag in the anti-slip cells (:func:`rockbench.engines.price.contact_price`);
+        its price is recorded, with its free-rocking period change.
+        """
+        from . import price as _price
+
+        key = self._distributed_key(block, t, n, dt)
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
+        rows, searched = self._distributed_rows(block, t, n, dt)
+        regular = [r for r in rows if self._regular(r)]
         within = sorted((r for r in regular if abs(r["eta"] - t) <= 0.01 * t), key=lambda r: abs(r["eta"] - t))
-        chosen, price, tried = None, None, []
-        rest = Restitution("constant", value=t)
-        for r in within[:MAX_PRICE_TRIES]:
-            pr = _price.contact_price(self._fixed({k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}),
-                                      block, rest, dt)
-            tried.append({**r, "uplift_ratio": pr["uplift"].get("ratio"), "n_slip": pr["anti_slip"]["n_slip"],
-                          "n_jump": pr["anti_slip"]["n_jump"]})
-            if pr["counts"]:
-                chosen, price = r, pr
-                break
+        chosen, price, tried = self._first_that_counts(block, within, n, dt, t)
         lo = min((r["eta"] for r in regular), default=math.nan)
         hi = max((r["eta"] for r in regular), default=math.nan)
-        span = f"{n} {self.POINT_UNIT} along the base; {searched}: regular free rocking spans η = {lo:.4f}–{hi:.4f}"
+        span = f"{searched}: regular free rocking spans η = {lo:.4f}–{hi:.4f}"
         if chosen is not None:
             r = chosen
-            m = self._fixed({k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}).measure_restitution(block, dt_s=dt)
+            m = self._fixed(self._distributed_contact(r, n)).measure_restitution(block, dt_s=dt)
             price["period_change"] = (m.first_quarter_s / price["rigid_first_quarter_s"] - 1.0) if m.first_quarter_s else None
             price["first_quarter_s"] = m.first_quarter_s
-            note = (f"reached with {n} {self.POINT_UNIT} along the base, {self._describe_contact(r)}; "
-                    f"{_price.price_line(price)}; {span}.")
+            note = (f"reached with {n} {self.POINT_UNIT} along the base, {self._describe_contact(r)}, {r['n']} impacts "
+                    f"measured; {_price.price_line(price)}; {span}.")
         else:
-            r = (min(within, key=lambda r: abs(r["eta"] - t)) if within else
+            r = (within[0] if within else
                  min(regular or [x for x in rows if math.isfinite(x["eta"])] or rows,
                      key=lambda r: abs(r["eta"] - t) if math.isfinite(r["eta"]) else math.inf))
-            note = f"not reached with the distributed contact: {self._why_not(r, within, tried, t)}; {span}."
+            note = (f"not reached with {n} {self.POINT_UNIT} along the base: {self._why_not(r, within, tried, t)}; "
+                    f"{span}.")
         res = CalibrationResult(eta_target=t, eta_measured=float(r["eta"]), eta_std=float(r["eta_std"]),
-                                reached=chosen is not None,
-                                settings={k: r.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n},
+                                reached=chosen is not None, settings=self._distributed_settings(block, dt, r, n),
                                 note=note, evaluations=len(rows), price=price)
         self._store(key, res, {"grid": rows, "price_tried": tried})
         return res
+
+    def _regular(self, row: dict) -> bool:
+        """Whether a measured candidate rocks regularly: a finite η from at least two impacts that
+        agree within :data:`CAL_MAX_SPREAD` (of its η, or absolute: :attr:`CAL_SPREAD_ABSOLUTE`)."""
+        if not (math.isfinite(row["eta"]) and row["n"] >= 2):
+            return False
+        if self.CAL_SPREAD_ABSOLUTE:
+            return row["eta_std"] < CAL_MAX_SPREAD
+        return row["eta_std"] <= CAL_MAX_SPREAD * row["eta"]
+
+    def _first_that_counts(self, block: Block, within: list, n: int, dt: float,
+                           t: float) -> tuple[dict | None, dict | None, list]:
+        """The first of ``within`` (at most :data:`MAX_PRICE_TRIES`) whose contact counts, its price
+        and what was tried. The static uplift threshold comes first: a candidate outside it cannot
+        count, so its anti-slip cells are not run."""
+        from . import price as _price
+
+        rest = Restitution("constant", value=t)
+        tried = []
+        for r in within[:MAX_PRICE_TRIES]:
+            fixed = self._fixed(self._distributed_contact(r, n))
+            up = _price.uplift_threshold(fixed, block, rest, dt)
+            tried.append({**r, "uplift_ratio": up.get("ratio", math.nan)})
+            if not up.get("within"):
+                continue
+            pr = _price.contact_price(fixed, block, rest, dt)
+            tried[-1].update(n_slip=pr["anti_slip"]["n_slip"], n_jump=pr["anti_slip"]["n_jump"])
+            if pr["counts"]:
+                return r, pr, tried
+        return None, None, tried
 
     def _why_not(self, r: dict, within: list, tried: list, t: float) -> str:
         """Why the distributed search reached nothing, in words."""
         if not within:
             return f"the closest regular η is {r['eta']:.4f} ({100 * (r['eta'] - t) / t:+.2f} %)"
         return (f"{len(within)} settings give η within 1 % with regular impacts, but none keeps the static uplift "
-                f"threshold within 2 % of g·tanα and the anti-slip cells free of slip (tried: "
-                + "; ".join(f"{self._describe_contact(x)}: uplift {x['uplift_ratio']:.3f}, {x['n_slip']} slip"
-                            for x in tried) + ")")
+                f"threshold within 2 % of g·tanα without rocking below it and the anti-slip cells free of slip "
+                f"(tried: " + "; ".join(f"{self._describe_contact(x)}: uplift {x['uplift_ratio']:.3f}"
+                                        + (f", {x['n_slip']} slip / {x['n_jump']} jump" if "n_slip" in x else "")
+                                        for x in tried) + ")")
 
     def _calibration_identity(self, base: dict) -> dict:
         """What besides block, target and step a calibration depends on (part of its cache key)."""
