@@ -478,7 +478,9 @@ class DrakeAdapter(SteppedContactAdapter):
         if search.err(search.evaluate({kkey: k0, dkey: d0})) > 0.005:
             lo0, hi0 = _DISSIPATION_LOG10[dkey]
             for f in _STIFFNESS_FACTORS[base["contact"]]:
-                _bisect_dissipation(search, kkey, k0 * f, dkey, lo0, hi0)
+                # at stiffness k0·f, the two ends of the range, then a bisection when they bracket
+                # the target (η falls as the dissipation grows)
+                search.scan_bisect(lambda x, k=k0 * f: {kkey: k, dkey: 10.0 ** x}, (lo0, hi0), 10)
                 if min(search.err(r[0]) for r in search.tried) <= 0.0025:
                     break
         eta, std, extra, reached = search.best()
@@ -494,24 +496,6 @@ class DrakeAdapter(SteppedContactAdapter):
                                 evaluations=len(search.tried))
         self._store(key, res, {"tried": search.tried})
         return res
-
-
-def _bisect_dissipation(search, kkey: str, k: float, dkey: str, lo: float, hi: float) -> None:
-    """At stiffness ``k``, a bisection on log10 of the dissipation over ``[lo, hi]`` (η falls as the
-    dissipation grows: ``lo`` gives the high end) when the two ends bracket the target."""
-    t = search.target
-    e_lo, e_hi = search.evaluate({kkey: k, dkey: 10.0 ** lo}), search.evaluate({kkey: k, dkey: 10.0 ** hi})
-    if not (math.isfinite(e_lo) and math.isfinite(e_hi)) or not (min(e_lo, e_hi) <= t <= max(e_lo, e_hi)):
-        return
-    for _ in range(10):
-        mid = 0.5 * (lo + hi)
-        e = search.evaluate({kkey: k, dkey: 10.0 ** mid})
-        if search.err(e) <= 0.0025:
-            break
-        if math.isfinite(e) and (e - t) * (e_lo - t) > 0:
-            lo = mid
-        else:
-            hi = mid
 
 
 #: This process's scenes, by everything a diagram depends on (a forked worker builds its own).
