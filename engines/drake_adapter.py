@@ -69,6 +69,7 @@ from ..reference_solver.model import Block
 from .base import CalibrationResult
 from .rotation import theta_of_quat
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
+from .support import version_label
 
 #: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
 #: point stiffness per bottom edge [N/m], hydroelastic modulus [Pa], SAP relaxation time [s] and
@@ -332,11 +333,7 @@ class DrakeAdapter(SteppedContactAdapter):
     @classmethod
     def version(cls) -> str:
         super().version()  # raises EngineUnavailableError with the hint when pydrake cannot be imported
-        from importlib.metadata import PackageNotFoundError, version
-        try:
-            return version("drake")
-        except PackageNotFoundError:
-            return "unknown"
+        return version_label(cls.name)
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_engine_settings(self, s: dict) -> None:

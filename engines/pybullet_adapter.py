@@ -53,6 +53,7 @@ from .contact import POINTS_TRIED
 from .free_rocking import ENERGY_RATIO
 from .rotation import theta_of_quat
 from .skeleton import CAL_MAX_SPREAD, Motion, SteppedContactAdapter, pivot_pose
+from .support import version_label
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
@@ -364,11 +365,7 @@ class PybulletAdapter(SteppedContactAdapter):
         except Exception:  # noqa: BLE001 - the base class reports it with the install hint
             pass
         super().version()  # raises EngineUnavailableError with the hint when the import fails
-        from importlib.metadata import PackageNotFoundError, version
-        try:
-            return version("pybullet")
-        except PackageNotFoundError:
-            return "unknown"
+        return version_label(cls.name)
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_engine_settings(self, s: dict) -> None:
