@@ -480,7 +480,7 @@ class DrakeAdapter(SteppedContactAdapter):
                 search.scan_bisect(lambda x, k=k0 * f: {kkey: k, dkey: 10.0 ** x}, (lo0, hi0), 10)
                 if min(search.err(r[0]) for r in search.tried) <= 0.0025:
                     break
-        eta, std, extra, reached = search.best()
+        eta, _, extra, reached = search.best()
         if extra[kkey] == k0 and extra[dkey] == d0:
             note = ("the stiff, plastic base contact gives this η." if reached else
                     f"not reached: the closest consistent η is the base contact's, {eta:.4f}.")
@@ -488,9 +488,7 @@ class DrakeAdapter(SteppedContactAdapter):
             note = ("reached with a softer contact and its dissipation." if reached else
                     f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in _STIFFNESS_FACTORS[base['contact']])} "
                     f"the base with dissipation over the searched range give at best {eta:.4f}.")
-        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings={k: None for k in self.CONTACT_KEYS} | extra, note=note,
-                                evaluations=len(search.tried))
+        res = search.result(self.CONTACT_KEYS, note)
         self._store(key, res, {"tried": search.tried})
         return res
 

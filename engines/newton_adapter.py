@@ -397,11 +397,8 @@ class NewtonAdapter(SteppedContactAdapter):
             _search_penalty(search, block, dt)
         else:
             _search_vbd(search, t, block)
-        eta, std, extra, reached = search.best()
-        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings={k: None for k in self.CONTACT_KEYS} | extra,
-                                note=_calibration_note(solver, search, eta, extra, reached),
-                                evaluations=len(search.tried))
+        eta, _, extra, reached = search.best()
+        res = search.result(self.CONTACT_KEYS, _calibration_note(solver, search, eta, extra, reached))
         self._store(key, res, {"tried": search.tried})
         return res
 

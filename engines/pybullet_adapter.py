@@ -482,10 +482,8 @@ class PybulletAdapter(SteppedContactAdapter):
                 _search_compliant(search, block.mass_kg, dt)
             else:
                 _search_restitution(search)
-        eta, std, extra, reached = search.best()
-        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings={k: None for k in self.CONTACT_KEYS} | extra,
-                                note=_calibration_note(search, eta, extra, reached), evaluations=len(search.tried))
+        eta, _, extra, reached = search.best()
+        res = search.result(self.CONTACT_KEYS, _calibration_note(search, eta, extra, reached))
         self._store(key, res, {"tried": search.tried})
         return res
 

@@ -186,6 +186,14 @@ class Search:
         eta, std, extra = min(ok or self.tried, key=lambda r: self.err(r[0]))
         return eta, std, extra, bool(ok) and self.err(eta) <= 0.01
 
+    def result(self, contact_keys: tuple, note: str) -> CalibrationResult:
+        """The pick (:meth:`best`) as a calibration: the settings ``contact_keys`` None but those the
+        pick sets, ``note`` in words, every evaluation counted."""
+        eta, std, extra, reached = self.best()
+        return CalibrationResult(eta_target=self.target, eta_measured=float(eta), eta_std=float(std), reached=reached,
+                                 settings={k: None for k in contact_keys} | extra, note=note,
+                                 evaluations=len(self.tried))
+
     def bisect(self, candidate, lo: float, hi: float, steps: int, *, eta_lo: float, tol: float = BISECT_RTOL,
                nonfinite_low: bool = False) -> None:
         """Bisection of one knob over ``[lo, hi]`` (:func:`~rockbench.engines.search.bisection`), each

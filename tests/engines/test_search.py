@@ -104,3 +104,13 @@ def test_scan_bisect_without_a_bracket_only_scans():
     search = _search(lambda x: 0.5 + 0.1 * x, 0.9)
     search.scan_bisect(_knob, [0.0, 0.5, 1.0], 5)
     assert _knobs(search) == [0.0, 0.5, 1.0]
+
+
+def test_result_records_the_pick_with_every_contact_key_and_all_evaluations():
+    """Search.result: the closest consistent setting, the contact keys it does not set None."""
+    search = _search(lambda x: 0.5 + 0.4 * x, 0.7123)
+    search.bisect(_knob, 0.0, 1.0, 12, eta_lo=-math.inf)
+    res = search.result(("stiffness", "knob"), "a note")
+    assert res.settings == {"stiffness": None, "knob": 0.53125} and list(res.settings) == ["stiffness", "knob"]
+    assert res.evaluations == 5 and res.reached and res.note == "a note"
+    assert res.eta_target == 0.7123 and res.eta_measured == search.tried[-1][0] and res.eta_std == 0.001
