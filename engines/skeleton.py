@@ -162,7 +162,8 @@ class Search:
     settings tried) and records ``(η mean, η spread, extra)``; :meth:`bisect` and :meth:`scan_bisect`
     search one knob of the contact with the one bisection (:mod:`rockbench.engines.search`);
     :meth:`best` is the closest setting whose per-impact spread stays within :data:`CAL_MAX_SPREAD` of
-    the target (any setting when none does), and whether it is within 1 %.
+    the target (any setting when none does), and whether it is within 1 %; :meth:`result` records
+    it as the calibration.
     """
 
     def __init__(self, measure, target: float):
