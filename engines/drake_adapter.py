@@ -69,6 +69,7 @@ from ..reference_solver.model import Block
 from .base import CalibrationResult
 from .rotation import theta_of_quat
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
+from .support import version_label
 
 #: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
 #: point stiffness per bottom edge [N/m], hydroelastic modulus [Pa], SAP relaxation time [s] and
@@ -332,11 +333,7 @@ class DrakeAdapter(SteppedContactAdapter):
     @classmethod
     def version(cls) -> str:
         super().version()  # raises EngineUnavailableError with the hint when pydrake cannot be imported
-        from importlib.metadata import PackageNotFoundError, version
-        try:
-            return version("drake")
-        except PackageNotFoundError:
-            return "unknown"
+        return version_label(cls.name)
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_engine_settings(self, s: dict) -> None:
@@ -478,10 +475,12 @@ class DrakeAdapter(SteppedContactAdapter):
         if search.err(search.evaluate({kkey: k0, dkey: d0})) > 0.005:
             lo0, hi0 = _DISSIPATION_LOG10[dkey]
             for f in _STIFFNESS_FACTORS[base["contact"]]:
-                _bisect_dissipation(search, kkey, k0 * f, dkey, lo0, hi0)
+                # at stiffness k0·f, the two ends of the range, then a bisection when they bracket
+                # the target (η falls as the dissipation grows)
+                search.scan_bisect(lambda x, k=k0 * f: {kkey: k, dkey: 10.0 ** x}, (lo0, hi0), 10)
                 if min(search.err(r[0]) for r in search.tried) <= 0.0025:
                     break
-        eta, std, extra, reached = search.best()
+        eta, _, extra, reached = search.best()
         if extra[kkey] == k0 and extra[dkey] == d0:
             note = ("the stiff, plastic base contact gives this η." if reached else
                     f"not reached: the closest consistent η is the base contact's, {eta:.4f}.")
@@ -489,29 +488,9 @@ class DrakeAdapter(SteppedContactAdapter):
             note = ("reached with a softer contact and its dissipation." if reached else
                     f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in _STIFFNESS_FACTORS[base['contact']])} "
                     f"the base with dissipation over the searched range give at best {eta:.4f}.")
-        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings={k: None for k in self.CONTACT_KEYS} | extra, note=note,
-                                evaluations=len(search.tried))
+        res = search.result(self.CONTACT_KEYS, note)
         self._store(key, res, {"tried": search.tried})
         return res
-
-
-def _bisect_dissipation(search, kkey: str, k: float, dkey: str, lo: float, hi: float) -> None:
-    """At stiffness ``k``, a bisection on log10 of the dissipation over ``[lo, hi]`` (η falls as the
-    dissipation grows: ``lo`` gives the high end) when the two ends bracket the target."""
-    t = search.target
-    e_lo, e_hi = search.evaluate({kkey: k, dkey: 10.0 ** lo}), search.evaluate({kkey: k, dkey: 10.0 ** hi})
-    if not (math.isfinite(e_lo) and math.isfinite(e_hi)) or not (min(e_lo, e_hi) <= t <= max(e_lo, e_hi)):
-        return
-    for _ in range(10):
-        mid = 0.5 * (lo + hi)
-        e = search.evaluate({kkey: k, dkey: 10.0 ** mid})
-        if search.err(e) <= 0.0025:
-            break
-        if math.isfinite(e) and (e - t) * (e_lo - t) > 0:
-            lo = mid
-        else:
-            hi = mid
 
 
 #: This process's scenes, by everything a diagram depends on (a forked worker builds its own).

@@ -88,6 +88,7 @@ from . import price as _price
 from .base import CalibrationResult, Trajectory
 from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
 from .free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, EtaReader
+from .search import bisection, bracket
 from .skeleton import Motion, SteppedContactAdapter
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
@@ -729,31 +730,29 @@ class ExudynAdapter(SteppedContactAdapter):
 
 
 def _refine(good: list, target: float, measure, regular):
-    """The best of the scan's regular points ``(e, measurement)``, refined by bisection between the
-    first neighbours that bracket ``target`` until within 0.2·CALIBRATION_RTOL (5 halvings at most;
-    an irregular midpoint ends it)."""
+    """The best of the scan's regular points ``(e, measurement)``, refined by the one bisection
+    (:mod:`rockbench.engines.search`) between the first neighbours that bracket ``target`` until
+    within 0.2·CALIBRATION_RTOL (5 halvings at most; an irregular midpoint ends it)."""
+
+    def close(eta: float) -> bool:
+        return abs(eta - target) <= 0.2 * CALIBRATION_RTOL * target
+
     best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
-    if abs(best[1].eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
+    found = None if close(best[1].eta_mean) else bracket([(e, fr.eta_mean) for e, fr in good], target)
+    if found is None:
         return best
-    for (e1, f1), (e2, f2) in zip(good[:-1], good[1:]):
-        if (f1.eta_mean - target) * (f2.eta_mean - target) >= 0:
-            continue
-        lo, hi, flo = e1, e2, f1
-        for _ in range(5):
-            em = 0.5 * (lo + hi)
-            fm = measure(em)
-            if not regular(fm):
-                break
-            if abs(fm.eta_mean - target) < abs(best[1].eta_mean - target):
-                best = (em, fm)
-            if abs(fm.eta_mean - target) <= 0.2 * CALIBRATION_RTOL * target:
-                break
-            if (fm.eta_mean - target) * (flo.eta_mean - target) < 0:
-                hi = em
-            else:
-                lo, flo = em, fm
-        break
-    return best
+    mids = []
+
+    def regular_eta(e: float) -> float | None:
+        fr = measure(e)
+        if not regular(fr):
+            return None
+        mids.append((e, fr))
+        return fr.eta_mean
+
+    bisection(regular_eta, found[0], found[2], 5, target=target, eta_lo=found[1], done=close)
+    # the earliest of the closest: a midpoint replaces the scan's best only when strictly closer
+    return min([best, *mids], key=lambda ef: abs(ef[1].eta_mean - target))
 
 
 def _note(e: float, fr, good: list, target: float, irregular: bool, reached: bool, friction: float, points: int,

@@ -394,14 +394,11 @@ class NewtonAdapter(SteppedContactAdapter):
         if solver == "xpbd":
             _search_xpbd(search, t)
         elif solver in ("semi_implicit", "featherstone"):
-            _search_penalty(search, t, block, dt)
+            _search_penalty(search, block, dt)
         else:
             _search_vbd(search, t, block)
-        eta, std, extra, reached = search.best()
-        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings={k: None for k in self.CONTACT_KEYS} | extra,
-                                note=_calibration_note(solver, search, eta, extra, reached),
-                                evaluations=len(search.tried))
+        eta, _, extra, reached = search.best()
+        res = search.result(self.CONTACT_KEYS, _calibration_note(solver, search, eta, extra, reached))
         self._store(key, res, {"tried": search.tried})
         return res
 
@@ -447,24 +444,20 @@ def _penalty_ke_min(block: Block) -> float:
     return max(1e3, 0.9 * block.mass_kg * G / (2.0 * block.width_m * tol))
 
 
-def _search_penalty(search, t: float, block: Block, dt: float) -> None:
+def _search_penalty(search, block: Block, dt: float) -> None:
     """The penalty solvers: bisection on ``log10 ke`` at damping ratio :data:`_PENALTY_ZETA`, from
-    :func:`_penalty_ke_min` to ``0.1·m/Δt²``."""
+    :func:`_penalty_ke_min` to ``0.1·m/Δt²`` (10 halvings at most)."""
     mass_kg = block.mass_kg
     kf = 0.1 * mass_kg / dt
-    # lo: soft, high η; hi: stiff, low η
-    lo, hi = math.log10(_penalty_ke_min(block)), math.log10(_PENALTY_KE_MAX * block.mass_kg / dt**2)
-    for _ in range(10):
-        mid = 0.5 * (lo + hi)
-        ke = 10.0 ** mid
-        e = search.evaluate({"contact_stiffness_n_m": ke, "contact_damping_n_s_m": 2.0 * _PENALTY_ZETA * math.sqrt(ke * mass_kg),
-                             "friction_gain_n_s_m": kf})
-        if search.err(e) <= 0.0025:
-            return
-        if math.isfinite(e) and e > t:
-            lo = mid
-        else:
-            hi = mid
+
+    def penalty(log10_ke: float) -> dict:
+        ke = 10.0 ** log10_ke
+        return {"contact_stiffness_n_m": ke, "contact_damping_n_s_m": 2.0 * _PENALTY_ZETA * math.sqrt(ke * mass_kg),
+                "friction_gain_n_s_m": kf}
+
+    # lo: soft, high η; hi: stiff, low η (a non-finite η counts as low)
+    search.bisect(penalty, math.log10(_penalty_ke_min(block)), math.log10(_PENALTY_KE_MAX * block.mass_kg / dt**2), 10,
+                  eta_lo=math.inf)
 
 
 def _search_vbd(search, t: float, block: Block) -> None:

@@ -53,6 +53,7 @@ from .contact import POINTS_TRIED
 from .free_rocking import ENERGY_RATIO
 from .rotation import theta_of_quat
 from .skeleton import CAL_MAX_SPREAD, Motion, SteppedContactAdapter, pivot_pose
+from .support import version_label
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
@@ -364,11 +365,7 @@ class PybulletAdapter(SteppedContactAdapter):
         except Exception:  # noqa: BLE001 - the base class reports it with the install hint
             pass
         super().version()  # raises EngineUnavailableError with the hint when the import fails
-        from importlib.metadata import PackageNotFoundError, version
-        try:
-            return version("pybullet")
-        except PackageNotFoundError:
-            return "unknown"
+        return version_label(cls.name)
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_engine_settings(self, s: dict) -> None:
@@ -482,13 +479,11 @@ class PybulletAdapter(SteppedContactAdapter):
         # (softness, restitution) brings side effects of its own (penetration, bouncing corners)
         if search.err(e0) > 0.01:
             if e0 > t:
-                _search_compliant(search, t, block.mass_kg, dt)
+                _search_compliant(search, block.mass_kg, dt)
             else:
-                _search_restitution(search, t)
-        eta, std, extra, reached = search.best()
-        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings={k: None for k in self.CONTACT_KEYS} | extra,
-                                note=_calibration_note(search, eta, extra, reached), evaluations=len(search.tried))
+                _search_restitution(search)
+        eta, _, extra, reached = search.best()
+        res = search.result(self.CONTACT_KEYS, _calibration_note(search, eta, extra, reached))
         self._store(key, res, {"tried": search.tried})
         return res
 
@@ -509,45 +504,27 @@ class PybulletAdapter(SteppedContactAdapter):
         return f"stiffness {row['contact_stiffness_n_m']:.4g} N/m, damping ratio {row['zeta']:g}"
 
 
-def _search_compliant(search, t: float, mass_kg: float, dt: float) -> None:
+def _search_compliant(search, mass_kg: float, dt: float) -> None:
     """A target below the rigid contact's η: bisection on log10 of a compliant contact's stiffness
-    at damping ratio 1 (``c = 2√(k m)``); a softer contact loses more energy at the impact."""
-    # log10 k: lo gives low η, hi high η. The contact's natural frequency √(k/m) must be
-    # resolved by the step (√(k/m)·Δt ≤ 1): stiffer springs pass the free-rocking test
-    # but gain energy and bounce under a pulse.
-    lo, hi = 3.0, max(3.5, math.log10(mass_kg / dt**2))
-    for _ in range(12):
-        mid = 0.5 * (lo + hi)
-        k = 10.0 ** mid
-        e = search.evaluate({"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * mass_kg)})
-        if not math.isfinite(e) or e < t:
-            lo = mid
-        else:
-            hi = mid
-        if search.err(e) <= 0.0025:
-            break
+    at damping ratio 1 (``c = 2√(k m)``), 12 halvings at most; a softer contact loses more energy
+    at the impact."""
+
+    def compliant(log10_k: float) -> dict:
+        k = 10.0 ** log10_k
+        return {"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * mass_kg)}
+
+    # log10 k: lo gives low η, hi high η (a non-finite η counts as low). The contact's natural
+    # frequency √(k/m) must be resolved by the step (√(k/m)·Δt ≤ 1): stiffer springs pass the
+    # free-rocking test but gain energy and bounce under a pulse.
+    search.bisect(compliant, 3.0, max(3.5, math.log10(mass_kg / dt**2)), 12, eta_lo=-math.inf, nonfinite_low=True)
 
 
-def _search_restitution(search, t: float) -> None:
+def _search_restitution(search) -> None:
     """A target above the rigid contact's η: Bullet's restitution with a 0.1 mm contact-breaking
-    threshold, scanned over [0.5, 0.98] and bisected between the neighbours that bracket ``t``."""
-    extra0 = {"contact_breaking_threshold_m": 1e-4}
-    grid = np.round(np.arange(0.5, 0.981, 0.04), 3)
-    vals = [search.evaluate({**extra0, "restitution_coef": float(r)}) for r in grid]
-    # refine between the neighbours that bracket the target, if any
-    for j in range(len(grid) - 1):
-        if (vals[j] - t) * (vals[j + 1] - t) < 0:
-            lo, hi = float(grid[j]), float(grid[j + 1])
-            for _ in range(5):
-                mid = 0.5 * (lo + hi)
-                e = search.evaluate({**extra0, "restitution_coef": mid})
-                if search.err(e) <= 0.0025:
-                    break
-                if (e - t) * (vals[j] - t) > 0:
-                    lo = mid
-                else:
-                    hi = mid
-            break
+    threshold, scanned over [0.5, 0.98] and bisected (5 halvings at most) between the first
+    neighbours that bracket the target."""
+    grid = [float(r) for r in np.round(np.arange(0.5, 0.981, 0.04), 3)]
+    search.scan_bisect(lambda r: {"contact_breaking_threshold_m": 1e-4, "restitution_coef": r}, grid, 5)
 
 
 def _calibration_note(search, eta: float, extra: dict, reached: bool) -> str:

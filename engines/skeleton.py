@@ -64,6 +64,7 @@ from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, EtaReader, first_quarter_s
+from .search import BISECT_RTOL, bisection, bracket
 
 __all__ = ["SteppedContactAdapter", "Motion", "Search", "corners", "pivot_pose", "run_steps",
            "CAL_MAX_SPREAD", "MAX_PRICE_TRIES"]
@@ -159,9 +160,11 @@ class Search:
     """The free-rocking runs of a calibration search and its pick.
 
     ``evaluate(extra)`` measures η with the base settings updated by ``extra`` (the contact
-    settings tried) and records ``(η mean, η spread, extra)``; :meth:`best` is the closest setting
-    whose per-impact spread stays within :data:`CAL_MAX_SPREAD` of the target (any setting when none
-    does), and whether it is within 1 %.
+    settings tried) and records ``(η mean, η spread, extra)``; :meth:`bisect` and :meth:`scan_bisect`
+    search one knob of the contact with the one bisection (:mod:`rockbench.engines.search`);
+    :meth:`best` is the closest setting whose per-impact spread stays within :data:`CAL_MAX_SPREAD` of
+    the target (any setting when none does), and whether it is within 1 %; :meth:`result` records
+    it as the calibration.
     """
 
     def __init__(self, measure, target: float):
@@ -184,6 +187,39 @@ class Search:
         ok = self.consistent()
         eta, std, extra = min(ok or self.tried, key=lambda r: self.err(r[0]))
         return eta, std, extra, bool(ok) and self.err(eta) <= 0.01
+
+    def result(self, contact_keys: tuple, note: str) -> CalibrationResult:
+        """The pick (:meth:`best`) as a calibration: the settings ``contact_keys`` None but those the
+        pick sets, ``note`` in words, every evaluation counted."""
+        eta, std, extra, reached = self.best()
+        return CalibrationResult(eta_target=self.target, eta_measured=float(eta), eta_std=float(std), reached=reached,
+                                 settings={k: None for k in contact_keys} | extra, note=note,
+                                 evaluations=len(self.tried))
+
+    def bisect(self, candidate, lo: float, hi: float, steps: int, *, eta_lo: float, tol: float = BISECT_RTOL,
+               nonfinite_low: bool = False) -> None:
+        """Bisection of one knob over ``[lo, hi]`` (:func:`~rockbench.engines.search.bisection`), each
+        midpoint evaluated, until one is within ``tol`` of the target.
+
+        Parameters
+        ----------
+        candidate : callable
+            ``candidate(knob) -> extra``: the contact settings at a knob value.
+        lo, hi, steps, eta_lo, nonfinite_low
+            As :func:`~rockbench.engines.search.bisection`.
+        tol : float
+            Relative distance to the target that ends the bisection [-].
+        """
+        bisection(lambda x: self.evaluate(candidate(x)), lo, hi, steps, target=self.target, eta_lo=eta_lo,
+                  done=lambda e: self.err(e) <= tol, nonfinite_low=nonfinite_low)
+
+    def scan_bisect(self, candidate, grid, steps: int, *, tol: float = BISECT_RTOL) -> None:
+        """Every knob value of ``grid`` evaluated in turn, then :meth:`bisect` between the first
+        neighbours whose η bracket the target (:func:`~rockbench.engines.search.bracket`), if any."""
+        found = bracket([(x, self.evaluate(candidate(x))) for x in grid], self.target)
+        if found is not None:
+            x_lo, eta_lo, x_hi = found
+            self.bisect(candidate, x_lo, x_hi, steps, eta_lo=eta_lo, tol=tol)
 
 
 class SteppedContactAdapter(ContactEngineAdapter):
