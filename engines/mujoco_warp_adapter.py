@@ -129,6 +129,27 @@ class _Samples:
         return (self[i] for i in range(len(self)))
 
 
+def _drive_arrays(pulses: list, max_steps: int, dt: float) -> tuple:
+    """What the drive kernel reads per world: the pulse kind code, amplitude [m/s²], ω [rad/s] and
+    duration [s] of a closed-form pulse, and for a record pulse its row in a table of the table
+    velocity at every step ``k·dt`` up to ``max_steps`` [m/s] (a dummy ``(1, 1)`` table when none)."""
+    kind = np.array([_KIND_STILL if p is None else _KIND_CODES.get(p.kind, _KIND_TABLE) for p in pulses],
+                    dtype=np.int32)
+    closed = kind < _KIND_TABLE
+    amp = np.array([float(p.amplitude_mps2) if c else 0.0 for p, c in zip(pulses, closed)])
+    omega = np.array([float(p.omega_rad_s) if c else 1.0 for p, c in zip(pulses, closed)])
+    dur = np.array([0.0 if p is None else float(p.duration_s) for p in pulses])
+    rec = np.nonzero(kind == _KIND_TABLE)[0]
+    row = np.zeros(len(pulses), dtype=np.int32)
+    row[rec] = np.arange(rec.size, dtype=np.int32)
+    if rec.size:
+        tk = np.arange(max_steps + 1) * dt
+        vtab = np.stack([np.asarray(pulses[i].vel(tk), dtype=float) for i in rec])
+    else:
+        vtab = np.zeros((1, 1))
+    return kind, amp, omega, dur, row, vtab
+
+
 def _judge_slice(bounds):
     """Judge cases ``bounds[0]:bounds[1]`` of the batch a forked judge worker inherited."""
     ad, cases, raw, wall = _JUDGE_JOB
@@ -407,29 +428,13 @@ class MujocoWarpAdapter(MujocoAdapter):
         s0 = bm.s0[:ncol]
         x0 = np.tile(s0, (n, 1)) if init is None else np.asarray(init, dtype=float).reshape(n, ncol)
         nseg = self._seg_steps(bm)
-        s = self.settings
         if stops is not None:
             t_end = np.array([st["te"] for st in stops])
-            last_step = np.ceil((t_end + s["tail_s"]) / dt).astype(np.int64)
+            last_step = np.ceil((t_end + self.settings["tail_s"]) / dt).astype(np.int64)
             alpha = np.array([st["alpha"] for st in stops])
         else:
             last_step = np.full(n, int(n_steps), dtype=np.int64)
-        max_steps = int(last_step.max())
-
-        kind = np.array([_KIND_STILL if p is None else _KIND_CODES.get(p.kind, _KIND_TABLE) for p in pulses],
-                        dtype=np.int32)
-        closed = kind < _KIND_TABLE
-        amp = np.array([float(p.amplitude_mps2) if c else 0.0 for p, c in zip(pulses, closed)])
-        omega = np.array([float(p.omega_rad_s) if c else 1.0 for p, c in zip(pulses, closed)])
-        dur = np.array([0.0 if p is None else float(p.duration_s) for p in pulses])
-        rec = np.nonzero(kind == _KIND_TABLE)[0]
-        row = np.zeros(n, dtype=np.int32)
-        row[rec] = np.arange(rec.size, dtype=np.int32)
-        if rec.size:
-            tk = np.arange(max_steps + 1) * dt
-            vtab = np.stack([np.asarray(pulses[i].vel(tk), dtype=float) for i in rec])
-        else:
-            vtab = np.zeros((1, 1))
+        kind, amp, omega, dur, row, vtab = _drive_arrays(pulses, int(last_step.max()), dt)
 
         with wp.ScopedDevice(dev):
             m = self._device_model(bm, dev, n if solref is not None else 0)

@@ -159,3 +159,20 @@ def test_kernel_cache_is_in_rockbenchs_cache(monkeypatch, tmp_path):
     monkeypatch.delenv("WARP_CACHE_PATH", raising=False)
     monkeypatch.setenv("ROCKBENCH_CACHE", str(tmp_path))
     assert warp_cache_dir() == str(tmp_path / "warp")
+
+
+def test_drive_arrays_per_world():
+    """The drive kernel's inputs: closed-form pulses by code and parameters, a record pulse by its
+    row of table velocities at every step, free rocking (None) still."""
+    from rockbench.engines.mujoco_warp_adapter import _KIND_CODES, _KIND_STILL, _KIND_TABLE, _drive_arrays
+    from rockbench.reference_solver.pulses import RecordPulse, make_pulse
+
+    sine = make_pulse("sine", 2.0, 10.0)
+    rec = RecordPulse(np.array([0.0, 0.1, 0.2]), np.array([0.0, 1.0, 0.0]), source="test")
+    kind, amp, omega, dur, row, vtab = _drive_arrays([sine, None, rec], 40, 0.005)
+    assert kind.tolist() == [_KIND_CODES["sine"], _KIND_STILL, _KIND_TABLE]
+    assert amp.tolist() == [2.0, 0.0, 0.0] and omega.tolist() == [10.0, 1.0, 1.0]
+    assert dur.tolist() == [sine.duration_s, 0.0, rec.duration_s]
+    assert row.tolist() == [0, 0, 0] and vtab.shape == (1, 41)
+    np.testing.assert_array_equal(vtab[0], rec.vel(np.arange(41) * 0.005))
+    assert _drive_arrays([sine], 10, 0.01)[5].shape == (1, 1)
