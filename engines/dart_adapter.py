@@ -363,9 +363,7 @@ class DartAdapter(SteppedContactAdapter):
                 for e in _RESTITUTIONS_TRIED:
                     search.evaluate({**SHIPPED_CONTACT, "restitution_coeff": e})
         eta, std, extra, reached = search.best()
-        res = CalibrationResult(eta_target=target, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings=dict(extra), note=self._note(block, search, e0, extra, reached),
-                                evaluations=len(search.tried))
+        res = search.result((), self._note(block, search, e0, extra, reached))
         self._store(key, res, {"tried": [{"eta": r[0], "eta_std": r[1], **r[2]} for r in search.tried]})
         return res
 

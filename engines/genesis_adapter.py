@@ -322,7 +322,6 @@ class GenesisAdapter(SteppedContactAdapter):
                else f"constraint time constant {extra['timeconst_s']:.4g} s")
         head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
         note = head + (f"; the time constants tried span η = {lo:.4f}–{hi:.4f}." if len(search.tried) > 1 else ".")
-        res = CalibrationResult(eta_target=t, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                settings=dict(extra), note=note, evaluations=len(search.tried))
+        res = search.result((), note)
         self._store(key, res, {"tried": [{"eta": r[0], "eta_std": r[1], **r[2]} for r in search.tried]})
         return res
