@@ -61,8 +61,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from .base import Case, RestitutionMeasurement, Trajectory
 from .mujoco_adapter import MujocoAdapter, _angles_of, _Built
-# the Warp start-up shared with Newton (which imports it from here too)
-from .warp_start import cuda_driver_present, start_warp, warp_cache_dir
+from .warp_start import cuda_driver_present, start_warp
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a

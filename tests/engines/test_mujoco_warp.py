@@ -20,8 +20,9 @@ pytest.importorskip("mujoco_warp", reason="mujoco-warp is not installed (pip ins
 from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
 from rockbench.harness.suites.model import load_suite, suite_path
 from rockbench.harness.suites.plan import engine_names  # noqa: E402
-from rockbench.engines.mujoco_warp_adapter import MujocoWarpAdapter, warp_cache_dir  # noqa: E402
+from rockbench.engines.mujoco_warp_adapter import MujocoWarpAdapter  # noqa: E402
 from rockbench.engines.registry import adapter_class, get_adapter  # noqa: E402
+from rockbench.engines.warp_start import warp_cache_dir  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
 
