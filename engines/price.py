@@ -119,14 +119,15 @@ def anti_slip(adapter, block: Block, restitution: Restitution, dt_s: float | Non
 
 
 def contact_price(adapter, block: Block, restitution: Restitution, dt_s: float | None = None, *,
-                  first_quarter_s: float | None = None, slip_cells=PRICE_CELLS) -> dict:
+                  first_quarter_s: float | None = None, slip_cells=PRICE_CELLS, uplift: dict | None = None) -> dict:
     """Uplift threshold, anti-slip, period change and speed of ``adapter``'s contact (module docstring).
 
     ``adapter`` must already hold explicit contact settings (no calibration is triggered by the
     cases run here); ``first_quarter_s`` is the adapter's free-rocking time from α/2 to the first
-    impact, when it measured one.
+    impact, when it measured one; ``uplift`` is :func:`uplift_threshold` of this adapter, block,
+    restitution and step where the caller ran it already (the ramp is then not run again).
     """
-    up = uplift_threshold(adapter, block, restitution, dt_s)
+    up = uplift_threshold(adapter, block, restitution, dt_s) if uplift is None else uplift
     slip = anti_slip(adapter, block, restitution, dt_s, slip_cells) if slip_cells else None
     rigid = rigid_first_quarter_s(block)
     out = {"uplift": up, "anti_slip": slip,

@@ -188,6 +188,10 @@ class Search:
         eta, std, extra = min(ok or self.tried, key=lambda r: self.err(r[0]))
         return eta, std, extra, bool(ok) and self.err(eta) <= 0.01
 
+    def rows(self) -> list[dict]:
+        """What was tried, one dict per evaluation: ``eta``, ``eta_std`` and the contact settings."""
+        return [{"eta": eta, "eta_std": std, **extra} for eta, std, extra in self.tried]
+
     def result(self, contact_keys: tuple, note: str) -> CalibrationResult:
         """The pick (:meth:`best`) as a calibration: the settings ``contact_keys`` None but those the
         pick sets, ``note`` in words, every evaluation counted."""
@@ -618,7 +622,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
             tried.append({**r, "uplift_ratio": up.get("ratio", math.nan)})
             if not up.get("within"):
                 continue
-            pr = _price.contact_price(fixed, block, rest, dt)
+            pr = _price.contact_price(fixed, block, rest, dt, uplift=up)
             tried[-1].update(n_slip=pr["anti_slip"]["n_slip"], n_jump=pr["anti_slip"]["n_jump"])
             if pr["counts"]:
                 return r, pr, tried

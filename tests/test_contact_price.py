@@ -70,6 +70,16 @@ def test_price_line_says_within_or_not():
     assert P.price_line(None) == "price: not measured"
 
 
+def test_an_uplift_already_measured_is_not_measured_again(monkeypatch):
+    def no_ramp(*args):
+        raise AssertionError("the uplift ramp ran again")
+
+    monkeypatch.setattr(P, "uplift_threshold", no_ramp)
+    up = {"ratio": 1.004, "within": True, "rocks_below": False}
+    price = P.contact_price(None, PRESETS["B3M"].block(), None, 1e-3, first_quarter_s=None, slip_cells=(), uplift=up)
+    assert price["uplift"] is up and price["counts"] and price["anti_slip"] is None
+
+
 def _suite(tmp_path, variants: str):
     p = tmp_path / "s.toml"
     p.write_text(f"""
