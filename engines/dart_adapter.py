@@ -362,9 +362,9 @@ class DartAdapter(SteppedContactAdapter):
             if not e0 >= 0.99 * target:  # more than 1 % below the target, or no η: try the bounce
                 for e in _RESTITUTIONS_TRIED:
                     search.evaluate({**SHIPPED_CONTACT, "restitution_coeff": e})
-        eta, std, extra, reached = search.best()
+        eta, _, extra, reached = search.best()
         res = search.result((), self._note(block, search, e0, extra, reached))
-        self._store(key, res, {"tried": [{"eta": r[0], "eta_std": r[1], **r[2]} for r in search.tried]})
+        self._store(key, res, {"tried": search.rows()})
         return res
 
     @staticmethod

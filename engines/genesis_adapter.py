@@ -315,7 +315,7 @@ class GenesisAdapter(SteppedContactAdapter):
             for f in _TC_FACTORS:
                 if abs(f * dt - SHIPPED_TIMECONST_S) > 1e-12:
                     search.evaluate({"timeconst_s": f * dt})
-        eta, std, extra, reached = search.best()
+        eta, _, extra, reached = search.best()
         lo = min((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
         hi = max((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
         how = ("Genesis as shipped (constraint time constant 0.01 s)" if extra["timeconst_s"] == SHIPPED_TIMECONST_S
@@ -323,5 +323,5 @@ class GenesisAdapter(SteppedContactAdapter):
         head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
         note = head + (f"; the time constants tried span η = {lo:.4f}–{hi:.4f}." if len(search.tried) > 1 else ".")
         res = search.result((), note)
-        self._store(key, res, {"tried": [{"eta": r[0], "eta_std": r[1], **r[2]} for r in search.tried]})
+        self._store(key, res, {"tried": search.rows()})
         return res
