@@ -38,6 +38,7 @@ from ..reference_solver.classify import overturn_certain
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution, housner_eta
+from ..reference_solver.rules import RULES_VERSION
 from . import calibration
 from .base import CalibrationResult, EngineAdapter
 
@@ -245,9 +246,10 @@ class ContactEngineAdapter(EngineAdapter):
         return {"engine": self.name, "version": self.version()}
 
     def _cache_key(self, block: Block, target: float, dt: float, version: int, **identity) -> str:
-        """The calibration cache key: engine, its version, the calibration's ``version``, block,
+        """The calibration cache key: engine, its version, the calibration's ``version``, the rule set's
+        (:data:`~rockbench.reference_solver.rules.RULES_VERSION`), block,
         target η, step [s] and what else the result depends on (``identity``)."""
-        return calibration.cache_key(**self._cache_identity(), calibration_version=version,
+        return calibration.cache_key(**self._cache_identity(), calibration_version=version, rules_version=RULES_VERSION,
                                      block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
                                      target=target, dt=dt, **identity)
 

@@ -11,6 +11,7 @@ from rockbench.harness.blocks.presets import PRESETS
 from rockbench.harness.store.files import variant_name
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
+from rockbench.reference_solver.rules import RULES_VERSION
 
 NAMES = {-1: "", 0: "rest", 1: "rocking", 2: "overturn"}
 from rockbench.harness.store.files import COLUMNS, SCHEMA_VERSION  # the store's own layout, so fixtures follow it
@@ -35,6 +36,7 @@ def write_map(d, codes, *, engine="reference", block="B6M", pulse="sine", restit
             "restitution": rest.to_dict(), "eta": eta, "x": {"name": "w_ratio", "lo": w[0], "hi": w[1], "n": n_w},
             "y": {"name": "a_ratio", "lo": a[0], "hi": a[1], "n": n_a}, "dt_s": None, "linearized": False}
     run = {"schema_version": SCHEMA_VERSION, "kind": "rockbench-map", "created_utc": "2026-01-01T00:00:00Z",
+           "rules_version": RULES_VERSION,
            "engine": {"engine": engine, "version": "test", "settings": dict(settings or {})},
            "spec": spec, "spec_identity": spec, "options": {"adaptive": False}, "summary": None,
            "python": "3.11", "platform": "test", "git": {"commit": None, "dirty": None}}

@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Iterable
 
 from ...reference_solver.errors import ConfigError, IncomparableError
+from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from ...reference_solver.pulses import is_number
 from ..engine_info.versions import version_of
 from ..maps.result import MapResult
@@ -104,10 +105,12 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     pairs, skipped = [], []
     for c in candidates:
         check_complete(c, allow_incomplete)
+        check_rules(c)
         for r in (references if pair_with is None else pair_with(c)):
             if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
                 continue
             check_complete(r, reference=True)
+            check_rules(r)
             if not c.map.same_axes(r.map):
                 skipped.append({"engine_dir": str(c.path), "reference_dir": str(r.path),
                                 "reason": "different grids", "engine_grid": grid_of(c.map),
@@ -125,7 +128,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
                                 "(or pass it with --against).")
     pairs.sort(key=lambda p: p["key"])
     doc = {"kind": SCORE_KIND, "schema_version": SCORE_SCHEMA_VERSION, "metrics_version": METRICS_VERSION,
-           "created_utc": utc_stamp(),
+           "rules_version": RULES_VERSION, "created_utc": utc_stamp(),
            "metrics": [m.to_dict() for m in METRICS.values()], "pairs": pairs, "skipped": skipped}
     if experiments is not None:
         doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
@@ -190,6 +193,23 @@ def check_complete(entry: MapEntry, allow_incomplete=False, *, reference: bool =
     raise ConfigError(f"the {'reference' if entry.is_reference else 'engine'} map {str(entry.path)!r} is "
                       f"incomplete: {what}; complete it with "
                       f"{completing_command(entry.path)}, or score what is there with {ALLOW_INCOMPLETE}.")
+
+
+def check_rules(entry: MapEntry) -> None:
+    """Refuse a map this rockbench's store wrote under another rule set
+    (:mod:`~rockbench.reference_solver.rules`); a map from elsewhere (a bare cells.csv) has none.
+
+    Raises
+    ------
+    IncomparableError
+        Its run.json records another ``rules_version`` (or none: made before version 2).
+    """
+    if entry.run.get("kind") != "rockbench-map":
+        return
+    stale = rules_mismatch(entry.run.get("rules_version"), f"the map {str(entry.path)!r}")
+    if stale:
+        raise IncomparableError(f"{stale}; compute it again ({completing_command(entry.path)} in a new or "
+                                "emptied folder) before scoring it.")
 
 
 def completing_command(map_dir: Path) -> str:
@@ -495,6 +515,11 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
         holding one pair twice (several runs scored together).
     """
     tol = dict(parse_tolerances([]) if tolerances is None else tolerances)
+    rules = [str(d.get("rules_version", "1")) for d in (base, cur)]
+    if rules[0] != rules[1]:
+        raise IncomparableError(f"the results follow other rules (baseline rules version {rules[0]}, current "
+                                f"{rules[1]}; docs/engines.md says what each changed): rerun the older one with "
+                                "one rockbench (`rockbench run`) before comparing.")
     if base.get("metrics_version") != cur.get("metrics_version"):
         raise IncomparableError(f"the scores use other metric definitions (baseline metrics version "
                                 f"{base.get('metrics_version')}, current {cur.get('metrics_version')}; docs/scores.md "

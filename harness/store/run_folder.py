@@ -29,6 +29,7 @@ import sys
 from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
+from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from .files import (COLUMNS, NEW_OUT, SCHEMA_VERSION, check_map_schema, read_cells_file, read_json, spec_variant,
                     utc_stamp, write_json)
 from .lines import _fmt, plain_row
@@ -103,6 +104,9 @@ class RunStore:
         if run_json.exists():
             previous = read_json(run_json, NEW_OUT)
             check_map_schema(previous, d)
+            stale = rules_mismatch(previous.get("rules_version"), f"the map in {str(d)!r}")
+            if stale:
+                raise ConfigError(f"{stale}: delete {str(d)!r} to compute it again, or give another --out directory.")
             before = previous.get("spec_identity")
             if before != spec.identity():
                 diff = _differences(before if isinstance(before, dict) else {}, spec.identity())
@@ -121,6 +125,7 @@ class RunStore:
             "created_utc": previous.get("created_utc") if previous else utc_stamp(),
             "updated_utc": utc_stamp(),
             "rockbench_version": rockbench_version(),
+            "rules_version": RULES_VERSION,
             "git": git_info(),
             "python": sys.version.split()[0],
             "platform": platform.platform(),
