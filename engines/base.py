@@ -379,8 +379,12 @@ class EngineAdapter:
     install_hint: ClassVar[str] = ""
     #: accepted settings and their defaults
     SETTINGS: ClassVar[Mapping[str, Any]] = {}
-    #: default time step [s]
+    #: the benchmark's time step for this engine, where a case poses none and the engine does not
+    #: run as shipped (calibrated, or explicit settings) [s]
     default_dt_s: ClassVar[float] = 1e-3
+    #: the engine's own default time step, what it runs at as shipped (``settings="defaults"``) where a
+    #: case poses none [s]; None where the engine has no default step (``default_dt_s`` stands in)
+    shipped_dt_s: ClassVar[float | None] = None
     #: how the adapter batches cases (contract item 6): "none", "native" or "parallel"
     batching: ClassVar[Literal["none", "native", "parallel"]] = "none"
     #: settings that choose which of the engine's models runs (an engine with several solvers behind
@@ -510,9 +514,24 @@ class EngineAdapter:
         return str(getattr(mod, "__version__", getattr(mod, "version", "unknown")))
 
     # -- provided ----------------------------------------------------------------------------
+    def as_shipped(self) -> bool:
+        """Whether the engine runs as shipped: ``settings="defaults"`` (adapters without that setting
+        never do)."""
+        return self.settings.get("settings") == "defaults"
+
+    def unposed_dt_s(self, pulse=None) -> float:
+        """The time step where a case poses none [s]: as shipped the engine's own default step
+        (:attr:`shipped_dt_s`), but never coarser than ``pulse`` accepts (the benchmark poses the
+        pulse, and a step coarser than 1/20 of its wave does not follow it); otherwise, or where the
+        engine has no default step, :attr:`default_dt_s`."""
+        if not (self.as_shipped() and self.shipped_dt_s is not None):
+            return float(self.default_dt_s)
+        return float(self.shipped_dt_s) if pulse is None else min(float(self.shipped_dt_s), pulse.max_dt_s())
+
     def dt_for(self, case: Case) -> float:
-        """The time step a case runs with: its own, else the engine's default, checked against the pulse [s]."""
-        dt = case.dt_s if case.dt_s is not None else self.default_dt_s
+        """The time step a case runs with: its own, else :meth:`unposed_dt_s`, checked against the
+        pulse [s]."""
+        dt = case.dt_s if case.dt_s is not None else self.unposed_dt_s(case.pulse)
         return case.pulse.check_dt(dt)
 
     def simulate(self, case: Case) -> Trajectory:
@@ -583,6 +602,7 @@ class EngineAdapter:
                           max_friction_ratio=tr.max_friction_ratio)
 
     def describe(self) -> dict:
-        """Name, version and settings, for run.json."""
-        return {"engine": self.name, "version": self.version(), "settings": dict(self.settings)}
+        """Name, version, settings and the step where a case poses none [s], for run.json."""
+        return {"engine": self.name, "version": self.version(), "settings": dict(self.settings),
+                "unposed_dt_s": self.unposed_dt_s()}
 

@@ -101,6 +101,10 @@ class ContactEngineAdapter(EngineAdapter):
     CALIBRATION_VERSION: ClassVar[int] = 1
     #: version of the distributed contact's calibration; part of its cache key
     CALIBRATION_VERSION_DIST: ClassVar[int] = 1
+    #: what the engine's shipped settings do in this benchmark, measured, in one sentence that names
+    #: the setting (a stand-in where the engine ships none, a setting that fails the problem); run.json
+    #: records it with the resolved settings as shipped, and the verdict's failure reason quotes it
+    SHIPPED_NOTE: ClassVar[str | None] = None
     #: whether the adapter offers a row of contact points along the base (``contact`` layouts)
     distributed_contact: ClassVar[bool] = False
     #: what a point of the distributed contact is, in calibration notes
@@ -170,10 +174,10 @@ class ContactEngineAdapter(EngineAdapter):
 
     # -- the time step ------------------------------------------------------------------------
     def time_step_s(self, dt_s: float | None) -> float:
-        """The time step a run or a calibration uses [s]: ``dt_s``, or the engine's default when
+        """The time step a run or a calibration uses [s]: ``dt_s``, or :meth:`unposed_dt_s` when
         None; a ConfigError unless it is a finite number > 0."""
         if dt_s is None:
-            return float(self.default_dt_s)
+            return self.unposed_dt_s()
         try:
             dt = float(dt_s)
         except (TypeError, ValueError):
@@ -204,6 +208,8 @@ class ContactEngineAdapter(EngineAdapter):
             out = self._resolved_settings(block, dt, cal)
             if cal is not None:
                 out["calibration"] = self._calibration_summary(cal)
+            if self.as_shipped() and self.SHIPPED_NOTE:
+                out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
         return dict(self._resolved[key])
 

@@ -243,6 +243,8 @@ class DartAdapter(SteppedContactAdapter):
     module = "dartpy"
     install_hint = "install it with `pip install 'rockbench[dart]'` (or `pip install dartpy==6.20.0`; Python < 3.12)."
     default_dt_s = 5e-4
+    #: DART's own default step (World.getTimeStep()), what it runs at as shipped
+    shipped_dt_s = 1e-3
     #: no batch API: one case at a time, maps spread cells over worker processes
     batching = "none"
     SETTINGS = {

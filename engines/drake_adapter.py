@@ -310,6 +310,8 @@ class DrakeAdapter(SteppedContactAdapter):
     module = "pydrake"
     install_hint = "install it with `pip install 'rockbench[drake]'` (or `pip install drake`; 1.51.1 tested)."
     default_dt_s = 5e-4
+    #: Drake's own default step (MultibodyPlantConfig.time_step), what it runs at as shipped
+    shipped_dt_s = 1e-3
     #: no batch: one case at a time, maps spread cells over worker processes (like PyBullet)
     batching = "none"
     SETTINGS = {

@@ -493,6 +493,11 @@ class ExudynAdapter(SteppedContactAdapter):
     module = "exudyn"
     install_hint = "install it with `pip install 'rockbench[exudyn]'` (or `pip install exudyn`)."
     default_dt_s = 1e-4
+    SHIPPED_NOTE = ("Exudyn ships no contact stiffness: m·g/(2·1.34 µm) per corner stands in (a static sink of "
+                    "1.34 µm), with its shipped linear contact, restitution 1 and no damping (docs/exudyn.md)")
+    #: Exudyn's own default step (SimulationSettings: endTime 1 s in numberOfSteps 100), what it runs
+    #: at as shipped
+    shipped_dt_s = 1e-2
     SETTINGS = {
         **ContactEngineAdapter.SHARED_SETTINGS,
         "friction_zone_m_s": 1e-3,

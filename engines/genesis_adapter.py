@@ -212,6 +212,8 @@ class GenesisAdapter(SteppedContactAdapter):
     install_hint = ("install torch's CPU wheel first (pip install torch --index-url https://download.pytorch.org/whl/cpu), "
                     "then `pip install 'rockbench[genesis]'`.")
     default_dt_s = 5e-4
+    #: Genesis's own default step (SimOptions.dt), what it runs at as shipped
+    shipped_dt_s = 1e-2
     batching = "native"
     max_worlds = MAX_WORLDS
     SETTINGS = {

@@ -179,6 +179,8 @@ class MujocoAdapter(SteppedContactAdapter):
     install_hint = ("install it with `pip install 'rockbench[mujoco]'` (or `pip install mujoco`: a version "
                     "`rockbench engines` lists as supported; 4.0 tested).")
     default_dt_s = 5e-4
+    #: MuJoCo's own default step (mjOption.timestep), what it runs at as shipped
+    shipped_dt_s = 2e-3
     #: cells run through native multi-threaded rollouts: the skeleton's batch of worlds
     batching = "native"
     max_worlds = 512
@@ -203,6 +205,8 @@ class MujocoAdapter(SteppedContactAdapter):
         "threads": 0,
     }
 
+    SHIPPED_NOTE = ("MuJoCo's default pyramidal friction cone at the benchmark's μ = 10 lets the block sink "
+                    "through the table (with the elliptic cone, or μ = 1, it rocks: docs/mujoco.md)")
     #: whether this adapter builds the contact along the base (issue 18); a subclass that does not
     #: (MuJoCo Warp) sets it False: ``auto`` then keeps the corners for every target
     distributed_contact = True

@@ -271,6 +271,9 @@ class NewtonAdapter(SteppedContactAdapter):
     install_hint = ("install it with `pip install 'rockbench[newton]'` (Newton and warp-lang; Warp's CPU device "
                     "runs it without a GPU).")
     default_dt_s = 5e-4
+    #: none: Newton has no default step (its examples each choose a frame rate and substeps), so as
+    #: shipped it runs at default_dt_s
+    shipped_dt_s = None
     batching = "native"
     max_worlds = MAX_WORLDS
     SETTINGS = {

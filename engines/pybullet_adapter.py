@@ -334,6 +334,8 @@ class PybulletAdapter(SteppedContactAdapter):
     install_hint = ("install it with `pip install 'rockbench[pybullet]'` (or `pip install pybullet`: wheels for Linux, "
                     "macOS and Windows).")
     default_dt_s = 5e-4
+    #: PyBullet's own default step (fixedTimeStep, 1/240 s), what it runs at as shipped
+    shipped_dt_s = 1.0 / 240.0
     SETTINGS = {
         **SteppedContactAdapter.SHARED_SETTINGS,
         "friction": BULLET_MAX_FRICTION,

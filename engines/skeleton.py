@@ -500,7 +500,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
         """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
         from . import price as _price
 
-        dt = self.default_dt_s if dt_s is None else float(dt_s)
+        dt = self.time_step_s(dt_s)
         fixed = self._fixed(c.settings)
         m = fixed.measure_restitution(block, dt_s=dt)
         return _price.contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt,

@@ -144,8 +144,22 @@ def test_defaults_settings_run_the_shipped_contact():
     b = get_preset("B3M").block()
     res = ad.resolve(b, Restitution())
     assert res["impact_model"] == 0 and res["restitution_coefficient"] == 1.0 and res["damping_n_s_m"] == 0.0
-    out = ad.run(_case("B3M", "sine", 6.0, 0.9))
+    out = ad.run(cell_case("B3M", "sine", 6.0, 0.9, dt_s=1e-4))
     assert out.status == "ok" and out.outcome == "rest"
+
+
+def test_as_shipped_runs_at_exudyns_own_step_where_the_case_poses_none():
+    ad = get_adapter("exudyn", settings="defaults")
+    case = cell_case("B3M", "sine", 2.0, 0.9)         # a wave of 0.27 s
+    assert ad.dt_for(case) == 1e-2 == ad.time_step_s(None)
+    # a wave shorter than 20 of Exudyn's steps is followed at 1/20 of the wave
+    fast = cell_case("B3M", "sine", 16.0, 0.9)
+    assert ad.dt_for(fast) == pytest.approx(fast.pulse.duration_s / 20)
+    # at 10 ms the stand-in stiffness (a static sink of 1.34 µm) is far too stiff for the step: the
+    # corner breaks through, recorded for the cell like any engine error
+    out = ad.run(case)
+    assert out.status == "failed" and "broke through" in out.message
+    assert get_adapter("exudyn").dt_for(case) == 1e-4   # calibrated: the benchmark's step
 
 
 @pytest.mark.parametrize("settings", [
