@@ -31,8 +31,9 @@ PhysX steps ``substeps`` times per benchmark step (``h = Δt/substeps``); the ru
 per benchmark step. As shipped, SAPIEN's system steps 0.01 s (:data:`SHIPPED_DT_S`); the benchmark
 runs every contact engine at its own ``default_dt_s`` (0.5 ms here) unless a step is posed, because
 the pulse check refuses a 10 ms step for every pulse shorter than 0.2 s (docs/physx.md).
-``settings="calibrated"`` searches the substeps (:meth:`PhysxAdapter._calibrate_corners`): PhysX's
-impact loses more energy the longer its step, and the substeps are the knob that moves η.
+``settings="calibrated"`` runs PGS and searches the substeps (:meth:`PhysxAdapter._calibrate_corners`):
+PhysX's impact loses more energy the longer its step, and the substeps are the knob that moves η
+towards Housner's; PGS because TGS lets the pivot corner creep along the table at friction 10.
 
 Speed
 -----
@@ -64,6 +65,10 @@ SHIPPED_CONTACT = {"solver": "tgs", "position_iterations": 10, "velocity_iterati
 
 #: ``solver`` values: PhysX's temporal Gauss–Seidel (shipped) or projected Gauss–Seidel
 SOLVERS = ("tgs", "pgs")
+
+#: The solver a calibration runs: PGS holds the pivot corner at friction 10 where TGS (shipped) lets it
+#: creep past the slip tolerance (B3M sine 17 × 17: 0 spurious slip flags against 22, docs/physx.md)
+CALIBRATED_SOLVER = "pgs"
 
 #: Substeps a calibration tries in turn, coarsest first, until free rocking reaches the target (1 %);
 #: at 0.5 ms no more than 12: from a PhysX step of about 30 µs on, B3M's landing corner bounces and its
@@ -181,7 +186,7 @@ class PhysxAdapter(SteppedContactAdapter):
     Settings
     --------
     settings : {"calibrated", "defaults"}
-        The substeps calibrated to the case's η, or PhysX as shipped (:data:`SHIPPED_CONTACT`).
+        PGS with the substeps calibrated to the case's η, or PhysX as shipped (:data:`SHIPPED_CONTACT`).
     drive : {"inertial", "table"}
         The force −m·ü at the centre of mass, or a kinematic table moved along u(t).
     planar : bool
@@ -298,14 +303,16 @@ class PhysxAdapter(SteppedContactAdapter):
 
     # -- calibration --------------------------------------------------------------------------
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """PhysX as shipped but for its substeps, the fewest of :data:`SUBSTEPS_TRIED` whose free-rocking
-        η is within 1 % of ``target`` with impacts that agree within 2 %.
+        """PhysX as shipped but for its solver (:data:`CALIBRATED_SOLVER`) and its substeps, the fewest of
+        :data:`SUBSTEPS_TRIED` whose free-rocking η is within 1 % of ``target`` with impacts that agree
+        within 2 %.
 
         PhysX's plastic corner impact loses more than Housner's η_H the longer its step (measured in
-        docs/physx.md); iterations, contact offset and restitution (below the bounce threshold) do
-        not move η. The substeps are tried coarsest first and the search stops at the first that
-        reaches the target; when none does, the closest consistent one (``Search.best``). Cached on
-        disk per engine version, block, target, step, planar flag, friction and drive.
+        docs/physx.md); iterations move η less and do not reach η_H, contact offset and restitution
+        (below the bounce threshold) not at all. The substeps are tried coarsest first and the search
+        stops at the first that reaches the target; when none does, the closest consistent one
+        (``Search.best``). Cached on disk per engine version, block, target, step, planar flag,
+        friction and drive.
         """
         base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
         key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
@@ -314,12 +321,12 @@ class PhysxAdapter(SteppedContactAdapter):
             return cached
         search = self._search(block, dt, self._resolved_settings(block, dt, None), target)
         for n in SUBSTEPS_TRIED:
-            search.evaluate({"substeps": n})
+            search.evaluate({"solver": CALIBRATED_SOLVER, "substeps": n})
             if search.best()[3]:
                 break
         eta, _, extra, reached = search.best()
         etas = ", ".join(f"{r[2]['substeps']}: {r[0]:.4f}" for r in search.tried)
-        how = f"{extra['substeps']} PhysX steps per step of {dt:g} s"
+        how = f"{extra['substeps']} PhysX steps ({CALIBRATED_SOLVER.upper()}) per step of {dt:g} s"
         head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
         res = search.result((), f"{head}; η by substeps: {etas}.")
         self._store(key, res, {"tried": search.rows()})

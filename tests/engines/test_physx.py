@@ -7,7 +7,7 @@ PhysX in ``tests/engines/test_contract.py``; this file keeps what is PhysX's own
 What must hold (issue 36): outcomes match the reference far from its boundary with both drives;
 PhysX as shipped gives an η below Housner's that rises as its step shrinks, and only the PhysX step
 matters (substeps or a finer benchmark step give the same motion); the calibration reaches η_H with
-substeps; restitution below the bounce threshold changes nothing; the planar model is mirror-symmetric
+PGS and substeps; PGS holds the pivot corner where TGS lets it creep; restitution below the bounce threshold changes nothing; the planar model is mirror-symmetric
 to float32 round-off; the free body stays in the plane; importing the engine prints no renderer
 warning; a tiny map runs through ``rockbench map``.
 """
@@ -28,7 +28,7 @@ pytest.importorskip("sapien", reason="sapien is not installed (pip install 'rock
 from rockbench.harness.cli.main import main  # noqa: E402
 from rockbench.harness.blocks.presets import get_preset  # noqa: E402
 from rockbench.engines.base import CellResult  # noqa: E402
-from rockbench.engines.physx_adapter import SHIPPED_CONTACT, SUBSTEPS_TRIED  # noqa: E402
+from rockbench.engines.physx_adapter import SUBSTEPS_TRIED  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
@@ -90,13 +90,25 @@ def test_calibration_reaches_housner_with_substeps_and_is_cached():
     ad = get_adapter("physx")
     res = ad.calibrate(block, target)
     assert res.reached and abs(res.eta_measured - target) <= 0.01 * target, res.note
-    assert res.settings["substeps"] in SUBSTEPS_TRIED[1:] and set(res.settings) == {"substeps"}
+    assert res.settings["substeps"] in SUBSTEPS_TRIED[1:] and res.settings["solver"] == "pgs"
+    assert set(res.settings) == {"solver", "substeps"}
     assert res.evaluations == SUBSTEPS_TRIED.index(res.settings["substeps"]) + 1
-    assert "PhysX steps per step" in res.note
+    assert "PhysX steps (PGS) per step" in res.note
     again = get_adapter("physx").calibrate(block, target)
     assert again.settings == res.settings and again.eta_measured == res.eta_measured
     resolved = ad.resolve(block, Restitution())
-    assert resolved["substeps"] == res.settings["substeps"] and resolved["solver"] == SHIPPED_CONTACT["solver"]
+    assert resolved["substeps"] == res.settings["substeps"] and resolved["solver"] == "pgs"
+    assert resolved["position_iterations"] == 10 and resolved["contact_offset_m"] == 0.01  # the rest as shipped
+
+
+def test_pgs_holds_the_pivot_where_tgs_lets_it_creep():
+    # B3M sine, a cell inside the rigid model's domain (no lift, no slip required at friction 10)
+    c = case("B3M", "sine", 9.4375, 7.875)
+    assert get_adapter("reference").run(c).valid
+    tgs = get_adapter("physx", settings="defaults").run(c)
+    pgs = get_adapter("physx", settings="defaults", solver="pgs").run(c)
+    assert "slip" in tgs.flags and pgs.valid, (tgs.flags, pgs.flags)
+    assert pgs.diagnostics["max_slip_m"] < 0.5 * tgs.diagnostics["max_slip_m"]
 
 
 def test_restitution_below_the_bounce_threshold_changes_nothing():
