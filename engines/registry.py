@@ -24,6 +24,7 @@ BUILTIN = {
     "dart": "rockbench.engines.dart_adapter:DartAdapter",
     "newton": "rockbench.engines.newton_adapter:NewtonAdapter",
     "genesis": "rockbench.engines.genesis_adapter:GenesisAdapter",
+    "physx": "rockbench.engines.physx_adapter:PhysxAdapter",
 }
 
 #: the entry-point group third parties register under

@@ -22,11 +22,13 @@ DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
     "dart": ("dartpy",),
     "newton": ("newton", "warp-lang"),
     "genesis": ("genesis-world", "torch"),
+    "physx": ("sapien",),
 }
 
 #: the extra of pyproject.toml that installs each engine
 EXTRAS = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "mujoco_warp": "warp", "drake": "drake",
-          "dart": "dart", "newton": "newton", "genesis": "genesis"}
+          "dart": "dart", "newton": "newton", "genesis": "genesis",
+          "physx": "physx"}
 
 
 def _canonical(name: str) -> str:

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 #: Display names of the engines (registry name → name).
 ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet": "PyBullet", "exudyn": "Exudyn",
-                "mujoco_warp": "MuJoCo Warp", "drake": "Drake", "dart": "DART", "newton": "Newton", "genesis": "Genesis"}
+                "mujoco_warp": "MuJoCo Warp", "drake": "Drake", "dart": "DART", "newton": "Newton", "genesis": "Genesis",
+                "physx": "PhysX"}
 
 #: Engine settings that say nothing a reader needs when they have their default value.
 _QUIET = {"settings"}

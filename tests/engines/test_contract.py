@@ -1,4 +1,5 @@
-"""The adapter contract, one test for every contact engine (MuJoCo, PyBullet, Exudyn, Drake, DART, Genesis).
+"""The adapter contract, one test for every contact engine (MuJoCo, PyBullet, Exudyn, Drake, DART, Genesis,
+PhysX).
 
 What each engine's own test file used to check the same way: the conformance suite passes, the
 shared settings are checked, a bad time step is a ConfigError, the command line says what was
@@ -31,7 +32,7 @@ pytestmark = pytest.mark.engine
 #: engine name → the Python modules that must be importable for the engine to run (genesis-world
 #: imports torch without declaring it, docs/genesis.md)
 MODULES = {"mujoco": ("mujoco",), "pybullet": ("pybullet",), "exudyn": ("exudyn",), "drake": ("pydrake",),
-           "dart": ("dartpy",), "genesis": ("genesis", "torch")}
+           "dart": ("dartpy",), "genesis": ("genesis", "torch"), "physx": ("sapien",)}
 
 ENGINES = [pytest.param(n, marks=pytest.mark.skipif(any(importlib.util.find_spec(m) is None for m in ms),
                                                     reason=f"{n} not installed"))
@@ -79,6 +80,12 @@ SPEC = {
         slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, timeconst_s=0.002)),
         cli_block="B3M",
         cli_settings=lambda s: s["timeconst_s"] > 0),
+    "physx": dict(
+        trajectory=("B3M", "sine", 4.0, 3.0),
+        mirror=(("B3M", "sine", 6.0, 2.0), 3e-3, "alpha"),
+        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="defaults")),
+        cli_block="B6M",
+        cli_settings=lambda s: s["substeps"] > 1),
 }
 
 
