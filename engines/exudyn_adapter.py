@@ -41,19 +41,13 @@ Model
 
 End of a run
 ------------
-The run is the contact-engine skeleton's loop (:mod:`rockbench.engines.skeleton`) with the rule
-tested at segment ends (``stop_at = "segment"``): it is integrated in segments of ``segment_s``
-inside Exudyn's C++ solver, each segment kept whole, and stops at the end of the first segment where
-
-1. the block lies flat on its side (``|θ| ≥ π/2 − 0.01``), or, after the pulse, ``|θ| > α``
-   moving outward: the shared classifier's overturn rule, after which the block would fall
-   through the table (only its bottom corners carry contact spheres);
-2. after the pulse, at least ``min_tail_s`` has passed and the block is trapped below the barrier
-   (:func:`~rockbench.reference_solver.classify.overturn_impossible`, the contact engines' one rule:
-   it can then only overturn by gaining more energy than the ``energy-gain`` flag allows);
-3. ``tail_s`` after the pulse has passed.
-
-The shared classifier decides the outcome from the samples.
+The run is the contact-engine skeleton's loop (:mod:`rockbench.engines.skeleton`), integrated in
+segments of ``segment_s`` inside Exudyn's C++ solver, with every contact engine's one end-of-run
+rule (:func:`~rockbench.reference_solver.classify.run_end`) tested at every row Exudyn's sensors
+stored, at its own time (Exudyn shortens its step where Newton struggles, so a segment may hold
+more rows than steps: the rule counts rows, not steps). A run also ends where Exudyn's solver
+stopped (Newton did not converge even at its smallest step; the solver retries below). The shared
+classifier decides the outcome from the samples.
 
 Restitution
 -----------
@@ -480,10 +474,6 @@ class ExudynAdapter(SteppedContactAdapter):
     CALIBRATION_VERSION = 2
     CALIBRATION_VERSION_DIST = 3
     distributed_contact = True
-    #: the end-of-run rule at segment ends, the segment kept whole: the rule per sample changes
-    #: n_impacts in 52 of 888 cells (B3M sine calibrated) and 17 outcomes of the shipped contact
-    #: (B6L cosine defaults) (docs/engines.md)
-    stop_at = "segment"
     #: the shared peak ratio, a run whose solver stopped before all impacts an EngineError
     eta_reader = EtaReader(PEAK_RATIO.name, PEAK_RATIO.method, PEAK_RATIO.duration_s, _peak_ratio_or_stop)
     #: a measurement records Exudyn's contact parameters
@@ -573,7 +563,7 @@ class ExudynAdapter(SteppedContactAdapter):
         return type(self)(**{**self.settings, "contact_restitution": e, "contact": "distributed" if n > 2 else "corners",
                              "contact_points": n if n > 2 else None})
 
-    # -- the skeleton's hooks (one case at a time; the rule tested at segment ends) -------------
+    # -- the skeleton's hooks (one case at a time) ---------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> SimpleNamespace:
         """A holder for the model :meth:`_start` picks (it depends on the pulse and the release angle)."""
         return SimpleNamespace(model=None)
@@ -599,6 +589,10 @@ class ExudynAdapter(SteppedContactAdapter):
 
     def _advance(self, world, n_from: int, n_to: int) -> np.ndarray:
         return world.model.advance()
+
+    def _sample_steps(self, world, rows: np.ndarray, n_done: int) -> np.ndarray:
+        """Each row's step number, from its time (column 0): :func:`steps_of_times`."""
+        return steps_of_times(rows[:, 0], world.model.dt_s)
 
     def _halted(self, world) -> bool:
         return world.model.message is not None
@@ -732,6 +726,15 @@ class ExudynAdapter(SteppedContactAdapter):
         self._store(key, res, {"etas": fr.etas, "scan": scan})
         self._calibrations[key] = res
         return res
+
+
+def steps_of_times(t_s: np.ndarray, dt_s: float) -> np.ndarray:
+    """The step numbers of Exudyn's rows at times ``t_s`` [s] with step ``dt_s`` [s]: t/Δt, a
+    fraction where Exudyn shortened its step; within 1e-6 of a whole step, that step (the rounding
+    in t/Δt) [-]."""
+    k = np.asarray(t_s, dtype=float) / dt_s
+    whole = np.rint(k)
+    return np.where(np.abs(k - whole) < 1e-6, whole, k)
 
 
 def _refine(good: list, target: float, measure, regular):

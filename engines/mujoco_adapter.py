@@ -34,19 +34,10 @@ contacts see no mocap velocity). The block's reaction perturbs the table by abou
 End of a run
 ------------
 The run is the contact-engine skeleton's loop (:mod:`rockbench.engines.skeleton`; the cases of one
-model a batch of worlds in MuJoCo's multi-threaded rollouts), stepped in segments of fixed length
-on one global time grid (``segment_s``); after each segment the adapter checks, on the samples so
-far, whether the fate is decided (:meth:`MujocoAdapter._segment_end`):
-
-* the classifier's overturn is certain (``|θ| ≥ π/2 − 0.01``, or after the pulse ``|θ| > α``
-  moving outward), or
-* at least ``min_tail_s`` after the pulse has been simulated and the block has passed a turning
-  point (θ̇ changes sign) after the pulse with ``|θ| ≤ α``: from there a freely rocking block's
-  energy is below the barrier and can only fall, so it cannot overturn any more (the
-  ``energy-gain`` check watches for engines that break this), or
-* ``tail_s`` after the pulse have been simulated (the bounded tail).
-
-The shared classifier then decides the outcome on the samples; the adapter never does.
+model a batch of worlds in MuJoCo's multi-threaded rollouts), stepped in segments of ``segment_s``
+on one global time grid, with every contact engine's one end-of-run rule
+(:func:`~rockbench.reference_solver.classify.run_end`) tested at every sample. The shared
+classifier then decides the outcome on the samples; the adapter never does.
 
 Measurements
 ------------
@@ -73,12 +64,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..reference_solver.classify import turned_back
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement
-from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
+from .contact import POINTS_TRIED, ContactEngineAdapter
 from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
 from .rotation import quat_matrix, theta_rate_of_body
 from .skeleton import Motion, SteppedContactAdapter
@@ -184,10 +174,6 @@ class MujocoAdapter(SteppedContactAdapter):
     #: cells run through native multi-threaded rollouts: the skeleton's batch of worlds
     batching = "native"
     max_worlds = 512
-    #: the end of a run tested at segment ends, each segment kept whole: MuJoCo's own rule
-    #: (:meth:`_segment_end`); floor 1's rule per sample changes n_impacts in 220 of 855 cells
-    #: (B3M sine calibrated, docs/engines.md)
-    stop_at = "segment"
     SETTINGS = {
         **ContactEngineAdapter.SHARED_SETTINGS,
         "timeconst_s": None,
@@ -463,27 +449,6 @@ class MujocoAdapter(SteppedContactAdapter):
     def _angles(self, world, rows: np.ndarray):
         _, th, thd, _, _ = self._read(world["bm"], rows, world["block"])
         return th, thd
-
-    def _segment_end(self, world, block: Block, pulse, w: int, rows: list, n_to: int, steps: tuple,
-                     duration_s: float | None) -> str | None:
-        """MuJoCo's end of a run (module docstring): a non-finite state, ``tail_s`` after the pulse
-        (the last step rounded up), or :meth:`_decided` on all the samples so far."""
-        st = np.concatenate([r[w] for r in rows])
-        if not np.all(np.isfinite(st[-1])):
-            return "diverged"
-        bm = world["bm"]
-        if n_to >= math.ceil((pulse.duration_s + self.settings["tail_s"]) / bm.model.opt.timestep):
-            return "tail"
-        return "decided" if self._decided(bm, block, pulse.duration_s, st) else None
-
-    def _decided(self, bm: _Built, block: Block, t_end_s: float, st: np.ndarray) -> bool:
-        """Whether the run can stop (module docstring, "End of a run")."""
-        t, th, thd, _, _ = self._read(bm, st, block)
-        if np.any(overturn_certain(t, th, thd, alpha_rad=block.alpha_rad, t_pulse_end_s=t_end_s)):
-            return True
-        if t[-1] < t_end_s + self.settings["min_tail_s"]:
-            return False
-        return turned_back(t, th, thd, alpha_rad=block.alpha_rad, t_pulse_end_s=t_end_s)
 
     def _motion(self, world, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         """What MuJoCo measured: θ, θ̇, both bottom edges relative to the table, the block's energy,

@@ -23,23 +23,29 @@ step (in float64, on the device) and writes the step-averaged inertial force
 ``−m·(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` into that world's ``ctrl`` (the motor on the slide-x dof of the CPU
 adapter). Record pulses, which have no closed form, read ``u̇`` from a table computed on the host.
 A step is: drive kernel, ``mujoco_warp.step``, a kernel copying ``qpos``/``qvel`` into the segment
-buffer, a step counter. On a CUDA device up to ten such steps are captured once in a CUDA graph
-and the graph is launched for the rest of the run (no Python per step); on the CPU device the same
-launches run in a plain loop. Each world's samples come back once per segment; trajectories and the
+buffer, the end-of-run kernel (below), a step counter. On a CUDA device up to ten such steps are
+captured once in a CUDA graph and the graph is launched for the rest of the run (no Python per
+step); on the CPU device the same launches run in a plain loop. Each world's samples come back once per segment; trajectories and the
 verdicts (the one judge, :meth:`EngineAdapter.judge`) are then made per cell, for a large batch in
 forked processes (the ``_run_native`` hook).
 
 End of a run
 ------------
-As on the CPU: the batch runs in segments of ``segment_s`` on one global time grid; after each
-segment every world still running is checked with the CPU adapter's rule (overturn certain, or a
-turning point below α after ``min_tail_s`` past the pulse, or ``tail_s`` past the pulse). A world
-that is decided keeps being stepped with the others (a world cannot leave a batch cheaply) but its
-samples are no longer kept; the batch stops when every world is decided. A world's trajectory
-depends only on its own state, so a cell's result does not depend on the other cells of its batch:
-on the CPU device bit for bit (tested); on an H100 ``check-adapter`` found batches equal to single
-runs and reruns bit-identical, though MuJoCo Warp does not promise it (contacts are gathered with
-atomic counters, so their order inside a world could change the last float32 bits).
+The one end-of-run rule of every contact engine (floor 1's
+:func:`~rockbench.reference_solver.classify.run_end`), evaluated on the device at every sample: a
+kernel after each step reads the world's θ and θ̇ (in float64, from the float32 state, as the host
+reads them) and stops the world at the first sample where they are not finite, the block lies flat,
+after the pulse |θ| > α moving outward, or from ``min_tail_s`` after the pulse on its free-rocking
+energy is trapped below the barrier (the same ``TRAPPED_MARGIN``); else at ``tail_s`` after the
+pulse. Time is counted in steps exactly as on the CPU (:func:`~rockbench.engines.skeleton.run_steps`).
+The batch runs in segments of ``segment_s``; after each segment a running world's rows come back,
+up to its stop sample for a world that stopped in it. A world that has stopped keeps being stepped
+with the others (a world cannot leave a batch cheaply) but its samples are no longer kept; the
+batch stops when every world has stopped. A world's trajectory depends only on its own state, so a
+cell's result does not depend on the other cells of its batch: on the CPU device bit for bit
+(tested); on an H100 ``check-adapter`` found batches equal to single runs and reruns bit-identical,
+though MuJoCo Warp does not promise it (contacts are gathered with atomic counters, so their order
+inside a world could change the last float32 bits).
 
 Kernel cache
 ------------
@@ -56,11 +62,12 @@ import time
 
 import numpy as np
 
-from ..reference_solver.classify import overturn_certain
+from ..reference_solver.classify import END_REASONS, trapped_energy
 from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import Block
+from ..reference_solver.model import FLAT_ANGLE_RAD, Block
 from .base import Case, RestitutionMeasurement, Trajectory
-from .mujoco_adapter import MujocoAdapter, _angles_of, _Built
+from .mujoco_adapter import MujocoAdapter, _Built
+from .skeleton import run_steps
 from .warp_start import cuda_driver_present, start_warp
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
@@ -77,6 +84,13 @@ STEPS_PER_GRAPH = (10, 8, 5, 4, 2, 1)
 
 #: Most worlds in one ``Data`` (larger batches run as several, each independent).
 MAX_WORLDS = 65536
+
+#: How a world's run ended, by the code the device's end-of-run kernel writes (0: the tail, then
+#: floor 1's reasons in their order: ``_mujoco_warp_kernels.TAIL`` … ``TRAPPED``)
+ENDED_BY = ("tail",) + END_REASONS
+
+#: A step no run reaches: the device's "never" for a free-rocking run's pulse end and trapped rule
+_NEVER = 2**31 - 1
 
 _SOLVERS = ("newton", "cg")
 _DEVICES = ("auto", "cpu", "cuda")
@@ -97,7 +111,7 @@ def _kernels():
     """The adapter's own kernels (:mod:`rockbench.engines._mujoco_warp_kernels`, imported once Warp is set up)."""
     _warp()
     from . import _mujoco_warp_kernels as k
-    return {"drive": k.drive, "record": k.record, "advance": k.advance}
+    return {"drive": k.drive, "record": k.record, "end_of_run": k.end_of_run, "advance": k.advance}
 
 
 
@@ -108,11 +122,14 @@ _KIND_TABLE, _KIND_STILL = 3, 4
 
 class _Samples:
     """Each world's samples of one batch: ``[t, qpos, qvel]`` rows in float64, made world by world
-    when asked for (``samples[i]``), from the float32 rows the device recorded."""
+    when asked for (``samples[i]``), from the float32 rows the device recorded; and how each run
+    ended (``ended[i]``)."""
 
-    def __init__(self, parts: list, dt: float):
+    def __init__(self, parts: list, dt: float, ended: list):
         self.parts = parts
         self.dt = dt
+        #: how each world's run ended (:data:`ENDED_BY`)
+        self.ended = ended
 
     def __len__(self) -> int:
         return len(self.parts)
@@ -361,7 +378,7 @@ class MujocoWarpAdapter(MujocoAdapter):
             return raw
         bm, states, j = raw
         try:
-            return self._trajectory(bm, case, states[j])
+            return self._trajectory(bm, case, states[j], states.ended[j])
         except Exception as e:  # noqa: BLE001 - recorded for this cell
             return e
 
@@ -404,16 +421,40 @@ class MujocoWarpAdapter(MujocoAdapter):
         return res
 
     def _stop_rule(self, case: Case) -> dict:
-        b = case.block
-        return {"te": case.pulse.duration_s, "alpha": b.alpha_rad}
+        """What the end-of-run rule needs of one case: its steps (:func:`~rockbench.engines.skeleton.run_steps`:
+        the last, the pulse's and the first at which the trapped rule applies) and its block."""
+        tail_s, min_tail_s = self.settings["tail_s"], self.settings["min_tail_s"]
+        return {"steps": run_steps(self.dt_for(case), case.pulse.duration_s, tail_s, min_tail_s),
+                "alpha_rad": case.block.alpha_rad, "p_rad_s": case.block.p_rad_s}
+
+    def _end_args(self, bm: _Built, step, d, stops: list | None, n: int, n_steps: int | None) -> list:
+        """The inputs of the device's end-of-run kernel (:func:`_mujoco_warp_kernels.end_of_run`) for
+        ``n`` worlds: ``stops`` (:meth:`_stop_rule`), or None: free rocking of ``n_steps`` steps
+        (stopped early only where θ or θ̇ is not finite or the block lies flat, as the skeleton's
+        free-rocking test). The last two are the arrays it writes: the stop step (−1 while the world
+        runs) and why."""
+        wp, _ = _warp()
+        if stops is None:
+            stops = [{"steps": (n_steps, _NEVER, _NEVER), "alpha_rad": 0.0, "p_rad_s": 0.0}] * n
+        steps = np.minimum(np.array([st["steps"] for st in stops], dtype=float), _NEVER).astype(np.int32)
+        alpha = np.array([st["alpha_rad"] for st in stops])
+        p = np.array([st["p_rad_s"] for st in stops])
+        trap = np.array([trapped_energy(a, q) for a, q in zip(alpha, p)])
+        ith, iom = bm.qi["pos"] - 1 + (2 if bm.planar else 3), bm.qi["vel"] - 1 - bm.model.nq + (2 if bm.planar else 3)
+        f64 = [wp.array(x, dtype=wp.float64) for x in (alpha, p * p, trap)]
+        i32 = [wp.array(np.ascontiguousarray(steps[:, c]), dtype=wp.int32) for c in (1, 2, 0)]
+        return [step, d.qpos, d.qvel, int(bm.planar), int(ith), int(iom), *f64, float(FLAT_ANGLE_RAD), *i32,
+                wp.full(n, -1, dtype=wp.int32), wp.zeros(n, dtype=wp.int32)]
 
     def _run_batch(self, bm: _Built, pulses: list, stops: list | None, *, init: np.ndarray | None = None,
-                   solref: np.ndarray | None = None, n_steps: int | None = None) -> list[np.ndarray]:
-        """Step one batch of worlds; returns each world's samples ``[t, qpos, qvel]`` (float64).
+                   solref: np.ndarray | None = None, n_steps: int | None = None) -> _Samples:
+        """Step one batch of worlds; each world's samples ``[t, qpos, qvel]`` (float64) and how its
+        run ended.
 
-        ``stops`` (one dict per world, :meth:`_stop_rule`) ends each world by the end-of-run rule
-        (module docstring); None runs every world ``n_steps`` steps. ``init`` gives each world its
-        own initial ``[t, qpos, qvel]`` row (default: the settled state), ``solref`` its own contact
+        Each world's run ends by floor 1's end-of-run rule evaluated on the device at every sample
+        (module docstring): ``stops`` gives each world's steps and block (:meth:`_stop_rule`); None
+        runs every world ``n_steps`` steps (free rocking). ``init`` gives each world its own initial
+        ``[t, qpos, qvel]`` row (default: the settled state), ``solref`` its own contact
         ``(timeconst, dampratio)``.
         """
         wp, mjw = _warp()
@@ -427,13 +468,8 @@ class MujocoWarpAdapter(MujocoAdapter):
         s0 = bm.s0[:ncol]
         x0 = np.tile(s0, (n, 1)) if init is None else np.asarray(init, dtype=float).reshape(n, ncol)
         nseg = self._seg_steps(bm)
-        if stops is not None:
-            t_end = np.array([st["te"] for st in stops])
-            last_step = np.ceil((t_end + self.settings["tail_s"]) / dt).astype(np.int64)
-            alpha = np.array([st["alpha"] for st in stops])
-        else:
-            last_step = np.full(n, int(n_steps), dtype=np.int64)
-        kind, amp, omega, dur, row, vtab = _drive_arrays(pulses, int(last_step.max()), dt)
+        last = int(n_steps) if stops is None else max(st["steps"][0] for st in stops)
+        kind, amp, omega, dur, row, vtab = _drive_arrays(pulses, last, dt)
 
         with wp.ScopedDevice(dev):
             m = self._device_model(bm, dev, n if solref is not None else 0)
@@ -451,11 +487,14 @@ class MujocoWarpAdapter(MujocoAdapter):
                      wp.array(omega, dtype=wp.float64), wp.array(dur, dtype=wp.float64),
                      wp.array(row, dtype=wp.int32), wp.array(vtab, dtype=wp.float64),
                      float(bm.mass_kg if bm.drive == "inertial" else bm.push_mass_kg), dt, d.ctrl]
+            eargs = self._end_args(bm, step, d, stops, n, n_steps)
+            stop, why = eargs[-2:]
 
             def one_step():
                 wp.launch(k["drive"], dim=n, inputs=dargs)
                 mjw.step(m, d)
                 wp.launch(k["record"], dim=n, inputs=[step, nseg, d.qpos, d.qvel, d.nefc, d.nacon, hist, peak])
+                wp.launch(k["end_of_run"], dim=n, inputs=eargs)
                 wp.launch(k["advance"], dim=1, inputs=[step])
 
             graph = None
@@ -477,12 +516,9 @@ class MujocoWarpAdapter(MujocoAdapter):
             # way the host buffer is reused, so each segment's rows are copied out of it
             host = (wp.empty((n, nseg, nq + nv), dtype=wp.float32, device="cpu", pinned=True)
                     if wp.get_device(dev).is_cuda else hist)
-            active = np.ones(n, dtype=bool)
-            certain = np.zeros(n, dtype=bool)
-            turned = np.zeros(n, dtype=bool)
-            prev_thd = np.zeros(n)                   # the settled state is at rest
+            running = np.ones(n, dtype=bool)
             k0 = 0
-            while active.any():
+            while running.any():
                 if graph is not None:
                     for _ in range(nseg // per_graph):
                         wp.capture_launch(graph)
@@ -493,20 +529,18 @@ class MujocoWarpAdapter(MujocoAdapter):
                     wp.copy(host, hist)
                 self._check_capacity(peak.numpy(), d)     # (waits for the device)
                 h = host.numpy()                          # (n, nseg, nq + nv), float32, a view
-                t = (k0 + 1 + np.arange(nseg)) * dt
-                ia = np.nonzero(active)[0]
-                ha = h[ia] if ia.size < n else h.copy()
+                stopped = stop.numpy().copy()             # the sample each world stopped at, −1: running
+                ia = np.nonzero(running)[0]
+                ha = h[ia]                                # a copy: the buffer is reused
                 for j, i in enumerate(ia):
-                    parts[i].append(ha[j])
+                    # a world that stopped in this segment keeps its rows up to the stop sample
+                    parts[i].append(ha[j] if stopped[i] < 0 else ha[j, :stopped[i] - k0])
                 k0 += nseg
-                done = ~np.all(np.isfinite(ha), axis=(1, 2)) | (k0 >= last_step[ia])
-                if stops is not None:
-                    done |= self._decided_many(bm, ha, t, dt, t_end[ia], alpha[ia], certain, turned, prev_thd, ia)
-                active[ia[done]] = False
+                running &= stopped < 0
             self.world_steps_run += n * k0
             self.stepping_s += time.perf_counter() - t_start
         self._last_device = dev
-        return _Samples(parts, dt)
+        return _Samples(parts, dt, [ENDED_BY[c] for c in why.numpy()])
 
     @staticmethod
     def _capacity(bm: _Built) -> tuple[int, int]:
@@ -544,36 +578,10 @@ class MujocoWarpAdapter(MujocoAdapter):
         if worst > d.njmax:
             raise RuntimeError(f"mujoco_warp: {worst} constraint rows exceed the {d.njmax} allocated per world")
 
-    def _decided_many(self, bm: _Built, h: np.ndarray, t: np.ndarray, dt: float, te: np.ndarray, alpha: np.ndarray,
-                      certain: np.ndarray, turned: np.ndarray, prev_thd: np.ndarray, ia: np.ndarray) -> np.ndarray:
-        """The CPU adapter's end-of-run rule (:meth:`MujocoAdapter._decided`) for many worlds at once,
-        one segment at a time: ``certain``/``turned``/``prev_thd`` carry what earlier segments showed."""
-        th, thd = self._theta_columns(bm, h)
-        a = np.abs(th)
-        cert = np.any(overturn_certain(t[None, :], th, thd, alpha_rad=alpha[:, None], t_pulse_end_s=te[:, None]),
-                      axis=1)
-        certain[ia] |= cert
-        # a turning point after the pulse with |θ| ≤ α: θ̇ changes sign between consecutive samples
-        sg = np.sign(thd)
-        before = np.concatenate([np.sign(prev_thd[ia])[:, None], sg[:, :-1]], axis=1)
-        pair_post = (t - dt)[None, :] >= te[:, None]     # both samples of the pair after the pulse
-        turn = (before * sg <= 0) & pair_post & (a <= alpha[:, None])
-        turned[ia] |= turn.any(axis=1)
-        prev_thd[ia] = thd[:, -1]
-        enough = t[-1] >= te + self.settings["min_tail_s"]
-        return certain[ia] | (enough & turned[ia])
-
-    @staticmethod
-    def _theta_columns(bm: _Built, h: np.ndarray):
-        """θ and θ̇ of many worlds from recorded ``[qpos, qvel]`` rows ``(n, k, nq + nv)``, as the
-        CPU adapter's ``_read`` gives them (only the two columns read in float64 when planar)."""
-        th, thd, _ = _angles_of(bm, h if bm.planar else h.astype(np.float64), skip=1)
-        return th.astype(np.float64), thd.astype(np.float64)
-
-    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray) -> Trajectory:
+    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray, ended_by: str) -> Trajectory:
         """The trajectory of one world's samples ``st`` (the skeleton's read-out)."""
         s = {"drive": bm.drive, "planar": bm.planar}
-        run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": None}
+        run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": ended_by}
         tr = self._record({"bm": bm}, case.block, s, bm.model.opt.timestep, case.pulse, case.pulse.duration_s,
                           st, run)[0]
         tr.diagnostics.update(device=getattr(self, "_last_device", None), precision="float32",

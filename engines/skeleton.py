@@ -10,9 +10,9 @@ calibration frame; an engine adapter fills in a few hooks.
   below the barrier after ``min_tail_s``) says so, else ``tail_s`` after the pulse. The engine
   advances in segments (``segment_s``, or :attr:`~SteppedContactAdapter.default_segment_s`) and the
   rule is tested on each segment's samples; samples after the stop are dropped, so the result does
-  not depend on the segment length. An engine whose answers were fixed with the rule tested at
-  segment ends only, each segment kept whole, says so with
-  :attr:`~SteppedContactAdapter.stop_at` ``= "segment"``;
+  not depend on the segment length. An engine with its own sampling (more or fewer rows than steps
+  in a segment) gives each row's step number (:meth:`~SteppedContactAdapter._sample_steps`): the
+  rule counts the rows it got, each at its own time;
 * **the read-out** (:meth:`~SteppedContactAdapter._record`): both bottom corners relative to the
   table (:func:`corners`), the block's own energy
   (:func:`~rockbench.engines.contact.body_energy_j_kg`), penetration, steps and speed, from the
@@ -236,13 +236,6 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: worlds an engine steps together (1: one case at a time); an engine that steps a batch sets
     #: more, and ``batching = "native"``: cases of one block, settings and step run in batches
     max_worlds: ClassVar[int] = 1
-    #: where the end-of-run rule is tested: ``"sample"``, at every sample (the run stops at the first
-    #: sample the rule names); ``"segment"``, at the last sample of each whole segment, the run keeping
-    #: the segment to its end and ending with the first segment that ends within half a step of its
-    #: last instant. ``"segment"`` is for an engine whose answers were fixed with that rule (Exudyn:
-    #: the rule per sample changes n_impacts or the outcome in some cells, docs/engines.md); its
-    #: ``_advance`` may then return any number of rows for a segment (an engine's own sampling)
-    stop_at: ClassVar[str] = "sample"
     #: the settings that describe the contact (what a calibration chooses)
     CONTACT_KEYS: ClassVar[tuple] = ()
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
@@ -274,17 +267,12 @@ class SteppedContactAdapter(ContactEngineAdapter):
                 pulse) -> Motion:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def _segment_end(self, world, block: Block, pulse, w: int, rows: list, n_to: int, steps: tuple,
-                     duration_s: float | None) -> str | None:
-        """With :attr:`stop_at` ``"segment"``: whether world ``w``'s run ends at this segment's end
-        (step ``n_to``), and why; ``rows``: the state rows so far, one ``(worlds, n, k)`` array per
-        segment; ``steps``: the run's last step, the pulse's and the first at which the trapped rule
-        applies. Default: floor 1's end-of-run rule on the segment's last sample, else the tail."""
-        n_last, n_pulse, n_min = steps
-        th, om = self._angles(world, rows[-1][w, -1:])
-        end = run_end(np.array([n_to]), th, om, alpha_rad=block.alpha_rad, p_rad_s=block.p_rad_s,
-                      pulse_end_step=n_pulse if duration_s is None else math.inf, min_tail_step=n_min)
-        return end[1] if end is not None else ("tail" if n_to >= n_last else None)
+    def _sample_steps(self, world, rows: np.ndarray, n_done: int) -> np.ndarray:
+        """The step numbers of one world's new state rows ``(n, k)``, which follow step ``n_done``
+        (floats [-]). Default: one row per step. An engine with its own sampling (Exudyn shortens its
+        step where Newton struggles, so a segment may hold more rows than steps) gives each row's
+        time over the step."""
+        return np.arange(n_done + 1, n_done + rows.shape[0] + 1, dtype=float)
 
     def _retire(self, world, w: int) -> None:
         """World ``w`` has stopped: an engine that can may stop stepping it (its later rows are
@@ -310,66 +298,63 @@ class SteppedContactAdapter(ContactEngineAdapter):
                     duration_s: float | None = None) -> list[tuple[Trajectory, Motion]]:
         """The stepping loop: one world per pulse (at most :attr:`max_worlds`), stepped together.
 
-        Every world's samples are tested with floor 1's end-of-run rule after each segment, up to
-        its own longest tail (with :attr:`stop_at` ``"segment"``: :meth:`_segment_end` at each
-        segment's end); a world that has stopped is retired (:meth:`_retire`) and stepped on with the
-        others where a batch cannot drop a world, its later samples dropped. With :attr:`max_worlds` 1 the
-        hooks see one world (``_start`` gets the pulse, ``_advance`` returns ``(n, k)``); with more,
-        ``_start`` gets the list of pulses and both return a leading world axis.
+        Every world's new samples are tested with floor 1's end-of-run rule after each segment, up
+        to its own longest tail (:meth:`_stop`); a world that has stopped is retired
+        (:meth:`_retire`) and stepped on with the others where a batch cannot drop a world, its
+        later samples dropped. With :attr:`max_worlds` 1 the hooks see one world (``_start`` gets
+        the pulse, ``_advance`` returns ``(n, k)``); with more, ``_start`` gets the list of pulses
+        and both return a leading world axis.
         """
         world = self._world(block, s, dt)
         t_end = [p.duration_s if p is not None else 0.0 for p in pulses]
         # the tails: the resolved settings', else the adapter's (resolved settings may leave them out)
         tail_s, min_tail_s = (float(s.get(k, self.settings.get(k))) for k in ("tail_s", "min_tail_s"))
         steps = [run_steps(dt, te, tail_s, min_tail_s, duration_s) for te in t_end]
-        if self.stop_at == "segment":  # the last segment ends within half a step of the run's end
-            t_stop = [(te + tail_s) if duration_s is None else duration_s for te in t_end]
-            steps = [(int(math.ceil(ts / dt - 0.5)), n_p, n_m) for ts, (_, n_p, n_m) in zip(t_stop, steps)]
-        n_max = [n for n, _, _ in steps]
+        if duration_s is not None:  # free rocking: only divergence and the flat rule stop it early
+            steps = [(n_w, math.inf, n_min) for n_w, _, n_min in steps]
         one = self.max_worlds == 1
         seg = self._segment_steps(s, dt)
-        n_load = max(n_max) if self.stop_at == "sample" else -(-max(n_max) // seg) * seg
-        rows = [_worlds(self._start(world, block, s, dt, pulses[0] if one else pulses, theta0, n_load))]
+        rows = [_worlds(self._start(world, block, s, dt, pulses[0] if one else pulses, theta0,
+                                    max(n for n, _, _ in steps)))]
         n_rows = rows[0].shape[1]
-        stop: list = [None] * len(pulses)
-        ended = ["tail"] * len(pulses)
-        retired = [False] * len(pulses)
+        stop: list = [None] * len(pulses)          # (row index of the last sample kept, why)
         n_done = 0
         t0, c0 = time.perf_counter(), time.process_time()
         while any(e is None for e in stop):
-            n_to = n_done + seg
-            if self.stop_at == "sample":
-                n_to = min(max(n for n, e in zip(n_max, stop) if e is None), n_to)
+            n_to = min(max(st[0] for st, e in zip(steps, stop) if e is None), n_done + seg)
             new = _worlds(self._advance(world, n_done, n_to))
             rows.append(new)
-            n_rows += new.shape[1]
+            first, n_rows = n_rows, n_rows + new.shape[1]   # the row index of the segment's first row
             halted = self._halted(world)
-            for w, (n_w, n_pulse, n_min) in enumerate(steps):
-                if stop[w] is not None:
-                    continue
-                if self.stop_at == "segment":
-                    why = self._segment_end(world, block, pulses[w], w, rows, n_to, steps[w], duration_s)
-                    if why is not None or halted:
-                        stop[w], ended[w] = n_rows - 1, why or "halted"
-                    continue
-                m = min(min(n_to, n_w) - n_done, new.shape[1])
-                th, om = self._angles(world, new[w, :m])
-                end = run_end(np.arange(n_done + 1, n_done + m + 1), th, om, alpha_rad=block.alpha_rad,
-                              p_rad_s=block.p_rad_s, pulse_end_step=n_pulse if duration_s is None else math.inf,
-                              min_tail_step=n_min)
-                if end is not None:
-                    stop[w], ended[w] = n_done + 1 + end[0], end[1]
-                elif halted or n_done + m >= n_w:
-                    stop[w], ended[w] = n_done + m, ("halted" if halted else "tail")
             for w in range(len(pulses)):
-                if stop[w] is not None and not retired[w]:
-                    retired[w] = True
-                    self._retire(world, w)
+                if stop[w] is None:
+                    stop[w] = self._stop(world, block, new[w], n_done, n_to, steps[w], first, halted)
+                    if stop[w] is not None:
+                        self._retire(world, w)
             n_done = n_to
         run = {"wall_s": (time.perf_counter() - t0) / len(pulses), "cpu_s": (time.process_time() - c0) / len(pulses)}
         data = np.concatenate(rows, axis=1)
-        return [self._record(world, block, s, dt, p, te, data[w, :stop[w] + 1], {**run, "ended_by": ended[w]})
-                for w, (p, te) in enumerate(zip(pulses, t_end))]
+        return [self._record(world, block, s, dt, p, te, data[w, :k + 1], {**run, "ended_by": why})
+                for w, (p, te, (k, why)) in enumerate(zip(pulses, t_end, stop))]
+
+    def _stop(self, world, block: Block, new: np.ndarray, n_done: int, n_to: int, steps: tuple, first: int,
+              halted: bool) -> tuple[int, str] | None:
+        """Where one world's run ends among its new rows ``new`` (``(n, k)``, rows ``first…`` of the
+        run, after step ``n_done``; the engine was asked to step to ``n_to``), and why: floor 1's
+        :func:`~rockbench.reference_solver.classify.run_end` on each row at its own step number
+        (:meth:`_sample_steps`), else the engine's own stop (:meth:`_halted`), else the tail (the
+        run's last step, ``steps[0]``, reached); None: the run goes on."""
+        n_w, n_pulse, n_min = steps
+        k = self._sample_steps(world, new, n_done)
+        m = int(np.searchsorted(k, min(n_to, n_w) + 0.5))   # rows up to the run's last step
+        th, om = self._angles(world, new[:m])
+        end = run_end(k[:m], th, om, alpha_rad=block.alpha_rad, p_rad_s=block.p_rad_s, pulse_end_step=n_pulse,
+                      min_tail_step=n_min)
+        if end is not None:
+            return first + end[0], end[1]
+        if halted or (k[m - 1] if m else n_done) >= n_w - 0.5:
+            return first + m - 1, "halted" if halted else "tail"
+        return None
 
     def _record(self, world, block: Block, s: dict, dt: float, pulse, t_end: float, data: np.ndarray,
                 run: dict) -> tuple[Trajectory, Motion]:

@@ -159,26 +159,16 @@ def overturn_impossible(theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s
     Element by element on arrays (a boolean array).
     """
     p2 = p_rad_s * p_rad_s
-    e_trap = p2 - TRAPPED_MARGIN * p2 * (1.0 - math.cos(alpha_rad))
     th = np.asarray(theta_rad, dtype=float)
     om = np.asarray(theta_dot_rad_s, dtype=float)
-    return 0.5 * om * om + p2 * np.cos(alpha_rad - np.abs(th)) < e_trap
+    return 0.5 * om * om + p2 * np.cos(alpha_rad - np.abs(th)) < trapped_energy(alpha_rad, p_rad_s)
 
 
-def turned_back(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pulse_end_s: float) -> bool:
-    """Whether, after the excitation, the block passed a turning point (θ̇ changes sign between two
-    samples after ``t_pulse_end_s`` [s]) with ``|θ| ≤ α``: from there a freely rocking block's energy
-    is below the barrier and can only fall, so it cannot overturn any more.
-
-    MuJoCo's end-of-run test (and, segment by segment, MuJoCo Warp's), kept beside
-    :func:`overturn_impossible`: its calibrations and maps were measured with runs that end at the
-    segment where this holds, and another end changes the impacts counted (docs/engines.md).
-    """
-    t = np.asarray(t_s, dtype=float)
-    post = t >= t_pulse_end_s
-    sgn = np.sign(np.asarray(theta_dot_rad_s, dtype=float)[post])
-    a = np.abs(np.asarray(theta_rad, dtype=float))[post]
-    return bool(((sgn[:-1] * sgn[1:] <= 0) & (a[1:] <= alpha_rad)).any())
+def trapped_energy(alpha_rad: float, p_rad_s: float) -> float:
+    """The ideal free-rocking energy below which a block is trapped (:func:`overturn_impossible`):
+    the barrier ``p²`` less :data:`TRAPPED_MARGIN` of its height ``p²(1 − cos α)`` [rad²/s²]."""
+    p2 = p_rad_s * p_rad_s
+    return p2 - TRAPPED_MARGIN * p2 * (1.0 - math.cos(alpha_rad))
 
 
 def run_end(step, theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: float, pulse_end_step: float,

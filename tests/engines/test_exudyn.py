@@ -13,10 +13,12 @@ import sys
 import pytest
 
 from cells import cell_case
+from end_of_run import assert_ends_by_run_end
 
 pytest.importorskip("exudyn")
 
 from rockbench.harness.blocks.presets import get_preset
+from rockbench.engines.exudyn_adapter import steps_of_times
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.pulses import make_pulse
@@ -132,11 +134,20 @@ def test_free_3d_body():
     assert res.outcome == "rocking"
 
 
-def test_run_ends_early_once_the_overturn_is_certain(exudyn):
+def test_run_ends_at_the_row_the_one_rule_names(exudyn):
+    """Exudyn's rows, counted as rows at their own times: the run ends at the first row floor 1's
+    rule names, early once the overturn is certain."""
     # the contract's conventions and mirror symmetry: tests/engines/test_contract.py
-    case = _case("B3M", "sine", 2.0, 2.0)
-    tr = exudyn.simulate(case)
-    assert tr.t_s[-1] < case.pulse.duration_s + exudyn.settings["tail_s"]
+    ended = set()
+    for w, a in ((2.0, 2.0), (6.0, 2.0)):
+        case = _case("B3M", "sine", w, a)
+        tr = exudyn.simulate(case)
+        dt = tr.diagnostics["dt_s"]
+        assert "retried_at_dt_s" not in tr.diagnostics
+        ended.add(assert_ends_by_run_end(tr, case, dt, exudyn.settings["tail_s"], exudyn.settings["min_tail_s"],
+                                         steps=steps_of_times(tr.t_s[1:], dt)))
+        assert tr.t_s[-1] < case.pulse.duration_s + exudyn.settings["tail_s"]
+    assert ended == {"overturn", "trapped"}
 
 
 def test_defaults_settings_run_the_shipped_contact():

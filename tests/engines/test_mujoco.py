@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from cells import cell_case
+from end_of_run import assert_ends_by_run_end
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -130,12 +131,17 @@ def test_batches_equal_single_runs_bit_for_bit():
         assert np.array_equal(one.theta_dot_rad_s, tr.theta_dot_rad_s)
 
 
-def test_run_ends_within_the_tail_bounds():
+def test_run_ends_where_the_one_rule_says():
     # the contract's conventions and mirror symmetry: tests/engines/test_contract.py
     ad = get_adapter("mujoco")
-    tr = ad.simulate(_case("B3M", "sine", 6.0, 2.0))
-    assert tr.t_s[-1] >= tr.t_pulse_end_s + ad.settings["min_tail_s"] - 1e-9
-    assert tr.t_s[-1] <= tr.t_pulse_end_s + ad.settings["tail_s"] + ad.settings["segment_s"]
+    ended = set()
+    for w, a in ((6.0, 2.0), (3.0, 2.5)):
+        case = _case("B3M", "sine", w, a)
+        tr = ad.simulate(case)
+        ended.add(assert_ends_by_run_end(tr, case, tr.diagnostics["dt_s"], ad.settings["tail_s"],
+                                         ad.settings["min_tail_s"]))
+        assert tr.t_s[-1] <= tr.t_pulse_end_s + ad.settings["tail_s"] + tr.diagnostics["dt_s"]
+    assert ended == {"trapped", "overturn"}
     assert isinstance(MujocoAdapter.version(), str)
 
 

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from cells import cell_case
+from end_of_run import assert_ends_by_run_end
 
 pytest.importorskip("warp", reason="warp-lang is not installed (pip install 'rockbench[warp]')")
 pytest.importorskip("mujoco_warp", reason="mujoco-warp is not installed (pip install 'rockbench[warp]')")
@@ -39,6 +40,10 @@ CELLS = [
     ("B3M", "sine", 3.0, 2.5, "overturn"),
 ]
 
+#: cells near CPU MuJoCo's own boundaries at :data:`CONTACT` (ω/p 3: it overturns from a₀ 1.5 on, lifts
+#: off from 1.16 on): the last rocking cell below the overturn, trapped late, and the first lift-off
+NEAR = [("B3M", "sine", 3.0, 1.48), ("B3M", "sine", 3.0, 1.16)]
+
 
 def _case(block_name, kind, w, a, dt=DT):
     return cell_case(block_name, kind, w, a, dt_s=dt)
@@ -57,9 +62,18 @@ def _own_calibration_cache(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def warp_results():
+    """The device loop's verdicts and trajectories of :data:`CELLS` then :data:`NEAR`, one batch."""
     ad = get_adapter("mujoco_warp", **CONTACT)
-    cases = [_case(*c[:4]) for c in CELLS]
+    cases = [_case(*c[:4]) for c in CELLS + NEAR]
     return ad, cases, ad.run_many(cases), ad._simulate_many(cases)
+
+
+@pytest.fixture(scope="module")
+def cpu_results(warp_results):
+    """CPU MuJoCo's verdicts and trajectories of the same cases (the skeleton's loop, float64)."""
+    cases = warp_results[1]
+    cpu = get_adapter("mujoco", **{k: v for k, v in CONTACT.items() if k != "device"})
+    return cpu.run_many(cases), cpu._simulate_many(cases)
 
 
 def test_cells_are_far_from_the_reference_boundary():
@@ -69,17 +83,35 @@ def test_cells_are_far_from_the_reference_boundary():
         assert {r.outcome for r in res} == {expected}, (b, k, w, a)
 
 
-def test_outcomes_match_the_reference_and_cpu_mujoco(warp_results):
-    _, cases, res, _ = warp_results
-    cpu = get_adapter("mujoco", **{k: v for k, v in CONTACT.items() if k != "device"}).run_many(cases)
+def test_outcomes_match_the_reference_and_cpu_mujoco(warp_results, cpu_results):
+    res, cpu = warp_results[2], cpu_results[0]
     for cell, r, c in zip(CELLS, res, cpu):
         assert r.status == "ok", r.message
         assert r.outcome == cell[4] == c.outcome, (cell, r.outcome, c.outcome, r.flags)
         assert r.valid, (cell, r.flags, r.diagnostics)
-        assert r.n_impacts == c.n_impacts, cell
-        # float32 against float64, the same model: the largest tilt agrees closely
-        assert r.max_abs_theta_rad == pytest.approx(c.max_abs_theta_rad, rel=0.02, abs=1e-4), cell
         assert r.diagnostics["device"] == "cpu" and r.diagnostics["precision"] == "float32"
+
+
+def test_the_device_loop_ends_runs_where_cpu_mujoco_does(warp_results, cpu_results):
+    """The same rule on the device (float32 states) and on the CPU (float64): each cell stops for the
+    same reason at the same step, with the same outcome and impacts; the largest tilt agrees closely."""
+    _, cases, res, many = warp_results
+    cpu, cpu_tr = cpu_results
+    for case, r, c, tr, ctr in zip(cases, res, cpu, many, cpu_tr):
+        cell = (case.pulse.omega_rad_s, case.pulse.amplitude_mps2)
+        assert tr.diagnostics["ended_by"] == ctr.diagnostics["ended_by"], cell
+        assert tr.t_s.size == ctr.t_s.size, (cell, tr.t_s.size, ctr.t_s.size)
+        assert (r.outcome, r.n_impacts, r.valid) == (c.outcome, c.n_impacts, c.valid), cell
+        assert r.max_abs_theta_rad == pytest.approx(c.max_abs_theta_rad, rel=0.02, abs=1e-4), cell
+    assert {tr.diagnostics["ended_by"] for tr in many} == {"overturn", "trapped"}
+
+
+def test_the_device_stops_where_run_end_does(warp_results):
+    """Exactly floor 1's ``run_end`` on the device's own samples: each world's last sample is the first
+    the rule names (with its reason), or the run's last step when none is."""
+    ad, cases, _, many = warp_results
+    for case, tr in zip(cases, many):
+        assert_ends_by_run_end(tr, case, DT, ad.settings["tail_s"], ad.settings["min_tail_s"])
 
 
 def test_results_do_not_depend_on_the_batch(warp_results):
@@ -101,8 +133,8 @@ def test_trajectory_contract_and_end_of_run(warp_results):
         assert tr.t_s[-1] >= tr.t_pulse_end_s
         assert tr.t_s[-1] <= tr.t_pulse_end_s + ad.settings["tail_s"] + ad.settings["segment_s"] + 1e-9
         assert tr.corner_x_m.shape == (tr.t_s.size, 2) and tr.energy_j_kg.shape == tr.t_s.shape
-    # the overturn is decided early: the run stops at the end of the segment in which it became certain
-    assert res[2].outcome == "overturn"
+    # the overturn is decided early: the run stops at the sample where it became certain
+    assert res[2].outcome == "overturn" and many[2].diagnostics["ended_by"] == "overturn"
     assert many[2].t_s[-1] < many[2].t_pulse_end_s + ad.settings["tail_s"]
 
 

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from rockbench.engines.base import Case
+from end_of_run import assert_ends_by_run_end
 from rockbench.engines.skeleton import Motion, SteppedContactAdapter, pivot_pose
 from rockbench.reference_solver.model import G, Block
 from rockbench.reference_solver.pulses import make_pulse
@@ -106,27 +107,43 @@ def _verdict(cell) -> dict:
             "diagnostics": {k: v for k, v in cell.diagnostics.items() if k not in timing}}
 
 
-class _Segments(_Toy):
-    """The toy with the end-of-run rule tested at segment ends (``stop_at = "segment"``)."""
+class _OwnSampling(_OneAtATime):
+    """The toy stepping at half the step it is given and returning every half step's row: an engine
+    with its own sampling (two rows per step), which says when each row is (``_sample_steps``)."""
 
-    stop_at = "segment"
+    def _world(self, block, s, dt_s):
+        return super()._world(block, s, dt_s / 2)
+
+    def _start(self, w, block, s, dt_s, pulses, theta0_rad, n_steps):
+        return super()._start(w, block, s, dt_s / 2, pulses, theta0_rad, 2 * n_steps)
+
+    def _advance(self, w, n_from, n_to):
+        return super()._advance(w, 2 * n_from, 2 * n_to)
+
+    def _sample_steps(self, w, rows, n_done):
+        return n_done + 0.5 * np.arange(1, rows.shape[0] + 1)
+
+    def _motion(self, w, block, s, data, t_s, pulse):
+        m = super()._motion(w, block, s, data, t_s, pulse)
+        m.t_s = np.arange(data.shape[0]) * w["dt"]
+        return m
 
 
-class _SegmentsOneAtATime(_Segments):
-    max_worlds = 1
-    batching = "none"
-
-
-def test_the_rule_at_segment_ends_keeps_whole_segments():
-    cases = _cases()
-    seg = _Segments()._segment_steps(_Segments().settings, 1e-4)
-    per_sample = [_OneAtATime()._simulate(c) for c in cases]
-    single = [_SegmentsOneAtATime()._simulate(c) for c in cases]
-    batch = _Segments()._simulate_many(cases)
-    for s, one, b in zip(per_sample, single, batch):
-        # whole segments, never shorter than the run stopped per sample, the same samples as far as both go
-        assert (one.t_s.size - 1) % seg == 0 and one.t_s.size >= s.t_s.size
-        assert np.array_equal(one.theta_rad[:s.t_s.size], s.theta_rad)
-        assert b.t_s.size == one.t_s.size and np.array_equal(b.theta_rad, one.theta_rad)
-        assert b.diagnostics["ended_by"] == one.diagnostics["ended_by"]
-    assert {tr.diagnostics["ended_by"] for tr in single} - {"tail"}
+def test_an_engines_own_sampling_is_counted_row_by_row():
+    """Rows are counted as rows: the run ends at the row floor 1's rule names, at that row's own time
+    (not one row early, as counting rows as steps would), and matches the same engine run at the
+    half step with one row per step up to the rule's step rounding."""
+    dt = 1e-4
+    ad, fine_ad = _OwnSampling(), _OneAtATime()
+    ended = set()
+    for c in _cases():
+        own = ad._run(BLOCK, ad.settings, dt, c.pulse)[0]
+        fine = fine_ad._run(BLOCK, fine_ad.settings, dt / 2, c.pulse)[0]
+        n = min(own.t_s.size, fine.t_s.size)
+        assert np.array_equal(own.theta_rad[:n], fine.theta_rad[:n]) and np.array_equal(own.t_s[:n], fine.t_s[:n])
+        why = own.diagnostics["ended_by"]
+        assert why == fine.diagnostics["ended_by"] and abs(own.t_s.size - fine.t_s.size) <= 2
+        assert_ends_by_run_end(own, c, dt, ad.settings["tail_s"], ad.settings["min_tail_s"],
+                               steps=np.arange(1, own.t_s.size) / 2.0)    # the rows' own step numbers
+        ended.add(why)
+    assert "trapped" in ended and ended & {"flat", "overturn"}
