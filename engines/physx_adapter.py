@@ -28,9 +28,9 @@ impulses with Coulomb friction. No constraint and no impact law of ours.
 The time step
 -------------
 PhysX steps ``substeps`` times per benchmark step (``h = Δt/substeps``); the run records one sample
-per benchmark step. As shipped, SAPIEN's system steps 0.01 s (:data:`SHIPPED_DT_S`); the benchmark
-runs every contact engine at its own ``default_dt_s`` (0.5 ms here) unless a step is posed, because
-the pulse check refuses a 10 ms step for every pulse shorter than 0.2 s (docs/physx.md).
+per benchmark step. As shipped, SAPIEN's system steps 0.01 s (:data:`SHIPPED_DT_S`), and so does a
+case that poses no step, never coarser than 1/20 of its pulse's wave (the one rule of
+``EngineAdapter.unposed_dt_s``); calibrated, the benchmark's step (docs/physx.md).
 ``settings="calibrated"`` runs PGS and searches the substeps (:meth:`PhysxAdapter._calibrate_corners`):
 PhysX's impact loses more energy the longer its step, and the substeps are the knob that moves η
 towards Housner's; PGS because TGS lets the pivot corner creep along the table at friction 10.
@@ -213,7 +213,7 @@ class PhysxAdapter(SteppedContactAdapter):
     module = "sapien"
     install_hint = "install it with `pip install 'rockbench[physx]'` (or `pip install sapien==3.0.3`)."
     default_dt_s = 5e-4
-    #: SAPIEN's own step [s] (:data:`SHIPPED_DT_S`), for a suite that runs as-shipped variants at it
+    #: SAPIEN's own step [s] (:data:`SHIPPED_DT_S`): as shipped, a case that poses none runs at it
     shipped_dt_s = SHIPPED_DT_S
     #: no batch API on the CPU system: one case at a time, maps spread cells over worker processes
     batching = "none"
