@@ -311,3 +311,34 @@ def test_a_one_cell_grid_gives_a_verdict_not_an_error(write_map, tmp_path, capsy
     code, out, err = run_cli(capsys, "score", root, "--no-write")
     assert code == 0, err
     assert "tied with" in out
+
+
+def test_score_json_and_console_carry_per_scenario_values_gaps_and_merged_variants(write_map, band, tmp_path,
+                                                                                    capsys):
+    """End to end: the η_H–η_M reference gap of the scenario is measured, two variants of one engine
+    with the same cells are one entry, the adapter's note reaches the failure, and the console prints
+    the per-scenario table and the method."""
+    from rockbench.reference_solver.restitution import Restitution
+
+    root = tmp_path / "run"
+    write_map(root / "ref", band(12, 10, 6))
+    write_map(root / "ref-m", band(12, 10, 5), restitution=Restitution("modified", 0.8608))
+    write_map(root / "cal", band(12, 10, 6), engine="mujoco", settings={"settings": "calibrated"})
+    write_map(root / "def", band(12, 10, 6), engine="mujoco", settings={"settings": "defaults"})
+    write_map(root / "bad", band(12, 10, 0), engine="pybullet", settings={"settings": "defaults"})
+    run = json.loads((root / "bad" / "run.json").read_text())
+    run["engine"]["resolved_settings"] = {"shipped_note": "its shipped contact lets the block sink"}
+    (root / "bad" / "run.json").write_text(json.dumps(run))
+    code, out, _ = run_cli(capsys, "score", root)
+    assert code == 0
+    doc = json.loads((root / "score.json").read_text())
+    gap = doc["reference_gaps"]
+    assert [(g["block"], g["pulse"]) for g in gap] == [("B6M", "sine")] and gap[0]["boundary_mean"] > 0
+    rows = {r["variant"]: r for r in doc["verdict"]["variants"]}
+    cal, dflt = rows["mujoco[settings=calibrated]"], rows["mujoco[settings=defaults]"]
+    assert cal["same_as"] == ["mujoco[settings=defaults]"] and cal["rank"] == dflt["rank"] == 1
+    assert cal["per_scenario"][0]["reference_gap"] == gap[0]["boundary_mean"]
+    assert cal["physics"]["value"] == 0.0
+    text = " ".join(doc["verdict"]["text"])
+    assert "identical maps" in text and "its shipped contact lets the block sink" in text
+    assert "Per scenario" in out and "η_H–η_M reference gap" in out and "Ranks are tie groups" in out

@@ -128,13 +128,15 @@ def mean_cell(v: Variant) -> float:
 
 def per_scenario(v: Variant) -> list[dict]:
     """score.json's per-scenario values of a variant: value, own error, cluster, the η_H–η_M gap and
-    the value over it, held-out or not."""
+    the value over it, held-out or not, and whether it fails there (:func:`failing_scenarios`)."""
+    bad = {(b["block"], b["pulse"]) for b in failing_scenarios(v)}
     out = []
     for (block, pulse), s in sorted(v.scenarios.items()):
         gap = s.gap if math.isfinite(s.gap) else None
         out.append({"block": block, "pulse": pulse, "cluster": list(s.cluster), "value": _num(s.value),
                     "sd": s.sd, "cell_diagonal": s.cell, "reference_gap": gap,
-                    "relative_to_gap": _num(s.value / s.gap) if gap else None, "held_out": s.held_out})
+                    "relative_to_gap": _num(s.value / s.gap) if gap else None, "held_out": s.held_out,
+                    "fails": (block, pulse) in bad})
     return out
 
 
