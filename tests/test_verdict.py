@@ -156,13 +156,23 @@ def test_two_identical_maps_tie():
     assert rank([a, b]) == {"a": 1, "b": 1}
 
 
-def test_a_boundary_shifted_by_several_cells_in_every_scenario_does_not_tie():
+def test_a_boundary_shifted_by_half_a_cell_in_every_scenario_does_not_tie():
     cell = 0.36
     vals = [0.02, 0.05, 0.01, 0.03, 0.02, 0.04, 0.01, 0.02]
-    a, b = _variant("a", vals), _variant("b", [x + 3 * cell for x in vals])
+    a, b = _variant("a", vals), _variant("b", [x + cell / 2 for x in vals])
     res = _paired(b, a)
-    assert res["ratio"] > 10 and res["ci95"][0] > 1
+    assert res["ratio"] > 4 and res["ci95"][0] > 1
     assert rank([a, b]) == {"a": 1, "b": 2}
+
+
+def test_a_failing_variant_has_no_rank_and_costs_the_others_no_power():
+    """Three cells off everywhere fails: no tie group, and its comparisons are not in Holm's family."""
+    vals = [0.02, 0.05, 0.01, 0.03, 0.02, 0.04, 0.01, 0.02]
+    a, b, c = _variant("a", vals), _variant("b", [x + 0.18 for x in vals]), _variant("c", [x + 1.08 for x in vals])
+    assert rank([a, b, c]) == {"a": 1, "b": 2}
+    v = verdict(_doc({"a": vals, "b": [x + 0.18 for x in vals], "c": [x + 1.08 for x in vals]}))
+    row = next(r for r in v["variants"] if r["variant"] == "c")
+    assert row["rank"] is None and row["fails"] and all(o["p_holm"] is None for o in row["versus"])
 
 
 def test_holm_adjusts_step_down():
@@ -182,13 +192,13 @@ def test_a_tie_is_transitive():
 def test_ranks_are_groups_of_variants_not_counts_of_those_ahead():
     a = _variant("a", [0.010, 0.012, 0.011, 0.009, 0.010, 0.012, 0.011, 0.009])
     b = _variant("b", [0.011, 0.010, 0.012, 0.010, 0.011, 0.010, 0.009, 0.012])
-    c = _variant("c", [2.0, 2.5, 1.5, 3.0, 2.0, 2.2, 1.8, 2.6])
+    c = _variant("c", [0.20, 0.25, 0.15, 0.30, 0.20, 0.22, 0.18, 0.26])
     assert rank([c, b, a]) == {"a": 1, "b": 1, "c": 2}
 
 
 def test_variants_without_a_shared_scenario_are_not_resolved():
     a = Variant("a", "a", "a", CALIBRATED, {("B3M", "sine"): Scenario(0.01, 0.001, 0.3, (2.25, "sine"))})
-    b = Variant("b", "b", "b", CALIBRATED, {("B6M", "sine"): Scenario(5.0, 0.001, 0.3, (4.5, "sine"))})
+    b = Variant("b", "b", "b", CALIBRATED, {("B6M", "sine"): Scenario(0.2, 0.001, 0.3, (4.5, "sine"))})
     assert _paired(a, b)["ratio"] is None and rank([a, b]) == {"a": 1, "b": 1}
 
 

@@ -13,9 +13,10 @@ no file, no plotting. docs/scores.md argues every rule below; in short:
   added (:mod:`~rockbench.harness.scoring.statistics`).
 - **Identical answers** (one engine, the same cells everywhere) are one entry: compared, counted and
   ranked once.
-- **Ranks** are tie groups: entries in order of their geometric-mean distance, paired ratios over the
-  clusters they share, Holm-corrected over every comparison, a new group opened by the first entry that
-  a corrected comparison resolves from a member of the current group.
+- **Ranks** are tie groups of the passing entries: in order of their geometric-mean distance, paired
+  ratios over the clusters they share, Holm-corrected over every comparison between passing entries, a
+  new group opened by the first entry that a corrected comparison resolves from a member of the
+  current group. A failing variant has no rank.
 - **Failing**: a variant fails when in *any* scenario its boundary lies more than :data:`FAIL_CELLS`
   cell diagonal from the reference's (the grid itself resolves that), whatever its mean, or when
   nothing it simulated could be judged; the verdict names the scenario, the reasons read from its cell
@@ -147,25 +148,32 @@ def _num(x):
 # -- comparisons and ranks ----------------------------------------------------------------------------
 
 def comparisons(groups: list[list[Variant]]) -> dict[tuple[str, str], dict]:
-    """:func:`~.statistics.paired` for every ordered pair of entries (by their first variants' names), each
-    with its Holm-adjusted ``p_holm`` and ``resolved`` (p_holm below 1 − :data:`CONFIDENCE`)."""
+    """:func:`~.statistics.paired` for every ordered pair of entries (by their first variants' names).
+
+    The comparisons between passing entries are one family: each gets its Holm-adjusted ``p_holm``
+    and ``resolved`` (p_holm below 1 − :data:`CONFIDENCE`). A failing entry is out of the ranking
+    (it is named with the scenario it fails in), so its comparisons are reported but not tested:
+    ``p_holm`` None, ``resolved`` False; they would cost the passing entries power for nothing.
+    """
     heads = [g[0] for g in groups]
+    passing = {h.name for h in heads if not fails(h)}
     out = {(a.name, b.name): {"other": b.name, **paired(items(a), items(b))}
            for a in heads for b in heads if a is not b}
-    once = {tuple(sorted(k)): r["p"] for k, r in out.items()}
-    adj = holm(once)
+    family = {tuple(sorted(k)): r["p"] for k, r in out.items() if set(k) <= passing}
+    adj = holm(family)
     for k, r in out.items():
-        r["p_holm"] = adj[tuple(sorted(k))]
+        r["p_holm"] = adj.get(tuple(sorted(k)))
         r["resolved"] = r["p_holm"] is not None and r["p_holm"] < 1 - CONFIDENCE
     return out
 
 
 def rank(variants: list[Variant], versus: dict | None = None) -> dict[str, int]:
-    """Each variant's tie group, 1 the best (module docstring); identical variants share their entry's;
-    variants without a value get none."""
+    """Each passing variant's tie group, 1 the best (module docstring); identical variants share their
+    entry's; failing variants and those without a value get none."""
     groups = entries(variants)
     versus = comparisons(groups) if versus is None else versus
-    valued = sorted((g for g in groups if math.isfinite(log_mean(g[0]))), key=lambda g: log_mean(g[0]))
+    valued = sorted((g for g in groups if math.isfinite(log_mean(g[0])) and not fails(g[0])),
+                    key=lambda g: log_mean(g[0]))
     cut = tie_groups(valued, lambda x, y: versus[(x[0].name, y[0].name)]["resolved"])
     return {v.name: n for n, grp in enumerate(cut, 1) for e in grp for v in e}
 
@@ -180,7 +188,7 @@ def verdict(doc: dict) -> dict:
     ranks = rank(vs, versus)
     head_of = {v.name: g[0].name for g in groups for v in g}
     rows = [_row(v, ranks, versus, head_of, groups) for v in vs]
-    rows.sort(key=lambda r: (r["rank"] is None, r["rank"] or 0, r["value"] or 0.0, r["label"]))
+    rows.sort(key=lambda r: (r["rank"] is None, r["rank"] or 0, r["value"] is None, r["value"] or 0.0, r["label"]))
     return {"metric": PRIMARY_METRIC, "direction": PRIMARY.direction, "unit": PRIMARY.unit,
             "confidence": CONFIDENCE, "fail_cells": FAIL_CELLS, "variants": rows,
             "method": METHOD, "text": sentences(vs, rows)}
@@ -209,11 +217,11 @@ def _row(v: Variant, ranks: dict, versus: dict, head_of: dict, groups: list) -> 
 # -- in words ----------------------------------------------------------------------------------------
 
 #: The method in one sentence: under every verdict and summary table.
-METHOD = ("Ranks are tie groups: variants giving identical maps count once, are taken in order of their geometric-"
-          "mean boundary distance, and a variant opens a new group when a paired t-test of the log distance "
-          "ratio over the slenderness × pulse clusters they share (sizes averaged, each scenario's grid "
-          "resolution added), Holm-corrected over all comparisons at 5 %, resolves it from any member of the "
-          "group before it.")
+METHOD = ("Ranks are tie groups of the variants that pass: variants giving identical maps count once, are taken in "
+          "order of their geometric-mean boundary distance, and a variant opens a new group when a paired t-test "
+          "of the log distance ratio over the slenderness × pulse clusters they share (sizes averaged, each "
+          "scenario's grid resolution added), Holm-corrected over all comparisons between passing variants at "
+          "5 %, resolves it from any member of the group before it.")
 
 _CLASSES = ((CALIBRATED, "Best achievable (engines calibrated by rockbench)"),
             (AS_SHIPPED, "Out of the box (engines as shipped)"))
@@ -299,13 +307,18 @@ def _and(items_: list[str]) -> str:
     return items_[0] if len(items_) == 1 else ", ".join(items_[:-1]) + " and " + items_[-1]
 
 
+#: How many failing scenarios a failure names (worst first).
+_NAMED = 3
+
+
 def _failure(row: dict, by: dict) -> str:
     if row["value"] is None:
         why = ["nothing it simulated could be judged"]
     else:
-        worst = [f"{b['block']} {b['pulse']} at {number(b['value'])} (limit {number(b['limit'])})"
-                 for b in row["fails_in"]]
-        why = [f"off in {_and(worst)}"] + row["reasons"]
+        worst = [f"{b['block']} {b['pulse']} at {number(b['value'])}" for b in row["fails_in"][:_NAMED]]
+        more = len(row["fails_in"]) - _NAMED
+        why = [f"off in {_and(worst)}" + (f" and {more} more scenario{'s' if more > 1 else ''}" if more > 0 else "")
+               + f" (limit {number(row['fails_in'][0]['limit'])})"] + row["reasons"]
     if row["shipped_note"]:
         why.append(row["shipped_note"].rstrip("."))
     return f"{_name(row, by)} (mean {number(row['value'])}): {', and '.join(why)}"
