@@ -352,3 +352,24 @@ def test_score_json_and_console_carry_per_scenario_values_gaps_and_merged_varian
     text = " ".join(doc["verdict"]["text"])
     assert "identical maps" in text and "its shipped contact lets the block sink" in text
     assert "Per scenario" in out and "η_H–η_M reference gap" in out and "Ranks are tie groups" in out
+
+
+def test_a_map_calibrated_on_another_block_is_the_held_out_check(write_map, band, tmp_path, capsys):
+    """A map whose run.json says its calibration was made on the other size is held out: reported in its
+    own line, left out of the variant's value, ranks and failing rule."""
+    root = tmp_path / "run"
+    for block in ("B6M", "B6L"):
+        write_map(root / f"ref-{block}", band(12, 10, 6), block=block)
+    write_map(root / "own", band(12, 10, 6), engine="mujoco", block="B6M", settings={"settings": "calibrated"})
+    write_map(root / "held", band(12, 10, 3), engine="mujoco", block="B6L", settings={"settings": "calibrated"})
+    run = json.loads((root / "held" / "run.json").read_text())
+    run["engine"]["resolved_settings"] = {"calibration": {"calibrated_on": "B6M"}}
+    (root / "held" / "run.json").write_text(json.dumps(run))
+    assert run_cli(capsys, "score", root)[0] == 0
+    doc = json.loads((root / "score.json").read_text())
+    held = {p["block"]: p["held_out"] for p in doc["pairs"]}
+    assert held == {"B6M": False, "B6L": True}
+    row = doc["verdict"]["variants"][0]
+    assert row["value"] == 0.0 and not row["fails"] and row["scenarios_with_value"] == 1
+    assert row["held_out"]["scenarios"] == 1 and row["held_out"]["value"] > 0
+    assert any(t.startswith("Held-out check") for t in doc["verdict"]["text"])
