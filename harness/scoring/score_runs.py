@@ -173,15 +173,17 @@ def map_facts(c: MapEntry) -> dict:
     settings) and ``held_out`` (``...calibration.calibrated_on`` names another block)."""
     import hashlib
 
-    block = (c.run.get("spec") or {}).get("block") or {}
+    block = _obj(_obj(c.run).get("spec")).get("block")
     try:
         slender = round(float(block["height_m"]) / float(block["width_m"]), 4)
     except (KeyError, TypeError, ValueError, ZeroDivisionError):
         slender = None
+    if slender is not None and not (math.isfinite(slender) and slender > 0):
+        slender = None
     out = np.ascontiguousarray(c.map.outcome, dtype=np.int8)
-    resolved = (c.run.get("engine") or {}).get("resolved_settings") or {}
-    cal = resolved.get("calibration") if isinstance(resolved.get("calibration"), dict) else {}
-    on = cal.get("calibrated_on")
+    resolved = _obj(_obj(_obj(c.run).get("engine")).get("resolved_settings"))
+    cal = _obj(resolved.get("calibration"))
+    on = cal.get("calibrated_on") if isinstance(cal.get("calibrated_on"), str) else None
     facts = {"slenderness": slender,
              "engine_cells": hashlib.sha1(out.tobytes() + str(out.shape).encode()).hexdigest()[:16],
              "held_out": bool(on) and str(on).upper() != str(c.block).upper()}
@@ -192,6 +194,12 @@ def map_facts(c: MapEntry) -> dict:
     if on:
         facts["calibrated_on"] = str(on)
     return facts
+
+
+def _obj(x) -> dict:
+    """``x`` when it is a JSON object, else an empty one (run.json is read defensively: absent or
+    damaged keys are normal)."""
+    return x if isinstance(x, dict) else {}
 
 
 def reference_gaps(references: list[MapEntry]) -> list[dict]:
