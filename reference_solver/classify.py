@@ -18,7 +18,8 @@ engine alike):
 ``n_impacts`` counts the crossings of θ from one side to the other, and ``t_uplift_s`` is the first
 instant θ leaves the caller's measurement tolerance (``uplift_tol_rad``: 0 for the rigid reference,
 whose uplift is exact; :data:`UPLIFT_TOL_FRAC` of α for a soft contact); ``t_overturn_s`` is the
-last outward crossing of ``|θ| = α`` before the overturn was certain (None if not overturned, NaN if decided by energy before θ reached α).
+last outward crossing of ``|θ| = α`` before the overturn was certain (None if not overturned, NaN if
+decided by energy before θ reached α).
 """
 
 from __future__ import annotations

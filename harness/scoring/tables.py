@@ -184,7 +184,8 @@ def scenario_rows(doc: dict) -> tuple[list[str], list[list[str]]]:
             if s is None:
                 cells.append("")
                 continue
-            cells.append(number(s["value"]) + (" !" if s.get("fails") else "") + (" (held out)" if s["held_out"] else ""))
+            mark = (" !" if s.get("fails") else "") + (" (held out)" if s["held_out"] else "")
+            cells.append(number(s["value"]) + mark)
         body.append([row_label(r), *cells])
     return ["engine", *(f"{b} {p}" for b, p in keys)], body
 
