@@ -74,7 +74,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange, set_parallel_chunksize
 
-from .classify import FLAT_ANGLE_RAD, OUTCOME_CODES, Outcome, OUTCOME_FROM_CODE, classify
+from .classify import FLAT_ANGLE_RAD, OUTCOME_CODES, UPLIFT_TOL_FRAC, Outcome, OUTCOME_FROM_CODE, classify
 from .demand import D_MAX_F, D_MIN_N, demand_start, demand_update
 from .errors import ConfigError, check_positive
 from .model import G, Block
@@ -642,7 +642,10 @@ def _verdict(cs, dm, steps, newton, ni, energy_mode, t_end, alpha, p2, eta, lin)
     stats[_S_MAXTH] = cs[_C_MAX]
     stats[_S_MINN] = dm[D_MIN_N]
     stats[_S_MAXF] = dm[D_MAX_F]
-    if cs[_C_LIFTED] == 0.0:
+    if cs[_C_LIFTED] == 0.0 or (cs[_C_CERTAIN] == 0.0 and cs[_C_MAX] <= UPLIFT_TOL_FRAC * alpha
+                                and not (energy_mode and cs[_C_LASTT] >= t_end
+                                         and _fate(cs[_C_LASTTH], cs[_C_LASTTHD], alpha, p2, eta, lin)[0])):
+        # rule 1 of classify.classify: never beyond the one uplift tolerance, and not overturned
         stats[_S_OUTCOME] = _REST
         stats[_S_NIMP] = 0.0
         stats[_S_TUP] = np.nan

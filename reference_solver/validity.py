@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .classify import decision_index
+from .classify import UPLIFT_TOL_FRAC, decision_index, uplift_tol  # noqa: F401 - the one uplift tolerance
 from .energy import ENERGY_GAIN_TOL  # noqa: F401 - the rule's tolerance, defined with the energy
 from .model import G, Block
 
@@ -66,8 +66,6 @@ LEFT_MODEL_FLAGS = frozenset({"slip", "jump", "lift-required", "slip-required"})
 SLIP_TOL_FRAC = 0.01
 #: Jump tolerance as a fraction of the block's width b [-].
 JUMP_TOL_FRAC = 0.005
-#: Uplift tolerance of soft-contact engines as a fraction of α [-] (see :func:`uplift_tol_rad`).
-UPLIFT_TOL_FRAC = 0.02
 #: |θ| at or below this fraction of α is left out of the energy check [-].
 NEAR_UPRIGHT_FRAC = 0.1
 #: Default friction coefficient of the contact-demand test: the engines' anti-slip friction [-].
@@ -85,13 +83,10 @@ def jump_tol_m(block: Block) -> float:
 
 
 def uplift_tol_rad(block: Block) -> float:
-    """|θ| below which a soft-contact engine's block counts as not lifted [rad]: 2 % of α.
-
-    Soft contacts let a block standing on its base tilt by a few tenths of a milliradian under a
-    horizontal load; 2 % of α (4 mrad for the h/b = 4.5 blocks) sits above that and far below any
-    rocking motion worth the name.
-    """
-    return UPLIFT_TOL_FRAC * block.alpha_rad
+    """|θ| at or below which a block counts as not lifted [rad]: the classifier's one uplift tolerance
+    (:data:`~rockbench.reference_solver.classify.UPLIFT_TOL_FRAC` of α), the same for every engine and
+    the reference."""
+    return uplift_tol(block.alpha_rad)
 
 
 def barrier_energy_j_kg(block: Block) -> float:

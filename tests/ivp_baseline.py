@@ -83,17 +83,17 @@ def solve_events(alpha, p, eta, pulse, *, linearized=False, rtol=1e-10, atol=1e-
     while True:
         if s == 0:
             if t >= t_end:
-                return _result("rocking" if lifted else "rest", impacts, t_up, max_th, None, nfev)
+                return _classified(alpha, "rocking" if lifted else "rest", impacts, t_up, max_th, None, nfev)
             tu = _first_uplift(accel, t, t_end, thr, n_scan)
             if tu is None:
-                return _result("rocking" if lifted else "rest", impacts, t_up, max_th, None, nfev)
+                return _classified(alpha, "rocking" if lifted else "rest", impacts, t_up, max_th, None, nfev)
             t, th, thd = tu, 0.0, 0.0
             s = -1 if accel(tu) > 0 else 1
             if not lifted:
                 lifted, t_up = True, tu
         post = t >= t_end
         if post and abs(th) > alpha and th * thd > 0:
-            return _result("overturn", impacts, t_up, max(max_th, abs(th)), None, nfev)
+            return _classified(alpha, "overturn", impacts, t_up, max(max_th, abs(th)), None, nfev)
         t_stop = t_end if not post else t + 200.0 / p
         rhs = _rhs_factory(alpha, p, accel if not post else (lambda _t: 0.0), s, linearized)
 
@@ -117,7 +117,7 @@ def solve_events(alpha, p, eta, pulse, *, linearized=False, rtol=1e-10, atol=1e-
         max_th = max(max_th, float(np.max(np.abs(sol.y[0]))))
         if sol.t_events[1].size or sol.t_events[2].size:
             t_over = float(sol.t_events[2][0]) if sol.t_events[2].size else None
-            return _result("overturn", impacts, t_up, max_th, t_over, nfev)
+            return _classified(alpha, "overturn", impacts, t_up, max_th, t_over, nfev)
         if sol.t_events[0].size:
             ti = float(sol.t_events[0][0])
             vm = float(sol.y_events[0][0][1])
@@ -126,7 +126,7 @@ def solve_events(alpha, p, eta, pulse, *, linearized=False, rtol=1e-10, atol=1e-
             if post:
                 impacts_after += 1
                 if impacts_after >= 2:
-                    return _result("rocking", impacts, t_up, max_th, None, nfev)
+                    return _classified(alpha, "rocking", impacts, t_up, max_th, None, nfev)
             s = -s
             t, th, thd = ti, 0.0, vp
             a0 = rhs(ti, [0.0, vp])[1]
@@ -134,12 +134,20 @@ def solve_events(alpha, p, eta, pulse, *, linearized=False, rtol=1e-10, atol=1e-
             if s * a0 < 0 and eta < 1 and 2 * abs(vp) / abs(a0) / (1 - eta) < 1e-6:
                 s, thd = 0, 0.0
             if len(impacts) > max_impacts:
-                return _result("rocking", impacts, t_up, max_th, None, nfev)
+                return _classified(alpha, "rocking", impacts, t_up, max_th, None, nfev)
             continue
         # reached t_stop without an event
         t, th, thd = float(sol.t[-1]), float(sol.y[0][-1]), float(sol.y[1][-1])
         if post:
-            return _result("rocking", impacts, t_up, max_th, None, nfev)
+            return _classified(alpha, "rocking", impacts, t_up, max_th, None, nfev)
+
+
+def _classified(alpha, outcome, impacts, t_up, max_th, t_over, nfev):
+    """The result, with the classifier's rule 1: a motion that never leaves the one uplift tolerance
+    (2 % of α) is rest."""
+    if outcome == "rocking" and max_th <= 0.02 * alpha:
+        return _result("rest", [], None, max_th, None, nfev)
+    return _result(outcome, impacts, t_up, max_th, t_over, nfev)
 
 
 def _result(outcome, impacts, t_up, max_th, t_over, nfev):

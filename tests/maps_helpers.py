@@ -160,14 +160,15 @@ class CrashingBatchAdapter(BatchAnalyticAdapter):
 
 
 class WrongAdapter(AnalyticAdapter):
-    """Breaks the contract: θ in degrees, the wrong sign, and a little noise (not deterministic)."""
+    """Breaks the contract: θ in degrees, the wrong sign, and noise (not deterministic) above the one
+    uplift tolerance (2 % of α), so that a block below the uplift threshold seems to rock."""
 
     name = "wrong"
 
     def _simulate(self, case):
         tr = super()._simulate(case)
         rng = np.random.default_rng()
-        tr.theta_rad = -np.degrees(tr.theta_rad) + 1e-3 * rng.standard_normal(tr.theta_rad.size)
+        tr.theta_rad = -np.degrees(tr.theta_rad) + 2e-2 * rng.standard_normal(tr.theta_rad.size)
         return tr
 
 

@@ -84,10 +84,10 @@ def test_classify_uses_energy_only_when_eta_given():
     assert c.outcome is Outcome.OVERTURN and math.isnan(c.t_overturn_s)
 
 
-def test_uplift_tolerance():
-    t, th, thd = _traj(1e-4 * np.sin(np.linspace(0, 8, 100)))
+def test_a_caller_may_only_widen_the_uplift_tolerance():
+    t, th, thd = _traj(0.03 * ALPHA * np.sin(np.linspace(0, 8, 100)))
     assert classify(t, th, thd, alpha_rad=ALPHA, p_rad_s=P, t_pulse_end_s=1,
-                    uplift_tol_rad=1e-3).outcome is Outcome.REST
+                    uplift_tol_rad=0.05 * ALPHA).outcome is Outcome.REST
     assert classify(t, th, thd, alpha_rad=ALPHA, p_rad_s=P, t_pulse_end_s=1).outcome is Outcome.ROCKING
 
 
@@ -104,3 +104,16 @@ def test_fate_at_theta_zero_is_post_impact():
     need = math.sqrt(2 * P**2 * (1 - math.cos(ALPHA)))
     assert free_rocking_fate(0.0, -need * 1.001, ALPHA, P, 0.5) == (True, 0)
     assert free_rocking_fate(0.0, need * 0.999, ALPHA, P, 0.5) == (False, 0)
+
+
+def test_one_uplift_tolerance_for_the_reference_and_every_engine():
+    """Rest against rocking is decided by 2 % of α for everyone: a trajectory that lifts by 1 % of α is
+    rest whether the caller measures uplift exactly (the reference, tolerance 0) or not (an engine);
+    one that lifts by 3 % of α rocks for both. The exact caller keeps its exact uplift instant."""
+    from rockbench.reference_solver.classify import uplift_tol
+    for frac, expected in ((0.01, Outcome.REST), (0.03, Outcome.ROCKING)):
+        t, th, thd = _traj(frac * ALPHA * np.sin(np.linspace(0, 8, 100)))
+        for tol in (0.0, uplift_tol(ALPHA)):
+            c = classify(t, th, thd, alpha_rad=ALPHA, p_rad_s=P, t_pulse_end_s=1, uplift_tol_rad=tol)
+            assert c.outcome is expected
+            assert (c.t_uplift_s is None) == (expected is Outcome.REST)

@@ -48,11 +48,13 @@ def test_report_files_and_tables(report):
     md = (out / "report.md").read_text()
     assert "## Summary: which engine is how faithful" in md and "| rank | engine variant | pairs |" in md
     # words, not keys; ranked by the boundary (mujoco is one row off, pybullet two rows off the reference:
-    # one scenario, a difference of more than half a cell is resolved), its best group in bold
+    # more than a cell diagonal, so it fails, has no rank and is never bold), the best group in bold
     row = next(ln for ln in md.splitlines() if ln.startswith("| 1 | MuJoCo, calibrated to η_H | 1 |"))
     assert "**" in row and "mujoco[settings=calibrated]" not in md.split("<details>")[0]
-    other = next(ln for ln in md.splitlines() if ln.startswith("| 2 | PyBullet"))
+    other = next(ln for ln in md.splitlines() if ln.startswith("| - | PyBullet, calibrated to η_H (fails)"))
     assert "**" not in other
+    # the method under the summary, and the per-scenario table with the η_H–η_M reference gap
+    assert "Ranks are tie groups" in md and "| η_H–η_M reference gap |" in md and "1.146 !" in md
     assert md.index("## Verdict") < md.index("## Summary") and "Best achievable" in md
     for img in imgs:
         assert f"(img/{img})" in md

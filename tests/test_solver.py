@@ -142,11 +142,12 @@ def test_record_uplift_is_exact_on_the_linear_segment():
 
 def test_block_comes_back_to_rest_and_lifts_again():
     # just above the threshold the block rocks a little in each half-wave, settles, and lifts again
-    # the other way in the second half-wave
+    # the other way in the second half-wave; it never leaves the one uplift tolerance (2 % of α), so
+    # the classifier calls it rest, as it would an engine's, while the solver's uplifts stay exact
     a0 = 1.05 * G * math.tan(B3M.alpha_rad)
     sol = solve(B3M, SinePulse(a0, 2.0 * B3M.p_rad_s), 0.8, mode="to-rest")
     assert sol.uplifts.size >= 2
-    assert sol.outcome.value == "rocking"
+    assert 0 < sol.max_abs_theta_rad <= 0.02 * B3M.alpha_rad and sol.outcome.value == "rest"
     i = np.searchsorted(sol.t_s, sol.uplifts[1])
     assert sol.theta_rad[i - 1] == 0.0 and sol.theta_dot_rad_s[i - 1] == 0.0
     assert np.any(sol.theta_rad < 0) and np.any(sol.theta_rad > 0)

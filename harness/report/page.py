@@ -12,8 +12,8 @@ from importlib import resources
 from ..scoring.labels import case_title, for_html
 from .plots.style import DOUBLE_COLUMN_IN
 from .sections import (_HIGHLIGHTS, _INTRO, _PRICE_WORDS, _READ_GRAPHS, _calib_table, _exp_table, _md_table,
-                       _metric_words, _pairs_table, _price_table, _settings_tables, _speed_table, _summary_rows,
-                       _verdict)
+                       _metric_words, _pairs_table, _price_table, _scenarios, _settings_tables, _speed_table,
+                       _summary_rows, _verdict)
 
 
 
@@ -31,7 +31,9 @@ def _markdown(ctx) -> str:
             for row, is_best in zip(body, flags):
                 if is_best:
                     row[col] = f"**{row[col]}**"
-        L += [_INTRO + " " + _HIGHLIGHTS, "", _md_table(head, body), ""]
+        method, title, s_head, s_body = _scenarios(doc)
+        L += [_INTRO + " " + _HIGHLIGHTS, "", _md_table(head, body), "", method, ""]
+        L += [f"{title}:", "", _md_table(s_head, s_body), ""]
         L += ["What each column measures:", ""]
         L += [f"- **{t}**, {how}: {d}" for t, how, d in _metric_words(doc)] + [""]
     else:
@@ -125,6 +127,9 @@ def _html(ctx, images: dict) -> str:
         head, body, _, marks = _summary_rows(doc, labels)
         P.append(f"<p class='lead'>{html.escape(_INTRO)} {html.escape(_HIGHLIGHTS)}</p>")
         P.append(_h_table(head, body, id_="summary-table", num_from=2, best=marks))
+        method, title, s_head, s_body = _scenarios(doc)
+        P.append(f"<p class='method'>{html.escape(method)}</p><h3>{for_html(title)}</h3>")
+        P.append(_h_table(s_head, s_body, id_="scenario-table", num_from=1))
         P.append("<dl class='metrics'>" + "".join(
             f"<dt>{for_html(t)} <span>({html.escape(how)})</span></dt><dd>{html.escape(d)}</dd>"
             for t, how, d in _metric_words(doc)) + "</dl>")

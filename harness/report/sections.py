@@ -9,8 +9,8 @@ import math
 
 from ..scoring.labels import restitution_symbol
 from ..scoring.metrics import METRICS, PRIMARY_METRIC
-from ..scoring.tables import (best_group_marks, fmt, incomplete_note, primary_cell, ranked_summary, reference_label,
-                              render, row_label, verdict_text)
+from ..scoring.tables import (SCENARIO_TITLE, best_group_marks, fmt, incomplete_note, method_line, primary_cell,
+                              ranked_summary, reference_label, render, row_label, scenario_rows, verdict_text)
 from ..store.loading import MapEntry
 
 
@@ -37,6 +37,11 @@ def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], d
     cols = {PRIMARY_METRIC: 3, **{m: 4 + k for k, m in enumerate(second)}}
     marks = {cols[m]: flags for m, flags in best_group_marks(ranked).items()}
     return head, body, [r["variant"] for r, _ in ranked], marks
+
+
+def _scenarios(doc) -> tuple[str, str, list[str], list[list[str]]]:
+    """The method sentence under the summary, and the per-scenario table's title, head and rows."""
+    return (method_line(doc), SCENARIO_TITLE, *scenario_rows(doc))
 
 
 def _verdict(doc) -> list[str]:
@@ -221,8 +226,7 @@ def _unit_words(unit: str) -> str:
 
 
 _HIGHLIGHTS = ("Rows are ranked by the primary measure, the mean distance between the overturning boundaries: "
-               "a variant's rank is 1 + the number of variants resolved closer to the reference (the paired 95 % "
-               "interval of their ratio over the scenarios both have excludes 1), so equal ranks tie. Bold: the "
+               "a variant's rank is its tie group (the method is under the table), so equal ranks tie. Bold: the "
                "best group (rank 1), and within it the best value of each other column; no other row is "
                "highlighted.")
 

@@ -16,6 +16,12 @@ ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet":
 #: Engine settings that say nothing a reader needs when they have their default value.
 _QUIET = {"settings"}
 
+#: The settings classes the verdict answers apart (best achievable, out of the box).
+CALIBRATED, AS_SHIPPED = "calibrated", "as-shipped"
+
+#: Engine settings a calibration chooses itself (they do not make a variant "custom").
+_CALIBRATION_KEYS = {"settings", "contact"}
+
 #: How solvers are named in a variant's name (the engines' setting values → words).
 SOLVER_NAMES = {"xpbd": "XPBD", "semi_implicit": "semi-implicit", "featherstone": "Featherstone", "vbd": "VBD",
                 "newton": "Newton", "cg": "CG"}
@@ -172,3 +178,18 @@ def variant_labels(cands) -> dict[str, str]:
             for v in vs:
                 out[v] = f"{lab} [{v}]"
     return out
+
+
+def settings_class(engine_settings: dict | None, variant: str, engine: str | None = None) -> str:
+    """``calibrated`` (rockbench's calibration, any contact layout it chose), ``as-shipped`` (the
+    engine's defaults and nothing else) or, for anything else set by hand, the variant's own name.
+    The settings that choose the ``engine``'s model (:func:`model_settings`: Newton's solver) are the
+    engine's, not a tweak: they leave the class as it is."""
+    model = model_settings(engine) if engine else {}
+    s = {k: v for k, v in (engine_settings or {}).items() if k not in model}
+    kind = s.get("settings", "calibrated")
+    if kind == "defaults" and set(s) <= {"settings"}:
+        return AS_SHIPPED
+    if kind == "calibrated" and set(s) <= _CALIBRATION_KEYS:
+        return CALIBRATED
+    return variant

@@ -46,7 +46,7 @@ from ...reference_solver.validity import LEFT_MODEL_FLAGS
 from ..maps.result import FAILED, MapResult
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
-METRICS_VERSION = "3"
+METRICS_VERSION = "4"
 
 REST = OUTCOME_CODES[Outcome.REST]
 ROCKING = OUTCOME_CODES[Outcome.ROCKING]

@@ -38,6 +38,8 @@ import math
 from pathlib import Path
 from typing import Iterable
 
+import numpy as np
+
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from ...reference_solver.pulses import is_number
@@ -129,7 +131,8 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     pairs.sort(key=lambda p: p["key"])
     doc = {"kind": SCORE_KIND, "schema_version": SCORE_SCHEMA_VERSION, "metrics_version": METRICS_VERSION,
            "rules_version": RULES_VERSION, "created_utc": utc_stamp(),
-           "metrics": [m.to_dict() for m in METRICS.values()], "pairs": pairs, "skipped": skipped}
+           "metrics": [m.to_dict() for m in METRICS.values()], "pairs": pairs, "skipped": skipped,
+           "reference_gaps": reference_gaps(references)}
     if experiments is not None:
         doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
                                                experiments)
@@ -140,7 +143,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
 def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> dict:
     """One pair of score.json: the engine map ``c`` (shown as ``label``) scored against the reference
     map ``r``, with what the scores rest on."""
-    from .verdict import settings_class
+    from .labels import settings_class
 
     if c.restitution == r.restitution:
         kind = "same-law"
@@ -159,8 +162,71 @@ def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> d
     p["cells_missing"] = max(p["cells_missing"], int(c.map.meta.get("missing_cells", 0)))
     p["complete"] = p["cells_missing"] == 0
     p["engine_version"] = version_of(c)    # from the map's run.json (engine_versions.py)
+    p.update(map_facts(c))
     p["key"] = pair_key(p)
     return p
+
+
+def map_facts(c: MapEntry) -> dict:
+    """What the verdict reads of an engine map beside its scores: its block's ``slenderness`` (h/b,
+    the cluster it replicates in), a fingerprint of its outcomes (``engine_cells``: equal in two maps
+    of one grid when they hold the same cells), and from its run.json, when the adapter wrote them,
+    ``shipped_note`` (``engine.resolved_settings.shipped_note``: a line about its shipped settings),
+    ``equals_shipped`` (``...calibration.equals_shipped``: the calibration picked the shipped
+    settings) and ``held_out`` (``...calibration.calibrated_on`` names another block)."""
+    import hashlib
+
+    block = _obj(_obj(c.run).get("spec")).get("block")
+    try:
+        slender = round(float(block["height_m"]) / float(block["width_m"]), 4)
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        slender = None
+    if slender is not None and not (math.isfinite(slender) and slender > 0):
+        slender = None
+    out = np.ascontiguousarray(c.map.outcome, dtype=np.int8)
+    resolved = _obj(_obj(_obj(c.run).get("engine")).get("resolved_settings"))
+    cal = _obj(resolved.get("calibration"))
+    on = cal.get("calibrated_on") if isinstance(cal.get("calibrated_on"), str) else None
+    facts = {"slenderness": slender,
+             "engine_cells": hashlib.sha1(out.tobytes() + str(out.shape).encode()).hexdigest()[:16],
+             "held_out": bool(on) and str(on).upper() != str(c.block).upper()}
+    if isinstance(resolved.get("shipped_note"), str) and resolved["shipped_note"].strip():
+        facts["shipped_note"] = resolved["shipped_note"].strip()
+    if cal.get("equals_shipped") is True:
+        facts["equals_shipped"] = True
+    if on:
+        facts["calibrated_on"] = str(on)
+    return facts
+
+
+def _obj(x) -> dict:
+    """``x`` when it is a JSON object, else an empty one (run.json is read defensively: absent or
+    damaged keys are normal)."""
+    return x if isinstance(x, dict) else {}
+
+
+def reference_gaps(references: list[MapEntry]) -> list[dict]:
+    """Per block and pulse of a Table 1 block, the distance between the overturning boundaries of its
+    η_H reference map and its η_M reference map with the size's average k (the physics' own uncertainty
+    about the restitution: the verdict's scale), judged on the η_H map's domain."""
+    import re
+
+    from ..blocks.presets import PRESETS
+
+    out, seen = [], set()
+    for h in references:
+        pre = PRESETS.get(str(h.block).upper())
+        if h.restitution != "housner" or pre is None or (h.block, h.pulse) in seen:
+            continue
+        for m in references:
+            k = re.fullmatch(r"modified\(k=([0-9.]+)\)", str(m.restitution))
+            if ((m.block, m.pulse) == (h.block, h.pulse) and k and pre.which_k(float(k.group(1))) == "average"
+                    and m.map.same_axes(h.map)):
+                out.append({"block": h.block, "pulse": h.pulse, "between": [h.restitution, m.restitution],
+                            "boundary_mean": score(m.map, h.map)["boundary_mean"]})
+                seen.add((h.block, h.pulse))
+                break
+    return out
 
 
 #: What ``score``, ``report`` and ``compare`` take to score incomplete engine maps anyway, and its help.

@@ -153,8 +153,46 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
 
 
 #: The title of the summary table on a terminal and in Markdown.
-SUMMARY_TITLE = ("Summary (mean over like-for-like pairs; rank = 1 + the variants resolved closer to the reference "
-                 "on the boundary distance, paired over scenarios)")
+SUMMARY_TITLE = ("Summary (mean over like-for-like pairs; rank = the variant's tie group on the boundary distance, "
+                 "the method under the table)")
+
+#: The title of the per-scenario table.
+SCENARIO_TITLE = ("Per scenario: boundary distance of each variant ('!' beyond one cell: it fails there; 'held out': "
+                  "calibrated on another block), and the distance between the η_H and η_M reference boundaries")
+
+
+def method_line(doc: dict) -> str:
+    """How the ranks were made, in one sentence (under every summary table)."""
+    from .verdict import METHOD
+    return verdict_of(doc).get("method") or METHOD
+
+
+def scenario_rows(doc: dict) -> tuple[list[str], list[list[str]]]:
+    """Head and rows of the per-scenario table: one row per variant (the verdict's order), one column
+    per block × pulse, and a first row with the η_H–η_M reference gap of each scenario."""
+    from .verdict import number
+
+    rows = [r for r in verdict_of(doc)["variants"] if r.get("per_scenario")]
+    keys = sorted({(s["block"], s["pulse"]) for r in rows for s in r["per_scenario"]})
+    gaps = {(g["block"], g["pulse"]): g.get("boundary_mean") for g in doc.get("reference_gaps", [])}
+    body = [["η_H–η_M reference gap", *(number(gaps.get(k)) for k in keys)]] if gaps else []
+    for r in rows:
+        by = {(s["block"], s["pulse"]): s for s in r["per_scenario"]}
+        cells = []
+        for k in keys:
+            s = by.get(k)
+            if s is None:
+                cells.append("")
+                continue
+            mark = (" !" if s.get("fails") else "") + (" (held out)" if s["held_out"] else "")
+            cells.append(number(s["value"]) + mark)
+        body.append([row_label(r), *cells])
+    return ["engine", *(f"{b} {p}" for b, p in keys)], body
+
+
+def scenario_table(doc: dict, markdown: bool = False) -> str:
+    """:func:`scenario_rows` as a text or Markdown table."""
+    return render(*scenario_rows(doc), markdown)
 
 
 def verdict_text(doc: dict) -> list[str]:

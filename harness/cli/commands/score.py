@@ -50,7 +50,8 @@ def run(args) -> int:
     from ...store.atomic import check_output_file
     from ...store.files import json_safe, write_json
     from ...scoring.score_runs import gate, score_dirs
-    from ...scoring.tables import SUMMARY_TITLE, pairs_table, summary_table, verdict_block
+    from ...scoring.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table,
+                                   summary_table, verdict_block)
 
     thresholds = {**parse_thresholds(args.fail_under, "higher", "--fail-under"),
                   **parse_thresholds(args.fail_over, "lower", "--fail-over")}
@@ -75,6 +76,8 @@ def run(args) -> int:
         md = args.markdown
         print(verdict_block(doc, markdown=md))
         print((f"\n### {SUMMARY_TITLE}\n\n" if md else f"\n{SUMMARY_TITLE}\n") + summary_table(doc, markdown=md))
+        print(("\n" if md else "") + method_line(doc))
+        print((f"\n### {SCENARIO_TITLE}\n\n" if md else f"\n{SCENARIO_TITLE}\n") + scenario_table(doc, markdown=md))
         print(("\n### Pairs\n\n" if md else "\nPairs\n") + pairs_table(doc, markdown=md))
         for e in doc.get("experiments", []):
             print(f"\nexperiments vs {e['variant']} {e.get('restitution', '')} ({Path(e['dir']).name}): "
