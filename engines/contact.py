@@ -39,7 +39,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution, housner_eta
 from ..reference_solver.rules import RULES_VERSION
-from . import calibration
+from . import calibration, step_rule
 from .base import CalibrationResult, EngineAdapter
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "body_energy_j_kg",
@@ -113,6 +113,7 @@ class ContactEngineAdapter(EngineAdapter):
     def __init__(self, **settings):
         super().__init__(**self.canonical_settings(settings, warn=True))
         self._resolved: dict = {}
+        self._steps: dict = {}
 
     # -- names --------------------------------------------------------------------------------
     @classmethod
@@ -186,6 +187,41 @@ class ContactEngineAdapter(EngineAdapter):
             raise ConfigError(f"--dt must be > 0 s, got {dt_s!r}.")
         return dt
 
+    # -- the one time-step rule -----------------------------------------------------------------
+    def calibrated(self) -> bool:
+        """Whether runs use a calibration: ``settings="calibrated"`` and no explicit contact."""
+        return not self.explicit_contact() and self.settings["settings"] == "calibrated"
+
+    def run_step_s(self, block: Block, eta: float, dt_s: float | None = None) -> float:
+        """The step of the runs and the calibration of ``block`` at η [s]: ``dt_s`` where given;
+        calibrated, the one time-step rule's (:meth:`converged_step_s`); else :meth:`unposed_dt_s`."""
+        if dt_s is not None or not self.calibrated():
+            return self.time_step_s(dt_s)
+        return self.converged_step_s(block, eta)[0]
+
+    def converged_step_s(self, block: Block, eta: float) -> tuple[float, dict]:
+        """The step :func:`~rockbench.engines.step_rule.converged_step` chooses for ``block`` at η [s],
+        and its record; cached on disk with the calibrations."""
+        key = calibration.cache_key(**self._cache_identity(), kind="step-rule", rules_version=RULES_VERSION,
+                                    block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
+                                    target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
+                                    probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN,
+                                            step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
+                                    settings=sorted((k, str(v)) for k, v in self.settings.items()))
+        rec = self._steps.get(key) or calibration.load(key)
+        if rec is None:
+            rec = step_rule.converged_step(self, block, eta)[1]
+            calibration.store(key, rec)
+        self._steps[key] = rec
+        return float(rec["dt_s"]), rec
+
+    def dt_for(self, case) -> float:
+        """As :meth:`EngineAdapter.dt_for`; calibrated, a case that poses no step runs at the one
+        time-step rule's step, never coarser than its pulse accepts [s]."""
+        if case.dt_s is None and self.calibrated():
+            return case.pulse.check_dt(min(self.run_step_s(case.block, case.eta), case.pulse.max_dt_s()))
+        return super().dt_for(case)
+
     # -- resolve: explicit, or defaults, or calibrated ---------------------------------------
     def explicit_contact(self) -> bool:
         """Whether contact settings were given that replace the calibration (default: none exist)."""
@@ -198,16 +234,18 @@ class ContactEngineAdapter(EngineAdapter):
         calibration to the restitution's η at this time step (:meth:`calibrate`, cached on disk);
         then :meth:`_resolved_settings` builds the concrete settings. Memoised per block, η and step.
         """
-        dt = self.time_step_s(dt_s)
         eta = restitution.eta(block.alpha_rad)
+        dt = self.run_step_s(block, eta, dt_s)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
             cal = None
-            if not self.explicit_contact() and self.settings["settings"] == "calibrated":
+            if self.calibrated():
                 cal = self.calibrate(block, eta, dt_s=dt)
             out = self._resolved_settings(block, dt, cal)
             if cal is not None:
                 out["calibration"] = self._calibration_summary(cal)
+                if dt_s is None:
+                    out["calibration"]["step_rule"] = self.converged_step_s(block, eta)[1]
             if self.as_shipped() and self.SHIPPED_NOTE:
                 out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
@@ -227,7 +265,7 @@ class ContactEngineAdapter(EngineAdapter):
         until one reaches the target at an acceptable price); ``auto``: the corners up to 1 % above
         Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M)."""
         t = self.check_target_eta(target_eta)
-        dt = self.time_step_s(dt_s)
+        dt = self.run_step_s(block, t, dt_s)
         kind = self.settings.get("contact") if self.distributed_contact else "corners"
         if kind == "auto":
             kind = "corners" if t <= 1.01 * housner_eta(block.alpha_rad) else "distributed"

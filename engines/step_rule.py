@@ -1,0 +1,130 @@
+"""The one time-step rule of a calibrated contact engine: the coarsest step at which its answer has converged.
+
+A contact engine's answer depends on its time step; the benchmark should run each engine at a step
+its answer does not depend on, and no finer (a finer step costs time and changes nothing). The rule,
+the same for every engine: walk the ladder :data:`STEP_LADDER_S` from the coarsest step down and keep
+the first step at which the engine, calibrated at that step, agrees with itself calibrated at the
+next finer step:
+
+* its calibration reaches the target at both steps, and the two calibrated η agree within
+  :data:`ETA_STEP_RTOL`;
+* every cell of a fixed probe set (:func:`probe_cases`) has the same outcome at both steps (the
+  outcome, not the validity flags: a flag near its threshold flips between steps where nothing the
+  maps score moves, measured on Exudyn B3M).
+
+When no step of the ladder agrees with the next, the finest step is kept and the record says so.
+The probe set is the same for every engine: for each pulse, the cells just below and just above the
+reference's overturning boundary (the lowest amplitude that overturns the rigid block with the
+target η) at :data:`PROBE_W_RATIOS`, :data:`PROBE_MARGIN` of the amplitude axis to either side, so
+a step that moves the engine's boundary by more than that shows in the probes. The search is cached
+with the calibrations (:mod:`rockbench.engines.calibration`), and its record (each step compared:
+η at both steps and the probes that disagree) goes into run.json with the calibration.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
+from ..reference_solver.pulses import make_pulse
+from ..reference_solver.restitution import Restitution
+from .base import Case
+
+__all__ = ["STEP_LADDER_S", "ETA_STEP_RTOL", "PROBE_W_RATIOS", "PROBE_MARGIN", "PROBE_PULSES",
+           "probe_cases", "converged_step"]
+
+#: The steps tried, coarsest first [s]; 1 ms is the coarsest that follows every pulse of the default
+#: maps (20 steps per wave at ω/p = 16 on B3M is 1.7 ms)
+STEP_LADDER_S = (1e-3, 5e-4, 2e-4, 1e-4)
+#: How far the calibrated η at two steps may lie apart (relative) and still agree [-]
+ETA_STEP_RTOL = 0.01
+#: Frequencies of the probe cells, ω/p [-]: where the reference's lowest overturning amplitude lies
+#: inside the default maps' axis for every block and pulse (above ω/p ≈ 4 it leaves it for some)
+PROBE_W_RATIOS = (1.5, 2.5, 3.5, 4.5)
+#: Distance of a probe cell from the reference's boundary along a₀/(g·tanα) [-] (the default maps'
+#: cells are 0.22 apart)
+PROBE_MARGIN = 0.3
+#: The pulses of the probe set
+PROBE_PULSES = ("sine", "cosine")
+#: a₀/(g·tanα) searched for the reference's boundary [-]
+_A_RANGE = (1.0, 12.0)
+
+
+def _reference_overturns(block: Block, eta: float, pulse: str, w_ratio: float, a_ratio: float) -> bool:
+    from .reference_adapter import ReferenceAdapter
+
+    case = Case(block, make_pulse(pulse, a_ratio_to_amplitude(block, a_ratio), w_ratio_to_omega(block, w_ratio)),
+                Restitution("constant", value=eta))
+    return ReferenceAdapter().run(case).outcome == "overturn"
+
+
+def _reference_boundary(block: Block, eta: float, pulse: str, w_ratio: float) -> float | None:
+    """The lowest a₀/(g·tanα) of :data:`_A_RANGE` at which the rigid block with η overturns (a scan
+    in steps of 0.5, then 8 halvings), None when none does."""
+    lo, hi = _A_RANGE
+    a = lo
+    while a <= hi and not _reference_overturns(block, eta, pulse, w_ratio, a):
+        a += 0.5
+    if a > hi:
+        return None
+    below = max(lo, a - 0.5)
+    if below == a:
+        return a
+    for _ in range(8):
+        mid = 0.5 * (below + a)
+        below, a = (below, mid) if _reference_overturns(block, eta, pulse, w_ratio, mid) else (mid, a)
+    return a
+
+
+def probe_cases(block: Block, eta: float) -> list[tuple[str, float, float]]:
+    """The probe set for ``block`` and η: ``(pulse, ω/p, a₀/(g·tanα))`` just below and just above
+    the reference's boundary at each of :data:`PROBE_W_RATIOS` (module docstring)."""
+    out = []
+    for pulse in PROBE_PULSES:
+        for w in PROBE_W_RATIOS:
+            a_c = _reference_boundary(block, eta, pulse, w)
+            if a_c is not None:
+                out += [(pulse, w, max(_A_RANGE[0], a_c - PROBE_MARGIN)), (pulse, w, a_c + PROBE_MARGIN)]
+    return out
+
+
+def _answers(adapter, block: Block, eta: float, probes: list, dt_s: float) -> list[tuple]:
+    """The outcome of every probe cell, run calibrated at ``dt_s``."""
+    cases = [Case(block, make_pulse(p, a_ratio_to_amplitude(block, a), w_ratio_to_omega(block, w)),
+                  Restitution("constant", value=eta), dt_s) for p, w, a in probes]
+    return [r.outcome for r in adapter.run_many(cases)]
+
+
+def _compare(adapter, block: Block, eta: float, probes: list, coarse: float, fine: float, runs: dict) -> dict:
+    """One rung of the ladder: the calibrations at ``coarse`` and ``fine`` [s] and the probes that
+    disagree; ``runs`` memoises each step's calibration and answers."""
+    for dt in (coarse, fine):
+        if dt not in runs:
+            cal = adapter.calibrate(block, eta, dt_s=dt)
+            runs[dt] = (cal, _answers(adapter, block, eta, probes, dt) if cal.reached else None)
+    (c_cal, c_ans), (f_cal, f_ans) = runs[coarse], runs[fine]
+    differ = ([] if c_ans is None or f_ans is None else
+              [f"{p} ω/p {w:g} a {a:.3g}: {x} vs {y}" for (p, w, a), x, y in zip(probes, c_ans, f_ans) if x != y])
+    eta_ok = c_cal.reached and f_cal.reached and abs(c_cal.eta_measured - f_cal.eta_measured) <= ETA_STEP_RTOL * eta
+    return {"dt_s": coarse, "finer_dt_s": fine, "eta": c_cal.eta_measured, "finer_eta": f_cal.eta_measured,
+            "reached": bool(c_cal.reached and f_cal.reached), "probes_differ": differ,
+            "agrees": bool(eta_ok and c_ans is not None and f_ans is not None and not differ)}
+
+
+def converged_step(adapter, block: Block, eta: float) -> tuple[float, dict]:
+    """The coarsest step of :data:`STEP_LADDER_S` at which ``adapter``, calibrated to ``eta``, agrees
+    with itself at the next finer step (module docstring), and the record of the search."""
+    probes = probe_cases(block, eta)
+    runs: dict = {}
+    rungs = []
+    for coarse, fine in zip(STEP_LADDER_S[:-1], STEP_LADDER_S[1:]):
+        rungs.append(_compare(adapter, block, eta, probes, coarse, fine, runs))
+        if rungs[-1]["agrees"]:
+            break
+    chosen = rungs[-1]["dt_s"] if rungs[-1]["agrees"] else STEP_LADDER_S[-1]
+    record = {"rule": "coarsest step agreeing with the next finer (calibrated η and probe outcomes)",
+              "ladder_s": list(STEP_LADDER_S), "probes": len(probes), "compared": rungs, "dt_s": chosen,
+              "converged": bool(rungs[-1]["agrees"])}
+    if not math.isfinite(chosen):  # pragma: no cover - the ladder holds numbers
+        raise ValueError(chosen)
+    return chosen, record

@@ -1,0 +1,22 @@
+"""The time-step rule's probe cells straddle the reference's overturning boundary."""
+
+from rockbench.engines.base import Case
+from rockbench.engines.reference_adapter import ReferenceAdapter
+from rockbench.engines.step_rule import PROBE_MARGIN, probe_cases
+from rockbench.harness.blocks.presets import get_preset
+from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
+from rockbench.reference_solver.pulses import make_pulse
+from rockbench.reference_solver.restitution import Restitution, housner_eta
+
+
+def test_probes_come_in_pairs_below_and_above_the_reference_boundary():
+    block = get_preset("B6L").block()
+    eta = housner_eta(block.alpha_rad)
+    probes = probe_cases(block, eta)
+    assert len(probes) >= 8 and len(probes) % 2 == 0
+    ref = ReferenceAdapter()
+    for (p, w, a_lo), (p2, w2, a_hi) in zip(probes[::2], probes[1::2]):
+        assert (p, w) == (p2, w2) and a_hi - a_lo <= 2 * PROBE_MARGIN + 1e-9
+        out = [ref.run(Case(block, make_pulse(p, a_ratio_to_amplitude(block, a), w_ratio_to_omega(block, w)),
+                            Restitution("constant", value=eta))).outcome for a in (a_lo, a_hi)]
+        assert out[0] != "overturn" and out[1] == "overturn", (p, w, a_lo, a_hi, out)

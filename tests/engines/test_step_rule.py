@@ -1,0 +1,62 @@
+"""The one time-step rule (engines/step_rule.py): the coarsest step of the ladder at which a calibrated
+engine agrees with itself at the next finer step, on a fake engine whose answers per step are known."""
+
+from types import SimpleNamespace
+
+import pytest
+
+from rockbench.engines import step_rule
+from rockbench.engines.base import CellResult
+from rockbench.harness.blocks.presets import get_preset
+from rockbench.reference_solver.restitution import housner_eta
+
+B3M = get_preset("B3M").block()
+ETA = housner_eta(B3M.alpha_rad)
+
+
+class FakeEngine:
+    """η and probe outcomes per step: ``etas[dt]``, ``flip[dt]`` (the probes that overturn there
+    although the reference rocks), calls counted."""
+
+    def __init__(self, etas, flip=None, reached=None):
+        self.etas, self.flip, self.reached = etas, flip or {}, reached or {}
+        self.calibrations: list = []
+
+    def calibrate(self, block, eta, dt_s):
+        self.calibrations.append(dt_s)
+        return SimpleNamespace(eta_measured=self.etas[dt_s], reached=self.reached.get(dt_s, True))
+
+    def run_many(self, cases):
+        dt = cases[0].dt_s
+        return [CellResult(outcome="overturn" if k in self.flip.get(dt, ()) else "rocking", valid=True)
+                for k, _ in enumerate(cases)]
+
+
+@pytest.fixture(autouse=True)
+def few_probes(monkeypatch):
+    monkeypatch.setattr(step_rule, "probe_cases", lambda block, eta: [("sine", 2.0, 1.5), ("sine", 3.0, 2.0)])
+
+
+def test_the_coarsest_step_that_agrees_with_the_next_finer_is_kept():
+    eng = FakeEngine({1e-3: ETA * 0.97, 5e-4: ETA, 2e-4: ETA * 1.002, 1e-4: ETA})
+    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    assert dt == 5e-4 and rec["converged"]
+    assert [r["agrees"] for r in rec["compared"]] == [False, True]
+    assert eng.calibrations == [1e-3, 5e-4, 2e-4]        # each step calibrated once
+
+
+def test_a_probe_that_changes_outcome_keeps_the_finer_step():
+    eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, flip={1e-3: (1,)})
+    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    assert dt == 5e-4 and rec["compared"][0]["probes_differ"] == ["sine ω/p 3 a 2: overturn vs rocking"]
+
+
+def test_a_calibration_that_misses_its_target_never_agrees():
+    eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, reached={1e-3: False})
+    assert step_rule.converged_step(eng, B3M, ETA)[0] == 5e-4
+
+
+def test_no_agreement_anywhere_keeps_the_finest_step_and_says_so():
+    eng = FakeEngine({1e-3: 0.70, 5e-4: 0.72, 2e-4: 0.74, 1e-4: 0.76})
+    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    assert dt == step_rule.STEP_LADDER_S[-1] and not rec["converged"] and len(rec["compared"]) == 3
