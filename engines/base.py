@@ -307,6 +307,10 @@ class RestitutionMeasurement:
         quarter of the free-rocking period, compared with the rigid model's in the contact price.
     steps_per_s : float or None
         Engine time steps per second of wall time in this measurement (one core), where reported.
+    sink_m, hop_m : float or None
+        The resting sink and the highest hop of the run's bottom corners [m]
+        (:func:`~rockbench.engines.free_rocking.contact_figures`: what the calibration's pick reads
+        beside η); None where not measured.
     """
 
     etas: list
@@ -318,6 +322,8 @@ class RestitutionMeasurement:
     method: str = ""
     first_quarter_s: float | None = None
     steps_per_s: float | None = None
+    sink_m: float | None = None
+    hop_m: float | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)

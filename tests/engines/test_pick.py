@@ -1,0 +1,75 @@
+"""The one calibration pick (engines/pick.py) on hand-built candidate lists: no engine runs."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from rockbench.engines.pick import (CAL_MAX_SPREAD, ETA_RESOLUTION, Candidate, damping_ratio_of_restitution,
+                                    hop_tol_m, pick, ranked, sink_tie_m)
+from rockbench.harness.blocks.presets import get_preset
+
+BLOCK = get_preset("B6L").block()
+T = 0.9294
+
+
+def _c(name, eta, *, std=0.002, n=4, sink=1e-6, hop=0.0, zeta=1.0):
+    return Candidate({"name": name}, eta, std, n, sink, hop, zeta)
+
+
+def _picked(cands, target=T):
+    p = pick(cands, target, BLOCK)
+    return p.candidate.knobs["name"], p.reached
+
+
+def test_a_hopping_candidate_is_never_picked():
+    # B6L's old MuJoCo pick: ζ 0.5, stiffer and 0.0006 closer, but both corners rise 0.25 mm
+    hopping = _c("zeta-0.5", T + 0.0001, sink=0.1e-6, hop=2.5e-4, zeta=0.5)
+    assert hopping.hop_m > hop_tol_m(BLOCK)
+    assert _picked([hopping, _c("zeta-1", T + 0.0007, sink=0.3e-6)]) == ("zeta-1", True)
+    # even when nothing else is left it is not reached
+    assert _picked([hopping]) == ("zeta-0.5", False)
+
+
+def test_a_closer_eta_within_the_resolution_does_not_beat_a_stiffer_setting():
+    stiff = _c("stiff", T * (1 + 0.9 * ETA_RESOLUTION), sink=1e-6)
+    soft = _c("soft", T, sink=1e-6 + 2 * sink_tie_m(BLOCK))
+    assert _picked([soft, stiff]) == ("stiff", True)
+    # outside the resolution the stiffer one is not reached, and the soft one is taken
+    far = _c("stiff-far", T * (1 + 1.1 * ETA_RESOLUTION), sink=1e-6)
+    assert _picked([far, soft]) == ("soft", True)
+
+
+def test_ties_in_stiffness_are_broken_by_damping_nearest_critical():
+    tie = 0.5 * sink_tie_m(BLOCK)
+    cands = [_c("zeta-2", T, sink=1e-6 + tie, zeta=2.0), _c("zeta-0.7", T + 0.001, sink=1e-6, zeta=0.7),
+             _c("zeta-1.2", T + 0.004, sink=1e-6 + tie, zeta=1.2)]
+    assert _picked(cands) == ("zeta-1.2", True)
+    assert [c.knobs["name"] for c in ranked(cands, T, BLOCK)] == ["zeta-1.2", "zeta-0.7", "zeta-2"]
+    # no damping knob: counts as critical; then the stiffer, then the closer η
+    assert _picked([_c("a", T + 0.003, sink=2e-6, zeta=None), _c("b", T, sink=2e-6, zeta=None)]) == ("b", True)
+
+
+def test_irregular_candidates_do_not_count():
+    scatter = _c("scatter", T, std=1.01 * CAL_MAX_SPREAD * T, sink=0.0)
+    one = _c("one-impact", T, n=1, sink=0.0)
+    nan = _c("nothing", math.nan, std=math.nan, n=0)
+    assert _picked([scatter, one, nan, _c("ok", T * 1.005)]) == ("ok", True)
+    # none regular: the closest finite one, not reached
+    assert _picked([scatter, nan]) == ("scatter", False)
+    # regular but none within the resolution: the closest regular, not reached
+    assert _picked([_c("far", T * 1.05), _c("farther", T * 0.9), scatter]) == ("far", False)
+
+
+def test_nothing_to_pick_is_an_error():
+    with pytest.raises(ValueError):
+        pick([], T, BLOCK)
+
+
+def test_the_damping_ratio_of_a_bounce():
+    # a plastic impact is critical damping; a spring-dashpot with ζ gives e = exp(−πζ/√(1 − ζ²))
+    assert damping_ratio_of_restitution(0.0) == 1.0
+    for zeta in (0.05, 0.3, 0.7):
+        e = math.exp(-math.pi * zeta / math.sqrt(1 - zeta * zeta))
+        assert damping_ratio_of_restitution(e) == pytest.approx(zeta)
