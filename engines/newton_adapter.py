@@ -403,7 +403,7 @@ class NewtonAdapter(SteppedContactAdapter):
             _search_vbd(search, t, block)
         eta, _, extra, reached = search.best()
         res = search.result(self.CONTACT_KEYS, _calibration_note(solver, search, eta, extra, reached))
-        self._store(key, res, {"tried": search.tried})
+        self._store(key, res, {"tried": search.rows()})
         return res
 
 

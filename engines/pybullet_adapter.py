@@ -492,7 +492,7 @@ class PybulletAdapter(SteppedContactAdapter):
                 _search_restitution(search)
         eta, _, extra, reached = search.best()
         res = search.result(self.CONTACT_KEYS, _calibration_note(search, eta, extra, reached))
-        self._store(key, res, {"tried": search.tried})
+        self._store(key, res, {"tried": search.rows()})
         return res
 
     def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:
@@ -551,6 +551,8 @@ def _calibration_note(search, eta: float, extra: dict, reached: bool) -> str:
     scattered = [r for r in search.tried if r not in consistent and search.err(r[0]) <= 0.01]
     if not reached and scattered:
         r = min(scattered, key=lambda r: r[1])
-        note += (f" Bullet's restitution e = {r[2].get('restitution_coef', float('nan')):.3g} gives a mean of "
-                 f"{r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (the corner bounces), so it is not taken.")
+        how = (f"Bullet's restitution e = {r[2]['restitution_coef']:.3g}" if r[2].get("restitution_coef") else
+               f"a compliant contact of {r[2]['contact_stiffness_n_m']:.3g} N/m")
+        note += (f" {how[0].upper()}{how[1:]} gives a mean of {r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (no single "
+                 "restitution coefficient, or a hop), so it is not taken.")
     return note
