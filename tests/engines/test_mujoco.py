@@ -117,6 +117,18 @@ def test_calibration_is_cached_and_reused():
     assert again.to_dict() == first.to_dict()
 
 
+def test_free_rocking_is_read_by_the_one_reader_with_sink_and_hop():
+    # the native batch reads η as every engine does, and what the pick reads from the corners
+    from rockbench.engines.free_rocking import PEAK_RATIO
+
+    block = PRESETS["B6L"].block()
+    ok = MujocoAdapter(timeconst_s=0.001, dampratio=1.0).measure_restitution(block)
+    hops = MujocoAdapter(timeconst_s=0.001, dampratio=0.5).measure_restitution(block)
+    assert ok.method == PEAK_RATIO.method and len(ok.etas) == 4
+    assert 0.0 < ok.sink_m < 1e-5 and ok.hop_m < 1e-5
+    assert hops.hop_m > 2e-4        # ζ 0.5 lets both corners rise a quarter of a millimetre
+
+
 def test_batches_equal_single_runs_bit_for_bit():
     ad = get_adapter("mujoco")
     cases = [_case("B3M", "sine", 6.0, 2.0), _case("B3M", "sine", 3.0, 2.5), _case("B3M", "sine", 4.0, 0.8)]

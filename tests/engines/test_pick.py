@@ -1,13 +1,19 @@
-"""The one calibration pick (engines/pick.py) on hand-built candidate lists: no engine runs."""
+"""The one calibration pick (engines/pick.py) on hand-built candidate lists, and no adapter with a
+reader or a pick of its own: no engine runs."""
 
 from __future__ import annotations
 
+import inspect
 import math
+import sys
 
 import pytest
 
+from rockbench.engines.free_rocking import PEAK_RATIO, EtaReader
 from rockbench.engines.pick import (CAL_MAX_SPREAD, ETA_RESOLUTION, Candidate, damping_ratio_of_restitution,
                                     hop_tol_m, pick, ranked, sink_tie_m)
+from rockbench.engines.registry import BUILTIN, adapter_class
+from rockbench.engines.skeleton import Search, SteppedContactAdapter
 from rockbench.harness.blocks.presets import get_preset
 
 BLOCK = get_preset("B6L").block()
@@ -73,3 +79,20 @@ def test_the_damping_ratio_of_a_bounce():
     for zeta in (0.05, 0.3, 0.7):
         e = math.exp(-math.pi * zeta / math.sqrt(1 - zeta * zeta))
         assert damping_ratio_of_restitution(e) == pytest.approx(zeta)
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN))
+def test_no_builtin_adapter_reads_eta_or_picks_its_own_way(name):
+    """Every contact adapter reads η with the one reader and chooses with the one pick: its module
+    holds no reader of its own (no EtaReader but PEAK_RATIO, no ``*_etas`` function), no Search of
+    its own, and the class no ``eta_reader``, ``_pick`` or spread rule of its own."""
+    cls = adapter_class(name)
+    if not issubclass(cls, SteppedContactAdapter):
+        pytest.skip("not a contact engine (the reference applies η exactly)")
+    mod = sys.modules[cls.__module__]
+    assert all(v is PEAK_RATIO for v in vars(mod).values() if isinstance(v, EtaReader))
+    assert not [k for k, v in vars(mod).items() if k.endswith("_etas") and inspect.isfunction(v)
+                and v.__module__ == mod.__name__]
+    assert not [v for v in vars(mod).values() if isinstance(v, type) and issubclass(v, Search) and v is not Search]
+    for attr in ("eta_reader", "_pick", "_regular", "CAL_SPREAD_ABSOLUTE"):
+        assert not hasattr(cls, attr), attr
