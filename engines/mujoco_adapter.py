@@ -80,6 +80,7 @@ from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement
 from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
 from .free_rocking import PEAK_RATIO, contact_figures
+from .knobs import Knob
 from .pick import Candidate, pick
 from .rotation import quat_matrix, theta_rate_of_body
 from .skeleton import Motion, SteppedContactAdapter
@@ -211,6 +212,15 @@ class MujocoAdapter(SteppedContactAdapter):
     #: whether this adapter builds the contact along the base (issue 18); a subclass that does not
     #: (MuJoCo Warp) sets it False: ``auto`` then keeps the corners for every target
     distributed_contact = True
+    #: the corner calibration's knobs: the contact time constant (2–48 × Δt, the stiffness) and
+    #: damping ratio (0.5–2), then a finer grid around the pick (time constants from 2·Δt)
+    CALIBRATION_KNOBS = (
+        Knob("timeconst", "s", "stiffness", lambda block, dt: tuple(f * dt for f in _TC_FACTORS),
+             refine=(0.8, 0.9, 1.0, 1.12, 1.25), shipped=MUJOCO_SHIPPED["timeconst"],
+             minimum=lambda block, dt: 2.0 * dt),
+        Knob("dampratio", "", "damping", lambda block, dt: _DR_VALUES, refine=(0.85, 0.92, 1.0, 1.08, 1.18),
+             shipped=MUJOCO_SHIPPED["dampratio"]),
+    )
     #: versions of the corner and distributed calibrations (part of their cache keys)
     CALIBRATION_VERSION = 4
     CALIBRATION_VERSION_DIST = 3
@@ -649,47 +659,36 @@ class MujocoAdapter(SteppedContactAdapter):
             s["contact_points"], s["contact_radius_m"] = geo["contact_points"], geo["contact_radius_m"]
         return type(self)(**s)
 
-    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """Search the contact time constant and damping ratio so free rocking gives ``target_eta``.
+    # -- the corner calibration: the skeleton's grid of the declared knobs (CALIBRATION_KNOBS) ----
+    def _knobs_key(self, block: Block, target: float, dt: float) -> str:
+        return self._cache_key(block, target, dt, self.CALIBRATION_VERSION, drive=self.settings["drive"],
+                               planar=self.settings["planar"], friction=self.settings["friction"],
+                               solver=self._solver_params())
 
-        A grid of ``timeconst = f·Δt`` (f from 2 to 48) × ``dampratio`` (0.5 to 2) runs in one
-        native batch, then a finer grid around the pick; the one pick
-        (:func:`~rockbench.engines.pick.pick`) chooses among all of them.
-        """
-        solver = self._solver_params()
-        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION, drive=self.settings["drive"],
-                              planar=self.settings["planar"], friction=self.settings["friction"], solver=solver)
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
-        grid = [(f * dt, dr) for f in _TC_FACTORS for dr in _DR_VALUES]
-        # refine around the pick: time constants between its grid neighbours, finer ratios
-        rows = self._grid_search(block, dt, solver, grid, target, lambda b: [
-            (b[0] * f, b[1] * g) for f in (0.8, 0.9, 1.0, 1.12, 1.25) for g in (0.85, 0.92, 1.0, 1.08, 1.18)
-            if b[0] * f >= 2.0 * dt and (f, g) != (1.0, 1.0)])
-        chosen = pick([_candidate(r) for r in rows], target, block)
-        r, reached = chosen.candidate.knobs, chosen.reached
-        tc, dr, eta, std = r["timeconst"], r["dampratio"], r["eta"], r["eta_std"]
-        rel = (eta - target) / target
+    def _evaluate(self, block: Block, dt: float, candidates: list[dict]) -> list[dict]:
+        """The candidates in native batches (:meth:`_eval_grid`)."""
+        return self._eval_grid(block, dt, self._solver_params(), [(c["timeconst"], c["dampratio"]) for c in candidates])
+
+    def _knobs_settings(self, block: Block, dt: float, values: dict) -> dict:
+        """The solref found with the solver settings, friction, step and resting depth (:meth:`_settings_record`)."""
+        return self._settings_record(block, dt, {**values, **self._solver_params()})[0]
+
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        r, tc, dr = chosen.candidate.knobs, settings["timeconst"], settings["dampratio"]
         finite = [x["eta"] for x in rows if math.isfinite(x["eta"])]
         lo, hi = min(finite), max(finite)
-        settings, sink_mm = self._settings_record(block, dt, {"timeconst": tc, "dampratio": dr, **solver})
-        if reached:
-            note = (f"reached with solref ({tc:.4g} s, {dr:.3g}) at dt {dt:g} s, {r['n']} impacts measured "
-                    f"({chosen.why}); the block rests {sink_mm:.3g} mm deep in its contact; "
+        if chosen.reached:
+            return (f"reached with solref ({tc:.4g} s, {dr:.3g}) at dt {dt:g} s, {r['n']} impacts measured "
+                    f"({chosen.why}); the block rests {1e3 * settings['rest_sink_m']:.3g} mm deep in its contact; "
                     f"η over the searched settings spans {lo:.4f}–{hi:.4f}.")
-        else:
-            note = (f"not reached ({chosen.why}): η = {eta:.4f} ({100 * rel:+.2f} %), solref ({tc:.4g} s, {dr:.3g}). "
-                    f"Over time constants {_TC_FACTORS[0]:g}–{_TC_FACTORS[-1]:g}·dt and damping ratios "
-                    f"{_DR_VALUES[0]:g}–{_DR_VALUES[-1]:g} MuJoCo's free-rocking η spans {lo:.4f}–{hi:.4f}: "
-                    "the corner contact of a box dissipates about what Housner's impact predicts "
-                    "(η_H follows from the impact at the far edge), and the contact's softness and damping "
-                    "move η only a few per cent; lower damping ratios make the corner bounce rather than "
-                    "rock, and moving the contact inwards would change the pivots (docs/physics.md §8).")
-        res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
-                                settings=settings, note=note, evaluations=len(rows))
-        self._store(key, res, {"grid": rows})
-        return res
+        return (f"not reached ({chosen.why}): η = {r['eta']:.4f} ({100 * (r['eta'] - target) / target:+.2f} %), "
+                f"solref ({tc:.4g} s, {dr:.3g}). "
+                f"Over time constants {_TC_FACTORS[0]:g}–{_TC_FACTORS[-1]:g}·dt and damping ratios "
+                f"{_DR_VALUES[0]:g}–{_DR_VALUES[-1]:g} MuJoCo's free-rocking η spans {lo:.4f}–{hi:.4f}: "
+                "the corner contact of a box dissipates about what Housner's impact predicts "
+                "(η_H follows from the impact at the far edge), and the contact's softness and damping "
+                "move η only a few per cent; lower damping ratios make the corner bounce rather than "
+                "rock, and moving the contact inwards would change the pivots (docs/physics.md §8).")
 
     def _cache_identity(self) -> dict:
         """MuJoCo and its version name the calibrations in the cache (MuJoCo Warp names its own)."""

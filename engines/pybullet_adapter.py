@@ -446,13 +446,11 @@ class PybulletAdapter(SteppedContactAdapter):
 
     # -- calibration ---------------------------------------------------------------------------
     def _damping_ratio(self, block: Block, s: dict) -> float | None:
-        """ζ of a compliant contact, ``c/(2√(k·m))`` with the block's mass (the search's own
-        definition); of Bullet's restitution, the spring-dashpot's ζ with that bounce; None for the
-        rigid plastic contact."""
-        k, c, e = s.get("contact_stiffness_n_m"), s.get("contact_damping_n_s_m"), s.get("restitution_coef")
-        if k and c is not None:
-            return c / (2.0 * math.sqrt(k * block.mass_kg))
-        return damping_ratio_of_restitution(e) if e else None
+        """ζ of a compliant contact (the skeleton's); of Bullet's restitution, the spring-dashpot's ζ
+        with that bounce; None for the rigid plastic contact."""
+        if s.get("contact_stiffness_n_m"):
+            return super()._damping_ratio(block, s)
+        return damping_ratio_of_restitution(s["restitution_coef"]) if s.get("restitution_coef") else None
 
     def _calibration_identity(self, base: dict) -> dict:
         return {**super()._calibration_identity(base), "anchor": base["friction_anchor"],
@@ -553,6 +551,6 @@ def _calibration_note(search, eta: float, extra: dict, reached: bool) -> str:
         r = min(scattered, key=lambda r: r[1])
         how = (f"Bullet's restitution e = {r[2]['restitution_coef']:.3g}" if r[2].get("restitution_coef") else
                f"a compliant contact of {r[2]['contact_stiffness_n_m']:.3g} N/m")
-        note += (f" {how[0].upper()}{how[1:]} gives a mean of {r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (no single "
-                 "restitution coefficient, or a hop), so it is not taken.")
+        note += (f" {how[0].upper()}{how[1:]} gives a mean of {r[0]:.4f}, but its impacts scatter by "
+                 f"±{r[1]:.3f} (no single restitution coefficient, or a hop), so it is not taken.")
     return note

@@ -65,6 +65,7 @@ from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
+from .knobs import around, grid
 from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
 from .search import BISECT_RTOL, bisection, bracket
 
@@ -247,6 +248,9 @@ class SteppedContactAdapter(ContactEngineAdapter):
     stop_at: ClassVar[str] = "sample"
     #: the settings that describe the contact (what a calibration chooses)
     CONTACT_KEYS: ClassVar[tuple] = ()
+    #: the contact knobs a grid calibration searches (:class:`~rockbench.engines.knobs.Knob`); with
+    #: knobs declared, :meth:`_calibrate_corners` is the skeleton's :meth:`_calibrate_knobs`
+    CALIBRATION_KNOBS: ClassVar[tuple] = ()
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
 
@@ -487,10 +491,73 @@ class SteppedContactAdapter(ContactEngineAdapter):
         return Search(lambda extra: self.measure_restitution(block, dt_s=dt, settings={**base, **extra}), target,
                       block, lambda extra: self._damping_ratio(block, {**base, **extra}))
 
+    # -- the grid calibration of declared knobs ------------------------------------------------------
+    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
+        """With :attr:`CALIBRATION_KNOBS` declared: :meth:`_calibrate_knobs`."""
+        if not self.CALIBRATION_KNOBS:
+            raise NotImplementedError(f"{self.name}: declare CALIBRATION_KNOBS or implement _calibrate_corners")
+        return self._calibrate_knobs(block, target, dt, use_cache)
+
+    def _calibrate_knobs(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
+        """The grid of the declared knobs (:func:`~rockbench.engines.knobs.grid`), then the finer grid
+        around its pick (:func:`~rockbench.engines.knobs.around`), each candidate measured
+        (:meth:`_evaluate`); the one pick over all of them, cached as ``{"result", "search": {"tried":
+        rows}}``."""
+        key = self._knobs_key(block, target, dt)
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
+        knobs = self.CALIBRATION_KNOBS
+        rows = self._evaluate(block, dt, grid(knobs, block, dt))
+        if not any(math.isfinite(r["eta"]) for r in rows):
+            raise ConfigError(f"{self.name} calibration: no contact setting gave a measurable free rocking "
+                              "(fewer than two impacts); try a smaller --dt.")
+        first = pick([_row_candidate(r) for r in rows], target, block).candidate.knobs
+        rows += self._evaluate(block, dt, around(knobs, first, block, dt))
+        chosen = pick([_row_candidate(r) for r in rows], target, block)
+        r = chosen.candidate.knobs
+        settings = self._knobs_settings(block, dt, {k.name: r[k.name] for k in knobs})
+        res = CalibrationResult(eta_target=target, eta_measured=r["eta"], eta_std=r["eta_std"], reached=chosen.reached,
+                                settings=settings, note=self._knobs_note(block, dt, target, chosen, rows, settings),
+                                evaluations=len(rows))
+        self._store(key, res, {"tried": rows})
+        return res
+
+    def _evaluate(self, block: Block, dt: float, candidates: list[dict]) -> list[dict]:
+        """Free rocking for each candidate (the knobs' values): one row each, the values with what the
+        pick reads (``eta``, ``eta_std``, ``n``, ``sink_m``, ``hop_m``, ``damping_ratio``). Here one by
+        one; an engine that measures many in one native batch overrides it."""
+        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
+        rows = []
+        for c in candidates:
+            m = self.measure_restitution(block, dt_s=dt, settings={**base, **c})
+            rows.append({**c, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas), "sink_m": m.sink_m,
+                         "hop_m": m.hop_m, "damping_ratio": self._damping_ratio(block, {**base, **c})})
+        return rows
+
+    def _knobs_key(self, block: Block, target: float, dt: float) -> str:
+        """The cache key of a grid calibration (default: the engine, the block, target, step and
+        :meth:`_calibration_identity` of the base settings)."""
+        return self._cache_key(block, target, dt, self.CALIBRATION_VERSION,
+                               **self._calibration_identity(self._base_settings()))
+
+    def _knobs_settings(self, block: Block, dt: float, values: dict) -> dict:
+        """What a grid calibration records as its settings (default: the contact keys, the knobs set)."""
+        return {k: None for k in self.CONTACT_KEYS} | values
+
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        """A grid calibration's note (default: the pick and the span of η over the candidates)."""
+        finite = [x["eta"] for x in rows if math.isfinite(x["eta"])]
+        what = ", ".join(f"{k.name} {settings[k.name]:.4g} {k.unit}".rstrip() for k in self.CALIBRATION_KNOBS)
+        return (f"{'reached' if chosen.reached else 'not reached'} ({chosen.why}) with {what}; η over the "
+                f"searched settings spans {min(finite):.4f}–{max(finite):.4f}.")
+
     def _damping_ratio(self, block: Block, s: dict) -> float | None:
-        """The damping ratio (1: critical) of the contact settings ``s``, for the pick's tie-break; None
-        (default) where the engine's contact has no damping knob."""
-        return None
+        """The damping ratio (1: critical) of the contact settings ``s``, for the pick's tie-break: for a
+        spring-dashpot contact (``contact_stiffness_n_m`` k, ``contact_damping_n_s_m`` c) ``c/(2√(k·m))``
+        with the block's mass m; None where the contact has no damping knob."""
+        k, c = s.get("contact_stiffness_n_m"), s.get("contact_damping_n_s_m")
+        return c / (2.0 * math.sqrt(k * block.mass_kg)) if k and c is not None else None
 
     def _fixed(self, contact: dict) -> "SteppedContactAdapter":
         """A copy of this adapter with explicit contact settings (no calibration behind its runs);
@@ -528,8 +595,9 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
         Each row holds a candidate's contact settings (and keys of the engine's own, for the notes)
         with ``eta``, ``eta_std``, ``n`` (impacts measured), ``sink_m``, ``hop_m`` and ``damping_ratio``
-        (what the pick reads); ``eta`` is NaN where free rocking gave none. Here every candidate of :meth:`_distributed_grid` is measured one by one; an engine
-        that measures its own grid (in batches, refined around the closest row) gives its rows.
+        (what the pick reads); ``eta`` is NaN where free rocking gave none. Here every candidate of
+        :meth:`_distributed_grid` is measured one by one; an engine that measures its own grid (in
+        batches, refined around its pick) gives its rows.
         """
         base = self._distributed_base(n)
         grid, searched = self._distributed_grid(block, dt)
@@ -632,8 +700,9 @@ class SteppedContactAdapter(ContactEngineAdapter):
         """Why the distributed search reached nothing, in words."""
         if not within:
             return f"the closest regular η is {r['eta']:.4f} ({100 * (r['eta'] - t) / t:+.2f} %)"
-        return (f"{len(within)} settings give η within {100 * ETA_RESOLUTION:g} % with regular impacts, but none keeps the static uplift "
-                f"threshold within 2 % of g·tanα without rocking below it and the anti-slip cells free of slip "
+        return (f"{len(within)} settings give η within {100 * ETA_RESOLUTION:g} % with regular impacts, but none "
+                f"keeps the static uplift threshold within 2 % of g·tanα without rocking below it and the anti-slip "
+                f"cells free of slip "
                 f"(tried: " + "; ".join(f"{self._describe_contact(x)}: uplift {x['uplift_ratio']:.3f}"
                                         + (f", {x['n_slip']} slip / {x['n_jump']} jump" if "n_slip" in x else "")
                                         for x in tried) + ")")

@@ -38,7 +38,7 @@ READER_ERROR = 2e-4
 
 
 def crossing_velocity_etas(theta_rad, theta_dot_rad_s, alpha_rad, p_rad_s, read_frac=0.1):
-    """The crossing-velocity candidate: ``θ̇₀² = θ̇c² + 2p²(cos(α − θc) − cos α)`` at ``θc = read_frac·α``."""
+    """The crossing-velocity candidate: ``θ̇₀² = θ̇c² + 2p²(cos(α − θc) − cos α)``, ``θc = read_frac·α``."""
     th, thd = np.asarray(theta_rad), np.asarray(theta_dot_rad_s)
     thc, a = read_frac * alpha_rad, np.abs(theta_rad)
     inward = np.nonzero((a[:-1] > thc) & (a[1:] <= thc))[0]
@@ -84,7 +84,8 @@ def reference_run(block, eta, dt_s, theta0_frac=0.5):
     i = np.clip(np.searchsorted(t, tg), 1, len(t) - 1)
     a, b = i - 1, i
     across = (np.sign(th[a]) * np.sign(th[b]) < 0) | (t[b] == t[a])
-    f = np.where(across, np.where(tg - t[a] < t[b] - tg, 0.0, 1.0), (tg - t[a]) / np.where(t[b] > t[a], t[b] - t[a], 1.0))
+    nearest = np.where(tg - t[a] < t[b] - tg, 0.0, 1.0)
+    f = np.where(across, nearest, (tg - t[a]) / np.where(t[b] > t[a], t[b] - t[a], 1.0))
     exact = sol.impacts[:FREE_ROCKING_IMPACTS, 2] / sol.impacts[:FREE_ROCKING_IMPACTS, 1]
     return th0, th[a] + f * (th[b] - th[a]), thd[a] + f * (thd[b] - thd[a]), exact
 

@@ -96,3 +96,43 @@ def test_no_builtin_adapter_reads_eta_or_picks_its_own_way(name):
     assert not [v for v in vars(mod).values() if isinstance(v, type) and issubclass(v, Search) and v is not Search]
     for attr in ("eta_reader", "_pick", "_regular", "CAL_SPREAD_ABSOLUTE"):
         assert not hasattr(cls, attr), attr
+
+
+def test_declared_knobs_give_the_grid_then_the_finer_grid_around_the_pick():
+    """The skeleton's grid calibration (no engine): every ladder combination, the pick, the finer grid
+    around it without the point itself or values under a knob's minimum, the pick over all rows."""
+    from rockbench.engines.knobs import Knob, around, grid
+
+    knobs = (Knob("k", "N/m", "stiffness", lambda b, dt: (1.0, 2.0), refine=(0.5, 1.0, 2.0),
+                  minimum=lambda b, dt: 0.9),
+             Knob("zeta", "", "damping", lambda b, dt: (0.5, 1.0), refine=(0.8, 1.0)))
+    assert grid(knobs, BLOCK, 1e-3) == [{"k": 1.0, "zeta": 0.5}, {"k": 1.0, "zeta": 1.0},
+                                        {"k": 2.0, "zeta": 0.5}, {"k": 2.0, "zeta": 1.0}]
+    assert around(knobs, {"k": 1.0, "zeta": 1.0}, BLOCK, 1e-3) == [{"k": 1.0, "zeta": 0.8}, {"k": 2.0, "zeta": 0.8},
+                                                                   {"k": 2.0, "zeta": 1.0}]
+
+    class Grid(SteppedContactAdapter):
+        name = "fake-knobs"
+        default_dt_s = 1e-3
+        SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS}
+        CALIBRATION_KNOBS = knobs
+
+        def _evaluate(self, block, dt, candidates):
+            # η on target everywhere; ζ 0.5 hops; the sink falls with k
+            return [{**c, "eta": T, "eta_std": 0.001, "n": 4, "sink_m": 1e-3 / c["k"],
+                     "hop_m": 1e-3 if c["zeta"] < 0.6 else 0.0, "damping_ratio": c["zeta"]} for c in candidates]
+
+        def _knobs_key(self, block, target, dt):
+            return "fake"
+
+        def _cached(self, key, use_cache):
+            return None
+
+        def _store(self, key, res, search):
+            self.stored = search
+
+    ad = Grid()
+    c = ad.calibrate(BLOCK, T, dt_s=1e-3)
+    # the stiffest (k 4: 2 × the grid's stiffest, refined) with the damping nearest critical, never the hop
+    assert c.reached and c.settings == {"k": 4.0, "zeta": 1.0} and c.evaluations == 4 + 5
+    assert len(ad.stored["tried"]) == 9 and "reached" in c.note
