@@ -88,7 +88,7 @@ from .base import CalibrationResult, Trajectory
 from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
 from .free_rocking import FREE_ROCKING_IMPACTS
 from .pick import Candidate, damping_ratio_of_restitution, pick, regular
-from .search import bisection, bracket
+from .knobs import Knob
 from .skeleton import Motion, SteppedContactAdapter
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
@@ -105,6 +105,11 @@ CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0
 
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].
 CALIBRATION_RTOL = 0.01
+
+#: The knob of the row's calibration (the corners': ExudynAdapter.CALIBRATION_KNOBS): its ladder,
+#: then bisection to within 0.2·CALIBRATION_RTOL (5 halvings at most)
+DISTRIBUTED_KNOBS = (Knob("contact_restitution", "", "damping", lambda block, dt: CALIBRATION_RESTITUTIONS_DIST,
+                          bisect_steps=5, bisect_rtol=0.2 * CALIBRATION_RTOL),)
 
 #: Half the side of the table triangle [m]: far larger than any table travel of a pulse.
 _TABLE_HALF_SIZE_M = 1.0e3
@@ -476,6 +481,10 @@ class ExudynAdapter(SteppedContactAdapter):
     #: n_impacts in 52 of 888 cells (B3M sine calibrated) and 17 outcomes of the shipped contact
     #: (B6L cosine defaults) (docs/engines.md)
     stop_at = "segment"
+    #: the corner calibration's knob: the contact restitution coefficient of impact model 2 (the
+    #: stiffness is fixed, default_stiffness_n_m), its ladder, then bisection (:meth:`_knob_rows`)
+    CALIBRATION_KNOBS = (Knob("contact_restitution", "", "damping", lambda block, dt: CALIBRATION_RESTITUTIONS,
+                              bisect_steps=5, bisect_rtol=0.2 * CALIBRATION_RTOL),)
     #: a measurement records Exudyn's contact parameters
     MEASURED_SETTINGS = _CONTACT_KEYS + ("planar",)
     POINT_UNIT = "spheres"
@@ -666,38 +675,31 @@ class ExudynAdapter(SteppedContactAdapter):
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
         return self._calibrate_distributed_n(block, target, 2, dt, use_cache)
 
-    def _scan(self, block: Block, target: float, points: int, dt: float) -> list[dict]:
-        """The restitution coefficients measured for the pick: a coarse scan over
-        :data:`CALIBRATION_RESTITUTIONS` (the row: :data:`CALIBRATION_RESTITUTIONS_DIST`), then
-        bisection between the regular neighbours that bracket the target (:func:`_refine`); one row
-        each (``contact_restitution``, and ``eta``, ``eta_std``, ``n``, ``etas``, ``sink_m``, ``hop_m``,
-        ``damping_ratio``, ``first_quarter_s``, or ``error``)."""
-        s = self.settings
-        scan: list = []
-
-        def measure(e: float) -> Candidate | None:
+    def _evaluate(self, block: Block, dt: float, candidates: list[dict], points: int = 2) -> list[dict]:
+        """Free rocking of each candidate restitution coefficient with ``points`` spheres: one row each
+        (``contact_restitution``, ``eta``, ``eta_std``, ``n``, ``etas``, ``sink_m``, ``hop_m``,
+        ``damping_ratio``, ``first_quarter_s``, and ``error`` where the engine failed)."""
+        rows = []
+        for c in candidates:
+            e = c["contact_restitution"]
             try:
-                m, _ = self._measure_free_rocking(block, {**s, **self._contact(block, e, points)}, dt)
+                m, _ = self._measure_free_rocking(block, {**self.settings, **self._contact(block, e, points)}, dt)
             except EngineError as ex:
-                scan.append({"contact_restitution": e, "error": str(ex)})
-                return None
-            scan.append({"contact_restitution": e, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas),
+                rows.append({"contact_restitution": e, "error": str(ex), "eta": math.nan, "eta_std": math.nan, "n": 0,
+                             "etas": [], "sink_m": None, "hop_m": None, "damping_ratio": None, "first_quarter_s": None})
+                continue
+            rows.append({"contact_restitution": e, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas),
                          "etas": m.etas, "sink_m": m.sink_m, "hop_m": m.hop_m,
                          "damping_ratio": damping_ratio_of_restitution(e), "first_quarter_s": m.first_quarter_s})
-            return _candidate(scan[-1])
-
-        good = [(e, c) for e, c in ((e, measure(e)) for e in
-                                    (CALIBRATION_RESTITUTIONS if points == 2 else CALIBRATION_RESTITUTIONS_DIST))
-                if c is not None and regular(c, target, block)]
-        _refine(good, target, lambda e: measure(e), lambda c: c is not None and regular(c, target, block))
-        return scan
+        return rows
 
     def _calibrate_distributed_n(self, block: Block, target: float, points: int, dt: float,
                                  use_cache: bool) -> CalibrationResult:
         """Exudyn's contact restitution coefficient for ``points`` spheres along the base (2: the
-        corners): the one pick (:func:`~rockbench.engines.pick.pick`) among the coefficients of
-        :meth:`_scan`; the row is ``reached`` only where its price also counts. Results are cached on
-        disk (:mod:`.calibration`) and memoised per adapter.
+        corners): the skeleton's candidates of the declared knob (:attr:`CALIBRATION_KNOBS`, the row
+        :data:`DISTRIBUTED_KNOBS`: the ladder, then the bisection, :meth:`_knob_rows`), the one pick
+        (:func:`~rockbench.engines.pick.pick`) among them; the row is ``reached`` only where its price
+        also counts. Results are cached on disk (:mod:`.calibration`) and memoised per adapter.
         """
         s = self.settings
         key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION if points == 2 else self.CALIBRATION_VERSION_DIST,
@@ -709,8 +711,9 @@ class ExudynAdapter(SteppedContactAdapter):
         if res is not None:
             self._calibrations[key] = res
             return res
-        scan = self._scan(block, target, points, dt)
-        cands = [_candidate(r) for r in scan if "eta" in r]
+        knobs = self.CALIBRATION_KNOBS if points == 2 else DISTRIBUTED_KNOBS
+        scan = self._knob_rows(block, target, dt, knobs, lambda c: self._evaluate(block, dt, c, points))
+        cands = [_candidate(r) for r in scan]
         if not any(math.isfinite(c.eta) for c in cands):
             raise EngineError("calibration: free rocking failed for every contact restitution tried; scan: "
                               + "; ".join(f"e={r['contact_restitution']:.3g}: {r.get('error', '')}" for r in scan))
@@ -725,30 +728,9 @@ class ExudynAdapter(SteppedContactAdapter):
         note, reached = _note(e, fr, good, target, irregular, reached, s["friction"], points, price)
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
-        self._store(key, res, {"etas": fr.etas, "scan": scan})
+        self._store(key, res, {"etas": fr.etas, "tried": scan})
         self._calibrations[key] = res
         return res
-
-
-def _refine(good: list, target: float, measure, usable) -> None:
-    """More candidates for the pick: the one bisection (:mod:`rockbench.engines.search`) between the
-    first neighbours of the scan's regular points ``(e, candidate)`` that bracket ``target``, until
-    within 0.2·CALIBRATION_RTOL (5 halvings at most; a midpoint that is not ``usable`` ends it)."""
-
-    def close(eta: float) -> bool:
-        return abs(eta - target) <= 0.2 * CALIBRATION_RTOL * target
-
-    if not good or any(close(c.eta) for _, c in good):
-        return
-    found = bracket([(e, c.eta) for e, c in good], target)
-    if found is None:
-        return
-
-    def usable_eta(e: float) -> float | None:
-        c = measure(e)
-        return c.eta if usable(c) else None
-
-    bisection(usable_eta, found[0], found[2], 5, target=target, eta_lo=found[1], done=close)
 
 
 def _candidate(row: dict) -> Candidate:

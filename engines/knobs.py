@@ -4,8 +4,9 @@ An adapter whose calibration is a grid over its contact knobs declares them
 (:attr:`~rockbench.engines.skeleton.SteppedContactAdapter.CALIBRATION_KNOBS`, a tuple of
 :class:`Knob`); the skeleton then runs the search (:meth:`~rockbench.engines.skeleton.SteppedContactAdapter._calibrate_knobs`):
 every combination of the knobs' ladders (:func:`grid`), then a finer grid around the pick
-(:func:`around`), each candidate measured in free rocking and chosen by the one pick
-(:func:`~rockbench.engines.pick.pick`).
+(:func:`around`) or, for one knob that asks for it, the one bisection between the ladder's regular
+neighbours that bracket the target; each candidate measured in free rocking and chosen by the one
+pick (:func:`~rockbench.engines.pick.pick`).
 """
 
 from __future__ import annotations
@@ -40,6 +41,11 @@ class Knob:
         The engine's own default [unit] (None: the engine ships none).
     minimum : callable or None
         ``minimum(block, dt_s)``: the smallest value a refined candidate may take [unit].
+    bisect_steps : int
+        For a calibration of this knob alone: instead of the finer grid, at most this many halvings
+        between the first regular neighbours of the ladder that bracket the target (0: the finer grid).
+    bisect_rtol : float
+        Relative distance to the target that ends that bisection [-].
     """
 
     name: str
@@ -49,6 +55,8 @@ class Knob:
     refine: tuple = (1.0,)
     shipped: float | None = None
     minimum: Callable[[Block, float], float] | None = None
+    bisect_steps: int = 0
+    bisect_rtol: float = 0.0025
 
 
 def grid(knobs: tuple, block: Block, dt_s: float) -> list[dict]:

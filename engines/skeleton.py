@@ -508,12 +508,10 @@ class SteppedContactAdapter(ContactEngineAdapter):
         if cached is not None:
             return cached
         knobs = self.CALIBRATION_KNOBS
-        rows = self._evaluate(block, dt, grid(knobs, block, dt))
+        rows = self._knob_rows(block, target, dt, knobs, lambda c: self._evaluate(block, dt, c))
         if not any(math.isfinite(r["eta"]) for r in rows):
             raise ConfigError(f"{self.name} calibration: no contact setting gave a measurable free rocking "
                               "(fewer than two impacts); try a smaller --dt.")
-        first = pick([_row_candidate(r) for r in rows], target, block).candidate.knobs
-        rows += self._evaluate(block, dt, around(knobs, first, block, dt))
         chosen = pick([_row_candidate(r) for r in rows], target, block)
         r = chosen.candidate.knobs
         settings = self._knobs_settings(block, dt, {k.name: r[k.name] for k in knobs})
@@ -522,6 +520,31 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                 evaluations=len(rows))
         self._store(key, res, {"tried": rows})
         return res
+
+    def _knob_rows(self, block: Block, target: float, dt: float, knobs: tuple, evaluate) -> list[dict]:
+        """The measured candidates of ``knobs`` (``evaluate(candidates) -> rows``): the grid of their
+        ladders, then the finer grid around its pick, or for one knob with ``bisect_steps`` the one
+        bisection (:mod:`rockbench.engines.search`) between the first regular neighbours of the ladder
+        that bracket the target, a midpoint that is not regular ending it."""
+        rows = evaluate(grid(knobs, block, dt))
+        if not any(math.isfinite(r["eta"]) for r in rows):
+            return rows
+        k = knobs[0]
+        if len(knobs) > 1 or not k.bisect_steps:
+            first = pick([_row_candidate(r) for r in rows], target, block).candidate.knobs
+            return rows + evaluate(around(knobs, first, block, dt))
+        ok = [r for r in rows if regular(_row_candidate(r), target, block)]
+        found = bracket([(r[k.name], r["eta"]) for r in ok], target)
+        if found is None or any(abs(r["eta"] - target) <= k.bisect_rtol * target for r in ok):
+            return rows
+
+        def regular_eta(x: float) -> float | None:
+            rows.extend(evaluate([{k.name: x}]))
+            return rows[-1]["eta"] if regular(_row_candidate(rows[-1]), target, block) else None
+
+        bisection(regular_eta, found[0], found[2], k.bisect_steps, target=target, eta_lo=found[1],
+                  done=lambda e: abs(e - target) <= k.bisect_rtol * target)
+        return rows
 
     def _evaluate(self, block: Block, dt: float, candidates: list[dict]) -> list[dict]:
         """Free rocking for each candidate (the knobs' values): one row each, the values with what the

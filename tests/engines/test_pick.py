@@ -136,3 +136,23 @@ def test_declared_knobs_give_the_grid_then_the_finer_grid_around_the_pick():
     # the stiffest (k 4: 2 × the grid's stiffest, refined) with the damping nearest critical, never the hop
     assert c.reached and c.settings == {"k": 4.0, "zeta": 1.0} and c.evaluations == 4 + 5
     assert len(ad.stored["tried"]) == 9 and "reached" in c.note
+
+
+def test_one_knob_with_bisect_steps_is_bisected_between_regular_neighbours():
+    """A single knob asking for bisection (Exudyn's restitution coefficient): after its ladder, the one
+    bisection between the first regular neighbours that bracket the target, until within bisect_rtol;
+    a midpoint that is not regular ends it."""
+    from rockbench.engines.knobs import Knob
+
+    knob = Knob("e", "", "damping", lambda b, dt: (0.0, 0.4, 1.0), bisect_steps=8, bisect_rtol=1e-4)
+
+    def evaluate(hop_at):
+        # η rises with e; e = 0.4 hops (never regular), so the bracket is (0, 1)
+        return lambda cands: [{**c, "eta": 0.9 + 0.06 * c["e"], "eta_std": 0.001, "n": 4, "sink_m": 0.0,
+                               "hop_m": 1e-3 if c["e"] in hop_at else 0.0, "damping_ratio": None} for c in cands]
+
+    rows = SteppedContactAdapter._knob_rows(None, BLOCK, T, 1e-3, (knob,), evaluate({0.4}))
+    assert [r["e"] for r in rows][:5] == [0.0, 0.4, 1.0, 0.5, 0.25]
+    assert len(rows) == 3 + 8 and abs(rows[-1]["eta"] - T) <= 0.06 / 2**8   # 8 halvings of a range of η 0.06
+    stopped = SteppedContactAdapter._knob_rows(None, BLOCK, T, 1e-3, (knob,), evaluate({0.4, 0.25}))
+    assert [r["e"] for r in stopped] == [0.0, 0.4, 1.0, 0.5, 0.25]
