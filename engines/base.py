@@ -342,7 +342,8 @@ class CalibrationResult:
     eta_std : float
         Spread of the per-impact η with those settings [-].
     reached : bool
-        Whether ``|eta_measured − eta_target| ≤ 1 %·eta_target``.
+        Whether the one pick reached the target: regular free rocking (no hop, spread within 2 % of
+        the target) with ``|eta_measured − eta_target| ≤ 1 %·eta_target`` (:mod:`rockbench.engines.pick`).
     settings : dict
         The engine settings found.
     note : str

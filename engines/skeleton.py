@@ -43,9 +43,11 @@ The hooks an adapter implements (besides the settings hooks of ``ContactEngineAd
     The block's centre of mass (x, height above the table top, velocities), θ, θ̇ and the table's
     position and velocity from all the state rows of a run, plus engine diagnostics.
 
-and, for the calibration, ``_calibrate_corners`` (the engine's search on its own contact
-parameters) and, where it offers a row of points along the base, ``_distributed_grid`` (or, for an
-engine that measures its candidates itself, ``_distributed_rows``).
+and, for the calibration, ``CALIBRATION_KNOBS`` (its contact knobs, :mod:`rockbench.engines.knobs`:
+the skeleton then runs the search) or ``_calibrate_corners`` (the candidates it measures itself, with
+:class:`Search`), every candidate chosen by the one pick (:mod:`rockbench.engines.pick`); where it
+offers a row of points along the base, ``_distributed_grid`` (or, for an engine that measures its
+candidates itself, ``_distributed_rows``).
 """
 
 from __future__ import annotations
