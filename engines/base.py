@@ -307,6 +307,10 @@ class RestitutionMeasurement:
         quarter of the free-rocking period, compared with the rigid model's in the contact price.
     steps_per_s : float or None
         Engine time steps per second of wall time in this measurement (one core), where reported.
+    sink_m, hop_m : float or None
+        The resting sink and the highest hop of the run's bottom corners [m]
+        (:func:`~rockbench.engines.free_rocking.contact_figures`: what the calibration's pick reads
+        beside η); None where not measured.
     """
 
     etas: list
@@ -318,6 +322,8 @@ class RestitutionMeasurement:
     method: str = ""
     first_quarter_s: float | None = None
     steps_per_s: float | None = None
+    sink_m: float | None = None
+    hop_m: float | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -336,7 +342,8 @@ class CalibrationResult:
     eta_std : float
         Spread of the per-impact η with those settings [-].
     reached : bool
-        Whether ``|eta_measured − eta_target| ≤ 1 %·eta_target``.
+        Whether the one pick reached the target: regular free rocking (no hop, spread within 2 % of
+        the target) with ``|eta_measured − eta_target| ≤ 1 %·eta_target`` (:mod:`rockbench.engines.pick`).
     settings : dict
         The engine settings found.
     note : str

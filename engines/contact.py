@@ -23,8 +23,9 @@ so it needs the same few things whatever the engine:
 * **The body's energy**: :func:`body_energy_j_kg`.
 
 The stepping loop, the read-out, the free-rocking test and the calibration frame are the
-skeleton's (:class:`~rockbench.engines.skeleton.SteppedContactAdapter`); the ways η is read from
-free rocking are in :mod:`rockbench.engines.free_rocking`.
+skeleton's (:class:`~rockbench.engines.skeleton.SteppedContactAdapter`); the one way η is read from
+free rocking is in :mod:`rockbench.engines.free_rocking`, the one calibration pick in
+:mod:`rockbench.engines.pick`.
 """
 
 from __future__ import annotations

@@ -491,7 +491,7 @@ class DrakeAdapter(SteppedContactAdapter):
                     f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in _STIFFNESS_FACTORS[base['contact']])} "
                     f"the base with dissipation over the searched range give at best {eta:.4f}.")
         res = search.result(self.CONTACT_KEYS, note)
-        self._store(key, res, {"tried": search.tried})
+        self._store(key, res, {"tried": search.rows()})
         return res
 
 

@@ -77,12 +77,12 @@ from ..reference_solver.errors import ConfigError, EngineError
 from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
-from ..reference_solver.validity import Measurement, judge_measurement, jump_tol_m
 from . import price as _price
 from .base import CalibrationResult, Trajectory
 from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
-from .free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, EtaReader
-from .search import bisection, bracket
+from .free_rocking import FREE_ROCKING_IMPACTS
+from .pick import Candidate, damping_ratio_of_restitution, pick, regular
+from .knobs import Knob
 from .skeleton import Motion, SteppedContactAdapter
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
@@ -100,6 +100,11 @@ CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].
 CALIBRATION_RTOL = 0.01
 
+#: The knob of the row's calibration (the corners': ExudynAdapter.CALIBRATION_KNOBS): its ladder,
+#: then bisection to within 0.2·CALIBRATION_RTOL (5 halvings at most)
+DISTRIBUTED_KNOBS = (Knob("contact_restitution", "", "damping", lambda block, dt: CALIBRATION_RESTITUTIONS_DIST,
+                          bisect_steps=5, bisect_rtol=0.2 * CALIBRATION_RTOL),)
+
 #: Half the side of the table triangle [m]: far larger than any table travel of a pulse.
 _TABLE_HALF_SIZE_M = 1.0e3
 
@@ -115,14 +120,6 @@ _PULSE_VARS = ("a0", "w", "tb", "cs", "utb", "vtb")
 def default_stiffness_n_m(block: Block) -> float:
     """Contact stiffness of one corner sphere [N/m]: ``k = m·g / (2·δ)`` with δ = 1.34 µm."""
     return block.mass_kg * G / (2.0 * STATIC_PENETRATION_M)
-
-
-def _peak_ratio_or_stop(block: Block, motion: Motion, theta0_rad: float) -> list:
-    """The shared peak ratio; a run whose solver stopped before all impacts is an EngineError."""
-    etas = PEAK_RATIO.etas(block, motion, theta0_rad)
-    if "solver_stopped" in motion.diagnostics and len(etas) < FREE_ROCKING_IMPACTS:
-        raise EngineError(f"free rocking: {motion.diagnostics['solver_stopped']}")
-    return etas
 
 
 _COUNTER = itertools.count()
@@ -474,8 +471,10 @@ class ExudynAdapter(SteppedContactAdapter):
     CALIBRATION_VERSION = 2
     CALIBRATION_VERSION_DIST = 3
     distributed_contact = True
-    #: the shared peak ratio, a run whose solver stopped before all impacts an EngineError
-    eta_reader = EtaReader(PEAK_RATIO.name, PEAK_RATIO.method, PEAK_RATIO.duration_s, _peak_ratio_or_stop)
+    #: the corner calibration's knob: the contact restitution coefficient of impact model 2 (the
+    #: stiffness is fixed, default_stiffness_n_m), its ladder, then bisection (:meth:`_knob_rows`)
+    CALIBRATION_KNOBS = (Knob("contact_restitution", "", "damping", lambda block, dt: CALIBRATION_RESTITUTIONS,
+                              bisect_steps=5, bisect_rtol=0.2 * CALIBRATION_RTOL),)
     #: a measurement records Exudyn's contact parameters
     MEASURED_SETTINGS = _CONTACT_KEYS + ("planar",)
     POINT_UNIT = "spheres"
@@ -658,21 +657,43 @@ class ExudynAdapter(SteppedContactAdapter):
                               "sphere_radius_m needed)")
         return tr, m
 
+    def _measure_free_rocking(self, block: Block, s: dict, dt: float, theta0_frac: float = 0.5):
+        """The skeleton's free-rocking test; a run whose solver stopped before all impacts is an
+        EngineError (an engine failure, not a measurement)."""
+        m, tr = super()._measure_free_rocking(block, s, dt, theta0_frac)
+        if "solver_stopped" in tr.diagnostics and len(m.etas) < FREE_ROCKING_IMPACTS:
+            raise EngineError(f"free rocking: {tr.diagnostics['solver_stopped']}")
+        return m, tr
+
     # -- calibration (the dispatch, the cache and the free-rocking test are the skeleton's) -----
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
         return self._calibrate_distributed_n(block, target, 2, dt, use_cache)
 
+    def _evaluate(self, block: Block, dt: float, candidates: list[dict], points: int = 2) -> list[dict]:
+        """Free rocking of each candidate restitution coefficient with ``points`` spheres: one row each
+        (``contact_restitution``, ``eta``, ``eta_std``, ``n``, ``etas``, ``sink_m``, ``hop_m``,
+        ``damping_ratio``, ``first_quarter_s``, and ``error`` where the engine failed)."""
+        rows = []
+        for c in candidates:
+            e = c["contact_restitution"]
+            try:
+                m, _ = self._measure_free_rocking(block, {**self.settings, **self._contact(block, e, points)}, dt)
+            except EngineError as ex:
+                rows.append({"contact_restitution": e, "error": str(ex), "eta": math.nan, "eta_std": math.nan, "n": 0,
+                             "etas": [], "sink_m": None, "hop_m": None, "damping_ratio": None, "first_quarter_s": None})
+                continue
+            rows.append({"contact_restitution": e, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas),
+                         "etas": m.etas, "sink_m": m.sink_m, "hop_m": m.hop_m,
+                         "damping_ratio": damping_ratio_of_restitution(e), "first_quarter_s": m.first_quarter_s})
+        return rows
+
     def _calibrate_distributed_n(self, block: Block, target: float, points: int, dt: float,
                                  use_cache: bool) -> CalibrationResult:
-        """Find Exudyn's contact restitution coefficient for ``points`` spheres along the base (2: the
-        corners) whose free-rocking η is closest to the target.
-
-        A coarse scan over :data:`CALIBRATION_RESTITUTIONS` (the row: :data:`CALIBRATION_RESTITUTIONS_DIST`),
-        then bisection between neighbours that bracket the target (:func:`_refine`). A point counts
-        only when its free rocking is regular: impact to impact spread below 0.02 and no jump (both
-        corners off the table). The result is ``reached`` when the mean η is within 1 % of the target
-        (the row: and its price counts); otherwise the closest η is returned with the reason. Results
-        are cached on disk (:mod:`.calibration`) and memoised per adapter.
+        """Exudyn's contact restitution coefficient for ``points`` spheres along the base (2: the
+        corners): the skeleton's candidates of the declared knob (:attr:`CALIBRATION_KNOBS`, the row
+        :data:`DISTRIBUTED_KNOBS`: the ladder, then the bisection, :meth:`_knob_rows`), the one pick
+        (:func:`~rockbench.engines.pick.pick`) among them; the row is ``reached`` only where its price
+        also counts. Results are cached on disk (:mod:`.calibration`) and memoised per adapter.
         """
         s = self.settings
         key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION if points == 2 else self.CALIBRATION_VERSION_DIST,
@@ -684,46 +705,24 @@ class ExudynAdapter(SteppedContactAdapter):
         if res is not None:
             self._calibrations[key] = res
             return res
-        scan = []
-
-        def measure(e):
-            try:
-                m, tr = self._measure_free_rocking(block, {**s, **self._contact(block, e, points)}, dt)
-            except EngineError as ex:
-                scan.append({"contact_restitution": e, "error": str(ex)})
-                return None
-            # the jump measure of the one validity rule (its slip and energy checks do not apply here)
-            jump = judge_measurement(Measurement(tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, tr.corner_x_m, tr.corner_z_m),
-                                     block, t_pulse_end_s=0.0).max_jump_m
-            scan.append({"contact_restitution": e, "eta_mean": m.eta_mean, "eta_std": m.eta_std, "etas": m.etas,
-                         "max_jump_m": jump})
-            return SimpleNamespace(**scan[-1], first_quarter_s=m.first_quarter_s)
-
-        def regular(fr):
-            return (fr is not None and len(fr.etas) >= 2 and math.isfinite(fr.eta_mean)
-                    and fr.eta_std < 0.02 and fr.max_jump_m <= jump_tol_m(block))
-
-        measured = [(e, measure(e)) for e in (CALIBRATION_RESTITUTIONS if points == 2 else CALIBRATION_RESTITUTIONS_DIST)]
-        good = [(e, fr) for e, fr in measured if regular(fr)]
-        best = _refine(good, target, measure, regular) if good else None
-        irregular = best is None
-        if irregular:
-            # no regular free rocking at all (e.g. a friction too low to hold the pivot): keep the
-            # closest measured η so that cases still run, and say so; such runs get flagged
-            good = [(e, fr) for e, fr in measured if fr is not None and fr.etas and math.isfinite(fr.eta_mean)]
-            if not good:
-                raise EngineError("calibration: free rocking failed for every contact restitution tried; scan: "
-                                  + "; ".join(f"e={r['contact_restitution']:.3g}: {r.get('error', '')}" for r in scan))
-            best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
-        e, fr = best
-        reached = abs(fr.eta_mean - target) / target <= CALIBRATION_RTOL and not irregular
+        knobs = self.CALIBRATION_KNOBS if points == 2 else DISTRIBUTED_KNOBS
+        scan = self._knob_rows(block, target, dt, knobs, lambda c: self._evaluate(block, dt, c, points))
+        cands = [Candidate.of_row(r) for r in scan]
+        if not any(math.isfinite(c.eta) for c in cands):
+            raise EngineError("calibration: free rocking failed for every contact restitution tried; scan: "
+                              + "; ".join(f"e={r['contact_restitution']:.3g}: {r.get('error', '')}" for r in scan))
+        chosen = pick(cands, target, block)
+        irregular = not any(regular(c, target, block) for c in cands)
+        good = [(c.knobs["contact_restitution"], _as_fr(c)) for c in cands if regular(c, target, block)] or \
+            [(c.knobs["contact_restitution"], _as_fr(c)) for c in cands if math.isfinite(c.eta)]
+        e, fr, reached = chosen.candidate.knobs["contact_restitution"], _as_fr(chosen.candidate), chosen.reached
         settings = {**self._contact(block, e, points), "planar": s["planar"]}
         price = (_price.contact_price(self._fixed(settings), block, Restitution("constant", value=target), dt,
                                       first_quarter_s=fr.first_quarter_s) if points > 2 and reached else None)
         note, reached = _note(e, fr, good, target, irregular, reached, s["friction"], points, price)
         res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
                                 reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
-        self._store(key, res, {"etas": fr.etas, "scan": scan})
+        self._store(key, res, {"etas": fr.etas, "tried": scan})
         self._calibrations[key] = res
         return res
 
@@ -737,30 +736,11 @@ def steps_of_times(t_s: np.ndarray, dt_s: float) -> np.ndarray:
     return np.where(np.abs(k - whole) < 1e-6, whole, k)
 
 
-def _refine(good: list, target: float, measure, regular):
-    """The best of the scan's regular points ``(e, measurement)``, refined by the one bisection
-    (:mod:`rockbench.engines.search`) between the first neighbours that bracket ``target`` until
-    within 0.2·CALIBRATION_RTOL (5 halvings at most; an irregular midpoint ends it)."""
 
-    def close(eta: float) -> bool:
-        return abs(eta - target) <= 0.2 * CALIBRATION_RTOL * target
-
-    best = min(good, key=lambda ef: abs(ef[1].eta_mean - target))
-    found = None if close(best[1].eta_mean) else bracket([(e, fr.eta_mean) for e, fr in good], target)
-    if found is None:
-        return best
-    mids = []
-
-    def regular_eta(e: float) -> float | None:
-        fr = measure(e)
-        if not regular(fr):
-            return None
-        mids.append((e, fr))
-        return fr.eta_mean
-
-    bisection(regular_eta, found[0], found[2], 5, target=target, eta_lo=found[1], done=close)
-    # the earliest of the closest: a midpoint replaces the scan's best only when strictly closer
-    return min([best, *mids], key=lambda ef: abs(ef[1].eta_mean - target))
+def _as_fr(c: Candidate) -> SimpleNamespace:
+    """A candidate as the notes read it (``eta_mean``, ``eta_std``, ``etas``, ``first_quarter_s``)."""
+    return SimpleNamespace(eta_mean=c.eta, eta_std=c.eta_std, etas=c.knobs["etas"],
+                           first_quarter_s=c.knobs["first_quarter_s"])
 
 
 def _note(e: float, fr, good: list, target: float, irregular: bool, reached: bool, friction: float, points: int,

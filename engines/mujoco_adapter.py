@@ -69,7 +69,9 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement
 from .contact import POINTS_TRIED, ContactEngineAdapter
-from .free_rocking import ETA_READ_FRAC, crossing_velocity_etas
+from .free_rocking import PEAK_RATIO, contact_figures
+from .knobs import Knob
+from .pick import Candidate, pick
 from .rotation import quat_matrix, theta_rate_of_body
 from .skeleton import Motion, SteppedContactAdapter
 
@@ -196,11 +198,18 @@ class MujocoAdapter(SteppedContactAdapter):
     #: whether this adapter builds the contact along the base (issue 18); a subclass that does not
     #: (MuJoCo Warp) sets it False: ``auto`` then keeps the corners for every target
     distributed_contact = True
+    #: the corner calibration's knobs: the contact time constant (2–48 × Δt, the stiffness) and
+    #: damping ratio (0.5–2), then a finer grid around the pick (time constants from 2·Δt)
+    CALIBRATION_KNOBS = (
+        Knob("timeconst", "s", "stiffness", lambda block, dt: tuple(f * dt for f in _TC_FACTORS),
+             refine=(0.8, 0.9, 1.0, 1.12, 1.25), shipped=MUJOCO_SHIPPED["timeconst"],
+             minimum=lambda block, dt: 2.0 * dt),
+        Knob("dampratio", "", "damping", lambda block, dt: _DR_VALUES, refine=(0.85, 0.92, 1.0, 1.08, 1.18),
+             shipped=MUJOCO_SHIPPED["dampratio"]),
+    )
     #: versions of the corner and distributed calibrations (part of their cache keys)
     CALIBRATION_VERSION = 4
     CALIBRATION_VERSION_DIST = 3
-    #: the distributed search's spread rule: below 0.02 absolute (the skeleton's CAL_SPREAD_ABSOLUTE)
-    CAL_SPREAD_ABSOLUTE = True
 
     def __init__(self, **settings):
         super().__init__(**settings)
@@ -480,9 +489,10 @@ class MujocoAdapter(SteppedContactAdapter):
                       corner_z_m=np.stack([zp, zm], axis=1), energy_j_kg=energy)
 
     # -- restitution -------------------------------------------------------------------------
-    def _free_rocking(self, block: Block, params_list: list[dict], dt: float, theta0_frac: float,
-                      duration_s: float = 2.0) -> list[RestitutionMeasurement]:
-        """Free rocking from rest at ``theta0_frac·α`` about the +x edge, one native batch."""
+    def _free_rocking(self, block: Block, params_list: list[dict], dt: float,
+                      theta0_frac: float) -> list[RestitutionMeasurement]:
+        """Free rocking from rest at ``theta0_frac·α`` about the +x edge, one native batch, as long
+        as the one reader's test (:data:`~rockbench.engines.free_rocking.PEAK_RATIO`)."""
         import mujoco
         from mujoco import rollout
 
@@ -494,13 +504,13 @@ class MujocoAdapter(SteppedContactAdapter):
         if len(groups) > 1:
             out: list = [None] * len(built)
             for idx in groups.values():
-                res = self._free_rocking(block, [params_list[i] for i in idx], dt, theta0_frac, duration_s)
+                res = self._free_rocking(block, [params_list[i] for i in idx], dt, theta0_frac)
                 for i, r in zip(idx, res):
                     out[i] = r
             return out
         th0 = theta0_frac * block.alpha_rad
         init = [self._release_state(bm, block, th0) for bm in built]
-        nstep = int(round(duration_s / dt))
+        nstep = int(round(PEAK_RATIO.duration_s(block, theta0_frac) / dt))
         nthread = min(self._threads(), len(built))
         datas = [mujoco.MjData(built[0].model) for _ in range(nthread)]
         with rollout.Rollout(nthread=nthread) as ro:
@@ -533,19 +543,19 @@ class MujocoAdapter(SteppedContactAdapter):
 
     def _measurement(self, bm: _Built, p: dict, full: np.ndarray, block: Block, th0: float,
                      dt: float) -> RestitutionMeasurement:
-        """η impact by impact from one free-rocking run's states ``full`` (settings ``p``)."""
-        _, th, thd, _, _ = self._read(bm, full, block)
-        etas = crossing_velocity_etas(th, thd, block.alpha_rad, block.p_rad_s)
+        """η impact by impact (the one reader), the resting sink and the hop from one free-rocking
+        run's states ``full`` (settings ``p``)."""
+        _, th, _, (_, zp, _, zm), _ = self._read(bm, full, block)
+        etas = PEAK_RATIO.etas(block, th, th0)
+        sink, hop = contact_figures(block, th, np.stack([zp, zm], axis=1))
         arr = np.array(etas) if etas else np.array([math.nan])
         zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
         quarter = float(zc[0] + th[zc[0]] / (th[zc[0]] - th[zc[0] + 1])) * dt if zc.size else None
         return RestitutionMeasurement(
             etas=[float(e) for e in etas], eta_mean=float(np.mean(arr)),
             eta_std=float(np.std(arr)) if etas else math.nan, theta0_rad=th0, dt_s=dt,
-            settings=self._measured_settings(p),
-            method=(f"|θ̇| read where |θ| crosses {ETA_READ_FRAC:g}·α before and after each impact, "
-                    "carried to θ = 0 with the free-rocking energy; η = ratio after/before"),
-            first_quarter_s=quarter)
+            settings=self._measured_settings(p), method=PEAK_RATIO.method, first_quarter_s=quarter,
+            sink_m=sink, hop_m=hop)
 
     def measure_restitution(self, block: Block, *, theta0_frac: float = CALIBRATION_THETA0_FRAC,
                             dt_s: float | None = None) -> RestitutionMeasurement:
@@ -576,14 +586,12 @@ class MujocoAdapter(SteppedContactAdapter):
         """A grid of solimp impedance d (0.3–0.9) × time constant (2–16·Δt) × damping ratio (0.5–2)
         in native batches, then a finer grid around its closest measurable row (:meth:`_grid_search`)."""
         grid = [(f * dt, dr, dd) for dd in _D_VALUES for f in _TC_FACTORS_DIST for dr in _DR_VALUES_DIST]
-        results, _ = self._grid_search(block, dt, self._solver_params(), grid, lambda g: min(g, key=lambda x: abs(x[3] - t)),
-                                       lambda b: [(b[0] * f, b[1] * g, min(0.95, max(0.05, b[2] + e)))
-                                                  for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25)
-                                                  for e in (-0.05, 0.0, 0.05)
-                                                  if b[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)],
-                                       self._geometry(n))
-        rows = [{"timeconst": tc, "dampratio": dr, "solimp_d": dd, "eta": eta, "eta_std": std, "n": n_imp}
-                for tc, dr, dd, eta, std, n_imp in results]
+        rows = self._grid_search(block, dt, self._solver_params(), grid, t,
+                                 lambda b: [(b[0] * f, b[1] * g, min(0.95, max(0.05, b[2] + e)))
+                                            for f in (0.7, 1.0, 1.4) for g in (0.8, 1.0, 1.25)
+                                            for e in (-0.05, 0.0, 0.05)
+                                            if b[0] * f >= 2.0 * dt and (f, g, e) != (1.0, 1.0, 0.0)],
+                                 self._geometry(n))
         return rows, (f"solimp d {min(_D_VALUES):g}–{max(_D_VALUES):g} × time constants "
                       f"{_TC_FACTORS_DIST[0]:g}–{_TC_FACTORS_DIST[-1]:g}·dt × damping ratios "
                       f"{_DR_VALUES_DIST[0]:g}–{_DR_VALUES_DIST[-1]:g}, refined around the closest")
@@ -616,66 +624,54 @@ class MujocoAdapter(SteppedContactAdapter):
             s["contact_points"], s["contact_radius_m"] = geo["contact_points"], geo["contact_radius_m"]
         return type(self)(**s)
 
-    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """Search the contact time constant and damping ratio so free rocking gives ``target_eta``.
+    # -- the corner calibration: the skeleton's grid of the declared knobs (CALIBRATION_KNOBS) ----
+    def _knobs_key(self, block: Block, target: float, dt: float) -> str:
+        return self._cache_key(block, target, dt, self.CALIBRATION_VERSION, drive=self.settings["drive"],
+                               planar=self.settings["planar"], friction=self.settings["friction"],
+                               solver=self._solver_params())
 
-        A grid of ``timeconst = f·Δt`` (f from 2 to 48) × ``dampratio`` (0.5 to 2) runs in one
-        native batch, then a finer grid around the best point. Among settings within 1 % of the
-        target the stiffest (smallest time constant, least penetration) is taken, since a stiff
-        contact is closest to the rigid model the target comes from; failing that, the closest η.
-        """
-        solver = self._solver_params()
-        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION, drive=self.settings["drive"],
-                              planar=self.settings["planar"], friction=self.settings["friction"], solver=solver)
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
-        grid = [(f * dt, dr) for f in _TC_FACTORS for dr in _DR_VALUES]
-        # refine around the best point: time constants between its grid neighbours, finer ratios
-        results, good = self._grid_search(block, dt, solver, grid, lambda g: self._pick(g, target), lambda b: [
-            (b[0] * f, b[1] * g) for f in (0.8, 0.9, 1.0, 1.12, 1.25) for g in (0.85, 0.92, 1.0, 1.08, 1.18)
-            if b[0] * f >= 2.0 * dt and (f, g) != (1.0, 1.0)])
-        tc, dr, eta, std, n_imp = self._pick(good, target)
-        rel = (eta - target) / target
-        reached = abs(rel) <= 0.01
-        lo, hi = min(r[2] for r in good), max(r[2] for r in good)
-        settings, sink_mm = self._settings_record(block, dt, {"timeconst": tc, "dampratio": dr, **solver})
-        if reached:
-            note = (f"reached with solref ({tc:.4g} s, {dr:.3g}) at dt {dt:g} s, {n_imp} impacts measured; "
-                    f"the block rests {sink_mm:.3g} mm deep in its contact; "
+    def _evaluate(self, block: Block, dt: float, candidates: list[dict]) -> list[dict]:
+        """The candidates in native batches (:meth:`_eval_grid`)."""
+        return self._eval_grid(block, dt, self._solver_params(), [(c["timeconst"], c["dampratio"]) for c in candidates])
+
+    def _knobs_settings(self, block: Block, dt: float, values: dict) -> dict:
+        """The solref found with the solver settings, friction, step and resting depth (:meth:`_settings_record`)."""
+        return self._settings_record(block, dt, {**values, **self._solver_params()})[0]
+
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        r, tc, dr = chosen.candidate.knobs, settings["timeconst"], settings["dampratio"]
+        finite = [x["eta"] for x in rows if math.isfinite(x["eta"])]
+        lo, hi = min(finite), max(finite)
+        if chosen.reached:
+            return (f"reached with solref ({tc:.4g} s, {dr:.3g}) at dt {dt:g} s, {r['n']} impacts measured "
+                    f"({chosen.why}); the block rests {1e3 * settings['rest_sink_m']:.3g} mm deep in its contact; "
                     f"η over the searched settings spans {lo:.4f}–{hi:.4f}.")
-        else:
-            note = (f"not reached: the closest η is {eta:.4f} ({100 * rel:+.2f} %), solref ({tc:.4g} s, {dr:.3g}). "
-                    f"Over time constants {_TC_FACTORS[0]:g}–{_TC_FACTORS[-1]:g}·dt and damping ratios "
-                    f"{_DR_VALUES[0]:g}–{_DR_VALUES[-1]:g} MuJoCo's free-rocking η spans {lo:.4f}–{hi:.4f}: "
-                    "the corner contact of a box dissipates about what Housner's impact predicts "
-                    "(η_H follows from the impact at the far edge), and the contact's softness and damping "
-                    "move η only a few per cent; lower damping ratios make the corner bounce rather than "
-                    "rock, and moving the contact inwards would change the pivots (docs/physics.md §8).")
-        res = CalibrationResult(eta_target=target, eta_measured=eta, eta_std=std, reached=reached,
-                                settings=settings, note=note, evaluations=len(results))
-        self._store(key, res, {"grid": [list(r) for r in results]})
-        return res
+        return (f"not reached ({chosen.why}): η = {r['eta']:.4f} ({100 * (r['eta'] - target) / target:+.2f} %), "
+                f"solref ({tc:.4g} s, {dr:.3g}). "
+                f"Over time constants {_TC_FACTORS[0]:g}–{_TC_FACTORS[-1]:g}·dt and damping ratios "
+                f"{_DR_VALUES[0]:g}–{_DR_VALUES[-1]:g} MuJoCo's free-rocking η spans {lo:.4f}–{hi:.4f}: "
+                "the corner contact of a box dissipates about what Housner's impact predicts "
+                "(η_H follows from the impact at the far edge), and the contact's softness and damping "
+                "move η only a few per cent; lower damping ratios make the corner bounce rather than "
+                "rock, and moving the contact inwards would change the pivots (docs/physics.md §8).")
 
     def _cache_identity(self) -> dict:
         """MuJoCo and its version name the calibrations in the cache (MuJoCo Warp names its own)."""
         import mujoco
         return {"engine": "mujoco", "version": mujoco.__version__}
 
-    def _grid_search(self, block: Block, dt: float, solver: dict, grid: list, pick, around,
-                     geo: dict | None = None) -> tuple[list, list]:
-        """Free rocking over ``grid`` (:meth:`_eval_grid`), then over ``around(pick(rows))`` of its
-        measurable rows; all rows and the measurable ones (a ConfigError when there are none)."""
-        col = 2 if geo is None else 3                 # the η column
-        results = self._eval_grid(block, dt, solver, grid, geo)
-        good = [r for r in results if math.isfinite(r[col])]
-        if good:
-            results += self._eval_grid(block, dt, solver, around(pick(good)), geo)
-            good = [r for r in results if math.isfinite(r[col])]
-        if not good:
+    def _grid_search(self, block: Block, dt: float, solver: dict, grid: list, target: float, around,
+                     geo: dict | None = None) -> list[dict]:
+        """Free rocking over ``grid`` (:meth:`_eval_grid`), then over ``around`` the pick's point
+        (``(tc, dr)``, or ``(tc, dr, d)`` with ``geo``); every row (a ConfigError when none measured η)."""
+        rows = self._eval_grid(block, dt, solver, grid, geo)
+        if any(math.isfinite(r["eta"]) for r in rows):
+            b = pick([Candidate.of_row(r) for r in rows], target, block).candidate.knobs
+            rows += self._eval_grid(block, dt, solver, around(_point(b)), geo)
+        else:
             raise ConfigError(f"mujoco calibration: no {'distributed ' if geo else ''}contact setting gave a "
                               "measurable free rocking (fewer than two impacts); try a smaller --dt.")
-        return results, good
+        return rows
 
     def _settings_record(self, block: Block, dt: float, params: dict) -> tuple[dict, float]:
         """A calibration's settings: the contact ``params``, friction, step and how deep the block
@@ -689,8 +685,10 @@ class MujocoAdapter(SteppedContactAdapter):
         z = bm.s0[bm.qi["pos"] + 1] if bm.planar else bm.s0[bm.qi["pos"] + 2] - 0.5 * block.height_m
         return float(-z)
 
-    def _eval_grid(self, block: Block, dt: float, solver: dict, grid: list, geo: dict | None = None) -> list:
-        """Free rocking for each grid point: ``(tc, dr)`` rows for the corners, ``(tc, dr, d)`` with ``geo``."""
+    def _eval_grid(self, block: Block, dt: float, solver: dict, grid: list, geo: dict | None = None) -> list[dict]:
+        """Free rocking for each grid point (``(tc, dr)`` for the corners, ``(tc, dr, d)`` with ``geo``):
+        one row each, the point's settings with what the pick reads (``eta``, ``eta_std``, ``n``,
+        ``sink_m``, ``hop_m``, ``damping_ratio``: MuJoCo's dampratio)."""
         if geo is None:
             params = [{"timeconst": float(tc), "dampratio": float(dr), **solver} for tc, dr in grid]
         else:
@@ -699,24 +697,14 @@ class MujocoAdapter(SteppedContactAdapter):
         ms = []
         for k in range(0, len(params), 64):          # bounded native batches
             ms += self._free_rocking(block, params[k:k + 64], dt, CALIBRATION_THETA0_FRAC)
-        out = []
-        for g, m in zip(grid, ms):
-            ok = len(m.etas) >= 2 and all(0.0 < e < 1.0 for e in m.etas)
-            # a corner that bounces (η ≥ 1 at some impact) is not rocking: never pick it
-            out.append((*(float(v) for v in g), m.eta_mean if ok else math.nan,
-                        m.eta_std if ok else math.nan, len(m.etas)))
-        return out
+        keys = ("timeconst", "dampratio") if geo is None else ("timeconst", "dampratio", "solimp_d")
+        return [{**{k: p[k] for k in keys}, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas),
+                 "sink_m": m.sink_m, "hop_m": m.hop_m, "damping_ratio": p["dampratio"]} for p, m in zip(params, ms)]
 
-    @staticmethod
-    def _pick(good: list, target: float):
-        """Among the stiffest measurable rows within 1 % of the target the closest, else the closest."""
-        within = [r for r in good if abs(r[2] - target) <= 0.01 * target]
-        if within:
-            tc_min = min(r[0] for r in within)
-            # among the stiffest settings that reach the target, the one closest to it
-            near = [r for r in within if r[0] <= 1.5 * tc_min]
-            return min(near, key=lambda r: (abs(r[2] - target), abs(math.log(r[1]))))
-        return min(good, key=lambda r: abs(r[2] - target))
+
+def _point(row: dict) -> tuple:
+    """A grid row's point: ``(tc, dr)``, or ``(tc, dr, d)`` for the distributed contact."""
+    return tuple(row[k] for k in ("timeconst", "dampratio", "solimp_d") if k in row)
 
 
 def _angles_of(bm: _Built, st: np.ndarray, skip: int = 0):

@@ -66,6 +66,7 @@ from ..reference_solver.classify import END_REASONS, trapped_energy
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import FLAT_ANGLE_RAD, Block
 from .base import Case, RestitutionMeasurement, Trajectory
+from .free_rocking import PEAK_RATIO
 from .mujoco_adapter import MujocoAdapter, _Built
 from .skeleton import run_steps
 from .warp_start import cuda_driver_present, start_warp
@@ -589,17 +590,17 @@ class MujocoWarpAdapter(MujocoAdapter):
         return tr
 
     # -- restitution -------------------------------------------------------------------------
-    def _free_rocking(self, block: Block, params_list: list[dict], dt: float, theta0_frac: float,
-                      duration_s: float = 2.0) -> list[RestitutionMeasurement]:
-        """Free rocking from rest at ``theta0_frac·α`` about the +x edge: every contact setting a
-        world of one batch (per-world ``geom_solref``)."""
+    def _free_rocking(self, block: Block, params_list: list[dict], dt: float,
+                      theta0_frac: float) -> list[RestitutionMeasurement]:
+        """Free rocking from rest at ``theta0_frac·α`` about the +x edge, as long as the one reader's
+        test: every contact setting a world of one batch (per-world ``geom_solref``)."""
         built = [self._model(block, p, dt) for p in params_list]
         groups: dict = {}
         for j, (bm, p) in enumerate(zip(built, params_list)):
             key = tuple((k, p[k]) for k in ("cone", "integrator", "noslip_iterations", "impratio"))
             groups.setdefault(key, []).append(j)
         th0 = theta0_frac * block.alpha_rad
-        nstep = int(round(duration_s / dt))
+        nstep = int(round(PEAK_RATIO.duration_s(block, theta0_frac) / dt))
         out: list = [None] * len(built)
         for idx in groups.values():
             init = [self._release_state(built[j], block, th0)[:1 + built[j].model.nq + built[j].model.nv] for j in idx]

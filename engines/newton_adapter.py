@@ -44,7 +44,8 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
-from .skeleton import CAL_MAX_SPREAD, Motion, SteppedContactAdapter, pivot_pose
+from .pick import CAL_MAX_SPREAD
+from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: The solvers offered, by their ``solver`` name
 SOLVERS = ("xpbd", "semi_implicit", "featherstone", "vbd")
@@ -402,7 +403,7 @@ class NewtonAdapter(SteppedContactAdapter):
             _search_vbd(search, t, block)
         eta, _, extra, reached = search.best()
         res = search.result(self.CONTACT_KEYS, _calibration_note(solver, search, eta, extra, reached))
-        self._store(key, res, {"tried": search.tried})
+        self._store(key, res, {"tried": search.rows()})
         return res
 
 

@@ -34,8 +34,9 @@ parameters, steps the engine (one Python call per step: drive, step, read the jo
 reads the block's pose and velocity. The skeleton runs the pulse whole and stops the run by floor
 1's end-of-run rule (:func:`~rockbench.reference_solver.classify.run_end`: overturn certain, or
 trapped below the barrier after ``min_tail_s``, else ``tail_s`` after the pulse); the shared
-classifier decides the outcome from θ(t). η is read from the body's energy between impacts
-(:data:`~rockbench.engines.free_rocking.ENERGY_RATIO`, the reader this calibration was tuned with).
+classifier decides the outcome from θ(t). η is read by the one reader
+(:data:`~rockbench.engines.free_rocking.PEAK_RATIO`) and the calibration takes the one pick
+(:func:`~rockbench.engines.pick.pick`).
 """
 
 from __future__ import annotations
@@ -50,9 +51,9 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
 from .contact import POINTS_TRIED
-from .free_rocking import ENERGY_RATIO
+from .pick import CAL_MAX_SPREAD, damping_ratio_of_restitution
 from .rotation import theta_of_quat
-from .skeleton import CAL_MAX_SPREAD, Motion, SteppedContactAdapter, pivot_pose
+from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 from .support import version_label
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
@@ -352,9 +353,6 @@ class PybulletAdapter(SteppedContactAdapter):
     }
     CONTACT_KEYS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "restitution_coef", "contact_breaking_threshold_m")
     MEASURED_SETTINGS = ("friction", "friction_anchor", "solver_iterations", "planar", "contact_points")
-    #: the energy ratio: its calibration was tuned with it; the peak ratio scatters by ±0.03 between
-    #: the impacts of a compliant contact, which the calibration then refuses (docs/engines.md)
-    eta_reader = ENERGY_RATIO
     CALIBRATION_VERSION = 5
     CALIBRATION_VERSION_DIST = 4
     distributed_contact = True
@@ -447,6 +445,13 @@ class PybulletAdapter(SteppedContactAdapter):
         return self._base_settings()
 
     # -- calibration ---------------------------------------------------------------------------
+    def _damping_ratio(self, block: Block, s: dict) -> float | None:
+        """ζ of a compliant contact (the skeleton's); of Bullet's restitution, the spring-dashpot's ζ
+        with that bounce; None for the rigid plastic contact."""
+        if s.get("contact_stiffness_n_m"):
+            return super()._damping_ratio(block, s)
+        return damping_ratio_of_restitution(s["restitution_coef"]) if s.get("restitution_coef") else None
+
     def _calibration_identity(self, base: dict) -> dict:
         return {**super()._calibration_identity(base), "anchor": base["friction_anchor"],
                 "iterations": base["solver_iterations"]}
@@ -466,9 +471,8 @@ class PybulletAdapter(SteppedContactAdapter):
            treats it as resting, with no restitution), scanned over [0.5, 0.98], then bisected.
            The corner may then bounce: η per impact scatters, which ``eta_std`` reports.
 
-        Step 1 is kept whenever it is within 1 %. Otherwise the closest setting whose per-impact
-        spread stays within 2 % of the target wins (a bouncing corner that scatters η does not
-        give the block one restitution coefficient); ``reached`` says whether it is within 1 %.
+        Steps 2 and 3 run only when step 1 is more than 1 % off. The one pick
+        (:func:`~rockbench.engines.pick.pick`) chooses among every setting measured.
         """
         base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
         key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
@@ -486,7 +490,7 @@ class PybulletAdapter(SteppedContactAdapter):
                 _search_restitution(search)
         eta, _, extra, reached = search.best()
         res = search.result(self.CONTACT_KEYS, _calibration_note(search, eta, extra, reached))
-        self._store(key, res, {"tried": search.tried})
+        self._store(key, res, {"tried": search.rows()})
         return res
 
     def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:
@@ -545,6 +549,8 @@ def _calibration_note(search, eta: float, extra: dict, reached: bool) -> str:
     scattered = [r for r in search.tried if r not in consistent and search.err(r[0]) <= 0.01]
     if not reached and scattered:
         r = min(scattered, key=lambda r: r[1])
-        note += (f" Bullet's restitution e = {r[2].get('restitution_coef', float('nan')):.3g} gives a mean of "
-                 f"{r[0]:.4f}, but its impacts scatter by ±{r[1]:.3f} (the corner bounces), so it is not taken.")
+        how = (f"Bullet's restitution e = {r[2]['restitution_coef']:.3g}" if r[2].get("restitution_coef") else
+               f"a compliant contact of {r[2]['contact_stiffness_n_m']:.3g} N/m")
+        note += (f" {how[0].upper()}{how[1:]} gives a mean of {r[0]:.4f}, but its impacts scatter by "
+                 f"±{r[1]:.3f} (no single restitution coefficient, or a hop), so it is not taken.")
     return note

@@ -18,12 +18,13 @@ calibration frame; an engine adapter fills in a few hooks.
   (:func:`~rockbench.engines.contact.body_energy_j_kg`), penetration, steps and speed, from the
   block's pose and velocity that the engine reports (a :class:`Motion`);
 * **the free-rocking test** (:meth:`~SteppedContactAdapter.measure_restitution`): a release from
-  rest at ``theta0_frac·α`` pivoting on the +x corner, η read by the adapter's
-  :attr:`~SteppedContactAdapter.eta_reader` (:mod:`rockbench.engines.free_rocking`);
+  rest at ``theta0_frac·α`` pivoting on the +x corner, η read by the one reader
+  (:data:`~rockbench.engines.free_rocking.PEAK_RATIO`), the resting sink and the hop read from the
+  run's corners (:func:`~rockbench.engines.free_rocking.contact_figures`);
 * **the calibration frame**: the target and step checks, the layout dispatch (corners, or a row of
   points along the base tried with 9, 5, 17 points), one cache record shape
-  (:meth:`~SteppedContactAdapter._cached` / :meth:`~SteppedContactAdapter._store`), the closest
-  consistent setting (:class:`Search`) and the distributed contact's search at a price
+  (:meth:`~SteppedContactAdapter._cached` / :meth:`~SteppedContactAdapter._store`), the one pick
+  (:class:`Search`, :func:`~rockbench.engines.pick.pick`) and the distributed contact's search at a price
   (:meth:`~SteppedContactAdapter._calibrate_distributed_n`).
 
 The hooks an adapter implements (besides the settings hooks of ``ContactEngineAdapter``):
@@ -42,9 +43,11 @@ The hooks an adapter implements (besides the settings hooks of ``ContactEngineAd
     The block's centre of mass (x, height above the table top, velocities), θ, θ̇ and the table's
     position and velocity from all the state rows of a run, plus engine diagnostics.
 
-and, for the calibration, ``_calibrate_corners`` (the engine's search on its own contact
-parameters) and, where it offers a row of points along the base, ``_distributed_grid`` (or, for an
-engine that measures its candidates itself, ``_distributed_rows``).
+and, for the calibration, ``CALIBRATION_KNOBS`` (its contact knobs, :mod:`rockbench.engines.knobs`:
+the skeleton then runs the search) or ``_calibrate_corners`` (the candidates it measures itself, with
+:class:`Search`), every candidate chosen by the one pick (:mod:`rockbench.engines.pick`); where it
+offers a row of points along the base, ``_distributed_grid`` (or, for an engine that measures its
+candidates itself, ``_distributed_rows``).
 """
 
 from __future__ import annotations
@@ -63,17 +66,14 @@ from ..reference_solver.model import Block
 from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import ContactEngineAdapter, body_energy_j_kg
-from .free_rocking import PEAK_RATIO, EtaReader, first_quarter_s
+from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
+from .knobs import around, grid
+from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
 from .search import BISECT_RTOL, bisection, bracket
 
-__all__ = ["SteppedContactAdapter", "Motion", "Search", "corners", "pivot_pose", "run_steps",
-           "CAL_MAX_SPREAD", "MAX_PRICE_TRIES"]
+__all__ = ["SteppedContactAdapter", "Motion", "Search", "corners", "pivot_pose", "run_steps", "MAX_PRICE_TRIES"]
 
-#: Largest spread (standard deviation) of the per-impact η, as a fraction of the target, that a
-#: calibrated setting may show: beyond it the block has no single restitution coefficient [-].
-CAL_MAX_SPREAD = 0.02
-
-#: How many candidates within 1 % of the target the distributed contact's search prices at most.
+#: How many reached candidates the distributed contact's search prices at most.
 MAX_PRICE_TRIES = 8
 
 
@@ -159,20 +159,25 @@ def run_steps(dt_s: float, t_pulse_end_s: float, tail_s: float, min_tail_s: floa
 class Search:
     """The free-rocking runs of a calibration search and its pick.
 
-    ``evaluate(extra)`` measures η with the base settings updated by ``extra`` (the contact
-    settings tried) and records ``(η mean, η spread, extra)``; :meth:`bisect` and :meth:`scan_bisect`
-    search one knob of the contact with the one bisection (:mod:`rockbench.engines.search`);
-    :meth:`best` is the closest setting whose per-impact spread stays within :data:`CAL_MAX_SPREAD` of
-    the target (any setting when none does), and whether it is within 1 %; :meth:`result` records
-    it as the calibration.
+    ``evaluate(extra)`` measures free rocking with the base settings updated by ``extra`` (the
+    contact settings tried) and records it as a :class:`~rockbench.engines.pick.Candidate` (η, spread,
+    impacts, resting sink, hop, the damping ratio ``damping(extra)``) and in :attr:`tried` as
+    ``(η mean, η spread, extra)``; :meth:`bisect` and :meth:`scan_bisect` search one knob of the
+    contact with the one bisection (:mod:`rockbench.engines.search`); :meth:`best` is the one pick
+    (:func:`~rockbench.engines.pick.pick`); :meth:`result` records it as the calibration.
     """
 
-    def __init__(self, measure, target: float):
-        self.measure, self.target, self.tried = measure, target, []
+    def __init__(self, measure, target: float, block: Block | None = None, damping=None):
+        self.measure, self.target, self.block = measure, target, block
+        self.damping = damping or (lambda extra: None)
+        self.tried: list = []
+        self.candidates: list[Candidate] = []
 
     def evaluate(self, extra: dict) -> float:
         m = self.measure(extra)
         self.tried.append((m.eta_mean, m.eta_std, extra))
+        self.candidates.append(Candidate(extra, m.eta_mean, m.eta_std, len(getattr(m, "etas", ())) or 0,
+                                         getattr(m, "sink_m", None), getattr(m, "hop_m", None), self.damping(extra)))
         return m.eta_mean
 
     def err(self, eta: float) -> float:
@@ -180,17 +185,19 @@ class Search:
         return abs(eta - self.target) / self.target if math.isfinite(eta) else math.inf
 
     def consistent(self) -> list:
-        return [r for r in self.tried if math.isfinite(r[1]) and r[1] <= CAL_MAX_SPREAD * self.target]
+        """The regular evaluations (:func:`~rockbench.engines.pick.regular`), as :attr:`tried` rows."""
+        return [r for r, c in zip(self.tried, self.candidates) if regular(c, self.target, self.block)]
 
     def best(self) -> tuple[float, float, dict, bool]:
         """``(η, spread, extra, reached)`` of the pick."""
-        ok = self.consistent()
-        eta, std, extra = min(ok or self.tried, key=lambda r: self.err(r[0]))
-        return eta, std, extra, bool(ok) and self.err(eta) <= 0.01
+        p = pick(self.candidates, self.target, self.block)
+        return p.candidate.eta, p.candidate.eta_std, p.candidate.knobs, p.reached
 
     def rows(self) -> list[dict]:
-        """What was tried, one dict per evaluation: ``eta``, ``eta_std`` and the contact settings."""
-        return [{"eta": eta, "eta_std": std, **extra} for eta, std, extra in self.tried]
+        """What was tried, one dict per evaluation: ``eta``, ``eta_std``, ``n``, ``sink_m``, ``hop_m``,
+        ``damping_ratio`` and the contact settings."""
+        return [{"eta": c.eta, "eta_std": c.eta_std, "n": c.n_impacts, "sink_m": c.sink_m, "hop_m": c.hop_m,
+                 "damping_ratio": c.damping_ratio, **c.knobs} for c in self.candidates]
 
     def result(self, contact_keys: tuple, note: str) -> CalibrationResult:
         """The pick (:meth:`best`) as a calibration: the settings ``contact_keys`` None but those the
@@ -229,8 +236,6 @@ class Search:
 class SteppedContactAdapter(ContactEngineAdapter):
     """A contact engine on the shared skeleton (module docstring): the adapter implements the hooks."""
 
-    #: how η is read from the free-rocking test (:mod:`rockbench.engines.free_rocking`)
-    eta_reader: ClassVar[EtaReader] = PEAK_RATIO
     #: steps between end-of-run tests, in seconds, for engines without a ``segment_s`` setting [s]
     default_segment_s: ClassVar[float] = 0.05
     #: worlds an engine steps together (1: one case at a time); an engine that steps a batch sets
@@ -238,12 +243,11 @@ class SteppedContactAdapter(ContactEngineAdapter):
     max_worlds: ClassVar[int] = 1
     #: the settings that describe the contact (what a calibration chooses)
     CONTACT_KEYS: ClassVar[tuple] = ()
+    #: the contact knobs a grid calibration searches (:class:`~rockbench.engines.knobs.Knob`); with
+    #: knobs declared, :meth:`_calibrate_corners` is the skeleton's :meth:`_calibrate_knobs`
+    CALIBRATION_KNOBS: ClassVar[tuple] = ()
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
-    #: how the distributed search reads :data:`CAL_MAX_SPREAD` (:meth:`_regular`): as a fraction of
-    #: the candidate's η (False), or as an absolute spread, strictly below (True: MuJoCo's η_M
-    #: calibrations were fixed with it, and with 5 or 17 points on B3M it picks another setting)
-    CAL_SPREAD_ABSOLUTE: ClassVar[bool] = False
 
     def explicit_contact(self) -> bool:
         """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
@@ -430,7 +434,8 @@ class SteppedContactAdapter(ContactEngineAdapter):
     def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
                             settings: dict | None = None) -> RestitutionMeasurement:
         """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation: η impact by
-        impact, read by :attr:`eta_reader`.
+        impact, read by the one reader (:data:`~rockbench.engines.free_rocking.PEAK_RATIO`), and the
+        run's resting sink and hop (:func:`~rockbench.engines.free_rocking.contact_figures`).
 
         Parameters
         ----------
@@ -456,20 +461,113 @@ class SteppedContactAdapter(ContactEngineAdapter):
         step ``dt`` [s], unchecked: the measurement and the run's trajectory (for an engine whose
         calibration reads more from the run than η)."""
         theta0 = float(theta0_frac) * block.alpha_rad
-        reader = self.eta_reader
+        reader = PEAK_RATIO
         tr, motion = self._run(block, s, dt, None, theta0=theta0, duration_s=reader.duration_s(block, theta0_frac))
-        etas = reader.etas(block, motion, theta0)
+        etas = reader.etas(block, motion.theta_rad, theta0)
+        sink, hop = contact_figures(block, tr.theta_rad, tr.corner_z_m)
         shown = {k: s.get(k) for k in self.MEASURED_SETTINGS + self.CONTACT_KEYS}
         return RestitutionMeasurement(etas=[float(e) for e in etas],
                                       eta_mean=float(np.mean(etas)) if etas else math.nan,
                                       eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0,
-                                      dt_s=dt, settings=shown, method=reader.method,
+                                      dt_s=dt, settings=shown, method=reader.method, sink_m=sink, hop_m=hop,
                                       first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad)), tr
 
     # -- the calibration frame (the dispatch and the cache are ContactEngineAdapter's) -----------
     def _search(self, block: Block, dt: float, base: dict, target: float) -> Search:
         """A :class:`Search` measuring free rocking with ``base`` updated by each candidate."""
-        return Search(lambda extra: self.measure_restitution(block, dt_s=dt, settings={**base, **extra}), target)
+        return Search(lambda extra: self.measure_restitution(block, dt_s=dt, settings={**base, **extra}), target,
+                      block, lambda extra: self._damping_ratio(block, {**base, **extra}))
+
+    # -- the grid calibration of declared knobs ------------------------------------------------------
+    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
+        """With :attr:`CALIBRATION_KNOBS` declared: :meth:`_calibrate_knobs`."""
+        if not self.CALIBRATION_KNOBS:
+            raise NotImplementedError(f"{self.name}: declare CALIBRATION_KNOBS or implement _calibrate_corners")
+        return self._calibrate_knobs(block, target, dt, use_cache)
+
+    def _calibrate_knobs(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
+        """The grid of the declared knobs (:func:`~rockbench.engines.knobs.grid`), then the finer grid
+        around its pick (:func:`~rockbench.engines.knobs.around`), each candidate measured
+        (:meth:`_evaluate`); the one pick over all of them, cached as ``{"result", "search": {"tried":
+        rows}}``."""
+        key = self._knobs_key(block, target, dt)
+        cached = self._cached(key, use_cache)
+        if cached is not None:
+            return cached
+        knobs = self.CALIBRATION_KNOBS
+        rows = self._knob_rows(block, target, dt, knobs, lambda c: self._evaluate(block, dt, c))
+        if not any(math.isfinite(r["eta"]) for r in rows):
+            raise ConfigError(f"{self.name} calibration: no contact setting gave a measurable free rocking "
+                              "(fewer than two impacts); try a smaller --dt.")
+        chosen = pick([Candidate.of_row(r) for r in rows], target, block)
+        r = chosen.candidate.knobs
+        settings = self._knobs_settings(block, dt, {k.name: r[k.name] for k in knobs})
+        res = CalibrationResult(eta_target=target, eta_measured=r["eta"], eta_std=r["eta_std"], reached=chosen.reached,
+                                settings=settings, note=self._knobs_note(block, dt, target, chosen, rows, settings),
+                                evaluations=len(rows))
+        self._store(key, res, {"tried": rows})
+        return res
+
+    def _knob_rows(self, block: Block, target: float, dt: float, knobs: tuple, evaluate) -> list[dict]:
+        """The measured candidates of ``knobs`` (``evaluate(candidates) -> rows``): the grid of their
+        ladders, then the finer grid around its pick, or for one knob with ``bisect_steps`` the one
+        bisection (:mod:`rockbench.engines.search`) between the first regular neighbours of the ladder
+        that bracket the target, a midpoint that is not regular ending it."""
+        rows = evaluate(grid(knobs, block, dt))
+        if not any(math.isfinite(r["eta"]) for r in rows):
+            return rows
+        k = knobs[0]
+        if len(knobs) > 1 or not k.bisect_steps:
+            first = pick([Candidate.of_row(r) for r in rows], target, block).candidate.knobs
+            return rows + evaluate(around(knobs, first, block, dt))
+        ok = [r for r in rows if regular(Candidate.of_row(r), target, block)]
+        found = bracket([(r[k.name], r["eta"]) for r in ok], target)
+        if found is None or any(abs(r["eta"] - target) <= k.bisect_rtol * target for r in ok):
+            return rows
+
+        def regular_eta(x: float) -> float | None:
+            rows.extend(evaluate([{k.name: x}]))
+            return rows[-1]["eta"] if regular(Candidate.of_row(rows[-1]), target, block) else None
+
+        bisection(regular_eta, found[0], found[2], k.bisect_steps, target=target, eta_lo=found[1],
+                  done=lambda e: abs(e - target) <= k.bisect_rtol * target)
+        return rows
+
+    def _evaluate(self, block: Block, dt: float, candidates: list[dict]) -> list[dict]:
+        """Free rocking for each candidate (the knobs' values): one row each, the values with what the
+        pick reads (``eta``, ``eta_std``, ``n``, ``sink_m``, ``hop_m``, ``damping_ratio``). Here one by
+        one; an engine that measures many in one native batch overrides it."""
+        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
+        rows = []
+        for c in candidates:
+            m = self.measure_restitution(block, dt_s=dt, settings={**base, **c})
+            rows.append({**c, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas), "sink_m": m.sink_m,
+                         "hop_m": m.hop_m, "damping_ratio": self._damping_ratio(block, {**base, **c})})
+        return rows
+
+    def _knobs_key(self, block: Block, target: float, dt: float) -> str:
+        """The cache key of a grid calibration (default: the engine, the block, target, step and
+        :meth:`_calibration_identity` of the base settings)."""
+        return self._cache_key(block, target, dt, self.CALIBRATION_VERSION,
+                               **self._calibration_identity(self._base_settings()))
+
+    def _knobs_settings(self, block: Block, dt: float, values: dict) -> dict:
+        """What a grid calibration records as its settings (default: the contact keys, the knobs set)."""
+        return {k: None for k in self.CONTACT_KEYS} | values
+
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        """A grid calibration's note (default: the pick and the span of η over the candidates)."""
+        finite = [x["eta"] for x in rows if math.isfinite(x["eta"])]
+        what = ", ".join(f"{k.name} {settings[k.name]:.4g} {k.unit}".rstrip() for k in self.CALIBRATION_KNOBS)
+        return (f"{'reached' if chosen.reached else 'not reached'} ({chosen.why}) with {what}; η over the "
+                f"searched settings spans {min(finite):.4f}–{max(finite):.4f}.")
+
+    def _damping_ratio(self, block: Block, s: dict) -> float | None:
+        """The damping ratio (1: critical) of the contact settings ``s``, for the pick's tie-break: for a
+        spring-dashpot contact (``contact_stiffness_n_m`` k, ``contact_damping_n_s_m`` c) ``c/(2√(k·m))``
+        with the block's mass m; None where the contact has no damping knob."""
+        k, c = s.get("contact_stiffness_n_m"), s.get("contact_damping_n_s_m")
+        return c / (2.0 * math.sqrt(k * block.mass_kg)) if k and c is not None else None
 
     def _fixed(self, contact: dict) -> "SteppedContactAdapter":
         """A copy of this adapter with explicit contact settings (no calibration behind its runs);
@@ -506,17 +604,20 @@ class SteppedContactAdapter(ContactEngineAdapter):
         in the order measured, and a phrase describing the range searched.
 
         Each row holds a candidate's contact settings (and keys of the engine's own, for the notes)
-        with ``eta``, ``eta_std`` and ``n`` (impacts measured); ``eta`` is NaN where free rocking gave
-        none. Here every candidate of :meth:`_distributed_grid` is measured one by one; an engine
-        that measures its own grid (in batches, refined around the closest row) gives its rows.
+        with ``eta``, ``eta_std``, ``n`` (impacts measured), ``sink_m``, ``hop_m`` and ``damping_ratio``
+        (what the pick reads); ``eta`` is NaN where free rocking gave none. Here every candidate of
+        :meth:`_distributed_grid` is measured one by one; an engine that measures its own grid (in
+        batches, refined around its pick) gives its rows.
         """
         base = self._distributed_base(n)
         grid, searched = self._distributed_grid(block, dt)
         rows = []
         for g in grid:
+            s = {**base, **{k: g.get(k) for k in self.CONTACT_KEYS}}
             try:
-                mm = self.measure_restitution(block, dt_s=dt, settings={**base, **{k: g.get(k) for k in self.CONTACT_KEYS}})
-                rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "n": len(mm.etas)})
+                mm = self.measure_restitution(block, dt_s=dt, settings=s)
+                rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "n": len(mm.etas), "sink_m": mm.sink_m,
+                             "hop_m": mm.hop_m, "damping_ratio": self._damping_ratio(block, s)})
             except Exception as e:  # noqa: BLE001 - a setting that breaks is recorded, the search goes on
                 rows.append({**g, "eta": math.nan, "eta_std": math.nan, "n": 0, "error": f"{type(e).__name__}: {e}"})
         return rows, searched
@@ -545,8 +646,8 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                  use_cache: bool) -> CalibrationResult:
         """A row of ``n`` points along the base (issue 18), calibrated to ``t`` at a price.
 
-        The candidates are :meth:`_distributed_rows`; those within 1 % of the target whose impacts
-        agree within :data:`CAL_MAX_SPREAD` are tried closest first (at most :data:`MAX_PRICE_TRIES`,
+        The candidates are :meth:`_distributed_rows`; those the one pick reaches are tried in its order
+        (:func:`~rockbench.engines.pick.ranked`; at most :data:`MAX_PRICE_TRIES`,
         :meth:`_first_that_counts`) until one keeps the static uplift threshold within 2 % of g·tanα
         and raises no ``slip`` flag in the anti-slip cells (:func:`rockbench.engines.price.contact_price`);
         its price is recorded, with its free-rocking period change.
@@ -558,11 +659,12 @@ class SteppedContactAdapter(ContactEngineAdapter):
         if cached is not None:
             return cached
         rows, searched = self._distributed_rows(block, t, n, dt)
-        regular = [r for r in rows if self._regular(r)]
-        within = sorted((r for r in regular if abs(r["eta"] - t) <= 0.01 * t), key=lambda r: abs(r["eta"] - t))
+        cands = [Candidate.of_row(r) for r in rows]
+        regular_rows = [c.knobs for c in cands if regular(c, t, block)]
+        within = [c.knobs for c in ranked(cands, t, block)]
         chosen, price, tried = self._first_that_counts(block, within, n, dt, t)
-        lo = min((r["eta"] for r in regular), default=math.nan)
-        hi = max((r["eta"] for r in regular), default=math.nan)
+        lo = min((r["eta"] for r in regular_rows), default=math.nan)
+        hi = max((r["eta"] for r in regular_rows), default=math.nan)
         span = f"{searched}: regular free rocking spans η = {lo:.4f}–{hi:.4f}"
         if chosen is not None:
             r = chosen
@@ -573,7 +675,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
                     f"measured; {_price.price_line(price)}; {span}.")
         else:
             r = (within[0] if within else
-                 min(regular or [x for x in rows if math.isfinite(x["eta"])] or rows,
+                 min(regular_rows or [x for x in rows if math.isfinite(x["eta"])] or rows,
                      key=lambda r: abs(r["eta"] - t) if math.isfinite(r["eta"]) else math.inf))
             note = (f"not reached with {n} {self.POINT_UNIT} along the base: {self._why_not(r, within, tried, t)}; "
                     f"{span}.")
@@ -582,15 +684,6 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                 note=note, evaluations=len(rows), price=price)
         self._store(key, res, {"grid": rows, "price_tried": tried})
         return res
-
-    def _regular(self, row: dict) -> bool:
-        """Whether a measured candidate rocks regularly: a finite η from at least two impacts that
-        agree within :data:`CAL_MAX_SPREAD` (of its η, or absolute: :attr:`CAL_SPREAD_ABSOLUTE`)."""
-        if not (math.isfinite(row["eta"]) and row["n"] >= 2):
-            return False
-        if self.CAL_SPREAD_ABSOLUTE:
-            return row["eta_std"] < CAL_MAX_SPREAD
-        return row["eta_std"] <= CAL_MAX_SPREAD * row["eta"]
 
     def _first_that_counts(self, block: Block, within: list, n: int, dt: float,
                            t: float) -> tuple[dict | None, dict | None, list]:
@@ -617,8 +710,9 @@ class SteppedContactAdapter(ContactEngineAdapter):
         """Why the distributed search reached nothing, in words."""
         if not within:
             return f"the closest regular η is {r['eta']:.4f} ({100 * (r['eta'] - t) / t:+.2f} %)"
-        return (f"{len(within)} settings give η within 1 % with regular impacts, but none keeps the static uplift "
-                f"threshold within 2 % of g·tanα without rocking below it and the anti-slip cells free of slip "
+        return (f"{len(within)} settings give η within {100 * ETA_RESOLUTION:g} % with regular impacts, but none "
+                f"keeps the static uplift threshold within 2 % of g·tanα without rocking below it and the anti-slip "
+                f"cells free of slip "
                 f"(tried: " + "; ".join(f"{self._describe_contact(x)}: uplift {x['uplift_ratio']:.3f}"
                                         + (f", {x['n_slip']} slip / {x['n_jump']} jump" if "n_slip" in x else "")
                                         for x in tried) + ")")
@@ -626,4 +720,3 @@ class SteppedContactAdapter(ContactEngineAdapter):
     def _calibration_identity(self, base: dict) -> dict:
         """What besides block, target and step a calibration depends on (part of its cache key)."""
         return {"planar": base["planar"], "friction": base["friction"], "drive": base["drive"]}
-

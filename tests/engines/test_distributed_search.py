@@ -1,14 +1,13 @@
 """The skeleton's one distributed-contact search, without an engine.
 
 A fake adapter gives measured rows (:meth:`_distributed_rows`) and the price functions are
-replaced by fakes that read each candidate's answer from its row: the search must try the regular
-rows within 1 % closest first, skip the full price of a row outside the uplift threshold, choose
-the first row that counts, and report ``not reached`` when none does.
+replaced by fakes that read each candidate's answer from its row: the search must try the rows the
+one pick reaches in its order (rows without a sink or a hop measured: closest first), skip the full
+price of a row outside the uplift threshold, choose the first row that counts, and report ``not
+reached`` when none does.
 """
 
 from __future__ import annotations
-
-import math
 
 import pytest
 
@@ -145,11 +144,11 @@ def test_nothing_within_one_percent_gives_the_closest_regular(calls):
     assert "the closest regular η is" in c.note
 
 
-def test_the_spread_rule_relative_or_absolute():
-    """0.019 is beyond 2 % of η = 0.8 (0.016) but below the absolute 0.02."""
-    ad = _Fake([])
-    row = _row("x", 0.0, std=0.019)
-    assert not ad._regular(row)
-    ad.CAL_SPREAD_ABSOLUTE = True
-    assert ad._regular(row) and not ad._regular({**row, "eta_std": 0.02}) and not ad._regular({**row, "n": 1})
-    assert not ad._regular({**row, "eta": math.nan})
+def test_rows_are_tried_in_the_picks_order(calls):
+    """The one pick orders the reached rows: a hopping row is never tried, a spread beyond 2 % of the
+    target (0.016 here) is not regular, and the stiffer row (less resting sink) goes before a closer one."""
+    hop, sink = 1e-3, 1e-6       # hop above 0.05 % of b (22.5 µm); sinks 1 and 20 µm differ by more than 4.5 µm
+    given = [{**_row("hops", 0.0), "hop_m": hop, "sink_m": 0.0}, _row("scatter", 0.0, std=0.017),
+             {**_row("soft-close", 0.0005), "sink_m": 20 * sink}, {**_row("stiff", 0.008), "sink_m": sink}]
+    _, c = _search(calls, given)
+    assert calls["uplift"] == ["stiff"] and c.reached and c.settings["k"] == "stiff"

@@ -140,7 +140,7 @@ def test_vbd_search_tries_stiff_contacts_only_and_stops_at_a_regular_hit():
 
     def measure(extra):
         eta, std = table[(round(extra["contact_stiffness_n_m"] / ke0, 6), extra["contact_damping_n_s_m"])]
-        return SimpleNamespace(eta_mean=eta, eta_std=std)
+        return SimpleNamespace(eta_mean=eta, eta_std=std, etas=[eta] * 4)
 
     search = Search(measure, t)
     _search_vbd(search, t, blk)

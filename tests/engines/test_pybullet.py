@@ -92,16 +92,24 @@ def test_calibration_reaches_housner_within_one_percent(name):
 
 
 def test_softer_target_is_reached_with_a_compliant_contact_and_cached(tmp_path):
-    # below what Bullet's rigid contact gives: the search softens the contact
+    # 2 % below what Bullet's rigid contact gives (0.749): the search softens the contact
     block = get_preset("B3M").block()
     ad = get_adapter("pybullet")
-    first = ad.calibrate(block, 0.70)
+    first = ad.calibrate(block, 0.735)
     assert first.reached, first.note
     assert first.settings["contact_stiffness_n_m"] is not None
     assert list((tmp_path / "cache" / "calibration").glob("*.json"))
-    again = ad.calibrate(block, 0.70)
+    again = ad.calibrate(block, 0.735)
     assert again.evaluations == first.evaluations and again.settings == first.settings
     assert again.eta_measured == first.eta_measured
+
+
+def test_a_compliant_contact_soft_enough_for_070_has_no_single_eta():
+    # η = 0.70 needs a contact sinking about 0.15 mm, whose η falls impact by impact as the swings
+    # shrink (0.73, 0.72, 0.68): its spread exceeds 2 % of the target, so it is not reached
+    block = get_preset("B3M").block()
+    c = get_adapter("pybullet").calibrate(block, 0.70)
+    assert not c.reached and "not reached" in c.note
 
 
 # -- the model's assumptions -------------------------------------------------------------------

@@ -14,7 +14,7 @@ from rockbench.engines.skeleton import Search
 
 def _search(eta_of, target, std=0.001):
     """A Search whose free-rocking test is ``eta_of(knob)`` (the candidate's only setting)."""
-    return Search(lambda extra: SimpleNamespace(eta_mean=eta_of(extra["knob"]), eta_std=std), target)
+    return Search(lambda extra: SimpleNamespace(eta_mean=eta_of(extra["knob"]), eta_std=std, etas=[0.0] * 4), target)
 
 
 def _knob(x):

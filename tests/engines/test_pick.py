@@ -1,0 +1,158 @@
+"""The one calibration pick (engines/pick.py) on hand-built candidate lists, and no adapter with a
+reader or a pick of its own: no engine runs."""
+
+from __future__ import annotations
+
+import inspect
+import math
+import sys
+
+import pytest
+
+from rockbench.engines.free_rocking import PEAK_RATIO, EtaReader
+from rockbench.engines.pick import (CAL_MAX_SPREAD, ETA_RESOLUTION, Candidate, damping_ratio_of_restitution,
+                                    hop_tol_m, pick, ranked, sink_tie_m)
+from rockbench.engines.registry import BUILTIN, adapter_class
+from rockbench.engines.skeleton import Search, SteppedContactAdapter
+from rockbench.harness.blocks.presets import get_preset
+
+BLOCK = get_preset("B6L").block()
+T = 0.9294
+
+
+def _c(name, eta, *, std=0.002, n=4, sink=1e-6, hop=0.0, zeta=1.0):
+    return Candidate({"name": name}, eta, std, n, sink, hop, zeta)
+
+
+def _picked(cands, target=T):
+    p = pick(cands, target, BLOCK)
+    return p.candidate.knobs["name"], p.reached
+
+
+def test_a_hopping_candidate_is_never_picked():
+    # B6L's old MuJoCo pick: ζ 0.5, stiffer and 0.0006 closer, but both corners rise 0.25 mm
+    hopping = _c("zeta-0.5", T + 0.0001, sink=0.1e-6, hop=2.5e-4, zeta=0.5)
+    assert hopping.hop_m > hop_tol_m(BLOCK)
+    assert _picked([hopping, _c("zeta-1", T + 0.0007, sink=0.3e-6)]) == ("zeta-1", True)
+    # even when nothing else is left it is not reached
+    assert _picked([hopping]) == ("zeta-0.5", False)
+
+
+def test_a_closer_eta_within_the_resolution_does_not_beat_a_stiffer_setting():
+    stiff = _c("stiff", T * (1 + 0.9 * ETA_RESOLUTION), sink=1e-6)
+    soft = _c("soft", T, sink=1e-6 + 2 * sink_tie_m(BLOCK))
+    assert _picked([soft, stiff]) == ("stiff", True)
+    # outside the resolution the stiffer one is not reached, and the soft one is taken
+    far = _c("stiff-far", T * (1 + 1.1 * ETA_RESOLUTION), sink=1e-6)
+    assert _picked([far, soft]) == ("soft", True)
+
+
+def test_ties_in_stiffness_are_broken_by_damping_nearest_critical():
+    tie = 0.5 * sink_tie_m(BLOCK)
+    cands = [_c("zeta-2", T, sink=1e-6 + tie, zeta=2.0), _c("zeta-0.7", T + 0.001, sink=1e-6, zeta=0.7),
+             _c("zeta-1.2", T + 0.004, sink=1e-6 + tie, zeta=1.2)]
+    assert _picked(cands) == ("zeta-1.2", True)
+    assert [c.knobs["name"] for c in ranked(cands, T, BLOCK)] == ["zeta-1.2", "zeta-0.7", "zeta-2"]
+    # no damping knob: counts as critical; then the stiffer, then the closer η
+    assert _picked([_c("a", T + 0.003, sink=2e-6, zeta=None), _c("b", T, sink=2e-6, zeta=None)]) == ("b", True)
+
+
+def test_irregular_candidates_do_not_count():
+    scatter = _c("scatter", T, std=1.01 * CAL_MAX_SPREAD * T, sink=0.0)
+    one = _c("one-impact", T, n=1, sink=0.0)
+    nan = _c("nothing", math.nan, std=math.nan, n=0)
+    assert _picked([scatter, one, nan, _c("ok", T * 1.005)]) == ("ok", True)
+    # none regular: the closest finite one, not reached
+    assert _picked([scatter, nan]) == ("scatter", False)
+    # regular but none within the resolution: the closest regular, not reached
+    assert _picked([_c("far", T * 1.05), _c("farther", T * 0.9), scatter]) == ("far", False)
+
+
+def test_nothing_to_pick_is_an_error():
+    with pytest.raises(ValueError):
+        pick([], T, BLOCK)
+
+
+def test_the_damping_ratio_of_a_bounce():
+    # a plastic impact is critical damping; a spring-dashpot with ζ gives e = exp(−πζ/√(1 − ζ²))
+    assert damping_ratio_of_restitution(0.0) == 1.0
+    for zeta in (0.05, 0.3, 0.7):
+        e = math.exp(-math.pi * zeta / math.sqrt(1 - zeta * zeta))
+        assert damping_ratio_of_restitution(e) == pytest.approx(zeta)
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN))
+def test_no_builtin_adapter_reads_eta_or_picks_its_own_way(name):
+    """Every contact adapter reads η with the one reader and chooses with the one pick: its module
+    holds no reader of its own (no EtaReader but PEAK_RATIO, no ``*_etas`` function), no Search of
+    its own, and the class no ``eta_reader``, ``_pick`` or spread rule of its own."""
+    cls = adapter_class(name)
+    if not issubclass(cls, SteppedContactAdapter):
+        pytest.skip("not a contact engine (the reference applies η exactly)")
+    mod = sys.modules[cls.__module__]
+    assert all(v is PEAK_RATIO for v in vars(mod).values() if isinstance(v, EtaReader))
+    assert not [k for k, v in vars(mod).items() if k.endswith("_etas") and inspect.isfunction(v)
+                and v.__module__ == mod.__name__]
+    assert not [v for v in vars(mod).values() if isinstance(v, type) and issubclass(v, Search) and v is not Search]
+    for attr in ("eta_reader", "_pick", "_regular", "CAL_SPREAD_ABSOLUTE"):
+        assert not hasattr(cls, attr), attr
+
+
+def test_declared_knobs_give_the_grid_then_the_finer_grid_around_the_pick():
+    """The skeleton's grid calibration (no engine): every ladder combination, the pick, the finer grid
+    around it without the point itself or values under a knob's minimum, the pick over all rows."""
+    from rockbench.engines.knobs import Knob, around, grid
+
+    knobs = (Knob("k", "N/m", "stiffness", lambda b, dt: (1.0, 2.0), refine=(0.5, 1.0, 2.0),
+                  minimum=lambda b, dt: 0.9),
+             Knob("zeta", "", "damping", lambda b, dt: (0.5, 1.0), refine=(0.8, 1.0)))
+    assert grid(knobs, BLOCK, 1e-3) == [{"k": 1.0, "zeta": 0.5}, {"k": 1.0, "zeta": 1.0},
+                                        {"k": 2.0, "zeta": 0.5}, {"k": 2.0, "zeta": 1.0}]
+    assert around(knobs, {"k": 1.0, "zeta": 1.0}, BLOCK, 1e-3) == [{"k": 1.0, "zeta": 0.8}, {"k": 2.0, "zeta": 0.8},
+                                                                   {"k": 2.0, "zeta": 1.0}]
+
+    class Grid(SteppedContactAdapter):
+        name = "fake-knobs"
+        default_dt_s = 1e-3
+        SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS}
+        CALIBRATION_KNOBS = knobs
+
+        def _evaluate(self, block, dt, candidates):
+            # η on target everywhere; ζ 0.5 hops; the sink falls with k
+            return [{**c, "eta": T, "eta_std": 0.001, "n": 4, "sink_m": 1e-3 / c["k"],
+                     "hop_m": 1e-3 if c["zeta"] < 0.6 else 0.0, "damping_ratio": c["zeta"]} for c in candidates]
+
+        def _knobs_key(self, block, target, dt):
+            return "fake"
+
+        def _cached(self, key, use_cache):
+            return None
+
+        def _store(self, key, res, search):
+            self.stored = search
+
+    ad = Grid()
+    c = ad.calibrate(BLOCK, T, dt_s=1e-3)
+    # the stiffest (k 4: 2 × the grid's stiffest, refined) with the damping nearest critical, never the hop
+    assert c.reached and c.settings == {"k": 4.0, "zeta": 1.0} and c.evaluations == 4 + 5
+    assert len(ad.stored["tried"]) == 9 and "reached" in c.note
+
+
+def test_one_knob_with_bisect_steps_is_bisected_between_regular_neighbours():
+    """A single knob asking for bisection (Exudyn's restitution coefficient): after its ladder, the one
+    bisection between the first regular neighbours that bracket the target, until within bisect_rtol;
+    a midpoint that is not regular ends it."""
+    from rockbench.engines.knobs import Knob
+
+    knob = Knob("e", "", "damping", lambda b, dt: (0.0, 0.4, 1.0), bisect_steps=8, bisect_rtol=1e-4)
+
+    def evaluate(hop_at):
+        # η rises with e; e = 0.4 hops (never regular), so the bracket is (0, 1)
+        return lambda cands: [{**c, "eta": 0.9 + 0.06 * c["e"], "eta_std": 0.001, "n": 4, "sink_m": 0.0,
+                               "hop_m": 1e-3 if c["e"] in hop_at else 0.0, "damping_ratio": None} for c in cands]
+
+    rows = SteppedContactAdapter._knob_rows(None, BLOCK, T, 1e-3, (knob,), evaluate({0.4}))
+    assert [r["e"] for r in rows][:5] == [0.0, 0.4, 1.0, 0.5, 0.25]
+    assert len(rows) == 3 + 8 and abs(rows[-1]["eta"] - T) <= 0.06 / 2**8   # 8 halvings of a range of η 0.06
+    stopped = SteppedContactAdapter._knob_rows(None, BLOCK, T, 1e-3, (knob,), evaluate({0.4, 0.25}))
+    assert [r["e"] for r in stopped] == [0.0, 0.4, 1.0, 0.5, 0.25]
