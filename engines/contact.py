@@ -206,7 +206,7 @@ class ContactEngineAdapter(EngineAdapter):
         key = calibration.cache_key(**self._cache_identity(), kind="step-rule", rules_version=RULES_VERSION,
                                     block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
                                     target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
-                                    probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN,
+                                    probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
                                             step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
                                     settings=sorted((k, str(v)) for k, v in self.settings.items()))
         rec = self._steps.get(key) or calibration.load(key)
@@ -266,7 +266,7 @@ class ContactEngineAdapter(EngineAdapter):
         until one reaches the target at an acceptable price); ``auto``: the corners up to 1 % above
         Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M)."""
         t = self.check_target_eta(target_eta)
-        dt = self.run_step_s(block, t, dt_s)
+        dt = self.time_step_s(dt_s)
         kind = self.settings.get("contact") if self.distributed_contact else "corners"
         if kind == "auto":
             kind = "corners" if t <= 1.01 * housner_eta(block.alpha_rad) else "distributed"

@@ -8,15 +8,15 @@ next finer step:
 
 * its calibration reaches the target at both steps, and the two calibrated η agree within
   :data:`ETA_STEP_RTOL`;
-* every cell of a fixed probe set (:func:`probe_cases`) has the same outcome at both steps (the
-  outcome, not the validity flags: a flag near its threshold flips between steps where nothing the
-  maps score moves, measured on Exudyn B3M).
+* every cell of a fixed probe set (:func:`probe_cases`) has the same outcome and the same validity
+  at both steps (the maps score both: an invalid cell is a spurious one where the reference holds).
 
 When no step of the ladder agrees with the next, the finest step is kept and the record says so.
-The probe set is the same for every engine: for each pulse, the cells just below and just above the
-reference's overturning boundary (the lowest amplitude that overturns the rigid block with the
-target η) at :data:`PROBE_W_RATIOS`, :data:`PROBE_MARGIN` of the amplitude axis to either side, so
-a step that moves the engine's boundary by more than that shows in the probes. The search is cached
+The probe set is the same for every engine: for each pulse, at :data:`PROBE_W_RATIOS`, the cells just
+below and just above the reference's overturning boundary (the lowest amplitude that overturns the
+rigid block with the target η), :data:`PROBE_MARGIN` of the amplitude axis to either side, so a step
+that moves the engine's boundary by more than that shows in the probes, and a cell
+:data:`PROBE_DEEP` above it, where the table's strongest push tests the anti-slip contact. The search is cached
 with the calibrations (:mod:`rockbench.engines.calibration`), and its record (each step compared:
 η at both steps and the probes that disagree) goes into run.json with the calibration.
 """
@@ -30,7 +30,7 @@ from ..reference_solver.pulses import make_pulse
 from ..reference_solver.restitution import Restitution
 from .base import Case
 
-__all__ = ["STEP_LADDER_S", "ETA_STEP_RTOL", "PROBE_W_RATIOS", "PROBE_MARGIN", "PROBE_PULSES",
+__all__ = ["STEP_LADDER_S", "ETA_STEP_RTOL", "PROBE_W_RATIOS", "PROBE_MARGIN", "PROBE_DEEP", "PROBE_PULSES",
            "probe_cases", "converged_step"]
 
 #: The steps tried, coarsest first [s]; 1 ms is the coarsest that follows every pulse of the default
@@ -46,6 +46,8 @@ PROBE_W_RATIOS = (1.5, 2.5, 3.5, 4.5)
 PROBE_MARGIN = 0.3
 #: The pulses of the probe set
 PROBE_PULSES = ("sine", "cosine")
+#: Distance above the reference's boundary of the deep probe cell, along a₀/(g·tanα) [-]
+PROBE_DEEP = 1.0
 #: a₀/(g·tanα) searched for the reference's boundary [-]
 _A_RANGE = (1.0, 12.0)
 
@@ -77,22 +79,24 @@ def _reference_boundary(block: Block, eta: float, pulse: str, w_ratio: float) ->
 
 
 def probe_cases(block: Block, eta: float) -> list[tuple[str, float, float]]:
-    """The probe set for ``block`` and η: ``(pulse, ω/p, a₀/(g·tanα))`` just below and just above
-    the reference's boundary at each of :data:`PROBE_W_RATIOS` (module docstring)."""
+    """The probe set for ``block`` and η: ``(pulse, ω/p, a₀/(g·tanα))`` just below, just above and
+    well above the reference's boundary at each of :data:`PROBE_W_RATIOS` (module docstring)."""
     out = []
     for pulse in PROBE_PULSES:
         for w in PROBE_W_RATIOS:
             a_c = _reference_boundary(block, eta, pulse, w)
             if a_c is not None:
-                out += [(pulse, w, max(_A_RANGE[0], a_c - PROBE_MARGIN)), (pulse, w, a_c + PROBE_MARGIN)]
+                out += [(pulse, w, max(_A_RANGE[0], a_c - PROBE_MARGIN)), (pulse, w, a_c + PROBE_MARGIN),
+                        (pulse, w, a_c + PROBE_DEEP)]
     return out
 
 
 def _answers(adapter, block: Block, eta: float, probes: list, dt_s: float) -> list[tuple]:
-    """The outcome of every probe cell, run calibrated at ``dt_s``."""
+    """Outcome (``failed`` for a cell the engine could not run) and validity of every probe cell,
+    run calibrated at ``dt_s``."""
     cases = [Case(block, make_pulse(p, a_ratio_to_amplitude(block, a), w_ratio_to_omega(block, w)),
                   Restitution("constant", value=eta), dt_s) for p, w, a in probes]
-    return [r.outcome for r in adapter.run_many(cases)]
+    return [(r.outcome or "failed", "valid" if r.valid else "invalid") for r in adapter.run_many(cases)]
 
 
 def _compare(adapter, block: Block, eta: float, probes: list, coarse: float, fine: float, runs: dict) -> dict:
@@ -104,7 +108,8 @@ def _compare(adapter, block: Block, eta: float, probes: list, coarse: float, fin
             runs[dt] = (cal, _answers(adapter, block, eta, probes, dt) if cal.reached else None)
     (c_cal, c_ans), (f_cal, f_ans) = runs[coarse], runs[fine]
     differ = ([] if c_ans is None or f_ans is None else
-              [f"{p} ω/p {w:g} a {a:.3g}: {x} vs {y}" for (p, w, a), x, y in zip(probes, c_ans, f_ans) if x != y])
+              [f"{p} ω/p {w:g} a {a:.3g}: {' '.join(x)} vs {' '.join(y)}"
+               for (p, w, a), x, y in zip(probes, c_ans, f_ans) if x != y])
     eta_ok = c_cal.reached and f_cal.reached and abs(c_cal.eta_measured - f_cal.eta_measured) <= ETA_STEP_RTOL * eta
     return {"dt_s": coarse, "finer_dt_s": fine, "eta": c_cal.eta_measured, "finer_eta": f_cal.eta_measured,
             "reached": bool(c_cal.reached and f_cal.reached), "probes_differ": differ,

@@ -48,7 +48,7 @@ def test_the_coarsest_step_that_agrees_with_the_next_finer_is_kept():
 def test_a_probe_that_changes_outcome_keeps_the_finer_step():
     eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, flip={1e-3: (1,)})
     dt, rec = step_rule.converged_step(eng, B3M, ETA)
-    assert dt == 5e-4 and rec["compared"][0]["probes_differ"] == ["sine ω/p 3 a 2: overturn vs rocking"]
+    assert dt == 5e-4 and rec["compared"][0]["probes_differ"] == ["sine ω/p 3 a 2: overturn valid vs rocking valid"]
 
 
 def test_a_calibration_that_misses_its_target_never_agrees():

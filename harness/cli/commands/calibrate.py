@@ -66,13 +66,17 @@ def _calibrate(args, adapter, block, preset) -> dict:
     else:
         rest = restitution_from_args(args, preset, option="--target")
         target = rest.eta(block.alpha_rad)
+        step_rule = None
+        if dt is None and getattr(adapter, "calibrated", lambda: False)():
+            dt, step_rule = adapter.converged_step_s(block, target)   # the step the benchmark runs it at
         c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
         if args.price and c.price is None:
             if not hasattr(adapter, "contact_price"):
                 raise ConfigError(f"--price: engine {adapter.name!r} does not measure a contact price; "
                                   "leave --price out.")
             c.price = adapter.contact_price(block, c, dt)
-        out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict()}
+        out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict(),
+               "dt_s": dt, "step_rule": step_rule}
     return out
 
 
@@ -85,6 +89,11 @@ def _print(args, out: dict) -> int:
              f"{100 * out['rel_error']:+.2f} %)" if out.get("eta_target") is not None else ""))
     if out.get("note"):
         print(out["note"])
+    if out.get("step_rule"):
+        r = out["step_rule"]
+        print(f"time step {1e3 * r['dt_s']:g} ms: the time-step rule's "
+              + ("coarsest step agreeing with the next finer" if r["converged"] else
+                 "finest step (no step of the ladder agreed with the next finer)"))
     if out.get("price") is not None and "price:" not in (out.get("note") or ""):
         print(price_line(out["price"]))
     print("settings: " + json.dumps(out["settings"], default=float))
