@@ -4,9 +4,15 @@ An adapter whose calibration is a grid over its contact knobs declares them
 (:attr:`~rockbench.engines.skeleton.SteppedContactAdapter.CALIBRATION_KNOBS`, a tuple of
 :class:`Knob`); the skeleton then runs the search (:meth:`~rockbench.engines.skeleton.SteppedContactAdapter._calibrate_knobs`):
 every combination of the knobs' ladders (:func:`grid`), then a finer grid around the pick
-(:func:`around`) or, for one knob that asks for it, the one bisection between the ladder's regular
-neighbours that bracket the target; each candidate measured in free rocking and chosen by the one
-pick (:func:`~rockbench.engines.pick.pick`).
+(:func:`around`) or, for one knob that asks for it, the one bisection between the ladder's
+neighbours that bracket the target (or over its ``span``); each candidate measured in free rocking
+and chosen by the one pick (:func:`~rockbench.engines.pick.pick`).
+
+An adapter that keeps its contact as shipped when that is close enough
+(:attr:`~rockbench.engines.skeleton.SteppedContactAdapter.SHIPPED_KEEP_RTOL`) has the shipped contact
+(every knob at its ``shipped`` value) measured first; the knobs without ``when`` are then searched,
+then those whose ``when`` names the side of the target the shipped η lies on, every candidate the
+shipped contact with the searched knobs changed.
 """
 
 from __future__ import annotations
@@ -15,9 +21,13 @@ import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..reference_solver.model import Block
+import math
 
-__all__ = ["Knob", "grid", "around"]
+from ..reference_solver.model import Block
+from .pick import ETA_RESOLUTION, Candidate, pick, regular
+from .search import bisection, bracket
+
+__all__ = ["Knob", "grid", "around", "candidate", "search"]
 
 
 @dataclass(frozen=True)
@@ -33,12 +43,12 @@ class Knob:
     role : str
         ``"stiffness"``, ``"damping"`` or ``"other"``: what it moves (for the notes; the pick reads
         stiffness from the resting sink and damping from the adapter's ``_damping_ratio``).
-    ladder : callable
-        ``ladder(block, dt_s)``: the values tried first [unit].
+    ladder : callable or None
+        ``ladder(block, dt_s)``: the values tried first [unit] (None: the knob has a ``span``).
     refine : tuple of float
         Factors applied to the pick's value for the finer grid around it [-].
-    shipped : float or None
-        The engine's own default [unit] (None: the engine ships none).
+    shipped : float, str, bool or None
+        The engine's own default [unit] (None: the engine ships none, or the knob is unset as shipped).
     minimum : callable or None
         ``minimum(block, dt_s)``: the smallest value a refined candidate may take [unit].
     bisect_steps : int
@@ -46,23 +56,65 @@ class Knob:
         between the first regular neighbours of the ladder that bracket the target (0: the finer grid).
     bisect_rtol : float
         Relative distance to the target that ends that bisection [-].
+    bisect_regular : bool
+        Whether that bisection counts only regular runs (:func:`~rockbench.engines.pick.regular`): it
+        brackets between regular ladder values, is skipped when one is already within ``bisect_rtol``,
+        and a midpoint that is not regular ends it; False: every finite η counts.
+    span : callable or None
+        ``span(block, dt_s) -> (lo, hi)``: instead of a ladder, the range bisected (``bisect_steps``
+        halvings) [unit, or log10 of it with ``log10``].
+    log10 : bool
+        Whether ``span`` is in log10 of the value (the bisection halves the logarithm).
+    rising : bool
+        Whether η rises with the knob over ``span``.
+    no_eta_low_end : bool
+        Whether a bisection's midpoint without an η replaces the range's low end (else its high end).
+    along : callable or None
+        ``along(value, block, dt_s) -> dict``: settings a candidate sets with the knob (the damping
+        of a critically damped spring, a contact-breaking threshold, a solver).
+    when : str or None
+        ``"above"`` (``"below"``): searched only when the shipped contact's η lies more than the
+        reader's resolution above (below, or has no η) the target; None: whatever it gives.
+    until_reached : bool
+        The ladder measured one value at a time, ending at the first after which the pick reaches the
+        target (no finer grid, no bisection).
     """
 
     name: str
     unit: str
     role: str
-    ladder: Callable[[Block, float], tuple]
+    ladder: Callable[[Block, float], tuple] | None = None
     refine: tuple = (1.0,)
     shipped: float | None = None
     minimum: Callable[[Block, float], float] | None = None
     bisect_steps: int = 0
     bisect_rtol: float = 0.0025
+    bisect_regular: bool = True
+    span: Callable[[Block, float], tuple] | None = None
+    log10: bool = False
+    rising: bool = True
+    no_eta_low_end: bool = False
+    along: Callable[[float, Block, float], dict] | None = None
+    when: str | None = None
+    until_reached: bool = False
 
 
-def grid(knobs: tuple, block: Block, dt_s: float) -> list[dict]:
-    """Every combination of the knobs' ladders, the first knob varying slowest."""
-    return [dict(zip((k.name for k in knobs), values))
-            for values in itertools.product(*(k.ladder(block, dt_s) for k in knobs))]
+def candidate(knob: Knob, value, block: Block, dt_s: float, start: dict | None = None) -> dict:
+    """The contact settings of ``knob`` at ``value``: ``start`` (the shipped contact, or nothing)
+    with the knob's ``along`` settings and the knob set."""
+    return {**(start or {}), **(knob.along(value, block, dt_s) if knob.along else {}), knob.name: value}
+
+
+def grid(knobs: tuple, block: Block, dt_s: float, start: dict | None = None) -> list[dict]:
+    """Every combination of the knobs' ladders, the first knob varying slowest, each from ``start``
+    (the shipped contact, or nothing) with the knobs' ``along`` settings."""
+    out = []
+    for values in itertools.product(*(k.ladder(block, dt_s) for k in knobs)):
+        c = dict(start or {})
+        for k, v in zip(knobs, values):
+            c = candidate(k, v, block, dt_s, c)
+        out.append(c)
+    return out
 
 
 def around(knobs: tuple, point: dict, block: Block, dt_s: float) -> list[dict]:
@@ -76,3 +128,69 @@ def around(knobs: tuple, point: dict, block: Block, dt_s: float) -> list[dict]:
         if all(k.minimum is None or c[k.name] >= k.minimum(block, dt_s) for k in knobs):
             out.append(c)
     return out
+
+
+def search(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, keep_rtol: float | None = None) -> list[dict]:
+    """The one search of declared knobs: the measured candidates (``evaluate(candidates) -> rows``,
+    each row a candidate with ``eta``, ``eta_std``, ``n`` and what else the pick reads), in order.
+
+    With ``keep_rtol``: the shipped contact first (every knob at its ``shipped`` value), and nothing
+    more when its η is within ``keep_rtol`` of the target. Then the knobs without ``when``
+    (:func:`_stage`), then those whose ``when`` names the side of the target the shipped η lies on
+    (more than :data:`~rockbench.engines.pick.ETA_RESOLUTION` away; no η counts as below), each
+    candidate the shipped contact with the searched knobs changed.
+    """
+    stages, start, rows = [[k for k in knobs if k.when is None]], None, []
+    if keep_rtol is not None:
+        start = {k.name: k.shipped for k in knobs if k.shipped is not None}
+        rows = evaluate([start])
+        e0 = rows[0]["eta"]
+        err = abs(e0 - target) / target
+        if err <= keep_rtol:
+            return rows
+        side = "above" if e0 > target else "below"
+        stages.append([k for k in knobs if k.when == side and not err <= ETA_RESOLUTION])
+    for stage in stages:
+        if stage:
+            rows += _stage(tuple(stage), block, target, dt_s, evaluate, start)
+    return rows
+
+
+def _stage(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, start: dict | None) -> list[dict]:
+    """One stage of :func:`search`: the grid of the knobs' ladders from ``start`` (the shipped
+    contact, left out: measured already), then the finer grid around its pick; or, for one knob, its
+    ladder until the pick reaches (``until_reached``), or the one bisection
+    (:func:`~rockbench.engines.search.bisection`, ``bisect_steps``) over its ``span`` or between the
+    first neighbours of its ladder that bracket the target
+    (:func:`~rockbench.engines.search.bracket`)."""
+    k = knobs[0]
+    if k.until_reached:
+        rows: list = []
+        for v in k.ladder(block, dt_s):
+            rows += evaluate([candidate(k, v, block, dt_s, start)])
+            if pick([Candidate.of_row(r) for r in rows], target, block).reached:
+                break
+        return rows
+    if k.span is not None:
+        rows, (lo, hi), eta_lo = [], k.span(block, dt_s), -math.inf if k.rising else math.inf
+    else:
+        rows = evaluate([c for c in grid(knobs, block, dt_s, start) if c != start])
+        if not any(math.isfinite(r["eta"]) for r in rows):
+            return rows
+        if len(knobs) > 1 or not k.bisect_steps:
+            first = pick([Candidate.of_row(r) for r in rows], target, block).candidate.knobs
+            return rows + evaluate(around(knobs, first, block, dt_s))
+        ok = [r for r in rows if not k.bisect_regular or regular(Candidate.of_row(r), target, block)]
+        found = bracket([(r[k.name], r["eta"]) for r in ok], target)
+        if found is None or (k.bisect_regular and any(abs(r["eta"] - target) <= k.bisect_rtol * target for r in ok)):
+            return rows
+        lo, eta_lo, hi = found
+    log = k.span is not None and k.log10
+
+    def eta_at(x: float) -> float | None:
+        rows.extend(evaluate([candidate(k, 10.0 ** x if log else x, block, dt_s, start)]))
+        return rows[-1]["eta"] if not k.bisect_regular or regular(Candidate.of_row(rows[-1]), target, block) else None
+
+    bisection(eta_at, lo, hi, k.bisect_steps, target=target, eta_lo=eta_lo,
+              done=lambda e: abs(e - target) <= k.bisect_rtol * target, nonfinite_low=k.no_eta_low_end)
+    return rows
