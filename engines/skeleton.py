@@ -523,13 +523,18 @@ class SteppedContactAdapter(ContactEngineAdapter):
         """Free rocking for each candidate (the knobs' values): one row each, the values with what the
         pick reads (``eta``, ``eta_std``, ``n``, ``sink_m``, ``hop_m``, ``damping_ratio``). Here one by
         one; an engine that measures many in one native batch overrides it."""
-        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
+        base = self._knobs_base(block, dt)
         rows = []
         for c in candidates:
             m = self.measure_restitution(block, dt_s=dt, settings={**base, **c})
             rows.append({**c, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas), "sink_m": m.sink_m,
                          "hop_m": m.hop_m, "damping_ratio": self._damping_ratio(block, {**base, **c})})
         return rows
+
+    def _knobs_base(self, block: Block, dt: float) -> dict:
+        """The settings a candidate of the declared knobs updates (default: the base settings, the
+        contact keys unset)."""
+        return {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
 
     def _knobs_key(self, block: Block, target: float, dt: float) -> str:
         """The cache key of a grid calibration (default: the engine, the block, target, step and
