@@ -270,7 +270,7 @@ class DartAdapter(SteppedContactAdapter):
         Knob("restitution_coeff", "", "damping", ladder=lambda block, dt: _RESTITUTIONS_TRIED, shipped=0.0,
              when="below"),
     )
-    SHIPPED_KEEP_RTOL = 0.005
+    START_KEEP_RTOL = 0.005
     MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
     CALIBRATION_VERSION = 1
 

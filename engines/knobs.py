@@ -8,11 +8,11 @@ every combination of the knobs' ladders (:func:`grid`), then a finer grid around
 neighbours that bracket the target (or over its ``span``); each candidate measured in free rocking
 and chosen by the one pick (:func:`~rockbench.engines.pick.pick`).
 
-An adapter that keeps its contact as shipped when that is close enough
-(:attr:`~rockbench.engines.skeleton.SteppedContactAdapter.SHIPPED_KEEP_RTOL`) has the shipped contact
-(every knob at its ``shipped`` value) measured first; the knobs without ``when`` are then searched,
-then those whose ``when`` names the side of the target the shipped η lies on, every candidate the
-shipped contact with the searched knobs changed.
+An adapter that keeps its starting contact when that is close enough
+(:attr:`~rockbench.engines.skeleton.SteppedContactAdapter.START_KEEP_RTOL`) has it measured first
+(every knob at its ``start`` value, by default the ``shipped`` one); the knobs without ``when`` are
+then searched, then those whose ``when`` names the side of the target the starting η lies on, every
+candidate the starting contact with the searched knobs changed.
 """
 
 from __future__ import annotations
@@ -49,6 +49,8 @@ class Knob:
         Factors applied to the pick's value for the finer grid around it [-].
     shipped : float, str, bool or None
         The engine's own default [unit] (None: the engine ships none, or the knob is unset as shipped).
+    start : float or None
+        Where the calibration starts when that is not ``shipped`` [unit] (Drake's stiff base contact).
     minimum : callable or None
         ``minimum(block, dt_s)``: the smallest value a refined candidate may take [unit].
     bisect_steps : int
@@ -64,7 +66,7 @@ class Knob:
         ``span(block, dt_s) -> (lo, hi)``: instead of a ladder, the range bisected (``bisect_steps``
         halvings) [unit, or log10 of it with ``log10``].
     log10 : bool
-        Whether ``span`` is in log10 of the value (the bisection halves the logarithm).
+        Whether the ladder and ``span`` are in log10 of the value (the bisection halves the logarithm).
     rising : bool
         Whether η rises with the knob over ``span``.
     no_eta_low_end : bool
@@ -73,11 +75,12 @@ class Knob:
         ``along(value, block, dt_s) -> dict``: settings a candidate sets with the knob (the damping
         of a critically damped spring, a contact-breaking threshold, a solver).
     when : str or None
-        ``"above"`` (``"below"``): searched only when the shipped contact's η lies more than the
+        ``"above"`` (``"below"``): searched only when the starting contact's η lies more than the
         reader's resolution above (below, or has no η) the target; None: whatever it gives.
-    until_reached : bool
-        The ladder measured one value at a time, ending at the first after which the pick reaches the
-        target (no finer grid, no bisection).
+    until : str or None
+        The ladder measured one value at a time (the stage's next knob searched at each), ending at
+        the first value after which ``"reached"``: the pick reaches the target; ``"close"``: a
+        candidate lies within the next knob's ``bisect_rtol`` of it. None: the grid of the ladders.
     """
 
     name: str
@@ -85,7 +88,8 @@ class Knob:
     role: str
     ladder: Callable[[Block, float], tuple] | None = None
     refine: tuple = (1.0,)
-    shipped: float | None = None
+    shipped: float | str | bool | None = None
+    start: float | None = None
     minimum: Callable[[Block, float], float] | None = None
     bisect_steps: int = 0
     bisect_rtol: float = 0.0025
@@ -96,7 +100,7 @@ class Knob:
     no_eta_low_end: bool = False
     along: Callable[[float, Block, float], dict] | None = None
     when: str | None = None
-    until_reached: bool = False
+    until: str | None = None
 
 
 def candidate(knob: Knob, value, block: Block, dt_s: float, start: dict | None = None) -> dict:
@@ -134,15 +138,16 @@ def search(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, kee
     """The one search of declared knobs: the measured candidates (``evaluate(candidates) -> rows``,
     each row a candidate with ``eta``, ``eta_std``, ``n`` and what else the pick reads), in order.
 
-    With ``keep_rtol``: the shipped contact first (every knob at its ``shipped`` value), and nothing
-    more when its η is within ``keep_rtol`` of the target. Then the knobs without ``when``
-    (:func:`_stage`), then those whose ``when`` names the side of the target the shipped η lies on
-    (more than :data:`~rockbench.engines.pick.ETA_RESOLUTION` away; no η counts as below), each
-    candidate the shipped contact with the searched knobs changed.
+    With ``keep_rtol``: the starting contact first (every knob at its ``start``, else ``shipped``
+    value), and nothing more when its η is within ``keep_rtol`` of the target. Then the knobs
+    without ``when`` (:func:`_stage`), then those whose ``when`` names the side of the target the
+    starting η lies on (more than :data:`~rockbench.engines.pick.ETA_RESOLUTION` away; no η counts
+    as below), each candidate the starting contact with the searched knobs changed.
     """
     stages, start, rows = [[k for k in knobs if k.when is None]], None, []
     if keep_rtol is not None:
-        start = {k.name: k.shipped for k in knobs if k.shipped is not None}
+        start = {k.name: k.shipped if k.start is None else k.start for k in knobs
+                 if k.shipped is not None or k.start is not None}
         rows = evaluate([start])
         e0 = rows[0]["eta"]
         err = abs(e0 - target) / target
@@ -157,38 +162,58 @@ def search(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, kee
 
 
 def _stage(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, start: dict | None) -> list[dict]:
-    """One stage of :func:`search`: the grid of the knobs' ladders from ``start`` (the shipped
-    contact, left out: measured already), then the finer grid around its pick; or, for one knob, its
-    ladder until the pick reaches (``until_reached``), or the one bisection
-    (:func:`~rockbench.engines.search.bisection`, ``bisect_steps``) over its ``span`` or between the
-    first neighbours of its ladder that bracket the target
-    (:func:`~rockbench.engines.search.bracket`)."""
+    """One stage of :func:`search`: a first knob with ``until`` measured value by value
+    (:func:`_until`); else the grid of the knobs' ladders from ``start`` (the starting contact, left
+    out: measured already), then the finer grid around its pick; or, for one knob with
+    ``bisect_steps``, :func:`_bisected`."""
     k = knobs[0]
-    if k.until_reached:
-        rows: list = []
-        for v in k.ladder(block, dt_s):
-            rows += evaluate([candidate(k, v, block, dt_s, start)])
-            if pick([Candidate.of_row(r) for r in rows], target, block).reached:
-                break
+    if k.until is not None:
+        return _until(knobs, block, target, dt_s, evaluate, start)
+    if len(knobs) == 1 and k.bisect_steps:
+        return _bisected(k, block, target, dt_s, evaluate, start)
+    rows = evaluate([c for c in grid(knobs, block, dt_s, start) if c != start])
+    if not any(math.isfinite(r["eta"]) for r in rows):
         return rows
+    first = pick([Candidate.of_row(r) for r in rows], target, block).candidate.knobs
+    return rows + evaluate(around(knobs, first, block, dt_s))
+
+
+def _until(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, start: dict | None) -> list[dict]:
+    """The first knob's ladder value by value, the others searched at each (:func:`_stage`), until
+    its ``until`` rule holds over the stage's candidates."""
+    k, rest, rows = knobs[0], knobs[1:], []
+    for v in k.ladder(block, dt_s):
+        c = candidate(k, v, block, dt_s, start)
+        rows += _stage(rest, block, target, dt_s, evaluate, c) if rest else evaluate([c])
+        if k.until == "reached":
+            done = pick([Candidate.of_row(r) for r in rows], target, block).reached
+        else:
+            last = rest[-1]
+            done = any(abs(r["eta"] - target) / target <= last.bisect_rtol for r in rows
+                       if not last.bisect_regular or regular(Candidate.of_row(r), target, block))
+        if done:
+            break
+    return rows
+
+
+def _bisected(k: Knob, block: Block, target: float, dt_s: float, evaluate, start: dict | None) -> list[dict]:
+    """One knob bisected (:func:`~rockbench.engines.search.bisection`, ``bisect_steps`` halvings, until
+    within ``bisect_rtol``): over its ``span``, or after its ladder between the first neighbours that
+    bracket the target (:func:`~rockbench.engines.search.bracket`)."""
+    value = (lambda x: 10.0 ** x) if k.log10 else (lambda x: x)
     if k.span is not None:
         rows, (lo, hi), eta_lo = [], k.span(block, dt_s), -math.inf if k.rising else math.inf
     else:
-        rows = evaluate([c for c in grid(knobs, block, dt_s, start) if c != start])
-        if not any(math.isfinite(r["eta"]) for r in rows):
-            return rows
-        if len(knobs) > 1 or not k.bisect_steps:
-            first = pick([Candidate.of_row(r) for r in rows], target, block).candidate.knobs
-            return rows + evaluate(around(knobs, first, block, dt_s))
-        ok = [r for r in rows if not k.bisect_regular or regular(Candidate.of_row(r), target, block)]
-        found = bracket([(r[k.name], r["eta"]) for r in ok], target)
-        if found is None or (k.bisect_regular and any(abs(r["eta"] - target) <= k.bisect_rtol * target for r in ok)):
+        xs = [x for x in k.ladder(block, dt_s) if candidate(k, value(x), block, dt_s, start) != start]
+        rows = evaluate([candidate(k, value(x), block, dt_s, start) for x in xs])
+        ok = [(x, r) for x, r in zip(xs, rows) if not k.bisect_regular or regular(Candidate.of_row(r), target, block)]
+        found = bracket([(x, r["eta"]) for x, r in ok], target)
+        if found is None or (k.bisect_regular and any(abs(r["eta"] - target) <= k.bisect_rtol * target for _, r in ok)):
             return rows
         lo, eta_lo, hi = found
-    log = k.span is not None and k.log10
 
     def eta_at(x: float) -> float | None:
-        rows.extend(evaluate([candidate(k, 10.0 ** x if log else x, block, dt_s, start)]))
+        rows.extend(evaluate([candidate(k, value(x), block, dt_s, start)]))
         return rows[-1]["eta"] if not k.bisect_regular or regular(Candidate.of_row(rows[-1]), target, block) else None
 
     bisection(eta_at, lo, hi, k.bisect_steps, target=target, eta_lo=eta_lo,

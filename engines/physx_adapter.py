@@ -237,7 +237,7 @@ class PhysxAdapter(SteppedContactAdapter):
     #: first until the pick reaches the target. PhysX's plastic corner impact loses more than Housner's
     #: η_H the longer its step (docs/physx.md); iterations move η less and do not reach η_H, contact
     #: offset and restitution (below the bounce threshold) not at all.
-    CALIBRATION_KNOBS = (Knob("substeps", "", "stiffness", ladder=lambda block, dt: SUBSTEPS_TRIED, until_reached=True,
+    CALIBRATION_KNOBS = (Knob("substeps", "", "stiffness", ladder=lambda block, dt: SUBSTEPS_TRIED, until="reached",
                               shipped=SHIPPED_CONTACT["substeps"], along=lambda n, block, dt: {"solver": CALIBRATED_SOLVER}),)
     CALIBRATION_VERSION = 1
 

@@ -372,7 +372,7 @@ class PybulletAdapter(SteppedContactAdapter):
         Knob("restitution_coef", "", "damping", when="below", bisect_steps=5, bisect_regular=False,
              ladder=lambda block, dt: _RESTITUTIONS, along=lambda e, block, dt: {"contact_breaking_threshold_m": 1e-4}),
     )
-    SHIPPED_KEEP_RTOL = 0.01
+    START_KEEP_RTOL = 0.01
     CALIBRATION_VERSION = 5
     CALIBRATION_VERSION_DIST = 4
     distributed_contact = True

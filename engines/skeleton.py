@@ -249,7 +249,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: with knobs declared: measure the shipped contact (every knob at its ``shipped`` value) first and
     #: keep it when its η is within this fraction of the target [-]; None: the shipped contact is not
     #: measured first
-    SHIPPED_KEEP_RTOL: ClassVar[float | None] = None
+    START_KEEP_RTOL: ClassVar[float | None] = None
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
 
@@ -499,7 +499,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
             return cached
         knobs = self.CALIBRATION_KNOBS
         rows = self._knob_rows(block, target, dt, knobs, lambda c: self._evaluate(block, dt, c),
-                               keep_rtol=self.SHIPPED_KEEP_RTOL)
+                               keep_rtol=self.START_KEEP_RTOL)
         if not any(math.isfinite(r["eta"]) for r in rows):
             raise ConfigError(f"{self.name} calibration: no contact setting gave a measurable free rocking "
                               "(fewer than two impacts); try a smaller --dt.")

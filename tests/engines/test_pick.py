@@ -194,7 +194,7 @@ def test_a_knob_until_reached_stops_at_the_first_value_the_pick_reaches():
     """PhysX's substeps: the ladder one value at a time, with the settings along, until the pick reaches."""
     from rockbench.engines.knobs import Knob, search
 
-    knob = Knob("substeps", "", "stiffness", ladder=lambda b, dt: (1, 2, 4, 8), until_reached=True,
+    knob = Knob("substeps", "", "stiffness", ladder=lambda b, dt: (1, 2, 4, 8), until="reached",
                 along=lambda n, b, dt: {"solver": "pgs"})
     rows = search((knob,), BLOCK, T, 1e-3, _rows(lambda c: T * (1 - 0.03 / c["substeps"])))
     assert [(r["solver"], r["substeps"]) for r in rows] == [("pgs", 1), ("pgs", 2), ("pgs", 4)]
