@@ -198,3 +198,20 @@ def test_a_knob_until_reached_stops_at_the_first_value_the_pick_reaches():
                 along=lambda n, b, dt: {"solver": "pgs"})
     rows = search((knob,), BLOCK, T, 1e-3, _rows(lambda c: T * (1 - 0.03 / c["substeps"])))
     assert [(r["solver"], r["substeps"]) for r in rows] == [("pgs", 1), ("pgs", 2), ("pgs", 4)]
+
+
+def test_a_stiffness_ladder_with_a_bisected_damping_at_each_stops_once_close():
+    """Drake's search: the starting contact (``start``, not shipped) first; then the stiffness ladder
+    value by value, at each the damping's log10 range ends and their bisection, until a candidate is
+    within the bisection's tolerance (``until="close"``)."""
+    from rockbench.engines.knobs import Knob, search
+
+    knobs = (Knob("k", "N/m", "stiffness", start=1e6, until="close", ladder=lambda b, dt: (1e5, 3e4, 1e4)),
+             Knob("d", "s", "damping", start=1e-3, ladder=lambda b, dt: (-5.0, -1.0), log10=True, bisect_steps=10,
+                  bisect_regular=False))
+    # η falls with log10 d; at k 1e5 it stays above the target, at 3e4 it crosses it at d = 1e-3
+    rows = search(knobs, BLOCK, T, 1e-3,
+                  _rows(lambda c: T * (1.05 if c["k"] >= 1e5 else 1 - 0.01 * (math.log10(c["d"]) + 3))), keep_rtol=0.005)
+    assert rows[0]["k"] == 1e6 and rows[0]["d"] == 1e-3
+    assert [(r["k"], r["d"]) for r in rows[1:5]] == [(1e5, 1e-5), (1e5, 0.1), (3e4, 1e-5), (3e4, 0.1)]
+    assert rows[-1]["k"] == 3e4 and rows[-1]["d"] == 1e-3 and all(r["k"] != 1e4 for r in rows)
