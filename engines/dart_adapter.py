@@ -57,6 +57,7 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
+from .knobs import Knob
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: The collision detectors dartpy offers, by setting value
@@ -257,6 +258,19 @@ class DartAdapter(SteppedContactAdapter):
         "min_tail_s": 0.25,
     }
     CONTACT_KEYS = ("collision_detector", "split_impulse", "restitution_coeff")
+    #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): DART's contact is
+    #: rigid and its impact plastic, which is Housner's η_H, so the contact as shipped
+    #: (:data:`SHIPPED_CONTACT`) is kept within 0.5 %; otherwise the other collision detectors and the
+    #: split impulse, and for a target more than 1 % above the shipped η the restitution coefficients
+    #: :data:`_RESTITUTIONS_TRIED`. Nothing softens the contact: dartpy does not expose its error
+    #: reduction or constraint force mixing.
+    CALIBRATION_KNOBS = (
+        Knob("collision_detector", "", "other", ladder=lambda block, dt: tuple(COLLISION_DETECTORS), shipped="fcl"),
+        Knob("split_impulse", "", "other", ladder=lambda block, dt: (False, True), shipped=False),
+        Knob("restitution_coeff", "", "damping", ladder=lambda block, dt: _RESTITUTIONS_TRIED, shipped=0.0,
+             when="below"),
+    )
+    START_KEEP_RTOL = 0.005
     MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
     CALIBRATION_VERSION = 1
 
@@ -338,55 +352,24 @@ class DartAdapter(SteppedContactAdapter):
         ident = super()._calibration_identity(base)
         return {**ident, "corner_radius": float(base["corner_radius_m"])} if base["planar"] else ident
 
-    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """DART's contact settings whose free-rocking η is closest to ``target`` (reached within 1 %).
-
-        DART's contact is rigid and its impact plastic, which is Housner's η_H: the contact as
-        shipped (:data:`SHIPPED_CONTACT`) is kept when within 0.5 % of the target. Otherwise the
-        other collision detectors and the split impulse, and (for a target more than 1 % above the
-        shipped η) the restitution coefficients :data:`_RESTITUTIONS_TRIED` are measured, and the closest
-        setting whose impacts agree within 2 % wins. Nothing softens the contact: dartpy does not
-        expose its error reduction or constraint force mixing. Cached on disk per engine version,
-        block, target, step, planar flag, friction and drive.
-        """
-        base = {**self._base_settings(), **SHIPPED_CONTACT}
-        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
-        search = self._search(block, dt, base, target)
-        e0 = search.evaluate(dict(SHIPPED_CONTACT))
-        if search.err(e0) > 0.005:
-            for det in COLLISION_DETECTORS:
-                for split in (False, True):
-                    if (det, split) != ("fcl", False):
-                        search.evaluate({**SHIPPED_CONTACT, "collision_detector": det, "split_impulse": split})
-            if not e0 >= 0.99 * target:  # more than 1 % below the target, or no η: try the bounce
-                for e in _RESTITUTIONS_TRIED:
-                    search.evaluate({**SHIPPED_CONTACT, "restitution_coeff": e})
-        eta, _, extra, reached = search.best()
-        res = search.result((), self._note(block, search, e0, extra, reached))
-        self._store(key, res, {"tried": search.rows()})
-        return res
-
-    @staticmethod
-    def _note(block: Block, search, e0: float, extra: dict, reached: bool) -> str:
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
         """What a calibration found, in words."""
-        if extra == SHIPPED_CONTACT:
-            if reached:
+        e0 = rows[0]["eta"]
+        if settings == SHIPPED_CONTACT:
+            if chosen.reached:
                 return "DART as shipped (FCL, rigid plastic contact) gives this η."
             head = f"not reached: DART as shipped gives {e0:.4f}, the closest"
         else:
-            head = (f"reached with {_describe(extra)}" if reached else
-                    f"not reached: the closest is {_describe(extra)}, η = {search.best()[0]:.4f}")
-        others = [r[0] for r in search.tried if r[2]["restitution_coeff"] == 0 and r[2] != SHIPPED_CONTACT]
+            head = (f"reached with {_describe(settings)}" if chosen.reached else
+                    f"not reached: the closest is {_describe(settings)}, η = {chosen.candidate.eta:.4f}")
+        others = [r["eta"] for r in rows[1:] if r["restitution_coeff"] == 0]
         if others:
             head += f"; the other collision detectors and the split impulse give η = {min(others):.4f}–{max(others):.4f}"
-        e_tried = [r for r in search.tried if r[2]["restitution_coeff"] > 0]
+        e_tried = [r for r in rows if r["restitution_coeff"] > 0]
         if not e_tried:
             return head + "."
         v_land = landing_speed_m_s(block, 0.5)
-        etas = ", ".join(f"e = {r[2]['restitution_coeff']:g}: {r[0]:.4f} ± {r[1]:.4f}" for r in e_tried)
+        etas = ", ".join(f"e = {r['restitution_coeff']:g}: {r['eta']:.4f} ± {r['eta_std']:.4f}" for r in e_tried)
         return (f"{head}; restitution ({etas}) acts only where e·v_n > {BOUNCE_THRESHOLD_M_S:g} m/s (a compile-time "
                 f"constant of DART; the landing corner of a release from α/2 arrives at {v_land:.3f} m/s), and where "
                 "it acts the corner's bounce launches the block off the table instead of raising η; DART's contact "

@@ -67,6 +67,7 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from .base import CalibrationResult
+from .knobs import Knob
 from .rotation import theta_of_quat
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 from .support import version_label
@@ -330,6 +331,7 @@ class DrakeAdapter(SteppedContactAdapter):
     }
     CONTACT_KEYS = ("point_stiffness_n_m", "hydroelastic_modulus_pa", "relaxation_time_s", "hunt_crossley_dissipation_s_m")
     MEASURED_SETTINGS = ("settings", "contact", "approximation", "friction", "planar", "drive")
+    START_KEEP_RTOL = 0.005
     CALIBRATION_VERSION = 4
 
     @classmethod
@@ -450,49 +452,33 @@ class DrakeAdapter(SteppedContactAdapter):
                 "approximation": base["approximation"], "corner_radius": base["corner_radius_m"],
                 "table_mass_ratio": base["table_mass_ratio"]}
 
-    def _calibrate_corners(self, block: Block, t: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """Search Drake's contact parameters so the free-rocking η reaches ``t`` within 1 %.
+    @property
+    def CALIBRATION_KNOBS(self) -> tuple:  # noqa: N802 - the skeleton's declaration, per contact model
+        """The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): the stiff,
+        plastic contact of :data:`BASE_CONTACT` first (point stiffness 1e6 N/m per edge or modulus
+        1e8 Pa; relaxation time 1 ms for SAP, Hunt–Crossley 0.1 s/m otherwise), which gives η close to
+        Housner's, kept within 0.5 %; otherwise the stiffnesses :data:`_STIFFNESS_FACTORS` × the base
+        one by one, at each the dissipation's range ends (:data:`_DISSIPATION_LOG10`) and a bisection
+        of its logarithm when they bracket the target (less dissipation, higher η: the corner comes off
+        the table more elastically), until a candidate is within 0.25 %."""
+        kkey, dkey = self._stiffness_key(), self._dissipation_key(self._approximation())
+        k0, factors = BASE_CONTACT[kkey], _STIFFNESS_FACTORS[self.settings["contact"]]
+        return (Knob(kkey, "N/m" if kkey == "point_stiffness_n_m" else "Pa", "stiffness", start=k0, until="close",
+                     ladder=lambda block, dt: tuple(k0 * f for f in factors)),
+                Knob(dkey, "s" if dkey == "relaxation_time_s" else "s/m", "damping", start=BASE_CONTACT[dkey],
+                     ladder=lambda block, dt: _DISSIPATION_LOG10[dkey], log10=True, bisect_steps=10,
+                     bisect_regular=False))
 
-        The search, in order:
-
-        1. The stiff contact of :data:`BASE_CONTACT` (point stiffness 1e6 N/m per edge or
-           modulus 1e8 Pa; relaxation time 1 ms for SAP, Hunt–Crossley 0.1 s/m otherwise): a
-           near-rigid, plastic impact, which gives η close to Housner's. Kept when within 0.5 %.
-        2. Otherwise other stiffnesses (point: × 0.1, then × 0.03; hydroelastic: × 10, × 100,
-           × 0.1, × 0.03), each with a bisection on the logarithm of the dissipation (relaxation
-           time 1e-5–0.1 s, or Hunt–Crossley 1e-3–30 s/m): less dissipation, higher η (the corner
-           comes off the table more elastically); the search stops at 0.25 %.
-
-        The closest setting whose per-impact spread stays within 2 % of the target wins
-        (:class:`~rockbench.engines.skeleton.Search`); ``reached`` says whether it is within 1 %.
-        """
-        base = self._filled({**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}})
-        kkey, dkey = self._stiffness_key(), self._dissipation_key(base["approximation"])
-        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
-        search = self._search(block, dt, base, t)
-        k0, d0 = BASE_CONTACT[kkey], BASE_CONTACT[dkey]
-        if search.err(search.evaluate({kkey: k0, dkey: d0})) > 0.005:
-            lo0, hi0 = _DISSIPATION_LOG10[dkey]
-            for f in _STIFFNESS_FACTORS[base["contact"]]:
-                # at stiffness k0·f, the two ends of the range, then a bisection when they bracket
-                # the target (η falls as the dissipation grows)
-                search.scan_bisect(lambda x, k=k0 * f: {kkey: k, dkey: 10.0 ** x}, (lo0, hi0), 10)
-                if min(search.err(r[0]) for r in search.tried) <= 0.0025:
-                    break
-        eta, _, extra, reached = search.best()
-        if extra[kkey] == k0 and extra[dkey] == d0:
-            note = ("the stiff, plastic base contact gives this η." if reached else
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        kkey, dkey = (k.name for k in self.CALIBRATION_KNOBS)
+        eta, reached = chosen.candidate.eta, chosen.reached
+        if settings[kkey] == BASE_CONTACT[kkey] and settings[dkey] == BASE_CONTACT[dkey]:
+            return ("the stiff, plastic base contact gives this η." if reached else
                     f"not reached: the closest consistent η is the base contact's, {eta:.4f}.")
-        else:
-            note = ("reached with a softer contact and its dissipation." if reached else
-                    f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in _STIFFNESS_FACTORS[base['contact']])} "
-                    f"the base with dissipation over the searched range give at best {eta:.4f}.")
-        res = search.result(self.CONTACT_KEYS, note)
-        self._store(key, res, {"tried": search.rows()})
-        return res
+        factors = _STIFFNESS_FACTORS[self.settings["contact"]]
+        return ("reached with a softer contact and its dissipation." if reached else
+                f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in factors)} "
+                f"the base with dissipation over the searched range give at best {eta:.4f}.")
 
 
 #: This process's scenes, by everything a diagram depends on (a forked worker builds its own).

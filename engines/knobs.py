@@ -4,9 +4,15 @@ An adapter whose calibration is a grid over its contact knobs declares them
 (:attr:`~rockbench.engines.skeleton.SteppedContactAdapter.CALIBRATION_KNOBS`, a tuple of
 :class:`Knob`); the skeleton then runs the search (:meth:`~rockbench.engines.skeleton.SteppedContactAdapter._calibrate_knobs`):
 every combination of the knobs' ladders (:func:`grid`), then a finer grid around the pick
-(:func:`around`) or, for one knob that asks for it, the one bisection between the ladder's regular
-neighbours that bracket the target; each candidate measured in free rocking and chosen by the one
-pick (:func:`~rockbench.engines.pick.pick`).
+(:func:`around`) or, for one knob that asks for it, the one bisection between the ladder's
+neighbours that bracket the target (or over its ``span``); each candidate measured in free rocking
+and chosen by the one pick (:func:`~rockbench.engines.pick.pick`).
+
+An adapter that keeps its starting contact when that is close enough
+(:attr:`~rockbench.engines.skeleton.SteppedContactAdapter.START_KEEP_RTOL`) has it measured first
+(every knob at its ``start`` value, by default the ``shipped`` one); the knobs without ``when`` are
+then searched, then those whose ``when`` names the side of the target the starting η lies on, every
+candidate the starting contact with the searched knobs changed.
 """
 
 from __future__ import annotations
@@ -15,9 +21,13 @@ import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..reference_solver.model import Block
+import math
 
-__all__ = ["Knob", "grid", "around"]
+from ..reference_solver.model import Block
+from .pick import ETA_RESOLUTION, Candidate, pick, regular
+from .search import bisection, bracket
+
+__all__ = ["Knob", "grid", "around", "candidate", "search"]
 
 
 @dataclass(frozen=True)
@@ -33,12 +43,14 @@ class Knob:
     role : str
         ``"stiffness"``, ``"damping"`` or ``"other"``: what it moves (for the notes; the pick reads
         stiffness from the resting sink and damping from the adapter's ``_damping_ratio``).
-    ladder : callable
-        ``ladder(block, dt_s)``: the values tried first [unit].
+    ladder : callable or None
+        ``ladder(block, dt_s)``: the values tried first [unit] (None: the knob has a ``span``).
     refine : tuple of float
         Factors applied to the pick's value for the finer grid around it [-].
-    shipped : float or None
-        The engine's own default [unit] (None: the engine ships none).
+    shipped : float, str, bool or None
+        The engine's own default [unit] (None: the engine ships none, or the knob is unset as shipped).
+    start : float or None
+        Where the calibration starts when that is not ``shipped`` [unit] (Drake's stiff base contact).
     minimum : callable or None
         ``minimum(block, dt_s)``: the smallest value a refined candidate may take [unit].
     bisect_steps : int
@@ -46,23 +58,67 @@ class Knob:
         between the first regular neighbours of the ladder that bracket the target (0: the finer grid).
     bisect_rtol : float
         Relative distance to the target that ends that bisection [-].
+    bisect_regular : bool
+        Whether that bisection counts only regular runs (:func:`~rockbench.engines.pick.regular`): it
+        brackets between regular ladder values, is skipped when one is already within ``bisect_rtol``,
+        and a midpoint that is not regular ends it; False: every finite η counts.
+    span : callable or None
+        ``span(block, dt_s) -> (lo, hi)``: instead of a ladder, the range bisected (``bisect_steps``
+        halvings) [unit, or log10 of it with ``log10``].
+    log10 : bool
+        Whether the ladder and ``span`` are in log10 of the value (the bisection halves the logarithm).
+    rising : bool
+        Whether η rises with the knob over ``span``.
+    no_eta_low_end : bool
+        Whether a bisection's midpoint without an η replaces the range's low end (else its high end).
+    along : callable or None
+        ``along(value, block, dt_s) -> dict``: settings a candidate sets with the knob (the damping
+        of a critically damped spring, a contact-breaking threshold, a solver).
+    when : str or None
+        ``"above"`` (``"below"``): searched only when the starting contact's η lies more than the
+        reader's resolution above (below, or has no η) the target; None: whatever it gives.
+    until : str or None
+        The ladder measured one value at a time (the stage's next knob searched at each), ending at
+        the first value after which ``"reached"``: the pick reaches the target; ``"close"``: a
+        candidate lies within the next knob's ``bisect_rtol`` of it. None: the grid of the ladders.
     """
 
     name: str
     unit: str
     role: str
-    ladder: Callable[[Block, float], tuple]
+    ladder: Callable[[Block, float], tuple] | None = None
     refine: tuple = (1.0,)
-    shipped: float | None = None
+    shipped: float | str | bool | None = None
+    start: float | None = None
     minimum: Callable[[Block, float], float] | None = None
     bisect_steps: int = 0
     bisect_rtol: float = 0.0025
+    bisect_regular: bool = True
+    span: Callable[[Block, float], tuple] | None = None
+    log10: bool = False
+    rising: bool = True
+    no_eta_low_end: bool = False
+    along: Callable[[float, Block, float], dict] | None = None
+    when: str | None = None
+    until: str | None = None
 
 
-def grid(knobs: tuple, block: Block, dt_s: float) -> list[dict]:
-    """Every combination of the knobs' ladders, the first knob varying slowest."""
-    return [dict(zip((k.name for k in knobs), values))
-            for values in itertools.product(*(k.ladder(block, dt_s) for k in knobs))]
+def candidate(knob: Knob, value, block: Block, dt_s: float, start: dict | None = None) -> dict:
+    """The contact settings of ``knob`` at ``value``: ``start`` (the shipped contact, or nothing)
+    with the knob's ``along`` settings and the knob set."""
+    return {**(start or {}), **(knob.along(value, block, dt_s) if knob.along else {}), knob.name: value}
+
+
+def grid(knobs: tuple, block: Block, dt_s: float, start: dict | None = None) -> list[dict]:
+    """Every combination of the knobs' ladders, the first knob varying slowest, each from ``start``
+    (the shipped contact, or nothing) with the knobs' ``along`` settings."""
+    out = []
+    for values in itertools.product(*(k.ladder(block, dt_s) for k in knobs)):
+        c = dict(start or {})
+        for k, v in zip(knobs, values):
+            c = candidate(k, v, block, dt_s, c)
+        out.append(c)
+    return out
 
 
 def around(knobs: tuple, point: dict, block: Block, dt_s: float) -> list[dict]:
@@ -76,3 +132,90 @@ def around(knobs: tuple, point: dict, block: Block, dt_s: float) -> list[dict]:
         if all(k.minimum is None or c[k.name] >= k.minimum(block, dt_s) for k in knobs):
             out.append(c)
     return out
+
+
+def search(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, keep_rtol: float | None = None) -> list[dict]:
+    """The one search of declared knobs: the measured candidates (``evaluate(candidates) -> rows``,
+    each row a candidate with ``eta``, ``eta_std``, ``n`` and what else the pick reads), in order.
+
+    With ``keep_rtol``: the starting contact first (every knob at its ``start``, else ``shipped``
+    value), and nothing more when its η is within ``keep_rtol`` of the target. Then the knobs
+    without ``when`` (:func:`_stage`), then those whose ``when`` names the side of the target the
+    starting η lies on (more than :data:`~rockbench.engines.pick.ETA_RESOLUTION` away; no η counts
+    as below), each candidate the starting contact with the searched knobs changed.
+    """
+    stages, start, rows = [[k for k in knobs if k.when is None]], None, []
+    if keep_rtol is not None:
+        start = {k.name: k.shipped if k.start is None else k.start for k in knobs
+                 if k.shipped is not None or k.start is not None}
+        rows = evaluate([start])
+        e0 = rows[0]["eta"]
+        err = abs(e0 - target) / target
+        if err <= keep_rtol:
+            return rows
+        side = "above" if e0 > target else "below"
+        stages.append([k for k in knobs if k.when == side and not err <= ETA_RESOLUTION])
+    for stage in stages:
+        if stage:
+            rows += _stage(tuple(stage), block, target, dt_s, evaluate, start)
+    return rows
+
+
+def _stage(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, start: dict | None) -> list[dict]:
+    """One stage of :func:`search`: a first knob with ``until`` measured value by value
+    (:func:`_until`); else the grid of the knobs' ladders from ``start`` (the starting contact, left
+    out: measured already), then the finer grid around its pick; or, for one knob with
+    ``bisect_steps``, :func:`_bisected`."""
+    k = knobs[0]
+    if k.until is not None:
+        return _until(knobs, block, target, dt_s, evaluate, start)
+    if len(knobs) == 1 and k.bisect_steps:
+        return _bisected(k, block, target, dt_s, evaluate, start)
+    rows = evaluate([c for c in grid(knobs, block, dt_s, start) if c != start])
+    if not any(math.isfinite(r["eta"]) for r in rows):
+        return rows
+    first = pick([Candidate.of_row(r) for r in rows], target, block).candidate.knobs
+    return rows + evaluate(around(knobs, first, block, dt_s))
+
+
+def _until(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, start: dict | None) -> list[dict]:
+    """The first knob's ladder value by value, the others searched at each (:func:`_stage`), until
+    its ``until`` rule holds over the stage's candidates."""
+    k, rest, rows = knobs[0], knobs[1:], []
+    for v in k.ladder(block, dt_s):
+        c = candidate(k, v, block, dt_s, start)
+        rows += _stage(rest, block, target, dt_s, evaluate, c) if rest else evaluate([c])
+        if k.until == "reached":
+            done = pick([Candidate.of_row(r) for r in rows], target, block).reached
+        else:
+            last = rest[-1]
+            done = any(abs(r["eta"] - target) / target <= last.bisect_rtol for r in rows
+                       if not last.bisect_regular or regular(Candidate.of_row(r), target, block))
+        if done:
+            break
+    return rows
+
+
+def _bisected(k: Knob, block: Block, target: float, dt_s: float, evaluate, start: dict | None) -> list[dict]:
+    """One knob bisected (:func:`~rockbench.engines.search.bisection`, ``bisect_steps`` halvings, until
+    within ``bisect_rtol``): over its ``span``, or after its ladder between the first neighbours that
+    bracket the target (:func:`~rockbench.engines.search.bracket`)."""
+    value = (lambda x: 10.0 ** x) if k.log10 else (lambda x: x)
+    if k.span is not None:
+        rows, (lo, hi), eta_lo = [], k.span(block, dt_s), -math.inf if k.rising else math.inf
+    else:
+        xs = [x for x in k.ladder(block, dt_s) if candidate(k, value(x), block, dt_s, start) != start]
+        rows = evaluate([candidate(k, value(x), block, dt_s, start) for x in xs])
+        ok = [(x, r) for x, r in zip(xs, rows) if not k.bisect_regular or regular(Candidate.of_row(r), target, block)]
+        found = bracket([(x, r["eta"]) for x, r in ok], target)
+        if found is None or (k.bisect_regular and any(abs(r["eta"] - target) <= k.bisect_rtol * target for _, r in ok)):
+            return rows
+        lo, eta_lo, hi = found
+
+    def eta_at(x: float) -> float | None:
+        rows.extend(evaluate([candidate(k, value(x), block, dt_s, start)]))
+        return rows[-1]["eta"] if not k.bisect_regular or regular(Candidate.of_row(rows[-1]), target, block) else None
+
+    bisection(eta_at, lo, hi, k.bisect_steps, target=target, eta_lo=eta_lo,
+              done=lambda e: abs(e - target) <= k.bisect_rtol * target, nonfinite_low=k.no_eta_low_end)
+    return rows

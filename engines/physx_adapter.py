@@ -31,7 +31,7 @@ PhysX steps ``substeps`` times per benchmark step (``h = Δt/substeps``); the ru
 per benchmark step. As shipped, SAPIEN's system steps 0.01 s (:data:`SHIPPED_DT_S`), and so does a
 case that poses no step, never coarser than 1/20 of its pulse's wave (the one rule of
 ``EngineAdapter.unposed_dt_s``); calibrated, the benchmark's step (docs/physx.md).
-``settings="calibrated"`` runs PGS and searches the substeps (:meth:`PhysxAdapter._calibrate_corners`):
+``settings="calibrated"`` runs PGS and searches the substeps (:attr:`PhysxAdapter.CALIBRATION_KNOBS`):
 PhysX's impact loses more energy the longer its step, and the substeps are the knob that moves η
 towards Housner's; PGS because TGS lets the pivot corner creep along the table at friction 10.
 
@@ -53,6 +53,7 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
+from .knobs import Knob
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: SAPIEN's own time step of a ``PhysxCpuSystem`` [s]: what PhysX users run unless they set one
@@ -231,6 +232,13 @@ class PhysxAdapter(SteppedContactAdapter):
     }
     CONTACT_KEYS = tuple(SHIPPED_CONTACT)
     MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
+    #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): PhysX as shipped
+    #: but for its solver (:data:`CALIBRATED_SOLVER`) and its substeps, :data:`SUBSTEPS_TRIED` coarsest
+    #: first until the pick reaches the target. PhysX's plastic corner impact loses more than Housner's
+    #: η_H the longer its step (docs/physx.md); iterations move η less and do not reach η_H, contact
+    #: offset and restitution (below the bounce threshold) not at all.
+    CALIBRATION_KNOBS = (Knob("substeps", "", "stiffness", ladder=lambda block, dt: SUBSTEPS_TRIED, until="reached",
+                              shipped=SHIPPED_CONTACT["substeps"], along=lambda n, block, dt: {"solver": CALIBRATED_SOLVER}),)
     CALIBRATION_VERSION = 1
 
     @classmethod
@@ -302,32 +310,17 @@ class PhysxAdapter(SteppedContactAdapter):
                       theta_dot_rad_s=data[:, 11], table_x_m=u_tab, table_vx_m_s=v_tab, diagnostics=diag)
 
     # -- calibration --------------------------------------------------------------------------
-    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """PhysX as shipped but for its solver (:data:`CALIBRATED_SOLVER`) and its substeps, the fewest of
-        :data:`SUBSTEPS_TRIED` whose free-rocking η is within 1 % of ``target`` with impacts that agree
-        within 2 %.
+    def _knobs_base(self, block: Block, dt: float) -> dict:
+        """Candidates change PhysX as shipped (:data:`SHIPPED_CONTACT`)."""
+        return self._resolved_settings(block, dt, None)
 
-        PhysX's plastic corner impact loses more than Housner's η_H the longer its step (measured in
-        docs/physx.md); iterations move η less and do not reach η_H, contact offset and restitution
-        (below the bounce threshold) not at all. The substeps are tried coarsest first and the search
-        stops at the first that reaches the target; when none does, the closest consistent one
-        (``Search.best``). Cached on disk per engine version, block, target, step, planar flag,
-        friction and drive.
-        """
-        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
-        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
-        search = self._search(block, dt, self._resolved_settings(block, dt, None), target)
-        for n in SUBSTEPS_TRIED:
-            search.evaluate({"solver": CALIBRATED_SOLVER, "substeps": n})
-            if search.best()[3]:
-                break
-        eta, _, extra, reached = search.best()
-        etas = ", ".join(f"{r[2]['substeps']}: {r[0]:.4f}" for r in search.tried)
-        how = f"{extra['substeps']} PhysX steps ({CALIBRATED_SOLVER.upper()}) per step of {dt:g} s"
-        head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
-        res = search.result((), f"{head}; η by substeps: {etas}.")
-        self._store(key, res, {"tried": search.rows()})
-        return res
+    def _knobs_settings(self, block: Block, dt: float, values: dict) -> dict:
+        """The solver and substeps found (the rest stays as shipped)."""
+        return values
+
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        etas = ", ".join(f"{r['substeps']}: {r['eta']:.4f}" for r in rows)
+        how = f"{settings['substeps']} PhysX steps ({CALIBRATED_SOLVER.upper()}) per step of {dt:g} s"
+        head = f"reached with {how}" if chosen.reached else (f"not reached: the closest consistent η is "
+                                                              f"{chosen.candidate.eta:.4f}, {how}")
+        return f"{head}; η by substeps: {etas}."

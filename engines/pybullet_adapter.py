@@ -51,13 +51,17 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
 from .contact import POINTS_TRIED
-from .pick import CAL_MAX_SPREAD, damping_ratio_of_restitution
+from .knobs import Knob
+from .pick import CAL_MAX_SPREAD, Candidate, damping_ratio_of_restitution, regular
 from .rotation import theta_of_quat
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 from .support import version_label
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
+
+#: Bullet's restitution coefficients a corner calibration scans before its bisection [-]
+_RESTITUTIONS = tuple(float(r) for r in np.round(np.arange(0.5, 0.981, 0.04), 3))
 
 #: Mass of each of the two slider links of the planar chain [kg]: small enough not to matter
 #: (2e-6 of a 0.5 kg block), large enough to keep the articulated-body inertia well conditioned.
@@ -353,6 +357,22 @@ class PybulletAdapter(SteppedContactAdapter):
     }
     CONTACT_KEYS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "restitution_coef", "contact_breaking_threshold_m")
     MEASURED_SETTINGS = ("friction", "friction_anchor", "solver_iterations", "planar", "contact_points")
+    #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): Bullet's rigid
+    #: contact as shipped (no stiffness, no restitution), kept within 1 %; a target more than 1 % below
+    #: its η: a compliant contact at damping ratio 1 (``c = 2√(k·m)``), log10 k bisected from 3 up to
+    #: the stiffest the step resolves (``k ≤ m/Δt²``: stiffer springs pass free rocking but gain energy
+    #: under a pulse), a softer contact losing more at the impact; a target more than 1 % above it:
+    #: Bullet's restitution with a 0.1 mm contact-breaking threshold (else the corner's contact point
+    #: exists before the impact and Bullet treats it as resting, with no restitution), scanned over
+    #: [0.5, 0.98] and bisected, its corner free to bounce (the spread shows it)
+    CALIBRATION_KNOBS = (
+        Knob("contact_stiffness_n_m", "N/m", "stiffness", when="above", bisect_steps=12, bisect_regular=False, log10=True,
+             span=lambda block, dt: (3.0, max(3.5, math.log10(block.mass_kg / dt**2))), no_eta_low_end=True,
+             along=lambda k, block, dt: {"contact_damping_n_s_m": 2.0 * math.sqrt(k * block.mass_kg)}),
+        Knob("restitution_coef", "", "damping", when="below", bisect_steps=5, bisect_regular=False,
+             ladder=lambda block, dt: _RESTITUTIONS, along=lambda e, block, dt: {"contact_breaking_threshold_m": 1e-4}),
+    )
+    START_KEEP_RTOL = 0.01
     CALIBRATION_VERSION = 5
     CALIBRATION_VERSION_DIST = 4
     distributed_contact = True
@@ -456,42 +476,28 @@ class PybulletAdapter(SteppedContactAdapter):
         return {**super()._calibration_identity(base), "anchor": base["friction_anchor"],
                 "iterations": base["solver_iterations"]}
 
-    def _calibrate_corners(self, block: Block, t: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """Search Bullet's contact settings so the free-rocking η reaches ``t`` within 1 %.
-
-        The search, in order:
-
-        1. Bullet's rigid contact (its default): this gives η close to Housner's at Δt ≤ 1 ms.
-        2. A target below that η: compliant contact with stiffness ``k`` and damping at damping
-           ratio 1 (``c = 2√(k m)``), bisection on ``log10 k`` from 3 up to the stiffest contact
-           whose natural frequency the step resolves (``k ≤ m/Δt²``; stiffer springs pass this
-           test but gain energy under a pulse). A softer contact loses more energy at the impact.
-        3. A target above it: Bullet's restitution ``e`` with a contact-breaking threshold of
-           0.1 mm (otherwise the corner's contact point exists before the impact and Bullet
-           treats it as resting, with no restitution), scanned over [0.5, 0.98], then bisected.
-           The corner may then bounce: η per impact scatters, which ``eta_std`` reports.
-
-        Steps 2 and 3 run only when step 1 is more than 1 % off. The one pick
-        (:func:`~rockbench.engines.pick.pick`) chooses among every setting measured.
-        """
-        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
-        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
-        search = self._search(block, dt, base, t)
-        e0 = search.evaluate({})
-        # Bullet's own rigid contact is preferred whenever it is within 1 %: every departure from it
-        # (softness, restitution) brings side effects of its own (penetration, bouncing corners)
-        if search.err(e0) > 0.01:
-            if e0 > t:
-                _search_compliant(search, block.mass_kg, dt)
-            else:
-                _search_restitution(search)
-        eta, _, extra, reached = search.best()
-        res = search.result(self.CONTACT_KEYS, _calibration_note(search, eta, extra, reached))
-        self._store(key, res, {"tried": search.rows()})
-        return res
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        """What the corner calibration found, in words."""
+        eta, reached = chosen.candidate.eta, chosen.reached
+        if not any(v is not None for v in settings.values()):
+            note = ("Bullet's rigid contact (its default) gives this η." if reached else
+                    f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
+        elif settings["restitution_coef"] is not None:
+            note = ("reached with Bullet's restitution." if reached else
+                    f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
+                    f"per-impact spread within {100 * CAL_MAX_SPREAD:g} % of the target.")
+        else:
+            note = ("reached with a compliant contact (damping ratio 1)." if reached else
+                    f"not reached: softening the contact lowers η only to {eta:.4f}.")
+        scattered = [r for r in rows if not regular(Candidate.of_row(r), target, block)
+                     and abs(r["eta"] - target) / target <= 0.01]
+        if not reached and scattered:
+            r = min(scattered, key=lambda r: r["eta_std"])
+            how = (f"Bullet's restitution e = {r['restitution_coef']:.3g}" if r.get("restitution_coef") else
+                   f"a compliant contact of {r['contact_stiffness_n_m']:.3g} N/m")
+            note += (f" {how[0].upper()}{how[1:]} gives a mean of {r['eta']:.4f}, but its impacts scatter by "
+                     f"±{r['eta_std']:.3f} (no single restitution coefficient, or a hop), so it is not taken.")
+        return note
 
     def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:
         """Bullet's rigid contact and a grid of stiffness ``k`` (100 × 10^(−2…0)·m/Δt², nine values
@@ -508,49 +514,3 @@ class PybulletAdapter(SteppedContactAdapter):
         if not row.get("contact_stiffness_n_m"):
             return "Bullet's rigid contact"
         return f"stiffness {row['contact_stiffness_n_m']:.4g} N/m, damping ratio {row['zeta']:g}"
-
-
-def _search_compliant(search, mass_kg: float, dt: float) -> None:
-    """A target below the rigid contact's η: bisection on log10 of a compliant contact's stiffness
-    at damping ratio 1 (``c = 2√(k m)``), 12 halvings at most; a softer contact loses more energy
-    at the impact."""
-
-    def compliant(log10_k: float) -> dict:
-        k = 10.0 ** log10_k
-        return {"contact_stiffness_n_m": k, "contact_damping_n_s_m": 2.0 * math.sqrt(k * mass_kg)}
-
-    # log10 k: lo gives low η, hi high η (a non-finite η counts as low). The contact's natural
-    # frequency √(k/m) must be resolved by the step (√(k/m)·Δt ≤ 1): stiffer springs pass the
-    # free-rocking test but gain energy and bounce under a pulse.
-    search.bisect(compliant, 3.0, max(3.5, math.log10(mass_kg / dt**2)), 12, eta_lo=-math.inf, nonfinite_low=True)
-
-
-def _search_restitution(search) -> None:
-    """A target above the rigid contact's η: Bullet's restitution with a 0.1 mm contact-breaking
-    threshold, scanned over [0.5, 0.98] and bisected (5 halvings at most) between the first
-    neighbours that bracket the target."""
-    grid = [float(r) for r in np.round(np.arange(0.5, 0.981, 0.04), 3)]
-    search.scan_bisect(lambda r: {"contact_breaking_threshold_m": 1e-4, "restitution_coef": r}, grid, 5)
-
-
-def _calibration_note(search, eta: float, extra: dict, reached: bool) -> str:
-    """What the corner calibration found, in words."""
-    if not extra:
-        note = ("Bullet's rigid contact (its default) gives this η." if reached else
-                f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
-    elif "restitution_coef" in extra:
-        note = ("reached with Bullet's restitution." if reached else
-                f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
-                f"per-impact spread within {100 * CAL_MAX_SPREAD:g} % of the target.")
-    else:
-        note = ("reached with a compliant contact (damping ratio 1)." if reached else
-                f"not reached: softening the contact lowers η only to {eta:.4f}.")
-    consistent = search.consistent()
-    scattered = [r for r in search.tried if r not in consistent and search.err(r[0]) <= 0.01]
-    if not reached and scattered:
-        r = min(scattered, key=lambda r: r[1])
-        how = (f"Bullet's restitution e = {r[2]['restitution_coef']:.3g}" if r[2].get("restitution_coef") else
-               f"a compliant contact of {r[2]['contact_stiffness_n_m']:.3g} N/m")
-        note += (f" {how[0].upper()}{how[1:]} gives a mean of {r[0]:.4f}, but its impacts scatter by "
-                 f"±{r[1]:.3f} (no single restitution coefficient, or a hop), so it is not taken.")
-    return note

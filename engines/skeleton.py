@@ -67,7 +67,7 @@ from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
 from .contact import ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
-from .knobs import around, grid
+from .knobs import search as search_knobs
 from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
 from .search import BISECT_RTOL, bisection, bracket
 
@@ -246,6 +246,10 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: the contact knobs a grid calibration searches (:class:`~rockbench.engines.knobs.Knob`); with
     #: knobs declared, :meth:`_calibrate_corners` is the skeleton's :meth:`_calibrate_knobs`
     CALIBRATION_KNOBS: ClassVar[tuple] = ()
+    #: with knobs declared: measure the shipped contact (every knob at its ``shipped`` value) first and
+    #: keep it when its η is within this fraction of the target [-]; None: the shipped contact is not
+    #: measured first
+    START_KEEP_RTOL: ClassVar[float | None] = None
     #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
 
@@ -486,8 +490,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
         return self._calibrate_knobs(block, target, dt, use_cache)
 
     def _calibrate_knobs(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """The grid of the declared knobs (:func:`~rockbench.engines.knobs.grid`), then the finer grid
-        around its pick (:func:`~rockbench.engines.knobs.around`), each candidate measured
+        """The search of the declared knobs (:meth:`_knob_rows`), each candidate measured
         (:meth:`_evaluate`); the one pick over all of them, cached as ``{"result", "search": {"tried":
         rows}}``."""
         key = self._knobs_key(block, target, dt)
@@ -495,55 +498,43 @@ class SteppedContactAdapter(ContactEngineAdapter):
         if cached is not None:
             return cached
         knobs = self.CALIBRATION_KNOBS
-        rows = self._knob_rows(block, target, dt, knobs, lambda c: self._evaluate(block, dt, c))
+        rows = self._knob_rows(block, target, dt, knobs, lambda c: self._evaluate(block, dt, c),
+                               keep_rtol=self.START_KEEP_RTOL)
         if not any(math.isfinite(r["eta"]) for r in rows):
             raise ConfigError(f"{self.name} calibration: no contact setting gave a measurable free rocking "
                               "(fewer than two impacts); try a smaller --dt.")
         chosen = pick([Candidate.of_row(r) for r in rows], target, block)
         r = chosen.candidate.knobs
-        settings = self._knobs_settings(block, dt, {k.name: r[k.name] for k in knobs})
+        names = dict.fromkeys(tuple(k.name for k in knobs) + self.CONTACT_KEYS)
+        settings = self._knobs_settings(block, dt, {k: v for k, v in r.items() if k in names})
         res = CalibrationResult(eta_target=target, eta_measured=r["eta"], eta_std=r["eta_std"], reached=chosen.reached,
                                 settings=settings, note=self._knobs_note(block, dt, target, chosen, rows, settings),
                                 evaluations=len(rows))
         self._store(key, res, {"tried": rows})
         return res
 
-    def _knob_rows(self, block: Block, target: float, dt: float, knobs: tuple, evaluate) -> list[dict]:
-        """The measured candidates of ``knobs`` (``evaluate(candidates) -> rows``): the grid of their
-        ladders, then the finer grid around its pick, or for one knob with ``bisect_steps`` the one
-        bisection (:mod:`rockbench.engines.search`) between the first regular neighbours of the ladder
-        that bracket the target, a midpoint that is not regular ending it."""
-        rows = evaluate(grid(knobs, block, dt))
-        if not any(math.isfinite(r["eta"]) for r in rows):
-            return rows
-        k = knobs[0]
-        if len(knobs) > 1 or not k.bisect_steps:
-            first = pick([Candidate.of_row(r) for r in rows], target, block).candidate.knobs
-            return rows + evaluate(around(knobs, first, block, dt))
-        ok = [r for r in rows if regular(Candidate.of_row(r), target, block)]
-        found = bracket([(r[k.name], r["eta"]) for r in ok], target)
-        if found is None or any(abs(r["eta"] - target) <= k.bisect_rtol * target for r in ok):
-            return rows
-
-        def regular_eta(x: float) -> float | None:
-            rows.extend(evaluate([{k.name: x}]))
-            return rows[-1]["eta"] if regular(Candidate.of_row(rows[-1]), target, block) else None
-
-        bisection(regular_eta, found[0], found[2], k.bisect_steps, target=target, eta_lo=found[1],
-                  done=lambda e: abs(e - target) <= k.bisect_rtol * target)
-        return rows
+    def _knob_rows(self, block: Block, target: float, dt: float, knobs: tuple, evaluate,
+                   keep_rtol: float | None = None) -> list[dict]:
+        """The measured candidates of ``knobs`` (``evaluate(candidates) -> rows``), in order: the one
+        search of declared knobs, :func:`~rockbench.engines.knobs.search`."""
+        return search_knobs(knobs, block, target, dt, evaluate, keep_rtol)
 
     def _evaluate(self, block: Block, dt: float, candidates: list[dict]) -> list[dict]:
         """Free rocking for each candidate (the knobs' values): one row each, the values with what the
         pick reads (``eta``, ``eta_std``, ``n``, ``sink_m``, ``hop_m``, ``damping_ratio``). Here one by
         one; an engine that measures many in one native batch overrides it."""
-        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
+        base = self._knobs_base(block, dt)
         rows = []
         for c in candidates:
             m = self.measure_restitution(block, dt_s=dt, settings={**base, **c})
             rows.append({**c, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas), "sink_m": m.sink_m,
                          "hop_m": m.hop_m, "damping_ratio": self._damping_ratio(block, {**base, **c})})
         return rows
+
+    def _knobs_base(self, block: Block, dt: float) -> dict:
+        """The settings a candidate of the declared knobs updates (default: the base settings, the
+        contact keys unset)."""
+        return {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
 
     def _knobs_key(self, block: Block, target: float, dt: float) -> str:
         """The cache key of a grid calibration (default: the engine, the block, target, step and

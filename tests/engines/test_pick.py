@@ -156,3 +156,62 @@ def test_one_knob_with_bisect_steps_is_bisected_between_regular_neighbours():
     assert len(rows) == 3 + 8 and abs(rows[-1]["eta"] - T) <= 0.06 / 2**8   # 8 halvings of a range of η 0.06
     stopped = SteppedContactAdapter._knob_rows(None, BLOCK, T, 1e-3, (knob,), evaluate({0.4, 0.25}))
     assert [r["e"] for r in stopped] == [0.0, 0.4, 1.0, 0.5, 0.25]
+
+
+def _rows(eta_of):
+    """An ``evaluate`` whose free rocking gives ``eta_of(candidate)`` with regular impacts."""
+    return lambda cands: [{**c, "eta": eta_of(c), "eta_std": 0.001, "n": 4, "sink_m": 0.0, "hop_m": 0.0,
+                           "damping_ratio": None} for c in cands]
+
+
+def test_the_shipped_contact_is_measured_first_and_the_side_of_the_target_chooses_the_knobs():
+    """With keep_rtol (PyBullet, DART): the shipped contact first, kept when close enough; else the
+    knobs without ``when``, then those of the side the shipped η lies on, each candidate the shipped
+    contact changed (PyBullet's compliant stiffness bisected over a log10 span with the damping along,
+    its restitution over a ladder; DART's detector grid with the shipped combination left out)."""
+    from rockbench.engines.knobs import Knob, search
+
+    knobs = (Knob("det", "", "other", ladder=lambda b, dt: ("a", "b"), shipped="a"),
+             Knob("k", "N/m", "stiffness", when="above", span=lambda b, dt: (3.0, 7.0), log10=True, bisect_steps=12,
+                  bisect_regular=False, along=lambda k, b, dt: {"c": 2.0 * k}),
+             Knob("e", "", "damping", when="below", ladder=lambda b, dt: (0.2, 0.6, 1.0), bisect_steps=5,
+                  bisect_regular=False))
+    kept = search(knobs, BLOCK, T, 1e-3, _rows(lambda c: T * 1.004), keep_rtol=0.005)
+    assert kept == _rows(lambda c: T * 1.004)([{"det": "a"}])
+    # shipped 5 % above: detector b, then k bisected (η rises with log10 k: T at k = 1e5)
+    above = search(knobs, BLOCK, T, 1e-3, _rows(lambda c: T * (1.05 if "k" not in c else 1 + 0.1 * (math.log10(c["k"]) - 5))),
+                   keep_rtol=0.005)
+    assert [r.get("det") for r in above[:2]] == ["a", "b"] and above[2]["k"] == 1e5 and above[2]["c"] == 2e5
+    assert len(above) == 3 and all("e" not in r for r in above)
+    # shipped 5 % below: detector b, then the restitution ladder and its bisection; no stiffness
+    below = search(knobs, BLOCK, T, 1e-3, _rows(lambda c: T * (0.95 if "e" not in c else 0.9 + 0.2 * c["e"])),
+                   keep_rtol=0.005)
+    assert [r.get("e") for r in below[2:]] == [0.2, 0.6, 1.0, 0.4, 0.5]   # T at e = 0.5
+    assert all("k" not in r for r in below)
+
+
+def test_a_knob_until_reached_stops_at_the_first_value_the_pick_reaches():
+    """PhysX's substeps: the ladder one value at a time, with the settings along, until the pick reaches."""
+    from rockbench.engines.knobs import Knob, search
+
+    knob = Knob("substeps", "", "stiffness", ladder=lambda b, dt: (1, 2, 4, 8), until="reached",
+                along=lambda n, b, dt: {"solver": "pgs"})
+    rows = search((knob,), BLOCK, T, 1e-3, _rows(lambda c: T * (1 - 0.03 / c["substeps"])))
+    assert [(r["solver"], r["substeps"]) for r in rows] == [("pgs", 1), ("pgs", 2), ("pgs", 4)]
+
+
+def test_a_stiffness_ladder_with_a_bisected_damping_at_each_stops_once_close():
+    """Drake's search: the starting contact (``start``, not shipped) first; then the stiffness ladder
+    value by value, at each the damping's log10 range ends and their bisection, until a candidate is
+    within the bisection's tolerance (``until="close"``)."""
+    from rockbench.engines.knobs import Knob, search
+
+    knobs = (Knob("k", "N/m", "stiffness", start=1e6, until="close", ladder=lambda b, dt: (1e5, 3e4, 1e4)),
+             Knob("d", "s", "damping", start=1e-3, ladder=lambda b, dt: (-5.0, -1.0), log10=True, bisect_steps=10,
+                  bisect_regular=False))
+    # η falls with log10 d; at k 1e5 it stays above the target, at 3e4 it crosses it at d = 1e-3
+    rows = search(knobs, BLOCK, T, 1e-3,
+                  _rows(lambda c: T * (1.05 if c["k"] >= 1e5 else 1 - 0.01 * (math.log10(c["d"]) + 3))), keep_rtol=0.005)
+    assert rows[0]["k"] == 1e6 and rows[0]["d"] == 1e-3
+    assert [(r["k"], r["d"]) for r in rows[1:5]] == [(1e5, 1e-5), (1e5, 0.1), (3e4, 1e-5), (3e4, 0.1)]
+    assert rows[-1]["k"] == 3e4 and rows[-1]["d"] == 1e-3 and all(r["k"] != 1e4 for r in rows)
