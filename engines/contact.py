@@ -245,12 +245,25 @@ class ContactEngineAdapter(EngineAdapter):
             out = self._resolved_settings(block, dt, cal)
             if cal is not None:
                 out["calibration"] = self._calibration_summary(cal)
-                if dt_s is None:
-                    out["calibration"]["step_rule"] = self.converged_step_s(block, eta)[1]
+                out["calibration"]["equals_shipped"] = self._equals_shipped(block, dt, out)
             if self.as_shipped() and self.SHIPPED_NOTE:
                 out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
-        return dict(self._resolved[key])
+        out = dict(self._resolved[key])
+        if dt_s is None and "calibration" in out:   # the step the one time-step rule chose, and why
+            out["calibration"] = {**out["calibration"], "step_rule": self.converged_step_s(block, eta)[1]}
+        return out
+
+    def _equals_shipped(self, block: Block, dt: float, resolved: dict) -> bool:
+        """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
+        same concrete settings at its own step (then the two variants give one answer, which the
+        verdict counts once)."""
+        shipped = type(self)(**{**self.settings, "settings": "defaults"})
+        if shipped.unposed_dt_s() != dt:
+            return False
+        skip = ("settings", "calibration")
+        other = shipped._resolved_settings(block, dt, None)
+        return {k: v for k, v in resolved.items() if k not in skip} == {k: v for k, v in other.items() if k not in skip}
 
     def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
         """The concrete settings for ``block`` at step ``dt`` [s], with the calibration ``cal`` (None:

@@ -4,14 +4,17 @@ A contact engine's answer depends on its time step; the benchmark should run eac
 its answer does not depend on, and no finer (a finer step costs time and changes nothing). The rule,
 the same for every engine: walk the ladder :data:`STEP_LADDER_S` from the coarsest step down and keep
 the first step at which the engine, calibrated at that step, agrees with itself calibrated at the
-next finer step:
+finest step of the ladder:
 
 * its calibration reaches the target at both steps, and the two calibrated η agree within
   :data:`ETA_STEP_RTOL`;
 * every cell of a fixed probe set (:func:`probe_cases`) has the same outcome and the same validity
   at both steps (the maps score both: an invalid cell is a spurious one where the reference holds).
 
-When no step of the ladder agrees with the next, the finest step is kept and the record says so.
+When no coarser step agrees, the finest step is kept and the record says so. The yardstick is the
+finest step, not the next finer one: two neighbouring steps can share the same error and agree
+with each other while both lie off the converged answer (measured: Exudyn B6M sine, calibrated, at
+1 and 0.5 ms its boundary lies 0.25 and 0.39 from the reference, at 0.1 ms 0.07).
 The probe set is the same for every engine: for each pulse, at :data:`PROBE_W_RATIOS`, the cells just
 below and just above the reference's overturning boundary (the lowest amplitude that overturns the
 rigid block with the target η), :data:`PROBE_MARGIN` of the amplitude axis to either side, so a step
@@ -38,9 +41,9 @@ __all__ = ["STEP_LADDER_S", "ETA_STEP_RTOL", "PROBE_W_RATIOS", "PROBE_MARGIN", "
 STEP_LADDER_S = (1e-3, 5e-4, 2e-4, 1e-4)
 #: How far the calibrated η at two steps may lie apart (relative) and still agree [-]
 ETA_STEP_RTOL = 0.01
-#: Frequencies of the probe cells, ω/p [-]: where the reference's lowest overturning amplitude lies
-#: inside the default maps' axis for every block and pulse (above ω/p ≈ 4 it leaves it for some)
-PROBE_W_RATIOS = (1.5, 2.5, 3.5, 4.5)
+#: Frequencies of the probe cells, ω/p [-], across the default maps' axis; a frequency where the
+#: reference's lowest overturning amplitude lies above the axis (a₀/(g·tanα) 12) has no probes
+PROBE_W_RATIOS = (1.5, 2.5, 3.5, 4.5, 6.0, 8.0, 10.0, 12.0)
 #: Distance of a probe cell from the reference's boundary along a₀/(g·tanα) [-] (the default maps'
 #: cells are 0.22 apart)
 PROBE_MARGIN = 0.3
@@ -118,16 +121,17 @@ def _compare(adapter, block: Block, eta: float, probes: list, coarse: float, fin
 
 def converged_step(adapter, block: Block, eta: float) -> tuple[float, dict]:
     """The coarsest step of :data:`STEP_LADDER_S` at which ``adapter``, calibrated to ``eta``, agrees
-    with itself at the next finer step (module docstring), and the record of the search."""
+    with itself at the finest step (module docstring), and the record of the search."""
     probes = probe_cases(block, eta)
     runs: dict = {}
     rungs = []
-    for coarse, fine in zip(STEP_LADDER_S[:-1], STEP_LADDER_S[1:]):
-        rungs.append(_compare(adapter, block, eta, probes, coarse, fine, runs))
+    finest = STEP_LADDER_S[-1]
+    for coarse in STEP_LADDER_S[:-1]:
+        rungs.append(_compare(adapter, block, eta, probes, coarse, finest, runs))
         if rungs[-1]["agrees"]:
             break
-    chosen = rungs[-1]["dt_s"] if rungs[-1]["agrees"] else STEP_LADDER_S[-1]
-    record = {"rule": "coarsest step agreeing with the next finer (calibrated η and probe outcomes)",
+    chosen = rungs[-1]["dt_s"] if rungs[-1]["agrees"] else finest
+    record = {"rule": "coarsest step agreeing with the finest (calibrated η, probe outcomes and validity)",
               "ladder_s": list(STEP_LADDER_S), "probes": len(probes), "compared": rungs, "dt_s": chosen,
               "converged": bool(rungs[-1]["agrees"])}
     if not math.isfinite(chosen):  # pragma: no cover - the ladder holds numbers

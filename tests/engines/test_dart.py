@@ -165,3 +165,13 @@ def test_tiny_map_through_the_cli(tmp_path):
     lines = (out / "cells.csv").read_text().splitlines()
     assert len(lines) == 1 + 9 and all("dart" in ln for ln in lines[1:])
     assert json.loads((out / "run.json").read_text())["engine"]["engine"] == "dart"
+
+
+def test_a_calibration_that_keeps_the_shipped_contact_at_the_shipped_step_says_so():
+    # B6L: the time-step rule's 1 ms is DART's own step, and the calibration keeps DART as shipped
+    block = get_preset("B6L").block()
+    res = get_adapter("dart").resolve(block, Restitution())
+    assert res["calibration"]["step_rule"]["dt_s"] == 1e-3
+    assert res["calibration"]["equals_shipped"] is True
+    # at another step than its own it is not the engine as shipped
+    assert get_adapter("dart").resolve(block, Restitution(), dt_s=5e-4)["calibration"]["equals_shipped"] is False

@@ -1,5 +1,5 @@
 """The one time-step rule (engines/step_rule.py): the coarsest step of the ladder at which a calibrated
-engine agrees with itself at the next finer step, on a fake engine whose answers per step are known."""
+engine agrees with itself at the finest step, on a fake engine whose answers per step are known."""
 
 from types import SimpleNamespace
 
@@ -37,12 +37,18 @@ def few_probes(monkeypatch):
     monkeypatch.setattr(step_rule, "probe_cases", lambda block, eta: [("sine", 2.0, 1.5), ("sine", 3.0, 2.0)])
 
 
-def test_the_coarsest_step_that_agrees_with_the_next_finer_is_kept():
+def test_the_coarsest_step_that_agrees_with_the_finest_is_kept():
     eng = FakeEngine({1e-3: ETA * 0.97, 5e-4: ETA, 2e-4: ETA * 1.002, 1e-4: ETA})
     dt, rec = step_rule.converged_step(eng, B3M, ETA)
     assert dt == 5e-4 and rec["converged"]
     assert [r["agrees"] for r in rec["compared"]] == [False, True]
-    assert eng.calibrations == [1e-3, 5e-4, 2e-4]        # each step calibrated once
+    assert eng.calibrations == [1e-3, 1e-4, 5e-4]        # each step calibrated once
+
+
+def test_two_coarse_steps_that_agree_with_each_other_but_not_the_finest_do_not_count():
+    eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, flip={1e-3: (0,), 5e-4: (0,)})
+    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    assert dt == 2e-4 and [r["agrees"] for r in rec["compared"]] == [False, False, True]
 
 
 def test_a_probe_that_changes_outcome_keeps_the_finer_step():
