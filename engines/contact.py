@@ -250,7 +250,7 @@ class ContactEngineAdapter(EngineAdapter):
                 out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
         out = dict(self._resolved[key])
-        if dt_s is None and "calibration" in out:   # the step the one time-step rule chose, and why
+        if dt_s is None and out.get("calibration"):   # the step the one time-step rule chose, and why
             out["calibration"] = {**out["calibration"], "step_rule": self.converged_step_s(block, eta)[1]}
         return out
 

@@ -175,3 +175,10 @@ def test_a_calibration_that_keeps_the_shipped_contact_at_the_shipped_step_says_s
     assert res["calibration"]["equals_shipped"] is True
     # at another step than its own it is not the engine as shipped
     assert get_adapter("dart").resolve(block, Restitution(), dt_s=5e-4)["calibration"]["equals_shipped"] is False
+
+
+@pytest.mark.parametrize("engine", ["dart", "mujoco"])
+def test_as_shipped_resolves_with_its_note_and_no_step_rule(engine):
+    res = get_adapter(engine, settings="defaults").resolve(get_preset("B3M").block(), Restitution())
+    assert "error" not in res and not (res.get("calibration") or {}).get("step_rule")
+    assert ("shipped_note" in res) == (engine == "mujoco")

@@ -92,8 +92,8 @@ def _print(args, out: dict) -> int:
     if out.get("step_rule"):
         r = out["step_rule"]
         print(f"time step {1e3 * r['dt_s']:g} ms: the time-step rule's "
-              + ("coarsest step agreeing with the next finer" if r["converged"] else
-                 "finest step (no step of the ladder agreed with the next finer)"))
+              + ("coarsest step agreeing with the finest" if r["converged"] else
+                 "finest step (no coarser step of the ladder agreed with it)"))
     if out.get("price") is not None and "price:" not in (out.get("note") or ""):
         print(price_line(out["price"]))
     print("settings: " + json.dumps(out["settings"], default=float))
