@@ -196,7 +196,7 @@ class ContactEngineAdapter(EngineAdapter):
     def run_step_s(self, block: Block, eta: float, dt_s: float | None = None) -> float:
         """The step of the runs and the calibration of ``block`` at η [s]: ``dt_s`` where given;
         calibrated, the one time-step rule's (:meth:`converged_step_s`); else :meth:`unposed_dt_s`."""
-        if dt_s is not None or not self.calibrated():
+        if dt_s is not None or not self.calibrated() or self.contact_layout(block, eta) == "distributed":
             return self.time_step_s(dt_s)
         return self.converged_step_s(block, eta)[0]
 
@@ -280,14 +280,19 @@ class ContactEngineAdapter(EngineAdapter):
         Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M)."""
         t = self.check_target_eta(target_eta)
         dt = self.time_step_s(dt_s)
-        kind = self.settings.get("contact") if self.distributed_contact else "corners"
-        if kind == "auto":
-            kind = "corners" if t <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
-        if kind != "distributed":
+        if self.contact_layout(block, t) != "distributed":
             return self._calibrate_corners(block, t, dt, use_cache)
         n_set = self.settings["contact_points"]
         return first_reached(lambda n: self._calibrate_distributed_n(block, t, n, dt, use_cache),
                              (n_set,) if n_set is not None else POINTS_TRIED, self.POINT_UNIT)
+
+    def contact_layout(self, block: Block, target: float) -> str:
+        """``corners`` or ``distributed``: the contact a calibration to ``target`` builds (``auto``: the
+        corners up to 1 % above Housner's η_H, a row of points along the base above)."""
+        kind = self.settings.get("contact") if self.distributed_contact else "corners"
+        if kind == "auto":
+            kind = "corners" if target <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
+        return "distributed" if kind == "distributed" else "corners"
 
     def _calibrate_corners(self, block: Block, target: float, dt: float,
                            use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract

@@ -44,6 +44,7 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
+from .free_body_rows import angles_of, motion_of
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: Genesis's shipped constraint time constant [s] (``RigidOptions.constraint_timeconst``)
@@ -93,11 +94,6 @@ def _block_xml(block: Block, mu: float, planar: bool) -> str:
             f'<geom type="box" size="{b / 2} {d / 2} {h / 2}" mass="{block.mass_kg}" friction="{mu}"/>'
             '</body></worldbody></mujoco>')
 
-
-def theta_of(rows: np.ndarray) -> np.ndarray:
-    """θ about +y [rad] from state rows (quaternion w, x, y, z in columns 3–6)."""
-    qw, qx, qy, qz = rows[..., 3], rows[..., 4], rows[..., 5], rows[..., 6]
-    return np.arctan2(2.0 * (qw * qy + qx * qz), 1.0 - 2.0 * (qx * qx + qy * qy))
 
 
 def _mjcf_file(text: str) -> str:
@@ -280,21 +276,10 @@ class GenesisAdapter(SteppedContactAdapter):
         return w["scene"].advance(n_from, n_to)
 
     def _angles(self, w: dict, rows: np.ndarray):
-        return theta_of(rows), rows[..., 11]
+        return angles_of(rows)
 
     def _motion(self, w: dict, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
-        qw, qx, qy, qz = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
-        roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
-        diag = {"timeconst_s": float(s["timeconst_s"]), "max_lateral_drift_m": float(np.max(np.abs(data[:, 1]))),
-                "max_out_of_plane_tilt_rad": float(np.max(np.abs(roll)))}
-        u_tab = v_tab = None
-        if s["drive"] == "table":
-            u_tab, v_tab = data[:, 13], data[:, 14]
-            if pulse is not None:
-                u = np.asarray(pulse.disp(t_s), dtype=float)
-                diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / max(float(np.max(np.abs(u))), 1e-12))
-        return Motion(x_m=data[:, 0], z_m=data[:, 2], theta_rad=theta_of(data), vx_m_s=data[:, 7], vz_m_s=data[:, 9],
-                      theta_dot_rad_s=data[:, 11], table_x_m=u_tab, table_vx_m_s=v_tab, diagnostics=diag)
+        return motion_of(data, t_s, pulse, s["drive"] == "table", {"timeconst_s": float(s["timeconst_s"])})
 
     # -- calibration --------------------------------------------------------------------------
     def _calibrate_corners(self, block: Block, t: float, dt: float, use_cache: bool) -> CalibrationResult:

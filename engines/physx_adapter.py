@@ -54,6 +54,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
 from .knobs import Knob
+from .free_body_rows import angles_of, motion_of
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: SAPIEN's own time step of a ``PhysxCpuSystem`` [s]: what PhysX users run unless they set one
@@ -175,11 +176,6 @@ class _Scene:
         return rows
 
 
-def theta_of(rows: np.ndarray) -> np.ndarray:
-    """θ about +y [rad] from state rows (quaternion w, x, y, z in columns 3–6)."""
-    qw, qx, qy, qz = rows[..., 3], rows[..., 4], rows[..., 5], rows[..., 6]
-    return np.arctan2(2.0 * (qw * qy + qx * qz), 1.0 - 2.0 * (qx * qx + qy * qy))
-
 
 class PhysxAdapter(SteppedContactAdapter):
     """The rocking block in PhysX 5 through SAPIEN (see the module docstring for the model).
@@ -292,22 +288,10 @@ class PhysxAdapter(SteppedContactAdapter):
         return world.advance(n_from, n_to)
 
     def _angles(self, world: _Scene, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return theta_of(rows), rows[..., 11]
+        return angles_of(rows)
 
     def _motion(self, world: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
-        qw, qx, qy, qz = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
-        roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
-        diag = {k: s[k] for k in self.CONTACT_KEYS}
-        diag.update(max_lateral_drift_m=float(np.max(np.abs(data[:, 1]))),
-                    max_out_of_plane_tilt_rad=float(np.max(np.abs(roll))))
-        u_tab = v_tab = None
-        if world.table_drive:
-            u_tab, v_tab = data[:, 13], data[:, 14]
-            if pulse is not None:
-                u = np.asarray(pulse.disp(t_s), dtype=float)
-                diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / max(float(np.max(np.abs(u))), 1e-12))
-        return Motion(x_m=data[:, 0], z_m=data[:, 2], theta_rad=theta_of(data), vx_m_s=data[:, 7], vz_m_s=data[:, 9],
-                      theta_dot_rad_s=data[:, 11], table_x_m=u_tab, table_vx_m_s=v_tab, diagnostics=diag)
+        return motion_of(data, t_s, pulse, world.table_drive, {k: s[k] for k in self.CONTACT_KEYS})
 
     # -- calibration --------------------------------------------------------------------------
     def _knobs_base(self, block: Block, dt: float) -> dict:

@@ -97,7 +97,7 @@ def test_calibration_reaches_housner_with_substeps_and_is_cached():
     assert "PhysX steps (PGS) per step" in res.note
     again = get_adapter("physx").calibrate(block, target)
     assert again.settings == res.settings and again.eta_measured == res.eta_measured
-    resolved = ad.resolve(block, Restitution())
+    resolved = ad.resolve(block, Restitution(), dt_s=5e-4)   # the calibration's step, not the step rule's
     assert resolved["substeps"] == res.settings["substeps"] and resolved["solver"] == "pgs"
     assert resolved["position_iterations"] == 10 and resolved["contact_offset_m"] == 0.01  # the rest as shipped
 
