@@ -128,7 +128,7 @@ def test_shipped_defaults_give_an_eta_and_no_calibration():
 # -- contract ----------------------------------------------------------------------------------
 
 def test_record_sign_and_corners():
-    c = case("B3M", "sine", 4.0, 3.0)
+    c = case("B3M", "sine", 4.0, 3.0, dt_s=5e-4)   # posed: which step a map takes is the time-step rule's
     tr = get_adapter("drake").simulate(c)
     assert isinstance(tr, Trajectory)
     assert tr.t_s[0] == 0.0 and tr.t_s[-1] >= c.pulse.duration_s
