@@ -55,12 +55,16 @@ PROBE_DEEP = 1.0
 _A_RANGE = (1.0, 12.0)
 
 
+def _cell(block: Block, eta: float, pulse: str, w_ratio: float, a_ratio: float, dt_s: float | None = None) -> Case:
+    """The case of one map cell (ω/p, a₀/(g·tanα)) with the constant restitution η."""
+    return Case(block, make_pulse(pulse, a_ratio_to_amplitude(block, a_ratio), w_ratio_to_omega(block, w_ratio)),
+                Restitution("constant", value=eta), dt_s)
+
+
 def _reference_overturns(block: Block, eta: float, pulse: str, w_ratio: float, a_ratio: float) -> bool:
     from .reference_adapter import ReferenceAdapter
 
-    case = Case(block, make_pulse(pulse, a_ratio_to_amplitude(block, a_ratio), w_ratio_to_omega(block, w_ratio)),
-                Restitution("constant", value=eta))
-    return ReferenceAdapter().run(case).outcome == "overturn"
+    return ReferenceAdapter().run(_cell(block, eta, pulse, w_ratio, a_ratio)).outcome == "overturn"
 
 
 def _reference_boundary(block: Block, eta: float, pulse: str, w_ratio: float) -> float | None:
@@ -97,8 +101,7 @@ def probe_cases(block: Block, eta: float) -> list[tuple[str, float, float]]:
 def _answers(adapter, block: Block, eta: float, probes: list, dt_s: float) -> list[tuple]:
     """Outcome (``failed`` for a cell the engine could not run) and validity of every probe cell,
     run calibrated at ``dt_s``."""
-    cases = [Case(block, make_pulse(p, a_ratio_to_amplitude(block, a), w_ratio_to_omega(block, w)),
-                  Restitution("constant", value=eta), dt_s) for p, w, a in probes]
+    cases = [_cell(block, eta, p, w, a, dt_s) for p, w, a in probes]
     return [(r.outcome or "failed", "valid" if r.valid else "invalid") for r in adapter.run_many(cases)]
 
 
