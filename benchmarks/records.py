@@ -18,9 +18,10 @@ A record says what was measured, how, on which code and which machine, and holds
     }
 
 ``commit_basis`` says where the commit comes from: ``measured`` when the script (or the person)
-that measured recorded the commit it ran on; ``added`` when the raw output predates this format and
-the commit is the one that added it to the repository (its code is the measured code unless the
-code changed between the measurement and that commit). The scripts in ``benchmarks/`` write
+that measured recorded the commit it ran on; ``added`` when the measurement predates this format and
+the commit is the one that added its raw output (or, where only the docs held them, its figures) to
+the repository: its code is the measured code unless the code changed between the measurement and
+that commit. The scripts in ``benchmarks/`` write
 records through :func:`write_record`, which fills in the commit, machine, versions and date.
 
     python benchmarks/records.py list                # one line per record
