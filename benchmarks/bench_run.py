@@ -1,5 +1,5 @@
-"""Time the main job, ``rockbench run`` (issue 7: the default suite within 30 minutes, ``--quick``
-under 4 minutes, on this 2-core machine). Prints figures; passes or fails on nothing.
+"""Time the main job, ``rockbench run`` (the default suite, ``--quick`` or a suite file,
+on the machine it runs on). Prints figures; passes or fails on nothing.
 
     python benchmarks/bench_run.py [--quick | SUITE.toml] [--out DIR] [--keep]
     python benchmarks/bench_run.py --summarize RUN_DIR --wall-s SECONDS

@@ -1,4 +1,4 @@
-"""Issue 18: the B3M sine strip where η_M overturns and η_H does not, cell by cell.
+"""The B3M sine strip where η_M overturns and η_H does not, cell by cell.
 
 ω/p = 4.5 and 4.75, a₀/(g·tanα) = 3.9 … 5.0 in steps of 0.1 (the issue's acceptance cells (4.5,
 4.38) and (4.75, 4.6) lie in it): the reference with η_H and with η_M (average k), and each engine

@@ -1,4 +1,4 @@
-"""Issue 18: which restitution targets each engine reaches, with which contact, at what price.
+"""Which restitution targets each engine reaches, with which contact, at what price.
 
 For every engine with a contact calibration (MuJoCo, PyBullet, Exudyn) and every Table 1 block,
 the calibration to η_H, η_M with the size's average k and η_M with the block's exact k (cached

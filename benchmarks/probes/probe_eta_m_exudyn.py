@@ -1,4 +1,4 @@
-"""Probe (issue 18): can Exudyn reach the modified restitution η_M in free rocking?
+"""Probe: can Exudyn reach the modified restitution η_M in free rocking?
 
 The adapter's planar block (``ObjectRigidBody2D``) with ``ObjectContactSphereTriangle`` contacts,
 Δt = 1e-4 s, friction 10, free rocking from rest at α/2, η by the adapter's energy-consistent

@@ -1,4 +1,4 @@
-"""Probe (issue 18): can MuJoCo reach the modified restitution η_M in free rocking?
+"""Probe: can MuJoCo reach the modified restitution η_M in free rocking?
 
 Contact variants tried, each on B3M and B6M (planar block: slide x, slide z, hinge y; friction 10,
 elliptic cones, no-slip solver, implicitfast, Δt = 0.5 ms, like the calibrated adapter):

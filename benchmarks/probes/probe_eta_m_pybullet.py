@@ -1,4 +1,4 @@
-"""Probe (issue 18): can PyBullet reach the modified restitution η_M in free rocking?
+"""Probe: can PyBullet reach the modified restitution η_M in free rocking?
 
 The adapter's planar block (slide x, slide z, hinge y; friction 10, friction anchors, 30 solver
 iterations, Δt = 0.5 ms), free rocking from rest at α/2, η by the adapter's energy method
