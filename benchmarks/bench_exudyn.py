@@ -1,4 +1,4 @@
-"""Measure the Exudyn adapter on full stability maps (issue 6, "Measured").
+"""Measure the Exudyn adapter on full stability maps.
 
 For each map (default: B3M under one sine wave, B6M under one cosine wave, 50 × 50 cells over
 ω/p ∈ [1, 10] and a₀/(g·tanα) ∈ [0.5, 15], Housner's η) it runs

@@ -1,4 +1,4 @@
-"""A reference map as a whole process (issue 16): ``rockbench map`` against the batch kernel run
+"""A reference map as a whole process: ``rockbench map`` against the batch kernel run
 alone in its own process, start-up of the command line, and the threads the map uses.
 Measures and prints; it passes or fails nothing.
 

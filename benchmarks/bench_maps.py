@@ -1,4 +1,4 @@
-"""Speed of the maps harness (issue 3). Measures and prints; it passes or fails nothing.
+"""Speed of the maps harness. Measures and prints; it passes or fails nothing.
 
 1. A 200×200 reference map through ``rockbench map`` (the whole process, started from the shell)
    against the batch solver alone (``solve_batch`` on the same 40 000 cells, warm, in-process).

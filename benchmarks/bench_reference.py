@@ -1,4 +1,4 @@
-"""Time the reference solver (issue 2, "Speed"): a 200×200 map in both ways of ending a run, and the
+"""Time the reference solver: a 200×200 map in both ways of ending a run, and the
 event-driven ``solve_ivp`` baseline on a random sample of the same cells.
 
     python benchmarks/bench_reference.py [--n 200] [--sample 40] [--repeat 3] [--cold] [--json FILE]

@@ -1,5 +1,5 @@
-"""Fewer simulations per adaptive map? A boundary tracer against today's block-wise refinement
-(issue 16), replayed on full grids. Measures and prints; it passes or fails nothing.
+"""Fewer simulations per adaptive map? A boundary tracer against the block-wise refinement
+(harness/maps/adaptive.py), replayed on full grids. Measures and prints; it passes or fails nothing.
 
     python benchmarks/bench_refinement.py [--engine-maps DIR ...] [--json FILE]
 

@@ -1,5 +1,5 @@
-"""Time the main job, ``rockbench run`` (issue 7: the default suite within 30 minutes, ``--quick``
-under 4 minutes, on this 2-core machine). Prints figures; passes or fails on nothing.
+"""Time the main job, ``rockbench run`` (the default suite, ``--quick`` or a suite file,
+on the machine it runs on). Prints figures; passes or fails on nothing.
 
     python benchmarks/bench_run.py [--quick | SUITE.toml] [--out DIR] [--keep]
     python benchmarks/bench_run.py --summarize RUN_DIR --wall-s SECONDS
@@ -11,7 +11,7 @@ before and after, and where the time went: per map (from the run's ``suite.json`
 engine variant, the calibration phase and the report. The second form writes the same summary for
 a run timed by other means (e.g. ``/usr/bin/time -v rockbench run``), from its output folder.
 
-Results go to ``benchmarks/results/run-<suite>-<date>.json`` and ``.md``.
+The figures go to the record ``benchmarks/results/run-<suite>-suite.json`` (``records.py show`` prints it).
 """
 
 from __future__ import annotations
@@ -29,7 +29,10 @@ from collections import defaultdict
 from datetime import datetime, timezone
 from pathlib import Path
 
-RESULTS = Path(__file__).resolve().parent / "results"
+from records import write_record
+
+MEASURES = ("Wall time of `rockbench run` on the {suite} suite from an empty calibration cache, and where it went "
+            "(start-up and calibrations, maps per engine variant with their simulated cells, report).")
 
 
 def _loadavg() -> list[float]:
@@ -114,15 +117,11 @@ def main(argv=None) -> int:
         rec["summary"] = summarize(out, wall) if (out / "suite.json").is_file() else {"wall_s": wall}
         if not args.keep and not args.out:
             shutil.rmtree(tmp, ignore_errors=True)
-    RESULTS.mkdir(exist_ok=True)
-    stem = f"run-{rec['summary'].get('suite') or 'unknown'}-{rec['started_utc'][:10]}"
-    (RESULTS / f"{stem}.json").write_text(json.dumps(rec, indent=1) + "\n")
-    if "per_variant" in rec["summary"]:
-        md = markdown(rec)
-        (RESULTS / f"{stem}.md").write_text(md)
-        print(md)
-    else:
-        print(json.dumps(rec, indent=1))
+    suite = rec["summary"].get("suite") or "unknown"
+    command = " ".join(["python benchmarks/bench_run.py", *(sys.argv[1:] if argv is None else argv)])
+    path = write_record(f"run-{suite}-suite", MEASURES.format(suite=suite), command, rec)
+    print(markdown(rec) if "per_variant" in rec["summary"] else json.dumps(rec, indent=1))
+    print("wrote", path)
     return 0
 
 

@@ -1,4 +1,4 @@
-"""Two versions of rockbench on one suite, in turn on the same machine (issue 16): wall and CPU time
+"""Two versions of rockbench on one suite, in turn on the same machine: wall and CPU time
 of ``rockbench run`` from an empty calibration cache, and the maps of both compared cell for cell.
 Measures and prints; it passes or fails nothing.
 

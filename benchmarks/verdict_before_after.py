@@ -2,7 +2,7 @@
 
     python benchmarks/verdict_before_after.py BEFORE.json AFTER_SCORE.json [--markdown]
 
-BEFORE.json is a verdict record (benchmarks/results/verdict-*.json: the verdict's variants with
+BEFORE.json is a verdict record (benchmarks/results/verdict-default.json and the like: the verdict's variants with
 value, 95 % interval and rank, and per variant the spurious invalid cells summed over its like-for-like
 pairs); AFTER_SCORE.json is a run's score.json. Prints per variant: value, interval, rank (or "fails"),
 spurious invalid cells (like-for-like pairs), before and after.
@@ -58,6 +58,7 @@ def main() -> None:
     ap.add_argument("after", type=Path)
     a = ap.parse_args()
     b = json.loads(a.before.read_text())
+    b = b.get("figures", b)       # a benchmark record holds the verdict among its figures
     c = json.loads(a.after.read_text())
     print(table(rows_of(b["verdict"], b.get("spurious_invalid", {})), rows_of(c["verdict"], spurious_invalid(c))))
 

@@ -401,7 +401,7 @@ class EngineAdapter:
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        # ``parallel_batch = True`` (before issue 15) is ``batching = "parallel"``: kept for one release
+        # ``parallel_batch = True`` (the attribute's old name) is ``batching = "parallel"``: kept for one release
         if cls.__dict__.get("parallel_batch") is True and "batching" not in cls.__dict__:
             import warnings
             warnings.warn(f"{cls.__name__}.parallel_batch is now batching = 'parallel'; the old attribute goes in "

@@ -8,7 +8,7 @@ so it needs the same few things whatever the engine:
   shipped), ``drive`` (``inertial`` or ``table``), ``planar``, ``friction`` [-], ``tail_s`` (the
   longest simulated time after the pulse), ``min_tail_s`` (the shortest) and, for engines that
   step in segments between stop checks, ``segment_s``. They are validated here, once.
-* **Old names** of settings (before issue 15) are accepted for one release and mapped to the new
+* **Old names** of settings are accepted for one release and mapped to the new
   ones by :data:`RENAMED_SETTINGS`, the one table of them (``--set``, suite TOMLs, run.json files
   and cached calibration records all go through :meth:`ContactEngineAdapter.canonical_settings`).
 * **One time-step rule**: :meth:`ContactEngineAdapter.time_step_s` (not to be confused with
@@ -52,7 +52,7 @@ SETTINGS_MODES = ("calibrated", "defaults")
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")
 
-#: Old setting names (before issue 15) → new names, per engine. Accepted for one release with a
+#: Old setting names → new names, per engine. Accepted for one release with a
 #: DeprecationWarning; the one place where a rename is recorded.
 RENAMED_SETTINGS: Mapping[str, Mapping[str, str]] = {
     "mujoco": {"timeconst": "timeconst_s"},

@@ -93,7 +93,7 @@ STATIC_PENETRATION_M = 1.34e-6
 #: Exudyn contact restitution coefficients (impact model 2) tried by the calibration's scan [-].
 CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 
-#: The scan for the distributed contact (issue 18): its η rises with the coefficient from about
+#: The scan for the distributed contact (docs/contact.md): its η rises with the coefficient from about
 #: η_H, and the probe (benchmarks/probes/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
 CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
 
@@ -142,7 +142,7 @@ class _Model:
         for nm in _PULSE_VARS:
             exu.symbolic.variables.Set(self._pre + nm, 0.0)
         # contact spheres: one per bottom corner, or a row of ``contact_points`` along the base
-        # (issue 18: the outer ones stay under the corners, so the static pivots do not move)
+        # (the outer ones stay under the corners, so the static pivots do not move)
         self.n_points = int(contact.get("contact_points") or 2)
         self.exponent = float(contact.get("stiffness_exponent") or 1.0)
         self.SC = exu.SystemContainer()
@@ -445,7 +445,7 @@ class ExudynAdapter(SteppedContactAdapter):
         ``corners``: one contact sphere per bottom corner. ``distributed``: a row of
         ``contact_points`` spheres along the base, the outer ones under the corners, with the
         corners' total stiffness shared among them (same static sink), so an impact's impulse can
-        spread into the base while the static pivots stay at the corners (issue 18). ``auto``
+        spread into the base while the static pivots stay at the corners. ``auto``
         (default): the corners for targets up to 1 % above Housner's η_H, the distributed
         contact above (the modified η_M); explicit ``contact_restitution`` with ``auto``: corners.
     contact_points : int or None

@@ -90,7 +90,7 @@ _CONES = ("elliptic", "pyramidal")
 _INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
 
 
-#: Distributed-contact calibration (issue 18): solimp impedances d (dmin = dmax = d), time
+#: Distributed-contact calibration (docs/contact.md): solimp impedances d (dmin = dmax = d), time
 #: constants as multiples of the time step, damping ratios. The probe
 #: (benchmarks/probes/probe_eta_m_mujoco.py) found η rising from about η_H at d = 0.9 to 0.88 (B3M) and
 #: 0.97 (B6M) at d = 0.3 with a row of points along the base.
@@ -144,7 +144,7 @@ class MujocoAdapter(SteppedContactAdapter):
         ``distributed``: the box's contact switched off and ``contact_points`` small spheres
         (radius ``contact_radius_m``) in a row along the base, the outer ones under the bottom
         edges, so the static pivots stay at the edges while an impact's impulse can spread into
-        the base (issue 18); its calibration also searches ``solimp_d``. ``auto`` (default): the
+        the base; its calibration also searches ``solimp_d``. ``auto`` (default): the
         corners for targets up to 1 % above η_H, the distributed contact above (the modified η_M);
         explicit contact settings (timeconst, dampratio) with ``auto`` use the corners.
     contact_points : int or None
@@ -195,7 +195,7 @@ class MujocoAdapter(SteppedContactAdapter):
 
     SHIPPED_NOTE = ("MuJoCo's default pyramidal friction cone at the benchmark's μ = 10 lets the block sink "
                     "through the table (with the elliptic cone, or μ = 1, it rocks: docs/mujoco.md)")
-    #: whether this adapter builds the contact along the base (issue 18); a subclass that does not
+    #: whether this adapter builds the contact along the base; a subclass that does not
     #: (MuJoCo Warp) sets it False: ``auto`` then keeps the corners for every target
     distributed_contact = True
     #: the corner calibration's knobs: the contact time constant (2–48 × Δt, the stiffness) and

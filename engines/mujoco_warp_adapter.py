@@ -206,7 +206,7 @@ class MujocoWarpAdapter(MujocoAdapter):
     #: a map in this process hands up to this many cells to one ``run_many`` (one batch of worlds):
     #: a GPU steps 40 000 worlds in little more time than 10 000
     max_batch = MAX_WORLDS
-    #: the contact along the base (issue 18) is the CPU adapter's only: not built or tested here
+    #: the contact along the base is the CPU adapter's only: not built or tested here
     distributed_contact = False
     SETTINGS = {**{k: v for k, v in MujocoAdapter.SETTINGS.items() if k != "threads"},
                 "device": "auto", "solver": "newton", "iterations": 100, "ls_iterations": 50,

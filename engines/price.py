@@ -1,7 +1,7 @@
 """What a contact setting costs: the checks a calibration to a restitution target must pass.
 
 A contact that reaches a restitution target (for example the modified η_M with a row of contact
-points along the base, issue 18) may pay for it elsewhere. :func:`contact_price` measures, with
+points along the base) may pay for it elsewhere. :func:`contact_price` measures, with
 the adapter's own simulation and the one judge (nothing here decides a verdict for an engine):
 
 * **static uplift threshold**: the table acceleration is ramped slowly (``RAMP_FROM`` → ``RAMP_TO``
@@ -34,7 +34,7 @@ from ..reference_solver.pulses import RecordPulse, make_pulse
 from ..reference_solver.restitution import Restitution
 from .base import Case
 
-#: Tolerance on the static uplift threshold ratio (issue 18: within 2 % to count) [-].
+#: Tolerance on the static uplift threshold ratio (within 2 % to count) [-].
 UPLIFT_RTOL = 0.02
 #: Ramp of the table acceleration, as fractions of g·tanα, and its length [s]; the ramp starts
 #: from 0 over ``RAMP_LEAD_S``.

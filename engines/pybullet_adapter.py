@@ -153,7 +153,7 @@ class _Scene:
         self.table = pb.createMultiBody(0.0, tcol, -1, [0, 0, -_TABLE_HALF_EXTENTS_M[2]], physicsClientId=cid)
         b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
         if points:
-            # a row of small spheres along the base (issue 18), the outer ones under the bottom
+            # a row of small spheres along the base, the outer ones under the bottom
             # edges; two rows (front and back) for a free block. Bullet takes the inertia from the
             # shape, so the box's is set below.
             r = _POINT_RADIUS_M
@@ -322,7 +322,7 @@ class PybulletAdapter(SteppedContactAdapter):
     contact : {"auto", "corners", "distributed"}
         ``corners``: the block's box touches the table (Bullet keeps up to 4 corner contacts).
         ``distributed``: a row of ``contact_points`` small spheres along the base instead, the
-        outer ones under the bottom edges (issue 18), calibrated over a compliant contact's
+        outer ones under the bottom edges, calibrated over a compliant contact's
         stiffness and damping ratio. ``auto`` (default): the corners for targets up to 1 % above
         Housner's η_H, the distributed contact above (the modified η_M); explicit contact
         settings with ``auto`` use the corners.

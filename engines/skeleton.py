@@ -635,7 +635,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _calibrate_distributed_n(self, block: Block, t: float, n: int, dt: float,
                                  use_cache: bool) -> CalibrationResult:
-        """A row of ``n`` points along the base (issue 18), calibrated to ``t`` at a price.
+        """A row of ``n`` points along the base, calibrated to ``t`` at a price.
 
         The candidates are :meth:`_distributed_rows`; those the one pick reaches are tried in its order
         (:func:`~rockbench.engines.pick.ranked`; at most :data:`MAX_PRICE_TRIES`,

@@ -1,5 +1,5 @@
 """The Python API for notebooks, re-exported as ``rockbench.simulate``, ``rockbench.stability_map``
-and ``rockbench.load_run`` (issue 14).
+and ``rockbench.load_run``.
 
 Cases are described with the command line's words as keywords (``w_ratio=6`` for ``--w-ratio 6``)
 and checked by the same code, so the API and the CLI cannot drift apart; error messages name the

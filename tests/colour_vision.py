@@ -1,4 +1,4 @@
-"""Colour-vision deficiency simulation for the picture tests (issue 25): how a colour, or a whole
+"""Colour-vision deficiency simulation for the picture tests: how a colour, or a whole
 rendered PNG, looks to a reader with protanopia, deuteranopia or tritanopia.
 
 Machado, Oliveira & Fernandes (2009), "A physiologically-based model for simulation of color vision

@@ -1,4 +1,4 @@
-"""Damaged and impossible inputs (issue 13): every one gives one line on stderr naming the file and
+"""Damaged and impossible inputs: every one gives one line on stderr naming the file and
 what is wrong, and exit 2 (5 for results of another version); never exit 70, never a traceback."""
 
 from __future__ import annotations

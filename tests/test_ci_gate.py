@@ -1,5 +1,5 @@
 """The README's CI gate, run as written there: it passes on the shipped engine and fails on a real
-regression (issue 13)."""
+regression."""
 
 from __future__ import annotations
 

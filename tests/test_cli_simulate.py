@@ -183,7 +183,7 @@ def test_subprocess_entry_point(tmp_path):
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--k" in r.stderr and r.stdout == ""
 
 
-# -- issue 13 --------------------------------------------------------------------------------------
+# -- failures, refusals and one-source numbers -----------------------------------------------------
 
 def test_a_failed_simulation_exits_1(fake_engines, capsys):
     fake_engines.register_all()
@@ -215,7 +215,7 @@ def test_a_record_that_cannot_finish_is_refused(capsys, tmp_path):
 
 
 def test_text_output_takes_each_number_from_the_json(capsys):
-    """Counts and times in the text are the JSON's fields, each from one source (issue 13)."""
+    """Counts and times in the text are the JSON's fields, each from one source."""
     args = ["simulate", "--block", "B3M", "--w-ratio", "6", "--a-ratio", "1.5", "--mode", "to-rest"]
     o = run_json(capsys, list(args))
     assert main(args) == 0

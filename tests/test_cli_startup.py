@@ -1,4 +1,4 @@
-"""The command line imports only what the command it runs needs (issue 16): ``--help`` and
+"""The command line imports only what the command it runs needs: ``--help`` and
 ``blocks`` neither numpy nor numba; matplotlib only where a picture is drawn, and never pyplot
 for a map's picture. What is checked is what gets imported, not how long it takes."""
 

@@ -1,4 +1,4 @@
-"""The columnar path of reference maps (issue 16): arrays from the grid to cells.csv, with the same
+"""The columnar path of reference maps: arrays from the grid to cells.csv, with the same
 results and the same text, cell for cell, as the per-cell path (Case and CellResult objects, rows
 formatted one by one)."""
 

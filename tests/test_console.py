@@ -1,4 +1,4 @@
-"""A console that reads cleanly (issue 25): progress in order with a fixed total, no blank lines,
+"""A console that reads cleanly: progress in order with a fixed total, no blank lines,
 no Warp line on a machine without a CUDA driver, ``rockbench engines`` in aligned columns."""
 
 from __future__ import annotations

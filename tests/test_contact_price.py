@@ -1,4 +1,4 @@
-"""The contact price (issue 18) without an engine: the rigid free-rocking quarter period against an
+"""The contact price without an engine: the rigid free-rocking quarter period against an
 independent integration, the ramp, the price's one-line summary, suite variants with their own
 restitution, and bad input."""
 

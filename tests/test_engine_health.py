@@ -1,4 +1,4 @@
-"""Loud failures (issue 28, part 2): an engine that cannot simulate is stopped early with one line and
+"""Loud failures: an engine that cannot simulate is stopped early with one line and
 exit 3; the installed version against the supported range in `engines` and `check-adapter`.
 
 The engines here are fakes (tests/maps_helpers.py): ``broken`` fails every cell with one error (as

@@ -1,5 +1,5 @@
 """score.json records each pair's engine version, and compare names both sides' versions when they
-differ (issue 28, part 3)."""
+differ."""
 
 from __future__ import annotations
 

@@ -139,7 +139,7 @@ def test_one_executor_serves_many_maps(analytic_truth, tmp_path):
         ex.close()
 
 
-# -- issue 13: bounded waits, no orphans, a cap on --jobs -----------------------------------------------
+# -- bounded waits, no orphans, a cap on --jobs -----------------------------------------------
 
 def test_jobs_are_capped_at_cores_and_cells(analytic_truth, tmp_path):
     from rockbench.harness.maps.executors import cap_jobs, cpu_count

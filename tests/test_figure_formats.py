@@ -1,4 +1,4 @@
-"""Figures for print (issue 25): every format written and readable, text as text, journal sizes,
+"""Figures for print: every format written and readable, text as text, journal sizes,
 fonts of at least 7 pt, and one colour-blind-safe palette."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """No silent gaps: an engine map with fewer cells than its grid is refused (exit 2, naming the map, the
 cells missing and the command that completes it) unless --allow-incomplete, then scored on what is
-there and marked; a metric with nothing to judge is null, never perfect. And the edges of issue 24."""
+there and marked; a metric with nothing to judge is null, never perfect. And bad inputs to compare, report and --pulse."""
 
 import json
 

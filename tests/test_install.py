@@ -2,7 +2,7 @@
 
 Run from the root, ``python -m`` would put the working folder first on the path, and the top-level
 ``rockbench/`` folder (the package's glue alone; its subpackages are mapped from other folders)
-would shadow the installed package in the map's worker processes (issue 28, part 4). The test
+would shadow the installed package in the map's worker processes. The test
 copies the repository's tracked files, installs the copy into a fresh venv with ``pip install
 --no-deps`` (its build backend fetched by pip as usual; the dependencies come from this interpreter's site-packages, added by a .pth file, so
 nothing is downloaded), and runs a map with two worker processes from the copy's root.

@@ -124,7 +124,7 @@ def test_unknown_pulse_kind():
         make_pulse("square", 1.0, 1.0)
 
 
-# -- issue 13: record files ------------------------------------------------------------------------
+# -- record files ------------------------------------------------------------------------
 
 @pytest.mark.parametrize("text, match", [
     ("foo,bar,baz\n0,1,2\n0.1,2,3\n", "has the columns 'foo,bar,baz'"),

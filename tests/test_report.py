@@ -168,7 +168,7 @@ def test_report_draws_fig17_with_the_reference(write_map, band, tmp_path):
 
 
 def test_price_table_shows_reach_contact_and_cost():
-    """Issue 18: a calibration with a measured price gets a row: reached only if the price counts."""
+    """A calibration with a measured price gets a row: reached only if the price counts."""
     from rockbench.harness.report.sections import _price_table
 
     price = {"uplift": {"ratio": 0.986, "within": True}, "anti_slip": {"n_slip": 0, "n_jump": 1, "cells": 27},

@@ -69,7 +69,7 @@ def test_run_quick_end_to_end(tmp_path):
             assert not any((m / "workers.log").exists() for d in variant_dirs for m in d.iterdir() if m.is_dir())
     else:
         assert "no scores" in r.stdout
-    # a console that reads cleanly (issue 25): one total N, k counting finished maps in order, no blank
+    # a console that reads cleanly: one total N, k counting finished maps in order, no blank
     # line, each note once, and no line of Warp's own
     prog = [ln for ln in r.stderr.splitlines() if ln.startswith("rockbench: [")]
     assert [int(ln.split("[")[1].split("/")[0]) for ln in prog] == list(range(1, len(prog) + 1))

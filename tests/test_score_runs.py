@@ -258,7 +258,7 @@ def test_score_json_records_the_domain_per_pair(write_map, band, tmp_path, capsy
     assert p["scores"]["agreement"] == 1.0
 
 
-# -- issue 13: pairing within a run, tolerances in cells, well-formed Markdown -------------------------------
+# -- pairing within a run, tolerances in cells, well-formed Markdown -------------------------------
 
 def _md_rows(text):
     """The cells of each row of every Markdown table in ``text`` (``\\|`` is a pipe inside a cell)."""

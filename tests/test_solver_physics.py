@@ -1,6 +1,6 @@
 """Physics of the reference solver against closed forms, invariants and an independent solution.
 
-docs/physics.md §7 and issue 2 ("What must hold"). The independent event-driven solution lives in
+docs/physics.md §7 ("What must hold"). The independent event-driven solution lives in
 ``tests/ivp_baseline.py`` (SciPy ``solve_ivp`` with events); it shares nothing with the
 Newmark kernels but the pulses' ``ü(t)``.
 """

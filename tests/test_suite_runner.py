@@ -125,7 +125,7 @@ def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(fake_engine
     seen = [m.split(" → ")[0].split(" B")[0] if m.startswith("[") else m for m in logs
             if m.startswith(("[", "open", "close"))]
     # the reference maps are computed by their own thread, beside the engine maps
-    # [k/6]: k counts finished maps, in order whichever thread finished them (issue 25)
+    # [k/6]: k counts finished maps, in order whichever thread finished them
     assert [int(m[1:m.index("/")]) for m in seen if m.startswith("[")] == [1, 2, 3, 4, 5, 6]
     assert sum(m.endswith("reference") for m in seen) == 2
     assert [m.split("] ")[-1] for m in seen if not m.endswith("reference")] == [
@@ -133,7 +133,7 @@ def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(fake_engine
         "open analytic 0.0001", "analytic", "analytic", "close analytic 0.0001"]
 
 
-# -- issue 13: the whole suite is checked before the first map, and --plan fails the same way -------------
+# -- the whole suite is checked before the first map, and --plan fails the same way -------------
 
 GRID = "[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\n[cases]\nblocks = ['B3M']\npulses = ['sine']\n"
 
@@ -240,7 +240,7 @@ def test_lanes_and_helpers_give_what_one_worker_gives(fake_engines, tmp_path):
     said = []
     one = run_suite(suite, tmp_path / "one", jobs=1, report=False, log=lambda m: None)
     two = run_suite(suite, tmp_path / "two", jobs=2, report=False, log=said.append)
-    # [k/N]: N planned before the first map, own-η reference maps included; k in order (issue 25)
+    # [k/N]: N planned before the first map, own-η reference maps included; k in order
     prog = [m for m in said if m.startswith("[")]
     assert [m.split("]")[0] for m in prog] == [f"[{k}/20" for k in range(1, 21)]
     assert [m["label"] for m in one["maps"]] == [m["label"] for m in two["maps"]]
@@ -260,7 +260,7 @@ def test_lanes_and_helpers_give_what_one_worker_gives(fake_engines, tmp_path):
 
 def test_a_lane_whose_workers_cannot_start_stops_that_engine_and_the_suite_goes_on(fake_engines, tmp_path,
                                                                                   monkeypatch):
-    """Workers that cannot start their engine stop that engine (issue 28: its other maps are skipped,
+    """Workers that cannot start their engine stop that engine (its other maps are skipped,
     one line says why, `run` exits 3), whichever lane meets them first; nothing hangs, and the
     reference maps and the scores still come out."""
     import os

@@ -1,4 +1,4 @@
-"""``rockbench versions`` (issue 28, part 3): its input, its cached environments and its flow, with
+"""``rockbench versions``: its input, its cached environments and its flow, with
 the processes faked (no environment is built here; docs/versions.md has a real run)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The boundary tracer against the block-wise refinement on every engine map of a suite run (issue 16).
+"""The boundary tracer against the block-wise refinement on every engine map of a suite run.
 Measures and prints; it passes or fails nothing.
 
     python benchmarks/probes/check_refinement_suite.py RUN_DIR [--jobs N] [--json FILE]

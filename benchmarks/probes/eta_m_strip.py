@@ -1,18 +1,18 @@
-"""Issue 18: the B3M sine strip where η_M overturns and η_H does not, cell by cell.
+"""The B3M sine strip where η_M overturns and η_H does not, cell by cell.
 
 ω/p = 4.5 and 4.75, a₀/(g·tanα) = 3.9 … 5.0 in steps of 0.1 (the issue's acceptance cells (4.5,
 4.38) and (4.75, 4.6) lie in it): the reference with η_H and with η_M (average k), and each engine
 calibrated to η_H (corners) and to η_M (the contact along the base). One letter per cell: O
 overturn, R rocking (or rest); a lower-case letter is an invalid cell.
 
-Run: ``python benchmarks/probes/eta_m_strip.py``; writes ``benchmarks/results/eta-m-strip-<date>.md``.
+Run: ``python benchmarks/probes/eta_m_strip.py``; writes the record ``benchmarks/results/eta-m-strip.json``.
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +23,13 @@ from rockbench.engines.registry import availability, get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution
+
+# benchmarks/ holds the one records writer
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from records import write_record  # noqa: E402
+
+MEASURES = ("Cell by cell, the B3M sine strip (a₀/(g·tanα) 3.9-5.0) where the η_M reference overturns and the "
+            "η_H reference rocks, for MuJoCo, Exudyn and PyBullet calibrated to each target.")
 
 
 def main():
@@ -48,8 +55,8 @@ def main():
              "R rocking/rest, lower case: invalid.", "",
              "| ω/p | engine | calibrated to / restitution | cells | overturns |", "|---|---|---|---|---|"]
     lines += [f"| {w:g} | {eng} | {label} | `{letters}` | {n} of {len(letters)} |" for w, eng, label, letters, n in rows]
-    out = Path(__file__).resolve().parent.parent / "results" / f"eta-m-strip-{_dt.date.today()}.md"
-    out.write_text("\n".join(lines) + "\n")
+    out = write_record("eta-m-strip", MEASURES, "python benchmarks/probes/eta_m_strip.py",
+                       {"table_md": "\n".join(lines) + "\n"}, packages=("mujoco", "pybullet", "exudyn"))
     print("\n".join(lines))
     print("wrote", out)
 

@@ -1,4 +1,4 @@
-"""Issue 18: which restitution targets each engine reaches, with which contact, at what price.
+"""Which restitution targets each engine reaches, with which contact, at what price.
 
 For every engine with a contact calibration (MuJoCo, PyBullet, Exudyn) and every Table 1 block,
 the calibration to η_H, η_M with the size's average k and η_M with the block's exact k (cached
@@ -7,15 +7,15 @@ with the price of the contact found (:func:`rockbench.engines.price.contact_pric
 η_H corner calibrations too, for comparison).
 
 Run: ``python benchmarks/probes/eta_m_table.py [--engines mujoco,pybullet,exudyn] [--blocks B3M,...]``;
-writes ``benchmarks/results/eta-m-table-<date>.json`` and ``.md``.
+writes the record ``benchmarks/results/eta-m-table.json`` (or ``--out NAME``).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -23,6 +23,13 @@ from rockbench.harness.blocks.presets import PRESETS
 from rockbench.engines.price import UPLIFT_RTOL
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.restitution import Restitution, effective_k
+
+# benchmarks/ holds the one records writer
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from records import write_record  # noqa: E402
+
+MEASURES = ("Which restitution target (η_H, η_M with average or exact k) each engine reaches for every Table 1 block, "
+            "with which contact, at what price (uplift threshold, slip/jump cells, period change, steps/s).")
 
 
 def contact_words(st: dict) -> str:
@@ -49,7 +56,7 @@ def main():
     ap.add_argument("--engines", default="mujoco,pybullet,exudyn")
     ap.add_argument("--blocks", default="B3M,B6M,B3L,B6L")
     ap.add_argument("--targets", default="housner,average,exact", help="of housner, average, exact")
-    ap.add_argument("--out", default=None, help="output name (default eta-m-table-<date>, in benchmarks/results)")
+    ap.add_argument("--out", default=None, help="record name (default eta-m-table, in benchmarks/results)")
     args = ap.parse_args()
     wanted = set(args.targets.split(","))
     rows = []
@@ -77,9 +84,6 @@ def main():
                 r = rows[-1]
                 print(eng, bname, label, f"{c.eta_measured:.4f} ({100 * c.rel_error:+.2f} %)", c.reached,
                       r["contact"], f"uplift {p['uplift'].get('ratio', math.nan):.4f}", flush=True)
-    date = str(_dt.date.today())
-    out = Path(__file__).resolve().parent.parent / "results" / (args.out or f"eta-m-table-{date}")
-    out.with_suffix(".json").write_text(json.dumps({"date": date, "rows": rows}, indent=1, default=float))
     lines = ["| engine | block | target | η target | η measured (± spread) | error | k of the measured η | reached | contact | "
              "uplift / g·tanα | slip / jump (cells) | quarter period vs rigid | steps/s |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -95,9 +99,11 @@ def main():
                      f"{sl.get('n_slip', '–')} / {sl.get('n_jump', '–')} ({sl.get('cells', '–')}) | "
                      f"{'–' if pc is None else f'{100 * pc:+.2f} %'} | "
                      f"{format(p['steps_per_s'], '.3g') if p.get('steps_per_s') else '–'} |")
-    out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+    out = write_record(args.out or "eta-m-table", MEASURES, "python benchmarks/probes/eta_m_table.py " + " ".join(sys.argv[1:]),
+                       {"rows": rows, "table_md": "\n".join(lines) + "\n"},
+                       packages=("mujoco", "pybullet", "exudyn"))
     print("\n".join(lines))
-    print("wrote", out.with_suffix(".md"))
+    print("wrote", out)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 """Why DART's planar block touches the table through two corner spheres, not its box, nor a row of
-spheres along its base (issue 27).
+spheres along its base.
 
 A planar block whose collision shape is its box touches the table with two points per bottom edge
 (y = ±d/2) whose constraint rows are identical for a planar joint. This probe runs the mirror pair

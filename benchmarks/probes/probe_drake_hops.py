@@ -1,4 +1,4 @@
-"""Why does calibrated Drake flag cells where the rigid model is valid (issue 17: 409 "spurious
+"""Why does calibrated Drake flag cells where the rigid model is valid (409 "spurious
 invalid" cells in the full suite, almost all under the cosine pulse)? Measures and prints; it passes
 or fails nothing.
 

@@ -1,4 +1,4 @@
-"""Probe (issue 18): can Exudyn reach the modified restitution η_M in free rocking?
+"""Probe: can Exudyn reach the modified restitution η_M in free rocking?
 
 The adapter's planar block (``ObjectRigidBody2D``) with ``ObjectContactSphereTriangle`` contacts,
 Δt = 1e-4 s, friction 10, free rocking from rest at α/2, η by the adapter's energy-consistent
@@ -10,7 +10,7 @@ peak-ratio method (the adapter's free-rocking test, the one its calibration uses
   same models, over per-point stiffness, damping / restitution coefficient and exponent.
 
 Run: ``python benchmarks/probes/probe_eta_m_exudyn.py [--quick]``; writes
-``benchmarks/results/probe-eta-m-exudyn-<date>.json``.
+the record ``benchmarks/results/probe-eta-m-exudyn.json``.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import argparse
 import datetime as _dt
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -26,6 +27,12 @@ from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines.exudyn_adapter import ExudynAdapter, default_stiffness_n_m
 from rockbench.reference_solver.restitution import housner_eta, modified_eta
 from rockbench.reference_solver.validity import Measurement, judge_measurement
+
+# benchmarks/ holds the one records writer
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from records import write_record  # noqa: E402
+
+MEASURES = "Can Exudyn reach the modified restitution η_M in free rocking: η per block, per contact and contact setting."
 
 
 def run_one(ad, block, contact):
@@ -103,8 +110,8 @@ def main():
         print(name, "span", out["blocks"][name]["eta_span"], flush=True)
         for k, v in best.items():
             print("  ", k, round(v["eta"], 4), f"{100 * v['rel_error']:+.2f} %", flush=True)
-    p = Path(__file__).resolve().parent.parent / "results" / f"probe-eta-m-exudyn-{out['date']}.json"
-    p.write_text(json.dumps(out, indent=1, default=float))
+    p = write_record("probe-eta-m-exudyn", MEASURES, "python benchmarks/probes/probe_eta_m_exudyn.py " + " ".join(sys.argv[1:]),
+                     out, packages=("exudyn",))
     print("wrote", p)
 
 

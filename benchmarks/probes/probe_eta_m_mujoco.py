@@ -1,4 +1,4 @@
-"""Probe (issue 18): can MuJoCo reach the modified restitution η_M in free rocking?
+"""Probe: can MuJoCo reach the modified restitution η_M in free rocking?
 
 Contact variants tried, each on B3M and B6M (planar block: slide x, slide z, hinge y; friction 10,
 elliptic cones, no-slip solver, implicitfast, Δt = 0.5 ms, like the calibrated adapter):
@@ -22,7 +22,7 @@ are picked by η alone: some of them fail the uplift check (one B6M setting tips
 ramp), which is why the adapter's calibration checks the price of each candidate.
 
 Run: ``python benchmarks/probes/probe_eta_m_mujoco.py [--quick]``; writes
-``benchmarks/results/probe-eta-m-mujoco-<date>.json``.
+the record ``benchmarks/results/probe-eta-m-mujoco.json``.
 """
 
 from __future__ import annotations
@@ -48,6 +48,12 @@ from rockbench.engines.free_rocking import crossing_velocity_etas as impact_etas
 from rockbench.reference_solver.model import G  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta, modified_eta  # noqa: E402
 from rockbench.reference_solver.validity import uplift_tol_rad  # noqa: E402
+
+# benchmarks/ holds the one records writer
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from records import write_record  # noqa: E402
+
+MEASURES = "Can MuJoCo reach the modified restitution η_M in free rocking: η per block, per contact and contact setting."
 
 DT = 5e-4
 
@@ -256,8 +262,8 @@ def main():
               f"{wall:.1f}s", flush=True)
         for k, v in best.items():
             print("  ", k, {kk: (round(vv, 4) if isinstance(vv, float) else vv) for kk, vv in v.items()}, flush=True)
-    out = Path(__file__).resolve().parent.parent / "results" / f"probe-eta-m-mujoco-{results['date']}.json"
-    out.write_text(json.dumps(results, indent=1, default=float))
+    out = write_record("probe-eta-m-mujoco", MEASURES, "python benchmarks/probes/probe_eta_m_mujoco.py " + " ".join(sys.argv[1:]),
+                       results, packages=("mujoco",))
     print("wrote", out)
 
 

@@ -1,4 +1,4 @@
-"""Probe (issue 18): can PyBullet reach the modified restitution η_M in free rocking?
+"""Probe: can PyBullet reach the modified restitution η_M in free rocking?
 
 The adapter's planar block (slide x, slide z, hinge y; friction 10, friction anchors, 30 solver
 iterations, Δt = 0.5 ms), free rocking from rest at α/2, η by the adapter's energy method
@@ -14,7 +14,7 @@ For the settings closest to each target, the static uplift threshold (slow ramp)
 anti-slip cells are measured with :func:`rockbench.engines.price.contact_price`.
 
 Run: ``python benchmarks/probes/probe_eta_m_pybullet.py``; writes
-``benchmarks/results/probe-eta-m-pybullet-<date>.json``.
+the record ``benchmarks/results/probe-eta-m-pybullet.json``.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import argparse
 import datetime as _dt
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -32,6 +33,12 @@ from rockbench.harness.blocks.presets import get_preset
 from rockbench.engines import price as P
 from rockbench.engines.pybullet_adapter import PybulletAdapter
 from rockbench.reference_solver.restitution import Restitution, housner_eta, modified_eta
+
+# benchmarks/ holds the one records writer
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from records import write_record  # noqa: E402
+
+MEASURES = "Can PyBullet reach the modified restitution η_M in free rocking: η per block, per contact and contact setting."
 
 
 def main():
@@ -98,8 +105,8 @@ def main():
             print("  ", k, round(v["eta"], 4), f"{100 * v['rel_error']:+.2f} %",
                   {kk: v.get(kk) for kk in ("contact_stiffness_n_m", "zeta")},
                   v.get("price", {}).get("uplift", {}).get("ratio"), v.get("price", {}).get("counts"), flush=True)
-    p = Path(__file__).resolve().parent.parent / "results" / f"probe-eta-m-pybullet-{out['date']}.json"
-    p.write_text(json.dumps(out, indent=1, default=float))
+    p = write_record("probe-eta-m-pybullet", MEASURES, "python benchmarks/probes/probe_eta_m_pybullet.py " + " ".join(sys.argv[1:]),
+                     out, packages=("pybullet",))
     print("wrote", p)
 
 

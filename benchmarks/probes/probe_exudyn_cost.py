@@ -1,4 +1,4 @@
-"""Where an Exudyn cell's time goes (issue 16: Exudyn's maps are about 70 % of the main job's engine
+"""Where an Exudyn cell's time goes (Exudyn's maps were about 70 % of the main job's engine
 time). Measures and prints; it passes or fails nothing.
 
     python benchmarks/probes/probe_exudyn_cost.py [--cells N] [--json FILE]

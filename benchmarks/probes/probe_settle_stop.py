@@ -1,5 +1,5 @@
 """Could an engine run stop once the block has settled after the pulse, before the minimum tail ends
-(issue 16)? Measures and prints; it passes or fails nothing.
+? Measures and prints; it passes or fails nothing.
 
     python benchmarks/probes/probe_settle_stop.py [--cells N] [--json FILE]
 

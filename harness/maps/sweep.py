@@ -1,4 +1,4 @@
-"""Stability maps: a grid over frequency and amplitude, one simulation per cell (issue 3).
+"""Stability maps: a grid over frequency and amplitude, one simulation per cell.
 
 A map is described by a :class:`MapSpec` (block, pulse kind, restitution, engine, the two axes) and
 computed by :func:`run_map` into a run directory (see :mod:`rockbench.harness.store.run_folder`): every

@@ -68,7 +68,7 @@ def _pct(x, why: str) -> str:
 
 
 def _price_table(rows, labels):
-    """Per engine variant and block with a measured contact price (issue 18): reached or not, the
+    """Per engine variant and block with a measured contact price: reached or not, the
     contact, and what it costs."""
     from ...engines.price import UPLIFT_RTOL
 

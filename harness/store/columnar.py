@@ -1,4 +1,4 @@
-"""cells.csv rows written in bulk from arrays, by compiled code (issue 16).
+"""cells.csv rows written in bulk from arrays, by compiled code.
 
 A reference map solves its cells as arrays (:meth:`ReferenceAdapter.run_grid
 <rockbench.engines.reference_adapter.ReferenceAdapter.run_grid>`); formatting them one Python

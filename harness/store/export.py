@@ -1,5 +1,5 @@
 """A map on its full grid: one row per cell, simulated or inferred, as a CSV file, a tidy
-``pandas.DataFrame`` or an ``xarray.Dataset`` (issue 14).
+``pandas.DataFrame`` or an ``xarray.Dataset``.
 
 An adaptive map simulates only some cells of its grid (``cells.csv`` holds those) and infers the
 others by its fill rule (:func:`rockbench.harness.maps.adaptive.fill`: a block whose four corners agree

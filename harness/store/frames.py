@@ -1,4 +1,4 @@
-"""Rows of cells as a tidy ``pandas.DataFrame`` or an ``xarray.Dataset`` (issue 14).
+"""Rows of cells as a tidy ``pandas.DataFrame`` or an ``xarray.Dataset``.
 
 pandas and xarray are optional (``pip install 'rockbench[notebook]'``); only these two converters
 need them.

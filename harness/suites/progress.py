@@ -1,4 +1,4 @@
-"""The console of a suite run (``rockbench run``): one line per finished map, in order (issue 25).
+"""The console of a suite run (``rockbench run``): one line per finished map, in order.
 
 The total ``N`` of ``[k/N]`` is fixed before the first map starts: every map of the plan, the
 reference maps at the engines' own measured η included (one per engine variant, block and pulse;

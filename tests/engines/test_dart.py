@@ -4,7 +4,7 @@ The contract's shared checks (check-adapter, shared settings, the CLI's one-line
 calibration to η_H, low friction flagged slip, trajectory conventions, mirror symmetry) run for
 DART in ``tests/engines/test_contract.py``; this file keeps what is DART's own, on a few cells.
 
-What must hold (issue 27): outcomes match the reference far from its boundary with both drives;
+What must hold: outcomes match the reference far from its boundary with both drives;
 calibration reaches η_H within 1 % on B6M and 1.5 % on B3M with DART as shipped; η_M is out of reach
 and the calibration says why; the planar model is mirror-exact; bad settings are a ConfigError
 (CLI exit 2, one line); a tiny map runs through ``rockbench map``.

@@ -4,7 +4,7 @@ The contract's shared checks (check-adapter, shared settings, the CLI's one-line
 calibration to η_H, low friction flagged slip, trajectory conventions, mirror symmetry) run for
 Drake in ``tests/engines/test_contract.py``; this file keeps what is Drake's own.
 
-What must hold (issue 17): outcomes match the reference far from its boundary; calibration reaches
+What must hold: outcomes match the reference far from its boundary; calibration reaches
 η_H within 1 % on B6M and 1.5 % on B3M; the inertial and table drives agree; the trajectory record
 is the contract's (θ, θ̇, corners in the table frame, energy), results do not depend on the order of
 cells; bad settings are a ConfigError (CLI exit 2, one line); ``check-adapter drake`` passes; a

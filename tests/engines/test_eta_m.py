@@ -1,4 +1,4 @@
-"""Issue 18's acceptance: engines calibrated to the measured restitution η_M (average k).
+"""Engines calibrated to the measured restitution η_M (average k).
 
 For MuJoCo, Exudyn and PyBullet, with the contact along the base their calibration picks for η_M:
 

@@ -5,9 +5,9 @@ an engine's uniform time grid. No engine needed.
 The candidates:
 
 * peak ratio (the one kept): successive peak amplitudes with the free-rocking energy, from θ alone;
-* crossing velocity (MuJoCo's until issue 34): |θ̇| where |θ| crosses 0.1·α before and after each
+* crossing velocity (MuJoCo's before the one reader): |θ̇| where |θ| crosses 0.1·α before and after each
   impact, carried to θ = 0 with the free-rocking energy;
-* energy ratio (PyBullet's until issue 34): the body's mechanical energy above rest between impacts.
+* energy ratio (PyBullet's before the one reader): the body's mechanical energy above rest between impacts.
 
 All three read the rigid model's η to 2e-4 at steps up to 2 ms (:func:`test_each_reader_reads_the_rigid_eta`);
 the energy ratio is the most exact here (its rigid energy is conserved by construction), but it reads a

@@ -1,4 +1,4 @@
-"""The Exudyn adapter with the real engine (issue 6): outcomes against the reference, calibration
+"""The Exudyn adapter with the real engine: outcomes against the reference, calibration
 to Housner's η, slip detection, the two drives, the contract and bad settings.
 
 Kept small: a handful of cells far from the stability boundary (each a fraction of a second) and

@@ -1,4 +1,4 @@
-"""Issue 12's acceptance with the real engines: one judge, fed by what each engine measured.
+"""The real engines: one judge, fed by what each engine measured.
 
 Calibrated to Housner's η, every engine must flag jump or slip where the rigid reference needs the
 table to pull the block down (``lift-required``), and come back valid with the reference's outcome

@@ -4,7 +4,7 @@ The contract's shared checks (check-adapter, shared settings, the CLI's one-line
 calibration to η_H, low friction flagged slip, trajectory conventions, mirror symmetry) run for
 PhysX in ``tests/engines/test_contract.py``; this file keeps what is PhysX's own, on a few cells.
 
-What must hold (issue 36): outcomes match the reference far from its boundary with both drives;
+What must hold: outcomes match the reference far from its boundary with both drives;
 PhysX as shipped gives an η below Housner's that rises as its step shrinks, and only the PhysX step
 matters (substeps or a finer benchmark step give the same motion); the calibration reaches η_H with
 PGS and substeps; PGS holds the pivot corner where TGS lets it creep; restitution below the bounce threshold changes nothing; the planar model is mirror-symmetric

@@ -1,6 +1,6 @@
 """The PyBullet adapter with the real engine (marked ``engine``; the whole file runs in well under a minute).
 
-What must hold (issue 5): outcomes match the reference far from its boundary on B3M and B6M, sine
+What must hold: outcomes match the reference far from its boundary on B3M and B6M, sine
 and cosine, including the one-impact overturning tongue; calibration reaches η_H within 1 %; a low
 friction at a high amplitude is flagged ``slip``; the inertial and table drives agree; bad settings
 are a ConfigError (CLI exit 2, one line).

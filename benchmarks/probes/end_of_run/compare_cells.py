@@ -1,4 +1,4 @@
-"""Cell-by-cell comparison of two runs of the same maps (benchmarks/results/end-of-run-2026-11-26.md).
+"""Cell-by-cell comparison of two runs of the same maps (the record benchmarks/results/end-of-run-rule.json).
 
     python compare_cells.py BEFORE_ROOT AFTER_ROOT MAP [MAP ...]
 

@@ -1,4 +1,4 @@
-"""Cell by cell differences of one engine variant's maps between two run folders (issue 26 experiment).
+"""Cell by cell differences of one engine variant's maps between two run folders (the skeleton_alt experiment).
 
 For each map of the variant (``maps/<folder>/<block>-<pulse>-<restitution>/cells.csv``) counts the
 cells simulated in only one run (adaptive refinement follows the outcomes) and, among the cells of

@@ -1,4 +1,4 @@
-"""Compare the score.json of two run folders of the same suite (issue 26 experiment), pair by pair.
+"""Compare the score.json of two run folders of the same suite (the skeleton_alt experiment), pair by pair.
 
 Pairs are matched by key; a pair against a changed variant's own-η reference map is matched to the
 one at the variant's new own η (block by block, from each folder's calibration.json), so the count

@@ -1,4 +1,4 @@
-"""Which solref MuJoCo's corner calibration picks for the default suite's blocks (issue 26 experiment).
+"""Which solref MuJoCo's corner calibration picks for the default suite's blocks (the skeleton_alt experiment).
 
 Runs the corner calibration to Housner's η (no cache) for B3M B6M B3L B6L and prints, per block,
 the pick (time constant [s], damping ratio, η, per-impact spread, impacts) and, over all the

@@ -1,5 +1,5 @@
 """Copy a finished run folder with one engine variant's results taken out, to resume it with changed
-code (issue 26 experiment: what the skeleton's shared rules change in one engine's answers).
+code (the skeleton_alt experiment: what the skeleton's shared rules change in one engine's answers).
 
 Removes, in the copy, the variant's maps (``maps/<variant folder>/``), its η measurements in
 ``calibration.json`` (so the run measures η again with the changed code) and the reference maps at

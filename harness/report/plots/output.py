@@ -1,4 +1,4 @@
-"""Writing a figure to files: PNG for screens, SVG and PDF for print (issue 25).
+"""Writing a figure to files: PNG for screens, SVG and PDF for print.
 
 One place decides how every picture of rockbench leaves matplotlib:
 

@@ -1,5 +1,5 @@
 """A map's picture (``map.png``) drawn by a helper process that loads matplotlib while the map is
-being computed (issue 16).
+being computed.
 
 Importing matplotlib costs about as much CPU as a 200×200 reference map takes to solve on two
 cores. :class:`MapPicture`, made when a map starts, forks a helper that imports matplotlib on

@@ -1,4 +1,4 @@
-"""The one palette and the print sizes of every rockbench picture (issue 25).
+"""The one palette and the print sizes of every rockbench picture.
 
 Colours are Okabe & Ito's colour-blind-safe set ("Color Universal Design", 2008), the only hues
 any picture uses besides black, greys and white. Every pair of hues that a picture sets side by
