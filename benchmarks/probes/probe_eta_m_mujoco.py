@@ -12,7 +12,7 @@ elliptic cones, no-slip solver, implicitfast, Δt = 0.5 ms, like the calibrated 
   constraint; the rest is solref's spring-damper).
 
 Each setting: free rocking from rest at α/2 (η measured impact by impact with the adapter's
-:func:`impact_etas`, the method every calibration uses), and for the best settings a slow ramp of
+``PEAK_RATIO``, the reader every calibration uses), and for the best settings a slow ramp of
 the table acceleration (inertial force −m·a(t), a from 0.9 to 1.1 g·tanα over 8 s) giving the
 static uplift threshold (the acceleration at the first instant with |θ| above the classifier's
 uplift tolerance, 2 % of α, as :func:`rockbench.engines.price.uplift_threshold` reads it), and the
@@ -44,7 +44,7 @@ import mujoco  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
 from rockbench.harness.blocks.presets import get_preset  # noqa: E402
-from rockbench.engines.free_rocking import crossing_velocity_etas as impact_etas  # noqa: E402
+from rockbench.engines.free_rocking import PEAK_RATIO  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta, modified_eta  # noqa: E402
 from rockbench.reference_solver.validity import uplift_tol_rad  # noqa: E402
@@ -142,7 +142,7 @@ def _free_rocking(built, block, duration):
     for s_init, traj in zip(init, st):
         full = np.concatenate([s_init[None], traj])
         th, thd = full[:, 3], full[:, 6]
-        etas = impact_etas(th, thd, block.alpha_rad, block.p_rad_s)
+        etas = PEAK_RATIO.etas(block, th, th0)
         bounce = any(not (0 < e < 1) for e in etas)
         # first quarter period: time from release to θ = 0
         zc = np.nonzero(np.sign(th[1:]) != np.sign(th[:-1]))[0]
@@ -194,7 +194,7 @@ def main():
     ap.add_argument("--quick", action="store_true")
     args = ap.parse_args()
     results = {"engine": "mujoco", "version": mujoco.__version__, "dt_s": DT, "date": str(_dt.date.today()),
-               "method": "free rocking from α/2, η per impact by impact_etas (|θ̇| read at 0.1·α, carried to θ=0), "
+               "method": "free rocking from α/2, η per impact by the shared peak-ratio reader, "
                          "mean of the first 4 impacts; NaN when a corner bounces or fewer than 2 impacts",
                "blocks": {}}
     for name in ("B3M", "B6M"):
