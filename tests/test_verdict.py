@@ -9,7 +9,9 @@ import pytest
 
 from rockbench.harness.scoring.metrics import METRICS, PRIMARY_METRIC
 from rockbench.harness.scoring.tables import best_group_marks, ranked_summary, summary_table
-from rockbench.harness.scoring.scenarios import entries, resolution_sd
+from rockbench.harness.maps.result import MapResult
+from rockbench.harness.scoring.metrics import boundary_distance
+from rockbench.harness.scoring.scenarios import RESOLUTION_SD_CELLS, entries, resolution_sd
 from rockbench.harness.scoring.statistics import estimate, holm, paired as paired_items, tie_groups
 from rockbench.harness.scoring.verdict import (AS_SHIPPED, CALIBRATED, Scenario, Variant, fails, failing_scenarios,
                                                items, rank, settings_class, variant_interval, verdict)
@@ -71,9 +73,44 @@ def test_interval_never_collapses_to_a_point_and_is_clipped_at_zero():
     assert one["half"] == pytest.approx(1.959963984540054 * 0.004) and "one cluster" in one["basis"]
 
 
-def test_resolution_of_a_scenario_shrinks_with_its_boundary_edges():
-    assert resolution_sd(0.36, 1) == pytest.approx(0.36 / math.sqrt(6))
-    assert resolution_sd(0.36, 100) == pytest.approx(0.036 / math.sqrt(6))
+def test_resolution_is_a_share_of_the_cell_whatever_the_number_of_edges():
+    assert resolution_sd(0.36) == pytest.approx(RESOLUTION_SD_CELLS * 0.36)
+
+
+def _cell_level_errors(boundary, lift, truth, n_w=51, phases=200, seed=1):
+    """The cell-level boundary distance minus the ``truth``, over random grid phases, for a reference
+    map overturning above ``boundary(w)`` and an engine map above ``boundary(w) + lift``; the cell
+    diagonal and the a step."""
+    rng = np.random.default_rng(seed)
+    w, a = np.linspace(1, 16, n_w), np.linspace(1, 12, 51)
+    dw, da = w[1] - w[0], a[1] - a[0]
+    errs = []
+    for _ in range(phases):
+        ww, aa = np.meshgrid(w + rng.uniform(0, dw), a + rng.uniform(0, da))
+        c0 = rng.uniform(3, 5)
+        ref = MapResult.from_outcomes(w, a, np.where(aa > c0 + boundary(ww), 2, 1))
+        eng = MapResult.from_outcomes(w, a, np.where(aa > c0 + boundary(ww) + lift, 2, 1))
+        errs.append(boundary_distance(eng, ref)[0] - truth)
+    return np.array(errs), math.hypot(dw, da), da
+
+
+def test_a_slanted_boundary_shifted_by_a_known_distance_errs_within_the_resolution():
+    """A straight boundary across the grid, the engine's a known 0.02–0.1 above it (a twentieth to a
+    quarter of a cell): the cell-level distance errs by much less than the error the verdict gives it."""
+    for slope in (0.15, 0.5, 1.5):
+        for shift in (0.02, 0.05, 0.1):
+            err, cell, _ = _cell_level_errors(lambda w: slope * (w - 1), shift * math.hypot(1, slope), shift)
+            assert np.sqrt(np.mean(err ** 2)) < resolution_sd(cell)
+
+
+def test_a_boundary_along_a_grid_line_errs_by_a_whole_step_whatever_its_length():
+    """The known worst case: a boundary along the rows moves all its edges by one step at once, so the
+    cell-level distance is 0 or one step (mean δ over phases, error √(δ(s − δ))), on 11 columns as on
+    51: the error does not average out over edges, and at half a step it reaches s/2."""
+    for n_w in (11, 51):
+        err, _, step = _cell_level_errors(lambda w: 0 * w, 0.11, 0.11, n_w=n_w, phases=400)
+        assert set(np.round(err + 0.11, 9)) <= {0.0, round(step, 9)}
+        assert abs(err.mean()) < 0.03 and np.sqrt(np.mean(err ** 2)) == pytest.approx(step / 2, rel=0.1)
 
 
 # -- the worst scenario ------------------------------------------------------------------------------------
@@ -142,17 +179,17 @@ def test_identical_variants_are_merged_in_the_verdict():
 
 # -- ratios and ties ----------------------------------------------------------------------------------------
 
-def test_a_ratio_is_symmetric_in_its_arguments():
+def test_a_difference_is_antisymmetric_in_its_arguments():
     a = _variant("a", [0.0, 0.02, 0.01, 0.0, 0.05, 0.03, 0.0, 0.01], sd=0.003)
     b = _variant("b", [0.01, 0.0, 0.04, 0.02, 0.0, 0.06, 0.01, 0.0], sd=0.006)
     ab, ba = _paired(a, b), _paired(b, a)
-    assert ab["ratio"] == pytest.approx(1 / ba["ratio"])
-    assert ab["ci95"][0] == pytest.approx(1 / ba["ci95"][1]) and ab["p"] == pytest.approx(ba["p"])
+    assert ab["difference"] == pytest.approx(-ba["difference"])
+    assert ab["ci95"] == pytest.approx([-ba["ci95"][1], -ba["ci95"][0]]) and ab["p"] == pytest.approx(ba["p"])
 
 
 def test_two_identical_maps_tie():
     a, b = _variant("a", [0.02, 0.05, 0.01, 0.03]), _variant("b", [0.02, 0.05, 0.01, 0.03])
-    assert _paired(a, b)["ratio"] == pytest.approx(1.0) and _paired(a, b)["p"] == pytest.approx(1.0)
+    assert _paired(a, b)["difference"] == 0.0 and _paired(a, b)["p"] == pytest.approx(1.0)
     assert rank([a, b]) == {"a": 1, "b": 1}
 
 
@@ -161,8 +198,20 @@ def test_a_boundary_shifted_by_half_a_cell_in_every_scenario_does_not_tie():
     vals = [0.02, 0.05, 0.01, 0.03, 0.02, 0.04, 0.01, 0.02]
     a, b = _variant("a", vals), _variant("b", [x + cell / 2 for x in vals])
     res = _paired(b, a)
-    assert res["ratio"] > 4 and res["ci95"][0] > 1
+    assert res["difference"] == pytest.approx(cell / 2) and res["ci95"][0] > 0
     assert rank([a, b]) == {"a": 1, "b": 2}
+
+
+def test_a_perfect_variant_is_not_decided_by_a_floor():
+    """Perfect (0) in every scenario against a twentieth of a cell everywhere: the grid cannot tell
+    them apart, so they tie; against half a cell everywhere it can. No floor enters: the difference
+    is −0.018 exactly."""
+    sd = resolution_sd(0.36)
+    perfect = _variant("perfect", [0.0] * 8, sd=sd)
+    near, far = _variant("near", [0.018] * 8, sd=sd), _variant("far", [0.18] * 8, sd=sd)
+    assert _paired(perfect, near)["difference"] == pytest.approx(-0.018)
+    assert rank([perfect, near]) == {"perfect": 1, "near": 1}
+    assert rank([perfect, far]) == {"perfect": 1, "far": 2}
 
 
 def test_a_failing_variant_has_no_rank_and_costs_the_others_no_power():
@@ -199,15 +248,15 @@ def test_ranks_are_groups_of_variants_not_counts_of_those_ahead():
 def test_variants_without_a_shared_scenario_are_not_resolved():
     a = Variant("a", "a", "a", CALIBRATED, {("B3M", "sine"): Scenario(0.01, 0.001, 0.3, (2.25, "sine"))})
     b = Variant("b", "b", "b", CALIBRATED, {("B6M", "sine"): Scenario(0.2, 0.001, 0.3, (4.5, "sine"))})
-    assert _paired(a, b)["ratio"] is None and rank([a, b]) == {"a": 1, "b": 1}
+    assert _paired(a, b)["difference"] is None and rank([a, b]) == {"a": 1, "b": 1}
 
 
 # -- the verdict of a score document --------------------------------------------------------------------
 
 def test_primary_order_wins_over_agreement_order():
-    """Agreement ranks x first (0.977 against 0.971), the boundary ranks y first by far: the summary,
-    the ranks and the highlights follow the boundary."""
-    doc = _doc({"x[settings=calibrated]": [0.05, 0.04, 0.06, 0.05, 0.04, 0.05, 0.06, 0.04],
+    """Agreement ranks x first (0.977 against 0.971), the boundary ranks y first by two thirds of a cell:
+    the summary, the ranks and the highlights follow the boundary."""
+    doc = _doc({"x[settings=calibrated]": [0.25, 0.24, 0.26, 0.25, 0.24, 0.25, 0.26, 0.24],
                 "y[settings=calibrated]": [0.005, 0.008, 0.006, 0.01, 0.007, 0.009, 0.008, 0.006]},
                **{"x[settings=calibrated]": {"agreement": 0.977}, "y[settings=calibrated]": {"agreement": 0.971}})
     v = verdict(doc)
@@ -293,7 +342,7 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     assert code == 0
     assert out.index("Verdict") < out.index("Summary")
     doc = json.loads((root / "score.json").read_text())
-    assert doc["schema_version"] == 2 and doc["metrics_version"] == "4"
+    assert doc["schema_version"] == 2 and doc["metrics_version"] == "5"
     rows = {r["settings"]: r for r in doc["verdict"]["variants"]}
     assert rows[CALIBRATED]["value"] == 0.0 and rows[CALIBRATED]["rank"] == 1
     assert rows[AS_SHIPPED]["fails"] and "overturns in 100 %" in rows[AS_SHIPPED]["reasons"][0]

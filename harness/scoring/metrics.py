@@ -10,7 +10,7 @@ cell still has the classifier's outcome), and whether the run left the rigid mod
 contact (an engine's ``slip`` or ``jump``, the reference's ``lift-required`` or ``slip-required``).
 
 :func:`score` compares an *engine* map with a *reference* map over the same axes and returns the
-metrics of :data:`METRICS` (metrics version 2). The rules, chosen so a gate cannot be passed by
+metrics of :data:`METRICS` (:data:`METRICS_VERSION`). The rules, chosen so a gate cannot be passed by
 failing and no engine is blamed for physics the reference cannot do:
 
 - **The domain.** The headline metrics (agreement, IoU, boundary and critical-amplitude errors) are
@@ -46,7 +46,7 @@ from ...reference_solver.validity import LEFT_MODEL_FLAGS
 from ..maps.result import FAILED, MapResult
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
-METRICS_VERSION = "4"
+METRICS_VERSION = "5"
 
 REST = OUTCOME_CODES[Outcome.REST]
 ROCKING = OUTCOME_CODES[Outcome.ROCKING]

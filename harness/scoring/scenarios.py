@@ -10,8 +10,9 @@ docs/scores.md argues each rule:
   another size have the same α and η_H and the same reference map in the normalised plane, so they
   repeat a problem rather than pose a new one: the statistics average a cluster's sizes and count the
   cluster once.
-- **Resolution.** A boundary edge is known only to lie inside its cell, so each scenario's value
-  carries its own error (:func:`resolution_sd`), which the intervals add to the spread over clusters.
+- **Resolution.** A boundary is known only to lie inside its cells, so each scenario's value carries
+  its own error (:func:`resolution_sd`, measured against a finer grid), which the intervals add to the
+  spread over clusters and the comparisons to the differences.
 - **Identical answers.** Two variants of one engine whose maps hold the same outcome in every cell of
   every scenario they share (or whose calibration says it picked the shipped settings) are one entry.
 """
@@ -82,20 +83,28 @@ class Variant:
         return sum(vals) / len(vals) if vals else math.nan
 
 
-def resolution_sd(cell: float, edges: int) -> float:
-    """The standard error of a scenario's boundary distance from the grid alone [w/a units].
+#: A scenario's own error from the grid, as a share of its cell diagonal [-]: the measured root mean
+#: square error of the cell-level boundary distance against a grid eight times finer, over grid
+#: phases, for the reference solver's own boundaries shifted by a restitution 0.5–2 % off (0.03–0.17
+#: diagonals in seven of eight block × pulse × shift cases, 0.26 in the eighth; docs/scores.md, "The
+#: grid's resolution").
+RESOLUTION_SD_CELLS = 0.2
 
-    A boundary edge stands at the midpoint of a cell edge; the boundary itself lies anywhere within
-    that cell step, so each edge's position is uniform over at most one cell diagonal ``cell`` and the
-    distance between an engine edge and a reference edge errs by the difference of two such uniforms,
-    standard deviation ``cell/√6``. The value averages ``edges`` such distances; a boundary that crosses
-    the grid at a slant places its edges at independent phases within their cells, so the mean errs
-    by ``cell/√(6·edges)``. A boundary along a grid line breaks that independence (docs/scores.md).
+
+def resolution_sd(cell: float) -> float:
+    """The standard error of a scenario's boundary distance from the grid alone [w/a units]:
+    :data:`RESOLUTION_SD_CELLS` of its cell diagonal ``cell``.
+
+    Each boundary is known only to lie inside its cells, and where inside differs from map to map, so
+    the distance between two maps' boundaries errs by up to a cell whatever their true distance. The
+    error does not average out over a boundary's edges: along a stretch of boundary the edges share
+    one phase against the grid and move together (a boundary along a grid line moves all of them by
+    one step at once), so it is a share of the cell, not of the cell over √edges.
     """
-    return max(cell, _TINY) / math.sqrt(6.0 * max(int(edges), 1))
+    return max(cell, _TINY) * RESOLUTION_SD_CELLS
 
 
-#: The cell of a grid without one (one row or column), so that ratios of zeros stay defined.
+#: The cell of a grid without one (one row or column), so that its error and failing limit are not 0.
 _TINY = 1e-12
 
 
@@ -115,8 +124,8 @@ def scenario_of(p: dict, gaps: dict | None = None) -> Scenario:
     value = p["scores"].get(PRIMARY_METRIC)
     c = p.get("cells") or {}
     cell = math.hypot(float(c.get("w_step", 0.0)), float(c.get("a_step", 0.0)))
-    return Scenario(math.nan if value is None else float(value), resolution_sd(cell, c.get("boundary_edges") or 0),
-                    max(cell, _TINY), cluster_of(p), (gaps or {}).get((p["block"], p["pulse"]), math.nan),
+    return Scenario(math.nan if value is None else float(value), resolution_sd(cell), max(cell, _TINY),
+                    cluster_of(p), (gaps or {}).get((p["block"], p["pulse"]), math.nan),
                     p.get("engine_cells"), bool(p.get("held_out")))
 
 

@@ -1,9 +1,10 @@
 """The verdict's statistics: intervals over clusters of scenarios with each scenario's own error,
-paired ratios symmetric in their arguments, Holm's correction, and tie groups that are transitive.
+paired differences antisymmetric in their arguments, Holm's correction, and tie groups that are transitive.
 
 Pure functions of numbers (no score document); :mod:`~rockbench.harness.scoring.verdict` applies
 them. An *item* is ``(value, sd, cluster)``: a scenario's value, its own standard error (the grid's
-resolution) and the cluster it replicates in (docs/scores.md, "The verdict").
+resolution, :func:`~rockbench.harness.scoring.scenarios.resolution_sd`) and the cluster it replicates
+in (docs/scores.md, "The verdict").
 """
 
 from __future__ import annotations
@@ -63,32 +64,31 @@ def estimate(items: Sequence[tuple[float, float, Hashable]]) -> dict:
     return {"mean": mean, "half": t_quantile(df) * se, "p": p, "clusters": n, "items": len(items), "basis": basis}
 
 
-def log_ratios(a: dict, b: dict) -> list[tuple[float, float, Hashable]]:
-    """Per shared key, the item ``(ln((x + u)/(y + u)), sd, cluster)`` of ``a`` against ``b``.
+def differences(a: dict, b: dict) -> list[tuple[float, float, Hashable]]:
+    """Per shared key, the item ``(x − y, √(sd_a² + sd_b²), cluster)`` of ``a`` against ``b``.
 
-    ``a`` and ``b`` map a key to ``(value, sd, cluster)``. Distances span orders of magnitude, so the
-    comparison is of ratios; ``u`` = the mean of both own errors keeps a perfect 0 finite and is the
-    same in both terms, so that swapping ``a`` and ``b`` only changes the sign. The sd is the delta
-    method's: √(sd_a²/(x + u)² + sd_b²/(y + u)²).
+    ``a`` and ``b`` map a key to ``(value, sd, cluster)``. The difference needs no floor (a perfect 0
+    is a number like any other) and swapping ``a`` and ``b`` only changes its sign. Its own error adds
+    both scenarios' resolution errors, which are independent: each map's boundary falls inside its
+    cells wherever its own dynamics put it.
     """
     out = []
     for k in sorted(set(a) & set(b), key=str):
         (x, sa, cluster), (y, sb, _) = a[k], b[k]
-        u = max(0.5 * (sa + sb), 1e-300)
-        out.append((math.log((x + u) / (y + u)), math.sqrt((sa / (x + u)) ** 2 + (sb / (y + u)) ** 2), cluster))
+        out.append((x - y, math.hypot(sa, sb), cluster))
     return out
 
 
 def paired(a: dict, b: dict) -> dict:
-    """``a`` against ``b`` (as :func:`log_ratios`): ``ratio`` (exp of the mean log ratio over clusters:
-    a/b "on average"), its :data:`CONFIDENCE` interval ``ci95``, ``p`` (against a ratio of 1),
-    ``scenarios`` and ``clusters``. ``paired(b, a)`` has the inverse ratio, interval and the same p."""
-    e = estimate(log_ratios(a, b))
+    """``a`` against ``b`` (as :func:`differences`): ``difference`` (the mean over clusters of a − b),
+    its :data:`CONFIDENCE` interval ``ci95``, ``p`` (against no difference), ``scenarios`` and
+    ``clusters``. ``paired(b, a)`` has the opposite difference and interval and the same p."""
+    e = estimate(differences(a, b))
     if not e["items"]:
-        return {"scenarios": 0, "clusters": 0, "ratio": None, "ci95": None, "p": None}
+        return {"scenarios": 0, "clusters": 0, "difference": None, "ci95": None, "p": None}
     m, h = e["mean"], e["half"]
-    return {"scenarios": e["items"], "clusters": e["clusters"], "ratio": math.exp(m),
-            "ci95": [math.exp(m - h), math.exp(m + h)], "p": e["p"]}
+    return {"scenarios": e["items"], "clusters": e["clusters"], "difference": m, "ci95": [m - h, m + h],
+            "p": e["p"]}
 
 
 def holm(p: dict) -> dict:

@@ -10,13 +10,15 @@ no file, no plotting. docs/scores.md argues every rule below; in short:
 - **The replicates** are the clusters slenderness × pulse (:mod:`~rockbench.harness.scoring.scenarios`): a
   variant's value is the mean over clusters of its scenarios' values (sizes of one slenderness averaged),
   its interval Student's t over the clusters with each scenario's own error from the grid's resolution
-  added (:mod:`~rockbench.harness.scoring.statistics`).
+  (:func:`~rockbench.harness.scoring.scenarios.resolution_sd`) added
+  (:mod:`~rockbench.harness.scoring.statistics`).
 - **Identical answers** (one engine, the same cells everywhere) are one entry: compared, counted and
   ranked once.
-- **Ranks** are tie groups of the passing entries: in order of their geometric-mean distance, paired
-  ratios over the clusters they share, Holm-corrected over every comparison between passing entries, a
-  new group opened by the first entry that a corrected comparison resolves from a member of the
-  current group. A failing variant has no rank.
+- **Ranks** are tie groups of the passing entries: in order of their value, paired differences over
+  the clusters they share (no floor: a perfect 0 is compared as it is, with the grid's own error),
+  Holm-corrected over every comparison between passing entries, a new group opened by the first
+  entry that a corrected comparison resolves from a member of the current group. A failing variant
+  has no rank.
 - **Failing**: a variant fails when in *any* scenario its boundary lies more than :data:`FAIL_CELLS`
   cell diagonal from the reference's (the grid itself resolves that), whatever its mean, or when
   nothing it simulated could be judged; the verdict names the scenario, the reasons read from its cell
@@ -74,13 +76,11 @@ def variant_interval(v: Variant) -> tuple[float, float, float, str] | None:
     return interval(items(v))
 
 
-def log_mean(v: Variant) -> float:
-    """The order of the tie groups: mean over clusters of ln(value + own error), the geometric mean
-    that the paired ratios compare (NaN without a value)."""
-    it = items(v)
-    if not it:
-        return math.nan
-    return estimate([(math.log(x + sd), 0.0, c) for x, sd, c in it.values()])["mean"]
+def mean_value(v: Variant) -> float:
+    """The order of the tie groups: the variant's value, the mean over clusters that the paired
+    differences compare (NaN without a value)."""
+    iv = variant_interval(v)
+    return math.nan if iv is None else iv[0]
 
 
 def failing_scenarios(v: Variant) -> list[dict]:
@@ -172,8 +172,8 @@ def rank(variants: list[Variant], versus: dict | None = None) -> dict[str, int]:
     entry's; failing variants and those without a value get none."""
     groups = entries(variants)
     versus = comparisons(groups) if versus is None else versus
-    valued = sorted((g for g in groups if math.isfinite(log_mean(g[0])) and not fails(g[0])),
-                    key=lambda g: log_mean(g[0]))
+    valued = sorted((g for g in groups if math.isfinite(mean_value(g[0])) and not fails(g[0])),
+                    key=lambda g: mean_value(g[0]))
     cut = tie_groups(valued, lambda x, y: versus[(x[0].name, y[0].name)]["resolved"])
     return {v.name: n for n, grp in enumerate(cut, 1) for e in grp for v in e}
 
@@ -218,8 +218,8 @@ def _row(v: Variant, ranks: dict, versus: dict, head_of: dict, groups: list) -> 
 
 #: The method in one sentence: under every verdict and summary table.
 METHOD = ("Ranks are tie groups of the variants that pass: variants giving identical maps count once, are taken in "
-          "order of their geometric-mean boundary distance, and a variant opens a new group when a paired t-test "
-          "of the log distance ratio over the slenderness × pulse clusters they share (sizes averaged, each "
+          "order of their mean boundary distance, and a variant opens a new group when a paired t-test of the "
+          "difference of the distances over the slenderness × pulse clusters they share (sizes averaged, each "
           "scenario's grid resolution added), Holm-corrected over all comparisons between passing variants at "
           "5 %, resolves it from any member of the group before it.")
 
