@@ -269,8 +269,8 @@ class ContactEngineAdapter(EngineAdapter):
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
             cal = None
-            if self.calibrated():
-                cal = self.calibrate(on, eta, dt_s=dt)
+            if self.calibrated():   # by the adapter without calibrate_on: every run inside is of ``on`` itself
+                cal = self._on_itself().calibrate(on, eta, dt_s=dt)
             out = self._resolved_settings(block, dt, cal)
             if cal is not None:
                 out["calibration"] = self._calibration_summary(cal)
