@@ -180,6 +180,7 @@ def test_bad_settings_raise_config_error(settings):
 @pytest.mark.parametrize("argv", [
     ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "timeconst_s=-0.004"],
     ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "stiffness=1e6"],
+    ["calibrate", "--engine", "mujoco", "--block", "B3L", "--set", "calibrate_on=sibling"],
 ])
 def test_cli_bad_settings_exit_2_with_one_line(argv, capsys):
     assert cli_main(argv) == 2
