@@ -535,6 +535,12 @@ class EngineAdapter:
             return float(self.default_dt_s)
         return float(self.shipped_dt_s) if pulse is None else min(float(self.shipped_dt_s), pulse.max_dt_s())
 
+    def calibration_block(self, block: Block) -> Block:
+        """The block whose geometry the calibration behind runs of ``block`` is made on: ``block``
+        itself (a contact engine's ``calibrate_on`` names another of the same slenderness); a
+        ConfigError for one it cannot run ``block`` with, before anything runs."""
+        return block
+
     def dt_for(self, case: Case) -> float:
         """The time step a case runs with: its own, else :meth:`unposed_dt_s`, checked against the
         pulse [s]."""

@@ -7,7 +7,9 @@ so it needs the same few things whatever the engine:
   parameters searched so that free rocking reaches the case's η; ``defaults``: the engine as
   shipped), ``drive`` (``inertial`` or ``table``), ``planar``, ``friction`` [-], ``tail_s`` (the
   longest simulated time after the pulse), ``min_tail_s`` (the shortest) and, for engines that
-  step in segments between stop checks, ``segment_s``. They are validated here, once.
+  step in segments between stop checks, ``segment_s``; ``calibrate_on`` (another block of the same
+  slenderness that the calibration runs on: the held-out check, :mod:`rockbench.engines.held_out`).
+  They are validated here, once.
 * **Old names** of settings are accepted for one release and mapped to the new
   ones by :data:`RENAMED_SETTINGS`, the one table of them (``--set``, suite TOMLs, run.json files
   and cached calibration records all go through :meth:`ContactEngineAdapter.canonical_settings`).
@@ -40,7 +42,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution, housner_eta
 from ..reference_solver.rules import RULES_VERSION
-from . import calibration, step_rule
+from . import calibration, held_out, step_rule
 from .base import CalibrationResult, EngineAdapter
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "body_energy_j_kg",
@@ -96,6 +98,7 @@ class ContactEngineAdapter(EngineAdapter):
         "friction": 10.0,
         "tail_s": 3.0,
         "min_tail_s": 0.5,
+        "calibrate_on": None,
     }
 
     #: version of the calibration (free-rocking test and search); part of the cache key
@@ -115,6 +118,7 @@ class ContactEngineAdapter(EngineAdapter):
         super().__init__(**self.canonical_settings(settings, warn=True))
         self._resolved: dict = {}
         self._steps: dict = {}
+        self._itself: ContactEngineAdapter | None = None
 
     # -- names --------------------------------------------------------------------------------
     @classmethod
@@ -151,6 +155,10 @@ class ContactEngineAdapter(EngineAdapter):
                               f"'tail_s' ({s['tail_s']:g} s).")
         if "segment_s" in s:
             self._number_setting(s, "segment_s", "s", allow_none=False)
+        s["calibrate_on"] = held_out.check_name(s.get("calibrate_on"), self.name)
+        if s["calibrate_on"] and s["settings"] == "defaults":
+            raise ConfigError(f"{self.name} setting 'calibrate_on' needs settings = calibrated (as shipped, nothing is "
+                              f"calibrated), got calibrate_on = {s['calibrate_on']!r} with settings = defaults.")
         self._validate_engine_settings(s)
 
     def _validate_engine_settings(self, s: dict) -> None:
@@ -193,28 +201,46 @@ class ContactEngineAdapter(EngineAdapter):
         """Whether runs use a calibration: ``settings="calibrated"`` and no explicit contact."""
         return not self.explicit_contact() and self.settings["settings"] == "calibrated"
 
+    def calibration_block(self, block: Block) -> Block:
+        """The block the calibration of ``block``'s runs is made on: ``block`` itself, or the block the
+        ``calibrate_on`` setting names (:func:`~rockbench.engines.held_out.calibration_block`; a
+        ConfigError for one of another slenderness)."""
+        return held_out.calibration_block(self.settings.get("calibrate_on"), block)
+
     def run_step_s(self, block: Block, eta: float, dt_s: float | None = None) -> float:
         """The step of the runs and the calibration of ``block`` at η [s]: ``dt_s`` where given;
-        calibrated, the one time-step rule's (:meth:`converged_step_s`); else :meth:`unposed_dt_s`."""
+        calibrated, the one time-step rule's (:meth:`converged_step_s`) on the block the calibration is
+        made on (:meth:`calibration_block`); else :meth:`unposed_dt_s`."""
         if dt_s is not None or not self.calibrated() or self.contact_layout(block, eta) == "distributed":
             return self.time_step_s(dt_s)
-        return self.converged_step_s(block, eta)[0]
+        return self.converged_step_s(self.calibration_block(block), eta)[0]
 
     def converged_step_s(self, block: Block, eta: float) -> tuple[float, dict]:
         """The step :func:`~rockbench.engines.step_rule.converged_step` chooses for ``block`` at η [s],
-        and its record; cached on disk with the calibrations."""
+        and its record; cached on disk with the calibrations. The search runs on ``block`` itself, with
+        ``calibrate_on`` left out (its probe runs are of the block the step is for), so a held-out
+        calibration shares the cached step of the block it names."""
         key = calibration.cache_key(**self._cache_identity(), kind="step-rule", rules_version=RULES_VERSION,
                                     block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
                                     target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
                                     probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
                                             step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
-                                    settings=sorted((k, str(v)) for k, v in self.settings.items()))
+                                    settings=sorted((k, str(v)) for k, v in self.settings.items()
+                                                    if k != "calibrate_on"))
         rec = self._steps.get(key) or calibration.load(key)
         if rec is None:
-            rec = step_rule.converged_step(self, block, eta)[1]
+            rec = step_rule.converged_step(self._on_itself(), block, eta)[1]
             calibration.store(key, rec)
         self._steps[key] = rec
         return float(rec["dt_s"]), rec
+
+    def _on_itself(self) -> "ContactEngineAdapter":
+        """This adapter, or without ``calibrate_on`` a copy of it that calibrates every block on itself."""
+        if not self.settings.get("calibrate_on"):
+            return self
+        if self._itself is None:
+            self._itself = type(self)(**{**self.settings, "calibrate_on": None})
+        return self._itself
 
     def dt_for(self, case) -> float:
         """As :meth:`EngineAdapter.dt_for`; calibrated, a case that poses no step runs at the one
@@ -232,33 +258,38 @@ class ContactEngineAdapter(EngineAdapter):
         """The concrete settings cases of this block, restitution and time step [s] use (for run.json).
 
         Explicit contact settings, else (``settings="defaults"``) the engine's defaults, else the
-        calibration to the restitution's η at this time step (:meth:`calibrate`, cached on disk);
-        then :meth:`_resolved_settings` builds the concrete settings. Memoised per block, η and step.
+        calibration to the restitution's η at this time step (:meth:`calibrate`, cached on disk), made
+        on :meth:`calibration_block` (``block`` itself unless ``calibrate_on`` names another, which the
+        record's ``calibrated_on`` then names); then :meth:`_resolved_settings` builds the concrete
+        settings for ``block``. Memoised per block, η and step.
         """
         eta = restitution.eta(block.alpha_rad)
+        on = self.calibration_block(block) if self.calibrated() else block
         dt = self.run_step_s(block, eta, dt_s)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
             cal = None
-            if self.calibrated():
-                cal = self.calibrate(block, eta, dt_s=dt)
+            if self.calibrated():   # by the adapter without calibrate_on: every run inside is of ``on`` itself
+                cal = self._on_itself().calibrate(on, eta, dt_s=dt)
             out = self._resolved_settings(block, dt, cal)
             if cal is not None:
                 out["calibration"] = self._calibration_summary(cal)
+                if self.settings.get("calibrate_on"):
+                    out["calibration"]["calibrated_on"] = on.name
                 out["calibration"]["equals_shipped"] = self._equals_shipped(block, dt, out)
             if self.as_shipped() and self.SHIPPED_NOTE:
                 out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
         out = dict(self._resolved[key])
         if dt_s is None and out.get("calibration"):   # the step the one time-step rule chose, and why
-            out["calibration"] = {**out["calibration"], "step_rule": self.converged_step_s(block, eta)[1]}
+            out["calibration"] = {**out["calibration"], "step_rule": self.converged_step_s(on, eta)[1]}
         return out
 
     def _equals_shipped(self, block: Block, dt: float, resolved: dict) -> bool:
         """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
         same concrete settings at its own step (then the two variants give one answer, which the
         verdict counts once)."""
-        shipped = type(self)(**{**self.settings, "settings": "defaults"})
+        shipped = type(self)(**{**self.settings, "settings": "defaults", "calibrate_on": None})
         if shipped.unposed_dt_s() != dt:
             return False
         skip = ("settings", "calibration")

@@ -18,10 +18,15 @@ def test_shipped_suites_parse_and_plan():
     assert d.name == "default" and q.name == "quick"
     assert d.blocks == ["B3M", "B6M", "B3L", "B6L"] and d.pulses == ["sine", "cosine"]
     assert q.blocks == ["B3M", "B6L"]  # one block per slenderness
+    quick_held = [j for j in plan(q, ["mujoco", "exudyn"]) if j.settings.get("calibrate_on")]
+    assert {(j.engine, j.block) for j in quick_held} == {("mujoco", "B6L")}
     jobs = plan(d, ["mujoco", "pybullet"])
     refs = [j for j in jobs if j.engine == "reference"]
     assert len(refs) == 4 * 2 * 3  # blocks × pulses × (Housner, modified average k, modified exact k)
-    assert len(jobs) - len(refs) == 2 * 2 * 4 * 2  # engines × variants × blocks × pulses
+    # engines × (2 variants × 4 blocks + the held-out check on B3L and B6L) × pulses
+    assert len(jobs) - len(refs) == 2 * (2 * 4 + 2) * 2
+    held = [j for j in jobs if j.settings.get("calibrate_on")]
+    assert {j.block for j in held} == {"B3L", "B6L"} and {j.settings["calibrate_on"] for j in held} == {"sibling"}
     assert len({j.subdir for j in jobs}) == len(jobs)
     b3m = {j.restitution.label for j in refs if j.block == "B3M"}
     assert b3m == {"housner", "modified(k=0.8608)", "modified(k=0.7595)"}

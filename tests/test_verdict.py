@@ -422,3 +422,23 @@ def test_a_map_calibrated_on_another_block_is_the_held_out_check(write_map, band
     assert row["value"] == 0.0 and not row["fails"] and row["scenarios_with_value"] == 1
     assert row["held_out"]["scenarios"] == 1 and row["held_out"]["value"] > 0
     assert any(t.startswith("Held-out check") for t in doc["verdict"]["text"])
+
+
+def test_a_held_out_variant_is_set_beside_its_in_sample_variant_on_the_same_scenarios():
+    """A variant whose every map is held out (``calibrate_on``) has no rank and no failing rule: its line
+    sets its value beside that of the variant calibrated on each block itself, on the same scenarios."""
+    own, held = "mujoco[settings=calibrated]", "mujoco[calibrate_on=sibling,settings=calibrated]"
+    doc = _doc({own: [0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08]})
+    for (b, p), bm in zip(SCENARIOS[4:], [0.5, 0.6, 0.7, 0.8]):   # B3L and B6L, far beyond one cell
+        doc["pairs"].append({**_pair(held, b, p, bm, settings=held), "held_out": True, "in_sample_variant": own})
+    v = verdict(doc)
+    rows = {r["variant"]: r for r in v["variants"]}
+    assert rows[held]["rank"] is None and not rows[held]["fails"] and rows[held]["value"] is None
+    assert rows[own]["rank"] == 1 and rows[own]["held_out"] is None
+    check = rows[held]["held_out"]
+    assert check["scenarios"] == 4 and check["value"] == pytest.approx(0.65)
+    assert check["in_sample"] == pytest.approx(0.065) and check["in_sample_scope"] == "same scenarios"
+    text = " ".join(v["text"])
+    assert "Fail" not in text and "Other settings" not in text
+    line = next(t for t in v["text"] if t.startswith("Held-out check"))
+    assert held in line and "0.650" in line and "against 0.065 calibrated on the block itself in the same scenarios" in line

@@ -179,6 +179,7 @@ def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> Ma
     from ...engines.registry import get_adapter
 
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
+    adapter.calibration_block(spec.block)                        # so does a calibrate_on block of another slenderness
     t0 = time.perf_counter()
     executor, own = _executor_for(spec, out_dir, opts, executor)
     store = RunStore(out_dir)

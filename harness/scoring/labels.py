@@ -90,6 +90,10 @@ def _setting_words(key: str, value) -> str | None:
         return {"distributed": "contact along the base", "corners": "corner contact"}.get(value)
     if key == "solver":
         return f"{SOLVER_NAMES.get(value, value)} solver"
+    if key == "calibrate_on":
+        if not value:
+            return None
+        return "held out: calibrated on the other size" if value == "sibling" else f"held out: calibrated on {value}"
     return f"{key} = {value}"
 
 

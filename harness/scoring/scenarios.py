@@ -71,6 +71,12 @@ class Variant:
     cells_missing: int = 0
     shipped_note: str = ""                           # what its adapter says about its shipped settings
     equals_shipped: bool = False                     # its calibration picked the shipped settings
+    in_sample: str = ""                              # held out: the variant calibrated on each block itself
+
+    @property
+    def held_out_only(self) -> bool:
+        """Every scenario is held out (a variant of the held-out check alone: no rank, no failing rule)."""
+        return bool(self.scenarios) and all(s.held_out for s in self.scenarios.values())
 
     def finite(self) -> dict:
         """The in-sample scenarios with a value (held-out ones are the held-out check's)."""
@@ -153,7 +159,8 @@ def variants_of(doc: dict) -> list[Variant]:
         v = Variant(name, first.get("engine", name), first.get("label") or name,
                     first.get("settings") or settings_class(None, name),
                     shipped_note=next((p["shipped_note"] for p in use if p.get("shipped_note")), ""),
-                    equals_shipped=bool(use) and all(p.get("equals_shipped") is True for p in use))
+                    equals_shipped=bool(use) and all(p.get("equals_shipped") is True for p in use),
+                    in_sample=next((p["in_sample_variant"] for p in use if p.get("in_sample_variant")), ""))
         for p in use:
             v.scenarios[(p["block"], p["pulse"])] = scenario_of(p, gaps)
             for k in _SUMMED:

@@ -173,7 +173,9 @@ def map_facts(c: MapEntry) -> dict:
     of one grid when they hold the same cells), and from its run.json, when the adapter wrote them,
     ``shipped_note`` (``engine.resolved_settings.shipped_note``: a line about its shipped settings),
     ``equals_shipped`` (``...calibration.equals_shipped``: the calibration picked the shipped
-    settings) and ``held_out`` (``...calibration.calibrated_on`` names another block)."""
+    settings) and ``held_out`` (``...calibration.calibrated_on`` names another block), with
+    ``in_sample_variant``: the variant of the same settings calibrated on each block itself, which the
+    held-out check sets it beside."""
     import hashlib
 
     block = _obj(_obj(c.run).get("spec")).get("block")
@@ -196,6 +198,10 @@ def map_facts(c: MapEntry) -> dict:
         facts["equals_shipped"] = True
     if on:
         facts["calibrated_on"] = str(on)
+    if facts["held_out"]:
+        from ..store.files import variant_name
+        facts["in_sample_variant"] = variant_name(c.engine, {k: v for k, v in (c.settings or {}).items()
+                                                             if k != "calibrate_on"}, c.dt_s)
     return facts
 
 

@@ -76,8 +76,12 @@ def summary(doc: dict) -> dict:
 
 
 def primary_cell(row: dict) -> str:
-    """A verdict row's primary value with its 95 % interval: ``0.008 [0.003, 0.013]``."""
+    """A verdict row's primary value with its 95 % interval: ``0.008 [0.003, 0.013]``; a variant of
+    the held-out check alone, its held-out value so marked."""
     from .verdict import number
+    if row.get("value") is None and row.get("held_out"):
+        h = row["held_out"]
+        return f"{number(h['value'])} [{number(h['ci95'][0])}, {number(h['ci95'][1])}] held out"
     if row.get("value") is None:
         return "n/a (nothing judged)"
     lo, hi = row["ci95"]

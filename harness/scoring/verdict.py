@@ -93,7 +93,10 @@ def failing_scenarios(v: Variant) -> list[dict]:
 
 
 def fails(v: Variant) -> bool:
-    """The one failing rule: no scenario with a value, or one scenario beyond :data:`FAIL_CELLS` cells."""
+    """The one failing rule: no scenario with a value, or one scenario beyond :data:`FAIL_CELLS` cells.
+    A variant of the held-out check alone (every scenario held out) is judged in its own line instead."""
+    if v.held_out_only:
+        return False
     return not items(v) or bool(failing_scenarios(v))
 
 
@@ -183,20 +186,38 @@ def rank(variants: list[Variant], versus: dict | None = None) -> dict[str, int]:
 def verdict(doc: dict) -> dict:
     """The ``verdict`` object of score.json (docs/scores.md, "The verdict")."""
     vs = variants_of(doc)
-    groups = entries(vs)
+    ranked = [v for v in vs if not v.held_out_only]    # the held-out check's own variants have a line apart
+    groups = entries(ranked)
     versus = comparisons(groups)
-    ranks = rank(vs, versus)
+    ranks = rank(ranked, versus)
     head_of = {v.name: g[0].name for g in groups for v in g}
-    rows = [_row(v, ranks, versus, head_of, groups) for v in vs]
+    by_name = {v.name: v for v in vs}
+    rows = [_row(v, ranks, versus, head_of, groups, by_name.get(v.in_sample)) for v in vs]
     rows.sort(key=lambda r: (r["rank"] is None, r["rank"] or 0, r["value"] is None, r["value"] or 0.0, r["label"]))
     return {"metric": PRIMARY_METRIC, "direction": PRIMARY.direction, "unit": PRIMARY.unit,
             "confidence": CONFIDENCE, "fail_cells": FAIL_CELLS, "variants": rows,
             "method": METHOD, "text": sentences(vs, rows)}
 
 
-def _row(v: Variant, ranks: dict, versus: dict, head_of: dict, groups: list) -> dict:
-    iv, phys, held = variant_interval(v), interval(items(v, scale=True)), interval(items(v, held_out=True))
-    head = head_of[v.name]
+def held_out_check(v: Variant, in_sample: Variant | None = None) -> dict | None:
+    """The held-out check of a variant: its held-out scenarios' value and interval, and the in-sample
+    value it is set beside: that of ``in_sample`` (the same settings calibrated on each block itself)
+    on the same scenarios where it has them, else the variant's own in-sample value; None without a
+    held-out scenario."""
+    held_items = items(v, held_out=True)
+    held = interval(held_items)
+    if held is None:
+        return None
+    same = {k: x for k, x in items(in_sample).items() if k in held_items} if in_sample is not None else {}
+    base, scope = (interval(same), "same scenarios") if same else (variant_interval(v), "other scenarios")
+    return {"value": held[0], "ci95": [held[1], held[2]], "scenarios": len(held_items),
+            "in_sample": None if base is None else base[0], "in_sample_scope": scope,
+            "in_sample_variant": in_sample.name if same else v.name}
+
+
+def _row(v: Variant, ranks: dict, versus: dict, head_of: dict, groups: list, in_sample: Variant | None) -> dict:
+    iv, phys = variant_interval(v), interval(items(v, scale=True))
+    head = head_of.get(v.name)
     return {"variant": v.name, "engine": v.engine, "label": v.label, "settings": v.settings,
             "value": None if iv is None else iv[0], "ci95": None if iv is None else [iv[1], iv[2]],
             "basis": None if iv is None else iv[3], "rank": ranks.get(v.name),
@@ -208,10 +229,9 @@ def _row(v: Variant, ranks: dict, versus: dict, head_of: dict, groups: list) -> 
             "shipped_note": v.shipped_note or None, "cells_missing": v.cells_missing,
             "physics": None if phys is None else {"value": phys[0], "ci95": [phys[1], phys[2]],
                                                   "within": phys[2] < 1.0},
-            "held_out": None if held is None else {"value": held[0], "ci95": [held[1], held[2]],
-                                                   "scenarios": len(items(v, held_out=True))},
-            "per_scenario": per_scenario(v),
-            "versus": [dict(versus[(head, o)], other=o) for o in dict.fromkeys(head_of.values()) if o != head]}
+            "held_out": held_out_check(v, in_sample), "per_scenario": per_scenario(v),
+            "versus": [] if head is None else
+            [dict(versus[(head, o)], other=o) for o in dict.fromkeys(head_of.values()) if o != head]}
 
 
 # -- in words ----------------------------------------------------------------------------------------
@@ -257,11 +277,12 @@ def sentences(vs: list[Variant], rows: list[dict]) -> list[str]:
     shown: set = set()
     out = []
     for cls, title in _CLASSES:
-        members = [by[v.name] for v in vs if v.settings == cls and v.name not in shown]
+        members = [by[v.name] for v in vs if v.settings == cls and v.name not in shown and not v.held_out_only]
         if members:
             out.append(_class_sentence(title, members, by))
             shown |= {o for r in members for o in [r["variant"], *r["same_as"]]}
-    custom = [by[v.name] for v in vs if v.settings not in (CALIBRATED, AS_SHIPPED) and not by[v.name]["fails"]]
+    custom = [by[v.name] for v in vs if v.settings not in (CALIBRATED, AS_SHIPPED) and not by[v.name]["fails"]
+              and not v.held_out_only]
     if custom:
         out.append("Other settings: " + "; ".join(f"{r['label']}, {_figure(r)}" for r in custom) + ".")
     failing = [r for r in rows if r["fails"] and not any(by[o]["fails"] for o in r["same_as"]
@@ -346,5 +367,14 @@ def _held_out_sentence(rows: list[dict]) -> list[str]:
         return []
     return ["Held-out check (calibrated on one size, mapped on the other of the same slenderness): " + "; ".join(
         f"{r['label']}, {number(r['held_out']['value'])} [{number(r['held_out']['ci95'][0])}, "
-        f"{number(r['held_out']['ci95'][1])}] over {r['held_out']['scenarios']} scenario(s), in-sample "
-        f"{number(r['value'])}" for r in held) + "."]
+        f"{number(r['held_out']['ci95'][1])}] over {r['held_out']['scenarios']} scenario(s), " + _in_sample_words(r)
+        for r in held) + "."]
+
+
+def _in_sample_words(row: dict) -> str:
+    """What a held-out value is set beside: the in-sample value, and where it comes from."""
+    h = row["held_out"]
+    if h["in_sample"] is None:
+        return "with no map of it calibrated on the block itself to set it beside"
+    where = "in the same scenarios" if h["in_sample_scope"] == "same scenarios" else "in its other scenarios"
+    return f"against {number(h['in_sample'])} calibrated on the block itself {where}"

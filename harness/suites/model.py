@@ -174,6 +174,14 @@ def _variants(v):
             raise _bad(f"[{k}].engines must be a non-empty list of engine names, got {variant['engines']!r}.")
         if "restitution" in variant and not _is_text_or_number(variant["restitution"]):
             raise _bad(f"[{k}].restitution must be a text or a number, got {variant['restitution']!r}.")
+        if "blocks" in variant:
+            if not (isinstance(variant["blocks"], list) and variant["blocks"]
+                    and all(isinstance(n, str) for n in variant["blocks"])):
+                raise _bad(f"[{k}].blocks must be a non-empty list of block names, got {variant['blocks']!r}.")
+            try:
+                variant["blocks"] = [get_preset(b).name for b in variant["blocks"]]
+            except ConfigError as e:
+                raise _bad(f"[{k}].blocks: {e}") from None
     return v
 
 
@@ -305,6 +313,11 @@ class SuiteFile(_Table):
         if both:
             raise ConfigError(f"suite {name}: engine {both[0]!r} is in both engines.exclude and engines.include; "
                               f"keep it in one.")
+        for k, v in enumerate(self.engines.variants):
+            extra = [b for b in v.get("blocks", ()) if b not in blocks]
+            if extra:
+                raise ConfigError(f"suite {name}: engines.variants[{k}].blocks names {extra[0]}, which is not in "
+                                  f"cases.blocks ({', '.join(blocks)}); a variant maps some of the suite's blocks.")
         tokens = [("engines.restitution", self.engines.restitution)]
         tokens += [(f"engines.variants[{k}].restitution", str(v["restitution"]))
                    for k, v in enumerate(self.engines.variants) if "restitution" in v]

@@ -10,6 +10,7 @@ from pathlib import Path
 from ...engines.base import EngineAdapter
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
+from ..blocks.presets import get_preset
 from ..store.files import own_eta_map_name, variant_name
 from .model import Suite, restitution_for
 
@@ -46,7 +47,8 @@ class MapJob:
 
 def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[list[str], list[str]]:
     """What :func:`load_suite` cannot check alone: every engine variant's settings (the adapter is
-    built, nothing runs). Called by ``--plan`` and before the first map.
+    built, nothing runs), and a ``calibrate_on`` block for each block the variant maps. Called by
+    ``--plan`` and before the first map.
 
     Returns the engines to run and notes. An engine picked because it is available (``explicit``
     false) that cannot take a variant's settings is skipped with a note, as an engine that is not
@@ -69,7 +71,10 @@ def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[lis
             try:
                 # the base class's check of names and values, without the adapter's own constructor
                 # (which may start its engine: nothing may run for --plan)
-                EngineAdapter.__init__(object.__new__(cls), **variant_settings(variant))
+                adapter = object.__new__(cls)
+                EngineAdapter.__init__(adapter, **variant_settings(variant))
+                for block in blocks_of(suite, variant):   # calibrate_on: a block of each one's slenderness
+                    adapter.calibration_block(get_preset(block).block())
             except ConfigError as e:
                 refused[engine] = f"engines.variants[{k}] {variant}: {e}"
                 break
@@ -173,7 +178,7 @@ def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
             if not variant_applies(engine, variant):
                 continue
             vname = variant_name(engine, variant_settings(variant) | _rest_part(variant), suite.engine_dt_s)
-            for block in suite.blocks:
+            for block in blocks_of(suite, variant):
                 r = restitution_for(variant_restitution(suite, variant), block)
                 for pulse in suite.pulses:
                     jobs.append(MapJob(engine, variant_settings(variant), block, pulse, r, suite.engine_dt_s,
@@ -202,13 +207,18 @@ def variant_blocks(suite: Suite, engines: list[str]):
         for variant in suite.engine_variants:
             if not variant_applies(engine, variant):
                 continue
-            for block in suite.blocks:
+            for block in blocks_of(suite, variant):
                 yield engine, variant, block
 
 
 def variant_settings(variant: dict) -> dict:
-    """A suite variant's engine settings (its ``restitution`` and ``engines``, suite keys, left out)."""
-    return {k: v for k, v in variant.items() if k not in ("restitution", "engines")}
+    """A suite variant's engine settings (its ``restitution``, ``engines`` and ``blocks``, suite keys, left out)."""
+    return {k: v for k, v in variant.items() if k not in ("restitution", "engines", "blocks")}
+
+
+def blocks_of(suite: "Suite", variant: dict) -> list[str]:
+    """The blocks a suite variant maps: its ``blocks`` (in the suite's order), default all the suite's."""
+    return [b for b in suite.blocks if "blocks" not in variant or b in variant["blocks"]]
 
 
 def variant_applies(engine: str, variant: dict) -> bool:

@@ -8,6 +8,7 @@ neighbourhood, so a cell that drifts onto the boundary fails loudly rather than 
 from __future__ import annotations
 
 import functools
+import json
 
 import numpy as np
 import pytest
@@ -22,7 +23,7 @@ from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
 from rockbench.engines.mujoco_adapter import MujocoAdapter  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
-from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
+from rockbench.reference_solver.restitution import Restitution, housner_eta  # noqa: E402
 
 pytestmark = pytest.mark.engine
 
@@ -169,7 +170,7 @@ def test_free_3d_body_gives_the_same_outcomes():
 
 @pytest.mark.parametrize("settings", [
     {"timeconst_s": -0.004}, {"dampratio": 0}, {"cone": "round"}, {"noslip_iterations": -2},
-    {"threads": -1}, {"table_mass_ratio": 0},
+    {"threads": -1}, {"table_mass_ratio": 0}, {"calibrate_on": "B9X"}, {"settings": "defaults", "calibrate_on": "B3M"},
 ])
 def test_bad_settings_raise_config_error(settings):
     with pytest.raises(ConfigError):
@@ -179,6 +180,7 @@ def test_bad_settings_raise_config_error(settings):
 @pytest.mark.parametrize("argv", [
     ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "timeconst_s=-0.004"],
     ["calibrate", "--engine", "mujoco", "--block", "B3M", "--set", "stiffness=1e6"],
+    ["calibrate", "--engine", "mujoco", "--block", "B3L", "--set", "calibrate_on=sibling"],
 ])
 def test_cli_bad_settings_exit_2_with_one_line(argv, capsys):
     assert cli_main(argv) == 2
@@ -193,3 +195,31 @@ def test_shipped_defaults_with_friction_10_are_flagged_not_scored():
     assert not r.valid
     assert {"jump", "energy-gain"} <= set(r.flags)
     assert r.diagnostics["energy_gain_rel"] > 0.05
+
+
+def test_a_map_calibrated_on_the_other_size_is_held_out_in_its_scores(tmp_path, capsys):
+    """``calibrate_on``: B3L runs with the contact settings and the step of B3M's calibration; its
+    run.json names the block, `score` counts the map as held out and says so in its own line, and a
+    block of another slenderness stops the map with exit 2 and one line."""
+    b3m, b3l = PRESETS["B3M"].block(), PRESETS["B3L"].block()
+    own = get_adapter("mujoco").resolve(b3m, Restitution())
+    held = get_adapter("mujoco", calibrate_on="sibling").resolve(b3l, Restitution())
+    assert held["calibration"]["calibrated_on"] == "B3M" and "calibrated_on" not in own["calibration"]
+    assert held["calibration"]["step_rule"] == own["calibration"]["step_rule"]
+    assert {k: held[k] for k in ("timeconst", "dampratio", "dt_s")} == {k: own[k] for k in ("timeconst", "dampratio", "dt_s")}
+
+    root, grid = tmp_path / "run", ["--block", "B3L", "--pulse", "sine", "--w-ratio", "2:10:3", "--a-ratio", "1:6:3"]
+    assert cli_main(["map", *grid, "--out", str(root / "reference"), "--no-plot"]) == 0
+    assert cli_main(["map", "--engine", "mujoco", *grid, "--set", "calibrate_on=B3M", "--serial", "--no-plot",
+                     "--out", str(root / "held")]) == 0
+    run = json.loads((root / "held" / "run.json").read_text())
+    assert run["engine"]["resolved_settings"]["calibration"]["calibrated_on"] == "B3M"
+    assert cli_main(["score", str(root)]) == 0
+    doc = json.loads((root / "score.json").read_text())
+    pair = next(p for p in doc["pairs"] if p["engine"] == "mujoco")
+    assert pair["held_out"] and pair["calibrated_on"] == "B3M" and pair["in_sample_variant"] == "mujoco"
+    assert any(t.startswith("Held-out check") for t in doc["verdict"]["text"])
+    capsys.readouterr()
+    assert cli_main(["map", "--engine", "mujoco", *grid, "--set", "calibrate_on=B6M", "--out", str(tmp_path / "no")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "calibrate_on = B6M" in err and "\n" not in err and "Traceback" not in err

@@ -39,6 +39,10 @@ def run(args) -> int:
 
     block, preset = block_from_args(args)
     adapter = get_adapter(args.engine, **engine_settings_from_args(args))
+    if getattr(adapter, "settings", {}).get("calibrate_on"):   # a calibration is of the block it ran on
+        on = adapter.calibration_block(block)
+        raise ConfigError(f"calibrate_on is a setting of maps and runs (the held-out check); the calibration it uses "
+                          f"is {on.name}'s own: rockbench calibrate --engine {args.engine} --block {on.name}.")
     try:
         out = _calibrate(args, adapter, block, preset)
     except RockbenchError:
