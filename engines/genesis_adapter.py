@@ -21,7 +21,7 @@ formulation: a time constant and a damping ratio, Newton's method, the elliptic 
   ``table_track_err_rel`` records how far the table strays from u(t).
 * **Contact softness**: Genesis's ``constraint_timeconst`` (``timeconst_s``; Genesis ships 0.01 s)
   with damping ratio 1. ``settings="calibrated"`` keeps the shipped value where it gives the
-  case's η within 0.25 %, else searches the time constant (:meth:`GenesisAdapter._calibrate_corners`).
+  case's η within 0.25 %, else searches the time constant (:attr:`GenesisAdapter.CALIBRATION_KNOBS`).
 
 Scenes and batches
 ------------------
@@ -45,6 +45,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
 from .free_body_rows import angles_of, motion_of
+from .knobs import Knob
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: Genesis's shipped constraint time constant [s] (``RigidOptions.constraint_timeconst``)
@@ -281,34 +282,21 @@ class GenesisAdapter(SteppedContactAdapter):
     def _motion(self, w: dict, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         return motion_of(data, t_s, pulse, s["drive"] == "table", {"timeconst_s": float(s["timeconst_s"])})
 
-    # -- calibration --------------------------------------------------------------------------
-    def _calibrate_corners(self, block: Block, t: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """Genesis's constraint time constant whose free-rocking η is closest to ``t``.
+    # -- calibration: the skeleton's search of the declared knob ----------------------------------
+    #: Genesis as shipped (0.01 s) first, kept within 0.25 % of the target; otherwise the time
+    #: constants :data:`_TC_FACTORS` × Δt (the skeleton's search, :mod:`rockbench.engines.knobs`)
+    CALIBRATION_KNOBS = (Knob("timeconst_s", "s", "stiffness", shipped=SHIPPED_TIMECONST_S,
+                              ladder=lambda block, dt: tuple(f * dt for f in _TC_FACTORS)),)
+    START_KEEP_RTOL = 0.0025
 
-        Genesis as shipped (0.01 s) first; kept when within 0.25 % of the target. Otherwise the time
-        constants :data:`_TC_FACTORS` × Δt are measured and the closest setting whose impacts agree
-        within 2 % wins (reached within 1 %). Cached on disk per engine version, block, target, step,
-        friction and drive.
-        """
-        base = {**self._base_settings(), "timeconst_s": None}
-        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base),
-                              table_mass_ratio=float(base["table_mass_ratio"]))
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
-        search = self._search(block, dt, base, t)
-        e0 = search.evaluate({"timeconst_s": SHIPPED_TIMECONST_S})
-        if search.err(e0) > 0.0025:
-            for f in _TC_FACTORS:
-                if abs(f * dt - SHIPPED_TIMECONST_S) > 1e-12:
-                    search.evaluate({"timeconst_s": f * dt})
-        eta, _, extra, reached = search.best()
-        lo = min((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
-        hi = max((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
-        how = ("Genesis as shipped (constraint time constant 0.01 s)" if extra["timeconst_s"] == SHIPPED_TIMECONST_S
-               else f"constraint time constant {extra['timeconst_s']:.4g} s")
-        head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
-        note = head + (f"; the time constants tried span η = {lo:.4f}–{hi:.4f}." if len(search.tried) > 1 else ".")
-        res = search.result((), note)
-        self._store(key, res, {"tried": search.rows()})
-        return res
+    def _calibration_identity(self, base: dict) -> dict:
+        return {**super()._calibration_identity(base), "table_mass_ratio": float(base["table_mass_ratio"])}
+
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        """What the calibration found, in words."""
+        tc, eta = settings["timeconst_s"], chosen.candidate.eta
+        finite = [r["eta"] for r in rows if math.isfinite(r["eta"])]
+        how = ("Genesis as shipped (constraint time constant 0.01 s)" if tc == SHIPPED_TIMECONST_S
+               else f"constraint time constant {tc:.4g} s")
+        head = f"reached with {how}" if chosen.reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
+        return head + (f"; the time constants tried span η = {min(finite):.4f}–{max(finite):.4f}." if len(rows) > 1 else ".")

@@ -75,12 +75,19 @@ class Knob:
         ``along(value, block, dt_s) -> dict``: settings a candidate sets with the knob (the damping
         of a critically damped spring, a contact-breaking threshold, a solver).
     when : str or None
-        ``"above"`` (``"below"``): searched only when the starting contact's η lies more than the
-        reader's resolution above (below, or has no η) the target; None: whatever it gives.
+        ``"above"`` (``"below"``): searched only when the starting contact's η lies more than
+        ``when_rtol`` above (below, or has no η) the target; None: whatever it gives.
+    when_rtol : float
+        How far from the target, as a fraction of it, the starting η must lie for ``when`` to search
+        the knob [-] (default: the reader's resolution).
     until : str or None
         The ladder measured one value at a time (the stage's next knob searched at each), ending at
         the first value after which ``"reached"``: the pick reaches the target; ``"close"``: a
-        candidate lies within the next knob's ``bisect_rtol`` of it. None: the grid of the ladders.
+        candidate lies within the last knob's ``bisect_rtol`` of it (the next knob's, else its own),
+        regular where that knob's ``bisect_regular`` asks. None: the grid of the ladders.
+    paired : bool
+        Walked in step with the stage's first knob, which has ``until``: the i-th value of this
+        knob's ladder goes with the i-th of that one's (a ladder of pairs, not a grid).
     """
 
     name: str
@@ -100,7 +107,9 @@ class Knob:
     no_eta_low_end: bool = False
     along: Callable[[float, Block, float], dict] | None = None
     when: str | None = None
+    when_rtol: float = ETA_RESOLUTION
     until: str | None = None
+    paired: bool = False
 
 
 def candidate(knob: Knob, value, block: Block, dt_s: float, start: dict | None = None) -> dict:
@@ -141,8 +150,8 @@ def search(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, kee
     With ``keep_rtol``: the starting contact first (every knob at its ``start``, else ``shipped``
     value), and nothing more when its η is within ``keep_rtol`` of the target. Then the knobs
     without ``when`` (:func:`_stage`), then those whose ``when`` names the side of the target the
-    starting η lies on (more than :data:`~rockbench.engines.pick.ETA_RESOLUTION` away; no η counts
-    as below), each candidate the starting contact with the searched knobs changed.
+    starting η lies on (more than the knob's ``when_rtol`` away; no η counts as below), each
+    candidate the starting contact with the searched knobs changed.
     """
     stages, start, rows = [[k for k in knobs if k.when is None]], None, []
     if keep_rtol is not None:
@@ -154,7 +163,7 @@ def search(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, kee
         if err <= keep_rtol:
             return rows
         side = "above" if e0 > target else "below"
-        stages.append([k for k in knobs if k.when == side and not err <= ETA_RESOLUTION])
+        stages.append([k for k in knobs if k.when == side and not err <= k.when_rtol])
     for stage in stages:
         if stage:
             rows += _stage(tuple(stage), block, target, dt_s, evaluate, start)
@@ -179,16 +188,19 @@ def _stage(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, sta
 
 
 def _until(knobs: tuple, block: Block, target: float, dt_s: float, evaluate, start: dict | None) -> list[dict]:
-    """The first knob's ladder value by value, the others searched at each (:func:`_stage`), until
-    its ``until`` rule holds over the stage's candidates."""
-    k, rest, rows = knobs[0], knobs[1:], []
-    for v in k.ladder(block, dt_s):
-        c = candidate(k, v, block, dt_s, start)
+    """The first knob's ladder value by value (with its ``paired`` knobs' values), the others
+    searched at each (:func:`_stage`), until its ``until`` rule holds over the stage's candidates."""
+    k, rows = knobs[0], []
+    paired, rest = [x for x in knobs[1:] if x.paired], tuple(x for x in knobs[1:] if not x.paired)
+    for values in zip(*(x.ladder(block, dt_s) for x in (k, *paired)), strict=True):
+        c = start
+        for x, v in zip((k, *paired), values):
+            c = candidate(x, v, block, dt_s, c)
         rows += _stage(rest, block, target, dt_s, evaluate, c) if rest else evaluate([c])
         if k.until == "reached":
             done = pick([Candidate.of_row(r) for r in rows], target, block).reached
         else:
-            last = rest[-1]
+            last = rest[-1] if rest else k
             done = any(abs(r["eta"] - target) / target <= last.bisect_rtol for r in rows
                        if not last.bisect_regular or regular(Candidate.of_row(r), target, block))
         if done:

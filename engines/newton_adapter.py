@@ -25,8 +25,8 @@ corrections: that contact is what the benchmark measures.
   velocity u̇ (at the step's midpoint) are set before every step.
 * **Restitution**: ``settings="defaults"`` runs the solver as shipped (Newton's default iterations
   and contact material) with only the time step and the anti-slip friction set;
-  ``settings="calibrated"`` (default) runs the settings :meth:`NewtonAdapter._calibrate_corners`
-  found for the case's η (cached on disk). XPBD's own restitution (``enable_restitution``) is not
+  ``settings="calibrated"`` (default) runs the settings the skeleton's search of the solver's
+  knobs (:attr:`NewtonAdapter.CALIBRATION_KNOBS`) found for the case's η (cached on disk). XPBD's own restitution (``enable_restitution``) is not
   used: it breaks rocking (docs/newton.md).
 * **Batches** (``batching = "native"``, :attr:`~NewtonAdapter.max_worlds`): the cells of a map with
   the same block, step and settings run as the worlds of one model through the skeleton's loop for
@@ -44,7 +44,7 @@ import numpy as np
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import G, Block
 from .base import CalibrationResult
-from .pick import CAL_MAX_SPREAD
+from .knobs import Knob
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
 
 #: The solvers offered, by their ``solver`` name
@@ -367,45 +367,68 @@ class NewtonAdapter(SteppedContactAdapter):
                 "max_out_of_plane_tilt_rad": float(np.max(np.abs(roll)))}
         return Motion(data[:, 0], data[:, 2], theta_of(data), data[:, 7], data[:, 9], data[:, 11], u_tab, v_tab, diag)
 
-    # -- calibration ---------------------------------------------------------------------------
+    # -- calibration: the skeleton's search of the declared knobs ----------------------------------
     def _calibration_identity(self, base: dict) -> dict:
         return {**super()._calibration_identity(base), "solver": base["solver"], "sticky": base["sticky_contacts"]}
 
-    def _calibrate_corners(self, block: Block, t: float, dt: float, use_cache: bool) -> CalibrationResult:
-        """Search the solver's knobs so the free-rocking η reaches ``t`` within 1 %.
+    @property
+    def CALIBRATION_KNOBS(self) -> tuple:  # noqa: N802 - the skeleton's declaration, per solver
+        """The solver's knobs (the skeleton's search, :mod:`rockbench.engines.knobs`); unset, each is
+        Newton's own, as shipped.
 
-        * ``xpbd``: Newton's defaults (2 iterations, contact relaxation 0.8) first; below the target,
-          more iterations at relaxation 1 (:data:`_XPBD_UP`: XPBD's η rises towards Housner's as its
-          contact converges); above it, fewer iterations and less relaxation (:data:`_XPBD_DOWN`).
+        * ``xpbd``: Newton's defaults (2 iterations, contact relaxation 0.8) first, kept within
+          :data:`_CLOSE_RTOL`; below the target, more iterations at relaxation 1 (:data:`_XPBD_UP`:
+          XPBD's η rises towards Housner's as its contact converges); above it, fewer iterations and
+          less relaxation (:data:`_XPBD_DOWN`); pair by pair until one is within :data:`_CLOSE_RTOL`.
         * ``semi_implicit``, ``featherstone``: a penalty contact at damping ratio
           :data:`_PENALTY_ZETA` (``kd = 2ζ√(ke·m)``) and friction gain ``kf = 0.1·m/Δt`` (the stiffest
-          sticking the explicit step keeps stable), bisection on ``log10 ke`` from the softest contact
+          sticking the explicit step keeps stable), ``log10 ke`` bisected from the softest contact
           that keeps the block standing below the uplift threshold (:func:`_penalty_ke_min`) up to
           ``0.1·m/Δt²``: a softer contact gives a higher η here.
         * ``vbd``: the contact stiffness :data:`_VBD_KE_FACTORS` × :func:`_penalty_ke_min` (a stiffer
-          contact gives a lower η) with the damping :data:`_VBD_KD_N_S_M` (less damping, a higher η)
-          until one is within 0.25 % with regular impacts (:func:`_search_vbd`).
-
-        The closest setting whose per-impact spread stays within 2 % of the target wins.
+          contact gives a lower η), at each the damping :data:`_VBD_KD_N_S_M` (less damping, a higher
+          η), until one rocks regularly within :data:`_CLOSE_RTOL`. Newton's material is not tried:
+          its ``ke`` (2500 N/m) is below that bound for every preset, and a B6M block on it tips
+          over under 0.9·g·tanα (docs/newton.md).
         """
-        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
-        key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
-        cached = self._cached(key, use_cache)
-        if cached is not None:
-            return cached
-        search = self._search(block, dt, base, t)
-        solver = base["solver"]
+        solver = self.settings["solver"]
         if solver == "xpbd":
-            _search_xpbd(search, t)
-        elif solver in ("semi_implicit", "featherstone"):
-            _search_penalty(search, block, dt)
-        else:
-            _search_vbd(search, t, block)
-        eta, _, extra, reached = search.best()
-        res = search.result(self.CONTACT_KEYS, _calibration_note(solver, search, eta, extra, reached))
-        self._store(key, res, {"tried": search.rows()})
-        return res
+            return _xpbd_knobs("below", _XPBD_UP) + _xpbd_knobs("above", _XPBD_DOWN)
+        if solver == "vbd":
+            return (Knob("contact_stiffness_n_m", "N/m", "stiffness", until="close", bisect_rtol=_CLOSE_RTOL,
+                         ladder=lambda block, dt: tuple(f * _penalty_ke_min(block) for f in _VBD_KE_FACTORS)),
+                    Knob("contact_damping_n_s_m", "N s/m", "damping", until="close", bisect_rtol=_CLOSE_RTOL,
+                         ladder=lambda block, dt: _VBD_KD_N_S_M))
+        return (Knob("contact_stiffness_n_m", "N/m", "stiffness", span=_penalty_span, log10=True, rising=False,
+                     bisect_steps=10, bisect_regular=False, along=_penalty_along),)
 
+    @property
+    def START_KEEP_RTOL(self) -> float | None:  # noqa: N802 - the skeleton's declaration, per solver
+        """XPBD as shipped is measured first and kept within :data:`_CLOSE_RTOL`; the other solvers'
+        searches start from their knobs."""
+        return _CLOSE_RTOL if self.settings["solver"] == "xpbd" else None
+
+    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
+        """What the calibration found, in words."""
+        solver, eta, reached = self.settings["solver"], chosen.candidate.eta, chosen.reached
+        extra = {k: v for k, v in settings.items() if v is not None}
+        finite = [r["eta"] for r in rows if math.isfinite(r["eta"])]
+        if not extra:
+            how = f"Newton's {solver} as shipped"
+        elif solver == "vbd":
+            how = f"VBD with contact ke = {extra['contact_stiffness_n_m']:.4g} N/m, kd = {extra['contact_damping_n_s_m']:.4g} N s/m"
+        elif "iterations" in extra:
+            how = f"XPBD with {extra['iterations']} iterations, contact relaxation {extra['contact_relaxation']:g}"
+        else:
+            how = (f"a penalty contact ke = {extra['contact_stiffness_n_m']:.4g} N/m, kd = "
+                   f"{extra['contact_damping_n_s_m']:.4g} N s/m, kf = {extra['friction_gain_n_s_m']:.4g} N s/m")
+        head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
+        return f"{head}; the settings tried span η = {min(finite):.4f}–{max(finite):.4f}."
+
+
+#: A candidate this close to the target, as a fraction of it, keeps XPBD as shipped and ends XPBD's
+#: and VBD's ladders [-]
+_CLOSE_RTOL = 0.0025
 
 #: XPBD below the target: (iterations, contact relaxation) tried in turn
 _XPBD_UP = ((2, 1.0), (4, 1.0), (8, 1.0))
@@ -428,14 +451,14 @@ _VBD_KE_FACTORS = (1.5, 3.0, 8.0)
 _VBD_KD_N_S_M = (100.0, 30.0, 10.0)
 
 
-def _search_xpbd(search, t: float) -> None:
-    """XPBD: Newton's defaults, then :data:`_XPBD_UP` or :data:`_XPBD_DOWN` until one is within 0.25 %."""
-    e0 = search.evaluate({})
-    if search.err(e0) <= 0.0025:
-        return
-    for it, relax in (_XPBD_UP if e0 < t else _XPBD_DOWN):
-        if search.err(search.evaluate({"iterations": it, "contact_relaxation": relax})) <= 0.0025:
-            return
+def _xpbd_knobs(side: str, pairs: tuple) -> tuple:
+    """XPBD's iterations and contact relaxation walked pair by pair (``paired``) when XPBD as shipped
+    lies more than :data:`_CLOSE_RTOL` on ``side`` of the target, until one is that close."""
+    iterations, relaxations = tuple(p[0] for p in pairs), tuple(p[1] for p in pairs)
+    return (Knob("iterations", "", "stiffness", when=side, when_rtol=_CLOSE_RTOL, until="close", bisect_rtol=_CLOSE_RTOL,
+                 bisect_regular=False, ladder=lambda block, dt: iterations),
+            Knob("contact_relaxation", "", "stiffness", when=side, when_rtol=_CLOSE_RTOL, paired=True,
+                 ladder=lambda block, dt: relaxations))
 
 
 def _penalty_ke_min(block: Block) -> float:
@@ -448,48 +471,14 @@ def _penalty_ke_min(block: Block) -> float:
     return max(1e3, 0.9 * block.mass_kg * G / (2.0 * block.width_m * tol))
 
 
-def _search_penalty(search, block: Block, dt: float) -> None:
-    """The penalty solvers: bisection on ``log10 ke`` at damping ratio :data:`_PENALTY_ZETA`, from
-    :func:`_penalty_ke_min` to ``0.1·m/Δt²`` (10 halvings at most)."""
-    mass_kg = block.mass_kg
-    kf = 0.1 * mass_kg / dt
-
-    def penalty(log10_ke: float) -> dict:
-        ke = 10.0 ** log10_ke
-        return {"contact_stiffness_n_m": ke, "contact_damping_n_s_m": 2.0 * _PENALTY_ZETA * math.sqrt(ke * mass_kg),
-                "friction_gain_n_s_m": kf}
-
-    # lo: soft, high η; hi: stiff, low η (a non-finite η counts as low)
-    search.bisect(penalty, math.log10(_penalty_ke_min(block)), math.log10(_PENALTY_KE_MAX * block.mass_kg / dt**2), 10,
-                  eta_lo=math.inf)
+def _penalty_span(block: Block, dt: float) -> tuple[float, float]:
+    """The penalty solvers' ``log10 ke`` range: :func:`_penalty_ke_min` to :data:`_PENALTY_KE_MAX`·m/Δt²
+    [log10 N/m]."""
+    return math.log10(_penalty_ke_min(block)), math.log10(_PENALTY_KE_MAX * block.mass_kg / dt**2)
 
 
-def _search_vbd(search, t: float, block: Block) -> None:
-    """VBD: each stiffness of :data:`_VBD_KE_FACTORS` × :func:`_penalty_ke_min` with each damping of
-    :data:`_VBD_KD_N_S_M` until one is within 0.25 % with regular impacts. Newton's material is not
-    tried: its ``ke`` (2500 N/m) is below that bound for every preset, and a B6M block on it tips
-    over under 0.9·g·tanα (docs/newton.md)."""
-    for f in _VBD_KE_FACTORS:
-        ke = f * _penalty_ke_min(block)
-        for kd in _VBD_KD_N_S_M:
-            search.evaluate({"contact_stiffness_n_m": ke, "contact_damping_n_s_m": kd})
-            eta, std, _ = search.tried[-1]
-            if search.err(eta) <= 0.0025 and std <= CAL_MAX_SPREAD * t:
-                return
-
-
-def _calibration_note(solver: str, search, eta: float, extra: dict, reached: bool) -> str:
-    """What the calibration found, in words."""
-    lo = min((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
-    hi = max((r[0] for r in search.tried if math.isfinite(r[0])), default=math.nan)
-    if not extra:
-        how = f"Newton's {solver} as shipped"
-    elif solver == "vbd":
-        how = f"VBD with contact ke = {extra['contact_stiffness_n_m']:.4g} N/m, kd = {extra['contact_damping_n_s_m']:.4g} N s/m"
-    elif "iterations" in extra:
-        how = f"XPBD with {extra['iterations']} iterations, contact relaxation {extra['contact_relaxation']:g}"
-    else:
-        how = (f"a penalty contact ke = {extra['contact_stiffness_n_m']:.4g} N/m, kd = {extra['contact_damping_n_s_m']:.4g} "
-               f"N s/m, kf = {extra['friction_gain_n_s_m']:.4g} N s/m")
-    head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
-    return f"{head}; the settings tried span η = {lo:.4f}–{hi:.4f}."
+def _penalty_along(ke: float, block: Block, dt: float) -> dict:
+    """What a penalty contact of stiffness ``ke`` [N/m] sets with it: damping at ratio
+    :data:`_PENALTY_ZETA` [N s/m] and the friction gain ``0.1·m/Δt`` [N s/m]."""
+    return {"contact_damping_n_s_m": 2.0 * _PENALTY_ZETA * math.sqrt(ke * block.mass_kg),
+            "friction_gain_n_s_m": 0.1 * block.mass_kg / dt}

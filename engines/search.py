@@ -9,9 +9,7 @@ target, :func:`bisection` halves the range between them. Where the searches diff
 close, what a midpoint that cannot be used ends, which side a non-finite η counts on) the caller
 says so with an argument; the candidates and their order are each search's own, unchanged.
 The search of declared knobs (:func:`~rockbench.engines.knobs.search`) calls these for a knob with
-``bisect_steps``; :class:`~rockbench.engines.skeleton.Search` calls them for the engines that still
-measure their own candidates (:meth:`~rockbench.engines.skeleton.Search.bisect`,
-:meth:`~rockbench.engines.skeleton.Search.scan_bisect`).
+``bisect_steps``.
 """
 
 from __future__ import annotations

@@ -23,9 +23,10 @@ calibration frame; an engine adapter fills in a few hooks.
   run's corners (:func:`~rockbench.engines.free_rocking.contact_figures`);
 * **the calibration frame**: the target and step checks, the layout dispatch (corners, or a row of
   points along the base tried with 9, 5, 17 points), one cache record shape
-  (:meth:`~SteppedContactAdapter._cached` / :meth:`~SteppedContactAdapter._store`), the one pick
-  (:class:`Search`, :func:`~rockbench.engines.pick.pick`) and the distributed contact's search at a price
-  (:meth:`~SteppedContactAdapter._calibrate_distributed_n`).
+  (:meth:`~SteppedContactAdapter._cached` / :meth:`~SteppedContactAdapter._store`), the one search
+  of the declared knobs (:meth:`~SteppedContactAdapter._calibrate_knobs`,
+  :func:`~rockbench.engines.knobs.search`), the one pick (:func:`~rockbench.engines.pick.pick`) and
+  the distributed contact's search at a price (:meth:`~SteppedContactAdapter._calibrate_distributed_n`).
 
 The hooks an adapter implements (besides the settings hooks of ``ContactEngineAdapter``):
 
@@ -44,10 +45,9 @@ The hooks an adapter implements (besides the settings hooks of ``ContactEngineAd
     position and velocity from all the state rows of a run, plus engine diagnostics.
 
 and, for the calibration, ``CALIBRATION_KNOBS`` (its contact knobs, :mod:`rockbench.engines.knobs`:
-the skeleton then runs the search) or ``_calibrate_corners`` (the candidates it measures itself, with
-:class:`Search`), every candidate chosen by the one pick (:mod:`rockbench.engines.pick`); where it
-offers a row of points along the base, ``_distributed_grid`` (or, for an engine that measures its
-candidates itself, ``_distributed_rows``).
+the skeleton then runs the one search, and the one pick, :mod:`rockbench.engines.pick`, chooses among
+its candidates); where it offers a row of points along the base, ``_distributed_grid`` (or, for an
+engine that measures its candidates itself, ``_distributed_rows``).
 """
 
 from __future__ import annotations
@@ -69,9 +69,8 @@ from .contact import ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
 from .knobs import search as search_knobs
 from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
-from .search import BISECT_RTOL, bisection, bracket
 
-__all__ = ["SteppedContactAdapter", "Motion", "Search", "corners", "pivot_pose", "run_steps", "MAX_PRICE_TRIES"]
+__all__ = ["SteppedContactAdapter", "Motion", "corners", "pivot_pose", "run_steps", "MAX_PRICE_TRIES"]
 
 #: How many reached candidates the distributed contact's search prices at most.
 MAX_PRICE_TRIES = 8
@@ -154,83 +153,6 @@ def run_steps(dt_s: float, t_pulse_end_s: float, tail_s: float, min_tail_s: floa
     n_pulse = int(math.ceil(t_pulse_end_s / dt_s - 1e-9))
     n_min = n_pulse + int(math.ceil(min_tail_s / dt_s - 1e-9)) if duration_s is None else math.inf
     return n_max, n_pulse, n_min
-
-
-class Search:
-    """The free-rocking runs of a calibration search and its pick.
-
-    ``evaluate(extra)`` measures free rocking with the base settings updated by ``extra`` (the
-    contact settings tried) and records it as a :class:`~rockbench.engines.pick.Candidate` (η, spread,
-    impacts, resting sink, hop, the damping ratio ``damping(extra)``) and in :attr:`tried` as
-    ``(η mean, η spread, extra)``; :meth:`bisect` and :meth:`scan_bisect` search one knob of the
-    contact with the one bisection (:mod:`rockbench.engines.search`); :meth:`best` is the one pick
-    (:func:`~rockbench.engines.pick.pick`); :meth:`result` records it as the calibration.
-    """
-
-    def __init__(self, measure, target: float, block: Block | None = None, damping=None):
-        self.measure, self.target, self.block = measure, target, block
-        self.damping = damping or (lambda extra: None)
-        self.tried: list = []
-        self.candidates: list[Candidate] = []
-
-    def evaluate(self, extra: dict) -> float:
-        m = self.measure(extra)
-        self.tried.append((m.eta_mean, m.eta_std, extra))
-        self.candidates.append(Candidate(extra, m.eta_mean, m.eta_std, len(getattr(m, "etas", ())) or 0,
-                                         getattr(m, "sink_m", None), getattr(m, "hop_m", None), self.damping(extra)))
-        return m.eta_mean
-
-    def err(self, eta: float) -> float:
-        """|η − target|/target, infinite for a non-finite η [-]."""
-        return abs(eta - self.target) / self.target if math.isfinite(eta) else math.inf
-
-    def consistent(self) -> list:
-        """The regular evaluations (:func:`~rockbench.engines.pick.regular`), as :attr:`tried` rows."""
-        return [r for r, c in zip(self.tried, self.candidates) if regular(c, self.target, self.block)]
-
-    def best(self) -> tuple[float, float, dict, bool]:
-        """``(η, spread, extra, reached)`` of the pick."""
-        p = pick(self.candidates, self.target, self.block)
-        return p.candidate.eta, p.candidate.eta_std, p.candidate.knobs, p.reached
-
-    def rows(self) -> list[dict]:
-        """What was tried, one dict per evaluation: ``eta``, ``eta_std``, ``n``, ``sink_m``, ``hop_m``,
-        ``damping_ratio`` and the contact settings."""
-        return [{"eta": c.eta, "eta_std": c.eta_std, "n": c.n_impacts, "sink_m": c.sink_m, "hop_m": c.hop_m,
-                 "damping_ratio": c.damping_ratio, **c.knobs} for c in self.candidates]
-
-    def result(self, contact_keys: tuple, note: str) -> CalibrationResult:
-        """The pick (:meth:`best`) as a calibration: the settings ``contact_keys`` None but those the
-        pick sets, ``note`` in words, every evaluation counted."""
-        eta, std, extra, reached = self.best()
-        return CalibrationResult(eta_target=self.target, eta_measured=float(eta), eta_std=float(std), reached=reached,
-                                 settings={k: None for k in contact_keys} | extra, note=note,
-                                 evaluations=len(self.tried))
-
-    def bisect(self, candidate, lo: float, hi: float, steps: int, *, eta_lo: float, tol: float = BISECT_RTOL,
-               nonfinite_low: bool = False) -> None:
-        """Bisection of one knob over ``[lo, hi]`` (:func:`~rockbench.engines.search.bisection`), each
-        midpoint evaluated, until one is within ``tol`` of the target.
-
-        Parameters
-        ----------
-        candidate : callable
-            ``candidate(knob) -> extra``: the contact settings at a knob value.
-        lo, hi, steps, eta_lo, nonfinite_low
-            As :func:`~rockbench.engines.search.bisection`.
-        tol : float
-            Relative distance to the target that ends the bisection [-].
-        """
-        bisection(lambda x: self.evaluate(candidate(x)), lo, hi, steps, target=self.target, eta_lo=eta_lo,
-                  done=lambda e: self.err(e) <= tol, nonfinite_low=nonfinite_low)
-
-    def scan_bisect(self, candidate, grid, steps: int, *, tol: float = BISECT_RTOL) -> None:
-        """Every knob value of ``grid`` evaluated in turn, then :meth:`bisect` between the first
-        neighbours whose η bracket the target (:func:`~rockbench.engines.search.bracket`), if any."""
-        found = bracket([(x, self.evaluate(candidate(x))) for x in grid], self.target)
-        if found is not None:
-            x_lo, eta_lo, x_hi = found
-            self.bisect(candidate, x_lo, x_hi, steps, eta_lo=eta_lo, tol=tol)
 
 
 class SteppedContactAdapter(ContactEngineAdapter):
@@ -475,12 +397,6 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                       eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0,
                                       dt_s=dt, settings=shown, method=reader.method, sink_m=sink, hop_m=hop,
                                       first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad)), tr
-
-    # -- the calibration frame (the dispatch and the cache are ContactEngineAdapter's) -----------
-    def _search(self, block: Block, dt: float, base: dict, target: float) -> Search:
-        """A :class:`Search` measuring free rocking with ``base`` updated by each candidate."""
-        return Search(lambda extra: self.measure_restitution(block, dt_s=dt, settings={**base, **extra}), target,
-                      block, lambda extra: self._damping_ratio(block, {**base, **extra}))
 
     # -- the grid calibration of declared knobs ------------------------------------------------------
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:

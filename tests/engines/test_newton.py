@@ -124,12 +124,11 @@ def test_featherstone_overturns_where_it_must(drive):
 
 
 def test_vbd_search_tries_stiff_contacts_only_and_stops_at_a_regular_hit():
-    """The VBD search (no engine run): stiffnesses from 1.5 × the penalty solvers' softest, each with
-    kd 100, 30, 10 N s/m; it stops at the first within 0.25 % whose impacts agree within 2 %."""
-    from types import SimpleNamespace
-
-    from rockbench.engines.newton_adapter import _penalty_ke_min, _search_vbd
-    from rockbench.engines.skeleton import Search
+    """VBD's declared knobs in the one search (no engine run): stiffnesses from 1.5 × the penalty
+    solvers' softest, each with kd 100, 30, 10 N s/m; it stops at the first regular one within 0.25 %."""
+    from rockbench.engines.knobs import search
+    from rockbench.engines.newton_adapter import _penalty_ke_min
+    from rockbench.engines.pick import Candidate, pick
 
     blk = PRESETS["B3M"].block()
     t = housner_eta(blk.alpha_rad)
@@ -138,15 +137,20 @@ def test_vbd_search_tries_stiff_contacts_only_and_stops_at_a_regular_hit():
              (3.0, 100.0): (0.739, 0.002), (3.0, 30.0): (t * 1.001, 0.006)}
     ke0 = _penalty_ke_min(blk)
 
-    def measure(extra):
-        eta, std = table[(round(extra["contact_stiffness_n_m"] / ke0, 6), extra["contact_damping_n_s_m"])]
-        return SimpleNamespace(eta_mean=eta, eta_std=std, etas=[eta] * 4)
+    def evaluate(cands):
+        out = []
+        for c in cands:
+            eta, std = table[(round(c["contact_stiffness_n_m"] / ke0, 6), c["contact_damping_n_s_m"])]
+            out.append({**c, "eta": eta, "eta_std": std, "n": 4})
+        return out
 
-    search = Search(measure, t)
-    _search_vbd(search, t, blk)
-    assert len(search.tried) == 5 and all(extra for _, _, extra in search.tried)
-    eta, std, extra, reached = search.best()
-    assert reached and extra["contact_damping_n_s_m"] == 30.0 and extra["contact_stiffness_n_m"] == pytest.approx(3 * ke0)
+    ad = get_adapter("newton", solver="vbd")
+    assert ad.START_KEEP_RTOL is None
+    rows = search(ad.CALIBRATION_KNOBS, blk, t, ad.default_dt_s, evaluate)
+    assert len(rows) == 5
+    p = pick([Candidate.of_row(r) for r in rows], t, blk)
+    assert p.reached and p.candidate.knobs["contact_damping_n_s_m"] == 30.0
+    assert p.candidate.knobs["contact_stiffness_n_m"] == pytest.approx(3 * ke0)
 
 
 def test_a_calibrated_variants_free_rocking_is_measured_with_its_calibration(monkeypatch):

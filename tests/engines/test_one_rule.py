@@ -5,6 +5,8 @@ adapter may not define, in its classes (an override) or in its module (a copy), 
 them would make that rule its own. An adapter that steps its own loop instead of the skeleton's
 (MuJoCo Warp, on the device) is listed in :data:`OWN_LOOP` with the test that holds its loop to the
 rule. Another shared rule (the calibration pick, the η reader) is one more entry of ``ONE_RULES``.
+Every contact engine declares its calibration knobs, which the one search
+(:func:`~rockbench.engines.knobs.search`) walks.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ import pytest
 
 from rockbench.engines.base import EngineAdapter
 from rockbench.engines.contact import ContactEngineAdapter
+from rockbench.engines.knobs import Knob
+from rockbench.engines.knobs import search as knob_search
 from rockbench.engines.registry import BUILTIN, adapter_class
 from rockbench.engines.skeleton import SteppedContactAdapter
 from rockbench.reference_solver.classify import run_end
@@ -23,6 +27,8 @@ from rockbench.reference_solver.classify import run_end
 ONE_RULES = {
     "end of a run": (run_end, ("run_end", "_stop", "_run_worlds", "_segment_end", "stop_at", "_decided",
                                "turned_back")),
+    "calibration search": (knob_search, ("_calibrate_knobs", "_knob_rows", "_search", "Search", "bisection",
+                                         "bracket")),
 }
 
 #: where a loop of an adapter's own would live (the skeleton's loop runs behind them)
@@ -57,6 +63,13 @@ def test_no_adapter_defines_a_shared_rule_of_its_own(name, rule):
         module = vars(sys.modules[c.__module__])
         copies = [k for k in forbidden if module.get(k) not in (None, one)]
         assert not copies, f"{name}: module {c.__module__} defines {copies} of its own (the {rule})"
+
+
+@pytest.mark.parametrize("name", CONTACT_ENGINES)
+def test_a_contact_engine_declares_its_calibration_knobs(name):
+    """The one search walks an adapter's declared knobs: none generates its candidates itself."""
+    knobs = adapter_class(name)().CALIBRATION_KNOBS
+    assert knobs and all(isinstance(k, Knob) for k in knobs), f"{name} declares no calibration knobs"
 
 
 @pytest.mark.parametrize("name", CONTACT_ENGINES)

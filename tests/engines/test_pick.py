@@ -13,7 +13,7 @@ from rockbench.engines.free_rocking import PEAK_RATIO, EtaReader
 from rockbench.engines.pick import (CAL_MAX_SPREAD, ETA_RESOLUTION, Candidate, damping_ratio_of_restitution,
                                     hop_tol_m, pick, ranked, sink_tie_m)
 from rockbench.engines.registry import BUILTIN, adapter_class
-from rockbench.engines.skeleton import Search, SteppedContactAdapter
+from rockbench.engines.skeleton import SteppedContactAdapter
 from rockbench.harness.blocks.presets import get_preset
 
 BLOCK = get_preset("B6L").block()
@@ -84,8 +84,8 @@ def test_the_damping_ratio_of_a_bounce():
 @pytest.mark.parametrize("name", sorted(BUILTIN))
 def test_no_builtin_adapter_reads_eta_or_picks_its_own_way(name):
     """Every contact adapter reads η with the one reader and chooses with the one pick: its module
-    holds no reader of its own (no EtaReader but PEAK_RATIO, no ``*_etas`` function), no Search of
-    its own, and the class no ``eta_reader``, ``_pick`` or spread rule of its own."""
+    holds no reader of its own (no EtaReader but PEAK_RATIO, no ``*_etas`` function), and the class
+    no ``eta_reader``, ``_pick`` or spread rule of its own (its search: tests/engines/test_one_rule.py)."""
     cls = adapter_class(name)
     if not issubclass(cls, SteppedContactAdapter):
         pytest.skip("not a contact engine (the reference applies η exactly)")
@@ -93,7 +93,6 @@ def test_no_builtin_adapter_reads_eta_or_picks_its_own_way(name):
     assert all(v is PEAK_RATIO for v in vars(mod).values() if isinstance(v, EtaReader))
     assert not [k for k, v in vars(mod).items() if k.endswith("_etas") and inspect.isfunction(v)
                 and v.__module__ == mod.__name__]
-    assert not [v for v in vars(mod).values() if isinstance(v, type) and issubclass(v, Search) and v is not Search]
     for attr in ("eta_reader", "_pick", "_regular", "CAL_SPREAD_ABSOLUTE"):
         assert not hasattr(cls, attr), attr
 
@@ -215,3 +214,39 @@ def test_a_stiffness_ladder_with_a_bisected_damping_at_each_stops_once_close():
     assert rows[0]["k"] == 1e6 and rows[0]["d"] == 1e-3
     assert [(r["k"], r["d"]) for r in rows[1:5]] == [(1e5, 1e-5), (1e5, 0.1), (3e4, 1e-5), (3e4, 0.1)]
     assert rows[-1]["k"] == 3e4 and rows[-1]["d"] == 1e-3 and all(r["k"] != 1e4 for r in rows)
+
+
+def test_paired_ladders_on_the_side_of_the_target_are_walked_in_step_until_close():
+    """Newton XPBD's shape: the shipped contact (nothing set) first, kept within 0.25 %; beyond that
+    (``when_rtol``, not the reader's 1 %) the (iterations, relaxation) pairs of its side, pair by pair
+    (``paired``), until one is within the first knob's own ``bisect_rtol``."""
+    from rockbench.engines.knobs import Knob, search
+
+    def side(when, its, relax):
+        return (Knob("it", "", "stiffness", when=when, when_rtol=0.0025, until="close", bisect_regular=False,
+                     ladder=lambda b, dt: its),
+                Knob("relax", "", "stiffness", when=when, when_rtol=0.0025, paired=True, ladder=lambda b, dt: relax))
+
+    knobs = side("below", (2, 4, 8), (1.0, 1.0, 1.0)) + side("above", (2, 1, 1), (0.6, 0.8, 0.6))
+    # shipped 0.5 % below: the below pairs, ending at (4, 1.0), which is 0.1 % off
+    rows = search(knobs, BLOCK, T, 1e-3, _rows(lambda c: T * (0.995 if not c else {2: 0.997, 4: 0.999, 8: 1.0}[c["it"]])),
+                  keep_rtol=0.0025)
+    assert [(r.get("it"), r.get("relax")) for r in rows] == [(None, None), (2, 1.0), (4, 1.0)]
+    # shipped 3 % above: the above pairs, all three (none is close)
+    rows = search(knobs, BLOCK, T, 1e-3, _rows(lambda c: T * 1.03), keep_rtol=0.0025)
+    assert [(r.get("it"), r.get("relax")) for r in rows] == [(None, None), (2, 0.6), (1, 0.8), (1, 0.6)]
+
+
+def test_a_nested_ladder_until_close_does_not_stop_at_a_candidate_that_hops():
+    """Newton VBD's shape: each stiffness with each damping, one at a time, until a regular candidate is
+    within the damping knob's ``bisect_rtol``; a close one that hops is not regular and goes on."""
+    from rockbench.engines.knobs import Knob, search
+
+    knobs = (Knob("k", "N/m", "stiffness", until="close", ladder=lambda b, dt: (1e4, 3e4)),
+             Knob("c", "N s/m", "damping", until="close", ladder=lambda b, dt: (100.0, 30.0, 10.0)))
+    hop = 10 * BLOCK.width_m * 5e-4
+    table = {(1e4, 30.0): (T, hop), (3e4, 30.0): (T * 1.001, 0.0)}
+    rows = search(knobs, BLOCK, T, 1e-3, lambda cands: [
+        {**c, "eta": table.get((c["k"], c["c"]), (0.9 * T, 0.0))[0], "eta_std": 0.001, "n": 4, "sink_m": 0.0,
+         "hop_m": table.get((c["k"], c["c"]), (0.0, 0.0))[1], "damping_ratio": None} for c in cands])
+    assert [(r["k"], r["c"]) for r in rows] == [(1e4, 100.0), (1e4, 30.0), (1e4, 10.0), (3e4, 100.0), (3e4, 30.0)]
