@@ -1,7 +1,7 @@
 """The boundary tracer against the block-wise refinement on every engine map of a suite run (issue 16).
 Measures and prints; it passes or fails nothing.
 
-    python benchmarks/probes/check_refinement_suite.py RUN_DIR [--jobs N] [--json FILE]
+    python benchmarks/probes/check_refinement_suite.py RUN_DIR [--jobs N] [--json FILE] [--only TEXT]
 
 RUN_DIR is the output of ``rockbench run`` (block-wise refinement), e.g. the README's first command
 on commit 96434a9. For each adaptive engine map under it, a tracer of ``benchmarks/bench_refinement.py``
@@ -98,12 +98,15 @@ def main(argv=None) -> int:
     ap.add_argument("run_dir")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--only", default=None, help="only the maps whose folder path contains this text (e.g. "
+                    "settings=defaults: the as-shipped maps, which need no calibration)")
     args = ap.parse_args(argv)
     dirs = []
     for p in sorted(Path(args.run_dir).rglob("run.json")):
         meta = json.loads(p.read_text())
         if meta.get("spec", {}).get("engine") != "reference" and (meta.get("options") or {}).get("adaptive"):
-            dirs.append(str(p.parent))
+            if args.only is None or args.only in str(p.parent):
+                dirs.append(str(p.parent))
     # the costliest engines first
     dirs.sort(key=lambda d: ("exudyn" not in d, "pybullet" not in d, d))
     t0 = time.perf_counter()
