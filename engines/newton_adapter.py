@@ -303,13 +303,6 @@ class NewtonAdapter(SteppedContactAdapter):
         return version_label(cls.name)
 
     @classmethod
-    def default_suite_exclusion(cls) -> str | None:
-        """Warp's CPU device runs on one thread: a whole suite there takes hours, so suites of every
-        available engine leave Newton out; asked for by name it runs."""
-        return ("Warp's CPU device is single-threaded: too slow for a whole suite; ask for it by name with "
-                "--engines newton")
-
-    @classmethod
     def device_note(cls) -> str:
         """Where the worlds run: always Warp's CPU device (the drive writes NumPy views of its arrays)."""
         return "CPU only (Warp's CPU device, one thread)"

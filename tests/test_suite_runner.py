@@ -287,7 +287,8 @@ def test_a_lane_whose_workers_cannot_start_stops_that_engine_and_the_suite_goes_
 
 
 def test_engines_include_takes_an_engine_that_leaves_every_available_suite(tmp_path, monkeypatch):
-    """engines.include: an engine whose default_suite_exclusion leaves "available" suites (Newton on a CPU)
+    """engines.include: an engine whose default_suite_exclusion leaves "available" suites (MuJoCo Warp
+    without a CUDA device)
     takes part anyway; a name rockbench does not know, or include beside a list of names, is one line."""
     from rockbench.engines.pybullet_adapter import PybulletAdapter
     from rockbench.harness.suites.plan import engine_names
@@ -307,3 +308,32 @@ def test_engines_include_takes_an_engine_that_leaves_every_available_suite(tmp_p
         p.write_text(GRID + "[engines]\n" + extra)
         with pytest.raises(ConfigError, match=needle):
             load_suite(p)
+
+
+def _engines_section(text: str) -> str:
+    return text[text.index("[engines]"):text.index("[run]")]
+
+
+@pytest.mark.parametrize("name", ["default", "quick"])
+def test_a_shipped_suite_leaves_an_engine_out_only_by_name_and_says_why(name):
+    """Issue 36: the default and quick suites take every available engine; one left out for time is
+    named in the suite's own engines.exclude, and the comment beside it gives the reason (the
+    measured cost), so the report's note and the file both say it, never the adapter alone."""
+    path = suite_path(name, False)
+    section = _engines_section(path.read_text())
+    comment = " ".join(line for line in section.splitlines() if line.lstrip().startswith("#"))
+    suite = load_suite(path)
+    assert suite.engine_names == "available"
+    for engine in suite.engine_exclude:
+        assert engine in comment.lower(), f"{name}.toml leaves {engine} out without saying why"
+
+
+def test_only_mujoco_warp_leaves_suites_of_every_engine_by_itself():
+    """Issue 36: an adapter's own default_suite_exclusion is for what depends on the machine (MuJoCo
+    Warp without a CUDA device); Newton's blanket rule on a CPU is gone, and whether an engine's cost
+    fits a suite's budget is the suite file's to say."""
+    from rockbench.engines.base import EngineAdapter
+    from rockbench.engines.registry import BUILTIN, adapter_class
+    own = {n for n in BUILTIN if n != "reference"
+           and adapter_class(n).default_suite_exclusion.__func__ is not EngineAdapter.default_suite_exclusion.__func__}
+    assert own == {"mujoco_warp"}

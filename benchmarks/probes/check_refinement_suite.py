@@ -1,7 +1,7 @@
 """The boundary tracer against the block-wise refinement on every engine map of a suite run.
 Measures and prints; it passes or fails nothing.
 
-    python benchmarks/probes/check_refinement_suite.py RUN_DIR [--jobs N] [--json FILE]
+    python benchmarks/probes/check_refinement_suite.py RUN_DIR [--jobs N] [--record NAME] [--only TEXT]
 
 RUN_DIR is the output of ``rockbench run`` (block-wise refinement), e.g. the README's first command
 on commit 96434a9. For each adaptive engine map under it, a tracer of ``benchmarks/bench_refinement.py``
@@ -31,6 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench_refinement import VARIANTS, fill_regions, trace  # noqa: E402
+from records import write_record  # noqa: E402
 from rockbench.harness.maps import adaptive  # noqa: E402
 from rockbench.harness.maps.result import MISSING, empty_result, record_result  # noqa: E402
 from rockbench.harness.store.loading import load_map  # noqa: E402
@@ -97,13 +98,16 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("run_dir")
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--json", default=None)
+    ap.add_argument("--record", default=None, help="write the rows as this benchmark record (benchmarks/records.py)")
+    ap.add_argument("--only", default=None, help="only the maps whose folder path contains this text (e.g. "
+                    "settings=defaults: the as-shipped maps, which need no calibration)")
     args = ap.parse_args(argv)
     dirs = []
     for p in sorted(Path(args.run_dir).rglob("run.json")):
         meta = json.loads(p.read_text())
         if meta.get("spec", {}).get("engine") != "reference" and (meta.get("options") or {}).get("adaptive"):
-            dirs.append(str(p.parent))
+            if args.only is None or args.only in str(p.parent):
+                dirs.append(str(p.parent))
     # the costliest engines first
     dirs.sort(key=lambda d: ("exudyn" not in d, "pybullet" not in d, d))
     t0 = time.perf_counter()
@@ -120,9 +124,11 @@ def main(argv=None) -> int:
     print(f"{len(rows)} maps: blocks {100 * bf:.1f} %, trace {100 * tf:.1f} % simulated; {tot['differ']} cells "
           f"differ; wrong: trace {tot['trace_wrong']}, blocks {tot['blocks_wrong']}; {tot['simulated_here']} cells "
           f"simulated here; {time.perf_counter() - t0:.0f} s")
-    if args.json:
-        Path(args.json).write_text(json.dumps({"run_dir": args.run_dir, "rows": rows, "totals": tot,
-                                               "blocks_fraction_mean": bf, "trace_fraction_mean": tf}, indent=1))
+    if args.record:
+        write_record(args.record, "the boundary tracer against the block-wise refinement on a run's adaptive maps: "
+                     "share of cells simulated, and cells of the filled maps that differ from every cell simulated",
+                     "python benchmarks/probes/check_refinement_suite.py " + " ".join(argv or sys.argv[1:]),
+                     {"rows": rows, "totals": tot, "blocks_fraction_mean": bf, "trace_fraction_mean": tf})
     return 0
 
 

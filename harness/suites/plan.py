@@ -146,7 +146,7 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
             if not a["available"]:
                 notes.append(f"engine {n} skipped: {a['reason']}")
                 continue
-            # engines.include: taken wherever installed, even where it would leave such suites (Newton on a CPU)
+            # engines.include: taken wherever installed, even where it would leave such suites (MuJoCo Warp on a CPU)
             why_not = None if n in suite.engine_include else adapter_class(n).default_suite_exclusion()
             if why_not:
                 notes.append(f"engine {n} skipped: {why_not}")

@@ -24,8 +24,8 @@ A suite is a TOML file (``harness/suites/default.toml`` and ``quick.toml`` are s
     [engines]
     names = "available"          # every installed engine but the reference, or a list of names
     exclude = ["drake"]          # with "available": engines left out even when installed (a note says so)
-    # include = ["newton"]       # with "available": engines taken wherever installed, even those that leave
-                                 # suites of every available engine on this machine (a CPU-only Newton)
+    # include = ["mujoco_warp"]  # with "available": engines taken wherever installed, even those that leave
+                                 # suites of every available engine on this machine (MuJoCo Warp without CUDA)
     variants = [{settings = "calibrated"}, {settings = "defaults"}]    # engine settings, one map each
                                  # a variant may carry its own restitution = "modified-average" (...):
                                  # its η target and its maps' label (scored like for like against
