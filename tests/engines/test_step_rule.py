@@ -42,7 +42,7 @@ def test_the_coarsest_step_that_agrees_with_the_finest_is_kept():
     dt, rec = step_rule.converged_step(eng, B3M, ETA)
     assert dt == 5e-4 and rec["converged"]
     assert [r["agrees"] for r in rec["compared"]] == [False, True]
-    assert eng.calibrations == [1e-3, 1e-4, 5e-4]        # each step calibrated once
+    assert eng.calibrations == [1e-4, 1e-3, 5e-4]        # the yardstick first, each step calibrated once
 
 
 def test_two_coarse_steps_that_agree_with_each_other_but_not_the_finest_do_not_count():
@@ -66,3 +66,19 @@ def test_no_agreement_anywhere_keeps_the_finest_step_and_says_so():
     eng = FakeEngine({1e-3: 0.70, 5e-4: 0.72, 2e-4: 0.74, 1e-4: 0.76})
     dt, rec = step_rule.converged_step(eng, B3M, ETA)
     assert dt == step_rule.STEP_LADDER_S[-1] and not rec["converged"] and len(rec["compared"]) == 3
+
+
+def test_a_finest_step_that_misses_the_target_is_no_yardstick():
+    """Drake's case: calibrated at 1, 0.5 and 0.2 ms, not at 0.1 ms; the yardstick is 0.2 ms, and the
+    coarsest step that agrees with it is kept, not the uncalibrated finest step."""
+    eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, reached={1e-4: False})
+    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    assert dt == 1e-3 and rec["converged"] and rec["yardstick_dt_s"] == 2e-4
+    assert [(r["dt_s"], r["finer_dt_s"]) for r in rec["compared"]] == [(1e-3, 2e-4)]
+
+
+def test_no_step_that_reaches_the_target_keeps_the_finest_step_and_says_so():
+    eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, reached={dt: False for dt in step_rule.STEP_LADDER_S})
+    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    assert dt == step_rule.STEP_LADDER_S[-1] and not rec["converged"] and rec["yardstick_dt_s"] is None
+    assert rec["compared"] == []
