@@ -268,7 +268,7 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     ref = spec.engine == "reference"
 
     def compute(d):
-        run_map(spec, d, jobs=jobs, serial=ref, adaptive=adaptive and not ref, plot=False, progress=False)
+        run_map(spec, d, jobs=jobs, serial=ref, adaptive=adaptive and not ref, progress=False)
         return full_grid_rows(d)
 
     if out is not None:

@@ -21,8 +21,8 @@ def _spec(n=13):
 
 
 def test_adaptive_reference_map_scores_perfect_against_the_full_one(tmp_path):
-    run_map(_spec(), tmp_path / "full", serial=True, plot=False)
-    run_map(_spec(), tmp_path / "adaptive", serial=True, adaptive=True, coarse_stride=2, plot=False)
+    run_map(_spec(), tmp_path / "full", serial=True)
+    run_map(_spec(), tmp_path / "adaptive", serial=True, adaptive=True, coarse_stride=2)
     doc = score_dirs([tmp_path / "adaptive"], against=[tmp_path / "full"])
     (p,) = doc["pairs"]
     assert p["filled_cells"] > 0  # inferred cells are counted, not called invalid

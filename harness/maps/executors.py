@@ -85,6 +85,23 @@ def cpu_count() -> int:
         return os.cpu_count() or 1
 
 
+def can_fork_helper() -> bool:
+    """Whether a helper process may be forked here and now: on a POSIX system, with at least two
+    cores to run on, from a process with no Python thread but the main one (a fork copies only the
+    calling thread: locks held by other threads would stay locked in the child) and whose numba
+    parallel runtime has not started (numba's thread pools are not fork-safe). A map's picture
+    (:class:`~rockbench.harness.report.plots.picture.MapPicture`) and the suite's preparation of the
+    engines ask."""
+    return hasattr(os, "fork") and cpu_count() >= 2 and _fork_safe()
+
+
+def _fork_safe() -> bool:
+    if threading.active_count() > 1:
+        return False
+    par = sys.modules.get("numba.np.ufunc.parallel")
+    return not getattr(par, "_is_initialized", False)
+
+
 def worker_init(engine: str, settings: dict) -> dict:
     """What a worker process needs to rebuild the adapter: engine, settings, the registry
     entries added in this process (as ``"module:Class"`` strings) and ``sys.path``."""

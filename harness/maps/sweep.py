@@ -20,12 +20,13 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError
 from ..store.run_folder import RunStore
 from . import adaptive as adaptive_mod
@@ -97,7 +98,7 @@ class MapOptions:
 def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str | None = None,
             serial: bool = False, adaptive: bool = False, coarse_stride: int | None = None,
             cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S, progress: bool | None = None,
-            plot: bool = True, log: Callable[[str], None] | None = None, executor=None,
+            picture=None, log: Callable[[str], None] | None = None, executor=None,
             figure_formats=("png",)) -> MapResult:
     """Compute a map into ``out_dir``, resuming whatever a previous run of the same spec finished.
 
@@ -124,8 +125,12 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         Wall-time limit of one cell [s]; a cell past it is recorded as failed (``timeout``).
     progress : bool, optional
         Progress bar on stderr; default: when stderr is a terminal.
-    plot : bool
-        Draw ``map.png`` at the end.
+    picture : optional
+        Draws ``map.png`` at the end: ``picture.draw(result, stem, formats, reference=...)``, with
+        the reference map of the same grid (:func:`reference_for`) to overlay, and
+        ``picture.close()`` whatever happens (a
+        :class:`~rockbench.harness.report.plots.picture.MapPicture`, made by the caller before the
+        map starts so that its helper loads matplotlib meanwhile). None draws nothing.
     figure_formats : sequence of str
         The formats of the map's picture (``png``, ``svg``, ``pdf``): ``map.png``, ``map.svg``, ...
     log : callable, optional
@@ -139,21 +144,33 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     -------
     MapResult
     """
-    from ..report.plots.picture import MapPicture
-
-    opts = MapOptions.checked(jobs=jobs, scheduler=scheduler, serial=serial, adaptive=adaptive,
-                              coarse_stride=coarse_stride, cell_timeout_s=cell_timeout_s, progress=progress,
-                              log=log)
-    # map.png's helper process loads matplotlib on another core while this one computes the map
-    picture = MapPicture() if plot else None
     try:
+        opts = MapOptions.checked(jobs=jobs, scheduler=scheduler, serial=serial, adaptive=adaptive,
+                                  coarse_stride=coarse_stride, cell_timeout_s=cell_timeout_s, progress=progress,
+                                  log=log)
         result = _compute_map(spec, Path(out_dir), opts, executor)
         if picture is not None:
-            picture.draw(result, Path(out_dir) / "map", figure_formats)
+            picture.draw(result, Path(out_dir) / "map", figure_formats, reference=reference_for(result))
         return result
     finally:
         if picture is not None:
             picture.close()
+
+
+def reference_for(result):
+    """The reference map of an engine map's case and grid, computed in memory (milliseconds per
+    thousand cells), for its picture; None for a reference map or when it cannot be computed."""
+    if result.spec.engine == "reference":
+        return None
+    try:
+        spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
+        ref = empty_result(spec)
+        cells = [(i, j) for i in range(spec.y.n) for j in range(spec.x.n)]
+        for (i, j), r in zip(cells, get_adapter("reference").run_many(spec.cases(cells))):
+            record_result(ref, i, j, r)
+        return ref
+    except Exception:  # noqa: BLE001 - a picture without the overlay is still a picture
+        return None
 
 
 def _executor_for(spec: MapSpec, out_dir: Path, opts: MapOptions, executor):
@@ -176,8 +193,6 @@ def _executor_for(spec: MapSpec, out_dir: Path, opts: MapOptions, executor):
 
 def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> MapResult:
     """:func:`run_map` without the picture: open the store, resume, sweep, fill, finish."""
-    from ...engines.registry import get_adapter
-
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
     t0 = time.perf_counter()
     executor, own = _executor_for(spec, out_dir, opts, executor)

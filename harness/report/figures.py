@@ -81,7 +81,7 @@ def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, ser
             key = f"{c.block}-{c.pulse}-{c.restitution.replace('=', '')}-{resolution}"
             if key not in done:
                 done[key] = run_map(curve_spec(c, resolution), out / "maps" / key, jobs=jobs, serial=serial,
-                                    progress=progress, plot=False)
+                                    progress=progress)
             results.append(done[key])
         drawn = plot_stability(results, [c.label() for c in curves], title=title + " (reference solver)")
         written[num] = [str(p) for p in save(drawn["ax"].figure, out / f"fig{num}", formats)]

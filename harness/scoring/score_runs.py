@@ -298,7 +298,7 @@ def at_own_eta(reference: MapEntry, candidate: MapEntry, own_eta: dict | None) -
 
 def score_experiments(entries: list[MapEntry], points) -> list[dict]:
     """Each map of a preset block scored against the experimental points of its block and pulse."""
-    from ..blocks.experiments import score_outcomes
+    from .experiments import score_outcomes
     from ..blocks.presets import PRESETS
 
     out = []

@@ -15,8 +15,7 @@ import numpy as np
 from ...reference_solver.errors import ConfigError
 from ..maps import adaptive as adaptive_mod
 from ..maps.grid import MapSpec
-from ..maps.result import MapResult, _put, empty_result
-from ..scoring.metrics import FAILED, from_cells
+from ..maps.result import FAILED, MapResult, _put, empty_result, from_cells
 from .files import COLUMNS, read_cell_table, read_json, read_run, spec_variant, variant_name
 from .frames import _FROM_CODE, rows_to_dataframe, rows_to_dataset
 

@@ -105,8 +105,7 @@ class Preparation:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        from ..maps.executors import worker_init
-        from ..report.plots.picture import can_fork_helper
+        from ..maps.executors import can_fork_helper, worker_init
 
         suite = self.suite
         try:

@@ -183,7 +183,7 @@ class _SuiteRun:
         res = self.health.guard(job.engine, lambda: run_map(
             spec, d, jobs=self.jobs, serial=job.engine == "reference",
             adaptive=suite.adaptive and job.engine != "reference", coarse_stride=suite.coarse_stride,
-            cell_timeout_s=suite.cell_timeout_s, plot=False, log=self.log, executor=ex))
+            cell_timeout_s=suite.cell_timeout_s, log=self.log, executor=ex))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
             self.unfinished.add(d)

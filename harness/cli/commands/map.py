@@ -9,6 +9,7 @@ from pathlib import Path
 from ....reference_solver.errors import ConfigError, EngineError
 from ...maps.grid import MAP_PULSES, MapSpec, parse_range
 from ...maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
+from ...report.plots.picture import MapPicture
 from ...store.atomic import check_output_dir
 from ..options import (add_block_options, add_figure_format_option, add_model_options, block_from_args,
                        dt_from_args, engine_settings_from_args, figure_formats_from_args, jobs_from_args,
@@ -94,7 +95,7 @@ def run(args) -> int:
     try:
         result = run_map(spec, args.out, jobs=jobs_from_args(args), scheduler=args.scheduler, serial=args.serial,
                          adaptive=args.adaptive, coarse_stride=args.coarse_stride, cell_timeout_s=timeout,
-                         progress=not quiet, plot=not args.no_plot, figure_formats=formats,
+                         progress=not quiet, picture=None if args.no_plot else MapPicture(), figure_formats=formats,
                          log=None if args.json else (lambda s: print(s, file=sys.stderr)))
     except EngineError as e:   # its workers could not start the engine: exit 3, the line says why
         from ...engine_info.health import EngineCannotSimulate, cannot_simulate_line

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ...blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
-from ...maps.result import MapResult, empty_result, record_result
+from ...maps.result import MapResult
 from ...scoring.labels import for_matplotlib, restitution_symbol, variant_label
 from .style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SINGLE_COLUMN_IN, SMALL_PT, SUPTITLE_PT, TITLE_PT, tint
 
@@ -826,23 +826,3 @@ def map_figure(result, *, reference=None):
     fig = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained")
     plot_map(result, reference=reference, ax=fig.add_subplot())
     return fig
-
-
-def reference_for(result):
-    """The reference map of an engine map's case and grid, computed in memory (milliseconds per
-    thousand cells), for its picture; None for a reference map or when it cannot be computed."""
-    if result.spec.engine == "reference":
-        return None
-    try:
-        from dataclasses import replace
-
-        from ....engines.registry import get_adapter
-
-        spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
-        ref = empty_result(spec)
-        cells = [(i, j) for i in range(spec.y.n) for j in range(spec.x.n)]
-        for (i, j), r in zip(cells, get_adapter("reference").run_many(spec.cases(cells))):
-            record_result(ref, i, j, r)
-        return ref
-    except Exception:  # noqa: BLE001 - a picture without the overlay is still a picture
-        return None
