@@ -123,7 +123,8 @@ class Simulation:
     def plot(self, ax=None, **kw) -> dict:
         """θ(t) with its impacts and the pulse beneath, over the span the case needs (integrated on
         past the pulse's end where the reference stopped early). Returns what was drawn."""
-        from .report.histories import impact_times, picture_span_s, trajectory_for_picture
+        from .report.histories import impact_times, picture_span_s
+        from .simulation import trajectory_for_picture
         from .report.plots.trajectories import plot_theta
 
         tr, _ = trajectory_for_picture(self.engine, self.settings, self.case, self._trajectory)

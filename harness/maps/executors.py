@@ -57,6 +57,7 @@ from ...engines import registry
 from ...engines.base import CellResult
 from ...reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
 from . import worker as wire
+from .cores import cpu_count
 
 #: Seconds to wait for a Dask scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0
@@ -76,30 +77,6 @@ _THREAD_VARS = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", 
 
 class Cancelled(Exception):
     """:meth:`ProcessExecutor.cancel` stopped a run (an interrupt, handled by whoever cancelled it)."""
-
-
-def cpu_count() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
-def can_fork_helper() -> bool:
-    """Whether a helper process may be forked here and now: on a POSIX system, with at least two
-    cores to run on, from a process with no Python thread but the main one (a fork copies only the
-    calling thread: locks held by other threads would stay locked in the child) and whose numba
-    parallel runtime has not started (numba's thread pools are not fork-safe). A map's picture
-    (:class:`~rockbench.harness.report.plots.picture.MapPicture`) and the suite's preparation of the
-    engines ask."""
-    return hasattr(os, "fork") and cpu_count() >= 2 and _fork_safe()
-
-
-def _fork_safe() -> bool:
-    if threading.active_count() > 1:
-        return False
-    par = sys.modules.get("numba.np.ufunc.parallel")
-    return not getattr(par, "_is_initialized", False)
 
 
 def worker_init(engine: str, settings: dict) -> dict:

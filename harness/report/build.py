@@ -22,11 +22,14 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...engines.base import Case
+import numpy as np
+
 from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from ...reference_solver.model import a_ratio_to_amplitude
 from ...reference_solver.pulses import make_pulse
 from ...reference_solver.restitution import Restitution
+from ..blocks.cases import FIG17, TrajectoryCase
+from ..blocks.presets import get_preset
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
 from ..scoring.metrics import PRIMARY_METRIC
 from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
@@ -34,70 +37,11 @@ from ..scoring.tables import summary
 from ..store.atomic import write_bytes_atomic
 from ..store.files import DISPLAY_UTC, map_cell_rows, utc_stamp, write_json
 from ..store.loading import MapEntry, load_entries
+from ..store.trajectories import FOLDER, case_stem, read_case
+from .histories import picture_span_s
 from .page import _html, _markdown
+from .plots.trajectories import plot_theta
 from .sections import _SPEED_METRICS
-
-
-@dataclass(frozen=True)
-class TrajectoryCase:
-    """One case whose θ(t) the report draws for the reference and every engine.
-
-    Attributes
-    ----------
-    block : str
-        A preset name.
-    pulse : str
-        ``sine``, ``cosine`` or ``half-sine``.
-    w_ratio, a_ratio : float
-        ω/p and a₀/(g·tanα) [-].
-    reference_k : tuple of float
-        Impulse positions k of the modified restitution for the reference curves [-] (besides the
-        restitution laws of the engines' maps).
-    title : str
-        Caption.
-    """
-
-    block: str
-    pulse: str
-    w_ratio: float
-    a_ratio: float
-    reference_k: tuple = ()
-    title: str = ""
-
-
-#: The paper's Fig. 17: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1 rocks with k = 0.8608 and
-#: overturns with k = 0.7595 (paper §5.2, docs/physics.md §6).
-FIG17 = TrajectoryCase("B3M", "sine", 6.0, 6.1, (0.8608, 0.7595),
-                       "Fig. 17 case: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1")
-
-def parse_case(text: str, where: str = "--case"):
-    """``BLOCK:PULSE:W_RATIO:A_RATIO`` into a TrajectoryCase (ConfigError when malformed).
-
-    ``where`` names the option or suite key the text came from, for messages. The reference
-    curves use the modified η with the block's average and exact k.
-    """
-    from ..blocks.presets import get_preset
-
-    parts = str(text).split(":")
-    if len(parts) != 4:
-        raise ConfigError(f"{where} takes BLOCK:PULSE:W_RATIO:A_RATIO, got {text!r}; e.g. B3M:sine:6:6.1.")
-    try:
-        pre = get_preset(parts[0])
-    except ConfigError as e:
-        raise ConfigError(f"{where} {text!r}: {e}") from None
-    block = pre.name
-    pulse = parts[1].strip().lower()
-    if pulse not in ("sine", "cosine", "half-sine"):
-        raise ConfigError(f"{where} pulse must be sine, cosine or half-sine, got {parts[1]!r} in {text!r}.")
-    try:
-        w, a = float(parts[2]), float(parts[3])
-    except ValueError:
-        raise ConfigError(f"{where} W_RATIO and A_RATIO must be numbers, got {text!r}.") from None
-    if not (0 < w < math.inf and 0 < a < math.inf):
-        raise ConfigError(f"{where} W_RATIO and A_RATIO must be finite numbers > 0, got {text!r}.")
-    # the reference is drawn with the block's average and exact k, as in the paper's Fig. 17
-    return TrajectoryCase(block, pulse, w, a, (pre.k_average, pre.k_exact),
-                          f"{block}, {pulse}, ω/p = {w:g}, a₀/(g·tanα) = {a:g}")
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
@@ -118,7 +62,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     cases : sequence of TrajectoryCase
         θ(t) comparisons to draw.
     trajectories : bool
-        Simulate and draw the θ(t) comparisons (needs the engines).
+        Draw the θ(t) comparisons of ``cases`` stored in ``out_dir/trajectories``
+        (:func:`~rockbench.harness.trajectories.record_trajectories` simulates and stores them).
     log : callable, optional
         Progress messages (default: stderr).
     allow_incomplete : bool or collection of Path
@@ -161,7 +106,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     pair_of = _like_pairs(sc.doc)
     variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
-    traj_imgs = _trajectory_figures(cases, cands, labels, save, log, notes) if trajectories else []
+    traj_imgs = _trajectory_figures(cases, out / FOLDER, save, notes) if trajectories else []
     speed = _speed_rows(sc.entries, sc.doc)
     ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
            "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
@@ -202,12 +147,12 @@ class _Scored:
         return cls(entries, cands, refs, doc, own_eta, notes)
 
 
-def _trajectory_figures(cases, cands, labels, save, log, notes: list) -> list:
+def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
     """``[(case, image name)]`` of the θ(t) comparisons drawn; a case that cannot be drawn is a note."""
     out = []
     for case in cases:
         try:
-            name, case_notes = _trajectory_figure(case, cands, labels, save, log)
+            name, case_notes = _trajectory_figure(case, folder, save)
             notes += case_notes
             if name:
                 out.append((case, name))
@@ -408,57 +353,25 @@ def _points_and_limit(points, block, pulse):
     return sel, st_limit_a_ratio(block)
 
 
-def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict, save, log):
-    """Simulate ``case`` with the reference (each relevant η) and every engine variant; draw θ(t)."""
-    import numpy as np
-
-    from ...engines.registry import get_adapter
-    from .histories import impact_times, picture_span_s, trajectory_for_picture
-    from .plots.trajectories import plot_theta
-    from ..blocks.presets import get_preset
-
-    notes = []
+def _trajectory_figure(case: TrajectoryCase, folder: Path, save):
+    """Draw the θ(t) curves of ``case`` that the run stored in ``folder``
+    (:func:`~rockbench.harness.trajectories.record_trajectories`); ``(image name or None, notes)``."""
+    have = read_case(folder, case)
+    if have is None:
+        return None, [f"θ(t) for {case.title or case.block}: not drawn (no θ(t) stored for it in {folder}; "
+                      f"rockbench run stores the suite's [report] cases)"]
+    hist = have["curves"]
+    if not hist:
+        return None, have["notes"]
     block = get_preset(case.block).block()
     pulse = make_pulse(case.pulse, a_ratio_to_amplitude(block, case.a_ratio), case.w_ratio * block.p_rad_s)
-    runs = [("reference", {}, Restitution("modified", k=k)) for k in case.reference_k]
-    variants = {}
-    for e in cands:
-        settings = dict((e.run.get("spec") or {}).get("engine_settings") or {})
-        variants.setdefault((e.variant, e.restitution), (e.engine, settings, e))
-    for (variant, rest_label), (engine, settings, e) in sorted(variants.items()):
-        rest = _restitution_from_label(rest_label)
-        if rest is None:
-            notes.append(f"θ(t): restitution {rest_label!r} of {variant} not understood; skipped")
-            continue
-        if not any(r[0] == "reference" and r[2] == rest for r in runs):
-            runs.append(("reference", {}, rest))
-        runs.append((variant, (engine, settings), rest))
-    hist, ends, overturns = [], [], []
-    for name, how, rest in runs:
-        engine, settings = ("reference", {}) if name == "reference" else how
-        law = f"{restitution_symbol(rest.label, case.block)} = {rest.eta(block.alpha_rad):.4f}"
-        label = f"reference, {law}" if name == "reference" else labels.get(name, name)
-        try:
-            log(f"θ(t): {label}")
-            c = Case(block, pulse, rest)
-            tr, mode = trajectory_for_picture(engine, settings, c)
-            judge = get_adapter(engine, **({**settings, "mode": mode} if mode else settings))
-            res = judge.judge(c, tr)
-            if name != "reference":
-                ends.append(float(np.asarray(tr.t_s)[-1]))
-            if res.outcome == "overturn" and res.t_overturn_s is not None:
-                overturns.append(res.t_overturn_s)
-            hist.append({"label": f"{label}: {res.outcome or 'failed'}", "t_s": tr.t_s, "theta_rad": tr.theta_rad,
-                         "impacts_s": impact_times(tr), "reference": name == "reference", "outcome": res.outcome})
-        except Exception as ex:  # noqa: BLE001 - one engine failing must not sink the report
-            notes.append(f"θ(t) {label}: {type(ex).__name__}: {ex}")
-    if not hist:
-        return None, notes
+    ends = [float(np.asarray(h["t_s"])[-1]) for h in hist if not h["reference"]]
+    overturns = [h["t_overturn_s"] for h in hist if h["t_overturn_s"] is not None]
     # every engine curve runs to its own decision; the references are drawn over the same span
     span = picture_span_s(pulse, max(overturns) if overturns else None)
     t_end = max([span] + ends)
     drawn = plot_theta(hist, alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=t_end, title=case.title)
-    return save(drawn["figure"], f"theta_{_slug(case.block)}_{_slug(case.pulse)}_{case.w_ratio:g}_{case.a_ratio:g}.png"), notes
+    return save(drawn["figure"], f"{case_stem(case)}.png"), have["notes"]
 
 
 def _restitution_from_label(label: str):

@@ -67,11 +67,16 @@ def _pct(x, why: str) -> str:
     return _num(None if x is None else 100 * x, "+.2f", why=why) + (" %" if x is not None and math.isfinite(x) else "")
 
 
+def _tolerance(uplift: dict) -> str:
+    """The static uplift's tolerance as the calibration recorded it (a record made before it was
+    recorded says so in words)."""
+    rtol = uplift.get("rtol")
+    return f"{100 * rtol:g} %" if rtol is not None else "its tolerance"
+
+
 def _price_table(rows, labels):
     """Per engine variant and block with a measured contact price (issue 18): reached or not, the
     contact, and what it costs."""
-    from ...engines.price import UPLIFT_RTOL
-
     head = ["engine variant", "block", "target", "η measured", "reached", "contact", "static uplift / g·tanα",
             "slip / jump cells", "quarter period vs rigid", "steps/s"]
     body = []
@@ -84,7 +89,7 @@ def _price_table(rows, labels):
         counts = pr.get("counts")
         body.append([labels.get(r["variant"], r["variant"]), r["block"], restitution_symbol(r["restitution"], r["block"]),
                      _num(r["eta_measured"]), "yes" if r.get("reached") and counts else "no", r["contact"],
-                     _num(ratio) + ("" if up.get("within") else f" (outside {100 * UPLIFT_RTOL:g} %)"),
+                     _num(ratio) + ("" if up.get("within") else f" (outside {_tolerance(up)})"),
                      f"{sl.get('n_slip', '–')} / {sl.get('n_jump', '–')} of {sl.get('cells', '–')}",
                      (_num(100 * pr["period_change"], "+.2f") + " %") if pr.get("period_change") is not None else "–",
                      f"{pr['steps_per_s']:.3g}" if pr.get("steps_per_s") else "–"])

@@ -25,6 +25,7 @@ from pydantic_core import PydanticCustomError
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.pulses import is_number
 from ...reference_solver.restitution import Restitution
+from ..blocks.cases import parse_case
 from ..blocks.presets import PRESETS, get_preset
 from ..maps.grid import MapSpec, parse_range
 
@@ -178,8 +179,6 @@ def _variants(v):
 
 
 def _report_case(v):
-    from ..report.build import parse_case   # the report's own reader of BLOCK:PULSE:W_RATIO:A_RATIO
-
     for c in v:
         try:
             parse_case(c, "report.cases")

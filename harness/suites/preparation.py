@@ -105,7 +105,8 @@ class Preparation:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        from ..maps.executors import can_fork_helper, worker_init
+        from ..maps.cores import can_fork_helper
+        from ..maps.executors import worker_init
 
         suite = self.suite
         try:

@@ -56,6 +56,7 @@ from pathlib import Path
 
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.pulses import make_pulse
+from ..blocks.cases import parse_case
 from ..blocks.experiments import load_outcomes
 from ..blocks.presets import get_preset
 from ..engine_info.health import EngineHealth
@@ -64,6 +65,7 @@ from ..maps.grid import MapSpec, parse_range
 from ..maps.sweep import run_map
 from ..store.atomic import check_output_dir
 from ..store.files import write_json
+from ..trajectories import record_for_report
 from .lanes import ReferenceThread, run_lanes
 from .model import Suite
 from .plan import check_suite, engine_names, own_eta_jobs, plan
@@ -77,8 +79,9 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
     and summary table (``result["summary"]``); the ``unfinished`` maps (of an engine that cannot
     simulate) are scored as incomplete instead of refused."""
     if report:
-        from ..report.build import build_report, parse_case
+        from ..report.build import build_report
         cases = tuple(parse_case(c) for c in suite.report_cases)
+        record_for_report(cases, [out / "maps"], out, log=log)
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
                            figure_formats=figure_formats, allow_incomplete=unfinished)
         result["score"] = rep["doc"]

@@ -30,7 +30,9 @@ def register(sub) -> None:
 def run(args) -> int:
     from ...store.atomic import check_output_dir
     from ..options import figure_formats_from_args
-    from ...report.build import FIG17, build_report, parse_case
+    from ...blocks.cases import FIG17, parse_case
+    from ...report.build import build_report
+    from ...trajectories import record_for_report
 
     cases = tuple(parse_case(c) for c in args.case) or (FIG17,)
     formats = figure_formats_from_args(args)
@@ -39,6 +41,8 @@ def run(args) -> int:
     if args.experiments:
         from ...blocks.experiments import load_outcomes
         points = load_outcomes(args.experiments)
+    if not args.no_trajectories:
+        record_for_report(cases, args.run_dirs, args.out, against=args.against or None)
     res = build_report(args.run_dirs, args.out, against=args.against or None, experiments=points, cases=cases,
                        trajectories=not args.no_trajectories, allow_incomplete=args.allow_incomplete,
                        figure_formats=formats)

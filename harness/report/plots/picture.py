@@ -23,7 +23,7 @@ import pickle
 import time
 from pathlib import Path
 
-from ...maps.executors import can_fork_helper
+from ...maps.cores import can_fork_helper
 from . import stability
 
 #: Seconds the helper may take to draw once it has the map, before it is stopped and the picture
