@@ -1,16 +1,15 @@
 """The Python API for notebooks, re-exported as ``rockbench.simulate``, ``rockbench.stability_map``
 and ``rockbench.load_run`` (issue 14).
 
-Cases are described with the command line's words as keywords (``w_ratio=6`` for ``--w-ratio 6``)
-and checked by the same code, so the API and the CLI cannot drift apart; error messages name the
-keyword. Results are plain arrays (:class:`Simulation`), labelled grids (``xarray.Dataset``) or
+Cases are described with the command line's words as keywords (``w_ratio=6`` for ``--w-ratio 6``):
+both fill one :class:`~rockbench.harness.request.CaseRequest` and are checked by its code, so the API
+and the CLI cannot drift apart; error messages name the keyword. Results are plain arrays (:class:`Simulation`), labelled grids (``xarray.Dataset``) or
 tidy tables with categorical outcomes (``pandas.DataFrame``); pandas and xarray come with
 ``pip install 'rockbench[notebook]'``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import tempfile
@@ -20,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..reference_solver.errors import ConfigError
+from .request import CaseRequest
 from .store.loading import MapEntry as RunMap   # one map of a Run: the same record the scores read
 
 __all__ = ["simulate", "stability_map", "load_run", "Simulation", "Run", "RunMap"]
@@ -30,20 +30,22 @@ def _keywords(message: str) -> str:
     return re.sub(r"--([a-z][a-z0-9-]*)", lambda m: m.group(1).replace("-", "_") + "=", message)
 
 
-def _namespace(block, *, width=None, height=None, depth=None, density=None, restitution="housner", k=None,
-               pulse="sine", w_ratio=None, omega=None, period=None, a_ratio=None, amplitude=None, amplitude_g=None,
-               engine="reference", dt=None, linearized=False, settings=None, drive=None, friction=None,
-               **engine_settings) -> argparse.Namespace:
+def _request(block, *, width=None, height=None, depth=None, density=None, restitution="housner", k=None,
+             pulse="sine", w_ratio=None, omega=None, period=None, a_ratio=None, amplitude=None, amplitude_g=None,
+             engine="reference", dt=None, linearized=False, settings=None, drive=None, friction=None,
+             **engine_settings) -> CaseRequest:
+    """The :class:`CaseRequest` of the API's keywords: any keyword the command line has no option for is
+    an engine setting (as ``--set KEY=VALUE``)."""
     if block is not None and not isinstance(block, str):
         raise ConfigError(f"block must be a preset name (B3M, B6M, B3L, B6L), got {block!r}; for a custom block "
                           "give width= and height= [m].")
-    return argparse.Namespace(
+    return CaseRequest(
         block=block, width=width, height=height, depth=depth, density=density, restitution=str(restitution),
         k=None if k is None else str(k), pulse=str(pulse), w_ratio=w_ratio, omega=omega, period=period,
         a_ratio=a_ratio, amplitude=amplitude, amplitude_g=amplitude_g, engine=str(engine),
         dt=None if dt is None else str(dt), linearized=bool(linearized), settings=settings, drive=drive,
         friction=None if friction is None else str(friction),
-        set=[f"{key}={json.dumps(v) if isinstance(v, (list, tuple)) else v}" for key, v in engine_settings.items()])
+        set=tuple(f"{key}={json.dumps(v) if isinstance(v, (list, tuple)) else v}" for key, v in engine_settings.items()))
 
 
 def _checked(fn, *args, **kw):
@@ -177,13 +179,12 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
     """
     from ..engines.registry import get_adapter
     from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
-    from .cli.options import case_from_args, engine_settings_from_args
     from .simulation import run_case
 
-    ns = _checked(_namespace, block, **case)
-    c, _ = _checked(case_from_args, ns)
-    settings = _checked(engine_settings_from_args, ns)
-    adapter = _checked(get_adapter, ns.engine, **settings)
+    request = _checked(_request, block, **case)
+    c, _ = _checked(request.case)
+    settings = _checked(request.engine_settings)
+    adapter = _checked(get_adapter, request.engine, **settings)
     tr, res = run_case(adapter, c)
     from .report.histories import impact_times
     empty = np.zeros(0)
@@ -243,10 +244,9 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     -------
     xarray.Dataset or pandas.DataFrame
     """
-    from .cli.options import block_from_args, dt_from_args, engine_settings_from_args, restitution_from_args
     from .store.frames import rows_to_dataframe, rows_to_dataset
     from .store.loading import full_grid_rows
-    from .maps.grid import MAP_PULSES, MapSpec
+    from .maps.grid import MAP_PULSES
     from .maps.sweep import run_map
 
     if output not in ("dataset", "dataframe"):
@@ -257,15 +257,12 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     bad = sorted(set(case) & {"w_ratio", "a_ratio", "omega", "period", "amplitude", "amplitude_g"})
     if bad:
         raise ConfigError(f"a map takes its axes as w_ratio=(LO, HI, N) and a_ratio=(LO, HI, N), not {bad[0]}=.")
-    ns = _checked(_namespace, block, **case)
-    kind = ns.pulse.strip().lower()
+    request = _checked(_request, block, **case)
+    kind = request.pulse.strip().lower()
     if kind not in MAP_PULSES:
-        raise ConfigError(f"a map needs a harmonic pulse ({', '.join(MAP_PULSES)}), got pulse={ns.pulse!r}.")
-    b, preset = _checked(block_from_args, ns)
-    spec = _checked(MapSpec, b, kind, _checked(restitution_from_args, ns, preset),
-                    _checked(_axis, "w_ratio", "w_ratio", w_ratio), _checked(_axis, "a_ratio", "a_ratio", a_ratio),
-                    engine=ns.engine, engine_settings=_checked(engine_settings_from_args, ns),
-                    dt_s=_checked(dt_from_args, ns), linearized=ns.linearized)
+        raise ConfigError(f"a map needs a harmonic pulse ({', '.join(MAP_PULSES)}), got pulse={request.pulse!r}.")
+    spec = _checked(request.map_spec, kind, lambda: (_axis("w_ratio", "w_ratio", w_ratio),
+                                                    _axis("a_ratio", "a_ratio", a_ratio)))
     ref = spec.engine == "reference"
 
     def compute(d):

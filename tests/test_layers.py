@@ -28,15 +28,16 @@ LAYERS = [
     ("one adapter per engine behind one contract", ["rockbench.engines"]),
     ("block presets, experimental data and facts about the installed engines",
      ["rockbench.harness.blocks", "rockbench.harness.engine_info"]),
-    ("maps: grids, cells, executors, and the run folders they are stored in",
-     ["rockbench.harness.maps", "rockbench.harness.store"]),
+    ("maps: the case or map a user asks for, grids, cells, executors, and the run folders they are stored in",
+     ["rockbench.harness.request", "rockbench.harness.maps", "rockbench.harness.store"]),
     ("scores of stored maps", ["rockbench.harness.scoring"]),
     ("suite files: what a benchmark run computes, and computing its maps", ["rockbench.harness.suites"]),
     ("the report: pages and pictures of what runs stored", ["rockbench.harness.report"]),
-    ("front doors: the command line, the notebook API, one simulated case, a suite's whole job "
-     "(maps, scores, report) and the paper's figures",
+    ("front doors: the command line, the notebook API, one simulated case, the θ(t) curves a run stores, "
+     "a suite's whole job (maps, scores, report) and the paper's figures",
      ["rockbench", "rockbench.harness", "rockbench.harness.cli", "rockbench.harness.api",
-      "rockbench.harness.simulation", "rockbench.harness.suites.runner", "rockbench.harness.figures"]),
+      "rockbench.harness.simulation", "rockbench.harness.trajectories", "rockbench.harness.suites.runner",
+      "rockbench.harness.figures"]),
 ]
 
 #: Modules the report may not import: the report draws what runs stored and simulates nothing.

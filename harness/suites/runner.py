@@ -44,7 +44,8 @@ A suite is a TOML file (``harness/suites/default.toml`` and ``quick.toml`` are s
 
 Layout of the output directory: ``OUT/maps/<engine variant>/<block>-<pulse>-<restitution>/`` (one
 ``rockbench map`` run directory each, resumable), ``OUT/score.json``, ``OUT/index.html``,
-``OUT/report.md``, ``OUT/img/``, ``OUT/suite.json`` (the suite as run, and the timings).
+``OUT/report.md``, ``OUT/img/``, ``OUT/trajectories/`` (the θ(t) curves of the report's cases, which the
+report draws), ``OUT/suite.json`` (the suite as run, and the timings).
 """
 
 from __future__ import annotations

@@ -11,9 +11,8 @@ from ...maps.grid import MAP_PULSES, MapSpec, parse_range
 from ...maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
 from ...report.plots.picture import MapPicture
 from ...store.atomic import check_output_dir
-from ..options import (add_block_options, add_figure_format_option, add_model_options, block_from_args,
-                       dt_from_args, engine_settings_from_args, figure_formats_from_args, jobs_from_args,
-                       restitution_from_args)
+from ...request import CaseRequest
+from ..options import add_block_options, add_figure_format_option, add_model_options, figure_formats_from_args, jobs_from_args
 
 
 def register(sub) -> None:
@@ -70,15 +69,17 @@ def spec_from_args(args) -> MapSpec:
             raise ConfigError(f"a map sweeps frequency and amplitude, so its pulse must be harmonic "
                               f"({', '.join(MAP_PULSES)}); got the record {args.pulse!r}: use `rockbench simulate`.")
         raise ConfigError(f"--pulse must be one of {', '.join(MAP_PULSES)} for a map, got {args.pulse!r}.")
-    block, preset = block_from_args(args)
-    rest = restitution_from_args(args, preset)
+    return CaseRequest.from_args(args).map_spec(kind, lambda: _axes(args))
+
+
+def _axes(args):
+    """The frequency and amplitude axes the options give."""
     xn, xt = _pick(args, ["w_ratio", "omega"], "frequency")
     yn, yt = _pick(args, ["a_ratio", "amplitude", "amplitude_g"], "amplitude")
     x = parse_range("--" + xn.replace("_", "-"), xt, {"w_ratio": "w_ratio", "omega": "omega_rad_s"}[xn])
     y = parse_range("--" + yn.replace("_", "-"), yt,
                     {"a_ratio": "a_ratio", "amplitude": "amplitude_mps2", "amplitude_g": "amplitude_g"}[yn])
-    return MapSpec(block, kind, rest, x, y, engine=args.engine, engine_settings=engine_settings_from_args(args),
-                   dt_s=dt_from_args(args), linearized=bool(args.linearized))
+    return x, y
 
 
 def run(args) -> int:
