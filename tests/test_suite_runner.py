@@ -16,8 +16,8 @@ def test_shipped_suites_parse_and_plan():
     d = load_suite(suite_path(None, quick=False))
     q = load_suite(suite_path(None, quick=True))
     assert d.name == "default" and q.name == "quick"
-    assert d.blocks == ["B3M", "B6M", "B3L", "B6L"] and d.pulses == ["sine", "cosine"]
-    assert q.blocks == ["B3M", "B6L"]  # one block per slenderness
+    assert d.cases.blocks == ["B3M", "B6M", "B3L", "B6L"] and d.cases.pulses == ["sine", "cosine"]
+    assert q.cases.blocks == ["B3M", "B6L"]  # one block per slenderness
     jobs = plan(d, ["mujoco", "pybullet"])
     refs = [j for j in jobs if j.engine == "reference"]
     assert len(refs) == 4 * 2 * 3  # blocks × pulses × (Housner, modified average k, modified exact k)

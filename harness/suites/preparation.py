@@ -70,13 +70,13 @@ class Preparation:
 
         self.t0 = time.perf_counter()
         self.suite, self.out = suite, out
-        self.own_eta = suite.own_eta if own_eta is None else own_eta
+        self.own_eta = suite.engines.own_eta if own_eta is None else own_eta
         self.path = out / CALIBRATION_FILE
         self.old = {(r["variant"], r["block"]): r
                     for r in (read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
         self.tasks = []
         for engine, variant, block in variant_blocks(suite, engines):
-            vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
+            vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)
             cached = (vname, block) in self.old and self.old[(vname, block)].get("eta_measured") is not None
             # a variant with its own restitution is scored against that restitution's reference
             # maps; its own-η map (d) would measure the Housner calibration, so it has none
@@ -89,7 +89,7 @@ class Preparation:
         for k in self.todo:
             engine, variant, block, measure = self.tasks[k]
             if measure:
-                log(f"measuring η of {variant_name(engine, variant_settings(variant), suite.engine_dt_s)} on {block} (free rocking)")
+                log(f"measuring η of {variant_name(engine, variant_settings(variant), suite.engines.dt_s)} on {block} (free rocking)")
         self.pool, self.futs = None, {}
         if workers > 1 and len(self.todo) > 1:
             self._start_helpers(workers)
@@ -119,7 +119,7 @@ class Preparation:
             for k in self.todo:
                 engine, variant, block, measure = self.tasks[k]
                 self.futs[k] = self.pool.submit(_prepare_one, engine, variant, block, variant_restitution(suite, variant),
-                                                suite.engine_dt_s, measure)
+                                                suite.engines.dt_s, measure)
         except (OSError, RuntimeError, ValueError):
             self._stop()
 
@@ -144,12 +144,12 @@ class Preparation:
         for k in self.todo:   # here: one worker, or what the helpers could not do
             if k not in self.results:
                 engine, variant, block, measure = self.tasks[k]
-                self.results[k] = _prepare_one(engine, variant, block, variant_restitution(suite, variant), suite.engine_dt_s,
+                self.results[k] = _prepare_one(engine, variant, block, variant_restitution(suite, variant), suite.engines.dt_s,
                                                measure)
         rows, notes = [], []
         if self.own_eta:
             for k, (engine, variant, block, measure) in enumerate(self.tasks):
-                vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
+                vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)
                 if "restitution" in variant:
                     continue      # no own-η map for a variant with its own restitution (see above)
                 if not measure:

@@ -81,7 +81,7 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
     simulate) are scored as incomplete instead of refused."""
     if report:
         from ..report.build import build_report
-        cases = tuple(parse_case(c) for c in suite.report_cases)
+        cases = tuple(parse_case(c) for c in suite.report.cases)
         record_for_report(cases, [out / "maps"], out, log=log)
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
                            figure_formats=figure_formats, allow_incomplete=unfinished)
@@ -150,9 +150,9 @@ class _SuiteRun:
 
     def __init__(self, suite: Suite, out: Path, jobs: int | None, log, engines: list[str] | None):
         self.suite, self.out, self.jobs, self.log = suite, out, jobs, log
-        self.x = parse_range("grid.w_ratio", suite.w_ratio, "w_ratio")
-        self.y = parse_range("grid.a_ratio", suite.a_ratio, "a_ratio")
-        explicit = engines is not None or suite.engine_names != "available"
+        self.x = parse_range("grid.w_ratio", suite.grid.w_ratio, "w_ratio")
+        self.y = parse_range("grid.a_ratio", suite.grid.a_ratio, "a_ratio")
+        explicit = engines is not None or suite.engines.names != "available"
         engines, self.notes = engine_names(suite, engines)
         self.engines, more = check_suite(suite, engines, explicit)
         self.notes += more
@@ -167,7 +167,7 @@ class _SuiteRun:
         # the helpers start now and work while this process computes the reference maps
         self.prep = Preparation(suite, self.engines, out, log, workers=self.workers) if self.engines else None
         # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
-        self.own_planned = self.prep.own_eta_slots() * len(suite.pulses) if self.prep is not None else 0
+        self.own_planned = self.prep.own_eta_slots() * len(suite.cases.pulses) if self.prep is not None else 0
         self.console = SuiteConsole(len(self.todo) + self.own_planned, log)
         say_device_notes(self.engines, self.console)
         self.health = EngineHealth()
@@ -186,8 +186,8 @@ class _SuiteRun:
         # an engine that cannot simulate is stopped after its first map (EngineHealth.guard)
         res = self.health.guard(job.engine, lambda: run_map(
             spec, d, jobs=self.jobs, serial=job.engine == "reference",
-            adaptive=suite.adaptive and job.engine != "reference", coarse_stride=suite.coarse_stride,
-            cell_timeout_s=suite.cell_timeout_s, log=self.log, executor=ex))
+            adaptive=suite.grid.adaptive and job.engine != "reference", coarse_stride=suite.grid.coarse_stride,
+            cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
             self.unfinished.add(d)
@@ -231,7 +231,7 @@ class _SuiteRun:
         at each variant's measured η."""
         etas, more, _ = self.prep.finish()
         self.notes += more
-        if self.suite.own_eta:
+        if self.suite.engines.own_eta:
             extra = own_eta_jobs(self.suite, etas)
             self.console.not_needed(self.own_planned - len(extra), "variants with the same measured η on a block "
                                     "share one reference map, and a failed η measurement has none")
@@ -247,8 +247,8 @@ class _SuiteRun:
         result = {"suite": suite.name, "maps": done, "maps_wall_s": time.perf_counter() - self.t0,
                   "notes": list(dict.fromkeys(self.notes)), "score": None, "report": None, "summary": "",
                   "cannot_simulate": health.broken_lines(), "failed_cells": health.failure_lines()}
-        if experiments is None and suite.experiments:
-            experiments = load_outcomes(suite.experiments)
+        if experiments is None and suite.report.experiments:
+            experiments = load_outcomes(suite.report.experiments)
         t2 = time.perf_counter()
         _score_and_report(suite, self.out, result, experiments, report, figure_formats, self.log, self.unfinished)
         result["report_wall_s"] = time.perf_counter() - t2

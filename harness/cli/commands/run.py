@@ -62,7 +62,7 @@ def run(args) -> int:
     out = Path(args.out) if args.out else Path("rockbench-results") / suite.name
     if args.plan:
         engines, notes = engine_names(suite, only)
-        engines, more = check_suite(suite, engines, only is not None or suite.engine_names != "available")
+        engines, more = check_suite(suite, engines, only is not None or suite.engines.names != "available")
         notes += more
         for n in notes:
             print(f"rockbench: {n}", file=sys.stderr)
