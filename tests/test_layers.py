@@ -114,6 +114,25 @@ def test_report_simulates_nothing():
     assert not found, "the report reads what runs stored; these imports simulate:\n" + "\n".join(found)
 
 
+def _is_module(dotted: str) -> bool:
+    """Whether a dotted name is one of the project's modules or packages (not a name inside one)."""
+    for pkg, folder in sorted(FOLDERS.items(), key=lambda kv: -len(kv[0])):
+        if dotted == pkg or dotted.startswith(pkg + "."):
+            base = ROOT / folder / Path(*dotted[len(pkg) + 1:].split(".")) if dotted != pkg else ROOT / folder
+            return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
+    return False
+
+
+def test_no_private_name_crosses_a_module():
+    """A name with a leading underscore stays in its module: one that another module needs is public
+    (or lives where it is needed). A package's private module (``engines/_mujoco_warp_kernels.py``) is
+    its siblings' to import."""
+    found = [f"{path.relative_to(ROOT)}:{line}: imports {target}" for path, line, mod, target in _all_imports()
+             if target.rsplit(".", 1)[-1].startswith("_") and not target.endswith("__")
+             and not _is_module(target)]
+    assert not found, "private names imported across modules:\n" + "\n".join(found)
+
+
 @pytest.mark.parametrize("source, target, floor_ok", [
     ("rockbench.harness.maps.sweep", "rockbench.harness.report.plots.picture.MapPicture", False),
     ("rockbench.harness.report.build", "rockbench.harness.maps.grid.MapSpec", True),

@@ -188,7 +188,7 @@ def test_report_without_stored_trajectories_says_so(write_map, band, tmp_path):
 
 def test_price_table_shows_reach_contact_and_cost():
     """Issue 18: a calibration with a measured price gets a row: reached only if the price counts."""
-    from rockbench.harness.report.sections import _price_table
+    from rockbench.harness.report.sections import price_table
 
     price = {"uplift": {"ratio": 0.986, "within": True}, "anti_slip": {"n_slip": 0, "n_jump": 1, "cells": 27},
              "period_change": -0.0051, "steps_per_s": 4.0e4, "counts": True}
@@ -200,10 +200,10 @@ def test_price_table_shows_reach_contact_and_cost():
             {"variant": "pybullet[contact=distributed,settings=calibrated]", "block": "B3L",
              "restitution": "modified(k=0.7306)", "eta_measured": 0.8596, "reached": False, "contact": "5 points along the base",
              "price": {**price, "uplift": {"ratio": 0.9, "within": False, "rtol": 0.02}, "counts": False}}]
-    head, body = _price_table(rows, {})
+    head, body = price_table(rows, {})
     assert len(body) == 2 and "static uplift / g·tanα" in head
     assert body[0][4] == "yes" and body[0][5] == "9 points along the base" and body[0][6] == "0.9860"
     assert body[0][7] == "0 / 1 of 27" and body[0][8] == "-0.51 %"
     assert body[1][4] == "no" and "outside 2 %" in body[1][6]   # the tolerance the calibration recorded
     rows[2]["price"]["uplift"].pop("rtol")
-    assert "outside its tolerance" in _price_table(rows, {})[1][1][6]   # a record made before it was recorded
+    assert "outside its tolerance" in price_table(rows, {})[1][1][6]   # a record made before it was recorded

@@ -230,7 +230,7 @@ def record_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
     return code
 
 
-def _put_columns(result: MapResult, ii: np.ndarray, jj: np.ndarray, cols) -> None:
+def put_columns(result: MapResult, ii: np.ndarray, jj: np.ndarray, cols) -> None:
     """Record fresh successful cells ``(ii[k], jj[k])`` from a CellColumns in the grids."""
     result.outcome[ii, jj] = cols.outcome
     result.simulated[ii, jj] = True
@@ -241,7 +241,7 @@ def _put_columns(result: MapResult, ii: np.ndarray, jj: np.ndarray, cols) -> Non
     result.left_model[ii, jj] = (cols.flag_bits & left) != 0
 
 
-def _put(result: MapResult, i: int, j: int, row: dict) -> None:
+def put_row(result: MapResult, i: int, j: int, row: dict) -> None:
     ok = row["status"] == "ok" and row["outcome"] not in ("", None)
     result.outcome[i, j] = OUTCOME_CODES[Outcome(row["outcome"])] if ok else FAILED
     result.simulated[i, j] = True

@@ -32,7 +32,7 @@ from ..store.run_folder import RunStore
 from . import adaptive as adaptive_mod
 from .adaptive import DEFAULT_STRIDE
 from .grid import MAP_PULSES, MapSpec
-from .result import MapResult, _put, _put_columns, empty_result, record_result
+from .result import MapResult, put_row, put_columns, empty_result, record_result
 
 
 #: Cells solved and written at a time by the columnar path (an adapter's ``run_grid`` in this
@@ -235,7 +235,7 @@ class _Sweep:
         self.result = empty_result(spec)
         self.result.adaptive, self.result.coarse_stride = opts.adaptive, opts.stride
         for (i, j), row in done.items():
-            _put(self.result, i, j, row)
+            put_row(self.result, i, j, row)
         self.result.n_resumed = len(done)
         # what adaptive neighbours compare
         self.key = adaptive_mod.regime_key(self.result.outcome, self.result.n_impacts)
@@ -277,7 +277,7 @@ class _Sweep:
         except Exception:  # noqa: BLE001 - the per-case path records each cell's failure
             self.evaluate_cases(list(zip(a.tolist(), b.tolist())))
             return
-        _put_columns(self.result, a, b, cols)
+        put_columns(self.result, a, b, cols)
         self.key[a, b] = adaptive_mod.regime_key(cols.outcome, cols.n_impacts)
         with threads:
             self.store.append_columns(spec, a, b, cols)

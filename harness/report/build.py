@@ -39,9 +39,9 @@ from ..store.files import DISPLAY_UTC, map_cell_rows, utc_stamp, write_json
 from ..store.loading import MapEntry, load_entries
 from ..store.trajectories import FOLDER, case_stem, read_case
 from .histories import picture_span_s
-from .page import _html, _markdown
+from .page import html_page, markdown_page
 from .plots.trajectories import plot_theta
-from .sections import _SPEED_METRICS
+from .sections import SPEED_METRICS
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
@@ -112,7 +112,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
            "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
            "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
            "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
-    paths = _write_report(out, images, sc.doc, _markdown(ctx), _html(ctx, images))
+    paths = _write_report(out, images, sc.doc, markdown_page(ctx), html_page(ctx, images))
     log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
     return {**paths, "doc": sc.doc, "notes": notes}
 
@@ -245,7 +245,7 @@ def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experim
 
 
 def _panel_note(sc: dict) -> str:
-    """The scores under a panel's title in words (:data:`_READ_GRAPHS` explains them): the share of
+    """The scores under a panel's title in words (:data:`READ_GRAPHS` explains them): the share of
     cells with the reference's outcome, the boundary distance in the chart's own normalised units,
     and the share of the cells outside the rigid model's domain that the engine flags."""
     def num(m, f):
@@ -453,7 +453,7 @@ def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
         ws = per.get(v, [])
         ms = 1e3 * sum(ws) / len(ws) if ws else math.nan
         rows.append({"variant": v, "cells": len(ws), "ms_per_cell": ms,
-                     **{m: acc.get(v, {}).get(m, math.nan) for m in _SPEED_METRICS}})
+                     **{m: acc.get(v, {}).get(m, math.nan) for m in SPEED_METRICS}})
     return rows
 
 

@@ -32,7 +32,7 @@ from ...reference_solver.errors import ConfigError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from .files import (COLUMNS, NEW_OUT, SCHEMA_VERSION, check_map_schema, read_cells_file, read_json, spec_variant,
                     utc_stamp, write_json)
-from .lines import _fmt, plain_row
+from .lines import exact_text, plain_row
 
 
 #: what a map directory may hold before its run.json exists: the lock, and the scratch space of a
@@ -261,7 +261,7 @@ class RunStore:
         w = csv.writer(buf, lineterminator="\n")
         lines = []
         for r in rows:
-            fields = [_fmt(r[c]) for c in COLUMNS]
+            fields = [exact_text(r[c]) for c in COLUMNS]
             if r["message"] or any(("," in f or '"' in f) for f in fields[:5]):
                 w.writerow(fields)          # needs csv quoting
                 lines.append(buf.getvalue())
@@ -270,7 +270,7 @@ class RunStore:
             else:
                 lines.append(",".join(fields) + "\n")
             if r["status"] != "ok":
-                self._failures.append({k: _fmt(v) for k, v in r.items()})
+                self._failures.append({k: exact_text(v) for k, v in r.items()})
         # one write per row batch; each row ends with its newline, so a kill leaves whole rows
         # plus at most one torn line, which the next open cuts off
         self._write(_prefix + "".join(lines))
