@@ -3,9 +3,9 @@ and ``rockbench.load_run`` (issue 14).
 
 Cases are described with the command line's words as keywords (``w_ratio=6`` for ``--w-ratio 6``):
 both fill one :class:`~rockbench.harness.request.CaseRequest` and are checked by its code, so the API
-and the CLI cannot drift apart; error messages name the keyword. Results are plain arrays (:class:`Simulation`), labelled grids (``xarray.Dataset``) or
-tidy tables with categorical outcomes (``pandas.DataFrame``); pandas and xarray come with
-``pip install 'rockbench[notebook]'``.
+and the CLI cannot drift apart; error messages name the keyword. Results are plain arrays
+(:class:`Simulation`), labelled grids (``xarray.Dataset``) or tidy tables with categorical outcomes
+(``pandas.DataFrame``); pandas and xarray come with ``pip install 'rockbench[notebook]'``.
 """
 
 from __future__ import annotations
@@ -18,9 +18,20 @@ from pathlib import Path
 
 import numpy as np
 
+from ..engines.registry import get_adapter
 from ..reference_solver.errors import ConfigError
+from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from .maps.grid import MAP_PULSES, make_axis, parse_range
+from .maps.sweep import run_map
+from .report.histories import impact_times, picture_span_s
+from .report.plots.trajectories import plot_theta
 from .request import CaseRequest
-from .store.loading import MapEntry as RunMap   # one map of a Run: the same record the scores read
+from .scoring.metrics import METRICS
+from .scoring.score_runs import load_score
+from .scoring.tables import ranked_summary, summary
+from .simulation import run_case, trajectory_for_picture
+from .store.frames import need, rows_to_dataframe, rows_to_dataset
+from .store.loading import MapEntry as RunMap, full_grid_rows, load_entries
 
 __all__ = ["simulate", "stability_map", "load_run", "Simulation", "Run", "RunMap"]
 
@@ -45,7 +56,8 @@ def _request(block, *, width=None, height=None, depth=None, density=None, restit
         a_ratio=a_ratio, amplitude=amplitude, amplitude_g=amplitude_g, engine=str(engine),
         dt=None if dt is None else str(dt), linearized=bool(linearized), settings=settings, drive=drive,
         friction=None if friction is None else str(friction),
-        set=tuple(f"{key}={json.dumps(v) if isinstance(v, (list, tuple)) else v}" for key, v in engine_settings.items()))
+        set=tuple(f"{key}={json.dumps(v) if isinstance(v, (list, tuple)) else v}"
+                  for key, v in engine_settings.items()))
 
 
 def _checked(fn, *args, **kw):
@@ -125,10 +137,6 @@ class Simulation:
     def plot(self, ax=None, **kw) -> dict:
         """θ(t) with its impacts and the pulse beneath, over the span the case needs (integrated on
         past the pulse's end where the reference stopped early). Returns what was drawn."""
-        from .report.histories import impact_times, picture_span_s
-        from .simulation import trajectory_for_picture
-        from .report.plots.trajectories import plot_theta
-
         tr, _ = trajectory_for_picture(self.engine, self.settings, self.case, self._trajectory)
         span = picture_span_s(self.case.pulse, self.t_overturn_s)
         run = {"label": kw.pop("label", f"{self.engine} (η = {self.eta:.4f}): {self.outcome}"), "t_s": tr.t_s,
@@ -138,7 +146,6 @@ class Simulation:
 
     def to_dataframe(self):
         """The history as a ``pandas.DataFrame`` (columns ``t_s``, ``theta_rad``, ``theta_dot_rad_s``)."""
-        from .store.frames import need
         pd = need("pandas")
         return pd.DataFrame({"t_s": self.t_s, "theta_rad": self.theta_rad, "theta_dot_rad_s": self.theta_dot_rad_s})
 
@@ -177,16 +184,11 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
     >>> sim.outcome
     'overturn'
     """
-    from ..engines.registry import get_adapter
-    from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
-    from .simulation import run_case
-
     request = _checked(_request, block, **case)
     c, _ = _checked(request.case)
     settings = _checked(request.engine_settings)
     adapter = _checked(get_adapter, request.engine, **settings)
     tr, res = run_case(adapter, c)
-    from .report.histories import impact_times
     empty = np.zeros(0)
     b, p = c.block, c.pulse
     return Simulation(
@@ -205,7 +207,6 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
 
 
 def _axis(option: str, name: str, value):
-    from .maps.grid import make_axis, parse_range
     if isinstance(value, str):
         return parse_range(option, value, name)
     try:
@@ -244,15 +245,9 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     -------
     xarray.Dataset or pandas.DataFrame
     """
-    from .store.frames import rows_to_dataframe, rows_to_dataset
-    from .store.loading import full_grid_rows
-    from .maps.grid import MAP_PULSES
-    from .maps.sweep import run_map
-
     if output not in ("dataset", "dataframe"):
         raise ConfigError(f"output must be 'dataset' or 'dataframe', got {output!r}.")
     if output == "dataset":
-        from .store.frames import need
         need("xarray")
     bad = sorted(set(case) & {"w_ratio", "a_ratio", "omega", "period", "amplitude", "amplitude_g"})
     if bad:
@@ -299,8 +294,6 @@ class Run:
     def cells(self):
         """All maps' cells on their full grids in one tidy ``pandas.DataFrame`` (``variant``,
         ``block``, ``pulse`` and ``restitution`` keep them apart)."""
-        from .store.frames import need, rows_to_dataframe
-        from .store.loading import full_grid_rows
         pd = need("pandas")
         frames = [rows_to_dataframe(full_grid_rows(m.path)) for m in self.maps]
         df = pd.concat(frames, ignore_index=True)
@@ -310,7 +303,6 @@ class Run:
 
     def scores(self):
         """Every scored pair of score.json, one row each, one column per metric (``pandas.DataFrame``)."""
-        from .store.frames import need
         pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
@@ -322,8 +314,6 @@ class Run:
     def summary(self):
         """Per engine variant, the mean of each metric over its like-for-like pairs (counts summed),
         as the report's summary table shows it (``pandas.DataFrame`` indexed by variant)."""
-        from .store.frames import need
-        from .scoring.tables import summary
         pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
@@ -333,8 +323,6 @@ class Run:
         """The verdict of score.json, one row per variant in rank order (``pandas.DataFrame`` indexed by
         variant: label, settings, the primary value, ``ci95_lo``, ``ci95_hi``, rank, pairs, fails,
         reasons); its sentences are ``run.score["verdict"]["text"]``."""
-        from .store.frames import need
-        from .scoring.tables import ranked_summary
         pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
@@ -347,7 +335,6 @@ class Run:
         """Metric name → its definition in words (from score.json, else from this rockbench)."""
         if self.score and self.score.get("metrics"):
             return {m["name"]: m["definition"] for m in self.score["metrics"]}
-        from .scoring.metrics import METRICS
         return {k: m.definition for k, m in METRICS.items()}
 
 
@@ -359,12 +346,9 @@ def load_run(path) -> Run:
     ConfigError
         Nothing there, or no map in it.
     """
-    from .store.loading import load_entries
-
     p = Path(path)
     maps = load_entries([p])
     score = None
     if (p / "score.json").is_file():
-        from .scoring.score_runs import load_score
         score = load_score(p / "score.json")
     return Run(p, maps, score)

@@ -19,6 +19,7 @@ from ..reference_solver.restitution import Restitution
 from .blocks.presets import get_preset
 from .maps.grid import MapSpec, make_axis
 from .maps.sweep import run_map
+from .report.plots.stability import plot_stability, save
 
 #: The normalised ranges of the recomputed figures: ω/p and a0/(g·tanα).
 W_RANGE = (0.5, 10.0)
@@ -68,8 +69,6 @@ def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, ser
                  progress: bool = False, formats=("png", "svg")) -> dict:
     """Compute the maps and draw the figures; returns ``{figure: [paths, one per format]}`` and the map
     folders."""
-    from .report.plots.stability import plot_stability, save
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     done: dict = {}

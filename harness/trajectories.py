@@ -36,6 +36,8 @@ def record_for_report(cases, run_dirs, out_dir, *, against=None, log=None) -> No
     case some run directory already stored for the same runs is copied from there, not simulated."""
     log = log or (lambda msg: print(f"rockbench: {msg}", file=sys.stderr))
     entries, _ = load_runs(run_dirs)
+    if not entries:
+        return   # no map: the report refuses the run directories and says why
     cands = entries if against else [e for e in entries if not e.is_reference]
     folder = trajectory_folder(out_dir)
     for d in run_dirs:

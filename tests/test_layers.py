@@ -133,6 +133,40 @@ def test_no_private_name_crosses_a_module():
     assert not found, "private names imported across modules:\n" + "\n".join(found)
 
 
+#: The folders whose imports inside functions must each say why (the engines' adapters import their
+#: engine's library on first use, as the engine contract says).
+REASONED = ("reference_solver", "harness", "rockbench")
+
+
+def test_imports_inside_functions_say_why():
+    """An import sits inside a function only for an optional dependency or start-up time, and says so
+    in a comment on its line or just above it (or above the group of imports it belongs to)."""
+    found = []
+    for path in _sources():
+        if path.relative_to(ROOT).parts[0] not in REASONED:
+            continue
+        lines = path.read_text(encoding="utf-8").split("\n")
+        tree = ast.parse("\n".join(lines), str(path))
+        parents = {c: n for n in ast.walk(tree) for c in ast.iter_child_nodes(n)}
+        for node in ast.walk(tree):
+            if not isinstance(node, (ast.Import, ast.ImportFrom)):
+                continue
+            up = parents.get(node)
+            while up is not None and not isinstance(up, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                up = parents.get(up)
+            if up is None:
+                continue
+            k = node.lineno - 1
+            own = lines[node.end_lineno - 1].split("#", 1)
+            said = len(own) > 1 and not own[1].strip().startswith("noqa")
+            while not said and k > 0 and lines[k - 1].strip().startswith(("import ", "from ", "#")):
+                k -= 1
+                said = lines[k].strip().startswith("#") and not lines[k].strip().startswith("# noqa")
+            if not said:
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno}: {lines[node.lineno - 1].strip()}")
+    assert not found, "imports inside functions without a reason:\n" + "\n".join(found)
+
+
 @pytest.mark.parametrize("source, target, floor_ok", [
     ("rockbench.harness.maps.sweep", "rockbench.harness.report.plots.picture.MapPicture", False),
     ("rockbench.harness.report.build", "rockbench.harness.maps.grid.MapSpec", True),

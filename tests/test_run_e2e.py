@@ -48,6 +48,7 @@ def test_run_quick_end_to_end(tmp_path):
     assert (out / "index.html").is_file() and (out / "report.md").is_file()
     assert len(list((out / "maps" / "reference").iterdir())) == 12  # 2 blocks x 2 pulses x 3 restitutions
     assert (out / "img" / "theta_b3m_sine_6_6.1.png").is_file()
+    assert (out / "trajectories" / "theta_b3m_sine_6_6.1.npz").is_file()   # what the report drew it from
     suite = json.loads((out / "suite.json").read_text())
     assert suite["suite_name"] == "quick" and suite["suite"]["grid"]["adaptive"] and len(suite["maps"]) >= 12
     # the engines the suite's "available" picks: installed, not in its `exclude` list (drake), and not

@@ -7,6 +7,7 @@ import argparse
 
 from ...reference_solver.errors import ConfigError
 from ..blocks.presets import PRESETS
+from ..report.plots.output import parse_formats
 
 def add_block_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("block")
@@ -75,5 +76,4 @@ def add_figure_format_option(p, default: str = "png", what: str = "figures") -> 
 
 def figure_formats_from_args(args) -> tuple[str, ...]:
     """The formats ``--figure-format`` names, checked (ConfigError otherwise)."""
-    from ..report.plots.output import parse_formats
     return parse_formats(args.figure_format)

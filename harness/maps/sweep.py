@@ -25,14 +25,16 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
+from tqdm import tqdm
 
 from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError
 from ..store.run_folder import RunStore
 from . import adaptive as adaptive_mod
 from .adaptive import DEFAULT_STRIDE
+from .executors import DASK_SCRATCH, SerialExecutor, cap_jobs, make_executor
 from .grid import MAP_PULSES, MapSpec
-from .result import MapResult, put_row, put_columns, empty_result, record_result
+from .result import MapResult, empty_result, put_columns, put_row, record_result
 
 
 #: Cells solved and written at a time by the columnar path (an adapter's ``run_grid`` in this
@@ -81,7 +83,6 @@ class MapOptions:
     @classmethod
     def checked(cls, *, coarse_stride: int | None = None, **kw) -> "MapOptions":
         """The options of :func:`run_map`'s keywords; ConfigError for a time limit or stride out of range."""
-
         t = kw.get("cell_timeout_s", DEFAULT_CELL_TIMEOUT_S)
         if not (isinstance(t, (int, float)) and math.isfinite(t) and t > 0):
             raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {t!r}.")
@@ -175,8 +176,6 @@ def reference_for(result):
 
 def _executor_for(spec: MapSpec, out_dir: Path, opts: MapOptions, executor):
     """``(executor, own)``: the one given (checked against the spec) or a new one this map owns."""
-    from .executors import DASK_SCRATCH, cap_jobs, make_executor
-
     if executor is not None:
         if executor.init["engine"] != spec.engine or executor.init["settings"] != dict(spec.engine_settings):
             raise ConfigError(f"the executor given runs engine {executor.init['engine']!r} with settings "
@@ -268,7 +267,6 @@ class _Sweep:
 
     def _evaluate_columns(self, a: np.ndarray, b: np.ndarray) -> None:
         """One chunk as arrays (contract item 6); a chunk that raises goes case by case instead."""
-
         spec, (run_grid, threads) = self.spec, self.grid
         try:
             with threads:
@@ -306,8 +304,6 @@ def _grid_runner(executor, spec: MapSpec):
     """``(adapter.run_grid, threads)`` when the map's cells run in this process on an adapter that
     solves them as arrays (contract item 6), else None; ``threads`` is a context that gives the
     batch the executor's threads."""
-    from .executors import SerialExecutor
-
     if type(executor) is not SerialExecutor or spec.pulse not in MAP_PULSES:
         return None
     run_grid = getattr(executor.adapter, "run_grid", None)
@@ -325,7 +321,6 @@ class _Progress:
 
     def add(self, n: int) -> None:
         if self.show and self.bar is None:
-            from tqdm import tqdm
             self.bar = tqdm(total=n, desc=self.desc, unit="cell", file=sys.stderr, dynamic_ncols=True)
         elif self.bar is not None:
             self.bar.total += n

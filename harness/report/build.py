@@ -29,17 +29,21 @@ from ...reference_solver.model import a_ratio_to_amplitude
 from ...reference_solver.pulses import make_pulse
 from ...reference_solver.restitution import Restitution
 from ..blocks.cases import FIG17, TrajectoryCase
-from ..blocks.presets import get_preset
+from ..blocks.experiments import restitution_targets, st_limit_a_ratio
+from ..blocks.presets import PRESETS, get_preset
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
 from ..scoring.metrics import PRIMARY_METRIC
 from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
 from ..scoring.tables import summary
 from ..store.atomic import write_bytes_atomic
-from ..store.files import DISPLAY_UTC, map_cell_rows, utc_stamp, write_json
+from ..store.files import DISPLAY_UTC, is_own_eta_map, map_cell_rows, utc_stamp, write_json
 from ..store.loading import MapEntry, load_entries
 from ..store.trajectories import FOLDER, case_stem, read_case
 from .histories import picture_span_s
 from .page import html_page, markdown_page
+from .plots.output import figure_bytes
+from .plots.speed import plot_speed_accuracy
+from .plots.stability import REFERENCE_STYLES, plot_panels
 from .plots.trajectories import plot_theta
 from .sections import SPEED_METRICS
 
@@ -94,7 +98,6 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     widths: dict[str, float] = {}
 
     def save(fig, name):
-        from .plots.output import figure_bytes
         widths[name] = fig.get_figwidth()
         stem = name[: -len(".png")]
         for fmt in dict.fromkeys(("png", *figure_formats)):
@@ -166,7 +169,6 @@ def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:
     engine has wall times)."""
     if not any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
         return None
-    from .plots.speed import plot_speed_accuracy
     drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
                                  if r["variant"] != "reference"], metric=PRIMARY_METRIC)
     return save(drawn["ax"].figure, "speed_accuracy.png")
@@ -201,7 +203,6 @@ def _like_pairs(doc) -> dict:
 
 
 def _ref_order(r: MapEntry):
-    from ..blocks.presets import PRESETS
     law = _restitution_from_label(r.restitution)
     pre = PRESETS.get(r.block.upper())
     if law is not None and law.kind == "housner":
@@ -214,7 +215,6 @@ def _ref_order(r: MapEntry):
 
 def _ref_line(r: MapEntry) -> tuple[str, dict]:
     """A reference map's legend label and line style by its role (the same in every panel)."""
-    from .plots.stability import REFERENCE_STYLES
     role = _ref_order(r)[0]
     label = {0: "reference, η_H", 1: "reference, η_M with the average k", 2: "reference, η_M with the exact k",
              3: f"reference, {restitution_symbol(r.restitution, r.block)}"}.get(role, f"reference, η = {r.eta:.4g}")
@@ -224,10 +224,6 @@ def _ref_line(r: MapEntry) -> tuple[str, dict]:
 def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experiments, pair, title: str,
            block: str, pulse: str) -> dict:
     """Keyword arguments of :func:`~rockbench.harness.report.plots.stability.plot_panel` for one map."""
-    from ..blocks.presets import PRESETS
-
-    from .plots.stability import REFERENCE_STYLES
-
     references = [(*_ref_line(r)[:1], r.map, _ref_line(r)[1]) for r in std]
     references += [("reference at the engine's own measured η", r.map, REFERENCE_STYLES[3]) for r in own]
     like = None
@@ -263,8 +259,6 @@ def _groups(cands, refs, own_eta):
     A reference that ``rockbench run`` made at a variant's own η which no variant measures any more
     (the η was measured again after a recalibration or an engine upgrade, the run folder resumed) is
     left out: drawn as a standard reference it would stand in every panel for nothing."""
-    from ..store.files import is_own_eta_map
-
     out: dict = {}
     for r in refs:
         out.setdefault((r.block, r.pulse), ([], {}, {}))
@@ -290,7 +284,6 @@ def _variant_order(label: str):
 
 def _case_order(key):
     """Blocks in Table 1's order (custom blocks after them), then sine, cosine, half-sine."""
-    from ..blocks.presets import PRESETS
     block, pulse = key
     order = list(PRESETS)
     return (order.index(block) if block in order else len(order), block,
@@ -299,8 +292,6 @@ def _case_order(key):
 
 def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str]]:
     """One figure per engine variant: a panel per block and pulse. Returns ``(variant, label, image)``."""
-    from .plots.stability import plot_panels
-
     groups = _groups(cands, refs, own_eta)
     out = []
     for v in sorted(labels, key=lambda v: _variant_order(labels[v])):
@@ -323,8 +314,6 @@ def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -
 def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str, int]]:
     """One figure per block and pulse: a panel per engine variant (or the references alone).
     Returns ``(block, pulse, image, number of experimental points)``."""
-    from .plots.stability import plot_panels
-
     out = []
     for (block, pulse), (std, own, engines) in sorted(_groups(cands, refs, own_eta).items(),
                                                       key=lambda kv: _case_order(kv[0])):
@@ -343,9 +332,6 @@ def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> l
 
 
 def _points_and_limit(points, block, pulse):
-    from ..blocks.experiments import st_limit_a_ratio
-    from ..blocks.presets import PRESETS
-
     if block.upper() not in PRESETS:
         return [], None
     sel = [(p.w_ratio, p.a_ratio, p.outcome, p.repetitions) for p in (points or [])
@@ -405,9 +391,6 @@ def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> lis
     The η comes from the calibration recorded in the map's run.json (calibrated settings), else
     from the free-rocking measurement of ``rockbench run`` (``own_eta``).
     """
-    from ..blocks.experiments import restitution_targets
-    from ..blocks.presets import PRESETS
-
     rows, seen = [], set()
     for e in cands:
         key = (e.variant, e.block, e.restitution)

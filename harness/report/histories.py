@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 #: A harmonic pulse's picture spans this many pulse durations (Fig. 17: 5 × 0.091 s = 0.45 s, past
 #: the decisive impact at 0.1465 s and the overturn with k = 0.7595 at 0.350 s).
 SPAN_PULSES = 5.0
@@ -37,8 +39,6 @@ def picture_span_s(pulse, t_overturn_s: float | None = None) -> float:
 def impact_times(trajectory) -> list[float]:
     """Impact times of a trajectory [s]: the reference's impact list, or for an engine the sign
     changes of θ after uplift (a pivot change is an impact)."""
-    import numpy as np
-
     diag = trajectory.diagnostics or {}
     imp = diag.get("impacts")
     if imp:

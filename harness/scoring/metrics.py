@@ -33,6 +33,7 @@ failing and no engine is blamed for physics the reference cannot do:
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -492,7 +493,6 @@ def parse_thresholds(items: Iterable[str], direction: str | None = None, option:
         if not eq or not name:
             raise ConfigError(f"{option} takes METRIC=VALUE, got {item!r}; metrics: {', '.join(METRICS)}.")
         if name not in METRICS:
-            import difflib
             close = difflib.get_close_matches(name, list(METRICS), n=1)
             hint = f" Did you mean {close[0]}?" if close else ""
             raise ConfigError(f"{option}: unknown metric {name!r}.{hint} Metrics: {', '.join(METRICS)}.")

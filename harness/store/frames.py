@@ -6,6 +6,8 @@ need them.
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 
 from ...reference_solver.errors import ConfigError
@@ -25,7 +27,6 @@ _FLOAT = ("eta", "w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2", "max_abs
 
 def need(module: str):
     """The optional module ``module`` (pandas, xarray), or an ImportError saying how to install it."""
-    import importlib
     try:
         return importlib.import_module(module)
     except ImportError:

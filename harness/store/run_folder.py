@@ -26,10 +26,12 @@ import os
 import platform
 import subprocess
 import sys
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
+from .columnar import format_rows
 from .files import (COLUMNS, NEW_OUT, SCHEMA_VERSION, check_map_schema, read_cells_file, read_json, spec_variant,
                     utc_stamp, write_json)
 from .lines import exact_text, plain_row
@@ -66,7 +68,6 @@ def _git_info() -> dict:
 
 @functools.lru_cache(maxsize=1)
 def rockbench_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
     try:
         return version("rockbench")
     except PackageNotFoundError:
@@ -151,7 +152,7 @@ class RunStore:
         return done
 
     def _take_lock(self) -> None:
-        import fcntl
+        import fcntl  # POSIX only
         self._lock = open(self.dir / ".lock", "w")
         try:
             fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -221,8 +222,6 @@ class RunStore:
         """Append the rows of successful cells ``(ii[k], jj[k])`` with the verdicts of ``cols`` (a
         :class:`~rockbench.engines.base.CellColumns`) in one write: the same text, row for row, as
         :meth:`append_results` gives for the same cells (:mod:`rockbench.harness.store.columnar`)."""
-        from .columnar import format_rows
-
         if len(ii) == 0:
             return
         head, wr, ar, om, am = self._line_strings(spec)

@@ -26,6 +26,7 @@ from ...reference_solver.errors import ConfigError
 from ...reference_solver.pulses import is_number
 from ...reference_solver.restitution import Restitution
 from ..blocks.cases import parse_case
+from ..blocks.experiments import load_outcomes
 from ..blocks.presets import PRESETS, get_preset
 from ..maps.grid import MapSpec, parse_range
 
@@ -184,7 +185,6 @@ def _experiments(v, info: ValidationInfo):
         return None
     if not isinstance(v, str):
         raise _bad(f" must be a path, got {v!r}.")
-    from ..blocks.experiments import load_outcomes
 
     path = str((info.context["folder"] / v).resolve())   # relative to the suite file
     try:

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...engines.base import EngineAdapter
+from ...engines.registry import adapter_class, availability, names
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
 from ..store.files import own_eta_map_name, variant_name
@@ -58,8 +59,6 @@ def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[lis
         A setting an engine named explicitly (suite list or ``--engines``), or every engine, refuses:
         one line naming the suite key.
     """
-    from ...engines.registry import adapter_class
-
     kept, refused = [], {}
     for engine in engines:
         cls = adapter_class(engine)
@@ -88,8 +87,6 @@ def parse_engines(text: str | None) -> list[str] | None:
     ConfigError
         An empty list or an unknown name (with a "did you mean").
     """
-    from ...engines.registry import adapter_class
-
     if text is None:
         return None
     items = [n.strip() for n in str(text).split(",")]
@@ -114,8 +111,6 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
     EngineUnavailableError
         An engine named explicitly (in the suite or in ``only``) is not installed.
     """
-    from ...engines.registry import adapter_class, availability, names
-
     notes = []
     if only is not None:
         for n in only:

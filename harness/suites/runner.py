@@ -64,6 +64,9 @@ from ..engine_info.health import EngineHealth
 from ..maps.executors import cap_jobs, cpu_count
 from ..maps.grid import MapSpec, parse_range
 from ..maps.sweep import run_map
+from ..report.build import build_report
+from ..scoring.score_runs import score_dirs
+from ..scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
 from ..store.atomic import check_output_dir
 from ..store.files import write_json
 from ..trajectories import record_for_report
@@ -80,7 +83,6 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
     and summary table (``result["summary"]``); the ``unfinished`` maps (of an engine that cannot
     simulate) are scored as incomplete instead of refused."""
     if report:
-        from ..report.build import build_report
         cases = tuple(parse_case(c) for c in suite.report.cases)
         record_for_report(cases, [out / "maps"], out, log=log)
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
@@ -89,14 +91,12 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
         result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
-        from ..scoring.score_runs import score_dirs
         try:
             result["score"] = score_dirs([out / "maps"], experiments=experiments, allow_incomplete=unfinished)
             write_json(out / "score.json", result["score"])
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
     if result["score"] is not None:
-        from ..scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
         result["summary"] = "\n".join([verdict_block(result["score"]), SUMMARY_TITLE, summary_table(result["score"])])
 
 
@@ -104,9 +104,9 @@ def _warm_report() -> None:
     """Import what the report draws with and load the reference solver's history kernel (numba's
     cache), so that the report, which needs every map, starts at once when the last one is done."""
     try:
+        # a head start: importing these (and compiling the kernel) early is the point
         from matplotlib import figure  # noqa: F401
         from matplotlib.backends import backend_agg  # noqa: F401
-
         from ...reference_solver.solver import solve
         from ..report import build as report  # noqa: F401
         solve(get_preset("B3M").block(), make_pulse("sine", 30.0, 60.0), 0.8, history=True)

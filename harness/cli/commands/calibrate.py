@@ -6,7 +6,8 @@ import json
 
 from ....engines.price import price_line
 from ....engines.registry import get_adapter
-from ....reference_solver.errors import ConfigError
+from ....reference_solver.errors import ConfigError, RockbenchError
+from ...engine_info.health import refuse_outside_range
 from ...request import CaseRequest
 from ..options import add_block_options
 
@@ -34,9 +35,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ....reference_solver.errors import RockbenchError
-    from ...engine_info.health import refuse_outside_range
-
     request = CaseRequest.from_args(args)
     block, preset = request.block_and_preset()
     adapter = get_adapter(args.engine, **request.engine_settings())

@@ -7,12 +7,15 @@ import sys
 from pathlib import Path
 
 from ....reference_solver.errors import ConfigError, EngineError
+from ...engine_info.health import EngineCannotSimulate, cannot_simulate_line, common_error
 from ...maps.grid import MAP_PULSES, MapSpec, parse_range
 from ...maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
 from ...report.plots.picture import MapPicture
 from ...store.atomic import check_output_dir
 from ...request import CaseRequest
-from ..options import add_block_options, add_figure_format_option, add_model_options, figure_formats_from_args, jobs_from_args
+from ...store.export import write_full_grid
+from ..options import (add_block_options, add_figure_format_option, add_model_options, figure_formats_from_args,
+                       jobs_from_args)
 
 
 def register(sub) -> None:
@@ -99,12 +102,10 @@ def run(args) -> int:
                          progress=not quiet, picture=None if args.no_plot else MapPicture(), figure_formats=formats,
                          log=None if args.json else (lambda s: print(s, file=sys.stderr)))
     except EngineError as e:   # its workers could not start the engine: exit 3, the line says why
-        from ...engine_info.health import EngineCannotSimulate, cannot_simulate_line
         raise EngineCannotSimulate(cannot_simulate_line(spec.engine, str(e), "starting it")) from None
     summary = {**result.summary(), "out": str(args.out)}
     broken = _cannot_simulate(spec, result)
     if args.full_grid:
-        from ...store.export import write_full_grid
         summary["full_grid"] = str(write_full_grid(args.out))
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -121,8 +122,6 @@ def run(args) -> int:
 
 def _cannot_simulate(spec, result) -> str | None:
     """The line for an engine whose every simulated cell of this map failed with one error, else None."""
-    from ...engine_info.health import cannot_simulate_line, common_error
-
     err = common_error(result.failures, result.n_simulated) if spec.engine != "reference" else None
     if err is None:
         return None
@@ -132,6 +131,5 @@ def _cannot_simulate(spec, result) -> str | None:
 def _exit(broken: str | None) -> int:
     """0, or (the map is written and summarised) the engine-cannot-simulate error, exit code 3."""
     if broken:
-        from ...engine_info.health import EngineCannotSimulate
         raise EngineCannotSimulate(broken)
     return 0

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import signal
 import time
 from pathlib import Path
 
@@ -116,7 +117,6 @@ def _stop(pid: int | None, w: int | None) -> None:
     if pid is None:
         return
     if _wait(pid, 5.0) is None:
-        import signal
         try:
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
