@@ -41,10 +41,10 @@ def _keywords(message: str) -> str:
     return re.sub(r"--([a-z][a-z0-9-]*)", lambda m: m.group(1).replace("-", "_") + "=", message)
 
 
-def _request(block, *, width=None, height=None, depth=None, density=None, restitution="housner", k=None,
-             pulse="sine", w_ratio=None, omega=None, period=None, a_ratio=None, amplitude=None, amplitude_g=None,
-             engine="reference", dt=None, linearized=False, settings=None, drive=None, friction=None,
-             **engine_settings) -> CaseRequest:
+def request_of(block, *, width=None, height=None, depth=None, density=None, restitution="housner", k=None,
+               pulse="sine", w_ratio=None, omega=None, period=None, a_ratio=None, amplitude=None, amplitude_g=None,
+               engine="reference", dt=None, linearized=False, settings=None, drive=None, friction=None,
+               **engine_settings) -> CaseRequest:
     """The :class:`CaseRequest` of the API's keywords: any keyword the command line has no option for is
     an engine setting (as ``--set KEY=VALUE``)."""
     if block is not None and not isinstance(block, str):
@@ -184,7 +184,7 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
     >>> sim.outcome
     'overturn'
     """
-    request = _checked(_request, block, **case)
+    request = _checked(request_of, block, **case)
     c, _ = _checked(request.case)
     settings = _checked(request.engine_settings)
     adapter = _checked(get_adapter, request.engine, **settings)
@@ -252,7 +252,7 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     bad = sorted(set(case) & {"w_ratio", "a_ratio", "omega", "period", "amplitude", "amplitude_g"})
     if bad:
         raise ConfigError(f"a map takes its axes as w_ratio=(LO, HI, N) and a_ratio=(LO, HI, N), not {bad[0]}=.")
-    request = _checked(_request, block, **case)
+    request = _checked(request_of, block, **case)
     kind = request.pulse.strip().lower()
     if kind not in MAP_PULSES:
         raise ConfigError(f"a map needs a harmonic pulse ({', '.join(MAP_PULSES)}), got pulse={request.pulse!r}.")
