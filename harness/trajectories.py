@@ -48,11 +48,13 @@ def record_for_report(cases, run_dirs, out_dir, *, against=None, log=None) -> No
 
 def _copy_if_current(src: Path, dst: Path, case, cands: list) -> None:
     """Copy a case's stored θ(t) runs from ``src`` to ``dst`` when they are of the runs ``cands`` need
-    and ``dst`` has none of them."""
-    if src.resolve() == dst.resolve() or stored.read_case(dst, case) is not None:
+    and those in ``dst`` (if any) are not."""
+    plan = _plan(_runs(case, cands)[0])
+    here = stored.read_case(dst, case)
+    if src.resolve() == dst.resolve() or (here is not None and here["runs"] == plan):
         return
     have = stored.read_case(src, case)
-    if have is not None and have["runs"] == _plan(_runs(case, cands)[0]):
+    if have is not None and have["runs"] == plan:
         dst.mkdir(parents=True, exist_ok=True)
         write_bytes_atomic(stored.case_path(dst, case), stored.case_path(src, case).read_bytes())
 
