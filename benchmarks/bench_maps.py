@@ -113,7 +113,7 @@ def bench_adaptive(n: int, tmp: Path) -> list:
                 om, am = np.meshgrid(s.omegas(), s.amplitudes())
                 full = solve_batch(s.block.alpha_rad, s.block.p_rad_s, s.eta, pulse, om, am, dt_s=1e-3).outcome
                 d = tmp / f"ad-{block}-{pulse}-{rest.kind}"
-                r = run_map(s, d, serial=True, adaptive=True, plot=False)
+                r = run_map(s, d, serial=True, adaptive=True)
                 rows.append({"block": block, "pulse": pulse, "restitution": rest.label,
                              "fraction": r.fraction_simulated, "equal_to_full": bool(np.array_equal(r.outcome, full))})
                 print(f"  adaptive {block} {pulse:6} {rest.label:18} {100 * r.fraction_simulated:5.1f} % "
@@ -138,7 +138,7 @@ def bench_scaling(n: int, sleep_s: float, tmp: Path) -> dict:
     def timed(label, **kw):
         nonlocal ref
         t0 = time.perf_counter()
-        r = run_map(s, tmp / label, plot=False, **kw)
+        r = run_map(s, tmp / label, **kw)
         out[label + "_s"] = time.perf_counter() - t0
         ref = r.outcome if ref is None else ref
         out[label + "_same_map"] = bool(np.array_equal(r.outcome, ref))
@@ -153,7 +153,7 @@ def bench_scaling(n: int, sleep_s: float, tmp: Path) -> dict:
         ex = make_executor("sleepy-reference", {"sleep_s": sleep_s}, jobs=jobs)
         try:
             t0 = time.perf_counter()
-            run_map(warm, tmp / f"warm-{jobs}", plot=False, executor=ex)
+            run_map(warm, tmp / f"warm-{jobs}", executor=ex)
             out[f"processes_{jobs}_worker_start_s"] = time.perf_counter() - t0
             timed(f"processes_{jobs}_warm", executor=ex)
         finally:
@@ -165,7 +165,7 @@ def bench_scaling(n: int, sleep_s: float, tmp: Path) -> dict:
     try:
         warm = spec("B3M", "sine", Restitution(), 4, engine="sleepy-reference", sleep_s=sleep_s)
         t0 = time.perf_counter()
-        run_map(warm, tmp / "dask-warm", plot=False, scheduler=cluster.scheduler_address)
+        run_map(warm, tmp / "dask-warm", scheduler=cluster.scheduler_address)
         out["dask_worker_warmup_s"] = time.perf_counter() - t0
         timed("dask_local_2", scheduler=cluster.scheduler_address)
     finally:

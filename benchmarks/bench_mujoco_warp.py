@@ -90,7 +90,7 @@ def run_one_map(block_name, kind, n, engine, settings, out_dir: Path) -> dict:
     spec = map_spec(block_name, kind, n, engine, settings)
     t0 = time.perf_counter()
     ex = make_executor(engine, settings)
-    res = run_map(spec, out_dir, progress=False, plot=False, executor=ex)
+    res = run_map(spec, out_dir, progress=False, executor=ex)
     wall = time.perf_counter() - t0
     r = {"n": n, "cells": n * n, "wall_s": wall, "maps_per_s": 1.0 / wall, "cells_per_s": n * n / wall,
          "failed": int(len(res.failures))}

@@ -27,7 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from rockbench.harness.report.build import build_report  # noqa: E402
 from rockbench.harness.maps.result import MapResult  # noqa: E402
-from rockbench.harness.scoring.metrics import from_cells, score  # noqa: E402
+from rockbench.harness.maps.result import from_cells  # noqa: E402
+from rockbench.harness.scoring.metrics import score  # noqa: E402
 from rockbench.harness.scoring.score_runs import score_dirs  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution  # noqa: E402
 

@@ -101,7 +101,7 @@ _DR_VALUES_DIST = (0.5, 1.0, 2.0)
 
 
 @dataclass
-class _Built:
+class BuiltModel:
     """One compiled model and what the adapter needs to drive and read it."""
 
     model: object
@@ -282,7 +282,7 @@ class MujocoAdapter(SteppedContactAdapter):
                 "solimp_d": s["solimp_d"]}
 
     # -- model -------------------------------------------------------------------------------
-    def _model(self, block: Block, p: dict, dt: float, drive: str | None = None) -> _Built:
+    def _model(self, block: Block, p: dict, dt: float, drive: str | None = None) -> BuiltModel:
         drive = self.settings["drive"] if drive is None else drive
         planar = self.settings["planar"]
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, dt, drive, planar,
@@ -294,7 +294,7 @@ class MujocoAdapter(SteppedContactAdapter):
             self._models[key] = self._build(block, p, dt, drive, planar)
         return self._models[key]
 
-    def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> _Built:
+    def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> BuiltModel:
         import mujoco
 
         b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
@@ -367,7 +367,7 @@ class MujocoAdapter(SteppedContactAdapter):
 
         push = m if drive == "inertial" else (self.settings["table_mass_ratio"] + 1.0) * m
         s0 = self._settle(model, mujoco)
-        return _Built(model, s0, drive, planar, m, push, qi, dict(p))
+        return BuiltModel(model, s0, drive, planar, m, push, qi, dict(p))
 
     @staticmethod
     def _settle(model, mujoco) -> np.ndarray:
@@ -384,7 +384,7 @@ class MujocoAdapter(SteppedContactAdapter):
         return s0
 
     # -- reading the state -------------------------------------------------------------------
-    def _read(self, bm: _Built, st: np.ndarray, block: Block):
+    def _read(self, bm: BuiltModel, st: np.ndarray, block: Block):
         """θ, θ̇, the two bottom edges' (x, z) relative to the table, and the table's x, per sample."""
         qi = bm.qi
         b, h = block.width_m, block.height_m
@@ -521,7 +521,7 @@ class MujocoAdapter(SteppedContactAdapter):
                 for bm, p, s_init, traj in zip(built, params_list, init, st)]
 
     @staticmethod
-    def _release_state(bm: _Built, block: Block, th0: float) -> np.ndarray:
+    def _release_state(bm: BuiltModel, block: Block, th0: float) -> np.ndarray:
         """The settled state turned to ``th0`` [rad] about the +x edge, which stays where it rests
         (settled sink included)."""
         s = bm.s0.copy()
@@ -541,7 +541,7 @@ class MujocoAdapter(SteppedContactAdapter):
         return ({k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator", "noslip_iterations", "impratio")}
                 | _contact_of(p) | {"friction": self.settings["friction"]})
 
-    def _measurement(self, bm: _Built, p: dict, full: np.ndarray, block: Block, th0: float,
+    def _measurement(self, bm: BuiltModel, p: dict, full: np.ndarray, block: Block, th0: float,
                      dt: float) -> RestitutionMeasurement:
         """η impact by impact (the one reader), the resting sink and the hop from one free-rocking
         run's states ``full`` (settings ``p``)."""
@@ -707,7 +707,7 @@ def _point(row: dict) -> tuple:
     return tuple(row[k] for k in ("timeconst", "dampratio", "solimp_d") if k in row)
 
 
-def _angles_of(bm: _Built, st: np.ndarray, skip: int = 0):
+def _angles_of(bm: BuiltModel, st: np.ndarray, skip: int = 0):
     """θ and θ̇ from state rows ``(..., k)`` of a built model (``skip``: leading columns of the
     FULLPHYSICS layout the rows leave out), and the block's rotation matrices (None: planar)."""
     p, v = bm.qi["pos"] - skip, bm.qi["vel"] - skip

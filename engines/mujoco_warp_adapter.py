@@ -67,7 +67,7 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import FLAT_ANGLE_RAD, Block
 from .base import Case, RestitutionMeasurement, Trajectory
 from .free_rocking import PEAK_RATIO
-from .mujoco_adapter import MujocoAdapter, _Built
+from .mujoco_adapter import MujocoAdapter, BuiltModel
 from .skeleton import run_steps
 from .warp_start import cuda_driver_present, start_warp
 
@@ -301,7 +301,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         return out
 
     # -- model -------------------------------------------------------------------------------
-    def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> _Built:
+    def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> BuiltModel:
         import mujoco
 
         bm = super()._build(block, p, dt, drive, planar)
@@ -313,7 +313,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         bm.s0 = self._settle(bm.model, mujoco)   # settled again with the solver in force
         return bm
 
-    def _device_model(self, bm: _Built, dev: str, nsolref: int = 0):
+    def _device_model(self, bm: BuiltModel, dev: str, nsolref: int = 0):
         """``mujoco_warp.put_model`` of a built model on ``dev`` (cached; ``nsolref`` > 0 gives
         ``geom_solref`` one row per world, for calibration grids)."""
         wp, mjw = _warp()
@@ -351,7 +351,7 @@ class MujocoWarpAdapter(MujocoAdapter):
             groups.setdefault(id(bm), (bm, []))[1].append(i)
         return out, list(groups.values())
 
-    def _seg_steps(self, bm: _Built) -> int:
+    def _seg_steps(self, bm: BuiltModel) -> int:
         return max(1, int(round(self.settings["segment_s"] / bm.model.opt.timestep)))
 
     def _simulate_raw(self, cases: list[Case]) -> list:
@@ -428,7 +428,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         return {"steps": run_steps(self.dt_for(case), case.pulse.duration_s, tail_s, min_tail_s),
                 "alpha_rad": case.block.alpha_rad, "p_rad_s": case.block.p_rad_s}
 
-    def _end_args(self, bm: _Built, step, d, stops: list | None, n: int, n_steps: int | None) -> list:
+    def _end_args(self, bm: BuiltModel, step, d, stops: list | None, n: int, n_steps: int | None) -> list:
         """The inputs of the device's end-of-run kernel (:func:`_mujoco_warp_kernels.end_of_run`) for
         ``n`` worlds: ``stops`` (:meth:`_stop_rule`), or None: free rocking of ``n_steps`` steps
         (stopped early only where θ or θ̇ is not finite or the block lies flat, as the skeleton's
@@ -447,7 +447,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         return [step, d.qpos, d.qvel, int(bm.planar), int(ith), int(iom), *f64, float(FLAT_ANGLE_RAD), *i32,
                 wp.full(n, -1, dtype=wp.int32), wp.zeros(n, dtype=wp.int32)]
 
-    def _run_batch(self, bm: _Built, pulses: list, stops: list | None, *, init: np.ndarray | None = None,
+    def _run_batch(self, bm: BuiltModel, pulses: list, stops: list | None, *, init: np.ndarray | None = None,
                    solref: np.ndarray | None = None, n_steps: int | None = None) -> _Samples:
         """Step one batch of worlds; each world's samples ``[t, qpos, qvel]`` (float64) and how its
         run ended.
@@ -544,7 +544,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         return _Samples(parts, dt, [ENDED_BY[c] for c in why.numpy()])
 
     @staticmethod
-    def _capacity(bm: _Built) -> tuple[int, int]:
+    def _capacity(bm: BuiltModel) -> tuple[int, int]:
         """``(nconmax, njmax)`` per world for this model."""
         import mujoco
         ncon = NCONMAX_PLANE if bm.drive == "inertial" else NCONMAX_BOX
@@ -579,7 +579,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         if worst > d.njmax:
             raise RuntimeError(f"mujoco_warp: {worst} constraint rows exceed the {d.njmax} allocated per world")
 
-    def _trajectory(self, bm: _Built, case: Case, st: np.ndarray, ended_by: str) -> Trajectory:
+    def _trajectory(self, bm: BuiltModel, case: Case, st: np.ndarray, ended_by: str) -> Trajectory:
         """The trajectory of one world's samples ``st`` (the skeleton's read-out)."""
         s = {"drive": bm.drive, "planar": bm.planar}
         run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": ended_by}

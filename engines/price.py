@@ -89,7 +89,8 @@ def uplift_threshold(adapter, block: Block, restitution: Restitution, dt_s: floa
     rocks_below = bool(max_below > tol)
     return {"ratio": ratio, "within": bool(math.isfinite(ratio) and abs(ratio - 1.0) <= UPLIFT_RTOL
                                            and not rocks_below),
-            "max_abs_theta_below_rad": max_below, "rocks_below": rocks_below, "uplift_tol_rad": tol,
+            "rtol": UPLIFT_RTOL, "max_abs_theta_below_rad": max_below, "rocks_below": rocks_below,
+            "uplift_tol_rad": tol,
             "ramp": f"{RAMP_FROM:g}→{RAMP_TO:g}·g·tanα over {RAMP_S:g} s (after {RAMP_LEAD_S:g} s from 0)"}
 
 

@@ -1,16 +1,15 @@
 """The Python API for notebooks, re-exported as ``rockbench.simulate``, ``rockbench.stability_map``
 and ``rockbench.load_run``.
 
-Cases are described with the command line's words as keywords (``w_ratio=6`` for ``--w-ratio 6``)
-and checked by the same code, so the API and the CLI cannot drift apart; error messages name the
-keyword. Results are plain arrays (:class:`Simulation`), labelled grids (``xarray.Dataset``) or
-tidy tables with categorical outcomes (``pandas.DataFrame``); pandas and xarray come with
-``pip install 'rockbench[notebook]'``.
+Cases are described with the command line's words as keywords (``w_ratio=6`` for ``--w-ratio 6``):
+both fill one :class:`~rockbench.harness.request.CaseRequest` and are checked by its code, so the API
+and the CLI cannot drift apart; error messages name the keyword. Results are plain arrays
+(:class:`Simulation`), labelled grids (``xarray.Dataset``) or tidy tables with categorical outcomes
+(``pandas.DataFrame``); pandas and xarray come with ``pip install 'rockbench[notebook]'``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import tempfile
@@ -19,8 +18,20 @@ from pathlib import Path
 
 import numpy as np
 
+from ..engines.registry import get_adapter
 from ..reference_solver.errors import ConfigError
-from .store.loading import MapEntry as RunMap   # one map of a Run: the same record the scores read
+from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from .maps.grid import MAP_PULSES, make_axis, parse_range
+from .maps.sweep import run_map
+from .report.histories import impact_times, picture_span_s
+from .report.plots.trajectories import plot_theta
+from .request import CaseRequest
+from .scoring.metrics import METRICS
+from .scoring.score_runs import load_score
+from .scoring.tables import ranked_summary, summary
+from .simulation import run_case, trajectory_for_picture
+from .store.frames import need, rows_to_dataframe, rows_to_dataset
+from .store.loading import MapEntry as RunMap, full_grid_rows, load_entries
 
 __all__ = ["simulate", "stability_map", "load_run", "Simulation", "Run", "RunMap"]
 
@@ -30,20 +41,23 @@ def _keywords(message: str) -> str:
     return re.sub(r"--([a-z][a-z0-9-]*)", lambda m: m.group(1).replace("-", "_") + "=", message)
 
 
-def _namespace(block, *, width=None, height=None, depth=None, density=None, restitution="housner", k=None,
+def request_of(block, *, width=None, height=None, depth=None, density=None, restitution="housner", k=None,
                pulse="sine", w_ratio=None, omega=None, period=None, a_ratio=None, amplitude=None, amplitude_g=None,
                engine="reference", dt=None, linearized=False, settings=None, drive=None, friction=None,
-               **engine_settings) -> argparse.Namespace:
+               **engine_settings) -> CaseRequest:
+    """The :class:`CaseRequest` of the API's keywords: any keyword the command line has no option for is
+    an engine setting (as ``--set KEY=VALUE``)."""
     if block is not None and not isinstance(block, str):
         raise ConfigError(f"block must be a preset name (B3M, B6M, B3L, B6L), got {block!r}; for a custom block "
                           "give width= and height= [m].")
-    return argparse.Namespace(
+    return CaseRequest(
         block=block, width=width, height=height, depth=depth, density=density, restitution=str(restitution),
         k=None if k is None else str(k), pulse=str(pulse), w_ratio=w_ratio, omega=omega, period=period,
         a_ratio=a_ratio, amplitude=amplitude, amplitude_g=amplitude_g, engine=str(engine),
         dt=None if dt is None else str(dt), linearized=bool(linearized), settings=settings, drive=drive,
         friction=None if friction is None else str(friction),
-        set=[f"{key}={json.dumps(v) if isinstance(v, (list, tuple)) else v}" for key, v in engine_settings.items()])
+        set=tuple(f"{key}={json.dumps(v) if isinstance(v, (list, tuple)) else v}"
+                  for key, v in engine_settings.items()))
 
 
 def _checked(fn, *args, **kw):
@@ -123,9 +137,6 @@ class Simulation:
     def plot(self, ax=None, **kw) -> dict:
         """θ(t) with its impacts and the pulse beneath, over the span the case needs (integrated on
         past the pulse's end where the reference stopped early). Returns what was drawn."""
-        from .report.histories import impact_times, picture_span_s, trajectory_for_picture
-        from .report.plots.trajectories import plot_theta
-
         tr, _ = trajectory_for_picture(self.engine, self.settings, self.case, self._trajectory)
         span = picture_span_s(self.case.pulse, self.t_overturn_s)
         run = {"label": kw.pop("label", f"{self.engine} (η = {self.eta:.4f}): {self.outcome}"), "t_s": tr.t_s,
@@ -135,7 +146,6 @@ class Simulation:
 
     def to_dataframe(self):
         """The history as a ``pandas.DataFrame`` (columns ``t_s``, ``theta_rad``, ``theta_dot_rad_s``)."""
-        from .store.frames import need
         pd = need("pandas")
         return pd.DataFrame({"t_s": self.t_s, "theta_rad": self.theta_rad, "theta_dot_rad_s": self.theta_dot_rad_s})
 
@@ -174,17 +184,11 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
     >>> sim.outcome
     'overturn'
     """
-    from ..engines.registry import get_adapter
-    from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
-    from .cli.options import case_from_args, engine_settings_from_args
-    from .simulation import run_case
-
-    ns = _checked(_namespace, block, **case)
-    c, _ = _checked(case_from_args, ns)
-    settings = _checked(engine_settings_from_args, ns)
-    adapter = _checked(get_adapter, ns.engine, **settings)
+    request = _checked(request_of, block, **case)
+    c, _ = _checked(request.case)
+    settings = _checked(request.engine_settings)
+    adapter = _checked(get_adapter, request.engine, **settings)
     tr, res = run_case(adapter, c)
-    from .report.histories import impact_times
     empty = np.zeros(0)
     b, p = c.block, c.pulse
     return Simulation(
@@ -203,7 +207,6 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
 
 
 def _axis(option: str, name: str, value):
-    from .maps.grid import make_axis, parse_range
     if isinstance(value, str):
         return parse_range(option, value, name)
     try:
@@ -242,33 +245,23 @@ def stability_map(block: str | None = "B3M", *, w_ratio=(1.0, 12.0, 50), a_ratio
     -------
     xarray.Dataset or pandas.DataFrame
     """
-    from .cli.options import block_from_args, dt_from_args, engine_settings_from_args, restitution_from_args
-    from .store.frames import rows_to_dataframe, rows_to_dataset
-    from .store.loading import full_grid_rows
-    from .maps.grid import MAP_PULSES, MapSpec
-    from .maps.sweep import run_map
-
     if output not in ("dataset", "dataframe"):
         raise ConfigError(f"output must be 'dataset' or 'dataframe', got {output!r}.")
     if output == "dataset":
-        from .store.frames import need
         need("xarray")
     bad = sorted(set(case) & {"w_ratio", "a_ratio", "omega", "period", "amplitude", "amplitude_g"})
     if bad:
         raise ConfigError(f"a map takes its axes as w_ratio=(LO, HI, N) and a_ratio=(LO, HI, N), not {bad[0]}=.")
-    ns = _checked(_namespace, block, **case)
-    kind = ns.pulse.strip().lower()
+    request = _checked(request_of, block, **case)
+    kind = request.pulse.strip().lower()
     if kind not in MAP_PULSES:
-        raise ConfigError(f"a map needs a harmonic pulse ({', '.join(MAP_PULSES)}), got pulse={ns.pulse!r}.")
-    b, preset = _checked(block_from_args, ns)
-    spec = _checked(MapSpec, b, kind, _checked(restitution_from_args, ns, preset),
-                    _checked(_axis, "w_ratio", "w_ratio", w_ratio), _checked(_axis, "a_ratio", "a_ratio", a_ratio),
-                    engine=ns.engine, engine_settings=_checked(engine_settings_from_args, ns),
-                    dt_s=_checked(dt_from_args, ns), linearized=ns.linearized)
+        raise ConfigError(f"a map needs a harmonic pulse ({', '.join(MAP_PULSES)}), got pulse={request.pulse!r}.")
+    spec = _checked(request.map_spec, kind, lambda: (_axis("w_ratio", "w_ratio", w_ratio),
+                                                    _axis("a_ratio", "a_ratio", a_ratio)))
     ref = spec.engine == "reference"
 
     def compute(d):
-        run_map(spec, d, jobs=jobs, serial=ref, adaptive=adaptive and not ref, plot=False, progress=False)
+        run_map(spec, d, jobs=jobs, serial=ref, adaptive=adaptive and not ref, progress=False)
         return full_grid_rows(d)
 
     if out is not None:
@@ -301,8 +294,6 @@ class Run:
     def cells(self):
         """All maps' cells on their full grids in one tidy ``pandas.DataFrame`` (``variant``,
         ``block``, ``pulse`` and ``restitution`` keep them apart)."""
-        from .store.frames import need, rows_to_dataframe
-        from .store.loading import full_grid_rows
         pd = need("pandas")
         frames = [rows_to_dataframe(full_grid_rows(m.path)) for m in self.maps]
         df = pd.concat(frames, ignore_index=True)
@@ -312,7 +303,6 @@ class Run:
 
     def scores(self):
         """Every scored pair of score.json, one row each, one column per metric (``pandas.DataFrame``)."""
-        from .store.frames import need
         pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
@@ -324,8 +314,6 @@ class Run:
     def summary(self):
         """Per engine variant, the mean of each metric over its like-for-like pairs (counts summed),
         as the report's summary table shows it (``pandas.DataFrame`` indexed by variant)."""
-        from .store.frames import need
-        from .scoring.tables import summary
         pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
@@ -335,8 +323,6 @@ class Run:
         """The verdict of score.json, one row per variant in rank order (``pandas.DataFrame`` indexed by
         variant: label, settings, the primary value, ``ci95_lo``, ``ci95_hi``, rank, pairs, fails,
         reasons); its sentences are ``run.score["verdict"]["text"]``."""
-        from .store.frames import need
-        from .scoring.tables import ranked_summary
         pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
@@ -349,7 +335,6 @@ class Run:
         """Metric name → its definition in words (from score.json, else from this rockbench)."""
         if self.score and self.score.get("metrics"):
             return {m["name"]: m["definition"] for m in self.score["metrics"]}
-        from .scoring.metrics import METRICS
         return {k: m.definition for k, m in METRICS.items()}
 
 
@@ -361,12 +346,9 @@ def load_run(path) -> Run:
     ConfigError
         Nothing there, or no map in it.
     """
-    from .store.loading import load_entries
-
     p = Path(path)
     maps = load_entries([p])
     score = None
     if (p / "score.json").is_file():
-        from .scoring.score_runs import load_score
         score = load_score(p / "score.json")
     return Run(p, maps, score)

@@ -24,6 +24,10 @@ from ..engines.base import CellResult
 from ..engines.registry import get_adapter
 from ..reference_solver.errors import RockbenchError
 from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from .report.histories import impact_times, picture_span_s
+from .report.plots.output import save_figure
+from .report.plots.trajectories import plot_theta
+from .scoring.labels import restitution_symbol, variant_label
 from .store.atomic import write_atomic
 
 
@@ -111,14 +115,32 @@ def simulate_case(engine: str, settings: dict, case, *, history: Path | None = N
     return out
 
 
+def trajectory_for_picture(engine: str, settings: dict, case, trajectory=None):
+    """A trajectory of ``case`` that runs as far as its picture needs.
+
+    The reference is integrated on until rest or overturn (``mode="to-rest"``) unless
+    ``trajectory`` already came from that mode; an engine's own trajectory already runs to its own
+    decision (a bounded tail after the pulse) and is returned as it is (simulated when None).
+
+    Returns
+    -------
+    (Trajectory, str or None)
+        The trajectory, and the mode it was integrated in (reference only).
+    """
+    if engine == "reference":
+        if trajectory is not None and (trajectory.diagnostics or {}).get("mode") == "to-rest":
+            return trajectory, "to-rest"
+        s = {**dict(settings or {}), "mode": "to-rest"}
+        return get_adapter("reference", **s).simulate(case), "to-rest"
+    if trajectory is None:
+        trajectory = get_adapter(engine, **dict(settings or {})).simulate(case)
+    return trajectory, None
+
+
 def plot_simulation(path: Path, engine: str, settings: dict, case, tr, res, out: dict) -> Path:
     """Draw θ(t) as far as the picture needs (:mod:`rockbench.harness.report.histories`): the reference's
     default mode stops at the pulse's end, so the picture's run is integrated on to rest or
     overturn, over a span that depends on the pulse alone (two runs of one case share it)."""
-    from .report.histories import impact_times, picture_span_s, trajectory_for_picture
-    from .scoring.labels import restitution_symbol, variant_label
-    from .report.plots.trajectories import plot_theta
-
     block, pulse = case.block, case.pulse
     pic, mode = trajectory_for_picture(engine, settings, case, tr)
     span = picture_span_s(pulse, res.t_overturn_s if res.outcome == "overturn" else None)
@@ -142,5 +164,4 @@ def plot_simulation(path: Path, engine: str, settings: dict, case, tr, res, out:
                          "reference": engine == "reference", "outcome": outcome}],
                        alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=span, title=title)
     out["_span"] = span
-    from .report.plots.output import save_figure
     return save_figure(drawn["figure"], path)

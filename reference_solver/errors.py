@@ -4,6 +4,8 @@ Each subclass also inherits the builtin it refines, so ``except ValueError`` kee
 callers who do not know rockbench. Messages say what was wrong, what was given and what to do.
 """
 
+import math
+
 
 class RockbenchError(Exception):
     """Base class of every error rockbench raises on purpose."""
@@ -49,8 +51,6 @@ def check_positive(name: str, value, unit: str = "", hint: str = "") -> float:
     hint : str
         What to do instead; appended to the message.
     """
-    import math
-
     try:
         v = float(value)
     except (TypeError, ValueError):

@@ -16,11 +16,12 @@ package is cheap: the solver, the engines and plotting load on first use.
 
 from __future__ import annotations
 
+from importlib.metadata import PackageNotFoundError, version
+
 __all__ = ["__version__", "simulate", "stability_map", "load_run", "Simulation", "Run"]
 
 
 def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
     try:
         return version("rockbench")
     except PackageNotFoundError:  # a source tree that was never installed
@@ -33,8 +34,8 @@ _LAZY = {"simulate", "stability_map", "load_run", "Simulation", "Run"}
 
 
 def __getattr__(name: str):
-    # the API pulls in numpy, numba and the engines' registry: load it on first use only
     if name in _LAZY:
+        # the API pulls in numpy, numba and the engines' registry: load it on first use only
         from .harness import api
         return getattr(api, name)
     raise AttributeError(f"module 'rockbench' has no attribute {name!r}")

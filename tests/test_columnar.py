@@ -87,10 +87,10 @@ def test_columnar_cells_csv_equals_per_cell_path(tmp_path, monkeypatch, adaptive
     if compiled:
         monkeypatch.setattr(columnar, "COMPILED_MIN_ROWS", 0)
     s = _spec(36)
-    a = run_map(s, tmp_path / "columnar", serial=True, plot=False, adaptive=adaptive)
+    a = run_map(s, tmp_path / "columnar", serial=True, adaptive=adaptive)
     with monkeypatch.context() as m:
         _per_cell_path(m)
-        b = run_map(s, tmp_path / "per-cell", serial=True, plot=False, adaptive=adaptive)
+        b = run_map(s, tmp_path / "per-cell", serial=True, adaptive=adaptive)
     ra, rb = _rows(tmp_path / "columnar"), _rows(tmp_path / "per-cell")
     assert ra == rb
     assert _lines(tmp_path / "columnar") == _lines(tmp_path / "per-cell")
@@ -109,10 +109,10 @@ def test_columnar_map_quotes_names_and_takes_friction(tmp_path, monkeypatch):
     blk = Block(0.05, 0.2, name='odd, "block"')
     s = MapSpec(blk, "cosine", Restitution("constant", value=0.9), make_axis("--w-ratio", "w_ratio", 1, 8, 12),
                 make_axis("--a-ratio", "a_ratio", 0.5, 8, 10), engine_settings={"friction": 2.0})
-    run_map(s, tmp_path / "c", serial=True, plot=False)
+    run_map(s, tmp_path / "c", serial=True)
     with monkeypatch.context() as m:
         _per_cell_path(m)
-        run_map(s, tmp_path / "p", serial=True, plot=False)
+        run_map(s, tmp_path / "p", serial=True)
     ra = _rows(tmp_path / "c")
     assert ra == _rows(tmp_path / "p")
     assert {r["block"] for r in ra.values()} == {'odd, "block"'}
@@ -121,10 +121,10 @@ def test_columnar_map_quotes_names_and_takes_friction(tmp_path, monkeypatch):
 
 def test_reference_in_worker_processes_equals_columnar(tmp_path):
     s = _spec(16, pulse="cosine")
-    run_map(s, tmp_path / "c", serial=True, plot=False)
+    run_map(s, tmp_path / "c", serial=True)
     ex = ProcessExecutor(worker_init("reference", {}), jobs=2)
     try:
-        run_map(s, tmp_path / "p", plot=False, executor=ex)
+        run_map(s, tmp_path / "p", executor=ex)
     finally:
         ex.close()
     assert _rows(tmp_path / "c") == _rows(tmp_path / "p")
@@ -146,11 +146,11 @@ def test_resume_after_partial_columnar_map(tmp_path, monkeypatch):
     with monkeypatch.context() as m:
         m.setattr(ReferenceAdapter, "run_grid", dying)
         with pytest.raises(KeyboardInterrupt):
-            run_map(s, tmp_path / "m", serial=True, plot=False)
+            run_map(s, tmp_path / "m", serial=True)
     assert len(_rows(tmp_path / "m")) == 300
-    r = run_map(s, tmp_path / "m", serial=True, plot=False)
+    r = run_map(s, tmp_path / "m", serial=True)
     assert r.n_resumed == 300 and r.complete
-    run_map(s, tmp_path / "one", serial=True, plot=False)
+    run_map(s, tmp_path / "one", serial=True)
     lines = (tmp_path / "m" / "cells.csv").read_text().splitlines()
     assert len(lines) == 1 + 900 and _rows(tmp_path / "m") == _rows(tmp_path / "one")
 

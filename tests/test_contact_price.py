@@ -101,7 +101,7 @@ variants = {variants}
 def test_a_variant_with_its_own_restitution_runs_against_it(tmp_path):
     s = _suite(tmp_path, '[{ settings = "calibrated" }, { contact = "distributed", restitution = "modified-average", '
                          'engines = ["mujoco"] }]')
-    v = s.engine_variants[1]
+    v = s.engines.variants[1]
     assert variant_settings(v) == {"contact": "distributed"}
     assert variant_restitution(s, v) == "modified-average"
     jobs = [j for j in plan(s, ["mujoco", "pybullet"]) if j.engine != "reference"]

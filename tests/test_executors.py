@@ -29,9 +29,9 @@ def spec(engine, n=16, **settings):
 @pytest.mark.parametrize("engine", ["analytic", "analytic-batch"])
 def test_serial_equals_processes(analytic_truth, tmp_path, engine):
     s = spec(engine)
-    a = run_map(s, tmp_path / "serial", serial=True, plot=False)
-    b = run_map(s, tmp_path / "proc1", jobs=1, plot=False)
-    c = run_map(s, tmp_path / "proc2", jobs=2, plot=False)
+    a = run_map(s, tmp_path / "serial", serial=True)
+    b = run_map(s, tmp_path / "proc1", jobs=1)
+    c = run_map(s, tmp_path / "proc2", jobs=2)
     assert np.array_equal(a.outcome, analytic_truth(s))
     for r in (b, c):
         assert np.array_equal(r.outcome, a.outcome)
@@ -53,13 +53,13 @@ def cluster():
 
 def test_dask_equals_serial_and_isolates_crashes(analytic_truth, tmp_path, cluster):
     s = spec("analytic-batch", n=12)
-    ref = run_map(s, tmp_path / "serial", serial=True, plot=False)
-    d = run_map(s, tmp_path / "dask", scheduler=cluster, plot=False)
+    ref = run_map(s, tmp_path / "serial", serial=True)
+    d = run_map(s, tmp_path / "dask", scheduler=cluster)
     assert np.array_equal(d.outcome, ref.outcome)
     assert np.array_equal(d.max_abs_theta_rad, ref.max_abs_theta_rad)
     # a segfaulting engine on Dask: its cells are recorded, the rest equals the truth
     s2 = spec("crashing", n=4, bad_above=7.5)
-    r = run_map(s2, tmp_path / "dask-crash", scheduler=cluster, plot=False, cell_timeout_s=30)
+    r = run_map(s2, tmp_path / "dask-crash", scheduler=cluster, cell_timeout_s=30)
     bad = s2.w_ratios() > 7.5
     assert (r.outcome[:, bad] == FAILED).all()
     assert np.array_equal(r.outcome[:, ~bad], analytic_truth(s2)[:, ~bad])
@@ -74,7 +74,7 @@ def test_dask_equals_serial_and_isolates_crashes(analytic_truth, tmp_path, clust
 ])
 def test_bad_cells_are_recorded_and_the_map_goes_on(analytic_truth, tmp_path, engine, flag, text):
     s = spec(engine, n=6, bad_above=7.5)
-    r = run_map(s, tmp_path / "m", jobs=2, plot=False)
+    r = run_map(s, tmp_path / "m", jobs=2)
     bad = s.w_ratios() > 7.5
     assert bad.sum() == 1
     assert (r.outcome[:, bad] == FAILED).all()
@@ -89,7 +89,7 @@ def test_bad_cells_are_recorded_and_the_map_goes_on(analytic_truth, tmp_path, en
 def test_hanging_cell_times_out(analytic_truth, tmp_path):
     s = spec("hanging", n=4, bad_above=7.5)      # one column: four hanging cells
     t0 = time.monotonic()
-    r = run_map(s, tmp_path / "m", jobs=2, plot=False, cell_timeout_s=1.0)
+    r = run_map(s, tmp_path / "m", jobs=2, cell_timeout_s=1.0)
     assert time.monotonic() - t0 < 30
     bad = s.w_ratios() > 7.5
     assert (r.outcome[:, bad] == FAILED).all()
@@ -103,7 +103,7 @@ def test_worker_that_never_starts_stops_the_map_with_the_reason(tmp_path, monkey
     monkeypatch.setenv("RB_TEST_PARENT_PID", str(os.getpid()))
     t0 = time.monotonic()
     with pytest.raises(EngineError, match="did not start within 1 s"):
-        run_map(spec("hanging-start", n=4), tmp_path / "m", jobs=2, plot=False)
+        run_map(spec("hanging-start", n=4), tmp_path / "m", jobs=2)
     assert time.monotonic() - t0 < 60
 
 
@@ -129,12 +129,12 @@ def test_one_executor_serves_many_maps(analytic_truth, tmp_path):
         for k, pulse in enumerate(("sine", "cosine")):
             s = MapSpec(get_preset("B6L").block(), pulse, Restitution(), make_axis("--w-ratio", "w_ratio", 0.5, 8, 9),
                         make_axis("--a-ratio", "a_ratio", 0.5, 9, 9), engine="analytic")
-            r = run_map(s, tmp_path / f"m{k}", executor=ex, plot=False)
+            r = run_map(s, tmp_path / f"m{k}", executor=ex)
             assert np.array_equal(r.outcome, analytic_truth(s))
         pids = {w.proc.pid for w in ex.workers}
         assert len(pids) == 2                         # the same two workers did both maps
         with pytest.raises(ConfigError, match="the executor given runs engine 'analytic'"):
-            run_map(spec("raising"), tmp_path / "other", executor=ex, plot=False)
+            run_map(spec("raising"), tmp_path / "other", executor=ex)
     finally:
         ex.close()
 
@@ -150,7 +150,7 @@ def test_jobs_are_capped_at_cores_and_cells(analytic_truth, tmp_path):
     logs = []
     s = spec("analytic", n=2)
     t0 = time.monotonic()
-    r = run_map(s, tmp_path / "m", jobs=1000, plot=False, log=logs.append)
+    r = run_map(s, tmp_path / "m", jobs=1000, log=logs.append)
     assert np.array_equal(r.outcome, analytic_truth(s))
     assert any("--jobs 1000 capped at" in m for m in logs), logs
     import json
@@ -292,7 +292,7 @@ def test_local_cluster_leaves_no_scratch_space(analytic_truth, tmp_path, monkeyp
     tempfile.tempdir = None        # let tempfile see the new TMPDIR
     try:
         s = spec("analytic-batch", n=4)
-        r = run_map(s, tmp_path / "m", scheduler="local", jobs=1, plot=False)
+        r = run_map(s, tmp_path / "m", scheduler="local", jobs=1)
         assert np.array_equal(r.outcome, analytic_truth(s))
     finally:
         tempfile.tempdir = None

@@ -7,9 +7,10 @@ import pytest
 
 from rockbench.harness.blocks.experiments import (SHAKING_TABLE_LIMIT_MPS2, experimental_eta, load_outcomes,
                                                   load_restitution, parse_outcomes, restitution_errors,
-                                                  restitution_targets, score_outcomes, st_limit_a_ratio)
+                                                  restitution_targets, st_limit_a_ratio)
 from rockbench.harness.blocks.presets import PRESETS
 from rockbench.harness.maps.result import MapResult
+from rockbench.harness.scoring.experiments import score_outcomes
 from rockbench.harness.scoring.metrics import OVERTURN, REST, ROCKING
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G

@@ -117,7 +117,7 @@ def test_adaptive_run_map_and_load_agree(analytic_truth, tmp_path):
     assert np.array_equal(back.outcome, r.outcome) and back.adaptive
     assert back.fraction_simulated == pytest.approx(r.fraction_simulated)
     # a full run into the same directory reuses the adaptive cells and adds the rest
-    full = run_map(s, tmp_path / "m", serial=True, plot=False)
+    full = run_map(s, tmp_path / "m", serial=True)
     assert full.n_simulated == s.n_cells and np.array_equal(full.outcome, r.outcome)
 
 
@@ -166,7 +166,7 @@ def test_stability_plot_png_svg(tmp_path):
     for eng in ("analytic", "analytic-batch"):
         s = MapSpec(b, "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 0.5, 10, 30),
                     make_axis("--a-ratio", "a_ratio", 0.5, 12, 30), engine=eng)
-        maps.append(run_map(s, tmp_path / eng, serial=True, plot=False))
+        maps.append(run_map(s, tmp_path / eng, serial=True))
     fig, ax = plt.subplots()
     got = plot_stability(maps, ["one", "two"], ax=ax, experiments=[{"w_ratio": 3, "a_ratio": 4, "outcome": "O"},
                                                                    {"w_ratio": 6, "a_ratio": 2, "outcome": "R"}])

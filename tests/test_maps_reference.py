@@ -34,7 +34,7 @@ def test_reference_map_equals_batch_solver_whatever_runs_it(tmp_path):
     s = spec("B3M", "sine", Restitution("modified", k=0.8608), 30)
     b = batch(s)
     for name, kw in [("serial", dict(serial=True)), ("proc", dict(jobs=2))]:
-        r = run_map(s, tmp_path / name, plot=False, **kw)
+        r = run_map(s, tmp_path / name, **kw)
         assert np.array_equal(r.outcome, b.outcome.astype(np.int8)), name
         assert np.array_equal(r.n_impacts, b.n_impacts), name
         assert np.array_equal(r.max_abs_theta_rad, b.max_abs_theta_rad), name
@@ -86,8 +86,8 @@ def test_adaptive_equals_full_on_table1_200x200_under_a_quarter():
 
 def test_adaptive_run_map_equals_full_run_map(tmp_path):
     s = spec("B6M", "sine", Restitution(), 60)
-    full = run_map(s, tmp_path / "full", serial=True, plot=False)
-    ad = run_map(s, tmp_path / "ad", serial=True, adaptive=True, plot=False)
+    full = run_map(s, tmp_path / "full", serial=True)
+    ad = run_map(s, tmp_path / "ad", serial=True, adaptive=True)
     assert np.array_equal(ad.outcome, full.outcome)
     assert ad.n_simulated < s.n_cells
     sim = ad.simulated

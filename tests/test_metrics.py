@@ -7,9 +7,9 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
 
-from rockbench.harness.maps.result import MapResult
+from rockbench.harness.maps.result import MapResult, from_cells
 from rockbench.harness.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING,
-                                               boundary_points, check_gate, critical_amplitude, from_cells,
+                                               boundary_points, check_gate, critical_amplitude,
                                                cell_counts, is_perfect, parse_thresholds, score)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
 

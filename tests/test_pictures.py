@@ -290,11 +290,11 @@ def test_labels_name_the_solver_of_an_engine_with_several():
 def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):
     """Fig. 5 (B6M): the table limit, a₀/(g·tanα) = 11.5, lies above the chart's 10: neither drawn nor
     listed; the legend sits below the axes and the labels read as the paper writes them."""
-    from rockbench.harness.report.figures import FIGURES, curve_spec
+    from rockbench.harness.figures import FIGURES, curve_spec
     from rockbench.harness.maps.sweep import run_map
     from rockbench.harness.report.plots.stability import plot_stability
     _, curves = FIGURES[5]
-    maps = [run_map(curve_spec(c, 12), tmp_path / f"m{k}", serial=True, plot=False) for k, c in enumerate(curves)]
+    maps = [run_map(curve_spec(c, 12), tmp_path / f"m{k}", serial=True) for k, c in enumerate(curves)]
     d = plot_stability(maps, [c.label() for c in curves], title="Fig. 5")
     labels = _labels(d["legend"])
     assert d["st_limit_a_ratio"] is None and not any("ST limit" in t for t in labels)

@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from rockbench.harness.cli.main import main
+from rockbench.harness.blocks.cases import FIG17
 from rockbench.harness.report.build import build_report
+from rockbench.harness.trajectories import record_for_report
 from rockbench.harness.maps.result import MapResult
 from rockbench.reference_solver.restitution import Restitution
 
@@ -159,6 +161,15 @@ def test_report_draws_fig17_with_the_reference(write_map, band, tmp_path):
     """θ(t) of the paper's Fig. 17 case with the real reference solver (both k of B3M)."""
     write_map(tmp_path / "run" / "ref", band(6, 6, 3), block="B3M")
     write_map(tmp_path / "run" / "eng", band(6, 6, 2), engine="nosuchengine", block="B3M")
+    simulated = []
+    # as rockbench run does: the θ(t) runs stored in the run's folder
+    record_for_report((FIG17,), [tmp_path / "run"], tmp_path / "run", log=simulated.append)
+    assert (tmp_path / "run" / "trajectories" / "theta_b3m_sine_6_6.1.npz").is_file()
+    assert any(m.startswith("θ(t): reference") for m in simulated)
+    # as rockbench report does: a report elsewhere copies what the run stored, and simulates nothing
+    simulated.clear()
+    record_for_report((FIG17,), [tmp_path / "run"], tmp_path / "out", log=simulated.append)
+    assert simulated == []
     res = build_report([tmp_path / "run"], tmp_path / "out", log=lambda m: None)
     assert (tmp_path / "out" / "img" / "theta_b3m_sine_6_6.1.png").is_file()
     # the reference curves were drawn; the unknown engine is a note, not a failure
@@ -167,9 +178,17 @@ def test_report_draws_fig17_with_the_reference(write_map, band, tmp_path):
     assert "theta_b3m_sine_6_6.1.png" in (tmp_path / "out" / "report.md").read_text()
 
 
+def test_report_without_stored_trajectories_says_so(write_map, band, tmp_path):
+    """The report draws θ(t) from what a run stored and simulates nothing itself."""
+    write_map(tmp_path / "run" / "ref", band(6, 6, 3), block="B3M")
+    res = build_report([tmp_path / "run"], tmp_path / "out", log=lambda m: None)
+    assert not (tmp_path / "out" / "img" / "theta_b3m_sine_6_6.1.png").exists()
+    assert any("no θ(t) stored" in n for n in res["notes"]), res["notes"]
+
+
 def test_price_table_shows_reach_contact_and_cost():
     """A calibration with a measured price gets a row: reached only if the price counts."""
-    from rockbench.harness.report.sections import _price_table
+    from rockbench.harness.report.sections import price_table
 
     price = {"uplift": {"ratio": 0.986, "within": True}, "anti_slip": {"n_slip": 0, "n_jump": 1, "cells": 27},
              "period_change": -0.0051, "steps_per_s": 4.0e4, "counts": True}
@@ -180,9 +199,11 @@ def test_price_table_shows_reach_contact_and_cost():
              "eta_measured": 0.7558, "reached": True, "price": None, "contact": "corners"},
             {"variant": "pybullet[contact=distributed,settings=calibrated]", "block": "B3L",
              "restitution": "modified(k=0.7306)", "eta_measured": 0.8596, "reached": False, "contact": "5 points along the base",
-             "price": {**price, "uplift": {"ratio": 0.9, "within": False}, "counts": False}}]
-    head, body = _price_table(rows, {})
+             "price": {**price, "uplift": {"ratio": 0.9, "within": False, "rtol": 0.02}, "counts": False}}]
+    head, body = price_table(rows, {})
     assert len(body) == 2 and "static uplift / g·tanα" in head
     assert body[0][4] == "yes" and body[0][5] == "9 points along the base" and body[0][6] == "0.9860"
     assert body[0][7] == "0 / 1 of 27" and body[0][8] == "-0.51 %"
-    assert body[1][4] == "no" and "outside 2 %" in body[1][6]
+    assert body[1][4] == "no" and "outside 2 %" in body[1][6]   # the tolerance the calibration recorded
+    rows[2]["price"]["uplift"].pop("rtol")
+    assert "outside its tolerance" in price_table(rows, {})[1][1][6]   # a record made before it was recorded

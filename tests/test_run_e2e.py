@@ -21,8 +21,8 @@ def _spec(n=13):
 
 
 def test_adaptive_reference_map_scores_perfect_against_the_full_one(tmp_path):
-    run_map(_spec(), tmp_path / "full", serial=True, plot=False)
-    run_map(_spec(), tmp_path / "adaptive", serial=True, adaptive=True, coarse_stride=2, plot=False)
+    run_map(_spec(), tmp_path / "full", serial=True)
+    run_map(_spec(), tmp_path / "adaptive", serial=True, adaptive=True, coarse_stride=2)
     doc = score_dirs([tmp_path / "adaptive"], against=[tmp_path / "full"])
     (p,) = doc["pairs"]
     assert p["filled_cells"] > 0  # inferred cells are counted, not called invalid
@@ -48,6 +48,7 @@ def test_run_quick_end_to_end(tmp_path):
     assert (out / "index.html").is_file() and (out / "report.md").is_file()
     assert len(list((out / "maps" / "reference").iterdir())) == 12  # 2 blocks x 2 pulses x 3 restitutions
     assert (out / "img" / "theta_b3m_sine_6_6.1.png").is_file()
+    assert (out / "trajectories" / "theta_b3m_sine_6_6.1.npz").is_file()   # what the report drew it from
     suite = json.loads((out / "suite.json").read_text())
     assert suite["suite_name"] == "quick" and suite["suite"]["grid"]["adaptive"] and len(suite["maps"]) >= 12
     # the engines the suite's "available" picks: installed, not in its `exclude` list (drake), and not

@@ -184,7 +184,7 @@ def test_own_eta_jobs():
     from rockbench.harness.suites.model import load_suite, suite_path
     from rockbench.harness.suites.plan import own_eta_jobs
     s = load_suite(suite_path("default", False))
-    assert s.own_eta
+    assert s.engines.own_eta
     jobs = own_eta_jobs(s, [{"variant": "a", "block": "B3M", "eta_measured": 0.91234},
                             {"variant": "b", "block": "B3M", "eta_measured": 0.91231},  # same to 4 decimals
                             {"variant": "c", "block": "B6L", "eta_measured": None}])

@@ -15,6 +15,7 @@ import pytest
 from rockbench.harness.cli.main import main
 from rockbench.harness.maps.grid import MapSpec, make_axis
 from rockbench.harness.maps.sweep import run_map
+from rockbench.harness.report.plots.picture import MapPicture
 from rockbench.harness.store.loading import load_map
 from rockbench.harness.blocks.presets import get_preset
 from rockbench.harness.store.files import COLUMNS, SCHEMA_VERSION
@@ -40,7 +41,7 @@ def rows_of(d):
 
 def test_run_dir_contents_and_provenance(analytic_truth, tmp_path):
     s = spec(12)
-    r = run_map(s, tmp_path / "m", jobs=1)
+    r = run_map(s, tmp_path / "m", jobs=1, picture=MapPicture())
     meta = json.loads((tmp_path / "m" / "run.json").read_text())
     assert meta["schema_version"] == SCHEMA_VERSION
     for key in ("created_utc", "rockbench_version", "git", "python", "platform", "engine", "spec", "summary"):
@@ -61,12 +62,12 @@ def test_run_dir_contents_and_provenance(analytic_truth, tmp_path):
 
 def test_torn_last_line_is_cut_and_recomputed(analytic_truth, tmp_path):
     s = spec(10)
-    run_map(s, tmp_path / "m", serial=True, plot=False)
+    run_map(s, tmp_path / "m", serial=True)
     path = tmp_path / "m" / "cells.csv"
     lines = path.read_text().splitlines(keepends=True)
     # drop the last three rows and leave half of one, as a kill in mid-write would
     path.write_text("".join(lines[:-3]) + lines[-3][: len(lines[-3]) // 2])
-    r = run_map(s, tmp_path / "m", serial=True, plot=False)
+    r = run_map(s, tmp_path / "m", serial=True)
     rows = rows_of(tmp_path / "m")
     keys = [(int(x["i"]), int(x["j"])) for x in rows]
     assert len(keys) == len(set(keys)) == 100
@@ -74,10 +75,10 @@ def test_torn_last_line_is_cut_and_recomputed(analytic_truth, tmp_path):
 
 
 def test_other_spec_is_refused(tmp_path):
-    run_map(spec(8), tmp_path / "m", serial=True, plot=False)
+    run_map(spec(8), tmp_path / "m", serial=True)
     before = (tmp_path / "m" / "cells.csv").read_bytes()
     with pytest.raises(ConfigError, match="different map"):
-        run_map(spec(9), tmp_path / "m", serial=True, plot=False)
+        run_map(spec(9), tmp_path / "m", serial=True)
     assert (tmp_path / "m" / "cells.csv").read_bytes() == before
 
 
@@ -96,7 +97,7 @@ def test_not_a_map_directory_is_refused(tmp_path):
     (tmp_path / "d").mkdir()
     (tmp_path / "d" / "notes.txt").write_text("mine")
     with pytest.raises(ConfigError, match="not a rockbench map directory"):
-        run_map(spec(4), tmp_path / "d", serial=True, plot=False)
+        run_map(spec(4), tmp_path / "d", serial=True)
     assert sorted(p.name for p in (tmp_path / "d").iterdir()) == ["notes.txt"]
 
 
@@ -122,7 +123,7 @@ def test_resume_after_kill_9(analytic_truth, tmp_path):
     first = rows_of(out)
     assert 100 < len(first) < n * n, "the kill must land mid-map"
     s = spec(n, settings={"sleep_s": 0.01})
-    r = run_map(s, out, jobs=2, plot=False)
+    r = run_map(s, out, jobs=2)
     rows = rows_of(out)
     keys = [(int(x["i"]), int(x["j"])) for x in rows]
     assert len(keys) == len(set(keys)) == n * n          # no duplicates, every cell
@@ -133,8 +134,8 @@ def test_resume_after_kill_9(analytic_truth, tmp_path):
 
 
 def test_cells_carry_their_variant_so_concatenated_maps_stay_apart(tmp_path):
-    run_map(spec(5, settings={"sleep_s": 0}), tmp_path / "a", serial=True, plot=False)
-    run_map(spec(5), tmp_path / "b", serial=True, plot=False)
+    run_map(spec(5, settings={"sleep_s": 0}), tmp_path / "a", serial=True)
+    run_map(spec(5), tmp_path / "b", serial=True)
     a, b = rows_of(tmp_path / "a"), rows_of(tmp_path / "b")
     assert COLUMNS[:3] == ["engine", "variant", "block"]
     assert {r["variant"] for r in a} == {"analytic[sleep_s=0]"} and {r["variant"] for r in b} == {"analytic"}
@@ -145,7 +146,7 @@ def test_an_adaptive_map_written_out_on_its_full_grid(analytic_truth, tmp_path, 
     from rockbench.harness.store.export import FULL_GRID_FILE
     from rockbench.harness.store.loading import full_grid_rows
     s = spec(13)
-    r = run_map(s, tmp_path / "m", serial=True, adaptive=True, coarse_stride=4, plot=False)
+    r = run_map(s, tmp_path / "m", serial=True, adaptive=True, coarse_stride=4)
     assert 0 < r.n_simulated < 169
     rows = full_grid_rows(tmp_path / "m")
     assert len(rows) == 169 and [(int(x["i"]), int(x["j"])) for x in rows] == [(i, j) for i in range(13)

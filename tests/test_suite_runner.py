@@ -16,8 +16,8 @@ def test_shipped_suites_parse_and_plan():
     d = load_suite(suite_path(None, quick=False))
     q = load_suite(suite_path(None, quick=True))
     assert d.name == "default" and q.name == "quick"
-    assert d.blocks == ["B3M", "B6M", "B3L", "B6L"] and d.pulses == ["sine", "cosine"]
-    assert q.blocks == ["B3M", "B6L"]  # one block per slenderness
+    assert d.cases.blocks == ["B3M", "B6M", "B3L", "B6L"] and d.cases.pulses == ["sine", "cosine"]
+    assert q.cases.blocks == ["B3M", "B6L"]  # one block per slenderness
     quick_held = [j for j in plan(q, ["mujoco", "exudyn"]) if j.settings.get("calibrate_on")]
     assert {(j.engine, j.block) for j in quick_held} == {("mujoco", "B6L")}
     jobs = plan(d, ["mujoco", "pybullet"])

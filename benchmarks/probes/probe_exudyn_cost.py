@@ -28,16 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.harness.api import _namespace
-from rockbench.harness.cli.options import case_from_args, engine_settings_from_args
+from rockbench.harness.api import request_of
 from rockbench.engines import exudyn_adapter as X
 from rockbench.engines.registry import get_adapter
 
 
 def _case(settings: str, w: float, a: float, block: str = "B3M"):
-    ns = _namespace(block, engine="exudyn", settings=settings, pulse="sine", w_ratio=w, a_ratio=a)
-    case, _ = case_from_args(ns)
-    return get_adapter("exudyn", **engine_settings_from_args(ns)), case
+    ns = request_of(block, engine="exudyn", settings=settings, pulse="sine", w_ratio=w, a_ratio=a)
+    case, _ = ns.case()
+    return get_adapter("exudyn", **ns.engine_settings()), case
 
 
 def _model(adapter, case):

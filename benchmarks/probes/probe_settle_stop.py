@@ -22,8 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.harness.api import _namespace
-from rockbench.harness.cli.options import case_from_args, engine_settings_from_args
+from rockbench.harness.api import request_of
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.validity import uplift_tol_rad
 
@@ -37,10 +36,10 @@ def probe(engine: str, settings: str, granularity_s: float, n: int) -> dict:
     fired = rose_again = 0
     for k in range(n):
         block, pulse = ("B3M", "B6M", "B3L", "B6L")[k % 4], ("sine", "cosine")[(k // 4) % 2]
-        ns = _namespace(block, engine=engine, settings=settings, pulse=pulse, w_ratio=rng.uniform(1, 16),
+        ns = request_of(block, engine=engine, settings=settings, pulse=pulse, w_ratio=rng.uniform(1, 16),
                         a_ratio=rng.uniform(1, 12))
-        case = case_from_args(ns)[0]
-        tr = get_adapter(engine, **engine_settings_from_args(ns)).simulate(case)
+        case = ns.case()[0]
+        tr = get_adapter(engine, **ns.engine_settings()).simulate(case)
         t, th, thd = tr.t_s, tr.theta_rad, tr.theta_dot_rad_s
         b = case.block
         a, p, tol = b.alpha_rad, b.p_rad_s, uplift_tol_rad(b)

@@ -10,7 +10,8 @@ Two kinds of data, both documented in docs/data.md:
    published only as figure markers): one row per tested point with the block, the pulse, the
    frequency and amplitude in physical units, the outcome T (translation: no uplift), R (rocking,
    then rest) or O (overturn), the number of repetitions and the source. :func:`load_outcomes`
-   validates such a file; :func:`score_outcomes` scores a stability map against it.
+   validates such a file; :func:`~rockbench.harness.scoring.experiments.score_outcomes` scores a
+   stability map against it.
 """
 
 from __future__ import annotations
@@ -22,15 +23,11 @@ import math
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Iterable
 
-import numpy as np
-
+from ...reference_solver.classify import OUTCOME_CODES, Outcome
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import G, amplitude_to_a_ratio
 from ...reference_solver.restitution import housner_eta, modified_eta
-from ..maps.result import MapResult
-from ..scoring.metrics import FAILED, OVERTURN, REST, ROCKING
 from .presets import PRESETS
 
 #: Largest table acceleration the Quanser ST-III still performed as one sine wave (paper §5.1,
@@ -38,7 +35,8 @@ from .presets import PRESETS
 SHAKING_TABLE_LIMIT_MPS2 = 25.0
 
 #: Experimental outcome letters and the classifier's outcome code each one corresponds to.
-OUTCOME_LETTERS = {"T": REST, "R": ROCKING, "O": OVERTURN}
+OUTCOME_LETTERS = {"T": OUTCOME_CODES[Outcome.REST], "R": OUTCOME_CODES[Outcome.ROCKING],
+                   "O": OUTCOME_CODES[Outcome.OVERTURN]}
 LETTER_OF_CODE = {v: k for k, v in OUTCOME_LETTERS.items()}
 
 PULSES = ("sine", "cosine", "half-sine")
@@ -250,63 +248,6 @@ def _positive(text: str, col: str, unit: str, where: str) -> float:
     if not math.isfinite(v) or v <= 0:
         raise ConfigError(f"{where}: {col} must be a finite number > 0 [{unit}], got {text!r}.")
     return v
-
-
-def _nearest_index(axis: np.ndarray, x: float) -> int | None:
-    """Index of the grid cell whose centre is nearest ``x``, or None outside the grid's cells.
-
-    A cell extends half-way to its neighbours; the outer cells extend by half their own step
-    (a single-value axis accepts only that value).
-    """
-    if axis.size == 1:
-        return 0 if math.isclose(x, axis[0], rel_tol=1e-9) else None
-    lo = axis[0] - 0.5 * (axis[1] - axis[0])
-    hi = axis[-1] + 0.5 * (axis[-1] - axis[-2])
-    if not lo <= x <= hi:
-        return None
-    mids = 0.5 * (axis[1:] + axis[:-1])
-    return int(np.searchsorted(mids, x, side="left"))
-
-
-def score_outcomes(points: Iterable[OutcomePoint], m: MapResult, block: str, pulse: str) -> dict:
-    """Score a stability map against the experimental points of its block and pulse.
-
-    Each point is placed at its (ω/p, a₀/(g·tanα)) for ``block`` and judged by the map cell it
-    falls in; points outside the map are counted, not judged. Every repetition counts once.
-
-    Returns
-    -------
-    dict
-        ``points`` (rows used), ``runs`` (repetitions judged), ``outside`` (repetitions outside the
-        map), ``accuracy`` (fraction of judged runs where T/R/O equals rest/rocking/overturn; NaN
-        with no judged run), ``overturn_accuracy`` (overturn vs not), ``confusion`` (rows T, R, O;
-        columns rest, rocking, overturn, failed: run counts).
-    """
-    block, pulse = block.upper(), pulse.lower()
-    cols = ("rest", "rocking", "overturn", "failed")
-    conf = {letter: {c: 0 for c in cols} for letter in OUTCOME_LETTERS}
-    n_points = runs = outside = hit = hit_ov = 0
-    for pt in points:
-        if pt.block != block or pt.pulse != pulse:
-            continue
-        n_points += 1
-        j = _nearest_index(m.w_ratio, pt.w_ratio)
-        i = _nearest_index(m.a_ratio, pt.a_ratio)
-        if i is None or j is None:
-            outside += pt.repetitions
-            continue
-        code = int(m.outcome[i, j])
-        col = cols[3] if code == FAILED else cols[code]
-        conf[pt.outcome][col] += pt.repetitions
-        runs += pt.repetitions
-        want = OUTCOME_LETTERS[pt.outcome]
-        if code == want:
-            hit += pt.repetitions
-        if code != FAILED and (code == OVERTURN) == (want == OVERTURN):
-            hit_ov += pt.repetitions
-    return {"block": block, "pulse": pulse, "points": n_points, "runs": runs, "outside": outside,
-            "accuracy": hit / runs if runs else math.nan,
-            "overturn_accuracy": hit_ov / runs if runs else math.nan, "confusion": conf}
 
 
 def st_limit_a_ratio(block, st_limit_mps2: float = SHAKING_TABLE_LIMIT_MPS2) -> float:

@@ -23,6 +23,7 @@ import importlib
 import signal
 import sys
 import threading
+from importlib.metadata import version
 
 from ...reference_solver.errors import RockbenchError
 
@@ -123,7 +124,6 @@ def main(argv: list[str] | None = None) -> int:
         parser = build_parser(command_of(argv))
         args = parser.parse_args(argv)
         if args.version:
-            from importlib.metadata import version
             print(version("rockbench"))
             return 0
         if not getattr(args, "func", None):

@@ -17,6 +17,7 @@ a ``runner`` (``subprocess.run`` by default; tests pass a fake).
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import json
 import os
@@ -25,6 +26,9 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from packaging.version import InvalidVersion, Version
+
+from ...engines.registry import names
 from ...engines.support import DISTRIBUTIONS
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 
@@ -57,16 +61,11 @@ class VersionSpec:
 
 def parse_spec(text: str) -> VersionSpec:
     """``"mujoco==3.3.7"`` → VersionSpec; ConfigError (exit 2) for anything else."""
-    from packaging.version import InvalidVersion, Version
-
-    from ...engines.registry import names
-
     engine, sep, ver = str(text).partition("==")
     engine, ver = engine.strip(), ver.strip()
     if not sep or not engine or not ver:
         raise ConfigError(f"versions takes ENGINE==VERSION (e.g. mujoco==3.3.7), got {text!r}.")
     if engine not in names():
-        import difflib
         close = difflib.get_close_matches(engine, names(), n=1)
         raise ConfigError(f"unknown engine {engine!r} in {text!r}; known engines: {', '.join(names())}."
                           + (f" Did you mean {close[0]!r}?" if close else ""))

@@ -39,24 +39,35 @@ it when closed.
 
 from __future__ import annotations
 
+import asyncio
+import atexit
 import collections
 import itertools
+import logging
 import math
 import os
+import pickle
 import queue
+import shutil
 import signal
+import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
+from urllib.parse import urlsplit
 
 from ...engines import registry
 from ...engines.base import CellResult
+from ...engines.registry import adapter_class, get_adapter
 from ...reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
 from . import worker as wire
+from .cores import cpu_count
 
 #: Seconds to wait for a Dask scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0
@@ -78,17 +89,9 @@ class Cancelled(Exception):
     """:meth:`ProcessExecutor.cancel` stopped a run (an interrupt, handled by whoever cancelled it)."""
 
 
-def cpu_count() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
 def worker_init(engine: str, settings: dict) -> dict:
     """What a worker process needs to rebuild the adapter: engine, settings, the registry
     entries added in this process (as ``"module:Class"`` strings) and ``sys.path``."""
-
     return {"engine": engine, "settings": dict(settings), "registry": registry.registered(),
             "sys_path": [p for p in sys.path if p and os.path.isdir(p)]}
 
@@ -130,7 +133,6 @@ def make_executor(engine: str, settings: dict, *, jobs: int | None = None, sched
         return SerialExecutor(init)
     if scheduler:
         return DaskExecutor(init, scheduler, jobs=jobs, scratch_dir=scratch_dir)
-    from ...engines.registry import adapter_class
     if adapter_class(engine).batching == "parallel":
         # the adapter's own batch already uses every core: one call here beats worker processes
         # that would each pay the engine's start-up (for the reference, loading its kernels);
@@ -185,7 +187,6 @@ class SerialExecutor:
     """Cells in this process (whole batches for batching adapters: one ``run_many`` per round)."""
 
     def __init__(self, init: dict, kind: str = "serial", threads: int | None = None):
-        from ...engines.registry import get_adapter
         self.init = init
         self.kind = kind
         self.adapter = get_adapter(init["engine"], **init["settings"])
@@ -238,7 +239,7 @@ class _NumbaThreads:
     def __enter__(self):
         nb = sys.modules.get("numba")
         if nb is None:
-            import numba as nb
+            import numba as nb  # numba on first use (start-up time)
         want = self.n if self.n is not None else int(os.environ.get("NUMBA_NUM_THREADS") or cpu_count())
         want = max(1, min(int(want), nb.config.NUMBA_NUM_THREADS))
         self.old = nb.get_num_threads()
@@ -247,7 +248,7 @@ class _NumbaThreads:
         return self
 
     def __exit__(self, *exc):
-        import numba as nb
+        import numba as nb  # numba on first use (start-up time)
         if self.old is not None and nb.get_num_threads() != self.old:
             nb.set_num_threads(self.old)
         return False
@@ -550,9 +551,6 @@ def _dask_pool(init: dict) -> ProcessExecutor:
     Kept across tasks so the engine's start-up is paid once per Dask worker, not once per chunk;
     it dies with the Dask worker (its stdin closes) or is replaced when it crashes.
     """
-    import atexit
-    import pickle
-
     key = (pickle.dumps(sorted(init.items())), threading.get_ident())
     with _DASK_LOCK:
         ex = _DASK_POOLS.get(key)
@@ -575,9 +573,8 @@ class DaskExecutor:
     """Chunks as Dask tasks on a cluster (``address``) or on a LocalCluster on loopback (``"local"``)."""
 
     def __init__(self, init: dict, address: str, jobs: int | None = None, scratch_dir=None):
-        import logging
         try:
-            from dask.distributed import Client, LocalCluster
+            from dask.distributed import Client, LocalCluster  # Dask only with --scheduler (start-up time)
         except ImportError as e:  # pragma: no cover - a declared dependency
             raise EngineUnavailableError(f"--scheduler needs dask[distributed] ({e}); pip install 'dask[distributed]'.")
         self.init = init
@@ -587,7 +584,6 @@ class DaskExecutor:
         self.log_path = None
         self.scratch = None
         if address == "local":
-            import tempfile
             n = jobs or min(cpu_count(), 2) or 1
             if scratch_dir is not None:
                 Path(scratch_dir).mkdir(parents=True, exist_ok=True)
@@ -595,7 +591,7 @@ class DaskExecutor:
             else:
                 self.scratch = Path(tempfile.mkdtemp(prefix="rockbench-dask-"))
             try:
-                import dask
+                import dask  # Dask only with --scheduler (start-up time)
                 # the scheduler (in this process) takes its scratch folder from the configuration, the
                 # workers from local_directory: both go to ours, removed by close()
                 with dask.config.set({"temporary-directory": str(self.scratch)}):
@@ -677,7 +673,6 @@ class DaskExecutor:
                     self.cluster.close(timeout=2 * CONNECT_TIMEOUT_S)
             finally:
                 if self.scratch is not None:
-                    import shutil
                     shutil.rmtree(self.scratch, ignore_errors=True)
                     self.scratch = None
 
@@ -686,10 +681,8 @@ def _handshake(address: str) -> None:
     """Fail within :data:`CONNECT_TIMEOUT_S` unless a Dask scheduler answers at ``address`` (Dask's own
     connect waits for the peer's handshake without a limit, so a port that accepts connections but
     speaks another protocol would hang it)."""
-    import asyncio
-
     async def ask():
-        from distributed.comm import connect
+        from distributed.comm import connect  # Dask only with --scheduler (start-up time)
         comm = await connect(address, timeout=CONNECT_TIMEOUT_S)
         try:
             await comm.write({"op": "identity", "reply": True})
@@ -701,7 +694,6 @@ def _handshake(address: str) -> None:
         return asyncio.run(asyncio.wait_for(ask(), CONNECT_TIMEOUT_S))
 
     try:
-        from concurrent.futures import ThreadPoolExecutor
         with ThreadPoolExecutor(1) as pool:
             ident = pool.submit(probe).result()
     except (asyncio.TimeoutError, TimeoutError):
@@ -719,9 +711,6 @@ def _handshake(address: str) -> None:
 
 def _probe(address: str) -> None:
     """Fail at once (not after Dask's retries) when nothing listens at a tcp:// address."""
-    import socket
-    from urllib.parse import urlsplit
-
     u = urlsplit(address if "://" in address else "tcp://" + address)
     try:
         port = u.port

@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
 from ...engines.base import CellResult
 from ...reference_solver.classify import OUTCOME_CODES, Outcome
+from ...reference_solver.errors import ConfigError
 from ...reference_solver.validity import LEFT_MODEL_FLAGS
 from .grid import MapSpec
 
@@ -68,7 +70,7 @@ class MapResult:
         ``(w_ratio, a_ratio)`` of a map without a spec.
     filled : int
         Cells a table had no row for, filled from the nearest computed cell (adaptive maps; see
-        :func:`~rockbench.harness.scoring.metrics.from_cells`); 0 for a full grid.
+        :func:`from_cells`); 0 for a full grid.
     meta : dict
         Anything describing the map (engine, block, pulse, restitution, eta, missing cells, ...).
     """
@@ -228,7 +230,7 @@ def record_result(result: MapResult, i: int, j: int, r: CellResult) -> int:
     return code
 
 
-def _put_columns(result: MapResult, ii: np.ndarray, jj: np.ndarray, cols) -> None:
+def put_columns(result: MapResult, ii: np.ndarray, jj: np.ndarray, cols) -> None:
     """Record fresh successful cells ``(ii[k], jj[k])`` from a CellColumns in the grids."""
     result.outcome[ii, jj] = cols.outcome
     result.simulated[ii, jj] = True
@@ -239,7 +241,7 @@ def _put_columns(result: MapResult, ii: np.ndarray, jj: np.ndarray, cols) -> Non
     result.left_model[ii, jj] = (cols.flag_bits & left) != 0
 
 
-def _put(result: MapResult, i: int, j: int, row: dict) -> None:
+def put_row(result: MapResult, i: int, j: int, row: dict) -> None:
     ok = row["status"] == "ok" and row["outcome"] not in ("", None)
     result.outcome[i, j] = OUTCOME_CODES[Outcome(row["outcome"])] if ok else FAILED
     result.simulated[i, j] = True
@@ -247,3 +249,107 @@ def _put(result: MapResult, i: int, j: int, row: dict) -> None:
     result.max_abs_theta_rad[i, j] = float(row["max_abs_theta_rad"]) if ok else math.nan
     result.valid[i, j] = ok and str(row["valid"]).lower() in ("true", "1")
     result.left_model[i, j] = ok and bool(LEFT_MODEL_FLAGS.intersection(str(row["flags"]).split(";")))
+
+
+def from_cells(w_ratio, a_ratio, outcome, valid=None, *, fill: bool = True, meta: Mapping | None = None,
+               decimals: int = 9, flags=None) -> MapResult:
+    """Build a :class:`MapResult` from a table of cells, one row per simulation, in any order.
+
+    Parameters
+    ----------
+    w_ratio, a_ratio : array_like, shape (n,)
+        Normalised frequency and amplitude of each row [-].
+    outcome : array_like, shape (n,)
+        ``"rest"``, ``"rocking"``, ``"overturn"`` or an empty string / None for a failed cell; or
+        the integer codes.
+    valid : array_like of bool, shape (n,), optional
+        Per-row validity (default all valid).
+    flags : array_like of str, shape (n,), optional
+        Per-row flags as cells.csv writes them (``;``-separated); they give
+        :attr:`MapResult.left_model`.
+    fill : bool
+        Cells of the grid (the product of the distinct ``w_ratio`` and ``a_ratio`` values) without a
+        row take the outcome of the nearest computed cell in index space (ties: the lower index),
+        which is what an adaptive sweep that skipped uniform regions implies. With False they stay
+        :data:`FAILED`.
+    meta : mapping, optional
+        Stored in :attr:`MapResult.meta`.
+    decimals : int
+        Axis values are rounded to this many decimals before grouping, so a value written as text
+        and read back lands on the same row or column.
+
+    Raises
+    ------
+    ConfigError
+        Two rows for one cell with different outcomes (both with an outcome), or an unknown outcome.
+    """
+    w = np.round(np.asarray(w_ratio, dtype=float), decimals)
+    a = np.round(np.asarray(a_ratio, dtype=float), decimals)
+    if w.shape != a.shape or w.ndim != 1:
+        raise ValueError("w_ratio and a_ratio must be 1-D arrays of one length")
+    codes = _to_codes(outcome, w.size)
+    ok = np.ones(w.size, bool) if valid is None else np.asarray(valid, dtype=bool)
+    left = np.zeros(w.size, bool) if flags is None else np.array(
+        [bool(LEFT_MODEL_FLAGS.intersection(str(f or "").split(";"))) for f in flags], dtype=bool)
+    if w.size == 0:
+        raise ConfigError("the cell table has no rows: compute the map first (rockbench map ... --out DIR).")
+    wu, wi = np.unique(w, return_inverse=True)
+    au, ai = np.unique(a, return_inverse=True)
+    shape = (au.size, wu.size)
+    # Duplicate rows of one cell resolve the same way whatever the row order: a row with an
+    # outcome beats a failed one, and the cell is valid when any row with its outcome is.
+    # Two rows with different outcomes are an error (a stale row in a hand-edited table).
+    has = codes != FAILED
+    hi = np.full(shape, FAILED, dtype=int)
+    lo = np.full(shape, OUTCOME_CODES[Outcome.OVERTURN] + 1, dtype=int)
+    np.maximum.at(hi, (ai[has], wi[has]), codes[has])
+    np.minimum.at(lo, (ai[has], wi[has]), codes[has])
+    clash = (hi != FAILED) & (lo != hi)
+    if clash.any():
+        i, j = (int(x[0]) for x in np.nonzero(clash))
+        raise ConfigError(f"two rows for the cell w_ratio={wu[j]:g}, a_ratio={au[i]:g} disagree "
+                          f"({_name(lo[i, j])} and {_name(hi[i, j])}); remove the stale row from cells.csv.")
+    grid = hi
+    gvalid = np.zeros(shape, dtype=bool)
+    np.logical_or.at(gvalid, (ai[has], wi[has]), ok[has])
+    gleft = np.zeros(shape, dtype=bool)
+    np.logical_or.at(gleft, (ai[has], wi[has]), left[has])
+    seen = np.zeros(shape, dtype=bool)
+    seen[ai, wi] = True
+    filled = 0
+    if fill and not seen.all():
+        ii, jj = np.nonzero(seen)
+        mi, mj = np.nonzero(~seen)
+        filled = mi.size
+        src_i = np.empty(mi.size, int)
+        src_j = np.empty(mi.size, int)
+        for s in range(0, mi.size, 512):  # chunks keep the distance matrix small
+            d = (mi[s:s + 512, None] - ii[None, :]) ** 2 + (mj[s:s + 512, None] - jj[None, :]) ** 2
+            k = np.argmin(d, axis=1)
+            src_i[s:s + 512], src_j[s:s + 512] = ii[k], jj[k]
+        grid[mi, mj] = grid[src_i, src_j]
+        gvalid[mi, mj] = gvalid[src_i, src_j]
+        gleft[mi, mj] = False   # an inferred cell's outcome is known, its flags are not
+    return MapResult.from_outcomes(wu, au, grid, gvalid, gleft, seen, filled=filled, meta=dict(meta or {}))
+
+
+def _name(code: int) -> str:
+    return "failed" if code == FAILED else [o.value for o, c in OUTCOME_CODES.items() if c == code][0]
+
+
+def _to_codes(outcome, n: int) -> np.ndarray:
+    arr = np.asarray(outcome, dtype=object) if not isinstance(outcome, np.ndarray) else outcome
+    if arr.shape != (n,):
+        raise ValueError(f"outcome must have shape ({n},), got {arr.shape}")
+    if arr.dtype.kind in "iu":
+        return arr.astype(int)
+    names = {o.value: c for o, c in OUTCOME_CODES.items()}
+    names.update({"": FAILED, "none": FAILED, "failed": FAILED, "nan": FAILED})
+    # distinct texts are few (three outcomes and the empty one): map each once
+    text = np.array(["" if v is None else str(v).strip().lower() for v in arr], dtype=object)
+    uniq, inv = np.unique(text.astype(str), return_inverse=True)
+    for u in uniq:
+        if u not in names:
+            raise ConfigError(f"unknown outcome {u!r} in the cell table; expected rest, rocking, overturn "
+                              "or empty for a failed cell.")
+    return np.array([names[u] for u in uniq], dtype=int)[inv]

@@ -20,18 +20,21 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
+from tqdm import tqdm
 
+from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError
 from ..store.run_folder import RunStore
 from . import adaptive as adaptive_mod
 from .adaptive import DEFAULT_STRIDE
+from .executors import DASK_SCRATCH, SerialExecutor, cap_jobs, make_executor
 from .grid import MAP_PULSES, MapSpec
-from .result import MapResult, _put, _put_columns, empty_result, record_result
+from .result import MapResult, empty_result, put_columns, put_row, record_result
 
 
 #: Cells solved and written at a time by the columnar path (an adapter's ``run_grid`` in this
@@ -80,7 +83,6 @@ class MapOptions:
     @classmethod
     def checked(cls, *, coarse_stride: int | None = None, **kw) -> "MapOptions":
         """The options of :func:`run_map`'s keywords; ConfigError for a time limit or stride out of range."""
-
         t = kw.get("cell_timeout_s", DEFAULT_CELL_TIMEOUT_S)
         if not (isinstance(t, (int, float)) and math.isfinite(t) and t > 0):
             raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {t!r}.")
@@ -97,7 +99,7 @@ class MapOptions:
 def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str | None = None,
             serial: bool = False, adaptive: bool = False, coarse_stride: int | None = None,
             cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S, progress: bool | None = None,
-            plot: bool = True, log: Callable[[str], None] | None = None, executor=None,
+            picture=None, log: Callable[[str], None] | None = None, executor=None,
             figure_formats=("png",)) -> MapResult:
     """Compute a map into ``out_dir``, resuming whatever a previous run of the same spec finished.
 
@@ -124,8 +126,12 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         Wall-time limit of one cell [s]; a cell past it is recorded as failed (``timeout``).
     progress : bool, optional
         Progress bar on stderr; default: when stderr is a terminal.
-    plot : bool
-        Draw ``map.png`` at the end.
+    picture : optional
+        Draws ``map.png`` at the end: ``picture.draw(result, stem, formats, reference=...)``, with
+        the reference map of the same grid (:func:`reference_for`) to overlay, and
+        ``picture.close()`` whatever happens (a
+        :class:`~rockbench.harness.report.plots.picture.MapPicture`, made by the caller before the
+        map starts so that its helper loads matplotlib meanwhile). None draws nothing.
     figure_formats : sequence of str
         The formats of the map's picture (``png``, ``svg``, ``pdf``): ``map.png``, ``map.svg``, ...
     log : callable, optional
@@ -139,27 +145,37 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     -------
     MapResult
     """
-    from ..report.plots.picture import MapPicture
-
-    opts = MapOptions.checked(jobs=jobs, scheduler=scheduler, serial=serial, adaptive=adaptive,
-                              coarse_stride=coarse_stride, cell_timeout_s=cell_timeout_s, progress=progress,
-                              log=log)
-    # map.png's helper process loads matplotlib on another core while this one computes the map
-    picture = MapPicture() if plot else None
     try:
+        opts = MapOptions.checked(jobs=jobs, scheduler=scheduler, serial=serial, adaptive=adaptive,
+                                  coarse_stride=coarse_stride, cell_timeout_s=cell_timeout_s, progress=progress,
+                                  log=log)
         result = _compute_map(spec, Path(out_dir), opts, executor)
         if picture is not None:
-            picture.draw(result, Path(out_dir) / "map", figure_formats)
+            picture.draw(result, Path(out_dir) / "map", figure_formats, reference=reference_for(result))
         return result
     finally:
         if picture is not None:
             picture.close()
 
 
+def reference_for(result):
+    """The reference map of an engine map's case and grid, computed in memory (milliseconds per
+    thousand cells), for its picture; None for a reference map or when it cannot be computed."""
+    if result.spec.engine == "reference":
+        return None
+    try:
+        spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
+        ref = empty_result(spec)
+        cells = [(i, j) for i in range(spec.y.n) for j in range(spec.x.n)]
+        for (i, j), r in zip(cells, get_adapter("reference").run_many(spec.cases(cells))):
+            record_result(ref, i, j, r)
+        return ref
+    except Exception:  # noqa: BLE001 - a picture without the overlay is still a picture
+        return None
+
+
 def _executor_for(spec: MapSpec, out_dir: Path, opts: MapOptions, executor):
     """``(executor, own)``: the one given (checked against the spec) or a new one this map owns."""
-    from .executors import DASK_SCRATCH, cap_jobs, make_executor
-
     if executor is not None:
         if executor.init["engine"] != spec.engine or executor.init["settings"] != dict(spec.engine_settings):
             raise ConfigError(f"the executor given runs engine {executor.init['engine']!r} with settings "
@@ -176,8 +192,6 @@ def _executor_for(spec: MapSpec, out_dir: Path, opts: MapOptions, executor):
 
 def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> MapResult:
     """:func:`run_map` without the picture: open the store, resume, sweep, fill, finish."""
-    from ...engines.registry import get_adapter
-
     adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
     adapter.calibration_block(spec.block)                        # so does a calibrate_on block of another slenderness
     t0 = time.perf_counter()
@@ -221,7 +235,7 @@ class _Sweep:
         self.result = empty_result(spec)
         self.result.adaptive, self.result.coarse_stride = opts.adaptive, opts.stride
         for (i, j), row in done.items():
-            _put(self.result, i, j, row)
+            put_row(self.result, i, j, row)
         self.result.n_resumed = len(done)
         # what adaptive neighbours compare
         self.key = adaptive_mod.regime_key(self.result.outcome, self.result.n_impacts)
@@ -254,7 +268,6 @@ class _Sweep:
 
     def _evaluate_columns(self, a: np.ndarray, b: np.ndarray) -> None:
         """One chunk as arrays (contract item 6); a chunk that raises goes case by case instead."""
-
         spec, (run_grid, threads) = self.spec, self.grid
         try:
             with threads:
@@ -263,7 +276,7 @@ class _Sweep:
         except Exception:  # noqa: BLE001 - the per-case path records each cell's failure
             self.evaluate_cases(list(zip(a.tolist(), b.tolist())))
             return
-        _put_columns(self.result, a, b, cols)
+        put_columns(self.result, a, b, cols)
         self.key[a, b] = adaptive_mod.regime_key(cols.outcome, cols.n_impacts)
         with threads:
             self.store.append_columns(spec, a, b, cols)
@@ -292,8 +305,6 @@ def _grid_runner(executor, spec: MapSpec):
     """``(adapter.run_grid, threads)`` when the map's cells run in this process on an adapter that
     solves them as arrays (contract item 6), else None; ``threads`` is a context that gives the
     batch the executor's threads."""
-    from .executors import SerialExecutor
-
     if type(executor) is not SerialExecutor or spec.pulse not in MAP_PULSES:
         return None
     run_grid = getattr(executor.adapter, "run_grid", None)
@@ -311,7 +322,6 @@ class _Progress:
 
     def add(self, n: int) -> None:
         if self.show and self.bar is None:
-            from tqdm import tqdm
             self.bar = tqdm(total=n, desc=self.desc, unit="cell", file=sys.stderr, dynamic_ncols=True)
         elif self.bar is not None:
             self.bar.total += n

@@ -19,6 +19,7 @@ it within half a second once it has been handed to another parent.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import pickle
 import signal
@@ -26,6 +27,9 @@ import struct
 import sys
 import threading
 import time
+
+from ...engines.base import CellResult
+from ...engines.registry import get_adapter, register
 
 _HEADER = struct.Struct(">Q")
 
@@ -72,9 +76,6 @@ def without_diagnostics(r):
 
 def serve(inp, out) -> int:
     """Run the worker loop on binary streams ``inp``/``out``; returns an exit code."""
-    from ...engines.base import CellResult
-    from ...engines.registry import get_adapter, register
-
     msg = recv(inp)
     if msg is None or msg[0] != "init":
         return 2
@@ -118,7 +119,6 @@ def watch_parent(parent_pid: int) -> None:
     """Die with the parent ``parent_pid`` (see the module docstring)."""
     if sys.platform.startswith("linux"):
         try:
-            import ctypes
             libc = ctypes.CDLL(None, use_errno=True)
             libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # 1 = PR_SET_PDEATHSIG
         except (OSError, AttributeError):   # no libc prctl: the watchdog below still holds

@@ -22,82 +22,30 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...engines.base import Case
+import numpy as np
+
 from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from ...reference_solver.model import a_ratio_to_amplitude
 from ...reference_solver.pulses import make_pulse
 from ...reference_solver.restitution import Restitution
+from ..blocks.cases import FIG17, TrajectoryCase
+from ..blocks.experiments import restitution_targets, st_limit_a_ratio
+from ..blocks.presets import PRESETS, get_preset
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
 from ..scoring.metrics import PRIMARY_METRIC
 from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
 from ..scoring.tables import summary
 from ..store.atomic import write_bytes_atomic
-from ..store.files import DISPLAY_UTC, map_cell_rows, utc_stamp, write_json
+from ..store.files import DISPLAY_UTC, is_own_eta_map, map_cell_rows, utc_stamp, write_json
 from ..store.loading import MapEntry, load_entries
-from .page import _html, _markdown
-from .sections import _SPEED_METRICS
-
-
-@dataclass(frozen=True)
-class TrajectoryCase:
-    """One case whose θ(t) the report draws for the reference and every engine.
-
-    Attributes
-    ----------
-    block : str
-        A preset name.
-    pulse : str
-        ``sine``, ``cosine`` or ``half-sine``.
-    w_ratio, a_ratio : float
-        ω/p and a₀/(g·tanα) [-].
-    reference_k : tuple of float
-        Impulse positions k of the modified restitution for the reference curves [-] (besides the
-        restitution laws of the engines' maps).
-    title : str
-        Caption.
-    """
-
-    block: str
-    pulse: str
-    w_ratio: float
-    a_ratio: float
-    reference_k: tuple = ()
-    title: str = ""
-
-
-#: The paper's Fig. 17: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1 rocks with k = 0.8608 and
-#: overturns with k = 0.7595 (paper §5.2, docs/physics.md §6).
-FIG17 = TrajectoryCase("B3M", "sine", 6.0, 6.1, (0.8608, 0.7595),
-                       "Fig. 17 case: B3M, sine, ω/p = 6, a₀/(g·tanα) = 6.1")
-
-def parse_case(text: str, where: str = "--case"):
-    """``BLOCK:PULSE:W_RATIO:A_RATIO`` into a TrajectoryCase (ConfigError when malformed).
-
-    ``where`` names the option or suite key the text came from, for messages. The reference
-    curves use the modified η with the block's average and exact k.
-    """
-    from ..blocks.presets import get_preset
-
-    parts = str(text).split(":")
-    if len(parts) != 4:
-        raise ConfigError(f"{where} takes BLOCK:PULSE:W_RATIO:A_RATIO, got {text!r}; e.g. B3M:sine:6:6.1.")
-    try:
-        pre = get_preset(parts[0])
-    except ConfigError as e:
-        raise ConfigError(f"{where} {text!r}: {e}") from None
-    block = pre.name
-    pulse = parts[1].strip().lower()
-    if pulse not in ("sine", "cosine", "half-sine"):
-        raise ConfigError(f"{where} pulse must be sine, cosine or half-sine, got {parts[1]!r} in {text!r}.")
-    try:
-        w, a = float(parts[2]), float(parts[3])
-    except ValueError:
-        raise ConfigError(f"{where} W_RATIO and A_RATIO must be numbers, got {text!r}.") from None
-    if not (0 < w < math.inf and 0 < a < math.inf):
-        raise ConfigError(f"{where} W_RATIO and A_RATIO must be finite numbers > 0, got {text!r}.")
-    # the reference is drawn with the block's average and exact k, as in the paper's Fig. 17
-    return TrajectoryCase(block, pulse, w, a, (pre.k_average, pre.k_exact),
-                          f"{block}, {pulse}, ω/p = {w:g}, a₀/(g·tanα) = {a:g}")
+from ..store.trajectories import FOLDER, case_stem, read_case
+from .histories import picture_span_s
+from .page import html_page, markdown_page
+from .plots.output import figure_bytes
+from .plots.speed import plot_speed_accuracy
+from .plots.stability import REFERENCE_STYLES, plot_panels
+from .plots.trajectories import plot_theta
+from .sections import SPEED_METRICS
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
@@ -118,7 +66,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     cases : sequence of TrajectoryCase
         θ(t) comparisons to draw.
     trajectories : bool
-        Simulate and draw the θ(t) comparisons (needs the engines).
+        Draw the θ(t) comparisons of ``cases`` stored in ``out_dir/trajectories``
+        (:func:`~rockbench.harness.trajectories.record_trajectories` simulates and stores them).
     log : callable, optional
         Progress messages (default: stderr).
     allow_incomplete : bool or collection of Path
@@ -149,7 +98,6 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     widths: dict[str, float] = {}
 
     def save(fig, name):
-        from .plots.output import figure_bytes
         widths[name] = fig.get_figwidth()
         stem = name[: -len(".png")]
         for fmt in dict.fromkeys(("png", *figure_formats)):
@@ -161,13 +109,13 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     pair_of = _like_pairs(sc.doc)
     variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
-    traj_imgs = _trajectory_figures(cases, cands, labels, save, log, notes) if trajectories else []
+    traj_imgs = _trajectory_figures(cases, out / FOLDER, save, notes) if trajectories else []
     speed = _speed_rows(sc.entries, sc.doc)
     ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
            "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
            "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
            "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
-    paths = _write_report(out, images, sc.doc, _markdown(ctx), _html(ctx, images))
+    paths = _write_report(out, images, sc.doc, markdown_page(ctx), html_page(ctx, images))
     log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
     return {**paths, "doc": sc.doc, "notes": notes}
 
@@ -202,12 +150,12 @@ class _Scored:
         return cls(entries, cands, refs, doc, own_eta, notes)
 
 
-def _trajectory_figures(cases, cands, labels, save, log, notes: list) -> list:
+def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
     """``[(case, image name)]`` of the θ(t) comparisons drawn; a case that cannot be drawn is a note."""
     out = []
     for case in cases:
         try:
-            name, case_notes = _trajectory_figure(case, cands, labels, save, log)
+            name, case_notes = _trajectory_figure(case, folder, save)
             notes += case_notes
             if name:
                 out.append((case, name))
@@ -221,7 +169,6 @@ def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:
     engine has wall times)."""
     if not any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
         return None
-    from .plots.speed import plot_speed_accuracy
     drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
                                  if r["variant"] != "reference"], metric=PRIMARY_METRIC)
     return save(drawn["ax"].figure, "speed_accuracy.png")
@@ -256,7 +203,6 @@ def _like_pairs(doc) -> dict:
 
 
 def _ref_order(r: MapEntry):
-    from ..blocks.presets import PRESETS
     law = _restitution_from_label(r.restitution)
     pre = PRESETS.get(r.block.upper())
     if law is not None and law.kind == "housner":
@@ -269,7 +215,6 @@ def _ref_order(r: MapEntry):
 
 def _ref_line(r: MapEntry) -> tuple[str, dict]:
     """A reference map's legend label and line style by its role (the same in every panel)."""
-    from .plots.stability import REFERENCE_STYLES
     role = _ref_order(r)[0]
     label = {0: "reference, η_H", 1: "reference, η_M with the average k", 2: "reference, η_M with the exact k",
              3: f"reference, {restitution_symbol(r.restitution, r.block)}"}.get(role, f"reference, η = {r.eta:.4g}")
@@ -279,10 +224,6 @@ def _ref_line(r: MapEntry) -> tuple[str, dict]:
 def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experiments, pair, title: str,
            block: str, pulse: str) -> dict:
     """Keyword arguments of :func:`~rockbench.harness.report.plots.stability.plot_panel` for one map."""
-    from ..blocks.presets import PRESETS
-
-    from .plots.stability import REFERENCE_STYLES
-
     references = [(*_ref_line(r)[:1], r.map, _ref_line(r)[1]) for r in std]
     references += [("reference at the engine's own measured η", r.map, REFERENCE_STYLES[3]) for r in own]
     like = None
@@ -300,7 +241,7 @@ def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experim
 
 
 def _panel_note(sc: dict) -> str:
-    """The scores under a panel's title in words (:data:`_READ_GRAPHS` explains them): the share of
+    """The scores under a panel's title in words (:data:`READ_GRAPHS` explains them): the share of
     cells with the reference's outcome, the boundary distance in the chart's own normalised units,
     and the share of the cells outside the rigid model's domain that the engine flags."""
     def num(m, f):
@@ -318,8 +259,6 @@ def _groups(cands, refs, own_eta):
     A reference that ``rockbench run`` made at a variant's own η which no variant measures any more
     (the η was measured again after a recalibration or an engine upgrade, the run folder resumed) is
     left out: drawn as a standard reference it would stand in every panel for nothing."""
-    from ..store.files import is_own_eta_map
-
     out: dict = {}
     for r in refs:
         out.setdefault((r.block, r.pulse), ([], {}, {}))
@@ -345,7 +284,6 @@ def _variant_order(label: str):
 
 def _case_order(key):
     """Blocks in Table 1's order (custom blocks after them), then sine, cosine, half-sine."""
-    from ..blocks.presets import PRESETS
     block, pulse = key
     order = list(PRESETS)
     return (order.index(block) if block in order else len(order), block,
@@ -354,8 +292,6 @@ def _case_order(key):
 
 def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str]]:
     """One figure per engine variant: a panel per block and pulse. Returns ``(variant, label, image)``."""
-    from .plots.stability import plot_panels
-
     groups = _groups(cands, refs, own_eta)
     out = []
     for v in sorted(labels, key=lambda v: _variant_order(labels[v])):
@@ -378,8 +314,6 @@ def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -
 def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str, int]]:
     """One figure per block and pulse: a panel per engine variant (or the references alone).
     Returns ``(block, pulse, image, number of experimental points)``."""
-    from .plots.stability import plot_panels
-
     out = []
     for (block, pulse), (std, own, engines) in sorted(_groups(cands, refs, own_eta).items(),
                                                       key=lambda kv: _case_order(kv[0])):
@@ -398,9 +332,6 @@ def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> l
 
 
 def _points_and_limit(points, block, pulse):
-    from ..blocks.experiments import st_limit_a_ratio
-    from ..blocks.presets import PRESETS
-
     if block.upper() not in PRESETS:
         return [], None
     sel = [(p.w_ratio, p.a_ratio, p.outcome, p.repetitions) for p in (points or [])
@@ -408,57 +339,25 @@ def _points_and_limit(points, block, pulse):
     return sel, st_limit_a_ratio(block)
 
 
-def _trajectory_figure(case: TrajectoryCase, cands: list[MapEntry], labels: dict, save, log):
-    """Simulate ``case`` with the reference (each relevant η) and every engine variant; draw θ(t)."""
-    import numpy as np
-
-    from ...engines.registry import get_adapter
-    from .histories import impact_times, picture_span_s, trajectory_for_picture
-    from .plots.trajectories import plot_theta
-    from ..blocks.presets import get_preset
-
-    notes = []
+def _trajectory_figure(case: TrajectoryCase, folder: Path, save):
+    """Draw the θ(t) curves of ``case`` that the run stored in ``folder``
+    (:func:`~rockbench.harness.trajectories.record_trajectories`); ``(image name or None, notes)``."""
+    have = read_case(folder, case)
+    if have is None:
+        return None, [f"θ(t) for {case.title or case.block}: not drawn (no θ(t) stored for it in {folder}; "
+                      f"rockbench run stores the suite's [report] cases)"]
+    hist = have["curves"]
+    if not hist:
+        return None, have["notes"]
     block = get_preset(case.block).block()
     pulse = make_pulse(case.pulse, a_ratio_to_amplitude(block, case.a_ratio), case.w_ratio * block.p_rad_s)
-    runs = [("reference", {}, Restitution("modified", k=k)) for k in case.reference_k]
-    variants = {}
-    for e in cands:
-        settings = dict((e.run.get("spec") or {}).get("engine_settings") or {})
-        variants.setdefault((e.variant, e.restitution), (e.engine, settings, e))
-    for (variant, rest_label), (engine, settings, e) in sorted(variants.items()):
-        rest = _restitution_from_label(rest_label)
-        if rest is None:
-            notes.append(f"θ(t): restitution {rest_label!r} of {variant} not understood; skipped")
-            continue
-        if not any(r[0] == "reference" and r[2] == rest for r in runs):
-            runs.append(("reference", {}, rest))
-        runs.append((variant, (engine, settings), rest))
-    hist, ends, overturns = [], [], []
-    for name, how, rest in runs:
-        engine, settings = ("reference", {}) if name == "reference" else how
-        law = f"{restitution_symbol(rest.label, case.block)} = {rest.eta(block.alpha_rad):.4f}"
-        label = f"reference, {law}" if name == "reference" else labels.get(name, name)
-        try:
-            log(f"θ(t): {label}")
-            c = Case(block, pulse, rest)
-            tr, mode = trajectory_for_picture(engine, settings, c)
-            judge = get_adapter(engine, **({**settings, "mode": mode} if mode else settings))
-            res = judge.judge(c, tr)
-            if name != "reference":
-                ends.append(float(np.asarray(tr.t_s)[-1]))
-            if res.outcome == "overturn" and res.t_overturn_s is not None:
-                overturns.append(res.t_overturn_s)
-            hist.append({"label": f"{label}: {res.outcome or 'failed'}", "t_s": tr.t_s, "theta_rad": tr.theta_rad,
-                         "impacts_s": impact_times(tr), "reference": name == "reference", "outcome": res.outcome})
-        except Exception as ex:  # noqa: BLE001 - one engine failing must not sink the report
-            notes.append(f"θ(t) {label}: {type(ex).__name__}: {ex}")
-    if not hist:
-        return None, notes
+    ends = [float(np.asarray(h["t_s"])[-1]) for h in hist if not h["reference"]]
+    overturns = [h["t_overturn_s"] for h in hist if h["t_overturn_s"] is not None]
     # every engine curve runs to its own decision; the references are drawn over the same span
     span = picture_span_s(pulse, max(overturns) if overturns else None)
     t_end = max([span] + ends)
     drawn = plot_theta(hist, alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=t_end, title=case.title)
-    return save(drawn["figure"], f"theta_{_slug(case.block)}_{_slug(case.pulse)}_{case.w_ratio:g}_{case.a_ratio:g}.png"), notes
+    return save(drawn["figure"], f"{case_stem(case)}.png"), have["notes"]
 
 
 def _restitution_from_label(label: str):
@@ -492,9 +391,6 @@ def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> lis
     The η comes from the calibration recorded in the map's run.json (calibrated settings), else
     from the free-rocking measurement of ``rockbench run`` (``own_eta``).
     """
-    from ..blocks.experiments import restitution_targets
-    from ..blocks.presets import PRESETS
-
     rows, seen = [], set()
     for e in cands:
         key = (e.variant, e.block, e.restitution)
@@ -540,7 +436,7 @@ def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
         ws = per.get(v, [])
         ms = 1e3 * sum(ws) / len(ws) if ws else math.nan
         rows.append({"variant": v, "cells": len(ws), "ms_per_cell": ms,
-                     **{m: acc.get(v, {}).get(m, math.nan) for m in _SPEED_METRICS}})
+                     **{m: acc.get(v, {}).get(m, math.nan) for m in SPEED_METRICS}})
     return rows
 
 

@@ -1,5 +1,6 @@
-"""How far a θ(t) picture runs, and a trajectory that gets there (``simulate --plot``, the report's
-θ(t) comparison, :meth:`rockbench.Simulation.plot`).
+"""How far a θ(t) picture runs (``simulate --plot``, the report's θ(t) comparison,
+:meth:`rockbench.Simulation.plot`), and the impact times drawn on it; the trajectory that gets there
+is :func:`rockbench.harness.simulation.trajectory_for_picture`'s.
 
 The reference solver's default mode decides at the pulse's end by the energy test (paper §2.2,
 docs/physics.md §2), so its trajectory may stop at the pulse's end, before the impact that decides the
@@ -12,6 +13,8 @@ are drawn over the same time span.
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 #: A harmonic pulse's picture spans this many pulse durations (Fig. 17: 5 × 0.091 s = 0.45 s, past
 #: the decisive impact at 0.1465 s and the overturn with k = 0.7595 at 0.350 s).
@@ -33,35 +36,9 @@ def picture_span_s(pulse, t_overturn_s: float | None = None) -> float:
     return span
 
 
-def trajectory_for_picture(engine: str, settings: dict, case, trajectory=None):
-    """A trajectory of ``case`` that runs as far as its picture needs.
-
-    The reference is integrated on until rest or overturn (``mode="to-rest"``) unless
-    ``trajectory`` already came from that mode; an engine's own trajectory already runs to its own
-    decision (a bounded tail after the pulse) and is returned as it is (simulated when None).
-
-    Returns
-    -------
-    (Trajectory, str or None)
-        The trajectory, and the mode it was integrated in (reference only).
-    """
-    from ...engines.registry import get_adapter
-
-    if engine == "reference":
-        if trajectory is not None and (trajectory.diagnostics or {}).get("mode") == "to-rest":
-            return trajectory, "to-rest"
-        s = {**dict(settings or {}), "mode": "to-rest"}
-        return get_adapter("reference", **s).simulate(case), "to-rest"
-    if trajectory is None:
-        trajectory = get_adapter(engine, **dict(settings or {})).simulate(case)
-    return trajectory, None
-
-
 def impact_times(trajectory) -> list[float]:
     """Impact times of a trajectory [s]: the reference's impact list, or for an engine the sign
     changes of θ after uplift (a pivot change is an impact)."""
-    import numpy as np
-
     diag = trajectory.diagnostics or {}
     imp = diag.get("impacts")
     if imp:

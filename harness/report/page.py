@@ -1,5 +1,5 @@
-"""The report's two pages: ``report.md`` (:func:`_markdown`) and the self-contained ``index.html``
-(:func:`_html`: pictures inlined, the style sheet ``report.css`` and the script ``report.js``, shipped
+"""The report's two pages: ``report.md`` (:func:`markdown_page`) and the self-contained ``index.html``
+(:func:`html_page`: pictures inlined, the style sheet ``report.css`` and the script ``report.js``, shipped
 beside this module as package data).
 """
 
@@ -11,56 +11,56 @@ from importlib import resources
 
 from ..scoring.labels import case_title, for_html
 from .plots.style import DOUBLE_COLUMN_IN
-from .sections import (_HIGHLIGHTS, _INTRO, _PRICE_WORDS, _READ_GRAPHS, _calib_table, _exp_table, _md_table,
-                       _metric_words, _pairs_table, _price_table, _scenarios, _settings_tables, _speed_table,
-                       _summary_rows, _verdict)
+from .sections import (HIGHLIGHTS, INTRO, PRICE_WORDS, READ_GRAPHS, calib_table, exp_table, md_table,
+                       metric_words, pairs_table, price_table, scenario_tables, settings_tables, speed_table,
+                       summary_rows, verdict_sentences)
 
 
 
-def _markdown(ctx) -> str:
+def markdown_page(ctx) -> str:
     doc, labels = ctx["doc"], ctx["labels"]
     L = ["# rockbench report", "", f"Generated {ctx['created']} from {', '.join(ctx['run_dirs'])}.", ""]
     for n in ctx["notes"]:
         L.append(f"> {n}")
     if doc:
-        L += ["", "## Verdict", ""] + [f"- {s}" for s in _verdict(doc)] + [""]
+        L += ["", "## Verdict", ""] + [f"- {s}" for s in verdict_sentences(doc)] + [""]
     L += ["", "## Summary: which engine is how faithful", ""]
     if doc:
-        head, body, _, marks = _summary_rows(doc, labels)
+        head, body, _, marks = summary_rows(doc, labels)
         for col, flags in marks.items():
             for row, is_best in zip(body, flags):
                 if is_best:
                     row[col] = f"**{row[col]}**"
-        method, title, s_head, s_body = _scenarios(doc)
-        L += [_INTRO + " " + _HIGHLIGHTS, "", _md_table(head, body), "", method, ""]
-        L += [f"{title}:", "", _md_table(s_head, s_body), ""]
+        method, title, s_head, s_body = scenario_tables(doc)
+        L += [INTRO + " " + HIGHLIGHTS, "", md_table(head, body), "", method, ""]
+        L += [f"{title}:", "", md_table(s_head, s_body), ""]
         L += ["What each column measures:", ""]
-        L += [f"- **{t}**, {how}: {d}" for t, how, d in _metric_words(doc)] + [""]
+        L += [f"- **{t}**, {how}: {d}" for t, how, d in metric_words(doc)] + [""]
     else:
         L += ["_no scores_", ""]
-    L += ["## Stability graphs, one per engine variant", "", _READ_GRAPHS, ""]
+    L += ["## Stability graphs, one per engine variant", "", READ_GRAPHS, ""]
     for v, label, img in ctx["variant_graphs"]:
         L += [f"### {label}", "", f"![{label}](img/{img})", ""]
     L += ["## θ(t) comparison", ""]
     L += [f"![{c.title}](img/{img})" for c, img in ctx["traj"]] or ["_not drawn_"]
-    L += ["", "## Calibration: η per engine", "", _md_table(*_calib_table(ctx["calib"], labels)), ""]
-    ph, pb = _price_table(ctx["calib"], labels)
+    L += ["", "## Calibration: η per engine", "", md_table(*calib_table(ctx["calib"], labels)), ""]
+    ph, pb = price_table(ctx["calib"], labels)
     if pb:
-        L += ["### What reaching the target costs", "", _PRICE_WORDS, "", _md_table(ph, pb), ""]
-    L += ["## Speed and accuracy", "", _md_table(*_speed_table(ctx["speed"], labels)), ""]
+        L += ["### What reaching the target costs", "", PRICE_WORDS, "", md_table(ph, pb), ""]
+    L += ["## Speed and accuracy", "", md_table(*speed_table(ctx["speed"], labels)), ""]
     if ctx["speed_img"]:
         L += [f"![speed and accuracy](img/{ctx['speed_img']})", ""]
     if doc and doc.get("experiments"):
-        L += ["## Experiments", "", _md_table(*_exp_table(doc, labels)), ""]
+        L += ["## Experiments", "", md_table(*exp_table(doc, labels)), ""]
     L += ["<details><summary>Stability graphs by case: every engine variant side by side</summary>", ""]
     for block, pulse, img, _ in ctx["case_graphs"]:
         L += [f"### {case_title(block, pulse)}", "", f"![{block} {pulse}](img/{img})", ""]
     L += ["</details>", "", "<details><summary>Every scored pair</summary>", "",
-          _md_table(*_pairs_table(doc, labels)) if doc else "_none_", "", "</details>", "",
+          md_table(*pairs_table(doc, labels)) if doc else "_none_", "", "</details>", "",
           "<details><summary>Versions and settings</summary>", ""]
-    t = _settings_tables(ctx["entries"], labels)
-    L += ["Run environment:", "", _md_table(*t["env"]), "", "Engine variants:", "", _md_table(*t["variants"]), "",
-          "Maps:", "", _md_table(*t["maps"]), "", "</details>", ""]
+    t = settings_tables(ctx["entries"], labels)
+    L += ["Run environment:", "", md_table(*t["env"]), "", "Engine variants:", "", md_table(*t["variants"]), "",
+          "Maps:", "", md_table(*t["maps"]), "", "</details>", ""]
     return "\n".join(L)
 
 
@@ -101,7 +101,7 @@ def _page_share(width_in: float | None) -> float:
     return min(100.0, 100.0 * width_in / DOUBLE_COLUMN_IN)
 
 
-def _html(ctx, images: dict) -> str:
+def html_page(ctx, images: dict) -> str:
     doc, labels = ctx["doc"], ctx["labels"]
 
     def img(name, alt, caption=None):
@@ -120,24 +120,24 @@ def _html(ctx, images: dict) -> str:
          + (f", metrics version {html.escape(str(doc['metrics_version']))}" if doc else "") + ".</p>"]
     if doc:
         P.append("<section id='verdict'><h2>Verdict</h2><ul class='verdict'>"
-                 + "".join(f"<li>{for_html(s)}</li>" for s in _verdict(doc)) + "</ul></section>")
+                 + "".join(f"<li>{for_html(s)}</li>" for s in verdict_sentences(doc)) + "</ul></section>")
     P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
     P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
     if doc:
-        head, body, _, marks = _summary_rows(doc, labels)
-        P.append(f"<p class='lead'>{html.escape(_INTRO)} {html.escape(_HIGHLIGHTS)}</p>")
+        head, body, _, marks = summary_rows(doc, labels)
+        P.append(f"<p class='lead'>{html.escape(INTRO)} {html.escape(HIGHLIGHTS)}</p>")
         P.append(_h_table(head, body, id_="summary-table", num_from=2, best=marks))
-        method, title, s_head, s_body = _scenarios(doc)
+        method, title, s_head, s_body = scenario_tables(doc)
         P.append(f"<p class='method'>{html.escape(method)}</p><h3>{for_html(title)}</h3>")
         P.append(_h_table(s_head, s_body, id_="scenario-table", num_from=1))
         P.append("<dl class='metrics'>" + "".join(
             f"<dt>{for_html(t)} <span>({html.escape(how)})</span></dt><dd>{html.escape(d)}</dd>"
-            for t, how, d in _metric_words(doc)) + "</dl>")
+            for t, how, d in metric_words(doc)) + "</dl>")
     else:
         P.append("<p><em>no scores</em></p>")
     P.append("</section>")
     P += ["<section id='stability'><h2>Stability graphs, one per engine variant</h2>",
-          f"<p class='lead'>{for_html(_READ_GRAPHS)}</p>"]
+          f"<p class='lead'>{for_html(READ_GRAPHS)}</p>"]
     for v, label, name in ctx["variant_graphs"]:
         P.append(img(name, f"stability graphs of {label}"))
     if not ctx["variant_graphs"]:
@@ -147,12 +147,12 @@ def _html(ctx, images: dict) -> str:
               "are impacts, × where a curve passes |θ| = α (overturn), ● where a run ended, decided not to overturn; the table's "
               "acceleration beneath.") for c, name in ctx["traj"]] or ["<p><em>not drawn</em></p>"]
     P += ["</section><section id='calibration'><h2>Calibration: η per engine</h2>",
-          _h_table(*_calib_table(ctx["calib"], labels), num_from=3)]
-    ph, pb = _price_table(ctx["calib"], labels)
+          _h_table(*calib_table(ctx["calib"], labels), num_from=3)]
+    ph, pb = price_table(ctx["calib"], labels)
     if pb:
-        P += ["<h3>What reaching the target costs</h3>", f"<p>{for_html(_PRICE_WORDS)}</p>", _h_table(ph, pb, num_from=3)]
+        P += ["<h3>What reaching the target costs</h3>", f"<p>{for_html(PRICE_WORDS)}</p>", _h_table(ph, pb, num_from=3)]
     P += ["</section><section id='speed'><h2>Speed and accuracy</h2>",
-          _h_table(*_speed_table(ctx["speed"], labels), num_from=1)]
+          _h_table(*speed_table(ctx["speed"], labels), num_from=1)]
     if ctx["speed_img"]:
         P.append(img(ctx["speed_img"], "speed and accuracy", "Each point is one engine variant: its wall time per "
                      "simulated cell across, the primary measure up (the mean distance between its overturning "
@@ -161,7 +161,7 @@ def _html(ctx, images: dict) -> str:
                      "line marked “none”."))
     P.append("</section>")
     if doc and doc.get("experiments"):
-        P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*_exp_table(doc, labels), num_from=2),
+        P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*exp_table(doc, labels), num_from=2),
               "</section>"]
     P.append("<details><summary>Stability graphs by case: every engine variant side by side</summary>")
     for block, pulse, name, _ in ctx["case_graphs"]:
@@ -169,8 +169,8 @@ def _html(ctx, images: dict) -> str:
     P.append("</details>")
     if doc:
         P += [f"<details><summary>Every scored pair ({len(doc['pairs'])})</summary>",
-              _h_table(*_pairs_table(doc, labels), num_from=6), "</details>"]
-    t = _settings_tables(ctx["entries"], labels)
+              _h_table(*pairs_table(doc, labels), num_from=6), "</details>"]
+    t = settings_tables(ctx["entries"], labels)
     P += ["<details><summary>Versions and settings</summary><h3>Run environment</h3>", _h_table(*t["env"]),
           "<h3>Engine variants</h3>", _h_table(*t["variants"]), "<h3>Maps</h3>", _h_table(*t["maps"], num_from=4),
           "</details>", "<script>\n" + _asset("report.js") + "</script>", "</body></html>"]

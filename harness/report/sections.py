@@ -22,7 +22,7 @@ def _num(x, spec=".4f", why: str | None = None):
     return format(x, spec)
 
 
-def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
+def summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
     """Head, body and the variant key of each row, in the verdict's order (rank, then the primary
     value), and per metric which rows to highlight (:func:`~rockbench.harness.scoring.tables.best_group_marks`)."""
 
@@ -39,17 +39,17 @@ def _summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], d
     return head, body, [r["variant"] for r, _ in ranked], marks
 
 
-def _scenarios(doc) -> tuple[str, str, list[str], list[list[str]]]:
+def scenario_tables(doc) -> tuple[str, str, list[str], list[list[str]]]:
     """The method sentence under the summary, and the per-scenario table's title, head and rows."""
     return (method_line(doc), SCENARIO_TITLE, *scenario_rows(doc))
 
 
-def _verdict(doc) -> list[str]:
+def verdict_sentences(doc) -> list[str]:
     """The verdict's sentences (score.json's ``verdict.text``)."""
     return verdict_text(doc)
 
 
-def _calib_table(rows, labels):
+def calib_table(rows, labels):
     head = ["engine variant", "block", "calibrated to", "η target", "η measured in free rocking",
             "measured vs η_H (Housner)", "measured vs η_M (size's average k)",
             "measured vs the block's own free-rocking test (η_M, exact k)"]
@@ -67,11 +67,16 @@ def _pct(x, why: str) -> str:
     return _num(None if x is None else 100 * x, "+.2f", why=why) + (" %" if x is not None and math.isfinite(x) else "")
 
 
-def _price_table(rows, labels):
+def _tolerance(uplift: dict) -> str:
+    """The static uplift's tolerance as the calibration recorded it (a record made before it was
+    recorded says so in words)."""
+    rtol = uplift.get("rtol")
+    return f"{100 * rtol:g} %" if rtol is not None else "its tolerance"
+
+
+def price_table(rows, labels):
     """Per engine variant and block with a measured contact price: reached or not, the
     contact, and what it costs."""
-    from ...engines.price import UPLIFT_RTOL
-
     head = ["engine variant", "block", "target", "η measured", "reached", "contact", "static uplift / g·tanα",
             "slip / jump cells", "quarter period vs rigid", "steps/s"]
     body = []
@@ -84,14 +89,14 @@ def _price_table(rows, labels):
         counts = pr.get("counts")
         body.append([labels.get(r["variant"], r["variant"]), r["block"], restitution_symbol(r["restitution"], r["block"]),
                      _num(r["eta_measured"]), "yes" if r.get("reached") and counts else "no", r["contact"],
-                     _num(ratio) + ("" if up.get("within") else f" (outside {100 * UPLIFT_RTOL:g} %)"),
+                     _num(ratio) + ("" if up.get("within") else f" (outside {_tolerance(up)})"),
                      f"{sl.get('n_slip', '–')} / {sl.get('n_jump', '–')} of {sl.get('cells', '–')}",
                      (_num(100 * pr["period_change"], "+.2f") + " %") if pr.get("period_change") is not None else "–",
                      f"{pr['steps_per_s']:.3g}" if pr.get("steps_per_s") else "–"])
     return head, body
 
 
-_PRICE_WORDS = ("Where an engine variant was calibrated to a target its corner contact cannot reach (the modified "
+PRICE_WORDS = ("Where an engine variant was calibrated to a target its corner contact cannot reach (the modified "
                 "η_M), the calibration searched a contact along the base and measured its price: the table "
                 "acceleration at which the block lifts under a slow ramp (must be within 2 % of g·tanα), slip and "
                 "jump flags of the one validity rule in default-suite cells the rigid model rocks through without "
@@ -100,15 +105,15 @@ _PRICE_WORDS = ("Where an engine variant was calibrated to a target its corner c
 
 
 #: The scores the speed table shows beside the wall time: the primary one and the plain agreement.
-_SPEED_METRICS = (PRIMARY_METRIC, "agreement")
+SPEED_METRICS = (PRIMARY_METRIC, "agreement")
 
 
-def _speed_table(rows, labels):
+def speed_table(rows, labels):
     head = ["engine variant", "simulated cells", "wall time per simulated cell [ms]",
-            *(METRICS[m].title + (" (primary)" if m == PRIMARY_METRIC else "") for m in _SPEED_METRICS)]
+            *(METRICS[m].title + (" (primary)" if m == PRIMARY_METRIC else "") for m in SPEED_METRICS)]
     body = [[labels.get(r["variant"], r["variant"]), str(r["cells"]),
              _num(r["ms_per_cell"], ".2f", why="no wall times in cells.csv"),
-             *(_speed_score(r, m) for m in _SPEED_METRICS)] for r in rows]
+             *(_speed_score(r, m) for m in SPEED_METRICS)] for r in rows]
     return head, body
 
 
@@ -120,7 +125,7 @@ def _speed_score(row: dict, metric: str) -> str:
     return "n/a (the yardstick itself)" if row["variant"] == "reference" else "n/a (no like-for-like reference map)"
 
 
-def _exp_table(doc, labels):
+def exp_table(doc, labels):
     head = ["map", "restitution", "runs", "outside", "accuracy", "overturn accuracy",
             "confusion T/R/O → rest/rocking/overturn/failed"]
     body = []
@@ -133,7 +138,7 @@ def _exp_table(doc, labels):
     return head, body
 
 
-def _pairs_table(doc, labels):
+def pairs_table(doc, labels):
     head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
         [METRICS[m].title for m in METRICS]
     body = [[labels.get(p["variant"], p["variant"]) + incomplete_note(p), p["block"], p["pulse"],
@@ -163,7 +168,7 @@ def _flat(d, prefix="") -> list[str]:
     return out
 
 
-def _settings_tables(entries: list[MapEntry], labels) -> dict:
+def settings_tables(entries: list[MapEntry], labels) -> dict:
     """The versions and settings as tables: one row per engine variant, one per map, and the run
     environment (values shared by every map once)."""
     variants, maps, env = {}, [], {}
@@ -198,14 +203,14 @@ def _settings_tables(entries: list[MapEntry], labels) -> dict:
             "env": (["", "value"], [[k, ", ".join(sorted(v))] for k, v in env.items()])}
 
 
-def _md_table(head, body):
+def md_table(head, body):
     if not body:
         return "_none_"
     esc = [[c.replace("|", "\\|").replace("\n", "<br>") for c in r] for r in body]
     return render(head, esc, markdown=True)
 
 
-def _metric_words(doc) -> list[tuple[str, str, str]]:
+def metric_words(doc) -> list[tuple[str, str, str]]:
     """``(title, how read, question and definition)`` of each metric, the primary first (score.json's
     definitions, else this version's)."""
     ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
@@ -225,20 +230,20 @@ def _unit_words(unit: str) -> str:
     return f", {words}" if words else ""
 
 
-_HIGHLIGHTS = ("Rows are ranked by the primary measure, the mean distance between the overturning boundaries: "
+HIGHLIGHTS = ("Rows are ranked by the primary measure, the mean distance between the overturning boundaries: "
                "a variant's rank is its tie group (the method is under the table), so equal ranks tie. Bold: the "
                "best group (rank 1), and within it the best value of each other column; no other row is "
                "highlighted.")
 
 
-_INTRO = ("Each row is one engine variant; each number is the mean over its like-for-like pairs (its map "
+INTRO = ("Each row is one engine variant; each number is the mean over its like-for-like pairs (its map "
           "against the reference map with the same restitution law, same block, pulse and grid); counts are "
           "summed. The outcome scores judge only cells inside the rigid model's domain, where the reference is "
           "valid; outside it (where the rigid model would need the table to pull the block down, or more "
           "friction than μ) an engine is right to flag a jump or slip, which consistency measures.")
 
 
-_READ_GRAPHS = ("How to read them: the engine's overturn region is filled; the reference's overturn boundaries "
+READ_GRAPHS = ("How to read them: the engine's overturn region is filled; the reference's overturn boundaries "
                 "are lines (η_H solid black, η_M with the block's average k dashed, with its exact k dash-dotted, "
                 "at the engine's own measured η dotted), and where a boundary encloses only one or a few cells "
                 "those cells are outlined; cells where the engine disagrees with the reference of its own "

@@ -7,6 +7,14 @@ files and scores; pictures and the report say "MuJoCo 4.0, calibrated to η_H" a
 
 from __future__ import annotations
 
+import html
+
+from ...engines.registry import adapter_class
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.restitution import Restitution
+from ..blocks.presets import PRESETS
+from ..engine_info.versions import version_of
+
 
 #: Display names of the engines (registry name → name).
 ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet": "PyBullet", "exudyn": "Exudyn",
@@ -31,7 +39,6 @@ def model_settings(engine: str) -> dict:
     """The settings that choose which of an engine's models runs, with their defaults
     (:attr:`~rockbench.engines.base.EngineAdapter.MODEL_SETTINGS`; Newton's solver); {} for an
     engine without them, or whose adapter cannot be imported here."""
-    from ...engines.registry import adapter_class
     try:
         cls = adapter_class(engine)
     except Exception:  # noqa: BLE001 - a label never fails: the settings given are shown as they are
@@ -59,8 +66,6 @@ def restitution_symbol(label: str, block: str | None = None) -> str:
     ``housner`` → ``η_H``; ``modified(k=0.8608)`` → ``η_M, k = 0.8608`` with "(average k)" or
     "(exact k)" when it is the preset's; a number → ``η = 0.75``.
     """
-    from ...reference_solver.errors import ConfigError
-    from ...reference_solver.restitution import Restitution
     try:
         law = Restitution.parse(label)
     except ConfigError:
@@ -69,7 +74,6 @@ def restitution_symbol(label: str, block: str | None = None) -> str:
         return "η_H"
     if law.kind == "constant":
         return f"η = {law.value:.4g}"
-    from ..blocks.presets import PRESETS
     pre = PRESETS.get(str(block).upper()) if block else None
     which = pre.which_k(law.k) if pre is not None else None
     return f"η_M (k = {law.k:g}{f', {which} k' if which else ''})"
@@ -138,7 +142,6 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
 def entry_label(entry, *, with_restitution: bool = True) -> str:
     """:func:`variant_label` of a :class:`~rockbench.harness.store.loading.MapEntry` (its settings and time
     step, and the engine version its run.json recorded)."""
-    from ..engine_info.versions import version_of
     return variant_label(entry.engine, entry.settings, version=version_of(entry),
                          restitution=entry.restitution if with_restitution else None, dt_s=entry.dt_s,
                          block=entry.block)
@@ -159,7 +162,6 @@ def for_matplotlib(text: str) -> str:
 
 def for_html(text: str) -> str:
     """The paper's symbols in HTML (escaped): ``η_H`` → ``η<sub>H</sub>``."""
-    import html
     return html.escape(str(text)).replace("η_H", "η<sub>H</sub>").replace("η_M", "η<sub>M</sub>")
 
 

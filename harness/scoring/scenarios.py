@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from ..blocks.presets import PRESETS
 from .labels import AS_SHIPPED, CALIBRATED, settings_class
 from .metrics import PRIMARY_METRIC
 
@@ -119,7 +120,6 @@ def cluster_of(p: dict) -> tuple:
     else the block's name (a block of its own)."""
     s = p.get("slenderness")
     if s is None:
-        from ..blocks.presets import PRESETS
         pre = PRESETS.get(str(p["block"]).upper())
         s = round(pre.height_m / pre.width_m, 4) if pre else str(p["block"])
     return (s, p["pulse"])

@@ -34,7 +34,9 @@ metric with 95 % intervals and ties, and says in words which are closest and whi
 
 from __future__ import annotations
 
+import hashlib
 import math
+import re
 from pathlib import Path
 from typing import Iterable
 
@@ -43,12 +45,16 @@ import numpy as np
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from ...reference_solver.pulses import is_number
+from ..blocks.presets import PRESETS
 from ..engine_info.versions import version_of
 from ..maps.result import MapResult
 from ..store.files import read_json, utc_stamp
 from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
+from .experiments import score_outcomes
+from .labels import settings_class, variant_labels
 from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, boundary_edges, cell_counts, check_gate,
                       judged_cells, score)
+from .verdict import verdict
 
 #: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
 SCORE_SCHEMA_VERSION = 2
@@ -100,9 +106,6 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     IncomparableError
         No candidate has a reference of its block and pulse on its grid.
     """
-    from .labels import variant_labels
-    from .verdict import verdict
-
     labels = variant_labels(candidates)
     pairs, skipped = [], []
     for c in candidates:
@@ -143,8 +146,6 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
 def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> dict:
     """One pair of score.json: the engine map ``c`` (shown as ``label``) scored against the reference
     map ``r``, with what the scores rest on."""
-    from .labels import settings_class
-
     if c.restitution == r.restitution:
         kind = "same-law"
     elif at_own_eta(r, c, own_eta):
@@ -176,8 +177,6 @@ def map_facts(c: MapEntry) -> dict:
     settings) and ``held_out`` (``...calibration.calibrated_on`` names another block), with
     ``in_sample_variant``: the variant of the same settings calibrated on each block itself, which the
     held-out check sets it beside."""
-    import hashlib
-
     block = _obj(_obj(c.run).get("spec")).get("block")
     try:
         slender = round(float(block["height_m"]) / float(block["width_m"]), 4)
@@ -215,10 +214,6 @@ def reference_gaps(references: list[MapEntry]) -> list[dict]:
     """Per block and pulse of a Table 1 block, the distance between the overturning boundaries of its
     η_H reference map and its η_M reference map with the size's average k (the physics' own uncertainty
     about the restitution: the verdict's scale), judged on the η_H map's domain."""
-    import re
-
-    from ..blocks.presets import PRESETS
-
     out, seen = [], set()
     for h in references:
         pre = PRESETS.get(str(h.block).upper())
@@ -304,9 +299,6 @@ def at_own_eta(reference: MapEntry, candidate: MapEntry, own_eta: dict | None) -
 
 def score_experiments(entries: list[MapEntry], points) -> list[dict]:
     """Each map of a preset block scored against the experimental points of its block and pulse."""
-    from ..blocks.experiments import score_outcomes
-    from ..blocks.presets import PRESETS
-
     out = []
     for e in entries:
         if e.block.upper() not in PRESETS:

@@ -19,7 +19,7 @@ CONFIDENCE = 0.95
 def t_quantile(df: int) -> float:
     """The two-sided :data:`CONFIDENCE` quantile of Student's t with ``df`` degrees of freedom (the
     normal's for ``df`` < 1)."""
-    from scipy import stats
+    from scipy import stats  # SciPy on first use (start-up time)
     q = 0.5 + CONFIDENCE / 2
     return float(stats.norm.ppf(q) if df < 1 else stats.t.ppf(q, df))
 
@@ -45,7 +45,7 @@ def estimate(items: Sequence[tuple[float, float, Hashable]]) -> dict:
     Returns ``{"mean", "half", "p", "clusters", "items", "basis"}``; ``half`` and ``p`` are NaN without
     any item.
     """
-    from scipy import stats
+    from scipy import stats  # SciPy on first use (start-up time)
 
     cl = by_cluster(items)
     n = len(cl)

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import html as _html
 import math
+import textwrap
 
 from .metrics import METRICS, PRIMARY_METRIC
+from .verdict import METHOD, number, verdict
 
 def fmt(name: str, v) -> str:
     """A metric's value as tables write it (:meth:`~rockbench.harness.scoring.metrics.Metric.format`)."""
@@ -78,7 +80,6 @@ def summary(doc: dict) -> dict:
 def primary_cell(row: dict) -> str:
     """A verdict row's primary value with its 95 % interval: ``0.008 [0.003, 0.013]``; a variant of
     the held-out check alone, its held-out value so marked."""
-    from .verdict import number
     if row.get("value") is None and row.get("held_out"):
         h = row["held_out"]
         return f"{number(h['value'])} [{number(h['ci95'][0])}, {number(h['ci95'][1])}] held out"
@@ -90,7 +91,6 @@ def primary_cell(row: dict) -> str:
 
 def verdict_of(doc: dict) -> dict:
     """The document's verdict (computed when an older document has none)."""
-    from .verdict import verdict
     return doc.get("verdict") or verdict(doc)
 
 
@@ -167,15 +167,12 @@ SCENARIO_TITLE = ("Per scenario: boundary distance of each variant ('!' beyond o
 
 def method_line(doc: dict) -> str:
     """How the ranks were made, in one sentence (under every summary table)."""
-    from .verdict import METHOD
     return verdict_of(doc).get("method") or METHOD
 
 
 def scenario_rows(doc: dict) -> tuple[list[str], list[list[str]]]:
     """Head and rows of the per-scenario table: one row per variant (the verdict's order), one column
     per block × pulse, and a first row with the η_H–η_M reference gap of each scenario."""
-    from .verdict import number
-
     rows = [r for r in verdict_of(doc)["variants"] if r.get("per_scenario")]
     keys = sorted({(s["block"], s["pulse"]) for r in rows for s in r["per_scenario"]})
     gaps = {(g["block"], g["pulse"]): g.get("boundary_mean") for g in doc.get("reference_gaps", [])}
@@ -206,7 +203,6 @@ def verdict_text(doc: dict) -> list[str]:
 
 def verdict_block(doc: dict, markdown: bool = False) -> str:
     """The verdict under its title: a Markdown list, or for a terminal sentences folded at 100 columns."""
-    import textwrap
     lines = verdict_text(doc)
     if markdown:
         return "### Verdict\n\n" + "\n".join(f"- {md_cell(t)}" for t in lines)

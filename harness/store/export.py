@@ -19,7 +19,7 @@ from pathlib import Path
 
 from .atomic import write_atomic
 from .files import COLUMNS
-from .frames import _text
+from .frames import cell_text
 from .loading import full_grid_rows
 
 
@@ -41,7 +41,7 @@ def write_full_grid(map_dir, path=None) -> Path:
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(cols)
         for r in rows:
-            w.writerow([_text(r[c]) for c in cols])
+            w.writerow([cell_text(r[c]) for c in cols])
         Path(tmp).write_text(buf.getvalue())
 
     write_atomic(path, write)

@@ -6,13 +6,16 @@ need them.
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 
 from ...reference_solver.errors import ConfigError
 
 
 
-def _text(v) -> str:
+def cell_text(v) -> str:
+    """A value as the full-grid table writes it: ``true``/``false``, empty for None, else ``str``."""
     if isinstance(v, bool):
         return "true" if v else "false"
     return "" if v is None else str(v)
@@ -24,7 +27,6 @@ _FLOAT = ("eta", "w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2", "max_abs
 
 def need(module: str):
     """The optional module ``module`` (pandas, xarray), or an ImportError saying how to install it."""
-    import importlib
     try:
         return importlib.import_module(module)
     except ImportError:
@@ -85,7 +87,7 @@ def rows_to_dataset(rows: list[dict]):
             v = v.to_numpy(dtype=dtype, na_value=fill) if dtype is not bool else v.to_numpy(dtype=bool)
         return np.asarray(v).reshape(ni, nj)
 
-    codes = {name: code for code, name in _FROM_CODE.items()}
+    codes = {name: code for code, name in OUTCOME_OF_CODE.items()}
     oc = np.array([codes[str(x)] for x in df["outcome"]], dtype=np.int8).reshape(ni, nj)
     w = df["w_ratio"].to_numpy()[:nj]
     a = df["a_ratio"].to_numpy()[::nj]
@@ -115,4 +117,4 @@ def rows_to_dataset(rows: list[dict]):
 OUTCOME_CATEGORIES = ("rest", "rocking", "overturn", "failed", "missing")
 
 
-_FROM_CODE = {0: "rest", 1: "rocking", 2: "overturn", -1: "failed", -2: "missing"}
+OUTCOME_OF_CODE = {0: "rest", 1: "rocking", 2: "overturn", -1: "failed", -2: "missing"}

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 
 
-def _fmt(x) -> str:
+def exact_text(x) -> str:
+    """A cell's value as cells.csv writes it: a float as its ``repr`` (it reads back exactly), None empty."""
     t = type(x)
     if t is float:
         return repr(x)   # round-trips exactly

@@ -15,10 +15,9 @@ import numpy as np
 from ...reference_solver.errors import ConfigError
 from ..maps import adaptive as adaptive_mod
 from ..maps.grid import MapSpec
-from ..maps.result import MapResult, _put, empty_result
-from ..scoring.metrics import FAILED, from_cells
+from ..maps.result import FAILED, MapResult, put_row, empty_result, from_cells
 from .files import COLUMNS, read_cell_table, read_json, read_run, spec_variant, variant_name
-from .frames import _FROM_CODE, rows_to_dataframe, rows_to_dataset
+from .frames import OUTCOME_OF_CODE, rows_to_dataframe, rows_to_dataset
 
 
 def load_map(out_dir) -> MapResult:
@@ -37,7 +36,7 @@ def load_map(out_dir) -> MapResult:
     result = empty_result(spec)
     result.adaptive, result.coarse_stride = adaptive, stride
     for (i, j), row in rows.items():
-        _put(result, i, j, row)
+        put_row(result, i, j, row)
     if result.adaptive:
         adaptive_mod.fill(result.outcome, result.simulated, result.coarse_stride)
     result.failures = [{"i": i, "j": j, "flag": r["flags"], "message": r["message"]}
@@ -102,7 +101,7 @@ def full_grid_rows(map_dir) -> list[dict]:
                 code = int(res.outcome[i, j])
                 r = {c: "" for c in COLUMNS}
                 r.update(head, w_ratio=repr(float(w[j])), a_ratio=repr(float(a[i])), omega_rad_s=repr(float(om[j])),
-                         amplitude_mps2=repr(float(am[i])), outcome=_FROM_CODE[code] if code >= 0 else "",
+                         amplitude_mps2=repr(float(am[i])), outcome=OUTCOME_OF_CODE[code] if code >= 0 else "",
                          status="filled" if code >= 0 else "missing", i=str(i), j=str(j))
                 r["filled"] = code >= 0
             r["left_model"] = bool(res.left_model[i, j])

@@ -26,13 +26,15 @@ import os
 import platform
 import subprocess
 import sys
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
+from .columnar import format_rows
 from .files import (COLUMNS, NEW_OUT, SCHEMA_VERSION, check_map_schema, read_cells_file, read_json, spec_variant,
                     utc_stamp, write_json)
-from .lines import _fmt, plain_row
+from .lines import exact_text, plain_row
 
 
 #: what a map directory may hold before its run.json exists: the lock, and the scratch space of a
@@ -66,7 +68,6 @@ def _git_info() -> dict:
 
 @functools.lru_cache(maxsize=1)
 def rockbench_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
     try:
         return version("rockbench")
     except PackageNotFoundError:
@@ -151,7 +152,7 @@ class RunStore:
         return done
 
     def _take_lock(self) -> None:
-        import fcntl
+        import fcntl  # POSIX only
         self._lock = open(self.dir / ".lock", "w")
         try:
             fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -221,8 +222,6 @@ class RunStore:
         """Append the rows of successful cells ``(ii[k], jj[k])`` with the verdicts of ``cols`` (a
         :class:`~rockbench.engines.base.CellColumns`) in one write: the same text, row for row, as
         :meth:`append_results` gives for the same cells (:mod:`rockbench.harness.store.columnar`)."""
-        from .columnar import format_rows
-
         if len(ii) == 0:
             return
         head, wr, ar, om, am = self._line_strings(spec)
@@ -261,7 +260,7 @@ class RunStore:
         w = csv.writer(buf, lineterminator="\n")
         lines = []
         for r in rows:
-            fields = [_fmt(r[c]) for c in COLUMNS]
+            fields = [exact_text(r[c]) for c in COLUMNS]
             if r["message"] or any(("," in f or '"' in f) for f in fields[:5]):
                 w.writerow(fields)          # needs csv quoting
                 lines.append(buf.getvalue())
@@ -270,7 +269,7 @@ class RunStore:
             else:
                 lines.append(",".join(fields) + "\n")
             if r["status"] != "ok":
-                self._failures.append({k: _fmt(v) for k, v in r.items()})
+                self._failures.append({k: exact_text(v) for k, v in r.items()})
         # one write per row batch; each row ends with its newline, so a kill leaves whole rows
         # plus at most one torn line, which the next open cuts off
         self._write(_prefix + "".join(lines))

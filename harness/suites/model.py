@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any
@@ -25,6 +25,8 @@ from pydantic_core import PydanticCustomError
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.pulses import is_number
 from ...reference_solver.restitution import Restitution
+from ..blocks.cases import parse_case
+from ..blocks.experiments import load_outcomes
 from ..blocks.presets import PRESETS, get_preset
 from ..maps.grid import MapSpec, parse_range
 
@@ -35,32 +37,24 @@ SHIPPED_SUITES = ("default", "quick", "full", "newton")
 PULSES = ("sine", "cosine", "half-sine")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Suite:
-    """A parsed suite file (see :mod:`rockbench.harness.suites.runner` for its tables)."""
+    """A parsed suite file (see :mod:`rockbench.harness.suites.runner` for its tables): its name (the
+    ``[suite]`` name, else the file's), description and path, the file as read (``raw``, which
+    suite.json records), and one attribute per table holding that table's checked keys
+    (``suite.grid.w_ratio``, ``suite.engines.variants``, ...). A new key is one field of its table's
+    model below, and nothing else here."""
 
     name: str
     description: str
     path: str
-    w_ratio: str
-    a_ratio: str
-    adaptive: bool
-    coarse_stride: int | None
-    blocks: list
-    pulses: list
-    reference_restitutions: list
-    reference_dt_s: float | None
-    engine_names: object
-    engine_variants: list
-    engine_restitution: str
-    engine_dt_s: float | None
-    own_eta: bool
-    cell_timeout_s: float
-    report_cases: list
-    experiments: str | None
-    raw: dict = field(default_factory=dict)
-    engine_exclude: list = field(default_factory=list)
-    engine_include: list = field(default_factory=list)
+    raw: dict
+    grid: GridTable
+    cases: CasesTable
+    reference: ReferenceTable
+    engines: EnginesTable
+    run: RunTable
+    report: ReportTable
 
 
 # -- one rule per kind of key ------------------------------------------------------------------------
@@ -186,8 +180,6 @@ def _variants(v):
 
 
 def _report_case(v):
-    from ..report.build import parse_case   # the report's own reader of BLOCK:PULSE:W_RATIO:A_RATIO
-
     for c in v:
         try:
             parse_case(c, "report.cases")
@@ -201,7 +193,6 @@ def _experiments(v, info: ValidationInfo):
         return None
     if not isinstance(v, str):
         raise _bad(f" must be a path, got {v!r}.")
-    from ..blocks.experiments import load_outcomes
 
     path = str((info.context["folder"] / v).resolve())   # relative to the suite file
     try:
@@ -429,11 +420,5 @@ def load_suite(path) -> Suite:
     except ValidationError as err:
         raise ConfigError(_first_problem(err, p.name)) from None
     return Suite(name=f.suite.name if f.suite.name is not None else p.stem, description=f.suite.description,
-                 path=str(p), w_ratio=f.grid.w_ratio, a_ratio=f.grid.a_ratio, adaptive=f.grid.adaptive,
-                 coarse_stride=f.grid.coarse_stride, blocks=f.cases.blocks, pulses=f.cases.pulses,
-                 reference_restitutions=f.reference.restitutions, reference_dt_s=f.reference.dt_s,
-                 engine_names=f.engines.names, engine_variants=f.engines.variants,
-                 engine_restitution=f.engines.restitution, engine_dt_s=f.engines.dt_s, own_eta=f.engines.own_eta,
-                 cell_timeout_s=f.run.cell_timeout_s, report_cases=f.report.cases, experiments=f.report.experiments,
-                 raw=raw, engine_exclude=f.engines.exclude,
-                 engine_include=f.engines.include)
+                 path=str(p), raw=raw, grid=f.grid, cases=f.cases, reference=f.reference, engines=f.engines,
+                 run=f.run, report=f.report)

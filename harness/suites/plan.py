@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...engines.base import EngineAdapter
+from ...engines.registry import adapter_class, availability, names
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
 from ..blocks.presets import get_preset
@@ -60,12 +61,10 @@ def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[lis
         A setting an engine named explicitly (suite list or ``--engines``), or every engine, refuses:
         one line naming the suite key.
     """
-    from ...engines.registry import adapter_class
-
     kept, refused = [], {}
     for engine in engines:
         cls = adapter_class(engine)
-        for k, variant in enumerate(suite.engine_variants):
+        for k, variant in enumerate(suite.engines.variants):
             if not variant_applies(engine, variant):
                 continue
             try:
@@ -93,8 +92,6 @@ def parse_engines(text: str | None) -> list[str] | None:
     ConfigError
         An empty list or an unknown name (with a "did you mean").
     """
-    from ...engines.registry import adapter_class
-
     if text is None:
         return None
     items = [n.strip() for n in str(text).split(",")]
@@ -119,8 +116,6 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
     EngineUnavailableError
         An engine named explicitly (in the suite or in ``only``) is not installed.
     """
-    from ...engines.registry import adapter_class, availability, names
-
     notes = []
     if only is not None:
         for n in only:
@@ -129,8 +124,8 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
                 raise EngineUnavailableError(f"--engines asks for engine {n!r}, which is not available: "
                                              f"{a['reason']}")
         return [n for n in only if n != "reference"], notes
-    if suite.engine_names == "available":
-        unknown = [n for n in suite.engine_include if n not in names()]
+    if suite.engines.names == "available":
+        unknown = [n for n in suite.engines.include if n not in names()]
         if unknown:
             raise ConfigError(f"suite {suite.name}: engines.include names engine {unknown[0]!r}, which rockbench does "
                               f"not know; `rockbench engines` lists the engines.")
@@ -138,7 +133,7 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
         for n in names():
             if n == "reference":
                 continue
-            if n in suite.engine_exclude:
+            if n in suite.engines.exclude:
                 notes.append(f"engine {n} left out by the suite (engines.exclude); run it with --engines {n} "
                              f"or the full suite")
                 continue
@@ -147,17 +142,17 @@ def engine_names(suite: Suite, only: list[str] | None = None) -> tuple[list[str]
                 notes.append(f"engine {n} skipped: {a['reason']}")
                 continue
             # engines.include: taken wherever installed, even where it would leave such suites (MuJoCo Warp on a CPU)
-            why_not = None if n in suite.engine_include else adapter_class(n).default_suite_exclusion()
+            why_not = None if n in suite.engines.include else adapter_class(n).default_suite_exclusion()
             if why_not:
                 notes.append(f"engine {n} skipped: {why_not}")
             else:
                 out.append(n)
         return out, notes
-    for n in suite.engine_names:
+    for n in suite.engines.names:
         a = availability(n)
         if not a["available"]:
             raise EngineUnavailableError(f"the suite asks for engine {n!r}, which is not available: {a['reason']}")
-    return [n for n in suite.engine_names if n != "reference"], notes
+    return [n for n in suite.engines.names if n != "reference"], notes
 
 
 def _slug(s: str) -> str:
@@ -167,21 +162,21 @@ def _slug(s: str) -> str:
 def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
     """Every map of the suite: the reference maps, then each engine variant's maps."""
     jobs = []
-    for block in suite.blocks:
-        for pulse in suite.pulses:
-            for tok in suite.reference_restitutions:
+    for block in suite.cases.blocks:
+        for pulse in suite.cases.pulses:
+            for tok in suite.reference.restitutions:
                 r = restitution_for(tok, block)
-                jobs.append(MapJob("reference", {}, block, pulse, r, suite.reference_dt_s,
+                jobs.append(MapJob("reference", {}, block, pulse, r, suite.reference.dt_s,
                                    f"maps/reference/{block}-{pulse}-{_slug(r.label)}"))
     for engine in engines:
-        for variant in suite.engine_variants:
+        for variant in suite.engines.variants:
             if not variant_applies(engine, variant):
                 continue
-            vname = variant_name(engine, variant_settings(variant) | _rest_part(variant), suite.engine_dt_s)
+            vname = variant_name(engine, variant_settings(variant) | _rest_part(variant), suite.engines.dt_s)
             for block in blocks_of(suite, variant):
                 r = restitution_for(variant_restitution(suite, variant), block)
-                for pulse in suite.pulses:
-                    jobs.append(MapJob(engine, variant_settings(variant), block, pulse, r, suite.engine_dt_s,
+                for pulse in suite.cases.pulses:
+                    jobs.append(MapJob(engine, variant_settings(variant), block, pulse, r, suite.engines.dt_s,
                                        f"maps/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}"))
     return jobs
 
@@ -196,15 +191,15 @@ def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:
         if not 0.0 < eta <= 1.0 or (m["block"], eta) in seen:
             continue
         seen.add((m["block"], eta))
-        for pulse in suite.pulses:
+        for pulse in suite.cases.pulses:
             jobs.append(MapJob("reference", {}, m["block"], pulse, Restitution("constant", value=eta),
-                               suite.reference_dt_s, f"maps/reference/{own_eta_map_name(m['block'], pulse, eta)}"))
+                               suite.reference.dt_s, f"maps/reference/{own_eta_map_name(m['block'], pulse, eta)}"))
     return jobs
 
 
 def variant_blocks(suite: Suite, engines: list[str]):
     for engine in engines:
-        for variant in suite.engine_variants:
+        for variant in suite.engines.variants:
             if not variant_applies(engine, variant):
                 continue
             for block in blocks_of(suite, variant):
@@ -218,7 +213,7 @@ def variant_settings(variant: dict) -> dict:
 
 def blocks_of(suite: "Suite", variant: dict) -> list[str]:
     """The blocks a suite variant maps: its ``blocks`` (in the suite's order), default all the suite's."""
-    return [b for b in suite.blocks if "blocks" not in variant or b in variant["blocks"]]
+    return [b for b in suite.cases.blocks if "blocks" not in variant or b in variant["blocks"]]
 
 
 def variant_applies(engine: str, variant: dict) -> bool:
@@ -232,4 +227,4 @@ def _rest_part(variant: dict) -> dict:
 
 def variant_restitution(suite: "Suite", variant: dict) -> str:
     """The restitution a suite variant is calibrated to and labelled with: its own, else the suite's."""
-    return str(variant.get("restitution", suite.engine_restitution))
+    return str(variant.get("restitution", suite.engines.restitution))

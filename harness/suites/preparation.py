@@ -5,12 +5,19 @@ free-rocking η, in helper processes while the reference maps run (:func:`prepar
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from ...engines.base import EngineAdapter
+from ...engines.registry import adapter_class, get_adapter, register
 from ..blocks.presets import get_preset
+from ..maps.cores import can_fork_helper
+from ..maps.executors import worker_init
 from ..store.files import read_json, variant_name, write_json
 from ..store.loading import CALIBRATION_FILE
 from .model import Suite, restitution_for
@@ -22,8 +29,6 @@ def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s,
     """One engine variant on one block: its calibration for the suite's restitution (computed once
     and cached on disk, where the map workers find it) and, with ``measure``, its free-rocking η
     (by a fresh adapter, as measured before the maps always was)."""
-    from ...engines.registry import get_adapter
-
     b = get_preset(block).block()
     variant = variant_settings(variant)
     out: dict = {"measurement": None, "error": None}
@@ -70,13 +75,13 @@ class Preparation:
 
         self.t0 = time.perf_counter()
         self.suite, self.out = suite, out
-        self.own_eta = suite.own_eta if own_eta is None else own_eta
+        self.own_eta = suite.engines.own_eta if own_eta is None else own_eta
         self.path = out / CALIBRATION_FILE
         self.old = {(r["variant"], r["block"]): r
                     for r in (read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
         self.tasks = []
         for engine, variant, block in variant_blocks(suite, engines):
-            vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
+            vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)
             cached = (vname, block) in self.old and self.old[(vname, block)].get("eta_measured") is not None
             # a variant with its own restitution is scored against that restitution's reference
             # maps; its own-η map (d) would measure the Housner calibration, so it has none
@@ -89,7 +94,8 @@ class Preparation:
         for k in self.todo:
             engine, variant, block, measure = self.tasks[k]
             if measure:
-                log(f"measuring η of {variant_name(engine, variant_settings(variant), suite.engine_dt_s)} on {block} (free rocking)")
+                vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)
+                log(f"measuring η of {vname} on {block} (free rocking)")
         self.pool, self.futs = None, {}
         if workers > 1 and len(self.todo) > 1:
             self._start_helpers(workers)
@@ -102,11 +108,6 @@ class Preparation:
         return sum(1 for _, variant, _, _ in self.tasks if "restitution" not in variant)
 
     def _start_helpers(self, workers: int) -> None:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        from ..maps.executors import worker_init
-        from ..report.plots.picture import can_fork_helper
 
         suite = self.suite
         try:
@@ -119,7 +120,7 @@ class Preparation:
             for k in self.todo:
                 engine, variant, block, measure = self.tasks[k]
                 self.futs[k] = self.pool.submit(_prepare_one, engine, variant, block, variant_restitution(suite, variant),
-                                                suite.engine_dt_s, measure)
+                                                suite.engines.dt_s, measure)
         except (OSError, RuntimeError, ValueError):
             self._stop()
 
@@ -129,8 +130,6 @@ class Preparation:
             self.pool = None
 
     def finish(self) -> tuple[list[dict], list[str], float]:
-        from concurrent.futures.process import BrokenProcessPool
-
 
         suite = self.suite
         try:
@@ -144,12 +143,12 @@ class Preparation:
         for k in self.todo:   # here: one worker, or what the helpers could not do
             if k not in self.results:
                 engine, variant, block, measure = self.tasks[k]
-                self.results[k] = _prepare_one(engine, variant, block, variant_restitution(suite, variant), suite.engine_dt_s,
-                                               measure)
+                self.results[k] = _prepare_one(engine, variant, block, variant_restitution(suite, variant),
+                                               suite.engines.dt_s, measure)
         rows, notes = [], []
         if self.own_eta:
             for k, (engine, variant, block, measure) in enumerate(self.tasks):
-                vname = variant_name(engine, variant_settings(variant), suite.engine_dt_s)
+                vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)
                 if "restitution" in variant:
                     continue      # no own-η map for a variant with its own restitution (see above)
                 if not measure:
@@ -167,8 +166,6 @@ class Preparation:
 
 
 def _helper_init(registry: dict, sys_path: list) -> None:
-    import os
-    from ...engines.registry import register
     for p in sys_path:
         if p not in sys.path and os.path.isdir(p):
             sys.path.append(p)
@@ -178,7 +175,6 @@ def _helper_init(registry: dict, sys_path: list) -> None:
 
 def _calibrates(engine: str) -> bool:
     """Whether the engine's adapter has a calibration of its own to compute (and cache)."""
-    from ...engines.registry import adapter_class
     try:
         return adapter_class(engine).calibrate is not EngineAdapter.calibrate
     except Exception:  # noqa: BLE001 - an adapter that cannot load has nothing to prepare here
@@ -190,7 +186,6 @@ def cost_rank(engine: str) -> tuple:
     finer default time step costs more, and an engine with a native batch (MuJoCo's rollouts) less
     per cell than one stepped from Python at the same step. Lanes then end on the cheapest maps,
     when one core may have to wait for the other."""
-    from ...engines.registry import adapter_class
     try:
         cls = adapter_class(engine)
     except Exception:  # noqa: BLE001 - an engine that cannot even load its adapter class goes last

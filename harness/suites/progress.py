@@ -10,8 +10,12 @@ measurement failed) are counted off in one line when that is known. No line is b
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
+
+from ...engines import registry
+from ...engines.base import DEVICE_NOTED_ENV
 
 
 class SuiteConsole:
@@ -63,13 +67,8 @@ def say_device_notes(engines, console: SuiteConsole) -> None:
     """One line per engine that runs somewhere a reader should know of (a GPU-first engine on the
     CPU: :meth:`~rockbench.engines.base.EngineAdapter.device_note`), before the first map; the
     engines' worker processes then stay quiet about it."""
-    import os
-
-    from ...engines.base import DEVICE_NOTED_ENV
-    from ...engines.registry import adapter_class
-
     for e in engines:
-        note = adapter_class(e).device_note()
+        note = registry.adapter_class(e).device_note()
         if note:
             console.line(f"{e}: {note}")
             os.environ[DEVICE_NOTED_ENV] = "1"

@@ -44,7 +44,8 @@ A suite is a TOML file (``harness/suites/default.toml`` and ``quick.toml`` are s
 
 Layout of the output directory: ``OUT/maps/<engine variant>/<block>-<pulse>-<restitution>/`` (one
 ``rockbench map`` run directory each, resumable), ``OUT/score.json``, ``OUT/index.html``,
-``OUT/report.md``, ``OUT/img/``, ``OUT/suite.json`` (the suite as run, and the timings).
+``OUT/report.md``, ``OUT/img/``, ``OUT/trajectories/`` (the θ(t) curves of the report's cases, which the
+report draws), ``OUT/suite.json`` (the suite as run, and the timings).
 """
 
 from __future__ import annotations
@@ -56,14 +57,19 @@ from pathlib import Path
 
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.pulses import make_pulse
+from ..blocks.cases import parse_case
 from ..blocks.experiments import load_outcomes
 from ..blocks.presets import get_preset
 from ..engine_info.health import EngineHealth
 from ..maps.executors import cap_jobs, cpu_count
 from ..maps.grid import MapSpec, parse_range
 from ..maps.sweep import run_map
+from ..report.build import build_report
+from ..scoring.score_runs import score_dirs
+from ..scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
 from ..store.atomic import check_output_dir
 from ..store.files import write_json
+from ..trajectories import record_for_report
 from .lanes import ReferenceThread, run_lanes
 from .model import Suite
 from .plan import check_suite, engine_names, own_eta_jobs, plan
@@ -77,22 +83,20 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
     and summary table (``result["summary"]``); the ``unfinished`` maps (of an engine that cannot
     simulate) are scored as incomplete instead of refused."""
     if report:
-        from ..report.build import build_report, parse_case
-        cases = tuple(parse_case(c) for c in suite.report_cases)
+        cases = tuple(parse_case(c) for c in suite.report.cases)
+        record_for_report(cases, [out / "maps"], out, log=log)
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
                            figure_formats=figure_formats, allow_incomplete=unfinished)
         result["score"] = rep["doc"]
         result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
-        from ..scoring.score_runs import score_dirs
         try:
             result["score"] = score_dirs([out / "maps"], experiments=experiments, allow_incomplete=unfinished)
             write_json(out / "score.json", result["score"])
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
     if result["score"] is not None:
-        from ..scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
         result["summary"] = "\n".join([verdict_block(result["score"]), SUMMARY_TITLE, summary_table(result["score"])])
 
 
@@ -100,9 +104,9 @@ def _warm_report() -> None:
     """Import what the report draws with and load the reference solver's history kernel (numba's
     cache), so that the report, which needs every map, starts at once when the last one is done."""
     try:
+        # a head start: importing these (and compiling the kernel) early is the point
         from matplotlib import figure  # noqa: F401
         from matplotlib.backends import backend_agg  # noqa: F401
-
         from ...reference_solver.solver import solve
         from ..report import build as report  # noqa: F401
         solve(get_preset("B3M").block(), make_pulse("sine", 30.0, 60.0), 0.8, history=True)
@@ -146,9 +150,9 @@ class _SuiteRun:
 
     def __init__(self, suite: Suite, out: Path, jobs: int | None, log, engines: list[str] | None):
         self.suite, self.out, self.jobs, self.log = suite, out, jobs, log
-        self.x = parse_range("grid.w_ratio", suite.w_ratio, "w_ratio")
-        self.y = parse_range("grid.a_ratio", suite.a_ratio, "a_ratio")
-        explicit = engines is not None or suite.engine_names != "available"
+        self.x = parse_range("grid.w_ratio", suite.grid.w_ratio, "w_ratio")
+        self.y = parse_range("grid.a_ratio", suite.grid.a_ratio, "a_ratio")
+        explicit = engines is not None or suite.engines.names != "available"
         engines, self.notes = engine_names(suite, engines)
         self.engines, more = check_suite(suite, engines, explicit)
         self.notes += more
@@ -163,7 +167,7 @@ class _SuiteRun:
         # the helpers start now and work while this process computes the reference maps
         self.prep = Preparation(suite, self.engines, out, log, workers=self.workers) if self.engines else None
         # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
-        self.own_planned = self.prep.own_eta_slots() * len(suite.pulses) if self.prep is not None else 0
+        self.own_planned = self.prep.own_eta_slots() * len(suite.cases.pulses) if self.prep is not None else 0
         self.console = SuiteConsole(len(self.todo) + self.own_planned, log)
         say_device_notes(self.engines, self.console)
         self.health = EngineHealth()
@@ -182,8 +186,8 @@ class _SuiteRun:
         # an engine that cannot simulate is stopped after its first map (EngineHealth.guard)
         res = self.health.guard(job.engine, lambda: run_map(
             spec, d, jobs=self.jobs, serial=job.engine == "reference",
-            adaptive=suite.adaptive and job.engine != "reference", coarse_stride=suite.coarse_stride,
-            cell_timeout_s=suite.cell_timeout_s, plot=False, log=self.log, executor=ex))
+            adaptive=suite.grid.adaptive and job.engine != "reference", coarse_stride=suite.grid.coarse_stride,
+            cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
             self.unfinished.add(d)
@@ -227,7 +231,7 @@ class _SuiteRun:
         at each variant's measured η."""
         etas, more, _ = self.prep.finish()
         self.notes += more
-        if self.suite.own_eta:
+        if self.suite.engines.own_eta:
             extra = own_eta_jobs(self.suite, etas)
             self.console.not_needed(self.own_planned - len(extra), "variants with the same measured η on a block "
                                     "share one reference map, and a failed η measurement has none")
@@ -243,8 +247,8 @@ class _SuiteRun:
         result = {"suite": suite.name, "maps": done, "maps_wall_s": time.perf_counter() - self.t0,
                   "notes": list(dict.fromkeys(self.notes)), "score": None, "report": None, "summary": "",
                   "cannot_simulate": health.broken_lines(), "failed_cells": health.failure_lines()}
-        if experiments is None and suite.experiments:
-            experiments = load_outcomes(suite.experiments)
+        if experiments is None and suite.report.experiments:
+            experiments = load_outcomes(suite.report.experiments)
         t2 = time.perf_counter()
         _score_and_report(suite, self.out, result, experiments, report, figure_formats, self.log, self.unfinished)
         result["report_wall_s"] = time.perf_counter() - t2

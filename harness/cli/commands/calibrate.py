@@ -6,9 +6,10 @@ import json
 
 from ....engines.price import price_line
 from ....engines.registry import get_adapter
-from ....reference_solver.errors import ConfigError
-from ..options import (add_block_options, block_from_args, dt_from_args, engine_settings_from_args,
-                       restitution_from_args)
+from ....reference_solver.errors import ConfigError, RockbenchError
+from ...engine_info.health import refuse_outside_range
+from ...request import CaseRequest
+from ..options import add_block_options
 
 
 def register(sub) -> None:
@@ -34,17 +35,15 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ....reference_solver.errors import RockbenchError
-    from ...engine_info.health import refuse_outside_range
-
-    block, preset = block_from_args(args)
-    adapter = get_adapter(args.engine, **engine_settings_from_args(args))
+    request = CaseRequest.from_args(args)
+    block, preset = request.block_and_preset()
+    adapter = get_adapter(args.engine, **request.engine_settings())
     if getattr(adapter, "settings", {}).get("calibrate_on"):   # a calibration is of the block it ran on
         on = adapter.calibration_block(block)
         raise ConfigError(f"calibrate_on is a setting of maps and runs (the held-out check); the calibration it uses "
                           f"is {on.name}'s own: rockbench calibrate --engine {args.engine} --block {on.name}.")
     try:
-        out = _calibrate(args, adapter, block, preset)
+        out = _calibrate(args, request, adapter, block, preset)
     except RockbenchError:
         raise
     except Exception as e:  # noqa: BLE001 - an engine version outside the supported range: exit 3, one line
@@ -53,9 +52,9 @@ def run(args) -> int:
     return _print(args, out)
 
 
-def _calibrate(args, adapter, block, preset) -> dict:
+def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
     """What ``calibrate`` prints: the measured η, or the search for a target (and its price)."""
-    dt = dt_from_args(args)
+    dt = request.dt_s()
     if args.target is None:
         try:
             frac = float(args.theta0)
@@ -68,7 +67,7 @@ def _calibrate(args, adapter, block, preset) -> dict:
                "eta_target": None, "n_impacts": len(m.etas), "etas": m.etas, "settings": m.settings,
                "dt_s": m.dt_s, "method": m.method}
     else:
-        rest = restitution_from_args(args, preset, option="--target")
+        rest = request.restitution_law(preset, token=args.target, option="--target")
         target = rest.eta(block.alpha_rad)
         step_rule = None
         if dt is None and getattr(adapter, "calibrated", lambda: False)():

@@ -13,7 +13,7 @@ import sys
 from ....engines.checker import check_adapter
 from ....engines.registry import get_adapter
 from ....engines.support import install_advice, outside_range, supported_range
-from ..options import engine_settings_from_args
+from ...request import CaseRequest
 
 
 def register(sub) -> None:
@@ -25,7 +25,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    adapter = get_adapter(args.name, **engine_settings_from_args(args))
+    adapter = get_adapter(args.name, **CaseRequest.from_args(args).engine_settings())
     outside = outside_range(args.name)
     if outside:
         print(f"rockbench: warning: {outside}; {install_advice(args.name)} for a supported one.", file=sys.stderr)

@@ -6,7 +6,9 @@ import json
 
 from ...engine_info.versions import differences, differences_line
 from ...scoring.metrics import METRICS
-from ...scoring.score_runs import DEFAULT_TOLERANCE_CELLS
+from ...scoring.score_runs import DEFAULT_TOLERANCE_CELLS, compare_scores, load_score, parse_tolerances
+from ...scoring.tables import compare_table
+from ...store.files import json_safe
 
 
 def register(sub) -> None:
@@ -32,10 +34,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ...store.files import json_safe
-    from ...scoring.score_runs import compare_scores, load_score, parse_tolerances
-    from ...scoring.tables import compare_table
-
     tol = parse_tolerances(args.tolerance)
     allow = args.allow_incomplete
     base, cur = load_score(args.baseline, allow), load_score(args.current, allow)

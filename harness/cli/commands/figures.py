@@ -6,7 +6,7 @@ import json
 import sys
 
 from ....reference_solver.errors import ConfigError
-from ...report.figures import FIGURES, make_figures
+from ...figures import FIGURES, make_figures
 from ...store.atomic import check_output_dir
 from ..options import add_figure_format_option, figure_formats_from_args, jobs_from_args
 

@@ -7,12 +7,15 @@ import sys
 from pathlib import Path
 
 from ....reference_solver.errors import ConfigError, EngineError
+from ...engine_info.health import EngineCannotSimulate, cannot_simulate_line, common_error
 from ...maps.grid import MAP_PULSES, MapSpec, parse_range
 from ...maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
+from ...report.plots.picture import MapPicture
 from ...store.atomic import check_output_dir
-from ..options import (add_block_options, add_figure_format_option, add_model_options, block_from_args,
-                       dt_from_args, engine_settings_from_args, figure_formats_from_args, jobs_from_args,
-                       restitution_from_args)
+from ...request import CaseRequest
+from ...store.export import write_full_grid
+from ..options import (add_block_options, add_figure_format_option, add_model_options, figure_formats_from_args,
+                       jobs_from_args)
 
 
 def register(sub) -> None:
@@ -69,15 +72,17 @@ def spec_from_args(args) -> MapSpec:
             raise ConfigError(f"a map sweeps frequency and amplitude, so its pulse must be harmonic "
                               f"({', '.join(MAP_PULSES)}); got the record {args.pulse!r}: use `rockbench simulate`.")
         raise ConfigError(f"--pulse must be one of {', '.join(MAP_PULSES)} for a map, got {args.pulse!r}.")
-    block, preset = block_from_args(args)
-    rest = restitution_from_args(args, preset)
+    return CaseRequest.from_args(args).map_spec(kind, lambda: _axes(args))
+
+
+def _axes(args):
+    """The frequency and amplitude axes the options give."""
     xn, xt = _pick(args, ["w_ratio", "omega"], "frequency")
     yn, yt = _pick(args, ["a_ratio", "amplitude", "amplitude_g"], "amplitude")
     x = parse_range("--" + xn.replace("_", "-"), xt, {"w_ratio": "w_ratio", "omega": "omega_rad_s"}[xn])
     y = parse_range("--" + yn.replace("_", "-"), yt,
                     {"a_ratio": "a_ratio", "amplitude": "amplitude_mps2", "amplitude_g": "amplitude_g"}[yn])
-    return MapSpec(block, kind, rest, x, y, engine=args.engine, engine_settings=engine_settings_from_args(args),
-                   dt_s=dt_from_args(args), linearized=bool(args.linearized))
+    return x, y
 
 
 def run(args) -> int:
@@ -94,15 +99,13 @@ def run(args) -> int:
     try:
         result = run_map(spec, args.out, jobs=jobs_from_args(args), scheduler=args.scheduler, serial=args.serial,
                          adaptive=args.adaptive, coarse_stride=args.coarse_stride, cell_timeout_s=timeout,
-                         progress=not quiet, plot=not args.no_plot, figure_formats=formats,
+                         progress=not quiet, picture=None if args.no_plot else MapPicture(), figure_formats=formats,
                          log=None if args.json else (lambda s: print(s, file=sys.stderr)))
     except EngineError as e:   # its workers could not start the engine: exit 3, the line says why
-        from ...engine_info.health import EngineCannotSimulate, cannot_simulate_line
         raise EngineCannotSimulate(cannot_simulate_line(spec.engine, str(e), "starting it")) from None
     summary = {**result.summary(), "out": str(args.out)}
     broken = _cannot_simulate(spec, result)
     if args.full_grid:
-        from ...store.export import write_full_grid
         summary["full_grid"] = str(write_full_grid(args.out))
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -119,8 +122,6 @@ def run(args) -> int:
 
 def _cannot_simulate(spec, result) -> str | None:
     """The line for an engine whose every simulated cell of this map failed with one error, else None."""
-    from ...engine_info.health import cannot_simulate_line, common_error
-
     err = common_error(result.failures, result.n_simulated) if spec.engine != "reference" else None
     if err is None:
         return None
@@ -130,6 +131,5 @@ def _cannot_simulate(spec, result) -> str | None:
 def _exit(broken: str | None) -> int:
     """0, or (the map is written and summarised) the engine-cannot-simulate error, exit code 3."""
     if broken:
-        from ...engine_info.health import EngineCannotSimulate
         raise EngineCannotSimulate(broken)
     return 0

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import sys
 
-from ..options import add_figure_format_option
+from ...blocks.cases import FIG17, parse_case
+from ...blocks.experiments import load_outcomes
+from ...report.build import build_report
+from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
+from ...store.atomic import check_output_dir
+from ...trajectories import record_for_report
+from ..options import add_figure_format_option, figure_formats_from_args
 
 #: the outcomes CSV format (kept here so that --help needs no import of the harness)
 _FORMAT = ("block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
@@ -21,24 +27,20 @@ def register(sub) -> None:
     p.add_argument("--case", action="append", default=[], metavar="BLOCK:PULSE:W_RATIO:A_RATIO",
                    help="θ(t) comparison case (repeatable; default the paper's Fig. 17 case B3M:sine:6:6.1)")
     p.add_argument("--no-trajectories", action="store_true", help="skip the θ(t) comparison (no simulation)")
-    from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
     p.add_argument(ALLOW_INCOMPLETE, action="store_true", help=ALLOW_INCOMPLETE_HELP)
     add_figure_format_option(p, what="pictures in DIR/img/ (index.html embeds the PNG, which is always written)")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from ...store.atomic import check_output_dir
-    from ..options import figure_formats_from_args
-    from ...report.build import FIG17, build_report, parse_case
-
     cases = tuple(parse_case(c) for c in args.case) or (FIG17,)
     formats = figure_formats_from_args(args)
     check_output_dir(args.out, "--out")
     points = None
     if args.experiments:
-        from ...blocks.experiments import load_outcomes
         points = load_outcomes(args.experiments)
+    if not args.no_trajectories:
+        record_for_report(cases, args.run_dirs, args.out, against=args.against or None)
     res = build_report(args.run_dirs, args.out, against=args.against or None, experiments=points, cases=cases,
                        trajectories=not args.no_trajectories, allow_incomplete=args.allow_incomplete,
                        figure_formats=formats)

@@ -8,8 +8,15 @@ ends the output.
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
-from ..options import add_figure_format_option
+from ....reference_solver.errors import ConfigError
+from ...blocks.experiments import load_outcomes
+from ...store.atomic import check_output_dir
+from ...suites.model import load_suite, suite_path
+from ...suites.plan import check_suite, engine_names, parse_engines, plan
+from ...suites.runner import run_suite
+from ..options import add_figure_format_option, figure_formats_from_args, jobs_from_args
 
 
 def register(sub) -> None:
@@ -36,14 +43,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from pathlib import Path
-
-    from ....reference_solver.errors import ConfigError
-    from ...store.atomic import check_output_dir
-    from ..options import figure_formats_from_args, jobs_from_args
-    from ...suites.model import load_suite, suite_path
-    from ...suites.plan import check_suite, engine_names, parse_engines, plan
-    from ...suites.runner import run_suite
 
     if args.show_suite is not None:
         if args.suite is not None or args.quick:
@@ -62,7 +61,7 @@ def run(args) -> int:
     out = Path(args.out) if args.out else Path("rockbench-results") / suite.name
     if args.plan:
         engines, notes = engine_names(suite, only)
-        engines, more = check_suite(suite, engines, only is not None or suite.engine_names != "available")
+        engines, more = check_suite(suite, engines, only is not None or suite.engines.names != "available")
         notes += more
         for n in notes:
             print(f"rockbench: {n}", file=sys.stderr)
@@ -72,7 +71,6 @@ def run(args) -> int:
     check_output_dir(out, "--out")
     points = None
     if args.experiments:
-        from ...blocks.experiments import load_outcomes
         points = load_outcomes(args.experiments)
     res = run_suite(suite, out, jobs=jobs, experiments=points, report=not args.no_report, engines=only,
                     figure_formats=formats)

@@ -2,18 +2,22 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
+import textwrap
 from pathlib import Path
 
-from ...scoring.metrics import METRICS, parse_thresholds
+from ...blocks.experiments import load_outcomes
+from ...scoring.metrics import METRICS, METRICS_VERSION, parse_thresholds
+from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP, gate, score_dirs
+from ...scoring.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table, summary_table,
+                               verdict_block)
+from ...store.atomic import check_output_file
+from ...store.files import json_safe, write_json
 
 
 def register(sub) -> None:
-    import argparse
-    import textwrap
-
-    from ...scoring.metrics import METRICS_VERSION
 
     defs = "\n".join(textwrap.fill(f"{m.name} ({m.role}; {m.direction} is better, perfect {m.perfect:g}): "
                                    f"{m.question} {m.definition}",
@@ -41,23 +45,15 @@ def register(sub) -> None:
     p.add_argument("--no-write", action="store_true", help="do not write score.json")
     p.add_argument("--json", action="store_true", help="print the score document on stdout")
     p.add_argument("--markdown", action="store_true", help="print Markdown tables (for a pull-request comment)")
-    from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
     p.add_argument(ALLOW_INCOMPLETE, action="store_true", help=ALLOW_INCOMPLETE_HELP)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from ...store.atomic import check_output_file
-    from ...store.files import json_safe, write_json
-    from ...scoring.score_runs import gate, score_dirs
-    from ...scoring.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table,
-                                   summary_table, verdict_block)
-
     thresholds = {**parse_thresholds(args.fail_under, "higher", "--fail-under"),
                   **parse_thresholds(args.fail_over, "lower", "--fail-over")}
     points = None
     if args.experiments:
-        from ...blocks.experiments import load_outcomes
         points = load_outcomes(args.experiments)
     out = None
     if not args.no_write:   # refused before the scoring, not after it

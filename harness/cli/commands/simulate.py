@@ -16,7 +16,8 @@ from ....reference_solver.errors import ConfigError
 from ....reference_solver.solver import MODES
 from ...simulation import simulate_case
 from ...store.atomic import check_output_file
-from ..options import add_case_options, case_from_args, engine_settings_from_args
+from ...request import CaseRequest
+from ..options import add_case_options
 
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="one simulation: outcome, impacts, θ(t) history and plot")
@@ -47,8 +48,9 @@ def _check_output(path: str | None, suffixes: tuple[str, ...], option: str) -> P
 
 
 def run(args) -> int:
-    case, preset = case_from_args(args)
-    settings = engine_settings_from_args(args)
+    request = CaseRequest.from_args(args)
+    case, preset = request.case()
+    settings = request.engine_settings()
     if args.mode is not None:
         if args.engine != "reference":
             raise ConfigError(f"--mode applies to the reference engine only, got --engine {args.engine}.")

@@ -12,10 +12,17 @@ still printed when both runs wrote scores); another code of a run is passed on.
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+from ....reference_solver.errors import ConfigError
+from ...engine_info.envs import build_env, parse_pair, plan_env, source_dir, source_fingerprint
+from ...store.atomic import check_output_dir
+from ..options import jobs_from_args
+from . import compare
 
 
 def register(sub) -> None:
@@ -37,7 +44,6 @@ def register(sub) -> None:
 
 
 def _suite_args(args, suite: str | None) -> list[str]:
-    from ....reference_solver.errors import ConfigError
     if args.quick and suite:
         raise ConfigError(f"give either a suite ({suite}) or --quick, not both.")
     if args.quick:
@@ -50,9 +56,6 @@ def _suite_args(args, suite: str | None) -> list[str]:
 
 def plan_runs(args):
     """``(a, b, plans, suite_args, out)``: everything checked, nothing built."""
-    from ..options import jobs_from_args
-    from ...engine_info.envs import parse_pair, plan_env, source_dir, source_fingerprint
-
     specs, suite = list(args.specs), None
     if len(specs) == 3 and "==" not in specs[2]:
         suite = specs.pop()
@@ -74,9 +77,6 @@ def _runner():
 
 
 def run(args) -> int:
-    from ...store.atomic import check_output_dir
-    from ...engine_info.envs import build_env
-
     runner = _runner()
 
     a, b, plans, suite_args, out = plan_runs(args)
@@ -111,8 +111,5 @@ def run(args) -> int:
 
 def _compare(base: Path, cur: Path) -> int:
     """``rockbench compare BASE CUR`` in this process: its table, versions line and exit code."""
-    import argparse
-
-    from . import compare
     return compare.run(argparse.Namespace(baseline=str(base), current=str(cur), tolerance=[], json=False,
                                           markdown=False, allow_incomplete=False))

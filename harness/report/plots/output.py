@@ -14,9 +14,11 @@ line can check ``--figure-format`` before anything runs.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 from ....reference_solver.errors import ConfigError
+from ...store.atomic import write_atomic
 
 #: The formats a figure can be written in, by file suffix.
 FORMATS = ("png", "svg", "pdf")
@@ -52,9 +54,8 @@ def format_of(path, option: str) -> str:
 
 def save_figure(fig, path, fmt: str | None = None) -> Path:
     """Write ``fig`` to ``path`` (atomically) in ``fmt`` (default: the path's suffix)."""
-    import matplotlib
+    import matplotlib  # matplotlib on first drawing (start-up time)
 
-    from ...store.atomic import write_atomic
 
     path = Path(path)
     fmt = fmt or format_of(path, "figure path")
@@ -74,9 +75,7 @@ def save_formats(fig, stem, formats=("png",)) -> list[Path]:
 
 def figure_bytes(fig, fmt: str = "png") -> bytes:
     """``fig`` as the bytes of a file in ``fmt`` (for the report's embedded pictures)."""
-    import io
-
-    import matplotlib
+    import matplotlib  # matplotlib on first drawing (start-up time)
 
     buf = io.BytesIO()
     with matplotlib.rc_context(_SAVE_RC):

@@ -20,35 +20,16 @@ from __future__ import annotations
 
 import os
 import pickle
+import signal
 import time
 from pathlib import Path
+
+from ...maps.cores import can_fork_helper
 from . import stability
 
 #: Seconds the helper may take to draw once it has the map, before it is stopped and the picture
 #: is drawn here.
 DRAW_TIMEOUT_S = 120.0
-
-
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
-def _fork_safe() -> bool:
-    import sys
-    import threading
-    if threading.active_count() > 1:
-        return False
-    par = sys.modules.get("numba.np.ufunc.parallel")
-    return not getattr(par, "_is_initialized", False)
-
-
-def can_fork_helper() -> bool:
-    """Whether a helper may be forked here and now (module docstring; :class:`MapPicture`, and the
-    suite's preparation of the engines)."""
-    return hasattr(os, "fork") and _cores() >= 2 and _fork_safe()
 
 
 class MapPicture:
@@ -80,9 +61,10 @@ class MapPicture:
         os.close(r)
         self.pid, self.w = pid, w
 
-    def draw(self, result, stem, formats=("png",)) -> list[Path]:
-        """Draw ``result`` (a MapResult) into ``stem.<format>`` for each of ``formats``: by the helper
-        if it runs, else here. Returns the paths."""
+    def draw(self, result, stem, formats=("png",), reference=None) -> list[Path]:
+        """Draw ``result`` (a MapResult) into ``stem.<format>`` for each of ``formats``, over the
+        boundary of ``reference`` (the reference map of the same grid, or None): by the helper if it
+        runs, else here. Returns the paths."""
         stem = Path(stem)
         formats = tuple(formats)
         paths = [stem.with_name(f"{stem.name}.{f}") for f in formats]
@@ -91,7 +73,7 @@ class MapPicture:
         if pid is not None:
             ok = False
             try:
-                data = pickle.dumps((result, str(stem), formats), protocol=pickle.HIGHEST_PROTOCOL)
+                data = pickle.dumps((result, str(stem), formats, reference), protocol=pickle.HIGHEST_PROTOCOL)
                 with os.fdopen(w, "wb") as f:
                     w = None
                     f.write(data)
@@ -103,8 +85,7 @@ class MapPicture:
                 _stop(pid, w)
             if ok:
                 return paths
-        from .stability import plot_map_files, reference_for
-        return plot_map_files(result, stem, reference=reference_for(result), formats=formats)
+        return stability.plot_map_files(result, stem, reference=reference, formats=formats)
 
     def close(self) -> None:
         """Let the helper go if no picture was asked for (the map failed, or was interrupted)."""
@@ -136,7 +117,6 @@ def _stop(pid: int | None, w: int | None) -> None:
     if pid is None:
         return
     if _wait(pid, 5.0) is None:
-        import signal
         try:
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
@@ -159,6 +139,6 @@ def _helper(r: int) -> int:
             chunks.append(b)
     if not chunks:
         return 0   # no picture wanted after all
-    result, stem, formats = pickle.loads(b"".join(chunks))
-    stability.plot_map_files(result, stem, reference=stability.reference_for(result), formats=formats)
+    result, stem, formats, reference = pickle.loads(b"".join(chunks))
+    stability.plot_map_files(result, stem, reference=reference, formats=formats)
     return 0

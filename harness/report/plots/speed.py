@@ -61,10 +61,10 @@ def plot_speed_accuracy(rows, *, metric="agreement", ax=None):
         ``ax``, ``points`` (variant → PathCollection), ``labels`` (variant → Text), ``logy`` and
         ``legend`` (None: the points are labelled directly).
     """
-    from matplotlib.ticker import FuncFormatter, LogLocator
+    from matplotlib.ticker import FuncFormatter, LogLocator  # matplotlib on first drawing (start-up time)
 
     if ax is None:
-        from matplotlib.figure import Figure
+        from matplotlib.figure import Figure  # matplotlib on first drawing (start-up time)
         ax = Figure(figsize=(DOUBLE_COLUMN_IN, 3.3), layout="constrained").add_subplot()
     pts = _points(rows, metric)
     ys = [y for _, _, y in pts]

@@ -26,8 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from ...blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
-from ...maps.result import MapResult, empty_result, record_result
+from ...maps.result import MapResult
 from ...scoring.labels import for_matplotlib, restitution_symbol, variant_label
+from .output import save_formats
 from .style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SINGLE_COLUMN_IN, SMALL_PT, SUPTITLE_PT, TITLE_PT, tint
 
 #: Line styles of the reference boundaries, in the order given (η_H, η_M average k, η_M exact k,
@@ -123,7 +124,7 @@ def boundary_parts(m) -> tuple[list[np.ndarray], list[tuple[float, float, float,
     not-overturn cell amid overturns) is an island: it is returned as the box ``(w0, a0, w1, a1)``
     of the cells it encloses, edges half-way to the neighbours, to be drawn as an outline.
     """
-    from matplotlib.path import Path as MPath
+    from matplotlib.path import Path as MPath  # matplotlib on first drawing (start-up time)
 
     g = as_grid(m)
     lines, boxes = [], []
@@ -151,8 +152,8 @@ def _edges(c: np.ndarray) -> np.ndarray:
 
 
 def _raw_lines(m) -> list[np.ndarray]:
-    from contourpy import contour_generator
-    from scipy import ndimage
+    from contourpy import contour_generator  # matplotlib's contouring, on first drawing (start-up time)
+    from scipy import ndimage  # SciPy on first use (start-up time)
 
     g = as_grid(m)
     if min(g.outcome.shape) < 2:
@@ -174,7 +175,7 @@ def _smooth_polyline(p: np.ndarray) -> np.ndarray:
     sigma = min(SMOOTH_VERTICES, n / 8.0)
     if sigma < 0.3:
         return p
-    from scipy import ndimage
+    from scipy import ndimage  # SciPy on first use (start-up time)
     if closed:
         body = ndimage.gaussian_filter1d(p[:-1], sigma, axis=0, mode="wrap")
         return np.vstack([body, body[:1]])
@@ -187,8 +188,8 @@ def draw_boundary(ax, m, *, label=None, zorder=3, **style):
     """Draw the boundary of map ``m``: its lines (:func:`boundary_parts`) as a LineCollection, its
     islands as thin outlines of their cells in the same colour. Returns ``(lines, islands)``: the
     LineCollection and the PatchCollection, each None when there is none."""
-    from matplotlib.collections import LineCollection, PatchCollection
-    from matplotlib.patches import Rectangle
+    from matplotlib.collections import LineCollection, PatchCollection  # matplotlib on first drawing (start-up time)
+    from matplotlib.patches import Rectangle  # matplotlib on first drawing (start-up time)
 
     lines, boxes = boundary_parts(m)
     st = {**REFERENCE_STYLES[0], **style}
@@ -206,7 +207,7 @@ def draw_boundary(ax, m, *, label=None, zorder=3, **style):
 
 def island_handle():
     """The legend entry of the islands' outlines."""
-    from matplotlib.patches import Patch
+    from matplotlib.patches import Patch  # matplotlib on first drawing (start-up time)
     return Patch(facecolor="none", edgecolor="#000000", lw=0.9, label=ISLAND_LABEL)
 
 
@@ -214,7 +215,7 @@ def flag_area(m) -> np.ndarray:
     """The cells each flagged simulation stands for: every cell with an outcome takes the flag of
     the nearest simulated cell (itself on a full grid; on an adaptive grid the inferred cells around
     it, as the outcomes are inferred), so the flags form areas rather than rows of the coarse grid."""
-    from scipy import ndimage
+    from scipy import ndimage  # SciPy on first use (start-up time)
 
     g = as_grid(m)
     flagged = g.known & g.simulated & ~g.valid
@@ -229,8 +230,8 @@ def flag_area(m) -> np.ndarray:
 def draw_flags(ax, m, mask, *, zorder=2.5):
     """A dotted area over each cell of ``mask`` (cell edges half-way to the neighbours). Returns the
     PatchCollection, or None when no cell is marked."""
-    from matplotlib.collections import PatchCollection
-    from matplotlib.patches import Rectangle
+    from matplotlib.collections import PatchCollection  # matplotlib on first drawing (start-up time)
+    from matplotlib.patches import Rectangle  # matplotlib on first drawing (start-up time)
 
     if not np.asarray(mask).any():
         return None
@@ -255,7 +256,7 @@ def draw_flags(ax, m, mask, *, zorder=2.5):
 
 def flag_handle():
     """The legend entry of the flagged cells."""
-    from matplotlib.patches import Patch
+    from matplotlib.patches import Patch  # matplotlib on first drawing (start-up time)
     return Patch(facecolor="white", edgecolor=FLAG_COLOUR, hatch=FLAG_HATCH, lw=0.0, label=FLAG_LABEL)
 
 
@@ -279,7 +280,7 @@ def draw_fill(ax, m, *, color=ENGINE_FILL, zorder=0):
     z = np.where(g.outcome == 2, 1.0, np.nan)
     if not np.isfinite(z).any():
         return None
-    from matplotlib.colors import ListedColormap
+    from matplotlib.colors import ListedColormap  # matplotlib on first drawing (start-up time)
     return ax.pcolormesh(g.w_ratio, g.a_ratio, z, shading="nearest", cmap=ListedColormap([color]), vmin=0, vmax=1,
                          zorder=zorder, rasterized=True)
 
@@ -450,11 +451,11 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
         ``st_limit`` (``(line, text)`` or None), ``points`` (letter → Line2D) and ``handles``
         (legend label → proxy artist, for a figure legend).
     """
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
+    from matplotlib.patches import Patch  # matplotlib on first drawing (start-up time)
 
     if ax is None:
-        from matplotlib.figure import Figure
+        from matplotlib.figure import Figure  # matplotlib on first drawing (start-up time)
         ax = Figure(figsize=(4.6, 3.6), layout="constrained").add_subplot()
     refs = [tuple(r) for r in references]
     like = like if like is not None else (refs[0][1] if refs else None)
@@ -493,7 +494,7 @@ def plot_panel(engine=None, references=(), *, domain=None, like=None, points=Non
 def _panel_references(ax, refs, handles: dict) -> tuple[dict, dict]:
     """Each reference's boundary (its own style, else :data:`REFERENCE_STYLES` in order) and islands;
     their legend handles go into ``handles``. Returns the lines and the islands by label."""
-    from matplotlib.lines import Line2D
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
 
     lines, islands = {}, {}
     for k, item in enumerate(refs):
@@ -513,7 +514,7 @@ def _panel_references(ax, refs, handles: dict) -> tuple[dict, dict]:
 def _panel_engine_marks(ax, engine, like, handles: dict):
     """The engine map's flagged cells (dotted) and, against ``like``, its disagreements (marks);
     their legend handles go into ``handles``. Returns the flags (or None) and the marks by kind."""
-    from matplotlib.lines import Line2D
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
 
     marks = {}
     flags = draw_flags(ax, engine, flag_area(engine))
@@ -529,7 +530,7 @@ def _panel_engine_marks(ax, engine, like, handles: dict):
 
 def _point_handles(drawn: dict) -> list:
     """Legend entries of the experimental outcomes drawn (:func:`draw_points`), in :data:`POINT_STYLE` order."""
-    from matplotlib.lines import Line2D
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
 
     return [Line2D([], [], ls="none", marker=f"$\\mathrm{{{letter}}}$", ms=6.5, color=colour,
                    label=f"experiment {letter}: {words}")
@@ -549,7 +550,7 @@ def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str |
     dict
         ``figure``, ``axes`` (list), ``panels`` (what each :func:`plot_panel` drew) and ``legend``.
     """
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # matplotlib on first drawing (start-up time)
 
     n = len(panels)
     if n == 0:
@@ -609,7 +610,6 @@ def plot_panels(panels: list[dict], *, ncols: int | None = None, suptitle: str |
 def _panels_size(ncols: int, nrows: int, panel_size=None) -> tuple[float, float]:
     """Figure size [in] of ``ncols`` × ``nrows`` panels: a journal's double column wide (one column
     for a single panel), panels about 0.8 as high as wide, and room for the legend below."""
-
     if panel_size is not None:
         return panel_size[0] * ncols + 0.6, panel_size[1] * nrows + 1.3
     width = SINGLE_COLUMN_IN if ncols == 1 else DOUBLE_COLUMN_IN
@@ -656,13 +656,13 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
         ``ax``, ``boundaries`` (list of ContourSet), ``st_limit_a_ratio`` (float or None; None also
         when the limit lies off the chart), ``hatch`` and ``legend``.
     """
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
+    from matplotlib.patches import Patch  # matplotlib on first drawing (start-up time)
 
     if not isinstance(maps, (list, tuple)):
         maps = [maps]
     if ax is None:
-        from matplotlib.figure import Figure
+        from matplotlib.figure import Figure  # matplotlib on first drawing (start-up time)
         ax = Figure(figsize=(DOUBLE_COLUMN_IN * 0.7, DOUBLE_COLUMN_IN * 0.66), layout="constrained").add_subplot()
     labels = list(labels) if labels is not None else [_label(m) for m in maps]
     handles = list(extra_handles)
@@ -696,7 +696,7 @@ def plot_stability(maps, labels=None, *, ax=None, shade: bool = True, experiment
 def _boundaries(ax, maps, labels, handles: list) -> list:
     """Each map's overturn boundary in its own colour and dash (and islands); legend entries appended
     to ``handles``. Returns the ContourSets drawn."""
-    from matplotlib.lines import Line2D
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
 
     drawn, islands = [], False
     for k, (res, lab) in enumerate(zip(maps, labels)):
@@ -714,7 +714,7 @@ def _boundaries(ax, maps, labels, handles: list) -> list:
 
 def _failed_cells(ax, maps, handles: list) -> None:
     """Every map's failed cells marked, and one legend entry with their count."""
-    from matplotlib.lines import Line2D
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
 
     nfail = 0
     for res in maps:
@@ -733,7 +733,6 @@ def _label(res) -> str:
 
 def save(fig, stem, formats=("png", "svg")) -> list[Path]:
     """Save ``fig`` as ``stem.<format>`` for each of ``formats`` (:mod:`.output`); returns the paths."""
-    from .output import save_formats
     return save_formats(fig, stem, formats)
 
 
@@ -758,13 +757,13 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
         ``flags`` (the dotted flagged cells or None), ``marks`` (failed cells),
         ``st_limit`` and ``legend``.
     """
-    from matplotlib.colors import ListedColormap
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
+    from matplotlib.colors import ListedColormap  # matplotlib on first drawing (start-up time)
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
+    from matplotlib.patches import Patch  # matplotlib on first drawing (start-up time)
 
 
     if ax is None:
-        from matplotlib.figure import Figure
+        from matplotlib.figure import Figure  # matplotlib on first drawing (start-up time)
         ax = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained").add_subplot()
     g = as_grid(result)
     s = result.spec
@@ -814,35 +813,14 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
 def plot_map_files(result, stem, *, reference=None, formats=("png",)) -> list[Path]:
     """Draw :func:`plot_map` into ``stem.<format>`` for each of ``formats`` (``map.png``, ...), without
     pyplot; returns the paths."""
-    from .output import save_formats
     return save_formats(map_figure(result, reference=reference), stem, formats)
 
 
 def map_figure(result, *, reference=None):
     """:func:`plot_map` on a figure of its own, three quarters of a journal's double column wide."""
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # matplotlib on first drawing (start-up time)
 
 
     fig = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained")
     plot_map(result, reference=reference, ax=fig.add_subplot())
     return fig
-
-
-def reference_for(result):
-    """The reference map of an engine map's case and grid, computed in memory (milliseconds per
-    thousand cells), for its picture; None for a reference map or when it cannot be computed."""
-    if result.spec.engine == "reference":
-        return None
-    try:
-        from dataclasses import replace
-
-        from ....engines.registry import get_adapter
-
-        spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
-        ref = empty_result(spec)
-        cells = [(i, j) for i in range(spec.y.n) for j in range(spec.x.n)]
-        for (i, j), r in zip(cells, get_adapter("reference").run_many(spec.cases(cells))):
-            record_result(ref, i, j, r)
-        return ref
-    except Exception:  # noqa: BLE001 - a picture without the overlay is still a picture
-        return None

@@ -103,7 +103,7 @@ def plot_theta(histories, *, alpha_rad=None, pulse=None, t_end_s=None, t_pulse_e
 
 def _new_axes(pulse):
     """A new figure: θ above, the pulse beneath (a quarter of the height) when there is one."""
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # matplotlib on first drawing (start-up time)
 
     fig = Figure(figsize=(DOUBLE_COLUMN_IN, 4.7 if pulse is not None else 3.8), layout="constrained")
     if pulse is not None:
@@ -196,7 +196,7 @@ def _draw_pulse(ax, ax_pulse, pulse, t_end, alpha_rad):
 
 def _legend(fig, lines, impacts, threshold, pulse_end, drawn_ends):
     """The legend below the axes: the runs, then the marks that are on the chart."""
-    from matplotlib.lines import Line2D
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
 
     handles = list(lines.values())
     if impacts:

@@ -15,10 +15,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...reference_solver.restitution import Restitution
-from ..blocks.presets import get_preset
-from ..maps.grid import MapSpec, make_axis
-from ..maps.sweep import run_map
+from ..reference_solver.restitution import Restitution
+from .blocks.presets import get_preset
+from .maps.grid import MapSpec, make_axis
+from .maps.sweep import run_map
+from .report.plots.stability import plot_stability, save
 
 #: The normalised ranges of the recomputed figures: ω/p and a0/(g·tanα).
 W_RANGE = (0.5, 10.0)
@@ -68,8 +69,6 @@ def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, ser
                  progress: bool = False, formats=("png", "svg")) -> dict:
     """Compute the maps and draw the figures; returns ``{figure: [paths, one per format]}`` and the map
     folders."""
-    from .plots.stability import plot_stability, save
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     done: dict = {}
@@ -81,7 +80,7 @@ def make_figures(out_dir, *, resolution: int = 100, figures=None, jobs=None, ser
             key = f"{c.block}-{c.pulse}-{c.restitution.replace('=', '')}-{resolution}"
             if key not in done:
                 done[key] = run_map(curve_spec(c, resolution), out / "maps" / key, jobs=jobs, serial=serial,
-                                    progress=progress, plot=False)
+                                    progress=progress)
             results.append(done[key])
         drawn = plot_stability(results, [c.label() for c in curves], title=title + " (reference solver)")
         written[num] = [str(p) for p in save(drawn["ax"].figure, out / f"fig{num}", formats)]

@@ -1,0 +1,178 @@
+"""Imports point down the floors only, and the report reads what runs stored.
+
+Every import statement of the source tree (those inside functions too) is read with :mod:`ast`,
+resolved to the module it names, and checked against :data:`LAYERS`: a module may import its own
+floor and those below it, never one above. Within a floor, modules may import each other (the
+structure check keeps them free of cycles).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: The import package's folders (pyproject.toml's package-dir, top-level packages only).
+FOLDERS = {"rockbench": "rockbench", "rockbench.reference_solver": "reference_solver",
+           "rockbench.engines": "engines", "rockbench.harness": "harness"}
+
+#: The floors, lowest first: ``(what the floor holds, module prefixes)``. A module's floor is that
+#: of the longest prefix naming it (``rockbench.harness.suites.runner`` beats
+#: ``rockbench.harness.suites``).
+LAYERS = [
+    ("the problem: blocks, pulses, restitution, the classifier, the reference solver",
+     ["rockbench.reference_solver"]),
+    ("one adapter per engine behind one contract", ["rockbench.engines"]),
+    ("block presets, experimental data and facts about the installed engines",
+     ["rockbench.harness.blocks", "rockbench.harness.engine_info"]),
+    ("maps: the case or map a user asks for, grids, cells, executors, and the run folders they are stored in",
+     ["rockbench.harness.request", "rockbench.harness.maps", "rockbench.harness.store"]),
+    ("scores of stored maps", ["rockbench.harness.scoring"]),
+    ("suite files: what a benchmark run computes, and computing its maps", ["rockbench.harness.suites"]),
+    ("the report: pages and pictures of what runs stored", ["rockbench.harness.report"]),
+    ("front doors: the command line, the notebook API, one simulated case, the θ(t) curves a run stores, "
+     "a suite's whole job (maps, scores, report) and the paper's figures",
+     ["rockbench", "rockbench.harness", "rockbench.harness.cli", "rockbench.harness.api",
+      "rockbench.harness.simulation", "rockbench.harness.trajectories", "rockbench.harness.suites.runner",
+      "rockbench.harness.figures"]),
+]
+
+#: Modules the report may not import: the report draws what runs stored and simulates nothing.
+SIMULATES = ["rockbench.engines.registry", "rockbench.reference_solver.solver", "rockbench.harness.maps.sweep",
+             "rockbench.harness.maps.executors", "rockbench.harness.maps.worker", "rockbench.harness.simulation"]
+
+
+def _module_name(path: Path) -> tuple[str, bool]:
+    """``(dotted name, is a package's __init__)`` of a source file."""
+    for pkg, folder in sorted(FOLDERS.items(), key=lambda kv: -len(kv[1])):
+        try:
+            rel = path.relative_to(ROOT / folder)
+        except ValueError:
+            continue
+        parts = list(rel.with_suffix("").parts)
+        is_pkg = parts[-1] == "__init__"
+        return ".".join([pkg] + (parts[:-1] if is_pkg else parts)), is_pkg
+    raise ValueError(path)
+
+
+def _sources() -> list[Path]:
+    return sorted(p for folder in FOLDERS.values() for p in (ROOT / folder).rglob("*.py"))
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    """``(line, imported module)`` for every import of the project's own modules in ``path``; ``from
+    X import Y`` counts as ``X.Y`` (Y may be a module or a name in X)."""
+    mod, is_pkg = _module_name(path)
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = mod.split(".")[: len(mod.split(".")) - node.level + (1 if is_pkg else 0)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            out += [(node.lineno, f"{target}.{a.name}") for a in node.names]
+    return [(line, t) for line, t in out if t == "rockbench" or t.startswith("rockbench.")]
+
+
+def _floor(module: str) -> int:
+    """The floor of a module (or of a name in one): the floor of its longest matching prefix."""
+    best, floor = -1, None
+    for i, (_, prefixes) in enumerate(LAYERS):
+        for p in prefixes:
+            if (module == p or module.startswith(p + ".")) and len(p) > best:
+                best, floor = len(p), i
+    assert floor is not None, f"{module} is on no floor of LAYERS"
+    return floor
+
+
+def _all_imports():
+    return [(path, line, _module_name(path)[0], target) for path in _sources() for line, target in _imports(path)]
+
+
+def test_every_module_is_on_a_floor():
+    for path in _sources():
+        _floor(_module_name(path)[0])
+
+
+def test_imports_point_down_only():
+    upward = [f"{path.relative_to(ROOT)}:{line}: {mod} (floor {_floor(mod) + 1}) imports {target} "
+              f"(floor {_floor(target) + 1}: {LAYERS[_floor(target)][0]})"
+              for path, line, mod, target in _all_imports() if _floor(target) > _floor(mod)]
+    assert not upward, "imports that point up a floor:\n" + "\n".join(upward)
+
+
+def test_report_simulates_nothing():
+    found = [f"{path.relative_to(ROOT)}:{line}: imports {target}" for path, line, mod, target in _all_imports()
+             if mod.startswith("rockbench.harness.report")
+             and any(target == s or target.startswith(s + ".") for s in SIMULATES)]
+    assert not found, "the report reads what runs stored; these imports simulate:\n" + "\n".join(found)
+
+
+def _is_module(dotted: str) -> bool:
+    """Whether a dotted name is one of the project's modules or packages (not a name inside one)."""
+    for pkg, folder in sorted(FOLDERS.items(), key=lambda kv: -len(kv[0])):
+        if dotted == pkg or dotted.startswith(pkg + "."):
+            base = ROOT / folder / Path(*dotted[len(pkg) + 1:].split(".")) if dotted != pkg else ROOT / folder
+            return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
+    return False
+
+
+def test_no_private_name_crosses_a_module():
+    """A name with a leading underscore stays in its module: one that another module needs is public
+    (or lives where it is needed). A package's private module (``engines/_mujoco_warp_kernels.py``) is
+    its siblings' to import."""
+    found = [f"{path.relative_to(ROOT)}:{line}: imports {target}" for path, line, mod, target in _all_imports()
+             if target.rsplit(".", 1)[-1].startswith("_") and not target.endswith("__")
+             and not _is_module(target)]
+    assert not found, "private names imported across modules:\n" + "\n".join(found)
+
+
+#: The folders whose imports inside functions must each say why (the engines' adapters import their
+#: engine's library on first use, as the engine contract says).
+REASONED = ("reference_solver", "harness", "rockbench")
+
+
+def test_imports_inside_functions_say_why():
+    """An import sits inside a function only for an optional dependency or start-up time, and says so
+    in a comment on its line or just above it (or above the group of imports it belongs to)."""
+    found = []
+    for path in _sources():
+        if path.relative_to(ROOT).parts[0] not in REASONED:
+            continue
+        lines = path.read_text(encoding="utf-8").split("\n")
+        tree = ast.parse("\n".join(lines), str(path))
+        parents = {c: n for n in ast.walk(tree) for c in ast.iter_child_nodes(n)}
+        for node in ast.walk(tree):
+            if not isinstance(node, (ast.Import, ast.ImportFrom)):
+                continue
+            up = parents.get(node)
+            while up is not None and not isinstance(up, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                up = parents.get(up)
+            if up is None:
+                continue
+            k = node.lineno - 1
+            own = lines[node.end_lineno - 1].split("#", 1)
+            said = len(own) > 1 and not own[1].strip().startswith("noqa")
+            while not said and k > 0 and lines[k - 1].strip().startswith(("import ", "from ", "#")):
+                k -= 1
+                said = lines[k].strip().startswith("#") and not lines[k].strip().startswith("# noqa")
+            if not said:
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno}: {lines[node.lineno - 1].strip()}")
+    assert not found, "imports inside functions without a reason:\n" + "\n".join(found)
+
+
+@pytest.mark.parametrize("source, target, floor_ok", [
+    ("rockbench.harness.maps.sweep", "rockbench.harness.report.plots.picture.MapPicture", False),
+    ("rockbench.harness.report.build", "rockbench.harness.maps.grid.MapSpec", True),
+    ("rockbench.harness.suites.runner", "rockbench.harness.report.build.build_report", True),
+    ("rockbench.engines.base", "rockbench.harness.store.files", False),
+])
+def test_the_rule_itself(source, target, floor_ok):
+    """The floor comparison the test relies on says what the declared layers mean."""
+    assert (_floor(target) <= _floor(source)) is floor_ok
