@@ -1,4 +1,4 @@
-"""What one engine costs in a suite (issue 36): its calibrations and its maps, in CPU time, sampled on
+"""What one engine costs in a suite: its calibrations and its maps, in CPU time, sampled on
 one block and one pulse and projected to the whole suite. Measures and prints; it passes or fails nothing.
 
     python benchmarks/bench_engine_cost.py ENGINE [ENGINE ...] --cells-from RUN_DIR [--suite default]

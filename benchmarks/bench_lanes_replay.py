@@ -1,4 +1,4 @@
-"""How much could a better order of a suite's engine maps on its lanes buy (issue 36)? The lanes
+"""How much could a better order of a suite's engine maps on its lanes buy? The lanes
 (harness/suites/lanes.py) are replayed on the measured cost of each map. Measures and prints; it
 passes or fails nothing.
 

@@ -749,7 +749,7 @@ def _note(e: float, fr, good: list, target: float, irregular: bool, reached: boo
     its ``price``, None where η was not reached, with the span of η its regular free rocking covers)."""
     rel = abs(fr.eta_mean - target) / target
     lo_eta, hi_eta = min(f.eta_mean for _, f in good), max(f.eta_mean for _, f in good)
-    span = (f"{points} spheres along the base sharing the corners' stiffness (issue 18); regular free "
+    span = (f"{points} spheres along the base sharing the corners' stiffness; regular free "
             f"rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
             f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}")
     if points > 2 and price is not None and not price["counts"]:

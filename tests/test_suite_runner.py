@@ -316,20 +316,20 @@ def _engines_section(text: str) -> str:
 
 @pytest.mark.parametrize("name", ["default", "quick"])
 def test_a_shipped_suite_leaves_an_engine_out_only_by_name_and_says_why(name):
-    """Issue 36: the default and quick suites take every available engine; one left out for time is
+    """The default and quick suites take every available engine; one left out for time is
     named in the suite's own engines.exclude, and the comment beside it gives the reason (the
     measured cost), so the report's note and the file both say it, never the adapter alone."""
     path = suite_path(name, False)
     section = _engines_section(path.read_text())
     comment = " ".join(line for line in section.splitlines() if line.lstrip().startswith("#"))
     suite = load_suite(path)
-    assert suite.engine_names == "available"
-    for engine in suite.engine_exclude:
+    assert suite.engines.names == "available"
+    for engine in suite.engines.exclude:
         assert engine in comment.lower(), f"{name}.toml leaves {engine} out without saying why"
 
 
 def test_only_mujoco_warp_leaves_suites_of_every_engine_by_itself():
-    """Issue 36: an adapter's own default_suite_exclusion is for what depends on the machine (MuJoCo
+    """An adapter's own default_suite_exclusion is for what depends on the machine (MuJoCo
     Warp without a CUDA device); Newton's blanket rule on a CPU is gone, and whether an engine's cost
     fits a suite's budget is the suite file's to say."""
     from rockbench.engines.base import EngineAdapter

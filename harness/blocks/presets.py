@@ -10,6 +10,7 @@ import difflib
 import math
 from dataclasses import dataclass
 
+from ...engines.held_out import name_blocks
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import Block
 from ...reference_solver.restitution import housner_eta, modified_eta
@@ -80,7 +81,6 @@ def get_preset(name: str) -> Preset:
 def _hand_down_names() -> None:
     """Let the contact engines' ``calibrate_on`` setting name these blocks (the engines' floor cannot
     import this one; :mod:`rockbench.engines.held_out`)."""
-    from ...engines.held_out import name_blocks
     name_blocks({n: p.block() for n, p in PRESETS.items()})
 
 

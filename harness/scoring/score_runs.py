@@ -48,7 +48,7 @@ from ...reference_solver.pulses import is_number
 from ..blocks.presets import PRESETS
 from ..engine_info.versions import version_of
 from ..maps.result import MapResult
-from ..store.files import read_json, utc_stamp
+from ..store.files import read_json, utc_stamp, variant_name
 from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
 from .experiments import score_outcomes
 from .labels import settings_class, variant_labels
@@ -198,7 +198,6 @@ def map_facts(c: MapEntry) -> dict:
     if on:
         facts["calibrated_on"] = str(on)
     if facts["held_out"]:
-        from ..store.files import variant_name
         facts["in_sample_variant"] = variant_name(c.engine, {k: v for k, v in (c.settings or {}).items()
                                                              if k != "calibrate_on"}, c.dt_s)
     return facts
