@@ -65,8 +65,9 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import ContactEngineAdapter, body_energy_j_kg
+from .contact import CALIBRATION_ADVICE, ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
+from .hooks import MissingHook, hook_line, required
 from .knobs import search as search_knobs
 from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
 from .search import BISECT_RTOL, bisection, bracket
@@ -233,6 +234,13 @@ class Search:
             self.bisect(candidate, x_lo, x_hi, steps, eta_lo=eta_lo, tol=tol)
 
 
+def _skeleton_does(adapter, *methods: str) -> bool:
+    """Whether ``adapter`` offers a row of contact points along the base and leaves ``methods`` of
+    its search to the skeleton (then the hooks those methods call are needed)."""
+    return adapter.distributed_contact and all(
+        getattr(type(adapter), m) is getattr(SteppedContactAdapter, m) for m in methods)
+
+
 class SteppedContactAdapter(ContactEngineAdapter):
     """A contact engine on the shared skeleton (module docstring): the adapter implements the hooks."""
 
@@ -258,22 +266,43 @@ class SteppedContactAdapter(ContactEngineAdapter):
         return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
 
     # -- hooks --------------------------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @required("(block, s, dt_s) -> world", "build (or reuse) the engine's scene for the block and the resolved "
+              "settings s, contact parameters set")
+    def _world(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - declared
+        """The engine's scene for ``block`` and the resolved settings ``s`` at step ``dt_s`` [s]."""
 
+    @required("(world, block, s, dt_s, pulse, theta0_rad, n_steps) -> ndarray (1, k)", "put the block at rest at "
+              "theta0_rad on its lower corner (pivot_pose), load the drive of pulse (None: free rocking) for "
+              "n_steps steps; return the state of sample 0 as one row")
     def _start(self, world, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
-               n_steps: int) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
+               n_steps: int) -> np.ndarray:  # pragma: no cover - declared
+        """The state of sample 0, one row ``(1, k)`` of the engine's choice."""
 
-    def _advance(self, world, n_from: int, n_to: int) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @required("(world, n_from, n_to) -> ndarray (n_to - n_from, k)", "step from step n_from to n_to; return "
+              "the state rows after each step")
+    def _advance(self, world, n_from: int, n_to: int) -> np.ndarray:  # pragma: no cover - declared
+        """The state rows of samples ``n_from + 1 … n_to``."""
 
-    def _angles(self, world, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
-        raise NotImplementedError
+    @required("(world, rows) -> (theta_rad, theta_dot_rad_s)", "the rotation about +y [rad] and its rate "
+              "[rad/s] read from state rows")
+    def _angles(self, world, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - declared
+        """θ [rad] and θ̇ [rad/s] of state rows."""
 
+    @required("(world, block, s, data, t_s, pulse) -> Motion", "the centre of mass (x, height above the table "
+              "top, velocities), θ, θ̇ and the table's x and ẋ from all the state rows of a run")
     def _motion(self, world, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray,
-                pulse) -> Motion:  # pragma: no cover - abstract
-        raise NotImplementedError
+                pulse) -> Motion:  # pragma: no cover - declared
+        """The block's :class:`Motion` over a run."""
+
+    def missing_hooks(self) -> list[str]:
+        """As :meth:`EngineAdapter.missing_hooks`, and the calibration: calibrated runs need declared
+        :attr:`CALIBRATION_KNOBS` or an own ``_calibrate_corners``."""
+        out = super().missing_hooks()
+        own = type(self)._calibrate_corners is not SteppedContactAdapter._calibrate_corners
+        if self.calibrated() and not (self.CALIBRATION_KNOBS or own):
+            out.append(hook_line(type(self), "_calibrate_corners", "(block, target, dt_s, use_cache) -> CalibrationResult",
+                                 CALIBRATION_ADVICE))
+        return out
 
     def _sample_steps(self, world, rows: np.ndarray, n_done: int) -> np.ndarray:
         """The step numbers of one world's new state rows ``(n, k)``, which follow step ``n_done``
@@ -486,7 +515,8 @@ class SteppedContactAdapter(ContactEngineAdapter):
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
         """With :attr:`CALIBRATION_KNOBS` declared: :meth:`_calibrate_knobs`."""
         if not self.CALIBRATION_KNOBS:
-            raise NotImplementedError(f"{self.name}: declare CALIBRATION_KNOBS or implement _calibrate_corners")
+            raise MissingHook(hook_line(type(self), "_calibrate_corners", "(block, target, dt_s, use_cache) -> "
+                                        "CalibrationResult", CALIBRATION_ADVICE))
         return self._calibrate_knobs(block, target, dt, use_cache)
 
     def _calibrate_knobs(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
@@ -581,14 +611,17 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                     first_quarter_s=m.first_quarter_s)
 
     # -- the distributed contact's search -----------------------------------------------------
-    def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:  # pragma: no cover
+    @required("(block, dt_s) -> (candidates, phrase)", "the candidates of the search of a row of points along "
+              "the base (contact settings) and a phrase naming the range searched; or implement _distributed_rows",
+              when=lambda ad: _skeleton_does(ad, "_calibrate_distributed_n", "_distributed_rows"))
+    def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:  # pragma: no cover - declared
         """The candidates of the distributed search (contact settings, plus keys of the engine's own
         for notes) and a phrase describing the range searched."""
-        raise NotImplementedError
 
-    def _describe_contact(self, row: dict) -> str:  # pragma: no cover - engine wording
+    @required("(row) -> str", "one candidate of the search of a row of points along the base in words, for "
+              "the notes", when=lambda ad: _skeleton_does(ad, "_calibrate_distributed_n"))
+    def _describe_contact(self, row: dict) -> str:  # pragma: no cover - declared
         """One candidate of the distributed search in words, for the notes."""
-        raise NotImplementedError
 
     def _distributed_rows(self, block: Block, t: float, n: int, dt: float) -> tuple[list[dict], str]:
         """The measured candidates of the distributed search with ``n`` points for the target ``t``,
