@@ -58,6 +58,28 @@ def test_engines_command(capsys):
     assert "analytic" in capsys.readouterr().out
 
 
+def test_engines_command_says_in_one_short_line_what_is_missing_and_the_install_command(capsys):
+    from rockbench.engines import registry
+
+    registry.register("ghost", "no_such_module_xyz:Adapter")
+    try:
+        assert main(["engines"]) == 0
+    finally:
+        registry.unregister("ghost")
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("ghost"))
+    assert line.split()[1] == "no" and line.endswith("cannot import no_such_module_xyz")
+    assert "not available" not in line and len(line.rsplit("  ", 1)[-1]) < 60   # the note alone
+
+
+def test_a_missing_builtin_engine_names_its_install_command():
+    from rockbench.engines.support import install_command
+
+    assert install_command("dart") == "pip install 'rockbench[dart]'"
+    assert install_command("genesis").startswith("pip install torch --index-url")
+    assert install_command("genesis").endswith("&& pip install 'rockbench[genesis]'")
+    assert install_command("reference") == ""
+
+
 def test_number_setting_checks_and_converts_for_every_adapter():
     import math
 
