@@ -53,12 +53,14 @@ SETTINGS_MODES = ("calibrated", "defaults")
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")
 
-#: Old setting names (before issue 15) → new names, per engine. Accepted for one release with a
-#: DeprecationWarning; the one place where a rename is recorded.
+#: Old setting names → new names, per engine (units in names; one name per concept: a contact's
+#: restitution coefficient is ``contact_restitution`` in every engine). Accepted for one release with
+#: a DeprecationWarning; the one place where a rename is recorded.
 RENAMED_SETTINGS: Mapping[str, Mapping[str, str]] = {
     "mujoco": {"timeconst": "timeconst_s"},
     "pybullet": {"contact_stiffness": "contact_stiffness_n_m", "contact_damping": "contact_damping_n_s_m",
-                 "contact_breaking_threshold": "contact_breaking_threshold_m"},
+                 "contact_breaking_threshold": "contact_breaking_threshold_m",
+                 "restitution_coef": "contact_restitution"},
     "exudyn": {"chunk_s": "segment_s", "max_tail_s": "tail_s", "stiffness_n_m": "contact_stiffness_n_m",
                "damping_n_s_m": "contact_damping_n_s_m"},
 }
@@ -337,9 +339,13 @@ class ContactEngineAdapter(EngineAdapter):
                                      target=target, dt=dt, **identity)
 
     def _cached(self, key: str, use_cache: bool) -> CalibrationResult | None:
-        """The cached calibration under ``key``, or None (always None without ``use_cache``)."""
+        """The cached calibration under ``key``, or None (always None without ``use_cache``); settings
+        stored under an old name (:data:`RENAMED_SETTINGS`) are read under the new one."""
         rec = calibration.load(key) if use_cache else None
-        return None if rec is None or "result" not in rec else CalibrationResult(**rec["result"])
+        if rec is None or "result" not in rec:
+            return None
+        res = CalibrationResult(**rec["result"])
+        return dataclasses.replace(res, settings=self.canonical_settings(res.settings))
 
     @staticmethod
     def _store(key: str, res: CalibrationResult, search: dict) -> None:

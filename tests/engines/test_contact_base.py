@@ -124,6 +124,19 @@ def test_old_setting_names_are_mapped_in_one_table(engine):
             cls.canonical_settings({old: 1.0, new: 2.0})
 
 
+def test_a_cached_calibration_is_read_under_the_new_setting_names(tmp_path, monkeypatch):
+    from rockbench.engines import calibration
+    from rockbench.engines.registry import adapter_class
+
+    monkeypatch.setenv("ROCKBENCH_CACHE", str(tmp_path))
+    cls = adapter_class("pybullet")
+    old = {"eta_target": 0.8, "eta_measured": 0.8, "eta_std": 0.0, "reached": True,
+           "settings": {"restitution_coef": 0.3, "contact_stiffness": None}}
+    calibration.store("k", {"result": old, "search": {}})
+    got = cls()._cached("k", use_cache=True)
+    assert got.settings == {"contact_restitution": 0.3, "contact_stiffness_n_m": None} and got.eta_measured == 0.8
+
+
 def _cal(n, eta, reached):
     from rockbench.engines.base import CalibrationResult
     return CalibrationResult(eta_target=0.8, eta_measured=eta, eta_std=0.0, reached=reached,
