@@ -62,6 +62,7 @@ RENAMED_SETTINGS: Mapping[str, Mapping[str, str]] = {
                  "contact_breaking_threshold": "contact_breaking_threshold_m",
                  "restitution_coef": "contact_restitution"},
     "dart": {"restitution_coeff": "contact_restitution"},
+    "physx": {"restitution_coeff": "contact_restitution"},
     "exudyn": {"chunk_s": "segment_s", "max_tail_s": "tail_s", "stiffness_n_m": "contact_stiffness_n_m",
                "damping_n_s_m": "contact_damping_n_s_m"},
 }
