@@ -257,7 +257,7 @@ class DartAdapter(SteppedContactAdapter):
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = ("collision_detector", "split_impulse", "contact_restitution")
+    CALIBRATED_SETTINGS = ("collision_detector", "split_impulse", "contact_restitution")
     #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): DART's contact is
     #: rigid and its impact plastic, which is Housner's η_H, so the contact as shipped
     #: (:data:`SHIPPED_CONTACT`) is kept within 0.5 %; otherwise the other collision detectors and the
@@ -292,8 +292,8 @@ class DartAdapter(SteppedContactAdapter):
                               f"got {s['contact_restitution']!r}.")
 
     def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
+        """Whether any contact setting (:attr:`CALIBRATED_SETTINGS`) was given (then nothing is calibrated)."""
+        return any(self.settings[k] is not None for k in self.CALIBRATED_SETTINGS)
 
     def _base_settings(self) -> dict:
         return dict(self.settings)
@@ -304,11 +304,11 @@ class DartAdapter(SteppedContactAdapter):
         s = self._base_settings()
         if cal is not None:
             s.update(cal.settings)
-        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CONTACT_KEYS}}
+        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CALIBRATED_SETTINGS}}
 
     # -- the hooks of the skeleton ----------------------------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> _Scene:
-        keys = ("planar", "drive", "friction", "corner_radius_m") + self.CONTACT_KEYS
+        keys = ("planar", "drive", "friction", "corner_radius_m") + self.CALIBRATED_SETTINGS
         return _scene(os.getpid(), block, dt_s, tuple((k, s[k]) for k in keys))
 
     def _start(self, world: _Scene, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,

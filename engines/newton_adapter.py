@@ -289,7 +289,7 @@ class NewtonAdapter(SteppedContactAdapter):
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = ("iterations", "contact_relaxation", "contact_stiffness_n_m", "contact_damping_n_s_m",
+    CALIBRATED_SETTINGS = ("iterations", "contact_relaxation", "contact_stiffness_n_m", "contact_damping_n_s_m",
                     "friction_gain_n_s_m")
     MEASURED_SETTINGS = ("solver", "friction", "planar", "sticky_contacts")
     #: the solver is the model: every variant's name says which ran, XPBD (the default) included
@@ -388,7 +388,7 @@ class NewtonAdapter(SteppedContactAdapter):
 
         The closest setting whose per-impact spread stays within 2 % of the target wins.
         """
-        base = {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
+        base = {**self._base_settings(), **{k: None for k in self.CALIBRATED_SETTINGS}}
         key = self._cache_key(block, t, dt, self.CALIBRATION_VERSION, **self._calibration_identity(base))
         cached = self._cached(key, use_cache)
         if cached is not None:
@@ -402,7 +402,7 @@ class NewtonAdapter(SteppedContactAdapter):
         else:
             _search_vbd(search, t, block)
         eta, _, extra, reached = search.best()
-        res = search.result(self.CONTACT_KEYS, _calibration_note(solver, search, eta, extra, reached))
+        res = search.result(self.CALIBRATED_SETTINGS, _calibration_note(solver, search, eta, extra, reached))
         self._store(key, res, {"tried": search.rows()})
         return res
 

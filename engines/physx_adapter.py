@@ -226,7 +226,7 @@ class PhysxAdapter(SteppedContactAdapter):
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = tuple(SHIPPED_CONTACT)
+    CALIBRATED_SETTINGS = tuple(SHIPPED_CONTACT)
     MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
     #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): PhysX as shipped
     #: but for its solver (:data:`CALIBRATED_SOLVER`) and its substeps, :data:`SUBSTEPS_TRIED` coarsest
@@ -267,7 +267,7 @@ class PhysxAdapter(SteppedContactAdapter):
         s = self._base_settings()
         if cal is not None:
             s.update({k: v for k, v in cal.settings.items() if v is not None})
-        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CONTACT_KEYS}}
+        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CALIBRATED_SETTINGS}}
 
     # -- the hooks of the skeleton ----------------------------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> _Scene:
@@ -292,7 +292,7 @@ class PhysxAdapter(SteppedContactAdapter):
         return angles_of(rows)
 
     def _motion(self, world: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
-        return motion_of(data, t_s, pulse, world.table_drive, {k: s[k] for k in self.CONTACT_KEYS})
+        return motion_of(data, t_s, pulse, world.table_drive, {k: s[k] for k in self.CALIBRATED_SETTINGS})
 
     # -- calibration --------------------------------------------------------------------------
     def _knobs_base(self, block: Block, dt: float) -> dict:

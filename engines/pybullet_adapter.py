@@ -355,7 +355,7 @@ class PybulletAdapter(SteppedContactAdapter):
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "contact_restitution",
+    CALIBRATED_SETTINGS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "contact_restitution",
                     "contact_breaking_threshold_m")
     MEASURED_SETTINGS = ("friction", "friction_anchor", "solver_iterations", "planar", "contact_points")
     #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): Bullet's rigid
@@ -426,7 +426,7 @@ class PybulletAdapter(SteppedContactAdapter):
     def _world(self, block: Block, s: dict, dt_s: float) -> "_Scene":
         sc = _scene()
         sc.build(block, bool(s["planar"]), s.get("contact_breaking_threshold_m"),
-                 tuple(s.get(k) for k in self.CONTACT_KEYS + ("friction", "friction_anchor")),
+                 tuple(s.get(k) for k in self.CALIBRATED_SETTINGS + ("friction", "friction_anchor")),
                  points=s.get("contact_points"))
         sc.apply(s, dt_s)
         return sc

@@ -249,8 +249,9 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: worlds an engine steps together (1: one case at a time); an engine that steps a batch sets
     #: more, and ``batching = "native"``: cases of one block, settings and step run in batches
     max_worlds: ClassVar[int] = 1
-    #: the settings that describe the contact (what a calibration chooses)
-    CONTACT_KEYS: ClassVar[tuple] = ()
+    #: the settings a calibration chooses (contact parameters, or a solver setting it searches); given
+    #: explicitly, they replace the calibration, so each defaults to None in :attr:`SETTINGS` ("not given")
+    CALIBRATED_SETTINGS: ClassVar[tuple] = ()
     #: the contact knobs a grid calibration searches (:class:`~rockbench.engines.knobs.Knob`); with
     #: knobs declared, :meth:`_calibrate_corners` is the skeleton's :meth:`_calibrate_knobs`
     CALIBRATION_KNOBS: ClassVar[tuple] = ()
@@ -258,12 +259,27 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: keep it when its η is within this fraction of the target [-]; None: the shipped contact is not
     #: measured first
     START_KEEP_RTOL: ClassVar[float | None] = None
-    #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
+    #: settings a restitution measurement records (besides :attr:`CALIBRATED_SETTINGS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        # ``CONTACT_KEYS`` is the old name of ``CALIBRATED_SETTINGS``: kept for one release
+        if "CONTACT_KEYS" in cls.__dict__ and "CALIBRATED_SETTINGS" not in cls.__dict__:
+            import warnings
+            warnings.warn(f"{cls.__name__}.CONTACT_KEYS is now called CALIBRATED_SETTINGS; the old name goes in the "
+                          "next release.", DeprecationWarning, stacklevel=2)
+            cls.CALIBRATED_SETTINGS = tuple(cls.CONTACT_KEYS)
+        given = [k for k in cls.CALIBRATED_SETTINGS if cls.SETTINGS.get(k) is not None]
+        if cls.SETTINGS.get("settings") == "calibrated" and given:
+            raise TypeError(f"{cls.__name__}.SETTINGS gives {given[0]!r} a default ({cls.SETTINGS[given[0]]!r}), so "
+                            "every run would count it as given and never calibrate: a setting of CALIBRATED_SETTINGS "
+                            "defaults to None, and _resolved_settings fills in the shipped value.")
+
     def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
+        """Whether any setting a calibration chooses (:attr:`CALIBRATED_SETTINGS`) was given (then nothing
+        is calibrated)."""
+        return any(self.settings[k] is not None for k in self.CALIBRATED_SETTINGS)
 
     # -- hooks --------------------------------------------------------------------------------
     @required("(block, s, dt_s) -> world", "build (or reuse) the engine's scene for the block and the resolved "
@@ -498,7 +514,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
         tr, motion = self._run(block, s, dt, None, theta0=theta0, duration_s=reader.duration_s(block, theta0_frac))
         etas = reader.etas(block, motion.theta_rad, theta0)
         sink, hop = contact_figures(block, tr.theta_rad, tr.corner_z_m)
-        shown = {k: s.get(k) for k in self.MEASURED_SETTINGS + self.CONTACT_KEYS}
+        shown = {k: s.get(k) for k in self.MEASURED_SETTINGS + self.CALIBRATED_SETTINGS}
         return RestitutionMeasurement(etas=[float(e) for e in etas],
                                       eta_mean=float(np.mean(etas)) if etas else math.nan,
                                       eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0,
@@ -535,7 +551,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
                               "(fewer than two impacts); try a smaller --dt.")
         chosen = pick([Candidate.of_row(r) for r in rows], target, block)
         r = chosen.candidate.knobs
-        names = dict.fromkeys(tuple(k.name for k in knobs) + self.CONTACT_KEYS)
+        names = dict.fromkeys(tuple(k.name for k in knobs) + self.CALIBRATED_SETTINGS)
         settings = self._knobs_settings(block, dt, {k: v for k, v in r.items() if k in names})
         res = CalibrationResult(eta_target=target, eta_measured=r["eta"], eta_std=r["eta_std"], reached=chosen.reached,
                                 settings=settings, note=self._knobs_note(block, dt, target, chosen, rows, settings),
@@ -564,7 +580,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
     def _knobs_base(self, block: Block, dt: float) -> dict:
         """The settings a candidate of the declared knobs updates (default: the base settings, the
         contact keys unset)."""
-        return {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
+        return {**self._base_settings(), **{k: None for k in self.CALIBRATED_SETTINGS}}
 
     def _knobs_key(self, block: Block, target: float, dt: float) -> str:
         """The cache key of a grid calibration (default: the engine, the block, target, step and
@@ -574,7 +590,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _knobs_settings(self, block: Block, dt: float, values: dict) -> dict:
         """What a grid calibration records as its settings (default: the contact keys, the knobs set)."""
-        return {k: None for k in self.CONTACT_KEYS} | values
+        return {k: None for k in self.CALIBRATED_SETTINGS} | values
 
     def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
         """A grid calibration's note (default: the pick and the span of η over the candidates)."""
@@ -592,9 +608,9 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _fixed(self, contact: dict) -> "SteppedContactAdapter":
         """A copy of this adapter with explicit contact settings (no calibration behind its runs);
-        ``contact`` holds :attr:`CONTACT_KEYS` and, for a row along the base, ``contact_points``."""
+        ``contact`` holds :attr:`CALIBRATED_SETTINGS` and, for a row along the base, ``contact_points``."""
         contact = self.canonical_settings(contact)
-        st = {**self.settings, **{k: contact.get(k) for k in self.CONTACT_KEYS}}
+        st = {**self.settings, **{k: contact.get(k) for k in self.CALIBRATED_SETTINGS}}
         if self.distributed_contact:
             pts = contact.get("contact_points")
             st.update(contact="distributed" if pts else "corners", contact_points=pts or None)
@@ -637,7 +653,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
         grid, searched = self._distributed_grid(block, dt)
         rows = []
         for g in grid:
-            s = {**base, **{k: g.get(k) for k in self.CONTACT_KEYS}}
+            s = {**base, **{k: g.get(k) for k in self.CALIBRATED_SETTINGS}}
             try:
                 mm = self.measure_restitution(block, dt_s=dt, settings=s)
                 rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "n": len(mm.etas), "sink_m": mm.sink_m,
@@ -648,7 +664,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _distributed_base(self, n: int) -> dict:
         """The settings of a distributed candidate with ``n`` points before its contact settings."""
-        return {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}, "contact_points": n}
+        return {**self._base_settings(), **{k: None for k in self.CALIBRATED_SETTINGS}, "contact_points": n}
 
     def _distributed_key(self, block: Block, t: float, n: int, dt: float) -> str:
         """The cache key of the distributed calibration with ``n`` points to ``t`` at step ``dt``."""
@@ -660,7 +676,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _distributed_contact(self, row: dict, n: int) -> dict:
         """A candidate row's contact with ``n`` points, as :meth:`_fixed` takes it."""
-        return {k: row.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}
+        return {k: row.get(k) for k in self.CALIBRATED_SETTINGS} | {"contact_points": n}
 
     def _distributed_settings(self, block: Block, dt: float, row: dict, n: int) -> dict:
         """The settings a distributed calibration records for its row (here: its contact)."""

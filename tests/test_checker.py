@@ -189,7 +189,7 @@ class HalfDone(SteppedContactAdapter):
 
     name = "half-done"
     SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "stiffness_n_m": None}
-    CONTACT_KEYS = ("stiffness_n_m",)
+    CALIBRATED_SETTINGS = ("stiffness_n_m",)
 
     def _world(self, block, s, dt_s):
         return {}

@@ -192,3 +192,20 @@ def test_run_end_is_one_rule_in_order_diverged_overturn_trapped():
     e_trap = p * p - TRAPPED_MARGIN * p * p * (1.0 - np.cos(alpha))
     om = np.sqrt(2.0 * (np.array([e_trap * 1.001, e_trap * 0.999]) - p * p * np.cos(alpha)))
     assert overturn_impossible([0.0, 0.0], om, alpha_rad=alpha, p_rad_s=p).tolist() == [False, True]
+
+
+def test_calibrated_settings_default_to_none_and_the_old_name_is_an_alias():
+    from rockbench.engines.skeleton import SteppedContactAdapter
+
+    shared = SteppedContactAdapter.SHARED_SETTINGS
+    with pytest.raises(TypeError, match="'stiffness_n_m' a default .* never calibrate"):
+        type("Stiff", (SteppedContactAdapter,), {"SETTINGS": {**shared, "stiffness_n_m": 1e6},
+                                                 "CALIBRATED_SETTINGS": ("stiffness_n_m",)})
+    # as shipped by default, a given contact is fine: nothing is calibrated unless asked for
+    type("Shipped", (SteppedContactAdapter,), {"SETTINGS": {**shared, "settings": "defaults", "stiffness_n_m": 1e6},
+                                               "CALIBRATED_SETTINGS": ("stiffness_n_m",)})
+    with pytest.warns(DeprecationWarning, match="CONTACT_KEYS is now called CALIBRATED_SETTINGS"):
+        old = type("Old", (SteppedContactAdapter,), {"SETTINGS": {**shared, "stiffness_n_m": None},
+                                                     "CONTACT_KEYS": ("stiffness_n_m",)})
+    assert old.CALIBRATED_SETTINGS == ("stiffness_n_m",)
+    assert old(stiffness_n_m=2e6).explicit_contact() and not old().explicit_contact()

@@ -27,7 +27,7 @@ class ToyEngine(SteppedContactAdapter):
     SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "defaults", "contact_stiffness_n_m": None,
                 "tail_s": 1.0, "min_tail_s": 0.25}
     #: given explicitly, these replace a calibration; None (the default) means "not given"
-    CONTACT_KEYS = ("contact_stiffness_n_m",)
+    CALIBRATED_SETTINGS = ("contact_stiffness_n_m",)
     #: the stiffness as shipped [N/m]
     SHIPPED_STIFFNESS_N_M = 1e6
 
