@@ -46,3 +46,14 @@ def test_the_installed_plugin_passes_check_adapter(site):
     assert out.returncode == 0, out.stdout + out.stderr
     assert "FAIL" not in out.stdout and "checks passed." in out.stdout
     assert out.stdout.splitlines()[1].split()[:2] == ["PASS", "hooks"]
+
+
+def test_the_contract_page_shows_the_example_s_entry_point():
+    import re
+    import tomllib
+
+    page = (EXAMPLE.parents[1] / "docs" / "engines.md").read_text()
+    shown = tomllib.loads(re.search(r"```toml\n(.*?)```", page, re.S).group(1))
+    declared = tomllib.loads((EXAMPLE / "pyproject.toml").read_text())["project"]
+    assert shown["project"]["entry-points"] == declared["entry-points"] == {
+        "rockbench.engines": {"toy": "rockbench_toy.adapter:ToyEngine"}}
