@@ -120,6 +120,8 @@ def availability(name: str) -> dict:
                 "install_hint": getattr(cls, "install_hint", ""), **rng}
     except Exception as e:  # noqa: BLE001 - reported, not raised
         hint = getattr(cls, "install_hint", "")
-        missing = (cls.module if cls is not None and cls.module else str(_target(name)).partition(":")[0])
+        target = _target(name)
+        missing = (cls.module if cls is not None and cls.module else
+                   getattr(target, "__module__", str(target)).partition(":")[0])
         return {"engine": name, "available": False, "version": None, "reason": str(e), "missing": missing,
                 "install": install_command(name) or hint, "install_hint": hint, **rng}

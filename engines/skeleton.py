@@ -55,6 +55,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -266,7 +267,6 @@ class SteppedContactAdapter(ContactEngineAdapter):
         super().__init_subclass__(**kwargs)
         # ``CONTACT_KEYS`` is the old name of ``CALIBRATED_SETTINGS``: kept for one release
         if "CONTACT_KEYS" in cls.__dict__ and "CALIBRATED_SETTINGS" not in cls.__dict__:
-            import warnings
             warnings.warn(f"{cls.__name__}.CONTACT_KEYS is now called CALIBRATED_SETTINGS; the old name goes in the "
                           "next release.", DeprecationWarning, stacklevel=2)
             cls.CALIBRATED_SETTINGS = tuple(cls.CONTACT_KEYS)
