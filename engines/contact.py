@@ -341,13 +341,17 @@ class ContactEngineAdapter(EngineAdapter):
                                      target=target, dt=dt, **identity)
 
     def _cached(self, key: str, use_cache: bool) -> CalibrationResult | None:
-        """The cached calibration under ``key``, or None (always None without ``use_cache``); settings
-        stored under an old name (:data:`RENAMED_SETTINGS`) are read under the new one."""
+        """The cached calibration under ``key``, or None (always None without ``use_cache``); a setting
+        the calibration chose, stored under its old name (:data:`RENAMED_SETTINGS`), is read under the
+        new one. Other keys stay: Exudyn's records name its model's own parameters, some of which
+        share an old setting's name."""
         rec = calibration.load(key) if use_cache else None
         if rec is None or "result" not in rec:
             return None
         res = CalibrationResult(**rec["result"])
-        return dataclasses.replace(res, settings=self.canonical_settings(res.settings))
+        chosen = set(getattr(self, "CALIBRATED_SETTINGS", ()))   # the skeleton's adapters declare them
+        renamed = {old: new for old, new in RENAMED_SETTINGS.get(self.name, {}).items() if new in chosen}
+        return dataclasses.replace(res, settings={renamed.get(k, k): v for k, v in res.settings.items()})
 
     @staticmethod
     def _store(key: str, res: CalibrationResult, search: dict) -> None:

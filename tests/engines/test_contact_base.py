@@ -135,6 +135,10 @@ def test_a_cached_calibration_is_read_under_the_new_setting_names(tmp_path, monk
     calibration.store("k", {"result": old, "search": {}})
     got = cls()._cached("k", use_cache=True)
     assert got.settings == {"contact_restitution": 0.3, "contact_stiffness_n_m": None} and got.eta_measured == 0.8
+    # Exudyn's records name its model's parameters (stiffness_n_m, ...), not settings: they stay
+    model = {"stiffness_n_m": 2e6, "damping_n_s_m": 0.0, "impact_model": 2, "restitution_coefficient": 0.05}
+    calibration.store("x", {"result": {**old, "settings": model}, "search": {}})
+    assert adapter_class("exudyn")()._cached("x", use_cache=True).settings == model
 
 
 def _cal(n, eta, reached):
