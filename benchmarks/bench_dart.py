@@ -76,7 +76,7 @@ def cmd_restitution(args) -> None:
     for block in blocks:
         theta0, v_land = 0.5 * block.alpha_rad, landing_speed_m_s(block, 0.5)
         for e in (0.0, 0.25, 0.5, 0.75, 1.0):
-            ad = get_adapter("dart", restitution_coeff=e)
+            ad = get_adapter("dart", contact_restitution=e)
             s = ad.resolve(block, Restitution())
             m = ad.measure_restitution(block, settings=s)
             tr, _ = ad._run(block, s, ad.default_dt_s, None, theta0=theta0, duration_s=1.0)

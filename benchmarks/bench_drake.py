@@ -100,7 +100,7 @@ def cmd_eta(args) -> None:
             ad = get_adapter("drake", **settings)
             s = ad.resolve(block, Restitution())
             m = ad.measure_restitution(block, settings=s)
-            shown = {k: s[k] for k in ad.CONTACT_KEYS + ("approximation",) if s.get(k) is not None}
+            shown = {k: s[k] for k in ad.CALIBRATED_SETTINGS + ("approximation",) if s.get(k) is not None}
             print(f"| {name} | {label} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | {eta_h:.4f} | "
                   f"{100 * (m.eta_mean - eta_h) / eta_h:+.2f} % | {json.dumps(shown)} |")
 

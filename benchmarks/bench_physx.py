@@ -33,8 +33,8 @@ KNOBS = ([("as shipped", {}, None)]
          + [(f"position iterations {n}", {"position_iterations": n}, None) for n in (1, 4, 50)]
          + [(f"velocity iterations {n}", {"velocity_iterations": n}, None) for n in (0, 4, 20)]
          + [(f"contact offset {c * 1e3:g} mm", {"contact_offset_m": c}, None) for c in (1e-4, 1e-3, 0.05)]
-         + [(f"restitution {e}", {"restitution_coeff": e}, None) for e in (0.5, 1.0)]
-         + [(f"restitution {e}, bounce threshold 0.01 m/s", {"restitution_coeff": e, "bounce_threshold_m_s": 0.01},
+         + [(f"restitution {e}", {"contact_restitution": e}, None) for e in (0.5, 1.0)]
+         + [(f"restitution {e}, bounce threshold 0.01 m/s", {"contact_restitution": e, "bounce_threshold_m_s": 0.01},
              None) for e in (0.2, 0.5)])
 
 #: cells the cost is measured on (block, pulse, ω/p, a₀/(g·tanα)): rocking, rest and overturn

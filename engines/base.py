@@ -56,8 +56,12 @@ The contract, for a subclass of :class:`EngineAdapter`:
 10. ``default_suite_exclusion()`` (optional) says in one line why suites that run every available
    engine leave this one out on this machine (None: they include it); named explicitly, it runs.
 
+Every hook a base class calls is declared there (:func:`rockbench.engines.hooks.required`): one
+left out raises :class:`~rockbench.engines.hooks.MissingHook` saying what to implement, and
+:meth:`EngineAdapter.missing_hooks` lists them before anything runs.
+
 ``rockbench check-adapter NAME`` runs a conformance suite on any registered adapter
-(:mod:`rockbench.engines.checker`). Engines with a contact model derive from
+(:mod:`rockbench.engines.checker`), missing hooks first. Engines with a contact model derive from
 :class:`~rockbench.engines.contact.ContactEngineAdapter`, which owns their shared settings.
 """
 
@@ -77,6 +81,7 @@ from ..reference_solver.pulses import Pulse
 from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import (DEFAULT_FRICTION, FLAGS, Measurement, contact_flags, judge_measurement,
                                          jump_tol_m, slip_tol_m, uplift_tol_rad)
+from .hooks import missing_hooks, required
 
 __all__ = ["Case", "Trajectory", "CellResult", "CellColumns", "RestitutionMeasurement", "CalibrationResult",
            "EngineAdapter", "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad", "DEVICE_NOTED_ENV"]
@@ -456,8 +461,15 @@ class EngineAdapter:
             raise ConfigError(f"{self.name} setting {key!r} must be a whole number {bounds}, got {v!r}.")
         settings[key] = int(v)
 
-    def _simulate(self, case: Case) -> Trajectory:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @required("(case) -> Trajectory", "run one case (contract item 3), or derive a contact engine from "
+              "SteppedContactAdapter and implement its hooks instead (docs/engines.md)")
+    def _simulate(self, case: Case) -> Trajectory:  # pragma: no cover - declared
+        ...
+
+    def missing_hooks(self) -> list[str]:
+        """One line per hook this adapter must implement and does not, saying what to do (empty when
+        none is missing; :mod:`rockbench.engines.hooks`)."""
+        return missing_hooks(self)
 
     def _simulate_many(self, cases: list[Case]) -> list[Trajectory | BaseException]:
         out = []

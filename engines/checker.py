@@ -55,6 +55,8 @@ class CheckReport:
     engine: str
     version: str | None
     checks: list = field(default_factory=list)
+    #: the checks not run because a hook is missing
+    not_run: list = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
@@ -68,14 +70,18 @@ class CheckReport:
         return {"engine": self.engine, "version": self.version, "passed": self.passed,
                 "n_checks": len(self.checks), "n_failed": len(self.failed),
                 "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail, "wall_s": c.wall_s}
-                           for c in self.checks]}
+                           for c in self.checks], "not_run": list(self.not_run)}
 
     def text(self) -> str:
         lines = [f"check-adapter {self.engine} (version {self.version}):"]
         for c in self.checks:
-            lines.append(f"  {'PASS' if c.passed else 'FAIL'}  {c.name:28} {c.detail}")
+            first, *more = c.detail.split("\n")
+            lines.append(f"  {'PASS' if c.passed else 'FAIL'}  {c.name:28} {first}")
+            lines.extend(f"  {'':4}  {'':28} {m}" for m in more)
         n = len(self.failed)
         lines.append(f"{len(self.checks) - n} of {len(self.checks)} checks passed" + (f"; {n} failed." if n else "."))
+        if self.not_run:
+            lines.append(f"{len(self.not_run)} checks not run: they run once every hook is implemented.")
         return "\n".join(lines)
 
 
@@ -96,6 +102,15 @@ class CheckFailed(Exception):
 def _rocking(block: Block) -> Case:
     """The plain rocking case most checks use: one sine wave at ω/p = 4, a0 = 1.6·g·tanα."""
     return _case(block, "sine", 4.0, 1.6)
+
+
+def check_hooks(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """Every hook the base class calls is implemented (:mod:`rockbench.engines.hooks`); one line per
+    missing hook saying what to implement."""
+    missing = adapter.missing_hooks()
+    if missing:
+        raise CheckFailed("\n".join(missing))
+    return "every hook the base class calls is implemented"
 
 
 def check_describe(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
@@ -305,6 +320,7 @@ def check_measurements(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> 
 
 #: every check, by the name the report gives it, in the order check_adapter runs them
 CHECKS: dict[str, Callable[[EngineAdapter, Block], str]] = {
+    "hooks": check_hooks,
     "describe": check_describe,
     "unknown-setting": check_unknown_setting,
     "trajectory-shape": check_trajectory_shape,
@@ -352,6 +368,9 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
     rep = CheckReport(ad.name or type(ad).__name__, version)
     for name, check in CHECKS.items():
         rep.checks.append(run_check(name, check, ad, b))
+        if name == "hooks" and not rep.checks[-1].passed:
+            rep.not_run = [n for n in CHECKS if n != "hooks"]   # they would only fail on the missing hooks
+            break
     return rep
 
 

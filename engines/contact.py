@@ -44,6 +44,7 @@ from ..reference_solver.restitution import Restitution, housner_eta
 from ..reference_solver.rules import RULES_VERSION
 from . import calibration, held_out, step_rule
 from .base import CalibrationResult, EngineAdapter
+from .hooks import required
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "body_energy_j_kg",
            "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS", "first_reached"]
@@ -54,12 +55,16 @@ SETTINGS_MODES = ("calibrated", "defaults")
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")
 
-#: Old setting names → new names, per engine. Accepted for one release with a
-#: DeprecationWarning; the one place where a rename is recorded.
+#: Old setting names → new names, per engine (units in names; one name per concept: a contact's
+#: restitution coefficient is ``contact_restitution`` in every engine). Accepted for one release with
+#: a DeprecationWarning; the one place where a rename is recorded.
 RENAMED_SETTINGS: Mapping[str, Mapping[str, str]] = {
     "mujoco": {"timeconst": "timeconst_s"},
     "pybullet": {"contact_stiffness": "contact_stiffness_n_m", "contact_damping": "contact_damping_n_s_m",
-                 "contact_breaking_threshold": "contact_breaking_threshold_m"},
+                 "contact_breaking_threshold": "contact_breaking_threshold_m",
+                 "restitution_coef": "contact_restitution"},
+    "dart": {"restitution_coeff": "contact_restitution"},
+    "physx": {"restitution_coeff": "contact_restitution"},
     "exudyn": {"chunk_s": "segment_s", "max_tail_s": "tail_s", "stiffness_n_m": "contact_stiffness_n_m",
                "damping_n_s_m": "contact_damping_n_s_m"},
 }
@@ -77,6 +82,11 @@ MAX_CONTACT_POINTS = 101
 
 _TRUE, _FALSE = ("true", "1"), ("false", "0")
 
+#: What to do about a contact engine without a calibration (the ``settings`` default is ``calibrated``)
+CALIBRATION_ADVICE = ("the contact calibrated to the target η: declare CALIBRATION_KNOBS (the skeleton then "
+                      "searches them) or implement this hook; or run the engine as shipped: --set settings=defaults, "
+                      "or \"settings\": \"defaults\" in SETTINGS")
+
 
 class ContactEngineAdapter(EngineAdapter):
     """Base of the adapters of engines with a contact model (see the module docstring).
@@ -86,7 +96,8 @@ class ContactEngineAdapter(EngineAdapter):
 
     * :meth:`_validate_engine_settings` (its own settings; the shared ones are checked already),
     * :meth:`explicit_contact` (whether the user gave contact settings that replace calibration),
-    * :meth:`_resolved_settings` (the concrete settings, given a calibration or None),
+    * :meth:`_resolved_settings` (the concrete settings, given a calibration or None) and, where a
+      setting is filled in by mode, :meth:`_base_settings` (the settings before any calibration),
     * ``calibrate`` and ``measure_restitution``, and ``_simulate`` (contract items 3, 8).
     """
 
@@ -296,10 +307,18 @@ class ContactEngineAdapter(EngineAdapter):
         other = shipped._resolved_settings(block, dt, None)
         return {k: v for k, v in resolved.items() if k not in skip} == {k: v for k, v in other.items() if k not in skip}
 
+    def _base_settings(self) -> dict:
+        """The settings before any calibration: what a calibration's candidates start from and what
+        its cache key names (default: the settings as given; an adapter that fills in a setting by
+        mode, as PyBullet's solver iterations, overrides it)."""
+        return dict(self.settings)
+
+    @required("(block, dt_s, calibration) -> dict", "the concrete settings of a case: the settings with "
+              "the calibration's (a CalibrationResult, None where explicit or as shipped), e.g. "
+              "{**self._base_settings(), **(calibration.settings if calibration else {})}")
     def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
         """The concrete settings for ``block`` at step ``dt`` [s], with the calibration ``cal`` (None:
         explicit or default contact)."""
-        raise NotImplementedError  # pragma: no cover - every contact adapter implements it
 
     # -- the calibration frame ----------------------------------------------------------------
     def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
@@ -325,13 +344,18 @@ class ContactEngineAdapter(EngineAdapter):
             kind = "corners" if target <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
         return "distributed" if kind == "distributed" else "corners"
 
+    @required("(block, target, dt_s, use_cache) -> CalibrationResult", CALIBRATION_ADVICE,
+              when=lambda ad: ad.calibrated())
     def _calibrate_corners(self, block: Block, target: float, dt: float,
-                           use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract
-        raise NotImplementedError
+                           use_cache: bool) -> CalibrationResult:  # pragma: no cover - declared
+        """The contact at the two bottom corners calibrated to ``target`` at step ``dt`` [s]."""
 
+    @required("(block, target, n, dt_s, use_cache) -> CalibrationResult", "a row of n contact points along "
+              "the base calibrated to the target (an engine with distributed_contact = True)",
+              when=lambda ad: ad.distributed_contact)
     def _calibrate_distributed_n(self, block: Block, t: float, n: int, dt: float,
-                                 use_cache: bool) -> CalibrationResult:  # pragma: no cover - abstract
-        raise NotImplementedError
+                                 use_cache: bool) -> CalibrationResult:  # pragma: no cover - declared
+        """A row of ``n`` contact points along the base calibrated to ``t`` at step ``dt`` [s]."""
 
     def _cache_identity(self) -> dict:
         """What names the engine in the calibration cache key: its name and version (an adapter
@@ -348,9 +372,17 @@ class ContactEngineAdapter(EngineAdapter):
                                      target=target, dt=dt, **identity)
 
     def _cached(self, key: str, use_cache: bool) -> CalibrationResult | None:
-        """The cached calibration under ``key``, or None (always None without ``use_cache``)."""
+        """The cached calibration under ``key``, or None (always None without ``use_cache``); a setting
+        the calibration chose, stored under its old name (:data:`RENAMED_SETTINGS`), is read under the
+        new one. Other keys stay: Exudyn's records name its model's own parameters, some of which
+        share an old setting's name."""
         rec = calibration.load(key) if use_cache else None
-        return None if rec is None or "result" not in rec else CalibrationResult(**rec["result"])
+        if rec is None or "result" not in rec:
+            return None
+        res = CalibrationResult(**rec["result"])
+        chosen = set(getattr(self, "CALIBRATED_SETTINGS", ()))   # the skeleton's adapters declare them
+        renamed = {old: new for old, new in RENAMED_SETTINGS.get(self.name, {}).items() if new in chosen}
+        return dataclasses.replace(res, settings={renamed.get(k, k): v for k, v in res.settings.items()})
 
     @staticmethod
     def _store(key: str, res: CalibrationResult, search: dict) -> None:

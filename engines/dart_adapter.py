@@ -19,7 +19,7 @@ friction (a 4-sided friction pyramid per point). No constraint and no impact law
   as shipped; DART reports its velocities in the world frame); its four base corners are
   independent rows, and it is mirror-exact too.
 * **Anti-slip**: friction 10 on both shapes (``friction``; DART combines the two with ``min``).
-* **Restitution**: DART's impact is plastic (restitution 0 as shipped). ``restitution_coeff`` is
+* **Restitution**: DART's impact is plastic (restitution 0 as shipped). ``contact_restitution`` is
   the block's coefficient; the table's is set to 1, since DART multiplies the two. DART applies
   it only where the bounce velocity ``e·v_n`` exceeds 0.1 m/s, a compile-time constant
   (``DART_BOUNCING_VELOCITY_THRESHOLD``), which the corners of the benchmark's blocks rarely reach;
@@ -65,7 +65,7 @@ COLLISION_DETECTORS = {"fcl": "FCLCollisionDetector", "ode": "OdeCollisionDetect
                        "bullet": "BulletCollisionDetector", "dart": "DARTCollisionDetector"}
 
 #: DART as shipped: FCL, no split impulse, plastic impacts
-SHIPPED_CONTACT = {"collision_detector": "fcl", "split_impulse": False, "restitution_coeff": 0.0}
+SHIPPED_CONTACT = {"collision_detector": "fcl", "split_impulse": False, "contact_restitution": 0.0}
 
 #: The bounce velocity below which DART ignores restitution [m/s] (``DART_BOUNCING_VELOCITY_THRESHOLD``,
 #: a compile-time constant of its ContactConstraint)
@@ -98,7 +98,7 @@ class _Scene:
         solver = world.getConstraintSolver()
         solver.setCollisionDetector(getattr(dart.collision, COLLISION_DETECTORS[s["collision_detector"]])())
         solver.setSplitImpulseEnabled(bool(s["split_impulse"]))
-        mu, e = float(s["friction"]), float(s["restitution_coeff"])
+        mu, e = float(s["friction"]), float(s["contact_restitution"])
         self.table = dart.dynamics.Skeleton("table")
         if self.drive == "table":
             joint, body = self.table.createPrismaticJointAndBodyNodePair()
@@ -231,7 +231,7 @@ class DartAdapter(SteppedContactAdapter):
         DART's collision detector; given, it replaces calibration (None: calibrated, or FCL).
     split_impulse : bool or None
         Correct penetration with a separate position impulse; given, it replaces calibration.
-    restitution_coeff : float or None
+    contact_restitution : float or None
         The block's restitution coefficient in [0, 1] (the table's is 1; DART applies it only above
         a bounce velocity of 0.1 m/s); given, it replaces calibration.
     corner_radius_m : float
@@ -252,12 +252,12 @@ class DartAdapter(SteppedContactAdapter):
         **SteppedContactAdapter.SHARED_SETTINGS,
         "collision_detector": None,
         "split_impulse": None,
-        "restitution_coeff": None,
+        "contact_restitution": None,
         "corner_radius_m": 1e-4,
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = ("collision_detector", "split_impulse", "restitution_coeff")
+    CALIBRATED_SETTINGS = ("collision_detector", "split_impulse", "contact_restitution")
     #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): DART's contact is
     #: rigid and its impact plastic, which is Housner's η_H, so the contact as shipped
     #: (:data:`SHIPPED_CONTACT`) is kept within 0.5 %; otherwise the other collision detectors and the
@@ -267,7 +267,7 @@ class DartAdapter(SteppedContactAdapter):
     CALIBRATION_KNOBS = (
         Knob("collision_detector", "", "other", ladder=lambda block, dt: tuple(COLLISION_DETECTORS), shipped="fcl"),
         Knob("split_impulse", "", "other", ladder=lambda block, dt: (False, True), shipped=False),
-        Knob("restitution_coeff", "", "damping", ladder=lambda block, dt: _RESTITUTIONS_TRIED, shipped=0.0,
+        Knob("contact_restitution", "", "damping", ladder=lambda block, dt: _RESTITUTIONS_TRIED, shipped=0.0,
              when="below"),
     )
     START_KEEP_RTOL = 0.005
@@ -282,17 +282,18 @@ class DartAdapter(SteppedContactAdapter):
                               f"got {det!r}.")
         if s["split_impulse"] is not None:
             self._bool_setting(s, "split_impulse")
-        self._number_setting(s, "restitution_coeff", "", allow_zero=True)
+        self._number_setting(s, "contact_restitution", "", allow_zero=True)
         self._number_setting(s, "corner_radius_m", "m", allow_none=False)
         if s["corner_radius_m"] > 1e-3:
             raise ConfigError(f"dart setting 'corner_radius_m' must be <= 0.001 m (the corner spheres sit inside the "
                               f"corners and move the pivots inwards by their radius), got {s['corner_radius_m']!r}.")
-        if s["restitution_coeff"] is not None and s["restitution_coeff"] > 1.0:
-            raise ConfigError(f"dart setting 'restitution_coeff' must be in [0, 1], got {s['restitution_coeff']!r}.")
+        if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
+            raise ConfigError(f"dart setting 'contact_restitution' must be in [0, 1], "
+                              f"got {s['contact_restitution']!r}.")
 
     def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
+        """Whether any contact setting (:attr:`CALIBRATED_SETTINGS`) was given (then nothing is calibrated)."""
+        return any(self.settings[k] is not None for k in self.CALIBRATED_SETTINGS)
 
     def _base_settings(self) -> dict:
         return dict(self.settings)
@@ -303,11 +304,11 @@ class DartAdapter(SteppedContactAdapter):
         s = self._base_settings()
         if cal is not None:
             s.update(cal.settings)
-        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CONTACT_KEYS}}
+        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CALIBRATED_SETTINGS}}
 
     # -- the hooks of the skeleton ----------------------------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> _Scene:
-        keys = ("planar", "drive", "friction", "corner_radius_m") + self.CONTACT_KEYS
+        keys = ("planar", "drive", "friction", "corner_radius_m") + self.CALIBRATED_SETTINGS
         return _scene(os.getpid(), block, dt_s, tuple((k, s[k]) for k in keys))
 
     def _start(self, world: _Scene, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
@@ -332,7 +333,7 @@ class DartAdapter(SteppedContactAdapter):
     def _motion(self, world: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         th, om = self._angles(world, data)
         diag = {"collision_detector": s["collision_detector"], "split_impulse": bool(s["split_impulse"]),
-                "restitution_coeff": float(s["restitution_coeff"])}
+                "contact_restitution": float(s["contact_restitution"])}
         if world.planar:
             z, x, vz, vx = data[:, 0], data[:, 1], data[:, 3], data[:, 4]
         else:
@@ -362,14 +363,14 @@ class DartAdapter(SteppedContactAdapter):
         else:
             head = (f"reached with {_describe(settings)}" if chosen.reached else
                     f"not reached: the closest is {_describe(settings)}, η = {chosen.candidate.eta:.4f}")
-        others = [r["eta"] for r in rows[1:] if r["restitution_coeff"] == 0]
+        others = [r["eta"] for r in rows[1:] if r["contact_restitution"] == 0]
         if others:
             head += f"; the other collision detectors and the split impulse give η = {min(others):.4f}–{max(others):.4f}"
-        e_tried = [r for r in rows if r["restitution_coeff"] > 0]
+        e_tried = [r for r in rows if r["contact_restitution"] > 0]
         if not e_tried:
             return head + "."
         v_land = landing_speed_m_s(block, 0.5)
-        etas = ", ".join(f"e = {r['restitution_coeff']:g}: {r['eta']:.4f} ± {r['eta_std']:.4f}" for r in e_tried)
+        etas = ", ".join(f"e = {r['contact_restitution']:g}: {r['eta']:.4f} ± {r['eta_std']:.4f}" for r in e_tried)
         return (f"{head}; restitution ({etas}) acts only where e·v_n > {BOUNCE_THRESHOLD_M_S:g} m/s (a compile-time "
                 f"constant of DART; the landing corner of a release from α/2 arrives at {v_land:.3f} m/s), and where "
                 "it acts the corner's bounce launches the block off the table instead of raising η; DART's contact "
@@ -387,4 +388,4 @@ def landing_speed_m_s(block: Block, theta0_frac: float) -> float:
 def _describe(contact: dict) -> str:
     """A contact setting in words, for calibration notes."""
     return (f"collision detector {contact['collision_detector']}, split impulse "
-            f"{'on' if contact['split_impulse'] else 'off'}, restitution {contact['restitution_coeff']:g}")
+            f"{'on' if contact['split_impulse'] else 'off'}, restitution {contact['contact_restitution']:g}")

@@ -329,7 +329,8 @@ class DrakeAdapter(SteppedContactAdapter):
         "min_tail_s": 0.25,
         "segment_s": 0.1,
     }
-    CONTACT_KEYS = ("point_stiffness_n_m", "hydroelastic_modulus_pa", "relaxation_time_s", "hunt_crossley_dissipation_s_m")
+    CALIBRATED_SETTINGS = ("point_stiffness_n_m", "hydroelastic_modulus_pa", "relaxation_time_s",
+                           "hunt_crossley_dissipation_s_m")
     MEASURED_SETTINGS = ("settings", "contact", "approximation", "friction", "planar", "drive")
     START_KEEP_RTOL = 0.005
     CALIBRATION_VERSION = 4
@@ -390,7 +391,7 @@ class DrakeAdapter(SteppedContactAdapter):
         :data:`BASE_CONTACT` where not given) and the other contact keys None."""
         out = dict(s)
         keep = (self._stiffness_key(), self._dissipation_key(out["approximation"]))
-        for k in self.CONTACT_KEYS:
+        for k in self.CALIBRATED_SETTINGS:
             if k in keep:
                 out[k] = BASE_CONTACT[k] if out[k] is None else out[k]
             else:

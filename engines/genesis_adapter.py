@@ -221,7 +221,7 @@ class GenesisAdapter(SteppedContactAdapter):
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = ("timeconst_s",)
+    CALIBRATED_SETTINGS = ("timeconst_s",)
     MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
     CALIBRATION_VERSION = 1
 

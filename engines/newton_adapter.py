@@ -289,7 +289,7 @@ class NewtonAdapter(SteppedContactAdapter):
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = ("iterations", "contact_relaxation", "contact_stiffness_n_m", "contact_damping_n_s_m",
+    CALIBRATED_SETTINGS = ("iterations", "contact_relaxation", "contact_stiffness_n_m", "contact_damping_n_s_m",
                     "friction_gain_n_s_m")
     MEASURED_SETTINGS = ("solver", "friction", "planar", "sticky_contacts")
     #: the solver is the model: every variant's name says which ran, XPBD (the default) included

@@ -63,7 +63,7 @@ SHIPPED_DT_S = 0.01
 #: PhysX as shipped by SAPIEN 3.0.3: TGS, 10 position and 1 velocity iterations per body, contact
 #: offset 1 cm, plastic material (restitution 0), bounce threshold 2 m/s, one PhysX step per step
 SHIPPED_CONTACT = {"solver": "tgs", "position_iterations": 10, "velocity_iterations": 1,
-                   "contact_offset_m": 0.01, "restitution_coeff": 0.0, "bounce_threshold_m_s": 2.0, "substeps": 1}
+                   "contact_offset_m": 0.01, "contact_restitution": 0.0, "bounce_threshold_m_s": 2.0, "substeps": 1}
 
 #: ``solver`` values: PhysX's temporal Gauss–Seidel (shipped) or projected Gauss–Seidel
 SOLVERS = ("tgs", "pgs")
@@ -109,7 +109,7 @@ class _Scene:
         self.scene = sapien.Scene([self.system])
         self.mass_kg, self._pose = block.mass_kg, sapien.Pose
         mu = float(s["friction"])
-        material = px.PhysxMaterial(mu, mu, float(s["restitution_coeff"]))
+        material = px.PhysxMaterial(mu, mu, float(s["contact_restitution"]))
         self.table = px.PhysxRigidDynamicComponent() if s["drive"] == "table" else px.PhysxRigidStaticComponent()
         hx, hy, hz = _TABLE_HALF_EXTENTS_M
         self._table_z = -hz
@@ -196,7 +196,7 @@ class PhysxAdapter(SteppedContactAdapter):
         The block's solver iterations [-].
     contact_offset_m : float or None
         Both shapes' contact offset [m]: the gap at which PhysX starts generating contacts.
-    restitution_coeff : float or None
+    contact_restitution : float or None
         The material's restitution in [0, 1] [-] (acts above the bounce threshold only).
     bounce_threshold_m_s : float or None
         The normal approach speed below which PhysX ignores restitution [m/s].
@@ -220,13 +220,13 @@ class PhysxAdapter(SteppedContactAdapter):
         "position_iterations": None,
         "velocity_iterations": None,
         "contact_offset_m": None,
-        "restitution_coeff": None,
+        "contact_restitution": None,
         "bounce_threshold_m_s": None,
         "substeps": None,
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = tuple(SHIPPED_CONTACT)
+    CALIBRATED_SETTINGS = tuple(SHIPPED_CONTACT)
     MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
     #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): PhysX as shipped
     #: but for its solver (:data:`CALIBRATED_SOLVER`) and its substeps, :data:`SUBSTEPS_TRIED` coarsest
@@ -252,10 +252,11 @@ class PhysxAdapter(SteppedContactAdapter):
         self._whole_setting(s, "velocity_iterations", 0, maximum=255)
         self._whole_setting(s, "substeps", 1, maximum=1000)
         self._number_setting(s, "contact_offset_m", "m")
-        self._number_setting(s, "restitution_coeff", "", allow_zero=True)
+        self._number_setting(s, "contact_restitution", "", allow_zero=True)
         self._number_setting(s, "bounce_threshold_m_s", "m/s")
-        if s["restitution_coeff"] is not None and s["restitution_coeff"] > 1.0:
-            raise ConfigError(f"physx setting 'restitution_coeff' must be in [0, 1], got {s['restitution_coeff']!r}.")
+        if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
+            raise ConfigError(f"physx setting 'contact_restitution' must be in [0, 1], "
+                              f"got {s['contact_restitution']!r}.")
 
     def _base_settings(self) -> dict:
         return dict(self.settings)
@@ -266,7 +267,7 @@ class PhysxAdapter(SteppedContactAdapter):
         s = self._base_settings()
         if cal is not None:
             s.update({k: v for k, v in cal.settings.items() if v is not None})
-        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CONTACT_KEYS}}
+        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CALIBRATED_SETTINGS}}
 
     # -- the hooks of the skeleton ----------------------------------------------------------------
     def _world(self, block: Block, s: dict, dt_s: float) -> _Scene:
@@ -291,7 +292,7 @@ class PhysxAdapter(SteppedContactAdapter):
         return angles_of(rows)
 
     def _motion(self, world: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
-        return motion_of(data, t_s, pulse, world.table_drive, {k: s[k] for k in self.CONTACT_KEYS})
+        return motion_of(data, t_s, pulse, world.table_drive, {k: s[k] for k in self.CALIBRATED_SETTINGS})
 
     # -- calibration --------------------------------------------------------------------------
     def _knobs_base(self, block: Block, dt: float) -> dict:

@@ -197,13 +197,13 @@ class _Scene:
         """Set the contact and solver parameters of ``s`` (a resolved settings dict)."""
         pb, cid = self.pb, self.cid
         params: dict[str, Any] = dict(fixedTimeStep=dt_s, numSubSteps=0, numSolverIterations=int(s["solver_iterations"]))
-        if s.get("restitution_coef"):
+        if s.get("contact_restitution"):
             # Bullet applies restitution only above this approach speed (0.2 m/s by default)
             params["restitutionVelocityThreshold"] = 0.0
         pb.setPhysicsEngineParameter(physicsClientId=cid, **params)
         # friction and restitution combine as products: the table carries 1, the block the value
-        common = dict(lateralFriction=1.0, restitution=1.0 if s.get("restitution_coef") else 0.0)
-        blk = dict(lateralFriction=float(s["friction"]), restitution=float(s.get("restitution_coef") or 0.0),
+        common = dict(lateralFriction=1.0, restitution=1.0 if s.get("contact_restitution") else 0.0)
+        blk = dict(lateralFriction=float(s["friction"]), restitution=float(s.get("contact_restitution") or 0.0),
                    frictionAnchor=1 if s.get("friction_anchor") else 0)
         if s.get("contact_stiffness_n_m") is not None:
             kp, kd = float(s["contact_stiffness_n_m"]), float(s["contact_damping_n_s_m"])
@@ -313,7 +313,7 @@ class PybulletAdapter(SteppedContactAdapter):
         a step costs about 25 % less than at 50.
     contact_stiffness_n_m, contact_damping_n_s_m : float or None
         Explicit compliant contact [N/m], [N s/m] (give both); overrides calibration.
-    restitution_coef : float or None
+    contact_restitution : float or None
         Bullet's restitution of the block (the table carries 1) [-]; overrides calibration.
     contact_breaking_threshold_m : float or None
         Bullet's contact-breaking distance [m] (its default is 0.02 m). Old names, accepted for one
@@ -348,14 +348,15 @@ class PybulletAdapter(SteppedContactAdapter):
         "solver_iterations": None,
         "contact_stiffness_n_m": None,
         "contact_damping_n_s_m": None,
-        "restitution_coef": None,
+        "contact_restitution": None,
         "contact_breaking_threshold_m": None,
         "contact": "auto",
         "contact_points": None,
         "tail_s": 2.0,
         "min_tail_s": 0.25,
     }
-    CONTACT_KEYS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "restitution_coef", "contact_breaking_threshold_m")
+    CALIBRATED_SETTINGS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "contact_restitution",
+                    "contact_breaking_threshold_m")
     MEASURED_SETTINGS = ("friction", "friction_anchor", "solver_iterations", "planar", "contact_points")
     #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): Bullet's rigid
     #: contact as shipped (no stiffness, no restitution), kept within 1 %; a target more than 1 % below
@@ -369,7 +370,7 @@ class PybulletAdapter(SteppedContactAdapter):
         Knob("contact_stiffness_n_m", "N/m", "stiffness", when="above", bisect_steps=12, bisect_regular=False, log10=True,
              span=lambda block, dt: (3.0, max(3.5, math.log10(block.mass_kg / dt**2))), no_eta_low_end=True,
              along=lambda k, block, dt: {"contact_damping_n_s_m": 2.0 * math.sqrt(k * block.mass_kg)}),
-        Knob("restitution_coef", "", "damping", when="below", bisect_steps=5, bisect_regular=False,
+        Knob("contact_restitution", "", "damping", when="below", bisect_steps=5, bisect_regular=False,
              ladder=lambda block, dt: _RESTITUTIONS, along=lambda e, block, dt: {"contact_breaking_threshold_m": 1e-4}),
     )
     START_KEEP_RTOL = 0.01
@@ -395,13 +396,14 @@ class PybulletAdapter(SteppedContactAdapter):
                               f"combined coefficient there), got {s['friction']!r}.")
         self._number_setting(s, "contact_stiffness_n_m", "N/m")
         self._number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True)
-        self._number_setting(s, "restitution_coef", allow_zero=True)
+        self._number_setting(s, "contact_restitution", allow_zero=True)
         self._number_setting(s, "contact_breaking_threshold_m", "m")
         if (s["contact_stiffness_n_m"] is None) != (s["contact_damping_n_s_m"] is None):
             raise ConfigError("pybullet settings contact_stiffness_n_m and contact_damping_n_s_m go together: "
                               "give both (Bullet ignores one without the other).")
-        if s["restitution_coef"] is not None and s["restitution_coef"] > 1.0:
-            raise ConfigError(f"pybullet setting 'restitution_coef' must be in [0, 1], got {s['restitution_coef']!r}.")
+        if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
+            raise ConfigError(f"pybullet setting 'contact_restitution' must be in [0, 1], "
+                              f"got {s['contact_restitution']!r}.")
         self._whole_setting(s, "solver_iterations", 1)
         self._contact_layout_settings(s)
 
@@ -424,7 +426,7 @@ class PybulletAdapter(SteppedContactAdapter):
     def _world(self, block: Block, s: dict, dt_s: float) -> "_Scene":
         sc = _scene()
         sc.build(block, bool(s["planar"]), s.get("contact_breaking_threshold_m"),
-                 tuple(s.get(k) for k in self.CONTACT_KEYS + ("friction", "friction_anchor")),
+                 tuple(s.get(k) for k in self.CALIBRATED_SETTINGS + ("friction", "friction_anchor")),
                  points=s.get("contact_points"))
         sc.apply(s, dt_s)
         return sc
@@ -470,7 +472,7 @@ class PybulletAdapter(SteppedContactAdapter):
         with that bounce; None for the rigid plastic contact."""
         if s.get("contact_stiffness_n_m"):
             return super()._damping_ratio(block, s)
-        return damping_ratio_of_restitution(s["restitution_coef"]) if s.get("restitution_coef") else None
+        return damping_ratio_of_restitution(s["contact_restitution"]) if s.get("contact_restitution") else None
 
     def _calibration_identity(self, base: dict) -> dict:
         return {**super()._calibration_identity(base), "anchor": base["friction_anchor"],
@@ -482,7 +484,7 @@ class PybulletAdapter(SteppedContactAdapter):
         if not any(v is not None for v in settings.values()):
             note = ("Bullet's rigid contact (its default) gives this η." if reached else
                     f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
-        elif settings["restitution_coef"] is not None:
+        elif settings["contact_restitution"] is not None:
             note = ("reached with Bullet's restitution." if reached else
                     f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
                     f"per-impact spread within {100 * CAL_MAX_SPREAD:g} % of the target.")
@@ -493,7 +495,7 @@ class PybulletAdapter(SteppedContactAdapter):
                      and abs(r["eta"] - target) / target <= 0.01]
         if not reached and scattered:
             r = min(scattered, key=lambda r: r["eta_std"])
-            how = (f"Bullet's restitution e = {r['restitution_coef']:.3g}" if r.get("restitution_coef") else
+            how = (f"Bullet's restitution e = {r['contact_restitution']:.3g}" if r.get("contact_restitution") else
                    f"a compliant contact of {r['contact_stiffness_n_m']:.3g} N/m")
             note += (f" {how[0].upper()}{how[1:]} gives a mean of {r['eta']:.4f}, but its impacts scatter by "
                      f"±{r['eta_std']:.3f} (no single restitution coefficient, or a hop), so it is not taken.")

@@ -104,16 +104,24 @@ def get_adapter(name: str, **settings):
 
 
 def availability(name: str) -> dict:
-    """``{"engine", "available", "version", "reason", "install_hint", "supported", "outside_range"}``
-    for one engine: ``supported`` is the range rockbench declares ("" if none, :mod:`.support`),
-    ``outside_range`` a phrase when the installed version is outside it (else None)."""
-    from .support import outside_range, supported_range
+    """``{"engine", "available", "version", "reason", "missing", "install", "install_hint", "supported",
+    "outside_range"}`` for one engine: ``reason`` the whole error where it is not available, ``missing``
+    the module that failed to import, ``install`` the command that installs it (a built-in engine's
+    extra; else the adapter's ``install_hint``), ``supported`` the range rockbench declares ("" if none,
+    :mod:`.support`), ``outside_range`` a phrase when the installed version is outside it (else None)."""
+    from .support import install_command, outside_range, supported_range
 
     rng = {"supported": supported_range(name), "outside_range": outside_range(name)}
+    cls = None
     try:
         cls = adapter_class(name)
         v = cls.version()
-        return {"engine": name, "available": True, "version": v, "reason": "",
+        return {"engine": name, "available": True, "version": v, "reason": "", "missing": "", "install": "",
                 "install_hint": getattr(cls, "install_hint", ""), **rng}
     except Exception as e:  # noqa: BLE001 - reported, not raised
-        return {"engine": name, "available": False, "version": None, "reason": str(e), "install_hint": "", **rng}
+        hint = getattr(cls, "install_hint", "")
+        target = _target(name)
+        missing = (cls.module if cls is not None and cls.module else
+                   getattr(target, "__module__", str(target)).partition(":")[0])
+        return {"engine": name, "available": False, "version": None, "reason": str(e), "missing": missing,
+                "install": install_command(name) or hint, "install_hint": hint, **rng}

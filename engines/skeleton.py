@@ -55,6 +55,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -65,8 +66,9 @@ from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement, Trajectory, uplift_tol_rad
-from .contact import ContactEngineAdapter, body_energy_j_kg
+from .contact import CALIBRATION_ADVICE, ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
+from .hooks import MissingHook, hook_line, required
 from .knobs import search as search_knobs
 from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
 
@@ -155,6 +157,13 @@ def run_steps(dt_s: float, t_pulse_end_s: float, tail_s: float, min_tail_s: floa
     return n_max, n_pulse, n_min
 
 
+def _skeleton_does(adapter, *methods: str) -> bool:
+    """Whether ``adapter`` offers a row of contact points along the base and leaves ``methods`` of
+    its search to the skeleton (then the hooks those methods call are needed)."""
+    return adapter.distributed_contact and all(
+        getattr(type(adapter), m) is getattr(SteppedContactAdapter, m) for m in methods)
+
+
 class SteppedContactAdapter(ContactEngineAdapter):
     """A contact engine on the shared skeleton (module docstring): the adapter implements the hooks."""
 
@@ -163,8 +172,9 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: worlds an engine steps together (1: one case at a time); an engine that steps a batch sets
     #: more, and ``batching = "native"``: cases of one block, settings and step run in batches
     max_worlds: ClassVar[int] = 1
-    #: the settings that describe the contact (what a calibration chooses)
-    CONTACT_KEYS: ClassVar[tuple] = ()
+    #: the settings a calibration chooses (contact parameters, or a solver setting it searches); given
+    #: explicitly, they replace the calibration, so each defaults to None in :attr:`SETTINGS` ("not given")
+    CALIBRATED_SETTINGS: ClassVar[tuple] = ()
     #: the contact knobs a grid calibration searches (:class:`~rockbench.engines.knobs.Knob`); with
     #: knobs declared, :meth:`_calibrate_corners` is the skeleton's :meth:`_calibrate_knobs`
     CALIBRATION_KNOBS: ClassVar[tuple] = ()
@@ -172,30 +182,65 @@ class SteppedContactAdapter(ContactEngineAdapter):
     #: keep it when its η is within this fraction of the target [-]; None: the shipped contact is not
     #: measured first
     START_KEEP_RTOL: ClassVar[float | None] = None
-    #: settings a restitution measurement records (besides :attr:`CONTACT_KEYS`)
+    #: settings a restitution measurement records (besides :attr:`CALIBRATED_SETTINGS`)
     MEASURED_SETTINGS: ClassVar[tuple] = ("friction", "planar")
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        # ``CONTACT_KEYS`` is the old name of ``CALIBRATED_SETTINGS``: kept for one release
+        if "CONTACT_KEYS" in cls.__dict__ and "CALIBRATED_SETTINGS" not in cls.__dict__:
+            warnings.warn(f"{cls.__name__}.CONTACT_KEYS is now called CALIBRATED_SETTINGS; the old name goes in the "
+                          "next release.", DeprecationWarning, stacklevel=2)
+            cls.CALIBRATED_SETTINGS = tuple(cls.CONTACT_KEYS)
+        given = [k for k in cls.CALIBRATED_SETTINGS if cls.SETTINGS.get(k) is not None]
+        if cls.SETTINGS.get("settings") == "calibrated" and given:
+            raise TypeError(f"{cls.__name__}.SETTINGS gives {given[0]!r} a default ({cls.SETTINGS[given[0]]!r}), so "
+                            "every run would count it as given and never calibrate: a setting of CALIBRATED_SETTINGS "
+                            "defaults to None, and _resolved_settings fills in the shipped value.")
+
     def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CONTACT_KEYS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CONTACT_KEYS)
+        """Whether any setting a calibration chooses (:attr:`CALIBRATED_SETTINGS`) was given (then nothing
+        is calibrated)."""
+        return any(self.settings[k] is not None for k in self.CALIBRATED_SETTINGS)
 
     # -- hooks --------------------------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @required("(block, s, dt_s) -> world", "build (or reuse) the engine's scene for the block and the resolved "
+              "settings s, contact parameters set")
+    def _world(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - declared
+        """The engine's scene for ``block`` and the resolved settings ``s`` at step ``dt_s`` [s]."""
 
+    @required("(world, block, s, dt_s, pulse, theta0_rad, n_steps) -> ndarray (1, k)", "put the block at rest at "
+              "theta0_rad on its lower corner (pivot_pose), load the drive of pulse (None: free rocking) for "
+              "n_steps steps; return the state of sample 0 as one row")
     def _start(self, world, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
-               n_steps: int) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
+               n_steps: int) -> np.ndarray:  # pragma: no cover - declared
+        """The state of sample 0, one row ``(1, k)`` of the engine's choice."""
 
-    def _advance(self, world, n_from: int, n_to: int) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @required("(world, n_from, n_to) -> ndarray (n_to - n_from, k)", "step from step n_from to n_to; return "
+              "the state rows after each step")
+    def _advance(self, world, n_from: int, n_to: int) -> np.ndarray:  # pragma: no cover - declared
+        """The state rows of samples ``n_from + 1 … n_to``."""
 
-    def _angles(self, world, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
-        raise NotImplementedError
+    @required("(world, rows) -> (theta_rad, theta_dot_rad_s)", "the rotation about +y [rad] and its rate "
+              "[rad/s] read from state rows")
+    def _angles(self, world, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - declared
+        """θ [rad] and θ̇ [rad/s] of state rows."""
 
+    @required("(world, block, s, data, t_s, pulse) -> Motion", "the centre of mass (x, height above the table "
+              "top, velocities), θ, θ̇ and the table's x and ẋ from all the state rows of a run")
     def _motion(self, world, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray,
-                pulse) -> Motion:  # pragma: no cover - abstract
-        raise NotImplementedError
+                pulse) -> Motion:  # pragma: no cover - declared
+        """The block's :class:`Motion` over a run."""
+
+    def missing_hooks(self) -> list[str]:
+        """As :meth:`EngineAdapter.missing_hooks`, and the calibration: calibrated runs need declared
+        :attr:`CALIBRATION_KNOBS` or an own ``_calibrate_corners``."""
+        out = super().missing_hooks()
+        own = type(self)._calibrate_corners is not SteppedContactAdapter._calibrate_corners
+        if self.calibrated() and not (self.CALIBRATION_KNOBS or own):
+            out.append(hook_line(type(self), "_calibrate_corners", "(block, target, dt_s, use_cache) -> CalibrationResult",
+                                 CALIBRATION_ADVICE))
+        return out
 
     def _sample_steps(self, world, rows: np.ndarray, n_done: int) -> np.ndarray:
         """The step numbers of one world's new state rows ``(n, k)``, which follow step ``n_done``
@@ -391,7 +436,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
         tr, motion = self._run(block, s, dt, None, theta0=theta0, duration_s=reader.duration_s(block, theta0_frac))
         etas = reader.etas(block, motion.theta_rad, theta0)
         sink, hop = contact_figures(block, tr.theta_rad, tr.corner_z_m)
-        shown = {k: s.get(k) for k in self.MEASURED_SETTINGS + self.CONTACT_KEYS}
+        shown = {k: s.get(k) for k in self.MEASURED_SETTINGS + self.CALIBRATED_SETTINGS}
         return RestitutionMeasurement(etas=[float(e) for e in etas],
                                       eta_mean=float(np.mean(etas)) if etas else math.nan,
                                       eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0,
@@ -402,7 +447,8 @@ class SteppedContactAdapter(ContactEngineAdapter):
     def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
         """With :attr:`CALIBRATION_KNOBS` declared: :meth:`_calibrate_knobs`."""
         if not self.CALIBRATION_KNOBS:
-            raise NotImplementedError(f"{self.name}: declare CALIBRATION_KNOBS or implement _calibrate_corners")
+            raise MissingHook(hook_line(type(self), "_calibrate_corners", "(block, target, dt_s, use_cache) -> "
+                                        "CalibrationResult", CALIBRATION_ADVICE))
         return self._calibrate_knobs(block, target, dt, use_cache)
 
     def _calibrate_knobs(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
@@ -421,7 +467,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
                               "(fewer than two impacts); try a smaller --dt.")
         chosen = pick([Candidate.of_row(r) for r in rows], target, block)
         r = chosen.candidate.knobs
-        names = dict.fromkeys(tuple(k.name for k in knobs) + self.CONTACT_KEYS)
+        names = dict.fromkeys(tuple(k.name for k in knobs) + self.CALIBRATED_SETTINGS)
         settings = self._knobs_settings(block, dt, {k: v for k, v in r.items() if k in names})
         res = CalibrationResult(eta_target=target, eta_measured=r["eta"], eta_std=r["eta_std"], reached=chosen.reached,
                                 settings=settings, note=self._knobs_note(block, dt, target, chosen, rows, settings),
@@ -450,7 +496,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
     def _knobs_base(self, block: Block, dt: float) -> dict:
         """The settings a candidate of the declared knobs updates (default: the base settings, the
         contact keys unset)."""
-        return {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}}
+        return {**self._base_settings(), **{k: None for k in self.CALIBRATED_SETTINGS}}
 
     def _knobs_key(self, block: Block, target: float, dt: float) -> str:
         """The cache key of a grid calibration (default: the engine, the block, target, step and
@@ -460,7 +506,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _knobs_settings(self, block: Block, dt: float, values: dict) -> dict:
         """What a grid calibration records as its settings (default: the contact keys, the knobs set)."""
-        return {k: None for k in self.CONTACT_KEYS} | values
+        return {k: None for k in self.CALIBRATED_SETTINGS} | values
 
     def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
         """A grid calibration's note (default: the pick and the span of η over the candidates)."""
@@ -478,9 +524,9 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _fixed(self, contact: dict) -> "SteppedContactAdapter":
         """A copy of this adapter with explicit contact settings (no calibration behind its runs);
-        ``contact`` holds :attr:`CONTACT_KEYS` and, for a row along the base, ``contact_points``."""
+        ``contact`` holds :attr:`CALIBRATED_SETTINGS` and, for a row along the base, ``contact_points``."""
         contact = self.canonical_settings(contact)
-        st = {**self.settings, **{k: contact.get(k) for k in self.CONTACT_KEYS}}
+        st = {**self.settings, **{k: contact.get(k) for k in self.CALIBRATED_SETTINGS}}
         if self.distributed_contact:
             pts = contact.get("contact_points")
             st.update(contact="distributed" if pts else "corners", contact_points=pts or None)
@@ -497,14 +543,17 @@ class SteppedContactAdapter(ContactEngineAdapter):
                                     first_quarter_s=m.first_quarter_s)
 
     # -- the distributed contact's search -----------------------------------------------------
-    def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:  # pragma: no cover
+    @required("(block, dt_s) -> (candidates, phrase)", "the candidates of the search of a row of points along "
+              "the base (contact settings) and a phrase naming the range searched; or implement _distributed_rows",
+              when=lambda ad: _skeleton_does(ad, "_calibrate_distributed_n", "_distributed_rows"))
+    def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:  # pragma: no cover - declared
         """The candidates of the distributed search (contact settings, plus keys of the engine's own
         for notes) and a phrase describing the range searched."""
-        raise NotImplementedError
 
-    def _describe_contact(self, row: dict) -> str:  # pragma: no cover - engine wording
+    @required("(row) -> str", "one candidate of the search of a row of points along the base in words, for "
+              "the notes", when=lambda ad: _skeleton_does(ad, "_calibrate_distributed_n"))
+    def _describe_contact(self, row: dict) -> str:  # pragma: no cover - declared
         """One candidate of the distributed search in words, for the notes."""
-        raise NotImplementedError
 
     def _distributed_rows(self, block: Block, t: float, n: int, dt: float) -> tuple[list[dict], str]:
         """The measured candidates of the distributed search with ``n`` points for the target ``t``,
@@ -520,7 +569,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
         grid, searched = self._distributed_grid(block, dt)
         rows = []
         for g in grid:
-            s = {**base, **{k: g.get(k) for k in self.CONTACT_KEYS}}
+            s = {**base, **{k: g.get(k) for k in self.CALIBRATED_SETTINGS}}
             try:
                 mm = self.measure_restitution(block, dt_s=dt, settings=s)
                 rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "n": len(mm.etas), "sink_m": mm.sink_m,
@@ -531,7 +580,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _distributed_base(self, n: int) -> dict:
         """The settings of a distributed candidate with ``n`` points before its contact settings."""
-        return {**self._base_settings(), **{k: None for k in self.CONTACT_KEYS}, "contact_points": n}
+        return {**self._base_settings(), **{k: None for k in self.CALIBRATED_SETTINGS}, "contact_points": n}
 
     def _distributed_key(self, block: Block, t: float, n: int, dt: float) -> str:
         """The cache key of the distributed calibration with ``n`` points to ``t`` at step ``dt``."""
@@ -543,7 +592,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _distributed_contact(self, row: dict, n: int) -> dict:
         """A candidate row's contact with ``n`` points, as :meth:`_fixed` takes it."""
-        return {k: row.get(k) for k in self.CONTACT_KEYS} | {"contact_points": n}
+        return {k: row.get(k) for k in self.CALIBRATED_SETTINGS} | {"contact_points": n}
 
     def _distributed_settings(self, block: Block, dt: float, row: dict, n: int) -> dict:
         """The settings a distributed calibration records for its row (here: its contact)."""

@@ -31,6 +31,21 @@ EXTRAS = {"mujoco": "mujoco", "pybullet": "pybullet", "exudyn": "exudyn", "mujoc
           "physx": "physx"}
 
 
+#: what must be installed before an engine's extra, where pip would otherwise pull the wrong thing
+#: (Genesis: torch's CPU wheel, or pip pulls a multi-GB CUDA torch)
+PREREQUISITES = {"genesis": "pip install torch --index-url https://download.pytorch.org/whl/cpu"}
+
+
+def install_command(engine: str) -> str:
+    """The shell command that installs a built-in engine, e.g. ``pip install 'rockbench[dart]'``
+    (its prerequisite first, joined by ``&&``); "" for an engine rockbench does not ship."""
+    extra = EXTRAS.get(engine)
+    if extra is None:
+        return ""
+    cmd = f"pip install 'rockbench[{extra}]'"
+    return f"{PREREQUISITES[engine]} && {cmd}" if engine in PREREQUISITES else cmd
+
+
 def _canonical(name: str) -> str:
     return name.lower().replace("_", "-").replace(".", "-")
 

@@ -23,7 +23,7 @@ import numpy as np
 ENERGY_GAIN_TOL = 0.05
 
 
-def energy(theta_rad, theta_dot_rad_s, alpha_rad: float, p_rad_s: float, linearized: bool = False):
+def energy_rad2_s2(theta_rad, theta_dot_rad_s, alpha_rad: float, p_rad_s: float, linearized: bool = False):
     """Mechanical energy per unit corner inertia [rad^2/s^2] (vectorised)."""
     th = np.abs(np.asarray(theta_rad, dtype=float))
     kin = 0.5 * np.asarray(theta_dot_rad_s, dtype=float) ** 2
@@ -32,12 +32,12 @@ def energy(theta_rad, theta_dot_rad_s, alpha_rad: float, p_rad_s: float, lineari
     return kin + p_rad_s**2 * np.cos(alpha_rad - th)
 
 
-def barrier_energy(alpha_rad: float, p_rad_s: float, linearized: bool = False) -> float:
+def barrier_energy_rad2_s2(alpha_rad: float, p_rad_s: float, linearized: bool = False) -> float:
     """Energy of the block balanced on its corner (|θ| = α, θ̇ = 0) [rad^2/s^2]."""
     return 0.0 if linearized else p_rad_s**2
 
 
-def base_energy(alpha_rad: float, p_rad_s: float, linearized: bool = False) -> float:
+def base_energy_rad2_s2(alpha_rad: float, p_rad_s: float, linearized: bool = False) -> float:
     """Potential energy at θ = 0 [rad^2/s^2]."""
     return -0.5 * p_rad_s**2 * alpha_rad**2 if linearized else p_rad_s**2 * np.cos(alpha_rad)
 
@@ -63,8 +63,8 @@ def free_rocking_fate(theta_rad: float, theta_dot_rad_s: float, alpha_rad: float
         Whether it overturns, and how many impacts (0 or 1) happen before it does; when it does
         not overturn the count is 0 (the endless decaying series after is not counted here).
     """
-    E = float(energy(theta_rad, theta_dot_rad_s, alpha_rad, p_rad_s, linearized))
-    Eb = barrier_energy(alpha_rad, p_rad_s, linearized)
+    E = float(energy_rad2_s2(theta_rad, theta_dot_rad_s, alpha_rad, p_rad_s, linearized))
+    Eb = barrier_energy_rad2_s2(alpha_rad, p_rad_s, linearized)
     if theta_rad == 0.0 and theta_dot_rad_s == 0.0:
         return False, 0
     if abs(theta_rad) > alpha_rad and theta_rad * theta_dot_rad_s >= 0.0:
@@ -79,6 +79,6 @@ def free_rocking_fate(theta_rad: float, theta_dot_rad_s: float, alpha_rad: float
         return False, 0
     if abs(theta_rad) > alpha_rad and E <= Eb:
         return True, 0  # moving inward past the balance point without enough energy to get back over it
-    E0 = base_energy(alpha_rad, p_rad_s, linearized)
+    E0 = base_energy_rad2_s2(alpha_rad, p_rad_s, linearized)
     after = E0 + eta**2 * (E - E0)
     return (after > Eb), (1 if after > Eb else 0)

@@ -246,7 +246,7 @@ def _acc(th, u, s, alpha, p2, lin):
 
 @njit(cache=True)
 def _energy(th, thd, alpha, p2, lin):
-    """Compiled twin of :func:`~rockbench.reference_solver.energy.energy` with ``p² = p2``
+    """Compiled twin of :func:`~rockbench.reference_solver.energy.energy_rad2_s2` with ``p² = p2``
     [rad^2/s^2]."""
     a = abs(th)
     if lin:

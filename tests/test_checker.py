@@ -6,6 +6,7 @@ import pytest
 
 from rockbench.harness.cli.main import main
 from rockbench.engines.checker import check_adapter
+from rockbench.engines.skeleton import SteppedContactAdapter
 
 
 pytestmark = pytest.mark.usefixtures("fake_engines")
@@ -55,6 +56,28 @@ def test_engines_command(capsys):
         assert r["available"] or r["reason"]
     assert main(["engines"]) == 0
     assert "analytic" in capsys.readouterr().out
+
+
+def test_engines_command_says_in_one_short_line_what_is_missing_and_the_install_command(capsys):
+    from rockbench.engines import registry
+
+    registry.register("ghost", "no_such_module_xyz:Adapter")
+    try:
+        assert main(["engines"]) == 0
+    finally:
+        registry.unregister("ghost")
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("ghost"))
+    assert line.split()[1] == "no" and line.endswith("cannot import no_such_module_xyz")
+    assert "not available" not in line and len(line.rsplit("  ", 1)[-1]) < 60   # the note alone
+
+
+def test_a_missing_builtin_engine_names_its_install_command():
+    from rockbench.engines.support import install_command
+
+    assert install_command("dart") == "pip install 'rockbench[dart]'"
+    assert install_command("genesis").startswith("pip install torch --index-url")
+    assert install_command("genesis").endswith("&& pip install 'rockbench[genesis]'")
+    assert install_command("reference") == ""
 
 
 def test_number_setting_checks_and_converts_for_every_adapter():
@@ -159,3 +182,51 @@ def test_batching_is_declared_and_the_old_parallel_batch_still_reads(fake_engine
     with pytest.raises(TypeError, match="batching must be"):
         class Bad(EngineAdapter):
             batching = "sometimes"
+
+
+class HalfDone(SteppedContactAdapter):
+    """A contact engine that builds its scene and implements nothing else."""
+
+    name = "half-done"
+    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "stiffness_n_m": None}
+    CALIBRATED_SETTINGS = ("stiffness_n_m",)
+
+    def _world(self, block, s, dt_s):
+        return {}
+
+
+def test_a_missing_hook_is_named_with_what_to_do_one_line_each(capsys):
+    from rockbench.engines import registry
+    from rockbench.engines.hooks import MissingHook
+
+    cls = HalfDone
+    rep = check_adapter(cls())
+    assert not rep.passed and [c.name for c in rep.checks] == ["hooks"] and len(rep.not_run) == 12
+    lines = rep.checks[0].detail.split("\n")
+    assert [ln.split("(")[0] for ln in lines] == [f"HalfDone: implement {h}" for h in (
+        "_resolved_settings", "_start", "_advance", "_angles", "_motion", "_calibrate_corners")]
+    assert "--set settings=defaults" in lines[-1] and "CALIBRATION_KNOBS" in lines[-1]
+    # as shipped, nothing is calibrated: the calibration hook is not needed
+    shipped = check_adapter(cls(settings="defaults")).checks[0].detail
+    assert "_calibrate_corners" not in shipped and shipped.count("\n") == 4
+    # the declaration raises the same line, not an empty NotImplementedError
+    with pytest.raises(MissingHook, match=r"HalfDone: implement _advance\(world, n_from, n_to\)"):
+        cls()._advance(None, 0, 1)
+    registry.register("half-done", cls)
+    try:
+        assert main(["check-adapter", "half-done"]) == 1
+    finally:
+        registry.unregister("half-done")
+    out = capsys.readouterr().out
+    assert "FAIL  hooks" in out and out.count("HalfDone: implement") == 6 and "12 checks not run" in out
+
+
+def test_every_builtin_adapter_implements_every_hook_it_needs():
+    from rockbench.engines.registry import BUILTIN, adapter_class
+
+    for name in BUILTIN:
+        cls = adapter_class(name)
+        modes = ("calibrated", "defaults") if "settings" in cls.SETTINGS else (None,)
+        for mode in modes:
+            ad = cls() if mode is None else cls(settings=mode)
+            assert ad.missing_hooks() == [], (name, mode)

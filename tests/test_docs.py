@@ -138,6 +138,9 @@ def test_every_code_example_runs(write_map, band, path, tmp_path, monkeypatch, c
         elif lang == "yaml":
             cmds = [m.group(1) for m in re.finditer(r"-\s*run:\s*(.+)", text)]
             checked += _run_shell(cmds, tmp_path, capsys)
+        elif lang == "toml":
+            import tomllib
+            tomllib.loads(text)
         elif lang in ("", "text"):
             assert lang == "text", f"{path.name}: a code block without a language tag; say what it is"
         else:

@@ -7,15 +7,15 @@ import pytest
 from hypothesis import given, strategies as st
 
 from rockbench.reference_solver.classify import Outcome, classify
-from rockbench.reference_solver.energy import barrier_energy, base_energy, energy, free_rocking_fate
+from rockbench.reference_solver.energy import barrier_energy_rad2_s2, base_energy_rad2_s2, energy_rad2_s2, free_rocking_fate
 
 ALPHA, P = 0.4182, 11.524
 
 
 def test_energy_levels():
-    assert energy(0.0, 0.0, ALPHA, P) == pytest.approx(base_energy(ALPHA, P))
-    assert energy(ALPHA, 0.0, ALPHA, P) == pytest.approx(barrier_energy(ALPHA, P))
-    assert energy(-ALPHA, 0.0, ALPHA, P, linearized=True) == pytest.approx(0.0)
+    assert energy_rad2_s2(0.0, 0.0, ALPHA, P) == pytest.approx(base_energy_rad2_s2(ALPHA, P))
+    assert energy_rad2_s2(ALPHA, 0.0, ALPHA, P) == pytest.approx(barrier_energy_rad2_s2(ALPHA, P))
+    assert energy_rad2_s2(-ALPHA, 0.0, ALPHA, P, linearized=True) == pytest.approx(0.0)
 
 
 def test_outward_fate_is_the_barrier():

@@ -40,7 +40,7 @@ class _BoxScene(da._Scene):
         node = self.block.getBodyNode(0)
         node.removeAllShapeNodes()
         da._contact_aspects(node.createShapeNode(dart.dynamics.BoxShape([block.width_m, block.depth_m, block.height_m])),
-                            float(s["friction"]), float(s["restitution_coeff"]))
+                            float(s["friction"]), float(s["contact_restitution"]))
 
 
 def _row_scene(planar_scene, n: int):
@@ -56,7 +56,7 @@ def _row_scene(planar_scene, n: int):
                 x = -(block.width_m / 2 - r) + i * (block.width_m - 2 * r) / (n - 1)
                 sphere = node.createShapeNode(dart.dynamics.SphereShape(r))
                 sphere.setRelativeTranslation([x, 0.0, -block.height_m / 2 + r])
-                da._contact_aspects(sphere, float(s["friction"]), float(s["restitution_coeff"]))
+                da._contact_aspects(sphere, float(s["friction"]), float(s["contact_restitution"]))
 
     return _Row
 

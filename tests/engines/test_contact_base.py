@@ -124,6 +124,23 @@ def test_old_setting_names_are_mapped_in_one_table(engine):
             cls.canonical_settings({old: 1.0, new: 2.0})
 
 
+def test_a_cached_calibration_is_read_under_the_new_setting_names(tmp_path, monkeypatch):
+    from rockbench.engines import calibration
+    from rockbench.engines.registry import adapter_class
+
+    monkeypatch.setenv("ROCKBENCH_CACHE", str(tmp_path))
+    cls = adapter_class("pybullet")
+    old = {"eta_target": 0.8, "eta_measured": 0.8, "eta_std": 0.0, "reached": True,
+           "settings": {"restitution_coef": 0.3, "contact_stiffness": None}}
+    calibration.store("k", {"result": old, "search": {}})
+    got = cls()._cached("k", use_cache=True)
+    assert got.settings == {"contact_restitution": 0.3, "contact_stiffness_n_m": None} and got.eta_measured == 0.8
+    # Exudyn's records name its model's parameters (stiffness_n_m, ...), not settings: they stay
+    model = {"stiffness_n_m": 2e6, "damping_n_s_m": 0.0, "impact_model": 2, "restitution_coefficient": 0.05}
+    calibration.store("x", {"result": {**old, "settings": model}, "search": {}})
+    assert adapter_class("exudyn")()._cached("x", use_cache=True).settings == model
+
+
 def _cal(n, eta, reached):
     from rockbench.engines.base import CalibrationResult
     return CalibrationResult(eta_target=0.8, eta_measured=eta, eta_std=0.0, reached=reached,
@@ -179,3 +196,20 @@ def test_run_end_is_one_rule_in_order_diverged_overturn_trapped():
     e_trap = p * p - TRAPPED_MARGIN * p * p * (1.0 - np.cos(alpha))
     om = np.sqrt(2.0 * (np.array([e_trap * 1.001, e_trap * 0.999]) - p * p * np.cos(alpha)))
     assert overturn_impossible([0.0, 0.0], om, alpha_rad=alpha, p_rad_s=p).tolist() == [False, True]
+
+
+def test_calibrated_settings_default_to_none_and_the_old_name_is_an_alias():
+    from rockbench.engines.skeleton import SteppedContactAdapter
+
+    shared = SteppedContactAdapter.SHARED_SETTINGS
+    with pytest.raises(TypeError, match="'stiffness_n_m' a default .* never calibrate"):
+        type("Stiff", (SteppedContactAdapter,), {"SETTINGS": {**shared, "stiffness_n_m": 1e6},
+                                                 "CALIBRATED_SETTINGS": ("stiffness_n_m",)})
+    # as shipped by default, a given contact is fine: nothing is calibrated unless asked for
+    type("Shipped", (SteppedContactAdapter,), {"SETTINGS": {**shared, "settings": "defaults", "stiffness_n_m": 1e6},
+                                               "CALIBRATED_SETTINGS": ("stiffness_n_m",)})
+    with pytest.warns(DeprecationWarning, match="CONTACT_KEYS is now called CALIBRATED_SETTINGS"):
+        old = type("Old", (SteppedContactAdapter,), {"SETTINGS": {**shared, "stiffness_n_m": None},
+                                                     "CONTACT_KEYS": ("stiffness_n_m",)})
+    assert old.CALIBRATED_SETTINGS == ("stiffness_n_m",)
+    assert old(stiffness_n_m=2e6).explicit_contact() and not old().explicit_contact()

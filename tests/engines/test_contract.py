@@ -73,7 +73,7 @@ SPEC = {
         mirror=(("B3M", "sine", 4.0, 3.0), 1e-9, "peak"),
         slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="defaults")),
         cli_block="B6M",
-        cli_settings=lambda s: s["collision_detector"] == "fcl" and s["restitution_coeff"] == 0.0),
+        cli_settings=lambda s: s["collision_detector"] == "fcl" and s["contact_restitution"] == 0.0),
     "genesis": dict(
         trajectory=("B3M", "sine", 6.0, 2.0),
         mirror=(("B3M", "sine", 4.0, 3.0), 1e-3, "alpha"),

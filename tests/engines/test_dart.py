@@ -68,7 +68,7 @@ def test_calibration_to_housner_keeps_dart_as_shipped(name, tol):
     res = get_adapter("dart").calibrate(block, target)
     assert res.reached, res.note
     assert abs(res.eta_measured - target) <= tol * target
-    assert res.settings == {"collision_detector": "fcl", "split_impulse": False, "restitution_coeff": 0.0}
+    assert res.settings == {"collision_detector": "fcl", "split_impulse": False, "contact_restitution": 0.0}
     assert res.evaluations == 1 and "as shipped" in res.note
     # as shipped at the calibration's step (its own step is DART's 1 ms)
     m = get_adapter("dart", settings="defaults").measure_restitution(block, dt_s=5e-4)
@@ -91,14 +91,14 @@ def test_restitution_below_the_bounce_threshold_changes_nothing():
     # B6M's landing corner arrives at 0.07 m/s: e·v_n stays under DART's 0.1 m/s, so no bounce at all
     block = get_preset("B6M").block()
     shipped = get_adapter("dart", settings="defaults").measure_restitution(block, dt_s=5e-4)
-    bouncy = get_adapter("dart", restitution_coeff=1.0).measure_restitution(block, dt_s=5e-4)
+    bouncy = get_adapter("dart", contact_restitution=1.0).measure_restitution(block, dt_s=5e-4)
     assert bouncy.etas == shipped.etas
 
 
 def test_restitution_above_the_threshold_makes_the_block_hop():
     # a large block lands fast enough (0.64 m/s) for DART to apply e = 0.6: the block leaves the table
     block = Block(0.4, 0.8, mass_kg=100.0)
-    ad = get_adapter("dart", restitution_coeff=0.6)
+    ad = get_adapter("dart", contact_restitution=0.6)
     tr, motion = ad._run(block, ad.resolve(block, Restitution()), 5e-4, None, theta0=0.5 * block.alpha_rad,
                          duration_s=0.4)
     assert np.max(motion.vz_m_s) > 0.3
@@ -147,7 +147,7 @@ def test_engine_exception_becomes_engine_error(monkeypatch):
 
 
 @pytest.mark.parametrize("key, value", [
-    ("collision_detector", "gjk"), ("split_impulse", "maybe"), ("restitution_coeff", -0.1), ("restitution_coeff", 1.5),
+    ("collision_detector", "gjk"), ("split_impulse", "maybe"), ("contact_restitution", -0.1), ("contact_restitution", 1.5),
     ("corner_radius_m", 0.01), ("corner_radius_m", -1e-4), ("bogus", 1),
 ])
 def test_bad_settings_are_a_config_error_and_one_cli_line(key, value, capsys):

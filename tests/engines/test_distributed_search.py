@@ -37,7 +37,7 @@ class _Fake(SteppedContactAdapter):
     name = "fake-rows"
     default_dt_s = 1e-3
     SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "defaults", "k": None}
-    CONTACT_KEYS = ("k",)
+    CALIBRATED_SETTINGS = ("k",)
     distributed_contact = True
 
     def __init__(self, rows, **settings):

@@ -120,7 +120,7 @@ def test_shipped_defaults_give_an_eta_and_no_calibration():
     ad = get_adapter("drake", settings="defaults")
     s = ad.resolve(get_preset("B6M").block(), Restitution())
     assert s["approximation"] == "lagged" and "calibration" not in s
-    assert all(s[k] is None for k in ad.CONTACT_KEYS)
+    assert all(s[k] is None for k in ad.CALIBRATED_SETTINGS)
     m = ad.measure_restitution(get_preset("B6M").block())
     assert 0.85 < m.eta_mean < 1.0
 

@@ -116,7 +116,7 @@ def test_restitution_below_the_bounce_threshold_changes_nothing():
     # the landing corner arrives far below PhysX's 2 m/s bounce threshold
     block = get_preset("B3M").block()
     shipped = get_adapter("physx", settings="defaults").measure_restitution(block, dt_s=5e-4)
-    bouncy = get_adapter("physx", restitution_coeff=1.0).measure_restitution(block, dt_s=5e-4)
+    bouncy = get_adapter("physx", contact_restitution=1.0).measure_restitution(block, dt_s=5e-4)
     assert bouncy.etas == shipped.etas
 
 
@@ -161,7 +161,7 @@ def test_import_prints_no_renderer_warning():
 
 @pytest.mark.parametrize("key, value", [
     ("solver", "jacobi"), ("position_iterations", 0), ("velocity_iterations", 1.5), ("substeps", 0),
-    ("contact_offset_m", -0.01), ("restitution_coeff", 1.5), ("bounce_threshold_m_s", 0), ("bogus", 1),
+    ("contact_offset_m", -0.01), ("contact_restitution", 1.5), ("bounce_threshold_m_s", 0), ("bogus", 1),
 ])
 def test_bad_settings_are_a_config_error_and_one_cli_line(key, value, capsys):
     with pytest.raises(ConfigError):

@@ -148,7 +148,7 @@ def test_engine_exception_becomes_engine_error(monkeypatch):
 
 @pytest.mark.parametrize("settings", [
     {"contact_stiffness_n_m": -1.0, "contact_damping_n_s_m": 1.0}, {"contact_stiffness_n_m": 1e6},
-    {"friction": 20.0}, {"solver_iterations": 0}, {"friction_anchor": "sometimes"}, {"restitution_coef": 1.5},
+    {"friction": 20.0}, {"solver_iterations": 0}, {"friction_anchor": "sometimes"}, {"contact_restitution": 1.5},
 ])
 def test_bad_settings_raise_config_error(settings):
     with pytest.raises(ConfigError):

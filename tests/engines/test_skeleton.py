@@ -30,7 +30,7 @@ class _Toy(SteppedContactAdapter):
     batching = "native"
     SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "defaults", "stiffness_n_m": 1e6,
                 "tail_s": 0.5, "min_tail_s": 0.1}
-    CONTACT_KEYS = ("stiffness_n_m",)
+    CALIBRATED_SETTINGS = ("stiffness_n_m",)
 
     def _resolved_settings(self, block, dt_s, cal):
         return dict(self.settings)

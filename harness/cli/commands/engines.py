@@ -1,6 +1,8 @@
 """``rockbench engines``: every known engine, whether it is available, its version, the versions rockbench
-supports, and why not (an installed version outside the supported range is said there too); a GPU-first
-engine without a GPU here says "CPU only (slow)" (``note``, also in ``--json``)."""
+supports, and for a missing one, in one line, the module that cannot be imported and the command that
+installs it (``--json`` has the whole error under ``reason``); an installed version outside the supported
+range is said there too; a GPU-first engine without a GPU here says "CPU only (slow)" (``note``, also in
+``--json``)."""
 
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ def run(args) -> int:
         return 0
     table = [("engine", "available", "version", "supported", "note")]
     for r in rows:
-        note = r["note"] if r["available"] else f"not available: {r['reason']}"
+        note = r["note"] if r["available"] else f"cannot import {r['missing']}: {r['install']}".rstrip(": ")
         if r.get("outside_range"):
             note = f"{r['outside_range']}: its maps may fail or differ" + (f"; {note}" if note else "")
         table.append((r["engine"], "yes" if r["available"] else "no", str(r["version"] or "-"),

@@ -1,0 +1,82 @@
+"""The toy engine's adapter: a planar block on two damped penalty springs at its bottom corners.
+
+Built on rockbench's public contract only (docs/engines.md): the skeleton
+:class:`~rockbench.engines.skeleton.SteppedContactAdapter` owns the loop, the end of a run, the
+read-out and the judge; this class builds and steps its "engine" (a few lines of NumPy) in the five
+stepping hooks and says how its settings resolve. Its contact is a toy, not a model worth
+benchmarking. It runs as shipped only (``settings = "defaults"``): it declares no calibration.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rockbench.engines.skeleton import Motion, SteppedContactAdapter, pivot_pose
+from rockbench.reference_solver.model import G
+
+
+class ToyEngine(SteppedContactAdapter):
+    """A planar block on two critically damped penalty springs at its bottom corners."""
+
+    name = "toy"
+    module = "rockbench_toy"  # the engine's module, imported lazily; its __version__ is the version reported
+    install_hint = "pip install rockbench-toy"
+    default_dt_s = 2e-4     # [s]
+    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "defaults", "contact_stiffness_n_m": None,
+                "tail_s": 1.0, "min_tail_s": 0.25}
+    #: given explicitly, these replace a calibration; None (the default) means "not given"
+    CALIBRATED_SETTINGS = ("contact_stiffness_n_m",)
+    #: the stiffness as shipped [N/m]
+    SHIPPED_STIFFNESS_N_M = 1e6
+
+    def _validate_engine_settings(self, s: dict) -> None:
+        self._number_setting(s, "contact_stiffness_n_m", "N/m")
+
+    def _resolved_settings(self, block, dt_s, calibration):
+        s = {**self._base_settings(), **(calibration.settings if calibration else {})}
+        if s["contact_stiffness_n_m"] is None:
+            s["contact_stiffness_n_m"] = self.SHIPPED_STIFFNESS_N_M
+        return s
+
+    def _world(self, block, s, dt_s):
+        return {"block": block, "k": s["contact_stiffness_n_m"], "mu": s["friction"], "dt": dt_s}
+
+    def _start(self, w, block, s, dt_s, pulse, theta0_rad, n_steps):
+        x_m, z_m = pivot_pose(block, theta0_rad)
+        # the inertial drive: -ü at each step's midpoint (zero for free rocking)
+        mid_s = (np.arange(n_steps) + 0.5) * dt_s
+        w["acc"] = np.zeros(n_steps) if pulse is None else -pulse.accel(mid_s)
+        w["state"] = np.array([x_m, z_m, theta0_rad, 0.0, 0.0, 0.0])  # x, z, θ, ẋ, ż, θ̇
+        return w["state"][None].copy()
+
+    def _advance(self, w, n_from, n_to):
+        blk, dt, k = w["block"], w["dt"], w["k"]
+        m, inertia = blk.mass_kg, blk.inertia_cm_kg_m2
+        c = 2.0 * math.sqrt(k * m)  # critically damped springs: plastic impacts
+        half_b, half_h = blk.width_m / 2, blk.height_m / 2
+        rows = np.empty((n_to - n_from, 6))
+        x, z, th, vx, vz, om = w["state"]
+        for j, i in enumerate(range(n_from, n_to)):
+            fx, fz, tau = m * w["acc"][i], -m * G, 0.0
+            cos, sin = math.cos(th), math.sin(th)
+            for side in (1.0, -1.0):  # the bottom corners, relative to the centre of mass
+                rx, rz = side * half_b * cos - half_h * sin, -side * half_b * sin - half_h * cos
+                if z + rz < 0.0:
+                    n = max(0.0, -k * (z + rz) - c * (vz - om * rx))
+                    t = min(max(-c * (vx + om * rz), -w["mu"] * n), w["mu"] * n)
+                    fx, fz, tau = fx + t, fz + n, tau + rz * t - rx * n
+            vx, vz, om = vx + dt * fx / m, vz + dt * fz / m, om + dt * tau / inertia
+            x, z, th = x + dt * vx, z + dt * vz, th + dt * om
+            rows[j] = (x, z, th, vx, vz, om)
+        w["state"] = rows[-1].copy()
+        return rows
+
+    def _angles(self, w, rows):
+        return rows[:, 2], rows[:, 5]
+
+    def _motion(self, w, block, s, data, t_s, pulse):
+        # x_m in the world frame; the table stays at rest (inertial drive), so table_x_m is None
+        return Motion(x_m=data[:, 0], z_m=data[:, 1], theta_rad=data[:, 2], vx_m_s=data[:, 3], vz_m_s=data[:, 4],
+                      theta_dot_rad_s=data[:, 5])
