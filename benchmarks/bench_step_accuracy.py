@@ -16,7 +16,7 @@ step of ``--steps`` (default 2, 1, 0.5, 0.2, 0.1 ms):
 Then the engine as shipped at its own default step (capped by the pulse, as the benchmark runs it),
 and the step the one time-step rule (:mod:`rockbench.engines.step_rule`) chooses for the block and η.
 
-The record goes to ``benchmarks/results/step-accuracy-<block>-<pulse>-<date>.json`` (machine,
+The record goes to ``benchmarks/results/step-accuracy-<block>-<pulse>-<grid>-<date>.json`` (machine,
 commit, versions, command); rows of engines not run this time are kept from an earlier record of
 the same name, so engines can be run one by one. The Markdown table is printed.
 
@@ -143,8 +143,10 @@ def _ms(dt_s) -> str:
     return "–" if dt_s is None else f"{dt_s * 1e3:.3g} ms"
 
 
-def _row_cells(r: dict, rule_dt) -> list[str]:
-    step = _ms(r["dt_s"]) + (" (rule)" if r["variant"] == "calibrated" and rule_dt == r["dt_s"] else "")
+def _row_cells(r: dict, rule: dict) -> list[str]:
+    step = _ms(r["dt_s"])
+    if r["variant"] == "calibrated" and rule.get("dt_s") == r["dt_s"]:
+        step += " (rule)" if rule.get("converged") else " (rule: no coarser step agrees)"
     if r["variant"] != "calibrated":
         step = f"as shipped, {_ms(r['dt_s'])}"
     if "error" in r:
@@ -162,14 +164,15 @@ def _row_cells(r: dict, rule_dt) -> list[str]:
 
 def markdown_table(record: dict) -> str:
     """The record's rows as a Markdown table, engine by engine, coarsest step first; the step the
-    time-step rule chose is marked ``(rule)``."""
-    rules = {r["engine"]: r.get("dt_s") for r in record.get("rule_steps", [])}
+    time-step rule chose is marked ``(rule)``, or where no coarser step agreed with the finest
+    (the rule then keeps the finest) ``(rule: no coarser step agrees)``."""
+    rules = {r["engine"]: r for r in record.get("rule_steps", [])}
     lines = ["| engine | step | η | boundary distance | invalid cells (inside the domain) | ms per cell "
              "| CPU ms per cell | simulated cells |", "|---|---|---|---|---|---|---|---|"]
     order = {e: i for i, e in enumerate(dict.fromkeys(r["engine"] for r in record["rows"]))}
     rows = sorted(record["rows"], key=lambda r: (order[r["engine"]], r["variant"] != "calibrated", -r["dt_s"]))
     for r in rows:
-        lines.append("| " + " | ".join([r["engine"], *_row_cells(r, rules.get(r["engine"]))]) + " |")
+        lines.append("| " + " | ".join([r["engine"], *_row_cells(r, rules.get(r["engine"], {}))]) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -256,8 +259,9 @@ def main(argv=None) -> int:
     if args.table:
         print(markdown_table(json.loads(Path(args.table).read_text())), end="")
         return 0
+    grid = f"{args.w_ratio.split(':')[-1]}x{args.a_ratio.split(':')[-1]}"
     path = Path(args.json) if args.json else (
-        RESULTS / f"step-accuracy-{args.block}-{args.pulse}-{datetime.now(timezone.utc):%Y-%m-%d}.json")
+        RESULTS / f"step-accuracy-{args.block}-{args.pulse}-{grid}-{datetime.now(timezone.utc):%Y-%m-%d}.json")
     record = _json_safe(_merged(path, measure(args), [e for e in args.engines.split(",") if e]))
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(record, indent=1, allow_nan=False) + "\n")
