@@ -46,11 +46,14 @@ RESULTS = Path(__file__).resolve().parent / "results"
 ENGINES = ("mujoco", "pybullet", "exudyn", "dart", "physx", "drake")
 #: Steps tried by default [ms], coarsest first
 STEPS_MS = (2.0, 1.0, 0.5, 0.2, 0.1)
-#: The grid: ω/p up to 12 so that 2 ms keeps 20 steps per wave on B3M (at ω/p = 16 it does not)
-W_RATIO, A_RATIO = "1:12:23", "1:12:23"
+#: The grid: the default maps' spacing (0.30 along ω/p, 0.22 along a₀/(g·tanα)), ω/p up to 12 only, so
+#: that 2 ms keeps 20 steps per wave on B3M (at ω/p = 16 it does not)
+W_RATIO, A_RATIO = "1:12:38", "1:12:51"
 
 
-def _axes(block, pulse: str, w_text: str, a_text: str, engine: str, settings: dict, dt_s: float | None):
+def _map_spec(block, pulse: str, w_text: str, a_text: str, engine: str, settings: dict, dt_s: float | None):
+    """The map of ``engine`` with ``settings`` at step ``dt_s`` [s] (None: the engine's own) on the grid
+    ``w_text`` × ``a_text`` (``LO:HI:N``), Housner's η."""
     from rockbench.harness.maps.grid import MapSpec, parse_range
     from rockbench.reference_solver.restitution import Restitution
 
@@ -209,6 +212,8 @@ def _merged(path: Path, record: dict, engines: list) -> dict:
 
 
 def measure(args) -> dict:
+    """The record of one command: the reference map, then every engine of ``args.engines``
+    (:func:`engine_rows`), with the machine, the versions, the commit and the command."""
     from rockbench.harness.blocks.presets import get_preset
     from rockbench.harness.maps.sweep import run_map
     from rockbench.harness.store.loading import load_entry
@@ -219,7 +224,7 @@ def measure(args) -> dict:
     eta = Restitution().eta(block.alpha_rad)
     engines = [e for e in args.engines.split(",") if e]
     steps_s = [float(x) * 1e-3 for x in args.steps.split(",") if x]
-    make_spec = lambda engine, settings, dt: _axes(block, args.pulse, args.w_ratio, args.a_ratio,   # noqa: E731
+    make_spec = lambda engine, settings, dt: _map_spec(block, args.pulse, args.w_ratio, args.a_ratio,   # noqa: E731
                                                    engine, settings, dt)
     run = {"started_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"), "engines": engines,
            "command": "python " + " ".join([f"benchmarks/{Path(sys.argv[0]).name}", *sys.argv[1:]]),
