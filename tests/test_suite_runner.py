@@ -18,8 +18,7 @@ def test_shipped_suites_parse_and_plan():
     assert d.name == "default" and q.name == "quick"
     assert d.cases.blocks == ["B3M", "B6M", "B3L", "B6L"] and d.cases.pulses == ["sine", "cosine"]
     assert q.cases.blocks == ["B3M", "B6L"]  # one block per slenderness
-    quick_held = [j for j in plan(q, ["mujoco", "exudyn"]) if j.settings.get("calibrate_on")]
-    assert {(j.engine, j.block) for j in quick_held} == {("mujoco", "B6L")}
+    assert not [j for j in plan(q, ["mujoco", "exudyn"]) if j.settings.get("calibrate_on")]   # the default suite's
     jobs = plan(d, ["mujoco", "pybullet"])
     refs = [j for j in jobs if j.engine == "reference"]
     assert len(refs) == 4 * 2 * 3  # blocks × pulses × (Housner, modified average k, modified exact k)
