@@ -94,7 +94,7 @@ STATIC_PENETRATION_M = 1.34e-6
 CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 
 #: The scan for the distributed contact (docs/contact.md): its η rises with the coefficient from about
-#: η_H, and the probe (benchmarks/probes/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
+#: η_H, and the probe (tests/measurements/probes/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
 CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
 
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].

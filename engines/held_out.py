@@ -8,7 +8,7 @@ same Housner η and the same reference map in the normalised plane, and differs 
 what the check tests.
 
 The names are those of the benchmark's block presets (Table 1), which live on the floor above
-(:mod:`rockbench.harness.blocks.presets`); it hands them down with :func:`name_blocks` when it is
+(:mod:`rockbench.benchmark.blocks.presets`); it hands them down with :func:`name_blocks` when it is
 imported, so that this floor imports nothing above it. :data:`SIBLING` is the one other named block of
 the mapped block's slenderness (B3M ↔ B3L, B6M ↔ B6L).
 """
@@ -53,7 +53,7 @@ def check_name(value, engine: str) -> str | None:
         return SIBLING
     if text.upper() in _NAMED:
         return text.upper()
-    known = ", ".join(_NAMED) or "none known yet (they are the presets of rockbench.harness)"
+    known = ", ".join(_NAMED) or "none known yet (they are the presets of rockbench.benchmark)"
     raise ConfigError(f"{engine} setting 'calibrate_on' must be {SIBLING!r} or a block name ({known}), got {value!r}.")
 
 

@@ -92,7 +92,7 @@ _INTEGRATORS = ("euler", "implicitfast", "implicit", "rk4")
 
 #: Distributed-contact calibration (docs/contact.md): solimp impedances d (dmin = dmax = d), time
 #: constants as multiples of the time step, damping ratios. The probe
-#: (benchmarks/probes/probe_eta_m_mujoco.py) found η rising from about η_H at d = 0.9 to 0.88 (B3M) and
+#: (tests/measurements/probes/probe_eta_m_mujoco.py) found η rising from about η_H at d = 0.9 to 0.88 (B3M) and
 #: 0.97 (B6M) at d = 0.3 with a row of points along the base.
 _D_VALUES = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 _TC_FACTORS_DIST = (2.0, 4.0, 8.0, 16.0)

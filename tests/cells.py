@@ -2,7 +2,7 @@
 normalised frequency ω/p and amplitude a₀/(g·tanα) (the engine tests' shared way of naming a cell)."""
 
 from rockbench.engines.base import Case
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution

@@ -27,7 +27,7 @@ def main() -> int:
     """``rockbench`` with the regressed MuJoCo in place of the shipped one."""
     import sys
 
-    from rockbench.harness.cli.main import main as cli
+    from rockbench.benchmark.cli.main import main as cli
     from rockbench.engines import registry
     registry.register("mujoco", f"{__name__}:RegressedMujoco")
     return cli(sys.argv[1:])

@@ -8,7 +8,7 @@
     the analytic adapters' known outcome grid of a MapSpec.
 ``write_map``, ``band``
     a map directory written by hand in the store's own layout (run.json + cells.csv), and a simple
-    outcome grid for it (``tests/mapdirs.py``, which ``benchmarks/bench_scores.py`` uses too).
+    outcome grid for it (``tests/mapdirs.py``, which ``tests/measurements/bench_scores.py`` uses too).
 
 ``fake_engines`` registers again for every test that asks (as the per-file fixtures did before); the
 other three hold no state and are session-wide, so module-scoped fixtures may use them.

@@ -9,7 +9,7 @@ the block has rocked freely through two impacts after the pulse without overturn
 only loses energy, so a block that falls back twice never goes over), or when it is at rest.
 
 Used by ``tests/test_solver_physics.py`` (the independent check of the solver) and
-``benchmarks/bench_reference.py`` (the timing against it).
+``tests/measurements/bench_reference.py`` (the timing against it).
 """
 
 from __future__ import annotations

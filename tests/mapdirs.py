@@ -7,14 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.harness.blocks.presets import PRESETS
-from rockbench.harness.store.files import variant_name
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.store.files import variant_name
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.rules import RULES_VERSION
 
 NAMES = {-1: "", 0: "rest", 1: "rocking", 2: "overturn"}
-from rockbench.harness.store.files import COLUMNS, SCHEMA_VERSION  # the store's own layout, so fixtures follow it
+from rockbench.benchmark.store.files import COLUMNS, SCHEMA_VERSION  # the store's own layout, so fixtures follow it
 
 
 def write_map(d, codes, *, engine="reference", block="B6M", pulse="sine", restitution=None,

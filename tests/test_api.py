@@ -1,4 +1,4 @@
-"""The Python API for notebooks: `import rockbench`, simulate, stability_map, load_run, python -m rockbench."""
+"""The Python API for notebooks: `import rockbench.benchmark`, simulate, stability_map, load_run, python -m rockbench."""
 
 import subprocess
 import sys
@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-import rockbench
+import rockbench.benchmark as rb
 from rockbench.reference_solver.errors import ConfigError
 
 pd = pytest.importorskip("pandas")
@@ -14,28 +14,28 @@ xr = pytest.importorskip("xarray")
 
 
 def test_version_and_a_cheap_import():
-    assert rockbench.__version__ and rockbench.__version__[0].isdigit()
-    code = "import sys, rockbench; print(rockbench.__version__); print('numba' in sys.modules, 'numpy' in sys.modules)"
+    assert rb.__version__ and rb.__version__[0].isdigit()
+    code = "import sys, rockbench.benchmark as rb; print(rb.__version__); print('numba' in sys.modules, 'numpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
-    assert out[0] == rockbench.__version__ and out[1:] == ["False", "False"]   # the solver loads on first use
+    assert out[0] == rb.__version__ and out[1:] == ["False", "False"]   # the solver loads on first use
     # the three floors stay where they were
     import importlib
-    for m in ("rockbench.harness.cli.main", "rockbench.engines.registry", "rockbench.reference_solver.solver"):
+    for m in ("rockbench.benchmark.cli.main", "rockbench.engines.registry", "rockbench.reference_solver.solver"):
         importlib.import_module(m)
 
 
 def test_python_dash_m_is_the_cli():
-    r = subprocess.run([sys.executable, "-m", "rockbench", "blocks", "--json"], capture_output=True, text=True)
+    r = subprocess.run([sys.executable, "-m", "rockbench.benchmark", "blocks", "--json"], capture_output=True, text=True)
     assert r.returncode == 0 and '"B3M"' in r.stdout
-    r = subprocess.run([sys.executable, "-m", "rockbench", "--version"], capture_output=True, text=True)
-    assert r.stdout.strip() == rockbench.__version__
-    r = subprocess.run([sys.executable, "-m", "rockbench", "simulate", "--block", "B3M"], capture_output=True,
+    r = subprocess.run([sys.executable, "-m", "rockbench.benchmark", "--version"], capture_output=True, text=True)
+    assert r.stdout.strip() == rb.__version__
+    r = subprocess.run([sys.executable, "-m", "rockbench.benchmark", "simulate", "--block", "B3M"], capture_output=True,
                        text=True)
     assert r.returncode == 2 and "amplitude" in r.stderr
 
 
 def test_simulate_gives_the_history_as_arrays():
-    sim = rockbench.simulate("B3M", w_ratio=6, a_ratio=6.1, restitution="modified", k=0.7595)
+    sim = rb.simulate("B3M", w_ratio=6, a_ratio=6.1, restitution="modified", k=0.7595)
     assert sim.outcome == "overturn" and sim.valid and sim.n_impacts == 1
     assert isinstance(sim.t_s, np.ndarray) and sim.t_s.shape == sim.theta_rad.shape == sim.theta_dot_rad_s.shape
     assert sim.impacts_s == pytest.approx([0.1465], abs=1e-3)
@@ -46,7 +46,7 @@ def test_simulate_gives_the_history_as_arrays():
 
 
 def test_simulate_plot_runs_past_the_pulse_to_the_decisive_impact():
-    sims = [rockbench.simulate("B3M", w_ratio=6, a_ratio=6.1, restitution="modified", k=k) for k in (0.8608, 0.7595)]
+    sims = [rb.simulate("B3M", w_ratio=6, a_ratio=6.1, restitution="modified", k=k) for k in (0.8608, 0.7595)]
     assert [s.outcome for s in sims] == ["rocking", "overturn"]
     assert sims[0].t_s[-1] == pytest.approx(sims[0].t_pulse_end_s, abs=2e-3)   # the energy decision stops early
     drawn = [s.plot() for s in sims]
@@ -61,15 +61,15 @@ def test_simulate_plot_runs_past_the_pulse_to_the_decisive_impact():
 
 def test_simulate_names_keywords_in_its_errors():
     with pytest.raises(ConfigError, match="a_ratio="):
-        rockbench.simulate("B3M", w_ratio=6)
+        rb.simulate("B3M", w_ratio=6)
     with pytest.raises(ConfigError, match="w_ratio="):
-        rockbench.simulate("B3M", w_ratio=6, omega=3, a_ratio=2)
+        rb.simulate("B3M", w_ratio=6, omega=3, a_ratio=2)
     with pytest.raises(ConfigError, match="no setting .bogus_setting"):
-        rockbench.simulate("B3M", w_ratio=6, a_ratio=2, bogus_setting=1)
+        rb.simulate("B3M", w_ratio=6, a_ratio=2, bogus_setting=1)
 
 
 def test_stability_map_as_a_dataset_and_a_tidy_frame():
-    ds = rockbench.stability_map("B3M", w_ratio=(1, 12, 12), a_ratio=(1, 10, 10))
+    ds = rb.stability_map("B3M", w_ratio=(1, 12, 12), a_ratio=(1, 10, 10))
     assert isinstance(ds, xr.Dataset) and dict(ds.sizes) == {"a_ratio": 10, "w_ratio": 12}
     assert ds.w_ratio.values[[0, -1]] == pytest.approx([1, 12]) and ds.a_ratio.attrs["long_name"] == "a₀/(g·tanα)"
     assert set(np.unique(ds.outcome.values)) <= {"rest", "rocking", "overturn"}
@@ -77,22 +77,22 @@ def test_stability_map_as_a_dataset_and_a_tidy_frame():
     assert ds.attrs["engine"] == "reference" and ds.attrs["block"] == "B3M" and not ds.filled.any()
     # the reference's own domain is in it: lift-/slip-required cells are not valid and left the model
     assert bool((~ds.valid == ds.left_model).all())
-    df = rockbench.stability_map("B3M", w_ratio=(1, 12, 12), a_ratio=(1, 10, 10), output="dataframe")
+    df = rb.stability_map("B3M", w_ratio=(1, 12, 12), a_ratio=(1, 10, 10), output="dataframe")
     assert len(df) == 120 and isinstance(df.outcome.dtype, pd.CategoricalDtype)
     assert list(df.outcome.cat.categories) == ["rest", "rocking", "overturn", "failed", "missing"]
     assert (df.outcome.astype(str).to_numpy().reshape(10, 12) == ds.outcome.values).all()
     with pytest.raises(ConfigError, match="output"):
-        rockbench.stability_map("B3M", output="csv")
+        rb.stability_map("B3M", output="csv")
 
 
 def test_load_run_reads_maps_and_scores(write_map, band, tmp_path):
-    from rockbench.harness.cli.main import main
+    from rockbench.benchmark.cli.main import main
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
     write_map(tmp_path / "run" / "ref", band(6, 7, 3), block="B3M")
     write_map(tmp_path / "run" / "eng", band(6, 7, 4), engine="mujoco", block="B3M", settings={"settings": "defaults"})
     assert main(["score", str(tmp_path / "run"), "--no-write", "--json"]) == 0
     assert main(["score", str(tmp_path / "run"), "--out", str(tmp_path / "run" / "score.json")]) == 0
-    run = rockbench.load_run(tmp_path / "run")
+    run = rb.load_run(tmp_path / "run")
     assert sorted(m.variant for m in run.maps) == ["mujoco[settings=defaults]", "reference"]
     cells = run.cells()
     assert len(cells) == 84 and set(cells.variant.cat.categories) == {"mujoco[settings=defaults]", "reference"}

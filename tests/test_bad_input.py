@@ -15,7 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from rockbench.harness.cli.main import main
+from rockbench.benchmark.cli.main import main
 
 
 pytestmark = pytest.mark.usefixtures("fake_engines")
@@ -203,7 +203,7 @@ def test_immutable_folder(tmp_path, capsys):
 @pytest.mark.parametrize("err_no, needle", [(errno.ENOSPC, "No space left"), (errno.EROFS, "Read-only")])
 def test_a_full_disk_or_read_only_file_system_mid_write(run, capsys, monkeypatch, err_no, needle):
     """The file system refuses the write after every check passed (it filled up meanwhile)."""
-    import rockbench.harness.store.atomic as atomic
+    import rockbench.benchmark.store.atomic as atomic
 
     def refuse(src, dst):
         raise OSError(err_no, os.strerror(err_no), str(src), None, str(dst))
@@ -332,7 +332,7 @@ def test_any_damaged_score_json_value_is_a_clean_error(write_map, band, tmp_path
 def test_a_full_disk_while_writing_cells_names_the_file_and_the_rerun_resumes(fake_engines, tmp_path, capsys, monkeypatch):
     import builtins
 
-    import rockbench.harness.store.run_folder as store
+    import rockbench.benchmark.store.run_folder as store
 
     class Full:
         """cells.csv on a disk that fills up after the header and one batch of rows."""
@@ -372,6 +372,6 @@ def test_an_error_naming_a_value_with_line_breaks_stays_one_line(run, capsys):
     (run / "bad.json").write_text(json.dumps(doc))
     code, _, err = run_cli(capsys, "compare", run / "bad.json", run / "score.json")
     assert_one_line(code, err, 2, "bad.json")
-    from rockbench.harness.cli.main import _one_line
+    from rockbench.benchmark.cli.main import _one_line
     assert _one_line("grid.\x85 is None\n") == "grid.\\x85 is None"
     assert _one_line("plain") == "plain"

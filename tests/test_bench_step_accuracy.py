@@ -1,11 +1,11 @@
-"""The table and record of benchmarks/bench_step_accuracy.py, on a made-up record (no engine runs)."""
+"""The table and record of tests/measurements/bench_step_accuracy.py, on a made-up record (no engine runs)."""
 
 import importlib.util
 import json
 import math
 from pathlib import Path
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_step_accuracy.py"
+BENCH = Path(__file__).resolve().parents[1] / "tests" / "measurements" / "bench_step_accuracy.py"
 
 
 def _bench():

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from rockbench.harness.cli.main import main
+from rockbench.benchmark.cli.main import main
 from rockbench.engines.checker import check_adapter
 from rockbench.engines.skeleton import SteppedContactAdapter
 

@@ -40,7 +40,7 @@ def _shim(bin_dir: Path, regressed: bool) -> dict:
     bin_dir.mkdir(exist_ok=True)
     exe = bin_dir / "rockbench"
     target = (f"import sys; sys.path.insert(0, {str(HERE)!r}); import ci_helpers; sys.exit(ci_helpers.main())"
-              if regressed else "import sys; from rockbench.harness.cli.main import main; sys.exit(main())")
+              if regressed else "import sys; from rockbench.benchmark.cli.main import main; sys.exit(main())")
     exe.write_text(f"#!{sys.executable}\n{target}\n")
     exe.chmod(0o755)
     return dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}",

@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from rockbench.harness.cli.main import main
+from rockbench.benchmark.cli.main import main
 
 FIG17 = ["simulate", "--block", "B3M", "--pulse", "sine", "--w-ratio", "6", "--a-ratio", "6.1",
          "--restitution", "modified"]
@@ -38,7 +38,7 @@ def test_fig17_pair(capsys, k, outcome, mode):
 def test_fig17_pictures_reach_the_decisive_impact_on_one_span(capsys, tmp_path, monkeypatch):
     """README's Fig. 17 pair: the rocking run (energy mode stops it at the pulse's end, 0.091 s) is
     drawn integrated on, so both pictures show the impact near 0.14 s over the same span."""
-    from rockbench.harness.report.plots import trajectories
+    from rockbench.benchmark.report.plots import trajectories
 
     drawn = []
     real = trajectories.plot_theta
@@ -178,7 +178,7 @@ def test_subprocess_entry_point(tmp_path):
     import subprocess
     import sys
 
-    r = subprocess.run([sys.executable, "-m", "rockbench.harness.cli.main"] + FIG17 + ["--k", "1.5"],
+    r = subprocess.run([sys.executable, "-m", "rockbench.benchmark.cli.main"] + FIG17 + ["--k", "1.5"],
                        capture_output=True, text=True, env={**os.environ, "PYTHONWARNINGS": "ignore"})
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--k" in r.stderr and r.stdout == ""
 

@@ -8,11 +8,11 @@ import sys
 
 import pytest
 
-from rockbench.harness.cli.main import COMMANDS, build_parser, command_of, main
+from rockbench.benchmark.cli.main import COMMANDS, build_parser, command_of, main
 
 
 def _loaded_after(argv: list[str], *, cwd=None) -> set:
-    code = ("import sys, json; from rockbench.harness.cli.main import main; "
+    code = ("import sys, json; from rockbench.benchmark.cli.main import main; "
             f"rc = main({argv!r}); "
             "print(json.dumps({'rc': rc, 'mods': sorted(m for m in sys.modules if m.split('.')[0] in "
             "('numpy', 'numba', 'matplotlib', 'scipy', 'dask', 'tqdm'))}))")
@@ -27,7 +27,7 @@ def _loaded_after(argv: list[str], *, cwd=None) -> set:
 def test_help_and_blocks_import_no_numerics(argv):
     if argv == ["--help"]:
         # argparse's --help exits through SystemExit(0): run it through the console entry instead
-        out = subprocess.run([sys.executable, "-c", "import sys; from rockbench.harness.cli.main import main; "
+        out = subprocess.run([sys.executable, "-c", "import sys; from rockbench.benchmark.cli.main import main; "
                               "\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
                               "print(sorted(m for m in sys.modules if m.split('.')[0] in ('numpy', 'numba', "
                               "'matplotlib')))"], capture_output=True, text=True, check=True)
@@ -53,10 +53,10 @@ def test_map_picture_without_pyplot(tmp_path):
 
 _DRAW = """
 import sys, numpy as np
-from rockbench.harness.maps.grid import MapSpec, make_axis
-from rockbench.harness.maps.result import empty_result
-from rockbench.harness.report.plots.picture import MapPicture
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.maps.grid import MapSpec, make_axis
+from rockbench.benchmark.maps.result import empty_result
+from rockbench.benchmark.report.plots.picture import MapPicture
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.restitution import Restitution
 s = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 8, 30),
             make_axis("--a-ratio", "a_ratio", 1, 8, 20))

@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rockbench.harness.store import columnar
+from rockbench.benchmark.store import columnar
 
-from rockbench.harness.maps import sweep as maps
-from rockbench.harness.store.columnar import format_rows, repr_floats
-from rockbench.harness.maps.executors import ProcessExecutor, make_executor, worker_init
-from rockbench.harness.maps.grid import MapSpec, make_axis
-from rockbench.harness.maps.sweep import run_map
-from rockbench.harness.store.loading import load_map
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.maps import sweep as maps
+from rockbench.benchmark.store.columnar import format_rows, repr_floats
+from rockbench.benchmark.maps.executors import ProcessExecutor, make_executor, worker_init
+from rockbench.benchmark.maps.grid import MapSpec, make_axis
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.store.loading import load_map
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.reference_adapter import ReferenceAdapter
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution

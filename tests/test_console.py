@@ -9,8 +9,8 @@ import threading
 
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.suites.progress import SuiteConsole
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.suites.progress import SuiteConsole
 
 
 def test_progress_counts_finished_maps_in_order_with_a_fixed_total():
@@ -43,7 +43,7 @@ def test_console_writes_no_blank_line():
 
 
 def test_own_eta_maps_are_planned_up_front():
-    from rockbench.harness.suites.preparation import Preparation
+    from rockbench.benchmark.suites.preparation import Preparation
     prep = object.__new__(Preparation)
     prep.own_eta = True
     prep.tasks = [("mujoco", {}, "B3M", True), ("mujoco", {}, "B6L", False),
@@ -70,8 +70,8 @@ def test_warp_is_not_started_without_a_cuda_driver_by_the_default_suite():
     from rockbench.engines.mujoco_warp_adapter import cuda_driver_present
     if cuda_driver_present():
         pytest.skip("a CUDA driver is present: Warp has nothing to warn about")
-    code = ("from rockbench.harness.suites.model import load_suite, suite_path\n"
-            "from rockbench.harness.suites.plan import engine_names\n"
+    code = ("from rockbench.benchmark.suites.model import load_suite, suite_path\n"
+            "from rockbench.benchmark.suites.plan import engine_names\n"
             "import sys\n"
             "engines, notes = engine_names(load_suite(suite_path(None, True)))\n"
             "assert 'mujoco_warp' not in engines, engines\n"
@@ -98,7 +98,7 @@ def test_warp_asked_for_on_the_cpu_says_so_in_one_line_of_its_own():
 def test_device_notes_are_said_once_before_the_maps(monkeypatch):
     import os
 
-    from rockbench.harness.suites.progress import say_device_notes
+    from rockbench.benchmark.suites.progress import say_device_notes
     from rockbench.engines import registry
     from rockbench.engines.base import DEVICE_NOTED_ENV
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from rockbench.harness.blocks.presets import PRESETS
-from rockbench.harness.suites.model import load_suite
-from rockbench.harness.suites.plan import plan, variant_restitution, variant_settings
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.suites.model import load_suite
+from rockbench.benchmark.suites.plan import plan, variant_restitution, variant_settings
 from rockbench.engines import price as P
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G, Block

@@ -9,7 +9,7 @@
   ``simulate`` and ``map``, ``check-adapter reference``, ``run`` (as ``run --plan``: the suite and
   its options are checked without computing it). Engine maps, calibrations and scoring of maps
   the examples did not compute are parsed only (minutes each; the engine tests cover them).
-- ``python benchmarks/X.py`` lines: the script exists and its ``--help`` works.
+- ``python tests/measurements/X.py`` lines: the script exists and its ``--help`` works.
 - Pip and git lines are setup, not examples, and are skipped. A block with no language tag fails:
   every example says what it is.
 """
@@ -68,7 +68,7 @@ def _argv(cmd: str) -> list[str]:
 
 
 def _rockbench(argv: list[str], tmp: Path, capsys) -> None:
-    from rockbench.harness.cli.main import build_parser, main
+    from rockbench.benchmark.cli.main import build_parser, main
     from rockbench.engines.registry import names
 
     args = build_parser().parse_args(argv)       # unknown commands and options raise SystemExit
@@ -97,7 +97,7 @@ def _run_shell(cmds: list[str], tmp: Path, capsys) -> int:
         if exe == "rockbench":
             _rockbench(argv[1:], tmp, capsys)
             n += 1
-        elif exe.startswith("python") and len(argv) > 1 and argv[1].startswith("benchmarks/"):
+        elif exe.startswith("python") and len(argv) > 1 and argv[1].startswith("tests/measurements/"):
             script = ROOT / argv[1]
             assert script.is_file(), f"{argv[1]} does not exist"
             r = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=300,
@@ -126,7 +126,7 @@ def test_every_code_example_runs(write_map, band, path, tmp_path, monkeypatch, c
         if lang == "python":
             exec(compile(text, f"{path.name}:python", "exec"), ns)
         elif lang == "csv":
-            from rockbench.harness.blocks.experiments import parse_outcomes
+            from rockbench.benchmark.blocks.experiments import parse_outcomes
             assert parse_outcomes(text, name=path.name)
         elif lang == "json":
             if "..." in text:
@@ -154,8 +154,8 @@ def _fake_run_folder(tmp: Path, write_map, band) -> None:
     scored), for the examples that read a finished run."""
     sys.path.insert(0, str(Path(__file__).parent))
 
-    from rockbench.harness.store.files import write_json
-    from rockbench.harness.scoring.score_runs import score_dirs
+    from rockbench.benchmark.store.files import write_json
+    from rockbench.benchmark.scoring.score_runs import score_dirs
     root = tmp / "rockbench-results" / "quick"
     write_map(root / "maps" / "reference" / "B3M-sine-housner", band(9, 11, 4), block="B3M")
     write_map(root / "maps" / "mujoco-settings=calibrated" / "B3M-sine-housner", band(9, 11, 5), engine="mujoco",
@@ -185,7 +185,7 @@ def test_every_cited_section_of_physics_md_exists():
     """Code, tests and docs cite the physics by section ("docs/physics.md §7"): each § they name exists."""
     sections = set(re.findall(r"^## (\d+)\. ", (ROOT / "docs" / "physics.md").read_text(), re.M))
     cited = {}
-    for folder in ("reference_solver", "engines", "harness", "benchmarks", "tests", "docs"):
+    for folder in ("reference_solver", "engines", "benchmark", "tests", "docs"):
         for path in (ROOT / folder).rglob("*"):
             if path.suffix in (".py", ".md", ".toml") and path.is_file():
                 for n in re.findall(r"physics\.md[^§\n]{0,3}§(\d+)", path.read_text(errors="replace")):

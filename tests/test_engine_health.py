@@ -13,8 +13,8 @@ import os
 
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.engine_info.health import EngineHealth, cannot_simulate_line, common_error
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.engine_info.health import EngineHealth, cannot_simulate_line, common_error
 from rockbench.engines import support
 
 SUITE = ("[suite]\nname = 't'\n[grid]\nw_ratio = '1:8:3'\na_ratio = '1:9:3'\n"

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import json
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.engine_info.versions import differences, differences_line
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.engine_info.versions import differences, differences_line
 
 
 def _set_version(map_dir, version):

@@ -7,13 +7,13 @@ import time
 import numpy as np
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.maps.executors import DaskExecutor, worker_init
-from rockbench.harness.maps.grid import MapSpec, make_axis
-from rockbench.harness.maps.result import FAILED
-from rockbench.harness.maps.sweep import run_map
-from rockbench.harness.store.loading import load_map
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.maps.executors import DaskExecutor, worker_init
+from rockbench.benchmark.maps.grid import MapSpec, make_axis
+from rockbench.benchmark.maps.result import FAILED
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.store.loading import load_map
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.errors import ConfigError, EngineError
 from rockbench.reference_solver.restitution import Restitution
 
@@ -98,7 +98,7 @@ def test_hanging_cell_times_out(analytic_truth, tmp_path):
 
 
 def test_worker_that_never_starts_stops_the_map_with_the_reason(tmp_path, monkeypatch):
-    from rockbench.harness.maps.executors import ProcessExecutor
+    from rockbench.benchmark.maps.executors import ProcessExecutor
     monkeypatch.setattr(ProcessExecutor, "START_TIMEOUT_S", 1.0)
     monkeypatch.setenv("RB_TEST_PARENT_PID", str(os.getpid()))
     t0 = time.monotonic()
@@ -123,7 +123,7 @@ def test_unreachable_scheduler_cli_exit_2(tmp_path, capsys):
 
 
 def test_one_executor_serves_many_maps(analytic_truth, tmp_path):
-    from rockbench.harness.maps.executors import make_executor
+    from rockbench.benchmark.maps.executors import make_executor
     ex = make_executor("analytic", {}, jobs=2)
     try:
         for k, pulse in enumerate(("sine", "cosine")):
@@ -142,7 +142,7 @@ def test_one_executor_serves_many_maps(analytic_truth, tmp_path):
 # -- bounded waits, no orphans, a cap on --jobs -----------------------------------------------
 
 def test_jobs_are_capped_at_cores_and_cells(analytic_truth, tmp_path):
-    from rockbench.harness.maps.executors import cap_jobs, cpu_count
+    from rockbench.benchmark.maps.executors import cap_jobs, cpu_count
     assert cap_jobs(None) == (None, None)
     n, note = cap_jobs(1000, 4)
     assert n == min(cpu_count(), 4) and "--jobs 1000 capped at" in note
@@ -166,7 +166,7 @@ def _map_process(tmp_path, *extra):
     from pathlib import Path
     here = Path(__file__).resolve().parent
     cmd = [sys.executable, "-c",
-           "import sys, maps_helpers as mh; mh.register_all(); from rockbench.harness.cli.main import main; "
+           "import sys, maps_helpers as mh; mh.register_all(); from rockbench.benchmark.cli.main import main; "
            "sys.exit(main(sys.argv[1:]))",
            "map", "--engine", "hanging", "--set", "bad_above=4", "--block", "B6M", "--w-ratio", "0.5:8:6",
            "--a-ratio", "0.5:9:4", "--out", str(tmp_path / "m"), "--jobs", "2", "--no-plot", "--cell-timeout", "600",
@@ -191,7 +191,7 @@ def _busy_workers(proc, out, timeout=120.0):
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         try:
-            kids = [k for k in parent.children(recursive=True) if "rockbench.harness.maps.worker" in cmdline(k)]
+            kids = [k for k in parent.children(recursive=True) if "rockbench.benchmark.maps.worker" in cmdline(k)]
         except psutil.NoSuchProcess:
             kids = []
         csv_path = out / "cells.csv"

@@ -5,13 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from rockbench.harness.blocks.experiments import (SHAKING_TABLE_LIMIT_MPS2, experimental_eta, load_outcomes,
+from rockbench.benchmark.blocks.experiments import (SHAKING_TABLE_LIMIT_MPS2, experimental_eta, load_outcomes,
                                                   load_restitution, parse_outcomes, restitution_errors,
                                                   restitution_targets, st_limit_a_ratio)
-from rockbench.harness.blocks.presets import PRESETS
-from rockbench.harness.maps.result import MapResult
-from rockbench.harness.scoring.experiments import score_outcomes
-from rockbench.harness.scoring.metrics import OVERTURN, REST, ROCKING
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.maps.result import MapResult
+from rockbench.benchmark.scoring.experiments import score_outcomes
+from rockbench.benchmark.scoring.metrics import OVERTURN, REST, ROCKING
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G
 

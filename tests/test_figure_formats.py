@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.maps.result import MapResult
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.maps.result import MapResult
 from rockbench.reference_solver.errors import ConfigError
 
 matplotlib = pytest.importorskip("matplotlib")
@@ -22,7 +22,7 @@ SVG = "{http://www.w3.org/2000/svg}"
 
 
 def _panel_figure():
-    from rockbench.harness.report.plots.stability import plot_panels
+    from rockbench.benchmark.report.plots.stability import plot_panels
     n = 24
     w, a = np.linspace(1, 12, n), np.linspace(1, 10, n)
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
@@ -58,7 +58,7 @@ def check_file(path: Path, fmt: str, words=()):
 
 @pytest.mark.parametrize("fmt", ["png", "svg", "pdf"])
 def test_each_format_is_written_and_readable(tmp_path, fmt):
-    from rockbench.harness.report.plots.output import save_formats
+    from rockbench.benchmark.report.plots.output import save_formats
     drawn = _panel_figure()
     (p,) = save_formats(drawn["figure"], tmp_path / "panels", (fmt,))
     assert p == tmp_path / f"panels.{fmt}"
@@ -66,7 +66,7 @@ def test_each_format_is_written_and_readable(tmp_path, fmt):
 
 
 def test_formats_are_parsed_and_checked():
-    from rockbench.harness.report.plots.output import format_of, parse_formats
+    from rockbench.benchmark.report.plots.output import format_of, parse_formats
     assert parse_formats("png") == ("png",) and parse_formats(" PDF, svg,pdf ") == ("pdf", "svg")
     for bad in ("", "jpg", "png,eps"):
         with pytest.raises(ConfigError, match="--figure-format"):
@@ -100,8 +100,8 @@ def _texts(fig):
 
 
 def _all_figures():
-    from rockbench.harness.report.plots.speed import plot_speed_accuracy
-    from rockbench.harness.report.plots.trajectories import plot_theta
+    from rockbench.benchmark.report.plots.speed import plot_speed_accuracy
+    from rockbench.benchmark.report.plots.trajectories import plot_theta
     from rockbench.reference_solver.pulses import make_pulse
     t = np.linspace(0, 0.6, 200)
     theta = plot_theta([{"label": "reference, η_H: rocking", "t_s": t, "theta_rad": 0.1 * np.sin(20 * t),
@@ -122,7 +122,7 @@ def _maps():
 
 
 def _paper_figure():
-    from rockbench.harness.report.plots.stability import plot_stability
+    from rockbench.benchmark.report.plots.stability import plot_stability
     return plot_stability(list(_maps()), ["B3M, η_H = 0.7526", "B3L, η_H = 0.7526"], st_limit_mps2=None,
                           title="Fig. 6: one sine wave")["ax"].figure
 
@@ -130,9 +130,9 @@ def _paper_figure():
 def _map_figure():
     from types import SimpleNamespace
 
-    from rockbench.harness.maps.grid import MapSpec, make_axis
-    from rockbench.harness.report.plots.stability import map_figure
-    from rockbench.harness.blocks.presets import get_preset
+    from rockbench.benchmark.maps.grid import MapSpec, make_axis
+    from rockbench.benchmark.report.plots.stability import map_figure
+    from rockbench.benchmark.blocks.presets import get_preset
     from rockbench.reference_solver.restitution import Restitution
     ref, eng = _maps()
     spec = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 12, 20),
@@ -144,7 +144,7 @@ def _map_figure():
 
 
 def test_figures_suit_a_journal_column_with_fonts_of_7_pt_or_more():
-    from rockbench.harness.report.plots.style import DOUBLE_COLUMN_IN, MIN_FONT_PT
+    from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN, MIN_FONT_PT
     for name, fig in _all_figures().items():
         assert fig.get_figwidth() <= DOUBLE_COLUMN_IN + 1e-9, name
         small = [(t.get_text(), t.get_fontsize()) for t in _texts(fig) if t.get_fontsize() < MIN_FONT_PT]
@@ -154,8 +154,8 @@ def test_figures_suit_a_journal_column_with_fonts_of_7_pt_or_more():
 def test_one_palette_stays_apart_under_colour_vision_deficiencies():
     """Colours a picture sets side by side keep a CIE76 ΔE of at least 12 (clearly apart; 2.3 is
     just noticeable) under simulated protanopia, deuteranopia and tritanopia (Machado et al. 2009)."""
-    from rockbench.harness.report.plots import stability as s
-    from rockbench.harness.report.plots.style import CYCLE
+    from rockbench.benchmark.report.plots import stability as s
+    from rockbench.benchmark.report.plots.style import CYCLE
     groups = {"reference lines": [st["color"] for st in s.REFERENCE_STYLES[:4]], "curves": CYCLE,
               "marks on the fill": [s.MARKS["false_overturn"][1]["color"], s.MARKS["missed_overturn"][1]["color"],
                                     s.ENGINE_FILL, "#ffffff"],
@@ -165,7 +165,7 @@ def test_one_palette_stays_apart_under_colour_vision_deficiencies():
             worst = min(delta_e(a, b, kind) for k, a in enumerate(colours) for b in colours[k + 1:])
             assert worst >= 12.0, (group, kind, worst)
     # the first four engine curves of a θ(t) plot against the reference's black and greys
-    from rockbench.harness.report.plots.trajectories import REFERENCE_STYLES
+    from rockbench.benchmark.report.plots.trajectories import REFERENCE_STYLES
     for kind in (None, "protanopia", "deuteranopia", "tritanopia"):
         worst = min(delta_e(c, r["color"], kind) for c in CYCLE[:4] for r in REFERENCE_STYLES)
         assert worst >= 12.0, (kind, worst)

@@ -4,10 +4,10 @@ slenderness (``sibling``: the other size), and anything else is refused with one
 import pytest
 
 from rockbench.engines import held_out
-from rockbench.harness.blocks.presets import PRESETS
-from rockbench.harness.cli.main import main
-from rockbench.harness.suites.model import load_suite
-from rockbench.harness.suites.plan import plan
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.suites.model import load_suite
+from rockbench.benchmark.suites.plan import plan
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import Block
 

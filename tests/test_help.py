@@ -6,11 +6,11 @@ import tomllib
 
 import pytest
 
-from rockbench.harness.cli.main import COMMANDS, build_parser, main
-from rockbench.harness.scoring.metrics import METRICS
+from rockbench.benchmark.cli.main import COMMANDS, build_parser, main
+from rockbench.benchmark.scoring.metrics import METRICS
 
 #: paths that exist only in a clone of the repository (or not even there); report.md is an output
-ONLY_IN_A_CLONE = re.compile(r"docs/|shared/|harness/suites|benchmarks/|\b(?!report\.md)\w+\.md\b")
+ONLY_IN_A_CLONE = re.compile(r"docs/|shared/|benchmark/suites|tests/measurements/|\b(?!report\.md)\w+\.md\b")
 
 
 def _help(argv, capsys):

@@ -1,8 +1,8 @@
 """A regular (non-editable) install works from any working folder, the repository's root included.
 
-Run from the root, ``python -m`` would put the working folder first on the path, and the top-level
-``rockbench/`` folder (the package's glue alone; its subpackages are mapped from other folders)
-would shadow the installed package in the map's worker processes. The test
+Run from the root, ``python -m`` puts the working folder first on the path; no folder there may
+shadow the installed package (``rockbench`` is a namespace of three packages mapped from
+``reference_solver/``, ``engines/`` and ``benchmark/``) in the map's worker processes. The test
 copies the repository's tracked files, installs the copy into a fresh venv with ``pip install
 --no-deps`` (its build backend fetched by pip as usual; the dependencies come from this interpreter's site-packages, added by a .pth file, so
 nothing is downloaded), and runs a map with two worker processes from the copy's root.
@@ -58,7 +58,7 @@ def test_regular_install_runs_a_map_with_workers_from_the_repository_root(tmp_pa
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     # the installed copy, not the source folder, is what a process outside the root imports
-    where = subprocess.run([py, "-P", "-c", "import rockbench.harness as b; print(b.__file__)"],
+    where = subprocess.run([py, "-P", "-c", "import rockbench.benchmark as b; print(b.__file__)"],
                            capture_output=True, text=True, cwd=tmp_path).stdout
     assert "site-packages" in where, where
     rb = tmp_path / "venv" / "bin" / "rockbench"

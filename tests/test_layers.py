@@ -16,33 +16,33 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 #: The import package's folders (pyproject.toml's package-dir, top-level packages only).
-FOLDERS = {"rockbench": "rockbench", "rockbench.reference_solver": "reference_solver",
-           "rockbench.engines": "engines", "rockbench.harness": "harness"}
+FOLDERS = {"rockbench.reference_solver": "reference_solver", "rockbench.engines": "engines",
+           "rockbench.benchmark": "benchmark"}
 
 #: The floors, lowest first: ``(what the floor holds, module prefixes)``. A module's floor is that
-#: of the longest prefix naming it (``rockbench.harness.suites.runner`` beats
-#: ``rockbench.harness.suites``).
+#: of the longest prefix naming it (``rockbench.benchmark.suites.runner`` beats
+#: ``rockbench.benchmark.suites``).
 LAYERS = [
     ("the problem: blocks, pulses, restitution, the classifier, the reference solver",
      ["rockbench.reference_solver"]),
     ("one adapter per engine behind one contract", ["rockbench.engines"]),
     ("block presets, experimental data and facts about the installed engines",
-     ["rockbench.harness.blocks", "rockbench.harness.engine_info"]),
+     ["rockbench.benchmark.blocks", "rockbench.benchmark.engine_info"]),
     ("maps: the case or map a user asks for, grids, cells, executors, and the run folders they are stored in",
-     ["rockbench.harness.request", "rockbench.harness.maps", "rockbench.harness.store"]),
-    ("scores of stored maps", ["rockbench.harness.scoring"]),
-    ("suite files: what a benchmark run computes, and computing its maps", ["rockbench.harness.suites"]),
-    ("the report: pages and pictures of what runs stored", ["rockbench.harness.report"]),
+     ["rockbench.benchmark.request", "rockbench.benchmark.maps", "rockbench.benchmark.store"]),
+    ("scores of stored maps", ["rockbench.benchmark.scoring"]),
+    ("suite files: what a benchmark run computes, and computing its maps", ["rockbench.benchmark.suites"]),
+    ("the report: pages and pictures of what runs stored", ["rockbench.benchmark.report"]),
     ("front doors: the command line, the notebook API, one simulated case, the θ(t) curves a run stores, "
      "a suite's whole job (maps, scores, report) and the paper's figures",
-     ["rockbench", "rockbench.harness", "rockbench.harness.cli", "rockbench.harness.api",
-      "rockbench.harness.simulation", "rockbench.harness.trajectories", "rockbench.harness.suites.runner",
-      "rockbench.harness.figures"]),
+     ["rockbench.benchmark", "rockbench.benchmark.cli", "rockbench.benchmark.api",
+      "rockbench.benchmark.simulation", "rockbench.benchmark.trajectories", "rockbench.benchmark.suites.runner",
+      "rockbench.benchmark.figures"]),
 ]
 
 #: Modules the report may not import: the report draws what runs stored and simulates nothing.
-SIMULATES = ["rockbench.engines.registry", "rockbench.reference_solver.solver", "rockbench.harness.maps.sweep",
-             "rockbench.harness.maps.executors", "rockbench.harness.maps.worker", "rockbench.harness.simulation"]
+SIMULATES = ["rockbench.engines.registry", "rockbench.reference_solver.solver", "rockbench.benchmark.maps.sweep",
+             "rockbench.benchmark.maps.executors", "rockbench.benchmark.maps.worker", "rockbench.benchmark.simulation"]
 
 
 def _module_name(path: Path) -> tuple[str, bool]:
@@ -109,7 +109,7 @@ def test_imports_point_down_only():
 
 def test_report_simulates_nothing():
     found = [f"{path.relative_to(ROOT)}:{line}: imports {target}" for path, line, mod, target in _all_imports()
-             if mod.startswith("rockbench.harness.report")
+             if mod.startswith("rockbench.benchmark.report")
              and any(target == s or target.startswith(s + ".") for s in SIMULATES)]
     assert not found, "the report reads what runs stored; these imports simulate:\n" + "\n".join(found)
 
@@ -135,7 +135,7 @@ def test_no_private_name_crosses_a_module():
 
 #: The folders whose imports inside functions must each say why (the engines' adapters import their
 #: engine's library on first use, as the engine contract says).
-REASONED = ("reference_solver", "harness", "rockbench")
+REASONED = ("reference_solver", "benchmark")
 
 
 def test_imports_inside_functions_say_why():
@@ -168,10 +168,10 @@ def test_imports_inside_functions_say_why():
 
 
 @pytest.mark.parametrize("source, target, floor_ok", [
-    ("rockbench.harness.maps.sweep", "rockbench.harness.report.plots.picture.MapPicture", False),
-    ("rockbench.harness.report.build", "rockbench.harness.maps.grid.MapSpec", True),
-    ("rockbench.harness.suites.runner", "rockbench.harness.report.build.build_report", True),
-    ("rockbench.engines.base", "rockbench.harness.store.files", False),
+    ("rockbench.benchmark.maps.sweep", "rockbench.benchmark.report.plots.picture.MapPicture", False),
+    ("rockbench.benchmark.report.build", "rockbench.benchmark.maps.grid.MapSpec", True),
+    ("rockbench.benchmark.suites.runner", "rockbench.benchmark.report.build.build_report", True),
+    ("rockbench.engines.base", "rockbench.benchmark.store.files", False),
 ])
 def test_the_rule_itself(source, target, floor_ok):
     """The floor comparison the test relies on says what the declared layers mean."""

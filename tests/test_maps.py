@@ -7,13 +7,13 @@ import json
 import numpy as np
 import pytest
 
-from rockbench.harness.maps import adaptive
-from rockbench.harness.cli.main import main
-from rockbench.harness.maps.grid import MapSpec, make_axis, parse_range
-from rockbench.harness.maps.result import MISSING
-from rockbench.harness.maps.sweep import run_map
-from rockbench.harness.store.loading import load_map
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.maps import adaptive
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.maps.grid import MapSpec, make_axis, parse_range
+from rockbench.benchmark.maps.result import MISSING
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.store.loading import load_map
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.restitution import Restitution
@@ -155,8 +155,8 @@ def test_map_cli_json(tmp_path, capsys):
 
 
 def test_stability_plot_png_svg(tmp_path):
-    from rockbench.harness.blocks.experiments import st_limit_a_ratio
-    from rockbench.harness.report.plots.stability import plot_stability, save
+    from rockbench.benchmark.blocks.experiments import st_limit_a_ratio
+    from rockbench.benchmark.report.plots.stability import plot_stability, save
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -181,7 +181,7 @@ def test_stability_plot_png_svg(tmp_path):
 
 
 def test_guided_chunks_fall_in_size_and_keep_every_item_in_order():
-    from rockbench.harness.maps.executors import _guided_chunks
+    from rockbench.benchmark.maps.executors import _guided_chunks
     items = list(range(169))
     chunks = _guided_chunks(items, 2, 64)
     assert [x for c in chunks for x in c] == items

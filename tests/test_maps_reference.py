@@ -6,13 +6,13 @@ import json
 import numpy as np
 import pytest
 
-from rockbench.harness.maps import adaptive
-from rockbench.harness.cli.main import main
-from rockbench.harness.maps.grid import MapSpec, make_axis
-from rockbench.harness.maps.result import MISSING
-from rockbench.harness.maps.sweep import run_map
-from rockbench.harness.store.loading import load_map
-from rockbench.harness.blocks.presets import PRESETS, get_preset
+from rockbench.benchmark.maps import adaptive
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.maps.grid import MapSpec, make_axis
+from rockbench.benchmark.maps.result import MISSING
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.store.loading import load_map
+from rockbench.benchmark.blocks.presets import PRESETS, get_preset
 from rockbench.engines.checker import check_adapter
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.solver import solve_batch

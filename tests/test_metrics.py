@@ -7,8 +7,8 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
 
-from rockbench.harness.maps.result import MapResult, from_cells
-from rockbench.harness.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING,
+from rockbench.benchmark.maps.result import MapResult, from_cells
+from rockbench.benchmark.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING,
                                                boundary_points, check_gate, critical_amplitude,
                                                cell_counts, is_perfect, parse_thresholds, score)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
@@ -35,7 +35,7 @@ def test_a_new_metric_is_one_object(monkeypatch):
     """docs/scores.md's claim: a metric is one ``Metric`` (name, definition, direction, unit, titles,
     tolerance, version and how it is computed); registered alone, it is scored, gets its column in the
     pairs table and the summary, and ``compare`` its default tolerance, with nothing else changed."""
-    from rockbench.harness.scoring import metrics, score_runs, tables
+    from rockbench.benchmark.scoring import metrics, score_runs, tables
 
     m = metrics.Metric("overturn_cells", "Engine cells judged overturn.", "lower", 0.0, "-", 3.0,
                        kind="count", short="ov cells", title="overturn cells",
@@ -344,7 +344,7 @@ def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(
 
 
 def test_metrics_version_five_refuses_version_two():
-    from rockbench.harness.scoring.score_runs import compare_scores
+    from rockbench.benchmark.scoring.score_runs import compare_scores
     doc = {"metrics_version": "2", "pairs": []}
     with pytest.raises(IncomparableError, match="metrics version 2, current 5"):
         compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})
@@ -353,7 +353,7 @@ def test_metrics_version_five_refuses_version_two():
 def test_every_metric_is_one_complete_object():
     """A metric carries everything tables, the report, plots and compare read (adding one touches
     metrics.py and its test only)."""
-    from rockbench.harness.scoring.score_runs import cell_units
+    from rockbench.benchmark.scoring.score_runs import cell_units
     units = cell_units({"grid": {"n_w": 5, "n_a": 4, "w_lo": 1, "w_hi": 5, "a_lo": 1, "a_hi": 4}})
     for m in METRICS.values():
         assert m.short and m.title and m.question and m.definition

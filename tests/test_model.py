@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from rockbench.harness.blocks.presets import PRESETS, get_preset
+from rockbench.benchmark.blocks.presets import PRESETS, get_preset
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G, Block, a_ratio_to_amplitude, amplitude_to_a_ratio
 from rockbench.reference_solver.restitution import housner_eta, modified_eta

@@ -5,7 +5,7 @@ import re
 import numpy as np
 import pytest
 
-from rockbench.harness.maps.result import MapResult
+from rockbench.benchmark.maps.result import MapResult
 
 
 matplotlib = pytest.importorskip("matplotlib")
@@ -95,7 +95,7 @@ def _maps(band):
 
 
 def test_panel_draws_every_layer_where_it_belongs(band):
-    from rockbench.harness.report.plots.stability import plot_panel
+    from rockbench.benchmark.report.plots.stability import plot_panel
     w, a, ref, mod, eng = _maps(band)
     d = plot_panel(eng, [("reference, η_H", ref), ("reference, η_M with the average k", mod)], like=ref,
                    points=[(3.0, 2.0, "R", 1), (9.0, 7.0, "O", 2), (50.0, 2.0, "T", 1)], st_limit=6.5,
@@ -123,7 +123,7 @@ def test_panel_draws_every_layer_where_it_belongs(band):
 
 
 def test_panel_leaves_out_an_st_limit_off_the_chart(band):
-    from rockbench.harness.report.plots.stability import plot_panel
+    from rockbench.benchmark.report.plots.stability import plot_panel
     _, _, ref, _, eng = _maps(band)
     d = plot_panel(eng, [("reference, η_H", ref)], st_limit=20.0)
     assert d["st_limit"] is None and "st" not in d["handles"]
@@ -131,7 +131,7 @@ def test_panel_leaves_out_an_st_limit_off_the_chart(band):
 
 
 def test_small_multiples_share_one_legend_below_the_panels(band):
-    from rockbench.harness.report.plots.stability import plot_panels
+    from rockbench.benchmark.report.plots.stability import plot_panels
     _, _, ref, mod, eng = _maps(band)
     panels = [{"engine": eng, "references": [("reference, η_H", ref), ("reference, η_M with the average k", mod)],
                "like": ref, "st_limit": 6.5, "title": t} for t in ("MuJoCo 4.0, calibrated to η_H",
@@ -155,7 +155,7 @@ def test_small_multiples_share_one_legend_below_the_panels(band):
 def test_boundary_lines_are_smooth_and_keep_every_cell_on_its_side():
     from matplotlib.path import Path as MPath
 
-    from rockbench.harness.report.plots.stability import boundary_lines
+    from rockbench.benchmark.report.plots.stability import boundary_lines
     n = 30
     w = a = np.linspace(0.0, 29.0, n)
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
@@ -183,9 +183,9 @@ def test_boundary_lines_are_smooth_and_keep_every_cell_on_its_side():
 def test_map_picture_overlays_the_reference_and_marks_invalid_cells(band, tmp_path):
     from types import SimpleNamespace
 
-    from rockbench.harness.maps.grid import MapSpec, make_axis
-    from rockbench.harness.report.plots.stability import plot_map, plot_map_files
-    from rockbench.harness.blocks.presets import get_preset
+    from rockbench.benchmark.maps.grid import MapSpec, make_axis
+    from rockbench.benchmark.report.plots.stability import plot_map, plot_map_files
+    from rockbench.benchmark.blocks.presets import get_preset
     from rockbench.reference_solver.restitution import Restitution
     _, _, ref, _, eng = _maps(band)
     spec = MapSpec(get_preset("B3M").block(), "sine", Restitution(), make_axis("--w-ratio", "w_ratio", 1, 10, 12),
@@ -207,7 +207,7 @@ def test_map_picture_overlays_the_reference_and_marks_invalid_cells(band, tmp_pa
 
 
 def test_theta_plot_draws_references_in_front_and_each_curve_to_its_own_end():
-    from rockbench.harness.report.plots.trajectories import plot_theta
+    from rockbench.benchmark.report.plots.trajectories import plot_theta
     from rockbench.reference_solver.pulses import make_pulse
     alpha = 0.2
     t1, t2 = np.linspace(0, 0.6, 300), np.linspace(0, 0.35, 100)
@@ -231,7 +231,7 @@ def test_theta_plot_draws_references_in_front_and_each_curve_to_its_own_end():
 
 
 def test_theta_plot_caps_the_range_of_an_overturning_curve():
-    from rockbench.harness.report.plots.trajectories import plot_theta
+    from rockbench.benchmark.report.plots.trajectories import plot_theta
     t = np.linspace(0, 1, 200)
     d = plot_theta([{"label": "x", "t_s": t, "theta_rad": 3 * t, "outcome": "overturn"}], alpha_rad=1.0)
     # the range ends just above the threshold: the fall after it would squash the rest
@@ -240,7 +240,7 @@ def test_theta_plot_caps_the_range_of_an_overturning_curve():
 
 
 def test_speed_accuracy_spreads_the_points_and_labels_each_variant():
-    from rockbench.harness.report.plots.speed import plot_speed_accuracy
+    from rockbench.benchmark.report.plots.speed import plot_speed_accuracy
     rows = [{"variant": "a", "label": "MuJoCo 4.0, calibrated to η_H", "ms_per_cell": 0.8, "agreement": 0.97},
             {"variant": "a[x=1]", "ms_per_cell": 12.0, "agreement": 0.999},
             {"variant": "c", "ms_per_cell": 11.0, "agreement": 1.0},
@@ -265,7 +265,7 @@ def test_speed_accuracy_spreads_the_points_and_labels_each_variant():
 
 
 def test_labels_in_words():
-    from rockbench.harness.scoring.labels import restitution_symbol, short_version, variant_label
+    from rockbench.benchmark.scoring.labels import restitution_symbol, short_version, variant_label
     assert variant_label("mujoco", {"settings": "calibrated"}, version="4.0.0", restitution="housner") == \
         "MuJoCo 4.0, calibrated to η_H"
     assert variant_label("pybullet", {"settings": "defaults"}, version="3.2.7") == "PyBullet 3.2.7, as shipped"
@@ -277,7 +277,7 @@ def test_labels_in_words():
 def test_labels_name_the_solver_of_an_engine_with_several():
     """Newton's variants say which solver ran, its default (XPBD) included; a solver given to
     another engine is named too; an engine whose adapter is unknown keeps what was given."""
-    from rockbench.harness.scoring.labels import variant_label
+    from rockbench.benchmark.scoring.labels import variant_label
     assert variant_label("newton", {"settings": "calibrated"}, version="1.8.0", restitution="housner") == \
         "Newton 1.8, calibrated to η_H, XPBD solver"
     assert variant_label("newton", {"settings": "defaults", "solver": "semi_implicit"}) == \
@@ -290,9 +290,9 @@ def test_labels_name_the_solver_of_an_engine_with_several():
 def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):
     """Fig. 5 (B6M): the table limit, a₀/(g·tanα) = 11.5, lies above the chart's 10: neither drawn nor
     listed; the legend sits below the axes and the labels read as the paper writes them."""
-    from rockbench.harness.figures import FIGURES, curve_spec
-    from rockbench.harness.maps.sweep import run_map
-    from rockbench.harness.report.plots.stability import plot_stability
+    from rockbench.benchmark.figures import FIGURES, curve_spec
+    from rockbench.benchmark.maps.sweep import run_map
+    from rockbench.benchmark.report.plots.stability import plot_stability
     _, curves = FIGURES[5]
     maps = [run_map(curve_spec(c, 12), tmp_path / f"m{k}", serial=True) for k, c in enumerate(curves)]
     d = plot_stability(maps, [c.label() for c in curves], title="Fig. 5")

@@ -1,4 +1,4 @@
-"""The benchmark records in benchmarks/results/: every file is a valid record, and what cites one finds it."""
+"""The benchmark records in tests/measurements/results/: every file is a valid record, and what cites one finds it."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-SCRIPT = ROOT / "benchmarks" / "records.py"
-#: ``benchmarks/results/NAME`` or, within benchmarks/, ``results/NAME`` (not ``rockbench-results/``)
-CITATION = re.compile(r"(?<![\w-])(?:benchmarks/)?results/([A-Za-z0-9_.{},*-]+)")
+SCRIPT = ROOT / "tests" / "measurements" / "records.py"
+#: ``tests/measurements/results/NAME`` or, within tests/measurements/, ``results/NAME`` (not ``rockbench-results/``)
+CITATION = re.compile(r"(?<![\w-])(?:tests/measurements/)?results/([A-Za-z0-9_.{},*-]+)")
 
 
 def _records():
@@ -29,7 +29,7 @@ def test_every_file_in_the_folder_is_a_valid_record():
 
 def test_the_checker_names_what_is_wrong():
     records = _records()
-    good = json.loads(next((ROOT / "benchmarks" / "results").glob("*.json")).read_text())
+    good = json.loads(next((ROOT / "tests" / "measurements" / "results").glob("*.json")).read_text())
     assert records.problems(good, good["name"]) == []
     bad = dict(good, name="run-2026-11-22", commit="HEAD", machine={"cores": 2}, extra=1)
     del bad["versions"]
@@ -51,15 +51,15 @@ def test_written_records_pass_the_check_and_show(tmp_path):
 
 
 def test_every_cited_record_exists():
-    """Docs, scripts and tests that name a file of benchmarks/results/ name one that is there.
+    """Docs, scripts and tests that name a file of tests/measurements/results/ name one that is there.
 
     A name without a dot is a placeholder (``NAME``, ``run-<suite>-suite.json`` cut at ``<``)."""
-    sources = [ROOT / "README.md", *ROOT.glob("docs/*.md"), *ROOT.glob("benchmarks/**/*.py"),
-               *ROOT.glob("benchmarks/**/*.md"), *ROOT.glob("tests/*.py"), *ROOT.glob("harness/**/*.py")]
+    sources = [ROOT / "README.md", *ROOT.glob("docs/*.md"), *ROOT.glob("tests/measurements/**/*.py"),
+               *ROOT.glob("tests/measurements/**/*.md"), *ROOT.glob("tests/*.py"), *ROOT.glob("benchmark/**/*.py")]
     missing = []
     for src in sources:
         for name in CITATION.findall(src.read_text()):
             name = name.rstrip(".,")
-            if "." in name and not (ROOT / "benchmarks" / "results" / name).is_file():
+            if "." in name and not (ROOT / "tests" / "measurements" / "results" / name).is_file():
                 missing.append(f"{src.relative_to(ROOT)}: {name}")
     assert not missing, missing

@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.blocks.cases import FIG17
-from rockbench.harness.report.build import build_report
-from rockbench.harness.trajectories import record_for_report
-from rockbench.harness.maps.result import MapResult
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.blocks.cases import FIG17
+from rockbench.benchmark.report.build import build_report
+from rockbench.benchmark.trajectories import record_for_report
+from rockbench.benchmark.maps.result import MapResult
 from rockbench.reference_solver.restitution import Restitution
 
 
@@ -33,7 +33,7 @@ def report(write_map, band, tmp_path_factory):
     exp = tmp / "exp.csv"
     exp.write_text("# made up for the test\nblock,pulse,f_hz,amplitude_mps2,outcome,repetitions,source\n"
                    "B6L,sine,5.0,8.0,O,3,test\nB6L,sine,5.0,1.0,R,1,test\n")
-    from rockbench.harness.blocks.experiments import load_outcomes
+    from rockbench.benchmark.blocks.experiments import load_outcomes
     out = tmp / "out"
     res = build_report([root], out, experiments=load_outcomes(exp), trajectories=False, log=lambda m: None)
     return out, res
@@ -125,8 +125,8 @@ def test_report_pairs_each_own_eta_reference_with_its_engine(band):
     """A reference at variants' own η goes with those variants; one at a constant η nobody measured
     stays a standard reference, unless `rockbench run` made it at an own η that no variant measures
     any more (a stale map of a resumed run folder): then it is left out."""
-    from rockbench.harness.report.build import _groups
-    from rockbench.harness.store.loading import MapEntry
+    from rockbench.benchmark.report.build import _groups
+    from rockbench.benchmark.store.loading import MapEntry
     m = MapResult.from_outcomes(np.arange(4.0), np.arange(4.0), band(4, 4, 2))
 
     def entry(engine, variant, restitution, eta, name=None):
@@ -188,7 +188,7 @@ def test_report_without_stored_trajectories_says_so(write_map, band, tmp_path):
 
 def test_price_table_shows_reach_contact_and_cost():
     """A calibration with a measured price gets a row: reached only if the price counts."""
-    from rockbench.harness.report.sections import price_table
+    from rockbench.benchmark.report.sections import price_table
 
     price = {"uplift": {"ratio": 0.986, "within": True}, "anti_slip": {"n_slip": 0, "n_jump": 1, "cells": 27},
              "period_change": -0.0051, "steps_per_s": 4.0e4, "counts": True}

@@ -2,9 +2,9 @@
 
 import pytest
 
-from rockbench.harness.api import request_of
-from rockbench.harness.cli.main import build_parser
-from rockbench.harness.request import CaseRequest
+from rockbench.benchmark.api import request_of
+from rockbench.benchmark.cli.main import build_parser
+from rockbench.benchmark.request import CaseRequest
 from rockbench.reference_solver.errors import ConfigError
 
 
@@ -25,7 +25,7 @@ def test_the_command_line_and_the_api_ask_for_the_same_case():
 
 
 def test_a_map_spec_from_the_request():
-    from rockbench.harness.maps.grid import make_axis
+    from rockbench.benchmark.maps.grid import make_axis
     spec = request_of("B6L", restitution="housner").map_spec(
         "cosine", lambda: (make_axis("--w-ratio", "w_ratio", 1, 4, 4), make_axis("--a-ratio", "a_ratio", 1, 3, 3)))
     assert spec.block.name == "B6L" and spec.pulse == "cosine" and spec.shape == (3, 4) and spec.engine == "reference"

@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 
-from rockbench.harness.store.files import (COLUMNS, REQUIRED_COLUMNS, json_safe, read_cell_table, read_json,
+from rockbench.benchmark.store.files import (COLUMNS, REQUIRED_COLUMNS, json_safe, read_cell_table, read_json,
                                            utc_stamp, write_json)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
 

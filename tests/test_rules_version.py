@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import pytest
 
 from rockbench.engines.contact import ContactEngineAdapter
-from rockbench.harness.cli.main import main
+from rockbench.benchmark.cli.main import main
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.rules import RULES_VERSION, rules_mismatch
 

@@ -6,11 +6,11 @@ import sys
 
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.maps.grid import MapSpec, parse_range
-from rockbench.harness.maps.sweep import run_map
-from rockbench.harness.blocks.presets import get_preset
-from rockbench.harness.scoring.score_runs import score_dirs
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.maps.grid import MapSpec, parse_range
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.benchmark.scoring.score_runs import score_dirs
 from rockbench.engines.registry import BUILTIN, adapter_class, availability
 from rockbench.reference_solver.restitution import Restitution
 
@@ -36,7 +36,7 @@ def test_adaptive_reference_map_scores_perfect_against_the_full_one(tmp_path):
 
 def _rockbench(*args):
     # a fresh process: engines other tests register in this one must not join the suite
-    return subprocess.run([sys.executable, "-m", "rockbench.harness.cli.main", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "rockbench.benchmark.cli.main", *args], capture_output=True,
                           text=True, timeout=900)
 
 

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from rockbench.harness.cli.main import main
+from rockbench.benchmark.cli.main import main
 from rockbench.reference_solver.restitution import Restitution
 
 
@@ -181,8 +181,8 @@ def test_own_eta_reference_is_marked(write_map, band, tmp_path, capsys):
 
 
 def test_own_eta_jobs():
-    from rockbench.harness.suites.model import load_suite, suite_path
-    from rockbench.harness.suites.plan import own_eta_jobs
+    from rockbench.benchmark.suites.model import load_suite, suite_path
+    from rockbench.benchmark.suites.plan import own_eta_jobs
     s = load_suite(suite_path("default", False))
     assert s.engines.own_eta
     jobs = own_eta_jobs(s, [{"variant": "a", "block": "B3M", "eta_measured": 0.91234},

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.classify import OUTCOME_CODES, classify

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 from scipy.integrate import quad
 
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.energy import energy_rad2_s2
 from rockbench.reference_solver.model import G, Block
 from rockbench.reference_solver.pulses import CosinePulse, RecordPulse, SinePulse, make_pulse

@@ -12,13 +12,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.maps.grid import MapSpec, make_axis
-from rockbench.harness.maps.sweep import run_map
-from rockbench.harness.report.plots.picture import MapPicture
-from rockbench.harness.store.loading import load_map
-from rockbench.harness.blocks.presets import get_preset
-from rockbench.harness.store.files import COLUMNS, SCHEMA_VERSION
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.maps.grid import MapSpec, make_axis
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.report.plots.picture import MapPicture
+from rockbench.benchmark.store.loading import load_map
+from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.benchmark.store.files import COLUMNS, SCHEMA_VERSION
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.restitution import Restitution
 
@@ -105,7 +105,7 @@ def test_resume_after_kill_9(analytic_truth, tmp_path):
     out = tmp_path / "m"
     n = 24
     cmd = [sys.executable, "-c",
-           "import sys, maps_helpers as mh; mh.register_all(); from rockbench.harness.cli.main import main; "
+           "import sys, maps_helpers as mh; mh.register_all(); from rockbench.benchmark.cli.main import main; "
            "sys.exit(main(sys.argv[1:]))",
            "map", "--engine", "analytic", "--set", "sleep_s=0.01", "--block", "B6M", "--w-ratio", f"0.5:8:{n}",
            "--a-ratio", f"0.5:9:{n}", "--out", str(out), "--jobs", "2", "--no-plot", "--json"]
@@ -143,8 +143,8 @@ def test_cells_carry_their_variant_so_concatenated_maps_stay_apart(tmp_path):
 
 
 def test_an_adaptive_map_written_out_on_its_full_grid(analytic_truth, tmp_path, capsys):
-    from rockbench.harness.store.export import FULL_GRID_FILE
-    from rockbench.harness.store.loading import full_grid_rows
+    from rockbench.benchmark.store.export import FULL_GRID_FILE
+    from rockbench.benchmark.store.loading import full_grid_rows
     s = spec(13)
     r = run_map(s, tmp_path / "m", serial=True, adaptive=True, coarse_stride=4)
     assert 0 < r.n_simulated < 169

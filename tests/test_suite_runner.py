@@ -5,10 +5,10 @@ from pathlib import Path
 
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.suites.model import load_suite, restitution_for, suite_path
-from rockbench.harness.suites.plan import plan
-from rockbench.harness.suites.runner import run_suite
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.suites.model import load_suite, restitution_for, suite_path
+from rockbench.benchmark.suites.plan import plan
+from rockbench.benchmark.suites.runner import run_suite
 from rockbench.reference_solver.errors import ConfigError
 
 
@@ -35,7 +35,7 @@ def test_shipped_suites_parse_and_plan():
 def test_newton_suite_has_one_variant_per_solver():
     """`rockbench run newton`: each of Newton's solvers a variant of its own, named in the map folder
     and in the variant's words."""
-    from rockbench.harness.scoring.labels import variant_label
+    from rockbench.benchmark.scoring.labels import variant_label
     s = load_suite(suite_path("newton", False))
     jobs = [j for j in plan(s, ["newton"]) if j.engine == "newton"]
     solvers = {j.settings["solver"] for j in jobs}
@@ -103,8 +103,8 @@ def test_run_cli_usage(tmp_path, capsys):
 
 
 def test_each_variant_keeps_one_pool_and_stops_it_after_its_last_map(fake_engines, tmp_path, monkeypatch):
-    from rockbench.harness.maps import executors
-    from rockbench.harness.suites.runner import run_suite
+    from rockbench.benchmark.maps import executors
+    from rockbench.benchmark.suites.runner import run_suite
 
     fake_engines.register_all()
     (tmp_path / "s.toml").write_text(
@@ -231,7 +231,7 @@ def test_lanes_and_helpers_give_what_one_worker_gives(fake_engines, tmp_path):
     """Engine maps on two lanes at once and the η measured by two helpers: the same maps, cell for
     cell, and the same calibration.json as one worker doing everything in turn; each η measured once,
     and not again on a rerun."""
-    from rockbench.harness.suites.runner import run_suite
+    from rockbench.benchmark.suites.runner import run_suite
 
     fake_engines.register_all()
     log = tmp_path / "measured.txt"
@@ -269,8 +269,8 @@ def test_a_lane_whose_workers_cannot_start_stops_that_engine_and_the_suite_goes_
     reference maps and the scores still come out."""
     import os
 
-    from rockbench.harness.maps import executors
-    from rockbench.harness.suites.runner import run_suite
+    from rockbench.benchmark.maps import executors
+    from rockbench.benchmark.suites.runner import run_suite
 
     fake_engines.register_all()
     monkeypatch.setenv("RB_TEST_PARENT_PID", str(os.getpid()))
@@ -290,7 +290,7 @@ def test_engines_include_takes_an_engine_that_leaves_every_available_suite(tmp_p
     without a CUDA device)
     takes part anyway; a name rockbench does not know, or include beside a list of names, is one line."""
     from rockbench.engines.pybullet_adapter import PybulletAdapter
-    from rockbench.harness.suites.plan import engine_names
+    from rockbench.benchmark.suites.plan import engine_names
     monkeypatch.setattr(PybulletAdapter, "default_suite_exclusion", classmethod(lambda cls: "slow here (test)"))
     p = tmp_path / "s.toml"
     p.write_text(GRID)

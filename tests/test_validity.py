@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.base import Case, EngineAdapter, Trajectory
 from rockbench.reference_solver.demand import contact_demand, impact_friction_ratio
 from rockbench.reference_solver.model import G, a_ratio_to_amplitude

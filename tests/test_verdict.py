@@ -7,13 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from rockbench.harness.scoring.metrics import METRICS, PRIMARY_METRIC
-from rockbench.harness.scoring.tables import best_group_marks, ranked_summary, summary_table
-from rockbench.harness.maps.result import MapResult
-from rockbench.harness.scoring.metrics import boundary_distance
-from rockbench.harness.scoring.scenarios import RESOLUTION_SD_CELLS, entries, resolution_sd
-from rockbench.harness.scoring.statistics import estimate, holm, paired as paired_items, tie_groups
-from rockbench.harness.scoring.verdict import (AS_SHIPPED, CALIBRATED, Scenario, Variant, fails, failing_scenarios,
+from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
+from rockbench.benchmark.scoring.tables import best_group_marks, ranked_summary, summary_table
+from rockbench.benchmark.maps.result import MapResult
+from rockbench.benchmark.scoring.metrics import boundary_distance
+from rockbench.benchmark.scoring.scenarios import RESOLUTION_SD_CELLS, entries, resolution_sd
+from rockbench.benchmark.scoring.statistics import estimate, holm, paired as paired_items, tie_groups
+from rockbench.benchmark.scoring.verdict import (AS_SHIPPED, CALIBRATED, Scenario, Variant, fails, failing_scenarios,
                                                items, rank, settings_class, variant_interval, verdict)
 from test_score_runs import run_cli
 

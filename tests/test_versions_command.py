@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.cli.commands import versions as versions_cmd
-from rockbench.harness.engine_info.envs import VersionSpec, build_env, parse_pair, plan_env
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.cli.commands import versions as versions_cmd
+from rockbench.benchmark.engine_info.envs import VersionSpec, build_env, parse_pair, plan_env
 from rockbench.reference_solver.errors import EngineUnavailableError
 
 

@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.base import uplift_tol_rad
 from rockbench.engines.contact import RENAMED_SETTINGS, ContactEngineAdapter
 from rockbench.engines.free_rocking import free_rocking_etas

@@ -20,8 +20,8 @@ import pytest
 
 from cells import cell_case
 
-from rockbench.harness.cli.main import main
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.base import FLAGS, Trajectory
 from rockbench.engines.registry import adapter_class, get_adapter
 from rockbench.reference_solver.errors import ConfigError

@@ -19,7 +19,7 @@ import math
 
 import pytest
 
-from rockbench.harness.blocks.presets import PRESETS
+from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
@@ -135,7 +135,7 @@ def test_housner_stays_with_the_corners():
 
 def test_calibrate_cli_target_modified_prints_the_price(capsys):
     pytest.importorskip("mujoco")
-    from rockbench.harness.cli.main import main as cli_main
+    from rockbench.benchmark.cli.main import main as cli_main
     assert cli_main(["calibrate", "--engine", "mujoco", "--block", "B3M", "--target", "modified"]) == 0
     out = capsys.readouterr().out
     assert "target 0.8106 (reached" in out and "points along the base" in out
@@ -144,7 +144,7 @@ def test_calibrate_cli_target_modified_prints_the_price(capsys):
 
 def test_calibrate_cli_price_of_the_housner_corners(capsys):
     pytest.importorskip("mujoco")
-    from rockbench.harness.cli.main import main as cli_main
+    from rockbench.benchmark.cli.main import main as cli_main
     assert cli_main(["calibrate", "--engine", "mujoco", "--block", "B3M", "--target", "housner", "--price"]) == 0
     out = capsys.readouterr().out
     assert "price: static uplift at" in out
@@ -157,7 +157,7 @@ def test_calibrate_cli_price_of_the_housner_corners(capsys):
 ])
 def test_calibrate_cli_bad_contact_settings(capsys, args, words):
     pytest.importorskip("mujoco")
-    from rockbench.harness.cli.main import main as cli_main
+    from rockbench.benchmark.cli.main import main as cli_main
     assert cli_main(["calibrate", "--engine", "mujoco", "--block", "B3M", "--target", "modified", *args]) == 2
     err = capsys.readouterr().err.strip()
     assert words in err and "\n" not in err
@@ -165,7 +165,7 @@ def test_calibrate_cli_bad_contact_settings(capsys, args, words):
 
 def test_calibrate_cli_exact_k(capsys):
     pytest.importorskip("mujoco")
-    from rockbench.harness.cli.main import main as cli_main
+    from rockbench.benchmark.cli.main import main as cli_main
     assert cli_main(["calibrate", "--engine", "mujoco", "--block", "B3M", "--target", "modified-exact"]) == 0
     assert "target 0.8494 (reached" in capsys.readouterr().out
     assert cli_main(["calibrate", "--engine", "mujoco", "--block", "B3M", "--target", "modified", "--k", "often"]) == 2

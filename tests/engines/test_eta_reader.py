@@ -26,7 +26,7 @@ import pytest
 from rockbench.engines.base import uplift_tol_rad
 from rockbench.engines.free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, free_rocking_duration_s, swings
 from rockbench.engines.pick import ETA_RESOLUTION
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import RecordPulse
 from rockbench.reference_solver.restitution import housner_eta, modified_eta

@@ -17,7 +17,7 @@ from end_of_run import assert_ends_by_run_end
 
 pytest.importorskip("exudyn")
 
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.exudyn_adapter import steps_of_times
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
@@ -199,7 +199,7 @@ def test_modified_newton_iterations_reach_exudyns_solver():
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "rockbench.harness.cli.main", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "rockbench.benchmark.cli.main", *args], capture_output=True,
                           text=True, timeout=300)
 
 

@@ -16,7 +16,7 @@ from cells import cell_case
 pytest.importorskip("torch", reason="torch is not installed (install torch's CPU wheel, then 'rockbench[genesis]')")
 pytest.importorskip("genesis", reason="genesis-world is not installed (pip install 'rockbench[genesis]', docs/genesis.md)")
 
-from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
+from rockbench.benchmark.blocks.presets import PRESETS  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402

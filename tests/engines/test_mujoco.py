@@ -18,8 +18,8 @@ from end_of_run import assert_ends_by_run_end
 
 mujoco = pytest.importorskip("mujoco")
 
-from rockbench.harness.cli.main import main as cli_main  # noqa: E402
-from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
+from rockbench.benchmark.cli.main import main as cli_main  # noqa: E402
+from rockbench.benchmark.blocks.presets import PRESETS  # noqa: E402
 from rockbench.engines.mujoco_adapter import MujocoAdapter  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402

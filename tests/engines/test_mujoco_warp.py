@@ -18,9 +18,9 @@ from end_of_run import assert_ends_by_run_end
 pytest.importorskip("warp", reason="warp-lang is not installed (pip install 'rockbench[warp]')")
 pytest.importorskip("mujoco_warp", reason="mujoco-warp is not installed (pip install 'rockbench[warp]')")
 
-from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
-from rockbench.harness.suites.model import load_suite, suite_path
-from rockbench.harness.suites.plan import engine_names  # noqa: E402
+from rockbench.benchmark.blocks.presets import PRESETS  # noqa: E402
+from rockbench.benchmark.suites.model import load_suite, suite_path
+from rockbench.benchmark.suites.plan import engine_names  # noqa: E402
 from rockbench.engines.mujoco_warp_adapter import MujocoWarpAdapter  # noqa: E402
 from rockbench.engines.registry import adapter_class, get_adapter  # noqa: E402
 from rockbench.engines.warp_start import warp_cache_dir  # noqa: E402

@@ -16,7 +16,7 @@ from cells import cell_case
 pytest.importorskip("warp", reason="warp-lang is not installed (pip install 'rockbench[newton]')")
 pytest.importorskip("newton", reason="newton is not installed (pip install 'rockbench[newton]')")
 
-from rockbench.harness.blocks.presets import PRESETS  # noqa: E402
+from rockbench.benchmark.blocks.presets import PRESETS  # noqa: E402
 from rockbench.engines.warp_start import warp_cache_dir  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402

@@ -25,8 +25,8 @@ from cells import cell_case
 
 pytest.importorskip("sapien", reason="sapien is not installed (pip install 'rockbench[physx]')")
 
-from rockbench.harness.cli.main import main  # noqa: E402
-from rockbench.harness.blocks.presets import get_preset  # noqa: E402
+from rockbench.benchmark.cli.main import main  # noqa: E402
+from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
 from rockbench.engines.base import CellResult  # noqa: E402
 from rockbench.engines.physx_adapter import SUBSTEPS_TRIED  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402

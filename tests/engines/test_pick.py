@@ -14,7 +14,7 @@ from rockbench.engines.pick import (CAL_MAX_SPREAD, ETA_RESOLUTION, Candidate, d
                                     hop_tol_m, pick, ranked, sink_tie_m)
 from rockbench.engines.registry import BUILTIN, adapter_class
 from rockbench.engines.skeleton import SteppedContactAdapter
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 
 BLOCK = get_preset("B6L").block()
 T = 0.9294

@@ -15,8 +15,8 @@ from cells import cell_case
 
 pytest.importorskip("pybullet")
 
-from rockbench.harness.cli.main import main  # noqa: E402
-from rockbench.harness.blocks.presets import get_preset  # noqa: E402
+from rockbench.benchmark.cli.main import main  # noqa: E402
+from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
 from rockbench.engines.base import CellResult  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402

@@ -9,7 +9,7 @@ import pytest
 
 from rockbench.engines.knobs import Knob, search
 from rockbench.engines.search import BISECT_RTOL, bisection, bracket
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 
 BLOCK = get_preset("B3M").block()
 

@@ -3,7 +3,7 @@
 from rockbench.engines.base import Case
 from rockbench.engines.reference_adapter import ReferenceAdapter
 from rockbench.engines.step_rule import PROBE_DEEP, PROBE_MARGIN, probe_cases
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution, housner_eta

@@ -7,7 +7,7 @@ import pytest
 
 from rockbench.engines import step_rule
 from rockbench.engines.base import CellResult
-from rockbench.harness.blocks.presets import get_preset
+from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.restitution import housner_eta
 
 B3M = get_preset("B3M").block()

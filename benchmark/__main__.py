@@ -1,0 +1,8 @@
+"""``python -m rockbench.benchmark``: the command line, the same as the ``rockbench`` console script."""
+
+import sys
+
+from .cli.main import main
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,456 @@
+"""The benchmark report: ``index.html`` (self-contained) and ``report.md`` with its pictures (this module
+gathers the maps, scores and pictures; :mod:`.sections` builds the tables, :mod:`.page` writes the pages).
+
+The first screen answers "which engine is how faithful, and why": the summary table (one row per
+engine variant, in words such as "MuJoCo 4.0, calibrated to η_H"), each metric explained in words
+(the definitions of :data:`~rockbench.benchmark.scoring.metrics.METRICS`), then one stability figure per
+engine variant (small multiples, one panel per block and pulse). Then θ(t) of the reference and
+every engine for chosen cases (the paper's Fig. 17 case by default), the calibration (η per engine
+against Housner, the modified η and the experiment), speed against accuracy and the experiments.
+Collapsed below (``<details>``): the stability graphs by case (every variant side by side), every
+scored pair, and the versions and settings of every map as tables.
+
+Pictures are written to ``OUT/img/`` (report.md links them) and embedded as base64 in
+index.html, so that one file can be mailed or attached to a CI run. Every file is written through
+a temporary file and a rename.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
+from ...reference_solver.model import a_ratio_to_amplitude
+from ...reference_solver.pulses import make_pulse
+from ...reference_solver.restitution import Restitution
+from ..blocks.cases import FIG17, TrajectoryCase
+from ..blocks.experiments import restitution_targets, st_limit_a_ratio
+from ..blocks.presets import PRESETS, get_preset
+from ..scoring.labels import case_title, restitution_symbol, variant_labels
+from ..scoring.metrics import PRIMARY_METRIC
+from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
+from ..scoring.tables import summary
+from ..store.atomic import write_bytes_atomic
+from ..store.files import DISPLAY_UTC, is_own_eta_map, map_cell_rows, utc_stamp, write_json
+from ..store.loading import MapEntry, load_entries
+from ..store.trajectories import FOLDER, case_stem, read_case
+from .histories import picture_span_s
+from .page import html_page, markdown_page
+from .plots.output import figure_bytes
+from .plots.speed import plot_speed_accuracy
+from .plots.stability import REFERENCE_STYLES, plot_panels
+from .plots.trajectories import plot_theta
+from .sections import SPEED_METRICS
+
+
+def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
+                 trajectories: bool = True, log=None, allow_incomplete=False,
+                 figure_formats=("png",)) -> dict:
+    """Write the report of the maps under ``run_dirs`` into ``out_dir``.
+
+    Parameters
+    ----------
+    run_dirs : list of path
+        Map directories or folders holding them.
+    out_dir : path
+        Where index.html, report.md, img/ and score.json go (created).
+    against : list of path, optional
+        Reference maps to score against (default: the reference maps among ``run_dirs``).
+    experiments : list of OutcomePoint, optional
+        Shaking-table outcomes (markers and accuracy).
+    cases : sequence of TrajectoryCase
+        θ(t) comparisons to draw.
+    trajectories : bool
+        Draw the θ(t) comparisons of ``cases`` stored in ``out_dir/trajectories``
+        (:func:`~rockbench.benchmark.trajectories.record_trajectories` simulates and stores them).
+    log : callable, optional
+        Progress messages (default: stderr).
+    allow_incomplete : bool or collection of Path
+        Score engine maps that lack cells on what they have (flagged) instead of refusing them: all
+        (True) or those of these map directories (:func:`~rockbench.benchmark.scoring.score_runs.score_entries`).
+    figure_formats : sequence of str
+        The formats of the pictures in ``img/`` (``png``, ``svg``, ``pdf``); the PNG is always
+        written too, since index.html embeds it and report.md links it.
+
+    Returns
+    -------
+    dict
+        Paths written (``html``, ``markdown``, ``score``, ``images``), the score document and notes.
+
+    Raises
+    ------
+    ConfigError
+        ``out_dir`` is a file, no map was found, or an engine map is incomplete (without
+        ``allow_incomplete``).
+    """
+    log = log or (lambda msg: print(f"rockbench: {msg}", file=sys.stderr))
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
+    sc = _Scored.of(run_dirs, against, experiments, allow_incomplete)
+    notes = sc.notes
+    images: dict[str, bytes] = {}
+    widths: dict[str, float] = {}
+
+    def save(fig, name):
+        widths[name] = fig.get_figwidth()
+        stem = name[: -len(".png")]
+        for fmt in dict.fromkeys(("png", *figure_formats)):
+            images[f"{stem}.{fmt}"] = figure_bytes(fig, fmt)
+        return name
+
+    cands, refs, own_eta = sc.cands, sc.refs, sc.own_eta
+    labels = variant_labels(cands)
+    pair_of = _like_pairs(sc.doc)
+    variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
+    case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
+    traj_imgs = _trajectory_figures(cases, out / FOLDER, save, notes) if trajectories else []
+    speed = _speed_rows(sc.entries, sc.doc)
+    ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
+           "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
+           "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
+           "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
+    paths = _write_report(out, images, sc.doc, markdown_page(ctx), html_page(ctx, images))
+    log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
+    return {**paths, "doc": sc.doc, "notes": notes}
+
+
+@dataclass
+class _Scored:
+    """The maps of a report and their scores: every map (``entries``), the engine maps (``cands``) and
+    the references they are judged against, the score document (None when nothing could be scored),
+    the engines' own η, and notes for the page."""
+
+    entries: list
+    cands: list
+    refs: list
+    doc: dict | None
+    own_eta: dict
+    notes: list
+
+    @classmethod
+    def of(cls, run_dirs, against, experiments, allow_incomplete=False) -> "_Scored":
+        entries, run_of = load_runs(run_dirs)
+        refs = load_entries(against) if against else [e for e in entries if e.is_reference]
+        cands = entries if against else [e for e in entries if not e.is_reference]
+        pair_with, notes = (None, []) if against else pair_within_runs(cands, refs, run_of)
+        doc = None
+        own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
+        try:
+            doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with,
+                                allow_incomplete=allow_incomplete)
+            mark_runs(doc, run_of, against=bool(against), notes=notes)
+        except IncomparableError as e:
+            notes.append(f"No scores: {e}")
+        return cls(entries, cands, refs, doc, own_eta, notes)
+
+
+def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
+    """``[(case, image name)]`` of the θ(t) comparisons drawn; a case that cannot be drawn is a note."""
+    out = []
+    for case in cases:
+        try:
+            name, case_notes = _trajectory_figure(case, folder, save)
+            notes += case_notes
+            if name:
+                out.append((case, name))
+        except RockbenchError as e:
+            notes.append(f"θ(t) for {case.title or case.block}: not drawn ({e})")
+    return out
+
+
+def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:
+    """The speed-against-accuracy picture of the engines, accuracy by the primary metric (None when no
+    engine has wall times)."""
+    if not any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
+        return None
+    drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
+                                 if r["variant"] != "reference"], metric=PRIMARY_METRIC)
+    return save(drawn["ax"].figure, "speed_accuracy.png")
+
+
+def _write_report(out: Path, images: dict, doc: dict | None, md: str, page: str) -> dict:
+    """Write the pictures, score.json, report.md and index.html (each atomically); their paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "img").mkdir(exist_ok=True)
+    written = [write_bytes_atomic(out / "img" / name, data) for name, data in images.items()]
+    paths = {"images": [str(p) for p in written]}
+    if doc is not None:
+        paths["score"] = str(write_json(out / "score.json", doc))
+    paths["markdown"] = str(write_bytes_atomic(out / "report.md", md.encode()))
+    paths["html"] = str(write_bytes_atomic(out / "index.html", page.encode()))
+    return paths
+
+
+# -- pieces ----------------------------------------------------------------------------------------
+
+def _slug(s: str) -> str:
+    return "".join(c if c.isalnum() else "-" for c in str(s)).strip("-").lower()
+
+
+def _like_pairs(doc) -> dict:
+    """``engine_dir`` → its like-for-like scored pair."""
+    out = {}
+    for p in (doc or {}).get("pairs", []):
+        if p["like_for_like"]:
+            out[p["engine_dir"]] = p
+    return out
+
+
+def _ref_order(r: MapEntry):
+    law = _restitution_from_label(r.restitution)
+    pre = PRESETS.get(r.block.upper())
+    if law is not None and law.kind == "housner":
+        return (0, 0.0)
+    if law is not None and law.kind == "modified":
+        which = pre.which_k(law.k) if pre is not None else None
+        return ({"average": 1, "exact": 2}.get(which, 3), law.k)
+    return (4, r.eta)
+
+
+def _ref_line(r: MapEntry) -> tuple[str, dict]:
+    """A reference map's legend label and line style by its role (the same in every panel)."""
+    role = _ref_order(r)[0]
+    label = {0: "reference, η_H", 1: "reference, η_M with the average k", 2: "reference, η_M with the exact k",
+             3: f"reference, {restitution_symbol(r.restitution, r.block)}"}.get(role, f"reference, η = {r.eta:.4g}")
+    return label, REFERENCE_STYLES[min(role, 2) if role < 3 else 4]
+
+
+def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experiments, pair, title: str,
+           block: str, pulse: str) -> dict:
+    """Keyword arguments of :func:`~rockbench.benchmark.report.plots.stability.plot_panel` for one map."""
+    references = [(*_ref_line(r)[:1], r.map, _ref_line(r)[1]) for r in std]
+    references += [("reference at the engine's own measured η", r.map, REFERENCE_STYLES[3]) for r in own]
+    like = None
+    if e is not None:
+        like = next((r.map for r in std + own if r.restitution == e.restitution), None)
+    domain = like if like is not None else (std[0].map if std else None)
+    pts, st = _points_and_limit(experiments, block, pulse)
+    note = None
+    if pair is not None:
+        sc = pair["scores"]
+        note = _panel_note(sc)
+    return {"engine": e.map if e is not None else None, "references": references, "like": like,
+            "domain": domain, "points": pts, "st_limit": st if block.upper() in PRESETS else None, "title": title,
+            "note": note}
+
+
+def _panel_note(sc: dict) -> str:
+    """The scores under a panel's title in words (:data:`READ_GRAPHS` explains them): the share of
+    cells with the reference's outcome, the boundary distance in the chart's own normalised units,
+    and the share of the cells outside the rigid model's domain that the engine flags."""
+    def num(m, f):
+        x = sc.get(m)
+        return f(x) if x is not None and math.isfinite(x) else "n/a"
+
+    return (f"agrees {num('agreement', lambda x: f'{100 * x:.1f} %')}, "
+            f"boundary off {num('boundary_mean', lambda x: f'{x:.2f}')}, "
+            f"flags {num('consistency', lambda x: f'{100 * x:.0f} %')} off-model")
+
+
+def _groups(cands, refs, own_eta):
+    """``{(block, pulse): (standard references, {variant: own-η references}, {variant: engine map})}``.
+
+    A reference that ``rockbench run`` made at a variant's own η which no variant measures any more
+    (the η was measured again after a recalibration or an engine upgrade, the run folder resumed) is
+    left out: drawn as a standard reference it would stand in every panel for nothing."""
+    out: dict = {}
+    for r in refs:
+        out.setdefault((r.block, r.pulse), ([], {}, {}))
+    for e in cands:
+        out.setdefault((e.block, e.pulse), ([], {}, {}))[2].setdefault(e.variant, e)
+    for r in refs:
+        std, own, engines = out[(r.block, r.pulse)]
+        owners = [v for v, e in engines.items() if at_own_eta(r, e, own_eta)]
+        if owners:
+            for v in owners:
+                own.setdefault(v, []).append(r)
+        elif not (own_eta and is_own_eta_map(r.path)):
+            std.append(r)
+    for std, _, _ in out.values():
+        std.sort(key=_ref_order)
+    return out
+
+
+def _variant_order(label: str):
+    """Variants by engine, calibrated before "as shipped"."""
+    return (label.split(",")[0], "as shipped" in label, label)
+
+
+def _case_order(key):
+    """Blocks in Table 1's order (custom blocks after them), then sine, cosine, half-sine."""
+    block, pulse = key
+    order = list(PRESETS)
+    return (order.index(block) if block in order else len(order), block,
+            {"sine": 0, "cosine": 1, "half-sine": 2}.get(pulse, 3), pulse)
+
+
+def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str]]:
+    """One figure per engine variant: a panel per block and pulse. Returns ``(variant, label, image)``."""
+    groups = _groups(cands, refs, own_eta)
+    out = []
+    for v in sorted(labels, key=lambda v: _variant_order(labels[v])):
+        keys = sorted((k for k, g in groups.items() if v in g[2]), key=_case_order)
+        if not keys:
+            continue
+        pulses = {p for _, p in keys}
+        panels = []
+        for block, pulse in keys:
+            std, own, engines = groups[(block, pulse)]
+            e = engines[v]
+            panels.append(_panel(e, std, own.get(v, []), experiments, pair_of.get(str(e.path)),
+                                 case_title(block, pulse), block, pulse))
+        drawn = plot_panels(panels, ncols=min(len(pulses), 3) if len(keys) > 1 else 1,
+                            suptitle=f"{labels[v]}: overturn region against the reference boundaries")
+        out.append((v, labels[v], save(drawn["figure"], f"variant_{_slug(v)}.png")))
+    return out
+
+
+def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str, int]]:
+    """One figure per block and pulse: a panel per engine variant (or the references alone).
+    Returns ``(block, pulse, image, number of experimental points)``."""
+    out = []
+    for (block, pulse), (std, own, engines) in sorted(_groups(cands, refs, own_eta).items(),
+                                                      key=lambda kv: _case_order(kv[0])):
+        if not std and not engines:
+            continue
+        panels = [_panel(e, std, own.get(v, []), experiments, pair_of.get(str(e.path)), labels.get(v, v), block, pulse)
+                  for v, e in sorted(engines.items(), key=lambda kv: _variant_order(labels.get(kv[0], kv[0])))]
+        if not panels:
+            if not std:
+                continue
+            panels = [_panel(None, std, [], experiments, None, "reference boundaries", block, pulse)]
+        drawn = plot_panels(panels, ncols=min(len(panels), 3), suptitle=case_title(block, pulse))
+        pts, _ = _points_and_limit(experiments, block, pulse)
+        out.append((block, pulse, save(drawn["figure"], f"stability_{_slug(block)}_{_slug(pulse)}.png"), len(pts)))
+    return out
+
+
+def _points_and_limit(points, block, pulse):
+    if block.upper() not in PRESETS:
+        return [], None
+    sel = [(p.w_ratio, p.a_ratio, p.outcome, p.repetitions) for p in (points or [])
+           if p.block == block.upper() and p.pulse == pulse]
+    return sel, st_limit_a_ratio(block)
+
+
+def _trajectory_figure(case: TrajectoryCase, folder: Path, save):
+    """Draw the θ(t) curves of ``case`` that the run stored in ``folder``
+    (:func:`~rockbench.benchmark.trajectories.record_trajectories`); ``(image name or None, notes)``."""
+    have = read_case(folder, case)
+    if have is None:
+        return None, [f"θ(t) for {case.title or case.block}: not drawn (no θ(t) stored for it in {folder}; "
+                      f"rockbench run stores the suite's [report] cases)"]
+    hist = have["curves"]
+    if not hist:
+        return None, have["notes"]
+    block = get_preset(case.block).block()
+    pulse = make_pulse(case.pulse, a_ratio_to_amplitude(block, case.a_ratio), case.w_ratio * block.p_rad_s)
+    ends = [float(np.asarray(h["t_s"])[-1]) for h in hist if not h["reference"]]
+    overturns = [h["t_overturn_s"] for h in hist if h["t_overturn_s"] is not None]
+    # every engine curve runs to its own decision; the references are drawn over the same span
+    span = picture_span_s(pulse, max(overturns) if overturns else None)
+    t_end = max([span] + ends)
+    drawn = plot_theta(hist, alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=t_end, title=case.title)
+    return save(drawn["figure"], f"{case_stem(case)}.png"), have["notes"]
+
+
+def _restitution_from_label(label: str):
+    """The law a run folder's restitution label names (:meth:`Restitution.parse`), None if not understood."""
+    try:
+        return Restitution.parse(label)
+    except ConfigError:
+        return None
+
+
+def _find_key(d, key):
+    """The first value of ``key`` anywhere in nested dicts/lists, or None."""
+    if isinstance(d, dict):
+        if key in d and d[key] is not None:
+            return d[key]
+        for v in d.values():
+            r = _find_key(v, key)
+            if r is not None:
+                return r
+    elif isinstance(d, list):
+        for v in d:
+            r = _find_key(v, key)
+            if r is not None:
+                return r
+    return None
+
+
+def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> list[dict]:
+    """η measured per engine map against Housner, the modified η and the experiment.
+
+    The η comes from the calibration recorded in the map's run.json (calibrated settings), else
+    from the free-rocking measurement of ``rockbench run`` (``own_eta``).
+    """
+    rows, seen = [], set()
+    for e in cands:
+        key = (e.variant, e.block, e.restitution)
+        if key in seen:
+            continue
+        seen.add(key)
+        eng = e.run.get("engine") or {}
+        measured = _find_key(eng.get("resolved_settings") or {}, "eta_measured")
+        if measured is None:
+            measured = (own_eta or {}).get((e.variant, e.block))
+        resolved = eng.get("resolved_settings") or {}
+        points = _find_key(resolved, "contact_points")
+        r = {"variant": e.variant, "block": e.block, "restitution": e.restitution, "eta_target": e.eta,
+             "eta_measured": float(measured) if measured is not None else math.nan,
+             "reached": _find_key(resolved, "reached"), "price": _find_key(resolved, "price"),
+             "contact": f"{int(points)} points along the base" if points and int(points) > 2 else "corners"}
+        if e.block.upper() in PRESETS:
+            for k, v in restitution_targets(e.block).items():
+                r[f"{k}_eta"] = v
+                r[f"{k}_rel_error"] = (r["eta_measured"] - v) / v
+        rows.append(r)
+    return rows
+
+
+def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
+    """Wall time per simulated cell (from cells.csv) and the mean like-for-like agreement per variant."""
+    acc = summary(doc) if doc else {}
+    per: dict[str, list[float]] = {}
+    for e in entries:
+        try:
+            rows = map_cell_rows(e.path)
+        except (OSError, ConfigError):
+            continue
+        for row in rows:
+            try:
+                w = float(row.get("wall_s") or "nan")
+            except ValueError:
+                continue
+            if math.isfinite(w) and row.get("status", "ok") == "ok":
+                per.setdefault(e.variant, []).append(w)
+    rows = []
+    for v in sorted({e.variant for e in entries}):
+        ws = per.get(v, [])
+        ms = 1e3 * sum(ws) / len(ws) if ws else math.nan
+        rows.append({"variant": v, "cells": len(ws), "ms_per_cell": ms,
+                     **{m: acc.get(v, {}).get(m, math.nan) for m in SPEED_METRICS}})
+    return rows
+
+
+# -- tables ------------------------------------------------------------------------------------------
+
+
+# -- Markdown ----------------------------------------------------------------------------------------
+
+
+# -- HTML --------------------------------------------------------------------------------------------
+
+
+# The page's style (report.css). After load, its script (report.js) marks the page when a picture fails to
+# load (a visible warning, and attributes a headless browser can read), and gives every table wider
+# than its column a visible note.
+
+

@@ -1,0 +1,510 @@
+"""Scores of one stability map against another (pure numpy; no plotting, no file format).
+
+A stability map is a grid of outcomes over the normalised axes ``w_ratio = ω/p`` (columns) and
+``a_ratio = a₀/(g·tanα)`` (rows), both increasing. Each cell holds an outcome code
+(:data:`~rockbench.reference_solver.classify.OUTCOME_CODES`: 0 rest, 1 rocking, 2 overturn) or
+:data:`FAILED` (-1: no outcome, the simulation failed or the cell is missing), a validity flag
+(False when the run broke the model's assumptions: an engine's slip, jump or energy gain, or a
+reference trajectory that needs the table to pull the block down or more friction than μ; such a
+cell still has the classifier's outcome), and whether the run left the rigid model through its
+contact (an engine's ``slip`` or ``jump``, the reference's ``lift-required`` or ``slip-required``).
+
+:func:`score` compares an *engine* map with a *reference* map over the same axes and returns the
+metrics of :data:`METRICS` (:data:`METRICS_VERSION`). The rules, chosen so a gate cannot be passed by
+failing and no engine is blamed for physics the reference cannot do:
+
+- **The domain.** The headline metrics (agreement, IoU, boundary and critical-amplitude errors) are
+  computed over the cells where the reference has an outcome *and is valid*: where the rigid
+  model's own assumptions hold along its trajectory. Cells outside it are unknown to those
+  metrics (like a failed cell: no boundary edge runs to them).
+- **Honesty outside the domain.** Where the reference needs lift-off or sliding, an engine is
+  right to flag ``jump`` or ``slip``: ``consistency`` is the share of those cells where it does.
+  ``spurious_invalid`` counts the engine's invalid cells inside the domain, where the rigid
+  model says nothing should break.
+- A reference cell that failed says nothing about the engine and is not judged.
+- An engine cell that failed counts as wrong in every metric that compares outcomes.
+- An invalid engine cell inside the domain is still judged by its outcome.
+- The overturn region is a set of cells, not "everything above a curve": the thin safe band above
+  the first overturn and the one-impact overturning tongue below it are handled by working on
+  cells and cell edges only.
+
+``score(x, x)`` is perfect for every map ``x`` (tested).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Callable, Iterable, Mapping
+
+import numpy as np
+
+from ...reference_solver.classify import OUTCOME_CODES, Outcome
+from ...reference_solver.errors import ConfigError, IncomparableError
+from ..maps.result import FAILED, MapResult
+
+#: Version of the metric definitions; bump when any definition below changes meaning.
+METRICS_VERSION = "5"
+
+REST = OUTCOME_CODES[Outcome.REST]
+ROCKING = OUTCOME_CODES[Outcome.ROCKING]
+OVERTURN = OUTCOME_CODES[Outcome.OVERTURN]
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One score, as recorded in score.json.
+
+    Attributes
+    ----------
+    name : str
+        Key in the score dictionaries.
+    definition : str
+        What it measures, in one or two sentences.
+    direction : str
+        ``"higher"`` or ``"lower"`` is better.
+    perfect : float
+        The value of ``score(x, x)``.
+    unit : str
+        ``"-"`` for fractions and counts, ``"w/a units"`` for distances in the normalised plane
+        (ω/p, a₀/(g·tanα)), ``"a units"`` for differences of a₀/(g·tanα).
+    tolerance : float
+        Default change in the worse direction that ``rockbench compare`` still accepts.
+    question : str
+        The question it answers, in one line (the report and ``score --help`` print it).
+    role : str
+        ``"primary"`` for :data:`PRIMARY_METRIC`, the one measure verdicts, ranks and highlights
+        follow; ``"secondary"`` for every other.
+    kind : str
+        ``"fraction"`` (of cells, 0–1, four decimals), ``"distance"`` (three decimals) or
+        ``"count"`` (a whole number): how tables write it and plots draw it.
+    short : str
+        Its column title on a terminal (narrow).
+    title : str
+        Its column title in the report, in words.
+    cell_unit : str
+        What one flipped cell changes it by, for ``compare``'s tolerances in cells
+        (:func:`rockbench.benchmark.scoring.score_runs.cell_units` turns it into a number per pair):
+        ``"1/judged"``, ``"1/overturn_union"``, ``"1/outside_simulated"``, ``"diagonal"`` (of a
+        cell), ``"a_step"``, ``"a_step/columns"`` or ``"one"``.
+    value : callable
+        How it is computed: ``value(c)`` for a :class:`Compared` pair (an engine map against its
+        reference map) [its unit]. Only called when the pair has judged cells, unless ``always``.
+    always : bool
+        Computed even when the pair has no judged cell (else NaN then).
+    axis_label : str
+        Its axis title in the speed-against-accuracy picture (default: from its name and kind).
+    version : str
+        The :data:`METRICS_VERSION` its definition belongs to (a new or changed definition bumps both).
+
+    A new metric is one more entry of :data:`METRICS` (with its ``value``) and a test of it: the
+    scores, score.json, tables, the report, ``compare``'s tolerances and the pictures read it from
+    here (docs/scores.md).
+    """
+
+    name: str
+    definition: str
+    direction: str
+    perfect: float
+    unit: str
+    tolerance: float
+    question: str = ""
+    role: str = "secondary"
+    kind: str = "distance"
+    short: str = ""
+    title: str = ""
+    cell_unit: str = "one"
+    value: Callable[["Compared"], float] | None = field(default=None, compare=False, repr=False)
+    always: bool = False
+    axis_label: str = ""
+    version: str = METRICS_VERSION
+
+    def worse(self, new: float, old: float, tol: float | None = None) -> bool:
+        """True when ``new`` is worse than ``old`` by more than ``tol`` (default :attr:`tolerance`).
+
+        NaN is worse than any number, and two NaNs are equal.
+        """
+        tol = self.tolerance if tol is None else tol
+        if _isnan(new) or _isnan(old):
+            return _isnan(new) and not _isnan(old)
+        delta = (old - new) if self.direction == "higher" else (new - old)
+        return delta > tol + 1e-12
+
+    def format(self, value) -> str:
+        """``value`` as tables write it: ``n/a`` when there is none, else by :attr:`kind`."""
+        if _isnan(value):
+            return "n/a"
+        if self.kind == "count":
+            return f"{int(round(value))}"
+        return f"{value:.4f}" if self.kind == "fraction" else f"{value:.3f}"
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "definition": self.definition, "direction": self.direction,
+                "perfect": self.perfect, "unit": self.unit, "tolerance": self.tolerance,
+                "question": self.question, "role": self.role, "kind": self.kind, "title": self.title}
+
+
+def _isnan(x) -> bool:
+    return x is None or (isinstance(x, float) and math.isnan(x))
+
+
+_METRIC_LIST = [
+    Metric("agreement",
+           "Fraction of judged cells (reference has an outcome) where the engine's outcome (rest, rocking, "
+           "overturn) equals the reference's; a failed engine cell counts as a disagreement.",
+           "higher", 1.0, "-", 0.005,
+           question=("In how many judged cells does the engine give the reference's outcome? (Diluted by the "
+                     "many easy cells far from the boundary.)"),
+           kind="fraction", short="agree", title="agreement", cell_unit="1/judged",
+           axis_label="cells whose outcome differs\nfrom the reference [%]",
+           value=lambda c: float(np.count_nonzero(c.judged & (c.ce == c.cr)) / c.n)),
+    Metric("overturn_agreement",
+           "As agreement, with only two classes: overturn and not overturn.",
+           "higher", 1.0, "-", 0.005,
+           question="In how many judged cells does the engine get overturn-or-not right?",
+           kind="fraction", short="agree O", title="overturn agreement", cell_unit="1/judged",
+           value=lambda c: float(np.count_nonzero(c.overturn_agree) / c.n)),
+    Metric("iou_overturn",
+           "Intersection over union of the overturn regions over judged cells, |E∩R|/|E∪R∪F| with F the "
+           "engine's failed cells (a failure never counts as a match); 1 when both regions are empty.",
+           "higher", 1.0, "-", 0.01,
+           question="How well do the two overturn regions overlap?",
+           kind="fraction", short="IoU O", title="IoU of overturn regions", cell_unit="1/overturn_union",
+           value=lambda c: c.iou_overturn),
+    Metric("boundary_mean",
+           "Mean distance, in the normalised plane (ω/p, a0/(g·tanα)), from each engine boundary edge to the "
+           "nearest reference boundary edge and from each reference edge to the nearest engine edge (both "
+           "sets pooled). A boundary edge is the midpoint of a cell edge between an overturn and a "
+           "not-overturn cell, both with an outcome. 0 when both boundaries are empty; the map diagonal "
+           "when only one is.",
+           "lower", 0.0, "w/a units", 0.02,
+           question="How far, on average, is the engine's overturning boundary from the reference's?",
+           role="primary",
+           short="bnd mean", title="boundary distance, mean", cell_unit="diagonal",
+           axis_label="mean distance between the\noverturning boundaries\n(normalised ω/p, a₀/(g·tanα))",
+           value=lambda c: c.boundary[0]),
+    Metric("boundary_max",
+           "Largest of those distances (the symmetric Hausdorff distance between the boundaries); same "
+           "conventions for empty boundaries.",
+           "lower", 0.0, "w/a units", 0.05,
+           question="How far is the engine's boundary from the reference's at its worst point?",
+           short="bnd max", title="boundary distance, max", cell_unit="diagonal",
+           value=lambda c: c.boundary[1]),
+    Metric("critical_error_mean",
+           "Mean over frequency columns where at least one map overturns of |Δ a_crit|, with a_crit the "
+           "LOWEST overturning a0/(g·tanα) of the column; a column that does not overturn is censored at "
+           "one grid step above the top of the axis (so that error is a lower bound).",
+           "lower", 0.0, "a units", 0.02,
+           question="How wrong is the lowest overturning amplitude, on average over the frequencies?",
+           short="a_crit err", title="a_crit error, mean", cell_unit="a_step/columns",
+           value=lambda c: c.critical["mean"]),
+    Metric("critical_error_max",
+           "Largest |Δ a_crit| over those columns (same censoring).",
+           "lower", 0.0, "a units", 0.05,
+           question="How wrong is the lowest overturning amplitude at the worst frequency?",
+           short="a_crit max", title="a_crit error, max", cell_unit="a_step",
+           value=lambda c: c.critical["max"]),
+    Metric("critical_one_sided",
+           "Number of frequency columns where only one of the two maps overturns.",
+           "lower", 0.0, "-", 0.0,
+           question="At how many frequencies does only one of the two overturn at all?",
+           kind="count", short="1-sided", title="one-sided columns",
+           value=lambda c: float(c.critical["one_sided"])),
+    Metric("consistency",
+           "Outside the reference's domain (cells where the rigid model needs the table to pull the block "
+           "down or more friction than μ: lift-required, slip-required), the fraction of the engine's "
+           "simulated cells where it flags jump or slip, as a real block would; n/a (null) when there is no "
+           "such cell.",
+           "higher", 1.0, "-", 0.01,
+           question="Where the rigid model itself breaks down, does the engine say so (flag jump or slip)?",
+           kind="fraction", short="consistent", title="consistency", cell_unit="1/outside_simulated",
+           value=lambda c: _consistency(c.eng, c.outside), always=True),
+    Metric("spurious_invalid",
+           "Number of engine cells with an outcome flagged invalid (slip, jump, energy gain) inside the "
+           "reference's domain, where the rigid model says nothing should break.",
+           "lower", 0.0, "-", 0.0,
+           question="Where the rigid model holds, how often does the engine flag slip, jump or energy gain?",
+           kind="count", short="spurious inv", title="spurious invalid cells",
+           value=lambda c: float(np.count_nonzero(c.judged & (c.ce != FAILED) & ~c.eng.valid))),
+    Metric("failed_cells",
+           "Number of cells where the reference has an outcome and the engine produced none (error, "
+           "divergence, timeout, missing), inside the domain or outside it.",
+           "lower", 0.0, "-", 0.0,
+           question="How many cells did the engine fail to simulate?",
+           kind="count", short="failed", title="failed cells",
+           value=lambda c: float(np.count_nonzero((c.judged | c.outside) & (c.ce == FAILED))), always=True),
+]
+
+#: The metrics, by name, in the order tables show them.
+METRICS: dict[str, Metric] = {m.name: m for m in _METRIC_LIST}
+
+#: The one measure of how faithful an engine's overturning boundary is (docs/scores.md argues the
+#: choice): verdicts, ranks, the summary's order and its highlights follow it.
+PRIMARY_METRIC = "boundary_mean"
+PRIMARY = METRICS[PRIMARY_METRIC]
+
+
+# -- the pieces ------------------------------------------------------------------------------------
+
+def boundary_points(m: MapResult) -> np.ndarray:
+    """Midpoints of the cell edges between an overturn and a not-overturn cell [w/a units].
+
+    Both cells must have an outcome; edges to failed cells and to the outside of the grid are not
+    boundary. Returns an array of shape (n, 2) with columns (w_ratio, a_ratio).
+    """
+    c = m.outcome
+    known = c != FAILED
+    ov = c == OVERTURN
+    pts = []
+    # vertical neighbours (same frequency, adjacent amplitudes)
+    e = known[:-1, :] & known[1:, :] & (ov[:-1, :] != ov[1:, :])
+    i, j = np.nonzero(e)
+    pts.append(np.column_stack([m.w_ratio[j], 0.5 * (m.a_ratio[i] + m.a_ratio[i + 1])]))
+    # horizontal neighbours (same amplitude, adjacent frequencies)
+    e = known[:, :-1] & known[:, 1:] & (ov[:, :-1] != ov[:, 1:])
+    i, j = np.nonzero(e)
+    pts.append(np.column_stack([0.5 * (m.w_ratio[j] + m.w_ratio[j + 1]), m.a_ratio[i]]))
+    return np.concatenate(pts, axis=0)
+
+
+def _nearest_distances(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """For each point of ``src``, the distance to the nearest point of ``dst`` (both non-empty)."""
+    out = np.empty(src.shape[0])
+    for s in range(0, src.shape[0], 1024):
+        d = src[s:s + 1024, None, :] - dst[None, :, :]
+        out[s:s + 1024] = np.sqrt(np.min(np.einsum("ijk,ijk->ij", d, d), axis=1))
+    return out
+
+
+def boundary_distance(eng: MapResult, ref: MapResult) -> tuple[float, float]:
+    """(mean, max) symmetric distance between the overturn boundaries [w/a units].
+
+    See :data:`METRICS` ``boundary_mean`` and ``boundary_max``. Symmetric in its arguments.
+    """
+    pe, pr = boundary_points(eng), boundary_points(ref)
+    if pe.shape[0] == 0 and pr.shape[0] == 0:
+        return 0.0, 0.0
+    if pe.shape[0] == 0 or pr.shape[0] == 0:
+        diag = math.hypot(ref.w_ratio[-1] - ref.w_ratio[0], ref.a_ratio[-1] - ref.a_ratio[0])
+        return diag, diag
+    d = np.concatenate([_nearest_distances(pe, pr), _nearest_distances(pr, pe)])
+    return float(d.mean()), float(d.max())
+
+
+def critical_amplitude(m: MapResult) -> np.ndarray:
+    """The lowest overturning a₀/(g·tanα) of each frequency column [-]; NaN where none overturns.
+
+    This is the lowest overturning cell, not the lower edge of "everything above a curve": a
+    column whose overturn region starts with the one-impact tongue reports the tongue.
+    """
+    ov = m.outcome == OVERTURN
+    first = np.argmax(ov, axis=0)
+    return np.where(ov.any(axis=0), m.a_ratio[first], np.nan)
+
+
+def critical_errors(eng: MapResult, ref: MapResult) -> dict:
+    """Per-column critical amplitudes and their errors (see :data:`METRICS`).
+
+    Returns
+    -------
+    dict
+        ``a_crit_engine``, ``a_crit_reference`` (arrays, NaN where a column does not overturn),
+        ``abs_error`` (array, NaN where neither overturns), ``mean``, ``max`` and ``one_sided``.
+    """
+    ce, cr = critical_amplitude(eng), critical_amplitude(ref)
+    a = ref.a_ratio
+    step = a[-1] - a[-2] if a.size > 1 else 1.0
+    censor = a[-1] + step
+    any_ov = ~(np.isnan(ce) & np.isnan(cr))
+    err = np.where(any_ov, np.abs(np.nan_to_num(ce, nan=censor) - np.nan_to_num(cr, nan=censor)), np.nan)
+    one_sided = int(np.count_nonzero(np.isnan(ce) != np.isnan(cr)))
+    if any_ov.any():
+        mean, mx = float(np.nanmean(err)), float(np.nanmax(err))
+    else:
+        mean = mx = 0.0
+    return {"a_crit_engine": ce, "a_crit_reference": cr, "abs_error": err, "mean": mean, "max": mx,
+            "one_sided": one_sided}
+
+
+def domain(ref: MapResult) -> tuple[np.ndarray, np.ndarray]:
+    """``(inside, outside)``: the reference's cells with an outcome where it is valid, and where it is not."""
+    has = ref.outcome != FAILED
+    return has & ref.valid, has & ~ref.valid
+
+
+def missing(m: MapResult) -> np.ndarray:
+    """Cells a map does not have at all: neither simulated nor inferred (an unfinished or damaged map,
+    scored only with ``--allow-incomplete``). A cell that was simulated and failed is not missing."""
+    return (m.outcome == FAILED) & ~m.simulated
+
+
+def score(eng: MapResult, ref: MapResult) -> dict[str, float]:
+    """Every metric of :data:`METRICS` for an engine map against a reference map.
+
+    Cells the engine map does not have (:func:`missing`) are left out of every metric, as if the
+    reference had no outcome there; a metric with no cell to judge is NaN (``null`` in score.json,
+    "n/a" in tables), never its perfect value.
+
+    Raises
+    ------
+    IncomparableError
+        The maps lie on different grids.
+    """
+    if not eng.same_axes(ref):
+        raise IncomparableError(
+            f"the maps lie on different grids (engine {eng.shape[1]}×{eng.shape[0]} cells over ω/p "
+            f"{eng.w_ratio[0]:g}..{eng.w_ratio[-1]:g}, a-ratio {eng.a_ratio[0]:g}..{eng.a_ratio[-1]:g}; reference "
+            f"{ref.shape[1]}×{ref.shape[0]} over {ref.w_ratio[0]:g}..{ref.w_ratio[-1]:g}, "
+            f"{ref.a_ratio[0]:g}..{ref.a_ratio[-1]:g}); compute both with the same --w-ratio and --a-ratio.")
+    c = Compared(eng, ref)
+    if c.n == 0:
+        return {name: m.value(c) if m.always else math.nan for name, m in METRICS.items()}
+    return {name: m.value(c) for name, m in METRICS.items()}
+
+
+class Compared:
+    """An engine map against its reference map, as the metrics' ``value`` functions read it: the
+    judged cells and those outside the reference's domain (:func:`judged_cells`), their number ``n``,
+    both maps' outcome codes (``ce``, ``cr``), and what several metrics share, each computed once
+    when first read (the boundary distances, the critical amplitudes' errors)."""
+
+    def __init__(self, eng: MapResult, ref: MapResult):
+        self.eng, self.ref = eng, ref
+        self.judged, self.outside = judged_cells(eng, ref)
+        self.n = int(self.judged.sum())
+        self.ce, self.cr = eng.outcome, ref.outcome
+
+    @cached_property
+    def eng_failed(self) -> np.ndarray:
+        return self.judged & (self.ce == FAILED)
+
+    @cached_property
+    def overturn_agree(self) -> np.ndarray:
+        """Judged cells where the engine has an outcome and gets overturn-or-not right."""
+        return self.judged & ~self.eng_failed & ((self.ce == OVERTURN) == (self.cr == OVERTURN))
+
+    @cached_property
+    def iou_overturn(self) -> float:
+        oe, orr = self.judged & (self.ce == OVERTURN), self.judged & (self.cr == OVERTURN)
+        union = np.count_nonzero(oe | orr | self.eng_failed)
+        return 1.0 if union == 0 else float(np.count_nonzero(oe & orr) / union)
+
+    @cached_property
+    def inside(self) -> tuple[MapResult, MapResult]:
+        """Both maps with only the judged cells known (:func:`within`)."""
+        return within(self.eng, self.judged), within(self.ref, self.judged)
+
+    @cached_property
+    def boundary(self) -> tuple[float, float]:
+        """:func:`boundary_distance` (mean, max) of the judged cells."""
+        return boundary_distance(*self.inside)
+
+    @cached_property
+    def critical(self) -> dict:
+        """:func:`critical_errors` of the judged cells."""
+        return critical_errors(*self.inside)
+
+
+def judged_cells(eng: MapResult, ref: MapResult) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`domain` less the cells the engine map does not have."""
+    inside, outside = domain(ref)
+    have = ~missing(eng)
+    return inside & have, outside & have
+
+
+def within(m: MapResult, cells: np.ndarray) -> MapResult:
+    """``m`` with only ``cells`` known: boundaries and critical amplitudes see only the domain, since
+    outside it both maps are unknown."""
+    return MapResult.from_outcomes(m.w_ratio, m.a_ratio, np.where(cells, m.outcome, FAILED))
+
+
+def boundary_edges(eng: MapResult, ref: MapResult) -> int:
+    """How many boundary edges (both maps', within the judged cells) ``boundary_mean`` averages over."""
+    judged, _ = judged_cells(eng, ref)
+    return int(boundary_points(within(eng, judged)).shape[0] + boundary_points(within(ref, judged)).shape[0])
+
+
+def _consistency(eng: MapResult, outside: np.ndarray) -> float:
+    """``consistency``: NaN without a simulated engine cell outside the domain (an adaptive map infers
+    outcomes, not flags, so only simulated cells can say whether they left the model)."""
+    out_sim = outside & eng.simulated
+    n_out = int(out_sim.sum())
+    return math.nan if n_out == 0 else float(np.count_nonzero(out_sim & eng.left_model) / n_out)
+
+
+def cell_counts(eng: MapResult, ref: MapResult) -> dict[str, int]:
+    """What a pair's numbers rest on, for score.json beside the metrics: the cells judged inside the
+    reference's domain and those outside it (and of those, how many the engine simulated, which
+    ``consistency`` is computed over), the engine's invalid cells in all, the cells the engine map
+    does not have (``cells_missing``), and inside the domain the engine's wrong overturns
+    (``overturn_extra``: it overturns, the reference does not, of ``reference_standing`` cells) and
+    missed ones (``overturn_missed`` of ``reference_overturn``), its failed and its invalid cells there
+    (``failed_in_domain``, ``invalid_in_domain``)."""
+    judged, outside = judged_cells(eng, ref)
+    ce, cr = eng.outcome, ref.outcome
+    ov_ref = judged & (cr == OVERTURN)
+    return {"cells_in_domain": int(judged.sum()), "cells_outside_domain": int(outside.sum()),
+            "cells_outside_domain_simulated": int(np.count_nonzero(outside & eng.simulated)),
+            "invalid_cells": int(np.count_nonzero((ce != FAILED) & ~eng.valid)),
+            "cells_missing": int(np.count_nonzero(missing(eng))),
+            "reference_overturn": int(ov_ref.sum()), "reference_standing": int(np.count_nonzero(judged & ~ov_ref)),
+            "overturn_extra": int(np.count_nonzero(judged & ~ov_ref & (ce == OVERTURN))),
+            "overturn_missed": int(np.count_nonzero(ov_ref & (ce != OVERTURN))),
+            "failed_in_domain": int(np.count_nonzero(judged & (ce == FAILED))),
+            "invalid_in_domain": int(np.count_nonzero(judged & (ce != FAILED) & ~eng.valid))}
+
+
+def is_perfect(scores: Mapping[str, float]) -> bool:
+    """Whether every metric in ``scores`` that has a value has its perfect value (n/a ones say nothing)."""
+    return all(scores[k] == METRICS[k].perfect for k in METRICS if k in scores and not _isnan(scores[k]))
+
+
+def check_gate(scores: Mapping[str, float], thresholds: Mapping[str, float]) -> list[str]:
+    """Failed gate conditions, one line each (empty when all pass).
+
+    A threshold on a higher-is-better metric fails when the score is below it; on a
+    lower-is-better metric when the score is above it. NaN fails every threshold.
+    """
+    out = []
+    for name, limit in thresholds.items():
+        m = METRICS[name]
+        v = scores.get(name, math.nan)
+        bad = _isnan(v) or (v < limit if m.direction == "higher" else v > limit)
+        if bad:
+            rel = "below" if m.direction == "higher" else "above"
+            out.append(f"{name} = {v:.6g} is {rel} the limit {limit:g}")
+    return out
+
+
+def parse_thresholds(items: Iterable[str], direction: str | None = None, option: str = "--fail-under") -> dict:
+    """Parse ``METRIC=VALUE`` items into a dict, checking names (and direction when given).
+
+    Raises
+    ------
+    ConfigError
+        Malformed item, unknown metric, non-numeric value, or a metric of the other direction.
+    """
+    out = {}
+    for item in items:
+        name, eq, val = str(item).partition("=")
+        name = name.strip()
+        if not eq or not name:
+            raise ConfigError(f"{option} takes METRIC=VALUE, got {item!r}; metrics: {', '.join(METRICS)}.")
+        if name not in METRICS:
+            close = difflib.get_close_matches(name, list(METRICS), n=1)
+            hint = f" Did you mean {close[0]}?" if close else ""
+            raise ConfigError(f"{option}: unknown metric {name!r}.{hint} Metrics: {', '.join(METRICS)}.")
+        try:
+            v = float(val)
+        except ValueError:
+            raise ConfigError(f"{option} {name}= needs a number, got {val!r}.") from None
+        if not math.isfinite(v):
+            raise ConfigError(f"{option} {name}= needs a finite number, got {val!r}.")
+        if direction is not None and METRICS[name].direction != direction:
+            other = "--fail-over" if direction == "higher" else "--fail-under"
+            raise ConfigError(f"{option} {name}: {name} is {METRICS[name].direction}-is-better; use {other} "
+                              f"{name}={val} instead.")
+        out[name] = v
+    return out

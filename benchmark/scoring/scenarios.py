@@ -1,0 +1,194 @@
+"""What the verdict counts: each engine variant's scenarios, the clusters they replicate in, its
+resolution in each, and which variants give the same answer.
+
+Pure functions of a score document's ``pairs``; the statistics are in
+:mod:`~rockbench.benchmark.scoring.statistics`, the verdict in :mod:`~rockbench.benchmark.scoring.verdict`.
+docs/scores.md argues each rule:
+
+- **A scenario** is one block × pulse of a variant: its primary value from the like-for-like pair.
+- **A cluster** is what differs physically: slenderness (h/b) × pulse. Blocks of one slenderness and
+  another size have the same α and η_H and the same reference map in the normalised plane, so they
+  repeat a problem rather than pose a new one: the statistics average a cluster's sizes and count the
+  cluster once.
+- **Resolution.** A boundary is known only to lie inside its cells, so each scenario's value carries
+  its own error (:func:`resolution_sd`, measured against a finer grid), which the intervals add to the
+  spread over clusters and the comparisons to the differences.
+- **Identical answers.** Two variants of one engine whose maps hold the same outcome in every cell of
+  every scenario they share (or whose calibration says it picked the shipped settings) are one entry.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..blocks.presets import PRESETS
+from .labels import AS_SHIPPED, CALIBRATED, settings_class
+from .metrics import PRIMARY_METRIC
+
+
+@dataclass
+class Scenario:
+    """One block × pulse of a variant.
+
+    Attributes
+    ----------
+    value : float
+        Its primary value (NaN when nothing could be judged) [w/a units].
+    sd : float
+        The value's own error from the grid's resolution (:func:`resolution_sd`) [w/a units].
+    cell : float
+        The cell diagonal of its grid [w/a units].
+    cluster : tuple
+        ``(slenderness h/b, pulse)``: the scenarios one cluster averages.
+    gap : float
+        Distance between the η_H and η_M (average k) reference boundaries of this block and pulse
+        (NaN when the run has no such pair of references) [w/a units].
+    cells_id : str or None
+        A fingerprint of the engine map's outcomes (equal fingerprints: the same cells).
+    held_out : bool
+        The variant's calibration was made on another block than this one.
+    """
+
+    value: float
+    sd: float
+    cell: float
+    cluster: tuple = ()
+    gap: float = math.nan
+    cells_id: str | None = None
+    held_out: bool = False
+
+
+@dataclass
+class Variant:
+    """A variant's scenarios and what its verdict rests on."""
+
+    name: str
+    engine: str
+    label: str
+    settings: str
+    scenarios: dict = field(default_factory=dict)    # (block, pulse) -> Scenario
+    counts: dict = field(default_factory=dict)       # summed cell counts of its pairs
+    cells_missing: int = 0
+    shipped_note: str = ""                           # what its adapter says about its shipped settings
+    equals_shipped: bool = False                     # its calibration picked the shipped settings
+    in_sample: str = ""                              # held out: the variant calibrated on each block itself
+
+    @property
+    def held_out_only(self) -> bool:
+        """Every scenario is held out (a variant of the held-out check alone: no rank, no failing rule)."""
+        return bool(self.scenarios) and all(s.held_out for s in self.scenarios.values())
+
+    def finite(self) -> dict:
+        """The in-sample scenarios with a value (held-out ones are the held-out check's)."""
+        return {k: s for k, s in self.scenarios.items() if math.isfinite(s.value) and not s.held_out}
+
+    @property
+    def value(self) -> float:
+        """Mean of its scenarios' values (NaN without one) [w/a units]."""
+        vals = [s.value for s in self.finite().values()]
+        return sum(vals) / len(vals) if vals else math.nan
+
+
+#: A scenario's own error from the grid, as a share of its cell diagonal [-]: the measured root mean
+#: square error of the cell-level boundary distance against a grid eight times finer, over grid
+#: phases, for the reference solver's own boundaries shifted by a restitution 0.5–2 % off (0.03–0.17
+#: diagonals in seven of eight block × pulse × shift cases, 0.26 in the eighth; docs/scores.md, "The
+#: grid's resolution").
+RESOLUTION_SD_CELLS = 0.2
+
+
+def resolution_sd(cell: float) -> float:
+    """The standard error of a scenario's boundary distance from the grid alone [w/a units]:
+    :data:`RESOLUTION_SD_CELLS` of its cell diagonal ``cell``.
+
+    Each boundary is known only to lie inside its cells, and where inside differs from map to map, so
+    the distance between two maps' boundaries errs by up to a cell whatever their true distance. The
+    error does not average out over a boundary's edges: along a stretch of boundary the edges share
+    one phase against the grid and move together (a boundary along a grid line moves all of them by
+    one step at once), so it is a share of the cell, not of the cell over √edges.
+    """
+    return max(cell, _TINY) * RESOLUTION_SD_CELLS
+
+
+#: The cell of a grid without one (one row or column), so that its error and failing limit are not 0.
+_TINY = 1e-12
+
+
+def cluster_of(p: dict) -> tuple:
+    """``(h/b, pulse)`` of a pair: its ``slenderness`` when score.json has it, else the Table 1 block's,
+    else the block's name (a block of its own)."""
+    s = p.get("slenderness")
+    if s is None:
+        pre = PRESETS.get(str(p["block"]).upper())
+        s = round(pre.height_m / pre.width_m, 4) if pre else str(p["block"])
+    return (s, p["pulse"])
+
+
+def scenario_of(p: dict, gaps: dict | None = None) -> Scenario:
+    """A pair of score.json as a scenario (``gaps``: :func:`reference_gaps` of the document)."""
+    value = p["scores"].get(PRIMARY_METRIC)
+    c = p.get("cells") or {}
+    cell = math.hypot(float(c.get("w_step", 0.0)), float(c.get("a_step", 0.0)))
+    return Scenario(math.nan if value is None else float(value), resolution_sd(cell), max(cell, _TINY),
+                    cluster_of(p), (gaps or {}).get((p["block"], p["pulse"]), math.nan),
+                    p.get("engine_cells"), bool(p.get("held_out")))
+
+
+def reference_gaps(doc: dict) -> dict:
+    """``{(block, pulse): distance}`` from score.json's ``reference_gaps``."""
+    return {(g["block"], g["pulse"]): float(g["boundary_mean"]) for g in doc.get("reference_gaps", [])
+            if g.get("boundary_mean") is not None}
+
+
+_SUMMED = ("cells_in_domain", "reference_standing", "reference_overturn", "overturn_extra", "overturn_missed",
+           "failed_in_domain", "invalid_in_domain")
+
+
+def variants_of(doc: dict) -> list[Variant]:
+    """The engine variants of a score document, each with its like-for-like pairs (all its pairs when
+    it has none) as scenarios, in the document's order."""
+    gaps = reference_gaps(doc)
+    groups: dict[str, list[dict]] = {}
+    for p in doc.get("pairs", []):
+        groups.setdefault(p["variant"], []).append(p)
+    out = []
+    for name, ps in groups.items():
+        use = [p for p in ps if p.get("like_for_like")] or ps
+        first = use[0]
+        v = Variant(name, first.get("engine", name), first.get("label") or name,
+                    first.get("settings") or settings_class(None, name),
+                    shipped_note=next((p["shipped_note"] for p in use if p.get("shipped_note")), ""),
+                    equals_shipped=bool(use) and all(p.get("equals_shipped") is True for p in use),
+                    in_sample=next((p["in_sample_variant"] for p in use if p.get("in_sample_variant")), ""))
+        for p in use:
+            v.scenarios[(p["block"], p["pulse"])] = scenario_of(p, gaps)
+            for k in _SUMMED:
+                v.counts[k] = v.counts.get(k, 0) + int(p.get(k) or 0)
+            v.cells_missing += int(p.get("cells_missing") or 0)
+        out.append(v)
+    return out
+
+
+def identical(a: Variant, b: Variant) -> bool:
+    """Whether two variants give one answer: one engine, the same scenarios, and in each the same cells
+    (equal fingerprints), or one is the other's calibration that picked the shipped settings."""
+    if a.engine != b.engine or set(a.scenarios) != set(b.scenarios) or not a.scenarios:
+        return False
+    if {a.settings, b.settings} == {CALIBRATED, AS_SHIPPED} and (a.equals_shipped or b.equals_shipped):
+        return True
+    return all(a.scenarios[k].cells_id is not None and a.scenarios[k].cells_id == b.scenarios[k].cells_id
+               for k in a.scenarios)
+
+
+def entries(variants: list[Variant]) -> list[list[Variant]]:
+    """The variants grouped into entries of identical answers (:func:`identical`), in their order; an
+    entry's first variant speaks for it."""
+    out: list[list[Variant]] = []
+    for v in variants:
+        home = next((e for e in out if identical(e[0], v)), None)
+        if home is None:
+            out.append([v])
+        else:
+            home.append(v)
+    return out

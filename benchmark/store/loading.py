@@ -1,0 +1,304 @@
+"""The maps of run folders read back: one map directory as a :class:`~rockbench.benchmark.maps.result.MapResult`
+(:func:`load_map`), as the scores and reports read it (:class:`MapEntry`, :func:`load_entries`), and on
+its full grid (:func:`full_grid_rows`: adaptive maps get their inferred cells by the sweep's own fill rule).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+
+from ...reference_solver.errors import ConfigError
+from ..maps import adaptive as adaptive_mod
+from ..maps.grid import MapSpec
+from ..maps.result import FAILED, MapResult, put_row, empty_result, from_cells
+from .files import COLUMNS, read_cell_table, read_json, read_run, spec_variant, variant_name
+from .frames import OUTCOME_OF_CODE, rows_to_dataframe, rows_to_dataset
+
+
+def load_map(out_dir) -> MapResult:
+    """Read a run directory written by :func:`run_map` back into a :class:`MapResult`.
+
+    Adaptive maps get their inferred cells back by the same fill rule that produced them.
+
+    Raises
+    ------
+    ConfigError
+        When the directory holds no map (no ``run.json``) or a map of another schema.
+    """
+
+    meta, rows = read_run(out_dir)
+    spec, adaptive, stride = _spec_of_run(meta, Path(out_dir) / "run.json")
+    result = empty_result(spec)
+    result.adaptive, result.coarse_stride = adaptive, stride
+    for (i, j), row in rows.items():
+        put_row(result, i, j, row)
+    if result.adaptive:
+        adaptive_mod.fill(result.outcome, result.simulated, result.coarse_stride)
+    result.failures = [{"i": i, "j": j, "flag": r["flags"], "message": r["message"]}
+                       for (i, j), r in sorted(rows.items()) if r["status"] != "ok"]
+    summary = meta.get("summary")
+    try:
+        result.wall_s = float(summary.get("wall_s", 0.0)) if isinstance(summary, dict) else 0.0
+    except (TypeError, ValueError):
+        result.wall_s = 0.0   # only shown in reports; a damaged summary does not change the map
+    return result
+
+
+def _spec_of_run(meta: dict, where: Path) -> tuple[MapSpec, bool, int]:
+    """The spec and the adaptive options a run.json records; ConfigError naming the file when damaged."""
+    try:
+        spec = MapSpec.from_dict(meta["spec"])
+        opts = meta.get("options") or {}
+        adaptive = opts.get("adaptive", False)
+        stride = opts.get("coarse_stride", 1)
+        if not isinstance(adaptive, bool) or isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
+            raise ValueError(f"options adaptive={adaptive!r}, coarse_stride={stride!r}")
+    except KeyError as e:
+        raise ConfigError(f"{str(where)!r} is damaged: it lacks {e}; give a new --out directory "
+                          "(or rerun `rockbench map` into a new one).") from None
+    except (TypeError, ValueError, AttributeError) as e:
+        raise ConfigError(f"{str(where)!r} is damaged: {e}; give a new --out directory.") from None
+    return spec, adaptive, stride
+
+
+def full_grid_rows(map_dir) -> list[dict]:
+    """Every cell of a map directory's grid, row by row (amplitude index ``i``, then frequency ``j``).
+
+    Parameters
+    ----------
+    map_dir : path
+        A run directory written by ``rockbench map`` (or one map of ``rockbench run``).
+
+    Returns
+    -------
+    list of dict
+        cells.csv's columns (text as written there for simulated cells) plus ``filled`` (True for a
+        cell the adaptive fill rule inferred) and ``left_model`` (True where the run left the
+        rigid model: slip, jump, lift-required, slip-required).
+    """
+
+    meta, rows = read_run(map_dir)
+    res = load_map(map_dir)
+    spec = res.spec
+    head = {"engine": spec.engine, "variant": spec_variant(spec), "block": spec.block.name, "pulse": spec.pulse,
+            "restitution": spec.restitution.label, "eta": repr(float(spec.eta))}
+    w, a, om, am = spec.w_ratios(), spec.a_ratios(), spec.omegas(), spec.amplitudes()
+    out = []
+    for i in range(spec.y.n):
+        for j in range(spec.x.n):
+            row = rows.get((i, j))
+            if row is not None:
+                r = {c: row[c] for c in COLUMNS}
+                # a map written before the variant column existed gets it from its spec
+                r["variant"] = r.get("variant") or head["variant"]
+                r["filled"] = False
+            else:
+                code = int(res.outcome[i, j])
+                r = {c: "" for c in COLUMNS}
+                r.update(head, w_ratio=repr(float(w[j])), a_ratio=repr(float(a[i])), omega_rad_s=repr(float(om[j])),
+                         amplitude_mps2=repr(float(am[i])), outcome=OUTCOME_OF_CODE[code] if code >= 0 else "",
+                         status="filled" if code >= 0 else "missing", i=str(i), j=str(j))
+                r["filled"] = code >= 0
+            r["left_model"] = bool(res.left_model[i, j])
+            out.append(r)
+    return out
+
+
+# -- the maps of run folders, as the scores and reports read them ----------------------------------
+@dataclass
+class MapEntry:
+    """One map found on disk.
+
+    Attributes
+    ----------
+    path : Path
+        Its run directory.
+    map : MapResult
+        The map in memory, as the scores read it: a cell without an outcome is :data:`FAILED`, and an
+        inferred (adaptive) cell counts as valid.
+    engine : str
+        Registry name of the engine.
+    variant : str
+        The engine with its non-default settings and time step, e.g. ``mujoco[settings=defaults]``;
+        equals ``engine`` when nothing was set.
+    block, pulse, restitution : str
+        Block name, pulse kind and restitution label (``housner``, ``modified(k=0.8608)``, ``0.9``).
+    eta : float
+        The restitution coefficient of the map [-].
+    run : dict
+        The run.json contents.
+    settings : dict
+        The engine settings the map was run with (those given; what ``variant`` names).
+    dt_s : float or None
+        Its time step when not the engine's default [s].
+    """
+
+    path: Path
+    map: MapResult
+    engine: str
+    variant: str
+    block: str
+    pulse: str
+    restitution: str
+    eta: float
+    run: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+    dt_s: float | None = None
+
+    @property
+    def is_reference(self) -> bool:
+        return self.engine == "reference"
+
+    def to_dataframe(self):
+        """Every cell of the full grid (adaptive fills marked ``filled``), outcome categorical
+        (``pandas.DataFrame``)."""
+        return rows_to_dataframe(full_grid_rows(self.path))
+
+    def to_dataset(self):
+        """The full grid as an ``xarray.Dataset`` on dims ``(a_ratio, w_ratio)``."""
+        return rows_to_dataset(full_grid_rows(self.path))
+
+    def describe(self) -> dict:
+        m = self.map
+        return {"dir": str(self.path), "engine": self.engine, "variant": self.variant, "block": self.block,
+                "pulse": self.pulse, "restitution": self.restitution, "eta": self.eta,
+                "grid": grid_of(m)}
+
+
+def grid_of(m: MapResult) -> dict:
+    """The grid of a map, as score.json records it (for comparability checks)."""
+    return {"n_w": int(m.w_ratio.size), "n_a": int(m.a_ratio.size), "w_lo": float(m.w_ratio[0]),
+            "w_hi": float(m.w_ratio[-1]), "a_lo": float(m.a_ratio[0]), "a_hi": float(m.a_ratio[-1])}
+
+
+def find_map_dirs(paths: Iterable) -> list[Path]:
+    """Map directories at or below each path, sorted, no duplicates: a directory with cells.csv, or
+    with a run.json of a map whose cells.csv is gone (so a deleted cell table is found, and refused
+    as an incomplete map, instead of the map silently dropping out of the scores).
+
+    Raises
+    ------
+    ConfigError
+        A path that does not exist, or holds no map at all.
+    """
+    out: list[Path] = []
+    for p in paths:
+        p = Path(p)
+        if not p.is_dir():
+            raise ConfigError(f"{str(p)!r} is not a directory; give run directories written by `rockbench map` "
+                              "or `rockbench run`.")
+        if (p / "cells.csv").is_file() or _is_map_run(p):
+            found = [p]
+        else:
+            with_cells = {c.parent for c in p.rglob("cells.csv")}
+            # a run.json is read here only where its cells.csv is gone
+            found = sorted(with_cells | {c.parent for c in p.rglob("run.json")
+                                         if c.parent not in with_cells and _is_map_run(c.parent)})
+        if not found:
+            raise ConfigError(f"{str(p)!r} holds no map (no cells.csv in it or below); compute one with "
+                              "`rockbench map ... --out DIR`.")
+        out.extend(f for f in found if f not in out)
+    return out
+
+
+def _is_map_run(d: Path) -> bool:
+    """Whether ``d`` holds the run.json of a map (readable or not: a damaged one is reported when read)."""
+    f = d / "run.json"
+    if not f.is_file():
+        return False
+    try:
+        return json.loads(f.read_bytes().decode("utf-8-sig")).get("kind") == "rockbench-map"
+    except (OSError, ValueError, AttributeError):
+        return True
+
+
+def missing_cells(res, meta: dict) -> int:
+    """Cells a map on disk lacks: those neither simulated nor inferred, or, when its run.json says the
+    map finished with more simulated cells than cells.csv now holds (a cut or emptied file), at least
+    that many."""
+    gone = int(res.counts()["missing"])
+    summary = meta.get("summary")
+    declared = summary.get("n_simulated") if isinstance(summary, dict) else None
+    if isinstance(declared, int) and not isinstance(declared, bool):
+        gone = max(gone, declared - res.n_simulated)
+    return gone
+
+
+def load_entry(d: Path) -> MapEntry:
+    """Read one map directory into a :class:`MapEntry`.
+
+    A map this rockbench wrote (run.json of kind ``rockbench-map``) is read by
+    :func:`rockbench.benchmark.store.loading.load_map`, so adaptive maps get their inferred cells by the
+    harness's own rule; any other folder by the required columns of its cells.csv.
+    """
+    d = Path(d)
+    run = read_json(d / "run.json") if (d / "run.json").is_file() else {}
+    if run.get("kind") == "rockbench-map":
+        res = load_map(d)
+        spec = res.spec
+        codes = np.where(np.asarray(res.outcome) < 0, FAILED, np.asarray(res.outcome, dtype=int))
+        sim = np.asarray(res.simulated, bool)
+        # cells an adaptive sweep inferred were never simulated, so nothing in them broke the model
+        lm = MapResult.from_outcomes(res.w_ratio, res.a_ratio, codes, np.asarray(res.valid, bool) | ~sim,
+                      np.asarray(res.left_model, bool) & sim, sim,
+                      filled=int(np.count_nonzero(~sim & (codes != FAILED))))
+        lm.meta["missing_cells"] = missing_cells(res, run)
+        engine, block, pulse = spec.engine, spec.block.name, spec.pulse
+        restitution, eta = spec.restitution.label, float(spec.eta)
+        settings, dt = dict(spec.engine_settings or {}), spec.dt_s
+    else:
+        lm, first = _label_map(d / "cells.csv")
+        engine, block, pulse, restitution = first["engine"], first["block"], first["pulse"], first["restitution"]
+        eta = float(first["eta"])
+        spec = run.get("spec") or {}
+        settings, dt = dict(spec.get("engine_settings") or {}), spec.get("dt_s")
+    variant = variant_name(engine, settings, dt)
+    lm.meta.update({"engine": engine, "variant": variant, "block": block, "pulse": pulse,
+                    "restitution": restitution, "eta": eta})
+    return MapEntry(d, lm, engine, variant, block, pulse, restitution, eta, run, settings, dt)
+
+
+def _label_map(path: Path) -> tuple[MapResult, dict]:
+    """The :class:`MapResult` of a cells.csv with the required columns, and its first row."""
+    rows = read_cell_table(path)
+    ok = [r.get("status", "ok") in ("ok", "") for r in rows]
+    outcome = [r["outcome"] if good else "" for r, good in zip(rows, ok)]
+    valid = [str(r["valid"]).strip().lower() in ("true", "1") for r in rows]
+    try:
+        w = [float(r["w_ratio"]) for r in rows]
+        a = [float(r["a_ratio"]) for r in rows]
+    except ValueError as e:
+        raise ConfigError(f"{str(path)!r} has a non-numeric w_ratio or a_ratio ({e}).") from None
+    return from_cells(w, a, outcome, valid, flags=[r["flags"] for r in rows]), rows[0]
+
+
+def load_entries(paths: Iterable) -> list[MapEntry]:
+    """Every map at or below ``paths`` (see :func:`find_map_dirs`)."""
+    return [load_entry(d) for d in find_map_dirs(paths)]
+
+
+#: File of each engine variant's free-rocking η written by ``rockbench run`` at the top of its output.
+CALIBRATION_FILE = "calibration.json"
+
+
+def load_own_eta(paths: Iterable) -> dict:
+    """``{(variant, block): η}`` from the calibration.json files at the top of ``paths``."""
+    out = {}
+    for p in paths:
+        f = Path(p) / CALIBRATION_FILE
+        if f.is_file():
+            doc = read_json(f)
+            rows = doc.get("measurements", [])
+            try:
+                for row in rows:
+                    if row.get("eta_measured") is not None:
+                        out[(str(row["variant"]), str(row["block"]))] = float(row["eta_measured"])
+            except (AttributeError, KeyError, TypeError, ValueError) as e:
+                raise ConfigError(f"{str(f)!r} is damaged ({type(e).__name__}: {e}); delete it (`rockbench run` "
+                                  "measures the engines' η again).") from None
+    return out

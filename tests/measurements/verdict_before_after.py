@@ -1,0 +1,67 @@
+"""The default suite's verdict before and after a change of rules: one row per engine variant.
+
+    python tests/measurements/verdict_before_after.py BEFORE.json AFTER_SCORE.json [--markdown]
+
+BEFORE.json is a verdict record (tests/measurements/results/verdict-default.json and the like: the verdict's variants with
+value, 95 % interval and rank, and per variant the spurious invalid cells summed over its like-for-like
+pairs); AFTER_SCORE.json is a run's score.json. Prints per variant: value, interval, rank (or "fails"),
+spurious invalid cells (like-for-like pairs), before and after.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def spurious_invalid(doc: dict) -> dict:
+    """Spurious invalid cells per variant, summed over its like-for-like pairs."""
+    out: dict = {}
+    for p in doc.get("pairs", []):
+        if p.get("like_for_like"):
+            v = p["variant"]
+            out[v] = out.get(v, 0) + int(p["scores"].get("spurious_invalid") or 0)
+    return out
+
+
+def rows_of(verdict: dict, spurious: dict) -> dict:
+    """``{variant: (label, value, [lo, hi], rank or 'fails', spurious)}``."""
+    out = {}
+    for r in verdict["variants"]:
+        rank = "fails" if r.get("fails") else r.get("rank")
+        out[r["variant"]] = (r["label"], r.get("value"), r.get("ci95"), rank, spurious.get(r["variant"]))
+    return out
+
+
+def _fmt(v, ci) -> str:
+    if v is None:
+        return "–"
+    return f"{v:.3g} [{ci[0]:.3g}, {ci[1]:.3g}]" if ci else f"{v:.3g}"
+
+
+def table(before: dict, after: dict) -> str:
+    lines = ["| engine variant | before: value [95 %] | rank | spurious invalid | after: value [95 %] | rank | spurious invalid |",
+             "|---|---|---|---|---|---|---|"]
+    for k in sorted(set(before) | set(after), key=lambda k: (after.get(k) or before.get(k))[0]):
+        b, a = before.get(k), after.get(k)
+        label = (a or b)[0]
+        cells = [_fmt(b[1], b[2]) if b else "not run", str(b[3]) if b else "", str(b[4]) if b else "",
+                 _fmt(a[1], a[2]) if a else "not run", str(a[3]) if a else "", str(a[4]) if a else ""]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("before", type=Path)
+    ap.add_argument("after", type=Path)
+    a = ap.parse_args()
+    b = json.loads(a.before.read_text())
+    b = b.get("figures", b)       # a benchmark record holds the verdict among its figures
+    c = json.loads(a.after.read_text())
+    print(table(rows_of(b["verdict"], b.get("spurious_invalid", {})), rows_of(c["verdict"], spurious_invalid(c))))
+
+
+if __name__ == "__main__":
+    main()
