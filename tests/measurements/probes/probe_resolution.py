@@ -19,6 +19,8 @@ Run from the repository root: ``python tests/measurements/probes/probe_resolutio
 
 from __future__ import annotations
 
+import argparse
+
 import math
 import subprocess
 import sys
@@ -93,5 +95,15 @@ def cost(run_dir: Path) -> None:
           f"edges; per edge: +{300 * (rows + across) / sim:.1f} %")
 
 
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("what", choices=("truth", "cost"), help="truth: the fine-grid truth and the grid's error; "
+                    "cost: what locating the boundary below the cell would cost on a run's maps")
+    ap.add_argument("path", type=Path, help="truth: the output folder; cost: a run folder of the default suite")
+    a = ap.parse_args(argv)
+    {"truth": truth, "cost": cost}[a.what](a.path)
+    return 0
+
+
 if __name__ == "__main__":
-    {"truth": truth, "cost": cost}[sys.argv[1]](Path(sys.argv[2]))
+    sys.exit(main())
