@@ -20,7 +20,6 @@ Run from the repository root: ``python tests/measurements/probes/probe_resolutio
 from __future__ import annotations
 
 import argparse
-
 import math
 import subprocess
 import sys
