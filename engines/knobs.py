@@ -111,6 +111,15 @@ class Knob:
     until: str | None = None
     paired: bool = False
 
+    def __post_init__(self):
+        # an adapter declares its knobs when its class is defined: a wrong field fails there, in one line
+        for field_name, args in (("ladder", "(block, dt_s) -> values"), ("span", "(block, dt_s) -> (lo, hi)"),
+                                 ("minimum", "(block, dt_s) -> value"), ("along", "(value, block, dt_s) -> settings")):
+            value = getattr(self, field_name)
+            if value is not None and not callable(value):
+                raise TypeError(f"Knob {self.name!r}: {field_name} must be a function {args}, not "
+                                f"{type(value).__name__} {value!r}")
+
 
 def candidate(knob: Knob, value, block: Block, dt_s: float, start: dict | None = None) -> dict:
     """The contact settings of ``knob`` at ``value``: ``start`` (the shipped contact, or nothing)

@@ -250,3 +250,11 @@ def test_a_nested_ladder_until_close_does_not_stop_at_a_candidate_that_hops():
         {**c, "eta": table.get((c["k"], c["c"]), (0.9 * T, 0.0))[0], "eta_std": 0.001, "n": 4, "sink_m": 0.0,
          "hop_m": table.get((c["k"], c["c"]), (0.0, 0.0))[1], "damping_ratio": None} for c in cands])
     assert [(r["k"], r["c"]) for r in rows] == [(1e4, 100.0), (1e4, 30.0), (1e4, 10.0), (3e4, 100.0), (3e4, 30.0)]
+
+
+def test_a_knob_whose_ladder_is_not_a_function_fails_where_it_is_declared():
+    """An outside author's tuple for a ladder fails in one line at class definition, not as an
+    internal error in the middle of a calibration."""
+    from rockbench.engines.knobs import Knob
+    with pytest.raises(TypeError, match="ladder must be a function"):
+        Knob("damping_ratio", "", "damping", ladder=(0.5, 1.0))
