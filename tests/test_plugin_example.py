@@ -41,7 +41,7 @@ def test_the_installed_plugin_is_found_by_its_entry_point(site, monkeypatch):
 
 def test_the_installed_plugin_passes_check_adapter(site):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(site), os.environ.get("PYTHONPATH")) if p)}
-    out = subprocess.run([sys.executable, "-m", "rockbench", "check-adapter", "toy"], env=env, capture_output=True,
+    out = subprocess.run([sys.executable, "-m", "rockbench.benchmark", "check-adapter", "toy"], env=env, capture_output=True,
                          text=True, timeout=300)
     assert out.returncode == 0, out.stdout + out.stderr
     assert "FAIL" not in out.stdout and "checks passed." in out.stdout

@@ -106,7 +106,7 @@ def source_dir(given: str | None = None) -> Path:
                               "benchmark/ there).")
         return d
     d = Path(__file__).resolve().parents[2]
-    if (d / "pyproject.toml").is_file() and (d / "rockbench").is_dir():
+    if (d / "pyproject.toml").is_file() and (d / "benchmark").is_dir():
         return d
     raise ConfigError("versions installs rockbench from its source tree, and this rockbench is a regular install; "
                       "give --source DIR (a checkout of rockbench).")

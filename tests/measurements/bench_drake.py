@@ -112,7 +112,7 @@ def cmd_maps(args) -> None:
         block, pulse = item.split(":")
         d = out / f"{args.settings}-{block}-{pulse}"
         t0 = time.perf_counter()
-        cmd = [sys.executable, "-m", "rockbench", "map", *ENGINE_ARGS, "--block", block, "--pulse", pulse,
+        cmd = [sys.executable, "-m", "rockbench.benchmark", "map", *ENGINE_ARGS, "--block", block, "--pulse", pulse,
                *GRID, "--jobs", str(args.jobs), "--out", str(d), "--no-plot", "--json"]
         if args.settings != "calibrated":
             cmd[cmd.index("--engine") + 2:cmd.index("--engine") + 2] = ["--settings", args.settings]
@@ -181,7 +181,7 @@ def cmd_summary(args) -> None:
 
 def cmd_suite(args) -> None:
     """A suite's run restricted to engines (default: drake), timed: wall and CPU of the whole job."""
-    cmd = [sys.executable, "-m", "rockbench", "run", args.suite, "--engines", args.engines, "--out", args.out,
+    cmd = [sys.executable, "-m", "rockbench.benchmark", "run", args.suite, "--engines", args.engines, "--out", args.out,
            "--no-report"]
     print(_stamp(), " ".join(cmd[1:]), file=sys.stderr)
     t0, load0 = time.perf_counter(), os.getloadavg()[0]
