@@ -109,14 +109,19 @@ def _answers(adapter, block: Block, eta: float, probes: list, dt_s: float) -> li
     return [(r.outcome or "failed", "valid" if r.valid else "invalid") for r in adapter.run_many(cases)]
 
 
+def _run_at(adapter, block: Block, eta: float, probes: list, dt_s: float, runs: dict) -> tuple:
+    """``(calibration, probe answers or None when it is not reached)`` at ``dt_s``, computed once
+    and memoised in ``runs``."""
+    if dt_s not in runs:
+        cal = adapter.calibrate(block, eta, dt_s=dt_s)
+        runs[dt_s] = (cal, _answers(adapter, block, eta, probes, dt_s) if cal.reached else None)
+    return runs[dt_s]
+
+
 def _compare(adapter, block: Block, eta: float, probes: list, coarse: float, fine: float, runs: dict) -> dict:
     """One rung of the ladder: the calibrations at ``coarse`` and ``fine`` [s] and the probes that
     disagree; ``runs`` memoises each step's calibration and answers."""
-    for dt in (coarse, fine):
-        if dt not in runs:
-            cal = adapter.calibrate(block, eta, dt_s=dt)
-            runs[dt] = (cal, _answers(adapter, block, eta, probes, dt) if cal.reached else None)
-    (c_cal, c_ans), (f_cal, f_ans) = runs[coarse], runs[fine]
+    (c_cal, c_ans), (f_cal, f_ans) = (_run_at(adapter, block, eta, probes, dt, runs) for dt in (coarse, fine))
     differ = ([] if c_ans is None or f_ans is None else
               [f"{p} ω/p {w:g} a {a:.3g}: {' '.join(x)} vs {' '.join(y)}"
                for (p, w, a), x, y in zip(probes, c_ans, f_ans) if x != y])
@@ -129,12 +134,8 @@ def _compare(adapter, block: Block, eta: float, probes: list, coarse: float, fin
 def _yardstick(adapter, block: Block, eta: float, probes: list, runs: dict) -> float | None:
     """The finest step of :data:`STEP_LADDER_S` at which the calibration reaches ``eta`` (None when
     none does); ``runs`` memoises each step's calibration and answers."""
-    for dt in reversed(STEP_LADDER_S):
-        cal = adapter.calibrate(block, eta, dt_s=dt)
-        runs[dt] = (cal, _answers(adapter, block, eta, probes, dt) if cal.reached else None)
-        if cal.reached:
-            return dt
-    return None
+    return next((dt for dt in reversed(STEP_LADDER_S) if _run_at(adapter, block, eta, probes, dt, runs)[0].reached),
+                None)
 
 
 def converged_step(adapter, block: Block, eta: float) -> tuple[float, dict]:
