@@ -164,7 +164,7 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
         CSV path); one of ``w_ratio`` (ω/p), ``omega`` [rad/s], ``period`` [s]; one of ``a_ratio``
         (a₀/(g·tanα)), ``amplitude`` [m/s^2], ``amplitude_g`` [g]; ``engine`` (default
         ``"reference"``), ``dt`` [s], ``linearized``; engine settings ``settings``
-        (``"calibrated"``/``"defaults"``), ``drive``, ``friction`` and any other setting by name
+        (``"calibrated"``/``"shipped"``), ``drive``, ``friction`` and any other setting by name
         (the reference takes ``mode="energy"`` or ``"to-rest"``).
 
     Returns

@@ -13,7 +13,8 @@ import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from ..engines.base import Case
+from ..engines.base import SETTINGS_MODES, Case
+from ..engines.renamed import canonical_settings
 from ..reference_solver.errors import ConfigError, check_positive
 from ..reference_solver.model import Block, G, a_ratio_to_amplitude
 from ..reference_solver.pulses import Pulse, RecordPulse, make_pulse
@@ -44,8 +45,8 @@ class CaseRequest:
         The engine's registry name, its time step [s] (None: the engine's) and the linearised
         equation of motion (reference only).
     settings, drive, friction, set :
-        Engine settings: ``calibrated``/``defaults``, ``inertial``/``table``, μ [-], and any other as
-        ``KEY=VALUE`` texts.
+        Engine settings: ``calibrated``/``shipped``, ``inertial``/``table``, μ [-], and any other as
+        ``KEY=VALUE`` texts (an old name or value of a setting is read under the new one, with a note).
     """
 
     block: str | None = None
@@ -147,9 +148,9 @@ class CaseRequest:
         """Engine settings given (only those the user set)."""
         s = {}
         if self.settings is not None:
-            if self.settings not in ("calibrated", "defaults"):
-                raise ConfigError(f"--settings must be calibrated or defaults, got {self.settings!r}.")
-            s["settings"] = self.settings
+            s["settings"] = canonical_settings(None, {"settings": self.settings}, warn=True)["settings"]
+            if s["settings"] not in SETTINGS_MODES:
+                raise ConfigError(f"--settings must be {' or '.join(SETTINGS_MODES)}, got {self.settings!r}.")
         if self.drive is not None:
             if self.drive not in ("inertial", "table"):
                 raise ConfigError(f"--drive must be inertial or table, got {self.drive!r}.")
@@ -161,7 +162,7 @@ class CaseRequest:
             if not eq or not key:
                 raise ConfigError(f"--set takes KEY=VALUE, got {item!r}.")
             s[key.strip()] = _auto(val.strip())
-        return s
+        return canonical_settings(self.engine, s, warn=True)
 
     def case(self) -> tuple[Case, object]:
         """A full single case (for ``simulate``) and the preset (or None)."""

@@ -108,7 +108,7 @@ def _runs(case, cands: list) -> tuple[list, list[str]]:
     runs = [("reference", None, Restitution("modified", k=k)) for k in case.reference_k]
     variants = {}
     for e in cands:
-        settings = dict((e.run.get("spec") or {}).get("engine_settings") or {})
+        settings = dict(e.settings or {})   # the map's settings given, under today's names
         variants.setdefault((e.variant, e.restitution), (e.engine, settings))
     for (variant, rest_label), (engine, settings) in sorted(variants.items()):
         try:

@@ -82,9 +82,10 @@ from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import (DEFAULT_FRICTION, FLAGS, Measurement, contact_flags, judge_measurement,
                                          jump_tol_m, slip_tol_m, uplift_tol_rad)
 from .hooks import missing_hooks, required
+from .renamed import warn_renamed
 
 __all__ = ["Case", "Trajectory", "CellResult", "CellColumns", "RestitutionMeasurement", "CalibrationResult",
-           "EngineAdapter", "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad", "DEVICE_NOTED_ENV"]
+           "EngineAdapter", "SETTINGS_MODES", "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad", "DEVICE_NOTED_ENV"]
 
 #: Set (to "1") in the environment once the user has been told where an engine runs
 #: (:meth:`EngineAdapter.device_note`): worker processes inherit it and stay quiet.
@@ -380,6 +381,11 @@ class CalibrationResult:
         return d
 
 
+#: ``settings`` values of an engine with a contact model: the contact calibrated to the case's η, or
+#: the engine as shipped (:meth:`EngineAdapter.as_shipped`)
+SETTINGS_MODES = ("calibrated", "shipped")
+
+
 class EngineAdapter:
     """Base class of every engine adapter; see the module docstring for the contract."""
 
@@ -394,7 +400,7 @@ class EngineAdapter:
     #: the benchmark's time step for this engine, where a case poses none and the engine does not
     #: run as shipped (calibrated, or explicit settings) [s]
     default_dt_s: ClassVar[float] = 1e-3
-    #: the engine's own default time step, what it runs at as shipped (``settings="defaults"``) where a
+    #: the engine's own default time step, what it runs at as shipped (``settings="shipped"``) where a
     #: case poses none [s]; None where the engine has no default step (``default_dt_s`` stands in)
     shipped_dt_s: ClassVar[float | None] = None
     #: how the adapter batches cases (contract item 6): "none", "native" or "parallel"
@@ -408,9 +414,8 @@ class EngineAdapter:
         super().__init_subclass__(**kwargs)
         # ``parallel_batch = True`` (the attribute's old name) is ``batching = "parallel"``: kept for one release
         if cls.__dict__.get("parallel_batch") is True and "batching" not in cls.__dict__:
-            import warnings
-            warnings.warn(f"{cls.__name__}.parallel_batch is now batching = 'parallel'; the old attribute goes in "
-                          "the next release.", DeprecationWarning, stacklevel=2)
+            warn_renamed(f"{cls.__name__}.parallel_batch is now batching = 'parallel'; the old attribute goes in "
+                         "the next release.", 2)
             cls.batching = "parallel"
         if cls.batching not in ("none", "native", "parallel"):
             raise TypeError(f"{cls.__name__}.batching must be 'none', 'native' or 'parallel', got {cls.batching!r}")
@@ -534,9 +539,9 @@ class EngineAdapter:
 
     # -- provided ----------------------------------------------------------------------------
     def as_shipped(self) -> bool:
-        """Whether the engine runs as shipped: ``settings="defaults"`` (adapters without that setting
+        """Whether the engine runs as shipped: ``settings="shipped"`` (adapters without that setting
         never do)."""
-        return self.settings.get("settings") == "defaults"
+        return self.settings.get("settings") == "shipped"
 
     def unposed_dt_s(self, pulse=None) -> float:
         """The time step where a case poses none [s]: as shipped the engine's own default step

@@ -4,15 +4,15 @@ A contact engine simulates the block touching the table through the engine's own
 so it needs the same few things whatever the engine:
 
 * **Shared settings, one naming scheme** (units in names): ``settings`` (``calibrated``: contact
-  parameters searched so that free rocking reaches the case's η; ``defaults``: the engine as
+  parameters searched so that free rocking reaches the case's η; ``shipped``: the engine as
   shipped), ``drive`` (``inertial`` or ``table``), ``planar``, ``friction`` [-], ``tail_s`` (the
   longest simulated time after the pulse), ``min_tail_s`` (the shortest) and, for engines that
   step in segments between stop checks, ``segment_s``; ``calibrate_on`` (another block of the same
   slenderness that the calibration runs on: the held-out check, :mod:`rockbench.engines.held_out`).
   They are validated here, once.
-* **Old names** of settings are accepted for one release and mapped to the new
-  ones by :data:`RENAMED_SETTINGS`, the one table of them (``--set``, suite TOMLs, run.json files
-  and cached calibration records all go through :meth:`ContactEngineAdapter.canonical_settings`).
+* **Old names** of settings and of their values are accepted for one release and mapped to the new
+  ones by :mod:`rockbench.engines.renamed` (``--set``, suite TOMLs, stored runs and cached calibration
+  records all go through its :func:`~rockbench.engines.renamed.canonical_settings`).
 * **One time-step rule**: :meth:`ContactEngineAdapter.time_step_s` (not to be confused with
   :meth:`~rockbench.reference_solver.pulses.Pulse.check_dt`, which checks a step against a pulse).
 * **One ``resolve()`` flow**: explicit contact settings, else the engine's defaults, else the
@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from typing import Any, ClassVar, Mapping
 
 from ..reference_solver.classify import overturn_certain
@@ -43,31 +42,15 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution, housner_eta
 from ..reference_solver.rules import RULES_VERSION
 from . import calibration, held_out, step_rule
-from .base import CalibrationResult, EngineAdapter
+from .base import SETTINGS_MODES, CalibrationResult, EngineAdapter
 from .hooks import required
+from .renamed import RENAMED_SETTINGS, RENAMED_VALUES, canonical_changes, canonical_settings, warn_renamed
 
-__all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "SETTINGS_MODES", "DRIVES", "body_energy_j_kg",
-           "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS", "first_reached"]
-
-#: ``settings`` values: contact calibrated to the case's η, or the engine as shipped
-SETTINGS_MODES = ("calibrated", "defaults")
+__all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "RENAMED_VALUES", "canonical_settings", "SETTINGS_MODES",
+           "DRIVES", "body_energy_j_kg", "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS", "first_reached"]
 
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")
-
-#: Old setting names → new names, per engine (units in names; one name per concept: a contact's
-#: restitution coefficient is ``contact_restitution`` in every engine). Accepted for one release with
-#: a DeprecationWarning; the one place where a rename is recorded.
-RENAMED_SETTINGS: Mapping[str, Mapping[str, str]] = {
-    "mujoco": {"timeconst": "timeconst_s"},
-    "pybullet": {"contact_stiffness": "contact_stiffness_n_m", "contact_damping": "contact_damping_n_s_m",
-                 "contact_breaking_threshold": "contact_breaking_threshold_m",
-                 "restitution_coef": "contact_restitution"},
-    "dart": {"restitution_coeff": "contact_restitution"},
-    "physx": {"restitution_coeff": "contact_restitution"},
-    "exudyn": {"chunk_s": "segment_s", "max_tail_s": "tail_s", "stiffness_n_m": "contact_stiffness_n_m",
-               "damping_n_s_m": "contact_damping_n_s_m"},
-}
 
 #: ``contact`` values: the corners alone, a row of points along the base, or the corners unless the
 #: target η is above Housner's (then the row); see docs/contact.md
@@ -84,8 +67,8 @@ _TRUE, _FALSE = ("true", "1"), ("false", "0")
 
 #: What to do about a contact engine without a calibration (the ``settings`` default is ``calibrated``)
 CALIBRATION_ADVICE = ("the contact calibrated to the target η: declare CALIBRATION_KNOBS (the skeleton then "
-                      "searches them) or implement this hook; or run the engine as shipped: --set settings=defaults, "
-                      "or \"settings\": \"defaults\" in SETTINGS")
+                      "searches them) or implement this hook; or run the engine as shipped: --set settings=shipped, "
+                      "or \"settings\": \"shipped\" in SETTINGS")
 
 
 class ContactEngineAdapter(EngineAdapter):
@@ -125,6 +108,15 @@ class ContactEngineAdapter(EngineAdapter):
     #: what a point of the distributed contact is, in calibration notes
     POINT_UNIT: ClassVar[str] = "points"
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        # an adapter's own defaults under an old name or value (``"settings": "defaults"``): kept for one release
+        own = cls.__dict__.get("SETTINGS")
+        if own is not None and canonical_settings(cls.name, own) != dict(own):
+            warn_renamed(f"{cls.__name__}.SETTINGS uses an old name or value ({canonical_changes(cls.name, own)}); "
+                         "the old spelling goes in the next release.", 2)
+            cls.SETTINGS = canonical_settings(cls.name, own)
+
     def __init__(self, **settings):
         super().__init__(**self.canonical_settings(settings, warn=True))
         self._resolved: dict = {}
@@ -134,23 +126,8 @@ class ContactEngineAdapter(EngineAdapter):
     # -- names --------------------------------------------------------------------------------
     @classmethod
     def canonical_settings(cls, settings: Mapping[str, Any], *, warn: bool = False) -> dict:
-        """``settings`` with old names (:data:`RENAMED_SETTINGS`) replaced by the new ones.
-
-        Giving both an old name and its new name is a ConfigError; ``warn`` emits a
-        DeprecationWarning per old name (user input; not for cached records).
-        """
-        renamed = RENAMED_SETTINGS.get(cls.name, {})
-        out = dict(settings)
-        for old, new in renamed.items():
-            if old not in out:
-                continue
-            if new in out:
-                raise ConfigError(f"{cls.name} setting {old!r} is the old name of {new!r}; give only {new!r}.")
-            if warn:
-                warnings.warn(f"{cls.name} setting {old!r} is now called {new!r}; the old name goes in the next "
-                              "release.", DeprecationWarning, stacklevel=3)
-            out[new] = out.pop(old)
-        return out
+        """:func:`canonical_settings` of this engine."""
+        return canonical_settings(cls.name, settings, warn=warn, stacklevel=3)
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_settings(self, s: dict) -> None:
@@ -167,9 +144,9 @@ class ContactEngineAdapter(EngineAdapter):
         if "segment_s" in s:
             self._number_setting(s, "segment_s", "s", allow_none=False)
         s["calibrate_on"] = held_out.check_name(s.get("calibrate_on"), self.name)
-        if s["calibrate_on"] and s["settings"] == "defaults":
+        if s["calibrate_on"] and s["settings"] == "shipped":
             raise ConfigError(f"{self.name} setting 'calibrate_on' needs settings = calibrated (as shipped, nothing is "
-                              f"calibrated), got calibrate_on = {s['calibrate_on']!r} with settings = defaults.")
+                              f"calibrated), got calibrate_on = {s['calibrate_on']!r} with settings = shipped.")
         self._validate_engine_settings(s)
 
     def _validate_engine_settings(self, s: dict) -> None:
@@ -268,7 +245,7 @@ class ContactEngineAdapter(EngineAdapter):
     def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
         """The concrete settings cases of this block, restitution and time step [s] use (for run.json).
 
-        Explicit contact settings, else (``settings="defaults"``) the engine's defaults, else the
+        Explicit contact settings, else (``settings="shipped"``) the engine's defaults, else the
         calibration to the restitution's η at this time step (:meth:`calibrate`, cached on disk), made
         on :meth:`calibration_block` (``block`` itself unless ``calibrate_on`` names another, which the
         record's ``calibrated_on`` then names); then :meth:`_resolved_settings` builds the concrete
@@ -300,7 +277,7 @@ class ContactEngineAdapter(EngineAdapter):
         """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
         same concrete settings at its own step (then the two variants give one answer, which the
         verdict counts once)."""
-        shipped = type(self)(**{**self.settings, "settings": "defaults", "calibrate_on": None})
+        shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None})
         if shipped.unposed_dt_s() != dt:
             return False
         skip = ("settings", "calibration")

@@ -219,7 +219,7 @@ class DartAdapter(SteppedContactAdapter):
 
     Settings
     --------
-    settings : {"calibrated", "defaults"}
+    settings : {"calibrated", "shipped"}
         Contact settings calibrated to the case's η, or DART as shipped (FCL, plastic impacts).
     drive : {"inertial", "table"}
         How the pulse enters (gravity tilted by −ü, or a kinematic table moved along u(t)).

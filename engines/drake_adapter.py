@@ -34,7 +34,7 @@ and no impact law of ours replaces it.
   the step average ``(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` of ``ü`` times the mass: the impulse per step is exact.
 * **Restitution**: Drake has no η. ``settings="calibrated"`` (default) runs the contact parameters
   :meth:`DrakeAdapter.calibrate` found for the case's η (cached on disk, see
-  :mod:`rockbench.engines.calibration`); ``settings="defaults"`` runs Drake as shipped: its default
+  :mod:`rockbench.engines.calibration`); ``settings="shipped"`` runs Drake as shipped: its default
   discrete approximation (``lagged``) and contact parameters (stiffness and dissipation from its
   default penetration allowance of 1 mm), with only the time step, the geometry and the anti-slip
   friction set.
@@ -194,7 +194,7 @@ class _Scene:
         hydro = s["contact"] == "hydroelastic"
         m = block.mass_kg
         tprops = pd.ProximityProperties()
-        if s["settings"] == "defaults" and not hydro:
+        if s["settings"] == "shipped" and not hydro:
             pd.AddContactMaterial(friction=friction, properties=tprops)
         else:
             pd.AddContactMaterial(dissipation=0.0, point_stiffness=_TABLE_POINT_STIFFNESS, friction=friction,
@@ -278,7 +278,7 @@ class DrakeAdapter(SteppedContactAdapter):
 
     Settings
     --------
-    settings : {"calibrated", "defaults"}
+    settings : {"calibrated", "shipped"}
         Contact parameters calibrated to the case's η, or Drake as shipped.
     contact : {"point", "hydroelastic"}
         Point contact at the bottom corners, or hydroelastic contact of the whole base.
@@ -361,7 +361,7 @@ class DrakeAdapter(SteppedContactAdapter):
         a = self.settings["approximation"]
         if a is not None:
             return a
-        return "lagged" if self.settings["settings"] == "defaults" else "sap"
+        return "lagged" if self.as_shipped() else "sap"
 
     def _dissipation_key(self, approx: str) -> str:
         return "relaxation_time_s" if approx == "sap" else "hunt_crossley_dissipation_s_m"
@@ -376,13 +376,13 @@ class DrakeAdapter(SteppedContactAdapter):
         return s
 
     def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        """The approximation made concrete and the contact: as shipped (``defaults``), explicit (the
+        """The approximation made concrete and the contact: as shipped (``shipped``), explicit (the
         missing stiffness or dissipation from :data:`BASE_CONTACT`), or the calibration's."""
         s = self._base_settings()
         if cal is not None:
             s.update(cal.settings)
             return s
-        if s["settings"] == "defaults" and not self.explicit_contact():
+        if s["settings"] == "shipped" and not self.explicit_contact():
             return s
         return self._filled(s)
 

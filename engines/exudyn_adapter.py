@@ -58,7 +58,7 @@ reaches a prescribed normal restitution coefficient without sticky forces) with 
 coefficient lands the corner without bouncing, which is exactly Housner's assumption, and gives
 η within 0.5 % of η_H for B3M and B6M. ``settings="calibrated"`` (default) therefore searches
 that coefficient (:meth:`ExudynAdapter.calibrate`) for the case's target η and caches the result
-on disk (:mod:`rockbench.engines.calibration`). ``settings="defaults"`` keeps Exudyn's shipped
+on disk (:mod:`rockbench.engines.calibration`). ``settings="shipped"`` keeps Exudyn's shipped
 contact model (impact model 0, restitution coefficient 1, no damping) except the stiffness, whose
 shipped value is 0 (no contact at all) and is set by the same rule as the calibrated one
 (:func:`default_stiffness_n_m`).
@@ -422,7 +422,7 @@ class ExudynAdapter(SteppedContactAdapter):
 
     Settings
     --------
-    settings : {"calibrated", "defaults"}
+    settings : {"calibrated", "shipped"}
         Contact calibrated to the case's η (default), or Exudyn's shipped contact defaults.
     drive : {"inertial", "table"}
         How the pulse enters: the force −m·ü at the centre of mass, or a table body moved along u(t).

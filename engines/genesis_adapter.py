@@ -188,7 +188,7 @@ class GenesisAdapter(SteppedContactAdapter):
 
     Settings
     --------
-    settings : {"calibrated", "defaults"}
+    settings : {"calibrated", "shipped"}
         The constraint time constant calibrated to the case's η, or Genesis as shipped (0.01 s).
     drive : {"inertial", "table"}
         Gravity tilted by −ü per environment, or a table on a slide joint pushed along u(t).

@@ -75,7 +75,7 @@ from .pick import Candidate, pick
 from .rotation import quat_matrix, theta_rate_of_body
 from .skeleton import Motion, SteppedContactAdapter
 
-#: MuJoCo's own defaults for what ``settings="defaults"`` leaves alone (MuJoCo 3.x/4.0 docs).
+#: MuJoCo's own defaults for what ``settings="shipped"`` leaves alone (MuJoCo 3.x/4.0 docs).
 MUJOCO_SHIPPED = {"timeconst": 0.02, "dampratio": 1.0, "cone": "pyramidal", "integrator": "euler",
                   "noslip_iterations": 0, "impratio": 1.0}
 
@@ -119,10 +119,10 @@ class MujocoAdapter(SteppedContactAdapter):
 
     Settings
     --------
-    settings : {"calibrated", "defaults"}
+    settings : {"calibrated", "shipped"}
         ``calibrated``: contact time constant and damping ratio searched so that free rocking
         reaches the case's η (cached), elliptic cones, no-slip solver, implicitfast integrator.
-        ``defaults``: MuJoCo as shipped (solref 0.02 1, pyramidal cones, Euler, no no-slip);
+        ``shipped``: MuJoCo as shipped (solref 0.02 1, pyramidal cones, Euler, no no-slip);
         only the time step and the friction are set.
     drive : {"inertial", "table"}
         How the table motion reaches the block (module docstring).
@@ -134,7 +134,7 @@ class MujocoAdapter(SteppedContactAdapter):
         Contact ``solref`` [s], [-]; given, they replace calibration (and MuJoCo's defaults).
         (``timeconst`` is the old name of ``timeconst_s``, accepted for one release.)
     noslip_iterations : int or None
-        MuJoCo's no-slip solver passes (None: 10 calibrated, 0 defaults).
+        MuJoCo's no-slip solver passes (None: 10 calibrated, 0 shipped).
     cone, integrator : str or None
         ``elliptic``/``pyramidal``; ``euler``/``implicitfast``/``implicit``/``rk4`` (None: by mode).
     impratio : float or None

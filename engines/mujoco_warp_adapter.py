@@ -73,7 +73,7 @@ from .warp_start import cuda_driver_present, start_warp
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
-#: soft contact deeper than its own height (MuJoCo's shipped contact, ``settings=defaults``) all 8;
+#: soft contact deeper than its own height (MuJoCo's shipped contact, ``settings=shipped``) all 8;
 #: a box on a box (the table drive) also up to 8. Constraint rows per world follow (an elliptic
 #: contact of condim 3 has 3 rows, a pyramidal one 4). A world that needs more stops its batch with
 #: an error rather than losing contacts (:meth:`MujocoWarpAdapter._check_capacity`).

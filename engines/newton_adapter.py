@@ -23,7 +23,7 @@ corrections: that contact is what the benchmark measures.
 * **Drives** (``drive``): ``inertial`` (default) sets each world's gravity to ``(−ü, 0, −g)``
   (ü at the step's midpoint); ``table`` makes the table a kinematic body whose pose u(tₙ) and
   velocity u̇ (at the step's midpoint) are set before every step.
-* **Restitution**: ``settings="defaults"`` runs the solver as shipped (Newton's default iterations
+* **Restitution**: ``settings="shipped"`` runs the solver as shipped (Newton's default iterations
   and contact material) with only the time step and the anti-slip friction set;
   ``settings="calibrated"`` (default) runs the settings the skeleton's search of the solver's
   knobs (:attr:`NewtonAdapter.CALIBRATION_KNOBS`) found for the case's η (cached on disk). XPBD's own restitution (``enable_restitution``) is not
@@ -244,7 +244,7 @@ class NewtonAdapter(SteppedContactAdapter):
     --------
     solver : {"xpbd", "semi_implicit", "featherstone", "vbd"}
         Newton's solver.
-    settings : {"calibrated", "defaults"}
+    settings : {"calibrated", "shipped"}
         Settings calibrated to the case's η, or the solver as shipped.
     drive : {"inertial", "table"}
         The inertial force at the centre of mass (gravity tilt), or a kinematic table.

@@ -182,7 +182,7 @@ class PhysxAdapter(SteppedContactAdapter):
 
     Settings
     --------
-    settings : {"calibrated", "defaults"}
+    settings : {"calibrated", "shipped"}
         PGS with the substeps calibrated to the case's η, or PhysX as shipped (:data:`SHIPPED_CONTACT`).
     drive : {"inertial", "table"}
         The force −m·ü at the centre of mass, or a kinematic table moved along u(t).

@@ -23,7 +23,7 @@ law of ours replaces it, since that contact is what the benchmark measures.
   solver needs to drag the block (a position alone does not).
 * **Restitution**: Bullet has no η. ``settings="calibrated"`` (default) runs the contact settings
   that :meth:`PybulletAdapter.calibrate` found for the case's η (cached on disk, see
-  :mod:`rockbench.engines.calibration`); ``settings="defaults"`` runs Bullet as shipped (its rigid
+  :mod:`rockbench.engines.calibration`); ``settings="shipped"`` runs Bullet as shipped (its rigid
   contact, 50 solver iterations), with only the time step and the anti-slip friction set.
 
 The run, its end and the free-rocking test
@@ -296,7 +296,7 @@ class PybulletAdapter(SteppedContactAdapter):
 
     Settings
     --------
-    settings : {"calibrated", "defaults"}
+    settings : {"calibrated", "shipped"}
         Contact settings calibrated to the case's η, or Bullet as shipped.
     drive : {"inertial", "table"}
         How the pulse enters (inertial force at the centre of mass, or a moving table).
@@ -307,7 +307,7 @@ class PybulletAdapter(SteppedContactAdapter):
     friction_anchor : bool
         Bullet's friction anchors (pin sticking contact points) [-].
     solver_iterations : int or None
-        Bullet's solver iterations; None: 30 when calibrated, Bullet's 50 for defaults. The
+        Bullet's solver iterations; None: 30 when calibrated, Bullet's 50 as shipped. The
         sequential-impulse solver is not fully converged at 30 (a mirrored pulse gives the mirrored
         θ(t) to about 1e-3 of its peak, against 1e-2 at 20 and 1e-1 at 10; 50 gives 4e-6), and
         a step costs about 25 % less than at 50.
@@ -411,7 +411,7 @@ class PybulletAdapter(SteppedContactAdapter):
         """Settings without any calibration: Bullet's rigid contact unless given explicitly."""
         s = dict(self.settings)
         if s["solver_iterations"] is None:
-            s["solver_iterations"] = 50 if s["settings"] == "defaults" else 30
+            s["solver_iterations"] = 50 if s["settings"] == "shipped" else 30
         s["contact_points"] = (s["contact_points"] or POINTS_TRIED[0]) if s["contact"] == "distributed" else None
         return s
 

@@ -55,7 +55,6 @@ from __future__ import annotations
 import json
 import math
 import time
-import warnings
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -71,6 +70,7 @@ from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
 from .hooks import MissingHook, hook_line, required
 from .knobs import search as search_knobs
 from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
+from .renamed import warn_renamed
 
 __all__ = ["SteppedContactAdapter", "Motion", "corners", "pivot_pose", "run_steps", "MAX_PRICE_TRIES"]
 
@@ -189,8 +189,8 @@ class SteppedContactAdapter(ContactEngineAdapter):
         super().__init_subclass__(**kwargs)
         # ``CONTACT_KEYS`` is the old name of ``CALIBRATED_SETTINGS``: kept for one release
         if "CONTACT_KEYS" in cls.__dict__ and "CALIBRATED_SETTINGS" not in cls.__dict__:
-            warnings.warn(f"{cls.__name__}.CONTACT_KEYS is now called CALIBRATED_SETTINGS; the old name goes in the "
-                          "next release.", DeprecationWarning, stacklevel=2)
+            warn_renamed(f"{cls.__name__}.CONTACT_KEYS is now called CALIBRATED_SETTINGS; the old name goes in the "
+                         "next release.", 2)
             cls.CALIBRATED_SETTINGS = tuple(cls.CONTACT_KEYS)
         given = [k for k in cls.CALIBRATED_SETTINGS if cls.SETTINGS.get(k) is not None]
         if cls.SETTINGS.get("settings") == "calibrated" and given:

@@ -89,18 +89,18 @@ def test_load_run_reads_maps_and_scores(write_map, band, tmp_path):
     from rockbench.benchmark.cli.main import main
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
     write_map(tmp_path / "run" / "ref", band(6, 7, 3), block="B3M")
-    write_map(tmp_path / "run" / "eng", band(6, 7, 4), engine="mujoco", block="B3M", settings={"settings": "defaults"})
+    write_map(tmp_path / "run" / "eng", band(6, 7, 4), engine="mujoco", block="B3M", settings={"settings": "shipped"})
     assert main(["score", str(tmp_path / "run"), "--no-write", "--json"]) == 0
     assert main(["score", str(tmp_path / "run"), "--out", str(tmp_path / "run" / "score.json")]) == 0
     run = rb.load_run(tmp_path / "run")
-    assert sorted(m.variant for m in run.maps) == ["mujoco[settings=defaults]", "reference"]
+    assert sorted(m.variant for m in run.maps) == ["mujoco[settings=shipped]", "reference"]
     cells = run.cells()
-    assert len(cells) == 84 and set(cells.variant.cat.categories) == {"mujoco[settings=defaults]", "reference"}
+    assert len(cells) == 84 and set(cells.variant.cat.categories) == {"mujoco[settings=shipped]", "reference"}
     s = run.summary()
-    assert list(s.index) == ["mujoco[settings=defaults]"] and s.loc["mujoco[settings=defaults]", "agreement"] < 1
+    assert list(s.index) == ["mujoco[settings=shipped]"] and s.loc["mujoco[settings=shipped]", "agreement"] < 1
     assert set(run.scores().columns) >= {"variant", "agreement", "consistency", "spurious_invalid"}
     assert "rigid model" in run.metrics()["consistency"]
     v = run.verdict()
-    assert list(v.index) == ["mujoco[settings=defaults]"] and v.loc["mujoco[settings=defaults]", "rank"] == 1
-    assert v.loc["mujoco[settings=defaults]", "ci95_lo"] <= v.loc["mujoco[settings=defaults]", "value"]
-    assert v.loc["mujoco[settings=defaults]", "settings"] == "as-shipped"
+    assert list(v.index) == ["mujoco[settings=shipped]"] and v.loc["mujoco[settings=shipped]", "rank"] == 1
+    assert v.loc["mujoco[settings=shipped]", "ci95_lo"] <= v.loc["mujoco[settings=shipped]", "value"]
+    assert v.loc["mujoco[settings=shipped]", "settings"] == "as-shipped"

@@ -205,9 +205,9 @@ def test_a_missing_hook_is_named_with_what_to_do_one_line_each(capsys):
     lines = rep.checks[0].detail.split("\n")
     assert [ln.split("(")[0] for ln in lines] == [f"HalfDone: implement {h}" for h in (
         "_resolved_settings", "_start", "_advance", "_angles", "_motion", "_calibrate_corners")]
-    assert "--set settings=defaults" in lines[-1] and "CALIBRATION_KNOBS" in lines[-1]
+    assert "--set settings=shipped" in lines[-1] and "CALIBRATION_KNOBS" in lines[-1]
     # as shipped, nothing is calibrated: the calibration hook is not needed
-    shipped = check_adapter(cls(settings="defaults")).checks[0].detail
+    shipped = check_adapter(cls(settings="shipped")).checks[0].detail
     assert "_calibrate_corners" not in shipped and shipped.count("\n") == 4
     # the declaration raises the same line, not an empty NotImplementedError
     with pytest.raises(MissingHook, match=r"HalfDone: implement _advance\(world, n_from, n_to\)"):
@@ -226,7 +226,7 @@ def test_every_builtin_adapter_implements_every_hook_it_needs():
 
     for name in BUILTIN:
         cls = adapter_class(name)
-        modes = ("calibrated", "defaults") if "settings" in cls.SETTINGS else (None,)
+        modes = ("calibrated", "shipped") if "settings" in cls.SETTINGS else (None,)
         for mode in modes:
             ad = cls() if mode is None else cls(settings=mode)
             assert ad.missing_hooks() == [], (name, mode)

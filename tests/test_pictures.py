@@ -268,7 +268,7 @@ def test_labels_in_words():
     from rockbench.benchmark.scoring.labels import restitution_symbol, short_version, variant_label
     assert variant_label("mujoco", {"settings": "calibrated"}, version="4.0.0", restitution="housner") == \
         "MuJoCo 4.0, calibrated to η_H"
-    assert variant_label("pybullet", {"settings": "defaults"}, version="3.2.7") == "PyBullet 3.2.7, as shipped"
+    assert variant_label("pybullet", {"settings": "shipped"}, version="3.2.7") == "PyBullet 3.2.7, as shipped"
     assert variant_label("exudyn", {"drive": "table"}, restitution="modified(k=0.8608)", block="B3M",
                          dt_s=1e-4) == "Exudyn, calibrated to η_M (k = 0.8608, average k), table drive, Δt = 0.1 ms"
     assert restitution_symbol("0.9") == "η = 0.9" and short_version("1.9.1") == "1.9.1"
@@ -280,11 +280,11 @@ def test_labels_name_the_solver_of_an_engine_with_several():
     from rockbench.benchmark.scoring.labels import variant_label
     assert variant_label("newton", {"settings": "calibrated"}, version="1.8.0", restitution="housner") == \
         "Newton 1.8, calibrated to η_H, XPBD solver"
-    assert variant_label("newton", {"settings": "defaults", "solver": "semi_implicit"}) == \
+    assert variant_label("newton", {"settings": "shipped", "solver": "semi_implicit"}) == \
         "Newton, as shipped, semi-implicit solver"
     assert variant_label("mujoco_warp", {"solver": "cg"}, restitution="housner") == \
         "MuJoCo Warp, calibrated to η_H, CG solver"
-    assert variant_label("no_such_engine", {"settings": "defaults"}) == "no_such_engine, as shipped"
+    assert variant_label("no_such_engine", {"settings": "shipped"}) == "no_such_engine, as shipped"
 
 
 def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):

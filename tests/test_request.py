@@ -14,14 +14,14 @@ def _cli(*argv):
 
 def test_the_command_line_and_the_api_ask_for_the_same_case():
     cli = _cli("--block", "B3M", "--w-ratio", "6", "--a-ratio", "6.1", "--restitution", "modified", "--k", "0.7595",
-               "--engine", "mujoco", "--settings", "defaults", "--set", "contact=distributed")
+               "--engine", "mujoco", "--settings", "shipped", "--set", "contact=distributed")
     api = request_of("B3M", w_ratio=6, a_ratio=6.1, restitution="modified", k=0.7595, engine="mujoco",
-                   settings="defaults", contact="distributed")
+                   settings="shipped", contact="distributed")
     (c1, p1), (c2, p2) = cli.case(), api.case()
     assert p1 is p2 and c1.block == c2.block and c1.restitution == c2.restitution and c1.eta == c2.eta
     assert (c1.pulse.kind, c1.pulse.amplitude_mps2, c1.pulse.omega_rad_s) == \
         (c2.pulse.kind, c2.pulse.amplitude_mps2, c2.pulse.omega_rad_s)
-    assert cli.engine_settings() == api.engine_settings() == {"settings": "defaults", "contact": "distributed"}
+    assert cli.engine_settings() == api.engine_settings() == {"settings": "shipped", "contact": "distributed"}
 
 
 def test_a_map_spec_from_the_request():

@@ -169,9 +169,9 @@ def test_own_eta_reference_is_marked(write_map, band, tmp_path, capsys):
     root = tmp_path / "run"
     write_map(root / "maps" / "ref-h", band(8, 8, 3))
     write_map(root / "maps" / "ref-own", band(8, 8, 4), restitution=Restitution("constant", value=0.9712))
-    write_map(root / "maps" / "eng", band(8, 8, 4), engine="mujoco", settings={"settings": "defaults"})
+    write_map(root / "maps" / "eng", band(8, 8, 4), engine="mujoco", settings={"settings": "shipped"})
     (root / "calibration.json").write_text(json.dumps({"kind": "rockbench-calibration", "measurements": [
-        {"variant": "mujoco[settings=defaults]", "block": "B6M", "eta_measured": 0.97121}]}))
+        {"variant": "mujoco[settings=shipped]", "block": "B6M", "eta_measured": 0.97121}]}))
     code, out, err = run_cli(capsys, "score", root, "--json", "--no-write")
     assert code == 0, err
     kinds = {p["reference"]["restitution"]: p["reference"]["kind"] for p in json.loads(out)["pairs"]}

@@ -29,7 +29,7 @@ def test_shipped_suites_parse_and_plan():
     assert len({j.subdir for j in jobs}) == len(jobs)
     b3m = {j.restitution.label for j in refs if j.block == "B3M"}
     assert b3m == {"housner", "modified(k=0.8608)", "modified(k=0.7595)"}
-    assert {j.settings["settings"] for j in jobs if j.engine == "mujoco"} == {"calibrated", "defaults"}
+    assert {j.settings["settings"] for j in jobs if j.engine == "mujoco"} == {"calibrated", "shipped"}
 
 
 def test_newton_suite_has_one_variant_per_solver():

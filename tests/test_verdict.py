@@ -147,20 +147,20 @@ def test_two_identical_variants_are_one_entry():
     compared with one entry, and both share its rank."""
     ids = [f"h{k}" for k in range(8)]
     a = _variant("x[settings=calibrated]", [0.01] * 8, engine="x", cells=ids)
-    b = _variant("x[settings=defaults]", [0.01] * 8, engine="x", cells=ids, settings=AS_SHIPPED)
+    b = _variant("x[settings=shipped]", [0.01] * 8, engine="x", cells=ids, settings=AS_SHIPPED)
     c = _variant("y", [0.5] * 8)
     assert [[v.name for v in e] for e in entries([a, b, c])] == [[a.name, b.name], ["y"]]
     r = rank([a, b, c])
     assert r[a.name] == r[b.name]
     other = list(ids)
     other[3] = "different"
-    d = _variant("x[settings=defaults]", [0.01] * 8, engine="x", cells=other, settings=AS_SHIPPED)
+    d = _variant("x[settings=shipped]", [0.01] * 8, engine="x", cells=other, settings=AS_SHIPPED)
     assert len(entries([a, d])) == 2
 
 
 def test_a_calibration_that_picked_the_shipped_settings_is_its_shipped_self():
     a = _variant("x[settings=calibrated]", [0.01] * 8, engine="x")
-    b = _variant("x[settings=defaults]", [0.01] * 8, engine="x", settings=AS_SHIPPED)
+    b = _variant("x[settings=shipped]", [0.01] * 8, engine="x", settings=AS_SHIPPED)
     assert len(entries([a, b])) == 2
     a.equals_shipped = True
     assert len(entries([a, b])) == 1
@@ -168,11 +168,11 @@ def test_a_calibration_that_picked_the_shipped_settings_is_its_shipped_self():
 
 def test_identical_variants_are_merged_in_the_verdict():
     ids = {"cells_id": "same"}
-    doc = _doc({"x[settings=calibrated]": [0.01] * 8, "x[settings=defaults]": [0.01] * 8, "y": [0.02] * 8},
-               **{"x[settings=calibrated]": ids, "x[settings=defaults]": {**ids, "settings": AS_SHIPPED}})
+    doc = _doc({"x[settings=calibrated]": [0.01] * 8, "x[settings=shipped]": [0.01] * 8, "y": [0.02] * 8},
+               **{"x[settings=calibrated]": ids, "x[settings=shipped]": {**ids, "settings": AS_SHIPPED}})
     v = verdict(doc)
     rows = {r["variant"]: r for r in v["variants"]}
-    assert rows["x[settings=calibrated]"]["same_as"] == ["x[settings=defaults]"]
+    assert rows["x[settings=calibrated]"]["same_as"] == ["x[settings=shipped]"]
     assert len(rows["y"]["versus"]) == 1
     assert "identical maps" in " ".join(v["text"])
 
@@ -285,14 +285,14 @@ def test_a_secondary_metric_is_highlighted_only_inside_the_best_group():
 
 
 def test_a_failing_variant_is_named_with_its_reason():
-    doc = _doc({"mujoco[settings=defaults]": [18.6] * 8, "pybullet": [0.01] * 8},
-               **{"mujoco[settings=defaults]": {"settings": AS_SHIPPED, "overturn_extra": 1500,
+    doc = _doc({"mujoco[settings=shipped]": [18.6] * 8, "pybullet": [0.01] * 8},
+               **{"mujoco[settings=shipped]": {"settings": AS_SHIPPED, "overturn_extra": 1500,
                                                 "agreement": 0.13}})
     v = verdict(doc)
     bad = next(r for r in v["variants"] if r["variant"].startswith("mujoco"))
     assert bad["fails"] and bad["reasons"] == ["overturns in 100 % of the cells where the reference stays standing"]
     text = " ".join(v["text"])
-    assert "Out of the box (engines as shipped): its only variant, mujoco[settings=defaults], fails" in text
+    assert "Out of the box (engines as shipped): its only variant, mujoco[settings=shipped], fails" in text
     assert "Fail (boundary more than 1 grid cell from the reference's in at least one scenario" in text
     assert "overturns in 100 %" in text
     assert "Best achievable (engines calibrated by rockbench): pybullet" in text
@@ -315,9 +315,9 @@ def test_a_variant_with_nothing_judged_has_no_value_and_fails():
 
 
 @pytest.mark.parametrize("settings, expected", [
-    ({"settings": "defaults"}, AS_SHIPPED), ({}, CALIBRATED), ({"settings": "calibrated"}, CALIBRATED),
+    ({"settings": "shipped"}, AS_SHIPPED), ({}, CALIBRATED), ({"settings": "calibrated"}, CALIBRATED),
     ({"settings": "calibrated", "contact": "distributed"}, CALIBRATED),
-    ({"settings": "defaults", "friction": 1.0}, "v[custom]"), ({"friction": 1.0}, "v[custom]")])
+    ({"settings": "shipped", "friction": 1.0}, "v[custom]"), ({"friction": 1.0}, "v[custom]")])
 def test_settings_class(settings, expected):
     assert settings_class(settings, "v[custom]") == expected
 
@@ -326,8 +326,8 @@ def test_the_choice_of_an_engines_model_is_not_a_tweak():
     """Newton's solver picks which of its models runs: calibrated VBD is calibrated, as shipped
     semi-implicit as shipped; a solver of an engine without several is still set by hand."""
     assert settings_class({"settings": "calibrated", "solver": "vbd"}, "v", "newton") == CALIBRATED
-    assert settings_class({"settings": "defaults", "solver": "semi_implicit"}, "v", "newton") == AS_SHIPPED
-    assert settings_class({"settings": "defaults", "solver": "semi_implicit", "friction": 1.0}, "v", "newton") == "v"
+    assert settings_class({"settings": "shipped", "solver": "semi_implicit"}, "v", "newton") == AS_SHIPPED
+    assert settings_class({"settings": "shipped", "solver": "semi_implicit", "friction": 1.0}, "v", "newton") == "v"
     assert settings_class({"solver": "cg"}, "v", "pybullet") == "v"
 
 
@@ -337,7 +337,7 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     root = tmp_path / "run"
     write_map(root / "ref", band(12, 10, 6))
     write_map(root / "good", band(12, 10, 6), engine="mujoco", settings={"settings": "calibrated"})
-    write_map(root / "bad", band(12, 10, 0), engine="mujoco", settings={"settings": "defaults"})
+    write_map(root / "bad", band(12, 10, 0), engine="mujoco", settings={"settings": "shipped"})
     code, out, _ = run_cli(capsys, "score", root)
     assert code == 0
     assert out.index("Verdict") < out.index("Summary")
@@ -383,8 +383,8 @@ def test_score_json_and_console_carry_per_scenario_values_gaps_and_merged_varian
     write_map(root / "ref", band(12, 10, 6))
     write_map(root / "ref-m", band(12, 10, 5), restitution=Restitution("modified", 0.8608))
     write_map(root / "cal", band(12, 10, 6), engine="mujoco", settings={"settings": "calibrated"})
-    write_map(root / "def", band(12, 10, 6), engine="mujoco", settings={"settings": "defaults"})
-    write_map(root / "bad", band(12, 10, 0), engine="pybullet", settings={"settings": "defaults"})
+    write_map(root / "def", band(12, 10, 6), engine="mujoco", settings={"settings": "shipped"})
+    write_map(root / "bad", band(12, 10, 0), engine="pybullet", settings={"settings": "shipped"})
     run = json.loads((root / "bad" / "run.json").read_text())
     run["engine"]["resolved_settings"] = {"shipped_note": "its shipped contact lets the block sink"}
     (root / "bad" / "run.json").write_text(json.dumps(run))
@@ -394,8 +394,8 @@ def test_score_json_and_console_carry_per_scenario_values_gaps_and_merged_varian
     gap = doc["reference_gaps"]
     assert [(g["block"], g["pulse"]) for g in gap] == [("B6M", "sine")] and gap[0]["boundary_mean"] > 0
     rows = {r["variant"]: r for r in doc["verdict"]["variants"]}
-    cal, dflt = rows["mujoco[settings=calibrated]"], rows["mujoco[settings=defaults]"]
-    assert cal["same_as"] == ["mujoco[settings=defaults]"] and cal["rank"] == dflt["rank"] == 1
+    cal, dflt = rows["mujoco[settings=calibrated]"], rows["mujoco[settings=shipped]"]
+    assert cal["same_as"] == ["mujoco[settings=shipped]"] and cal["rank"] == dflt["rank"] == 1
     assert cal["per_scenario"][0]["reference_gap"] == gap[0]["boundary_mean"]
     assert cal["physics"]["value"] == 0.0
     text = " ".join(doc["verdict"]["text"])

@@ -23,8 +23,10 @@ import importlib
 import signal
 import sys
 import threading
+import warnings
 from importlib.metadata import version
 
+from ...engines.renamed import RenamedWarning
 from ...reference_solver.errors import RockbenchError
 
 #: subcommands (modules under rockbench.benchmark.cli.commands, ``-`` written ``_``) and their help lines
@@ -113,6 +115,11 @@ def _one_line(text: str) -> str:
     return "".join(c if (c + "x").splitlines() == [c + "x"] else repr(c)[1:-1] for c in text.rstrip("\n"))
 
 
+def _note(message, category, filename, lineno, file=None, line=None) -> None:
+    """A :class:`~rockbench.engines.renamed.RenamedWarning` as the command line shows it: one line."""
+    print(_one_line(f"rockbench: note: {message}"), file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rockbench`` console script; returns the exit code."""
     argv = sys.argv[1:] if argv is None else argv
@@ -129,7 +136,10 @@ def main(argv: list[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return 2
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():   # an old name or value given: one note each, then the command runs
+            warnings.filterwarnings("once", category=RenamedWarning)
+            warnings.showwarning = _note
+            return int(args.func(args) or 0)
     except UsageError as e:
         print(_one_line(str(e)), file=sys.stderr)
         return 2

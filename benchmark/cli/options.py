@@ -44,7 +44,7 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--dt", type=str, default=None, help="time step [s] (default: the engine's)")
     g.add_argument("--linearized", action="store_true", help="linearised equation of motion (reference only)")
     g.add_argument("--settings", default=None, metavar="NAME",
-                   help="engine contact settings: calibrated (default) | defaults (the engine as shipped)")
+                   help="engine contact settings: calibrated (default) | shipped (the engine as shipped)")
     g.add_argument("--drive", default=None, help="engine table drive: inertial (default) | table")
     g.add_argument("--friction", default=None, metavar="MU",
                    help="friction coefficient μ [-]: an engine's contact friction; for the reference, the μ "

@@ -397,11 +397,10 @@ def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> lis
         if key in seen:
             continue
         seen.add(key)
-        eng = e.run.get("engine") or {}
-        measured = _find_key(eng.get("resolved_settings") or {}, "eta_measured")
+        resolved = e.resolved_settings
+        measured = _find_key(resolved, "eta_measured")
         if measured is None:
             measured = (own_eta or {}).get((e.variant, e.block))
-        resolved = eng.get("resolved_settings") or {}
         points = _find_key(resolved, "contact_points")
         r = {"variant": e.variant, "block": e.block, "restitution": e.restitution, "eta_target": e.eta,
              "eta_measured": float(measured) if measured is not None else math.nan,

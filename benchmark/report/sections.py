@@ -177,10 +177,9 @@ def settings_tables(entries: list[MapEntry], labels) -> dict:
         eng = r.get("engine") or {}
         spec = r.get("spec") or {}
         if e.variant not in variants:
-            resolved = dict(eng.get("resolved_settings") or {})
             variants[e.variant] = [labels.get(e.variant, "reference solver" if e.is_reference else e.variant), e.variant,
-                                   str(eng.get("version") or ""), "\n".join(_flat(spec.get("engine_settings"))) or
-                                   "(engine defaults)", "\n".join(_flat(resolved)) or "-"]
+                                   str(eng.get("version") or ""), "\n".join(_flat(e.settings)) or "(engine defaults)",
+                                   "\n".join(_flat(e.resolved_settings)) or "-"]
         g = e.describe()["grid"]
         opts = r.get("options") or {}
         summ = r.get("summary") or {}

@@ -110,7 +110,7 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
     engine : str
         Registry name.
     settings : dict, optional
-        The engine settings the map was run with (only those given); ``settings = "defaults"``
+        The engine settings the map was run with (only those given); ``settings = "shipped"``
         reads "as shipped", ``"calibrated"`` (the default) "calibrated to <target>".
     version : str, optional
         The engine's version (``run.json``).
@@ -127,7 +127,7 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
     head = f"{name} {v}" if v and v not in ("test", "source", "None") and engine != "reference" else name
     words = []
     if engine != "reference":
-        if s.get("settings", "calibrated") == "defaults":
+        if s.get("settings", "calibrated") == "shipped":
             words.append("as shipped")
         else:
             words.append(f"calibrated to {restitution_symbol(restitution, block)}" if restitution else "calibrated")
@@ -194,7 +194,7 @@ def settings_class(engine_settings: dict | None, variant: str, engine: str | Non
     model = model_settings(engine) if engine else {}
     s = {k: v for k, v in (engine_settings or {}).items() if k not in model}
     kind = s.get("settings", "calibrated")
-    if kind == "defaults" and set(s) <= {"settings"}:
+    if kind == "shipped" and set(s) <= {"settings"}:
         return AS_SHIPPED
     if kind == "calibrated" and set(s) <= _CALIBRATION_KEYS:
         return CALIBRATED

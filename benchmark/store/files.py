@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError, IncomparableError
 from .atomic import write_bytes_atomic
 
@@ -42,7 +43,7 @@ REQUIRED_COLUMNS = ("engine", "block", "pulse", "restitution", "eta", "w_ratio",
 
 #: The columns of cells.csv as this rockbench writes them, in order: the required ones, with
 #: ``variant`` beside the engine (the engine with its non-default settings and time step, e.g.
-#: ``mujoco[settings=defaults]``, so that tables of several maps concatenated stay apart), then the
+#: ``mujoco[settings=shipped]``, so that tables of several maps concatenated stay apart), then the
 #: store's own.
 COLUMNS = [REQUIRED_COLUMNS[0], "variant", *REQUIRED_COLUMNS[1:], "status", "message", "wall_s", "t_overturn_s",
            "t_uplift_s", "min_normal_mg", "max_friction_ratio", "i", "j"]
@@ -303,6 +304,25 @@ def variant_name(engine: str, settings: dict | None = None, dt_s: float | None =
     if dt_s is not None:
         parts.append(f"dt={dt_s:g}")
     return f"{engine}[{','.join(parts)}]" if parts else engine
+
+
+def canonical_variant(name: str) -> str:
+    """A stored variant name read under today's names: a setting or a value renamed since
+    (:mod:`rockbench.engines.renamed`) takes its new spelling, ``dart[settings=defaults]`` →
+    ``dart[settings=shipped]``, so that a run stored before a rename pairs with one after it. A
+    name that is not :func:`variant_name`'s ``engine[k=v,...]`` is returned as it is."""
+    engine, bracket, inner = str(name).partition("[")
+    if not bracket or not inner.endswith("]"):
+        return name
+    parts = [p.partition("=") for p in inner[:-1].split(",")]
+    if any(not eq or not k for k, eq, _ in parts):
+        return name
+    settings = {k: v for k, _, v in parts if k != "dt"}
+    new = canonical_settings(engine, settings)
+    if new == settings:
+        return name
+    dt = [f"dt={v}" for k, _, v in parts if k == "dt"]
+    return f"{engine}[{','.join([f'{k}={v}' for k, v in sorted(new.items())] + dt)}]"
 
 
 #: what names a reference map at a variant's own measured η in a run folder (``maps/reference/<name>``)

@@ -12,11 +12,12 @@ from typing import Iterable
 
 import numpy as np
 
+from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError
 from ..maps import adaptive as adaptive_mod
 from ..maps.grid import MapSpec
 from ..maps.result import FAILED, MapResult, put_row, empty_result, from_cells
-from .files import COLUMNS, read_cell_table, read_json, read_run, spec_variant, variant_name
+from .files import COLUMNS, canonical_variant, read_cell_table, read_json, read_run, spec_variant, variant_name
 from .frames import OUTCOME_OF_CODE, rows_to_dataframe, rows_to_dataset
 
 
@@ -94,8 +95,9 @@ def full_grid_rows(map_dir) -> list[dict]:
             row = rows.get((i, j))
             if row is not None:
                 r = {c: row[c] for c in COLUMNS}
-                # a map written before the variant column existed gets it from its spec
-                r["variant"] = r.get("variant") or head["variant"]
+                # a map written before the variant column existed gets it from its spec; one written before a
+                # setting's rename reads under the new name
+                r["variant"] = canonical_variant(r.get("variant") or head["variant"])
                 r["filled"] = False
             else:
                 code = int(res.outcome[i, j])
@@ -124,7 +126,7 @@ class MapEntry:
     engine : str
         Registry name of the engine.
     variant : str
-        The engine with its non-default settings and time step, e.g. ``mujoco[settings=defaults]``;
+        The engine with its non-default settings and time step, e.g. ``mujoco[settings=shipped]``;
         equals ``engine`` when nothing was set.
     block, pulse, restitution : str
         Block name, pulse kind and restitution label (``housner``, ``modified(k=0.8608)``, ``0.9``).
@@ -153,6 +155,13 @@ class MapEntry:
     @property
     def is_reference(self) -> bool:
         return self.engine == "reference"
+
+    @property
+    def resolved_settings(self) -> dict:
+        """The concrete settings the map ran with (run.json's ``engine.resolved_settings``), under today's
+        setting names (:mod:`rockbench.engines.renamed`)."""
+        resolved = (self.run.get("engine") or {}).get("resolved_settings") or {}
+        return canonical_settings(self.engine, resolved) if isinstance(resolved, dict) else {}
 
     def to_dataframe(self):
         """Every cell of the full grid (adaptive fills marked ``filled``), outcome categorical
@@ -256,7 +265,7 @@ def load_entry(d: Path) -> MapEntry:
         engine, block, pulse, restitution = first["engine"], first["block"], first["pulse"], first["restitution"]
         eta = float(first["eta"])
         spec = run.get("spec") or {}
-        settings, dt = dict(spec.get("engine_settings") or {}), spec.get("dt_s")
+        settings, dt = canonical_settings(engine, spec.get("engine_settings") or {}), spec.get("dt_s")
     variant = variant_name(engine, settings, dt)
     lm.meta.update({"engine": engine, "variant": variant, "block": block, "pulse": pulse,
                     "restitution": restitution, "eta": eta})
@@ -286,19 +295,38 @@ def load_entries(paths: Iterable) -> list[MapEntry]:
 CALIBRATION_FILE = "calibration.json"
 
 
+def calibration_rows(path) -> list[dict]:
+    """The measurements a calibration.json at ``path`` holds (none when it is absent), their variant names
+    and settings read under today's names (:mod:`rockbench.engines.renamed`); a ConfigError when it is
+    damaged."""
+    f = Path(path)
+    if not f.is_file():
+        return []
+    try:
+        rows = [dict(row) for row in read_json(f).get("measurements", [])]
+        for row in rows:
+            row["variant"] = canonical_variant(str(row["variant"]))
+            if isinstance(row.get("settings"), dict):
+                row["settings"] = canonical_settings(str(row.get("engine")), row["settings"])
+    except (AttributeError, KeyError, TypeError, ValueError) as e:
+        raise _damaged(f, e) from None
+    return rows
+
+
+def _damaged(f: Path, e: Exception) -> ConfigError:
+    return ConfigError(f"{str(f)!r} is damaged ({type(e).__name__}: {e}); delete it (`rockbench run` measures the "
+                       "engines' η again).")
+
+
 def load_own_eta(paths: Iterable) -> dict:
     """``{(variant, block): η}`` from the calibration.json files at the top of ``paths``."""
     out = {}
     for p in paths:
         f = Path(p) / CALIBRATION_FILE
-        if f.is_file():
-            doc = read_json(f)
-            rows = doc.get("measurements", [])
-            try:
-                for row in rows:
-                    if row.get("eta_measured") is not None:
-                        out[(str(row["variant"]), str(row["block"]))] = float(row["eta_measured"])
-            except (AttributeError, KeyError, TypeError, ValueError) as e:
-                raise ConfigError(f"{str(f)!r} is damaged ({type(e).__name__}: {e}); delete it (`rockbench run` "
-                                  "measures the engines' η again).") from None
+        try:
+            for row in calibration_rows(f):
+                if row.get("eta_measured") is not None:
+                    out[(row["variant"], str(row["block"]))] = float(row["eta_measured"])
+        except (KeyError, TypeError, ValueError) as e:
+            raise _damaged(f, e) from None
     return out

@@ -29,6 +29,7 @@ import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
+from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from .columnar import format_rows
@@ -108,7 +109,7 @@ class RunStore:
             stale = rules_mismatch(previous.get("rules_version"), f"the map in {str(d)!r}")
             if stale:
                 raise ConfigError(f"{stale}: delete {str(d)!r} to compute it again, or give another --out directory.")
-            before = previous.get("spec_identity")
+            before = _canonical_identity(previous.get("spec_identity"))
             if before != spec.identity():
                 diff = _differences(before if isinstance(before, dict) else {}, spec.identity())
                 raise ConfigError(f"{str(d)!r} already holds a different map (differs in {diff}); give another "
@@ -319,6 +320,24 @@ def _list(d: dict | None, key: str) -> list:
 def _dict(d: dict | None, key: str) -> dict:
     v = (d or {}).get(key)
     return v if isinstance(v, dict) else {}
+
+
+def stored_identity(map_dir):
+    """The ``spec_identity`` the run.json of ``map_dir`` records, read under today's setting names (as
+    :meth:`~rockbench.benchmark.maps.grid.MapSpec.identity` gives it), or None where there is none."""
+    try:
+        return _canonical_identity(read_json(Path(map_dir) / "run.json").get("spec_identity"))
+    except ConfigError:
+        return None
+
+
+def _canonical_identity(identity):
+    """A stored ``spec_identity`` with its engine settings read under today's names (a map written before a
+    setting's rename resumes under the new one)."""
+    if not isinstance(identity, dict) or not isinstance(identity.get("engine_settings"), dict):
+        return identity
+    return {**identity, "engine_settings": canonical_settings(str(identity.get("engine")),
+                                                              identity["engine_settings"])}
 
 
 def _differences(a: dict, b: dict, prefix: str = "") -> str:

@@ -18,8 +18,8 @@ from ...engines.registry import adapter_class, get_adapter, register
 from ..blocks.presets import get_preset
 from ..maps.cores import can_fork_helper
 from ..maps.executors import worker_init
-from ..store.files import read_json, variant_name, write_json
-from ..store.loading import CALIBRATION_FILE
+from ..store.files import variant_name, write_json
+from ..store.loading import CALIBRATION_FILE, calibration_rows
 from .model import Suite, restitution_for
 from .plan import variant_blocks, variant_restitution, variant_settings
 
@@ -77,8 +77,7 @@ class Preparation:
         self.suite, self.out = suite, out
         self.own_eta = suite.engines.own_eta if own_eta is None else own_eta
         self.path = out / CALIBRATION_FILE
-        self.old = {(r["variant"], r["block"]): r
-                    for r in (read_json(self.path).get("measurements", []) if self.path.is_file() else [])}
+        self.old = {(r["variant"], r["block"]): r for r in calibration_rows(self.path)}
         self.tasks = []
         for engine, variant, block in variant_blocks(suite, engines):
             vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)

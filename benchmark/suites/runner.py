@@ -26,7 +26,7 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     exclude = ["drake"]          # with "available": engines left out even when installed (a note says so)
     # include = ["mujoco_warp"]  # with "available": engines taken wherever installed, even those that leave
                                  # suites of every available engine on this machine (MuJoCo Warp without CUDA)
-    variants = [{settings = "calibrated"}, {settings = "defaults"}]    # engine settings, one map each
+    variants = [{settings = "calibrated"}, {settings = "shipped"}]     # engine settings, one map each
                                  # a variant may carry its own restitution = "modified-average" (...):
                                  # its η target and its maps' label (scored like for like against
                                  # the reference maps with that restitution), and engines = [...] (the
@@ -72,7 +72,7 @@ from ..store.files import write_json
 from ..trajectories import record_for_report
 from .lanes import ReferenceThread, run_lanes
 from .model import Suite
-from .plan import check_suite, engine_names, own_eta_jobs, plan
+from .plan import check_suite, engine_names, own_eta_jobs, plan, resume_renamed
 from .preparation import Preparation, cost_rank
 from .progress import SuiteConsole, say_device_notes
 
@@ -161,6 +161,7 @@ class _SuiteRun:
         # every spec is built (and so checked) before the first map runs (the own-η reference maps, which
         # wait for the measured η, differ from the others only in a constant restitution)
         self.specs = self.specs_of(self.todo)
+        self.todo = resume_renamed(self.todo, self.specs, out)
         self.t0 = time.perf_counter()
         self.records: dict = {}
         # calibrations (and the engines' own η) once, on every core, before the engine maps need them;

@@ -92,7 +92,7 @@ class _Toy(ContactEngineAdapter):
 def test_shared_settings_are_checked_once_for_every_contact_engine():
     a = _Toy(planar="false")
     assert a.settings["planar"] is False
-    for bad, msg in ((dict(settings="rigid"), "'settings' must be calibrated or defaults"),
+    for bad, msg in ((dict(settings="rigid"), "'settings' must be calibrated or shipped"),
                      (dict(drive="mocap"), "'drive' must be inertial or table"),
                      (dict(planar="maybe"), "'planar' must be true or false"),
                      (dict(friction=-1), "'friction' must be a finite number > 0"),
@@ -206,7 +206,7 @@ def test_calibrated_settings_default_to_none_and_the_old_name_is_an_alias():
         type("Stiff", (SteppedContactAdapter,), {"SETTINGS": {**shared, "stiffness_n_m": 1e6},
                                                  "CALIBRATED_SETTINGS": ("stiffness_n_m",)})
     # as shipped by default, a given contact is fine: nothing is calibrated unless asked for
-    type("Shipped", (SteppedContactAdapter,), {"SETTINGS": {**shared, "settings": "defaults", "stiffness_n_m": 1e6},
+    type("Shipped", (SteppedContactAdapter,), {"SETTINGS": {**shared, "settings": "shipped", "stiffness_n_m": 1e6},
                                                "CALIBRATED_SETTINGS": ("stiffness_n_m",)})
     with pytest.warns(DeprecationWarning, match="CONTACT_KEYS is now called CALIBRATED_SETTINGS"):
         old = type("Old", (SteppedContactAdapter,), {"SETTINGS": {**shared, "stiffness_n_m": None},

@@ -53,7 +53,7 @@ SPEC = {
     "pybullet": dict(
         trajectory=("B3M", "sine", 4.0, 3.0),
         mirror=(("B3M", "sine", 4.0, 3.0), 5e-3, "peak"),
-        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="defaults")),
+        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="shipped")),
         cli_block="B6M",
         cli_settings=lambda s: isinstance(s, dict)),
     "exudyn": dict(
@@ -71,7 +71,7 @@ SPEC = {
     "dart": dict(
         trajectory=("B3M", "sine", 4.0, 3.0),
         mirror=(("B3M", "sine", 4.0, 3.0), 1e-9, "peak"),
-        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="defaults")),
+        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="shipped")),
         cli_block="B6M",
         cli_settings=lambda s: s["collision_detector"] == "fcl" and s["contact_restitution"] == 0.0),
     "genesis": dict(
@@ -83,7 +83,7 @@ SPEC = {
     "physx": dict(
         trajectory=("B3M", "sine", 4.0, 3.0),
         mirror=(("B3M", "sine", 6.0, 2.0), 3e-3, "alpha"),
-        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="defaults")),
+        slip=(("B3M", "sine", 3.0, 5.0), dict(friction=0.2, settings="shipped")),
         cli_block="B6M",
         cli_settings=lambda s: s["substeps"] > 1),
 }

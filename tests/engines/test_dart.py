@@ -71,7 +71,7 @@ def test_calibration_to_housner_keeps_dart_as_shipped(name, tol):
     assert res.settings == {"collision_detector": "fcl", "split_impulse": False, "contact_restitution": 0.0}
     assert res.evaluations == 1 and "as shipped" in res.note
     # as shipped at the calibration's step (its own step is DART's 1 ms)
-    m = get_adapter("dart", settings="defaults").measure_restitution(block, dt_s=5e-4)
+    m = get_adapter("dart", settings="shipped").measure_restitution(block, dt_s=5e-4)
     assert len(m.etas) == 4 and m.eta_mean == pytest.approx(res.eta_measured, rel=1e-12)
 
 
@@ -90,7 +90,7 @@ def test_modified_eta_is_out_of_reach_and_the_note_says_why(tmp_path):
 def test_restitution_below_the_bounce_threshold_changes_nothing():
     # B6M's landing corner arrives at 0.07 m/s: e·v_n stays under DART's 0.1 m/s, so no bounce at all
     block = get_preset("B6M").block()
-    shipped = get_adapter("dart", settings="defaults").measure_restitution(block, dt_s=5e-4)
+    shipped = get_adapter("dart", settings="shipped").measure_restitution(block, dt_s=5e-4)
     bouncy = get_adapter("dart", contact_restitution=1.0).measure_restitution(block, dt_s=5e-4)
     assert bouncy.etas == shipped.etas
 
@@ -179,6 +179,6 @@ def test_a_calibration_that_keeps_the_shipped_contact_at_the_shipped_step_says_s
 
 @pytest.mark.parametrize("engine", ["dart", "mujoco"])
 def test_as_shipped_resolves_with_its_note_and_no_step_rule(engine):
-    res = get_adapter(engine, settings="defaults").resolve(get_preset("B3M").block(), Restitution())
+    res = get_adapter(engine, settings="shipped").resolve(get_preset("B3M").block(), Restitution())
     assert "error" not in res and not (res.get("calibration") or {}).get("step_rule")
     assert ("shipped_note" in res) == (engine == "mujoco")

@@ -36,7 +36,7 @@ class _Fake(SteppedContactAdapter):
 
     name = "fake-rows"
     default_dt_s = 1e-3
-    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "defaults", "k": None}
+    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "shipped", "k": None}
     CALIBRATED_SETTINGS = ("k",)
     distributed_contact = True
 

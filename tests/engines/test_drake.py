@@ -117,7 +117,7 @@ def test_higher_target_is_reached_with_a_softer_contact_and_cached(tmp_path):
 
 
 def test_shipped_defaults_give_an_eta_and_no_calibration():
-    ad = get_adapter("drake", settings="defaults")
+    ad = get_adapter("drake", settings="shipped")
     s = ad.resolve(get_preset("B6M").block(), Restitution())
     assert s["approximation"] == "lagged" and "calibration" not in s
     assert all(s[k] is None for k in ad.CALIBRATED_SETTINGS)

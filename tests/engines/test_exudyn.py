@@ -150,8 +150,8 @@ def test_run_ends_at_the_row_the_one_rule_names(exudyn):
     assert ended == {"overturn", "trapped"}
 
 
-def test_defaults_settings_run_the_shipped_contact():
-    ad = get_adapter("exudyn", settings="defaults")
+def test_shipped_settings_run_the_shipped_contact():
+    ad = get_adapter("exudyn", settings="shipped")
     b = get_preset("B3M").block()
     res = ad.resolve(b, Restitution())
     assert res["impact_model"] == 0 and res["restitution_coefficient"] == 1.0 and res["damping_n_s_m"] == 0.0
@@ -160,7 +160,7 @@ def test_defaults_settings_run_the_shipped_contact():
 
 
 def test_as_shipped_runs_at_exudyns_own_step_where_the_case_poses_none():
-    ad = get_adapter("exudyn", settings="defaults")
+    ad = get_adapter("exudyn", settings="shipped")
     case = cell_case("B3M", "sine", 2.0, 0.9)         # a wave of 0.27 s
     assert ad.dt_for(case) == 1e-2 == ad.time_step_s(None)
     # a wave shorter than 20 of Exudyn's steps is followed at 1/20 of the wave
@@ -189,7 +189,7 @@ def test_bad_settings_raise_config_error(settings):
 def test_modified_newton_iterations_reach_exudyns_solver():
     b = get_preset("B3M").block()
     for given, used in ((None, 3), (8, 8), (5.0, 5)):
-        ad = get_adapter("exudyn", settings="defaults",
+        ad = get_adapter("exudyn", settings="shipped",
                          **({} if given is None else {"modified_newton_iterations": given}))
         res = ad.resolve(b, Restitution())
         assert res["modified_newton_iterations"] == used

@@ -170,7 +170,7 @@ def test_free_3d_body_gives_the_same_outcomes():
 
 @pytest.mark.parametrize("settings", [
     {"timeconst_s": -0.004}, {"dampratio": 0}, {"cone": "round"}, {"noslip_iterations": -2},
-    {"threads": -1}, {"table_mass_ratio": 0}, {"calibrate_on": "B9X"}, {"settings": "defaults", "calibrate_on": "B3M"},
+    {"threads": -1}, {"table_mass_ratio": 0}, {"calibrate_on": "B9X"}, {"settings": "shipped", "calibrate_on": "B3M"},
 ])
 def test_bad_settings_raise_config_error(settings):
     with pytest.raises(ConfigError):
@@ -191,7 +191,7 @@ def test_cli_bad_settings_exit_2_with_one_line(argv, capsys):
 def test_shipped_defaults_with_friction_10_are_flagged_not_scored():
     # MuJoCo's shipped pyramidal cone with friction 10 lets the block sink through the table and
     # gain energy: the run must come back invalid, with the checks saying why
-    r = get_adapter("mujoco", settings="defaults").run(_case("B3M", "sine", 6.0, 2.0))
+    r = get_adapter("mujoco", settings="shipped").run(_case("B3M", "sine", 6.0, 2.0))
     assert not r.valid
     assert {"jump", "energy-gain"} <= set(r.flags)
     assert r.diagnostics["energy_gain_rel"] > 0.05

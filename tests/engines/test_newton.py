@@ -165,7 +165,7 @@ def test_a_calibrated_variants_free_rocking_is_measured_with_its_calibration(mon
         raise StopIteration
 
     monkeypatch.setattr(type(get_adapter("newton")), "_measure_free_rocking", measure)
-    for kind in ("calibrated", "defaults"):
+    for kind in ("calibrated", "shipped"):
         ad = get_adapter("newton", settings=kind)
         monkeypatch.setattr(ad, "calibrate", lambda b, t, **kw: type("Cal", (), {
             "settings": {"contact_stiffness_n_m": 1.0e5}, "reached": True, "note": "", "eta_measured": t,
@@ -173,4 +173,4 @@ def test_a_calibrated_variants_free_rocking_is_measured_with_its_calibration(mon
         with pytest.raises(StopIteration):
             ad.measure_restitution(block)
     assert seen["calibrated"].get("contact_stiffness_n_m") == 1.0e5
-    assert seen["defaults"].get("contact_stiffness_n_m") is None
+    assert seen["shipped"].get("contact_stiffness_n_m") is None

@@ -66,11 +66,11 @@ def test_shipped_eta_is_below_housner_and_rises_as_the_step_shrinks():
     block = get_preset("B3M").block()
     eta_h = housner_eta(block.alpha_rad)
     # at the benchmark's 0.5 ms (as shipped, a case that poses no step runs at SAPIEN's own 10 ms)
-    shipped = get_adapter("physx", settings="defaults").measure_restitution(block, dt_s=5e-4)
+    shipped = get_adapter("physx", settings="shipped").measure_restitution(block, dt_s=5e-4)
     assert len(shipped.etas) == 4 and 0.93 * eta_h < shipped.eta_mean < 0.97 * eta_h
     assert shipped.settings["substeps"] == 1 and shipped.settings["solver"] == "tgs"
     finer = get_adapter("physx", substeps=6).measure_restitution(block)
-    coarser = get_adapter("physx", settings="defaults").measure_restitution(block, dt_s=1e-3)
+    coarser = get_adapter("physx", settings="shipped").measure_restitution(block, dt_s=1e-3)
     assert coarser.eta_mean < shipped.eta_mean < finer.eta_mean
     assert abs(finer.eta_mean - eta_h) < 0.01 * eta_h
 
@@ -106,8 +106,8 @@ def test_pgs_holds_the_pivot_where_tgs_lets_it_creep():
     # B3M sine, a cell inside the rigid model's domain (no lift, no slip required at friction 10)
     c = case("B3M", "sine", 9.4375, 7.875, dt_s=5e-4)   # the benchmark's step, not SAPIEN's 10 ms
     assert get_adapter("reference").run(c).valid
-    tgs = get_adapter("physx", settings="defaults").run(c)
-    pgs = get_adapter("physx", settings="defaults", solver="pgs").run(c)
+    tgs = get_adapter("physx", settings="shipped").run(c)
+    pgs = get_adapter("physx", settings="shipped", solver="pgs").run(c)
     assert "slip" in tgs.flags and pgs.valid, (tgs.flags, pgs.flags)
     assert pgs.diagnostics["max_slip_m"] < 0.5 * tgs.diagnostics["max_slip_m"]
 
@@ -115,7 +115,7 @@ def test_pgs_holds_the_pivot_where_tgs_lets_it_creep():
 def test_restitution_below_the_bounce_threshold_changes_nothing():
     # the landing corner arrives far below PhysX's 2 m/s bounce threshold
     block = get_preset("B3M").block()
-    shipped = get_adapter("physx", settings="defaults").measure_restitution(block, dt_s=5e-4)
+    shipped = get_adapter("physx", settings="shipped").measure_restitution(block, dt_s=5e-4)
     bouncy = get_adapter("physx", contact_restitution=1.0).measure_restitution(block, dt_s=5e-4)
     assert bouncy.etas == shipped.etas
 
@@ -133,7 +133,7 @@ def test_mirror_and_the_free_body_stays_in_the_plane():
 
 def test_record_at_rest():
     c = case("B3M", "sine", 4.0, 3.0)
-    tr = get_adapter("physx", settings="defaults").simulate(c)
+    tr = get_adapter("physx", settings="shipped").simulate(c)
     b = c.block.width_m
     assert tr.corner_x_m[0] == pytest.approx([b / 2, -b / 2], abs=1e-6)
     assert tr.energy_j_kg[0] == pytest.approx(G * c.block.height_m / 2, rel=1e-5)
@@ -148,7 +148,7 @@ def test_engine_exception_becomes_engine_error(monkeypatch):
         raise RuntimeError("simulated engine failure")
 
     monkeypatch.setattr(pa._Scene, "advance", broken)
-    r = get_adapter("physx", settings="defaults").run(case("B3M", "sine", 4.0, 3.0))
+    r = get_adapter("physx", settings="shipped").run(case("B3M", "sine", 4.0, 3.0))
     assert isinstance(r, CellResult) and r.status == "failed" and r.flags == ["engine-error"] and not r.valid
 
 

@@ -28,7 +28,7 @@ class _Toy(SteppedContactAdapter):
     default_dt_s = 1e-4
     max_worlds = 4
     batching = "native"
-    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "defaults", "stiffness_n_m": 1e6,
+    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "shipped", "stiffness_n_m": 1e6,
                 "tail_s": 0.5, "min_tail_s": 0.1}
     CALIBRATED_SETTINGS = ("stiffness_n_m",)
 

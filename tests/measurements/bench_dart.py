@@ -60,7 +60,7 @@ def cmd_eta(args) -> None:
         eta_h = housner_eta(block.alpha_rad)
         for planar in (True, False):
             for dt in (1e-3, 5e-4, 2.5e-4):
-                m = get_adapter("dart", planar=planar, settings="defaults").measure_restitution(block, dt_s=dt)
+                m = get_adapter("dart", planar=planar, settings="shipped").measure_restitution(block, dt_s=dt)
                 print(f"| {name} | {'planar' if planar else 'free'} | {dt:g} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | "
                       f"{eta_h:.4f} | {100 * (m.eta_mean - eta_h) / eta_h:+.2f} % |")
 
@@ -102,7 +102,7 @@ def main(argv=None) -> int:
     m.add_argument("--out", required=True)
     m.add_argument("--jobs", type=int, default=2)
     m.add_argument("--maps", default="B3M:sine,B6M:cosine")
-    m.add_argument("--settings", default="calibrated", choices=["calibrated", "defaults"])
+    m.add_argument("--settings", default="calibrated", choices=["calibrated", "shipped"])
     m.add_argument("--drive", choices=["inertial", "table"])
     m.set_defaults(func=cmd_maps)
     r = sub.add_parser("summary")

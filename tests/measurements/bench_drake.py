@@ -66,7 +66,7 @@ def cmd_steps(args) -> None:
     print(_stamp(), file=sys.stderr)
     models = [("point, SAP, planar (default)", {}),
               ("point, SAP, free body", {"planar": False}),
-              ("point, lagged (as shipped)", {"settings": "defaults"}),
+              ("point, lagged (as shipped)", {"settings": "shipped"}),
               ("point, SAP, table drive", {"drive": "table"}),
               ("hydroelastic, SAP, planar", {"contact": "hydroelastic", "hydroelastic_modulus_pa": 1e8,
                                              "relaxation_time_s": 1e-3})]
@@ -95,7 +95,7 @@ def cmd_eta(args) -> None:
     for name in ("B3M", "B6M"):
         block = get_preset(name).block()
         eta_h = housner_eta(block.alpha_rad)
-        for label, settings in (("calibrated to η_H", {}), ("as shipped", {"settings": "defaults"}),
+        for label, settings in (("calibrated to η_H", {}), ("as shipped", {"settings": "shipped"}),
                                 ("hydroelastic, calibrated to η_H", {"contact": "hydroelastic"})):
             ad = get_adapter("drake", **settings)
             s = ad.resolve(block, Restitution())
@@ -208,7 +208,7 @@ def main(argv=None) -> int:
     m.add_argument("--out", required=True)
     m.add_argument("--jobs", type=int, default=2)
     m.add_argument("--maps", default="B3M:sine,B6L:cosine")
-    m.add_argument("--settings", default="calibrated", choices=["calibrated", "defaults"])
+    m.add_argument("--settings", default="calibrated", choices=["calibrated", "shipped"])
     m.set_defaults(func=cmd_maps)
     u = sub.add_parser("suite")
     u.add_argument("suite", nargs="?", default="full")

@@ -5,7 +5,7 @@ For each map (default: B3M under one sine wave, B6M under one cosine wave, 50 ×
 
 - the reference solver's map (the project's ``reference`` adapter), and
 - the Exudyn map at three time steps (``--dts``, the default step 1e-4 s first) with
-  ``settings=calibrated`` and once with ``settings=defaults`` at the first step, each on
+  ``settings=calibrated`` and once with ``settings=shipped`` at the first step, each on
   ``--jobs`` worker processes (one adapter, hence one Exudyn system per block, per worker,
   reused for every cell),
 
@@ -138,7 +138,7 @@ def main(argv=None):
     ap.add_argument("--out", default="bench-exudyn", help="output folder")
     ap.add_argument("--quick", action="store_true", help="10 × 10 maps, one time step (a smoke run)")
     ap.add_argument("--dts", default=None, help="comma list of time steps for the calibrated maps "
-                    "(default 1e-4,2e-4,5e-5; the first is also the step of the defaults maps)")
+                    "(default 1e-4,2e-4,5e-5; the first is also the step of the as-shipped maps)")
     ap.add_argument("--maps", default=None, help="comma list BLOCK:PULSE (default B3M:sine,B6M:cosine)")
     args = ap.parse_args(argv)
     n = 10 if args.quick else args.n
@@ -181,9 +181,9 @@ def main(argv=None):
             ref = None
         entry["reference"] = ref
         prepared.append((block_name, pulse, block, entry, ref))
-    # every map at the default step first, then defaults, then the other steps: a run cut short
+    # every map at the default step first, then as shipped, then the other steps: a run cut short
     # still holds the main numbers of both maps
-    configs = [("calibrated", dts[0]), ("defaults", dts[0])] + [("calibrated", dt) for dt in dts[1:]]
+    configs = [("calibrated", dts[0]), ("shipped", dts[0])] + [("calibrated", dt) for dt in dts[1:]]
     for mode, dt in configs:
         for block_name, pulse, block, entry, ref in prepared:
             settings = {"settings": mode}

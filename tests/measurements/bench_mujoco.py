@@ -13,7 +13,7 @@ What it prints (and writes as JSON with ``--out FILE``):
    "rest" to any soft-contact engine), the invalid cells and their flags, and how many of them lie
    where the rigid model itself needs a pulling table (``N < 0``) or more friction than given
    (the reference's own ``min_normal_mg``/``max_friction_ratio``), wall time, cells/s and engine steps/s, at each time step asked
-   for (calibrated) and with ``settings=defaults``.
+   for (calibrated) and with ``settings=shipped``.
 
 The machine may be shared: timings are what was measured then; the load average is recorded, and
 so is the process CPU time (all threads), whose "steps per CPU-second" is the per-core speed
@@ -167,10 +167,10 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=50)
     ap.add_argument("--dt", type=float, nargs="+", default=[1e-3, 5e-4, 2.5e-4])
     ap.add_argument("--blocks", nargs="+", default=["B3M:sine", "B6M:cosine"])
-    ap.add_argument("--no-defaults", action="store_true", help="skip the settings=defaults maps")
+    ap.add_argument("--no-defaults", action="store_true", help="skip the settings=shipped maps")
     ap.add_argument("--defaults-dt", type=float, default=5e-4)
     ap.add_argument("--defaults-friction", type=float, nargs="+", default=[10.0, 1.0],
-                    help="friction coefficients of the settings=defaults maps (10: the adapter's anti-slip "
+                    help="friction coefficients of the settings=shipped maps (10: the adapter's anti-slip "
                          "value; 1: what MuJoCo's pyramidal cones tolerate)")
     ap.add_argument("--threads", type=int, default=0, help="rollout threads (0: all cores)")
     ap.add_argument("--out", default=None, help="write the results as JSON here")
@@ -201,7 +201,7 @@ def main(argv=None) -> int:
         out.setdefault("rigid_demand", {})[name] = {"n_min_over_mg": dem[0].tolist(), "f_over_n_max": dem[1].tolist()}
         runs = [("calibrated", dt, 10.0) for dt in args.dt]
         if not args.no_defaults:
-            runs += [("defaults", args.defaults_dt, mu) for mu in args.defaults_friction]
+            runs += [("shipped", args.defaults_dt, mu) for mu in args.defaults_friction]
         for mode, dt, mu in runs:
             ad = MujocoAdapter(settings=mode, threads=nthreads, friction=mu)
             if mode == "calibrated":

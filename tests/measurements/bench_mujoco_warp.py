@@ -107,7 +107,7 @@ def run_one_map(block_name, kind, n, engine, settings, out_dir: Path) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--device", default="auto")
-    ap.add_argument("--settings", default="calibrated", choices=["calibrated", "defaults"],
+    ap.add_argument("--settings", default="calibrated", choices=["calibrated", "shipped"],
                     help="the adapter's mode: calibrated to Housner's η, or MuJoCo's shipped contact")
     ap.add_argument("--sizes", type=int, nargs="+", default=[11, 51])
     ap.add_argument("--block", default="B3M")

@@ -60,7 +60,7 @@ def cmd_eta(args) -> None:
         block = get_preset(name).block()
         eta_h = housner_eta(block.alpha_rad)
         for label, settings, dt in KNOBS:
-            m = get_adapter("physx", settings="defaults", **settings).measure_restitution(block, dt_s=dt)
+            m = get_adapter("physx", settings="shipped", **settings).measure_restitution(block, dt_s=dt)
             print(f"| {name} | {label} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | {len(m.etas)} | "
                   f"{100 * (m.eta_mean / eta_h - 1):+.1f} % |")
 
@@ -83,7 +83,7 @@ def cmd_cost(args) -> None:
     print(_stamp(), file=sys.stderr)
     print("| variant | drive | cells | CPU ms per cell | PhysX steps per CPU second |")
     print("|---|---|---|---|---|")
-    for settings in ("defaults", "calibrated"):
+    for settings in ("shipped", "calibrated"):
         for drive in ("inertial", "table"):
             ad = get_adapter("physx", settings=settings, drive=drive)
             for c in CELLS:
@@ -104,7 +104,7 @@ def cmd_creep(args) -> None:
     print(_stamp(), file=sys.stderr)
     cells = [("B3M", "sine", w, a) for w, a in ((4.75, 7.1875), (8.5, 7.875), (9.4375, 7.875), (10.375, 7.875),
                                                   (8.5, 8.5625), (12.0, 10.0), (16.0, 10.0))]
-    variants = [("TGS (shipped)", {"settings": "defaults"}), ("PGS", {"settings": "defaults", "solver": "pgs"}),
+    variants = [("TGS (shipped)", {"settings": "shipped"}), ("PGS", {"settings": "shipped", "solver": "pgs"}),
                 ("calibrated (PGS, substeps)", {})]
     ref = get_adapter("reference")
     print("| cell (ω/p, a₀/(g·tanα)) | reference needs | " + " | ".join(v for v, _ in variants) + " |")

@@ -182,7 +182,7 @@ def cmd_maps(args) -> None:
     base = {"drive": args.drive} if args.drive != "inertial" else {}
     runs = [(b, p, dict(base), dt) for b, p in MAPS for dt in dts]
     if args.defaults:
-        runs += [(b, p, {**base, "settings": "defaults"}, 5e-4) for b, p in MAPS]
+        runs += [(b, p, {**base, "settings": "shipped"}, 5e-4) for b, p in MAPS]
     for b, p, s, dt in runs:
         drive = "" if args.drive == "inertial" else f"-{args.drive}"
         tag = f"{b}-{p}-{s.get('settings', 'calibrated')}{drive}-dt{dt:g}-n{args.n}"
@@ -330,7 +330,7 @@ def main(argv=None) -> int:
     q.add_argument("--n", type=int, default=50)
     q.add_argument("--jobs", type=int, default=2)
     q.add_argument("--dts", default="0.001,0.0005,0.00025")
-    q.add_argument("--defaults", action="store_true", help="also PyBullet as shipped (settings=defaults)")
+    q.add_argument("--defaults", action="store_true", help="also PyBullet as shipped (settings=shipped)")
     q.add_argument("--drive", default="inertial", choices=["inertial", "table"], help="table drive (default inertial)")
     q.set_defaults(func=cmd_maps)
     r = sub.add_parser("reference")

@@ -108,13 +108,13 @@ def shipped_row(engine: str, block, make_spec, tmp: Path, reference) -> dict:
     """The engine as shipped at its own default step: its free-rocking η and its map's scores."""
     from rockbench.engines.registry import get_adapter
 
-    ad = get_adapter(engine, settings="defaults")
+    ad = get_adapter(engine, settings="shipped")
     row = {"engine": engine, "variant": "as shipped", "dt_s": ad.unposed_dt_s(),
            "shipped_dt_s": ad.shipped_dt_s}
     try:
         m = ad.measure_restitution(block)
         row.update(eta=m.eta_mean)   # NaN where the block sinks or never rocks freely
-        row.update(map_scores(make_spec(engine, {"settings": "defaults"}, None), tmp / f"{engine}-shipped", reference))
+        row.update(map_scores(make_spec(engine, {"settings": "shipped"}, None), tmp / f"{engine}-shipped", reference))
     except Exception as e:  # noqa: BLE001 - recorded and the run goes on
         row["error"] = f"{type(e).__name__}: {e}"
     return row

@@ -23,7 +23,7 @@ def register(sub) -> None:
                    "--target modified-exact: its exact k)")
     p.add_argument("--dt", default=None, help="time step [s] (default: the engine's)")
     p.add_argument("--theta0", default="0.5", help="release angle as a fraction of α (measurement only; default 0.5)")
-    p.add_argument("--settings", default=None, help="calibrated | defaults (measurement only)")
+    p.add_argument("--settings", default=None, help="calibrated | shipped (measurement only)")
     p.add_argument("--drive", default=None, help="inertial | table")
     p.add_argument("--friction", default=None, help="friction coefficient [-]")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="any other engine setting")

@@ -100,7 +100,7 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--record", default=None, help="write the rows as this benchmark record (tests/measurements/records.py)")
     ap.add_argument("--only", default=None, help="only the maps whose folder path contains this text (e.g. "
-                    "settings=defaults: the as-shipped maps, which need no calibration)")
+                    "settings=shipped: the as-shipped maps, which need no calibration)")
     args = ap.parse_args(argv)
     dirs = []
     for p in sorted(Path(args.run_dir).rglob("run.json")):

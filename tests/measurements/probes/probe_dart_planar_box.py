@@ -70,7 +70,7 @@ def row() -> None:
             for dt in (5e-4, 2.5e-4):
                 da._scene.cache_clear()
                 da._Scene = _row_scene(planar_scene, n)
-                m = get_adapter("dart", settings="defaults").measure_restitution(get_preset(name).block(), dt_s=dt)
+                m = get_adapter("dart", settings="shipped").measure_restitution(get_preset(name).block(), dt_s=dt)
                 print(f"| {name} | {n} | {dt:g} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | "
                       f"{', '.join(f'{e:.4f}' for e in m.etas)} |")
     da._Scene = planar_scene
@@ -89,7 +89,7 @@ def main() -> None:
                                ("free box (adapter, planar=false)", False, False)):
         da._scene.cache_clear()  # worlds are cached per process: build this model's
         da._Scene = _BoxScene if box else planar_scene
-        ad = get_adapter("dart", planar=planar, settings="defaults")
+        ad = get_adapter("dart", planar=planar, settings="shipped")
         rows = []
         for c in CELLS:
             r1, r2 = ad.run(_case(*c, 1.0)), ad.run(_case(*c, -1.0))

@@ -68,7 +68,7 @@ def step_cost() -> dict:
 
 def newton_variants() -> list[dict]:
     out = []
-    for settings in ("calibrated", "defaults"):
+    for settings in ("calibrated", "shipped"):
         for w, a in ((4, 3), (8, 6), (2, 1.5)):
             adapter, case = _case(settings, w, a)
             row = {"settings": settings, "w_ratio": w, "a_ratio": a}
@@ -86,7 +86,7 @@ def newton_variants() -> list[dict]:
 def time_shares(n: int) -> dict:
     rng = np.random.default_rng(2)
     out = {}
-    for settings in ("calibrated", "defaults"):
+    for settings in ("calibrated", "shipped"):
         tot = np.zeros(3)
         for _ in range(n):
             adapter, case = _case(settings, rng.uniform(1, 16), rng.uniform(1, 12))
@@ -100,7 +100,7 @@ def time_shares(n: int) -> dict:
 def segments(n: int) -> dict:
     rng = np.random.default_rng(3)
     out = {}
-    for settings in ("calibrated", "defaults"):
+    for settings in ("calibrated", "shipped"):
         same = 0
         worst = 0.0
         for _ in range(n):

@@ -26,8 +26,8 @@ from rockbench.benchmark.api import request_of
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.validity import uplift_tol_rad
 
-VARIANTS = (("exudyn", "calibrated", 0.05), ("exudyn", "defaults", 0.05), ("pybullet", "calibrated", 0.0),
-            ("pybullet", "defaults", 0.0), ("mujoco", "calibrated", 0.0))
+VARIANTS = (("exudyn", "calibrated", 0.05), ("exudyn", "shipped", 0.05), ("pybullet", "calibrated", 0.0),
+            ("pybullet", "shipped", 0.0), ("mujoco", "calibrated", 0.0))
 
 
 def probe(engine: str, settings: str, granularity_s: float, n: int) -> dict:

@@ -4,7 +4,7 @@ Built on rockbench's public contract only (docs/engines.md): the skeleton
 :class:`~rockbench.engines.skeleton.SteppedContactAdapter` owns the loop, the end of a run, the
 read-out and the judge; this class builds and steps its "engine" (a few lines of NumPy) in the five
 stepping hooks and says how its settings resolve. Its contact is a toy, not a model worth
-benchmarking. It runs as shipped only (``settings = "defaults"``): it declares no calibration.
+benchmarking. It runs as shipped only (``settings = "shipped"``): it declares no calibration.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ class ToyEngine(SteppedContactAdapter):
     module = "rockbench_toy"  # the engine's module, imported lazily; its __version__ is the version reported
     install_hint = "pip install rockbench-toy"
     default_dt_s = 2e-4     # [s]
-    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "defaults", "contact_stiffness_n_m": None,
+    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "shipped", "contact_stiffness_n_m": None,
                 "tail_s": 1.0, "min_tail_s": 0.25}
     #: given explicitly, these replace a calibration; None (the default) means "not given"
     CALIBRATED_SETTINGS = ("contact_stiffness_n_m",)
