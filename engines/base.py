@@ -40,12 +40,12 @@ The contract, for a subclass of :class:`EngineAdapter`:
    ``"parallel"`` (a native batch that already uses every core: maps run it in one call in their
    own process instead of spreading it over worker processes). A native batch that also applies
    the classifier's rule itself (compiled, as the reference's kernel) implements the hook
-   :meth:`_run_native`; :meth:`run_many` judges every other case. A ``parallel`` adapter may also
-   offer ``run_grid(block, pulse_kind, restitution, omega_rad_s, amplitude_mps2, dt_s=None,
+   :meth:`_native_verdicts`; :meth:`run_many` judges every other case. A ``parallel`` adapter may also
+   offer ``solve_grid(block, pulse_kind, restitution, omega_rad_s, amplitude_mps2, dt_s=None,
    linearized=False)``: the verdicts of many harmonic-pulse cases as :class:`CellColumns` (arrays,
    no object per case), equal to what :meth:`run_many` gives for the same cases; maps run in this
    process use it from the grid to the file (the reference does). Subclasses implement the
-   hooks (``_simulate``, ``_simulate_many``, ``_run_native``, ``_validate_settings``), never the
+   hooks (``_simulate``, ``_simulate_many``, ``_native_verdicts``, ``_validate_settings``), never the
    public ``run``, ``run_many`` or ``judge``.
 7. ``resolve(block, restitution, dt_s)`` returns the concrete settings a case will use (for example contact
    parameters calibrated to reach the restitution's η); they are recorded in run.json.
@@ -82,7 +82,7 @@ from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import (DEFAULT_FRICTION, FLAGS, Measurement, contact_flags, judge_measurement,
                                          jump_tol_m, slip_tol_m, uplift_tol_rad)
 from .hooks import missing_hooks, required
-from .renamed import warn_renamed
+from .renamed import adopt_renamed_methods, warn_renamed
 
 __all__ = ["Case", "Trajectory", "CellResult", "CellColumns", "RestitutionMeasurement", "CalibrationResult",
            "EngineAdapter", "SETTINGS_MODES", "FLAGS", "jump_tol_m", "slip_tol_m", "uplift_tol_rad", "DEVICE_NOTED_ENV"]
@@ -244,7 +244,7 @@ class CellResult:
 @dataclass
 class CellColumns:
     """The verdicts on many successful cases as arrays, one entry per case (a columnar
-    :class:`CellResult`; ``run_grid`` in contract item 6).
+    :class:`CellResult`; ``solve_grid`` in contract item 6).
 
     Attributes
     ----------
@@ -412,6 +412,7 @@ class EngineAdapter:
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
+        adopt_renamed_methods(cls, "EngineAdapter")   # ``_run_native``, ``run_grid``: kept for one release
         # ``parallel_batch = True`` (the attribute's old name) is ``batching = "parallel"``: kept for one release
         if cls.__dict__.get("parallel_batch") is True and "batching" not in cls.__dict__:
             warn_renamed(f"{cls.__name__}.parallel_batch is now batching = 'parallel'; the old attribute goes in "
@@ -575,11 +576,11 @@ class EngineAdapter:
     def run_many(self, cases: Iterable[Case]) -> list[CellResult]:
         """Simulate and classify many cases; failures are recorded per case.
 
-        Cases the adapter's :meth:`_run_native` hook returns verdicts for keep them; the others are
+        Cases the adapter's :meth:`_native_verdicts` hook returns verdicts for keep them; the others are
         simulated (:meth:`_simulate_many`) and judged (:meth:`judge`).
         """
         cases = list(cases)
-        out = list(self._run_native(cases))
+        out = list(self._native_verdicts(cases))
         todo = [i for i, r in enumerate(out) if r is None]
         if todo:
             t0 = time.perf_counter()
@@ -589,7 +590,7 @@ class EngineAdapter:
                 out[i] = self.judge(cases[i], tr, wall)
         return out
 
-    def _run_native(self, cases: list[Case]) -> list[CellResult | None]:
+    def _native_verdicts(self, cases: list[Case]) -> list[CellResult | None]:
         """Hook: verdicts a native batch reaches by itself with the shared rules (the classifier's
         rule compiled into the batch, floor 1's validity functions), None for every case it leaves
         to :meth:`_simulate_many` and :meth:`judge`. The default leaves them all."""

@@ -624,19 +624,19 @@ class ExudynAdapter(SteppedContactAdapter):
                       theta_dot_rad_s=thd, table_x_m=table_x, table_vx_m_s=pulse.vel(t) if drive_table else None,
                       diagnostics=diag, t_s=t, corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=spheres[..., 1] - r)
 
-    def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
-             duration_s: float | None = None) -> tuple[Trajectory, Motion]:
+    def _trajectory(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
+                    duration_s: float | None = None) -> tuple[Trajectory, Motion]:
         """The skeleton's run (free rocking in one segment); a case whose Newton stalls is retried
         (module notes, "Solver")."""
         if duration_s is not None:
-            return super()._run(block, {**s, "drive": "inertial", "segment_s": duration_s}, dt, pulse, theta0,
-                                duration_s)
+            return super()._trajectory(block, {**s, "drive": "inertial", "segment_s": duration_s}, dt, pulse,
+                                       theta0, duration_s)
         # Newton occasionally stalls in a violent impact (deterministically, for a given cell);
         # a retry at half the step, then one with a full Newton method at the case's step, both
         # with the same contact, resolved the cases met in probes and maps
         retried = None
         for dt_run, full_newton in ((dt, False), (0.5 * dt, False), (dt, True)):
-            tr, m = super()._run(block, {**s, "full_newton": full_newton}, dt_run, pulse)
+            tr, m = super()._trajectory(block, {**s, "full_newton": full_newton}, dt_run, pulse)
             message = tr.diagnostics.get("solver_stopped")
             over = overturn_certain(tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, alpha_rad=block.alpha_rad,
                                     t_pulse_end_s=tr.t_pulse_end_s)

@@ -27,7 +27,7 @@ buffer, the end-of-run kernel (below), a step counter. On a CUDA device up to te
 captured once in a CUDA graph and the graph is launched for the rest of the run (no Python per
 step); on the CPU device the same launches run in a plain loop. Each world's samples come back once per segment; trajectories and the
 verdicts (the one judge, :meth:`EngineAdapter.judge`) are then made per cell, for a large batch in
-forked processes (the ``_run_native`` hook).
+forked processes (the ``_native_verdicts`` hook).
 
 End of a run
 ------------
@@ -219,7 +219,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         #: (device work and the per-segment read-back; the judge and the rest of the map are not in it)
         self.world_steps_run = 0
         self.stepping_s = 0.0
-        #: wall time spent making trajectories and judging them (``_run_native``) [s]
+        #: wall time spent making trajectories and judging them (``_native_verdicts``) [s]
         self.judging_s = 0.0
 
     # -- settings ----------------------------------------------------------------------------
@@ -392,7 +392,7 @@ class MujocoWarpAdapter(MujocoAdapter):
                 r[1].parts[r[2]] = None      # the float32 rows are no longer needed
         return out
 
-    def _run_native(self, cases: list[Case]) -> list:
+    def _native_verdicts(self, cases: list[Case]) -> list:
         """Every case's verdict: the batch simulated, then each cell's trajectory made and judged
         with the one classifier and validity rule (:meth:`judge`), for a large batch in forked
         processes (``judge_workers``): on a GPU that takes longer than the stepping itself."""

@@ -73,7 +73,7 @@ class ReferenceAdapter(EngineAdapter):
                           theta_ddot_rad_s2=sol.theta_ddot_rad_s2, min_normal_mg=sol.min_normal_mg,
                           max_friction_ratio=sol.max_friction_ratio)
 
-    def run_grid(self, block, pulse_kind: str, restitution, omega_rad_s, amplitude_mps2, *,
+    def solve_grid(self, block, pulse_kind: str, restitution, omega_rad_s, amplitude_mps2, *,
                  dt_s: float | None = None, linearized: bool = False) -> CellColumns:
         """The verdicts on many cases of one block, harmonic pulse kind and restitution as arrays
         (contract item 6): one :func:`solve_batch` call, no object per case.
@@ -104,7 +104,7 @@ class ReferenceAdapter(EngineAdapter):
             A pulse kind the batch does not run, or a step too coarse for a case's wave.
         """
         if pulse_kind not in _BATCH_KINDS:
-            raise ConfigError(f"run_grid takes the pulses {', '.join(_BATCH_KINDS)}, got {pulse_kind!r}.")
+            raise ConfigError(f"solve_grid takes the pulses {', '.join(_BATCH_KINDS)}, got {pulse_kind!r}.")
         dt = check_positive("--dt", self.default_dt_s if dt_s is None else dt_s, "s")
         # the per-case path's rule (Pulse.check_dt: MIN_STEPS_PER_WAVE steps over the pulse's duration)
         duration = (math.pi if pulse_kind == "half-sine" else 2.0 * math.pi) / np.asarray(omega_rad_s, dtype=float)
@@ -121,7 +121,7 @@ class ReferenceAdapter(EngineAdapter):
                            flag_names=DOMAIN_FLAGS, min_normal_mg=r.min_normal_mg,
                            max_friction_ratio=r.max_friction_ratio, wall_s=(time.perf_counter() - t0) / n)
 
-    def _run_native(self, cases: list[Case]) -> list[CellResult | None]:
+    def _native_verdicts(self, cases: list[Case]) -> list[CellResult | None]:
         """Harmonic pulses of one kind and model run in one :func:`solve_batch` call, whose kernel
         applies the classifier's rule sample by sample; the contact demand goes through the one
         rule :func:`contact_flags`. Records are left to the per-case path (None).

@@ -16,8 +16,8 @@ from typing import Any, Mapping
 
 from ..reference_solver.errors import ConfigError
 
-__all__ = ["RENAMED_SETTINGS", "RENAMED_VALUES", "RenamedWarning", "canonical_settings", "canonical_changes",
-           "warn_renamed"]
+__all__ = ["RENAMED_SETTINGS", "RENAMED_VALUES", "RENAMED_METHODS", "RenamedWarning", "canonical_settings",
+           "canonical_changes", "warn_renamed", "adopt_renamed_methods"]
 
 
 class RenamedWarning(DeprecationWarning):
@@ -48,6 +48,24 @@ RENAMED_SETTINGS: Mapping[str, Mapping[str, str]] = {
 RENAMED_VALUES: Mapping[str, Mapping[str, str]] = {
     "settings": {"defaults": "shipped"},
 }
+
+
+#: Old method names → new names, per base class whose subclasses may define them: a hook or an optional
+#: method an adapter implements under its old name is taken under the new one for one release, with a
+#: :class:`RenamedWarning` where the class is made (:func:`adopt_renamed_methods`).
+RENAMED_METHODS: Mapping[str, Mapping[str, str]] = {
+    "EngineAdapter": {"_run_native": "_native_verdicts", "run_grid": "solve_grid"},
+    "SteppedContactAdapter": {"_run": "_trajectory", "_run_worlds": "_step_worlds"},
+}
+
+
+def adopt_renamed_methods(cls: type, base: str) -> None:
+    """Give ``cls`` each method it defines under an old name (:data:`RENAMED_METHODS` of ``base``) under
+    the new name too, with a :class:`RenamedWarning`; called when a subclass of ``base`` is made."""
+    for old, new in RENAMED_METHODS[base].items():
+        if old in cls.__dict__ and new not in cls.__dict__:
+            warn_renamed(f"{cls.__name__}.{old} is now called {new}; the old name goes in the next release.", 3)
+            setattr(cls, new, cls.__dict__[old])
 
 
 def canonical_settings(engine: str | None, settings: Mapping[str, Any], *, warn: bool = False,

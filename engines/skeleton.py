@@ -4,7 +4,7 @@ calibration frame; an engine adapter fills in a few hooks.
 :class:`SteppedContactAdapter` owns everything a contact engine shares beyond its settings
 (:class:`~rockbench.engines.contact.ContactEngineAdapter`):
 
-* **the run** (:meth:`~SteppedContactAdapter._run`): the pulse is simulated whole, then the run
+* **the run** (:meth:`~SteppedContactAdapter._trajectory`): the pulse is simulated whole, then the run
   stops at the first sample where floor 1's end-of-run rule
   (:func:`~rockbench.reference_solver.classify.run_end`: diverged, overturn certain, or trapped
   below the barrier after ``min_tail_s``) says so, else ``tail_s`` after the pulse. The engine
@@ -70,7 +70,7 @@ from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
 from .hooks import MissingHook, hook_line, required
 from .knobs import search as search_knobs
 from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
-from .renamed import warn_renamed
+from .renamed import adopt_renamed_methods, warn_renamed
 
 __all__ = ["SteppedContactAdapter", "Motion", "corners", "pivot_pose", "run_steps", "MAX_PRICE_TRIES"]
 
@@ -187,6 +187,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
+        adopt_renamed_methods(cls, "SteppedContactAdapter")   # ``_run``, ``_run_worlds``: kept for one release
         # ``CONTACT_KEYS`` is the old name of ``CALIBRATED_SETTINGS``: kept for one release
         if "CONTACT_KEYS" in cls.__dict__ and "CALIBRATED_SETTINGS" not in cls.__dict__:
             warn_renamed(f"{cls.__name__}.CONTACT_KEYS is now called CALIBRATED_SETTINGS; the old name goes in the "
@@ -263,14 +264,14 @@ class SteppedContactAdapter(ContactEngineAdapter):
         seg_s = s.get("segment_s", self.settings.get("segment_s", self.default_segment_s))
         return max(1, int(round(float(seg_s) / dt_s)))
 
-    def _run(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
-             duration_s: float | None = None) -> tuple[Trajectory, Motion]:
-        """One run: a pulse with the end-of-run rule, or (``duration_s`` [s]) free rocking from rest
-        at ``theta0`` [rad]; the trajectory and the block's motion."""
-        return self._run_worlds(block, s, dt, [pulse], theta0, duration_s)[0]
+    def _trajectory(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
+                    duration_s: float | None = None) -> tuple[Trajectory, Motion]:
+        """The trajectory of one run and the block's motion: a pulse, ended by the end-of-run rule, or
+        (``duration_s`` [s]) free rocking from rest at ``theta0`` [rad]."""
+        return self._step_worlds(block, s, dt, [pulse], theta0, duration_s)[0]
 
-    def _run_worlds(self, block: Block, s: dict, dt: float, pulses: list, theta0: float = 0.0,
-                    duration_s: float | None = None) -> list[tuple[Trajectory, Motion]]:
+    def _step_worlds(self, block: Block, s: dict, dt: float, pulses: list, theta0: float = 0.0,
+                     duration_s: float | None = None) -> list[tuple[Trajectory, Motion]]:
         """The stepping loop: one world per pulse (at most :attr:`max_worlds`), stepped together.
 
         Every world's new samples are tested with floor 1's end-of-run rule after each segment, up
@@ -361,7 +362,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
         """One case with the resolved settings."""
         dt = self.dt_for(case)
         s = self.resolve(case.block, case.restitution, dt)
-        tr, _ = self._run(case.block, s, dt, case.pulse)
+        tr, _ = self._trajectory(case.block, s, dt, case.pulse)
         tr.diagnostics.update(self._settings_diagnostics(s))
         return tr
 
@@ -387,7 +388,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
             for k in range(0, len(idx), self.max_worlds):
                 part = idx[k:k + self.max_worlds]
                 try:
-                    runs = self._run_worlds(block, s, dt, [cases[i].pulse for i in part])
+                    runs = self._step_worlds(block, s, dt, [cases[i].pulse for i in part])
                 except Exception as e:  # noqa: BLE001 - the batch failed inside the engine
                     runs = [(e, None)] * len(part)
                 for i, (tr, _) in zip(part, runs):
@@ -433,7 +434,8 @@ class SteppedContactAdapter(ContactEngineAdapter):
         calibration reads more from the run than η)."""
         theta0 = float(theta0_frac) * block.alpha_rad
         reader = PEAK_RATIO
-        tr, motion = self._run(block, s, dt, None, theta0=theta0, duration_s=reader.duration_s(block, theta0_frac))
+        tr, motion = self._trajectory(block, s, dt, None, theta0=theta0,
+                                      duration_s=reader.duration_s(block, theta0_frac))
         etas = reader.etas(block, motion.theta_rad, theta0)
         sink, hop = contact_figures(block, tr.theta_rad, tr.corner_z_m)
         shown = {k: s.get(k) for k in self.MEASURED_SETTINGS + self.CALIBRATED_SETTINGS}

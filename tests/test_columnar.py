@@ -135,7 +135,7 @@ def test_resume_after_partial_columnar_map(tmp_path, monkeypatch):
     s = _spec(30)
     monkeypatch.setattr(maps, "COLUMNAR_CHUNK", 100)
     calls = []
-    real = ReferenceAdapter.run_grid
+    real = ReferenceAdapter.solve_grid
 
     def dying(self, *a, **k):
         calls.append(1)
@@ -144,7 +144,7 @@ def test_resume_after_partial_columnar_map(tmp_path, monkeypatch):
         return real(self, *a, **k)
 
     with monkeypatch.context() as m:
-        m.setattr(ReferenceAdapter, "run_grid", dying)
+        m.setattr(ReferenceAdapter, "solve_grid", dying)
         with pytest.raises(KeyboardInterrupt):
             run_map(s, tmp_path / "m", serial=True)
     assert len(_rows(tmp_path / "m")) == 300

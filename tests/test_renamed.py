@@ -17,9 +17,11 @@ from rockbench.benchmark.scoring.score_runs import load_score
 from rockbench.benchmark.store.files import canonical_variant
 from rockbench.benchmark.store.loading import load_own_eta
 from rockbench.benchmark.suites.plan import MapJob, resume_renamed
+from rockbench.engines.base import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.engines.renamed import RENAMED_VALUES, RenamedWarning, canonical_settings
 from rockbench.engines.skeleton import SteppedContactAdapter
+from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution
 
 
@@ -125,3 +127,34 @@ def test_a_suite_resumes_a_map_in_its_folder_of_the_old_name(write_map, band, tm
     assert resume_renamed([job], [spec], tmp_path)[0].subdir == "maps/mujoco-settings=defaults/B6M-sine-housner"
     other = MapSpec(block, "cosine", Restitution(), x, y, engine="mujoco", engine_settings={"settings": "shipped"})
     assert resume_renamed([job], [other], tmp_path)[0].subdir == job.subdir   # another map: a folder of its own
+
+
+def test_a_hook_under_its_old_name_is_taken_under_the_new_one_with_a_warning():
+    from rockbench.engines.base import EngineAdapter
+    from rockbench.engines.reference_adapter import ReferenceAdapter
+
+    called = []
+
+    def verdicts(self, cases):
+        called.append(len(cases))
+        return ReferenceAdapter._native_verdicts(self, cases)
+
+    with pytest.warns(RenamedWarning, match="_run_native is now called _native_verdicts"):
+        cls = type("OldBatch", (ReferenceAdapter,), {"name": "old_batch", "_run_native": verdicts})
+    assert cls._native_verdicts is verdicts
+    with pytest.warns(RenamedWarning, match="run_grid is now called solve_grid"):
+        grid = type("OldGrid", (EngineAdapter,), {"name": "old_grid", "run_grid": lambda self, *a, **k: None})
+    assert grid.solve_grid is grid.__dict__["run_grid"]
+    shared = SteppedContactAdapter.SHARED_SETTINGS
+    with pytest.warns(RenamedWarning, match="_run is now called _trajectory"):
+        stepped = type("OldStep", (SteppedContactAdapter,), {"name": "old_step", "_run": lambda self, *a: None,
+                                                               "SETTINGS": {**shared, "settings": "shipped"}})
+    assert stepped._trajectory is stepped.__dict__["_run"]
+    # a class of its own with a helper named like the skeleton's old method, outside the skeleton: left alone
+    plain = type("Plain", (EngineAdapter,), {"name": "plain", "_run": lambda self: 1})
+    assert not hasattr(plain, "_trajectory")
+    # the old-named hook really runs, and gives the reference's verdicts
+    block = PRESETS["B3M"].block()
+    case = Case(block, make_pulse("sine", 6.0, 6.0 * block.p_rad_s), Restitution())
+    old, new = cls().run_many([case])[0], ReferenceAdapter().run_many([case])[0]
+    assert called == [1] and (old.outcome, old.n_impacts) == (new.outcome, new.n_impacts)

@@ -37,7 +37,7 @@ from .grid import MAP_PULSES, MapSpec
 from .result import MapResult, empty_result, put_columns, put_row, record_result
 
 
-#: Cells solved and written at a time by the columnar path (an adapter's ``run_grid`` in this
+#: Cells solved and written at a time by the columnar path (an adapter's ``solve_grid`` in this
 #: process): large enough for the parallel kernel and the bulk writer, small enough that a killed
 #: 1000×1000 map keeps all but the chunk it was on.
 COLUMNAR_CHUNK = 65_536
@@ -268,10 +268,10 @@ class _Sweep:
 
     def _evaluate_columns(self, a: np.ndarray, b: np.ndarray) -> None:
         """One chunk as arrays (contract item 6); a chunk that raises goes case by case instead."""
-        spec, (run_grid, threads) = self.spec, self.grid
+        spec, (solve_grid, threads) = self.spec, self.grid
         try:
             with threads:
-                cols = run_grid(spec.block, spec.pulse, spec.restitution, spec.omega_axis[b], spec.amplitude_axis[a],
+                cols = solve_grid(spec.block, spec.pulse, spec.restitution, spec.omega_axis[b], spec.amplitude_axis[a],
                                 dt_s=spec.dt_s, linearized=spec.linearized)
         except Exception:  # noqa: BLE001 - the per-case path records each cell's failure
             self.evaluate_cases(list(zip(a.tolist(), b.tolist())))
@@ -302,15 +302,15 @@ class _Sweep:
 
 
 def _grid_runner(executor, spec: MapSpec):
-    """``(adapter.run_grid, threads)`` when the map's cells run in this process on an adapter that
+    """``(adapter.solve_grid, threads)`` when the map's cells run in this process on an adapter that
     solves them as arrays (contract item 6), else None; ``threads`` is a context that gives the
     batch the executor's threads."""
     if type(executor) is not SerialExecutor or spec.pulse not in MAP_PULSES:
         return None
-    run_grid = getattr(executor.adapter, "run_grid", None)
-    if run_grid is None:
+    solve_grid = getattr(executor.adapter, "solve_grid", None)
+    if solve_grid is None:
         return None
-    return run_grid, executor.threads()
+    return solve_grid, executor.threads()
 
 
 class _Progress:

@@ -99,7 +99,7 @@ def test_restitution_above_the_threshold_makes_the_block_hop():
     # a large block lands fast enough (0.64 m/s) for DART to apply e = 0.6: the block leaves the table
     block = Block(0.4, 0.8, mass_kg=100.0)
     ad = get_adapter("dart", contact_restitution=0.6)
-    tr, motion = ad._run(block, ad.resolve(block, Restitution()), 5e-4, None, theta0=0.5 * block.alpha_rad,
+    tr, motion = ad._trajectory(block, ad.resolve(block, Restitution()), 5e-4, None, theta0=0.5 * block.alpha_rad,
                          duration_s=0.4)
     assert np.max(motion.vz_m_s) > 0.3
     assert np.max(np.min(tr.corner_z_m, axis=1)) > 1e-3  # both corners above the table at once

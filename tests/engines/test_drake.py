@@ -176,7 +176,7 @@ def test_engine_exception_becomes_engine_error(monkeypatch):
         raise RuntimeError("simulated engine failure")
 
     a = get_adapter("drake")
-    monkeypatch.setattr(da.DrakeAdapter, "_run", broken)
+    monkeypatch.setattr(da.DrakeAdapter, "_trajectory", broken)
     r = a.run(case("B3M", "sine", 4.0, 3.0))
     assert isinstance(r, CellResult) and r.status == "failed" and r.flags == ["engine-error"] and not r.valid
 

@@ -25,14 +25,14 @@ from rockbench.reference_solver.classify import run_end
 
 #: the shared rules: the one function, and the names no built-in adapter may define
 ONE_RULES = {
-    "end of a run": (run_end, ("run_end", "_stop", "_run_worlds", "_segment_end", "stop_at", "_decided",
-                               "turned_back")),
+    "end of a run": (run_end, ("run_end", "_stop", "_step_worlds", "_run_worlds", "_segment_end", "stop_at",
+                               "_decided", "turned_back")),
     "calibration search": (knob_search, ("_calibrate_knobs", "_knob_rows", "_search", "Search", "bisection",
                                          "bracket")),
 }
 
 #: where a loop of an adapter's own would live (the skeleton's loop runs behind them)
-LOOP_METHODS = ("_simulate", "_simulate_many", "_run_native")
+LOOP_METHODS = ("_simulate", "_simulate_many", "_native_verdicts", "_run_native")
 
 #: adapters with a loop of their own, and the test that checks it applies the shared rules
 OWN_LOOP = {"mujoco_warp": "tests/engines/test_mujoco_warp.py::test_the_device_stops_where_run_end_does"}

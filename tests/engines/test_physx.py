@@ -80,8 +80,8 @@ def test_only_the_physx_step_matters():
     block = get_preset("B6L").block()
     a, b = get_adapter("physx", substeps=2), get_adapter("physx", substeps=1)
     th0 = 0.5 * block.alpha_rad
-    ta, _ = a._run(block, a.resolve(block, Restitution(), 5e-4), 5e-4, None, theta0=th0, duration_s=0.5)
-    tb, _ = b._run(block, b.resolve(block, Restitution(), 2.5e-4), 2.5e-4, None, theta0=th0, duration_s=0.5)
+    ta, _ = a._trajectory(block, a.resolve(block, Restitution(), 5e-4), 5e-4, None, theta0=th0, duration_s=0.5)
+    tb, _ = b._trajectory(block, b.resolve(block, Restitution(), 2.5e-4), 2.5e-4, None, theta0=th0, duration_s=0.5)
     assert np.array_equal(ta.theta_rad, tb.theta_rad[::2])
 
 

@@ -141,7 +141,7 @@ def test_engine_exception_becomes_engine_error(monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("simulated engine failure")
 
-    monkeypatch.setattr(pa.PybulletAdapter, "_run", broken)
+    monkeypatch.setattr(pa.PybulletAdapter, "_trajectory", broken)
     r = a.run(case("B3M", "sine", 4.0, 3.0))
     assert isinstance(r, CellResult) and r.status == "failed" and r.flags == ["engine-error"] and not r.valid
 

@@ -137,8 +137,8 @@ def test_an_engines_own_sampling_is_counted_row_by_row():
     ad, fine_ad = _OwnSampling(), _OneAtATime()
     ended = set()
     for c in _cases():
-        own = ad._run(BLOCK, ad.settings, dt, c.pulse)[0]
-        fine = fine_ad._run(BLOCK, fine_ad.settings, dt / 2, c.pulse)[0]
+        own = ad._trajectory(BLOCK, ad.settings, dt, c.pulse)[0]
+        fine = fine_ad._trajectory(BLOCK, fine_ad.settings, dt / 2, c.pulse)[0]
         n = min(own.t_s.size, fine.t_s.size)
         assert np.array_equal(own.theta_rad[:n], fine.theta_rad[:n]) and np.array_equal(own.t_s[:n], fine.t_s[:n])
         why = own.diagnostics["ended_by"]

@@ -79,7 +79,7 @@ def cmd_restitution(args) -> None:
             ad = get_adapter("dart", contact_restitution=e)
             s = ad.resolve(block, Restitution())
             m = ad.measure_restitution(block, settings=s)
-            tr, _ = ad._run(block, s, ad.default_dt_s, None, theta0=theta0, duration_s=1.0)
+            tr, _ = ad._trajectory(block, s, ad.default_dt_s, None, theta0=theta0, duration_s=1.0)
             hop = max(float(tr.corner_z_m.min(axis=1).max()), 0.0)
             print(f"| {block.name} | {v_land:.3f} | {e:g} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | {1e3 * hop:.3f} |")
 
