@@ -67,8 +67,10 @@ left out raises :class:`~rockbench.engines.hooks.MissingHook` saying what to imp
 
 from __future__ import annotations
 
+import importlib
 import math
 import time
+from importlib import metadata
 from dataclasses import dataclass, field, asdict
 from typing import Any, ClassVar, Iterable, Literal, Mapping
 
@@ -525,12 +527,10 @@ class EngineAdapter:
     def version(cls) -> str:
         """The engine's version; raises EngineUnavailableError when it cannot be imported."""
         if cls.module is None:
-            from importlib.metadata import version
             try:
-                return version("rockbench")
+                return metadata.version("rockbench")
             except Exception:  # noqa: BLE001 - running from a source tree
                 return "source"
-        import importlib
         try:
             mod = importlib.import_module(cls.module)
         except Exception as e:  # noqa: BLE001 - any import failure means "not available"

@@ -33,6 +33,7 @@ from ..reference_solver.pulses import make_pulse
 from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import Measurement
 from .base import Case, EngineAdapter
+from .registry import get_adapter
 
 #: The block the checks use by default: B6M of Table 1 (h/b = 4.5).
 DEFAULT_BLOCK = Block(0.045, 0.2025, mass_kg=1.0896, name="B6M")
@@ -357,8 +358,6 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
     EngineUnavailableError
         The engine is not installed.
     """
-    from .registry import get_adapter
-
     ad: EngineAdapter = get_adapter(adapter_or_name) if isinstance(adapter_or_name, str) else adapter_or_name
     b = block or DEFAULT_BLOCK
     try:

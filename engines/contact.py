@@ -47,7 +47,8 @@ from .hooks import required
 from .renamed import RENAMED_SETTINGS, RENAMED_VALUES, canonical_changes, canonical_settings, warn_renamed
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "RENAMED_VALUES", "canonical_settings", "SETTINGS_MODES",
-           "DRIVES", "body_energy_j_kg", "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS", "first_reached"]
+           "DRIVES", "body_energy_j_kg", "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS",
+           "first_reached"]
 
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")

@@ -86,7 +86,7 @@ class _Scene:
     joint for the table drive), contact as in the resolved settings ``s``."""
 
     def __init__(self, block: Block, s: dict, dt: float):
-        import dartpy as dart
+        import dartpy as dart   # optional engine library
 
         self.dt, self.planar, self.drive = dt, bool(s["planar"]), s["drive"]
         world = dart.simulation.World()

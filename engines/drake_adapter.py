@@ -59,6 +59,7 @@ read with the shared peak ratio (:data:`~rockbench.engines.free_rocking.PEAK_RAT
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 
@@ -105,9 +106,7 @@ _MAX_SCENES = 8
 
 def _import_pydrake():
     """Import pydrake's pieces; silence the warnings Drake logs while a model is built."""
-    import logging
-
-    import pydrake.all as pd  # noqa: F401 - the whole API in one import
+    import pydrake.all as pd  # noqa: F401 - the optional engine library, its whole API in one import
 
     logging.getLogger("drake").setLevel(logging.ERROR)
     return pd

@@ -130,8 +130,8 @@ class _Model:
 
     def __init__(self, block: Block, contact: dict, drive: str, planar: bool, dt_s: float,
                  pulse: Pulse | None, theta0_rad: float = 0.0):
-        import exudyn as exu
-        import exudyn.itemInterface as ii
+        import exudyn as exu   # optional engine library
+        import exudyn.itemInterface as ii   # optional engine library
 
         self.exu, self.ii, self.block, self.drive, self.planar, self.dt_s = exu, ii, block, drive, planar, dt_s
         self.contact, self.r = dict(contact), contact["sphere_radius_m"]
@@ -199,7 +199,7 @@ class _Model:
             self.corners_local = np.array([[-b / 2, -h / 2 + r, 0.0], [b / 2, -h / 2 + r, 0.0]])
             self.spheres_local = np.array([[float(x), -h / 2 + r, 0.0] for x in row])
             return tri, [0.0, -m * G, 0.0]
-        import exudyn.utilities as eu
+        import exudyn.utilities as eu   # optional engine library
         A0 = np.array([[math.cos(-phi0), 0, math.sin(-phi0)], [0, 1, 0], [-math.sin(-phi0), 0, math.cos(-phi0)]])
         res = mbs.CreateRigidBody(inertia=eu.InertiaCuboid(density=block.density_kg_m3, sideLengths=[b, d, h]),
                                   referencePosition=[x0, 0.0, z0], initialRotationMatrix=A0,
@@ -269,7 +269,7 @@ class _Model:
     def _install_pulse_functions(self, pulse: Pulse | None):
         """The drive as user functions: symbolic (evaluated in C++, the pulse's parameters in the
         model's symbolic variables) for a harmonic pulse, Python for a recorded one."""
-        from exudyn.advancedUtilities import CreateSymbolicUserFunction
+        from exudyn.advancedUtilities import CreateSymbolicUserFunction   # optional engine library
 
         mbs, esym, m = self.mbs, self.exu.symbolic, self.block.mass_kg
 

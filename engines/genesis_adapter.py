@@ -35,6 +35,7 @@ step run as the environments of one scene (``batching = "native"``, :attr:`Genes
 from __future__ import annotations
 
 import functools
+import logging
 import math
 import os
 import tempfile
@@ -47,6 +48,7 @@ from .base import CalibrationResult
 from .free_body_rows import angles_of, motion_of
 from .knobs import Knob
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
+from .support import version_label
 
 #: Genesis's shipped constraint time constant [s] (``RigidOptions.constraint_timeconst``)
 SHIPPED_TIMECONST_S = 0.01
@@ -69,9 +71,8 @@ _ready = False
 def _genesis():
     """The ``genesis`` module, initialised once per process on its CPU backend, quietly."""
     global _ready
-    import genesis as gs
+    import genesis as gs   # optional engine library
     if not _ready:
-        import logging
         gs.init(backend=gs.cpu, logging_level="warning")
         logging.getLogger("genesis").setLevel(logging.WARNING)
         _ready = True
@@ -228,7 +229,6 @@ class GenesisAdapter(SteppedContactAdapter):
     @classmethod
     def version(cls) -> str:
         super().version()   # raises EngineUnavailableError with the hint when the import fails
-        from .support import version_label
         return version_label(cls.name)
 
     @classmethod

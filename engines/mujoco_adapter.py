@@ -69,6 +69,7 @@ from ..reference_solver.model import G, Block
 from ..reference_solver.restitution import Restitution
 from .base import CalibrationResult, RestitutionMeasurement
 from .contact import POINTS_TRIED, ContactEngineAdapter
+from . import price as pricing
 from .free_rocking import PEAK_RATIO, contact_figures
 from .knobs import Knob
 from .pick import Candidate, pick
@@ -295,7 +296,7 @@ class MujocoAdapter(SteppedContactAdapter):
         return self._models[key]
 
     def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> BuiltModel:
-        import mujoco
+        import mujoco   # optional engine library
 
         b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
         mu = self.settings["friction"]
@@ -425,8 +426,8 @@ class MujocoAdapter(SteppedContactAdapter):
     def _start(self, world, block: Block, s: dict, dt_s: float, pulses, theta0_rad: float,
                n_steps: int) -> np.ndarray:
         """Every world at the settled rest state; the rollout threads (one MjData each)."""
-        import mujoco
-        from mujoco import rollout
+        import mujoco   # optional engine library
+        from mujoco import rollout   # optional engine library
 
         bm, n = world["bm"], len(pulses)
         nthread = min(self._threads(), n)
@@ -493,8 +494,8 @@ class MujocoAdapter(SteppedContactAdapter):
                       theta0_frac: float) -> list[RestitutionMeasurement]:
         """Free rocking from rest at ``theta0_frac·α`` about the +x edge, one native batch, as long
         as the one reader's test (:data:`~rockbench.engines.free_rocking.PEAK_RATIO`)."""
-        import mujoco
-        from mujoco import rollout
+        import mujoco   # optional engine library
+        from mujoco import rollout   # optional engine library
 
         built = [self._model(block, p, dt) for p in params_list]
         groups: dict = {}
@@ -575,12 +576,11 @@ class MujocoAdapter(SteppedContactAdapter):
 
     def _distributed_key(self, block: Block, t: float, n: int, dt: float) -> str:
         """MuJoCo's cache key of a distributed calibration (its solver settings and geometry)."""
-        from . import price as _price
 
         return self._cache_key(block, t, dt, self.CALIBRATION_VERSION_DIST, contact=self._geometry(n),
                                drive=self.settings["drive"], planar=self.settings["planar"],
                                friction=self.settings["friction"], solver=self._solver_params(),
-                               price_cells=list(_price.PRICE_CELLS))
+                               price_cells=list(pricing.PRICE_CELLS))
 
     def _distributed_rows(self, block: Block, t: float, n: int, dt: float) -> tuple[list[dict], str]:
         """A grid of solimp impedance d (0.3–0.9) × time constant (2–16·Δt) × damping ratio (0.5–2)
@@ -657,7 +657,7 @@ class MujocoAdapter(SteppedContactAdapter):
 
     def _cache_identity(self) -> dict:
         """MuJoCo and its version name the calibrations in the cache (MuJoCo Warp names its own)."""
-        import mujoco
+        import mujoco   # optional engine library
         return {"engine": "mujoco", "version": mujoco.__version__}
 
     def _grid_search(self, block: Block, dt: float, solver: dict, grid: list, target: float, around,

@@ -57,6 +57,7 @@ Warp compiles its kernels on first use (about a minute on a CPU, more on a GPU) 
 from __future__ import annotations
 
 import dataclasses
+import multiprocessing as mp
 import os
 import time
 
@@ -104,14 +105,14 @@ CPU_LINE = "rockbench: mujoco_warp runs on the CPU here (no NVIDIA CUDA driver f
 def _warp():
     """``(warp, mujoco_warp)``, Warp started once (:func:`~rockbench.engines.warp_start.start_warp`)."""
     wp = start_warp(CPU_LINE)
-    import mujoco_warp as mjw
+    import mujoco_warp as mjw   # optional engine library
     return wp, mjw
 
 
 def _kernels():
     """The adapter's own kernels (:mod:`rockbench.engines._mujoco_warp_kernels`, imported once Warp is set up)."""
     _warp()
-    from . import _mujoco_warp_kernels as k
+    from . import _mujoco_warp_kernels as k   # Warp's kernels: the optional engine library, once Warp is set up
     return {"drive": k.drive, "record": k.record, "end_of_run": k.end_of_run, "advance": k.advance}
 
 
@@ -248,7 +249,7 @@ class MujocoWarpAdapter(MujocoAdapter):
     def version(cls) -> str:
         base = super().version()
         try:
-            import warp
+            import warp   # optional engine library
             return f"{base} (warp-lang {warp.__version__})"
         except Exception:  # noqa: BLE001 - mujoco_warp imported, so warp did too; be safe anyway
             return base
@@ -302,7 +303,7 @@ class MujocoWarpAdapter(MujocoAdapter):
 
     # -- model -------------------------------------------------------------------------------
     def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> BuiltModel:
-        import mujoco
+        import mujoco   # optional engine library
 
         bm = super()._build(block, p, dt, drive, planar)
         s = self.settings
@@ -396,7 +397,6 @@ class MujocoWarpAdapter(MujocoAdapter):
         """Every case's verdict: the batch simulated, then each cell's trajectory made and judged
         with the one classifier and validity rule (:meth:`judge`), for a large batch in forked
         processes (``judge_workers``): on a GPU that takes longer than the stepping itself."""
-        import multiprocessing as mp
         global _JUDGE_JOB
 
         cases = list(cases)
@@ -546,7 +546,7 @@ class MujocoWarpAdapter(MujocoAdapter):
     @staticmethod
     def _capacity(bm: BuiltModel) -> tuple[int, int]:
         """``(nconmax, njmax)`` per world for this model."""
-        import mujoco
+        import mujoco   # optional engine library
         ncon = NCONMAX_PLANE if bm.drive == "inertial" else NCONMAX_BOX
         rows = 3 if bm.model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else 4
         return ncon, ncon * rows
@@ -617,7 +617,7 @@ class MujocoWarpAdapter(MujocoAdapter):
                 | {"friction": self.settings["friction"], "solver": self.settings["solver"]})
 
     def _cache_identity(self) -> dict:
-        import mujoco_warp
+        import mujoco_warp   # optional engine library
         s = self.settings
         return {"engine": self.name, "version": mujoco_warp.__version__,
                 "warp_solver": [s["solver"], s["iterations"], s["ls_iterations"]]}

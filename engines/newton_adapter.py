@@ -46,6 +46,8 @@ from ..reference_solver.model import G, Block
 from .base import CalibrationResult
 from .knobs import Knob
 from .skeleton import Motion, SteppedContactAdapter, pivot_pose
+from .support import version_label
+from .warp_start import start_warp
 
 #: The solvers offered, by their ``solver`` name
 SOLVERS = ("xpbd", "semi_implicit", "featherstone", "vbd")
@@ -69,9 +71,8 @@ CPU_LINE = "rockbench: newton runs on Warp's CPU device here (one thread): expec
 
 def _newton():
     """``(warp, newton)``, Warp started once (:func:`~rockbench.engines.warp_start.start_warp`)."""
-    from .warp_start import start_warp
     wp = start_warp(CPU_LINE)
-    import newton
+    import newton   # optional engine library
     return wp, newton
 
 
@@ -299,7 +300,6 @@ class NewtonAdapter(SteppedContactAdapter):
     @classmethod
     def version(cls) -> str:
         super().version()   # raises EngineUnavailableError with the hint when the import fails
-        from .support import version_label
         return version_label(cls.name)
 
     @classmethod

@@ -88,7 +88,7 @@ def _sapien():
     """The ``sapien`` module, imported without its renderer's libvulkan warning (physics needs none)."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=_VULKAN_WARNING, category=UserWarning)
-        import sapien
+        import sapien   # optional engine library
     return sapien
 
 

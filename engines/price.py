@@ -27,7 +27,6 @@ import math
 import time
 
 import numpy as np
-from scipy.integrate import trapezoid
 
 from ..reference_solver.model import G, Block
 from ..reference_solver.pulses import RecordPulse, make_pulse
@@ -60,6 +59,7 @@ def rigid_first_quarter_s(block: Block, theta0_frac: float = 0.5) -> float:
     f = np.empty_like(s)
     f[1:] = 2.0 * th0 * s[1:] / v[1:]
     f[0] = 2.0 * th0 / (p * math.sqrt(2.0 * th0 * math.sin(a - th0)))
+    from scipy.integrate import trapezoid   # SciPy on first use (start-up time: about 1 s, for every contact engine)
     return float(trapezoid(f, s))   # SciPy's: np.trapezoid is NumPy 2 only, and NumPy 1.26 is supported
 
 
@@ -98,7 +98,7 @@ def anti_slip(adapter, block: Block, restitution: Restitution, dt_s: float | Non
               cells=PRICE_CELLS) -> dict:
     """The default suite's pulses on ``cells``, judged by the one validity rule: flag counts and speed."""
     A = G * math.tan(block.alpha_rad)
-    from .reference_adapter import ReferenceAdapter
+    from .reference_adapter import ReferenceAdapter   # the solver's numba on first use (start-up time)
 
     cases = [Case(block, make_pulse(kind, a * A, w * block.p_rad_s), restitution, None) for kind, w, a in cells]
     friction = adapter.settings.get("friction")

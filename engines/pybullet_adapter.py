@@ -41,8 +41,11 @@ classifier decides the outcome from θ(t). η is read by the one reader
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import math
 import os
+import sys
 from typing import Any
 
 import numpy as np
@@ -81,8 +84,6 @@ def _import_pybullet():
     one-line CLI error two lines; descriptors 1 and 2 point at /dev/null while the module loads
     (only the first import prints; later calls return the cached module).
     """
-    import sys
-
     if "pybullet" in sys.modules:
         return sys.modules["pybullet"]
     sys.stdout.flush()
@@ -93,7 +94,7 @@ def _import_pybullet():
             os.dup2(null.fileno(), 1)
             os.dup2(null.fileno(), 2)
             try:
-                import pybullet
+                import pybullet   # optional engine library
             finally:
                 _flush_c_stdio()  # anything left in C's stdio buffers goes to /dev/null too
     finally:
@@ -106,9 +107,6 @@ def _import_pybullet():
 
 def _flush_c_stdio() -> None:
     try:
-        import ctypes
-        import ctypes.util
-
         ctypes.CDLL(ctypes.util.find_library("c")).fflush(None)
     except Exception:  # noqa: BLE001 - no C library to flush: nothing was buffered there
         pass

@@ -12,6 +12,7 @@ import importlib
 from importlib.metadata import entry_points
 
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
+from .support import install_command, outside_range, supported_range
 
 #: built-in adapters, imported lazily
 BUILTIN = {
@@ -109,8 +110,6 @@ def availability(name: str) -> dict:
     the module that failed to import, ``install`` the command that installs it (a built-in engine's
     extra; else the adapter's ``install_hint``), ``supported`` the range rockbench declares ("" if none,
     :mod:`.support`), ``outside_range`` a phrase when the installed version is outside it (else None)."""
-    from .support import install_command, outside_range, supported_range
-
     rng = {"supported": supported_range(name), "outside_range": outside_range(name)}
     cls = None
     try:

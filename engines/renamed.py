@@ -93,8 +93,8 @@ def canonical_settings(engine: str | None, settings: Mapping[str, Any], *, warn:
         old = out.get(key)
         if isinstance(old, str) and old in values:
             if warn:
-                warn_renamed(f"{key} = {old!r} is now {key} = {values[old]!r} (the same thing, a clearer name); the old "
-                             "value goes in the next release.", stacklevel + 1)
+                warn_renamed(f"{key} = {old!r} is now {key} = {values[old]!r} (the same thing, a clearer name); "
+                             "the old value goes in the next release.", stacklevel + 1)
             out[key] = values[old]
     return out
 

@@ -69,6 +69,7 @@ from .contact import CALIBRATION_ADVICE, ContactEngineAdapter, body_energy_j_kg
 from .free_rocking import PEAK_RATIO, contact_figures, first_quarter_s
 from .hooks import MissingHook, hook_line, required
 from .knobs import search as search_knobs
+from . import price as pricing
 from .pick import ETA_RESOLUTION, Candidate, pick, ranked, regular
 from .renamed import adopt_renamed_methods, warn_renamed
 
@@ -536,12 +537,11 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
         """The price of a calibration's contact (:func:`rockbench.engines.price.contact_price`)."""
-        from . import price as _price
 
         dt = self.time_step_s(dt_s)
         fixed = self._fixed(c.settings)
         m = fixed.measure_restitution(block, dt_s=dt)
-        return _price.contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt,
+        return pricing.contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt,
                                     first_quarter_s=m.first_quarter_s)
 
     # -- the distributed contact's search -----------------------------------------------------
@@ -586,11 +586,10 @@ class SteppedContactAdapter(ContactEngineAdapter):
 
     def _distributed_key(self, block: Block, t: float, n: int, dt: float) -> str:
         """The cache key of the distributed calibration with ``n`` points to ``t`` at step ``dt``."""
-        from . import price as _price
 
         base = self._distributed_base(n)
         return self._cache_key(block, t, dt, self.CALIBRATION_VERSION_DIST, **self._calibration_identity(base),
-                               points=n, price_cells=[list(c) for c in _price.PRICE_CELLS])
+                               points=n, price_cells=[list(c) for c in pricing.PRICE_CELLS])
 
     def _distributed_contact(self, row: dict, n: int) -> dict:
         """A candidate row's contact with ``n`` points, as :meth:`_fixed` takes it."""
@@ -610,7 +609,6 @@ class SteppedContactAdapter(ContactEngineAdapter):
         and raises no ``slip`` flag in the anti-slip cells (:func:`rockbench.engines.price.contact_price`);
         its price is recorded, with its free-rocking period change.
         """
-        from . import price as _price
 
         key = self._distributed_key(block, t, n, dt)
         cached = self._cached(key, use_cache)
@@ -630,7 +628,7 @@ class SteppedContactAdapter(ContactEngineAdapter):
             price["period_change"] = (m.first_quarter_s / price["rigid_first_quarter_s"] - 1.0) if m.first_quarter_s else None
             price["first_quarter_s"] = m.first_quarter_s
             note = (f"reached with {n} {self.POINT_UNIT} along the base, {self._describe_contact(r)}, {r['n']} impacts "
-                    f"measured; {_price.price_line(price)}; {span}.")
+                    f"measured; {pricing.price_line(price)}; {span}.")
         else:
             r = (within[0] if within else
                  min(regular_rows or [x for x in rows if math.isfinite(x["eta"])] or rows,
@@ -648,17 +646,16 @@ class SteppedContactAdapter(ContactEngineAdapter):
         """The first of ``within`` (at most :data:`MAX_PRICE_TRIES`) whose contact counts, its price
         and what was tried. The static uplift threshold comes first: a candidate outside it cannot
         count, so its anti-slip cells are not run."""
-        from . import price as _price
 
         rest = Restitution("constant", value=t)
         tried = []
         for r in within[:MAX_PRICE_TRIES]:
             fixed = self._fixed(self._distributed_contact(r, n))
-            up = _price.uplift_threshold(fixed, block, rest, dt)
+            up = pricing.uplift_threshold(fixed, block, rest, dt)
             tried.append({**r, "uplift_ratio": up.get("ratio", math.nan)})
             if not up.get("within"):
                 continue
-            pr = _price.contact_price(fixed, block, rest, dt, uplift=up)
+            pr = pricing.contact_price(fixed, block, rest, dt, uplift=up)
             tried[-1].update(n_slip=pr["anti_slip"]["n_slip"], n_jump=pr["anti_slip"]["n_jump"])
             if pr["counts"]:
                 return r, pr, tried

@@ -66,7 +66,7 @@ def _cell(block: Block, eta: float, pulse: str, w_ratio: float, a_ratio: float, 
 
 
 def _reference_overturns(block: Block, eta: float, pulse: str, w_ratio: float, a_ratio: float) -> bool:
-    from .reference_adapter import ReferenceAdapter
+    from .reference_adapter import ReferenceAdapter   # the solver's numba on first use (start-up time)
 
     return ReferenceAdapter().run(_cell(block, eta, pulse, w_ratio, a_ratio)).outcome == "overturn"
 

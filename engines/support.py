@@ -52,7 +52,7 @@ def _canonical(name: str) -> str:
 
 def _declared(extra: str) -> dict[str, str]:
     """``{distribution: specifier}`` that rockbench's extra ``extra`` declares ({} without an install)."""
-    from packaging.requirements import InvalidRequirement, Requirement
+    from packaging.requirements import InvalidRequirement, Requirement   # on first use (start-up time: ~40 ms)
 
     try:
         reqs = requires("rockbench") or []
@@ -112,8 +112,8 @@ def outside_range(engine: str) -> str | None:
     """One phrase when an installed distribution of ``engine`` is outside the supported range, e.g.
     ``"mujoco 3.2.0 is outside the supported range mujoco>=3.3"``; None when every installed one is
     inside it, or nothing is known."""
-    from packaging.specifiers import SpecifierSet
-    from packaging.version import InvalidVersion, Version
+    from packaging.specifiers import SpecifierSet   # on first use (start-up time: the registry imports this module)
+    from packaging.version import InvalidVersion, Version   # on first use (start-up time)
 
     extra = EXTRAS.get(engine)
     if extra is None:

@@ -4,7 +4,10 @@ whether a CUDA driver is there, and a start on the CPU that says so in one line 
 
 from __future__ import annotations
 
+import ctypes
 import os
+import sys
+import tempfile
 
 from . import calibration as _cal
 from .base import DEVICE_NOTED_ENV
@@ -20,13 +23,13 @@ def start_warp(cpu_line: str):
     without a CUDA driver started quietly on the CPU with the adapter's own ``cpu_line``
     (:func:`init_on_cpu`). A runtime someone else started is left as it is."""
     global _started
-    import warp as wp
+    import warp as wp   # optional engine library (Warp-based engines)
     if not _started:
         if hasattr(wp, "LOG_WARNING"):   # Warp >= 1.19
             wp.config.log_level = wp.LOG_WARNING
         else:  # pragma: no cover - older Warp
             wp.config.quiet = True
-        from warp._src import context as _ctx
+        from warp._src import context as _ctx   # the optional engine library's runtime, to tell whether it started
         if getattr(_ctx, "runtime", None) is None:   # not initialised yet in this process
             wp.config.kernel_cache_dir = warp_cache_dir()
             if cuda_driver_present():
@@ -48,8 +51,6 @@ def warp_cache_dir() -> str:
 def cuda_driver_present() -> bool:
     """Whether the NVIDIA CUDA driver library loads here: asked without starting Warp, which prints
     a warning of its own on a machine without one."""
-    import ctypes
-    import sys
     names = {"win32": ["nvcuda.dll"]}.get(sys.platform, ["libcuda.so.1", "libcuda.so"])
     if sys.platform == "darwin":
         return False
@@ -66,8 +67,6 @@ def init_on_cpu(wp, line: str) -> None:
     """``wp.init()`` without the driver warning Warp's native code writes to stderr, and rockbench's
     own ``line`` (each Warp-based adapter says its own) instead: once per run (worker
     processes inherit the mark)."""
-    import sys
-    import tempfile
     sys.stderr.flush()
     saved = os.dup(2)
     with tempfile.TemporaryFile() as tmp:
