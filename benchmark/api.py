@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engines.registry import get_adapter
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from .engine_info.adapters import build_adapter
 from .maps.grid import MAP_PULSES, make_axis, parse_range
 from .maps.sweep import run_map
 from .report.histories import impact_times, picture_span_s
@@ -187,7 +187,7 @@ def simulate(block: str | None = "B3M", **case) -> Simulation:
     request = _checked(request_of, block, **case)
     c, _ = _checked(request.case)
     settings = _checked(request.engine_settings)
-    adapter = _checked(get_adapter, request.engine, **settings)
+    adapter = _checked(build_adapter, request.engine, **settings)
     tr, res = run_case(adapter, c)
     empty = np.zeros(0)
     b, p = c.block, c.pulse

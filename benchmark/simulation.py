@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from ..engines.base import CellResult
-from ..engines.registry import get_adapter
 from ..reference_solver.errors import RockbenchError
 from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from .engine_info.adapters import build_adapter
 from .report.histories import impact_times, picture_span_s
 from .report.plots.output import save_figure
 from .report.plots.trajectories import plot_theta
@@ -101,7 +101,7 @@ def simulate_case(engine: str, settings: dict, case, *, history: Path | None = N
     """Simulate ``case`` with ``engine`` (``settings``), and write its history and picture when paths are
     given; the JSON object of ``rockbench simulate`` (:func:`simulation_record`, plus ``history``,
     ``plot``, ``plot_span_s`` and ``plot_note`` where written). ``outcome`` is None when it failed."""
-    adapter = get_adapter(engine, **settings)
+    adapter = build_adapter(engine, **settings)
     dt = adapter.dt_for(case)       # a bad time step is refused before anything runs
     tr, res = run_case(adapter, case)
     out = simulation_record(adapter, case, res, dt)
@@ -131,9 +131,9 @@ def trajectory_for_picture(engine: str, settings: dict, case, trajectory=None):
         if trajectory is not None and (trajectory.diagnostics or {}).get("mode") == "to-rest":
             return trajectory, "to-rest"
         s = {**dict(settings or {}), "mode": "to-rest"}
-        return get_adapter("reference", **s).simulate(case), "to-rest"
+        return build_adapter("reference", **s).simulate(case), "to-rest"
     if trajectory is None:
-        trajectory = get_adapter(engine, **dict(settings or {})).simulate(case)
+        trajectory = build_adapter(engine, **dict(settings or {})).simulate(case)
     return trajectory, None
 
 
@@ -148,7 +148,7 @@ def plot_simulation(path: Path, engine: str, settings: dict, case, tr, res, out:
     if pic is not tr:
         # the picture's run integrated on: its outcome is the one drawn (it differs from the
         # decision of the energy mode only in cells that touch the boundary)
-        judged = get_adapter(engine, **{**settings, "mode": mode}).judge(case, pic)
+        judged = build_adapter(engine, **{**settings, "mode": mode}).judge(case, pic)
         if judged.outcome != res.outcome:
             out["_note"] = (f"integrated to rest for the picture, the run gives {judged.outcome} "
                             f"(the energy decision gives {res.outcome})")

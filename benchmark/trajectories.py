@@ -15,12 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from ..engines.base import Case
-from ..engines.registry import get_adapter
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import a_ratio_to_amplitude
 from ..reference_solver.pulses import make_pulse
 from ..reference_solver.restitution import Restitution
 from .blocks.presets import get_preset
+from .engine_info.adapters import build_adapter
 from .report.histories import impact_times
 from .scoring.labels import restitution_symbol, variant_labels
 from .scoring.score_runs import load_runs
@@ -125,7 +125,7 @@ def _runs(case, cands: list) -> tuple[list, list[str]]:
 def _curve(engine: str, settings: dict, case, label: str, reference: bool) -> dict:
     """One θ(t) curve of ``case``, judged by the one judge."""
     tr, mode = trajectory_for_picture(engine, settings, case)
-    res = get_adapter(engine, **({**settings, "mode": mode} if mode else settings)).judge(case, tr)
+    res = build_adapter(engine, **({**settings, "mode": mode} if mode else settings)).judge(case, tr)
     return {"label": f"{label}: {res.outcome or 'failed'}", "reference": reference, "outcome": res.outcome,
             "t_overturn_s": float(res.t_overturn_s) if res.outcome == "overturn" and res.t_overturn_s is not None
             else None,

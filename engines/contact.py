@@ -144,10 +144,10 @@ class ContactEngineAdapter(EngineAdapter):
                               f"'tail_s' ({s['tail_s']:g} s).")
         if "segment_s" in s:
             self._number_setting(s, "segment_s", "s", allow_none=False)
-        s["calibrate_on"] = held_out.check_name(s.get("calibrate_on"), self.name)
+        s["calibrate_on"] = held_out.check_setting(s.get("calibrate_on"), self.name)
         if s["calibrate_on"] and s["settings"] == "shipped":
             raise ConfigError(f"{self.name} setting 'calibrate_on' needs settings = calibrated (as shipped, nothing is "
-                              f"calibrated), got calibrate_on = {s['calibrate_on']!r} with settings = shipped.")
+                              f"calibrated), got calibrate_on = '{s['calibrate_on']}' with settings = shipped.")
         self._validate_engine_settings(s)
 
     def _validate_engine_settings(self, s: dict) -> None:
@@ -269,10 +269,14 @@ class ContactEngineAdapter(EngineAdapter):
             if self.as_shipped() and self.SHIPPED_NOTE:
                 out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
-        out = dict(self._resolved[key])
+        out = as_written(self._resolved[key])
         if dt_s is None and out.get("calibration"):   # the step the one time-step rule chose, and why
             out["calibration"] = {**out["calibration"], "step_rule": self.converged_step_s(on, eta)[1]}
         return out
+
+    def describe(self) -> dict:
+        """As :meth:`EngineAdapter.describe`, the settings as written (:func:`as_written`)."""
+        return {**super().describe(), "settings": as_written(self.settings)}
 
     def _equals_shipped(self, block: Block, dt: float, resolved: dict) -> bool:
         """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
@@ -393,6 +397,15 @@ class ContactEngineAdapter(EngineAdapter):
         if not (math.isfinite(t) and 0.0 < t <= 1.0):
             raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
         return t
+
+
+def as_written(settings: Mapping[str, Any]) -> dict:
+    """``settings`` as run.json records them: a ``calibrate_on`` (:class:`~rockbench.engines.held_out.CalibrateOn`)
+    as written, ``sibling`` or the block's name."""
+    out = dict(settings)
+    if out.get("calibrate_on") is not None:
+        out["calibrate_on"] = str(out["calibrate_on"])
+    return out
 
 
 def first_reached(calibrate_n, counts, unit: str) -> CalibrationResult:

@@ -7,35 +7,44 @@ the mapped block. Only a block of the same slenderness h/b qualifies: it has the
 same Housner η and the same reference map in the normalised plane, and differs in size alone, which is
 what the check tests.
 
-The names are those of the benchmark's block presets (Table 1), which live on the floor above
-(:mod:`rockbench.benchmark.blocks.presets`); it hands them down with :func:`name_blocks` when it is
-imported, so that this floor imports nothing above it. :data:`SIBLING` is the one other named block of
-the mapped block's slenderness (B3M ↔ B3L, B6M ↔ B6L).
+This floor knows no block names: an adapter's ``calibrate_on`` is a :class:`CalibrateOn` (or a
+:class:`~rockbench.reference_solver.model.Block`, the block to calibrate on), which carries the blocks
+themselves. The names (``sibling``, ``B3M``) are the benchmark's block presets (Table 1), on the floor
+above: it turns them into a :class:`CalibrateOn` before they reach an adapter
+(:mod:`rockbench.benchmark.engine_info.adapters`). :data:`SIBLING` asks for the one other block of the
+mapped block's slenderness among those the :class:`CalibrateOn` offers (B3M ↔ B3L, B6M ↔ B6L).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from dataclasses import dataclass
 
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import Block
 
-__all__ = ["SIBLING", "name_blocks", "check_name", "calibration_block", "slenderness"]
+__all__ = ["SIBLING", "CalibrateOn", "check_setting", "calibration_block", "slenderness"]
 
-#: ``calibrate_on`` value: the other named block of the mapped block's slenderness
+#: ``calibrate_on`` as written: the other named block of the mapped block's slenderness
 SIBLING = "sibling"
-
-#: The blocks ``calibrate_on`` may name, by upper-case name (filled by :func:`name_blocks`)
-_NAMED: dict[str, Block] = {}
 
 #: Relative tolerance of two slendernesses h/b that are one [-]
 _RTOL = 1e-6
 
 
-def name_blocks(blocks: Mapping[str, Block]) -> None:
-    """Make ``blocks`` (name → block) the blocks ``calibrate_on`` may name."""
-    _NAMED.update({str(k).upper(): b for k, b in blocks.items()})
+@dataclass(frozen=True)
+class CalibrateOn:
+    """What an adapter's ``calibrate_on`` holds: the block the calibration is made on (``block``), or,
+    ``block`` None, the sibling: the one block of ``among`` of the mapped block's slenderness other than
+    the mapped block. ``among`` are the named blocks (the benchmark's presets), which also name the
+    blocks that would do in a refusal. ``str()`` gives the setting as written (``sibling``, ``B3M``):
+    what run.json records."""
+
+    block: Block | None = None
+    among: tuple[Block, ...] = ()
+
+    def __str__(self) -> str:
+        return SIBLING if self.block is None else str(self.block.name).upper()
 
 
 def slenderness(block: Block) -> float:
@@ -43,18 +52,20 @@ def slenderness(block: Block) -> float:
     return block.height_m / block.width_m
 
 
-def check_name(value, engine: str) -> str | None:
-    """A ``calibrate_on`` value as stored: None (calibrate on the mapped block itself), :data:`SIBLING`,
-    or a known block name in upper case; a ConfigError for anything else."""
+def check_setting(value, engine: str) -> CalibrateOn | None:
+    """A ``calibrate_on`` value as an adapter keeps it: None (calibrate on the mapped block itself), or a
+    :class:`CalibrateOn` (a :class:`Block` is the block to calibrate on); a ConfigError for anything
+    else, a block's name among them: names are resolved above this floor."""
     if value is None or (isinstance(value, str) and value.strip().lower() in ("", "none")):
         return None
-    text = str(value).strip()
-    if text.lower() == SIBLING:
-        return SIBLING
-    if text.upper() in _NAMED:
-        return text.upper()
-    known = ", ".join(_NAMED) or "none known yet (they are the presets of rockbench.benchmark)"
-    raise ConfigError(f"{engine} setting 'calibrate_on' must be {SIBLING!r} or a block name ({known}), got {value!r}.")
+    if isinstance(value, CalibrateOn):
+        return value
+    if isinstance(value, Block):
+        return CalibrateOn(value)
+    raise ConfigError(f"{engine} setting 'calibrate_on' takes a Block (the block to calibrate on) or a CalibrateOn, "
+                      f"got {value!r}; a name (sibling, B3M) is the benchmark's: "
+                      "rockbench.benchmark.engine_info.adapters.build_adapter resolves it, or pass "
+                      "get_preset(NAME).block().")
 
 
 def _same(a: Block, b: Block) -> bool:
@@ -66,9 +77,9 @@ def _one_slenderness(a: Block, b: Block) -> bool:
     return math.isclose(slenderness(a), slenderness(b), rel_tol=_RTOL)
 
 
-def calibration_block(calibrate_on: str | None, block: Block) -> Block:
+def calibration_block(calibrate_on: CalibrateOn | None, block: Block) -> Block:
     """The block whose geometry the calibration of ``block``'s runs is made on: ``block`` itself when
-    ``calibrate_on`` is None, else the block it names (:func:`check_name`).
+    ``calibrate_on`` is None, else the block it names (:class:`CalibrateOn`).
 
     Raises
     ------
@@ -79,17 +90,16 @@ def calibration_block(calibrate_on: str | None, block: Block) -> Block:
     if calibrate_on is None:
         return block
     here = f"block {block.name} (h/b {slenderness(block):.4g})"
-    if calibrate_on == SIBLING:
-        found = [b for b in _NAMED.values() if _one_slenderness(b, block) and not _same(b, block)]
-        if len(found) != 1:
-            which = f"{len(found)} ({', '.join(b.name for b in found)})" if found else "none"
+    others = [b for b in calibrate_on.among if _one_slenderness(b, block) and not _same(b, block)]
+    if calibrate_on.block is None:
+        if len(others) != 1:
+            which = f"{len(others)} ({', '.join(b.name for b in others)})" if others else "none"
             raise ConfigError(f"calibrate_on = {SIBLING}: {here} needs exactly one other named block of its "
                               f"slenderness, found {which}; name the block to calibrate on.")
-        return found[0]
-    on = _NAMED[calibrate_on]
+        return others[0]
+    on, name = calibrate_on.block, str(calibrate_on)
     if not _one_slenderness(on, block):
-        same = [n for n, b in _NAMED.items() if _one_slenderness(b, block) and not _same(b, block)]
-        hint = f" ({', '.join(same)})" if same else ""
-        raise ConfigError(f"calibrate_on = {calibrate_on}: {calibrate_on} has h/b {slenderness(on):.4g}, the mapped "
+        hint = f" ({', '.join(b.name for b in others)})" if others else ""
+        raise ConfigError(f"calibrate_on = {name}: {name} has h/b {slenderness(on):.4g}, the mapped "
                           f"{here}; a held-out calibration needs a block of the same slenderness{hint}.")
     return on

@@ -10,7 +10,7 @@ import difflib
 import math
 from dataclasses import dataclass
 
-from ...engines.held_out import name_blocks
+from ...engines.held_out import SIBLING, CalibrateOn
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import Block
 from ...reference_solver.restitution import housner_eta, modified_eta
@@ -78,10 +78,18 @@ def get_preset(name: str) -> Preset:
                       "Or give --width and --height for a custom block.")
 
 
-def _hand_down_names() -> None:
-    """Let the contact engines' ``calibrate_on`` setting name these blocks (the engines' floor cannot
-    import this one; :mod:`rockbench.engines.held_out`)."""
-    name_blocks({n: p.block() for n, p in PRESETS.items()})
-
-
-_hand_down_names()
+def calibrate_on(value, engine: str):
+    """A ``calibrate_on`` setting as written (``sibling`` or a preset's name, any case) as the engines take
+    it: a :class:`~rockbench.engines.held_out.CalibrateOn` among the presets' blocks (the engines know no
+    names); None, a Block or a CalibrateOn pass as they are. A ConfigError names the presets for
+    anything else."""
+    if not isinstance(value, str) or value.strip().lower() in ("", "none"):
+        return value
+    text = value.strip()
+    among = tuple(p.block() for p in PRESETS.values())
+    if text.lower() == SIBLING:
+        return CalibrateOn(None, among)
+    if text.upper() in PRESETS:
+        return CalibrateOn(PRESETS[text.upper()].block(), among)
+    raise ConfigError(f"{engine} setting 'calibrate_on' must be {SIBLING!r} or a block name ({', '.join(PRESETS)}), "
+                      f"got {value!r}.")

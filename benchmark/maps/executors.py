@@ -64,8 +64,9 @@ from urllib.parse import urlsplit
 
 from ...engines import registry
 from ...engines.base import CellResult
-from ...engines.registry import adapter_class, get_adapter
+from ...engines.registry import adapter_class
 from ...reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
+from ..engine_info.adapters import build_adapter
 from . import worker as wire
 from .cores import cpu_count
 
@@ -189,7 +190,7 @@ class SerialExecutor:
     def __init__(self, init: dict, kind: str = "serial", threads: int | None = None):
         self.init = init
         self.kind = kind
-        self.adapter = get_adapter(init["engine"], **init["settings"])
+        self.adapter = build_adapter(init["engine"], **init["settings"])
         self.log_path = None
         self.n_threads = threads
         self.parallel = self.adapter.batching == "parallel"

@@ -27,8 +27,8 @@ from typing import Callable
 import numpy as np
 from tqdm import tqdm
 
-from ...engines.registry import get_adapter
 from ...reference_solver.errors import ConfigError
+from ..engine_info.adapters import build_adapter
 from ..store.run_folder import RunStore
 from . import adaptive as adaptive_mod
 from .adaptive import DEFAULT_STRIDE
@@ -167,7 +167,7 @@ def reference_for(result):
         spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
         ref = empty_result(spec)
         cells = [(i, j) for i in range(spec.y.n) for j in range(spec.x.n)]
-        for (i, j), r in zip(cells, get_adapter("reference").run_many(spec.cases(cells))):
+        for (i, j), r in zip(cells, build_adapter("reference").run_many(spec.cases(cells))):
             record_result(ref, i, j, r)
         return ref
     except Exception:  # noqa: BLE001 - a picture without the overlay is still a picture
@@ -192,7 +192,7 @@ def _executor_for(spec: MapSpec, out_dir: Path, opts: MapOptions, executor):
 
 def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> MapResult:
     """:func:`run_map` without the picture: open the store, resume, sweep, fill, finish."""
-    adapter = get_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
+    adapter = build_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
     adapter.calibration_block(spec.block)                        # so does a calibrate_on block of another slenderness
     t0 = time.perf_counter()
     executor, own = _executor_for(spec, out_dir, opts, executor)

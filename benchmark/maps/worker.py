@@ -29,7 +29,8 @@ import threading
 import time
 
 from ...engines.base import CellResult
-from ...engines.registry import get_adapter, register
+from ...engines.registry import register
+from ..engine_info.adapters import build_adapter
 
 _HEADER = struct.Struct(">Q")
 
@@ -86,7 +87,7 @@ def serve(inp, out) -> int:
     try:
         for name, target in init.get("registry", {}).items():
             register(name, target)
-        adapter = get_adapter(init["engine"], **init.get("settings", {}))
+        adapter = build_adapter(init["engine"], **init.get("settings", {}))
     except Exception as e:  # noqa: BLE001 - reported to the parent, which raises it
         send(out, ("init-error", f"{type(e).__name__}: {e}"))
         return 1

@@ -13,6 +13,7 @@ from ...engines.registry import adapter_class, availability, names
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
 from ..blocks.presets import get_preset
+from ..engine_info.adapters import engine_settings
 from ..store.files import own_eta_map_name, variant_name
 from ..store.run_folder import stored_identity
 from .model import Suite, restitution_for
@@ -73,7 +74,7 @@ def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[lis
                 # the base class's check of names and values, without the adapter's own constructor
                 # (which may start its engine: nothing may run for --plan)
                 adapter = object.__new__(cls)
-                EngineAdapter.__init__(adapter, **variant_settings(variant))
+                EngineAdapter.__init__(adapter, **engine_settings(engine, variant_settings(variant)))
                 for block in blocks_of(suite, variant):   # calibrate_on: a block of each one's slenderness
                     adapter.calibration_block(get_preset(block).block())
             except ConfigError as e:

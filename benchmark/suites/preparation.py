@@ -14,8 +14,9 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from ...engines.base import EngineAdapter
-from ...engines.registry import adapter_class, get_adapter, register
+from ...engines.registry import adapter_class, register
 from ..blocks.presets import get_preset
+from ..engine_info.adapters import build_adapter
 from ..maps.cores import can_fork_helper
 from ..maps.executors import worker_init
 from ..store.files import variant_name, write_json
@@ -33,12 +34,12 @@ def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s,
     variant = variant_settings(variant)
     out: dict = {"measurement": None, "error": None}
     try:
-        get_adapter(engine, **variant).resolve(b, restitution_for(restitution, block), dt_s=dt_s)
+        build_adapter(engine, **variant).resolve(b, restitution_for(restitution, block), dt_s=dt_s)
     except Exception:  # noqa: BLE001 - not fatal here: the maps meet it again and record it
         pass
     if measure:
         try:
-            m = get_adapter(engine, **variant).measure_restitution(b, dt_s=dt_s)
+            m = build_adapter(engine, **variant).measure_restitution(b, dt_s=dt_s)
             out["measurement"] = {"eta_measured": float(m.eta_mean), "eta_std": float(m.eta_std),
                                   "n_impacts": len(m.etas), "method": m.method}
         except Exception as e:  # noqa: BLE001 - a failed measurement drops map (d) only

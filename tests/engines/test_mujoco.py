@@ -20,6 +20,7 @@ mujoco = pytest.importorskip("mujoco")
 
 from rockbench.benchmark.cli.main import main as cli_main  # noqa: E402
 from rockbench.benchmark.blocks.presets import PRESETS  # noqa: E402
+from rockbench.benchmark.engine_info.adapters import build_adapter  # noqa: E402
 from rockbench.engines.mujoco_adapter import MujocoAdapter  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
@@ -203,7 +204,8 @@ def test_a_map_calibrated_on_the_other_size_is_held_out_in_its_scores(tmp_path, 
     block of another slenderness stops the map with exit 2 and one line."""
     b3m, b3l = PRESETS["B3M"].block(), PRESETS["B3L"].block()
     own = get_adapter("mujoco").resolve(b3m, Restitution())
-    held = get_adapter("mujoco", calibrate_on="sibling").resolve(b3l, Restitution())
+    held = build_adapter("mujoco", calibrate_on="sibling").resolve(b3l, Restitution())
+    assert get_adapter("mujoco", calibrate_on=b3m).resolve(b3l, Restitution()) == held   # the block itself
     assert held["calibration"]["calibrated_on"] == "B3M" and "calibrated_on" not in own["calibration"]
     assert held["calibration"]["step_rule"] == own["calibration"]["step_rule"]
     assert {k: held[k] for k in ("timeconst", "dampratio", "dt_s")} == {k: own[k] for k in ("timeconst", "dampratio", "dt_s")}

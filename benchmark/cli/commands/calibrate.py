@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 
 from ....engines.price import price_line
-from ....engines.registry import get_adapter
 from ....reference_solver.errors import ConfigError, RockbenchError
+from ...engine_info.adapters import build_adapter
 from ...engine_info.health import refuse_outside_range
 from ...request import CaseRequest
 from ..options import add_block_options
@@ -37,7 +37,7 @@ def register(sub) -> None:
 def run(args) -> int:
     request = CaseRequest.from_args(args)
     block, preset = request.block_and_preset()
-    adapter = get_adapter(args.engine, **request.engine_settings())
+    adapter = build_adapter(args.engine, **request.engine_settings())
     if getattr(adapter, "settings", {}).get("calibrate_on"):   # a calibration is of the block it ran on
         on = adapter.calibration_block(block)
         raise ConfigError(f"calibrate_on is a setting of maps and runs (the held-out check); the calibration it uses "

@@ -11,8 +11,8 @@ import json
 import sys
 
 from ....engines.checker import check_adapter
-from ....engines.registry import get_adapter
 from ....engines.support import install_advice, outside_range, supported_range
+from ...engine_info.adapters import build_adapter
 from ...request import CaseRequest
 
 
@@ -25,7 +25,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    adapter = get_adapter(args.name, **CaseRequest.from_args(args).engine_settings())
+    adapter = build_adapter(args.name, **CaseRequest.from_args(args).engine_settings())
     outside = outside_range(args.name)
     if outside:
         print(f"rockbench: warning: {outside}; {install_advice(args.name)} for a supported one.", file=sys.stderr)
