@@ -85,7 +85,7 @@ class CheckReport:
             lines.extend(f"  {'':4}  {'':28} {m}" for m in more)
         n, k = len(self.failed), sum(c.skipped for c in self.checks)
         lines.append(f"{len(self.checks) - n - k} of {len(self.checks) - k} checks passed"
-                     + (f"; {n} failed" if n else "") + (f"; {k} skipped (not supported)." if k else "."))
+                     + (f"; {n} failed" if n else "") + (f"; {k} skipped." if k else "."))
         if self.not_run:
             lines.append(f"{len(self.not_run)} checks not run: they run once every hook is implemented.")
         return "\n".join(lines)
