@@ -411,6 +411,11 @@ class EngineAdapter:
     #: one API): every variant's name shows them, their default included, and choosing one is not a
     #: hand-set tweak (the verdict still counts the variant as calibrated or as shipped)
     MODEL_SETTINGS: ClassVar[tuple] = ()
+    #: a plugin's supported versions of its engine library: ``{distribution: specifier}``, e.g.
+    #: ``{"myengine": ">=2.1,<3"}`` (PEP 440); `rockbench engines` and check-adapter show it and say when
+    #: the installed version is outside it (:mod:`rockbench.engines.support`). A built-in engine's range
+    #: is its extra in pyproject.toml instead
+    SUPPORTED_VERSIONS: ClassVar[Mapping[str, str]] = {}
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -422,6 +427,14 @@ class EngineAdapter:
             cls.batching = "parallel"
         if cls.batching not in ("none", "native", "parallel"):
             raise TypeError(f"{cls.__name__}.batching must be 'none', 'native' or 'parallel', got {cls.batching!r}")
+        if cls.__dict__.get("SUPPORTED_VERSIONS"):
+            from packaging.specifiers import InvalidSpecifier, SpecifierSet
+            for dist, spec in cls.SUPPORTED_VERSIONS.items():
+                try:
+                    SpecifierSet(spec)
+                except (InvalidSpecifier, TypeError):
+                    raise TypeError(f"{cls.__name__}.SUPPORTED_VERSIONS[{dist!r}] = {spec!r} is not a version "
+                                    "specifier: give one as pip reads it, e.g. '>=2.1,<3'.") from None
 
     def __init__(self, **settings):
         unknown = sorted(set(settings) - set(self.SETTINGS))

@@ -7,7 +7,9 @@ runs them all: a dozen short simulations and checks what the contract
 convention, mirror symmetry, no uplift below the threshold ``g·tanα``, determinism, batches equal
 to single runs, a clean :class:`~rockbench.reference_solver.errors.ConfigError` for a bad case or
 setting, an overturn where any faithful engine must overturn, and measurements the one validity
-rule can judge (both bottom corners in the table's frame, no verdicts of the adapter's own). Third-party adapters can call it
+rule can judge (both bottom corners in the table's frame, no verdicts of the adapter's own), and the
+same rocking case under each other ``drive`` and ``planar`` value the adapter supports (a check of a
+mode it does not support is skipped, :class:`CheckSkipped`). Third-party adapters can call it
 in their own CI::
 
     from rockbench.engines.checker import check_adapter
@@ -33,6 +35,7 @@ from ..reference_solver.pulses import make_pulse
 from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import Measurement
 from .base import Case, EngineAdapter
+from .contact import MODES, ContactEngineAdapter
 from .registry import get_adapter
 
 #: The block the checks use by default: B6M of Table 1 (h/b = 4.5).
@@ -47,6 +50,8 @@ class CheckResult:
     passed: bool
     detail: str = ""
     wall_s: float = 0.0
+    #: not run: the adapter does not support what it checks (passed stays True)
+    skipped: bool = False
 
 
 @dataclass
@@ -70,17 +75,18 @@ class CheckReport:
     def to_dict(self) -> dict:
         return {"engine": self.engine, "version": self.version, "passed": self.passed,
                 "n_checks": len(self.checks), "n_failed": len(self.failed),
-                "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail, "wall_s": c.wall_s}
-                           for c in self.checks], "not_run": list(self.not_run)}
+                "checks": [{"name": c.name, "passed": c.passed, "detail": c.detail, "wall_s": c.wall_s,
+                            "skipped": c.skipped} for c in self.checks], "not_run": list(self.not_run)}
 
     def text(self) -> str:
         lines = [f"check-adapter {self.engine} (version {self.version}):"]
         for c in self.checks:
             first, *more = c.detail.split("\n")
-            lines.append(f"  {'PASS' if c.passed else 'FAIL'}  {c.name:28} {first}")
+            lines.append(f"  {'SKIP' if c.skipped else 'PASS' if c.passed else 'FAIL'}  {c.name:28} {first}")
             lines.extend(f"  {'':4}  {'':28} {m}" for m in more)
-        n = len(self.failed)
-        lines.append(f"{len(self.checks) - n} of {len(self.checks)} checks passed" + (f"; {n} failed." if n else "."))
+        n, k = len(self.failed), sum(c.skipped for c in self.checks)
+        lines.append(f"{len(self.checks) - n - k} of {len(self.checks) - k} checks passed"
+                     + (f"; {n} failed" if n else "") + (f"; {k} skipped." if k else "."))
         if self.not_run:
             lines.append(f"{len(self.not_run)} checks not run: they run once every hook is implemented.")
         return "\n".join(lines)
@@ -98,6 +104,10 @@ def _mirror(case: Case) -> Case:
 
 class CheckFailed(Exception):
     """A check's clear failure message (what was wrong, what the contract asks)."""
+
+
+class CheckSkipped(Exception):
+    """Why a check does not apply to the adapter (a mode it does not support), in one line."""
 
 
 def _rocking(block: Block) -> Case:
@@ -319,6 +329,49 @@ def check_measurements(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> 
             " reported; the mild rocking case is valid by the one rule")
 
 
+def _check_mode(adapter: EngineAdapter, block: Block, key: str) -> str:
+    """The rocking case under every value of the setting ``key`` (``drive``, ``planar``) the adapter
+    supports besides its own, at its own step: it lifts on the contract's side, the one validity rule
+    finds it valid, and its outcome and max |θ| (within 10 %) are those of the adapter's own value."""
+    own = adapter.settings.get(key)
+    if own is None or not isinstance(adapter, ContactEngineAdapter):
+        raise CheckSkipped(f"no {key!r} setting (not a contact engine)")
+    supported = adapter.supported_modes(key)
+    others = [v for v in supported if v != own]
+    if not others:
+        left = ", ".join(f"{key} = {str(v).lower()}" for v in MODES[key] if v not in supported)
+        raise CheckSkipped(f"the adapter supports {key} = {str(own).lower()} only (SUPPORTED_MODES): {left} not checked")
+    rocking = _rocking(block)
+    case = replace(rocking, dt_s=adapter.dt_for(rocking))   # the step of the adapter's own runs
+    r0, seen = adapter.run(case), []
+    for v in others:
+        tr = type(adapter)(**{**adapter.settings, key: v}).simulate(case)
+        r = adapter.judge(case, tr)
+        th = np.asarray(tr.theta_rad, float)
+        lifted = np.nonzero(np.abs(th) > max(tr.uplift_tol_rad, 1e-12))[0]
+        mode = f"{key} = {str(v).lower()}"
+        if lifted.size == 0 or th[lifted[0]] >= 0:
+            raise CheckFailed(f"{mode}: a positive table acceleration did not start a negative θ (contract item 3)")
+        if not r.valid:
+            raise CheckFailed(f"{mode}: the rocking case was judged {r.flags}: the corners are not in the table's frame "
+                              "(table drive: relative to the moving table), or the mode poses another problem")
+        if r.outcome != r0.outcome or not math.isclose(r.max_abs_theta_rad, r0.max_abs_theta_rad, rel_tol=0.1):
+            raise CheckFailed(f"{mode}: {r.outcome}, max |θ| {r.max_abs_theta_rad:.4g} rad; {key} = {str(own).lower()}: "
+                              f"{r0.outcome}, {r0.max_abs_theta_rad:.4g} rad (the same problem posed another way)")
+        seen.append(f"{mode}: {r.outcome}, max |θ| {r.max_abs_theta_rad:.4f} rad")
+    return "; ".join(seen) + f" ({str(own).lower()}: {r0.max_abs_theta_rad:.4f} rad)"
+
+
+def check_drive(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """The rocking case under each other drive the adapter supports poses the same problem."""
+    return _check_mode(adapter, block, "drive")
+
+
+def check_planar(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """The rocking case with the other ``planar`` value, where the adapter supports it, poses the same problem."""
+    return _check_mode(adapter, block, "planar")
+
+
 #: every check, by the name the report gives it, in the order check_adapter runs them
 CHECKS: dict[str, Callable[[EngineAdapter, Block], str]] = {
     "hooks": check_hooks,
@@ -334,6 +387,8 @@ CHECKS: dict[str, Callable[[EngineAdapter, Block], str]] = {
     "bad-case-config-error": check_bad_case_config_error,
     "overturns-when-it-must": check_overturns_when_it_must,
     "measurements": check_measurements,
+    "drive": check_drive,
+    "planar": check_planar,
 }
 
 
@@ -378,10 +433,13 @@ def run_check(name: str, check: Callable[[EngineAdapter, Block], str], adapter: 
     """Run one check: passed with its detail, or failed with the :class:`CheckFailed` message or
     the exception it raised."""
     t0 = time.perf_counter()
+    skipped = False
     try:
         detail, ok = check(adapter, block), True
+    except CheckSkipped as e:
+        ok, detail, skipped = True, str(e), True
     except CheckFailed as e:
         ok, detail = False, str(e)
     except Exception as e:  # noqa: BLE001 - any exception is a failed check, reported
         ok, detail = False, f"raised {type(e).__name__}: {e}"
-    return CheckResult(name, ok, detail, time.perf_counter() - t0)
+    return CheckResult(name, ok, detail, time.perf_counter() - t0, skipped)

@@ -48,10 +48,17 @@ from .renamed import RENAMED_SETTINGS, RENAMED_VALUES, canonical_changes, canoni
 
 __all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "RENAMED_VALUES", "canonical_settings", "SETTINGS_MODES",
            "DRIVES", "body_energy_j_kg", "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS",
-           "first_reached"]
+           "first_reached", "PLANAR_MODES", "MODES"]
 
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")
+
+#: ``planar`` values: the block kept in the x–z plane, or a free 3-D body
+PLANAR_MODES = (True, False)
+
+#: the settings that choose how the problem is posed, and their values (an adapter may run fewer:
+#: :attr:`ContactEngineAdapter.SUPPORTED_MODES`)
+MODES = {"drive": DRIVES, "planar": PLANAR_MODES}
 
 #: ``contact`` values: the corners alone, a row of points along the base, or the corners unless the
 #: target η is above Housner's (then the row); see docs/contact.md
@@ -108,6 +115,23 @@ class ContactEngineAdapter(EngineAdapter):
     distributed_contact: ClassVar[bool] = False
     #: what a point of the distributed contact is, in calibration notes
     POINT_UNIT: ClassVar[str] = "points"
+    #: the ``drive`` and ``planar`` values the adapter runs, e.g. ``{"drive": ("inertial",)}`` (a key left
+    #: out: every value of :data:`MODES`); another value is a ConfigError at construction, and
+    #: check-adapter skips the check of a mode left out
+    SUPPORTED_MODES: ClassVar[Mapping[str, tuple]] = {}
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        for key, values in {**MODES, **cls.SUPPORTED_MODES}.items():
+            mine = cls.supported_modes(key)
+            if key not in MODES or not mine or set(mine) - set(values) or cls.SETTINGS.get(key, mine[0]) not in mine:
+                raise TypeError(f"{cls.__name__}.SUPPORTED_MODES[{key!r}] = {mine}: its keys are drive and planar, "
+                                f"each with some of its values {dict(MODES)}, the default in SETTINGS among them.")
+
+    @classmethod
+    def supported_modes(cls, key: str) -> tuple:
+        """The values of ``key`` (``drive`` or ``planar``) the adapter runs (:attr:`SUPPORTED_MODES`)."""
+        return tuple(cls.SUPPORTED_MODES.get(key, MODES.get(key, ())))
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -136,6 +160,12 @@ class ContactEngineAdapter(EngineAdapter):
             if s[key] not in allowed:
                 raise ConfigError(f"{self.name} setting {key!r} must be {' or '.join(allowed)}, got {s[key]!r}.")
         self._bool_setting(s, "planar")
+        for key in MODES:
+            supported = self.supported_modes(key)
+            if s[key] not in supported:
+                shown = ", ".join(str(v).lower() if isinstance(v, bool) else v for v in supported)
+                raise ConfigError(f"{self.name} does not run {key} = {str(s[key]).lower()} (its SUPPORTED_MODES): "
+                                  f"use {key} = {shown}, or an engine that runs it (docs/engines.md).")
         self._number_setting(s, "friction", allow_none=False)
         self._number_setting(s, "tail_s", "s", allow_none=False)
         self._number_setting(s, "min_tail_s", "s", allow_zero=True, allow_none=False)
@@ -309,7 +339,14 @@ class ContactEngineAdapter(EngineAdapter):
         layout where the engine offers one: :meth:`_calibrate_corners`, or a row of points along the
         base (:meth:`_calibrate_distributed_n`, with the set number of points or 9, then 5, then 17
         until one reaches the target at an acceptable price); ``auto``: the corners up to 1 % above
-        Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M)."""
+        Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M).
+        A ConfigError with an explicit contact: a given contact replaces the calibration (:meth:`resolve`)."""
+        if self.explicit_contact():
+            given = [f"{k} = {self.settings[k]!r}" for k in getattr(self, "CALIBRATED_SETTINGS", ())
+                     if self.settings.get(k) is not None]
+            raise ConfigError(f"{self.name}: {', '.join(given) or 'a contact setting'} is given, and a given contact "
+                              "replaces the calibration (in maps as here), so there is nothing to calibrate: leave out "
+                              "--target to measure η with it, or leave it out to calibrate.")
         t = self.check_target_eta(target_eta)
         dt = self.time_step_s(dt_s)
         if self.contact_layout(block, t) != "distributed":

@@ -487,7 +487,9 @@ class MujocoWarpAdapter(MujocoAdapter):
             dargs = [step, wp.array(kind, dtype=wp.int32), wp.array(amp, dtype=wp.float64),
                      wp.array(omega, dtype=wp.float64), wp.array(dur, dtype=wp.float64),
                      wp.array(row, dtype=wp.int32), wp.array(vtab, dtype=wp.float64),
-                     float(bm.mass_kg if bm.drive == "inertial" else bm.push_mass_kg), dt, d.ctrl]
+                     # the kernel's −mass·Δu̇/Δt: the inertial force −m·ü, or (table, a negative mass, as
+                     # the MuJoCo adapter's +M·ü) the force that moves the table along u(t)
+                     float(bm.mass_kg if bm.drive == "inertial" else -bm.push_mass_kg), dt, d.ctrl]
             eargs = self._end_args(bm, step, d, stops, n, n_steps)
             stop, why = eargs[-2:]
 

@@ -74,7 +74,9 @@ def adapter_class(name: str) -> type:
     """The adapter class registered under ``name`` (imports its module, not the engine).
 
     Raises ConfigError when the target is not a subclass of :class:`EngineAdapter` (or names no
-    class in its module), EngineUnavailableError when its module cannot be imported.
+    class in its module) or when the class's ``name`` is not ``name`` (the one name of an engine: its
+    entry point's, the class's, and what run.json, labels and the calibration cache record),
+    EngineUnavailableError when its module cannot be imported.
     """
     from .base import EngineAdapter  # not at import time: listing engines stays light
 
@@ -94,6 +96,9 @@ def adapter_class(name: str) -> type:
     if not (isinstance(cls, type) and issubclass(cls, EngineAdapter)):
         raise ConfigError(f"engine {name!r}: {target!r} is not a subclass of rockbench.engines.base.EngineAdapter; "
                           "an adapter must derive from it (see the contract in engines/base.py).")
+    if cls.name != name:
+        raise ConfigError(f"engine {name!r}: its adapter {cls.__module__}:{cls.__qualname__} has name = {cls.name!r}; "
+                          f"an engine has one name: set the class's name = {name!r}, or register it as {cls.name!r}.")
     return cls
 
 
@@ -107,20 +112,24 @@ def get_adapter(name: str, **settings):
 def availability(name: str) -> dict:
     """``{"engine", "available", "version", "reason", "missing", "install", "install_hint", "supported",
     "outside_range"}`` for one engine: ``reason`` the whole error where it is not available, ``missing``
-    the module that failed to import, ``install`` the command that installs it (a built-in engine's
-    extra; else the adapter's ``install_hint``), ``supported`` the range rockbench declares ("" if none,
-    :mod:`.support`), ``outside_range`` a phrase when the installed version is outside it (else None)."""
-    rng = {"supported": supported_range(name), "outside_range": outside_range(name)}
+    the module that failed to import ("" where the adapter itself is wrong: a ConfigError), ``install``
+    the command that installs it (a built-in engine's extra; else the adapter's ``install_hint``),
+    ``supported`` the range rockbench declares ("" if none, :mod:`.support`: a built-in engine's extra,
+    a plugin's ``SUPPORTED_VERSIONS``), ``outside_range`` a phrase when the installed version is outside
+    it (else None)."""
+    def rng(engine) -> dict:
+        return {"supported": supported_range(engine), "outside_range": outside_range(engine)}
+
     cls = None
     try:
         cls = adapter_class(name)
         v = cls.version()
         return {"engine": name, "available": True, "version": v, "reason": "", "missing": "", "install": "",
-                "install_hint": getattr(cls, "install_hint", ""), **rng}
+                "install_hint": getattr(cls, "install_hint", ""), **rng(cls)}
     except Exception as e:  # noqa: BLE001 - reported, not raised
         hint = getattr(cls, "install_hint", "")
         target = _target(name)
-        missing = (cls.module if cls is not None and cls.module else
+        missing = ("" if isinstance(e, ConfigError) else cls.module if cls is not None and cls.module else
                    getattr(target, "__module__", str(target)).partition(":")[0])
         return {"engine": name, "available": False, "version": None, "reason": str(e), "missing": missing,
-                "install": install_command(name) or hint, "install_hint": hint, **rng}
+                "install": install_command(name) or hint, "install_hint": hint, **rng(cls or name)}

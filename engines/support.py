@@ -5,7 +5,10 @@ The ranges live in one place: ``pyproject.toml``'s optional dependencies (``[muj
 pass with (``.ci/floors`` keeps them true). Here they are read back from the installed rockbench's
 metadata (``importlib.metadata.requires``), so `rockbench engines`, `check-adapter` and the
 "engine cannot simulate" line of `run` and `map` name the range the install was made with. Run
-from a source tree without an install, no range is known and nothing is said.
+from a source tree without an install, no range is known and nothing is said. An engine of another
+package (a plugin) declares its range on its adapter class, ``SUPPORTED_VERSIONS = {distribution:
+specifier}``; the functions here take an engine's name or its adapter class, and read a plugin's
+range from the class.
 """
 
 from __future__ import annotations
@@ -50,6 +53,25 @@ def _canonical(name: str) -> str:
     return name.lower().replace("_", "-").replace(".", "-")
 
 
+def _name(engine) -> str:
+    return engine if isinstance(engine, str) else engine.name
+
+
+def _distributions(engine) -> tuple[str, ...]:
+    """The distributions ``engine`` (a name or an adapter class) is: a built-in's, else those its class
+    declares in ``SUPPORTED_VERSIONS``."""
+    return DISTRIBUTIONS.get(_name(engine)) or tuple(getattr(engine, "SUPPORTED_VERSIONS", {}))
+
+
+def _declared_for(engine) -> dict[str, str]:
+    """``{canonical distribution: specifier}`` declared for ``engine``: a built-in's extra, else its
+    class's ``SUPPORTED_VERSIONS`` ({} for a name rockbench does not ship)."""
+    extra = EXTRAS.get(_name(engine))
+    if extra is not None:
+        return _declared(extra)
+    return {_canonical(d): str(spec) for d, spec in getattr(engine, "SUPPORTED_VERSIONS", {}).items()}
+
+
 def _declared(extra: str) -> dict[str, str]:
     """``{distribution: specifier}`` that rockbench's extra ``extra`` declares ({} without an install)."""
     from packaging.requirements import InvalidRequirement, Requirement   # on first use (start-up time: ~40 ms)
@@ -70,21 +92,18 @@ def _declared(extra: str) -> dict[str, str]:
     return out
 
 
-def supported_range(engine: str) -> str:
+def supported_range(engine: str | type) -> str:
     """The supported versions of ``engine``'s distributions, e.g. ``"mujoco>=3.3"`` (several joined by
-    " and "); "" for an engine rockbench declares no range for (the reference, a third-party engine)."""
-    extra = EXTRAS.get(engine)
-    if extra is None:
-        return ""
-    declared = _declared(extra)
-    parts = [f"{d}{declared[_canonical(d)]}" for d in DISTRIBUTIONS[engine] if _canonical(d) in declared]
+    " and "); "" where no range is declared (the reference, a plugin without ``SUPPORTED_VERSIONS``)."""
+    declared = _declared_for(engine)
+    parts = [f"{d}{declared[_canonical(d)]}" for d in _distributions(engine) if _canonical(d) in declared]
     return " and ".join(parts)
 
 
-def installed_versions(engine: str) -> dict[str, str]:
+def installed_versions(engine: str | type) -> dict[str, str]:
     """``{distribution: installed version}`` of ``engine``'s distributions that are installed."""
     out = {}
-    for d in DISTRIBUTIONS.get(engine, ()):
+    for d in _distributions(engine):
         try:
             out[d] = version(d)
         except PackageNotFoundError:
@@ -92,7 +111,7 @@ def installed_versions(engine: str) -> dict[str, str]:
     return out
 
 
-def installed_label(engine: str) -> str:
+def installed_label(engine: str | type) -> str:
     """The installed versions as one phrase, e.g. ``"mujoco 3.2.0"``; "" when none is known."""
     return ", ".join(f"{d} {v}" for d, v in installed_versions(engine).items())
 
@@ -108,17 +127,14 @@ def version_label(engine: str) -> str:
     return f"{v[first]} ({rest})" if rest else v[first]
 
 
-def outside_range(engine: str) -> str | None:
+def outside_range(engine: str | type) -> str | None:
     """One phrase when an installed distribution of ``engine`` is outside the supported range, e.g.
     ``"mujoco 3.2.0 is outside the supported range mujoco>=3.3"``; None when every installed one is
     inside it, or nothing is known."""
     from packaging.specifiers import SpecifierSet   # on first use (start-up time: the registry imports this module)
     from packaging.version import InvalidVersion, Version   # on first use (start-up time)
 
-    extra = EXTRAS.get(engine)
-    if extra is None:
-        return None
-    declared = _declared(extra)
+    declared = _declared_for(engine)
     bad = []
     for d, v in installed_versions(engine).items():
         spec = declared.get(_canonical(d))
@@ -135,7 +151,7 @@ def outside_range(engine: str) -> str | None:
     return f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} outside the supported range {supported_range(engine)}"
 
 
-def install_advice(engine: str) -> str:
+def install_advice(engine: str | type) -> str:
     """How to get a supported version, e.g. ``"pip install 'mujoco>=3.3'"``; "" when no range is known."""
     rng = supported_range(engine)
     return "pip install " + " ".join(f"'{r}'" for r in rng.split(" and ")) if rng else ""

@@ -142,6 +142,10 @@ def test_each_check_is_a_public_function_that_runs_alone(fake_engines):
     assert list(checker.CHECKS) == [c.name for c in check_adapter(ok).checks]
     for name, check in checker.CHECKS.items():
         assert check.__name__ == "check_" + name.replace("-", "_") and getattr(checker, check.__name__) is check
+        if name in ("drive", "planar"):   # the modes of a contact engine: skipped, saying why
+            with pytest.raises(checker.CheckSkipped, match=f"no '{name}' setting"):
+                check(ok)
+            continue
         assert isinstance(check(ok), str)   # a passing check returns what it saw
     with pytest.raises(checker.CheckFailed, match="degrees instead of radians"):
         checker.check_units(wrong)
@@ -184,6 +188,14 @@ def test_batching_is_declared_and_the_old_parallel_batch_still_reads(fake_engine
             batching = "sometimes"
 
 
+def test_a_supported_version_range_that_pip_cannot_read_fails_where_it_is_declared():
+    from rockbench.engines.base import EngineAdapter
+
+    with pytest.raises(TypeError, match=r"Ranged.SUPPORTED_VERSIONS\['myengine'\] = '=>2' is not a version specifier"):
+        class Ranged(EngineAdapter):
+            SUPPORTED_VERSIONS = {"myengine": "=>2"}
+
+
 class HalfDone(SteppedContactAdapter):
     """A contact engine that builds its scene and implements nothing else."""
 
@@ -201,7 +213,7 @@ def test_a_missing_hook_is_named_with_what_to_do_one_line_each(capsys):
 
     cls = HalfDone
     rep = check_adapter(cls())
-    assert not rep.passed and [c.name for c in rep.checks] == ["hooks"] and len(rep.not_run) == 12
+    assert not rep.passed and [c.name for c in rep.checks] == ["hooks"] and len(rep.not_run) == 14
     lines = rep.checks[0].detail.split("\n")
     assert [ln.split("(")[0] for ln in lines] == [f"HalfDone: implement {h}" for h in (
         "_resolved_settings", "_start", "_advance", "_angles", "_motion", "_calibrate_corners")]
@@ -218,7 +230,7 @@ def test_a_missing_hook_is_named_with_what_to_do_one_line_each(capsys):
     finally:
         registry.unregister("half-done")
     out = capsys.readouterr().out
-    assert "FAIL  hooks" in out and out.count("HalfDone: implement") == 6 and "12 checks not run" in out
+    assert "FAIL  hooks" in out and out.count("HalfDone: implement") == 6 and "14 checks not run" in out
 
 
 def test_every_builtin_adapter_implements_every_hook_it_needs():
@@ -230,3 +242,55 @@ def test_every_builtin_adapter_implements_every_hook_it_needs():
         for mode in modes:
             ad = cls() if mode is None else cls(settings=mode)
             assert ad.missing_hooks() == [], (name, mode)
+
+
+def test_an_entry_point_named_otherwise_than_its_class_is_refused_in_one_line(tmp_path, monkeypatch, capsys):
+    """One name per engine: the entry point's name must be the adapter class's ``name`` (a tiny
+    installed distribution whose entry point names the reference's class ``alias``)."""
+    from rockbench.engines import registry
+    from rockbench.reference_solver.errors import ConfigError
+
+    dist = tmp_path / "alias_plugin-0.1.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: alias-plugin\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text("[rockbench.engines]\nalias = rockbench.engines.reference_adapter:ReferenceAdapter\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert "alias" in registry.names()
+    line = ("engine 'alias': its adapter rockbench.engines.reference_adapter:ReferenceAdapter has name = 'reference'; "
+            "an engine has one name: set the class's name = 'alias', or register it as 'reference'.")
+    with pytest.raises(ConfigError) as e:
+        registry.adapter_class("alias")
+    assert str(e.value) == line
+    a = registry.availability("alias")
+    assert not a["available"] and a["reason"] == line and a["missing"] == ""
+    assert main(["check-adapter", "alias"]) == 2
+    assert capsys.readouterr().err == f"rockbench: error: {line}\n"
+    assert main(["engines"]) == 0
+    row = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("alias "))
+    assert row.split()[1] == "no" and row.endswith(line)
+
+
+def test_the_modes_an_adapter_runs_are_declared_refused_before_anything_runs_and_skipped_by_the_checks():
+    pytest.importorskip("dartpy")
+    from rockbench.engines import checker
+    from rockbench.engines.dart_adapter import DartAdapter
+    from rockbench.reference_solver.errors import ConfigError
+
+    class InertialDart(DartAdapter):   # DART, declared to run the inertial drive only
+        SUPPORTED_MODES = {"drive": ("inertial",)}
+
+    with pytest.raises(ConfigError, match=r"^dart does not run drive = table \(its SUPPORTED_MODES\): use drive = "
+                       r"inertial, or an engine that runs it"):
+        InertialDart(drive="table")
+    assert InertialDart(planar=False).settings["planar"] is False   # a key left out: every value
+    with pytest.raises(checker.CheckSkipped, match=r"supports drive = inertial only \(SUPPORTED_MODES\): drive = "
+                       "table not checked"):
+        checker.check_drive(InertialDart(settings="shipped"))
+    # every built-in contact engine runs both drives: the check runs the table drive and compares
+    assert checker.check_drive(DartAdapter(settings="shipped")).startswith("drive = table: rocking, max |θ|")
+    with pytest.raises(TypeError, match=r"SUPPORTED_MODES\['drive'\] = \('table',\)"):
+        class TableOnly(DartAdapter):   # its default drive, inertial, left out
+            SUPPORTED_MODES = {"drive": ("table",)}
+    with pytest.raises(TypeError, match=r"SUPPORTED_MODES\['contact'\]"):
+        class Other(DartAdapter):       # only drive and planar are modes
+            SUPPORTED_MODES = {"contact": ("corners",)}

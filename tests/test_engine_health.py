@@ -146,3 +146,32 @@ def test_calibrate_refuses_an_engine_outside_its_range_with_exit_3(fake_engines,
 
 def test_calibrate_error_inside_the_range_stays_a_bug(fake_engines, capsys):
     assert main(["calibrate", "--engine", "broken", "--block", "B3M"]) == 70
+
+
+def test_a_plugin_declares_its_range_on_its_class_and_every_command_reads_it(fake_engines, capsys):
+    """An engine rockbench does not ship declares ``SUPPORTED_VERSIONS`` on its adapter class: the range
+    and the installed version outside it are said as for a built-in engine (`engines`, `check-adapter`,
+    the cannot-simulate line)."""
+    from importlib.metadata import version
+
+    from maps_helpers import AnalyticAdapter
+    from rockbench.engines import registry
+
+    class RangedAnalytic(AnalyticAdapter):
+        name = "ranged-analytic"
+        SUPPORTED_VERSIONS = {"numpy": "<1"}   # the installed NumPy is outside it
+
+    registry.register("ranged-analytic", RangedAnalytic)
+    try:
+        outside = f"numpy {version('numpy')} is outside the supported range numpy<1"
+        assert main(["engines", "--json"]) == 0
+        row = {r["engine"]: r for r in json.loads(capsys.readouterr().out)}["ranged-analytic"]
+        assert row["supported"] == "numpy<1" and row["outside_range"] == outside
+        assert main(["check-adapter", "ranged-analytic"]) == 0
+        assert f"warning: {outside}; pip install 'numpy<1' for a supported one." in capsys.readouterr().err
+        line = cannot_simulate_line("ranged-analytic", "TypeError: boom", "starting it")
+        assert f"'ranged-analytic' (numpy {version('numpy')})" in line and outside in line
+        assert "install a supported version (pip install 'numpy<1')" in line
+    finally:
+        registry.unregister("ranged-analytic")
+    assert support.supported_range("ranged-analytic") == ""   # by name alone, nothing is known

@@ -13,8 +13,9 @@ from __future__ import annotations
 import collections
 import threading
 
+from ...engines.registry import adapter_class
 from ...engines.support import install_advice, installed_label, outside_range, supported_range
-from ...reference_solver.errors import EngineError, EngineUnavailableError
+from ...reference_solver.errors import EngineError, EngineUnavailableError, RockbenchError
 
 #: longest error text quoted in a line [characters]
 MAX_REASON = 160
@@ -44,16 +45,25 @@ def common_error(failures: list[dict], n_simulated: int) -> str | None:
     return reasons.pop() if len(reasons) == 1 else None
 
 
+def _declaring(engine: str):
+    """``engine``'s adapter class where it loads (a plugin declares its supported range there), else its name."""
+    try:
+        return adapter_class(engine)
+    except RockbenchError:
+        return engine
+
+
 def cannot_simulate_line(engine: str, error: str, where: str) -> str:
     """The one line for an engine that cannot simulate: the engine, its installed version, the error,
     the supported range and what to do. ``where`` says what failed ("every one of the 16 cells of its
     map", "its workers could not start it")."""
-    label = installed_label(engine)
-    rng = supported_range(engine)
-    outside = outside_range(engine)
+    declaring = _declaring(engine)
+    label = installed_label(declaring)
+    rng = supported_range(declaring)
+    outside = outside_range(declaring)
     version = f" ({label})" if label else ""
     supported = (f"; {outside}" if outside else f"; supported: {rng}") if rng else ""
-    advice = install_advice(engine)
+    advice = install_advice(declaring)
     todo = f"; install a supported version ({advice})" if advice and outside else ""
     return f"engine {engine!r}{version} cannot simulate: {where} failed with {_short(error)}{supported}{todo}."
 
@@ -61,7 +71,7 @@ def cannot_simulate_line(engine: str, error: str, where: str) -> str:
 def refuse_outside_range(engine: str, error: BaseException, where: str) -> None:
     """Raise :class:`EngineCannotSimulate` (exit 3, one line) for an error an engine raised when its
     installed version is outside the supported range; return (the caller re-raises) otherwise."""
-    if outside_range(engine):
+    if outside_range(_declaring(engine)):
         raise EngineCannotSimulate(cannot_simulate_line(engine, f"{type(error).__name__}: {error}", where)) from None
 
 

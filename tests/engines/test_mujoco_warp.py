@@ -138,6 +138,20 @@ def test_trajectory_contract_and_end_of_run(warp_results):
     assert many[2].t_s[-1] < many[2].t_pulse_end_s + ad.settings["tail_s"]
 
 
+def test_the_table_drive_poses_the_inertial_drive_s_problem(warp_results, cpu_results):
+    """The table moved along u(t) (not −u): the rocking cell's θ starts on the side of the inertial
+    drive's and CPU MuJoCo's table drive, its largest tilt within 2 % of theirs."""
+    cases, many = warp_results[1], warp_results[3]
+    i = next(i for i, c in enumerate(CELLS) if c[4] == "rocking")
+    table = get_adapter("mujoco_warp", **CONTACT, drive="table").simulate(cases[i])
+    cpu = get_adapter("mujoco", **{k: v for k, v in CONTACT.items() if k != "device"}, drive="table").simulate(cases[i])
+    for tr in (table, cpu, many[i]):
+        th = np.asarray(tr.theta_rad)
+        assert th[np.argmax(np.abs(th) > tr.uplift_tol_rad)] < 0
+    assert np.max(np.abs(table.theta_rad)) == pytest.approx(np.max(np.abs(many[i].theta_rad)), rel=0.02)
+    assert np.max(np.abs(table.theta_rad)) == pytest.approx(np.max(np.abs(cpu.theta_rad)), rel=0.02)
+
+
 def test_calibration_reaches_housner_on_b3m():
     blk = PRESETS["B3M"].block()
     target = housner_eta(blk.alpha_rad)

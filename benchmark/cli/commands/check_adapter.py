@@ -1,8 +1,8 @@
 """``rockbench check-adapter NAME``: the conformance suite on a registered adapter.
 
 Exit codes: 0 every check passed, 1 a check failed (the report says which), 2 unknown engine,
-3 engine not installed. An installed version outside the supported range (pyproject's extras, see
-:mod:`rockbench.engines.support`) is said on stderr before the report.
+3 engine not installed. An installed version outside the supported range (pyproject's extras, a
+plugin's ``SUPPORTED_VERSIONS``, see :mod:`rockbench.engines.support`) is said on stderr before the report.
 """
 
 from __future__ import annotations
@@ -26,12 +26,13 @@ def register(sub) -> None:
 
 def run(args) -> int:
     adapter = build_adapter(args.name, **CaseRequest.from_args(args).engine_settings())
-    outside = outside_range(args.name)
+    cls = type(adapter)   # a plugin declares its range on its class
+    outside = outside_range(cls)
     if outside:
-        print(f"rockbench: warning: {outside}; {install_advice(args.name)} for a supported one.", file=sys.stderr)
+        print(f"rockbench: warning: {outside}; {install_advice(cls)} for a supported one.", file=sys.stderr)
     rep = check_adapter(adapter)
     if args.json:
-        print(json.dumps({**rep.to_dict(), "supported": supported_range(args.name), "outside_range": outside},
+        print(json.dumps({**rep.to_dict(), "supported": supported_range(cls), "outside_range": outside},
                          indent=2))
     else:
         print(rep.text())

@@ -27,7 +27,8 @@ def run(args) -> int:
         return 0
     table = [("engine", "available", "version", "supported", "note")]
     for r in rows:
-        note = r["note"] if r["available"] else f"cannot import {r['missing']}: {r['install']}".rstrip(": ")
+        note = (r["note"] if r["available"] else f"cannot import {r['missing']}: {r['install']}".rstrip(": ")
+                if r["missing"] else r["reason"])
         if r.get("outside_range"):
             note = f"{r['outside_range']}: its maps may fail or differ" + (f"; {note}" if note else "")
         table.append((r["engine"], "yes" if r["available"] else "no", str(r["version"] or "-"),

@@ -23,6 +23,10 @@ class ToyEngine(SteppedContactAdapter):
     name = "toy"
     module = "rockbench_toy"  # the engine's module, imported lazily; its __version__ is the version reported
     install_hint = "pip install rockbench-toy"
+    #: the versions of its engine library (NumPy) the adapter is known to work with, as pip reads them
+    SUPPORTED_VERSIONS = {"numpy": ">=1.24"}
+    #: a planar model under the inertial drive only: drive = table or planar = false is a ConfigError
+    SUPPORTED_MODES = {"drive": ("inertial",), "planar": (True,)}
     default_dt_s = 2e-4     # [s]
     SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "shipped", "contact_stiffness_n_m": None,
                 "tail_s": 1.0, "min_tail_s": 0.25}
