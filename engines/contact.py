@@ -122,6 +122,12 @@ class ContactEngineAdapter(EngineAdapter):
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
+        # an adapter's own defaults under an old name or value (``"settings": "defaults"``): kept for one release
+        own = cls.__dict__.get("SETTINGS")
+        if own is not None and canonical_settings(cls.name, own) != dict(own):
+            warn_renamed(f"{cls.__name__}.SETTINGS uses an old name or value ({canonical_changes(cls.name, own)}); "
+                         "the old spelling goes in the next release.", 2)
+            cls.SETTINGS = canonical_settings(cls.name, own)
         for key, values in {**MODES, **cls.SUPPORTED_MODES}.items():
             mine = cls.supported_modes(key)
             if key not in MODES or not mine or set(mine) - set(values) or cls.SETTINGS.get(key, mine[0]) not in mine:
@@ -132,15 +138,6 @@ class ContactEngineAdapter(EngineAdapter):
     def supported_modes(cls, key: str) -> tuple:
         """The values of ``key`` (``drive`` or ``planar``) the adapter runs (:attr:`SUPPORTED_MODES`)."""
         return tuple(cls.SUPPORTED_MODES.get(key, MODES.get(key, ())))
-
-    def __init_subclass__(cls, **kwargs):
-        super().__init_subclass__(**kwargs)
-        # an adapter's own defaults under an old name or value (``"settings": "defaults"``): kept for one release
-        own = cls.__dict__.get("SETTINGS")
-        if own is not None and canonical_settings(cls.name, own) != dict(own):
-            warn_renamed(f"{cls.__name__}.SETTINGS uses an old name or value ({canonical_changes(cls.name, own)}); "
-                         "the old spelling goes in the next release.", 2)
-            cls.SETTINGS = canonical_settings(cls.name, own)
 
     def __init__(self, **settings):
         super().__init__(**self.canonical_settings(settings, warn=True))
