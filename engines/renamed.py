@@ -69,7 +69,7 @@ def adopt_renamed_methods(cls: type, base: str) -> None:
 
 
 def canonical_settings(engine: str | None, settings: Mapping[str, Any], *, warn: bool = False,
-                       stacklevel: int = 2) -> dict:
+                       stacklevel: int = 2, stored: bool = False) -> dict:
     """``settings`` of ``engine`` with old names (:data:`RENAMED_SETTINGS`) and old values
     (:data:`RENAMED_VALUES`) replaced by the new ones: what an adapter is built with and what a stored
     run's settings are read as (its engine need not be installed). ``engine`` None: the renames every
@@ -77,13 +77,17 @@ def canonical_settings(engine: str | None, settings: Mapping[str, Any], *, warn:
 
     Giving both an old name and its new name is a ConfigError; ``warn`` emits a :class:`RenamedWarning` per
     old name or value (user input; not for stored runs or cached records), ``stacklevel`` frames above
-    the caller.
+    the caller. ``stored``: settings a run recorded (``resolved_settings``, calibration records), where
+    an old name beside its new one is a key of its own and stays as stored (Exudyn's resolved settings
+    hold its model's ``stiffness_n_m`` beside the setting ``contact_stiffness_n_m``).
     """
     out = dict(settings)
     for old, new in RENAMED_SETTINGS.get(engine, {}).items():
         if old not in out:
             continue
         if new in out:
+            if stored:
+                continue
             raise ConfigError(f"{engine} setting {old!r} is the old name of {new!r}; give only {new!r}.")
         if warn:
             warn_renamed(f"{engine} setting {old!r} is now called {new!r}; the old name goes in the next release.",

@@ -158,3 +158,15 @@ def test_a_hook_under_its_old_name_is_taken_under_the_new_one_with_a_warning():
     case = Case(block, make_pulse("sine", 6.0, 6.0 * block.p_rad_s), Restitution())
     old, new = cls().run_many([case])[0], ReferenceAdapter().run_many([case])[0]
     assert called == [1] and (old.outcome, old.n_impacts) == (new.outcome, new.n_impacts)
+
+
+def test_stored_resolved_settings_keep_a_key_that_shares_an_old_name():
+    """Exudyn's resolved settings hold its model's stiffness_n_m beside the setting
+    contact_stiffness_n_m (the setting's old name): a stored record reads as stored, while user input
+    giving both is still refused."""
+    from rockbench.engines.renamed import canonical_settings
+    from rockbench.reference_solver.errors import ConfigError
+    stored = {"contact_stiffness_n_m": None, "stiffness_n_m": 1.99e6, "settings": "defaults"}
+    assert canonical_settings("exudyn", stored, stored=True) == {**stored, "settings": "shipped"}
+    with pytest.raises(ConfigError, match="old name of 'contact_stiffness_n_m'"):
+        canonical_settings("exudyn", stored)

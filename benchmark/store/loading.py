@@ -161,7 +161,7 @@ class MapEntry:
         """The concrete settings the map ran with (run.json's ``engine.resolved_settings``), under today's
         setting names (:mod:`rockbench.engines.renamed`)."""
         resolved = (self.run.get("engine") or {}).get("resolved_settings") or {}
-        return canonical_settings(self.engine, resolved) if isinstance(resolved, dict) else {}
+        return canonical_settings(self.engine, resolved, stored=True) if isinstance(resolved, dict) else {}
 
     def to_dataframe(self):
         """Every cell of the full grid (adaptive fills marked ``filled``), outcome categorical
@@ -307,7 +307,7 @@ def calibration_rows(path) -> list[dict]:
         for row in rows:
             row["variant"] = canonical_variant(str(row["variant"]))
             if isinstance(row.get("settings"), dict):
-                row["settings"] = canonical_settings(str(row.get("engine")), row["settings"])
+                row["settings"] = canonical_settings(str(row.get("engine")), row["settings"], stored=True)
     except (AttributeError, KeyError, TypeError, ValueError) as e:
         raise _damaged(f, e) from None
     return rows
