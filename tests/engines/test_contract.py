@@ -127,7 +127,7 @@ def test_negative_time_step_raises_config_error(engine):
 
 @pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("extra", [["--set", "no_such_setting=1"], ["--set", "colour=red"], ["--dt", "-0.001"],
-                                   ["--settings", "nonsense"], ["--settings", "shipped"]])
+                                   ["--settings", "nonsense"], ["--settings", "as-shipped"]])
 def test_cli_bad_settings_exit_2_with_one_line(engine, extra, capsys):
     assert main(["calibrate", "--engine", engine, "--block", "B3M", *extra]) == 2
     err = capsys.readouterr().err.strip()
