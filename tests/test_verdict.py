@@ -442,3 +442,18 @@ def test_a_held_out_variant_is_set_beside_its_in_sample_variant_on_the_same_scen
     assert "Fail" not in text and "Other settings" not in text
     line = next(t for t in v["text"] if t.startswith("Held-out check"))
     assert held in line and "0.650" in line and "against 0.065 calibrated on the block itself in the same scenarios" in line
+
+
+def test_a_held_out_variant_on_the_other_size_is_set_beside_the_same_problems():
+    """A suite that maps the calibrated variant on the M blocks only and holds the L blocks out: the
+    held-out value is set beside the in-sample value on the other size of the same slenderness × pulse
+    (the same clusters), not beside nothing."""
+    own, held = "mujoco[settings=calibrated]", "mujoco[calibrate_on=sibling,settings=calibrated]"
+    doc = _doc({own: [0.01, 0.02, 0.03, 0.04]})                    # B3M and B6M only
+    for (b, p), bm in zip(SCENARIOS[4:], [0.5, 0.6, 0.7, 0.8]):     # B3L and B6L held out
+        doc["pairs"].append({**_pair(held, b, p, bm, settings=held), "held_out": True, "in_sample_variant": own})
+    check = {r["variant"]: r for r in verdict(doc)["variants"]}[held]["held_out"]
+    assert check["in_sample_scope"] == "same problems" and check["in_sample_variant"] == own
+    assert check["in_sample"] == pytest.approx(0.025)
+    line = next(t for t in verdict(doc)["text"] if t.startswith("Held-out check"))
+    assert "against 0.025 calibrated on the block itself on the other size of the same slenderness and pulse" in line

@@ -201,18 +201,28 @@ def verdict(doc: dict) -> dict:
 
 def held_out_check(v: Variant, in_sample: Variant | None = None) -> dict | None:
     """The held-out check of a variant: its held-out scenarios' value and interval, and the in-sample
-    value it is set beside: that of ``in_sample`` (the same settings calibrated on each block itself)
-    on the same scenarios where it has them, else the variant's own in-sample value; None without a
+    value it is set beside, the first that exists of: ``in_sample`` (the same settings calibrated on each
+    block itself) on the same scenarios; ``in_sample`` on the scenarios of the same problems (the other
+    size of each held-out scenario's slenderness × pulse cluster, where a suite maps the calibrated
+    variant on one size and holds the other out); the variant's own in-sample value. None without a
     held-out scenario."""
     held_items = items(v, held_out=True)
     held = interval(held_items)
     if held is None:
         return None
-    same = {k: x for k, x in items(in_sample).items() if k in held_items} if in_sample is not None else {}
-    base, scope = (interval(same), "same scenarios") if same else (variant_interval(v), "other scenarios")
+    mine = items(in_sample) if in_sample is not None else {}
+    clusters = {x[2] for x in held_items.values()}
+    same = {k: x for k, x in mine.items() if k in held_items}
+    problems = {k: x for k, x in mine.items() if x[2] in clusters}
+    if same:
+        base, scope, name = interval(same), "same scenarios", in_sample.name
+    elif problems:
+        base, scope, name = interval(problems), "same problems", in_sample.name
+    else:
+        base, scope, name = variant_interval(v), "other scenarios", v.name
     return {"value": held[0], "ci95": [held[1], held[2]], "scenarios": len(held_items),
             "in_sample": None if base is None else base[0], "in_sample_scope": scope,
-            "in_sample_variant": in_sample.name if same else v.name}
+            "in_sample_variant": name}
 
 
 def _row(v: Variant, ranks: dict, versus: dict, head_of: dict, groups: list, in_sample: Variant | None) -> dict:
@@ -376,5 +386,7 @@ def _in_sample_words(row: dict) -> str:
     h = row["held_out"]
     if h["in_sample"] is None:
         return "with no map of it calibrated on the block itself to set it beside"
-    where = "in the same scenarios" if h["in_sample_scope"] == "same scenarios" else "in its other scenarios"
+    where = {"same scenarios": "in the same scenarios",
+             "same problems": "on the other size of the same slenderness and pulse"}.get(h["in_sample_scope"],
+                                                                                  "in its other scenarios")
     return f"against {number(h['in_sample'])} calibrated on the block itself {where}"
