@@ -22,8 +22,9 @@ def test_shipped_suites_parse_and_plan():
     jobs = plan(d, ["mujoco", "pybullet"])
     refs = [j for j in jobs if j.engine == "reference"]
     assert len(refs) == 4 * 2 * 3  # blocks × pulses × (Housner, modified average k, modified exact k)
-    # engines × (2 variants × 4 blocks + the held-out check on B3L and B6L) × pulses
-    assert len(jobs) - len(refs) == 2 * (2 * 4 + 2) * 2
+    # engines × (2 variants on B3M and B6M + the held-out check on B3L and B6L) × pulses
+    assert len(jobs) - len(refs) == 2 * (2 * 2 + 2) * 2
+    assert {j.block for j in jobs if j.engine != "reference" and not j.settings.get("calibrate_on")} == {"B3M", "B6M"}
     held = [j for j in jobs if j.settings.get("calibrate_on")]
     assert {j.block for j in held} == {"B3L", "B6L"} and {j.settings["calibrate_on"] for j in held} == {"sibling"}
     assert len({j.subdir for j in jobs}) == len(jobs)
