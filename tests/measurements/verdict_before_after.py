@@ -4,7 +4,7 @@
 
 BEFORE.json is a verdict record (tests/measurements/results/verdict-default.json and the like: the verdict's variants with
 value, 95 % interval and rank, and per variant the spurious invalid cells summed over its like-for-like
-pairs); AFTER_SCORE.json is a run's score.json. Prints per variant: value, interval, rank (or "fails"),
+pairs); AFTER_SCORE.json is a run's score.json (or a record like BEFORE). Prints per variant: value, interval, rank (or "fails"),
 spurious invalid cells (like-for-like pairs), before and after.
 """
 
@@ -14,23 +14,32 @@ import argparse
 import json
 from pathlib import Path
 
+from rockbench.benchmark.store.files import canonical_variant
+
 
 def spurious_invalid(doc: dict) -> dict:
     """Spurious invalid cells per variant, summed over its like-for-like pairs."""
     out: dict = {}
     for p in doc.get("pairs", []):
         if p.get("like_for_like"):
-            v = p["variant"]
+            v = canonical_variant(p["variant"])
             out[v] = out.get(v, 0) + int(p["scores"].get("spurious_invalid") or 0)
     return out
 
 
 def rows_of(verdict: dict, spurious: dict) -> dict:
-    """``{variant: (label, value, [lo, hi], rank or 'fails', spurious)}``."""
+    """``{variant: (label, value, [lo, hi], rank or 'fails', spurious)}``, variants under today's names
+    (a record stored before a rename pairs with a run after it)."""
     out = {}
+    spurious = {canonical_variant(k): n for k, n in spurious.items()}
     for r in verdict["variants"]:
         rank = "fails" if r.get("fails") else r.get("rank")
-        out[r["variant"]] = (r["label"], r.get("value"), r.get("ci95"), rank, spurious.get(r["variant"]))
+        if rank is None and r.get("held_out"):
+            rank, value, ci = "held out", r["held_out"]["value"], r["held_out"]["ci95"]
+        else:
+            value, ci = r.get("value"), r.get("ci95")
+        name = canonical_variant(r["variant"])
+        out[name] = (r["label"], value, ci, rank, spurious.get(name))
     return out
 
 
@@ -60,7 +69,9 @@ def main() -> None:
     b = json.loads(a.before.read_text())
     b = b.get("figures", b)       # a benchmark record holds the verdict among its figures
     c = json.loads(a.after.read_text())
-    print(table(rows_of(b["verdict"], b.get("spurious_invalid", {})), rows_of(c["verdict"], spurious_invalid(c))))
+    c = c.get("figures", c)       # a score.json, or a record like BEFORE
+    print(table(rows_of(b["verdict"], b.get("spurious_invalid", {})),
+                rows_of(c["verdict"], c.get("spurious_invalid") or spurious_invalid(c))))
 
 
 if __name__ == "__main__":
