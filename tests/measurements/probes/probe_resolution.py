@@ -30,7 +30,7 @@ import numpy as np
 from rockbench.benchmark.maps.result import FAILED, MapResult
 from rockbench.benchmark.scoring.metrics import OVERTURN, boundary_edges, score
 from rockbench.benchmark.scoring.scenarios import resolution_sd
-from rockbench.benchmark.store.loading import load_map
+from rockbench.benchmark.store.loading import load_entry, load_map
 
 ETA_H = {"B3M": 0.7526, "B6M": 0.9294}
 OFF = (0.0, 0.005, 0.02)       # restitution below η_H, as a share of it
@@ -44,7 +44,7 @@ def fine_map(out: Path, block: str, pulse: str, off: float) -> MapResult:
         subprocess.run(["rockbench", "map", "--block", block, "--pulse", pulse, "--restitution", str(eta),
                         "--w-ratio", "1:16:401", "--a-ratio", "1:12:401", "--adaptive", "--serial",
                         "--out", str(d)], check=True, stdout=subprocess.DEVNULL)
-    return load_map(d)
+    return load_entry(d).map    # as the scores read it: an inferred (adaptive) cell counts as valid
 
 
 def coarse(m: MapResult, oi: int, oj: int) -> MapResult:
