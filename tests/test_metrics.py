@@ -343,10 +343,10 @@ def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(
     assert s["consistency"] == 1.0 or (math.isnan(s["consistency"]) and not mask.any())
 
 
-def test_metrics_version_five_refuses_version_two():
+def test_the_current_metrics_version_refuses_version_two():
     from rockbench.benchmark.scoring.score_runs import compare_scores
     doc = {"metrics_version": "2", "pairs": []}
-    with pytest.raises(IncomparableError, match="metrics version 2, current 5"):
+    with pytest.raises(IncomparableError, match=f"metrics version 2, current {METRICS_VERSION}"):
         compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})
 
 

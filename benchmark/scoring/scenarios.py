@@ -92,10 +92,10 @@ class Variant:
 
 #: A scenario's own error from the grid, as a share of its cell diagonal [-]: the measured root mean
 #: square error of the cell-level boundary distance against a grid eight times finer, over grid
-#: phases, for the reference solver's own boundaries shifted by a restitution 0.5–2 % off (0.03–0.17
-#: diagonals in seven of eight block × pulse × shift cases, 0.26 in the eighth; docs/scores.md, "The
-#: grid's resolution").
-RESOLUTION_SD_CELLS = 0.2
+#: phases, for the reference solver's own boundaries shifted by a restitution 0.5–2 % off, is
+#: 0.02–0.09 diagonals in the eight block × pulse × shift cases (docs/scores.md, "The grid's
+#: resolution"); 0.1 is the largest, rounded up.
+RESOLUTION_SD_CELLS = 0.1
 
 
 def resolution_sd(cell: float) -> float:
