@@ -4,8 +4,9 @@
 
 BEFORE.json is a verdict record (tests/measurements/results/verdict-default.json and the like: the verdict's variants with
 value, 95 % interval and rank, and per variant the spurious invalid cells summed over its like-for-like
-pairs); AFTER_SCORE.json is a run's score.json (or a record like BEFORE). Prints per variant: value, interval, rank (or "fails"),
-spurious invalid cells (like-for-like pairs), before and after.
+pairs); AFTER_SCORE.json is a run's score.json (or a record like BEFORE). Prints per variant: value,
+interval, rank (or "fails", or "held out"), spurious invalid cells (like-for-like pairs), before and
+after; variants stored under an old name (``settings=defaults``) are read under today's.
 """
 
 from __future__ import annotations
