@@ -53,6 +53,29 @@ def test_a_class_default_under_the_old_value_warns_where_the_class_is_made():
     assert cls.SETTINGS["settings"] == "shipped"
 
 
+def test_only_a_rename_becomes_a_note_a_library_s_deprecation_stays_where_it_was(monkeypatch, capsys):
+    """The command line shows a RenamedWarning as one note; a library's own DeprecationWarning raised
+    while a command runs (pyparsing's under an older matplotlib, at the declared floors) is not turned
+    into notes: it goes to the warnings display in force (pytest records it here)."""
+    import warnings
+
+    from rockbench.benchmark.cli.commands import blocks as blocks_command
+
+    real = blocks_command.run
+
+    def noisy(args):
+        warnings.warn("'parseString' deprecated - use 'parse_string'", DeprecationWarning)
+        warnings.warn("settings = 'defaults' is now settings = 'shipped'", RenamedWarning)
+        return real(args)
+
+    monkeypatch.setattr(blocks_command, "run", noisy)
+    with pytest.warns(DeprecationWarning, match="parseString"):
+        code, _, err = run_cli(capsys, "blocks")
+    assert code == 0
+    assert [line for line in err.splitlines() if line.startswith("rockbench: note:")] == [
+        "rockbench: note: settings = 'defaults' is now settings = 'shipped'"]
+
+
 def test_the_command_line_reads_the_old_value_with_one_note(tmp_path, capsys):
     with pytest.warns(RenamedWarning):
         given = CaseRequest(engine="mujoco", settings="defaults", set=("drive=table",)).engine_settings()

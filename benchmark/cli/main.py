@@ -115,9 +115,16 @@ def _one_line(text: str) -> str:
     return "".join(c if (c + "x").splitlines() == [c + "x"] else repr(c)[1:-1] for c in text.rstrip("\n"))
 
 
-def _note(message, category, filename, lineno, file=None, line=None) -> None:
-    """A :class:`~rockbench.engines.renamed.RenamedWarning` as the command line shows it: one line."""
-    print(_one_line(f"rockbench: note: {message}"), file=sys.stderr)
+def _notes_for_renames(show_other):
+    """A ``warnings.showwarning`` that shows a :class:`~rockbench.engines.renamed.RenamedWarning` as the
+    command line does, one line, and hands every other warning to ``show_other`` (the one in force, so
+    a library's deprecation stays where Python or a test runner puts it)."""
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, RenamedWarning):
+            print(_one_line(f"rockbench: note: {message}"), file=sys.stderr)
+        else:
+            show_other(message, category, filename, lineno, file, line)
+    return show
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -138,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         with warnings.catch_warnings():   # an old name or value given: one note each, then the command runs
             warnings.filterwarnings("once", category=RenamedWarning)
-            warnings.showwarning = _note
+            warnings.showwarning = _notes_for_renames(warnings.showwarning)
             return int(args.func(args) or 0)
     except UsageError as e:
         print(_one_line(str(e)), file=sys.stderr)
