@@ -23,7 +23,7 @@ def spurious_invalid(doc: dict) -> dict:
     out: dict = {}
     for p in doc.get("pairs", []):
         if p.get("like_for_like"):
-            v = canonical_variant(p["variant"])
+            v = p["variant"]
             out[v] = out.get(v, 0) + int(p["scores"].get("spurious_invalid") or 0)
     return out
 
