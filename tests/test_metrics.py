@@ -85,9 +85,11 @@ def test_island_known_answer():
     s = score(eng, ref)
     assert s["agreement"] == pytest.approx(0.99)
     assert s["iou_overturn"] == pytest.approx(30 / 31)
-    # pooled: 10 + 10 coincident edges, plus the island's 4 edges at distances 5, 4, √20.5, √20.5
+    # pooled: 10 + 10 crossings on the common line a = 6.5, plus the island's 4 crossings, whose distances
+    # to the engine's polyline (the segment a = 6.5, w 0..9; point to segment, not to its nearest
+    # crossing) are 5 (below), 4 (above), 4.5 and 4.5 (the sides)
     assert boundary_points(ref).shape == (14, 2)
-    assert s["boundary_mean"] == pytest.approx((5 + 4 + 2 * math.sqrt(20.5)) / 24)
+    assert s["boundary_mean"] == pytest.approx((5 + 4 + 4.5 + 4.5) / 24)
     assert s["boundary_max"] == pytest.approx(5.0)
     # column 5: lowest overturn at a = 2 in the reference, 7 in the engine
     assert s["critical_error_max"] == pytest.approx(5.0)
@@ -97,8 +99,9 @@ def test_island_known_answer():
 def test_tongue_below_a_safe_band():
     ref = band_map(7)
     ref.outcome[3, 2:5] = OVERTURN  # one-impact tongue below the safe band (rows 4-6)
-    np.testing.assert_array_equal(critical_amplitude(ref)[2:5], [3.0, 3.0, 3.0])
-    assert critical_amplitude(ref)[0] == 7.0
+    # a map without bisection samples crosses at its edge midpoints: below row 3 (the tongue), below row 7
+    np.testing.assert_array_equal(critical_amplitude(ref)[2:5], [2.5, 2.5, 2.5])
+    assert critical_amplitude(ref)[0] == 6.5
     s = score(band_map(7), ref)
     assert s["critical_error_max"] == pytest.approx(4.0)
     assert s["critical_error_mean"] == pytest.approx(3 * 4.0 / N)
@@ -126,7 +129,7 @@ def test_empty_maps():
     assert s["boundary_mean"] == s["boundary_max"] == pytest.approx(diag)
     assert s["iou_overturn"] == 0.0
     assert s["critical_one_sided"] == N
-    # censored one step above the axis: 10 - 5
+    # censored half a step above the axis, 9.5, against the crossing below row 5 at 4.5
     assert s["critical_error_mean"] == pytest.approx(5.0)
     s2 = score(band_map(5), empty)
     assert s2["boundary_mean"] == pytest.approx(diag)

@@ -266,6 +266,26 @@ class MapSpec:
         return [Case(self.block, make_pulse(self.pulse, float(amp[i]), float(om[j])), self.restitution,
                      self.dt_s, self.linearized) for i, j in cells]
 
+    # -- off the grid (the bisection's samples) -------------------------------------------------------
+    def edge_points(self, i, j, axis, t) -> dict:
+        """The points at ``t[k]`` along the edges from cell ``(i[k], j[k])`` to its neighbour in ω/p
+        (``axis`` 0) or in a₀ (``axis`` 1): ``{"w_ratio", "a_ratio", "omega_rad_s", "amplitude_mps2"}``,
+        arrays. Each axis is even in the unit it was given in, so every unit is linear along an edge."""
+        i, j, t = (np.asarray(v) for v in (i, j, t))
+        along_a = np.asarray(axis) == 1
+        i1, j1 = i + along_a, j + ~along_a
+
+        def lerp(values, k0, k1):
+            return values[k0] + t * (values[k1] - values[k0])
+
+        return {"w_ratio": lerp(self.w_ratio_axis, j, j1), "a_ratio": lerp(self.a_ratio_axis, i, i1),
+                "omega_rad_s": lerp(self.omega_axis, j, j1), "amplitude_mps2": lerp(self.amplitude_axis, i, i1)}
+
+    def cases_at(self, omega_rad_s, amplitude_mps2) -> list[Case]:
+        """The cases at arbitrary frequencies ω [rad/s] and amplitudes a₀ [m/s^2] (pairwise)."""
+        return [Case(self.block, make_pulse(self.pulse, float(a), float(w)), self.restitution, self.dt_s,
+                     self.linearized) for w, a in zip(np.asarray(omega_rad_s), np.asarray(amplitude_mps2))]
+
     # -- persistence --------------------------------------------------------------------------
     def to_dict(self) -> dict:
         return {"engine": self.engine, "engine_settings": dict(sorted(self.engine_settings.items())),

@@ -20,6 +20,7 @@ from ...engines.base import CellResult
 from ...reference_solver.classify import OUTCOME_CODES, Outcome
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.validity import LEFT_MODEL_FLAGS
+from .boundary import LocatedBoundary, midpoint_boundary
 from .grid import MapSpec
 
 #: The codes of a cell without an outcome, beside the classifier's (0 rest, 1 rocking, 2 overturn):
@@ -73,6 +74,10 @@ class MapResult:
         :func:`from_cells`); 0 for a full grid.
     meta : dict
         Anything describing the map (engine, block, pulse, restitution, eta, missing cells, ...).
+    located : LocatedBoundary or None
+        The overturning boundary located below the cell by the map stage's bisection
+        (:mod:`rockbench.benchmark.maps.bisection`); None for a map without one (built from outcomes
+        alone), whose boundary is the edge midpoints (:meth:`boundary`).
     """
 
     spec: MapSpec
@@ -90,6 +95,7 @@ class MapResult:
     axes: tuple | None = None
     filled: int = 0
     meta: dict = field(default_factory=dict)
+    located: LocatedBoundary | None = None
 
     def __post_init__(self):
         if self.left_model is None:
@@ -131,6 +137,13 @@ class MapResult:
     def outside_domain(self) -> np.ndarray:
         """Cells with an outcome that are not valid (for a reference map: lift-/slip-required)."""
         return self.known & ~self.valid
+
+    def boundary(self) -> LocatedBoundary:
+        """The located boundary, or for a map without one the depth-0 boundary of its cells (the
+        midpoints of the edges between a standing and an overturning cell)."""
+        if self.located is not None:
+            return self.located
+        return midpoint_boundary(self.outcome, self.w_ratio, self.a_ratio)
 
     def same_axes(self, other: "MapResult") -> bool:
         """Whether both maps lie on the same grid (within :data:`AXIS_RTOL`)."""
@@ -203,7 +216,8 @@ class MapResult:
                 "fraction_simulated": self.fraction_simulated, "adaptive": self.adaptive,
                 "complete": self.complete, "counts": self.counts(), "n_failed": len(self.failures),
                 "n_invalid": int(np.count_nonzero(self.simulated & ~self.valid & (self.outcome >= 0))),
-                "n_resumed": self.n_resumed, "wall_s": self.wall_s}
+                "n_resumed": self.n_resumed, "wall_s": self.wall_s,
+                **(self.located.summary() if self.located is not None else {})}
 
 
 def empty_result(spec: MapSpec) -> MapResult:

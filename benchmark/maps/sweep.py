@@ -33,7 +33,10 @@ from ..store.run_folder import RunStore
 from . import adaptive as adaptive_mod
 from .adaptive import DEFAULT_STRIDE
 from .executors import DASK_SCRATCH, SerialExecutor, cap_jobs, make_executor
+from .bisection import DEFAULT_DEPTH, MAX_DEPTH, sample_regime
+from .boundary import locate
 from .grid import MAP_PULSES, MapSpec
+from .locating import boundary_rows, cell_regimes, locate_in_sweep
 from .result import MapResult, empty_result, put_columns, put_row, record_result
 
 
@@ -69,6 +72,9 @@ class MapOptions:
         Progress bar on stderr (None: when stderr is a terminal).
     log : callable or None
         Receives one-line notes.
+    locate_depth : int
+        Rounds of bisection of each boundary edge (:mod:`rockbench.benchmark.maps.bisection`; 0: the
+        edge midpoints); the tolerance is a step over ``2**locate_depth``.
     """
 
     jobs: int | None = None
@@ -79,6 +85,7 @@ class MapOptions:
     cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S
     progress: bool | None = None
     log: Callable[[str], None] | None = None
+    locate_depth: int = DEFAULT_DEPTH
 
     @classmethod
     def checked(cls, *, coarse_stride: int | None = None, **kw) -> "MapOptions":
@@ -89,6 +96,9 @@ class MapOptions:
         stride = DEFAULT_STRIDE if coarse_stride is None else int(coarse_stride)
         if stride < 1:
             raise ConfigError(f"the coarse stride must be a whole number >= 1, got {coarse_stride!r}.")
+        depth = kw.get("locate_depth", DEFAULT_DEPTH)
+        if isinstance(depth, bool) or not isinstance(depth, int) or not 0 <= depth <= MAX_DEPTH:
+            raise ConfigError(f"--locate-depth must be a whole number from 0 to {MAX_DEPTH}, got {depth!r}.")
         return cls(stride=stride if kw.get("adaptive") else 1, **kw)
 
     def note(self, text: str) -> None:
@@ -100,7 +110,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
             serial: bool = False, adaptive: bool = False, coarse_stride: int | None = None,
             cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S, progress: bool | None = None,
             picture=None, log: Callable[[str], None] | None = None, executor=None,
-            figure_formats=("png",)) -> MapResult:
+            figure_formats=("png",), locate_depth: int = DEFAULT_DEPTH) -> MapResult:
     """Compute a map into ``out_dir``, resuming whatever a previous run of the same spec finished.
 
     Parameters
@@ -134,6 +144,10 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         map starts so that its helper loads matplotlib meanwhile). None draws nothing.
     figure_formats : sequence of str
         The formats of the map's picture (``png``, ``svg``, ``pdf``): ``map.png``, ``map.svg``, ...
+    locate_depth : int
+        Rounds of bisection of each boundary edge after the cells (default
+        :data:`~rockbench.benchmark.maps.bisection.DEFAULT_DEPTH`; 0 keeps the edge midpoints): the
+        located boundary is stored in bisection.csv and boundary.csv and loaded with the map.
     log : callable, optional
         Receives one-line notes (resumed cells, ...).
     executor : optional
@@ -148,7 +162,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     try:
         opts = MapOptions.checked(jobs=jobs, scheduler=scheduler, serial=serial, adaptive=adaptive,
                                   coarse_stride=coarse_stride, cell_timeout_s=cell_timeout_s, progress=progress,
-                                  log=log)
+                                  log=log, locate_depth=locate_depth)
         result = _compute_map(spec, Path(out_dir), opts, executor)
         if picture is not None:
             picture.draw(result, Path(out_dir) / "map", figure_formats, reference=reference_for(result))
@@ -167,8 +181,17 @@ def reference_for(result):
         spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)
         ref = empty_result(spec)
         cells = [(i, j) for i in range(spec.y.n) for j in range(spec.x.n)]
-        for (i, j), r in zip(cells, build_adapter("reference").run_many(spec.cases(cells))):
+        adapter = build_adapter("reference")
+        for (i, j), r in zip(cells, adapter.run_many(spec.cases(cells))):
             record_result(ref, i, j, r)
+        depth = result.located.depth if result.located is not None else 0
+
+        def sample(ii, jj, aa, tt):
+            pts = spec.edge_points(ii, jj, aa, tt)
+            return [sample_regime(r.status, r.outcome, r.n_impacts)
+                    for r in adapter.run_many(spec.cases_at(pts["omega_rad_s"], pts["amplitude_mps2"]))]
+
+        ref.located = locate(cell_regimes(ref), ref.w_ratio, ref.a_ratio, depth, sample)
         return ref
     except Exception:  # noqa: BLE001 - a picture without the overlay is still a picture
         return None
@@ -199,6 +222,7 @@ def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> Ma
     store = RunStore(out_dir)
     try:
         done = store.open(spec, adapter, options={"adaptive": opts.adaptive, "coarse_stride": opts.stride,
+                                                  "locate_depth": opts.locate_depth,
                                                   "cell_timeout_s": opts.cell_timeout_s,
                                                   "executor": executor.describe()})
         if done:
@@ -211,10 +235,14 @@ def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> Ma
         else:
             ii, jj = np.indices(spec.shape).reshape(2, -1)
             sweep.evaluate_arrays(ii, jj)
-        sweep.bar.close()
         result = sweep.result
         if opts.adaptive:
             adaptive_mod.fill(result.outcome, result.simulated, opts.stride)
+        if store.samples:
+            opts.note(f"resuming {out_dir}: {len(store.samples)} bisection samples already done")
+        result.located = locate_in_sweep(sweep, opts.locate_depth)
+        store.write_boundary(boundary_rows(result.located))
+        sweep.bar.close()
         result.wall_s = time.perf_counter() - t0
         result.failures = store.failures()
         store.finish(result.summary())

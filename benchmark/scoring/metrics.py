@@ -16,7 +16,7 @@ failing and no engine is blamed for physics the reference cannot do:
 - **The domain.** The headline metrics (agreement, IoU, boundary and critical-amplitude errors) are
   computed over the cells where the reference has an outcome *and is valid*: where the rigid
   model's own assumptions hold along its trajectory. Cells outside it are unknown to those
-  metrics (like a failed cell: no boundary edge runs to them).
+  metrics (like a failed cell: no located crossing lies on an edge to them).
 - **Honesty outside the domain.** Where the reference needs lift-off or sliding, an engine is
   right to flag ``jump`` or ``slip``: ``consistency`` is the share of those cells where it does.
   ``spurious_invalid`` counts the engine's invalid cells inside the domain, where the rigid
@@ -26,7 +26,9 @@ failing and no engine is blamed for physics the reference cannot do:
 - An invalid engine cell inside the domain is still judged by its outcome.
 - The overturn region is a set of cells, not "everything above a curve": the thin safe band above
   the first overturn and the one-impact overturning tongue below it are handled by working on
-  cells and cell edges only.
+  cells and cell edges only. The boundary between them is located below the cell on each edge by
+  the map stage's bisection (:mod:`rockbench.benchmark.maps.bisection`), and the distances are
+  from each located crossing to the other boundary's polyline (:func:`boundary_distance`).
 
 ``score(x, x)`` is perfect for every map ``x`` (tested).
 """
@@ -43,10 +45,12 @@ import numpy as np
 
 from ...reference_solver.classify import OUTCOME_CODES, Outcome
 from ...reference_solver.errors import ConfigError, IncomparableError
+from ..maps.bisection import ALONG_A, FAILED_EDGE, MULTIPLE
+from ..maps.boundary import LocatedBoundary
 from ..maps.result import FAILED, MapResult
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
-METRICS_VERSION = "6"
+METRICS_VERSION = "7"
 
 REST = OUTCOME_CODES[Outcome.REST]
 ROCKING = OUTCOME_CODES[Outcome.ROCKING]
@@ -174,11 +178,12 @@ _METRIC_LIST = [
            kind="fraction", short="IoU O", title="IoU of overturn regions", cell_unit="1/overturn_union",
            value=lambda c: c.iou_overturn),
     Metric("boundary_mean",
-           "Mean distance, in the normalised plane (ω/p, a0/(g·tanα)), from each engine boundary edge to the "
-           "nearest reference boundary edge and from each reference edge to the nearest engine edge (both "
-           "sets pooled). A boundary edge is the midpoint of a cell edge between an overturn and a "
-           "not-overturn cell, both with an outcome. 0 when both boundaries are empty; the map diagonal "
-           "when only one is.",
+           "Mean distance, in the normalised plane (ω/p, a0/(g·tanα)), from each located crossing of one "
+           "map's overturning boundary to the other map's boundary polyline (point to segment), both maps' "
+           "crossings pooled, over the edges whose two cells are judged. A crossing is located by bisecting "
+           "a cell edge between a standing and an overturning cell (or inside a thin band) to the map's "
+           "locate depth; the polyline joins the crossings by marching squares. 0 when both boundaries are "
+           "empty; the map diagonal when only one is.",
            "lower", 0.0, "w/a units", 0.02,
            question="How far, on average, is the engine's overturning boundary from the reference's?",
            role="primary",
@@ -194,8 +199,9 @@ _METRIC_LIST = [
            value=lambda c: c.boundary[1]),
     Metric("critical_error_mean",
            "Mean over frequency columns where at least one map overturns of |Δ a_crit|, with a_crit the "
-           "LOWEST overturning a0/(g·tanα) of the column; a column that does not overturn is censored at "
-           "one grid step above the top of the axis (so that error is a lower bound).",
+           "LOWEST overturning a0/(g·tanα) of the column, located by the crossing on the edge below its lowest "
+           "overturning cell; a column that does not overturn is censored half a grid step above the top of "
+           "the axis (so that error is a lower bound).",
            "lower", 0.0, "a units", 0.02,
            question="How wrong is the lowest overturning amplitude, on average over the frequencies?",
            short="a_crit err", title="a_crit error, mean", cell_unit="a_step/columns",
@@ -248,34 +254,41 @@ PRIMARY = METRICS[PRIMARY_METRIC]
 
 # -- the pieces ------------------------------------------------------------------------------------
 
+def boundary_of(m: MapResult) -> LocatedBoundary:
+    """The boundary a map's metrics read: its located boundary (the map stage's bisection), or for a map
+    without one the depth-0 boundary of its cells, the midpoints of the edges between a standing and
+    an overturning cell (:meth:`~rockbench.benchmark.maps.result.MapResult.boundary`)."""
+    return m.boundary()
+
+
 def boundary_points(m: MapResult) -> np.ndarray:
-    """Midpoints of the cell edges between an overturn and a not-overturn cell [w/a units].
+    """The located crossings of a map's boundary, shape (n, 2), columns (w_ratio, a_ratio) [w/a units].
 
-    Both cells must have an outcome; edges to failed cells and to the outside of the grid are not
-    boundary. Returns an array of shape (n, 2) with columns (w_ratio, a_ratio).
-    """
-    c = m.outcome
-    known = c != FAILED
-    ov = c == OVERTURN
-    pts = []
-    # vertical neighbours (same frequency, adjacent amplitudes)
-    e = known[:-1, :] & known[1:, :] & (ov[:-1, :] != ov[1:, :])
-    i, j = np.nonzero(e)
-    pts.append(np.column_stack([m.w_ratio[j], 0.5 * (m.a_ratio[i] + m.a_ratio[i + 1])]))
-    # horizontal neighbours (same amplitude, adjacent frequencies)
-    e = known[:, :-1] & known[:, 1:] & (ov[:, :-1] != ov[:, 1:])
-    i, j = np.nonzero(e)
-    pts.append(np.column_stack([0.5 * (m.w_ratio[j] + m.w_ratio[j + 1]), m.a_ratio[i]]))
-    return np.concatenate(pts, axis=0)
+    Both cells of a crossing's edge have an outcome; edges to failed cells and to the outside of the
+    grid are not boundary."""
+    return boundary_of(m).points
 
 
-def _nearest_distances(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    """For each point of ``src``, the distance to the nearest point of ``dst`` (both non-empty)."""
-    out = np.empty(src.shape[0])
-    for s in range(0, src.shape[0], 1024):
-        d = src[s:s + 1024, None, :] - dst[None, :, :]
-        out[s:s + 1024] = np.sqrt(np.min(np.einsum("ijk,ijk->ij", d, d), axis=1))
+def point_segment_distances(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """For each point (shape (n, 2)), the distance to the nearest segment (shape (k, 2, 2), k ≥ 1; a
+    segment of length 0 is a point) [w/a units]."""
+    out = np.empty(points.shape[0])
+    a, ab = segments[:, 0, :], segments[:, 1, :] - segments[:, 0, :]
+    ab2 = np.einsum("kd,kd->k", ab, ab)
+    for s in range(0, points.shape[0], 256):
+        p = points[s:s + 256, None, :]
+        u = np.einsum("nkd,kd->nk", p - a[None], ab)
+        t = np.clip(np.divide(u, ab2, out=np.zeros_like(u), where=ab2 > 0), 0.0, 1.0)
+        d = p - (a[None] + t[..., None] * ab[None])
+        out[s:s + 256] = np.sqrt(np.min(np.einsum("nkd,nkd->nk", d, d), axis=1))
     return out
+
+
+def boundary_distances(be: LocatedBoundary, br: LocatedBoundary) -> np.ndarray:
+    """Each located crossing's distance to the other boundary's polyline (point to segment), the
+    engine's crossings first [w/a units]; both boundaries non-empty."""
+    return np.concatenate([point_segment_distances(be.points, br.segments()),
+                           point_segment_distances(br.points, be.segments())])
 
 
 def boundary_distance(eng: MapResult, ref: MapResult) -> tuple[float, float]:
@@ -283,25 +296,32 @@ def boundary_distance(eng: MapResult, ref: MapResult) -> tuple[float, float]:
 
     See :data:`METRICS` ``boundary_mean`` and ``boundary_max``. Symmetric in its arguments.
     """
-    pe, pr = boundary_points(eng), boundary_points(ref)
-    if pe.shape[0] == 0 and pr.shape[0] == 0:
+    be, br = boundary_of(eng), boundary_of(ref)
+    if be.n_crossings == 0 and br.n_crossings == 0:
         return 0.0, 0.0
-    if pe.shape[0] == 0 or pr.shape[0] == 0:
+    if be.n_crossings == 0 or br.n_crossings == 0:
         diag = math.hypot(ref.w_ratio[-1] - ref.w_ratio[0], ref.a_ratio[-1] - ref.a_ratio[0])
         return diag, diag
-    d = np.concatenate([_nearest_distances(pe, pr), _nearest_distances(pr, pe)])
+    d = boundary_distances(be, br)
     return float(d.mean()), float(d.max())
 
 
 def critical_amplitude(m: MapResult) -> np.ndarray:
     """The lowest overturning a₀/(g·tanα) of each frequency column [-]; NaN where none overturns.
 
-    This is the lowest overturning cell, not the lower edge of "everything above a curve": a
-    column whose overturn region starts with the one-impact tongue reports the tongue.
+    The located crossing on the edge below the column's lowest overturning cell (the lowest one when
+    a band gives it two), else (the cell is in the bottom row, or that edge has no crossing) the
+    cell's own a₀/(g·tanα). This is the lowest overturning cell, not the lower edge of "everything
+    above a curve": a column whose overturn region starts with the one-impact tongue reports the tongue.
     """
     ov = m.outcome == OVERTURN
     first = np.argmax(ov, axis=0)
-    return np.where(ov.any(axis=0), m.a_ratio[first], np.nan)
+    crit = np.where(ov.any(axis=0), m.a_ratio[first], np.nan)
+    b = boundary_of(m)
+    below = (b.axis == ALONG_A) & (b.cell_b[:, 0] == first[b.cell_b[:, 1]]) & ov[b.cell_b[:, 0], b.cell_b[:, 1]]
+    for k in np.nonzero(below)[0][np.argsort(-b.points[below, 1])]:   # the lowest crossing last
+        crit[b.cell_b[k, 1]] = b.points[k, 1]
+    return crit
 
 
 def critical_errors(eng: MapResult, ref: MapResult) -> dict:
@@ -316,7 +336,7 @@ def critical_errors(eng: MapResult, ref: MapResult) -> dict:
     ce, cr = critical_amplitude(eng), critical_amplitude(ref)
     a = ref.a_ratio
     step = a[-1] - a[-2] if a.size > 1 else 1.0
-    censor = a[-1] + step
+    censor = a[-1] + 0.5 * step   # where a first overturn one step above the axis would cross at depth 0
     any_ov = ~(np.isnan(ce) & np.isnan(cr))
     err = np.where(any_ov, np.abs(np.nan_to_num(ce, nan=censor) - np.nan_to_num(cr, nan=censor)), np.nan)
     one_sided = int(np.count_nonzero(np.isnan(ce) != np.isnan(cr)))
@@ -416,14 +436,31 @@ def judged_cells(eng: MapResult, ref: MapResult) -> tuple[np.ndarray, np.ndarray
 
 def within(m: MapResult, cells: np.ndarray) -> MapResult:
     """``m`` with only ``cells`` known: boundaries and critical amplitudes see only the domain, since
-    outside it both maps are unknown."""
-    return MapResult.from_outcomes(m.w_ratio, m.a_ratio, np.where(cells, m.outcome, FAILED))
+    outside it both maps are unknown (a located crossing counts when both cells of its edge are in)."""
+    out = MapResult.from_outcomes(m.w_ratio, m.a_ratio, np.where(cells, m.outcome, FAILED))
+    out.located = boundary_of(m).within(cells)
+    return out
 
 
 def boundary_edges(eng: MapResult, ref: MapResult) -> int:
-    """How many boundary edges (both maps', within the judged cells) ``boundary_mean`` averages over."""
+    """How many located crossings (both maps', within the judged cells) ``boundary_mean`` averages over."""
     judged, _ = judged_cells(eng, ref)
     return int(boundary_points(within(eng, judged)).shape[0] + boundary_points(within(ref, judged)).shape[0])
+
+
+def located_counts(eng: MapResult, ref: MapResult) -> dict[str, int]:
+    """What the boundary metrics rest on, for score.json's ``cells``: the bisection depth the pair is
+    located to (the smaller of the two maps'), and within the judged cells each map's located
+    crossings and its edges flagged ``multiple`` (islands, tongues inside one edge) or ``failed``."""
+    judged, _ = judged_cells(eng, ref)
+    be, br = boundary_of(eng), boundary_of(ref)
+    ie, ir = be.within(judged), br.within(judged)
+    return {"locate_depth": int(min(be.depth, br.depth)), "engine_locate_depth": int(be.depth),
+            "reference_locate_depth": int(br.depth),
+            "located_crossings": ie.n_crossings + ir.n_crossings,
+            "engine_crossings": ie.n_crossings, "reference_crossings": ir.n_crossings,
+            "multiple_edges": ie.count(MULTIPLE) + ir.count(MULTIPLE),
+            "failed_edges": ie.count(FAILED_EDGE) + ir.count(FAILED_EDGE)}
 
 
 def _consistency(eng: MapResult, outside: np.ndarray) -> float:

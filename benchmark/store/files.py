@@ -11,6 +11,13 @@ A map's run directory holds
     :data:`REQUIRED_COLUMNS`, among them); written by :class:`~rockbench.benchmark.store.run_folder.RunStore`,
     read by :func:`read_run` (this rockbench's own files, every field checked) and
     :func:`read_cell_table` (any table with the required columns, e.g. one written by another tool).
+``DIR/bisection.csv``
+    one row per off-grid sample of the boundary's bisection, the columns :data:`SAMPLE_COLUMNS`
+    (cells.csv's, then the edge's direction ``axis`` and the position ``t`` along it); read by
+    :func:`read_samples`.
+``DIR/boundary.csv``
+    the located crossings (:data:`BOUNDARY_COLUMNS`), written when the map finishes, for people and
+    other tools; rockbench itself derives the boundary from the samples.
 
 A ``rockbench run`` folder adds ``suite.json``, ``calibration.json`` and ``score.json``. Every JSON
 file goes through :func:`write_json`: atomic (a temporary file, then a rename), and with **one
@@ -33,8 +40,12 @@ from ...reference_solver.errors import ConfigError, IncomparableError
 from .atomic import write_bytes_atomic
 
 #: Version of the run-directory layout; bumped when columns or run.json keys change meaning
-#: (3: the ``variant`` column).
-SCHEMA_VERSION = 3
+#: (3: the ``variant`` column; 4: bisection.csv, boundary.csv and the ``locate_depth`` option).
+SCHEMA_VERSION = 4
+
+#: Older schemas this rockbench still reads (never resumes): a schema-3 map has no bisection, so its
+#: boundary is the depth-0 one, the edge midpoints.
+READABLE_SCHEMAS = (3, SCHEMA_VERSION)
 
 #: The cells.csv columns every map directory has (docs/cli.md, "The columns of cells.csv"), in the
 #: order the store writes them.
@@ -47,6 +58,16 @@ REQUIRED_COLUMNS = ("engine", "block", "pulse", "restitution", "eta", "w_ratio",
 #: store's own.
 COLUMNS = [REQUIRED_COLUMNS[0], "variant", *REQUIRED_COLUMNS[1:], "status", "message", "wall_s", "t_overturn_s",
            "t_uplift_s", "min_normal_mg", "max_friction_ratio", "i", "j"]
+
+#: The columns of bisection.csv: cells.csv's (``i``, ``j`` the edge's first cell), the edge's direction
+#: ``axis`` (``w``: towards cell ``(i, j + 1)``, ``a``: towards ``(i + 1, j)``) and the position ``t``
+#: in (0, 1) along it.
+SAMPLE_COLUMNS = [*COLUMNS, "axis", "t"]
+
+#: The columns of boundary.csv: a crossing's position, its edge, its kind (``overturn``: between a
+#: standing and an overturning cell; ``band``: a side of a band inside an overturn(n) | overturn(m)
+#: edge) and its edge's flag.
+BOUNDARY_COLUMNS = ["w_ratio", "a_ratio", "i", "j", "axis", "t", "kind", "flag"]
 
 #: :func:`utc_stamp` formats: files carry ISO 8601, the report's page a shorter line for people.
 ISO_UTC = "%Y-%m-%dT%H:%M:%SZ"
@@ -139,7 +160,28 @@ _BOM = b"\xef\xbb\xbf"
 _DAMAGED = "the file was edited or damaged: fix or delete that line (rerunning `rockbench map` recomputes it)"
 
 
-def read_cells_file(path: Path, shape=None) -> tuple[dict, int]:
+def _sample_position(r: dict, n: int, path: Path) -> tuple[int, float]:
+    """``(axis, t)`` of a bisection.csv row (axis 0 along ω/p, 1 along a₀); ConfigError naming the line."""
+    if r["axis"] not in ("w", "a"):
+        raise ConfigError(f"{str(path)!r} line {n}: axis {r['axis']!r} is not w or a; {_DAMAGED}.")
+    try:
+        t = float(r["t"])
+    except ValueError:
+        t = math.nan
+    if not 0.0 < t < 1.0:
+        raise ConfigError(f"{str(path)!r} line {n}: t {r['t']!r} is not a number between 0 and 1; {_DAMAGED}.")
+    return (0 if r["axis"] == "w" else 1), t
+
+
+def read_samples(path: Path, shape=None) -> tuple[dict, int | None]:
+    """The bisection samples of a bisection.csv by ``(i, j, axis, t)`` and the byte length of its
+    well-formed prefix (``({}, None)`` when there is no file); a torn last line is not a row."""
+    if not path.exists():
+        return {}, None
+    return read_cells_file(path, shape, SAMPLE_COLUMNS)
+
+
+def read_cells_file(path: Path, shape=None, columns=COLUMNS) -> tuple[dict, int]:
     """Rows of a cells.csv by cell and the byte length of its well-formed prefix.
 
     A torn last line (a kill in mid-write) is not a row; a byte-order mark (a spreadsheet saved the
@@ -158,30 +200,34 @@ def read_cells_file(path: Path, shape=None) -> tuple[dict, int]:
         line = data[:start + e.start].count(b"\n") + 1
         raise ConfigError(f"{str(path)!r} line {line} is not UTF-8 text (byte 0x{data[start + e.start]:02x}); "
                           f"{_DAMAGED}.") from None
-    rows, good = _parse_rows(text, path, shape)
+    rows, good = _parse_rows(text, path, shape, columns)
     return rows, (start + good) if good else 0
 
 
-def _parse_rows(text: str, path: Path, shape=None) -> tuple[dict, int]:
-    """Rows by cell and the byte length of the well-formed prefix (header plus whole rows)."""
+def _parse_rows(text: str, path: Path, shape=None, columns=COLUMNS) -> tuple[dict, int]:
+    """Rows by cell (by sample, for bisection.csv's ``columns``) and the byte length of the well-formed
+    prefix (header plus whole rows)."""
     lines = text.splitlines(keepends=True)
     if not lines:
         return {}, 0
     header = next(csv.reader([lines[0]]), [])
-    if header != COLUMNS:
+    if header != columns:
         raise IncomparableError(f"{str(path)!r} has other columns than this rockbench writes; it comes from "
                                 "another version: give a new --out directory.")
     rows: dict = {}
     good = len(lines[0].encode())
     for n, line in enumerate(lines[1:], start=2):
         vals = next(csv.reader([line]), [])
-        if len(vals) != len(COLUMNS):
+        if len(vals) != len(columns):
             if n == len(lines):
                 break   # a torn last row that still ended in a newline inside a quoted field
-            raise ConfigError(f"{str(path)!r} line {n} is malformed ({len(vals)} fields, expected {len(COLUMNS)}); "
+            raise ConfigError(f"{str(path)!r} line {n} is malformed ({len(vals)} fields, expected {len(columns)}); "
                               f"{_DAMAGED}.")
-        r = dict(zip(COLUMNS, vals))
-        rows[_check_row(r, n, path, shape)] = r   # a repeated cell keeps its last row
+        r = dict(zip(columns, vals))
+        key = _check_row(r, n, path, shape)
+        if columns is SAMPLE_COLUMNS:
+            key = (*key, *_sample_position(r, n, path))
+        rows[key] = r   # a repeated cell keeps its last row
         good += len(line.encode())
     return rows, good
 
@@ -244,14 +290,21 @@ def _check_row_slowly(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
     return i, j
 
 
-def check_map_schema(meta: dict, d: Path) -> None:
-    """ConfigError unless ``meta`` is a map's run.json; IncomparableError when of another schema."""
+def check_map_schema(meta: dict, d: Path, writing: bool = False) -> None:
+    """ConfigError unless ``meta`` is a map's run.json; IncomparableError when of a schema this rockbench
+    cannot read (:data:`READABLE_SCHEMAS`), or, ``writing``, of another schema than its own."""
     if meta.get("kind") != "rockbench-map":
         raise ConfigError(f"{str(d)!r} is not a rockbench map directory (its run.json is of kind "
                           f"{meta.get('kind')!r}); give a new or empty directory.")
-    if meta.get("schema_version") != SCHEMA_VERSION:
-        raise IncomparableError(f"{str(d)!r} was written with schema {meta.get('schema_version')}, this rockbench "
-                                f"reads schema {SCHEMA_VERSION}; give a new --out directory.")
+    version = meta.get("schema_version")
+    if writing and version in READABLE_SCHEMAS and version != SCHEMA_VERSION:
+        raise IncomparableError(f"{str(d)!r} holds a map of schema {version}, which this rockbench reads but does not "
+                                f"resume (schema {SCHEMA_VERSION} adds the boundary's bisection); delete it to compute "
+                                "the map again, or give a new --out directory.")
+    if version not in READABLE_SCHEMAS:
+        raise IncomparableError(f"{str(d)!r} was written with schema {version}, this rockbench "
+                                f"reads schema {SCHEMA_VERSION} (and {', '.join(map(str, READABLE_SCHEMAS[:-1]))}); "
+                                "give a new --out directory.")
 
 
 def read_cell_table(path) -> list[dict]:

@@ -15,16 +15,22 @@ import numpy as np
 from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError
 from ..maps import adaptive as adaptive_mod
+from ..maps.bisection import MAX_DEPTH
 from ..maps.grid import MapSpec
+from ..maps.locating import stored_boundary
 from ..maps.result import FAILED, MapResult, put_row, empty_result, from_cells
-from .files import COLUMNS, canonical_variant, read_cell_table, read_json, read_run, spec_variant, variant_name
+from .files import (COLUMNS, canonical_variant, read_cell_table, read_json, read_run, read_samples, spec_variant,
+                    variant_name)
 from .frames import OUTCOME_OF_CODE, rows_to_dataframe, rows_to_dataset
 
 
 def load_map(out_dir) -> MapResult:
     """Read a run directory written by :func:`run_map` back into a :class:`MapResult`.
 
-    Adaptive maps get their inferred cells back by the same fill rule that produced them.
+    Adaptive maps get their inferred cells back by the same fill rule that produced them, and the
+    located boundary (:attr:`MapResult.located`) is the map stage's bisection replayed with the samples
+    of bisection.csv (:func:`~rockbench.benchmark.maps.locating.stored_boundary`; a map of schema 3, or
+    one computed with ``--locate-depth 0``, has the depth-0 boundary, the edge midpoints).
 
     Raises
     ------
@@ -33,13 +39,15 @@ def load_map(out_dir) -> MapResult:
     """
 
     meta, rows = read_run(out_dir)
-    spec, adaptive, stride = _spec_of_run(meta, Path(out_dir) / "run.json")
+    spec, adaptive, stride, depth = _spec_of_run(meta, Path(out_dir) / "run.json")
     result = empty_result(spec)
     result.adaptive, result.coarse_stride = adaptive, stride
     for (i, j), row in rows.items():
         put_row(result, i, j, row)
     if result.adaptive:
         adaptive_mod.fill(result.outcome, result.simulated, result.coarse_stride)
+    samples, _ = read_samples(Path(out_dir) / "bisection.csv", spec.shape)
+    result.located = stored_boundary(result, samples, depth)
     result.failures = [{"i": i, "j": j, "flag": r["flags"], "message": r["message"]}
                        for (i, j), r in sorted(rows.items()) if r["status"] != "ok"]
     summary = meta.get("summary")
@@ -50,21 +58,25 @@ def load_map(out_dir) -> MapResult:
     return result
 
 
-def _spec_of_run(meta: dict, where: Path) -> tuple[MapSpec, bool, int]:
-    """The spec and the adaptive options a run.json records; ConfigError naming the file when damaged."""
+def _spec_of_run(meta: dict, where: Path) -> tuple[MapSpec, bool, int, int]:
+    """The spec, the adaptive options and the bisection depth a run.json records (depth 0 where it
+    records none: schema 3); ConfigError naming the file when damaged."""
     try:
         spec = MapSpec.from_dict(meta["spec"])
         opts = meta.get("options") or {}
         adaptive = opts.get("adaptive", False)
         stride = opts.get("coarse_stride", 1)
+        depth = opts.get("locate_depth", 0)
         if not isinstance(adaptive, bool) or isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
             raise ValueError(f"options adaptive={adaptive!r}, coarse_stride={stride!r}")
+        if isinstance(depth, bool) or not isinstance(depth, int) or not 0 <= depth <= MAX_DEPTH:
+            raise ValueError(f"options locate_depth={depth!r}")
     except KeyError as e:
         raise ConfigError(f"{str(where)!r} is damaged: it lacks {e}; give a new --out directory "
                           "(or rerun `rockbench map` into a new one).") from None
     except (TypeError, ValueError, AttributeError) as e:
         raise ConfigError(f"{str(where)!r} is damaged: {e}; give a new --out directory.") from None
-    return spec, adaptive, stride
+    return spec, adaptive, stride, depth
 
 
 def full_grid_rows(map_dir) -> list[dict]:
@@ -257,6 +269,7 @@ def load_entry(d: Path) -> MapEntry:
                       np.asarray(res.left_model, bool) & sim, sim,
                       filled=int(np.count_nonzero(~sim & (codes != FAILED))))
         lm.meta["missing_cells"] = missing_cells(res, run)
+        lm.located = res.located
         engine, block, pulse = spec.engine, spec.block.name, spec.pulse
         restitution, eta = spec.restitution.label, float(spec.eta)
         settings, dt = dict(spec.engine_settings or {}), spec.dt_s

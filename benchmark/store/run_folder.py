@@ -10,6 +10,13 @@
     written whole with one ``write`` call. A ``kill -9`` can at worst leave a torn last line; it is
     cut off when the directory is opened again, so the rerun neither recomputes finished cells nor
     writes duplicates.
+``DIR/bisection.csv``
+    one row per off-grid sample of the boundary's bisection (cells.csv's columns, then ``axis`` and
+    ``t``), appended and flushed as each round finishes, with the same torn-tail rule: the rerun
+    replays the bisection with these samples as a memo and computes none twice.
+``DIR/boundary.csv``
+    the located crossings (:data:`~rockbench.benchmark.store.files.BOUNDARY_COLUMNS`), written
+    atomically when the map finishes.
 ``DIR/map.png``
     the picture (drawn by :mod:`rockbench.benchmark.report.plots.stability`).
 
@@ -33,8 +40,9 @@ from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from .columnar import format_rows
-from .files import (COLUMNS, NEW_OUT, SCHEMA_VERSION, check_map_schema, read_cells_file, read_json, spec_variant,
-                    utc_stamp, write_json)
+from .atomic import write_bytes_atomic
+from .files import (BOUNDARY_COLUMNS, COLUMNS, NEW_OUT, SAMPLE_COLUMNS, SCHEMA_VERSION, check_map_schema,
+                    read_cells_file, read_json, read_samples, spec_variant, utc_stamp, write_json)
 from .lines import exact_text, plain_row
 
 
@@ -81,7 +89,10 @@ class RunStore:
     def __init__(self, out_dir):
         self.dir = Path(out_dir)
         self._csv = None
+        self._samples_csv = None
         self._lock = None
+        #: the bisection samples already stored, by ``(i, j, axis, t)`` (filled by :meth:`open`)
+        self.samples: dict = {}
         self._meta: dict | None = None
         self._failures: list[dict] = []
 
@@ -105,7 +116,7 @@ class RunStore:
         previous = None
         if run_json.exists():
             previous = read_json(run_json, NEW_OUT)
-            check_map_schema(previous, d)
+            check_map_schema(previous, d, writing=True)
             stale = rules_mismatch(previous.get("rules_version"), f"the map in {str(d)!r}")
             if stale:
                 raise ConfigError(f"{stale}: delete {str(d)!r} to compute it again, or give another --out directory.")
@@ -144,7 +155,9 @@ class RunStore:
             meta["engine_version_changed"] = {"before": before, "now": describe.get("version")}
         # check cells.csv before anything is written: a resume that cannot read it changes nothing
         done, good = self._read_csv(spec.shape)
+        self.samples, good_samples = read_samples(d / "bisection.csv", spec.shape)
         self._cut_torn_tail(good)
+        self._cut_torn_tail(good_samples, "bisection.csv")
         self._meta = meta
         write_json(run_json, meta)
         self._csv = open(d / "cells.csv", "a", newline="")
@@ -175,9 +188,9 @@ class RunStore:
                 self._failures.append(r)
         return rows, good
 
-    def _cut_torn_tail(self, good: int | None) -> None:
+    def _cut_torn_tail(self, good: int | None, name: str = "cells.csv") -> None:
         """Cut off a torn last line left by a kill (a row is only complete with its newline)."""
-        path = self.dir / "cells.csv"
+        path = self.dir / name
         if good is not None and good != path.stat().st_size:
             with open(path, "r+b") as f:
                 f.truncate(good)
@@ -197,6 +210,14 @@ class RunStore:
                 "message": " ".join(str(r.message).split()), "wall_s": float(r.wall_s),
                 "t_overturn_s": r.t_overturn_s, "t_uplift_s": r.t_uplift_s, "min_normal_mg": r.min_normal_mg,
                 "max_friction_ratio": r.max_friction_ratio, "i": int(i), "j": int(j)}
+
+    def sample_row(self, spec, i: int, j: int, axis: int, t: float, point: dict, r) -> dict:
+        """The bisection.csv row of the sample at ``t`` along edge ``(i, j, axis)``, at ``point``
+        (:meth:`~rockbench.benchmark.maps.grid.MapSpec.edge_points`' four values), result ``r``."""
+        row = self.row(spec, i, j, r)
+        row.update({k: float(v) for k, v in point.items()})
+        row.update(axis="wa"[axis], t=float(t))
+        return row
 
     def append_results(self, spec, triples) -> None:
         """Append the rows of ``[(i, j, CellResult), ...]`` (see :meth:`append`).
@@ -290,6 +311,36 @@ class RunStore:
                 raise
             raise OSError(e.errno, e.strerror or str(e), str(self.dir / "cells.csv")) from None
 
+    def append_samples(self, rows: list[dict]) -> None:
+        """Append bisection samples (:data:`~rockbench.benchmark.store.files.SAMPLE_COLUMNS` each, values as
+        :meth:`row` gives them plus ``axis`` and ``t``) to bisection.csv in one write, flushed."""
+        if not rows:
+            return
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        if self._samples_csv is None:
+            self._samples_csv = open(self.dir / "bisection.csv", "a", newline="")
+            if self._samples_csv.tell() == 0:
+                w.writerow(SAMPLE_COLUMNS)
+        for r in rows:
+            w.writerow([exact_text(r[c]) for c in SAMPLE_COLUMNS])
+        try:
+            self._samples_csv.write(buf.getvalue())
+            self._samples_csv.flush()
+        except OSError as e:
+            if e.filename is not None:
+                raise
+            raise OSError(e.errno, e.strerror or str(e), str(self.dir / "bisection.csv")) from None
+
+    def write_boundary(self, rows: list[list]) -> None:
+        """Write boundary.csv (:data:`~rockbench.benchmark.store.files.BOUNDARY_COLUMNS`) atomically."""
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(BOUNDARY_COLUMNS)
+        for r in rows:
+            w.writerow([exact_text(v) for v in r])
+        write_bytes_atomic(self.dir / "boundary.csv", buf.getvalue().encode())
+
     def failures(self) -> list[dict]:
         return [{"i": int(r["i"]), "j": int(r["j"]), "flag": r["flags"], "message": r["message"]}
                 for r in self._failures]
@@ -307,6 +358,9 @@ class RunStore:
         if self._csv is not None:
             self._csv.close()
             self._csv = None
+        if self._samples_csv is not None:
+            self._samples_csv.close()
+            self._samples_csv = None
         if self._lock is not None:
             self._lock.close()
             self._lock = None
