@@ -53,7 +53,7 @@ from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load
 from .experiments import score_outcomes
 from .labels import settings_class, variant_labels
 from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, boundary_edges, cell_counts, check_gate,
-                      judged_cells, score)
+                      judged_cells, located_counts, score)
 from .verdict import verdict
 
 #: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
@@ -393,13 +393,14 @@ def grid_cells(eng: MapResult, ref: MapResult) -> dict:
     """How many cells a pair's metrics are taken over: ``judged`` (the reference's domain: it has an
     outcome and is valid, less the cells the engine map lacks), ``overturn_union`` (judged cells where
     either map overturns or the engine failed), the boundary edges the boundary distance averages
-    over, and the grid's steps, from which :func:`cell_units` turns a number of cells into each
-    metric's units."""
+    over, the bisection depth the boundaries are located to with their crossings and flagged edges
+    (:func:`~rockbench.benchmark.scoring.metrics.located_counts`), and the grid's steps, from which
+    :func:`cell_units` turns a number of cells into each metric's units."""
     judged, _ = judged_cells(eng, ref)
     union = judged & ((eng.outcome == OVERTURN) | (ref.outcome == OVERTURN) | (eng.outcome == FAILED))
     w, a = eng.w_ratio, eng.a_ratio
     return {"judged": int(judged.sum()), "overturn_union": int(union.sum()),
-            "boundary_edges": boundary_edges(eng, ref),
+            "boundary_edges": boundary_edges(eng, ref), **located_counts(eng, ref),
             "w_step": float((w[-1] - w[0]) / (w.size - 1)) if w.size > 1 else 0.0,
             "a_step": float((a[-1] - a[0]) / (a.size - 1)) if a.size > 1 else 0.0}
 

@@ -29,6 +29,7 @@ from ...reference_solver.restitution import Restitution
 from ..blocks.cases import parse_case
 from ..blocks.experiments import load_outcomes
 from ..blocks.presets import PRESETS, get_preset
+from ..maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
 from ..maps.grid import MapSpec, parse_range
 
 #: the shipped suites, by name
@@ -106,6 +107,13 @@ def _timeout(v):
 def _stride(v):
     if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
         raise _bad(f" must be a whole number >= 1, got {v!r}.")
+    return v
+
+
+def _locate_depth(v):
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= MAX_DEPTH:
+        raise _bad(f" must be a whole number from 0 to {MAX_DEPTH} (rounds of bisection of each boundary edge), "
+                   f"got {v!r}.")
     return v
 
 
@@ -239,6 +247,7 @@ class GridTable(_Table):
     a_ratio: Annotated[str, _grid_axis("grid.a_ratio", "a_ratio")] = None
     adaptive: Flag = False
     coarse_stride: Annotated[int | None, BeforeValidator(_stride)] = None
+    locate_depth: Annotated[int, BeforeValidator(_locate_depth)] = DEFAULT_DEPTH
 
 
 class CasesTable(_Table):

@@ -12,6 +12,7 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     adaptive = true              # engine maps: coarse grid, refined where neighbours disagree
                                  # (reference maps are always computed in full)
     coarse_stride = 4
+    locate_depth = 5             # every map: bisect each boundary edge 5 times (a 32nd of a step)
 
     [cases]
     blocks = ["B3M", "B6M", "B3L", "B6L"]   # Table 1 presets
@@ -188,7 +189,7 @@ class _SuiteRun:
         res = self.health.guard(job.engine, lambda: run_map(
             spec, d, jobs=self.jobs, serial=job.engine == "reference",
             adaptive=suite.grid.adaptive and job.engine != "reference", coarse_stride=suite.grid.coarse_stride,
-            cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex))
+            locate_depth=suite.grid.locate_depth, cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
             self.unfinished.add(d)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ....reference_solver.errors import ConfigError, EngineError
 from ...engine_info.health import EngineCannotSimulate, cannot_simulate_line, common_error
+from ...maps.bisection import DEFAULT_DEPTH
 from ...maps.grid import MAP_PULSES, MapSpec, parse_range
 from ...maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
 from ...report.plots.picture import MapPicture
@@ -37,6 +38,9 @@ def register(sub) -> None:
     g.add_argument("--adaptive", action="store_true", help="coarse grid first, refine only where neighbours disagree")
     g.add_argument("--coarse-stride", type=int, default=None, metavar="S",
                    help="adaptive coarse spacing in cells (default 4)")
+    g.add_argument("--locate-depth", type=int, default=DEFAULT_DEPTH, metavar="D",
+                   help="bisect every boundary edge D times after the cells, to a tolerance of a step over 2**D "
+                   f"(default {DEFAULT_DEPTH}; 0 keeps the edge midpoints)")
     g.add_argument("--jobs", type=str, default=None, metavar="N",
                    help="worker processes (default: all cores); for the reference, threads of its batch in this process")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -100,6 +104,7 @@ def run(args) -> int:
         result = run_map(spec, args.out, jobs=jobs_from_args(args), scheduler=args.scheduler, serial=args.serial,
                          adaptive=args.adaptive, coarse_stride=args.coarse_stride, cell_timeout_s=timeout,
                          progress=not quiet, picture=None if args.no_plot else MapPicture(), figure_formats=formats,
+                         locate_depth=args.locate_depth,
                          log=None if args.json else (lambda s: print(s, file=sys.stderr)))
     except EngineError as e:   # its workers could not start the engine: exit 3, the line says why
         raise EngineCannotSimulate(cannot_simulate_line(spec.engine, str(e), "starting it")) from None

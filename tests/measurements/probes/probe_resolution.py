@@ -1,106 +1,133 @@
-"""How well a 51 × 51 map knows its boundary distance, and what locating the boundary below the cell
-would cost (docs/scores.md, "The grid's resolution: a boundary known to its cell").
+"""How well a map located below the cell knows its boundary distance (docs/scores.md, "The grid's
+resolution: a boundary located below the cell").
 
-``truth`` maps B3M and B6M, sine and cosine, with the reference solver on a grid eight times finer
-than the default one (401 × 401 over ω/p 1–16, a₀/(g·tanα) 1–12), for η_H and for a restitution
-0.5 % and 2 % below it; the default grid is every eighth row and column, at 64 phases. It prints the
-fine grid's distance (the truth), the default grid's bias and root mean square error over the phases
-(also in cell diagonals), the error version 4 assumed (d/√(6E)) and the error the verdict now
-assigns (``RESOLUTION_SD_CELLS`` of the diagonal), and the share of phases whose error lies within
-1.96 times each. About a minute of the reference solver (adaptive fine maps, 4,000–23,000 cells each).
+``truth`` maps B3M and B6M, sine and cosine, with the reference solver for η_H and for a restitution
+0.5 %, 1 % and 2 % below it (η_H·(1 − δ): an "engine" a little off), once on a fine grid (401 × 401
+over ω/p 1–16, a₀/(g·tanα) 1–12, adaptive, every boundary edge bisected 8 times: the truth) and
+then on coarser grids at 16 phases (the grid's nodes offset by 0, ¼, ½, ¾ of a step along each axis),
+each located by the production path: ``run_map`` (the reference map of η_H in full, as ``rockbench run``
+computes reference maps, the others adaptive with the given coarse stride; every map bisected to the
+given depth), ``load_entry``, and the metric's crossings and polylines within the judged cells
+(:func:`rockbench.benchmark.scoring.metrics.boundary_distances`). Both the truth and the coarse maps
+count only the crossings inside one common window (``WINDOW``), so the edges of the ranges do not.
 
-``cost RUN_DIR`` counts, over a run's engine maps, the simulated cells and the boundary edges: the
-edges between rows (one per column and crossing), the lowest crossing of each column, and the edges
-between columns; three more runs per located edge give an eighth of a cell.
+It prints, per configuration (grid, coarse stride, depth) and scenario (block × pulse × δ): the truth,
+the coarse grids' bias and root mean square error over the phases (also in cell diagonals), and the
+runs per map (cells simulated plus bisection samples, mean and range over the coarse maps); then the
+error of a *paired difference* (δ = 2 % minus δ = 0.5 %, both against the same reference map) against
+its truth beside √(sd₂² + sd₀.₅²), the error the verdict assumes when it takes the two as
+independent. The maps are kept in OUT and reused by a rerun (the fine ones take most of the time).
 
-Run from the repository root: ``python tests/measurements/probes/probe_resolution.py truth OUT_DIR`` or
-``python tests/measurements/probes/probe_resolution.py cost RUN_DIR``.
+Run from the repository root:
+``python tests/measurements/probes/probe_resolution.py truth OUT [--configs 26:3:6,36:3:5,...]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from rockbench.benchmark.maps.result import FAILED, MapResult
-from rockbench.benchmark.scoring.metrics import OVERTURN, boundary_edges, score
-from rockbench.benchmark.scoring.scenarios import resolution_sd
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.maps.grid import MapSpec, make_axis
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.scoring.metrics import Compared, boundary_of, point_segment_distances
 from rockbench.benchmark.store.loading import load_entry, load_map
+from rockbench.reference_solver.restitution import Restitution, housner_eta
 
-ETA_H = {"B3M": 0.7526, "B6M": 0.9294}
-OFF = (0.0, 0.005, 0.02)       # restitution below η_H, as a share of it
-FINE = 8                       # fine cells per default cell along each axis
-
-
-def fine_map(out: Path, block: str, pulse: str, off: float) -> MapResult:
-    d = out / f"{block}-{pulse}-{off}"
-    if not (d / "cells.csv").exists():
-        eta = round(ETA_H[block] * (1 - off), 5)
-        subprocess.run(["rockbench", "map", "--block", block, "--pulse", pulse, "--restitution", str(eta),
-                        "--w-ratio", "1:16:401", "--a-ratio", "1:12:401", "--adaptive", "--serial",
-                        "--out", str(d)], check=True, stdout=subprocess.DEVNULL)
-    return load_entry(d).map    # as the scores read it: an inferred (adaptive) cell counts as valid
+W_RANGE, A_RANGE = (1.0, 16.0), (1.0, 12.0)
+FINE_N, FINE_DEPTH, FINE_STRIDE = 401, 8, 4
+SHIFTS = (0.0, 0.005, 0.01, 0.02)       # restitution below η_H, as a share of it
+PHASES = (0.0, 0.25, 0.5, 0.75)          # offsets of a coarse grid's nodes, in steps
+#: the common window of truth and coarse crossings: inside the range every phase of a 26 × 26 grid covers
+WINDOW = (1.5, 15.9, 1.4, 11.9)
+CONFIGS = ((26, 3, 5), (26, 3, 6), (26, 2, 6), (36, 3, 5), (51, 4, 4))
 
 
-def coarse(m: MapResult, oi: int, oj: int) -> MapResult:
-    """Every :data:`FINE`-th row and column of ``m`` from row ``oi`` and column ``oj``."""
-    ii, jj = np.arange(oi, m.a_ratio.size, FINE), np.arange(oj, m.w_ratio.size, FINE)
-    s = np.ix_(ii, jj)
-    return MapResult.from_outcomes(m.w_ratio[jj], m.a_ratio[ii], m.outcome[s], m.valid[s], m.left_model[s])
+def eta_of(block: str, shift: float) -> float:
+    return housner_eta(PRESETS[block].block().alpha_rad) * (1.0 - shift)
 
 
-def truth(out: Path) -> None:
-    for block in ETA_H:
+def one_map(d: Path, block: str, pulse: str, shift: float, n: int, phase: tuple, stride: int, depth: int):
+    """The map (as the scores read it) and its runs (cells simulated plus bisection samples): the
+    reference (δ = 0) in full, as ``rockbench run`` computes reference maps, the others adaptive."""
+    d = d.with_name(d.name + ("-full" if shift == 0.0 else ""))
+    if not (d / "run.json").exists() or load_map(d).located.depth != depth or not _finished(d):
+        dw, da = (W_RANGE[1] - W_RANGE[0]) / (n - 1), (A_RANGE[1] - A_RANGE[0]) / (n - 1)
+        w0, a0 = W_RANGE[0] + phase[0] * dw, A_RANGE[0] + phase[1] * da
+        spec = MapSpec(PRESETS[block].block(), pulse, Restitution("constant", value=eta_of(block, shift)),
+                       make_axis("w", "w_ratio", w0, w0 + (n - 1) * dw, n),
+                       make_axis("a", "a_ratio", a0, a0 + (n - 1) * da, n))
+        run_map(spec, d, serial=True, adaptive=shift != 0.0, coarse_stride=stride, locate_depth=depth, progress=False)
+    m = load_entry(d).map
+    return m, int(m.simulated.sum()) + m.located.n_samples
+
+
+def _finished(d: Path) -> bool:
+    import json
+    return bool(json.loads((d / "run.json").read_text()).get("summary"))
+
+
+def distance(eng, ref) -> float:
+    """``boundary_mean`` of the pair with only the crossings inside :data:`WINDOW` counted."""
+    e, r = Compared(eng, ref).inside
+    be, br = boundary_of(e), boundary_of(r)
+    pe, pr = _in_window(be.points), _in_window(br.points)
+    return float(np.concatenate([point_segment_distances(pe, br.segments()),
+                                 point_segment_distances(pr, be.segments())]).mean())
+
+
+def _in_window(p: np.ndarray) -> np.ndarray:
+    w0, w1, a0, a1 = WINDOW
+    return p[(p[:, 0] >= w0) & (p[:, 0] <= w1) & (p[:, 1] >= a0) & (p[:, 1] <= a1)]
+
+
+def truth(out: Path, configs) -> None:
+    for block in ("B3M", "B6M"):
         for pulse in ("sine", "cosine"):
-            ref = fine_map(out, block, pulse, OFF[0])
-            for off in OFF[1:]:
-                eng = fine_map(out, block, pulse, off)
-                true = score(eng, ref)["boundary_mean"]
-                err, old = [], []
-                for oi in range(FINE):
-                    for oj in range(FINE):
-                        e, r = coarse(eng, oi, oj), coarse(ref, oi, oj)
-                        cell = math.hypot(e.w_ratio[1] - e.w_ratio[0], e.a_ratio[1] - e.a_ratio[0])
-                        err.append(score(e, r)["boundary_mean"] - true)
-                        old.append(cell / math.sqrt(6 * max(boundary_edges(e, r), 1)))
-                err, old, new = np.array(err), np.array(old), resolution_sd(cell)
-                rms = float(np.sqrt(np.mean(err ** 2)))
-                print(f"{block} {pulse:6s} η {100 * off:.1f} % off: truth {true:.4f}, bias {err.mean():+.4f}, "
-                      f"rms {rms:.4f} ({rms / cell:.2f} diagonal); version 4's error {old.mean():.4f} holds "
-                      f"{np.mean(np.abs(err) <= 1.96 * old):.0%}, now {new:.4f} holds "
-                      f"{np.mean(np.abs(err) <= 1.96 * new):.0%}", flush=True)
-
-
-def cost(run_dir: Path) -> None:
-    sim = cols = rows = across = 0
-    for cells in sorted(run_dir.glob("maps/*/*/cells.csv")):
-        if cells.parent.parent.name == "reference":
-            continue
-        m = load_map(cells.parent)
-        known, ov = m.outcome != FAILED, m.outcome == OVERTURN
-        between_rows = known[:-1] & known[1:] & (ov[:-1] != ov[1:])
-        sim += int(m.simulated.sum())
-        cols += int(between_rows.any(axis=0).sum())
-        rows += int(between_rows.sum())
-        across += int((known[:, :-1] & known[:, 1:] & (ov[:, :-1] != ov[:, 1:])).sum())
-    print(f"engine cells simulated {sim}; boundary edges between rows {rows}, between columns {across}; "
-          f"columns with a crossing {cols}")
-    print(f"three runs per lowest crossing: +{300 * cols / sim:.1f} % runs for {cols / (rows + across):.0%} of the "
-          f"edges; per edge: +{300 * (rows + across) / sim:.1f} %")
+            fine = {s: one_map(out / "fine" / f"{block}-{pulse}-{s}", block, pulse, s, FINE_N, (0, 0), FINE_STRIDE,
+                               FINE_DEPTH) for s in SHIFTS}
+            true = {s: distance(fine[s][0], fine[0.0][0]) for s in SHIFTS[1:]}
+            print(f"{block} {pulse}: truth {', '.join(f'δ {100 * s:.1f} % {v:.4f}' for s, v in true.items())}; "
+                  f"fine runs per map {min(r for _, r in fine.values())}–{max(r for _, r in fine.values())}",
+                  flush=True)
+            for n, stride, depth in configs:
+                err, runs, paired = {s: [] for s in SHIFTS[1:]}, [], []
+                for pw in PHASES:
+                    for pa in PHASES:
+                        maps = {s: one_map(out / f"g{n}-s{stride}-d{depth}" / f"{block}-{pulse}-{s}-{pw}-{pa}", block,
+                                           pulse, s, n, (pw, pa), stride, depth) for s in SHIFTS}
+                        runs += [r for _, r in maps.values()]
+                        d = {s: distance(maps[s][0], maps[0.0][0]) for s in SHIFTS[1:]}
+                        for s in SHIFTS[1:]:
+                            err[s].append(d[s] - true[s])
+                        paired.append((d[0.02] - d[0.005]) - (true[0.02] - true[0.005]))
+                cell = math.hypot((W_RANGE[1] - W_RANGE[0]) / (n - 1), (A_RANGE[1] - A_RANGE[0]) / (n - 1))
+                parts = []
+                rms = {}
+                for s, e in err.items():
+                    e = np.array(e)
+                    rms[s] = float(np.sqrt(np.mean(e ** 2)))
+                    parts.append(f"δ {100 * s:.1f} %: bias {e.mean():+.4f} rms {rms[s]:.4f} ({rms[s] / cell:.4f} diag)")
+                pr = float(np.sqrt(np.mean(np.square(paired))))
+                print(f"  {n}×{n} stride {stride} depth {depth}: runs per map {np.mean(runs):.0f} "
+                      f"({min(runs)}–{max(runs)}); " + "; ".join(parts) +
+                      f"; paired 2 %−0.5 % rms {pr:.4f} vs √(sd²+sd²) {math.hypot(rms[0.02], rms[0.005]):.4f}",
+                      flush=True)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=("truth", "cost"), help="truth: the fine-grid truth and the grid's error; "
-                    "cost: what locating the boundary below the cell would cost on a run's maps")
-    ap.add_argument("path", type=Path, help="truth: the output folder; cost: a run folder of the default suite")
+    ap.add_argument("what", choices=("truth",), help="truth: the fine-grid truth and the coarse grids' error")
+    ap.add_argument("path", type=Path, help="the output folder (maps kept and reused)")
+    ap.add_argument("--configs", default=",".join(f"{n}:{s}:{d}" for n, s, d in CONFIGS),
+                    help="N:STRIDE:DEPTH,... coarse grids (N × N), adaptive coarse strides and bisection depths")
     a = ap.parse_args(argv)
-    {"truth": truth, "cost": cost}[a.what](a.path)
+    configs = [tuple(int(x) for x in c.split(":")) for c in a.configs.split(",")]
+    truth(a.path, configs)
     return 0
 
 
