@@ -121,7 +121,7 @@ def test_marching_squares_pairs_a_saddle_by_the_shorter_chords():
     cell = np.array([[0, 0], [0, 1], [1, 0], [0, 0]])
     axis = np.array([ALONG_W, ALONG_A, ALONG_W, ALONG_A])
     t = np.array([0.9, 0.1, 0.1, 0.9])
-    ch = marching_chords(pts, cell, axis, t)
+    ch = marching_chords(pts, cell, axis, t, (2, 2))
     assert {tuple(map(tuple, c)) for c in ch} == {((0.9, 0.0), (1.0, 0.1)), ((0.1, 1.0), (0.0, 0.9))}
 
 
@@ -130,3 +130,15 @@ def test_midpoint_boundary_is_depth_zero():
     b = midpoint_boundary(o, [0.0, 1.0], [0.0, 2.0])
     np.testing.assert_array_equal(b.points, [[0.0, 1.0], [1.0, 1.0]])
     assert b.depth == 0 and b.chords().shape == (1, 2, 2)
+
+
+def test_marching_squares_follows_a_thin_band_along_it():
+    """A band 0.05 wide across a square's corner (x + y from 0.3 to 0.35) crosses the bottom side twice
+    and the left side twice: the chords run along the band, not across it (the shorter pairing would
+    join the two crossings of each side)."""
+    pts = np.array([[0.3, 0.0], [0.35, 0.0], [0.0, 0.3], [0.0, 0.35]])
+    cell = np.array([[0, 0], [0, 0], [0, 0], [0, 0]])
+    axis = np.array([ALONG_W, ALONG_W, ALONG_A, ALONG_A])
+    t = np.array([0.3, 0.35, 0.3, 0.35])
+    ch = marching_chords(pts, cell, axis, t, (2, 2))
+    assert {tuple(map(tuple, c)) for c in ch} == {((0.35, 0.0), (0.0, 0.35)), ((0.0, 0.3), (0.3, 0.0))}

@@ -5,8 +5,12 @@ into a polyline, and each bisected edge's flag.
 The polyline is marching squares on the node lattice (the cells' centres): in each square of four
 neighbouring nodes, the crossings on its four sides, taken in perimeter order, are paired into
 non-crossing chords: two crossings give one chord; four or more, of the two alternating pairings,
-the one of shorter total length. A square with an odd number of crossings (a side not judged, or an
-edge whose bisection stopped) draws no chord; its crossings stay points of the boundary.
+the one of shorter total length, except that a pairing that joins two crossings of one side loses
+to one that does not (between two crossings of one edge lies a band the edge's bisection found
+standing: a chord along the edge would run through the band instead of along it, and the shorter
+pairing would draw a thin band as dashes across it). A square with an odd number of crossings (a
+side not judged, or an edge whose bisection stopped) draws no chord; its crossings stay points of
+the boundary.
 """
 
 from __future__ import annotations
@@ -42,6 +46,8 @@ class LocatedBoundary:
         Each bisected edge's flag (``""``, ``multiple``, ``failed``, ``unfinished``).
     n_samples : int
         Off-grid runs the bisection used.
+    shape : tuple
+        ``(n_a, n_w)``: the grid's nodes (the squares of the polyline lie between them).
     """
 
     depth: int
@@ -54,6 +60,7 @@ class LocatedBoundary:
     edges: np.ndarray
     flags: np.ndarray
     n_samples: int = 0
+    shape: tuple = (0, 0)
     _chords: list = field(default_factory=list, repr=False, compare=False)
 
     @property
@@ -75,12 +82,13 @@ class LocatedBoundary:
         fi, fj = far_end(ei, ej, ea)
         ekeep = cells[ei, ej] & cells[fi, fj] if self.edges.size else np.zeros(0, bool)
         return LocatedBoundary(self.depth, self.points[keep], self.cell_a[keep], self.cell_b[keep], self.axis[keep],
-                               self.t[keep], self.band[keep], self.edges[ekeep], self.flags[ekeep], self.n_samples)
+                               self.t[keep], self.band[keep], self.edges[ekeep], self.flags[ekeep], self.n_samples,
+                               self.shape)
 
     def chords(self) -> np.ndarray:
         """The polyline's chords, shape (k, 2, 2): ``[[w0, a0], [w1, a1]]`` each (module docstring)."""
         if not self._chords:
-            self._chords.append(marching_chords(self.points, self.cell_a, self.axis, self.t))
+            self._chords.append(marching_chords(self.points, self.cell_a, self.axis, self.t, self.shape))
         return self._chords[0]
 
     def segments(self) -> np.ndarray:
@@ -114,7 +122,8 @@ def from_bisection(b: Bisected, w_ratio: np.ndarray, a_ratio: np.ndarray) -> Loc
     edges = np.column_stack([b.i, b.j, b.axis]).astype(np.int64).reshape(-1, 3)
     return LocatedBoundary(b.depth, np.column_stack([pw, pa]).reshape(-1, 2), np.column_stack([i, j]).reshape(-1, 2),
                            np.column_stack([fi, fj]).reshape(-1, 2), ax.astype(np.int64), b.t.astype(float),
-                           b.band.astype(bool), edges, np.asarray(b.flag, dtype=str).reshape(-1), b.n_samples)
+                           b.band.astype(bool), edges, np.asarray(b.flag, dtype=str).reshape(-1), b.n_samples,
+                           (len(a), len(w)))
 
 
 def midpoint_boundary(outcome: np.ndarray, w_ratio, a_ratio, n_impacts=None) -> LocatedBoundary:
@@ -131,8 +140,10 @@ def _no_samples(i, j, axis, t):   # depth 0 asks for none
 
 # -- marching squares ------------------------------------------------------------------------------
 
-def marching_chords(points: np.ndarray, cell_a: np.ndarray, axis: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """The chords of crossings ``points`` on the node lattice (module docstring), shape (k, 2, 2)."""
+def marching_chords(points: np.ndarray, cell_a: np.ndarray, axis: np.ndarray, t: np.ndarray,
+                    shape: tuple) -> np.ndarray:
+    """The chords of crossings ``points`` on the node lattice of ``shape`` ``(n_a, n_w)`` (module
+    docstring), shape (k, 2, 2)."""
     sides: dict = {}
     for k in range(points.shape[0]):
         sides.setdefault((int(cell_a[k, 0]), int(cell_a[k, 1]), int(axis[k])), []).append(k)
@@ -140,31 +151,36 @@ def marching_chords(points: np.ndarray, cell_a: np.ndarray, axis: np.ndarray, t:
               {(i, j - d) for (i, j, a) in sides for d in (0, 1) if a == ALONG_A}
     out = []
     for i, j in sorted(squares):
+        if not (0 <= i < shape[0] - 1 and 0 <= j < shape[1] - 1):
+            continue   # a side of the grid: no square beyond it
         ring = []
         # counter-clockwise: bottom (row i) left→right, right (column j+1) up, top (row i+1) right→left,
         # left (column j) down
-        for key, rev in (((i, j, ALONG_W), False), ((i, j + 1, ALONG_A), False), ((i + 1, j, ALONG_W), True),
-                         ((i, j, ALONG_A), True)):
+        for side, (key, rev) in enumerate((((i, j, ALONG_W), False), ((i, j + 1, ALONG_A), False),
+                                           ((i + 1, j, ALONG_W), True), ((i, j, ALONG_A), True))):
             ks = sorted(sides.get(key, []), key=lambda k: t[k], reverse=rev)
-            ring.extend(points[k] for k in ks)
+            ring.extend((side, points[k]) for k in ks)
         out.extend(_pair(ring))
     return np.array(out, dtype=float).reshape(-1, 2, 2)
 
 
 def _pair(ring: list) -> list:
-    """Non-crossing chords of an even ring of points: the shorter of the two alternating pairings."""
+    """Non-crossing chords of an even ring of ``(side, point)``: of the two alternating pairings, one
+    that joins no two points of one side, else the shorter (module docstring)."""
     n = len(ring)
     if n < 2 or n % 2:
         return []
     first = [(ring[k], ring[k + 1]) for k in range(0, n, 2)]
     if n == 2:
-        return first
+        return [(p, q) for (_, p), (_, q) in first]
     second = [(ring[k], ring[(k + 1) % n]) for k in range(1, n, 2)]
 
-    def length(ps):
-        return sum(float(np.hypot(*(p - q))) for p, q in ps)
+    def cost(ps):
+        along = any(a == b for (a, _), (b, _) in ps)
+        return along, sum(float(np.hypot(*(p - q))) for (_, p), (_, q) in ps)
 
-    return first if length(first) <= length(second) else second
+    best = first if cost(first) <= cost(second) else second
+    return [(p, q) for (_, p), (_, q) in best]
 
 
 def locate(regime: np.ndarray, w_ratio, a_ratio, depth: int, sample) -> LocatedBoundary:

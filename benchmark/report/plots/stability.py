@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ...blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
+from ...maps.bisection import MULTIPLE
 from ...maps.result import MapResult
 from ...scoring.labels import for_matplotlib, restitution_symbol, variant_label
 from .output import save_formats
@@ -46,6 +47,8 @@ COLORS = [OKABE_ITO["black"], OKABE_ITO["blue"], OKABE_ITO["vermillion"], OKABE_
           OKABE_ITO["orange"], OKABE_ITO["sky_blue"]]
 
 ENGINE_FILL = tint(OKABE_ITO["orange"], 0.45)          # the engine's overturn region
+#: The engine's own located boundary over its cells in map.png (the reference's is REFERENCE_STYLES[0]).
+ENGINE_LINE = {"color": OKABE_ITO["vermillion"], "linestyle": (0, (3, 1.5)), "linewidth": 1.2}
 #: rest, rocking, overturn (map.png)
 OUTCOME_COLOURS = ("#ffffff", tint(OKABE_ITO["sky_blue"], 0.35), tint(OKABE_ITO["orange"], 0.45))
 HATCH = "////"
@@ -184,13 +187,61 @@ def _smooth_polyline(p: np.ndarray) -> np.ndarray:
     return out
 
 
+def located_of(m):
+    """The located boundary of map ``m`` (bisected at least once), or None: then its boundary is drawn
+    from its cells."""
+    b = getattr(m, "located", None)
+    return b if b is not None and b.depth > 0 else None
+
+
+def draw_located(ax, b, *, label=None, zorder=3, **style):
+    """Draw a located boundary (:class:`~rockbench.benchmark.maps.boundary.LocatedBoundary`): its
+    polyline's chords as a LineCollection, and a cross at the midpoint of each edge flagged
+    ``multiple`` (more crossings inside the edge than the rule follows). Returns ``(lines, marks)``."""
+    from matplotlib.collections import LineCollection  # matplotlib on first drawing (start-up time)
+
+    st = {**REFERENCE_STYLES[0], **style}
+    lc = marks = None
+    chords = b.chords()
+    if chords.size:
+        lc = ax.add_collection(LineCollection(list(chords), colors=st["color"], linewidths=st["linewidth"],
+                                              linestyles=[st["linestyle"]], zorder=zorder, label=label,
+                                              capstyle="round", joinstyle="round"))
+    lone = b.segments()[chords.shape[0]:, 0, :]
+    if lone.size:   # crossings no chord joins (a side of the grid or of the domain): dots
+        ax.plot(lone[:, 0], lone[:, 1], ls="none", marker=".", ms=2.5, color=st["color"], zorder=zorder)
+    multiple = b.flagged_edges(MULTIPLE)
+    if multiple.size:
+        at = b.points[np.isin(_edge_ids(b.cell_a, b.axis), _edge_ids(multiple[:, :2], multiple[:, 2]))]
+        if at.size:
+            (marks,) = ax.plot(at[:, 0], at[:, 1], ls="none", marker="x", ms=4.5, mew=1.1, color=st["color"],
+                               zorder=zorder + 0.1)
+    return lc, marks
+
+
+def _edge_ids(cells: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    cells = np.asarray(cells, np.int64).reshape(-1, 2)
+    return (cells[:, 0] * 1_000_003 + cells[:, 1]) * 2 + np.asarray(axis, np.int64)
+
+
+def multiple_handle(color="k"):
+    """The legend entry of the crosses on edges flagged ``multiple``."""
+    from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
+    return Line2D([], [], ls="none", marker="x", ms=4.5, mew=1.1, color=color,
+                  label="edge with more crossings than located (multiple)")
+
+
 def draw_boundary(ax, m, *, label=None, zorder=3, **style):
-    """Draw the boundary of map ``m``: its lines (:func:`boundary_parts`) as a LineCollection, its
-    islands as thin outlines of their cells in the same colour. Returns ``(lines, islands)``: the
-    LineCollection and the PatchCollection, each None when there is none."""
+    """Draw the boundary of map ``m``: its located polyline when it has one (:func:`draw_located`),
+    else its lines (:func:`boundary_parts`) as a LineCollection and its islands as thin outlines of
+    their cells in the same colour. Returns ``(lines, islands)``: the LineCollection and the
+    PatchCollection (the crosses of ``multiple`` edges for a located boundary), each None when there
+    is none."""
     from matplotlib.collections import LineCollection, PatchCollection  # matplotlib on first drawing (start-up time)
     from matplotlib.patches import Rectangle  # matplotlib on first drawing (start-up time)
 
+    if located_of(m) is not None:
+        return draw_located(ax, located_of(m), label=label, zorder=zorder, **style)
     lines, boxes = boundary_parts(m)
     st = {**REFERENCE_STYLES[0], **style}
     lc = isl = None
@@ -782,11 +833,18 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
             handles.append(Patch(facecolor="white", edgecolor=HATCH_COLOUR, hatch=HATCH, lw=0,
                                  label=DOMAIN_LABEL))
         label = for_matplotlib(f"reference boundary ({restitution_symbol(s.restitution.label, s.block.name)})")
+        if located_of(ref) is not None:
+            label = label[:-1] + f", located to 1/{2 ** located_of(ref).depth} of a step)"
         boundary, islands = draw_boundary(ax, ref, label=label)
         if boundary is not None:
             handles.append(Line2D([], [], color="k", lw=1.7, label=label))
         if islands is not None:
-            handles.append(island_handle())
+            handles.append(multiple_handle() if located_of(ref) is not None else island_handle())
+    own = located_of(result) if not is_ref else None
+    if own is not None and own.n_crossings:
+        draw_located(ax, own, zorder=3.6, **ENGINE_LINE)
+        handles.append(Line2D([], [], lw=ENGINE_LINE["linewidth"], color=ENGINE_LINE["color"],
+                              ls=ENGINE_LINE["linestyle"], label=f"engine boundary (located to 1/{2 ** own.depth} of a step)"))
     flags = None if is_ref else draw_flags(ax, result, flag_area(result))
     if flags is not None:
         n = int(np.count_nonzero(g.known & g.simulated & ~g.valid))
