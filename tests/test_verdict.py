@@ -342,7 +342,7 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     assert code == 0
     assert out.index("Verdict") < out.index("Summary")
     doc = json.loads((root / "score.json").read_text())
-    assert doc["schema_version"] == 2 and doc["metrics_version"] == "6"
+    assert doc["schema_version"] == 2 and doc["metrics_version"] == "7"
     rows = {r["settings"]: r for r in doc["verdict"]["variants"]}
     assert rows[CALIBRATED]["value"] == 0.0 and rows[CALIBRATED]["rank"] == 1
     assert rows[AS_SHIPPED]["fails"] and "overturns in 100 %" in rows[AS_SHIPPED]["reasons"][0]

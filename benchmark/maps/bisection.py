@@ -123,6 +123,8 @@ class Bisected:
         Each crossing's position along its edge (the midpoint of its last interval) [-].
     band : ndarray of bool, shape (n_crossings,)
         True for a crossing on an overturn(n) | overturn(m) edge (a side of a band thinner than a cell).
+    lo, hi : ndarray of float, shape (n_crossings,)
+        The ends of each crossing's last interval (0 and 1 are the edge's cells, others samples) [-].
     n_samples : int
         Samples the bisection used.
     """
@@ -135,6 +137,8 @@ class Bisected:
     edge: np.ndarray
     t: np.ndarray
     band: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
     n_samples: int
 
 
@@ -176,7 +180,8 @@ def bisect(regime: np.ndarray, depth: int, sample: Sampler) -> Bisected:
     edge = np.array([w[0] for w in keep], dtype=np.int64)
     t = np.array([0.5 * (w[1] + w[2]) for w in keep], dtype=float)
     band = (r0[edge] != STANDING) & (r1[edge] != STANDING)
-    return Bisected(int(depth), i, j, axis, flag.astype(str), edge, t, band, n_samples)
+    lo, hi = (np.array([w[k] for w in keep], dtype=float) for k in (1, 2))
+    return Bisected(int(depth), i, j, axis, flag.astype(str), edge, t, band, lo, hi, n_samples)
 
 
 def _advance(work: list, mids: np.ndarray, got: np.ndarray, flag: np.ndarray, done: list) -> list:

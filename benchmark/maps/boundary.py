@@ -40,6 +40,9 @@ class LocatedBoundary:
         Each crossing's position along its edge [-].
     band : ndarray of bool, shape (n,)
         True for a side of a band thinner than a cell (an overturn(n) | overturn(m) edge).
+    valid : ndarray of bool, shape (n,)
+        Whether the map's runs on both sides of each crossing (the ends of its last interval: a
+        bisection sample, or a cell of its edge) are valid: the map is valid right at its boundary.
     edges : ndarray of int, shape (m, 3)
         Every edge bisected, ``(i, j, axis)``.
     flags : ndarray of str, shape (m,)
@@ -57,6 +60,7 @@ class LocatedBoundary:
     axis: np.ndarray
     t: np.ndarray
     band: np.ndarray
+    valid: np.ndarray
     edges: np.ndarray
     flags: np.ndarray
     n_samples: int = 0
@@ -82,8 +86,8 @@ class LocatedBoundary:
         fi, fj = far_end(ei, ej, ea)
         ekeep = cells[ei, ej] & cells[fi, fj] if self.edges.size else np.zeros(0, bool)
         return LocatedBoundary(self.depth, self.points[keep], self.cell_a[keep], self.cell_b[keep], self.axis[keep],
-                               self.t[keep], self.band[keep], self.edges[ekeep], self.flags[ekeep], self.n_samples,
-                               self.shape)
+                               self.t[keep], self.band[keep], self.valid[keep], self.edges[ekeep], self.flags[ekeep],
+                               self.n_samples, self.shape)
 
     def chords(self) -> np.ndarray:
         """The polyline's chords, shape (k, 2, 2): ``[[w0, a0], [w1, a1]]`` each (module docstring)."""
@@ -111,27 +115,47 @@ class LocatedBoundary:
                 "bisection_samples": self.n_samples}
 
 
-def from_bisection(b: Bisected, w_ratio: np.ndarray, a_ratio: np.ndarray) -> LocatedBoundary:
+def from_bisection(b: Bisected, w_ratio: np.ndarray, a_ratio: np.ndarray, valid_at=None) -> LocatedBoundary:
     """The boundary of a :class:`~rockbench.benchmark.maps.bisection.Bisected` on the axes ``w_ratio``
-    (columns) and ``a_ratio`` (rows) [-]."""
+    (columns) and ``a_ratio`` (rows) [-]; ``valid_at(i, j, axis, t)`` says whether the runs at
+    positions ``t`` along edges ``(i, j, axis)`` are valid (``t`` 0 and 1 are the edge's cells; None:
+    nothing is known to be valid)."""
     i, j, ax = b.i[b.edge], b.j[b.edge], b.axis[b.edge]
     fi, fj = far_end(i, j, ax)
+    valid = np.zeros(i.size, bool) if valid_at is None or not i.size else \
+        np.asarray(valid_at(i, j, ax, b.lo), bool) & np.asarray(valid_at(i, j, ax, b.hi), bool)
     w, a = np.asarray(w_ratio, float), np.asarray(a_ratio, float)
     pw = np.where(ax == ALONG_W, w[j] + b.t * (w[fj] - w[j]), w[j])
     pa = np.where(ax == ALONG_A, a[i] + b.t * (a[fi] - a[i]), a[i])
     edges = np.column_stack([b.i, b.j, b.axis]).astype(np.int64).reshape(-1, 3)
     return LocatedBoundary(b.depth, np.column_stack([pw, pa]).reshape(-1, 2), np.column_stack([i, j]).reshape(-1, 2),
                            np.column_stack([fi, fj]).reshape(-1, 2), ax.astype(np.int64), b.t.astype(float),
-                           b.band.astype(bool), edges, np.asarray(b.flag, dtype=str).reshape(-1), b.n_samples,
+                           b.band.astype(bool), valid, edges, np.asarray(b.flag, dtype=str).reshape(-1), b.n_samples,
                            (len(a), len(w)))
 
 
-def midpoint_boundary(outcome: np.ndarray, w_ratio, a_ratio, n_impacts=None) -> LocatedBoundary:
+def midpoint_boundary(outcome: np.ndarray, w_ratio, a_ratio, n_impacts=None, valid=None) -> LocatedBoundary:
     """The depth-0 boundary of a map without bisection samples: the midpoints of the edges between a
-    standing and an overturning cell (every overturn one regime when ``n_impacts`` is not given)."""
+    standing and an overturning cell (every overturn one regime when ``n_impacts`` is not given), valid
+    where both cells are (``valid``, default every cell with an outcome)."""
     o = np.asarray(outcome)
     n = np.zeros(o.shape, int) if n_impacts is None else np.asarray(n_impacts)
-    return from_bisection(bisect(regime_of(o, n), 0, _no_samples), w_ratio, a_ratio)
+    ok = o >= 0 if valid is None else np.asarray(valid, bool)
+    return from_bisection(bisect(regime_of(o, n), 0, _no_samples), w_ratio, a_ratio, cell_validity(ok, {}))
+
+
+def cell_validity(valid_cells: np.ndarray, samples: dict):
+    """``valid_at(i, j, axis, t)`` of a map: its cells' validity at ``t`` 0 and 1, its stored bisection
+    samples' (``{(i, j, axis, t): row}``, the row's ``valid``) in between; a position with no run is not
+    valid."""
+    def valid_at(i, j, axis, t):
+        fi, fj = far_end(i, j, axis)
+        out = np.where(t <= 0, valid_cells[i, j], np.where(t >= 1, valid_cells[fi, fj], False))
+        for k in np.nonzero((t > 0) & (t < 1))[0]:
+            row = samples.get((int(i[k]), int(j[k]), int(axis[k]), float(t[k])))
+            out[k] = row is not None and row["status"] == "ok" and str(row["valid"]).lower() in ("true", "1")
+        return out
+    return valid_at
 
 
 def _no_samples(i, j, axis, t):   # depth 0 asks for none
@@ -183,9 +207,10 @@ def _pair(ring: list) -> list:
     return [(p, q) for (_, p), (_, q) in best]
 
 
-def locate(regime: np.ndarray, w_ratio, a_ratio, depth: int, sample) -> LocatedBoundary:
-    """Bisect (:func:`~rockbench.benchmark.maps.bisection.bisect`) and place the crossings on the axes."""
-    return from_bisection(bisect(regime, depth, sample), w_ratio, a_ratio)
+def locate(regime: np.ndarray, w_ratio, a_ratio, depth: int, sample, valid_at=None) -> LocatedBoundary:
+    """Bisect (:func:`~rockbench.benchmark.maps.bisection.bisect`) and place the crossings on the axes;
+    ``valid_at`` as in :func:`from_bisection`, called after the bisection."""
+    return from_bisection(bisect(regime, depth, sample), w_ratio, a_ratio, valid_at)
 
 
 __all__ = ["LocatedBoundary", "from_bisection", "midpoint_boundary", "marching_chords", "locate", "CLEAN"]

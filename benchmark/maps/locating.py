@@ -16,7 +16,7 @@ from ...engines.base import CellResult
 from ...reference_solver.classify import Outcome
 from . import adaptive as adaptive_mod
 from .bisection import NO_REGIME, UNSAMPLED, AXIS_NAMES, overturn_regime, regime_key, sample_regime
-from .boundary import LocatedBoundary, locate
+from .boundary import LocatedBoundary, cell_validity, locate
 from .result import MapResult
 
 _OUTCOME_NAMES = {0: Outcome.REST.value, 1: Outcome.ROCKING.value, 2: Outcome.OVERTURN.value}
@@ -43,7 +43,13 @@ def stored_boundary(result: MapResult, samples: dict, depth: int) -> LocatedBoun
             out[k] = UNSAMPLED if row is None else sample_regime(row["status"], row["outcome"], row["n_impacts"])
         return out
 
-    return locate(cell_regimes(result), result.w_ratio, result.a_ratio, depth, sample)
+    return locate(cell_regimes(result), result.w_ratio, result.a_ratio, depth, sample,
+                  cell_validity(_valid_cells(result), samples))
+
+
+def _valid_cells(result: MapResult) -> np.ndarray:
+    """Cells known valid: simulated valid ones (an inferred cell's validity is not known)."""
+    return np.asarray(result.valid, bool) & np.asarray(result.simulated, bool) & (np.asarray(result.outcome) >= 0)
 
 
 def locate_in_sweep(sweep, depth: int) -> LocatedBoundary:
@@ -62,7 +68,8 @@ def locate_in_sweep(sweep, depth: int) -> LocatedBoundary:
         return np.array([sample_regime(memo[key]["status"], memo[key]["outcome"], memo[key]["n_impacts"])
                          for key in keys], dtype=int)
 
-    return locate(cell_regimes(sweep.result), sweep.result.w_ratio, sweep.result.a_ratio, depth, sample)
+    return locate(cell_regimes(sweep.result), sweep.result.w_ratio, sweep.result.a_ratio, depth, sample,
+                  cell_validity(_valid_cells(sweep.result), memo))
 
 
 def _run_samples(sweep, keys: list) -> list[dict]:

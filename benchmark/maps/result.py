@@ -143,7 +143,7 @@ class MapResult:
         midpoints of the edges between a standing and an overturning cell)."""
         if self.located is not None:
             return self.located
-        return midpoint_boundary(self.outcome, self.w_ratio, self.a_ratio)
+        return midpoint_boundary(self.outcome, self.w_ratio, self.a_ratio, valid=self.valid)
 
     def same_axes(self, other: "MapResult") -> bool:
         """Whether both maps lie on the same grid (within :data:`AXIS_RTOL`)."""

@@ -291,18 +291,61 @@ def boundary_distances(be: LocatedBoundary, br: LocatedBoundary) -> np.ndarray:
                            point_segment_distances(br.points, be.segments())])
 
 
-def boundary_distance(eng: MapResult, ref: MapResult) -> tuple[float, float]:
-    """(mean, max) symmetric distance between the overturn boundaries [w/a units].
+def judged_crossings(eng: MapResult, ref: MapResult) -> tuple[np.ndarray, np.ndarray]:
+    """Which located crossings of each map the boundary metrics count: ``(engine's, reference's)``,
+    boolean over :func:`boundary_of`'s crossings.
 
-    See :data:`METRICS` ``boundary_mean`` and ``boundary_max``. Symmetric in its arguments.
+    The domain is the reference's, known at the boundary below the cell: a reference crossing counts
+    when both cells of its edge are judged (:func:`judged_cells`), or when the reference's runs on
+    both sides of it (the ends of its last bisection interval) are valid and the engine map has both
+    cells; an engine crossing counts when both cells of its edge are judged, or when the nearest
+    reference crossing, within one cell diagonal, counts. A domain known only to the cell would count
+    a stretch of boundary or not by where the grid's nodes fall against lift-off regions thinner than
+    a cell (docs/scores.md, "The grid's resolution")."""
+    judged, _ = judged_cells(eng, ref)
+    have = ~missing(eng)
+    be, br = boundary_of(eng), boundary_of(ref)
+
+    def both(b, mask):
+        return mask[tuple(b.cell_a.T)] & mask[tuple(b.cell_b.T)] if b.n_crossings else np.zeros(0, bool)
+
+    count_r = both(br, judged) | (br.valid & both(br, have))
+    count_e = both(be, judged)
+    if be.n_crossings and br.n_crossings:
+        w, a = ref.w_ratio, ref.a_ratio
+        diag = math.hypot(w[1] - w[0] if w.size > 1 else 0.0, a[1] - a[0] if a.size > 1 else 0.0)
+        near, k = _nearest(be.points, br.points)
+        count_e |= (near <= diag) & count_r[k]
+    return count_e, count_r
+
+
+def _nearest(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each point of ``src``, the distance to the nearest point of ``dst`` and its index (both non-empty)."""
+    dist, idx = np.empty(src.shape[0]), np.empty(src.shape[0], np.int64)
+    for s in range(0, src.shape[0], 1024):
+        d = src[s:s + 1024, None, :] - dst[None, :, :]
+        d2 = np.einsum("ijk,ijk->ij", d, d)
+        idx[s:s + 1024] = np.argmin(d2, axis=1)
+        dist[s:s + 1024] = np.sqrt(d2[np.arange(d2.shape[0]), idx[s:s + 1024]])
+    return dist, idx
+
+
+def boundary_distance(eng: MapResult, ref: MapResult) -> tuple[float, float]:
+    """(mean, max) distance between the overturn boundaries over the crossings both maps' metrics count
+    (:func:`judged_crossings`), each to the other map's whole polyline [w/a units].
+
+    See :data:`METRICS` ``boundary_mean`` and ``boundary_max``. Symmetric in its arguments where the
+    reference is valid everywhere.
     """
     be, br = boundary_of(eng), boundary_of(ref)
-    if be.n_crossings == 0 and br.n_crossings == 0:
+    ce, cr = judged_crossings(eng, ref)
+    if not ce.any() and not cr.any():
         return 0.0, 0.0
-    if be.n_crossings == 0 or br.n_crossings == 0:
+    if be.n_crossings == 0 or br.n_crossings == 0 or not ce.any() or not cr.any():
         diag = math.hypot(ref.w_ratio[-1] - ref.w_ratio[0], ref.a_ratio[-1] - ref.a_ratio[0])
         return diag, diag
-    d = boundary_distances(be, br)
+    d = np.concatenate([point_segment_distances(be.points[ce], br.segments()),
+                        point_segment_distances(br.points[cr], be.segments())])
     return float(d.mean()), float(d.max())
 
 
@@ -418,8 +461,8 @@ class Compared:
 
     @cached_property
     def boundary(self) -> tuple[float, float]:
-        """:func:`boundary_distance` (mean, max) of the judged cells."""
-        return boundary_distance(*self.inside)
+        """:func:`boundary_distance` (mean, max) over the crossings in the reference's domain."""
+        return boundary_distance(self.eng, self.ref)
 
     @cached_property
     def critical(self) -> dict:
@@ -443,22 +486,24 @@ def within(m: MapResult, cells: np.ndarray) -> MapResult:
 
 
 def boundary_edges(eng: MapResult, ref: MapResult) -> int:
-    """How many located crossings (both maps', within the judged cells) ``boundary_mean`` averages over."""
-    judged, _ = judged_cells(eng, ref)
-    return int(boundary_points(within(eng, judged)).shape[0] + boundary_points(within(ref, judged)).shape[0])
+    """How many located crossings (both maps', :func:`judged_crossings`) ``boundary_mean`` averages over."""
+    ce, cr = judged_crossings(eng, ref)
+    return int(ce.sum() + cr.sum())
 
 
 def located_counts(eng: MapResult, ref: MapResult) -> dict[str, int]:
     """What the boundary metrics rest on, for score.json's ``cells``: the bisection depth the pair is
-    located to (the smaller of the two maps'), and within the judged cells each map's located
-    crossings and its edges flagged ``multiple`` (islands, tongues inside one edge) or ``failed``."""
+    located to (the smaller of the two maps'), the located crossings the metrics count
+    (:func:`judged_crossings`), and within the judged cells the edges flagged ``multiple`` (islands,
+    tongues inside one edge) or ``failed``."""
     judged, _ = judged_cells(eng, ref)
     be, br = boundary_of(eng), boundary_of(ref)
     ie, ir = be.within(judged), br.within(judged)
+    ce, cr = judged_crossings(eng, ref)
     return {"locate_depth": int(min(be.depth, br.depth)), "engine_locate_depth": int(be.depth),
             "reference_locate_depth": int(br.depth),
-            "located_crossings": ie.n_crossings + ir.n_crossings,
-            "engine_crossings": ie.n_crossings, "reference_crossings": ir.n_crossings,
+            "located_crossings": int(ce.sum() + cr.sum()),
+            "engine_crossings": int(ce.sum()), "reference_crossings": int(cr.sum()),
             "multiple_edges": ie.count(MULTIPLE) + ir.count(MULTIPLE),
             "failed_edges": ie.count(FAILED_EDGE) + ir.count(FAILED_EDGE)}
 
