@@ -135,6 +135,7 @@ BASE = ["map", "--engine", "analytic", "--block", "B6M", "--serial", "--no-plot"
     (["--a-ratio", "1:3:3"], "no frequency axis"),
     (["--w-ratio", "1:5:3", "--a-ratio", "1:3:3", "--jobs", "0"], "--jobs"),
     (["--w-ratio", "1:5:3", "--a-ratio", "1:3:3", "--cell-timeout", "-1"], "--cell-timeout"),
+    (["--w-ratio", "1:5:3", "--a-ratio", "1:3:3", "--locate-depth", "13"], "--locate-depth must be a whole number"),
     (["--w-ratio", "1:5:3", "--a-ratio", "1:3:3", "--engine", "refrence"], "Did you mean"),
 ])
 def test_map_bad_input_exit_2_one_line(tmp_path, capsys, extra, match):

@@ -79,6 +79,9 @@ def test_bad_suites(tmp_path, text, match):
      "modified-exact, modified:K or a number in (0, 1]."),
     ("[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\ncoarse_stride = 0\n",
      "suite s.toml: grid.coarse_stride must be a whole number >= 1, got 0."),
+    ("[grid]\nw_ratio = '1:16:11'\na_ratio = '1:12:9'\nlocate_depth = 13\n",
+     "suite s.toml: grid.locate_depth must be a whole number from 0 to 12 (rounds of bisection of each boundary "
+     "edge), got 13."),
     ("[grid]\nw_ratio = '16:1:5'\na_ratio = '1:2:3'\n",
      "suite s.toml: grid.w_ratio range is reversed (16 > 1); give LO:HI:N with LO < HI."),
 ])

@@ -10,9 +10,10 @@ docs/scores.md argues each rule:
   another size have the same α and η_H and the same reference map in the normalised plane, so they
   repeat a problem rather than pose a new one: the statistics average a cluster's sizes and count the
   cluster once.
-- **Resolution.** A boundary is known only to lie inside its cells, so each scenario's value carries
-  its own error (:func:`resolution_sd`, measured against a finer grid), which the intervals add to the
-  spread over clusters and the comparisons to the differences.
+- **Resolution.** A boundary is located on its grid to a tolerance (bisected below the cell, or at
+  depth 0 known only to its cells), so each scenario's value carries its own error
+  (:func:`resolution_sd`, measured against a 401 × 401 truth), which the intervals add to the spread
+  over clusters and the comparisons to the differences.
 - **Identical answers.** Two variants of one engine whose maps hold the same outcome in every cell of
   every scenario they share (or whose calibration says it picked the shipped settings) are one entry.
 """
@@ -90,25 +91,40 @@ class Variant:
         return sum(vals) / len(vals) if vals else math.nan
 
 
-#: A scenario's own error from the grid, as a share of its cell diagonal [-]: the measured root mean
-#: square error of the cell-level boundary distance against a grid eight times finer, over grid
-#: phases, for the reference solver's own boundaries shifted by a restitution 0.5–2 % off, is
-#: 0.02–0.09 diagonals in the eight block × pulse × shift cases (docs/scores.md, "The grid's
-#: resolution"); 0.1 is the largest, rounded up.
+#: A scenario's own error from the grid at depth 0 (the boundary known only to its cells), as a share of
+#: its cell diagonal [-]: the measured root mean square error of the cell-level boundary distance
+#: against a grid eight times finer was 0.02–0.09 diagonals (metrics version 6); 0.1 is the largest,
+#: rounded up. Also taken for depths 1–3, which were not measured.
 RESOLUTION_SD_CELLS = 0.1
 
+#: A scenario's own error from the grid for boundaries located below the cell, as a share of its cell
+#: diagonal [-], by the bisection depth its pair is located to (the smaller of its two maps'): the
+#: largest root mean square error measured against the 401 × 401 truth at that depth, over B3M and B6M ×
+#: sine and cosine × η 0.5, 1 and 2 % below η_H and the grids measured at that depth, rounded up
+#: (docs/scores.md, "The grid's resolution"; ``tests/measurements/probes/probe_resolution.py truth``).
+#: A depth beyond the deepest measured takes the deepest's share.
+RESOLUTION_SD_LOCATED = {4: 0.04, 5: 0.04, 6: 0.04}
 
-def resolution_sd(cell: float) -> float:
-    """The standard error of a scenario's boundary distance from the grid alone [w/a units]:
-    :data:`RESOLUTION_SD_CELLS` of its cell diagonal ``cell``.
 
-    Each boundary is known only to lie inside its cells, and where inside differs from map to map, so
-    the distance between two maps' boundaries errs by up to a cell whatever their true distance. The
-    error does not average out over a boundary's edges: along a stretch of boundary the edges share
-    one phase against the grid and move together (a boundary along a grid line moves all of them by
-    one step at once), so it is a share of the cell, not of the cell over √edges.
+def resolution_share(locate_depth: int = 0) -> float:
+    """The share of the cell diagonal :func:`resolution_sd` takes at ``locate_depth`` [-]."""
+    measured = [d for d in RESOLUTION_SD_LOCATED if d <= locate_depth]
+    return RESOLUTION_SD_LOCATED[max(measured)] if measured else RESOLUTION_SD_CELLS
+
+
+def resolution_sd(cell: float, locate_depth: int = 0) -> float:
+    """The standard error of a scenario's boundary distance from the grid alone [w/a units]: a measured
+    share of its cell diagonal ``cell`` at the bisection depth its boundaries are located to
+    (:func:`resolution_share`).
+
+    At depth 0 each boundary is known only to lie inside its cells, and where inside differs from map
+    to map, so the distance between two maps' boundaries errs by up to a cell whatever their true
+    distance; the error does not average out over a boundary's edges (along a stretch of boundary the
+    edges share one phase against the grid and move together). Located below the cell, what is left
+    is mostly what the grid still cannot see: the tip of a tongue between two nodes, a feature thinner
+    than a cell that no node falls in, and where the reference's domain is decided by cells.
     """
-    return max(cell, _TINY) * RESOLUTION_SD_CELLS
+    return max(cell, _TINY) * resolution_share(locate_depth)
 
 
 #: The cell of a grid without one (one row or column), so that its error and failing limit are not 0.
@@ -130,7 +146,8 @@ def scenario_of(p: dict, gaps: dict | None = None) -> Scenario:
     value = p["scores"].get(PRIMARY_METRIC)
     c = p.get("cells") or {}
     cell = math.hypot(float(c.get("w_step", 0.0)), float(c.get("a_step", 0.0)))
-    return Scenario(math.nan if value is None else float(value), resolution_sd(cell), max(cell, _TINY),
+    depth = c.get("locate_depth", 0)
+    return Scenario(math.nan if value is None else float(value), resolution_sd(cell, int(depth or 0)), max(cell, _TINY),
                     cluster_of(p), (gaps or {}).get((p["block"], p["pulse"]), math.nan),
                     p.get("engine_cells"), bool(p.get("held_out")))
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ....reference_solver.errors import ConfigError, EngineError
 from ...engine_info.health import EngineCannotSimulate, cannot_simulate_line, common_error
-from ...maps.bisection import DEFAULT_DEPTH
+from ...maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
 from ...maps.grid import MAP_PULSES, MapSpec, parse_range
 from ...maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
 from ...report.plots.picture import MapPicture
@@ -97,6 +97,8 @@ def run(args) -> int:
         raise ConfigError(f"--cell-timeout must be a number of seconds > 0, got {args.cell_timeout!r}.") from None
     if args.coarse_stride is not None and args.coarse_stride < 1:
         raise ConfigError(f"--coarse-stride must be >= 1, got {args.coarse_stride}.")
+    if not 0 <= args.locate_depth <= MAX_DEPTH:
+        raise ConfigError(f"--locate-depth must be a whole number from 0 to {MAX_DEPTH}, got {args.locate_depth}.")
     formats = figure_formats_from_args(args)
     check_output_dir(args.out, "--out")
     quiet = args.json or not sys.stderr.isatty()

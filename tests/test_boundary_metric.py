@@ -1,0 +1,82 @@
+"""The boundary metrics on hand-made located boundaries: straight boundaries bisected to a known
+tolerance, shifted by a known distance."""
+
+import math
+
+import numpy as np
+import pytest
+
+from rockbench.benchmark.maps.bisection import ALONG_A, ALONG_W, regime_of
+from rockbench.benchmark.maps.boundary import locate
+from rockbench.benchmark.maps.result import MapResult
+from rockbench.benchmark.scoring.metrics import (OVERTURN, ROCKING, boundary_distance, critical_amplitude,
+                                               is_perfect, judged_crossings, score)
+
+W = A = np.linspace(0.0, 10.0, 21)   # steps of 0.5
+DEPTH = 12                           # a step over 4096: far below the shifts tested
+
+
+def straight(c0: float, slope: float, valid=None) -> MapResult:
+    """A map overturning above a = c0 + slope·w, its boundary located by bisecting the exact line."""
+    def over(w, a):
+        return a >= c0 + slope * w
+
+    outcome = np.where(over(W[None, :], A[:, None]), OVERTURN, ROCKING)
+    m = MapResult.from_outcomes(W, A, outcome, valid=valid)
+    regime = regime_of(outcome, np.zeros(outcome.shape, int))
+
+    def sample(i, j, axis, t):
+        w = W[j] + t * (W[1] - W[0]) * (axis == ALONG_W)
+        a = A[i] + t * (A[1] - A[0]) * (axis == ALONG_A)
+        return np.where(over(w, a), 1, 0)
+
+    valid_cells = np.ones(outcome.shape, bool) if valid is None else np.asarray(valid, bool)
+    m.located = locate(regime, W, A, DEPTH, sample, lambda i, j, axis, t: np.where(
+        t <= 0, valid_cells[i, j], np.where(t >= 1, valid_cells[i + (axis == ALONG_A), j + (axis == ALONG_W)], True)))
+    return m
+
+
+def test_a_boundary_shifted_by_delta_gives_delta():
+    delta = 0.137   # a quarter of a step, not a whole one: the cells alone would say 0 or 0.5
+    mean, mx = boundary_distance(straight(4.3 + delta, 0.0), straight(4.3, 0.0))
+    assert mean == pytest.approx(delta, abs=1e-3) and mx == pytest.approx(delta, abs=1e-3)
+
+
+def test_a_slanted_boundary_shifted_by_delta_gives_delta_cos_not_the_offset_along_the_grid():
+    """Two parallel lines a = 2 + 0.6 w and δ above it lie δ·cos(atan 0.6) apart; the crossings of
+    both lie on the same grid lines, so point to point they would read the vertical offset δ (on the
+    columns) or δ/0.6 (on the rows). Only the two crossings at the lines' ends, whose feet fall past
+    the other line's end, read δ."""
+    delta = 0.2
+    mean, mx = boundary_distance(straight(2.0 + delta, 0.6), straight(2.0, 0.6))
+    want = delta * math.cos(math.atan(0.6))
+    assert mean == pytest.approx(want, rel=0.02)
+    assert abs(mean - delta) > 0.1 * delta
+    assert mx == pytest.approx(delta, abs=1e-3)
+
+
+def test_symmetric_and_perfect_against_itself():
+    a, b = straight(2.0, 0.6), straight(2.3, 0.45)
+    assert boundary_distance(a, b) == pytest.approx(boundary_distance(b, a), rel=1e-12)
+    assert is_perfect(score(a, a)) and score(a, a)["boundary_mean"] == 0.0
+
+
+def test_critical_amplitude_is_the_located_crossing():
+    m = straight(4.3, 0.0)
+    np.testing.assert_allclose(critical_amplitude(m), 4.3, atol=0.5 * 0.5 / 2 ** DEPTH)
+    s = score(straight(4.5, 0.0), m)
+    assert s["critical_error_mean"] == pytest.approx(0.2, abs=1e-3)
+
+
+def test_domain_counts_a_crossing_where_the_reference_is_valid_at_the_boundary():
+    """Reference cells invalid above the line (an overturn that needs lift-off) but its runs valid right
+    at the boundary: the cells alone would judge no crossing; the located domain judges them all."""
+    valid = A[:, None] < 4.3 + 0 * W[None, :]
+    ref = straight(4.3, 0.0, valid=valid)
+    ref.located.valid[:] = True      # its bisection's last samples on both sides are valid
+    eng = straight(4.4, 0.0)
+    ce, cr = judged_crossings(eng, ref)
+    assert cr.all() and ce.all()
+    ref.located.valid[:] = False     # invalid right above the boundary too: nothing is judged
+    ce, cr = judged_crossings(eng, ref)
+    assert not cr.any() and not ce.any()
