@@ -80,3 +80,15 @@ def test_domain_counts_a_crossing_where_the_reference_is_valid_at_the_boundary()
     ref.located.valid[:] = False     # invalid right above the boundary too: nothing is judged
     ce, cr = judged_crossings(eng, ref)
     assert not cr.any() and not ce.any()
+
+
+def test_resolution_error_by_locate_depth():
+    """A scenario's own error is the measured share of its cell diagonal at its pair's bisection depth:
+    0.1 known to the cell (depth 0, and the unmeasured 1–3), 0.01 located at depth 4 and more."""
+    from rockbench.benchmark.scoring.scenarios import resolution_sd, scenario_of
+
+    assert resolution_sd(0.372) == pytest.approx(0.0372) and resolution_sd(0.372, 3) == pytest.approx(0.0372)
+    assert resolution_sd(0.372, 4) == pytest.approx(0.00372) and resolution_sd(0.372, 9) == pytest.approx(0.00372)
+    pair = {"block": "B3M", "pulse": "sine", "scores": {"boundary_mean": 0.01},
+            "cells": {"w_step": 0.3, "a_step": 0.22, "locate_depth": 5}}
+    assert scenario_of(pair).sd == pytest.approx(0.01 * math.hypot(0.3, 0.22))

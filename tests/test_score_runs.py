@@ -214,11 +214,12 @@ def test_cells_csv_from_another_tool_is_read_by_its_cli_columns(write_map, band,
     assert code == 5 and "lacks the column" in err
 
 
-@pytest.mark.parametrize("old_version", ["1", "3", "4", "5"])
+@pytest.mark.parametrize("old_version", ["1", "3", "4", "5", "6"])
 def test_compare_refuses_older_metrics_versions(write_map, band, tmp_path, capsys, old_version):
-    """Version 5's verdict (a resolution error of 0.2 cell), version 4's (a floor in log ratios, a
-    resolution error over √edges), version 3's (scenarios as replicates, no worst-scenario rule) and
-    version 1's judging are not comparable with version 6's: exit 5, saying which versions."""
+    """Version 6's boundaries known to their cells, version 5's verdict (a resolution error of 0.2 cell),
+    version 4's (a floor in log ratios, a resolution error over √edges), version 3's (scenarios as
+    replicates, no worst-scenario rule) and version 1's judging are not comparable with version 7's
+    located boundaries: exit 5, saying which versions."""
     a = tmp_path / "a"
     write_map(a / "ref", band(8, 8, 3))
     write_map(a / "eng", band(8, 8, 3), engine="mujoco")
@@ -227,7 +228,7 @@ def test_compare_refuses_older_metrics_versions(write_map, band, tmp_path, capsy
     old["metrics_version"] = old_version
     (tmp_path / "old.json").write_text(json.dumps(old))
     code, _, err = run_cli(capsys, "compare", tmp_path / "old.json", a / "score.json")
-    assert code == 5 and f"metrics version {old_version}, current 6" in err and "Traceback" not in err
+    assert code == 5 and f"metrics version {old_version}, current 7" in err and "Traceback" not in err
 
 
 def test_scoring_half_a_reference_map_exits_5(write_map, band, tmp_path, capsys):

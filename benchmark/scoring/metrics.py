@@ -180,7 +180,8 @@ _METRIC_LIST = [
     Metric("boundary_mean",
            "Mean distance, in the normalised plane (ω/p, a0/(g·tanα)), from each located crossing of one "
            "map's overturning boundary to the other map's boundary polyline (point to segment), both maps' "
-           "crossings pooled, over the edges whose two cells are judged. A crossing is located by bisecting "
+           "crossings pooled, over the crossings in the reference's domain (judged by its runs right at the "
+           "boundary, or by the edge's two cells). A crossing is located by bisecting "
            "a cell edge between a standing and an overturning cell (or inside a thin band) to the map's "
            "locate depth; the polyline joins the crossings by marching squares. 0 when both boundaries are "
            "empty; the map diagonal when only one is.",
