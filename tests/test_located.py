@@ -20,12 +20,11 @@ from rockbench.benchmark.store.files import SAMPLE_COLUMNS, read_samples
 from rockbench.benchmark.store.loading import load_entry, load_map
 from rockbench.reference_solver.errors import IncomparableError
 from rockbench.reference_solver.model import G
-from rockbench.reference_solver.restitution import Restitution
+from rockbench.reference_solver.pulses import make_pulse
+from rockbench.reference_solver.restitution import Restitution, modified_eta
 from rockbench.reference_solver.solver import solve_batch
 
 from ivp_baseline import critical_amplitude as event_critical_amplitude, solve_events
-from rockbench.reference_solver.pulses import make_pulse
-from rockbench.reference_solver.restitution import modified_eta
 
 
 def analytic_spec(n=12):

@@ -15,11 +15,12 @@ the boundary.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from .bisection import ALONG_A, ALONG_W, CLEAN, MULTIPLE, Bisected, bisect, far_end, regime_of
+from .bisection import ALONG_A, ALONG_W, MULTIPLE, Bisected, bisect, far_end, regime_of
 
 
 @dataclass(frozen=True)
@@ -65,7 +66,6 @@ class LocatedBoundary:
     flags: np.ndarray
     n_samples: int = 0
     shape: tuple = (0, 0)
-    _chords: list = field(default_factory=list, repr=False, compare=False)
 
     @property
     def n_crossings(self) -> int:
@@ -91,9 +91,11 @@ class LocatedBoundary:
 
     def chords(self) -> np.ndarray:
         """The polyline's chords, shape (k, 2, 2): ``[[w0, a0], [w1, a1]]`` each (module docstring)."""
-        if not self._chords:
-            self._chords.append(marching_chords(self.points, self.cell_a, self.axis, self.t, self.shape))
-        return self._chords[0]
+        return self._chords
+
+    @cached_property
+    def _chords(self) -> np.ndarray:
+        return marching_chords(self.points, self.cell_a, self.axis, self.t, self.shape)
 
     def segments(self) -> np.ndarray:
         """What a distance to this boundary is measured to, shape (k, 2, 2): its chords, and each
@@ -212,5 +214,3 @@ def locate(regime: np.ndarray, w_ratio, a_ratio, depth: int, sample, valid_at=No
     ``valid_at`` as in :func:`from_bisection`, called after the bisection."""
     return from_bisection(bisect(regime, depth, sample), w_ratio, a_ratio, valid_at)
 
-
-__all__ = ["LocatedBoundary", "from_bisection", "midpoint_boundary", "marching_chords", "locate", "CLEAN"]

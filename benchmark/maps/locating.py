@@ -15,7 +15,7 @@ import numpy as np
 from ...engines.base import CellResult
 from ...reference_solver.classify import Outcome
 from . import adaptive as adaptive_mod
-from .bisection import NO_REGIME, UNSAMPLED, AXIS_NAMES, overturn_regime, regime_key, sample_regime
+from .bisection import AXIS_NAMES, UNSAMPLED, overturn_regime, regime_key, sample_regime
 from .boundary import LocatedBoundary, cell_validity, locate
 from .result import MapResult
 
@@ -132,5 +132,3 @@ def boundary_rows(b: LocatedBoundary) -> list[list]:
              flag_of.get((int(b.cell_a[k, 0]), int(b.cell_a[k, 1]), int(b.axis[k])), "")]
             for k in range(b.n_crossings)]
 
-
-__all__ = ["cell_regimes", "stored_boundary", "locate_in_sweep", "boundary_rows", "NO_REGIME"]
