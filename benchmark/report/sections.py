@@ -148,6 +148,15 @@ def pairs_table(doc, labels):
     return head, body
 
 
+def _located(opts: dict, summ: dict) -> str:
+    """How a map's boundary is located, for the maps table: ``; boundary bisected 4× (1,234 samples)``."""
+    depth = opts.get("locate_depth")
+    if not depth:
+        return "; boundary at the cell"
+    n = summ.get("bisection_samples")
+    return f"; boundary bisected {depth}×" + (f" ({n:,} samples)" if isinstance(n, int) else "")
+
+
 def _flat(d, prefix="") -> list[str]:
     """Nested settings as ``key = value`` lines (lists and long texts shortened)."""
     out = []
@@ -186,8 +195,9 @@ def settings_tables(entries: list[MapEntry], labels) -> dict:
         maps.append([labels.get(e.variant, e.variant) if not e.is_reference else "reference solver", e.block, e.pulse,
                      restitution_symbol(e.restitution, e.block), f"{e.eta:.4f}",
                      f"{g['n_w']}×{g['n_a']}: ω/p {g['w_lo']:g}–{g['w_hi']:g}, a {g['a_lo']:g}–{g['a_hi']:g}",
-                     ("adaptive, " + _num(100 * summ.get("fraction_simulated", math.nan), ".0f") + " % simulated")
-                     if opts.get("adaptive") else "full", _num(spec.get("dt_s"), "g") if spec.get("dt_s") else "default",
+                     (("adaptive, " + _num(100 * summ.get("fraction_simulated", math.nan), ".0f") + " % simulated")
+                      if opts.get("adaptive") else "full") + _located(opts, summ),
+                     _num(spec.get("dt_s"), "g") if spec.get("dt_s") else "default",
                      str(r.get("created_utc") or ""), _num(summ.get("wall_s"), ".1f")])
         git = r.get("git") or {}
         for k, v in (("rockbench", r.get("rockbench_version")),
