@@ -256,6 +256,12 @@ def draw_boundary(ax, m, *, label=None, zorder=3, **style):
     return lc, isl
 
 
+def extra_handle(m):
+    """The legend entry of what :func:`draw_boundary` returns beside its lines for map ``m``: the crosses
+    of a located boundary's ``multiple`` edges, or the outlines of a cell-level boundary's islands."""
+    return multiple_handle() if located_of(m) is not None else island_handle()
+
+
 def island_handle():
     """The legend entry of the islands' outlines."""
     from matplotlib.patches import Patch  # matplotlib on first drawing (start-up time)
@@ -558,7 +564,8 @@ def _panel_references(ax, refs, handles: dict) -> tuple[dict, dict]:
                                 label=for_matplotlib(label))
         if isl is not None:
             islands[label] = isl
-            handles[ISLAND_LABEL] = island_handle()
+            h = extra_handle(m)
+            handles[h.get_label()] = h
     return lines, islands
 
 
@@ -749,7 +756,7 @@ def _boundaries(ax, maps, labels, handles: list) -> list:
     to ``handles``. Returns the ContourSets drawn."""
     from matplotlib.lines import Line2D  # matplotlib on first drawing (start-up time)
 
-    drawn, islands = [], False
+    drawn, extras = [], {}
     for k, (res, lab) in enumerate(zip(maps, labels)):
         st = {**REFERENCE_STYLES[k % len(REFERENCE_STYLES)], "color": COLORS[k % len(COLORS)]}
         cs, isl = draw_boundary(ax, res, label=for_matplotlib(lab), zorder=3.5 - 0.1 * k, **st)
@@ -757,9 +764,10 @@ def _boundaries(ax, maps, labels, handles: list) -> list:
             drawn.append(cs)
         handles.append(Line2D([], [], color=st["color"], lw=st["linewidth"], ls=st["linestyle"],
                               label=for_matplotlib(lab)))
-        islands = islands or isl is not None
-    if islands:
-        handles.append(island_handle())
+        if isl is not None:
+            h = extra_handle(res)
+            extras.setdefault(h.get_label(), h)
+    handles.extend(extras.values())
     return drawn
 
 
@@ -839,7 +847,7 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
         if boundary is not None:
             handles.append(Line2D([], [], color="k", lw=1.7, label=label))
         if islands is not None:
-            handles.append(multiple_handle() if located_of(ref) is not None else island_handle())
+            handles.append(extra_handle(ref))
     own = located_of(result) if not is_ref else None
     if own is not None and own.n_crossings:
         draw_located(ax, own, zorder=3.6, **ENGINE_LINE)
