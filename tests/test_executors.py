@@ -297,4 +297,5 @@ def test_local_cluster_leaves_no_scratch_space(analytic_truth, tmp_path, monkeyp
     finally:
         tempfile.tempdir = None
     assert list((tmp_path / "tmp").iterdir()) == []
-    assert sorted(p.name for p in (tmp_path / "m").iterdir()) == [".lock", "cells.csv", "run.json"]
+    assert sorted(p.name for p in (tmp_path / "m").iterdir()) == [".lock", "bisection.csv", "boundary.csv", "cells.csv",
+                                                                   "run.json"]
