@@ -174,3 +174,16 @@ def test_critical_amplitude_agrees_with_the_event_driven_solution(tmp_path):
                                                           make_pulse("sine", a, w))["outcome"],
                                    0.9 * (a_loc - 1.0) * scale, 1.1 * (a_loc + 1.0) * scale) / scale
     assert a_loc == pytest.approx(a_e, abs=0.5 / 2 ** depth + 5e-3 * a_e)
+
+
+@pytest.mark.usefixtures("fake_engines")
+def test_a_damaged_sample_row_is_named(tmp_path):
+    from rockbench.reference_solver.errors import ConfigError
+
+    d = tmp_path / "m"
+    run_map(analytic_spec(), d, serial=True, locate_depth=3)
+    lines = (d / "bisection.csv").read_text().splitlines(keepends=True)
+    lines[2] = lines[2].rsplit(",", 1)[0] + ",1.5\n"       # t outside (0, 1)
+    (d / "bisection.csv").write_text("".join(lines))
+    with pytest.raises(ConfigError, match=r"bisection.csv' line 3: t '1.5' is not a number between 0 and 1"):
+        load_map(d)
