@@ -31,6 +31,7 @@ from ...reference_solver.restitution import Restitution
 from ..blocks.cases import FIG17, TrajectoryCase
 from ..blocks.experiments import restitution_targets, st_limit_a_ratio
 from ..blocks.presets import PRESETS, get_preset
+from ..scoring.declared import declared_of_runs
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
 from ..scoring.metrics import PRIMARY_METRIC
 from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
@@ -50,7 +51,7 @@ from .sections import SPEED_METRICS
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
                  trajectories: bool = True, log=None, allow_incomplete=False,
-                 figure_formats=("png",)) -> dict:
+                 figure_formats=("png",), declared=None) -> dict:
     """Write the report of the maps under ``run_dirs`` into ``out_dir``.
 
     Parameters
@@ -76,6 +77,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     figure_formats : sequence of str
         The formats of the pictures in ``img/`` (``png``, ``svg``, ``pdf``); the PNG is always
         written too, since index.html embeds it and report.md links it.
+    declared : Declared, optional
+        The verdict's declarations (default: those of the runs' suite.json, else the code's).
 
     Returns
     -------
@@ -92,7 +95,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    sc = _Scored.of(run_dirs, against, experiments, allow_incomplete)
+    sc = _Scored.of(run_dirs, against, experiments, allow_incomplete, declared)
     notes = sc.notes
     images: dict[str, bytes] = {}
     widths: dict[str, float] = {}
@@ -134,7 +137,7 @@ class _Scored:
     notes: list
 
     @classmethod
-    def of(cls, run_dirs, against, experiments, allow_incomplete=False) -> "_Scored":
+    def of(cls, run_dirs, against, experiments, allow_incomplete=False, declared=None) -> "_Scored":
         entries, run_of = load_runs(run_dirs)
         refs = load_entries(against) if against else [e for e in entries if e.is_reference]
         cands = entries if against else [e for e in entries if not e.is_reference]
@@ -143,7 +146,8 @@ class _Scored:
         own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
         try:
             doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with,
-                                allow_incomplete=allow_incomplete)
+                                allow_incomplete=allow_incomplete,
+                                declared=declared or declared_of_runs(run_of.values()))
             mark_runs(doc, run_of, against=bool(against), notes=notes)
         except IncomparableError as e:
             notes.append(f"No scores: {e}")

@@ -73,6 +73,7 @@ class Variant:
     shipped_note: str = ""                           # what its adapter says about its shipped settings
     equals_shipped: bool = False                     # its calibration picked the shipped settings
     in_sample: str = ""                              # held out: the variant calibrated on each block itself
+    planted_factor: float | None = None              # planted: the factor on the reference's restitution
 
     @property
     def held_out_only(self) -> bool:
@@ -113,6 +114,13 @@ def resolution_sd(cell: float) -> float:
 
 #: The cell of a grid without one (one row or column), so that its error and failing limit are not 0.
 _TINY = 1e-12
+
+
+def items(v: Variant, held_out: bool = False) -> dict:
+    """``{(block, pulse): (value, sd, cluster)}`` of a variant's scenarios with a value, in-sample or
+    held-out: the items of :mod:`~rockbench.benchmark.scoring.statistics`."""
+    return {k: (s.value, s.sd, s.cluster) for k, s in v.scenarios.items()
+            if math.isfinite(s.value) and s.held_out == held_out}
 
 
 def cluster_of(p: dict) -> tuple:
@@ -160,7 +168,8 @@ def variants_of(doc: dict) -> list[Variant]:
                     first.get("settings") or settings_class(None, name),
                     shipped_note=next((p["shipped_note"] for p in use if p.get("shipped_note")), ""),
                     equals_shipped=bool(use) and all(p.get("equals_shipped") is True for p in use),
-                    in_sample=next((p["in_sample_variant"] for p in use if p.get("in_sample_variant")), ""))
+                    in_sample=next((p["in_sample_variant"] for p in use if p.get("in_sample_variant")), ""),
+                    planted_factor=_planted_factor(use))
         for p in use:
             v.scenarios[(p["block"], p["pulse"])] = scenario_of(p, gaps)
             for k in _SUMMED:
@@ -168,6 +177,15 @@ def variants_of(doc: dict) -> list[Variant]:
             v.cells_missing += int(p.get("cells_missing") or 0)
         out.append(v)
     return out
+
+
+def _planted_factor(pairs: list[dict]) -> float | None:
+    """The restitution factor a planted variant's pairs record (``planted_eta_factor``), else None."""
+    for p in pairs:
+        f = p.get("planted_eta_factor")
+        if isinstance(f, (int, float)) and not isinstance(f, bool) and math.isfinite(f):
+            return float(f)
+    return None
 
 
 def identical(a: Variant, b: Variant) -> bool:

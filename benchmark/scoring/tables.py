@@ -7,7 +7,8 @@ import math
 import textwrap
 
 from .metrics import METRICS, PRIMARY_METRIC
-from .verdict import METHOD, number, verdict
+from .verdict import verdict
+from .verdict_words import METHOD, number
 
 def fmt(name: str, v) -> str:
     """A metric's value as tables write it (:meth:`~rockbench.benchmark.scoring.metrics.Metric.format`)."""
@@ -166,8 +167,9 @@ SCENARIO_TITLE = ("Per scenario: boundary distance of each variant ('!' beyond o
 
 
 def method_line(doc: dict) -> str:
-    """How the ranks were made, in one sentence (under every summary table)."""
-    return verdict_of(doc).get("method") or METHOD
+    """How the values and ranks were made (under every summary table)."""
+    m = verdict_of(doc).get("method") or METHOD
+    return " ".join(m[k] for k in ("value", "comparisons", "failing") if k in m)
 
 
 def scenario_rows(doc: dict) -> tuple[list[str], list[list[str]]]:
