@@ -21,6 +21,7 @@ Two kinds of inference are kept apart:
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Hashable, Sequence
 
@@ -137,11 +138,18 @@ def dunnett_critical(lambdas: Sequence[float], confidence: float = CONFIDENCE) -
     comparison gives the normal's one-sided quantile, none gives 0. tests/test_inference.py checks it
     against SciPy's multivariate normal.
     """
-    lam = [min(max(float(x), 0.0), 0.999999) for x in lambdas]
+    lam = tuple(sorted(round(min(max(float(x), 0.0), 0.999999), 9) for x in lambdas))
     if not lam:
         return 0.0
     if len(lam) == 1:
         return z_one_sided(confidence)
+    return _dunnett(lam, float(confidence))
+
+
+@functools.lru_cache(maxsize=512)
+def _dunnett(lam: tuple, confidence: float) -> float:
+    """:func:`dunnett_critical` for sorted, rounded correlations (cached: a class's comparisons, or a
+    simulation's draws, share them)."""
     from scipy import integrate, optimize  # SciPy on first use (start-up time)
     st = _stats()
 
