@@ -1,8 +1,10 @@
 """The benchmark report: ``index.html`` (self-contained) and ``report.md`` with its pictures (this module
 gathers the maps, scores and pictures; :mod:`.sections` builds the tables, :mod:`.page` writes the pages).
 
-The first screen answers "which engine is how faithful, and why": the summary table (one row per
-engine variant, in words such as "MuJoCo 4.0, calibrated to η_H"), each metric explained in words
+The first screen answers "which engine is how faithful, and how sure is that": the verdict as a
+picture (a forest plot of every variant's value and interval, :mod:`.plots.verdict`) beside the
+verdict in at most 120 words, the full sentences collapsed below it. Then the summary table (one row
+per engine variant, in words such as "MuJoCo 4.0, calibrated to η_H"), each metric explained in words
 (the definitions of :data:`~rockbench.benchmark.scoring.metrics.METRICS`), then one stability figure per
 engine variant (small multiples, one panel per block and pulse). Then θ(t) of the reference and
 every engine for chosen cases (the paper's Fig. 17 case by default), the calibration (η per engine
@@ -46,6 +48,7 @@ from .plots.output import figure_bytes
 from .plots.speed import plot_speed_accuracy
 from .plots.stability import REFERENCE_STYLES, plot_panels
 from .plots.trajectories import plot_theta
+from .plots.verdict import plot_verdict
 from .sections import SPEED_METRICS
 
 
@@ -112,9 +115,10 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     pair_of = _like_pairs(sc.doc)
     variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
+    verdict_img = _verdict_figure(sc.doc, save)
     traj_imgs = _trajectory_figures(cases, out / FOLDER, save, notes) if trajectories else []
     speed = _speed_rows(sc.entries, sc.doc)
-    ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
+    ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "verdict_img": verdict_img, "variant_graphs": variant_graphs,
            "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
            "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
            "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
@@ -166,6 +170,15 @@ def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
         except RockbenchError as e:
             notes.append(f"θ(t) for {case.title or case.block}: not drawn ({e})")
     return out
+
+
+def _verdict_figure(doc: dict | None, save) -> str | None:
+    """The verdict as a forest plot (:func:`~rockbench.benchmark.report.plots.verdict.plot_verdict`);
+    None without scores or without a variant to draw."""
+    if not doc or not any(r["value"] is not None or r["held_out"] for r in doc["verdict"]["variants"]):
+        return None
+    drawn = plot_verdict(doc["verdict"])
+    return save(drawn["figure"], "verdict.png")
 
 
 def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:

@@ -158,12 +158,13 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
 
 
 #: The title of the summary table on a terminal and in Markdown.
-SUMMARY_TITLE = ("Summary (mean over like-for-like pairs; rank = the variant's tie group on the boundary distance, "
-                 "the method under the table)")
+SUMMARY_TITLE = ("Summary (mean over like-for-like pairs; rank 1: may be the best of its settings class, 2: resolved "
+                 "behind it, the method under the table)")
 
 #: The title of the per-scenario table.
-SCENARIO_TITLE = ("Per scenario: boundary distance of each variant ('!' beyond one cell: it fails there; 'held out': "
-                  "calibrated on another block), and the distance between the η_H and η_M reference boundaries")
+SCENARIO_TITLE = ("Per scenario: boundary distance of each variant ('!' beyond the declared fail distance: it fails "
+                  "there; 'held out': calibrated on another block), and the distance between the η_H and η_M "
+                  "reference boundaries")
 
 
 def method_line(doc: dict) -> str:

@@ -31,7 +31,7 @@ COLOURS = {"calibrated": OKABE_ITO["blue"], "as-shipped": OKABE_ITO["orange"], "
            "held-out": OKABE_ITO["sky_blue"], "planted": OKABE_ITO["green"], "fails": OKABE_ITO["vermillion"]}
 
 #: Height of one row [in] and the room above and below the rows (title, axis, legend) [in].
-ROW_IN, FRAME_IN = 0.17, 1.15
+ROW_IN, FRAME_IN = 0.15, 1.0
 
 
 def verdict_rows(v: dict) -> list[dict]:
@@ -136,9 +136,9 @@ def plot_verdict(v: dict, *, ax=None) -> dict:
     ax.set_ylim(-0.7, n - 0.3)
     _labels(ax, rows)
     right = _right(ax, rows)
-    ax.set_xlabel("mean distance between the engine's and the reference's overturning boundaries\n"
-                  "(normalised plane; bars: 95 % intervals on the suite's problems; lower is better)"
-                  + ("\nlinear up to the fail limit, logarithmic above it" if logx else ""), fontsize=LABEL_PT)
+    ax.set_xlabel("boundary distance: mean over the suite's problems, normalised plane (bars: 95 % intervals)\n"
+                  "lower is better" + ("; linear up to the fail limit, logarithmic above it" if logx else ""),
+                  fontsize=LABEL_PT)
     ax.grid(True, axis="x", lw=0.3, color="0.85")
     legend = ax.figure.legend(handles=_legend_handles(ax, lines, bands), loc="outside lower center", ncol=2,
                               fontsize=SMALL_PT, frameon=False)
