@@ -62,14 +62,16 @@ def run(args) -> int:
     if not args.no_write:   # refused before the scoring, not after it
         out = check_output_file(Path(args.out) if args.out else Path(args.run_dirs[0]) / "score.json", "--out")
     doc = score_dirs(args.run_dirs, args.against or None, points, allow_incomplete=args.allow_incomplete)
-    for n in doc.get("pairing", {}).get("notes", []) + [defaults_note(doc["verdict"]["declared"])]:
-        if n:
-            print(f"rockbench: note: {n}", file=sys.stderr)
+    for n in doc.get("pairing", {}).get("notes", []):
+        print(f"rockbench: note: {n}", file=sys.stderr)
     failures = gate(doc, thresholds)
     doc["gate"] = {"thresholds": thresholds, "failed": failures, "passed": not failures}
     if out is not None:
         write_json(out, doc)
         print(f"rockbench: scores written to {out}", file=sys.stderr)
+    note = defaults_note(doc["verdict"]["declared"])     # after the write: an error stays one line
+    if note:
+        print(f"rockbench: note: {note}", file=sys.stderr)
     if args.json:
         print(json.dumps(json_safe(doc), indent=2))
     else:

@@ -217,7 +217,7 @@ def _right(ax, rows: list[dict]):
 
 def _legend_handles(ax, lines: dict, bands: dict) -> list:
     from matplotlib.lines import Line2D  # matplotlib on first drawing
-    from matplotlib.patches import Patch
+    from matplotlib.patches import Patch  # matplotlib on first drawing
 
     def mark(marker, filled, colour, text, edge=None):
         return Line2D([], [], marker=marker, ls="none", ms=5, markerfacecolor=colour if filled else "white",
