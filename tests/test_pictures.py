@@ -395,3 +395,11 @@ def test_the_verdict_axis_is_linear_without_failures(tmp_path):
     assert not any(r["group"] in ("fails", "planted") for r in d["rows"])
     for path, fmt in zip(save_formats(d["figure"], tmp_path / "verdict", ("png", "svg", "pdf")), ("png", "svg", "pdf")):
         check_file(path, fmt, words=("As shipped (out of the box)", "best of its class", "fail limit 0.3 (declared)"))
+
+
+def test_the_planted_rows_say_whether_each_delta_is_resolved():
+    from rockbench.benchmark.report.plots.verdict import verdict_rows
+    rows = [r for r in verdict_rows(_verdict_doc()) if r["group"] == "planted" and r["kind"] == "variant"]
+    assert [r["label"] for r in rows] == ["δ = 0 % (η_H × 1)", "δ = 0.5 % (η_H × 0.995)", "δ = 1 % (η_H × 0.99)",
+                                          "δ = 2 % (η_H × 0.98)"]
+    assert rows[0]["right"] == "0.000" and rows[-1]["right"].endswith(": resolved")

@@ -205,11 +205,15 @@ def verdict_text(doc: dict) -> list[str]:
 
 
 def verdict_block(doc: dict, markdown: bool = False) -> str:
-    """The verdict under its title: a Markdown list, or for a terminal sentences folded at 100 columns."""
-    lines = verdict_text(doc)
+    """The verdict under its title, in short (at most 120 words) and then every sentence: Markdown, or
+    for a terminal folded at 100 columns."""
+    short, lines = verdict_of(doc).get("short") or [], verdict_text(doc)
     if markdown:
-        return "### Verdict\n\n" + "\n".join(f"- {md_cell(t)}" for t in lines)
-    return "Verdict\n" + "\n".join(textwrap.fill(t, 100, initial_indent="- ", subsequent_indent="  ") for t in lines)
+        return ("### Verdict\n\n" + (" ".join(md_cell(t) for t in short) + "\n\n" if short else "")
+                + "\n".join(f"- {md_cell(t)}" for t in lines))
+    head = textwrap.fill(" ".join(short), 100) + "\n\nIn full:\n" if short else ""
+    return "Verdict\n" + head + "\n".join(textwrap.fill(t, 100, initial_indent="- ", subsequent_indent="  ")
+                                           for t in lines)
 
 
 def compare_table(res: dict, markdown: bool = False) -> str:

@@ -50,7 +50,18 @@ def verdict_rows(v: dict) -> list[dict]:
         if g in groups:
             out.append({"kind": "header", "group": g, "label": HEADERS[g]})
             out += [_row(g, r) for r in groups[g]]
+    for row in out:
+        if row["kind"] == "variant" and row["group"] == "planted":
+            row["right"] += _planted_words(v["power"], row["variant"])
     return out
+
+
+def _planted_words(power: dict | None, variant: str) -> str:
+    """``: resolved`` / ``: not resolved`` from δ = 0 (nothing for δ = 0 itself)."""
+    r = next((p for p in (power or {}).get("planted", []) if p["variant"] == variant), None)
+    if r is None or r["delta"] == 0:
+        return ""
+    return ": resolved" if r["resolved"] else ": not resolved"
 
 
 def _row(g: str, r: dict) -> dict:
