@@ -11,8 +11,9 @@ docs/scores.md argues each rule:
   repeat a problem rather than pose a new one: the statistics average a cluster's sizes and count the
   cluster once.
 - **Resolution.** A boundary is known only to lie inside its cells, so each scenario's value carries
-  its own error (:func:`resolution_sd`, measured against a finer grid), which the intervals add to the
-  spread over clusters and the comparisons to the differences.
+  its own error (:func:`resolution_sd`, measured against a finer grid): a value's only error on the
+  fixed suite, and both variants' errors make a paired difference's
+  (:mod:`~rockbench.benchmark.scoring.statistics`).
 - **Identical answers.** Two variants of one engine whose maps hold the same outcome in every cell of
   every scenario they share (or whose calibration says it picked the shipped settings) are one entry.
 """

@@ -181,7 +181,8 @@ def map_facts(c: MapEntry) -> dict:
     ``equals_shipped`` (``...calibration.equals_shipped``: the calibration picked the shipped
     settings) and ``held_out`` (``...calibration.calibrated_on`` names another block), with
     ``in_sample_variant``: the variant of the same settings calibrated on each block itself, which the
-    held-out check sets it beside."""
+    held-out check sets it beside; and ``planted_eta_factor`` of a planted variant (the reference solver
+    with its restitution × that factor: the suite's power)."""
     block = _obj(_obj(c.run).get("spec")).get("block")
     try:
         slender = round(float(block["height_m"]) / float(block["width_m"]), 4)
