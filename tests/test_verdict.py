@@ -148,6 +148,22 @@ def test_the_fail_limit_is_the_declared_distance_not_a_cell():
     assert "Fail (boundary farther than 0.2 from the reference's" in " ".join(v["text"])
 
 
+def test_a_failure_the_grid_cannot_resolve_says_so():
+    """A scenario 0.35 off on a grid whose own error is 0.2 there (a coarse grid) fails by the rule, and the
+    verdict says the grid's error does not resolve it; 0.55 with an error of 0.036 is beyond it."""
+    fine = verdict(_doc({"m": [0.01] * 7 + [0.55]}))
+    assert fine["variants"][0]["fails"] and fine["variants"][0]["fails_in"][0]["beyond_error"]
+    assert "does not resolve" not in " ".join(fine["text"])
+    v = _variant("m", [0.01] * 7 + [0.35], sd=0.2)
+    (bad,) = failing_scenarios(v, LIMIT)
+    assert not bad["beyond_error"] and bad["sd"] == 0.2
+    doc = _doc({"m": [0.01] * 7 + [0.35]})
+    for q in doc["pairs"]:
+        q["cells"] = {"w_step": 1.414, "a_step": 1.414}       # a cell diagonal of 2.0: an error of 0.2
+    text = " ".join(verdict(doc)["text"])
+    assert "(limit 0.3, which the grid's own error there, 0.200, does not resolve" in text
+
+
 def test_the_verdict_names_the_failing_scenario_and_the_adapters_note():
     vals = [0.0, 0.0, 0.006, 0.005, 0.0, 0.007, 0.012, 0.024]
     vals[SCENARIOS.index(("B6L", "cosine"))] = 0.55

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from .scenarios import Variant, items
+from .statistics import z_one_sided
 
 #: A reason for failing is named when it concerns at least this share of its cells [-].
 REASON_SHARE = 0.10
@@ -16,8 +17,12 @@ REASON_SHARE = 0.10
 
 def failing_scenarios(v: Variant, limit: float) -> list[dict]:
     """Every in-sample scenario where the boundary lies farther than ``limit`` [w/a units] from the
-    reference's, worst first."""
-    bad = [{"block": k[0], "pulse": k[1], "value": s.value, "limit": limit}
+    reference's, worst first, with its own error ``sd`` and whether it lies beyond the limit by more than
+    that error can explain (``beyond_error``: value − z₀.₉₅·sd > limit). The rule is on the value;
+    ``beyond_error`` only says, in the verdict's words, when a grid too coarse for the limit decided it."""
+    z = z_one_sided()
+    bad = [{"block": k[0], "pulse": k[1], "value": s.value, "limit": limit, "sd": s.sd,
+            "beyond_error": s.value - z * s.sd > limit}
            for k, s in v.scenarios.items() if not s.held_out and math.isfinite(s.value) and s.value > limit]
     return sorted(bad, key=lambda b: -b["value"])
 

@@ -184,8 +184,12 @@ def _failure(row: dict, by: dict) -> str:
     else:
         worst = [f"{b['block']} {b['pulse']} at {number(b['value'])}" for b in row["fails_in"][:_NAMED]]
         more = len(row["fails_in"]) - _NAMED
+        first = row["fails_in"][0]
+        coarse = ("" if first.get("beyond_error", True) else
+                  f", which the grid's own error there, {number(first['sd'])}, does not resolve: a grid too coarse "
+                  "for the limit decided it")
         why = [f"off in {_and(worst)}" + (f" and {_plural(more, 'more scenario')}" if more > 0 else "")
-               + f" (limit {declared_number(row['fails_in'][0]['limit'])})"] + row["reasons"]
+               + f" (limit {declared_number(first['limit'])}{coarse})"] + row["reasons"]
     if row["shipped_note"]:
         why.append(row["shipped_note"].rstrip("."))
     return f"{_name(row, by)} (mean {number(row['value'])}): {', and '.join(why)}"
