@@ -394,7 +394,8 @@ def _short_failure(r: dict, names: dict, level: int) -> str:
     if r["value"] is None:
         return f"{name} (nothing judged)"
     w = r["fails_in"][0]
-    bits = [f"{w['block']} {w['pulse']} {number(w['value'])}"]
+    bits = [f"{w['block']} {w['pulse']} {number(w['value'])}" + ("" if w.get("beyond_error", True) or level >= 2
+                                                                 else ", within the grid's error")]
     if level < 2 and r.get("reason_kinds"):
         k = r["reason_kinds"][0]
         bits.append(f"{_SHORT_REASONS[k['kind']]}, {100 * k['share']:.0f} %")
