@@ -7,8 +7,9 @@ Hsu's best subset) filled circles, those resolved behind it open circles; a shad
 class's best shows the smallest difference the suite detects there (80 % power); the restitution
 margin (the mean η_H–η_M reference gap, or the declared number) and the declared fail limit are
 vertical lines. Labels are tick labels (the variant on the left, its numbers on the right), so they
-never overlap and the layout keeps them inside the figure. When failing values are drawn (they reach
-18.6, the map's diagonal) the axis is linear up to the fail limit and logarithmic above it.
+never overlap and the layout keeps them inside the figure. When a value lies past twice the fail limit
+(a failing mean reaches 18.6, the map's diagonal) the axis is linear up to the fail limit and
+logarithmic above it.
 
 :func:`verdict_rows` is the table of rows (no matplotlib); :func:`plot_verdict` draws it.
 """
@@ -132,8 +133,9 @@ def plot_verdict(v: dict, *, ax=None) -> dict:
     n = len(rows)
     for k, r in enumerate(rows):
         r["y"] = n - 1 - k
-    logx = any(r["group"] == "fails" and r["kind"] == "variant" and r["value"] is not None for r in rows)
     limit = v["fail_distance"]
+    # a logarithmic stretch only for what lies far past the limit (a failing mean of 18.6)
+    logx = any(r["kind"] == "variant" and _finite(r.get("value")) and r["value"] > 2 * limit for r in rows)
     marks = {r["variant"]: _draw_row(ax, r) for r in rows if r["kind"] == "variant" and r["value"] is not None}
     bands = _draw_bands(ax, v, rows)
     lines = {}
