@@ -520,3 +520,21 @@ def test_a_held_out_variant_on_the_other_size_is_set_beside_the_same_problems():
     assert check["in_sample"] == pytest.approx(0.025)
     line = next(t for t in verdict(doc)["text"] if t.startswith("Held-out check"))
     assert "against 0.025 on the other size of the same problems" in line
+
+
+def test_the_short_verdict_fits_120_words_for_any_suite():
+    """Twelve engines, calibrated, as shipped and held out, four of them failing with reasons: the short
+    verdict shortens itself (names counted, reasons left out) and never passes 120 words, and it still
+    names each class's best."""
+    values, kw = {}, {}
+    for k in range(12):
+        e = f"engine{k}"
+        values[f"{e}[settings=calibrated]"] = [0.01 + 0.004 * k] * 8
+        values[f"{e}[settings=shipped]"] = [0.02 + 0.03 * k] * 8
+        kw[f"{e}[settings=shipped]"] = {"settings": AS_SHIPPED, "overturn_missed": 300, "invalid_in_domain": 900}
+    v = verdict(_doc(values, **kw))
+    assert words(v["short"]) <= SHORT_WORDS
+    assert v["short"][0].startswith("Calibrated: engine0 best") and v["short"][1].startswith("As shipped: engine0 best")
+    assert any(t.startswith("Fail (a scenario beyond 0.3)") for t in v["short"])
+    small = verdict(_doc({"a": [0.01] * 8, "b": [0.3] * 8}, b={"settings": AS_SHIPPED}))
+    assert small["short"] == ["Calibrated: a best (0.010).", "As shipped: b best (0.300)."]
