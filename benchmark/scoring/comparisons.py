@@ -132,8 +132,8 @@ def critical_for_power(fams: dict[str, Family]) -> tuple[float, str]:
     class's, when it has comparisons, else one one-sided comparison's."""
     f = fams.get(CALIBRATED)
     if f is not None and f.critical is not None:
-        return f.critical, f"the calibrated class's ({len(f.entries)} variants)"
-    return z_one_sided(), "one comparison's"
+        return f.critical, f"the calibrated class's rule ({len(f.entries)} variants)"
+    return z_one_sided(), "one comparison's rule"
 
 
 # -- about problems in general --------------------------------------------------------------------------

@@ -136,7 +136,7 @@ def _class_sentence(cls: str, members: list[dict], v: dict, by: dict) -> str:
     best = by[fam["best"]]
     text = f"{title}, on these {_plural(best['clusters'], 'problem')}: best {_name(best, by)}, {_figure(best)}."
     if fam["k"] == 1:
-        return text[:-1] + " (its only passing variant)."
+        return text[:-1] + ", its only passing variant."
     tied = [by[n] for n in fam["best_subset"] if n != fam["best"]]
     behind = [by[n] for n in fam["entries"] if not by[n]["in_best_subset"]]
     if tied:
@@ -270,7 +270,8 @@ def _general_sentence(v: dict, by: dict) -> list[str]:
             if c is not None:
                 bits.append(f"{by[n]['label']} {signed(c['difference'])} [{signed(c['ci95'][0])}, {signed(c['ci95'][1])}] "
                             f"from it, {'resolved' if c['resolved'] else 'not resolved'}")
-        parts.append("; ".join(bits))
+        text = "; ".join(bits)
+        parts.append(text[0].upper() + text[1:])
     n = len(g["slendernesses"])
     return [f"About problems in general (h/b {lo:g}–{hi:g}, {n} slendernesses; Student's t over the slenderness "
             f"means on {n - 1} degrees of freedom, no grid term added; each class's comparisons with its best "
@@ -291,7 +292,7 @@ def _power_sentence(v: dict) -> list[str]:
     tail = (f"the smallest δ this suite resolves from δ = 0: {delta_words(small)}" if small is not None
             else "no planted δ is resolved")
     return [f"The suite's power, measured (the reference solver as an engine with its restitution planted δ below "
-            f"the target, each against {against} by {p['critical_from']} rule, q = {p['critical']:.2f}): "
+            f"the target, each against {against} by {p['critical_from']}, q = {p['critical']:.2f}): "
             + "; ".join(bits) + f"; {tail}."]
 
 
