@@ -320,13 +320,14 @@ class Run:
         return pd.DataFrame.from_dict(summary(self.score), orient="index")
 
     def verdict(self):
-        """The verdict of score.json, one row per variant in rank order (``pandas.DataFrame`` indexed by
-        variant: label, settings, the primary value, ``ci95_lo``, ``ci95_hi``, rank, pairs, fails,
-        reasons); its sentences are ``run.score["verdict"]["text"]``."""
+        """The verdict of score.json, one row per variant in the verdict's order (``pandas.DataFrame``
+        indexed by variant: label, settings, group, the primary value, ``ci95_lo``, ``ci95_hi``, rank (1
+        may be the best of its class, 2 resolved behind it), pairs, fails, reasons); its sentences are
+        ``run.score["verdict"]["text"]``, its short form ``["short"]``."""
         pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
-        keep = ("label", "settings", "value", "rank", "pairs", "fails", "reasons", "cells_missing")
+        keep = ("label", "settings", "group", "value", "rank", "pairs", "fails", "reasons", "cells_missing")
         rows = {r["variant"]: {**{k: r[k] for k in keep}, "ci95_lo": (r["ci95"] or [np.nan, np.nan])[0],
                                "ci95_hi": (r["ci95"] or [np.nan, np.nan])[1]} for r, _ in ranked_summary(self.score)}
         return pd.DataFrame.from_dict(rows, orient="index")

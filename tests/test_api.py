@@ -88,8 +88,10 @@ def test_stability_map_as_a_dataset_and_a_tidy_frame():
 def test_load_run_reads_maps_and_scores(write_map, band, tmp_path):
     from rockbench.benchmark.cli.main import main
     sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
-    write_map(tmp_path / "run" / "ref", band(6, 7, 3), block="B3M")
-    write_map(tmp_path / "run" / "eng", band(6, 7, 4), engine="mujoco", block="B3M", settings={"settings": "shipped"})
+    a = (0.5, 1.5)   # a step of 0.2: one row off is within the declared fail distance (0.3)
+    write_map(tmp_path / "run" / "ref", band(6, 7, 3), block="B3M", a=a)
+    write_map(tmp_path / "run" / "eng", band(6, 7, 4), engine="mujoco", block="B3M", settings={"settings": "shipped"},
+              a=a)
     assert main(["score", str(tmp_path / "run"), "--no-write", "--json"]) == 0
     assert main(["score", str(tmp_path / "run"), "--out", str(tmp_path / "run" / "score.json")]) == 0
     run = rb.load_run(tmp_path / "run")
@@ -104,3 +106,4 @@ def test_load_run_reads_maps_and_scores(write_map, band, tmp_path):
     assert list(v.index) == ["mujoco[settings=shipped]"] and v.loc["mujoco[settings=shipped]", "rank"] == 1
     assert v.loc["mujoco[settings=shipped]", "ci95_lo"] <= v.loc["mujoco[settings=shipped]", "value"]
     assert v.loc["mujoco[settings=shipped]", "settings"] == "as-shipped"
+    assert v.loc["mujoco[settings=shipped]", "group"] == "as-shipped"

@@ -302,3 +302,104 @@ def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):
     assert len(d["boundaries"]) == 2
     assert_legend_clear(d["ax"].figure, d["legend"])
     assert_nothing_off_axes(d["ax"])
+
+
+# -- the verdict as a picture ---------------------------------------------------------------------------------
+
+def _verdict_doc(failing=True, planted=True):
+    """A verdict object of a suite like the default one: two classes, held-out twins, planted δ, failures."""
+    from rockbench.benchmark.scoring.verdict import verdict
+    probs = [(b, p) for b in ("B3M", "B6M") for p in ("sine", "cosine")]
+
+    def pair(variant, engine, settings, block, pulse, value, **extra):
+        return {"variant": variant, "engine": engine, "label": variant, "settings": settings, "block": block,
+                "pulse": pulse, "like_for_like": True, "scores": {"boundary_mean": value},
+                "cells": {"w_step": 0.05, "a_step": 0.05}, "cells_in_domain": 100, "reference_standing": 80,
+                "reference_overturn": 20, "overturn_missed": 10, **extra}
+
+    pairs = []
+    for k, (engine, name) in enumerate([("mujoco", "MuJoCo 4.0"), ("pybullet", "PyBullet 3.2.7"), ("dart", "DART 6.20")]):
+        for b, p in probs:
+            pairs.append(pair(f"{name}, calibrated to η_H", engine, "calibrated", b, p, 0.01 + 0.02 * k))
+            pairs.append(pair(f"{name}, as shipped", engine, "as-shipped", b, p,
+                              (0.9 if failing and k == 0 else 0.04 + 0.05 * k)))
+            pairs.append(pair(f"{name}, held out", engine, f"{name} held", b.replace("M", "L"), p, 0.02 + 0.02 * k,
+                              held_out=True, in_sample_variant=f"{name}, calibrated to η_H"))
+    if planted:
+        for f in (1.0, 0.995, 0.99, 0.98):
+            pairs += [pair(f"Reference solver, η_H × {f:g} (planted)", "reference", "planted", b, p,
+                           (1 - f) * 1.5, planted_eta_factor=f) for b, p in probs]
+    gaps = [{"block": b, "pulse": p, "boundary_mean": 0.2} for b, p in probs]
+    return verdict({"pairs": pairs, "reference_gaps": gaps})
+
+
+def _tick_boxes(fig, axes):
+    r = _renderer(fig)
+    return [t.get_window_extent(r) for ax in axes for t in ax.get_yticklabels() if t.get_text()]
+
+
+def test_the_verdict_forest_plot_draws_every_variant_by_class():
+    from rockbench.benchmark.report.plots.verdict import plot_verdict
+    v = _verdict_doc()
+    d = plot_verdict(v)
+    rows = [r for r in d["rows"] if r["kind"] == "variant"]
+    groups = [r["group"] for r in rows]
+    # grouped as the verdict answers: classes, held out beside its twin, planted apart, failing at the bottom
+    assert groups == sorted(groups, key=["calibrated", "as-shipped", "held-out", "planted", "fails"].index)
+    assert groups[-1] == "fails" and rows[-1]["right"].startswith("0.900")
+    marks = {r["variant"]: r["mark"] for r in rows}
+    assert marks["MuJoCo 4.0, calibrated to η_H"] == "best" and marks["DART 6.20, calibrated to η_H"] == "behind"
+    held = next(r for r in rows if r["variant"] == "MuJoCo 4.0, held out")
+    assert held["value"] == pytest.approx(0.02) and held["twin"] == pytest.approx(0.01)
+    assert held["right"] == "0.020 vs 0.010: carries over" and held["label"] == "MuJoCo 4.0, held out"
+    assert len([r for r in rows if r["group"] == "planted"]) == 4
+    # the detectable difference as a band from each class's best, the margin and the fail limit as lines
+    fam = v["mcb"]["calibrated"]
+    (x0, x1) = d["bands"]["calibrated"].get_paths()[0].get_extents().intervalx
+    assert x0 == pytest.approx(0.01) and x1 == pytest.approx(0.01 + fam["mdd"])
+    assert d["lines"]["margin"].get_xdata()[0] == pytest.approx(0.2)
+    assert d["lines"]["fail"].get_xdata()[0] == pytest.approx(0.3)
+    assert d["ax"].get_xscale() == "symlog"            # failing values reach past the limit
+    assert_nothing_off_axes(d["ax"])
+    assert_legend_clear(d["figure"], d["legend"])
+
+
+def test_the_verdict_labels_are_words_that_never_overlap_or_leave_the_figure():
+    from rockbench.benchmark.report.plots.verdict import plot_verdict
+    d = plot_verdict(_verdict_doc())
+    fig = d["figure"]
+    for side in (d["ax"], d["right"]):
+        boxes = _tick_boxes(fig, [side])
+        assert len(boxes) >= 10
+        for a, b in zip(boxes, boxes[1:]):
+            assert not a.overlaps(b), "two labels overlap"
+    r = _renderer(fig)
+    from matplotlib.text import Text
+    texts = [t for t in fig.findobj(Text) if t.get_text() and t.get_visible()]
+    for t in texts:
+        bb = t.get_window_extent(r)
+        assert fig.bbox.x0 - 1 <= bb.x0 and bb.x1 <= fig.bbox.x1 + 1 and fig.bbox.y0 - 1 <= bb.y0 \
+            and bb.y1 <= fig.bbox.y1 + 1, t.get_text()
+        assert not INTERNAL_KEY.search(t.get_text()), t.get_text()
+        assert t.get_fontsize() >= 7.0
+
+
+def test_the_verdict_axis_is_linear_without_failures(tmp_path):
+    """Without a failing variant the axis is linear from 0; the picture is written as PNG, SVG (text as
+    text) and PDF like every figure."""
+    from rockbench.benchmark.report.plots.output import save_formats
+    from rockbench.benchmark.report.plots.verdict import plot_verdict
+    from test_figure_formats import check_file
+    d = plot_verdict(_verdict_doc(failing=False, planted=False))
+    assert d["ax"].get_xscale() == "linear" and d["ax"].get_xlim()[0] == 0.0
+    assert not any(r["group"] in ("fails", "planted") for r in d["rows"])
+    for path, fmt in zip(save_formats(d["figure"], tmp_path / "verdict", ("png", "svg", "pdf")), ("png", "svg", "pdf")):
+        check_file(path, fmt, words=("As shipped (out of the box)", "best of its class", "fail limit 0.3 (declared)"))
+
+
+def test_the_planted_rows_say_whether_each_delta_is_resolved():
+    from rockbench.benchmark.report.plots.verdict import verdict_rows
+    rows = [r for r in verdict_rows(_verdict_doc()) if r["group"] == "planted" and r["kind"] == "variant"]
+    assert [r["label"] for r in rows] == ["δ = 0 % (η_H × 1)", "δ = 0.5 % (η_H × 0.995)", "δ = 1 % (η_H × 0.99)",
+                                          "δ = 2 % (η_H × 0.98)"]
+    assert rows[0]["right"] == "0.000" and rows[-1]["right"].endswith(": resolved")

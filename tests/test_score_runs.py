@@ -216,10 +216,8 @@ def test_cells_csv_from_another_tool_is_read_by_its_cli_columns(write_map, band,
 
 @pytest.mark.parametrize("old_version", ["1", "3", "4", "5", "6"])
 def test_compare_refuses_older_metrics_versions(write_map, band, tmp_path, capsys, old_version):
-    """Version 6's boundaries known to their cells, version 5's verdict (a resolution error of 0.2 cell),
-    version 4's (a floor in log ratios, a resolution error over √edges), version 3's (scenarios as
-    replicates, no worst-scenario rule) and version 1's judging are not comparable with version 7's
-    located boundaries: exit 5, saying which versions."""
+    """A score file whose verdict is older than version 7's (classes compared with their best,
+    declarations, power) is refused in one line that says to re-score: exit 5."""
     a = tmp_path / "a"
     write_map(a / "ref", band(8, 8, 3))
     write_map(a / "eng", band(8, 8, 3), engine="mujoco")
@@ -228,7 +226,11 @@ def test_compare_refuses_older_metrics_versions(write_map, band, tmp_path, capsy
     old["metrics_version"] = old_version
     (tmp_path / "old.json").write_text(json.dumps(old))
     code, _, err = run_cli(capsys, "compare", tmp_path / "old.json", a / "score.json")
-    assert code == 5 and f"metrics version {old_version}, current 7" in err and "Traceback" not in err
+    assert code == 5 and f"holds metrics version {old_version}" in err and "rockbench score RUN_DIR" in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    # a score file of this version compares (the report never reads a score file: it scores the maps)
+    code, _, err = run_cli(capsys, "compare", a / "score.json", a / "score.json")
+    assert code == 0, err
 
 
 def test_scoring_half_a_reference_map_exits_5(write_map, band, tmp_path, capsys):

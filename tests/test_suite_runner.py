@@ -340,3 +340,60 @@ def test_only_mujoco_warp_leaves_suites_of_every_engine_by_itself():
     own = {n for n in BUILTIN if n != "reference"
            and adapter_class(n).default_suite_exclusion.__func__ is not EngineAdapter.default_suite_exclusion.__func__}
     assert own == {"mujoco_warp"}
+
+
+# -- what a suite declares for its verdict ------------------------------------------------------------------
+
+def test_the_code_defaults_are_the_default_suites_declarations():
+    """`rockbench score` of a folder without a suite uses the code's declarations: those of the default
+    suite, every shipped suite declares the same."""
+    from rockbench.benchmark.scoring.declared import DEFAULTS
+    for name in ("default", "quick", "full", "newton"):
+        s = load_suite(suite_path(name, False))
+        assert s.verdict == DEFAULTS and s.verdict.source == f"the suite {name!r}"
+
+
+@pytest.mark.parametrize("table, line", [
+    ("fail_distance = 0", "suite s.toml: verdict.fail_distance must be a number > 0 in the normalised plane, got 0."),
+    ("fail_distance = 'far'", "suite s.toml: verdict.fail_distance must be a number > 0 in the normalised plane, "
+                              "got 'far'."),
+    ("equivalence_margin = 'restitution'",
+     "suite s.toml: verdict.equivalence_margin must be \"restitution-gap\" or a number > 0, got 'restitution'."),
+    ("held_out_margin = -0.05",
+     "suite s.toml: verdict.held_out_margin must be a number > 0 in the normalised plane, got -0.05."),
+    ("general_range_h_over_b = [6.0, 1.5]",
+     "suite s.toml: verdict.general_range_h_over_b must be [lo, hi], two slendernesses h/b with 0 < lo < hi, "
+     "got [6.0, 1.5]."),
+    ("confidence = 0.9", "suite s.toml: unknown key verdict.confidence; [verdict] takes equivalence_margin, "
+                         "fail_distance, general_range_h_over_b, held_out_margin."),
+])
+def test_a_bad_verdict_table_is_one_line(tmp_path, capsys, table, line):
+    p = tmp_path / "s.toml"
+    p.write_text(GRID + "[verdict]\n" + table + "\n")
+    with pytest.raises(ConfigError) as e:
+        load_suite(p)
+    assert str(e.value) == line
+    assert main(["run", str(p), "--plan", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == f"rockbench: error: {line}" and not (tmp_path / "o").exists()
+
+
+def test_a_run_records_its_declarations_and_a_rescore_reads_them(fake_engines, tmp_path, capsys):
+    """The suite's [verdict] reaches score.json as ``declared``, suite.json records it, and `rockbench
+    score` of the run folder reads it back; the code's defaults fill what the table leaves out."""
+    fake_engines.register_all()
+    (tmp_path / "s.toml").write_text(
+        "[suite]\nname = 't'\n[grid]\nw_ratio = '1:8:5'\na_ratio = '1:9:5'\n"
+        "[cases]\nblocks = ['B3M']\npulses = ['sine']\n[reference]\nrestitutions = ['housner']\n"
+        "[engines]\nnames = ['analytic']\nown_eta = false\n[verdict]\nfail_distance = 5.0\nheld_out_margin = 0.1\n")
+    res = run_suite(load_suite(tmp_path / "s.toml"), tmp_path / "out", jobs=1, report=False, log=lambda m: None)
+    declared = res["score"]["verdict"]["declared"]
+    assert declared["fail_distance"] == 5.0 and declared["held_out_margin"] == 0.1
+    assert declared["equivalence_margin"] == "restitution-gap" and declared["source"] == "the suite 't'"
+    recorded = json.loads((tmp_path / "out" / "suite.json").read_text())["verdict_declared"]
+    assert recorded["fail_distance"] == 5.0
+    assert main(["score", str(tmp_path / "out"), "--no-write", "--json"]) == 0
+    out, err = capsys.readouterr()
+    again = json.loads(out)["verdict"]["declared"]
+    assert again["fail_distance"] == 5.0 and "its run's suite.json" in again["source"]
+    assert "code's defaults" not in err

@@ -1,8 +1,10 @@
 """The benchmark report: ``index.html`` (self-contained) and ``report.md`` with its pictures (this module
 gathers the maps, scores and pictures; :mod:`.sections` builds the tables, :mod:`.page` writes the pages).
 
-The first screen answers "which engine is how faithful, and why": the summary table (one row per
-engine variant, in words such as "MuJoCo 4.0, calibrated to η_H"), each metric explained in words
+The first screen answers "which engine is how faithful, and how sure is that": the verdict as a
+picture (a forest plot of every variant's value and interval, :mod:`.plots.verdict`) beside the
+verdict in at most 120 words, the full sentences collapsed below it. Then the summary table (one row
+per engine variant, in words such as "MuJoCo 4.0, calibrated to η_H"), each metric explained in words
 (the definitions of :data:`~rockbench.benchmark.scoring.metrics.METRICS`), then one stability figure per
 engine variant (small multiples, one panel per block and pulse). Then θ(t) of the reference and
 every engine for chosen cases (the paper's Fig. 17 case by default), the calibration (η per engine
@@ -31,6 +33,7 @@ from ...reference_solver.restitution import Restitution
 from ..blocks.cases import FIG17, TrajectoryCase
 from ..blocks.experiments import restitution_targets, st_limit_a_ratio
 from ..blocks.presets import PRESETS, get_preset
+from ..scoring.declared import declared_of_runs
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
 from ..scoring.metrics import PRIMARY_METRIC
 from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
@@ -45,12 +48,13 @@ from .plots.output import figure_bytes
 from .plots.speed import plot_speed_accuracy
 from .plots.stability import REFERENCE_STYLES, plot_panels
 from .plots.trajectories import plot_theta
+from .plots.verdict import plot_verdict
 from .sections import SPEED_METRICS
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
                  trajectories: bool = True, log=None, allow_incomplete=False,
-                 figure_formats=("png",)) -> dict:
+                 figure_formats=("png",), declared=None) -> dict:
     """Write the report of the maps under ``run_dirs`` into ``out_dir``.
 
     Parameters
@@ -76,6 +80,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     figure_formats : sequence of str
         The formats of the pictures in ``img/`` (``png``, ``svg``, ``pdf``); the PNG is always
         written too, since index.html embeds it and report.md links it.
+    declared : Declared, optional
+        The verdict's declarations (default: those of the runs' suite.json, else the code's).
 
     Returns
     -------
@@ -92,7 +98,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    sc = _Scored.of(run_dirs, against, experiments, allow_incomplete)
+    sc = _Scored.of(run_dirs, against, experiments, allow_incomplete, declared)
     notes = sc.notes
     images: dict[str, bytes] = {}
     widths: dict[str, float] = {}
@@ -109,9 +115,10 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     pair_of = _like_pairs(sc.doc)
     variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
+    verdict_img = _verdict_figure(sc.doc, save)
     traj_imgs = _trajectory_figures(cases, out / FOLDER, save, notes) if trajectories else []
     speed = _speed_rows(sc.entries, sc.doc)
-    ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "variant_graphs": variant_graphs,
+    ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "verdict_img": verdict_img, "variant_graphs": variant_graphs,
            "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
            "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
            "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
@@ -134,7 +141,7 @@ class _Scored:
     notes: list
 
     @classmethod
-    def of(cls, run_dirs, against, experiments, allow_incomplete=False) -> "_Scored":
+    def of(cls, run_dirs, against, experiments, allow_incomplete=False, declared=None) -> "_Scored":
         entries, run_of = load_runs(run_dirs)
         refs = load_entries(against) if against else [e for e in entries if e.is_reference]
         cands = entries if against else [e for e in entries if not e.is_reference]
@@ -143,7 +150,8 @@ class _Scored:
         own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
         try:
             doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with,
-                                allow_incomplete=allow_incomplete)
+                                allow_incomplete=allow_incomplete,
+                                declared=declared or declared_of_runs(run_of.values()))
             mark_runs(doc, run_of, against=bool(against), notes=notes)
         except IncomparableError as e:
             notes.append(f"No scores: {e}")
@@ -162,6 +170,15 @@ def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
         except RockbenchError as e:
             notes.append(f"θ(t) for {case.title or case.block}: not drawn ({e})")
     return out
+
+
+def _verdict_figure(doc: dict | None, save) -> str | None:
+    """The verdict as a forest plot (:func:`~rockbench.benchmark.report.plots.verdict.plot_verdict`);
+    None without scores or without a variant to draw."""
+    if not doc or not any(r["value"] is not None or r["held_out"] for r in doc["verdict"]["variants"]):
+        return None
+    drawn = plot_verdict(doc["verdict"])
+    return save(drawn["figure"], "verdict.png")
 
 
 def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:

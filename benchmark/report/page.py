@@ -13,7 +13,7 @@ from ..scoring.labels import case_title, for_html
 from .plots.style import DOUBLE_COLUMN_IN
 from .sections import (HIGHLIGHTS, INTRO, PRICE_WORDS, READ_GRAPHS, calib_table, exp_table, md_table,
                        metric_words, pairs_table, price_table, scenario_tables, settings_tables, speed_table,
-                       summary_rows, verdict_sentences)
+                       short_verdict_lines, summary_rows, verdict_sentences)
 
 
 
@@ -23,7 +23,12 @@ def markdown_page(ctx) -> str:
     for n in ctx["notes"]:
         L.append(f"> {n}")
     if doc:
-        L += ["", "## Verdict", ""] + [f"- {s}" for s in verdict_sentences(doc)] + [""]
+        L += ["", "## Verdict", ""]
+        if ctx.get("verdict_img"):
+            L += [f"![The verdict: every engine variant's boundary distance with its 95 % interval](img/{ctx['verdict_img']})",
+                  ""]
+        L += [" ".join(short_verdict_lines(doc)), "", "<details><summary>The verdict in full</summary>", ""]
+        L += [f"- {s}" for s in verdict_sentences(doc)] + ["", "</details>", ""]
     L += ["", "## Summary: which engine is how faithful", ""]
     if doc:
         head, body, _, marks = summary_rows(doc, labels)
@@ -101,6 +106,22 @@ def _page_share(width_in: float | None) -> float:
     return min(100.0, 100.0 * width_in / DOUBLE_COLUMN_IN)
 
 
+def _verdict_section(doc: dict, name: str | None, images: dict) -> str:
+    """The first screen: the verdict's picture beside the verdict in at most 120 words, and every sentence
+    of it collapsed below."""
+    fig = ""
+    if name:
+        b64 = base64.b64encode(images[name]).decode()
+        fig = (f"<figure id='verdict-figure'><img alt='the verdict: every engine variant&#39;s boundary distance "
+               f"with its 95 % interval, grouped by class' src='data:image/png;base64,{b64}'></figure>")
+    words = "".join(f"<p>{for_html(s)}</p>" for s in short_verdict_lines(doc))
+    full = "".join(f"<li>{for_html(s)}</li>" for s in verdict_sentences(doc))
+    return (f"<section id='verdict'><h2>Verdict</h2><div class='verdict-first'>{fig}"
+            f"<div id='verdict-short' class='verdict-words'>{words}</div></div>"
+            f"<details id='verdict-full'><summary>The verdict in full: every sentence, with the test it rests on"
+            f"</summary><ul class='verdict'>{full}</ul></details></section>")
+
+
 def html_page(ctx, images: dict) -> str:
     doc, labels = ctx["doc"], ctx["labels"]
 
@@ -119,8 +140,7 @@ def html_page(ctx, images: dict) -> str:
          f"{len(ctx['entries'])} maps, {n_var} engine variant(s)"
          + (f", metrics version {html.escape(str(doc['metrics_version']))}" if doc else "") + ".</p>"]
     if doc:
-        P.append("<section id='verdict'><h2>Verdict</h2><ul class='verdict'>"
-                 + "".join(f"<li>{for_html(s)}</li>" for s in verdict_sentences(doc)) + "</ul></section>")
+        P.append(_verdict_section(doc, ctx.get("verdict_img"), images))
     P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
     P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
     if doc:

@@ -12,8 +12,10 @@ window.addEventListener('load', function () {
   });
   Array.prototype.forEach.call(document.querySelectorAll('details'), function (d) { d.open = false; });
   document.body.setAttribute('data-wide-tables', String(wide));
-  var s = document.getElementById('summary-table');
-  if (s) { var r = s.getBoundingClientRect();
-    document.body.setAttribute('data-summary-bottom', String(Math.round(r.bottom + window.scrollY)));
-    document.body.setAttribute('data-viewport', window.innerWidth + 'x' + window.innerHeight); }
+  document.body.setAttribute('data-viewport', window.innerWidth + 'x' + window.innerHeight);
+  var bottom = function (id, attr) { var e = document.getElementById(id);
+    if (e) { document.body.setAttribute(attr, String(Math.round(e.getBoundingClientRect().bottom + window.scrollY))); } };
+  bottom('summary-table', 'data-summary-bottom');
+  bottom('verdict-figure', 'data-verdict-figure-bottom');
+  bottom('verdict-short', 'data-verdict-short-bottom');
 });

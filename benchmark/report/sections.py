@@ -10,7 +10,8 @@ import math
 from ..scoring.labels import restitution_symbol
 from ..scoring.metrics import METRICS, PRIMARY_METRIC
 from ..scoring.tables import (SCENARIO_TITLE, best_group_marks, fmt, incomplete_note, method_line, primary_cell,
-                              ranked_summary, reference_label, render, row_label, scenario_rows, verdict_text)
+                              ranked_summary, reference_label, render, row_label, scenario_rows, verdict_of,
+                              verdict_text)
 from ..store.loading import MapEntry
 
 
@@ -47,6 +48,11 @@ def scenario_tables(doc) -> tuple[str, str, list[str], list[list[str]]]:
 def verdict_sentences(doc) -> list[str]:
     """The verdict's sentences (score.json's ``verdict.text``)."""
     return verdict_text(doc)
+
+
+def short_verdict_lines(doc) -> list[str]:
+    """The verdict in at most 120 words (score.json's ``verdict.short``)."""
+    return list(verdict_of(doc)["short"])
 
 
 def calib_table(rows, labels):
@@ -239,10 +245,11 @@ def _unit_words(unit: str) -> str:
     return f", {words}" if words else ""
 
 
-HIGHLIGHTS = ("Rows are ranked by the primary measure, the mean distance between the overturning boundaries: "
-               "a variant's rank is its tie group (the method is under the table), so equal ranks tie. Bold: the "
-               "best group (rank 1), and within it the best value of each other column; no other row is "
-               "highlighted.")
+HIGHLIGHTS = ("Rows are in the verdict's order: each settings class (calibrated, as shipped) by its comparisons "
+              "with the best of the class, rank 1 the variants that may be the best (Hsu's best subset), rank 2 those "
+              "resolved behind it (the method is under the table); held-out, planted and failing variants have no "
+              "rank. Bold: rank 1, and among those rows the best value of each other column; no other row is "
+              "highlighted.")
 
 
 INTRO = ("Each row is one engine variant; each number is the mean over its like-for-like pairs (its map "

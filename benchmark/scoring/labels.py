@@ -24,8 +24,12 @@ ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet":
 #: Engine settings that say nothing a reader needs when they have their default value.
 _QUIET = {"settings"}
 
-#: The settings classes the verdict answers apart (best achievable, out of the box).
-CALIBRATED, AS_SHIPPED = "calibrated", "as-shipped"
+#: The settings classes the verdict answers apart (best achievable, out of the box), and the reference
+#: solver run as an engine with a restitution planted below its target (the suite's power).
+CALIBRATED, AS_SHIPPED, PLANTED = "calibrated", "as-shipped", "planted"
+
+#: The reference adapter's setting that plants a restitution η_target × factor (the suite's power).
+PLANTED_SETTING = "planted_eta_factor"
 
 #: Engine settings a calibration chooses itself (they do not make a variant "custom").
 _CALIBRATION_KEYS = {"settings", "contact"}
@@ -126,6 +130,8 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
     v = short_version(version)
     head = f"{name} {v}" if v and v not in ("test", "source", "None") and engine != "reference" else name
     words = []
+    if engine == "reference" and PLANTED_SETTING in s:
+        return f"{head}, {planted_words(restitution, s[PLANTED_SETTING], block)}"
     if engine != "reference":
         if s.get("settings", "calibrated") == "shipped":
             words.append("as shipped")
@@ -137,6 +143,16 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
     if dt_s is not None:
         words.append(f"Δt = {dt_s * 1e3:g} ms")
     return head + (", " + ", ".join(words) if words else "")
+
+
+def planted_words(restitution: str | None, factor, block: str | None = None) -> str:
+    """``η_H × 0.99 (planted)``: the restitution a planted variant runs with."""
+    target = restitution_symbol(restitution, block) if restitution else "η"
+    try:
+        f = f"{float(factor):.4g}"
+    except (TypeError, ValueError):
+        f = str(factor)
+    return f"{target} × {f} (planted)"
 
 
 def entry_label(entry, *, with_restitution: bool = True) -> str:
@@ -188,9 +204,12 @@ def variant_labels(cands) -> dict[str, str]:
 
 def settings_class(engine_settings: dict | None, variant: str, engine: str | None = None) -> str:
     """``calibrated`` (rockbench's calibration, any contact layout it chose), ``as-shipped`` (the
-    engine's defaults and nothing else) or, for anything else set by hand, the variant's own name.
-    The settings that choose the ``engine``'s model (:func:`model_settings`: Newton's solver) are the
-    engine's, not a tweak: they leave the class as it is."""
+    engine's defaults and nothing else), ``planted`` (the reference solver with a restitution planted
+    below its target: :data:`PLANTED_SETTING`) or, for anything else set by hand, the variant's own
+    name. The settings that choose the ``engine``'s model (:func:`model_settings`: Newton's solver)
+    are the engine's, not a tweak: they leave the class as it is."""
+    if PLANTED_SETTING in (engine_settings or {}):
+        return PLANTED
     model = model_settings(engine) if engine else {}
     s = {k: v for k, v in (engine_settings or {}).items() if k not in model}
     kind = s.get("settings", "calibrated")

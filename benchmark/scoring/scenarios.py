@@ -12,8 +12,9 @@ docs/scores.md argues each rule:
   cluster once.
 - **Resolution.** A boundary is located on its grid to a tolerance (bisected below the cell, or at
   depth 0 known only to its cells), so each scenario's value carries its own error
-  (:func:`resolution_sd`, measured against a 401 × 401 truth), which the intervals add to the spread
-  over clusters and the comparisons to the differences.
+  (:func:`resolution_sd`, measured against a 401 × 401 truth): a value's only error on the fixed
+  suite, and both variants' errors make a paired difference's
+  (:mod:`~rockbench.benchmark.scoring.statistics`).
 - **Identical answers.** Two variants of one engine whose maps hold the same outcome in every cell of
   every scenario they share (or whose calibration says it picked the shipped settings) are one entry.
 """
@@ -74,6 +75,7 @@ class Variant:
     shipped_note: str = ""                           # what its adapter says about its shipped settings
     equals_shipped: bool = False                     # its calibration picked the shipped settings
     in_sample: str = ""                              # held out: the variant calibrated on each block itself
+    planted_factor: float | None = None              # planted: the factor on the reference's restitution
 
     @property
     def held_out_only(self) -> bool:
@@ -132,6 +134,13 @@ def resolution_sd(cell: float, locate_depth: int = 0) -> float:
 _TINY = 1e-12
 
 
+def items(v: Variant, held_out: bool = False) -> dict:
+    """``{(block, pulse): (value, sd, cluster)}`` of a variant's scenarios with a value, in-sample or
+    held-out: the items of :mod:`~rockbench.benchmark.scoring.statistics`."""
+    return {k: (s.value, s.sd, s.cluster) for k, s in v.scenarios.items()
+            if math.isfinite(s.value) and s.held_out == held_out}
+
+
 def cluster_of(p: dict) -> tuple:
     """``(h/b, pulse)`` of a pair: its ``slenderness`` when score.json has it, else the Table 1 block's,
     else the block's name (a block of its own)."""
@@ -178,7 +187,8 @@ def variants_of(doc: dict) -> list[Variant]:
                     first.get("settings") or settings_class(None, name),
                     shipped_note=next((p["shipped_note"] for p in use if p.get("shipped_note")), ""),
                     equals_shipped=bool(use) and all(p.get("equals_shipped") is True for p in use),
-                    in_sample=next((p["in_sample_variant"] for p in use if p.get("in_sample_variant")), ""))
+                    in_sample=next((p["in_sample_variant"] for p in use if p.get("in_sample_variant")), ""),
+                    planted_factor=_planted_factor(use))
         for p in use:
             v.scenarios[(p["block"], p["pulse"])] = scenario_of(p, gaps)
             for k in _SUMMED:
@@ -186,6 +196,15 @@ def variants_of(doc: dict) -> list[Variant]:
             v.cells_missing += int(p.get("cells_missing") or 0)
         out.append(v)
     return out
+
+
+def _planted_factor(pairs: list[dict]) -> float | None:
+    """The restitution factor a planted variant's pairs record (``planted_eta_factor``), else None."""
+    for p in pairs:
+        f = p.get("planted_eta_factor")
+        if isinstance(f, (int, float)) and not isinstance(f, bool) and math.isfinite(f):
+            return float(f)
+    return None
 
 
 def identical(a: Variant, b: Variant) -> bool:

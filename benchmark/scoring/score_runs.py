@@ -51,9 +51,10 @@ from ..maps.result import MapResult
 from ..store.files import canonical_variant, read_json, utc_stamp, variant_name
 from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
 from .experiments import score_outcomes
-from .labels import settings_class, variant_labels
+from .labels import PLANTED_SETTING, settings_class, variant_labels
 from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, boundary_edges, cell_counts, check_gate,
                       judged_cells, located_counts, score)
+from .declared import Declared, declared_of_runs
 from .verdict import verdict
 
 #: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
@@ -69,7 +70,8 @@ def pair_key(p: dict) -> str:
 
 
 def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None,
-                  own_eta: dict | None = None, pair_with=None, allow_incomplete=False) -> dict:
+                  own_eta: dict | None = None, pair_with=None, allow_incomplete=False,
+                  declared: Declared | None = None) -> dict:
     """Score every candidate against every reference of its block and pulse (see the module docstring).
 
     Parameters
@@ -90,6 +92,8 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         Score engine maps that lack cells on the cells they have (marked in their pairs) instead of
         refusing them: every such map (True), or those of these map directories (``rockbench run``
         passes the maps of an engine that could not simulate, so its report still comes out).
+    declared : Declared, optional
+        The suite's declarations for the verdict (default: the code's, the default suite's).
 
     Returns
     -------
@@ -139,7 +143,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     if experiments is not None:
         doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
                                                experiments)
-    doc["verdict"] = verdict(doc)
+    doc["verdict"] = verdict(doc, declared)
     return doc
 
 
@@ -152,8 +156,9 @@ def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> d
         kind = "own-eta"
     else:
         kind = "other"
+    planted = PLANTED_SETTING in (c.settings or {})
     p = {"variant": c.variant, "engine": c.engine, "label": label,
-         "settings": c.variant if c.is_reference else settings_class(c.settings, c.variant, c.engine),
+         "settings": c.variant if c.is_reference and not planted else settings_class(c.settings, c.variant, c.engine),
          "block": c.block, "pulse": c.pulse, "restitution": c.restitution, "eta": c.eta, "engine_dir": str(c.path),
          "reference": {"restitution": r.restitution, "eta": r.eta, "dir": str(r.path), "kind": kind},
          "like_for_like": c.restitution == r.restitution, "grid": grid_of(c.map),
@@ -176,7 +181,8 @@ def map_facts(c: MapEntry) -> dict:
     ``equals_shipped`` (``...calibration.equals_shipped``: the calibration picked the shipped
     settings) and ``held_out`` (``...calibration.calibrated_on`` names another block), with
     ``in_sample_variant``: the variant of the same settings calibrated on each block itself, which the
-    held-out check sets it beside."""
+    held-out check sets it beside; and ``planted_eta_factor`` of a planted variant (the reference solver
+    with its restitution × that factor: the suite's power)."""
     block = _obj(_obj(c.run).get("spec")).get("block")
     try:
         slender = round(float(block["height_m"]) / float(block["width_m"]), 4)
@@ -197,6 +203,9 @@ def map_facts(c: MapEntry) -> dict:
         facts["equals_shipped"] = True
     if on:
         facts["calibrated_on"] = str(on)
+    factor = (c.settings or {}).get(PLANTED_SETTING)
+    if isinstance(factor, (int, float)) and not isinstance(factor, bool):
+        facts[PLANTED_SETTING] = float(factor)
     if facts["held_out"]:
         facts["in_sample_variant"] = variant_name(c.engine, {k: v for k, v in (c.settings or {}).items()
                                                              if k != "calibrate_on"}, c.dt_s)
@@ -309,13 +318,15 @@ def score_experiments(entries: list[MapEntry], points) -> list[dict]:
 
 
 def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None,
-               allow_incomplete=False) -> dict:
+               allow_incomplete=False, declared: Declared | None = None) -> dict:
     """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`),
     each engine map against the reference maps of its own run (see the module docstring).
 
     Engine variants' own η come from a ``calibration.json`` at the top of a run directory (written
     by ``rockbench run``), when there is one. The document's ``pairing`` says how maps were paired
-    (and, in ``notes``, where runs had to be crossed).
+    (and, in ``notes``, where runs had to be crossed). The verdict's declarations are ``declared``, else
+    those of the suite each run recorded in its suite.json
+    (:func:`~rockbench.benchmark.scoring.declared.declared_of_runs`).
     """
     run_dirs = list(run_dirs)
     entries, run_of = load_runs(run_dirs)
@@ -328,7 +339,7 @@ def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=
         cands = [e for e in entries if not e.is_reference]
         pair_with, notes = pair_within_runs(cands, refs, run_of)
     doc = score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs), pair_with=pair_with,
-                        allow_incomplete=allow_incomplete)
+                        allow_incomplete=allow_incomplete, declared=declared or declared_of_runs(run_of.values()))
     mark_runs(doc, run_of, against=bool(against), notes=notes)
     return doc
 
@@ -473,6 +484,11 @@ def load_score(path, allow_incomplete: bool = False) -> dict:
                                 f"{doc.get('metrics_version')}), this rockbench reads schema {SCORE_SCHEMA_VERSION} "
                                 f"(metrics version {METRICS_VERSION}); rescore its run with this rockbench "
                                 "(`rockbench score RUN_DIR`) and compare again.")
+    if _older(doc.get("metrics_version"), FIRST_VERDICT_VERSION):
+        raise IncomparableError(f"{str(p)!r} holds metrics version {doc.get('metrics_version')}, whose verdict this "
+                                f"rockbench (metrics version {METRICS_VERSION}) no longer reads; re-score its run: "
+                                "`rockbench score RUN_DIR` (or `rockbench run --out RUN_DIR` in the same folder, which "
+                                "recomputes no map).")
     check_score_doc(doc, p)
     gaps = [q for q in doc["pairs"] if q.get("complete") is False]
     if gaps and not allow_incomplete:
@@ -480,6 +496,19 @@ def load_score(path, allow_incomplete: bool = False) -> dict:
                           f"lacks {gaps[0].get('cells_missing')} cells); complete the maps and rescore, or compare "
                           f"anyway with {ALLOW_INCOMPLETE}.")
     return under_new_names(doc)
+
+
+#: The first metrics version whose verdict this rockbench reads (classes, MCB, declarations, power).
+FIRST_VERDICT_VERSION = 7
+
+
+def _older(version, than: int) -> bool:
+    """Whether a stored metrics ``version`` (a text or a number) is older than ``than``; one that does not
+    read as a whole number is older."""
+    try:
+        return int(str(version)) < than
+    except ValueError:
+        return True
 
 
 def under_new_names(doc: dict) -> dict:

@@ -7,7 +7,8 @@ import math
 import textwrap
 
 from .metrics import METRICS, PRIMARY_METRIC
-from .verdict import METHOD, number, verdict
+from .verdict import verdict
+from .verdict_words import METHOD, number
 
 def fmt(name: str, v) -> str:
     """A metric's value as tables write it (:meth:`~rockbench.benchmark.scoring.metrics.Metric.format`)."""
@@ -157,17 +158,19 @@ def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
 
 
 #: The title of the summary table on a terminal and in Markdown.
-SUMMARY_TITLE = ("Summary (mean over like-for-like pairs; rank = the variant's tie group on the boundary distance, "
-                 "the method under the table)")
+SUMMARY_TITLE = ("Summary (mean over like-for-like pairs; rank 1: may be the best of its settings class, 2: resolved "
+                 "behind it, the method under the table)")
 
 #: The title of the per-scenario table.
-SCENARIO_TITLE = ("Per scenario: boundary distance of each variant ('!' beyond one cell: it fails there; 'held out': "
-                  "calibrated on another block), and the distance between the η_H and η_M reference boundaries")
+SCENARIO_TITLE = ("Per scenario: boundary distance of each variant ('!' beyond the declared fail distance: it fails "
+                  "there; 'held out': calibrated on another block), and the distance between the η_H and η_M "
+                  "reference boundaries")
 
 
 def method_line(doc: dict) -> str:
-    """How the ranks were made, in one sentence (under every summary table)."""
-    return verdict_of(doc).get("method") or METHOD
+    """How the values and ranks were made (under every summary table)."""
+    m = verdict_of(doc).get("method") or METHOD
+    return " ".join(m[k] for k in ("value", "comparisons", "failing") if k in m)
 
 
 def scenario_rows(doc: dict) -> tuple[list[str], list[list[str]]]:
@@ -202,11 +205,15 @@ def verdict_text(doc: dict) -> list[str]:
 
 
 def verdict_block(doc: dict, markdown: bool = False) -> str:
-    """The verdict under its title: a Markdown list, or for a terminal sentences folded at 100 columns."""
-    lines = verdict_text(doc)
+    """The verdict under its title, in short (at most 120 words) and then every sentence: Markdown, or
+    for a terminal folded at 100 columns."""
+    short, lines = verdict_of(doc).get("short") or [], verdict_text(doc)
     if markdown:
-        return "### Verdict\n\n" + "\n".join(f"- {md_cell(t)}" for t in lines)
-    return "Verdict\n" + "\n".join(textwrap.fill(t, 100, initial_indent="- ", subsequent_indent="  ") for t in lines)
+        return ("### Verdict\n\n" + (" ".join(md_cell(t) for t in short) + "\n\n" if short else "")
+                + "\n".join(f"- {md_cell(t)}" for t in lines))
+    head = textwrap.fill(" ".join(short), 100) + "\n\nIn full:\n" if short else ""
+    return "Verdict\n" + head + "\n".join(textwrap.fill(t, 100, initial_indent="- ", subsequent_indent="  ")
+                                           for t in lines)
 
 
 def compare_table(res: dict, markdown: bool = False) -> str:

@@ -31,6 +31,7 @@ from ..blocks.experiments import load_outcomes
 from ..blocks.presets import PRESETS, get_preset
 from ..maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
 from ..maps.grid import MapSpec, parse_range
+from ..scoring.declared import DEFAULTS, KEY_RULES, Declared
 
 #: the shipped suites, by name
 SHIPPED_SUITES = ("default", "quick", "full", "newton")
@@ -57,6 +58,7 @@ class Suite:
     engines: EnginesTable
     run: RunTable
     report: ReportTable
+    verdict: Declared
 
 
 # -- one rule per kind of key ------------------------------------------------------------------------
@@ -226,6 +228,16 @@ def restitution_for(token: str, block: str, where: str = "suite") -> Restitution
                           "modified:K or a number in (0, 1].") from None
 
 
+def _declared(key: str):
+    """A ``[verdict]`` key, checked by its one rule (:data:`~rockbench.benchmark.scoring.declared.KEY_RULES`)."""
+    def check(v):
+        try:
+            return KEY_RULES[key](v)
+        except ConfigError as e:
+            raise _bad(str(e)) from None
+    return BeforeValidator(check)
+
+
 # -- the tables ---------------------------------------------------------------------------------------
 
 Text = Annotated[str, BeforeValidator(_text)]
@@ -280,6 +292,17 @@ class ReportTable(_Table):
     experiments: Annotated[str | None, BeforeValidator(_experiments)] = None
 
 
+class VerdictTable(_Table):
+    """What the verdict is judged by, declared before it is computed (docs/scores.md, "What a suite
+    declares"); a key left out takes the default suite's value."""
+
+    fail_distance: Annotated[float, _declared("fail_distance")] = DEFAULTS.fail_distance
+    equivalence_margin: Annotated[str | float, _declared("equivalence_margin")] = DEFAULTS.equivalence_margin
+    held_out_margin: Annotated[float, _declared("held_out_margin")] = DEFAULTS.held_out_margin
+    general_range_h_over_b: Annotated[tuple, _declared("general_range_h_over_b")] = \
+        list(DEFAULTS.general_range_h_over_b)
+
+
 class SuiteFile(_Table):
     """The whole file; tables in the order their keys are checked (an absent table takes its defaults)."""
 
@@ -290,6 +313,7 @@ class SuiteFile(_Table):
     run: RunTable = {}
     suite: SuiteTable = {}
     report: ReportTable = {}
+    verdict: VerdictTable = {}
 
     @model_validator(mode="after")
     def _across_tables(self, info: ValidationInfo):
@@ -342,7 +366,7 @@ class SuiteFile(_Table):
                         raise ConfigError(f"suite {name}: {keys} ({block} {pulse}): {e}") from None
 
 
-TABLES = ("suite", "grid", "cases", "reference", "engines", "run", "report")
+TABLES = ("suite", "grid", "cases", "reference", "engines", "run", "report", "verdict")
 
 
 # -- reading a file ------------------------------------------------------------------------------------
@@ -430,6 +454,9 @@ def load_suite(path) -> Suite:
         f = SuiteFile.model_validate(raw, context={"name": p.name, "folder": p.parent})
     except ValidationError as err:
         raise ConfigError(_first_problem(err, p.name)) from None
-    return Suite(name=f.suite.name if f.suite.name is not None else p.stem, description=f.suite.description,
-                 path=str(p), raw=raw, grid=f.grid, cases=f.cases, reference=f.reference, engines=f.engines,
-                 run=f.run, report=f.report)
+    name = f.suite.name if f.suite.name is not None else p.stem
+    source = f"the suite {name!r}" if "verdict" in raw else \
+        f"the code's defaults (the default suite's): the suite {name!r} declares none"
+    return Suite(name=name, description=f.suite.description, path=str(p), raw=raw, grid=f.grid, cases=f.cases,
+                 reference=f.reference, engines=f.engines, run=f.run, report=f.report,
+                 verdict=Declared(**f.verdict.model_dump(), source=source))

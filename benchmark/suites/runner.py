@@ -43,6 +43,12 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     cases = ["B3M:sine:6:6.1"]   # θ(t) comparisons, BLOCK:PULSE:W_RATIO:A_RATIO
     # experiments = "path/to/outcomes.csv"   (relative to the suite file)
 
+    [verdict]                    # declared before the verdict is computed (docs/scores.md)
+    fail_distance = 0.3          # a scenario farther than this from the reference fails the variant
+    equivalence_margin = "restitution-gap"   # or a number: "within the uncertainty of the restitution"
+    held_out_margin = 0.05       # a held-out calibration carries over within ± this (paired TOST)
+    general_range_h_over_b = [1.5, 6.0]      # claims about problems in general, when the suite spans it
+
 Layout of the output directory: ``OUT/maps/<engine variant>/<block>-<pulse>-<restitution>/`` (one
 ``rockbench map`` run directory each, resumable), ``OUT/score.json``, ``OUT/index.html``,
 ``OUT/report.md``, ``OUT/img/``, ``OUT/trajectories/`` (the θ(t) curves of the report's cases, which the
@@ -87,13 +93,14 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
         cases = tuple(parse_case(c) for c in suite.report.cases)
         record_for_report(cases, [out / "maps"], out, log=log)
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
-                           figure_formats=figure_formats, allow_incomplete=unfinished)
+                           figure_formats=figure_formats, allow_incomplete=unfinished, declared=suite.verdict)
         result["score"] = rep["doc"]
         result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
         try:
-            result["score"] = score_dirs([out / "maps"], experiments=experiments, allow_incomplete=unfinished)
+            result["score"] = score_dirs([out / "maps"], experiments=experiments, allow_incomplete=unfinished,
+                                         declared=suite.verdict)
             write_json(out / "score.json", result["score"])
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
@@ -257,5 +264,5 @@ class _SuiteRun:
         result["wall_s"] = time.perf_counter() - self.t0
         kept = {k: v for k, v in result.items() if k not in ("suite", "score", "summary")}
         write_json(self.out / "suite.json", {"suite": suite.raw, "path": suite.path, "jobs": self.jobs, **kept,
-                                             "suite_name": suite.name})
+                                             "suite_name": suite.name, "verdict_declared": suite.verdict.to_dict()})
         return result

@@ -9,6 +9,7 @@ import textwrap
 from pathlib import Path
 
 from ...blocks.experiments import load_outcomes
+from ...scoring.declared import defaults_note
 from ...scoring.metrics import METRICS, METRICS_VERSION, parse_thresholds
 from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP, gate, score_dirs
 from ...scoring.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table, summary_table,
@@ -26,9 +27,11 @@ def register(sub) -> None:
     p = sub.add_parser("score", help="score engine maps against reference maps; gate with --fail-under",
                        formatter_class=argparse.RawDescriptionHelpFormatter,
                        description="Scores every engine map found in or below RUN_DIR against the reference "
-                       "maps of the same block and pulse (or those of --against), and prints the verdict: the "
-                       "variants ranked by the primary metric (boundary_mean) with 95 % intervals over the "
-                       "scenarios, ties where a difference is not resolved, and which fail and why.\nExit 0 ok, "
+                       "maps of the same block and pulse (or those of --against), and prints the verdict: each "
+                       "variant's primary metric (boundary_mean) with its 95 % interval on the suite's problems, "
+                       "each against the best of its settings class (Hsu's multiple comparisons with the best) with "
+                       "the smallest difference the suite could detect, and which fail and why, by the [verdict] "
+                       "declarations of the run's suite (suite.json; the default suite's when there is none).\nExit 0 ok, "
                        "1 a gate failed, 2 bad usage or an incomplete engine map, 5 nothing comparable.",
                        epilog=f"metrics (version {METRICS_VERSION}), as score.json also records them:\n{defs}")
     p.add_argument("run_dirs", nargs="+", metavar="RUN_DIR", help="map directories, or folders holding them")
@@ -66,6 +69,9 @@ def run(args) -> int:
     if out is not None:
         write_json(out, doc)
         print(f"rockbench: scores written to {out}", file=sys.stderr)
+    note = defaults_note(doc["verdict"]["declared"])     # after the write: an error stays one line
+    if note:
+        print(f"rockbench: note: {note}", file=sys.stderr)
     if args.json:
         print(json.dumps(json_safe(doc), indent=2))
     else:

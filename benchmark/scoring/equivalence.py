@@ -1,0 +1,83 @@
+"""Equivalence claims, each made by a test against a margin the suite declared beforehand
+(:mod:`~rockbench.benchmark.scoring.declared`; docs/scores.md, "Equivalence"):
+
+- **Within the uncertainty of the restitution**: a variant's distances against the equivalence margin
+  (by default each scenario's own η_H–η_M reference gap), on the mean over the problems (a one-sided
+  5 % test that the mean of distance/margin is below 1) and per scenario (d + z₀.₉₅·sd below the
+  margin), the worst scenario named.
+- **The held-out check**: a held-out variant against its in-sample twin (the same settings calibrated
+  on each block itself) by a paired two one-sided test with ``held_out_margin``; "carries over" only
+  when it passes.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .declared import RESTITUTION_GAP, Declared
+from .scenarios import Scenario, Variant, items
+from .statistics import fixed, paired, paired_clusters, tost, upper_bound
+
+
+def margin_of(s: Scenario, declared: Declared) -> float | None:
+    """A scenario's equivalence margin [w/a units]: its η_H–η_M reference gap, or the declared number;
+    None when the gap is not known or is 0 on its grid."""
+    m = s.gap if declared.equivalence_margin == RESTITUTION_GAP else float(declared.equivalence_margin)
+    return m if math.isfinite(m) and m > 0 else None
+
+
+def restitution_test(v: Variant, declared: Declared) -> dict | None:
+    """The equivalence of a variant's in-sample distances with the margin (module docstring); None
+    without a scenario that has a margin.
+
+    The margin is taken as declared: the gap as measured on the suite's grid, its own grid error not
+    carried (a margin is a definition, not an estimate)."""
+    rows, ratio_items = [], []
+    for (block, pulse), s in sorted(v.scenarios.items()):
+        m = margin_of(s, declared)
+        if s.held_out or not math.isfinite(s.value) or m is None:
+            continue
+        up = upper_bound(s.value, s.sd)
+        rows.append({"block": block, "pulse": pulse, "value": s.value, "upper": up, "margin": m,
+                     "within": up < m})
+        ratio_items.append((s.value / m, s.sd / m, s.cluster))
+    if not rows:
+        return None
+    e = fixed(ratio_items)
+    upper = upper_bound(e["mean"], e["se"])
+    worst = max(rows, key=lambda r: r["upper"] / r["margin"])
+    return {"margin": declared.equivalence_margin, "scenarios": len(rows), "clusters": e["clusters"],
+            "mean_ratio": e["mean"], "se": e["se"], "upper": upper, "within": upper < 1.0,
+            "within_every_scenario": all(r["within"] for r in rows), "worst": worst, "per_scenario": rows}
+
+
+def held_out_check(v: Variant, twin: Variant | None, declared: Declared) -> dict | None:
+    """The held-out check of a variant: its held-out scenarios' value and interval, its twin's value on
+    the same scenarios (else on the other size of the same problems, else none), and the paired two
+    one-sided test of their difference with ``held_out_margin``. None without a held-out scenario."""
+    held = items(v, held_out=True)
+    if not held:
+        return None
+    e = fixed(list(held.values()))
+    mine = items(twin) if twin is not None else {}
+    clusters = {x[2] for x in held.values()}
+    same = {k: x for k, x in mine.items() if k in held}
+    problems = {k: x for k, x in mine.items() if x[2] in clusters}
+    out = {"value": e["mean"], "ci95": _clip(e["ci95"]), "scenarios": len(held), "margin": declared.held_out_margin,
+           "in_sample": None, "in_sample_scope": "none", "in_sample_variant": None, "difference": None,
+           "difference_ci95": None, "tost": None, "carries_over": False}
+    if same:
+        d, base, scope = paired(held, same), same, "same scenarios"
+    elif problems:
+        d, base, scope = paired_clusters(held, problems), problems, "same problems"
+    else:
+        return out
+    t = tost(d["difference"], d["se"], declared.held_out_margin)
+    out.update(in_sample=fixed(list(base.values()))["mean"], in_sample_scope=scope, in_sample_variant=twin.name,
+               difference=d["difference"], difference_ci95=d["ci95"], tost=t, carries_over=t["equivalent"])
+    return out
+
+
+def _clip(ci: list | None) -> list | None:
+    """An interval of a distance (≥ 0) clipped at 0."""
+    return None if ci is None else [max(ci[0], 0.0), ci[1]]
