@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import html
 
+from ...engines.held_out import NEIGHBOUR, SIBLING
+from ...engines.reference_adapter import PLANTED, is_planted
 from ...engines.registry import adapter_class
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.restitution import Restitution
@@ -24,8 +26,9 @@ ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet":
 #: Engine settings that say nothing a reader needs when they have their default value.
 _QUIET = {"settings"}
 
-#: The settings classes the verdict answers apart (best achievable, out of the box).
-CALIBRATED, AS_SHIPPED = "calibrated", "as-shipped"
+#: The settings classes the verdict answers apart (best achievable, out of the box), and the suite's
+#: yardstick: the reference solver with a planted restitution error (``planted_eta_factor``)
+CALIBRATED, AS_SHIPPED, PLANTED_CLASS = "calibrated", "as-shipped", "planted"
 
 #: Engine settings a calibration chooses itself (they do not make a variant "custom").
 _CALIBRATION_KEYS = {"settings", "contact"}
@@ -97,8 +100,19 @@ def _setting_words(key: str, value) -> str | None:
     if key == "calibrate_on":
         if not value:
             return None
-        return "held out: calibrated on the other size" if value == "sibling" else f"held out: calibrated on {value}"
+        return {SIBLING: "held out: calibrated on the other size",
+                NEIGHBOUR: "held out: calibrated on the neighbouring slenderness"}.get(value,
+                                                                                     f"held out: calibrated on {value}")
     return f"{key} = {value}"
+
+
+def _planted_words(factor, restitution: str | None, block: str | None) -> str:
+    """``η_H × 0.990 (planted)``: a planted variant's restitution in words."""
+    law = restitution_symbol(restitution, block) if restitution else "η"
+    try:
+        return f"{law} × {float(factor):.3f} (planted)"
+    except (TypeError, ValueError):
+        return f"{law} × {factor} (planted)"
 
 
 def variant_label(engine: str, settings: dict | None = None, *, version=None, restitution: str | None = None,
@@ -131,6 +145,8 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
             words.append("as shipped")
         else:
             words.append(f"calibrated to {restitution_symbol(restitution, block)}" if restitution else "calibrated")
+    elif PLANTED in s:
+        words.append(_planted_words(s.pop(PLANTED), restitution, block))
     elif restitution:
         words.append(restitution_symbol(restitution, block))
     words += [w for w in (_setting_words(k, val) for k, val in sorted(s.items())) if w]
@@ -188,9 +204,12 @@ def variant_labels(cands) -> dict[str, str]:
 
 def settings_class(engine_settings: dict | None, variant: str, engine: str | None = None) -> str:
     """``calibrated`` (rockbench's calibration, any contact layout it chose), ``as-shipped`` (the
-    engine's defaults and nothing else) or, for anything else set by hand, the variant's own name.
-    The settings that choose the ``engine``'s model (:func:`model_settings`: Newton's solver) are the
-    engine's, not a tweak: they leave the class as it is."""
+    engine's defaults and nothing else), ``planted`` (the reference solver with a planted restitution
+    error, :func:`~rockbench.engines.reference_adapter.is_planted`) or, for anything else set by hand,
+    the variant's own name. The settings that choose the ``engine``'s model (:func:`model_settings`:
+    Newton's solver) are the engine's, not a tweak: they leave the class as it is."""
+    if engine is not None and is_planted(engine, engine_settings):
+        return PLANTED_CLASS
     model = model_settings(engine) if engine else {}
     s = {k: v for k, v in (engine_settings or {}).items() if k not in model}
     kind = s.get("settings", "calibrated")

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 
-from .labels import AS_SHIPPED, CALIBRATED, settings_class  # noqa: F401 - the verdict's settings classes
+from .labels import AS_SHIPPED, CALIBRATED, PLANTED_CLASS, settings_class  # noqa: F401 - the verdict's settings classes
 from .metrics import PRIMARY, PRIMARY_METRIC
 from .scenarios import Scenario, Variant, entries, variants_of  # noqa: F401 - Scenario: the verdict's unit
 from .statistics import CONFIDENCE, estimate, holm, paired, tie_groups
@@ -186,7 +186,8 @@ def rank(variants: list[Variant], versus: dict | None = None) -> dict[str, int]:
 def verdict(doc: dict) -> dict:
     """The ``verdict`` object of score.json (docs/scores.md, "The verdict")."""
     vs = variants_of(doc)
-    ranked = [v for v in vs if not v.held_out_only]    # the held-out check's own variants have a line apart
+    # the held-out check's own variants have a line apart, and so has the yardstick (planted variants)
+    ranked = [v for v in vs if not v.held_out_only and v.settings != PLANTED_CLASS]
     groups = entries(ranked)
     versus = comparisons(groups)
     ranks = rank(ranked, versus)
@@ -291,8 +292,8 @@ def sentences(vs: list[Variant], rows: list[dict]) -> list[str]:
         if members:
             out.append(_class_sentence(title, members, by))
             shown |= {o for r in members for o in [r["variant"], *r["same_as"]]}
-    custom = [by[v.name] for v in vs if v.settings not in (CALIBRATED, AS_SHIPPED) and not by[v.name]["fails"]
-              and not v.held_out_only]
+    custom = [by[v.name] for v in vs if v.settings not in (CALIBRATED, AS_SHIPPED, PLANTED_CLASS)
+              and not by[v.name]["fails"] and not v.held_out_only]
     if custom:
         out.append("Other settings: " + "; ".join(f"{r['label']}, {_figure(r)}" for r in custom) + ".")
     failing = [r for r in rows if r["fails"] and not any(by[o]["fails"] for o in r["same_as"]
@@ -300,7 +301,7 @@ def sentences(vs: list[Variant], rows: list[dict]) -> list[str]:
     if failing:
         out.append(f"Fail (boundary more than {FAIL_CELLS:g} grid cell from the reference's in at least one "
                    "scenario, whatever the mean): " + "; ".join(_failure(r, by) for r in failing) + ".")
-    out += _physics_sentence(rows) + _held_out_sentence(rows)
+    out += _physics_sentence(rows) + _held_out_sentence(rows) + _planted_sentence(rows)
     incomplete = [r for r in rows if r["cells_missing"]]
     if incomplete:
         out.append("Incomplete maps, scored on the cells they have: "
@@ -375,10 +376,20 @@ def _held_out_sentence(rows: list[dict]) -> list[str]:
     held = [r for r in rows if r["held_out"]]
     if not held:
         return []
-    return ["Held-out check (calibrated on one size, mapped on the other of the same slenderness): " + "; ".join(
+    return ["Held-out check (calibrated on one block, mapped on another it was not calibrated on): " + "; ".join(
         f"{r['label']}, {number(r['held_out']['value'])} [{number(r['held_out']['ci95'][0])}, "
         f"{number(r['held_out']['ci95'][1])}] over {r['held_out']['scenarios']} scenario(s), " + _in_sample_words(r)
         for r in held) + "."]
+
+
+def _planted_sentence(rows: list[dict]) -> list[str]:
+    """The suite's yardstick: the reference solver with a planted restitution error, each value as measured
+    (its statistics against δ = 0 are the power's)."""
+    planted = [r for r in rows if r["settings"] == PLANTED_CLASS]
+    if not planted:
+        return []
+    return ["Planted differences (the reference solver with its η reduced, mapped and scored as an engine): "
+            + "; ".join(f"{r['label']}, {_figure(r)}" for r in planted) + "."]
 
 
 def _in_sample_words(row: dict) -> str:
