@@ -69,16 +69,17 @@ def test_a_planted_map_with_factor_1_is_the_reference_map_cell_for_cell(tmp_path
 @pytest.mark.parametrize("block, pulse", [("B6M", "sine"), ("B8M", "cosine")])
 def test_a_planted_reduction_is_the_reference_at_that_eta_and_shrinks_the_overturn_region(tmp_path, block, pulse):
     """η·0.98 is the reference solver at the constant η = 0.98·η_H, cell for cell (an independent path:
-    the constant law); and less restitution loses more energy at each impact, so no cell overturns that
-    did not at η_H, and some stop overturning (26 × 26 over ω/p 1–16, a₀/(g·tanα) 1–12)."""
+    the constant law); and less restitution loses more energy at each impact, so cells that overturned
+    after an impact stop overturning, and hardly any starts (26 × 26 over ω/p 1–16, a₀/(g·tanα) 1–12:
+    none; on 101 × 101 the probe tests/measurements/probes/probe_planted.py finds at most 2 against 78–321)."""
     eta_h = Restitution().eta(get_preset(block).block().alpha_rad)
     ref = run_map(_spec(block, pulse), tmp_path / "ref", serial=True)
     low = run_map(_spec(block, pulse, factor=0.98), tmp_path / "low", serial=True)
     const = run_map(_spec(block, pulse, rest=Restitution("constant", value=0.98 * eta_h)), tmp_path / "c", serial=True)
     assert np.array_equal(low.outcome, const.outcome) and np.array_equal(low.n_impacts, const.n_impacts)
     over_ref, over_low = ref.outcome == 2, low.outcome == 2
-    assert not (over_low & ~over_ref).any()
-    assert (over_ref & ~over_low).sum() >= 3
+    lost, gained = (over_ref & ~over_low).sum(), (over_low & ~over_ref).sum()
+    assert lost >= 3 and 10 * gained <= lost
 
 
 def _power_suite(tmp_path, extra=""):

@@ -16,20 +16,28 @@ def test_shipped_suites_parse_and_plan():
     d = load_suite(suite_path(None, quick=False))
     q = load_suite(suite_path(None, quick=True))
     assert d.name == "default" and q.name == "quick"
-    assert d.cases.blocks == ["B3M", "B6M", "B3L", "B6L"] and d.cases.pulses == ["sine", "cosine"]
-    assert q.cases.blocks == ["B3M", "B6L"]  # one block per slenderness
+    # eight problems: four slendernesses of the medium size × two pulses
+    assert d.cases.blocks == ["B2M", "B3M", "B6M", "B8M"] and d.cases.pulses == ["sine", "cosine"]
+    assert q.cases.blocks == ["B3M", "B8M"]  # one Table 1 block, one from the measured range
     assert not [j for j in plan(q, ["mujoco", "exudyn"]) if j.settings.get("calibrate_on")]   # the default suite's
     jobs = plan(d, ["mujoco", "pybullet"])
-    refs = [j for j in jobs if j.engine == "reference"]
-    assert len(refs) == 4 * 2 * 3  # blocks × pulses × (Housner, modified average k, modified exact k)
-    # engines × (2 variants on B3M and B6M + the held-out check on B3L and B6L) × pulses
-    assert len(jobs) - len(refs) == 2 * (2 * 2 + 2) * 2
-    assert {j.block for j in jobs if j.engine != "reference" and not j.settings.get("calibrate_on")} == {"B3M", "B6M"}
+    refs = [j for j in jobs if j.engine == "reference" and not j.settings]
+    # blocks × pulses × (Housner, modified average k) + Table 1's B3M and B6M × pulses × modified exact k
+    assert len(refs) == 4 * 2 * 2 + 2 * 2
+    planted = [j for j in jobs if j.engine == "reference" and j.settings]
+    assert len(planted) == 4 * 4 * 2   # four reductions δ × four blocks × two pulses
+    assert sorted({j.settings["planted_eta_factor"] for j in planted}) == [0.98, 0.99, 0.995, 1.0]
+    assert {j.restitution.label for j in planted} == {"housner"} and {j.dt_s for j in planted} == {d.reference.dt_s}
+    # engines × (2 variants on the four blocks + the held-out check on B2M and B8M) × pulses
+    engine_jobs = [j for j in jobs if j.engine != "reference"]
+    assert len(engine_jobs) == 2 * (2 * 4 + 2) * 2
+    assert {j.block for j in engine_jobs if not j.settings.get("calibrate_on")} == {"B2M", "B3M", "B6M", "B8M"}
     held = [j for j in jobs if j.settings.get("calibrate_on")]
-    assert {j.block for j in held} == {"B3L", "B6L"} and {j.settings["calibrate_on"] for j in held} == {"sibling"}
+    assert {j.block for j in held} == {"B2M", "B8M"} and {j.settings["calibrate_on"] for j in held} == {"neighbour"}
     assert len({j.subdir for j in jobs}) == len(jobs)
-    b3m = {j.restitution.label for j in refs if j.block == "B3M"}
-    assert b3m == {"housner", "modified(k=0.8608)", "modified(k=0.7595)"}
+    assert {j.restitution.label for j in refs if j.block == "B3M"} == {"housner", "modified(k=0.8608)",
+                                                                        "modified(k=0.7595)"}
+    assert {j.restitution.label for j in refs if j.block == "B2M"} == {"housner", "modified(k=0.8608)"}
     assert {j.settings["settings"] for j in jobs if j.engine == "mujoco"} == {"calibrated", "shipped"}
 
 
