@@ -100,6 +100,15 @@ def test_power_variants_are_planned_on_the_in_sample_blocks(tmp_path):
     assert not [j for j in plan(s, []) if j.settings]
 
 
+def test_power_variants_run_whatever_engines_run(tmp_path, capsys):
+    """They are the suite's yardstick: `run --engines NAME` keeps them (decided: they cost milliseconds)."""
+    pytest.importorskip("mujoco")
+    p = _power_suite(tmp_path, "[power]\neta_reductions = [0.0, 0.01]\n")
+    assert main(["run", str(p), "--plan", "--engines", "mujoco", "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert out.count("maps/reference-planted-eta-factor=") == 4 and "maps/mujoco" in out
+
+
 @pytest.mark.parametrize("table, line", [
     ("[power]\neta_reductions = 0.01\n",
      "suite s.toml: power.eta_reductions must be a list of numbers δ in [0, 1) (the planted η is η·(1 − δ)), got 0.01."),

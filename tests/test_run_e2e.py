@@ -148,3 +148,4 @@ def test_run_a_tiny_suite_with_a_held_out_transfer_and_planted_variants(tmp_path
     assert rows["mujoco[calibrate_on=neighbour,settings=calibrated]"]["held_out"]["scenarios"] == 1
     assert rows["reference[planted_eta_factor=0.98]"]["rank"] is None
     assert (out / "index.html").is_file()
+    assert "> no modified-exact reference map for B2M: it is not in Table 1" in (out / "report.md").read_text()

@@ -345,3 +345,28 @@ def test_only_mujoco_warp_leaves_suites_of_every_engine_by_itself():
     own = {n for n in BUILTIN if n != "reference"
            and adapter_class(n).default_suite_exclusion.__func__ is not EngineAdapter.default_suite_exclusion.__func__}
     assert own == {"mujoco_warp"}
+
+
+def test_a_block_without_a_measured_k_skips_the_exact_k_reference_with_a_note(tmp_path, capsys):
+    """B2M (not in Table 1) has no exact k: its modified-exact reference map is skipped, and the plan (and the
+    run, and its report) say so in one note; an engine variant calibrated to it there is refused in one line."""
+    p = tmp_path / "s.toml"
+    p.write_text("[grid]\nw_ratio = '1:16:5'\na_ratio = '1:12:5'\n[cases]\nblocks = ['B2M', 'B3M']\npulses = ['sine']\n"
+                 "[reference]\nrestitutions = ['housner', 'modified-exact']\n[engines]\nnames = []\n")
+    s = load_suite(p)
+    refs = [(j.block, j.restitution.label) for j in plan(s, []) if j.engine == "reference"]
+    assert refs == [("B2M", "housner"), ("B3M", "housner"), ("B3M", "modified(k=0.7595)")]
+    assert main(["run", str(p), "--plan", "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    assert ("rockbench: no modified-exact reference map for B2M: it is not in Table 1 (paper's measured range) and "
+            "has no measured k (only Table 1's B3M, B6M, B3L, B6L have one)") in err
+    p.write_text(p.read_text().replace("names = []", "names = []\nvariants = [{ restitution = 'modified-exact' }]"))
+    with pytest.raises(ConfigError) as e:
+        load_suite(p)
+    assert str(e.value) == ("suite s.toml: engines.variants[0].restitution: restitution 'modified-exact' is not defined "
+                            "for block B2M, which is not in Table 1 (paper's measured range) and has no measured k; map "
+                            "it with another restitution, or keep the variant to Table 1's blocks (B3M, B6M, B3L, B6L) "
+                            "with its blocks key.")
+    p.write_text(p.read_text().replace("{ restitution = 'modified-exact' }",
+                                       "{ restitution = 'modified-exact', blocks = ['B3M'] }"))
+    assert [j.block for j in plan(load_suite(p), ["mujoco"]) if j.engine == "mujoco"] == ["B3M"]

@@ -139,6 +139,18 @@ PRESETS: dict[str, Preset] = {p.name: p for p in sorted(
     key=lambda p: (p.width_m, p.h_over_b))}
 
 
+def no_exact_k_note(blocks) -> str | None:
+    """The note a run, its plan and its report give for the presets among ``blocks`` (names) that have no
+    measured k, so no reference map with the exact k's η_M; None when there is none."""
+    names = [str(b).upper() for b in blocks]
+    without = [n for n in names if n in PRESETS and PRESETS[n].k_exact is None]
+    if not without:
+        return None
+    they, have = ("it is", "has") if len(without) == 1 else ("they are", "have")
+    return (f"no modified-exact reference map for {', '.join(without)}: {they} {NOT_IN_TABLE_1} and {have} no "
+            f"measured k (only Table 1's {', '.join(TABLE_1)} have one)")
+
+
 def get_preset(name: str) -> Preset:
     """The preset called ``name`` (case-insensitive), with a "did you mean" on a miss."""
     key = str(name).upper()

@@ -31,7 +31,7 @@ from ...reference_solver.pulses import make_pulse
 from ...reference_solver.restitution import Restitution
 from ..blocks.cases import FIG17, TrajectoryCase
 from ..blocks.experiments import restitution_targets, st_limit_a_ratio
-from ..blocks.presets import PRESETS, TABLE_1, get_preset
+from ..blocks.presets import PRESETS, TABLE_1, get_preset, no_exact_k_note
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
 from ..scoring.metrics import PRIMARY_METRIC
 from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
@@ -148,7 +148,21 @@ class _Scored:
             mark_runs(doc, run_of, against=bool(against), notes=notes)
         except IncomparableError as e:
             notes.append(f"No scores: {e}")
-        return cls(entries, cands, refs, doc, own_eta, notes)
+        return cls(entries, cands, refs, doc, own_eta, notes + _no_exact_k(refs))
+
+
+def _no_exact_k(refs: list[MapEntry]) -> list[str]:
+    """Where the reference maps hold the exact k's η_M for some blocks, the note for the blocks that have
+    none (presets without a measured k)."""
+    def which(r):
+        law, pre = _restitution_from_label(r.restitution), PRESETS.get(r.block.upper())
+        return pre.which_k(law.k) if law is not None and law.kind == "modified" and pre is not None else None
+
+    if not any(which(r) == "exact" for r in refs):
+        return []
+    note = no_exact_k_note(sorted({r.block for r in refs}, key=lambda b: list(PRESETS).index(b.upper())
+                                  if b.upper() in PRESETS else len(PRESETS)))
+    return [note] if note else []
 
 
 def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:

@@ -28,7 +28,7 @@ from ...reference_solver.pulses import is_number
 from ...reference_solver.restitution import Restitution
 from ..blocks.cases import parse_case
 from ..blocks.experiments import load_outcomes
-from ..blocks.presets import NOT_IN_TABLE_1, PRESETS, TABLE_1, get_preset
+from ..blocks.presets import NOT_IN_TABLE_1, PRESETS, TABLE_1, get_preset, no_exact_k_note
 from ..maps.grid import MapSpec, parse_range
 
 #: the shipped suites, by name
@@ -249,12 +249,7 @@ def reference_tokens(suite_or_tokens, block: str) -> list[str]:
 def skipped_reference_note(suite: "Suite") -> str | None:
     """The note a run and its plan give when a reference restitution is skipped on some blocks (the
     exact k's η_M on a block without a measured k); None when none is."""
-    skipped = [b for b in suite.cases.blocks if reference_tokens(suite, b) != suite.reference.restitutions]
-    if not skipped:
-        return None
-    they, have = ("it is", "has") if len(skipped) == 1 else ("they are", "have")
-    return (f"no modified-exact reference map for {', '.join(skipped)}: {they} {NOT_IN_TABLE_1} and {have} no "
-            f"measured k (only Table 1's {', '.join(TABLE_1)} have one)")
+    return no_exact_k_note(b for b in suite.cases.blocks if reference_tokens(suite, b) != suite.reference.restitutions)
 
 
 # -- the tables ---------------------------------------------------------------------------------------
