@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
 
-# Table 1's names, handed down to the engines' ``calibrate_on`` wherever this floor runs (map workers too)
+# the presets' names, handed down to the engines' ``calibrate_on`` wherever this floor runs (map workers too)
 from .blocks import presets as _presets  # noqa: F401
 
 __all__ = ["__version__", "simulate", "stability_map", "load_run", "Simulation", "Run"]

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from .blocks.presets import PRESETS
 from .engine_info.adapters import build_adapter
 from .maps.grid import MAP_PULSES, make_axis, parse_range
 from .maps.sweep import run_map
@@ -48,7 +49,7 @@ def request_of(block, *, width=None, height=None, depth=None, density=None, rest
     """The :class:`CaseRequest` of the API's keywords: any keyword the command line has no option for is
     an engine setting (as ``--set KEY=VALUE``)."""
     if block is not None and not isinstance(block, str):
-        raise ConfigError(f"block must be a preset name (B3M, B6M, B3L, B6L), got {block!r}; for a custom block "
+        raise ConfigError(f"block must be a preset name ({', '.join(PRESETS)}), got {block!r}; for a custom block "
                           "give width= and height= [m].")
     return CaseRequest(
         block=block, width=width, height=height, depth=depth, density=density, restitution=str(restitution),

@@ -35,7 +35,7 @@ class Curve:
     def law(self) -> Restitution:
         pre = get_preset(self.block)
         spelling = {"average": "modified-average"}.get(self.restitution, self.restitution.replace("k=", "modified:"))
-        return Restitution.parse(spelling, k_average=pre.k_average, k_exact=pre.k_exact)
+        return pre.restitution(spelling)
 
     def label(self) -> str:
         """``B6M, η_H = 0.9294`` / ``B3M, η_M (k = 0.75) = 0.8532``."""

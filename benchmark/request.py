@@ -19,7 +19,7 @@ from ..reference_solver.errors import ConfigError, check_positive
 from ..reference_solver.model import Block, G, a_ratio_to_amplitude
 from ..reference_solver.pulses import Pulse, RecordPulse, make_pulse
 from ..reference_solver.restitution import Restitution
-from .blocks.presets import get_preset
+from .blocks.presets import PRESETS, get_preset
 from .maps.grid import MapSpec
 
 
@@ -90,7 +90,7 @@ class CaseRequest:
                                   "--width/--height.")
             return pre.block(), pre
         if self.width is None or self.height is None:
-            raise ConfigError("no block given: use --block NAME (B3M, B6M, B3L, B6L) or --width W --height H [m].")
+            raise ConfigError(f"no block given: use --block NAME ({', '.join(PRESETS)}) or --width W --height H [m].")
         return Block(_num("--width", self.width), _num("--height", self.height),
                      None if self.depth is None else _num("--depth", self.depth),
                      density_kg_m3=None if self.density is None else _num("--density", self.density)), None
@@ -99,9 +99,10 @@ class CaseRequest:
         """``restitution`` (or ``token``, given as ``option``) and ``k`` into a Restitution
         (:meth:`Restitution.parse`; a preset supplies its average and exact k)."""
         k = None if self.k is None else _num("--k", self.k)
-        return Restitution.parse(self.restitution if token is None else token, k, option=option,
-                                 k_average=None if preset is None else preset.k_average,
-                                 k_exact=None if preset is None else preset.k_exact)
+        text = self.restitution if token is None else token
+        if preset is not None:
+            return preset.restitution(text, k, option=option)
+        return Restitution.parse(text, k, option=option)
 
     def omega_rad_s(self, block: Block) -> float:
         """ω [rad/s] from ``w_ratio``, ``omega`` or ``period``."""

@@ -568,7 +568,7 @@ class EngineAdapter:
 
     def calibration_block(self, block: Block) -> Block:
         """The block whose geometry the calibration behind runs of ``block`` is made on: ``block``
-        itself (a contact engine's ``calibrate_on`` names another of the same slenderness); a
+        itself (a contact engine's ``calibrate_on`` names another block); a
         ConfigError for one it cannot run ``block`` with, before anything runs."""
         return block
 

@@ -7,8 +7,8 @@ so it needs the same few things whatever the engine:
   parameters searched so that free rocking reaches the case's η; ``shipped``: the engine as
   shipped), ``drive`` (``inertial`` or ``table``), ``planar``, ``friction`` [-], ``tail_s`` (the
   longest simulated time after the pulse), ``min_tail_s`` (the shortest) and, for engines that
-  step in segments between stop checks, ``segment_s``; ``calibrate_on`` (another block of the same
-  slenderness that the calibration runs on: the held-out check, :mod:`rockbench.engines.held_out`).
+  step in segments between stop checks, ``segment_s``; ``calibrate_on`` (another block, of the same
+  slenderness or another, that the calibration runs on: the held-out check, :mod:`rockbench.engines.held_out`).
   They are validated here, once.
 * **Old names** of settings and of their values are accepted for one release and mapped to the new
   ones by :mod:`rockbench.engines.renamed` (``--set``, suite TOMLs, stored runs and cached calibration
@@ -219,17 +219,24 @@ class ContactEngineAdapter(EngineAdapter):
 
     def calibration_block(self, block: Block) -> Block:
         """The block the calibration of ``block``'s runs is made on: ``block`` itself, or the block the
-        ``calibrate_on`` setting names (:func:`~rockbench.engines.held_out.calibration_block`; a
-        ConfigError for one of another slenderness)."""
+        ``calibrate_on`` setting names or picks (:func:`~rockbench.engines.held_out.calibration_block`;
+        a ConfigError for the mapped block itself, or a rule that finds none)."""
         return held_out.calibration_block(self.settings.get("calibrate_on"), block)
 
+    def calibration_target(self, block: Block, restitution: Restitution) -> tuple[Block, float]:
+        """The block the calibration of ``block``'s runs is made on and the η it aims at there [-]
+        (:func:`~rockbench.engines.held_out.calibration_target`: the law's η for that block)."""
+        return held_out.calibration_target(self.settings.get("calibrate_on"), block, restitution)
+
     def run_step_s(self, block: Block, eta: float, dt_s: float | None = None) -> float:
-        """The step of the runs and the calibration of ``block`` at η [s]: ``dt_s`` where given;
-        calibrated, the one time-step rule's (:meth:`converged_step_s`) on the block the calibration is
-        made on (:meth:`calibration_block`); else :meth:`unposed_dt_s`."""
-        if dt_s is not None or not self.calibrated() or self.contact_layout(block, eta) == "distributed":
+        """The step of the runs and the calibration of ``block`` [s]: ``dt_s`` where given; calibrated,
+        the one time-step rule's (:meth:`converged_step_s`) on the block the calibration is made on
+        (:meth:`calibration_block`) at ``eta``, the η the calibration aims at there
+        (:meth:`calibration_target`); else :meth:`unposed_dt_s`."""
+        on = self.calibration_block(block)
+        if dt_s is not None or not self.calibrated() or self.contact_layout(on, eta) == "distributed":
             return self.time_step_s(dt_s)
-        return self.converged_step_s(self.calibration_block(block), eta)[0]
+        return self.converged_step_s(on, eta)[0]
 
     def converged_step_s(self, block: Block, eta: float) -> tuple[float, dict]:
         """The step :func:`~rockbench.engines.step_rule.converged_step` chooses for ``block`` at η [s],
@@ -262,7 +269,8 @@ class ContactEngineAdapter(EngineAdapter):
         """As :meth:`EngineAdapter.dt_for`; calibrated, a case that poses no step runs at the one
         time-step rule's step, never coarser than its pulse accepts [s]."""
         if case.dt_s is None and self.calibrated():
-            return case.pulse.check_dt(min(self.run_step_s(case.block, case.eta), case.pulse.max_dt_s()))
+            eta = self.calibration_target(case.block, case.restitution)[1]
+            return case.pulse.check_dt(min(self.run_step_s(case.block, eta), case.pulse.max_dt_s()))
         return super().dt_for(case)
 
     # -- resolve: explicit, or defaults, or calibrated ---------------------------------------
@@ -276,11 +284,12 @@ class ContactEngineAdapter(EngineAdapter):
         Explicit contact settings, else (``settings="shipped"``) the engine's defaults, else the
         calibration to the restitution's η at this time step (:meth:`calibrate`, cached on disk), made
         on :meth:`calibration_block` (``block`` itself unless ``calibrate_on`` names another, which the
-        record's ``calibrated_on`` then names); then :meth:`_resolved_settings` builds the concrete
-        settings for ``block``. Memoised per block, η and step.
+        record's ``calibrated_on`` then names) and aimed at the law's η for that block
+        (:meth:`calibration_target`); then :meth:`_resolved_settings` builds the concrete settings for
+        ``block``. Memoised per block, η and step.
         """
-        eta = restitution.eta(block.alpha_rad)
-        on = self.calibration_block(block) if self.calibrated() else block
+        on, eta = self.calibration_target(block, restitution) if self.calibrated() else \
+            (block, restitution.eta(block.alpha_rad))
         dt = self.run_step_s(block, eta, dt_s)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:

@@ -11,6 +11,11 @@ pivot must supply, :mod:`~rockbench.reference_solver.demand`); the one rule of
 :func:`~rockbench.reference_solver.validity.contact_flags` turns a pull (N < 0) into
 ``lift-required`` and a friction demand above μ (the ``friction`` setting, 10 by default, the
 engines' anti-slip friction) into ``slip-required``. Such a cell is not valid.
+
+A planted difference: the setting ``planted_eta_factor`` (in (0, 1], default 1) multiplies the
+restitution every case asks for, so the reference solver runs as an engine whose only error is an η
+that much too small. Mapped and scored like any engine, such a variant measures how small a
+difference a suite can resolve (its power); :func:`is_planted` tells such a map from the reference's own.
 """
 
 from __future__ import annotations
@@ -29,6 +34,16 @@ from .base import Case, CellColumns, CellResult, EngineAdapter, Trajectory
 #: pulse kinds the batch kernel runs (records go case by case)
 _BATCH_KINDS = ("sine", "cosine", "half-sine")
 
+#: The setting that plants a restitution error: the factor on the η every case asks for [-]
+PLANTED = "planted_eta_factor"
+
+
+def is_planted(engine: str, settings) -> bool:
+    """Whether a map of ``engine`` with ``settings`` (as given) is a planted variant of the reference
+    solver (``planted_eta_factor`` given, even 1: the δ = 0 variant), scored as an engine, rather than
+    a reference map."""
+    return engine == ReferenceAdapter.name and PLANTED in (settings or {})
+
 
 class ReferenceAdapter(EngineAdapter):
     """The reference solution (paper §2.2) as an adapter.
@@ -41,12 +56,15 @@ class ReferenceAdapter(EngineAdapter):
     friction : float
         The friction coefficient μ the table can give [-]: a trajectory that needs ``|F|/N > μ``
         at the pivot is ``slip-required`` (default 10, the engines' anti-slip friction).
+    planted_eta_factor : float
+        The factor in (0, 1] on the restitution every case asks for [-] (default 1: none): η·(1 − δ)
+        with factor 1 − δ, a planted difference (module docstring).
     """
 
     name = "reference"
     module = None
     install_hint = "part of rockbench; nothing to install."
-    SETTINGS = {"mode": "energy", "friction": DEFAULT_FRICTION}
+    SETTINGS = {"mode": "energy", "friction": DEFAULT_FRICTION, PLANTED: 1.0}
     default_dt_s = 1e-3
     #: solve_batch runs the cases in parallel on all cores: maps call it once, in-process
     batching = "parallel"
@@ -55,6 +73,14 @@ class ReferenceAdapter(EngineAdapter):
         if settings["mode"] not in MODES:
             raise ConfigError(f"the reference engine's mode must be energy or to-rest, got {settings['mode']!r}.")
         self._number_setting(settings, "friction", allow_none=False)
+        self._number_setting(settings, PLANTED, allow_none=False)
+        if settings[PLANTED] > 1.0:
+            raise ConfigError(f"the reference engine's {PLANTED} must be in (0, 1] (the planted η is the case's "
+                              f"η times it), got {settings[PLANTED]!r}.")
+
+    def _eta(self, eta: float) -> float:
+        """The η a run uses: the case's ``eta`` times the planted factor [-]."""
+        return eta * self.settings[PLANTED]
 
     @property
     def _energy(self) -> bool:
@@ -62,7 +88,7 @@ class ReferenceAdapter(EngineAdapter):
 
     def _simulate(self, case: Case) -> Trajectory:
         dt = self.dt_for(case)
-        eta = case.eta
+        eta = self._eta(case.eta)
         sol = solve(case.block, case.pulse, eta, dt_s=dt, linearized=case.linearized,
                     mode=self.settings["mode"], history=True)
         diag = {"mode": sol.mode, "dt_s": sol.dt_s, "n_steps": sol.n_steps, "n_newton": sol.n_newton,
@@ -112,8 +138,9 @@ class ReferenceAdapter(EngineAdapter):
             raise ConfigError(f"--dt {dt:g} s is too coarse for the shortest {pulse_kind} pulse of the grid: "
                               f"use --dt <= {float(np.min(duration)) / MIN_STEPS_PER_WAVE:.3g} s.")
         t0 = time.perf_counter()
-        r = solve_batch(block.alpha_rad, block.p_rad_s, restitution.eta(block.alpha_rad), pulse_kind, omega_rad_s,
-                        amplitude_mps2, dt_s=dt, linearized=linearized, mode=self.settings["mode"])
+        eta = self._eta(restitution.eta(block.alpha_rad))
+        r = solve_batch(block.alpha_rad, block.p_rad_s, eta, pulse_kind, omega_rad_s, amplitude_mps2, dt_s=dt,
+                        linearized=linearized, mode=self.settings["mode"])
         n = max(int(np.size(r.outcome)), 1)
         return CellColumns(outcome=r.outcome, n_impacts=r.n_impacts, max_abs_theta_rad=r.max_abs_theta_rad,
                            t_overturn_s=r.t_overturn_s, t_uplift_s=r.t_uplift_s,
@@ -139,7 +166,8 @@ class ReferenceAdapter(EngineAdapter):
             dts = np.array([self.dt_for(c) for c in sel])  # ConfigError on a step too coarse
             t0 = time.perf_counter()
             r = solve_batch(np.array([c.block.alpha_rad for c in sel]), np.array([c.block.p_rad_s for c in sel]),
-                            np.array([c.eta for c in sel]), kind, np.array([c.pulse.omega_rad_s for c in sel]),
+                            np.array([self._eta(c.eta) for c in sel]), kind,
+                            np.array([c.pulse.omega_rad_s for c in sel]),
                             np.array([c.pulse.amplitude_mps2 for c in sel]), dt_s=dts, linearized=lin,
                             mode=self.settings["mode"])
             wall = (time.perf_counter() - t0) / len(sel)

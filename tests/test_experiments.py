@@ -8,7 +8,7 @@ import pytest
 from rockbench.benchmark.blocks.experiments import (SHAKING_TABLE_LIMIT_MPS2, experimental_eta, load_outcomes,
                                                   load_restitution, parse_outcomes, restitution_errors,
                                                   restitution_targets, st_limit_a_ratio)
-from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.blocks.presets import PRESETS, TABLE_1
 from rockbench.benchmark.maps.result import MapResult
 from rockbench.benchmark.scoring.experiments import score_outcomes
 from rockbench.benchmark.scoring.metrics import OVERTURN, REST, ROCKING
@@ -37,6 +37,10 @@ def test_restitution_data_matches_the_paper_and_presets():
         assert round(t["modified_average_k"], 4) == eta_avg == rec["eta_modified_average_k"]
         assert round(t["experiment"], 4) == eta_exact == rec["eta_modified_exact_k"]
         assert experimental_eta(name) == t["experiment"]
+    # the experimental data is Table 1's four blocks, and only theirs (not the presets from the measured range)
+    assert [rec["block"] for rec in data["blocks"]] == list(TABLE_1) == list(PRINTED)
+    with pytest.raises(ConfigError, match="no free-rocking restitution data for block 'B2M'; the data covers Table 1"):
+        experimental_eta("B2M")
 
 
 def test_restitution_errors():
@@ -104,7 +108,10 @@ def test_scoring_a_small_test_set(tmp_path):
     ("block,pulse,f_hz,omega_rad_s,amplitude_mps2,outcome,source\nB3M,sine,1,6,3,O,x\n", "exactly one frequency"),
     ("block,f_hz,amplitude_mps2,outcome,source\nB3M,1,3,O,x\n", "missing column 'pulse'"),
     ("block,pulse,f_hz,amplitude_mps2,outcome,source,colour\nB3M,sine,1,3,O,x,red\n", "unknown column 'colour'"),
-    ("block,pulse,f_hz,amplitude_mps2,outcome,source\nB9M,sine,1,3,O,x\n", "unknown block"),
+    ("block,pulse,f_hz,amplitude_mps2,outcome,source\nB9M,sine,1,3,O,x\n", "block 'B9M' is not one of the experiments'"),
+    # a preset outside Table 1 was never on the shaking table
+    ("block,pulse,f_hz,amplitude_mps2,outcome,source\nB2M,sine,1,3,O,x\n",
+     r"block 'B2M' is not one of the experiments' blocks; use one of B3M, B6M, B3L, B6L \(Table 1\)"),
     ("block,pulse,f_hz,amplitude_mps2,outcome,source\nB3M,square,1,3,O,x\n", "unknown pulse"),
     ("block,pulse,f_hz,amplitude_mps2,outcome,source\nB3M,sine,-1,3,O,x\n", r"f_hz must be a finite number > 0"),
     ("block,pulse,f_hz,amplitude_mps2,outcome,source\nB3M,sine,1,abc,O,x\n", "amplitude_mps2 must be a number"),

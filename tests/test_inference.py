@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from rockbench.benchmark.scoring.declared import Declared
-from rockbench.benchmark.scoring.labels import CALIBRATED, PLANTED
+from rockbench.benchmark.scoring.labels import CALIBRATED, PLANTED_CLASS
 from rockbench.benchmark.scoring.statistics import (detectable, differences, dunnett_critical, general, mcb,
                                                     paired, slenderness_means, tost, z_one_sided)
 from rockbench.benchmark.scoring.verdict import verdict
@@ -289,7 +289,7 @@ def test_planted_restitutions_give_the_smallest_delta_resolved():
     values = {"d0": [0.0] * 4, "d05": [0.004] * 4, "d1": [0.012] * 4, "d2": [0.03] * 4}
     factors = {"d0": 1.0, "d05": 0.995, "d1": 0.99, "d2": 0.98}
     doc = _doc({**values, "mujoco": [0.01] * 4, "dart": [0.02] * 4}, sd_cell=0.04,
-               **{k: {"settings": PLANTED, "planted_eta_factor": f, "sd_cell": 0.04} for k, f in factors.items()},
+               **{k: {"settings": PLANTED_CLASS, "planted_eta_factor": f, "sd_cell": 0.04} for k, f in factors.items()},
                mujoco={"sd_cell": 0.04}, dart={"sd_cell": 0.04})
     v = verdict(doc)
     p = v["power"]
@@ -305,7 +305,7 @@ def test_planted_restitutions_give_the_smallest_delta_resolved():
     assert any("the smallest δ this suite resolves from δ = 0: 1 %" in t for t in v["text"])
     assert paired({}, {})["difference"] is None
     # a planted restitution far off is the yardstick's own reach, never a failing engine
-    doc["pairs"] += [_pair("d10", b, p, 0.6, settings=PLANTED, planted_eta_factor=0.9, sd_cell=0.04)
+    doc["pairs"] += [_pair("d10", b, p, 0.6, settings=PLANTED_CLASS, planted_eta_factor=0.9, sd_cell=0.04)
                      for b, p in PROBLEMS]
     far = {r["variant"]: r for r in verdict(doc)["variants"]}["d10"]
     assert not far["fails"] and far["group"] == "planted" and far["fails_in"] == []

@@ -1,10 +1,10 @@
-"""Block geometry and Table 1 of the paper (docs/physics.md §5)."""
+"""Block geometry, Table 1 of the paper (docs/physics.md §5) and the two presets from its measured range."""
 
 import math
 
 import pytest
 
-from rockbench.benchmark.blocks.presets import PRESETS, get_preset
+from rockbench.benchmark.blocks.presets import MEAN_DENSITY_KG_M3, NOT_IN_TABLE_1, PRESETS, TABLE_1, get_preset
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G, Block, a_ratio_to_amplitude, amplitude_to_a_ratio
 from rockbench.reference_solver.restitution import housner_eta, modified_eta
@@ -47,6 +47,65 @@ def test_density_consistent_with_aluminium():
     for pre in PRESETS.values():
         # Table 1 masses are weighed, not computed: within 0.5 % of 2655 kg/m³
         assert pre.block().density_kg_m3 == pytest.approx(2655, rel=5e-3)
+
+
+def test_table_1_is_the_four_printed_blocks():
+    assert TABLE_1 == tuple(TABLE1) and all(PRESETS[n].in_table_1 for n in TABLE_1)
+    assert sorted(set(PRESETS) - set(TABLE_1)) == ["B2M", "B8M"]
+
+
+# h/b: the slenderness of B2M and B8M (medium: b = 45 mm, the size whose average k is 0.8608 over h/b 1.5-9.75)
+MEASURED_RANGE = {"B2M": 1.5, "B8M": 6.0}
+
+
+@pytest.mark.parametrize("name", list(MEASURED_RANGE))
+def test_measured_range_blocks_from_closed_forms(name):
+    """With r = h/b: tan α = 1/r, so sin²α = 1/(1 + r²); R = (b/2)·√(1 + r²); p = √(3g/(4R));
+    η_H = 1 − 1.5·sin²α; η_M from eq. (10) with the size's average k; the mass is the mean density of
+    Table 1's printed blocks (m/(b²h), computed here from the printed digits) times b²h."""
+    r, b, k = MEASURED_RANGE[name], 0.045, 0.8608
+    pre = get_preset(name)
+    blk = pre.block()
+    s2 = 1.0 / (1.0 + r * r)
+    R = 0.5 * b * math.sqrt(1.0 + r * r)
+    assert (blk.width_m, blk.depth_m) == (b, b) and blk.height_m == pytest.approx(r * b, rel=1e-15)
+    assert math.sin(blk.alpha_rad) ** 2 == pytest.approx(s2, rel=1e-12)
+    assert blk.alpha_rad == pytest.approx(math.atan2(1.0, r), rel=1e-12)
+    assert blk.half_diagonal_m == pytest.approx(R, rel=1e-12)
+    assert blk.p_rad_s == pytest.approx(math.sqrt(3 * G / (4 * R)), rel=1e-12)
+    row = pre.row()
+    assert row["eta_housner"] == pytest.approx(1 - 1.5 * s2, rel=1e-12)
+    assert row["eta_modified_average_k"] == pytest.approx((4 - 3 * s2 * (1 + k * k)) / (4 - 3 * s2 * (1 - k * k)),
+                                                          rel=1e-12)
+    density = sum(m / 1e3 / ((bb / 1e3) ** 2 * h / 1e3) for m, bb, h, *_ in TABLE1.values()) / 4
+    assert MEAN_DENSITY_KG_M3 == pytest.approx(density, rel=1e-12) and round(density, 1) == 2649.5
+    assert blk.mass_kg == pytest.approx(density * b * b * r * b, rel=1e-12)
+    assert pre.k_average == k and pre.k_exact is None and not pre.in_table_1
+    assert row["k_exact"] is None and row["eta_modified_exact_k"] is None and row["note"] == NOT_IN_TABLE_1
+    # Table 1 numbers its blocks by h/b in steps of 0.75 (B3: 2.25, B6: 4.5); the new names follow it
+    assert name == f"B{round(r / 0.75)}M" and [round(get_preset(n).h_over_b / 0.75) for n in ("B3M", "B6M")] == [3, 6]
+
+
+def test_measured_range_values():
+    """The numbers `rockbench blocks` prints for them (B2M: sin²α = 4/13, B8M: 1/37)."""
+    assert get_preset("B2M").row()["eta_housner"] == pytest.approx(1 - 6 / 13)
+    assert get_preset("B8M").row()["eta_housner"] == pytest.approx(1 - 1.5 / 37)
+    assert round(get_preset("B2M").row()["eta_modified_average_k"], 4) == 0.6363
+    assert round(get_preset("B8M").row()["eta_modified_average_k"], 4) == 0.9698
+    assert round(get_preset("B2M").block().p_rad_s, 3) == 13.468 and round(get_preset("B8M").block().p_rad_s, 3) == 7.332
+
+
+def test_a_block_without_a_measured_k_has_no_exact_restitution():
+    pre = get_preset("B8M")
+    assert pre.restitution("housner").kind == "housner" and pre.restitution("modified-average").k == 0.8608
+    assert pre.has_restitution("modified-average") and not pre.has_restitution("Modified-Exact")
+    assert pre.which_k(0.8608) == "average" and pre.which_k(0.7595) is None
+    with pytest.raises(ConfigError) as e:
+        pre.restitution("modified-exact", option="--target")
+    assert str(e.value) == ("--target modified-exact: block B8M is not in Table 1 (paper's measured range) and has no "
+                            "measured k (only Table 1's B3M, B6M, B3L, B6L have one); use housner, modified-average "
+                            "(k = 0.8608) or modified:K.")
+    assert get_preset("B3M").restitution("modified-exact").k == 0.7595
 
 
 def test_derived_quantities_custom_block():

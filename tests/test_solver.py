@@ -116,7 +116,8 @@ def test_adapter_batch_path_equals_per_case_path():
 
 def test_adapter_basics():
     ad = get_adapter("reference")
-    assert ad.name == "reference" and ad.settings == {"mode": "energy", "friction": 10.0} and ad.default_dt_s == 1e-3
+    assert ad.name == "reference" and ad.default_dt_s == 1e-3
+    assert ad.settings == {"mode": "energy", "friction": 10.0, "planted_eta_factor": 1.0}
     with pytest.raises(ConfigError):
         get_adapter("reference", mode="forever")
     with pytest.raises(ConfigError):

@@ -16,20 +16,28 @@ def test_shipped_suites_parse_and_plan():
     d = load_suite(suite_path(None, quick=False))
     q = load_suite(suite_path(None, quick=True))
     assert d.name == "default" and q.name == "quick"
-    assert d.cases.blocks == ["B3M", "B6M", "B3L", "B6L"] and d.cases.pulses == ["sine", "cosine"]
-    assert q.cases.blocks == ["B3M", "B6L"]  # one block per slenderness
+    # eight problems: four slendernesses of the medium size × two pulses
+    assert d.cases.blocks == ["B2M", "B3M", "B6M", "B8M"] and d.cases.pulses == ["sine", "cosine"]
+    assert q.cases.blocks == ["B3M", "B8M"]  # one Table 1 block, one from the measured range
     assert not [j for j in plan(q, ["mujoco", "exudyn"]) if j.settings.get("calibrate_on")]   # the default suite's
     jobs = plan(d, ["mujoco", "pybullet"])
-    refs = [j for j in jobs if j.engine == "reference"]
-    assert len(refs) == 4 * 2 * 3  # blocks × pulses × (Housner, modified average k, modified exact k)
-    # engines × (2 variants on B3M and B6M + the held-out check on B3L and B6L) × pulses
-    assert len(jobs) - len(refs) == 2 * (2 * 2 + 2) * 2
-    assert {j.block for j in jobs if j.engine != "reference" and not j.settings.get("calibrate_on")} == {"B3M", "B6M"}
+    refs = [j for j in jobs if j.engine == "reference" and not j.settings]
+    # blocks × pulses × (Housner, modified average k) + Table 1's B3M and B6M × pulses × modified exact k
+    assert len(refs) == 4 * 2 * 2 + 2 * 2
+    planted = [j for j in jobs if j.engine == "reference" and j.settings]
+    assert len(planted) == 4 * 4 * 2   # four reductions δ × four blocks × two pulses
+    assert sorted({j.settings["planted_eta_factor"] for j in planted}) == [0.98, 0.99, 0.995, 1.0]
+    assert {j.restitution.label for j in planted} == {"housner"} and {j.dt_s for j in planted} == {d.reference.dt_s}
+    # engines × (2 variants on the four blocks + the held-out check on B2M and B8M) × pulses
+    engine_jobs = [j for j in jobs if j.engine != "reference"]
+    assert len(engine_jobs) == 2 * (2 * 4 + 2) * 2
+    assert {j.block for j in engine_jobs if not j.settings.get("calibrate_on")} == {"B2M", "B3M", "B6M", "B8M"}
     held = [j for j in jobs if j.settings.get("calibrate_on")]
-    assert {j.block for j in held} == {"B3L", "B6L"} and {j.settings["calibrate_on"] for j in held} == {"sibling"}
+    assert {j.block for j in held} == {"B2M", "B8M"} and {j.settings["calibrate_on"] for j in held} == {"neighbour"}
     assert len({j.subdir for j in jobs}) == len(jobs)
-    b3m = {j.restitution.label for j in refs if j.block == "B3M"}
-    assert b3m == {"housner", "modified(k=0.8608)", "modified(k=0.7595)"}
+    assert {j.restitution.label for j in refs if j.block == "B3M"} == {"housner", "modified(k=0.8608)",
+                                                                        "modified(k=0.7595)"}
+    assert {j.restitution.label for j in refs if j.block == "B2M"} == {"housner", "modified(k=0.8608)"}
     assert {j.settings["settings"] for j in jobs if j.engine == "mujoco"} == {"calibrated", "shipped"}
 
 
@@ -397,3 +405,28 @@ def test_a_run_records_its_declarations_and_a_rescore_reads_them(fake_engines, t
     again = json.loads(out)["verdict"]["declared"]
     assert again["fail_distance"] == 5.0 and "its run's suite.json" in again["source"]
     assert "code's defaults" not in err
+
+
+def test_a_block_without_a_measured_k_skips_the_exact_k_reference_with_a_note(tmp_path, capsys):
+    """B2M (not in Table 1) has no exact k: its modified-exact reference map is skipped, and the plan (and the
+    run, and its report) say so in one note; an engine variant calibrated to it there is refused in one line."""
+    p = tmp_path / "s.toml"
+    p.write_text("[grid]\nw_ratio = '1:16:5'\na_ratio = '1:12:5'\n[cases]\nblocks = ['B2M', 'B3M']\npulses = ['sine']\n"
+                 "[reference]\nrestitutions = ['housner', 'modified-exact']\n[engines]\nnames = []\n")
+    s = load_suite(p)
+    refs = [(j.block, j.restitution.label) for j in plan(s, []) if j.engine == "reference"]
+    assert refs == [("B2M", "housner"), ("B3M", "housner"), ("B3M", "modified(k=0.7595)")]
+    assert main(["run", str(p), "--plan", "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    assert ("rockbench: no modified-exact reference map for B2M: it is not in Table 1 (paper's measured range) and "
+            "has no measured k (only Table 1's B3M, B6M, B3L, B6L have one)") in err
+    p.write_text(p.read_text().replace("names = []", "names = []\nvariants = [{ restitution = 'modified-exact' }]"))
+    with pytest.raises(ConfigError) as e:
+        load_suite(p)
+    assert str(e.value) == ("suite s.toml: engines.variants[0].restitution: restitution 'modified-exact' is not defined "
+                            "for block B2M, which is not in Table 1 (paper's measured range) and has no measured k; map "
+                            "it with another restitution, or keep the variant to Table 1's blocks (B3M, B6M, B3L, B6L) "
+                            "with its blocks key.")
+    p.write_text(p.read_text().replace("{ restitution = 'modified-exact' }",
+                                       "{ restitution = 'modified-exact', blocks = ['B3M'] }"))
+    assert [j.block for j in plan(load_suite(p), ["mujoco"]) if j.engine == "mujoco"] == ["B3M"]

@@ -12,7 +12,7 @@ import pytest
 from rockbench.benchmark.scoring.comparisons import rank
 from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails
-from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, PLANTED, settings_class, variant_label
+from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, PLANTED_CLASS, settings_class, variant_label
 from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
 from rockbench.benchmark.scoring.tables import best_group_marks, ranked_summary, summary_table
 from rockbench.benchmark.maps.result import MapResult
@@ -374,7 +374,7 @@ def test_settings_class(settings, expected):
 def test_a_planted_restitution_is_its_own_class_with_its_own_words():
     """The reference solver run as an engine with η × (1 − δ) (the suite's power): class ``planted``,
     labelled with its factor, never "calibrated"."""
-    assert settings_class({"planted_eta_factor": 0.99}, "reference[planted_eta_factor=0.99]", "reference") == PLANTED
+    assert settings_class({"planted_eta_factor": 0.99}, "reference[planted_eta_factor=0.99]", "reference") == PLANTED_CLASS
     assert variant_label("reference", {"planted_eta_factor": 0.99}, restitution="housner") == \
         "Reference solver, η_H × 0.99 (planted)"
 

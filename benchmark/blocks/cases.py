@@ -29,7 +29,7 @@ class TrajectoryCase:
         ω/p and a₀/(g·tanα) [-].
     reference_k : tuple of float
         Impulse positions k of the modified restitution for the reference curves [-] (besides the
-        restitution laws of the engines' maps).
+        restitution laws of the engines' maps): the block's average k, and its exact k where it has one.
     title : str
         Caption.
     """
@@ -70,6 +70,6 @@ def parse_case(text: str, where: str = "--case"):
         raise ConfigError(f"{where} W_RATIO and A_RATIO must be numbers, got {text!r}.") from None
     if not (0 < w < math.inf and 0 < a < math.inf):
         raise ConfigError(f"{where} W_RATIO and A_RATIO must be finite numbers > 0, got {text!r}.")
-    # the reference is drawn with the block's average and exact k, as in the paper's Fig. 17
-    return TrajectoryCase(block, pulse, w, a, (pre.k_average, pre.k_exact),
+    # the reference is drawn with the block's average and exact k (where measured), as in the paper's Fig. 17
+    return TrajectoryCase(block, pulse, w, a, tuple(k for k in (pre.k_average, pre.k_exact) if k is not None),
                           f"{block}, {pulse}, ω/p = {w:g}, a₀/(g·tanα) = {a:g}")

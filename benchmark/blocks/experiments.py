@@ -28,7 +28,7 @@ from ...reference_solver.classify import OUTCOME_CODES, Outcome
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import G, amplitude_to_a_ratio
 from ...reference_solver.restitution import housner_eta, modified_eta
-from .presets import PRESETS
+from .presets import PRESETS, TABLE_1
 
 #: Largest table acceleration the Quanser ST-III still performed as one sine wave (paper §5.1,
 #: "ST limit" in Figs 13–16) [m/s^2].
@@ -100,8 +100,8 @@ def _restitution_record(block: str) -> dict:
     for rec in load_restitution()["blocks"]:
         if rec["block"].upper() == str(block).upper():
             return rec
-    raise ConfigError(f"no free-rocking restitution data for block {block!r}; the data covers "
-                      f"{', '.join(PRESETS)}.")
+    raise ConfigError(f"no free-rocking restitution data for block {block!r}; the data covers Table 1's "
+                      f"blocks {', '.join(TABLE_1)}.")
 
 
 def _alpha(rec: dict) -> float:
@@ -212,8 +212,9 @@ def parse_outcomes(text: str, name: str = "<outcomes>") -> list[OutcomePoint]:
             raise ConfigError(f"{w}: {len(row)} fields, the header has {len(header)}; fix the row.")
         r = {h: v.strip() for h, v in zip(header, row)}
         block = r["block"].upper()
-        if block not in PRESETS:
-            raise ConfigError(f"{w}: unknown block {r['block']!r}; use one of {', '.join(PRESETS)}.")
+        if block not in TABLE_1:
+            raise ConfigError(f"{w}: block {r['block']!r} is not one of the experiments' blocks; use one of "
+                              f"{', '.join(TABLE_1)} (Table 1).")
         pulse = r["pulse"].lower()
         if pulse not in PULSES:
             raise ConfigError(f"{w}: unknown pulse {r['pulse']!r}; use one of {', '.join(PULSES)}.")

@@ -31,7 +31,7 @@ from ...reference_solver.errors import RockbenchError
 
 #: subcommands (modules under rockbench.benchmark.cli.commands, ``-`` written ``_``) and their help lines
 COMMANDS = {
-    "blocks": "the preset blocks (paper Table 1) with α, R, p, η_H, η_M",
+    "blocks": "the preset blocks (paper Table 1, and two from its measured range) with α, R, p, η_H, η_M",
     "simulate": "one simulation: outcome, impacts, θ(t) history and plot",
     "map": "a stability map over ω/p × a0/(g·tanα) (or ω × a0) into a run directory",
     "figures": "recompute the paper's Figures 4–9 with the reference solver",

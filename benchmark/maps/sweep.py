@@ -27,6 +27,7 @@ from typing import Callable
 import numpy as np
 from tqdm import tqdm
 
+from ...engines.reference_adapter import is_planted
 from ...reference_solver.errors import ConfigError
 from ..engine_info.adapters import build_adapter
 from ..store.run_folder import RunStore
@@ -175,7 +176,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
 def reference_for(result):
     """The reference map of an engine map's case and grid, computed in memory (milliseconds per
     thousand cells), for its picture; None for a reference map or when it cannot be computed."""
-    if result.spec.engine == "reference":
+    if result.spec.engine == "reference" and not is_planted(result.spec.engine, result.spec.engine_settings):
         return None
     try:
         spec = replace(result.spec, engine="reference", engine_settings={}, dt_s=None)

@@ -26,13 +26,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ...engines.reference_adapter import PLANTED, is_planted
 from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from ...reference_solver.model import a_ratio_to_amplitude
 from ...reference_solver.pulses import make_pulse
 from ...reference_solver.restitution import Restitution
 from ..blocks.cases import FIG17, TrajectoryCase
 from ..blocks.experiments import restitution_targets, st_limit_a_ratio
-from ..blocks.presets import PRESETS, get_preset
+from ..blocks.presets import PRESETS, TABLE_1, get_preset, no_exact_k_note
 from ..scoring.declared import declared_of_runs
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
 from ..scoring.metrics import PRIMARY_METRIC
@@ -155,7 +156,21 @@ class _Scored:
             mark_runs(doc, run_of, against=bool(against), notes=notes)
         except IncomparableError as e:
             notes.append(f"No scores: {e}")
-        return cls(entries, cands, refs, doc, own_eta, notes)
+        return cls(entries, cands, refs, doc, own_eta, notes + _no_exact_k(refs))
+
+
+def _no_exact_k(refs: list[MapEntry]) -> list[str]:
+    """Where the reference maps hold the exact k's η_M for some blocks, the note for the blocks that have
+    none (presets without a measured k)."""
+    def which(r):
+        law, pre = _restitution_from_label(r.restitution), PRESETS.get(r.block.upper())
+        return pre.which_k(law.k) if law is not None and law.kind == "modified" and pre is not None else None
+
+    if not any(which(r) == "exact" for r in refs):
+        return []
+    note = no_exact_k_note(sorted({r.block for r in refs}, key=lambda b: list(PRESETS).index(b.upper())
+                                  if b.upper() in PRESETS else len(PRESETS)))
+    return [note] if note else []
 
 
 def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
@@ -253,7 +268,7 @@ def _panel(e: MapEntry | None, std: list[MapEntry], own: list[MapEntry], experim
         sc = pair["scores"]
         note = _panel_note(sc)
     return {"engine": e.map if e is not None else None, "references": references, "like": like,
-            "domain": domain, "points": pts, "st_limit": st if block.upper() in PRESETS else None, "title": title,
+            "domain": domain, "points": pts, "st_limit": st if block.upper() in TABLE_1 else None, "title": title,
             "note": note}
 
 
@@ -349,7 +364,8 @@ def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> l
 
 
 def _points_and_limit(points, block, pulse):
-    if block.upper() not in PRESETS:
+    """The shaking-table points and its faithful limit: Table 1's blocks only (the experiments' blocks)."""
+    if block.upper() not in TABLE_1:
         return [], None
     sel = [(p.w_ratio, p.a_ratio, p.outcome, p.repetitions) for p in (points or [])
            if p.block == block.upper() and p.pulse == pulse]
@@ -415,20 +431,36 @@ def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> lis
             continue
         seen.add(key)
         resolved = e.resolved_settings
-        measured = _find_key(resolved, "eta_measured")
+        on = _find_key(resolved, "calibrated_on")
+        # a calibration made on another block measured that block's η, not this one's
+        measured = _find_key(resolved, "eta_measured") if not on or str(on).upper() == e.block.upper() else None
         if measured is None:
             measured = (own_eta or {}).get((e.variant, e.block))
+        if is_planted(e.engine, e.settings):   # the reference solver rocks freely with exactly the η it applies
+            measured = e.eta * float(e.settings[PLANTED])
         points = _find_key(resolved, "contact_points")
         r = {"variant": e.variant, "block": e.block, "restitution": e.restitution, "eta_target": e.eta,
              "eta_measured": float(measured) if measured is not None else math.nan,
              "reached": _find_key(resolved, "reached"), "price": _find_key(resolved, "price"),
              "contact": f"{int(points)} points along the base" if points and int(points) > 2 else "corners"}
-        if e.block.upper() in PRESETS:
-            for k, v in restitution_targets(e.block).items():
-                r[f"{k}_eta"] = v
-                r[f"{k}_rel_error"] = (r["eta_measured"] - v) / v
+        for k, v in _restitution_targets(e.block).items():
+            r[f"{k}_eta"] = v
+            r[f"{k}_rel_error"] = (r["eta_measured"] - v) / v
         rows.append(r)
     return rows
+
+
+def _restitution_targets(block: str) -> dict:
+    """The η a preset's measured η is set beside (:func:`restitution_targets`): Table 1's blocks have
+    the free-rocking test's (``experiment``), the others Housner's and the size's average k's only; a
+    custom block none."""
+    pre = PRESETS.get(block.upper())
+    if pre is None:
+        return {}
+    if pre.in_table_1:
+        return restitution_targets(block)
+    row = pre.row()
+    return {"housner": row["eta_housner"], "modified_average_k": row["eta_modified_average_k"]}
 
 
 def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:

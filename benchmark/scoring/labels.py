@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import html
 
+from ...engines.held_out import NEIGHBOUR, SIBLING
+from ...engines.reference_adapter import PLANTED, is_planted
 from ...engines.registry import adapter_class
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.restitution import Restitution
@@ -24,12 +26,12 @@ ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet":
 #: Engine settings that say nothing a reader needs when they have their default value.
 _QUIET = {"settings"}
 
-#: The settings classes the verdict answers apart (best achievable, out of the box), and the reference
-#: solver run as an engine with a restitution planted below its target (the suite's power).
-CALIBRATED, AS_SHIPPED, PLANTED = "calibrated", "as-shipped", "planted"
+#: The settings classes the verdict answers apart (best achievable, out of the box), and the suite's
+#: yardstick: the reference solver with a planted restitution error (``planted_eta_factor``)
+CALIBRATED, AS_SHIPPED, PLANTED_CLASS = "calibrated", "as-shipped", "planted"
 
 #: The reference adapter's setting that plants a restitution η_target × factor (the suite's power).
-PLANTED_SETTING = "planted_eta_factor"
+PLANTED_SETTING = PLANTED
 
 #: Engine settings a calibration chooses itself (they do not make a variant "custom").
 _CALIBRATION_KEYS = {"settings", "contact"}
@@ -101,7 +103,9 @@ def _setting_words(key: str, value) -> str | None:
     if key == "calibrate_on":
         if not value:
             return None
-        return "held out: calibrated on the other size" if value == "sibling" else f"held out: calibrated on {value}"
+        return {SIBLING: "held out: calibrated on the other size",
+                NEIGHBOUR: "held out: calibrated on the neighbouring slenderness"}.get(value,
+                                                                                     f"held out: calibrated on {value}")
     return f"{key} = {value}"
 
 
@@ -204,12 +208,12 @@ def variant_labels(cands) -> dict[str, str]:
 
 def settings_class(engine_settings: dict | None, variant: str, engine: str | None = None) -> str:
     """``calibrated`` (rockbench's calibration, any contact layout it chose), ``as-shipped`` (the
-    engine's defaults and nothing else), ``planted`` (the reference solver with a restitution planted
-    below its target: :data:`PLANTED_SETTING`) or, for anything else set by hand, the variant's own
-    name. The settings that choose the ``engine``'s model (:func:`model_settings`: Newton's solver)
-    are the engine's, not a tweak: they leave the class as it is."""
-    if PLANTED_SETTING in (engine_settings or {}):
-        return PLANTED
+    engine's defaults and nothing else), ``planted`` (the reference solver with a planted restitution
+    error, :func:`~rockbench.engines.reference_adapter.is_planted`) or, for anything else set by hand,
+    the variant's own name. The settings that choose the ``engine``'s model (:func:`model_settings`:
+    Newton's solver) are the engine's, not a tweak: they leave the class as it is."""
+    if engine is not None and is_planted(engine, engine_settings):
+        return PLANTED_CLASS
     model = model_settings(engine) if engine else {}
     s = {k: v for k, v in (engine_settings or {}).items() if k not in model}
     kind = s.get("settings", "calibrated")

@@ -45,7 +45,7 @@ import numpy as np
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from ...reference_solver.pulses import is_number
-from ..blocks.presets import PRESETS
+from ..blocks.presets import PRESETS, TABLE_1
 from ..engine_info.versions import version_of
 from ..maps.result import MapResult
 from ..store.files import canonical_variant, read_json, utc_stamp, variant_name
@@ -306,10 +306,11 @@ def at_own_eta(reference: MapEntry, candidate: MapEntry, own_eta: dict | None) -
 
 
 def score_experiments(entries: list[MapEntry], points) -> list[dict]:
-    """Each map of a preset block scored against the experimental points of its block and pulse."""
+    """Each map of a Table 1 block (the experiments' blocks) scored against the experimental points of its
+    block and pulse."""
     out = []
     for e in entries:
-        if e.block.upper() not in PRESETS:
+        if e.block.upper() not in TABLE_1:
             continue
         s = score_outcomes(points, e.map, e.block, e.pulse)
         if s["points"]:

@@ -12,6 +12,7 @@ from typing import Iterable
 
 import numpy as np
 
+from ...engines.reference_adapter import is_planted
 from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError
 from ..maps import adaptive as adaptive_mod
@@ -166,7 +167,9 @@ class MapEntry:
 
     @property
     def is_reference(self) -> bool:
-        return self.engine == "reference"
+        """A map of the reference solver itself (the yardstick); a planted variant of it
+        (``planted_eta_factor``) is scored as an engine map."""
+        return self.engine == "reference" and not is_planted(self.engine, self.settings)
 
     @property
     def resolved_settings(self) -> dict:

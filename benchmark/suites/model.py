@@ -28,7 +28,7 @@ from ...reference_solver.pulses import is_number
 from ...reference_solver.restitution import Restitution
 from ..blocks.cases import parse_case
 from ..blocks.experiments import load_outcomes
-from ..blocks.presets import PRESETS, get_preset
+from ..blocks.presets import NOT_IN_TABLE_1, PRESETS, TABLE_1, get_preset, no_exact_k_note
 from ..maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
 from ..maps.grid import MapSpec, parse_range
 from ..scoring.declared import DEFAULTS, KEY_RULES, Declared
@@ -59,6 +59,7 @@ class Suite:
     run: RunTable
     report: ReportTable
     verdict: Declared
+    power: PowerTable
 
 
 # -- one rule per kind of key ------------------------------------------------------------------------
@@ -191,6 +192,20 @@ def _variants(v):
     return v
 
 
+def _reductions(v):
+    """``power.eta_reductions``: distinct numbers δ in [0, 1), the planted η being η·(1 − δ)."""
+    if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+        raise _bad(f" must be a list of numbers δ in [0, 1) (the planted η is η·(1 − δ)), got {v!r}.")
+    for x in v:
+        if not (math.isfinite(x) and 0.0 <= x < 1.0):
+            raise _bad(f" must hold numbers δ in [0, 1) (the planted η is η·(1 − δ)), got {x!r}; "
+                       "e.g. [0.0, 0.005, 0.01, 0.02].")
+    twice = [x for k, x in enumerate(v) if x in v[:k]]
+    if twice:
+        raise _bad(f" lists δ = {twice[0]!r} twice; list each reduction once.")
+    return [float(x) for x in v]
+
+
 def _report_case(v):
     for c in v:
         try:
@@ -216,8 +231,14 @@ def _experiments(v, info: ValidationInfo):
 
 def restitution_for(token: str, block: str, where: str = "suite") -> Restitution:
     """A suite's restitution token (``housner``, ``modified-average``, ``modified-exact``,
-    ``modified:K`` or a number) for a preset block: :meth:`Restitution.parse` with the preset's k."""
+    ``modified:K`` or a number) for a preset block: :meth:`Restitution.parse` with the preset's k.
+    ``modified-exact`` for a block without a measured k (:meth:`Preset.has_restitution`) is refused
+    here; the reference maps skip it instead (:func:`reference_tokens`)."""
     pre = PRESETS[block]
+    if not pre.has_restitution(token):
+        raise ConfigError(f"{where}: restitution {token!r} is not defined for block {block}, which is {NOT_IN_TABLE_1} "
+                          f"and has no measured k; map it with another restitution, or keep the variant to Table 1's "
+                          f"blocks ({', '.join(TABLE_1)}) with its blocks key.")
     try:
         return Restitution.parse(token, k_average=pre.k_average, k_exact=pre.k_exact)
     except ConfigError as e:
@@ -236,6 +257,17 @@ def _declared(key: str):
         except ConfigError as e:
             raise _bad(str(e)) from None
     return BeforeValidator(check)
+def reference_tokens(suite_or_tokens, block: str) -> list[str]:
+    """The reference restitutions (``reference.restitutions``, or a list of tokens) a block's reference
+    maps are computed with: all but ``modified-exact`` on a block without a measured k."""
+    tokens = suite_or_tokens if isinstance(suite_or_tokens, list) else suite_or_tokens.reference.restitutions
+    return [t for t in tokens if PRESETS[block].has_restitution(t)]
+
+
+def skipped_reference_note(suite: "Suite") -> str | None:
+    """The note a run and its plan give when a reference restitution is skipped on some blocks (the
+    exact k's η_M on a block without a measured k); None when none is."""
+    return no_exact_k_note(b for b in suite.cases.blocks if reference_tokens(suite, b) != suite.reference.restitutions)
 
 
 # -- the tables ---------------------------------------------------------------------------------------
@@ -263,7 +295,7 @@ class GridTable(_Table):
 
 
 class CasesTable(_Table):
-    blocks: Annotated[list[str], BeforeValidator(_blocks), _list(list(PRESETS))] = list(PRESETS)
+    blocks: Annotated[list[str], BeforeValidator(_blocks), _list(list(TABLE_1))] = list(TABLE_1)
     pulses: Annotated[list[str], BeforeValidator(_pulses), _list(["sine", "cosine"])] = ["sine", "cosine"]
 
 
@@ -301,6 +333,10 @@ class VerdictTable(_Table):
     held_out_margin: Annotated[float, _declared("held_out_margin")] = DEFAULTS.held_out_margin
     general_range_h_over_b: Annotated[tuple, _declared("general_range_h_over_b")] = \
         list(DEFAULTS.general_range_h_over_b)
+class PowerTable(_Table):
+    """The suite's yardstick: the reference solver mapped as an engine with η·(1 − δ), one variant per δ."""
+
+    eta_reductions: Annotated[list[float], BeforeValidator(_reductions)] = []
 
 
 class SuiteFile(_Table):
@@ -314,6 +350,7 @@ class SuiteFile(_Table):
     suite: SuiteTable = {}
     report: ReportTable = {}
     verdict: VerdictTable = {}
+    power: PowerTable = {}
 
     @model_validator(mode="after")
     def _across_tables(self, info: ValidationInfo):
@@ -327,9 +364,9 @@ class SuiteFile(_Table):
     def _check_tokens(self, name: str) -> None:
         """Every restitution token for every block, and engines.exclude/include only with every engine."""
         blocks = self.cases.blocks
-        for r in self.reference.restitutions:
-            for b in blocks:
-                restitution_for(r, b, f"suite {name}: reference.restitutions")  # every token for every block
+        for b in blocks:
+            for r in reference_tokens(self.reference.restitutions, b):   # every token for every block that has it
+                restitution_for(r, b, f"suite {name}: reference.restitutions")
         for key in ("exclude", "include"):
             if getattr(self.engines, key) and self.engines.names != "available":
                 raise ConfigError(f"suite {name}: engines.{key} goes with names = \"available\"; with a list of "
@@ -344,12 +381,17 @@ class SuiteFile(_Table):
             if extra:
                 raise ConfigError(f"suite {name}: engines.variants[{k}].blocks names {extra[0]}, which is not in "
                                   f"cases.blocks ({', '.join(blocks)}); a variant maps some of the suite's blocks.")
-        tokens = [("engines.restitution", self.engines.restitution)]
-        tokens += [(f"engines.variants[{k}].restitution", str(v["restitution"]))
-                   for k, v in enumerate(self.engines.variants) if "restitution" in v]
-        for where, token in tokens:
+        for b in blocks:   # the spelling, on every block it is defined for
+            for token in reference_tokens([self.engines.restitution], b):
+                restitution_for(token, b, f"suite {name}: engines.restitution")
+        if self.power.eta_reductions:   # the planted variants' target, on every block
             for b in blocks:
-                restitution_for(token, b, f"suite {name}: {where}")
+                restitution_for(self.engines.restitution, b, f"suite {name}: engines.restitution (the target of "
+                                f"[power]'s planted variants)")
+        for k, v in enumerate(self.engines.variants):   # each variant's target on each block it maps
+            where = f"engines.variants[{k}].restitution" if "restitution" in v else "engines.restitution"
+            for b in (b for b in blocks if "blocks" not in v or b in v["blocks"]):
+                restitution_for(str(v.get("restitution", self.engines.restitution)), b, f"suite {name}: {where}")
 
     def _check_specs(self, name: str) -> None:
         """Every map's spec, built once here, checks the grid's size and each time step against the
@@ -366,7 +408,7 @@ class SuiteFile(_Table):
                         raise ConfigError(f"suite {name}: {keys} ({block} {pulse}): {e}") from None
 
 
-TABLES = ("suite", "grid", "cases", "reference", "engines", "run", "report", "verdict")
+TABLES = ("suite", "grid", "cases", "reference", "engines", "power", "run", "report", "verdict")
 
 
 # -- reading a file ------------------------------------------------------------------------------------
@@ -459,4 +501,4 @@ def load_suite(path) -> Suite:
         f"the code's defaults (the default suite's): the suite {name!r} declares none"
     return Suite(name=name, description=f.suite.description, path=str(p), raw=raw, grid=f.grid, cases=f.cases,
                  reference=f.reference, engines=f.engines, run=f.run, report=f.report,
-                 verdict=Declared(**f.verdict.model_dump(), source=source))
+                 verdict=Declared(**f.verdict.model_dump(), source=source), power=f.power)

@@ -1,5 +1,6 @@
-"""The maps a suite asks for (:func:`plan`, :class:`MapJob`): the reference maps, then each engine
-variant's maps on each block and pulse, and which engines run (:func:`engine_names`, :func:`check_suite`).
+"""The maps a suite asks for (:func:`plan`, :class:`MapJob`): the reference maps, the planted variants
+of its ``[power]`` table, then each engine variant's maps on each block and pulse, and which engines run
+(:func:`engine_names`, :func:`check_suite`).
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ...engines.base import EngineAdapter
+from ...engines.reference_adapter import PLANTED
 from ...engines.registry import adapter_class, availability, names
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
@@ -16,7 +18,7 @@ from ..blocks.presets import get_preset
 from ..engine_info.adapters import engine_settings
 from ..store.files import own_eta_map_name, variant_name
 from ..store.run_folder import stored_identity
-from .model import Suite, restitution_for
+from .model import Suite, reference_tokens, restitution_for
 
 
 
@@ -163,14 +165,16 @@ def _slug(s: str) -> str:
 
 
 def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
-    """Every map of the suite: the reference maps, then each engine variant's maps."""
+    """Every map of the suite: the reference maps (each restitution a block has, :func:`reference_tokens`),
+    the planted variants (:func:`power_jobs`), then each engine variant's maps."""
     jobs = []
     for block in suite.cases.blocks:
         for pulse in suite.cases.pulses:
-            for tok in suite.reference.restitutions:
+            for tok in reference_tokens(suite, block):
                 r = restitution_for(tok, block)
                 jobs.append(MapJob("reference", {}, block, pulse, r, suite.reference.dt_s,
                                    f"maps/reference/{block}-{pulse}-{_slug(r.label)}"))
+    jobs += power_jobs(suite)
     for engine in engines:
         for variant in suite.engines.variants:
             if not variant_applies(engine, variant):
@@ -181,6 +185,36 @@ def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
                 for pulse in suite.cases.pulses:
                     jobs.append(MapJob(engine, variant_settings(variant), block, pulse, r, suite.engines.dt_s,
                                        f"maps/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}"))
+    return jobs
+
+
+def planted_factor(reduction: float) -> float:
+    """The reference solver's ``planted_eta_factor`` for a planted reduction δ: 1 − δ [-]."""
+    return round(1.0 - float(reduction), 12)
+
+
+def in_sample_blocks(suite: Suite) -> list[str]:
+    """The blocks the suite's in-sample variants map (those without ``calibrate_on``), in the suite's
+    order; every block of the suite when all its variants are held out."""
+    mapped = {b for v in suite.engines.variants if not v.get("calibrate_on") for b in blocks_of(suite, v)}
+    return [b for b in suite.cases.blocks if b in mapped] or list(suite.cases.blocks)
+
+
+def power_jobs(suite: Suite) -> list[MapJob]:
+    """The planted variants of the suite's ``[power]`` table: for each reduction δ, the reference solver
+    with ``planted_eta_factor`` = 1 − δ on every in-sample block (:func:`in_sample_blocks`) and pulse,
+    at the engines' restitution target and the reference's step. They are engine maps in every respect
+    but their η, which is known (no own-η step): adaptive as the suite's engine maps, scored like for
+    like against the reference maps of that restitution."""
+    jobs = []
+    for delta in suite.power.eta_reductions:
+        settings = {PLANTED: planted_factor(delta)}
+        vname = variant_name("reference", settings, suite.reference.dt_s)
+        for block in in_sample_blocks(suite):
+            r = restitution_for(suite.engines.restitution, block)
+            for pulse in suite.cases.pulses:
+                jobs.append(MapJob("reference", settings, block, pulse, r, suite.reference.dt_s,
+                                   f"maps/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}"))
     return jobs
 
 

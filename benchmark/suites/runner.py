@@ -15,11 +15,12 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     locate_depth = 5             # every map: bisect each boundary edge 5 times (a 32nd of a step)
 
     [cases]
-    blocks = ["B3M", "B6M", "B3L", "B6L"]   # Table 1 presets
+    blocks = ["B3M", "B6M", "B3L", "B6L"]   # presets (`rockbench blocks`; default: Table 1's four)
     pulses = ["sine", "cosine"]
 
     [reference]                  # one reference map per block, pulse and restitution
     restitutions = ["housner", "modified-average", "modified-exact"]   # or "modified:K", or a number
+                                 # (modified-exact is skipped, with a note, on a block without a measured k)
     # dt_s = 0.001
 
     [engines]
@@ -30,11 +31,17 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     variants = [{settings = "calibrated"}, {settings = "shipped"}]     # engine settings, one map each
                                  # a variant may carry its own restitution = "modified-average" (...):
                                  # its η target and its maps' label (scored like for like against
-                                 # the reference maps with that restitution), and engines = [...] (the
-                                 # engines it applies to, default all); neither is an engine setting
+                                 # the reference maps with that restitution), engines = [...] (the
+                                 # engines it applies to, default all) and blocks = [...] (the blocks it
+                                 # maps, default all); none is an engine setting. calibrate_on = "neighbour"
+                                 # (or "sibling", or a block's name) is the held-out check
     restitution = "housner"      # the η calibrated variants are tuned to (and their maps' label)
     own_eta = true               # (d): measure each variant's η in free rocking, add reference maps with it
     # dt_s = 0.0005
+
+    [power]                      # the suite's yardstick: the reference solver as an engine with η·(1 − δ),
+    eta_reductions = [0.0, 0.005, 0.01, 0.02]   # one variant per δ on the in-sample blocks, mapped and
+                                 # scored as engine maps (engine reference, planted_eta_factor = 1 − δ)
 
     [run]
     cell_timeout_s = 120
@@ -62,6 +69,7 @@ import threading
 import time
 from pathlib import Path
 
+from ...engines.reference_adapter import is_planted
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.pulses import make_pulse
 from ..blocks.cases import parse_case
@@ -78,7 +86,7 @@ from ..store.atomic import check_output_dir
 from ..store.files import write_json
 from ..trajectories import record_for_report
 from .lanes import ReferenceThread, run_lanes
-from .model import Suite
+from .model import Suite, skipped_reference_note
 from .plan import check_suite, engine_names, own_eta_jobs, plan, resume_renamed
 from .preparation import Preparation, cost_rank
 from .progress import SuiteConsole, say_device_notes
@@ -163,7 +171,7 @@ class _SuiteRun:
         explicit = engines is not None or suite.engines.names != "available"
         engines, self.notes = engine_names(suite, engines)
         self.engines, more = check_suite(suite, engines, explicit)
-        self.notes += more
+        self.notes += more + [n for n in (skipped_reference_note(suite),) if n]
         self.todo = plan(suite, self.engines)
         self.workers = max(1, jobs or cpu_count())
         # every spec is built (and so checked) before the first map runs (the own-η reference maps, which
@@ -192,10 +200,12 @@ class _SuiteRun:
         t1 = time.perf_counter()
         # reference maps are computed in full: they cost milliseconds, and scoring needs the
         # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked;
+        # a planted variant is the reference solver in this process, mapped as an engine map is;
         # an engine that cannot simulate is stopped after its first map (EngineHealth.guard)
+        engine_map = job.engine != "reference" or is_planted(job.engine, job.settings)
         res = self.health.guard(job.engine, lambda: run_map(
             spec, d, jobs=self.jobs, serial=job.engine == "reference",
-            adaptive=suite.grid.adaptive and job.engine != "reference", coarse_stride=suite.grid.coarse_stride,
+            adaptive=suite.grid.adaptive and engine_map, coarse_stride=suite.grid.coarse_stride,
             locate_depth=suite.grid.locate_depth, cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")

@@ -200,8 +200,8 @@ def test_shipped_defaults_with_friction_10_are_flagged_not_scored():
 
 def test_a_map_calibrated_on_the_other_size_is_held_out_in_its_scores(tmp_path, capsys):
     """``calibrate_on``: B3L runs with the contact settings and the step of B3M's calibration; its
-    run.json names the block, `score` counts the map as held out and says so in its own line, and a
-    block of another slenderness stops the map with exit 2 and one line."""
+    run.json names the block, `score` counts the map as held out and says so in its own line, and the
+    mapped block itself stops the map with exit 2 and one line."""
     b3m, b3l = PRESETS["B3M"].block(), PRESETS["B3L"].block()
     own = get_adapter("mujoco").resolve(b3m, Restitution())
     held = build_adapter("mujoco", calibrate_on="sibling").resolve(b3l, Restitution())
@@ -222,6 +222,7 @@ def test_a_map_calibrated_on_the_other_size_is_held_out_in_its_scores(tmp_path, 
     assert pair["held_out"] and pair["calibrated_on"] == "B3M" and pair["in_sample_variant"] == "mujoco"
     assert any(t.startswith("Held-out check") for t in doc["verdict"]["text"])
     capsys.readouterr()
-    assert cli_main(["map", "--engine", "mujoco", *grid, "--set", "calibrate_on=B6M", "--out", str(tmp_path / "no")]) == 2
+    assert cli_main(["map", "--engine", "mujoco", *grid, "--set", "calibrate_on=B3L", "--out", str(tmp_path / "no")]) == 2
     err = capsys.readouterr().err.strip()
-    assert "calibrate_on = B6M" in err and "\n" not in err and "Traceback" not in err
+    assert "calibrate_on = B3L: that is the mapped block B3L" in err and "\n" not in err and "Traceback" not in err
+    assert not (tmp_path / "no").exists()

@@ -13,7 +13,7 @@ from pathlib import Path
 from ....reference_solver.errors import ConfigError
 from ...blocks.experiments import load_outcomes
 from ...store.atomic import check_output_dir
-from ...suites.model import load_suite, suite_path
+from ...suites.model import load_suite, skipped_reference_note, suite_path
 from ...suites.plan import check_suite, engine_names, parse_engines, plan
 from ...suites.runner import run_suite
 from ..options import add_figure_format_option, figure_formats_from_args, jobs_from_args
@@ -62,7 +62,7 @@ def run(args) -> int:
     if args.plan:
         engines, notes = engine_names(suite, only)
         engines, more = check_suite(suite, engines, only is not None or suite.engines.names != "available")
-        notes += more
+        notes += more + [n for n in (skipped_reference_note(suite),) if n]
         for n in notes:
             print(f"rockbench: {n}", file=sys.stderr)
         for j in plan(suite, engines):

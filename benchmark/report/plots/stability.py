@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ....engines.reference_adapter import is_planted
 from ...blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
 from ...maps.bisection import MULTIPLE
 from ...maps.result import MapResult
@@ -826,7 +827,7 @@ def plot_map(result, *, reference=None, ax=None) -> dict:
         ax = Figure(figsize=(DOUBLE_COLUMN_IN * 0.75, DOUBLE_COLUMN_IN * 0.72), layout="constrained").add_subplot()
     g = as_grid(result)
     s = result.spec
-    is_ref = s.engine == "reference"
+    is_ref = s.engine == "reference" and not is_planted(s.engine, s.engine_settings)
     ref = result if is_ref else reference
     _frame(ax, g)
     show = np.where(g.outcome >= 0, g.outcome, np.nan).astype(float)
