@@ -143,3 +143,21 @@ def test_unknown_preset_suggests_nearest():
     with pytest.raises(ConfigError, match="Did you mean B3M"):
         get_preset("B3N")
     assert get_preset("b6l").name == "B6L"
+
+
+def test_rockbench_blocks_lists_every_preset_and_marks_those_outside_table_1(capsys):
+    import json
+
+    from rockbench.benchmark.cli.main import main
+    assert main(["blocks"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    rows = {ln.split()[0]: ln for ln in lines[1:] if ln.split()[0] in PRESETS}
+    assert list(rows) == ["B2M", "B3M", "B6M", "B8M", "B3L", "B6L"]
+    for name, line in rows.items():
+        assert line.endswith(NOT_IN_TABLE_1) == (name not in TABLE_1)
+    assert "0.5385" in rows["B2M"] and "0.9595" in rows["B8M"] and rows["B8M"].count("—") == 2
+    assert lines[-1].startswith("B2M, B8M: medium blocks inside the h/b range 1.5–9.75")
+    assert main(["blocks", "--json"]) == 0
+    js = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
+    assert js["B2M"]["in_table_1"] is False and js["B2M"]["k_exact"] is None and js["B3M"]["note"] is None
+    assert js["B8M"]["eta_modified_exact_k"] is None and js["B6L"]["eta_modified_exact_k"] == pytest.approx(0.9626, abs=5e-5)
