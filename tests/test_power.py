@@ -150,6 +150,6 @@ def test_planted_maps_are_scored_as_engine_maps_in_their_own_class(tmp_path):
     assert low["scores"]["boundary_mean"] > 0.0 and low["label"] == "Reference solver, η_H × 0.980 (planted)"
     rows = {r["variant"]: r for r in doc["verdict"]["variants"]}
     assert all(r["rank"] is None for r in rows.values())   # the yardstick is not an engine to rank
-    assert any(t.startswith("Planted differences") for t in doc["verdict"]["text"])
+    assert any(t.startswith("The suite's power, measured") for t in doc["verdict"]["text"])
     assert settings_class({PLANTED: 0.99}, "x", "reference") == PLANTED_CLASS
     assert variant_label("reference", {PLANTED: 0.995}, restitution="housner") == "Reference solver, η_H × 0.995 (planted)"

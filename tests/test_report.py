@@ -59,9 +59,10 @@ def test_report_files_and_tables(report):
     other = next(ln for ln in md.splitlines() if ln.startswith("| - | PyBullet, calibrated to η_H (fails)"))
     assert "**" not in other
     # the method under the summary, and the per-scenario table with the η_H–η_M reference gap; PyBullet's
-    # 1.145 (a steps 7.5/19): 32 crossings two rows apart (0.7895), and the reference tongue's 8 crossings
-    # to PyBullet's straight polyline, 3 × 2.7632 + 3 × 2.3684 + 2 × 2.5658, pooled over 40
-    assert "Hsu's multiple comparisons" in md and "| η_H–η_M reference gap |" in md and "1.145 !" in md
+    # 0.458 (a steps 3/19 = 0.1579): 32 crossings two rows apart (0.3158), and the reference tongue's 8
+    # crossings to PyBullet's straight polyline, 3 × 1.1053 + 3 × 0.9474 + 2 × 1.0263, pooled over 40
+    assert (32 * 0.3158 + 3 * 1.1053 + 3 * 0.9474 + 2 * 1.0263) / 40 == pytest.approx(0.458, abs=5e-4)
+    assert "Hsu's multiple comparisons" in md and "| η_H–η_M reference gap |" in md and "0.458 !" in md
     # first the verdict: its picture, the short verdict, then every sentence collapsed
     assert md.index("## Verdict") < md.index("(img/verdict.png)") < md.index("<details><summary>The verdict in full")
     assert md.index("<details><summary>The verdict in full") < md.index("Best achievable") < md.index("## Summary")

@@ -376,7 +376,7 @@ def test_a_planted_restitution_is_its_own_class_with_its_own_words():
     labelled with its factor, never "calibrated"."""
     assert settings_class({"planted_eta_factor": 0.99}, "reference[planted_eta_factor=0.99]", "reference") == PLANTED_CLASS
     assert variant_label("reference", {"planted_eta_factor": 0.99}, restitution="housner") == \
-        "Reference solver, η_H × 0.99 (planted)"
+        "Reference solver, η_H × 0.990 (planted)"
 
 
 def test_the_choice_of_an_engines_model_is_not_a_tweak():

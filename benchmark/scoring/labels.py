@@ -150,10 +150,11 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
 
 
 def planted_words(restitution: str | None, factor, block: str | None = None) -> str:
-    """``η_H × 0.99 (planted)``: the restitution a planted variant runs with."""
+    """``η_H × 0.990 (planted)``: the restitution a planted variant runs with (three decimals: δ in steps of
+    0.1 %)."""
     target = restitution_symbol(restitution, block) if restitution else "η"
     try:
-        f = f"{float(factor):.4g}"
+        f = f"{float(factor):.3f}"
     except (TypeError, ValueError):
         f = str(factor)
     return f"{target} × {f} (planted)"

@@ -24,7 +24,8 @@ kept in OUT and reused by a rerun (the fine ones take most of the time: about 40
 core for the sixteen fine maps, measured under load).
 
 Run from the repository root:
-``python tests/measurements/probes/probe_resolution.py truth OUT [--configs 26:3:6,36:3:5,...]``.
+``python tests/measurements/probes/probe_resolution.py truth OUT [--configs 26:3:6,36:3:5,...] [--record]``
+(``--record`` writes the figures as the record ``probe-resolution``).
 """
 
 from __future__ import annotations
@@ -49,7 +50,8 @@ SHIFTS = (0.0, 0.005, 0.01, 0.02)       # restitution below η_H, as a share of 
 PHASES = (0.0, 0.25, 0.5, 0.75)          # offsets of a coarse grid's nodes, in steps
 #: the common window of truth and coarse crossings: inside the range every phase of a 26 × 26 grid covers
 WINDOW = (1.5, 15.9, 1.4, 11.9)
-CONFIGS = ((26, 3, 5), (26, 3, 6), (26, 2, 6), (36, 3, 5), (51, 4, 4))
+CONFIGS = ((26, 3, 5), (26, 3, 6), (26, 2, 6), (31, 3, 5), (31, 3, 6), (36, 3, 4), (36, 4, 4), (36, 3, 5),
+           (51, 4, 4))
 
 
 def eta_of(block: str, shift: float) -> float:
@@ -93,13 +95,18 @@ def _in_window(p: np.ndarray) -> np.ndarray:
     return (p[:, 0] >= w0) & (p[:, 0] <= w1) & (p[:, 1] >= a0) & (p[:, 1] <= a1)
 
 
-def truth(out: Path, configs) -> None:
+def truth(out: Path, configs) -> dict:
+    """Print the truth and each configuration's errors; return them as the figures of the record
+    ``probe-resolution`` (``{scenario: {"truth": {δ: d}, "configs": {"N:S:D": {...}}}}``)."""
+    figures: dict = {}
     for block in ("B3M", "B6M"):
         for pulse in ("sine", "cosine"):
             fine = {s: one_map(out / "fine" / f"{block}-{pulse}-{s}", block, pulse, s, FINE_N, (0, 0), FINE_STRIDE,
                                FINE_DEPTH) for s in SHIFTS}
             true = {s: distance(fine[s][0], fine[0.0][0]) for s in SHIFTS[1:]}
             true_all = {s: distance(fine[s][0], fine[0.0][0], False) for s in SHIFTS[1:]}
+            scenario = figures.setdefault(f"{block} {pulse}", {"truth": {f"{s:g}": round(v, 5) for s, v in true.items()},
+                                                               "configs": {}})
             print(f"{block} {pulse}: truth {', '.join(f'δ {100 * s:.1f} % {v:.4f}' for s, v in true.items())}; "
                   f"fine runs per map {min(r for _, r in fine.values())}–{max(r for _, r in fine.values())}",
                   flush=True)
@@ -124,11 +131,20 @@ def truth(out: Path, configs) -> None:
                     rms[s] = float(np.sqrt(np.mean(e ** 2)))
                     parts.append(f"δ {100 * s:.1f} %: bias {e.mean():+.4f} rms {rms[s]:.4f} ({rms[s] / cell:.4f} diag)")
                 pr = float(np.sqrt(np.mean(np.square(paired))))
+                scenario["configs"][f"{n}:{stride}:{depth}"] = {
+                    "runs_per_map_mean": round(float(np.mean(runs))), "runs_per_map_range": [min(runs), max(runs)],
+                    "rms": {f"{s:g}": round(v, 5) for s, v in rms.items()},
+                    "bias": {f"{s:g}": round(float(np.mean(e)), 5) for s, e in err.items()},
+                    "rms_over_diagonal": {f"{s:g}": round(v / cell, 5) for s, v in rms.items()},
+                    "paired_rms": round(pr, 5), "paired_independent_sd": round(math.hypot(rms[0.02], rms[0.005]), 5),
+                    "rms_domain_ignored": {f"{s:g}": round(float(np.sqrt(np.mean(np.square(e)))), 5)
+                                           for s, e in err_all.items()}}
                 print(f"  {n}×{n} stride {stride} depth {depth}: runs per map {np.mean(runs):.0f} "
                       f"({min(runs)}–{max(runs)}); " + "; ".join(parts) +
                       f"; paired 2 %−0.5 % rms {pr:.4f} vs √(sd²+sd²) {math.hypot(rms[0.02], rms[0.005]):.4f}; "
                       "domain ignored: rms " + "/".join(f"{np.sqrt(np.mean(np.square(e))):.4f}" for e in err_all.values()),
                       flush=True)
+    return figures
 
 
 def main(argv=None) -> int:
@@ -137,9 +153,23 @@ def main(argv=None) -> int:
     ap.add_argument("path", type=Path, help="the output folder (maps kept and reused)")
     ap.add_argument("--configs", default=",".join(f"{n}:{s}:{d}" for n, s, d in CONFIGS),
                     help="N:STRIDE:DEPTH,... coarse grids (N × N), adaptive coarse strides and bisection depths")
+    ap.add_argument("--record", action="store_true",
+                    help="write the figures as the record tests/measurements/results/probe-resolution.json")
     a = ap.parse_args(argv)
     configs = [tuple(int(x) for x in c.split(":")) for c in a.configs.split(",")]
-    truth(a.path, configs)
+    figures = truth(a.path, configs)
+    if a.record:
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+        from records import write_record
+        write_record("probe-resolution",
+                     "The located boundary's error: per scenario (B3M, B6M × sine, cosine), the reference solver's "
+                     "boundary distance for η_H·(1 − δ) against η_H on a 401 × 401 grid bisected 8 times (the truth), "
+                     "and for coarser grids (N:STRIDE:DEPTH: N × N, adaptive coarse stride, bisection depth) at 16 "
+                     "phases the bias and root mean square error of boundary_mean against that truth, the runs per "
+                     "engine map (cells simulated plus bisection samples), and the error of a paired difference "
+                     "(δ = 2 % minus 0.5 %, one reference map) beside the error of two independent ones.",
+                     "python tests/measurements/probes/probe_resolution.py truth OUT --configs " + a.configs + " --record",
+                     figures)
     return 0
 
 
