@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from ..engines.base import SETTINGS_MODES, Case
+from ..engines.contract import SETTINGS_MODES, Case
 from ..engines.renamed import canonical_settings
 from ..reference_solver.errors import ConfigError, check_positive
 from ..reference_solver.model import Block, G, a_ratio_to_amplitude

@@ -1,11 +1,11 @@
 """The held-out check: ``calibrate_on`` names a block of the same slenderness (``sibling``: the other
 size), and anything else is refused with one line. The engines take the blocks themselves (a
-:class:`~rockbench.engines.held_out.CalibrateOn`, or a Block); the names are the benchmark's presets,
+:class:`~rockbench.engines.calibration.held_out.CalibrateOn`, or a Block); the names are the benchmark's presets,
 resolved before they reach an adapter (:mod:`rockbench.benchmark.engine_info.adapters`)."""
 
 import pytest
 
-from rockbench.engines import held_out
+from rockbench.engines.calibration import held_out
 from rockbench.engines.registry import get_adapter
 from rockbench.benchmark.blocks.presets import PRESETS, calibrate_on
 from rockbench.benchmark.cli.main import main

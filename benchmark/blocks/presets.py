@@ -10,7 +10,7 @@ import difflib
 import math
 from dataclasses import dataclass
 
-from ...engines.held_out import SIBLING, CalibrateOn
+from ...engines.calibration.held_out import SIBLING, CalibrateOn
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import Block
 from ...reference_solver.restitution import housner_eta, modified_eta
@@ -80,7 +80,7 @@ def get_preset(name: str) -> Preset:
 
 def calibrate_on(value, engine: str):
     """A ``calibrate_on`` setting as written (``sibling`` or a preset's name, any case) as the engines take
-    it: a :class:`~rockbench.engines.held_out.CalibrateOn` among the presets' blocks (the engines know no
+    it: a :class:`~rockbench.engines.calibration.held_out.CalibrateOn` among the presets' blocks (the engines know no
     names); None, a Block or a CalibrateOn pass as they are. A ConfigError names the presets for
     anything else."""
     if not isinstance(value, str) or value.strip().lower() in ("", "none"):

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...engines.base import Case
+from ...engines.contract import Case
 from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import Block, G, a_ratio_to_amplitude, amplitude_to_a_ratio

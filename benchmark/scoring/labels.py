@@ -37,7 +37,7 @@ SOLVER_NAMES = {"xpbd": "XPBD", "semi_implicit": "semi-implicit", "featherstone"
 
 def model_settings(engine: str) -> dict:
     """The settings that choose which of an engine's models runs, with their defaults
-    (:attr:`~rockbench.engines.base.EngineAdapter.MODEL_SETTINGS`; Newton's solver); {} for an
+    (:attr:`~rockbench.engines.contract.EngineAdapter.MODEL_SETTINGS`; Newton's solver); {} for an
     engine without them, or whose adapter cannot be imported here."""
     try:
         cls = adapter_class(engine)

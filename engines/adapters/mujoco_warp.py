@@ -2,7 +2,7 @@
 
 The model
 ---------
-The MJCF model is the CPU MuJoCo adapter's own (:class:`~rockbench.engines.mujoco_adapter.MujocoAdapter`
+The MJCF model is the CPU MuJoCo adapter's own (:class:`~rockbench.engines.adapters.mujoco.MujocoAdapter`
 builds it with ``MjSpec``; this adapter reuses the builder and the settled initial state) and is
 moved to the device with ``mujoco_warp.put_model``. What differs, because MuJoCo Warp allows no
 other (``docs/mujoco_warp.md``):
@@ -37,7 +37,7 @@ kernel after each step reads the world's θ and θ̇ (in float64, from the float
 reads them) and stops the world at the first sample where they are not finite, the block lies flat,
 after the pulse |θ| > α moving outward, or from ``min_tail_s`` after the pulse on its free-rocking
 energy is trapped below the barrier (the same ``TRAPPED_MARGIN``); else at ``tail_s`` after the
-pulse. Time is counted in steps exactly as on the CPU (:func:`~rockbench.engines.skeleton.run_steps`).
+pulse. Time is counted in steps exactly as on the CPU (:func:`~rockbench.engines.motion.run_steps`).
 The batch runs in segments of ``segment_s``; after each segment a running world's rows come back,
 up to its stop sample for a world that stopped in it. A world that has stopped keeps being stepped
 with the others (a world cannot leave a batch cheaply) but its samples are no longer kept; the
@@ -56,20 +56,20 @@ Warp compiles its kernels on first use (about a minute on a CPU, more on a GPU) 
 
 from __future__ import annotations
 
-import dataclasses
 import multiprocessing as mp
 import os
 import time
 
 import numpy as np
 
-from ..reference_solver.classify import END_REASONS, trapped_energy
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import FLAT_ANGLE_RAD, Block
-from .base import Case, RestitutionMeasurement, Trajectory
-from .free_rocking import PEAK_RATIO
-from .mujoco_adapter import MujocoAdapter, BuiltModel
-from .skeleton import run_steps
+from ...reference_solver.classify import END_REASONS, trapped_energy
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.model import FLAT_ANGLE_RAD, Block
+from ..calibration.free_rocking import PEAK_RATIO
+from ..contract import Case, Trajectory
+from ..loop import trajectory
+from ..motion import run_steps
+from .mujoco import BuiltModel, MujocoAdapter, released_state
 from .warp_start import cuda_driver_present, start_warp
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
@@ -110,11 +110,10 @@ def _warp():
 
 
 def _kernels():
-    """The adapter's own kernels (:mod:`rockbench.engines._mujoco_warp_kernels`, imported once Warp is set up)."""
+    """The adapter's own kernels (:mod:`rockbench.engines.adapters.mujoco_warp_kernels`, imported once Warp is set up)."""
     _warp()
-    from . import _mujoco_warp_kernels as k   # Warp's kernels: the optional engine library, once Warp is set up
+    from . import mujoco_warp_kernels as k   # Warp's kernels: the optional engine library, once Warp is set up
     return {"drive": k.drive, "record": k.record, "end_of_run": k.end_of_run, "advance": k.advance}
-
 
 
 #: pulse kinds the drive kernel evaluates in closed form (3: a velocity table, 4: no pulse)
@@ -208,26 +207,23 @@ class MujocoWarpAdapter(MujocoAdapter):
     #: a GPU steps 40 000 worlds in little more time than 10 000
     max_batch = MAX_WORLDS
     #: the contact along the base is the CPU adapter's only: not built or tested here
-    distributed_contact = False
+    CONTACT_ROWS = None
     SETTINGS = {**{k: v for k, v in MujocoAdapter.SETTINGS.items() if k != "threads"},
                 "device": "auto", "solver": "newton", "iterations": 100, "ls_iterations": 50,
                 "judge_workers": 0}
 
-    def __init__(self, **settings):
-        super().__init__(**settings)
-        self._device_models: dict = {}
-        #: world-steps stepped by this adapter, and the wall time of the stepping itself [s]
-        #: (device work and the per-segment read-back; the judge and the rest of the map are not in it)
-        self.world_steps_run = 0
-        self.stepping_s = 0.0
-        #: wall time spent making trajectories and judging them (``_native_verdicts``) [s]
-        self.judging_s = 0.0
+    #: world-steps stepped by this adapter, and the wall time of the stepping itself [s] (device work and the
+    #: per-segment read-back; the judge and the rest of the map are not in it)
+    world_steps_run = 0
+    stepping_s = 0.0
+    #: wall time spent making trajectories and judging them (``_native_verdicts``) [s]
+    judging_s = 0.0
 
     # -- settings ----------------------------------------------------------------------------
-    def _validate_engine_settings(self, s: dict) -> None:
+    def validate(self, s: dict) -> None:
         s["threads"] = 0                      # the CPU validator expects it; dropped again below
         try:
-            super()._validate_engine_settings(s)
+            super().validate(s)
         finally:
             s.pop("threads", None)
         dev = s["device"]
@@ -238,21 +234,12 @@ class MujocoWarpAdapter(MujocoAdapter):
         if s["solver"] not in _SOLVERS:
             raise ConfigError(f"mujoco_warp setting 'solver' must be newton or cg (MuJoCo Warp has no PGS), "
                               f"got {s['solver']!r}.")
-        self._whole_setting(s, "iterations", 1, allow_none=False)
-        self._whole_setting(s, "judge_workers", 0, allow_none=False)
-        self._whole_setting(s, "ls_iterations", 1, allow_none=False)
+        self.whole_setting(s, "iterations", minimum=1, allow_none=False)
+        self.whole_setting(s, "judge_workers", allow_none=False)
+        self.whole_setting(s, "ls_iterations", minimum=1, allow_none=False)
 
     def _threads(self) -> int:
         return 1   # only the CPU engine's settle and its calibration helpers use threads here
-
-    @classmethod
-    def version(cls) -> str:
-        base = super().version()
-        try:
-            import warp   # optional engine library
-            return f"{base} (warp-lang {warp.__version__})"
-        except Exception:  # noqa: BLE001 - mujoco_warp imported, so warp did too; be safe anyway
-            return base
 
     @classmethod
     def default_suite_exclusion(cls) -> str | None:
@@ -295,18 +282,11 @@ class MujocoWarpAdapter(MujocoAdapter):
             return "cuda:0" if wp.is_cuda_available() else "cpu"
         return "cuda:0" if dev == "cuda" else dev
 
-    def _resolved_settings(self, block: Block, dt: float, cal) -> dict:
-        out = super()._resolved_settings(block, dt, cal)
-        s = self.settings
-        out.update(solver=s["solver"], iterations=s["iterations"], ls_iterations=s["ls_iterations"])
-        return out
-
     # -- model -------------------------------------------------------------------------------
-    def _build(self, block: Block, p: dict, dt: float, drive: str, planar: bool) -> BuiltModel:
+    def _build(self, block: Block, s: dict, dt: float) -> BuiltModel:
         import mujoco   # optional engine library
 
-        bm = super()._build(block, p, dt, drive, planar)
-        s = self.settings
+        bm = super()._build(block, s, dt)
         opt = bm.model.opt
         opt.solver = mujoco.mjtSolver.mjSOL_NEWTON if s["solver"] == "newton" else mujoco.mjtSolver.mjSOL_CG
         opt.iterations = int(s["iterations"])
@@ -318,20 +298,14 @@ class MujocoWarpAdapter(MujocoAdapter):
         """``mujoco_warp.put_model`` of a built model on ``dev`` (cached; ``nsolref`` > 0 gives
         ``geom_solref`` one row per world, for calibration grids)."""
         wp, mjw = _warp()
-        key = (id(bm), dev, nsolref)
-        if key not in self._device_models:
+        key = ("device", id(bm), dev, nsolref)
+        if key not in self.scenes:
             with wp.ScopedDevice(dev):
-                self._device_models[key] = (bm, mjw.put_model(bm.model, batch_sizes={"geom_solref": nsolref}
-                                                              if nsolref else None))
-        return self._device_models[key][1]
+                self.scenes[key] = (bm, mjw.put_model(bm.model, batch_sizes={"geom_solref": nsolref}
+                                                      if nsolref else None))
+        return self.scenes[key][1]
 
     # -- the batch ---------------------------------------------------------------------------
-    def _simulate(self, case: Case) -> Trajectory:
-        out = self._simulate_many([case])[0]
-        if isinstance(out, BaseException):
-            raise out
-        return out
-
     def _cases_by_model(self, cases: list[Case]) -> tuple[list, list]:
         """The cases grouped by the model they run on: ``(out, groups)`` where ``groups`` lists
         ``(built model, indices of its cases)`` and ``out`` holds, per case, the exception that kept
@@ -341,15 +315,14 @@ class MujocoWarpAdapter(MujocoAdapter):
         groups: dict = {}
         for i, c in enumerate(cases):
             try:
-                dt = self.dt_for(c)
-                p = self.resolve(c.block, c.restitution, dt)
-                bm = self._model(c.block, p, dt)
+                s = self.resolve(c.block, c.restitution, c.dt_s)
+                bm = self.build(c.block, s, c.dt_s)["bm"]
             except ConfigError:
                 raise
             except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
                 out[i] = e
                 continue
-            groups.setdefault(id(bm), (bm, []))[1].append(i)
+            groups.setdefault(id(bm), (bm, s, []))[2].append(i)
         return out, list(groups.values())
 
     def _seg_steps(self, bm: BuiltModel) -> int:
@@ -359,13 +332,13 @@ class MujocoWarpAdapter(MujocoAdapter):
         """Run the cases as batches of worlds; per case the exception that stopped it, or
         ``(built model, the batch's samples, index in the batch)``."""
         out, groups = self._cases_by_model(cases)
-        for bm, idx in groups:
+        for bm, s, idx in groups:
             for k in range(0, len(idx), MAX_WORLDS):
                 part = idx[k:k + MAX_WORLDS]
                 try:
                     states = self._run_batch(bm, [cases[i].pulse for i in part],
                                              [self._stop_rule(cases[i]) for i in part])
-                    res = [(bm, states, j) for j in range(len(part))]
+                    res = [(bm, s, states, j) for j in range(len(part))]
                 except ConfigError:
                     raise
                 except Exception as e:  # noqa: BLE001 - the whole batch failed inside the engine
@@ -378,9 +351,9 @@ class MujocoWarpAdapter(MujocoAdapter):
         """The trajectory of one case from :meth:`_simulate_raw`'s entry (or the exception)."""
         if isinstance(raw, BaseException):
             return raw
-        bm, states, j = raw
+        bm, s, states, j = raw
         try:
-            return self._trajectory(bm, case, states[j], states.ended[j])
+            return self._trajectory(bm, s, case, states[j], states.ended[j])
         except Exception as e:  # noqa: BLE001 - recorded for this cell
             return e
 
@@ -390,7 +363,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         for c, r in zip(cases, raw):
             out.append(self._make_trajectory(c, r))
             if not isinstance(r, BaseException):
-                r[1].parts[r[2]] = None      # the float32 rows are no longer needed
+                r[2].parts[r[3]] = None      # the float32 rows are no longer needed
         return out
 
     def _native_verdicts(self, cases: list[Case]) -> list:
@@ -422,16 +395,17 @@ class MujocoWarpAdapter(MujocoAdapter):
         return res
 
     def _stop_rule(self, case: Case) -> dict:
-        """What the end-of-run rule needs of one case: its steps (:func:`~rockbench.engines.skeleton.run_steps`:
-        the last, the pulse's and the first at which the trapped rule applies) and its block."""
+        """What the end-of-run rule needs of one case (its step posed): its steps
+        (:func:`~rockbench.engines.motion.run_steps`: the last, the pulse's and the first at which the
+        trapped rule applies) and its block."""
         tail_s, min_tail_s = self.settings["tail_s"], self.settings["min_tail_s"]
-        return {"steps": run_steps(self.dt_for(case), case.pulse.duration_s, tail_s, min_tail_s),
+        return {"steps": run_steps(case.dt_s, case.pulse.duration_s, tail_s, min_tail_s),
                 "alpha_rad": case.block.alpha_rad, "p_rad_s": case.block.p_rad_s}
 
     def _end_args(self, bm: BuiltModel, step, d, stops: list | None, n: int, n_steps: int | None) -> list:
-        """The inputs of the device's end-of-run kernel (:func:`_mujoco_warp_kernels.end_of_run`) for
+        """The inputs of the device's end-of-run kernel (:func:`~rockbench.engines.adapters.mujoco_warp_kernels.end_of_run`) for
         ``n`` worlds: ``stops`` (:meth:`_stop_rule`), or None: free rocking of ``n_steps`` steps
-        (stopped early only where θ or θ̇ is not finite or the block lies flat, as the skeleton's
+        (stopped early only where θ or θ̇ is not finite or the block lies flat, as the loop's
         free-rocking test). The last two are the arrays it writes: the stop step (−1 while the world
         runs) and why."""
         wp, _ = _warp()
@@ -581,45 +555,54 @@ class MujocoWarpAdapter(MujocoAdapter):
         if worst > d.njmax:
             raise RuntimeError(f"mujoco_warp: {worst} constraint rows exceed the {d.njmax} allocated per world")
 
-    def _trajectory(self, bm: BuiltModel, case: Case, st: np.ndarray, ended_by: str) -> Trajectory:
-        """The trajectory of one world's samples ``st`` (the skeleton's read-out)."""
-        s = {"drive": bm.drive, "planar": bm.planar}
+    def _trajectory(self, bm: BuiltModel, s: dict, case: Case, st: np.ndarray, ended_by: str) -> Trajectory:
+        """The trajectory of one world's samples ``st`` (the contact base's read-out)."""
         run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": ended_by}
-        tr = self._record({"bm": bm}, case.block, s, bm.model.opt.timestep, case.pulse, case.pulse.duration_s,
-                          st, run)[0]
+        tr = trajectory(self, {"bm": bm}, case.block, s, bm.model.opt.timestep, case.pulse, case.pulse.duration_s,
+                        st, run)[0]
         tr.diagnostics.update(device=getattr(self, "_last_device", None), precision="float32",
                               solver=self.settings["solver"])
         return tr
 
-    # -- restitution -------------------------------------------------------------------------
-    def _free_rocking(self, block: Block, params_list: list[dict], dt: float,
-                      theta0_frac: float) -> list[RestitutionMeasurement]:
-        """Free rocking from rest at ``theta0_frac·α`` about the +x edge, as long as the one reader's
-        test: every contact setting a world of one batch (per-world ``geom_solref``)."""
-        built = [self._model(block, p, dt) for p in params_list]
-        groups: dict = {}
-        for j, (bm, p) in enumerate(zip(built, params_list)):
-            key = tuple((k, p[k]) for k in ("cone", "integrator", "noslip_iterations", "impratio"))
-            groups.setdefault(key, []).append(j)
-        th0 = theta0_frac * block.alpha_rad
-        nstep = int(round(PEAK_RATIO.duration_s(block, theta0_frac) / dt))
-        out: list = [None] * len(built)
-        for idx in groups.values():
-            init = [self._release_state(built[j], block, th0)[:1 + built[j].model.nq + built[j].model.nv] for j in idx]
-            solref = [[params_list[j]["timeconst"], params_list[j]["dampratio"]] for j in idx]
-            states = self._run_batch(built[idx[0]], [None] * len(idx), None, init=np.array(init), solref=np.array(solref),
-                                     n_steps=nstep)
-            for j, full in zip(idx, states):
-                m = self._measurement(built[j], params_list[j], full, block, th0, dt)
-                out[j] = dataclasses.replace(m, first_quarter_s=None)   # not recorded here (yet)
+    # -- free rocking: every setting a world of one batch --------------------------------------------
+    def run_worlds(self, block: Block, s: dict, dt: float, pulses: list, theta0: float = 0.0,
+                   duration_s: float | None = None) -> list:
+        """The free-rocking runs of the contact base's test, on the device (pulse runs go through
+        :meth:`_native_verdicts`, whose batches hold up to 65 536 worlds)."""
+        if duration_s is None or any(p is not None for p in pulses):
+            raise NotImplementedError("mujoco_warp runs its pulse runs in _native_verdicts' device batches")
+        return self._free_rocking_runs(block, [s] * len(pulses), dt, theta0, duration_s)
+
+    def measure_many(self, block: Block, settings: list[dict], dt: float, theta0_frac: float = 0.5) -> list:
+        """Free rocking of every one of ``settings`` as a world of one device batch (per-world contact
+        ``solref``), measured as the contact base measures it."""
+        theta0 = float(theta0_frac) * block.alpha_rad
+        runs = self._free_rocking_runs(block, settings, dt, theta0, PEAK_RATIO.duration_s(block, theta0_frac))
+        out = []
+        for s, (tr, m) in zip(settings, runs):
+            try:
+                out.append(self.free_rocking_measurement(block, s, dt, theta0, tr, m))
+            except Exception as e:  # noqa: BLE001 - recorded for this setting, the search goes on
+                out.append(e)
         return out
 
-    def _measured_settings(self, p: dict) -> dict:
-        return ({k: p[k] for k in ("timeconst", "dampratio", "cone", "integrator", "noslip_iterations", "impratio")}
-                | {"friction": self.settings["friction"], "solver": self.settings["solver"]})
-
-    def _cache_identity(self) -> dict:
-        import mujoco_warp   # optional engine library
-        s = self.settings
-        return {"engine": self.name, "version": mujoco_warp.__version__,
-                "warp_solver": [s["solver"], s["iterations"], s["ls_iterations"]]}
+    def _free_rocking_runs(self, block: Block, settings: list[dict], dt: float, theta0: float,
+                           duration_s: float) -> list:
+        """Free-rocking runs from rest at ``theta0`` [rad] on the +x edge, ``duration_s`` [s] long, one
+        world per resolved settings; worlds that share their solver settings share a batch."""
+        built = [self.build(block, s, dt)["bm"] for s in settings]
+        groups: dict = {}
+        for j, s in enumerate(settings):
+            groups.setdefault(tuple((k, s[k]) for k in ("cone", "integrator", "noslip_iterations", "impratio")),
+                              []).append(j)
+        nstep = run_steps(dt, 0.0, 0.0, 0.0, duration_s)[0]
+        out: list = [None] * len(built)
+        for idx in groups.values():
+            init = [released_state(built[j], block, theta0)[:1 + built[j].model.nq + built[j].model.nv] for j in idx]
+            solref = [[settings[j]["timeconst_s"], settings[j]["dampratio"]] for j in idx]
+            states = self._run_batch(built[idx[0]], [None] * len(idx), None, init=np.array(init),
+                                     solref=np.array(solref), n_steps=nstep)
+            for j, full, why in zip(idx, states, states.ended):
+                run = {"wall_s": 0.0, "cpu_s": 0.0, "ended_by": why}
+                out[j] = trajectory(self, {"bm": built[j]}, block, settings[j], dt, None, 0.0, full, run)
+        return out

@@ -28,10 +28,11 @@ import time
 
 import numpy as np
 
-from ..reference_solver.model import G, Block
-from ..reference_solver.pulses import RecordPulse, make_pulse
-from ..reference_solver.restitution import Restitution
-from .base import Case
+from ...reference_solver.model import G, Block
+from ...reference_solver.pulses import RecordPulse, make_pulse
+from ...reference_solver.restitution import Restitution
+from ..contract import Case
+from .rigid import rigid_answers
 
 #: Tolerance on the static uplift threshold ratio (within 2 % to count) [-].
 UPLIFT_RTOL = 0.02
@@ -74,9 +75,10 @@ def uplift_threshold(adapter, block: Block, restitution: Restitution, dt_s: floa
     """The static uplift threshold under a slow ramp (module docstring), with the adapter's settings."""
     A = G * math.tan(block.alpha_rad)
     pulse = ramp_pulse(block)
-    tr = adapter._simulate_many([Case(block, pulse, restitution, dt_s)])[0]
-    if isinstance(tr, BaseException):
-        return {"error": f"{type(tr).__name__}: {tr}", "within": False}
+    try:
+        tr = adapter.simulate(Case(block, pulse, restitution, dt_s))
+    except Exception as e:  # noqa: BLE001 - a contact the ramp breaks does not count; recorded
+        return {"error": f"{type(e).__name__}: {e}", "within": False}
     t = np.asarray(tr.t_s)
     th = np.abs(np.asarray(tr.theta_rad))
     acc = np.abs(np.asarray(pulse.accel(t)))
@@ -98,13 +100,8 @@ def anti_slip(adapter, block: Block, restitution: Restitution, dt_s: float | Non
               cells=PRICE_CELLS) -> dict:
     """The default suite's pulses on ``cells``, judged by the one validity rule: flag counts and speed."""
     A = G * math.tan(block.alpha_rad)
-    from .reference_adapter import ReferenceAdapter   # the solver's numba on first use (start-up time)
-
     cases = [Case(block, make_pulse(kind, a * A, w * block.p_rad_s), restitution, None) for kind, w, a in cells]
-    friction = adapter.settings.get("friction")
-    ref = ReferenceAdapter(**({"friction": friction} if "friction" in ReferenceAdapter.SETTINGS else {}))
-    demand = ref.run_many(cases)
-    rigid_ok = [not ({"lift-required", "slip-required"} & set(r.flags)) for r in demand]
+    rigid_ok = [not flags for _, flags in rigid_answers(cases, adapter.friction)]
     cases = [Case(c.block, c.pulse, c.restitution, dt_s) for c, ok in zip(cases, rigid_ok) if ok]
     kept = [c for c, ok in zip(cells, rigid_ok) if ok]
     t0 = time.perf_counter()

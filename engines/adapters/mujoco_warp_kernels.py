@@ -1,7 +1,7 @@
 """The MuJoCo Warp adapter's own Warp kernels: the per-world table drive, the sample record and
 floor 1's end-of-run rule evaluated on the device.
 
-Imported only by :mod:`rockbench.engines.mujoco_warp_adapter` after it has set up Warp (kernel
+Imported only by :mod:`rockbench.engines.adapters.mujoco_warp` after it has set up Warp (kernel
 cache in rockbench's cache folder); importing it imports Warp.
 """
 

@@ -43,7 +43,7 @@ One world per geometry, drive and contact setting is built in a process and kept
 resets the joints. The step loop makes one drive call, one ``World.step`` and two state reads per
 step (no batch API: ``batching = "none"``, maps spread cells over processes).
 
-The run, its end and the read-out are the skeleton's (:mod:`rockbench.engines.skeleton`).
+The run, its end and the read-out are the contact base's (:mod:`rockbench.engines.contact`).
 """
 
 from __future__ import annotations
@@ -54,11 +54,10 @@ import os
 
 import numpy as np
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
-from .base import CalibrationResult
-from .knobs import Knob
-from .skeleton import Motion, SteppedContactAdapter, pivot_pose
+from ...reference_solver.model import G, Block
+from ..calibration.knobs import Knob
+from ..contact import ContactEngine
+from ..motion import Motion, pivot_pose, table_track_err_rel
 
 #: The collision detectors dartpy offers, by setting value
 COLLISION_DETECTORS = {"fcl": "FCLCollisionDetector", "ode": "OdeCollisionDetector",
@@ -134,6 +133,19 @@ class _Scene:
         world.addSkeleton(self.block)
         self.world, self._dart = world, dart
         self.acc = np.zeros(0)
+
+    def load(self, pulse, dt: float) -> None:
+        """The drive of every step of ``dt`` [s] under ``pulse`` (None: none): the step average of ü
+        (the velocity change per step is exact)."""
+        if pulse is None:
+            self.acc = np.zeros(0)
+        else:
+            n_pulse = int(math.ceil(pulse.duration_s / dt - 1e-9))
+            self.acc = np.diff(np.asarray(pulse.vel(np.arange(n_pulse + 1) * dt), dtype=float)) / dt
+
+    def angles(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """θ [rad] and θ̇ [rad/s] of state rows."""
+        return (rows[:, 2], rows[:, 5]) if self.planar else (_theta_free(rows), rows[:, 7])
 
     def place(self, block: Block, theta0: float) -> None:
         """The block at rest at ``theta0`` [rad] pivoting on its lower corner; the table at rest at 0."""
@@ -214,7 +226,7 @@ def _theta_free(rows: np.ndarray) -> np.ndarray:
     return np.arctan2(r02, r00)
 
 
-class DartAdapter(SteppedContactAdapter):
+class DartAdapter(ContactEngine):
     """The rocking block in DART (see the module docstring for the model).
 
     Settings
@@ -243,149 +255,55 @@ class DartAdapter(SteppedContactAdapter):
     name = "dart"
     module = "dartpy"
     install_hint = "install it with `pip install 'rockbench[dart]'` (or `pip install dartpy==6.20.0`; Python < 3.12)."
-    default_dt_s = 5e-4
     #: DART's own default step (World.getTimeStep()), what it runs at as shipped
-    shipped_dt_s = 1e-3
-    #: no batch API: one case at a time, maps spread cells over worker processes
-    batching = "none"
-    SETTINGS = {
-        **SteppedContactAdapter.SHARED_SETTINGS,
-        "collision_detector": None,
-        "split_impulse": None,
-        "contact_restitution": None,
-        "corner_radius_m": 1e-4,
-        "tail_s": 2.0,
-        "min_tail_s": 0.25,
-    }
-    CALIBRATED_SETTINGS = ("collision_detector", "split_impulse", "contact_restitution")
-    #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): DART's contact is
-    #: rigid and its impact plastic, which is Housner's η_H, so the contact as shipped
-    #: (:data:`SHIPPED_CONTACT`) is kept within 0.5 %; otherwise the other collision detectors and the
-    #: split impulse, and for a target more than 1 % above the shipped η the restitution coefficients
-    #: :data:`_RESTITUTIONS_TRIED`. Nothing softens the contact: dartpy does not expose its error
-    #: reduction or constraint force mixing.
-    CALIBRATION_KNOBS = (
-        Knob("collision_detector", "", "other", ladder=lambda block, dt: tuple(COLLISION_DETECTORS), shipped="fcl"),
-        Knob("split_impulse", "", "other", ladder=lambda block, dt: (False, True), shipped=False),
-        Knob("contact_restitution", "", "damping", ladder=lambda block, dt: _RESTITUTIONS_TRIED, shipped=0.0,
-             when="below"),
-    )
+    own_dt_s = 1e-3
+    SETTINGS = {"corner_radius_m": 1e-4, "tail_s": 2.0, "min_tail_s": 0.25}
+    SHIPPED = SHIPPED_CONTACT
+    #: The calibration: DART's contact is rigid and its impact plastic, which is Housner's η_H, so the
+    #: contact as shipped is kept within 0.5 %; otherwise the other collision detectors and the split
+    #: impulse, and for a target more than 1 % above the shipped η the restitution coefficients
+    #: :data:`_RESTITUTIONS_TRIED` (which act only above DART's bounce velocity, docs/dart.md). Nothing
+    #: softens the contact: dartpy does not expose its error reduction or constraint force mixing.
+    KNOBS = (Knob("collision_detector", "", tuple(COLLISION_DETECTORS)), Knob("split_impulse", "", (False, True)),
+             Knob("contact_restitution", "", _RESTITUTIONS_TRIED, when="below",
+                  note=f"restitution acts only where e·v_n > {BOUNCE_THRESHOLD_M_S:g} m/s (a compile-time constant of "
+                       "DART), and where it acts the landing corner's bounce launches the block off the table "
+                       "instead of raising η; DART's contact softness (ERP, CFM) is not exposed by dartpy"))
     START_KEEP_RTOL = 0.005
-    MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
-    CALIBRATION_VERSION = 1
 
-    # -- settings -----------------------------------------------------------------------------
-    def _validate_engine_settings(self, s: dict) -> None:
-        det = s["collision_detector"]
-        if det is not None and det not in COLLISION_DETECTORS:
-            raise ConfigError(f"dart setting 'collision_detector' must be one of {', '.join(COLLISION_DETECTORS)}, "
-                              f"got {det!r}.")
-        if s["split_impulse"] is not None:
-            self._bool_setting(s, "split_impulse")
-        self._number_setting(s, "contact_restitution", "", allow_zero=True)
-        self._number_setting(s, "corner_radius_m", "m", allow_none=False)
-        if s["corner_radius_m"] > 1e-3:
-            raise ConfigError(f"dart setting 'corner_radius_m' must be <= 0.001 m (the corner spheres sit inside the "
-                              f"corners and move the pivots inwards by their radius), got {s['corner_radius_m']!r}.")
-        if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
-            raise ConfigError(f"dart setting 'contact_restitution' must be in [0, 1], "
-                              f"got {s['contact_restitution']!r}.")
+    def validate(self, s: dict) -> None:
+        self.choice_setting(s, "collision_detector", tuple(COLLISION_DETECTORS))
+        self.bool_setting(s, "split_impulse", allow_none=True)
+        self.number_setting(s, "contact_restitution", allow_zero=True, maximum=1.0)
+        # the corner spheres sit inside the corners and move the pivots inwards by their radius
+        self.number_setting(s, "corner_radius_m", "m", allow_none=False, maximum=1e-3)
 
-    def explicit_contact(self) -> bool:
-        """Whether any contact setting (:attr:`CALIBRATED_SETTINGS`) was given (then nothing is calibrated)."""
-        return any(self.settings[k] is not None for k in self.CALIBRATED_SETTINGS)
-
-    def _base_settings(self) -> dict:
-        return dict(self.settings)
-
-    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        """The settings with every contact key concrete: the calibration's, else those given, the
-        rest as shipped (:data:`SHIPPED_CONTACT`)."""
-        s = self._base_settings()
-        if cal is not None:
-            s.update(cal.settings)
-        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CALIBRATED_SETTINGS}}
-
-    # -- the hooks of the skeleton ----------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> _Scene:
-        keys = ("planar", "drive", "friction", "corner_radius_m") + self.CALIBRATED_SETTINGS
+    def build(self, block: Block, s: dict, dt_s: float) -> _Scene:
+        keys = ("planar", "drive", "friction", "corner_radius_m") + tuple(self.SHIPPED)
         return _scene(os.getpid(), block, dt_s, tuple((k, s[k]) for k in keys))
 
-    def _start(self, world: _Scene, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
-               n_steps: int) -> np.ndarray:
-        world.place(block, theta0_rad)
-        if pulse is None:
-            world.acc = np.zeros(0)
-        else:
-            n_pulse = int(math.ceil(pulse.duration_s / dt_s - 1e-9))
-            # the step average of ü: the velocity change per step is exact
-            world.acc = np.diff(np.asarray(pulse.vel(np.arange(n_pulse + 1) * dt_s), dtype=float)) / dt_s
-        return world.row()[None, :]
+    def start(self, scene: _Scene, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+              n_steps: int) -> np.ndarray:
+        scene.place(block, theta0_rad)
+        scene.load(pulses[0], dt_s)
+        return scene.row()[None, None, :]
 
-    def _advance(self, world: _Scene, n_from: int, n_to: int) -> np.ndarray:
-        return world.advance(n_from, n_to)
+    def advance(self, scene: _Scene, n_from: int, n_to: int) -> np.ndarray:
+        return scene.advance(n_from, n_to)[None]
 
-    def _angles(self, world: _Scene, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if world.planar:
-            return rows[:, 2], rows[:, 5]
-        return _theta_free(rows), rows[:, 7]
-
-    def _motion(self, world: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
-        th, om = self._angles(world, data)
+    def read(self, scene: _Scene, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        th, om = scene.angles(rows)
         diag = {"collision_detector": s["collision_detector"], "split_impulse": bool(s["split_impulse"]),
                 "contact_restitution": float(s["contact_restitution"])}
-        if world.planar:
-            z, x, vz, vx = data[:, 0], data[:, 1], data[:, 3], data[:, 4]
+        if scene.planar:
+            z, x, vz, vx = rows[:, 0], rows[:, 1], rows[:, 3], rows[:, 4]
         else:
-            x, z, vx, vz = data[:, 3], data[:, 5], data[:, 9], data[:, 11]
-            diag["max_lateral_drift_m"] = float(np.nanmax(np.abs(data[:, 4])))
+            x, z, vx, vz = rows[:, 3], rows[:, 5], rows[:, 9], rows[:, 11]
+            diag["max_lateral_drift_m"] = float(np.nanmax(np.abs(rows[:, 4])))
         u_tab = v_tab = None
-        if world.table_joint is not None:
-            u_tab, v_tab = data[:, -2], data[:, -1]
+        if scene.table_joint is not None:
+            u_tab, v_tab = rows[:, -2], rows[:, -1]
             if pulse is not None:
-                u = np.asarray(pulse.disp(t_s), dtype=float)
-                diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / max(float(np.max(np.abs(u))), 1e-12))
+                diag["table_track_err_rel"] = table_track_err_rel(u_tab, pulse, t_s)
         return Motion(x_m=x, z_m=z, theta_rad=th, vx_m_s=vx, vz_m_s=vz, theta_dot_rad_s=om, table_x_m=u_tab,
                       table_vx_m_s=v_tab, diagnostics=diag)
-
-    # -- calibration --------------------------------------------------------------------------
-    def _calibration_identity(self, base: dict) -> dict:
-        ident = super()._calibration_identity(base)
-        return {**ident, "corner_radius": float(base["corner_radius_m"])} if base["planar"] else ident
-
-    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
-        """What a calibration found, in words."""
-        e0 = rows[0]["eta"]
-        if settings == SHIPPED_CONTACT:
-            if chosen.reached:
-                return "DART as shipped (FCL, rigid plastic contact) gives this η."
-            head = f"not reached: DART as shipped gives {e0:.4f}, the closest"
-        else:
-            head = (f"reached with {_describe(settings)}" if chosen.reached else
-                    f"not reached: the closest is {_describe(settings)}, η = {chosen.candidate.eta:.4f}")
-        others = [r["eta"] for r in rows[1:] if r["contact_restitution"] == 0]
-        if others:
-            head += f"; the other collision detectors and the split impulse give η = {min(others):.4f}–{max(others):.4f}"
-        e_tried = [r for r in rows if r["contact_restitution"] > 0]
-        if not e_tried:
-            return head + "."
-        v_land = landing_speed_m_s(block, 0.5)
-        etas = ", ".join(f"e = {r['contact_restitution']:g}: {r['eta']:.4f} ± {r['eta_std']:.4f}" for r in e_tried)
-        return (f"{head}; restitution ({etas}) acts only where e·v_n > {BOUNCE_THRESHOLD_M_S:g} m/s (a compile-time "
-                f"constant of DART; the landing corner of a release from α/2 arrives at {v_land:.3f} m/s), and where "
-                "it acts the corner's bounce launches the block off the table instead of raising η; DART's contact "
-                "softness (ERP, CFM) is not exposed by dartpy.")
-
-
-def landing_speed_m_s(block: Block, theta0_frac: float) -> float:
-    """The speed [m/s] at which the landing corner of a rigid block released from rest at
-    ``theta0_frac·α`` reaches the table: ``b·θ̇₀``, with ``θ̇₀ = p·√(2(cos(α − θ0) − cos α))`` the
-    free-rocking energy's angular speed at θ = 0."""
-    a = block.alpha_rad
-    return block.width_m * block.p_rad_s * math.sqrt(2.0 * (math.cos(a - theta0_frac * a) - math.cos(a)))
-
-
-def _describe(contact: dict) -> str:
-    """A contact setting in words, for calibration notes."""
-    return (f"collision detector {contact['collision_detector']}, split impulse "
-            f"{'on' if contact['split_impulse'] else 'off'}, restitution {contact['contact_restitution']:g}")

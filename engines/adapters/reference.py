@@ -19,12 +19,12 @@ import math
 import time
 import numpy as np
 
-from ..reference_solver.classify import OUTCOME_FROM_CODE, Outcome
-from ..reference_solver.errors import ConfigError, check_positive
-from ..reference_solver.pulses import MIN_STEPS_PER_WAVE
-from ..reference_solver.solver import MODES, solve, solve_batch
-from ..reference_solver.validity import DEFAULT_FRICTION, DOMAIN_FLAGS, contact_flag_bits, contact_flags
-from .base import Case, CellColumns, CellResult, EngineAdapter, Trajectory
+from ...reference_solver.classify import OUTCOME_FROM_CODE, Outcome
+from ...reference_solver.errors import ConfigError, check_positive
+from ...reference_solver.pulses import MIN_STEPS_PER_WAVE
+from ...reference_solver.solver import MODES, PAPER_DT_S, solve, solve_batch
+from ...reference_solver.validity import DEFAULT_FRICTION, DOMAIN_FLAGS, contact_flag_bits, contact_flags
+from ..contract import Case, CellColumns, CellResult, EngineAdapter, Trajectory
 
 #: pulse kinds the batch kernel runs (records go case by case)
 _BATCH_KINDS = ("sine", "cosine", "half-sine")
@@ -47,21 +47,22 @@ class ReferenceAdapter(EngineAdapter):
     module = None
     install_hint = "part of rockbench; nothing to install."
     SETTINGS = {"mode": "energy", "friction": DEFAULT_FRICTION}
-    default_dt_s = 1e-3
+    #: the paper's step (§2.2)
+    own_dt_s = PAPER_DT_S
     #: solve_batch runs the cases in parallel on all cores: maps call it once, in-process
     batching = "parallel"
 
-    def _validate_settings(self, settings: dict) -> None:
+    def validate(self, settings: dict) -> None:
         if settings["mode"] not in MODES:
             raise ConfigError(f"the reference engine's mode must be energy or to-rest, got {settings['mode']!r}.")
-        self._number_setting(settings, "friction", allow_none=False)
+        self.number_setting(settings, "friction", allow_none=False)
 
     @property
     def _energy(self) -> bool:
         return self.settings["mode"] == "energy"
 
     def _simulate(self, case: Case) -> Trajectory:
-        dt = self.dt_for(case)
+        dt = case.dt_s
         eta = case.eta
         sol = solve(case.block, case.pulse, eta, dt_s=dt, linearized=case.linearized,
                     mode=self.settings["mode"], history=True)
@@ -89,7 +90,7 @@ class ReferenceAdapter(EngineAdapter):
         omega_rad_s, amplitude_mps2 : array_like
             ω [rad/s] and a₀ [m/s^2] of each case.
         dt_s : float, optional
-            Time step [s] (default :attr:`default_dt_s`).
+            Time step [s] (default :attr:`own_dt_s`, the paper's).
         linearized : bool
             Linearised equation of motion.
 
@@ -105,7 +106,7 @@ class ReferenceAdapter(EngineAdapter):
         """
         if pulse_kind not in _BATCH_KINDS:
             raise ConfigError(f"solve_grid takes the pulses {', '.join(_BATCH_KINDS)}, got {pulse_kind!r}.")
-        dt = check_positive("--dt", self.default_dt_s if dt_s is None else dt_s, "s")
+        dt = check_positive("--dt", self.own_dt_s if dt_s is None else dt_s, "s")
         # the per-case path's rule (Pulse.check_dt: MIN_STEPS_PER_WAVE steps over the pulse's duration)
         duration = (math.pi if pulse_kind == "half-sine" else 2.0 * math.pi) / np.asarray(omega_rad_s, dtype=float)
         if np.size(duration) and dt > float(np.min(duration)) / MIN_STEPS_PER_WAVE:
@@ -136,7 +137,7 @@ class ReferenceAdapter(EngineAdapter):
                 groups.setdefault((c.pulse.kind, bool(c.linearized)), []).append(i)
         for (kind, lin), idx in groups.items():
             sel = [cases[i] for i in idx]
-            dts = np.array([self.dt_for(c) for c in sel])  # ConfigError on a step too coarse
+            dts = np.array([c.dt_s for c in sel])   # posed by run_many (a step too coarse: a ConfigError there)
             t0 = time.perf_counter()
             r = solve_batch(np.array([c.block.alpha_rad for c in sel]), np.array([c.block.p_rad_s for c in sel]),
                             np.array([c.eta for c in sel]), kind, np.array([c.pulse.omega_rad_s for c in sel]),

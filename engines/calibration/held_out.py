@@ -20,8 +20,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import Block
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.model import Block
 
 __all__ = ["SIBLING", "CalibrateOn", "check_setting", "calibration_block", "slenderness"]
 

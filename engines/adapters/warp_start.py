@@ -9,8 +9,8 @@ import os
 import sys
 import tempfile
 
-from . import calibration as _cal
-from .base import DEVICE_NOTED_ENV
+from ..calibration import cache as _cal
+from ..contract import DEVICE_NOTED_ENV
 
 __all__ = ["warp_cache_dir", "cuda_driver_present", "init_on_cpu", "start_warp"]
 

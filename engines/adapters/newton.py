@@ -25,12 +25,11 @@ corrections: that contact is what the benchmark measures.
   velocity u̇ (at the step's midpoint) are set before every step.
 * **Restitution**: ``settings="shipped"`` runs the solver as shipped (Newton's default iterations
   and contact material) with only the time step and the anti-slip friction set;
-  ``settings="calibrated"`` (default) runs the settings the skeleton's search of the solver's
-  knobs (:attr:`NewtonAdapter.CALIBRATION_KNOBS`) found for the case's η (cached on disk). XPBD's own restitution (``enable_restitution``) is not
+  ``settings="calibrated"`` (default) runs the settings the one search of the solver's
+  knobs (:attr:`NewtonAdapter.KNOBS`) found for the case's η (cached on disk). XPBD's own restitution (``enable_restitution``) is not
   used: it breaks rocking (docs/newton.md).
 * **Batches** (``batching = "native"``, :attr:`~NewtonAdapter.max_worlds`): the cells of a map with
-  the same block, step and settings run as the worlds of one model through the skeleton's loop for
-  batches of worlds; every world advances by the same kernels, so a cell gives the same trajectory
+  the same block, step and settings run as the worlds of one model through the contact base's loop; every world advances by the same kernels, so a cell gives the same trajectory
   alone or in a batch.
 
 Warp runs on its CPU device here (the drive and the read-out use NumPy views of Warp's arrays).
@@ -41,12 +40,11 @@ from __future__ import annotations
 import math
 import numpy as np
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
-from .base import CalibrationResult
-from .knobs import Knob
-from .skeleton import Motion, SteppedContactAdapter, pivot_pose
-from .support import version_label
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.model import G, Block
+from ..calibration.knobs import Knob
+from ..contact import ContactEngine
+from ..motion import Motion, pivot_pose, theta_of_quat
 from .warp_start import start_warp
 
 #: The solvers offered, by their ``solver`` name
@@ -74,12 +72,6 @@ def _newton():
     wp = start_warp(CPU_LINE)
     import newton   # optional engine library
     return wp, newton
-
-
-def theta_of(rows: np.ndarray) -> np.ndarray:
-    """θ about +y [rad] from state rows (quaternion x, y, z, w in columns 3–6)."""
-    qx, qy, qz, qw = rows[..., 3], rows[..., 4], rows[..., 5], rows[..., 6]
-    return np.arctan2(2.0 * (qx * qz + qw * qy), 1.0 - 2.0 * (qx * qx + qy * qy))
 
 
 class _Scene:
@@ -238,7 +230,7 @@ class _Scene:
         return out
 
 
-class NewtonAdapter(SteppedContactAdapter):
+class NewtonAdapter(ContactEngine):
     """The rocking block in Newton (see the module docstring for the model).
 
     Settings
@@ -272,72 +264,43 @@ class NewtonAdapter(SteppedContactAdapter):
     module = "newton"
     install_hint = ("install it with `pip install 'rockbench[newton]'` (Newton and warp-lang; Warp's CPU device "
                     "runs it without a GPU).")
-    default_dt_s = 5e-4
     #: none: Newton has no default step (its examples each choose a frame rate and substeps), so as
-    #: shipped it runs at default_dt_s
-    shipped_dt_s = None
+    #: shipped it runs at fixed_dt_s
+    own_dt_s = None
     batching = "native"
     max_worlds = MAX_WORLDS
-    SETTINGS = {
-        **SteppedContactAdapter.SHARED_SETTINGS,
-        "solver": "xpbd",
-        "sticky_contacts": True,
-        "iterations": None,
-        "contact_relaxation": None,
-        "contact_stiffness_n_m": None,
-        "contact_damping_n_s_m": None,
-        "friction_gain_n_s_m": None,
-        "tail_s": 2.0,
-        "min_tail_s": 0.25,
-    }
-    CALIBRATED_SETTINGS = ("iterations", "contact_relaxation", "contact_stiffness_n_m", "contact_damping_n_s_m",
-                    "friction_gain_n_s_m")
-    MEASURED_SETTINGS = ("solver", "friction", "planar", "sticky_contacts")
+    SETTINGS = {"solver": "xpbd", "sticky_contacts": True, "tail_s": 2.0, "min_tail_s": 0.25}
+    #: Newton's own contact, every value its solver's default (None: unstated, per solver)
+    SHIPPED = {"iterations": None, "contact_relaxation": None, "contact_stiffness_n_m": None,
+               "contact_damping_n_s_m": None, "friction_gain_n_s_m": None}
     #: the solver is the model: every variant's name says which ran, XPBD (the default) included
     MODEL_SETTINGS = ("solver",)
     CALIBRATION_VERSION = 3
-
-    @classmethod
-    def version(cls) -> str:
-        super().version()   # raises EngineUnavailableError with the hint when the import fails
-        return version_label(cls.name)
 
     @classmethod
     def device_note(cls) -> str:
         """Where the worlds run: always Warp's CPU device (the drive writes NumPy views of its arrays)."""
         return "CPU only (Warp's CPU device, one thread)"
 
-    # -- settings -----------------------------------------------------------------------------
-    def _validate_engine_settings(self, s: dict) -> None:
-        if s["solver"] not in SOLVERS:
-            raise ConfigError(f"newton setting 'solver' must be one of {', '.join(SOLVERS)}, got {s['solver']!r}.")
-        self._bool_setting(s, "sticky_contacts")
-        self._whole_setting(s, "iterations", 1)
-        self._number_setting(s, "contact_relaxation")
-        self._number_setting(s, "contact_stiffness_n_m", "N/m")
-        self._number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True)
-        self._number_setting(s, "friction_gain_n_s_m", "N s/m", allow_zero=True)
+    def validate(self, s: dict) -> None:
+        self.choice_setting(s, "solver", SOLVERS, allow_none=False)
+        self.bool_setting(s, "sticky_contacts")
+        self.whole_setting(s, "iterations", minimum=1)
+        self.number_setting(s, "contact_relaxation")
+        self.number_setting(s, "contact_stiffness_n_m", "N/m")
+        self.number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True)
+        self.number_setting(s, "friction_gain_n_s_m", "N s/m", allow_zero=True)
         if s["solver"] != "xpbd" and s["contact_relaxation"] is not None:
             raise ConfigError("newton setting 'contact_relaxation' is XPBD's; it needs solver=xpbd.")
         if s["solver"] in ("semi_implicit", "featherstone") and s["iterations"] is not None:
             raise ConfigError(f"newton setting 'iterations' does not apply to solver={s['solver']} (it steps once).")
 
-    def _base_settings(self) -> dict:
-        return dict(self.settings)
+    def build(self, block: Block, s: dict, dt_s: float) -> dict:
+        """What a run's scene needs; :meth:`start` builds it once it knows how many worlds."""
+        return {"scene": None}
 
-    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        s = self._base_settings()
-        if cal is not None:
-            s.update(cal.settings)
-        return s
-
-    # -- the skeleton's hooks -----------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> dict:
-        """What a run's scene needs; :meth:`_start` builds it once it knows how many worlds."""
-        return {"block": block, "s": s, "dt": dt_s, "scene": None}
-
-    def _start(self, w: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
-               n_steps: int) -> np.ndarray:
+    def start(self, w: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+              n_steps: int) -> np.ndarray:
         """A fresh model of one world per pulse, every block at rest at ``theta0_rad``, the drives loaded;
         the blocks' states, ``(worlds, 1, 13)``."""
         sc = w["scene"] = _Scene(block, s, dt_s, len(pulses))
@@ -345,29 +308,22 @@ class NewtonAdapter(SteppedContactAdapter):
         sc.load_drive(pulses, n_steps)
         return sc.rows()[:, None]
 
-    def _advance(self, w: dict, n_from: int, n_to: int) -> np.ndarray:
+    def advance(self, w: dict, n_from: int, n_to: int) -> np.ndarray:
         return w["scene"].advance(n_from, n_to).transpose(1, 0, 2)
 
-    def _angles(self, w: dict, rows: np.ndarray):
-        return theta_of(rows), rows[:, 11]
-
-    def _motion(self, w: dict, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+    def read(self, w: dict, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         table = pulse is not None and s["drive"] == "table"
-        u_tab, v_tab = (pulse.disp(t_s), pulse.vel(t_s)) if table else (None, None)
-        qx, qy, qz, qw = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
+        qx, qy, qz, qw = rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 6]
         roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
-        diag = {"solver": s["solver"], "max_lateral_drift_m": float(np.max(np.abs(data[:, 1]))),
+        diag = {"solver": s["solver"], "max_lateral_drift_m": float(np.max(np.abs(rows[:, 1]))),
                 "max_out_of_plane_tilt_rad": float(np.max(np.abs(roll)))}
-        return Motion(data[:, 0], data[:, 2], theta_of(data), data[:, 7], data[:, 9], data[:, 11], u_tab, v_tab, diag)
-
-    # -- calibration: the skeleton's search of the declared knobs ----------------------------------
-    def _calibration_identity(self, base: dict) -> dict:
-        return {**super()._calibration_identity(base), "solver": base["solver"], "sticky": base["sticky_contacts"]}
+        return Motion(x_m=rows[:, 0], z_m=rows[:, 2], theta_rad=theta_of_quat(qw, qx, qy, qz), vx_m_s=rows[:, 7],
+                      vz_m_s=rows[:, 9], theta_dot_rad_s=rows[:, 11], table_x_m=pulse.disp(t_s) if table else None,
+                      table_vx_m_s=pulse.vel(t_s) if table else None, diagnostics=diag)
 
     @property
-    def CALIBRATION_KNOBS(self) -> tuple:  # noqa: N802 - the skeleton's declaration, per solver
-        """The solver's knobs (the skeleton's search, :mod:`rockbench.engines.knobs`); unset, each is
-        Newton's own, as shipped.
+    def KNOBS(self) -> tuple:  # noqa: N802 - the declaration, per solver
+        """The solver's knobs; unset, each is Newton's own, as shipped.
 
         * ``xpbd``: Newton's defaults (2 iterations, contact relaxation 0.8) first, kept within
           :data:`_CLOSE_RTOL`; below the target, more iterations at relaxation 1 (:data:`_XPBD_UP`:
@@ -388,35 +344,18 @@ class NewtonAdapter(SteppedContactAdapter):
         if solver == "xpbd":
             return _xpbd_knobs("below", _XPBD_UP) + _xpbd_knobs("above", _XPBD_DOWN)
         if solver == "vbd":
-            return (Knob("contact_stiffness_n_m", "N/m", "stiffness", until="close", bisect_rtol=_CLOSE_RTOL,
-                         ladder=lambda block, dt: tuple(f * _penalty_ke_min(block) for f in _VBD_KE_FACTORS)),
-                    Knob("contact_damping_n_s_m", "N s/m", "damping", until="close", bisect_rtol=_CLOSE_RTOL,
-                         ladder=lambda block, dt: _VBD_KD_N_S_M))
-        return (Knob("contact_stiffness_n_m", "N/m", "stiffness", span=_penalty_span, log10=True, rising=False,
+            return (Knob("contact_stiffness_n_m", "N/m", lambda block, dt: tuple(f * _penalty_ke_min(block)
+                                                                                  for f in _VBD_KE_FACTORS),
+                         until="close", bisect_rtol=_CLOSE_RTOL),
+                    Knob("contact_damping_n_s_m", "N s/m", _VBD_KD_N_S_M, until="close", bisect_rtol=_CLOSE_RTOL))
+        return (Knob("contact_stiffness_n_m", "N/m", span=_penalty_span, log10=True, rising=False,
                      bisect_steps=10, bisect_regular=False, along=_penalty_along),)
 
     @property
-    def START_KEEP_RTOL(self) -> float | None:  # noqa: N802 - the skeleton's declaration, per solver
+    def START_KEEP_RTOL(self) -> float | None:  # noqa: N802 - the declaration, per solver
         """XPBD as shipped is measured first and kept within :data:`_CLOSE_RTOL`; the other solvers'
         searches start from their knobs."""
         return _CLOSE_RTOL if self.settings["solver"] == "xpbd" else None
-
-    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
-        """What the calibration found, in words."""
-        solver, eta, reached = self.settings["solver"], chosen.candidate.eta, chosen.reached
-        extra = {k: v for k, v in settings.items() if v is not None}
-        finite = [r["eta"] for r in rows if math.isfinite(r["eta"])]
-        if not extra:
-            how = f"Newton's {solver} as shipped"
-        elif solver == "vbd":
-            how = f"VBD with contact ke = {extra['contact_stiffness_n_m']:.4g} N/m, kd = {extra['contact_damping_n_s_m']:.4g} N s/m"
-        elif "iterations" in extra:
-            how = f"XPBD with {extra['iterations']} iterations, contact relaxation {extra['contact_relaxation']:g}"
-        else:
-            how = (f"a penalty contact ke = {extra['contact_stiffness_n_m']:.4g} N/m, kd = "
-                   f"{extra['contact_damping_n_s_m']:.4g} N s/m, kf = {extra['friction_gain_n_s_m']:.4g} N s/m")
-        head = f"reached with {how}" if reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
-        return f"{head}; the settings tried span η = {min(finite):.4f}–{max(finite):.4f}."
 
 
 #: A candidate this close to the target, as a fraction of it, keeps XPBD as shipped and ends XPBD's
@@ -448,10 +387,9 @@ def _xpbd_knobs(side: str, pairs: tuple) -> tuple:
     """XPBD's iterations and contact relaxation walked pair by pair (``paired``) when XPBD as shipped
     lies more than :data:`_CLOSE_RTOL` on ``side`` of the target, until one is that close."""
     iterations, relaxations = tuple(p[0] for p in pairs), tuple(p[1] for p in pairs)
-    return (Knob("iterations", "", "stiffness", when=side, when_rtol=_CLOSE_RTOL, until="close", bisect_rtol=_CLOSE_RTOL,
-                 bisect_regular=False, ladder=lambda block, dt: iterations),
-            Knob("contact_relaxation", "", "stiffness", when=side, when_rtol=_CLOSE_RTOL, paired=True,
-                 ladder=lambda block, dt: relaxations))
+    return (Knob("iterations", "", iterations, when=side, when_rtol=_CLOSE_RTOL, until="close", bisect_rtol=_CLOSE_RTOL,
+                 bisect_regular=False),
+            Knob("contact_relaxation", "", relaxations, when=side, when_rtol=_CLOSE_RTOL, paired=True))
 
 
 def _penalty_ke_min(block: Block) -> float:

@@ -26,16 +26,22 @@ below and just above the reference's overturning boundary (the lowest amplitude 
 rigid block with the target η), :data:`PROBE_MARGIN` of the amplitude axis to either side, so a step
 that moves the engine's boundary by more than that shows in the probes, and a cell
 :data:`PROBE_DEEP` above it, where the table's strongest push tests the anti-slip contact. The search is cached
-with the calibrations (:mod:`rockbench.engines.calibration`), and its record (each step compared:
-η at both steps and the probes that disagree) goes into run.json with the calibration.
+with the calibrations (:mod:`rockbench.engines.calibration.cache`), and its record (each step
+compared: η at both steps and the probes that disagree) goes into run.json with the calibration.
+
+The rule runs an engine through two functions it is given, so that it calls nothing that decides a
+step itself: ``calibrate(dt_s)``, the calibration at a step, and ``answers(cases)``, the verdicts of
+cases whose step is set (the contact base's, :meth:`~rockbench.engines.contact.ContactEngine.step_for`,
+hands them over).
 """
 
 from __future__ import annotations
 
-from ..reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
-from ..reference_solver.pulses import make_pulse
-from ..reference_solver.restitution import Restitution
-from .base import Case
+from ...reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
+from ...reference_solver.pulses import make_pulse
+from ...reference_solver.restitution import Restitution
+from ..contract import Case
+from .rigid import rigid_answers
 
 __all__ = ["STEP_LADDER_S", "ETA_STEP_RTOL", "PROBE_W_RATIOS", "PROBE_MARGIN", "PROBE_DEEP", "PROBE_PULSES",
            "probe_cases", "converged_step"]
@@ -66,9 +72,7 @@ def _cell(block: Block, eta: float, pulse: str, w_ratio: float, a_ratio: float, 
 
 
 def _reference_overturns(block: Block, eta: float, pulse: str, w_ratio: float, a_ratio: float) -> bool:
-    from .reference_adapter import ReferenceAdapter   # the solver's numba on first use (start-up time)
-
-    return ReferenceAdapter().run(_cell(block, eta, pulse, w_ratio, a_ratio)).outcome == "overturn"
+    return rigid_answers([_cell(block, eta, pulse, w_ratio, a_ratio)], 10.0)[0][0] == "overturn"
 
 
 def _reference_boundary(block: Block, eta: float, pulse: str, w_ratio: float) -> float | None:
@@ -102,26 +106,26 @@ def probe_cases(block: Block, eta: float) -> list[tuple[str, float, float]]:
     return out
 
 
-def _answers(adapter, block: Block, eta: float, probes: list, dt_s: float) -> list[tuple]:
+def _answers(answers, block: Block, eta: float, probes: list, dt_s: float) -> list[tuple]:
     """Outcome (``failed`` for a cell the engine could not run) and validity of every probe cell,
     run calibrated at ``dt_s``."""
     cases = [_cell(block, eta, p, w, a, dt_s) for p, w, a in probes]
-    return [(r.outcome or "failed", "valid" if r.valid else "invalid") for r in adapter.run_many(cases)]
+    return [(r.outcome or "failed", "valid" if r.valid else "invalid") for r in answers(cases)]
 
 
-def _run_at(adapter, block: Block, eta: float, probes: list, dt_s: float, runs: dict) -> tuple:
+def _run_at(calibrate, answers, block: Block, eta: float, probes: list, dt_s: float, runs: dict) -> tuple:
     """``(calibration, probe answers or None when it is not reached)`` at ``dt_s``, computed once
     and memoised in ``runs``."""
     if dt_s not in runs:
-        cal = adapter.calibrate(block, eta, dt_s=dt_s)
-        runs[dt_s] = (cal, _answers(adapter, block, eta, probes, dt_s) if cal.reached else None)
+        cal = calibrate(dt_s)
+        runs[dt_s] = (cal, _answers(answers, block, eta, probes, dt_s) if cal.reached else None)
     return runs[dt_s]
 
 
-def _compare(adapter, block: Block, eta: float, probes: list, coarse: float, fine: float, runs: dict) -> dict:
+def _compare(run_at, eta: float, probes: list, coarse: float, fine: float) -> dict:
     """One rung of the ladder: the calibrations at ``coarse`` and ``fine`` [s] and the probes that
-    disagree; ``runs`` memoises each step's calibration and answers."""
-    (c_cal, c_ans), (f_cal, f_ans) = (_run_at(adapter, block, eta, probes, dt, runs) for dt in (coarse, fine))
+    disagree (``run_at(dt)``: the calibration and the answers at a step, memoised)."""
+    (c_cal, c_ans), (f_cal, f_ans) = (run_at(dt) for dt in (coarse, fine))
     differ = ([] if c_ans is None or f_ans is None else
               [f"{p} ω/p {w:g} a {a:.3g}: {' '.join(x)} vs {' '.join(y)}"
                for (p, w, a), x, y in zip(probes, c_ans, f_ans) if x != y])
@@ -131,25 +135,33 @@ def _compare(adapter, block: Block, eta: float, probes: list, coarse: float, fin
             "agrees": bool(eta_ok and c_ans is not None and f_ans is not None and not differ)}
 
 
-def _yardstick(adapter, block: Block, eta: float, probes: list, runs: dict) -> float | None:
-    """The finest step of :data:`STEP_LADDER_S` at which the calibration reaches ``eta`` (None when
-    none does); ``runs`` memoises each step's calibration and answers."""
-    return next((dt for dt in reversed(STEP_LADDER_S) if _run_at(adapter, block, eta, probes, dt, runs)[0].reached),
-                None)
-
-
-def converged_step(adapter, block: Block, eta: float) -> tuple[float, dict]:
-    """The coarsest step of :data:`STEP_LADDER_S` at which ``adapter``, calibrated to ``eta``, agrees
+def converged_step(calibrate, answers, block: Block, eta: float) -> tuple[float, dict]:
+    """The coarsest step of :data:`STEP_LADDER_S` at which an engine, calibrated to ``eta``, agrees
     with itself at the yardstick, the finest step at which its calibration is reached (module
-    docstring), and the record of the search."""
+    docstring), and the record of the search.
+
+    Parameters
+    ----------
+    calibrate : callable
+        ``calibrate(dt_s) -> CalibrationResult``: the engine's calibration of ``block`` to ``eta`` at a step.
+    answers : callable
+        ``answers(cases) -> list[CellResult]``: the engine's verdicts of cases whose step is set.
+    block : Block
+    eta : float
+        The target η [-].
+    """
     probes = probe_cases(block, eta)
     runs: dict = {}
+
+    def run_at(dt_s: float) -> tuple:
+        return _run_at(calibrate, answers, block, eta, probes, dt_s, runs)
+
+    yardstick = next((dt for dt in reversed(STEP_LADDER_S) if run_at(dt)[0].reached), None)
     rungs = []
-    yardstick = _yardstick(adapter, block, eta, probes, runs)
     for coarse in STEP_LADDER_S:
         if yardstick is None or coarse <= yardstick:
             break
-        rungs.append(_compare(adapter, block, eta, probes, coarse, yardstick, runs))
+        rungs.append(_compare(run_at, eta, probes, coarse, yardstick))
         if rungs[-1]["agrees"]:
             break
     agreed = bool(rungs and rungs[-1]["agrees"])

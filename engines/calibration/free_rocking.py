@@ -27,8 +27,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..reference_solver.model import Block
-from .base import uplift_tol_rad
+from ...reference_solver.model import Block
+from ...reference_solver.validity import uplift_tol_rad
 
 __all__ = ["FREE_ROCKING_IMPACTS", "FREE_ROCKING_METHOD", "EtaReader", "PEAK_RATIO", "free_rocking_duration_s",
            "free_rocking_etas", "first_quarter_s", "swings", "contact_figures"]
@@ -49,7 +49,7 @@ class EtaReader:
     name : str
         Short name (``peak-ratio``).
     method : str
-        What :class:`~rockbench.engines.base.RestitutionMeasurement` records as its ``method``.
+        What :class:`~rockbench.engines.contract.RestitutionMeasurement` records as its ``method``.
     duration_s : callable
         ``duration_s(block, theta0_frac)``: how long the test runs [s].
     etas : callable

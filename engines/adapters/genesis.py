@@ -21,7 +21,7 @@ formulation: a time constant and a damping ratio, Newton's method, the elliptic 
   ``table_track_err_rel`` records how far the table strays from u(t).
 * **Contact softness**: Genesis's ``constraint_timeconst`` (``timeconst_s``; Genesis ships 0.01 s)
   with damping ratio 1. ``settings="calibrated"`` keeps the shipped value where it gives the
-  case's η within 0.25 %, else searches the time constant (:attr:`GenesisAdapter.CALIBRATION_KNOBS`).
+  case's η within 0.25 %, else searches the time constant (:attr:`GenesisAdapter.KNOBS`).
 
 Scenes and batches
 ------------------
@@ -42,13 +42,12 @@ import tempfile
 
 import numpy as np
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
-from .base import CalibrationResult
-from .free_body_rows import angles_of, motion_of
-from .knobs import Knob
-from .skeleton import Motion, SteppedContactAdapter, pivot_pose
-from .support import version_label
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.model import G, Block
+from ..calibration.knobs import Knob
+from ..contact import ContactEngine
+from ..motion import Motion, pivot_pose
+from .free_body import motion_of
 
 #: Genesis's shipped constraint time constant [s] (``RigidOptions.constraint_timeconst``)
 SHIPPED_TIMECONST_S = 0.01
@@ -142,6 +141,16 @@ class _Scene:
             self.table.control_dofs_force(np.zeros((self.worlds, 1)))
         self.scene.sim.set_gravity(np.tile([0.0, 0.0, -G], (self.worlds, 1)))
 
+    def load(self, pulses: list, dt_s: float, n_steps: int) -> None:
+        """Each world's drive for ``n_steps`` steps: the step average of ü (zero after its pulse)."""
+        acc = np.zeros((n_steps, len(pulses)))
+        for j, p in enumerate(pulses):
+            if p is not None:
+                n_pulse = min(n_steps, int(math.ceil(p.duration_s / dt_s - 1e-9)))
+                vel = np.asarray(p.vel(np.arange(n_pulse + 1) * dt_s), dtype=float)
+                acc[:n_pulse, j] = np.diff(vel) / dt_s
+        self.acc = acc
+
     def rows(self) -> np.ndarray:
         """The state now, ``(worlds, k)``: the block's position (3) and quaternion w, x, y, z (4), its
         velocity (3) and angular velocity (3) (the planar chain's state written so), then the table's x
@@ -184,7 +193,7 @@ def _scene(pid: int, block: Block, dt_s: float, settings: tuple, worlds: int) ->
     return _Scene(block, dict(settings), dt_s, worlds)
 
 
-class GenesisAdapter(SteppedContactAdapter):
+class GenesisAdapter(ContactEngine):
     """The rocking block in Genesis (see the module docstring for the model).
 
     Settings
@@ -209,94 +218,42 @@ class GenesisAdapter(SteppedContactAdapter):
     module = "genesis"
     install_hint = ("install torch's CPU wheel first (pip install torch --index-url https://download.pytorch.org/whl/cpu), "
                     "then `pip install 'rockbench[genesis]'`.")
-    default_dt_s = 5e-4
     #: Genesis's own default step (SimOptions.dt), what it runs at as shipped
-    shipped_dt_s = 1e-2
+    own_dt_s = 1e-2
     batching = "native"
     max_worlds = MAX_WORLDS
-    SETTINGS = {
-        **SteppedContactAdapter.SHARED_SETTINGS,
-        "planar": False,
-        "timeconst_s": None,
-        "table_mass_ratio": 100.0,
-        "tail_s": 2.0,
-        "min_tail_s": 0.25,
-    }
-    CALIBRATED_SETTINGS = ("timeconst_s",)
-    MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
-    CALIBRATION_VERSION = 1
-
-    @classmethod
-    def version(cls) -> str:
-        super().version()   # raises EngineUnavailableError with the hint when the import fails
-        return version_label(cls.name)
+    SETTINGS = {"planar": False, "table_mass_ratio": 100.0, "tail_s": 2.0, "min_tail_s": 0.25}
+    SHIPPED = {"timeconst_s": SHIPPED_TIMECONST_S}
+    #: Genesis as shipped (0.01 s) first, kept within 0.25 % of the target; otherwise the time constants
+    #: :data:`_TC_FACTORS` × Δt
+    KNOBS = (Knob("timeconst_s", "s", lambda block, dt: tuple(f * dt for f in _TC_FACTORS)),)
+    START_KEEP_RTOL = 0.0025
 
     @classmethod
     def device_note(cls) -> str:
         return "CPU only (Genesis's CPU backend)"
 
-    # -- settings -----------------------------------------------------------------------------
-    def _validate_engine_settings(self, s: dict) -> None:
-        self._number_setting(s, "timeconst_s", "s")
-        self._number_setting(s, "table_mass_ratio", "", allow_none=False)
+    def validate(self, s: dict) -> None:
+        self.number_setting(s, "timeconst_s", "s")
+        self.number_setting(s, "table_mass_ratio", allow_none=False)
 
-    def _base_settings(self) -> dict:
-        return dict(self.settings)
-
-    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        s = self._base_settings()
-        if cal is not None:
-            s.update(cal.settings)
-        if s["timeconst_s"] is None:
-            s["timeconst_s"] = SHIPPED_TIMECONST_S
-        if s["timeconst_s"] < 2.0 * dt:
-            raise ConfigError(f"genesis setting 'timeconst_s' must be at least 2·dt = {2 * dt:g} s, "
+    def build(self, block: Block, s: dict, dt_s: float) -> dict:
+        """What a run's scene needs; :meth:`start` takes the scene once it knows how many worlds."""
+        if s["timeconst_s"] < 2.0 * dt_s:
+            raise ConfigError(f"genesis setting 'timeconst_s' must be at least 2·dt = {2 * dt_s:g} s, "
                               f"got {s['timeconst_s']!r}.")
-        return s
+        return {"scene": None}
 
-    # -- the skeleton's hooks -----------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> dict:
-        """What a run's scene needs; :meth:`_start` takes the scene once it knows how many worlds."""
-        return {"block": block, "s": s, "dt": dt_s, "scene": None}
-
-    def _start(self, w: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
-               n_steps: int) -> np.ndarray:
+    def start(self, w: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+              n_steps: int) -> np.ndarray:
         keys = ("drive", "planar", "friction", "timeconst_s", "table_mass_ratio")
         sc = w["scene"] = _scene(os.getpid(), block, dt_s, tuple((k, s[k]) for k in keys), len(pulses))
         sc.place(block, np.full(len(pulses), float(theta0_rad)))
-        acc = np.zeros((n_steps, len(pulses)))
-        for j, p in enumerate(pulses):
-            if p is not None:
-                n_pulse = min(n_steps, int(math.ceil(p.duration_s / dt_s - 1e-9)))
-                vel = np.asarray(p.vel(np.arange(n_pulse + 1) * dt_s), dtype=float)
-                acc[:n_pulse, j] = np.diff(vel) / dt_s
-        sc.acc = acc
+        sc.load(pulses, dt_s, n_steps)
         return sc.rows()[:, None]
 
-    def _advance(self, w: dict, n_from: int, n_to: int) -> np.ndarray:
+    def advance(self, w: dict, n_from: int, n_to: int) -> np.ndarray:
         return w["scene"].advance(n_from, n_to)
 
-    def _angles(self, w: dict, rows: np.ndarray):
-        return angles_of(rows)
-
-    def _motion(self, w: dict, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
-        return motion_of(data, t_s, pulse, s["drive"] == "table", {"timeconst_s": float(s["timeconst_s"])})
-
-    # -- calibration: the skeleton's search of the declared knob ----------------------------------
-    #: Genesis as shipped (0.01 s) first, kept within 0.25 % of the target; otherwise the time
-    #: constants :data:`_TC_FACTORS` × Δt (the skeleton's search, :mod:`rockbench.engines.knobs`)
-    CALIBRATION_KNOBS = (Knob("timeconst_s", "s", "stiffness", shipped=SHIPPED_TIMECONST_S,
-                              ladder=lambda block, dt: tuple(f * dt for f in _TC_FACTORS)),)
-    START_KEEP_RTOL = 0.0025
-
-    def _calibration_identity(self, base: dict) -> dict:
-        return {**super()._calibration_identity(base), "table_mass_ratio": float(base["table_mass_ratio"])}
-
-    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
-        """What the calibration found, in words."""
-        tc, eta = settings["timeconst_s"], chosen.candidate.eta
-        finite = [r["eta"] for r in rows if math.isfinite(r["eta"])]
-        how = ("Genesis as shipped (constraint time constant 0.01 s)" if tc == SHIPPED_TIMECONST_S
-               else f"constraint time constant {tc:.4g} s")
-        head = f"reached with {how}" if chosen.reached else f"not reached: the closest consistent η is {eta:.4f}, {how}"
-        return head + (f"; the time constants tried span η = {min(finite):.4f}–{max(finite):.4f}." if len(rows) > 1 else ".")
+    def read(self, w: dict, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        return motion_of(rows, t_s, pulse, s["drive"] == "table", {"timeconst_s": float(s["timeconst_s"])})

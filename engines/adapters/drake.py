@@ -34,7 +34,7 @@ and no impact law of ours replaces it.
   the step average ``(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` of ``ü`` times the mass: the impulse per step is exact.
 * **Restitution**: Drake has no η. ``settings="calibrated"`` (default) runs the contact parameters
   :meth:`DrakeAdapter.calibrate` found for the case's η (cached on disk, see
-  :mod:`rockbench.engines.calibration`); ``settings="shipped"`` runs Drake as shipped: its default
+  :mod:`rockbench.engines.calibration.cache`); ``settings="shipped"`` runs Drake as shipped: its default
   discrete approximation (``lagged``) and contact parameters (stiffness and dissipation from its
   default penetration allowance of 1 mm), with only the time step, the geometry and the anti-slip
   friction set.
@@ -49,12 +49,12 @@ no Python call per step.
 
 The run, its end and the free-rocking test
 ------------------------------------------
-The adapter fills in the hooks of the contact-engine skeleton
-(:class:`~rockbench.engines.skeleton.SteppedContactAdapter`): the diagram is the scene, a segment
-is one ``AdvanceTo``, and the logged plant state gives the block's pose and velocity. The skeleton
-tests floor 1's end-of-run rule (:func:`~rockbench.reference_solver.classify.run_end`) after each
+The adapter implements the four methods of the contact base
+(:class:`~rockbench.engines.contact.ContactEngine`): the diagram is the scene, a segment is one
+``AdvanceTo``, and the logged plant state gives the block's pose and velocity. The base tests floor
+1's end-of-run rule (:func:`~rockbench.reference_solver.classify.run_end`) after each
 segment and drops the samples after the stop, so the result does not depend on ``segment_s``; η is
-read with the shared peak ratio (:data:`~rockbench.engines.free_rocking.PEAK_RATIO`).
+read with the shared peak ratio (:data:`~rockbench.engines.calibration.free_rocking.PEAK_RATIO`).
 """
 
 from __future__ import annotations
@@ -65,13 +65,11 @@ import os
 
 import numpy as np
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import Block
-from .base import CalibrationResult
-from .knobs import Knob
-from .rotation import theta_of_quat
-from .skeleton import Motion, SteppedContactAdapter, pivot_pose
-from .support import version_label
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.model import Block
+from ..calibration.knobs import Knob
+from ..contact import ContactEngine
+from ..motion import Motion, pivot_pose, table_track_err_rel, theta_of_quat
 
 #: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
 #: point stiffness per bottom edge [N/m], hydroelastic modulus [Pa], SAP relaxation time [s] and
@@ -259,6 +257,22 @@ class _Scene:
         values[self.force_index, :n] = force_per_step
         self.source.UpdateTrajectory(pd.PiecewisePolynomial.ZeroOrderHold(breaks, values))
 
+    def load(self, pulse) -> None:
+        """The drive of every step under ``pulse`` (None: none): the step average of ü times the mass
+        the drive accelerates, −m (inertial) or M_table + m (table)."""
+        if pulse is None:
+            return self.set_drive(np.zeros(0))
+        n_pulse = int(math.ceil(pulse.duration_s / self.dt - 1e-9))
+        v = pulse.vel(np.arange(n_pulse + 1) * self.dt)
+        self.set_drive((-1.0 if self.drive == "inertial" else 1.0) * self.push_mass * np.diff(v) / self.dt)
+
+    def angles(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """θ (rotation about +y) [rad] and θ̇ [rad/s] from logged states."""
+        if self.planar:
+            return data[:, self.iq["th"]], data[:, self.iv["th"]]
+        i = self.iq["quat"]
+        return theta_of_quat(data[:, i], data[:, i + 1], data[:, i + 2], data[:, i + 3]), data[:, self.iv["th"]]
+
     def start(self) -> None:
         self.context.SetTime(0.0)
         self.logger.FindMutableLog(self.context).Clear()
@@ -272,7 +286,7 @@ class _Scene:
         return np.array(data[:, :n_steps + 1].T, dtype=float, copy=True)
 
 
-class DrakeAdapter(SteppedContactAdapter):
+class DrakeAdapter(ContactEngine):
     """The rocking block in Drake (see the module docstring for the model and the end of a run).
 
     Settings
@@ -309,99 +323,35 @@ class DrakeAdapter(SteppedContactAdapter):
     name = "drake"
     module = "pydrake"
     install_hint = "install it with `pip install 'rockbench[drake]'` (or `pip install drake`; 1.51.1 tested)."
-    default_dt_s = 5e-4
     #: Drake's own default step (MultibodyPlantConfig.time_step), what it runs at as shipped
-    shipped_dt_s = 1e-3
-    #: no batch: one case at a time, maps spread cells over worker processes (like PyBullet)
-    batching = "none"
-    SETTINGS = {
-        **SteppedContactAdapter.SHARED_SETTINGS,
-        "contact": "point",
-        "approximation": None,
-        "point_stiffness_n_m": None,
-        "hydroelastic_modulus_pa": None,
-        "relaxation_time_s": None,
-        "hunt_crossley_dissipation_s_m": None,
-        "corner_radius_m": 1e-4,
-        "table_mass_ratio": 1000.0,
-        "tail_s": 2.0,
-        "min_tail_s": 0.25,
-        "segment_s": 0.1,
-    }
-    CALIBRATED_SETTINGS = ("point_stiffness_n_m", "hydroelastic_modulus_pa", "relaxation_time_s",
-                           "hunt_crossley_dissipation_s_m")
-    MEASURED_SETTINGS = ("settings", "contact", "approximation", "friction", "planar", "drive")
+    own_dt_s = 1e-3
+    SETTINGS = {"contact": "point", "corner_radius_m": 1e-4, "table_mass_ratio": 1000.0, "tail_s": 2.0,
+                "min_tail_s": 0.25, "segment_s": 0.1}
+    #: Drake's own contact: the stiffness and dissipation from its default penetration allowance
+    SHIPPED = {"point_stiffness_n_m": None, "hydroelastic_modulus_pa": None, "relaxation_time_s": None,
+               "hunt_crossley_dissipation_s_m": None}
+    MODE_DEFAULTS = {"approximation": ("lagged", "sap")}
     START_KEEP_RTOL = 0.005
     CALIBRATION_VERSION = 4
 
-    @classmethod
-    def version(cls) -> str:
-        super().version()  # raises EngineUnavailableError with the hint when pydrake cannot be imported
-        return version_label(cls.name)
+    def validate(self, s: dict) -> None:
+        self.choice_setting(s, "contact", _CONTACTS, allow_none=False)
+        self.choice_setting(s, "approximation", _APPROXIMATIONS)
+        self.number_setting(s, "point_stiffness_n_m", "N/m")
+        self.number_setting(s, "hydroelastic_modulus_pa", "Pa")
+        self.number_setting(s, "relaxation_time_s", "s", allow_zero=True)
+        self.number_setting(s, "hunt_crossley_dissipation_s_m", "s/m", allow_zero=True)
+        # the spheres sit inside the corners and move the pivots inwards by their radius
+        self.number_setting(s, "corner_radius_m", "m", allow_none=False, maximum=1e-3)
+        self.number_setting(s, "table_mass_ratio", allow_none=False)
+        unused = [k for k in self.SHIPPED if s[k] is not None and k not in (k.name for k in self.KNOBS)]
+        if unused:
+            raise ConfigError(f"drake setting {unused[0]!r} does not act on contact = {s['contact']} with approximation "
+                              f"= {self._approximation(s)}: give {' and '.join(k.name for k in self.KNOBS)} instead.")
 
-    # -- settings -----------------------------------------------------------------------------
-    def _validate_engine_settings(self, s: dict) -> None:
-        if s["contact"] not in _CONTACTS:
-            raise ConfigError(f"drake setting 'contact' must be one of {', '.join(_CONTACTS)}, got {s['contact']!r}.")
-        if s["approximation"] is not None and s["approximation"] not in _APPROXIMATIONS:
-            raise ConfigError(f"drake setting 'approximation' must be one of {', '.join(_APPROXIMATIONS)}, "
-                              f"got {s['approximation']!r}.")
-        self._number_setting(s, "point_stiffness_n_m", "N/m")
-        self._number_setting(s, "hydroelastic_modulus_pa", "Pa")
-        self._number_setting(s, "relaxation_time_s", "s", allow_zero=True)
-        self._number_setting(s, "hunt_crossley_dissipation_s_m", "s/m", allow_zero=True)
-        for key, unit in (("corner_radius_m", "m"), ("table_mass_ratio", "")):
-            self._number_setting(s, key, unit, allow_none=False)
-        if s["corner_radius_m"] > 1e-3:
-            raise ConfigError(f"drake setting 'corner_radius_m' must be <= 0.001 m (the spheres sit inside the "
-                              f"corners and move the pivots inwards by their radius), got {s['corner_radius_m']!r}.")
-
-    def _approximation(self) -> str:
-        a = self.settings["approximation"]
-        if a is not None:
-            return a
-        return "lagged" if self.as_shipped() else "sap"
-
-    def _dissipation_key(self, approx: str) -> str:
-        return "relaxation_time_s" if approx == "sap" else "hunt_crossley_dissipation_s_m"
-
-    def _stiffness_key(self) -> str:
-        return "hydroelastic_modulus_pa" if self.settings["contact"] == "hydroelastic" else "point_stiffness_n_m"
-
-    def _base_settings(self) -> dict:
-        """Settings without calibration: the approximation made concrete, contact values as given."""
-        s = dict(self.settings)
-        s["approximation"] = self._approximation()
-        return s
-
-    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        """The approximation made concrete and the contact: as shipped (``shipped``), explicit (the
-        missing stiffness or dissipation from :data:`BASE_CONTACT`), or the calibration's."""
-        s = self._base_settings()
-        if cal is not None:
-            s.update(cal.settings)
-            return s
-        if s["settings"] == "shipped" and not self.explicit_contact():
-            return s
-        return self._filled(s)
-
-    def _filled(self, s: dict) -> dict:
-        """``s`` with the stiffness and dissipation its contact and approximation use set (from
-        :data:`BASE_CONTACT` where not given) and the other contact keys None."""
-        out = dict(s)
-        keep = (self._stiffness_key(), self._dissipation_key(out["approximation"]))
-        for k in self.CALIBRATED_SETTINGS:
-            if k in keep:
-                out[k] = BASE_CONTACT[k] if out[k] is None else out[k]
-            else:
-                out[k] = None
-        return out
-
-    # -- the skeleton's hooks -----------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt: float) -> _Scene:
+    def build(self, block: Block, s: dict, dt: float) -> _Scene:
         key = (os.getpid(), block.width_m, block.height_m, block.depth_m, block.mass_kg, dt,
-               tuple((k, s.get(k)) for k in sorted(self.SETTINGS) if k not in ("tail_s", "min_tail_s", "segment_s")),
-               s.get("approximation"))
+               tuple((k, s.get(k)) for k in sorted(self.SETTINGS) if k not in ("tail_s", "min_tail_s", "segment_s")))
         sc = _SCENES.get(key)
         if sc is None:
             sc = _Scene(block, s, dt)
@@ -410,77 +360,50 @@ class DrakeAdapter(SteppedContactAdapter):
             _SCENES[key] = sc
         return sc
 
-    def _start(self, sc: _Scene, block: Block, s: dict, dt: float, pulse, theta0: float, n_steps: int) -> np.ndarray:
-        if pulse is not None:
-            n_pulse = int(math.ceil(pulse.duration_s / dt - 1e-9))
-            v = pulse.vel(np.arange(n_pulse + 1) * dt)
-            sign = -1.0 if sc.drive == "inertial" else 1.0
-            sc.set_drive(sign * sc.push_mass * np.diff(v) / dt)
-        else:
-            sc.set_drive(np.zeros(0))
+    def start(self, sc: _Scene, block: Block, s: dict, dt: float, pulses: list, theta0: float, n_steps: int):
+        sc.load(pulses[0])
         sc.place(block, theta0)
         sc.start()
-        return sc.advance(0)
+        return sc.advance(0)[None]
 
-    def _advance(self, sc: _Scene, n_from: int, n_to: int) -> np.ndarray:
-        return sc.advance(n_to)[n_from + 1:]
+    def advance(self, sc: _Scene, n_from: int, n_to: int) -> np.ndarray:
+        return sc.advance(n_to)[None, n_from + 1:]
 
-    def _angles(self, sc: _Scene, data: np.ndarray):
-        """θ (rotation about +y) and θ̇ from logged states."""
-        if sc.planar:
-            return data[:, sc.iq["th"]], data[:, sc.iv["th"]]
-        i = sc.iq["quat"]
-        return theta_of_quat(data[:, i], data[:, i + 1], data[:, i + 2], data[:, i + 3]), data[:, sc.iv["th"]]
-
-    def _motion(self, sc: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+    def read(self, sc: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         iq, iv = sc.iq, sc.iv
-        th, om = self._angles(sc, data)
+        th, om = sc.angles(data)
         diag: dict = {"contact": s["contact"], "approximation": s["approximation"]}
         u_tab = v_tab = None
         if sc.table_joint is not None:
             u_tab, v_tab = data[:, iq["table"]], data[:, iv["table"]]
             if pulse is not None:
-                u = np.asarray(pulse.disp(t_s), dtype=float)
-                diag["table_track_err_rel"] = float(np.max(np.abs(u_tab - u)) / max(float(np.max(np.abs(u))), 1e-12))
+                diag["table_track_err_rel"] = table_track_err_rel(u_tab, pulse, t_s)
         if not sc.planar:
             diag["max_lateral_drift_m"] = float(np.nanmax(np.abs(data[:, iq["y"]])))
-        return Motion(data[:, iq["x"]], data[:, iq["z"]], th, data[:, iv["x"]], data[:, iv["z"]], om, u_tab, v_tab, diag)
+        return Motion(x_m=data[:, iq["x"]], z_m=data[:, iq["z"]], theta_rad=th, vx_m_s=data[:, iv["x"]],
+                      vz_m_s=data[:, iv["z"]], theta_dot_rad_s=om, table_x_m=u_tab, table_vx_m_s=v_tab, diagnostics=diag)
 
-    # -- calibration ---------------------------------------------------------------------------
-    def _calibration_identity(self, base: dict) -> dict:
-        return {**super()._calibration_identity(base), "contact": base["contact"],
-                "approximation": base["approximation"], "corner_radius": base["corner_radius_m"],
-                "table_mass_ratio": base["table_mass_ratio"]}
+    def _approximation(self, s: dict) -> str:
+        return s["approximation"] or ("lagged" if s["settings"] == "shipped" else "sap")
 
     @property
-    def CALIBRATION_KNOBS(self) -> tuple:  # noqa: N802 - the skeleton's declaration, per contact model
-        """The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): the stiff,
-        plastic contact of :data:`BASE_CONTACT` first (point stiffness 1e6 N/m per edge or modulus
-        1e8 Pa; relaxation time 1 ms for SAP, Hunt–Crossley 0.1 s/m otherwise), which gives η close to
-        Housner's, kept within 0.5 %; otherwise the stiffnesses :data:`_STIFFNESS_FACTORS` × the base
-        one by one, at each the dissipation's range ends (:data:`_DISSIPATION_LOG10`) and a bisection
-        of its logarithm when they bracket the target (less dissipation, higher η: the corner comes off
-        the table more elastically), until a candidate is within 0.25 %."""
-        kkey, dkey = self._stiffness_key(), self._dissipation_key(self._approximation())
-        k0, factors = BASE_CONTACT[kkey], _STIFFNESS_FACTORS[self.settings["contact"]]
-        return (Knob(kkey, "N/m" if kkey == "point_stiffness_n_m" else "Pa", "stiffness", start=k0, until="close",
-                     ladder=lambda block, dt: tuple(k0 * f for f in factors)),
-                Knob(dkey, "s" if dkey == "relaxation_time_s" else "s/m", "damping", start=BASE_CONTACT[dkey],
-                     ladder=lambda block, dt: _DISSIPATION_LOG10[dkey], log10=True, bisect_steps=10,
-                     bisect_regular=False))
-
-    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
-        kkey, dkey = (k.name for k in self.CALIBRATION_KNOBS)
-        eta, reached = chosen.candidate.eta, chosen.reached
-        if settings[kkey] == BASE_CONTACT[kkey] and settings[dkey] == BASE_CONTACT[dkey]:
-            return ("the stiff, plastic base contact gives this η." if reached else
-                    f"not reached: the closest consistent η is the base contact's, {eta:.4f}.")
-        factors = _STIFFNESS_FACTORS[self.settings["contact"]]
-        return ("reached with a softer contact and its dissipation." if reached else
-                f"not reached: contact stiffnesses x{', x'.join(f'{f:g}' for f in factors)} "
-                f"the base with dissipation over the searched range give at best {eta:.4f}.")
+    def KNOBS(self) -> tuple:  # noqa: N802 - the declaration, per contact model and approximation
+        """The calibration: the stiff, plastic contact of :data:`BASE_CONTACT` first (point stiffness
+        1e6 N/m per edge or modulus 1e8 Pa; relaxation time 1 ms for SAP, Hunt–Crossley 0.1 s/m
+        otherwise), which gives η close to Housner's, kept within 0.5 %; otherwise the stiffnesses
+        :data:`_STIFFNESS_FACTORS` × the base one by one, at each the dissipation's range ends
+        (:data:`_DISSIPATION_LOG10`) and a bisection of its logarithm when they bracket the target (less
+        dissipation, higher η: the corner comes off the table more elastically), until a candidate is
+        within 0.25 %. A contact given by hand takes the base for what it leaves out."""
+        s = self.settings
+        kkey = "hydroelastic_modulus_pa" if s["contact"] == "hydroelastic" else "point_stiffness_n_m"
+        dkey = "relaxation_time_s" if self._approximation(s) == "sap" else "hunt_crossley_dissipation_s_m"
+        k0, factors = BASE_CONTACT[kkey], _STIFFNESS_FACTORS[s["contact"]]
+        return (Knob(kkey, "N/m" if kkey == "point_stiffness_n_m" else "Pa", tuple(k0 * f for f in factors),
+                     start=k0, until="close"),
+                Knob(dkey, "s" if dkey == "relaxation_time_s" else "s/m", _DISSIPATION_LOG10[dkey],
+                     start=BASE_CONTACT[dkey], log10=True, bisect_steps=10, bisect_regular=False))
 
 
 #: This process's scenes, by everything a diagram depends on (a forked worker builds its own).
 _SCENES: dict = {}
-

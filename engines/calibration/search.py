@@ -8,7 +8,7 @@ bisects: :func:`bracket` finds the first neighbours of a scan whose η lie on ei
 target, :func:`bisection` halves the range between them. Where the searches differ (what counts as
 close, what a midpoint that cannot be used ends, which side a non-finite η counts on) the caller
 says so with an argument; the candidates and their order are each search's own, unchanged.
-The search of declared knobs (:func:`~rockbench.engines.knobs.search`) calls these for a knob with
+The search of declared knobs (:func:`~rockbench.engines.calibration.knobs.search`) calls these for a knob with
 ``bisect_steps``.
 """
 

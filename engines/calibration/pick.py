@@ -1,7 +1,7 @@
 """The one calibration pick: which of the contact settings a search measured becomes the calibration.
 
 Every contact engine's calibration measures candidate contact settings in free rocking (the
-skeleton's test, η read by :data:`~rockbench.engines.free_rocking.PEAK_RATIO`) and hands them here
+contact base's test, η read by :data:`~rockbench.engines.calibration.free_rocking.PEAK_RATIO`) and hands them here
 as :class:`Candidate` records. The rule (:func:`pick`, argued in docs/engines.md):
 
 1. **Regular**: a candidate counts only if it rocks like a block with one restitution coefficient:
@@ -13,7 +13,7 @@ as :class:`Candidate` records. The rule (:func:`pick`, argued in docs/engines.md
    is known to about 2 %/√4, so a closer η is not a better contact.
 3. Among the reached, **the stiffest**: the least resting sink (the pivot's penetration while it
    carries the block, measured from the run's corners the same way for every engine,
-   :func:`~rockbench.engines.free_rocking.contact_figures`); sinks within :func:`sink_tie_m` of the
+   :func:`~rockbench.engines.calibration.free_rocking.contact_figures`); sinks within :func:`sink_tie_m` of the
    least count as equally stiff. Among those, **damping closest to critical** (the candidate's
    damping ratio ζ, 1 critical, ``|ln ζ|``; a candidate without a damping knob counts as critical),
    then the stiffer, then the closer η.
@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field
 
-from ..reference_solver.model import Block
+from ...reference_solver.model import Block
 from .free_rocking import FREE_ROCKING_IMPACTS
 
 __all__ = ["Candidate", "Pick", "pick", "ranked", "regular", "hops", "hop_tol_m", "sink_tie_m", "CAL_MAX_SPREAD",
@@ -37,7 +37,7 @@ __all__ = ["Candidate", "Pick", "pick", "ranked", "regular", "hops", "hop_tol_m"
 CAL_MAX_SPREAD = 0.02
 
 #: The reader's resolution as a fraction of the target [-]: the mean of
-#: :data:`~rockbench.engines.free_rocking.FREE_ROCKING_IMPACTS` impacts whose spread may reach
+#: :data:`~rockbench.engines.calibration.free_rocking.FREE_ROCKING_IMPACTS` impacts whose spread may reach
 #: :data:`CAL_MAX_SPREAD` is known to ``CAL_MAX_SPREAD/√n`` (the reader's own error on the reference's
 #: exact trajectories is below 2e-4 at Δt ≤ 2 ms, tests/engines/test_eta_reader.py).
 ETA_RESOLUTION = CAL_MAX_SPREAD / math.sqrt(FREE_ROCKING_IMPACTS)

@@ -1,4 +1,4 @@
-"""The contact-engine skeleton's loop: a batch of worlds gives what one world at a time gives.
+"""The contact engines' one loop: a batch of worlds gives what one world at a time gives.
 
 A toy engine in NumPy (a planar block on two damped penalty springs at its bottom corners, the
 example of docs/engines.md, vectorised over worlds) runs the same cases one at a time
@@ -12,41 +12,38 @@ import math
 
 import numpy as np
 
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 from end_of_run import assert_ends_by_run_end
-from rockbench.engines.skeleton import Motion, SteppedContactAdapter, pivot_pose
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.motion import Motion, pivot_pose
 from rockbench.reference_solver.model import G, Block
 from rockbench.reference_solver.pulses import make_pulse
 
 BLOCK = Block(0.045, 0.10125, mass_kg=0.5444, name="B3M")
 
 
-class _Toy(SteppedContactAdapter):
+class _Toy(ContactEngine):
     """The toy, stepping every world of a batch at once."""
 
+    CONTRACT_VERSION = 2
     name = "toy-batch"
-    default_dt_s = 1e-4
+    own_dt_s = 1e-4
     max_worlds = 4
     batching = "native"
-    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "shipped", "stiffness_n_m": 1e6,
-                "tail_s": 0.5, "min_tail_s": 0.1}
-    CALIBRATED_SETTINGS = ("stiffness_n_m",)
+    SETTINGS = {"settings": "shipped", "tail_s": 0.5, "min_tail_s": 0.1}
+    SHIPPED = {"stiffness_n_m": 1e6}
 
-    def _resolved_settings(self, block, dt_s, cal):
-        return dict(self.settings)
-
-    def _world(self, block, s, dt_s):
+    def build(self, block, s, dt_s):
         return {"block": block, "k": s["stiffness_n_m"], "mu": s["friction"], "dt": dt_s}
 
-    def _start(self, w, block, s, dt_s, pulses, theta0_rad, n_steps):
-        pulses = pulses if isinstance(pulses, list) else [pulses]
+    def start(self, w, block, s, dt_s, pulses, theta0_rad, n_steps):
         x, z = pivot_pose(block, theta0_rad)
         mid = (np.arange(n_steps) + 0.5) * dt_s
         w["acc"] = np.array([np.zeros(n_steps) if p is None else -p.accel(mid) for p in pulses])
         w["state"] = np.tile([x, z, theta0_rad, 0.0, 0.0, 0.0], (len(pulses), 1))
         return w["state"][:, None].copy()
 
-    def _advance(self, w, n_from, n_to):
+    def advance(self, w, n_from, n_to):
         blk, dt, k = w["block"], w["dt"], w["k"]
         m, inertia = blk.mass_kg, blk.inertia_cm_kg_m2
         c = 2.0 * math.sqrt(k * m)
@@ -66,11 +63,9 @@ class _Toy(SteppedContactAdapter):
             rows.append(w["state"])
         return np.stack(rows, axis=1)
 
-    def _angles(self, w, rows):
-        return rows[:, 2], rows[:, 5]
-
-    def _motion(self, w, block, s, data, t_s, pulse):
-        return Motion(data[:, 0], data[:, 1], data[:, 2], data[:, 3], data[:, 4], data[:, 5])
+    def read(self, w, block, s, rows, t_s, pulse):
+        return Motion(x_m=rows[:, 0], z_m=rows[:, 1], theta_rad=rows[:, 2], vx_m_s=rows[:, 3], vz_m_s=rows[:, 4],
+                      theta_dot_rad_s=rows[:, 5])
 
 
 class _OneAtATime(_Toy):
@@ -89,8 +84,8 @@ def _cases():
 
 def test_a_batch_of_worlds_equals_one_world_at_a_time():
     cases = _cases()
-    batch = _Toy()._simulate_many(cases)
-    single = [_OneAtATime()._simulate(c) for c in cases]
+    batch = _Toy()._simulate_many([_Toy().posed(c) for c in cases])
+    single = [_OneAtATime().simulate(c) for c in cases]
     for b, s in zip(batch, single):
         assert b.t_s.size == s.t_s.size and b.diagnostics["ended_by"] == s.diagnostics["ended_by"]
         for f in ("theta_rad", "theta_dot_rad_s", "corner_x_m", "corner_z_m", "energy_j_kg"):
@@ -108,24 +103,25 @@ def _verdict(cell) -> dict:
 
 
 class _OwnSampling(_OneAtATime):
-    """The toy stepping at half the step it is given and returning every half step's row: an engine
-    with its own sampling (two rows per step), which says when each row is (``_sample_steps``)."""
+    """The toy stepping at half the step it is given and returning every half step's row, its time in
+    the row: an engine with its own sampling (two rows per step), which says when each row is
+    (``Motion.t_s``)."""
 
-    def _world(self, block, s, dt_s):
-        return super()._world(block, s, dt_s / 2)
+    def build(self, block, s, dt_s):
+        return super().build(block, s, dt_s / 2)
 
-    def _start(self, w, block, s, dt_s, pulses, theta0_rad, n_steps):
-        return super()._start(w, block, s, dt_s / 2, pulses, theta0_rad, 2 * n_steps)
+    def start(self, w, block, s, dt_s, pulses, theta0_rad, n_steps):
+        rows = super().start(w, block, s, dt_s / 2, pulses, theta0_rad, 2 * n_steps)
+        return np.concatenate([rows, np.zeros(rows.shape[:2] + (1,))], axis=2)
 
-    def _advance(self, w, n_from, n_to):
-        return super()._advance(w, 2 * n_from, 2 * n_to)
+    def advance(self, w, n_from, n_to):
+        rows = super().advance(w, 2 * n_from, 2 * n_to)
+        t = (2 * n_from + 1 + np.arange(rows.shape[1])) * w["dt"]
+        return np.concatenate([rows, np.broadcast_to(t[None, :, None], rows.shape[:2] + (1,))], axis=2)
 
-    def _sample_steps(self, w, rows, n_done):
-        return n_done + 0.5 * np.arange(1, rows.shape[0] + 1)
-
-    def _motion(self, w, block, s, data, t_s, pulse):
-        m = super()._motion(w, block, s, data, t_s, pulse)
-        m.t_s = np.arange(data.shape[0]) * w["dt"]
+    def read(self, w, block, s, rows, t_s, pulse):
+        m = super().read(w, block, s, rows, t_s, pulse)
+        m.t_s = rows[:, 6]
         return m
 
 
@@ -137,8 +133,8 @@ def test_an_engines_own_sampling_is_counted_row_by_row():
     ad, fine_ad = _OwnSampling(), _OneAtATime()
     ended = set()
     for c in _cases():
-        own = ad._trajectory(BLOCK, ad.settings, dt, c.pulse)[0]
-        fine = fine_ad._trajectory(BLOCK, fine_ad.settings, dt / 2, c.pulse)[0]
+        own = ad.run_worlds(BLOCK, ad.settings_with(), dt, [c.pulse])[0][0]
+        fine = fine_ad.run_worlds(BLOCK, fine_ad.settings_with(), dt / 2, [c.pulse])[0][0]
         n = min(own.t_s.size, fine.t_s.size)
         assert np.array_equal(own.theta_rad[:n], fine.theta_rad[:n]) and np.array_equal(own.t_s[:n], fine.t_s[:n])
         why = own.diagnostics["ended_by"]

@@ -22,21 +22,17 @@ law of ours replaces it, since that contact is what the benchmark measures.
   the static table along ``u(t)`` and sets its velocity ``u̇(t)`` every step, which the contact
   solver needs to drag the block (a position alone does not).
 * **Restitution**: Bullet has no η. ``settings="calibrated"`` (default) runs the contact settings
-  that :meth:`PybulletAdapter.calibrate` found for the case's η (cached on disk, see
-  :mod:`rockbench.engines.calibration`); ``settings="shipped"`` runs Bullet as shipped (its rigid
-  contact, 50 solver iterations), with only the time step and the anti-slip friction set.
+  the calibration found for the case's η (:attr:`PybulletAdapter.KNOBS`, cached on disk);
+  ``settings="shipped"`` runs Bullet as shipped (its rigid contact, 50 solver iterations), with only
+  the time step and the anti-slip friction set.
 
 The run, its end and the free-rocking test
 ------------------------------------------
-The adapter fills in the hooks of the contact-engine skeleton
-(:class:`~rockbench.engines.skeleton.SteppedContactAdapter`): it builds the scene, sets the contact
+The adapter implements the four methods of the contact base
+(:class:`~rockbench.engines.contact.ContactEngine`): it builds the scene, sets the contact
 parameters, steps the engine (one Python call per step: drive, step, read the joint states) and
-reads the block's pose and velocity. The skeleton runs the pulse whole and stops the run by floor
-1's end-of-run rule (:func:`~rockbench.reference_solver.classify.run_end`: overturn certain, or
-trapped below the barrier after ``min_tail_s``, else ``tail_s`` after the pulse); the shared
-classifier decides the outcome from θ(t). η is read by the one reader
-(:data:`~rockbench.engines.free_rocking.PEAK_RATIO`) and the calibration takes the one pick
-(:func:`~rockbench.engines.pick.pick`).
+reads the block's pose and velocity. The base runs the pulse whole and stops the run by floor 1's
+end-of-run rule; η is read by the one reader and the calibration takes the one pick.
 """
 
 from __future__ import annotations
@@ -50,15 +46,11 @@ from typing import Any
 
 import numpy as np
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
-from .base import CalibrationResult
-from .contact import POINTS_TRIED
-from .knobs import Knob
-from .pick import CAL_MAX_SPREAD, Candidate, damping_ratio_of_restitution, regular
-from .rotation import theta_of_quat
-from .skeleton import Motion, SteppedContactAdapter, pivot_pose
-from .support import version_label
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.model import G, Block
+from ..calibration.knobs import Knob
+from ..contact import ContactEngine
+from ..motion import Motion, pivot_pose, theta_of_quat
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0
@@ -78,7 +70,7 @@ _POINT_RADIUS_M = 5e-4
 
 
 def _import_pybullet():
-    """Import pybullet without the banner its C code prints at import time.
+    """Import pybullet without the banner its C code prints at import time (:meth:`PybulletAdapter.load_engine`).
 
     The banner ("pybullet build time: ...") goes to file descriptor 2, which would make every
     one-line CLI error two lines; descriptors 1 and 2 point at /dev/null while the module loads
@@ -289,7 +281,7 @@ def _scene() -> _Scene:
     return _SCENE
 
 
-class PybulletAdapter(SteppedContactAdapter):
+class PybulletAdapter(ContactEngine):
     """The rocking block in PyBullet (see the module docstring for the model and the end of a run).
 
     Settings
@@ -314,9 +306,7 @@ class PybulletAdapter(SteppedContactAdapter):
     contact_restitution : float or None
         Bullet's restitution of the block (the table carries 1) [-]; overrides calibration.
     contact_breaking_threshold_m : float or None
-        Bullet's contact-breaking distance [m] (its default is 0.02 m). Old names, accepted for one
-        release: ``contact_stiffness``, ``contact_damping``, ``contact_breaking_threshold``
-        (:data:`~rockbench.engines.contact.RENAMED_SETTINGS`).
+        Bullet's contact-breaking distance [m] (its default is 0.02 m).
     contact : {"auto", "corners", "distributed"}
         ``corners``: the block's box touches the table (Bullet keeps up to 4 corner contacts).
         ``distributed``: a row of ``contact_points`` small spheres along the base instead, the
@@ -336,181 +326,88 @@ class PybulletAdapter(SteppedContactAdapter):
     module = "pybullet"
     install_hint = ("install it with `pip install 'rockbench[pybullet]'` (or `pip install pybullet`: wheels for Linux, "
                     "macOS and Windows).")
-    default_dt_s = 5e-4
     #: PyBullet's own default step (fixedTimeStep, 1/240 s), what it runs at as shipped
-    shipped_dt_s = 1.0 / 240.0
-    SETTINGS = {
-        **SteppedContactAdapter.SHARED_SETTINGS,
-        "friction": BULLET_MAX_FRICTION,
-        "friction_anchor": True,
-        "solver_iterations": None,
-        "contact_stiffness_n_m": None,
-        "contact_damping_n_s_m": None,
-        "contact_restitution": None,
-        "contact_breaking_threshold_m": None,
-        "contact": "auto",
-        "contact_points": None,
-        "tail_s": 2.0,
-        "min_tail_s": 0.25,
-    }
-    CALIBRATED_SETTINGS = ("contact_stiffness_n_m", "contact_damping_n_s_m", "contact_restitution",
-                    "contact_breaking_threshold_m")
-    MEASURED_SETTINGS = ("friction", "friction_anchor", "solver_iterations", "planar", "contact_points")
-    #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): Bullet's rigid
-    #: contact as shipped (no stiffness, no restitution), kept within 1 %; a target more than 1 % below
-    #: its η: a compliant contact at damping ratio 1 (``c = 2√(k·m)``), log10 k bisected from 3 up to
-    #: the stiffest the step resolves (``k ≤ m/Δt²``: stiffer springs pass free rocking but gain energy
-    #: under a pulse), a softer contact losing more at the impact; a target more than 1 % above it:
-    #: Bullet's restitution with a 0.1 mm contact-breaking threshold (else the corner's contact point
+    own_dt_s = 1.0 / 240.0
+    SETTINGS = {"friction": BULLET_MAX_FRICTION, "friction_anchor": True, "tail_s": 2.0, "min_tail_s": 0.25}
+    #: Bullet's rigid contact (no stiffness, no restitution; its own breaking threshold)
+    SHIPPED = {"contact_stiffness_n_m": None, "contact_damping_n_s_m": None, "contact_restitution": None,
+               "contact_breaking_threshold_m": None}
+    MODE_DEFAULTS = {"solver_iterations": (50, 30)}
+    CONTACT_ROWS = "spheres"
+    #: The corner calibration: Bullet's rigid contact as shipped, kept within 1 %; a target more than
+    #: 1 % below its η: a compliant contact at damping ratio 1 (``c = 2√(k·m)``), log10 k bisected from 3
+    #: up to the stiffest the step resolves (``k ≤ m/Δt²``: stiffer springs pass free rocking but gain
+    #: energy under a pulse), a softer contact losing more at the impact; a target more than 1 % above
+    #: it: Bullet's restitution with a 0.1 mm contact-breaking threshold (else the corner's contact point
     #: exists before the impact and Bullet treats it as resting, with no restitution), scanned over
     #: [0.5, 0.98] and bisected, its corner free to bounce (the spread shows it)
-    CALIBRATION_KNOBS = (
-        Knob("contact_stiffness_n_m", "N/m", "stiffness", when="above", bisect_steps=12, bisect_regular=False, log10=True,
+    KNOBS = (
+        Knob("contact_stiffness_n_m", "N/m", when="above", bisect_steps=12, bisect_regular=False, log10=True,
              span=lambda block, dt: (3.0, max(3.5, math.log10(block.mass_kg / dt**2))), no_eta_low_end=True,
              along=lambda k, block, dt: {"contact_damping_n_s_m": 2.0 * math.sqrt(k * block.mass_kg)}),
-        Knob("contact_restitution", "", "damping", when="below", bisect_steps=5, bisect_regular=False,
-             ladder=lambda block, dt: _RESTITUTIONS, along=lambda e, block, dt: {"contact_breaking_threshold_m": 1e-4}),
+        Knob("contact_restitution", "", _RESTITUTIONS, zeta="restitution", when="below", bisect_steps=5,
+             bisect_regular=False, along={"contact_breaking_threshold_m": 1e-4}),
     )
     START_KEEP_RTOL = 0.01
     CALIBRATION_VERSION = 5
-    CALIBRATION_VERSION_DIST = 4
-    distributed_contact = True
-    POINT_UNIT = "spheres"
 
     @classmethod
-    def version(cls) -> str:
-        try:
-            _import_pybullet()
-        except Exception:  # noqa: BLE001 - the base class reports it with the install hint
-            pass
-        super().version()  # raises EngineUnavailableError with the hint when the import fails
-        return version_label(cls.name)
+    def load_engine(cls):
+        return _import_pybullet()
 
-    # -- settings -----------------------------------------------------------------------------
-    def _validate_engine_settings(self, s: dict) -> None:
-        self._bool_setting(s, "friction_anchor")
-        if s["friction"] > BULLET_MAX_FRICTION:
-            raise ConfigError(f"pybullet setting 'friction' must be <= {BULLET_MAX_FRICTION:g} (Bullet clamps the "
-                              f"combined coefficient there), got {s['friction']!r}.")
-        self._number_setting(s, "contact_stiffness_n_m", "N/m")
-        self._number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True)
-        self._number_setting(s, "contact_restitution", allow_zero=True)
-        self._number_setting(s, "contact_breaking_threshold_m", "m")
+    def validate(self, s: dict) -> None:
+        self.bool_setting(s, "friction_anchor")
+        # Bullet clamps the combined coefficient at 10
+        self.number_setting(s, "friction", allow_none=False, maximum=BULLET_MAX_FRICTION)
+        self.number_setting(s, "contact_stiffness_n_m", "N/m")
+        self.number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True)
+        self.number_setting(s, "contact_restitution", allow_zero=True, maximum=1.0)
+        self.number_setting(s, "contact_breaking_threshold_m", "m")
         if (s["contact_stiffness_n_m"] is None) != (s["contact_damping_n_s_m"] is None):
             raise ConfigError("pybullet settings contact_stiffness_n_m and contact_damping_n_s_m go together: "
                               "give both (Bullet ignores one without the other).")
-        if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
-            raise ConfigError(f"pybullet setting 'contact_restitution' must be in [0, 1], "
-                              f"got {s['contact_restitution']!r}.")
-        self._whole_setting(s, "solver_iterations", 1)
-        self._contact_layout_settings(s)
+        self.whole_setting(s, "solver_iterations", minimum=1)
 
-    def _base_settings(self) -> dict:
-        """Settings without any calibration: Bullet's rigid contact unless given explicitly."""
-        s = dict(self.settings)
-        if s["solver_iterations"] is None:
-            s["solver_iterations"] = 50 if s["settings"] == "shipped" else 30
-        s["contact_points"] = (s["contact_points"] or POINTS_TRIED[0]) if s["contact"] == "distributed" else None
-        return s
-
-    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        """The settings with the solver iterations of the mode and, calibrated, the contact found."""
-        s = self._base_settings()
-        if cal is not None:
-            s.update(self.canonical_settings(cal.settings))
-        return s
-
-    # -- the skeleton's hooks -----------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> "_Scene":
+    def build(self, block: Block, s: dict, dt_s: float) -> "_Scene":
         sc = _scene()
+        points = s["contact_points"] if s["contact"] == "distributed" else None
         sc.build(block, bool(s["planar"]), s.get("contact_breaking_threshold_m"),
-                 tuple(s.get(k) for k in self.CALIBRATED_SETTINGS + ("friction", "friction_anchor")),
-                 points=s.get("contact_points"))
+                 tuple(s.get(k) for k in (*self.SHIPPED, "friction", "friction_anchor")), points=points)
         sc.apply(s, dt_s)
         return sc
 
-    def _start(self, sc: "_Scene", block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
-               n_steps: int) -> np.ndarray:
+    def start(self, sc: "_Scene", block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+              n_steps: int) -> np.ndarray:
         sc.place(block, bool(s["planar"]), theta0_rad)
-        sc.load_drive(pulse, s["drive"], dt_s, n_steps)
-        return np.array([sc.read(velocities=False)], dtype=float)
+        sc.load_drive(pulses[0], s["drive"], dt_s, n_steps)
+        return np.array([[sc.read(velocities=False)]], dtype=float)
 
-    def _advance(self, sc: "_Scene", n_from: int, n_to: int) -> np.ndarray:
-        return np.array(sc.advance(n_from, n_to), dtype=float)
+    def advance(self, sc: "_Scene", n_from: int, n_to: int) -> np.ndarray:
+        return np.array([sc.advance(n_from, n_to)], dtype=float)
 
-    def _angles(self, sc: "_Scene", rows: np.ndarray):
-        if sc.planar:
-            return rows[:, 2], rows[:, 5]
-        # the stop is decided on math.atan2's θ, as the step loop did before the skeleton (NumPy's
-        # arctan2 differs from it in the last bit for some arguments)
-        th = [math.atan2(2.0 * (x * z + w * y), 1.0 - 2.0 * (x * x + y * y)) for x, y, z, w in rows[:, 3:7].tolist()]
-        return np.array(th), rows[:, 11]
-
-    def _motion(self, sc: "_Scene", block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+    def read(self, sc: "_Scene", block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         table = pulse is not None and s["drive"] != "inertial"
         u_tab, v_tab = (pulse.disp(t_s), pulse.vel(t_s)) if table else (None, None)
         if bool(s["planar"]):
-            return Motion(data[:, 0], data[:, 1] + block.height_m / 2, data[:, 2], data[:, 3], data[:, 4], data[:, 5],
-                          u_tab, v_tab)
-        qx, qy, qz, qw = data[:, 3], data[:, 4], data[:, 5], data[:, 6]
-        th = theta_of_quat(qw, qx, qy, qz)
+            return Motion(x_m=rows[:, 0], z_m=rows[:, 1] + block.height_m / 2, theta_rad=rows[:, 2], vx_m_s=rows[:, 3],
+                          vz_m_s=rows[:, 4], theta_dot_rad_s=rows[:, 5], table_x_m=u_tab, table_vx_m_s=v_tab)
+        qx, qy, qz, qw = rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 6]
         # how far the free body left the plane: lateral drift along y, tilt about x
         roll = np.arcsin(np.clip(2.0 * (qw * qx - qy * qz), -1.0, 1.0))
-        diag = {"max_lateral_drift_m": float(max(np.max(np.abs(data[:, 1])), 0.0)),
+        diag = {"max_lateral_drift_m": float(max(np.max(np.abs(rows[:, 1])), 0.0)),
                 "max_out_of_plane_tilt_rad": float(np.max(np.abs(roll)))}
-        return Motion(data[:, 0], data[:, 2], th, data[:, 7], data[:, 9], data[:, 11], u_tab, v_tab, diag)
+        return Motion(x_m=rows[:, 0], z_m=rows[:, 2], theta_rad=theta_of_quat(qw, qx, qy, qz), vx_m_s=rows[:, 7],
+                      vz_m_s=rows[:, 9], theta_dot_rad_s=rows[:, 11], table_x_m=u_tab, table_vx_m_s=v_tab,
+                      diagnostics=diag)
 
-    def _free_rocking_settings(self, block: Block, dt: float) -> dict:
-        """Bullet as set, without calibration (a restitution measurement of the contact in force)."""
-        return self._base_settings()
-
-    # -- calibration ---------------------------------------------------------------------------
-    def _damping_ratio(self, block: Block, s: dict) -> float | None:
-        """ζ of a compliant contact (the skeleton's); of Bullet's restitution, the spring-dashpot's ζ
-        with that bounce; None for the rigid plastic contact."""
-        if s.get("contact_stiffness_n_m"):
-            return super()._damping_ratio(block, s)
-        return damping_ratio_of_restitution(s["contact_restitution"]) if s.get("contact_restitution") else None
-
-    def _calibration_identity(self, base: dict) -> dict:
-        return {**super()._calibration_identity(base), "anchor": base["friction_anchor"],
-                "iterations": base["solver_iterations"]}
-
-    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
-        """What the corner calibration found, in words."""
-        eta, reached = chosen.candidate.eta, chosen.reached
-        if not any(v is not None for v in settings.values()):
-            note = ("Bullet's rigid contact (its default) gives this η." if reached else
-                    f"not reached: the closest consistent η is Bullet's rigid contact, {eta:.4f}.")
-        elif settings["contact_restitution"] is not None:
-            note = ("reached with Bullet's restitution." if reached else
-                    f"not reached: Bullet's restitution (e in [0.5, 0.98]) gives at best {eta:.4f} with a "
-                    f"per-impact spread within {100 * CAL_MAX_SPREAD:g} % of the target.")
-        else:
-            note = ("reached with a compliant contact (damping ratio 1)." if reached else
-                    f"not reached: softening the contact lowers η only to {eta:.4f}.")
-        scattered = [r for r in rows if not regular(Candidate.of_row(r), target, block)
-                     and abs(r["eta"] - target) / target <= 0.01]
-        if not reached and scattered:
-            r = min(scattered, key=lambda r: r["eta_std"])
-            how = (f"Bullet's restitution e = {r['contact_restitution']:.3g}" if r.get("contact_restitution") else
-                   f"a compliant contact of {r['contact_stiffness_n_m']:.3g} N/m")
-            note += (f" {how[0].upper()}{how[1:]} gives a mean of {r['eta']:.4f}, but its impacts scatter by "
-                     f"±{r['eta_std']:.3f} (no single restitution coefficient, or a hop), so it is not taken.")
-        return note
-
-    def _distributed_grid(self, block: Block, dt: float) -> tuple[list[dict], str]:
-        """Bullet's rigid contact and a grid of stiffness ``k`` (100 × 10^(−2…0)·m/Δt², nine values
-        up to the stiffest the step resolves) × damping ratio ζ (0.05–1, ``c = 2ζ√(k·m)``)."""
+    def candidates(self, block: Block, target: float, dt_s: float, points: int | None, measure) -> list[dict]:
+        """The corners: the knobs' search. A row along the base: Bullet's rigid contact and a grid of
+        stiffness ``k`` (100 × 10^(−2…0)·m/Δt², nine values up to the stiffest the step resolves) ×
+        damping ratio ζ (0.05–1, ``c = 2ζ√(k·m)``), every one measured."""
+        if points is None:
+            return super().candidates(block, target, dt_s, points, measure)
         m_kg = block.mass_kg
-        kmax = m_kg / dt**2
-        grid = [{}] + [{"contact_stiffness_n_m": float(k), "contact_damping_n_s_m": float(2 * z * math.sqrt(k * m_kg)),
-                        "zeta": z}
-                       for k in np.logspace(math.log10(kmax) - 2.0, math.log10(kmax), 9)
-                       for z in (0.05, 0.1, 0.2, 0.5, 1.0)]
-        return grid, f"Bullet's rigid contact and stiffness {kmax / 100:.3g}–{kmax:.3g} N/m × damping ratio 0.05–1"
-
-    def _describe_contact(self, row: dict) -> str:
-        if not row.get("contact_stiffness_n_m"):
-            return "Bullet's rigid contact"
-        return f"stiffness {row['contact_stiffness_n_m']:.4g} N/m, damping ratio {row['zeta']:g}"
+        kmax = m_kg / dt_s**2
+        return measure([{}] + [{"contact_stiffness_n_m": float(k), "contact_damping_n_s_m": float(2 * z * math.sqrt(k * m_kg)),
+                                "zeta": z} for k in np.logspace(math.log10(kmax) - 2.0, math.log10(kmax), 9)
+                               for z in (0.05, 0.1, 0.2, 0.5, 1.0)])

@@ -29,9 +29,9 @@ The time step
 -------------
 PhysX steps ``substeps`` times per benchmark step (``h = Δt/substeps``); the run records one sample
 per benchmark step. As shipped, SAPIEN's system steps 0.01 s (:data:`SHIPPED_DT_S`), and so does a
-case that poses no step, never coarser than 1/20 of its pulse's wave (the one rule of
-``EngineAdapter.unposed_dt_s``); calibrated, the benchmark's step (docs/physx.md).
-``settings="calibrated"`` runs PGS and searches the substeps (:attr:`PhysxAdapter.CALIBRATION_KNOBS`):
+case that poses no step, never coarser than 1/20 of its pulse's wave (the one resolver,
+:meth:`~rockbench.engines.contact.ContactEngine.step_for`); calibrated, the time-step rule's (docs/physx.md).
+``settings="calibrated"`` runs PGS and searches the substeps (:attr:`PhysxAdapter.KNOBS`):
 PhysX's impact loses more energy the longer its step, and the substeps are the knob that moves η
 towards Housner's; PGS because TGS lets the pivot corner creep along the table at friction 10.
 
@@ -40,7 +40,7 @@ Speed
 A fresh scene per run (creating one costs well under a millisecond), so no contact cache or warm
 start carries from one case to the next. No batch API on the CPU system: ``batching = "none"``.
 
-The run, its end and the read-out are the skeleton's (:mod:`rockbench.engines.skeleton`).
+The run, its end and the read-out are the contact base's (:mod:`rockbench.engines.contact`).
 """
 
 from __future__ import annotations
@@ -50,12 +50,11 @@ import warnings
 
 import numpy as np
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
-from .base import CalibrationResult
-from .knobs import Knob
-from .free_body_rows import angles_of, motion_of
-from .skeleton import Motion, SteppedContactAdapter, pivot_pose
+from ...reference_solver.model import G, Block
+from ..calibration.knobs import Knob
+from ..contact import ContactEngine
+from ..motion import Motion, pivot_pose
+from .free_body import motion_of
 
 #: SAPIEN's own time step of a ``PhysxCpuSystem`` [s]: what PhysX users run unless they set one
 SHIPPED_DT_S = 0.01
@@ -86,10 +85,7 @@ _VULKAN_WARNING = "Failed to find system libvulkan"
 
 def _sapien():
     """The ``sapien`` module, imported without its renderer's libvulkan warning (physics needs none)."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=_VULKAN_WARNING, category=UserWarning)
-        import sapien   # optional engine library
-    return sapien
+    return PhysxAdapter.load_engine()
 
 
 class _Scene:
@@ -130,6 +126,19 @@ class _Scene:
         self.table_drive = s["drive"] == "table"
         self.acc = np.zeros(0)   # inertial drive: ü per PhysX step [m/s^2]
         self.disp = np.zeros(0)  # table drive: u at the end of each PhysX step [m]
+
+    def load(self, pulse, dt: float, n_steps: int) -> None:
+        """The drive of every PhysX step of ``n_steps`` benchmark steps of ``dt`` [s] under ``pulse``
+        (None: none): the table's u at its end, or the step average of ü (the velocity change per
+        PhysX step is exact)."""
+        if pulse is None:
+            return
+        n = min(n_steps, int(math.ceil(pulse.duration_s / dt - 1e-9))) * self.substeps
+        t = np.arange(n + 1) * self.h
+        if self.table_drive:
+            self.disp = np.asarray(pulse.disp(t[1:]), dtype=float)
+        else:
+            self.acc = np.diff(np.asarray(pulse.vel(t), dtype=float)) / self.h
 
     def _box(self, half_m, material, s: dict):
         px = _sapien().physx
@@ -176,8 +185,7 @@ class _Scene:
         return rows
 
 
-
-class PhysxAdapter(SteppedContactAdapter):
+class PhysxAdapter(ContactEngine):
     """The rocking block in PhysX 5 through SAPIEN (see the module docstring for the model).
 
     Settings
@@ -209,103 +217,42 @@ class PhysxAdapter(SteppedContactAdapter):
     name = "physx"
     module = "sapien"
     install_hint = "install it with `pip install 'rockbench[physx]'` (or `pip install sapien==3.0.3`)."
-    default_dt_s = 5e-4
-    #: SAPIEN's own step [s] (:data:`SHIPPED_DT_S`): as shipped, a case that poses none runs at it
-    shipped_dt_s = SHIPPED_DT_S
-    #: no batch API on the CPU system: one case at a time, maps spread cells over worker processes
-    batching = "none"
-    SETTINGS = {
-        **SteppedContactAdapter.SHARED_SETTINGS,
-        "solver": None,
-        "position_iterations": None,
-        "velocity_iterations": None,
-        "contact_offset_m": None,
-        "contact_restitution": None,
-        "bounce_threshold_m_s": None,
-        "substeps": None,
-        "tail_s": 2.0,
-        "min_tail_s": 0.25,
-    }
-    CALIBRATED_SETTINGS = tuple(SHIPPED_CONTACT)
-    MEASURED_SETTINGS = ("settings", "friction", "planar", "drive")
-    #: The corner calibration (the skeleton's search, :mod:`rockbench.engines.knobs`): PhysX as shipped
-    #: but for its solver (:data:`CALIBRATED_SOLVER`) and its substeps, :data:`SUBSTEPS_TRIED` coarsest
-    #: first until the pick reaches the target. PhysX's plastic corner impact loses more than Housner's
-    #: η_H the longer its step (docs/physx.md); iterations move η less and do not reach η_H, contact
-    #: offset and restitution (below the bounce threshold) not at all.
-    CALIBRATION_KNOBS = (Knob("substeps", "", "stiffness", ladder=lambda block, dt: SUBSTEPS_TRIED, until="reached",
-                              shipped=SHIPPED_CONTACT["substeps"], along=lambda n, block, dt: {"solver": CALIBRATED_SOLVER}),)
-    CALIBRATION_VERSION = 1
+    own_dt_s = SHIPPED_DT_S
+    SETTINGS = {"tail_s": 2.0, "min_tail_s": 0.25}
+    SHIPPED = SHIPPED_CONTACT
+    #: The calibration: PhysX as shipped but for its solver (:data:`CALIBRATED_SOLVER`) and its
+    #: substeps, :data:`SUBSTEPS_TRIED` coarsest first until the pick reaches the target. PhysX's plastic
+    #: corner impact loses more than Housner's η_H the longer its step (docs/physx.md); iterations move η
+    #: less and do not reach η_H, contact offset and restitution (below the bounce threshold) not at all.
+    KNOBS = (Knob("substeps", "", SUBSTEPS_TRIED, until="reached", along={"solver": CALIBRATED_SOLVER}),)
 
     @classmethod
-    def version(cls) -> str:
-        try:
-            return str(_sapien().__version__)
-        except Exception:  # noqa: BLE001 - the base class words the failure, with the install hint
-            return super().version()
+    def load_engine(cls):
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=_VULKAN_WARNING, category=UserWarning)
+            import sapien   # optional engine library
+        return sapien
 
-    # -- settings -----------------------------------------------------------------------------
-    def _validate_engine_settings(self, s: dict) -> None:
-        if s["solver"] is not None and s["solver"] not in SOLVERS:
-            raise ConfigError(f"physx setting 'solver' must be one of {', '.join(SOLVERS)}, got {s['solver']!r}.")
-        self._whole_setting(s, "position_iterations", 1, maximum=255)
-        self._whole_setting(s, "velocity_iterations", 0, maximum=255)
-        self._whole_setting(s, "substeps", 1, maximum=1000)
-        self._number_setting(s, "contact_offset_m", "m")
-        self._number_setting(s, "contact_restitution", "", allow_zero=True)
-        self._number_setting(s, "bounce_threshold_m_s", "m/s")
-        if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
-            raise ConfigError(f"physx setting 'contact_restitution' must be in [0, 1], "
-                              f"got {s['contact_restitution']!r}.")
+    def validate(self, s: dict) -> None:
+        self.choice_setting(s, "solver", SOLVERS)
+        self.whole_setting(s, "position_iterations", minimum=1, maximum=255)
+        self.whole_setting(s, "velocity_iterations", minimum=0, maximum=255)
+        self.whole_setting(s, "substeps", minimum=1, maximum=1000)
+        self.number_setting(s, "contact_offset_m", "m")
+        self.number_setting(s, "contact_restitution", allow_zero=True, maximum=1.0)
+        self.number_setting(s, "bounce_threshold_m_s", "m/s")
 
-    def _base_settings(self) -> dict:
-        return dict(self.settings)
-
-    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        """The settings with every contact key concrete: the calibration's, else those given, the
-        rest as shipped (:data:`SHIPPED_CONTACT`)."""
-        s = self._base_settings()
-        if cal is not None:
-            s.update({k: v for k, v in cal.settings.items() if v is not None})
-        return {**s, **{k: SHIPPED_CONTACT[k] if s[k] is None else s[k] for k in self.CALIBRATED_SETTINGS}}
-
-    # -- the hooks of the skeleton ----------------------------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> _Scene:
+    def build(self, block: Block, s: dict, dt_s: float) -> _Scene:
         return _Scene(block, s, dt_s)
 
-    def _start(self, world: _Scene, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
-               n_steps: int) -> np.ndarray:
-        world.place(block, theta0_rad)
-        if pulse is not None:
-            n = min(n_steps, int(math.ceil(pulse.duration_s / dt_s - 1e-9))) * world.substeps
-            t = np.arange(n + 1) * world.h
-            if world.table_drive:
-                world.disp = np.asarray(pulse.disp(t[1:]), dtype=float)
-            else:  # the step average of ü: the velocity change per PhysX step is exact
-                world.acc = np.diff(np.asarray(pulse.vel(t), dtype=float)) / world.h
-        return world.row()[None, :]
+    def start(self, scene: _Scene, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+              n_steps: int) -> np.ndarray:
+        scene.place(block, theta0_rad)
+        scene.load(pulses[0], dt_s, n_steps)
+        return scene.row()[None, None, :]
 
-    def _advance(self, world: _Scene, n_from: int, n_to: int) -> np.ndarray:
-        return world.advance(n_from, n_to)
+    def advance(self, scene: _Scene, n_from: int, n_to: int) -> np.ndarray:
+        return scene.advance(n_from, n_to)[None]
 
-    def _angles(self, world: _Scene, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return angles_of(rows)
-
-    def _motion(self, world: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
-        return motion_of(data, t_s, pulse, world.table_drive, {k: s[k] for k in self.CALIBRATED_SETTINGS})
-
-    # -- calibration --------------------------------------------------------------------------
-    def _knobs_base(self, block: Block, dt: float) -> dict:
-        """Candidates change PhysX as shipped (:data:`SHIPPED_CONTACT`)."""
-        return self._resolved_settings(block, dt, None)
-
-    def _knobs_settings(self, block: Block, dt: float, values: dict) -> dict:
-        """The solver and substeps found (the rest stays as shipped)."""
-        return values
-
-    def _knobs_note(self, block: Block, dt: float, target: float, chosen, rows: list, settings: dict) -> str:
-        etas = ", ".join(f"{r['substeps']}: {r['eta']:.4f}" for r in rows)
-        how = f"{settings['substeps']} PhysX steps ({CALIBRATED_SOLVER.upper()}) per step of {dt:g} s"
-        head = f"reached with {how}" if chosen.reached else (f"not reached: the closest consistent η is "
-                                                              f"{chosen.candidate.eta:.4f}, {how}")
-        return f"{head}; η by substeps: {etas}."
+    def read(self, scene: _Scene, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        return motion_of(rows, t_s, pulse, scene.table_drive, {k: s[k] for k in self.SHIPPED})

@@ -41,13 +41,15 @@ Model
 
 End of a run
 ------------
-The run is the contact-engine skeleton's loop (:mod:`rockbench.engines.skeleton`), integrated in
-segments of ``segment_s`` inside Exudyn's C++ solver, with every contact engine's one end-of-run
+The run is the contact base's loop (:mod:`rockbench.engines.loop`), integrated in segments of
+``segment_s`` inside Exudyn's C++ solver, with every contact engine's one end-of-run
 rule (:func:`~rockbench.reference_solver.classify.run_end`) tested at every row Exudyn's sensors
 stored, at its own time (Exudyn shortens its step where Newton struggles, so a segment may hold
 more rows than steps: the rule counts rows, not steps). A run also ends where Exudyn's solver
-stopped (Newton did not converge even at its smallest step; the solver retries below). The shared
-classifier decides the outcome from the samples.
+stopped (Newton did not converge even at its smallest step): ``advance`` raises
+:class:`~rockbench.engines.loop.EngineHalted`, and the base retries the case as
+:attr:`ExudynAdapter.RETRIES` says (module notes, "Solver"). The shared classifier decides the outcome
+from the samples.
 
 Restitution
 -----------
@@ -57,8 +59,8 @@ strong; the probes found that Exudyn's impact model 2 (Gonthier et al., hysteret
 reaches a prescribed normal restitution coefficient without sticky forces) with a nearly plastic
 coefficient lands the corner without bouncing, which is exactly Housner's assumption, and gives
 η within 0.5 % of η_H for B3M and B6M. ``settings="calibrated"`` (default) therefore searches
-that coefficient (:meth:`ExudynAdapter.calibrate`) for the case's target η and caches the result
-on disk (:mod:`rockbench.engines.calibration`). ``settings="shipped"`` keeps Exudyn's shipped
+that coefficient (:attr:`ExudynAdapter.KNOBS`) for the case's target η and caches the result on
+disk. ``settings="shipped"`` keeps Exudyn's shipped
 contact model (impact model 0, restitution coefficient 1, no damping) except the stiffness, whose
 shipped value is 0 (no contact at all) and is set by the same rule as the calibrated one
 (:func:`default_stiffness_n_m`).
@@ -73,17 +75,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..reference_solver.errors import ConfigError, EngineError
-from ..reference_solver.model import G, Block
-from ..reference_solver.pulses import Pulse
-from ..reference_solver.restitution import Restitution
-from . import price as _price
-from .base import CalibrationResult, Trajectory
-from .contact import POINTS_TRIED, ContactEngineAdapter, overturn_certain
-from .free_rocking import FREE_ROCKING_IMPACTS
-from .pick import Candidate, damping_ratio_of_restitution, pick, regular
-from .knobs import Knob
-from .skeleton import Motion, SteppedContactAdapter
+from ...reference_solver.classify import overturn_certain
+from ...reference_solver.model import G, Block
+from ...reference_solver.pulses import Pulse
+from ..calibration.knobs import Knob
+from ..contact import ContactEngine
+from ..loop import EngineHalted
+from ..motion import Motion
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as
@@ -99,11 +97,6 @@ CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0
 
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].
 CALIBRATION_RTOL = 0.01
-
-#: The knob of the row's calibration (the corners': ExudynAdapter.CALIBRATION_KNOBS): its ladder,
-#: then bisection to within 0.2·CALIBRATION_RTOL (5 halvings at most)
-DISTRIBUTED_KNOBS = (Knob("contact_restitution", "", "damping", lambda block, dt: CALIBRATION_RESTITUTIONS_DIST,
-                          bisect_steps=5, bisect_rtol=0.2 * CALIBRATION_RTOL),)
 
 #: Half the side of the table triangle [m]: far larger than any table travel of a pulse.
 _TABLE_HALF_SIZE_M = 1.0e3
@@ -333,10 +326,13 @@ class _Model:
         for nm, val in zip(_PULSE_VARS, vals):
             self.exu.symbolic.variables.Set(self._pre + nm, val)
 
-    # -- running (the skeleton's hooks call these) ----------------------------------------
+    # -- running (the adapter's four methods call these) ----------------------------------------
     def start(self, chunk_steps: int, full_newton: bool) -> np.ndarray:
         """Initialise Exudyn's solver for segments of ``chunk_steps`` steps (``full_newton``: a new
-        Jacobian at every Newton iteration); no samples yet (the first segment stores t = 0)."""
+        Jacobian at every Newton iteration), the previous run's solver closed; no samples yet (the
+        first segment stores t = 0)."""
+        if getattr(self, "solver", None) is not None:
+            self.solver.FinalizeSolver(self.mbs, self.ss)
         ss = self.ss
         ss.timeIntegration.newton.useModifiedNewton = not full_newton
         self.n_chunk, self.steps, self.n_raw, self.t_raw = chunk_steps, 0, 0, -math.inf
@@ -362,12 +358,8 @@ class _Model:
         if not ok:
             self.message = (f"Exudyn's solver stopped at t = {self.mbs.systemData.GetTime():.6g} s "
                             "(Newton did not converge even at the minimum step size)")
+            raise EngineHalted(self.message, self.rows()[None])
         return self.rows()
-
-    def finish(self) -> float:
-        """Close the solver; the wall time since :meth:`start` [s]."""
-        self.solver.FinalizeSolver(self.mbs, self.ss)
-        return time.perf_counter() - self.t0
 
     def rows(self) -> np.ndarray:
         """The sensors' rows stored since the last call: ``t, x, y, φ, ẋ, ẏ, φ̇`` (planar) or ``t``,
@@ -417,7 +409,7 @@ class _Model:
         return both[:, :nc], both[:, nc:], com
 
 
-class ExudynAdapter(SteppedContactAdapter):
+class ExudynAdapter(ContactEngine):
     """Exudyn (multibody dynamics, C++ core): the block on a table through penalty contact.
 
     Settings
@@ -436,7 +428,8 @@ class ExudynAdapter(SteppedContactAdapter):
         Contact stiffness of each corner [N/m]; None: :func:`default_stiffness_n_m`.
     contact_restitution : float or None
         Exudyn's normal restitution coefficient of the corner contacts with its impact model 2
-        (Gonthier et al.) [-]; None: calibrated to the case's η (with ``calibrated``).
+        (Gonthier et al.) [-]; None: calibrated to the case's η (with ``calibrated``), Exudyn's
+        shipped linear model (impact model 0, restitution 1) as shipped.
     contact_damping_n_s_m : float
         Linear normal contact damping [N s/m], added by Exudyn to every impact model (default 0).
     sphere_radius_m : float
@@ -462,318 +455,103 @@ class ExudynAdapter(SteppedContactAdapter):
         regularised friction makes an old Jacobian converge slowly), docs/exudyn.md.
     segment_s, min_tail_s, tail_s : float
         Length of the integration segments between stop checks, and the shortest and longest tail
-        after the pulse [s] (see the module notes on the end of a run). Old names, accepted for one
-        release: ``chunk_s``, ``max_tail_s``, ``stiffness_n_m``, ``damping_n_s_m``
-        (:data:`~rockbench.engines.contact.RENAMED_SETTINGS`).
+        after the pulse [s] (see the module notes on the end of a run).
     """
 
-    #: versions of the corner and distributed calibrations (part of their cache keys)
-    CALIBRATION_VERSION = 2
-    CALIBRATION_VERSION_DIST = 3
-    distributed_contact = True
-    #: the corner calibration's knob: the contact restitution coefficient of impact model 2 (the
-    #: stiffness is fixed, default_stiffness_n_m), its ladder, then bisection (:meth:`_knob_rows`)
-    CALIBRATION_KNOBS = (Knob("contact_restitution", "", "damping", lambda block, dt: CALIBRATION_RESTITUTIONS,
-                              bisect_steps=5, bisect_rtol=0.2 * CALIBRATION_RTOL),)
-    #: a measurement records Exudyn's contact parameters
-    MEASURED_SETTINGS = _CONTACT_KEYS + ("planar",)
-    POINT_UNIT = "spheres"
     name = "exudyn"
     module = "exudyn"
     install_hint = "install it with `pip install 'rockbench[exudyn]'` (or `pip install exudyn`)."
-    default_dt_s = 1e-4
+    #: Exudyn's own default step (SimulationSettings: endTime 1 s in numberOfSteps 100)
+    own_dt_s = 1e-2
+    fixed_dt_s = 1e-4
+    SETTINGS = {"friction_zone_m_s": 1e-3, "contact_stiffness_n_m": None, "contact_damping_n_s_m": 0.0,
+                "sphere_radius_m": 5e-4, "spectral_radius": 0.9, "modified_newton_iterations": 3, "segment_s": 0.05,
+                "min_tail_s": 0.3}
+    #: Exudyn's shipped contact: impact model 0 with restitution coefficient 1 (None here)
+    SHIPPED = {"contact_restitution": None}
     SHIPPED_NOTE = ("Exudyn ships no contact stiffness: m·g/(2·1.34 µm) per corner stands in (a static sink of "
                     "1.34 µm), with its shipped linear contact, restitution 1 and no damping (docs/exudyn.md)")
-    #: Exudyn's own default step (SimulationSettings: endTime 1 s in numberOfSteps 100), what it runs
-    #: at as shipped
-    shipped_dt_s = 1e-2
-    SETTINGS = {
-        **ContactEngineAdapter.SHARED_SETTINGS,
-        "friction_zone_m_s": 1e-3,
-        "contact_stiffness_n_m": None,
-        "contact_restitution": None,
-        "contact_damping_n_s_m": 0.0,
-        "sphere_radius_m": 5e-4,
-        "contact": "auto",
-        "contact_points": None,
-        "spectral_radius": 0.9,
-        "modified_newton_iterations": 3,
-        "segment_s": 0.05,
-        "min_tail_s": 0.3,
-    }
+    CONTACT_ROWS = "spheres"
+    #: the calibration's knob: the contact restitution coefficient of impact model 2 (the stiffness is
+    #: fixed, default_stiffness_n_m), its ladder, then bisection to within 0.2·CALIBRATION_RTOL
+    KNOBS = (Knob("contact_restitution", "", CALIBRATION_RESTITUTIONS, zeta="restitution", bisect_steps=5,
+                  bisect_rtol=0.2 * CALIBRATION_RTOL),)
+    #: the row's: its ladder (η_M lies between 0.1 and 0.3 for B3M, probe_eta_m_exudyn.py), then bisection
+    ROW_KNOBS = (Knob("contact_restitution", "", CALIBRATION_RESTITUTIONS_DIST, zeta="restitution", bisect_steps=5,
+                      bisect_rtol=0.2 * CALIBRATION_RTOL),)
+    #: a run whose Newton stalls (deterministically, in a violent impact): at half the step, then with a
+    #: full Newton method at the case's step, both with the same contact (module notes, "Solver")
+    RETRIES = ((0.5, {"full_newton": False}), (1.0, {"full_newton": True}))
+    CALIBRATION_VERSION = 3
 
-    def __init__(self, **settings):
-        super().__init__(**settings)
-        self._models: dict = {}
-        self._calibrations: dict = {}
+    def validate(self, s: dict) -> None:
+        self.number_setting(s, "friction_zone_m_s", "m/s", allow_none=False)
+        self.number_setting(s, "contact_stiffness_n_m", "N/m")
+        self.number_setting(s, "contact_restitution", maximum=1.0)
+        self.number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True, allow_none=False)
+        self.number_setting(s, "sphere_radius_m", "m", allow_none=False)
+        self.number_setting(s, "spectral_radius", allow_zero=True, allow_none=False, maximum=1.0)
+        self.whole_setting(s, "modified_newton_iterations", minimum=1, allow_none=False)
 
-    # -- settings -------------------------------------------------------------------------
-    def _validate_engine_settings(self, s: dict) -> None:
-        self._number_setting(s, "friction_zone_m_s", "m/s", allow_none=False)
-        self._number_setting(s, "contact_stiffness_n_m", "N/m")
-        self._contact_layout_settings(s)
-        self._number_setting(s, "contact_restitution", "-")
-        if s["contact_restitution"] is not None and s["contact_restitution"] > 1.0:
-            raise ConfigError(f"exudyn setting 'contact_restitution' must be in (0, 1], got {s['contact_restitution']!r}.")
-        self._number_setting(s, "contact_damping_n_s_m", "N s/m", allow_zero=True, allow_none=False)
-        self._number_setting(s, "sphere_radius_m", "m", allow_none=False)
-        try:
-            rho = float(s["spectral_radius"])
-        except (TypeError, ValueError):
-            rho = math.nan
-        if not (0.0 <= rho <= 1.0):
-            raise ConfigError(f"exudyn setting 'spectral_radius' must be in [0, 1], got {s['spectral_radius']!r}.")
-        s["spectral_radius"] = rho
-        self._whole_setting(s, "modified_newton_iterations", 1, allow_none=False)
+    def _contact(self, block: Block, s: dict) -> dict:
+        """Exudyn's contact parameters of the resolved settings ``s`` (:data:`_CONTACT_KEYS`): impact
+        model 2 with ``contact_restitution``, or (None) Exudyn's shipped model (linear impact model 0
+        with restitution coefficient 1, so only the linear damping, default 0, dissipates); a row of
+        ``contact_points`` spheres along the base sharing the corners' total stiffness."""
+        points = s["contact_points"] if s["contact"] == "distributed" else 2
+        model, e = (0, 1.0) if s["contact_restitution"] is None else (2, float(s["contact_restitution"]))
+        stiffness = s["contact_stiffness_n_m"] or default_stiffness_n_m(block)
+        return dict(zip(_CONTACT_KEYS, (stiffness * 2.0 / points, points, s["contact_damping_n_s_m"], model, e,
+                                        *(s[k] for k in _CONTACT_KEYS[5:]))))
 
-    def _stiffness(self, block: Block) -> float:
-        return self.settings["contact_stiffness_n_m"] or default_stiffness_n_m(block)
-
-    def _contact(self, block: Block, contact_restitution: float | None, points: int = 2) -> dict:
-        """Exudyn contact parameters for one block (:data:`_CONTACT_KEYS`); ``None`` restitution:
-        Exudyn's shipped model (linear impact model 0 with restitution coefficient 1, so only the
-        linear damping, default 0, dissipates). ``points`` > 2: a row of that many spheres along the
-        base sharing the corners' total stiffness."""
-        s = self.settings
-        model, e = (0, 1.0) if contact_restitution is None else (2, float(contact_restitution))
-        return dict(zip(_CONTACT_KEYS, (self._stiffness(block) * 2.0 / points, points, s["contact_damping_n_s_m"],
-                                        model, e, *(s[k] for k in _CONTACT_KEYS[5:]))))
-
-    def explicit_contact(self) -> bool:
-        """Whether ``contact_restitution`` was given (then nothing is calibrated)."""
-        return self.settings["contact_restitution"] is not None
-
-    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        """The settings and Exudyn's contact parameters (``contact_restitution``: explicit, None for
-        the shipped model, or calibrated)."""
-        s = self.settings
-        if cal is None:
-            e = s["contact_restitution"]
-            points = (s["contact_points"] or POINTS_TRIED[0]) if s["contact"] == "distributed" else 2
-        else:
-            e = cal.settings["restitution_coefficient"]
-            points = int(cal.settings.get("contact_points") or 2)
-        return {**s, **self._contact(block, e, points), "dt_s": dt}
-
-    def _fixed(self, contact: dict) -> "ExudynAdapter":
-        """A copy of this adapter with the contact of a calibration's settings (explicit)."""
-        e = contact.get("restitution_coefficient") if contact.get("impact_model") == 2 else None
-        n = int(contact.get("contact_points") or 2)
-        return type(self)(**{**self.settings, "contact_restitution": e, "contact": "distributed" if n > 2 else "corners",
-                             "contact_points": n if n > 2 else None})
-
-    # -- the skeleton's hooks (one case at a time) ---------------------------------------------
-    def _world(self, block: Block, s: dict, dt_s: float) -> SimpleNamespace:
-        """A holder for the model :meth:`_start` picks (it depends on the pulse and the release angle)."""
+    def build(self, block: Block, s: dict, dt_s: float) -> SimpleNamespace:
+        """A holder for the model :meth:`start` picks (it depends on the pulse and the release angle)."""
         return SimpleNamespace(model=None)
 
-    def _start(self, world, block: Block, s: dict, dt_s: float, pulse, theta0_rad: float,
-               n_steps: int) -> np.ndarray:
+    def start(self, scene, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+              n_steps: int) -> np.ndarray:
         """The model: the one reused for the block, contact and step (a harmonic pulse loaded into its
-        symbolic variables), a new one for a recorded pulse or a release from ``theta0_rad``."""
-        contact = {k: s[k] for k in _CONTACT_KEYS}
+        symbolic variables), a new one for a recorded pulse or a release from ``theta0_rad``; no sample
+        yet (Exudyn's sensors store t = 0 with the first segment)."""
+        pulse, contact = pulses[0], self._contact(block, s)
         if pulse is None or theta0_rad != 0.0:
             model = _Model(block, contact, "inertial", s["planar"], dt_s, None, theta0_rad=theta0_rad)
         elif pulse.kind == "record":  # a record's Python user function is bound to that pulse: no reuse
             model = _Model(block, contact, s["drive"], s["planar"], dt_s, pulse)
         else:
             key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, tuple(sorted(contact.items())), dt_s)
-            if key not in self._models:
-                self._models[key] = _Model(block, contact, s["drive"], s["planar"], dt_s, None)
-            model = self._models[key]
+            if key not in self.scenes:
+                self.scenes[key] = _Model(block, contact, s["drive"], s["planar"], dt_s, None)
+            model = self.scenes[key]
         if model.uses_symbolic:
             model.set_pulse(pulse)
-        world.model = model
-        return model.start(self._segment_steps(s, dt_s), bool(s.get("full_newton")))
+        scene.model = model
+        return model.start(max(1, int(round(float(s["segment_s"]) / dt_s))), bool(s.get("full_newton")))[None]
 
-    def _advance(self, world, n_from: int, n_to: int) -> np.ndarray:
-        return world.model.advance()
+    def advance(self, scene, n_from: int, n_to: int) -> np.ndarray:
+        return scene.model.advance()[None]
 
-    def _sample_steps(self, world, rows: np.ndarray, n_done: int) -> np.ndarray:
-        """Each row's step number, from its time (column 0): :func:`steps_of_times`."""
-        return steps_of_times(rows[:, 0], world.model.dt_s)
-
-    def _halted(self, world) -> bool:
-        return world.model.message is not None
-
-    def _angles(self, world, rows: np.ndarray):
-        return world.model.angles(rows)
-
-    def _motion(self, world, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+    def read(self, scene, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         """The block's motion from Exudyn's sensors, with its own contact points: the block's bottom
-        corners (x, relative to the table) and its contact spheres' clearance above the table."""
-        model = world.model
-        wall = model.finish()
-        t, (th, thd) = data[:, 0], model.angles(data)
-        spheres, edges, com = model.samples(data)
+        corners (x, relative to the table) and its contact spheres' clearance above the table; a run
+        whose sphere sank about its radius into the table (before the overturn was certain: the block
+        falls through the table after it, by design) is not a measurement (``Motion.error``)."""
+        model = scene.model
+        wall = time.perf_counter() - model.t0
+        t, (th, thd) = rows[:, 0], model.angles(rows)
+        spheres, edges, com = model.samples(rows)
         drive_table = pulse is not None and s["drive"] == "table"
         table_x = pulse.disp(t) if drive_table else np.zeros(t.size)
-        # contact quality only up to the overturn decision: afterwards the block falls through the
-        # table by design (no spheres on its top corners)
         over = overturn_certain(t, th, thd, alpha_rad=block.alpha_rad,
                                 t_pulse_end_s=pulse.duration_s if pulse is not None else 0.0)
         n = int(np.argmax(over)) + 1 if over.any() else t.size
         r = s["sphere_radius_m"]
+        pen = float(np.max(r - spheres[:n, :, 1])) if t.size else 0.0
         diag = {"steps": int(model.steps), "wall_engine_s": wall, "steps_per_s": model.steps / wall if wall > 0 else None,
-                "max_penetration_m": float(np.max(r - spheres[:n, :, 1])) if t.size else 0.0,
-                **{k: s[k] for k in ("stiffness_n_m", "damping_n_s_m", "impact_model", "restitution_coefficient",
-                                     "friction")}}
-        if model.message is not None:
-            diag["solver_stopped"] = model.message
+                "max_penetration_m": pen, **{k: model.contact[k] for k in _CONTACT_KEYS[:5]}}
+        error = (f"a corner contact sphere sank {pen:.3g} m into the table, about its radius {r:.3g} m: the contact "
+                 "broke through (stiffer contact or a larger sphere_radius_m needed)") if pen >= 0.9 * r else None
         return Motion(x_m=com[:, 0], z_m=com[:, 1], theta_rad=th, vx_m_s=com[:, 2], vz_m_s=com[:, 3],
                       theta_dot_rad_s=thd, table_x_m=table_x, table_vx_m_s=pulse.vel(t) if drive_table else None,
-                      diagnostics=diag, t_s=t, corner_x_m=edges[..., 0] - table_x[:, None], corner_z_m=spheres[..., 1] - r)
-
-    def _trajectory(self, block: Block, s: dict, dt: float, pulse=None, theta0: float = 0.0,
-                    duration_s: float | None = None) -> tuple[Trajectory, Motion]:
-        """The skeleton's run (free rocking in one segment); a case whose Newton stalls is retried
-        (module notes, "Solver")."""
-        if duration_s is not None:
-            return super()._trajectory(block, {**s, "drive": "inertial", "segment_s": duration_s}, dt, pulse,
-                                       theta0, duration_s)
-        # Newton occasionally stalls in a violent impact (deterministically, for a given cell);
-        # a retry at half the step, then one with a full Newton method at the case's step, both
-        # with the same contact, resolved the cases met in probes and maps
-        retried = None
-        for dt_run, full_newton in ((dt, False), (0.5 * dt, False), (dt, True)):
-            tr, m = super()._trajectory(block, {**s, "full_newton": full_newton}, dt_run, pulse)
-            message = tr.diagnostics.get("solver_stopped")
-            over = overturn_certain(tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, alpha_rad=block.alpha_rad,
-                                    t_pulse_end_s=tr.t_pulse_end_s)
-            if message is None or over.any():
-                break
-            retried = message
-        diag = tr.diagnostics
-        diag["dt_s"] = dt
-        if retried is not None:
-            diag.update(retried_at_dt_s=dt_run, retried_full_newton=full_newton, earlier_attempt=retried)
-        # a failure after the overturn was already certain does not change the verdict
-        if message is not None and not over.any():
-            raise EngineError(message)
-        pen, r = diag["max_penetration_m"], s["sphere_radius_m"]
-        if pen >= 0.9 * r:
-            raise EngineError(f"a corner contact sphere sank {pen:.3g} m into the table, about its radius "
-                              f"{r:.3g} m: the contact broke through (stiffer contact or a larger "
-                              "sphere_radius_m needed)")
-        return tr, m
-
-    def _measure_free_rocking(self, block: Block, s: dict, dt: float, theta0_frac: float = 0.5):
-        """The skeleton's free-rocking test; a run whose solver stopped before all impacts is an
-        EngineError (an engine failure, not a measurement)."""
-        m, tr = super()._measure_free_rocking(block, s, dt, theta0_frac)
-        if "solver_stopped" in tr.diagnostics and len(m.etas) < FREE_ROCKING_IMPACTS:
-            raise EngineError(f"free rocking: {tr.diagnostics['solver_stopped']}")
-        return m, tr
-
-    # -- calibration (the dispatch, the cache and the free-rocking test are the skeleton's) -----
-    def _calibrate_corners(self, block: Block, target: float, dt: float, use_cache: bool) -> CalibrationResult:
-        return self._calibrate_distributed_n(block, target, 2, dt, use_cache)
-
-    def _evaluate(self, block: Block, dt: float, candidates: list[dict], points: int = 2) -> list[dict]:
-        """Free rocking of each candidate restitution coefficient with ``points`` spheres: one row each
-        (``contact_restitution``, ``eta``, ``eta_std``, ``n``, ``etas``, ``sink_m``, ``hop_m``,
-        ``damping_ratio``, ``first_quarter_s``, and ``error`` where the engine failed)."""
-        rows = []
-        for c in candidates:
-            e = c["contact_restitution"]
-            try:
-                m, _ = self._measure_free_rocking(block, {**self.settings, **self._contact(block, e, points)}, dt)
-            except EngineError as ex:
-                rows.append({"contact_restitution": e, "error": str(ex), "eta": math.nan, "eta_std": math.nan, "n": 0,
-                             "etas": [], "sink_m": None, "hop_m": None, "damping_ratio": None, "first_quarter_s": None})
-                continue
-            rows.append({"contact_restitution": e, "eta": m.eta_mean, "eta_std": m.eta_std, "n": len(m.etas),
-                         "etas": m.etas, "sink_m": m.sink_m, "hop_m": m.hop_m,
-                         "damping_ratio": damping_ratio_of_restitution(e), "first_quarter_s": m.first_quarter_s})
-        return rows
-
-    def _calibrate_distributed_n(self, block: Block, target: float, points: int, dt: float,
-                                 use_cache: bool) -> CalibrationResult:
-        """Exudyn's contact restitution coefficient for ``points`` spheres along the base (2: the
-        corners): the skeleton's candidates of the declared knob (:attr:`CALIBRATION_KNOBS`, the row
-        :data:`DISTRIBUTED_KNOBS`: the ladder, then the bisection, :meth:`_knob_rows`), the one pick
-        (:func:`~rockbench.engines.pick.pick`) among them; the row is ``reached`` only where its price
-        also counts. Results are cached on disk (:mod:`.calibration`) and memoised per adapter.
-        """
-        s = self.settings
-        key = self._cache_key(block, target, dt, self.CALIBRATION_VERSION if points == 2 else self.CALIBRATION_VERSION_DIST,
-                              planar=s["planar"], stiffness=self._stiffness(block), friction=s["friction"],
-                              zone=s["friction_zone_m_s"], radius=s["sphere_radius_m"], rho=s["spectral_radius"],
-                              damping=s["contact_damping_n_s_m"], newton=s["modified_newton_iterations"],
-                              **({} if points == 2 else {"contact_points": points}))
-        res = self._calibrations.get(key) or self._cached(key, use_cache)
-        if res is not None:
-            self._calibrations[key] = res
-            return res
-        knobs = self.CALIBRATION_KNOBS if points == 2 else DISTRIBUTED_KNOBS
-        scan = self._knob_rows(block, target, dt, knobs, lambda c: self._evaluate(block, dt, c, points))
-        cands = [Candidate.of_row(r) for r in scan]
-        if not any(math.isfinite(c.eta) for c in cands):
-            raise EngineError("calibration: free rocking failed for every contact restitution tried; scan: "
-                              + "; ".join(f"e={r['contact_restitution']:.3g}: {r.get('error', '')}" for r in scan))
-        chosen = pick(cands, target, block)
-        irregular = not any(regular(c, target, block) for c in cands)
-        good = [(c.knobs["contact_restitution"], _as_fr(c)) for c in cands if regular(c, target, block)] or \
-            [(c.knobs["contact_restitution"], _as_fr(c)) for c in cands if math.isfinite(c.eta)]
-        e, fr, reached = chosen.candidate.knobs["contact_restitution"], _as_fr(chosen.candidate), chosen.reached
-        settings = {**self._contact(block, e, points), "planar": s["planar"]}
-        price = (_price.contact_price(self._fixed(settings), block, Restitution("constant", value=target), dt,
-                                      first_quarter_s=fr.first_quarter_s) if points > 2 and reached else None)
-        note, reached = _note(e, fr, good, target, irregular, reached, s["friction"], points, price)
-        res = CalibrationResult(eta_target=target, eta_measured=fr.eta_mean, eta_std=fr.eta_std,
-                                reached=reached, settings=settings, note=note, evaluations=len(scan), price=price)
-        self._store(key, res, {"etas": fr.etas, "tried": scan})
-        self._calibrations[key] = res
-        return res
-
-
-def steps_of_times(t_s: np.ndarray, dt_s: float) -> np.ndarray:
-    """The step numbers of Exudyn's rows at times ``t_s`` [s] with step ``dt_s`` [s]: t/Δt, a
-    fraction where Exudyn shortened its step; within 1e-6 of a whole step, that step (the rounding
-    in t/Δt) [-]."""
-    k = np.asarray(t_s, dtype=float) / dt_s
-    whole = np.rint(k)
-    return np.where(np.abs(k - whole) < 1e-6, whole, k)
-
-
-
-def _as_fr(c: Candidate) -> SimpleNamespace:
-    """A candidate as the notes read it (``eta_mean``, ``eta_std``, ``etas``, ``first_quarter_s``)."""
-    return SimpleNamespace(eta_mean=c.eta, eta_std=c.eta_std, etas=c.knobs["etas"],
-                           first_quarter_s=c.knobs["first_quarter_s"])
-
-
-def _note(e: float, fr, good: list, target: float, irregular: bool, reached: bool, friction: float, points: int,
-          price: dict | None) -> tuple[str, bool]:
-    """What the calibration found, in words, and whether it is reached (the row along the base: at
-    its ``price``, None where η was not reached, with the span of η its regular free rocking covers)."""
-    rel = abs(fr.eta_mean - target) / target
-    lo_eta, hi_eta = min(f.eta_mean for _, f in good), max(f.eta_mean for _, f in good)
-    span = (f"{points} spheres along the base sharing the corners' stiffness; regular free "
-            f"rocking spans η = {lo_eta:.4f}…{hi_eta:.4f} over restitution coefficients "
-            f"{min(CALIBRATION_RESTITUTIONS_DIST):g}–{max(CALIBRATION_RESTITUTIONS_DIST):g}")
-    if points > 2 and price is not None and not price["counts"]:
-        why = ("its static uplift threshold is not within 2 % of g·tanα" if not price["uplift"].get("within")
-               else f"{price['anti_slip']['n_slip']} of the {price['anti_slip']['cells']} anti-slip cells slip")
-        return (f"not reached at an acceptable price: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} "
-                f"({100 * rel:.2f} % off target {target:.4f}) with impact model 2 and restitution "
-                f"coefficient {e:.3g}, {span}, but {why}."), False
-    if points > 2 and not reached and not irregular:
-        return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
-                f"({100 * rel:.1f} % off target {target:.4f}) with {span}; smaller coefficients make the "
-                "rocking irregular (impact-to-impact spread above 2 %), larger ones let the landing "
-                "corner hop (jumps)."), False
-    if irregular:
-        return (f"not reached: no contact restitution gave regular free rocking (spread < 2 %, no jump); "
-                f"the closest η is {fr.eta_mean:.4f} ± {fr.eta_std:.4f} (target {target:.4f}). The block "
-                f"slides or bounces in free rocking with these settings (friction {friction:g})."), False
-    if reached:
-        return (f"reached: η = {fr.eta_mean:.4f} ± {fr.eta_std:.4f} for target {target:.4f} "
-                f"({100 * rel:.2f} % off) with Exudyn's impact model 2 and restitution coefficient {e:.3g}."
-                + (f" Contact: {span}." if points > 2 else "")), True
-    return (f"not reached: the closest regular free rocking gives η = {fr.eta_mean:.4f} "
-            f"({100 * rel:.1f} % off target {target:.4f}); regular free rocking spans only η = "
-            f"{lo_eta:.4f}…{hi_eta:.4f}. A nearly plastic impact of the landing corner is Housner's "
-            "own assumption, so corner contacts give about η_H; a more elastic contact makes the "
-            "corner bounce (irregular η, jumps) instead of raising η, and η_M needs the impact "
-            "impulse inside the base, where corner contacts cannot put it."), False
+                      diagnostics=diag, t_s=t, corner_x_m=edges[..., 0] - table_x[:, None],
+                      corner_z_m=spheres[..., 1] - r, error=error)
