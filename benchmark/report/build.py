@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engines.reference_adapter import PLANTED, is_planted
+from ...engines.adapters.reference import PLANTED, is_planted
 from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from ...reference_solver.model import a_ratio_to_amplitude
 from ...reference_solver.pulses import make_pulse
