@@ -38,7 +38,7 @@ def record_for_report(cases, run_dirs, out_dir, *, against=None, log=None) -> No
     entries, _ = load_runs(run_dirs)
     if not entries:
         return   # no map: the report refuses the run directories and says why
-    cands = entries if against else [e for e in entries if not e.is_reference]
+    cands = [e for e in (entries if against else [e for e in entries if not e.is_reference]) if not e.is_planted]
     folder = trajectory_folder(out_dir)
     for d in run_dirs:
         for case in cases:
@@ -103,11 +103,12 @@ def record_trajectories(cases, cands: list, labels: dict, folder, log) -> None:
 
 def _runs(case, cands: list) -> tuple[list, list[str]]:
     """``([(name, (engine, settings) or None, Restitution)], notes)``: the reference at each k of the case
-    and at each restitution of an engine variant, then each variant."""
+    and at each restitution of an engine variant, then each variant that has a map of the case's block
+    (a held-out variant mapped on other blocks draws no curve here)."""
     notes = []
     runs = [("reference", None, Restitution("modified", k=k)) for k in case.reference_k]
     variants = {}
-    for e in cands:
+    for e in (e for e in cands if e.block == case.block):   # the variants the maps compare on the case's block
         settings = dict(e.settings or {})   # the map's settings given, under today's names
         variants.setdefault((e.variant, e.restitution), (e.engine, settings))
     for (variant, rest_label), (engine, settings) in sorted(variants.items()):

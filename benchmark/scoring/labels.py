@@ -21,7 +21,7 @@ from ..engine_info.versions import version_of
 #: Display names of the engines (registry name → name).
 ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet": "PyBullet", "exudyn": "Exudyn",
                 "mujoco_warp": "MuJoCo Warp", "drake": "Drake", "dart": "DART", "newton": "Newton", "genesis": "Genesis",
-                "physx": "PhysX"}
+                "physx": "PhysX 5 via SAPIEN"}   # the version shown is SAPIEN's (PhysX has none of its own in the wheel)
 
 #: Engine settings that say nothing a reader needs when they have their default value.
 _QUIET = {"settings"}

@@ -174,6 +174,11 @@ class MapEntry:
         return self.engine == "reference" and not is_planted(self.engine, self.settings)
 
     @property
+    def is_planted(self) -> bool:
+        """A planted variant of the reference solver: the suite's yardstick of power, not an engine."""
+        return is_planted(self.engine, self.settings)
+
+    @property
     def resolved_settings(self) -> dict:
         """The concrete settings the map ran with (run.json's ``engine.resolved_settings``), as recorded."""
         resolved = (self.run.get("engine") or {}).get("resolved_settings") or {}
