@@ -66,9 +66,17 @@ def rows_of(verdict: dict, spurious: dict) -> dict:
             rank, value, ci = "held out", r["held_out"]["value"], r["held_out"]["ci95"]
         else:
             value, ci = r.get("value"), r.get("ci95")
+        if r.get("group") == "planted":
+            rank = "planted"
         name = canonical_variant(r["variant"])
-        out[name] = (r["label"], value, ci, rank, spurious.get(name))
+        key = _held_out_key(r) or name   # a held-out variant pairs with the last baseline's, whatever block it names
+        out[key] = (r["label"], value, ci, rank, spurious.get(name))
     return out
+
+
+def _held_out_key(r: dict) -> str | None:
+    """``ENGINE, held out`` for a held-out variant (calibrated on another block by any rule), else None."""
+    return f"{r['label'].split(',')[0].split(' ')[0]}, held out" if r.get("held_out") else None
 
 
 def _fmt(v, ci) -> str:
@@ -82,7 +90,7 @@ def table(before: dict, after: dict) -> str:
              "|---|---|---|---|---|---|---|"]
     for k in sorted(set(before) | set(after), key=lambda k: (after.get(k) or before.get(k))[0]):
         b, a = before.get(k), after.get(k)
-        label = (a or b)[0]
+        label = (a or b)[0] if not k.endswith(", held out") else f"{(a or b)[0].split(',')[0]}, held out"
         cells = [_fmt(b[1], b[2]) if b else "not run", str(b[3]) if b else "", str(b[4]) if b else "",
                  _fmt(a[1], a[2]) if a else "not run", str(a[3]) if a else "", str(a[4]) if a else ""]
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
