@@ -75,19 +75,22 @@ from ...reference_solver.pulses import make_pulse
 from ..blocks.cases import parse_case
 from ..blocks.experiments import load_outcomes
 from ..blocks.presets import get_preset
+from ..engine_info.devices import device_of
 from ..engine_info.health import EngineHealth
 from ..maps.executors import cap_jobs, cpu_count
 from ..maps.grid import MapSpec, parse_range
 from ..maps.sweep import run_map
 from ..report.build import build_report
 from ..scoring.score_runs import score_dirs
+from ..scoring.speed_runs import SPEED_FILE
+from ..store.loading import SPEED_STAGE
 from ..scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
 from ..store.atomic import check_output_dir
 from ..store.files import write_json
 from ..trajectories import record_for_report
 from .lanes import ReferenceThread, run_lanes
 from .model import Suite, skipped_reference_note
-from .plan import check_suite, engine_names, own_eta_jobs, plan, resume_renamed
+from .plan import check_suite, engine_names, own_eta_jobs, plan, resume_renamed, speed_engines, speed_record
 from .preparation import Preparation, cost_rank
 from .progress import SuiteConsole, say_device_notes
 
@@ -171,7 +174,8 @@ class _SuiteRun:
         explicit = engines is not None or suite.engines.names != "available"
         engines, self.notes = engine_names(suite, engines)
         self.engines, more = check_suite(suite, engines, explicit)
-        self.notes += more + [n for n in (skipped_reference_note(suite),) if n]
+        self.speed_engines, speed_notes = speed_engines(suite, self.engines)
+        self.notes += more + speed_notes + [n for n in (skipped_reference_note(suite),) if n]
         self.todo = plan(suite, self.engines)
         self.workers = max(1, jobs or cpu_count())
         # every spec is built (and so checked) before the first map runs (the own-η reference maps, which
@@ -182,7 +186,11 @@ class _SuiteRun:
         self.records: dict = {}
         # calibrations (and the engines' own η) once, on every core, before the engine maps need them;
         # the helpers start now and work while this process computes the reference maps
-        self.prep = Preparation(suite, self.engines, out, log, workers=self.workers) if self.engines else None
+        self.prep = Preparation(suite, self.engines, out, log, workers=self.workers,
+                                speed_engines=self.speed_engines) if self.engines else None
+        if suite.speed is not None:
+            write_json(out / SPEED_FILE, speed_record(suite, self.speed_engines, self.notes))
+        self.stages: dict = {}   # map index → the stage its run.json records (the speed stage's maps)
         # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
         self.own_planned = self.prep.own_eta_slots() * len(suite.cases.pulses) if self.prep is not None else 0
         self.console = SuiteConsole(len(self.todo) + self.own_planned, log)
@@ -206,7 +214,8 @@ class _SuiteRun:
         res = self.health.guard(job.engine, lambda: run_map(
             spec, d, jobs=self.jobs, serial=job.engine == "reference",
             adaptive=suite.grid.adaptive and engine_map, coarse_stride=suite.grid.coarse_stride,
-            locate_depth=suite.grid.locate_depth, cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex))
+            locate_depth=suite.grid.locate_depth, cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex,
+            stage=self.stage_of(job)))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
             self.unfinished.add(d)
@@ -214,6 +223,15 @@ class _SuiteRun:
         self.records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                            "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
         self.console.finished(spec.label(), d, self.records[k]["wall_s"])
+
+    def stage_of(self, job) -> dict | None:
+        """What a speed-stage map records of its stage (run.json's ``options.stage``): the stage's name, the
+        time-step rule's choice for its engine and block (prepared before the maps), and where its engine
+        runs (:func:`~rockbench.benchmark.engine_info.devices.device_of`); None for any other map."""
+        if job.stage != SPEED_STAGE:
+            return None
+        rules = self.prep.rules if self.prep is not None else {}
+        return {"name": SPEED_STAGE, "step_rule": rules.get((job.engine, job.block)), "device": device_of(job.engine)}
 
     def compute_maps(self, report: bool) -> None:
         """Every map: the reference maps on one thread, the engine maps on lanes.

@@ -13,8 +13,8 @@ from pathlib import Path
 from ....reference_solver.errors import ConfigError
 from ...blocks.experiments import load_outcomes
 from ...store.atomic import check_output_dir
-from ...suites.model import load_suite, skipped_reference_note, suite_path
-from ...suites.plan import check_suite, engine_names, parse_engines, plan
+from ...suites.model import grid_cells, load_suite, skipped_reference_note, suite_path
+from ...suites.plan import check_suite, engine_names, parse_engines, plan, speed_engines, speed_plan_lines
 from ...suites.runner import run_suite
 from ..options import add_figure_format_option, figure_formats_from_args, jobs_from_args
 
@@ -37,7 +37,8 @@ def register(sub) -> None:
                    "block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
                    "outcome T, R or O")
     p.add_argument("--no-report", action="store_true", help="maps and score.json only")
-    p.add_argument("--plan", action="store_true", help="list the maps the suite would compute and exit")
+    p.add_argument("--plan", action="store_true", help="list the maps the suite would compute (and on stderr what its "
+                   "speed stage costs per engine) and exit")
     add_figure_format_option(p, what="report's pictures in DIR/img/ (index.html embeds the PNG, always written)")
     p.set_defaults(func=run)
 
@@ -62,7 +63,9 @@ def run(args) -> int:
     if args.plan:
         engines, notes = engine_names(suite, only)
         engines, more = check_suite(suite, engines, only is not None or suite.engines.names != "available")
-        notes += more + [n for n in (skipped_reference_note(suite),) if n]
+        fast, speed_notes = speed_engines(suite, engines)
+        notes += more + speed_notes + [n for n in (skipped_reference_note(suite),) if n]
+        notes += speed_plan_lines(suite, fast, grid_cells(suite))
         for n in notes:
             print(f"rockbench: {n}", file=sys.stderr)
         for j in plan(suite, engines):
