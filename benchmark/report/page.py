@@ -11,7 +11,7 @@ from importlib import resources
 
 from ..scoring.labels import case_title, for_html
 from .plots.style import DOUBLE_COLUMN_IN
-from .speed_tables import NO_STAGE, matched_table, stage_words
+from ..scoring.speed_words import NO_STAGE, matched_table, stage_words
 from .sections import (HIGHLIGHTS, INTRO, PRICE_WORDS, READ_GRAPHS, calib_table, exp_table, md_table,
                        metric_words, pairs_table, price_table, scenario_tables, settings_tables, speed_table,
                        short_verdict_lines, summary_rows, verdict_sentences)

@@ -43,6 +43,13 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     eta_reductions = [0.0, 0.005, 0.01, 0.02]   # one variant per δ on the in-sample blocks, mapped and
                                  # scored as engine maps (engine reference, planted_eta_factor = 1 − δ)
 
+    [speed]                      # the accuracy–cost stage (docs/speed.md): every engine calibrated at each step,
+    steps_s = [0.001, 0.0005, 0.0002, 0.0001]   # mapped at it on one block per slenderness and one pulse
+    blocks = ["B2M", "B3M", "B6M", "B8M"]        # (default: the first of each slenderness of cases.blocks)
+    pulses = ["sine"]            # (default: the first of cases.pulses); timed per simulated second, scored
+    matched_distance = 0.037     # into score.json's "speed", never the verdict; (b) of matched accuracy
+                                 # (with a [speed] table, engines.variants may be [] : the stage alone)
+
     [run]
     cell_timeout_s = 120
 
@@ -57,7 +64,8 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     general_range_h_over_b = [1.5, 6.0]      # claims about problems in general, when the suite spans it
 
 Layout of the output directory: ``OUT/maps/<engine variant>/<block>-<pulse>-<restitution>/`` (one
-``rockbench map`` run directory each, resumable), ``OUT/score.json``, ``OUT/index.html``,
+``rockbench map`` run directory each, resumable; the speed stage's under ``OUT/maps/speed/``, with
+``OUT/speed.json``), ``OUT/score.json``, ``OUT/index.html``,
 ``OUT/report.md``, ``OUT/img/``, ``OUT/trajectories/`` (the θ(t) curves of the report's cases, which the
 report draws), ``OUT/suite.json`` (the suite as run, and the timings).
 """
@@ -83,6 +91,7 @@ from ..maps.sweep import run_map
 from ..report.build import build_report
 from ..scoring.score_runs import score_dirs
 from ..scoring.speed_runs import SPEED_FILE
+from ..scoring.speed_words import speed_block
 from ..store.loading import SPEED_STAGE
 from ..scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
 from ..store.atomic import check_output_dir
@@ -116,7 +125,9 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
     if result["score"] is not None:
-        result["summary"] = "\n".join([verdict_block(result["score"]), SUMMARY_TITLE, summary_table(result["score"])])
+        doc = result["score"]
+        parts = [verdict_block(doc), SUMMARY_TITLE, summary_table(doc)] if doc["pairs"] else []
+        result["summary"] = "\n".join(parts + [speed_block(doc.get("speed"))]).strip()
 
 
 def _warm_report() -> None:

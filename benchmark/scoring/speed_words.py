@@ -1,11 +1,12 @@
-"""The report's words and table of the speed stage (score.json's ``speed``,
-:mod:`rockbench.benchmark.scoring.speed`): what the curves rest on, and each engine's cost at matched
-accuracy, the GPU rows included (timed on a CUDA device, or saying why not).
+"""The speed stage in words and a table (score.json's ``speed``, :mod:`.speed`), for the report and the
+console: what the curves rest on, and each engine's cost at matched accuracy, the GPU rows included
+(timed on a CUDA device, or saying why not).
 """
 
 from __future__ import annotations
 
-from ..scoring.labels import engine_name
+from .labels import engine_name
+from .tables import render
 
 #: The section's words where a run has no speed stage.
 NO_STAGE = ("No accuracy–cost curves: this run has no speed stage (`rockbench run speed` runs it alone, the full "
@@ -82,3 +83,15 @@ def stage_words(speed: dict) -> str:
             f"of the engine's finest step's; (b) the cheapest within the declared {_g(dec.get('matched_distance'))} "
             f"of the reference; \"not reached\" where none is. These maps are not in the verdict"
             + (f" (whose own detectable difference between calibrated variants is {vm:.3f})." if vm else "."))
+
+
+#: The title of the matched-accuracy table on the console.
+MATCHED_TITLE = "Speed: cost at matched accuracy (CPU seconds per simulated second)"
+
+
+def speed_block(speed: dict | None, markdown: bool = False) -> str:
+    """The matched-accuracy table under its title (``rockbench run`` and ``score``); "" without a stage."""
+    if not speed:
+        return ""
+    title = f"### {MATCHED_TITLE}\n\n" if markdown else MATCHED_TITLE + "\n"
+    return title + render(*matched_table(speed), markdown)
