@@ -13,8 +13,7 @@ import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from ..engines.base import SETTINGS_MODES, Case
-from ..engines.renamed import canonical_settings
+from ..engines.contract import SETTINGS_MODES, Case
 from ..reference_solver.errors import ConfigError, check_positive
 from ..reference_solver.model import Block, G, a_ratio_to_amplitude
 from ..reference_solver.pulses import Pulse, RecordPulse, make_pulse
@@ -149,7 +148,7 @@ class CaseRequest:
         """Engine settings given (only those the user set)."""
         s = {}
         if self.settings is not None:
-            s["settings"] = canonical_settings(None, {"settings": self.settings}, warn=True)["settings"]
+            s["settings"] = self.settings
             if s["settings"] not in SETTINGS_MODES:
                 raise ConfigError(f"--settings must be {' or '.join(SETTINGS_MODES)}, got {self.settings!r}.")
         if self.drive is not None:
@@ -163,7 +162,7 @@ class CaseRequest:
             if not eq or not key:
                 raise ConfigError(f"--set takes KEY=VALUE, got {item!r}.")
             s[key.strip()] = _auto(val.strip())
-        return canonical_settings(self.engine, s, warn=True)
+        return s
 
     def case(self) -> tuple[Case, object]:
         """A full single case (for ``simulate``) and the preset (or None)."""

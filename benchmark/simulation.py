@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engines.base import CellResult
+from ..engines.contract import CellResult
 from ..reference_solver.errors import RockbenchError
 from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
 from .engine_info.adapters import build_adapter
@@ -102,7 +102,7 @@ def simulate_case(engine: str, settings: dict, case, *, history: Path | None = N
     given; the JSON object of ``rockbench simulate`` (:func:`simulation_record`, plus ``history``,
     ``plot``, ``plot_span_s`` and ``plot_note`` where written). ``outcome`` is None when it failed."""
     adapter = build_adapter(engine, **settings)
-    dt = adapter.dt_for(case)       # a bad time step is refused before anything runs
+    dt = adapter.step_for(case.block, case.eta, case.pulse, case.dt_s, restitution=case.restitution)  # the one resolver: a bad step refused first
     tr, res = run_case(adapter, case)
     out = simulation_record(adapter, case, res, dt)
     if tr is not None and history is not None:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engines.base import Case
+from ..engines.contract import Case
 from ..reference_solver.errors import ConfigError
 from ..reference_solver.model import a_ratio_to_amplitude
 from ..reference_solver.pulses import make_pulse

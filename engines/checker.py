@@ -2,8 +2,9 @@
 
 Each check is a public function ``check_<name>(adapter, block)`` that returns what it saw or raises
 :class:`CheckFailed` (testable alone); :data:`CHECKS` lists them and ``check_adapter(adapter_or_name)``
-runs them all: a dozen short simulations and checks what the contract
-(:mod:`rockbench.engines.base`) promises: the shape and units of the trajectory, the sign
+runs them all: first that the adapter is written to this rockbench's engine contract and implements
+every hook, then a dozen short simulations that check what the contract (:mod:`rockbench.engines.contract`)
+promises: the shape and units of the trajectory, the sign
 convention, mirror symmetry, no uplift below the threshold ``g·tanα``, determinism, batches equal
 to single runs, a clean :class:`~rockbench.reference_solver.errors.ConfigError` for a bad case or
 setting, an overturn where any faithful engine must overturn, and measurements the one validity
@@ -34,9 +35,9 @@ from ..reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_ome
 from ..reference_solver.pulses import make_pulse
 from ..reference_solver.restitution import Restitution
 from ..reference_solver.validity import Measurement
-from .base import Case, EngineAdapter
-from .contact import MODES, ContactEngineAdapter
-from .registry import get_adapter
+from .contact import MODES, ContactEngine
+from .contract import Case, EngineAdapter
+from .registry import contract_refusal, get_adapter
 
 #: The block the checks use by default: B6M of Table 1 (h/b = 4.5).
 DEFAULT_BLOCK = Block(0.045, 0.2025, mass_kg=1.0896, name="B6M")
@@ -115,6 +116,15 @@ def _rocking(block: Block) -> Case:
     return _case(block, "sine", 4.0, 1.6)
 
 
+def check_contract(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+    """The adapter is written to this rockbench's engine contract (the ``CONTRACT_VERSION`` it
+    declares; :func:`~rockbench.engines.registry.contract_refusal`)."""
+    refusal = contract_refusal(type(adapter))
+    if refusal:
+        raise CheckFailed(refusal)
+    return f"written to engine contract {type(adapter).CONTRACT_VERSION}"
+
+
 def check_hooks(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
     """Every hook the base class calls is implemented (:mod:`rockbench.engines.hooks`); one line per
     missing hook saying what to implement."""
@@ -166,9 +176,10 @@ def check_trajectory_shape(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK)
     if not np.all(np.diff(t) > 0):
         raise CheckFailed("sample times must increase strictly")
     T = rocking.pulse.duration_s
-    if not math.isclose(tr.t_pulse_end_s, T, rel_tol=0.01, abs_tol=2 * ad.dt_for(rocking)):
+    dt = ad.step_for(b, rocking.eta, rocking.pulse)
+    if not math.isclose(tr.t_pulse_end_s, T, rel_tol=0.01, abs_tol=2 * dt):
         raise CheckFailed(f"t_pulse_end_s = {tr.t_pulse_end_s:g} but the pulse lasts {T:g} s (seconds expected)")
-    if t[-1] < T - 2 * ad.dt_for(rocking):
+    if t[-1] < T - 2 * dt:
         raise CheckFailed(f"the samples end at {t[-1]:g} s, before the pulse does ({T:g} s) (contract item 3)")
     bad = sorted(set(tr.flags) - {"diverged"})
     if bad:
@@ -286,7 +297,8 @@ def check_bad_case_config_error(adapter: EngineAdapter, block: Block = DEFAULT_B
             continue
         except Exception as e:  # noqa: BLE001
             raise CheckFailed(f"dt_s = {dt:g} s raised {type(e).__name__}, not ConfigError: {e}") from None
-        raise CheckFailed(f"dt_s = {dt:g} s was accepted; a bad case must raise ConfigError (use self.dt_for(case))")
+        raise CheckFailed(f"dt_s = {dt:g} s was accepted; a bad case must raise ConfigError (the step is the case's "
+                          "dt_s, which run_many poses with step_for)")
     return "a negative or too coarse time step raises ConfigError"
 
 
@@ -334,7 +346,7 @@ def _check_mode(adapter: EngineAdapter, block: Block, key: str) -> str:
     supports besides its own, at its own step: it lifts on the contract's side, the one validity rule
     finds it valid, and its outcome and max |θ| (within 10 %) are those of the adapter's own value."""
     own = adapter.settings.get(key)
-    if own is None or not isinstance(adapter, ContactEngineAdapter):
+    if own is None or not isinstance(adapter, ContactEngine):
         raise CheckSkipped(f"no {key!r} setting (not a contact engine)")
     supported = adapter.supported_modes(key)
     others = [v for v in supported if v != own]
@@ -342,7 +354,7 @@ def _check_mode(adapter: EngineAdapter, block: Block, key: str) -> str:
         left = ", ".join(f"{key} = {str(v).lower()}" for v in MODES[key] if v not in supported)
         raise CheckSkipped(f"the adapter supports {key} = {str(own).lower()} only (SUPPORTED_MODES): {left} not checked")
     rocking = _rocking(block)
-    case = replace(rocking, dt_s=adapter.dt_for(rocking))   # the step of the adapter's own runs
+    case = replace(rocking, dt_s=adapter.step_for(block, rocking.eta, rocking.pulse))   # the step of its own runs
     r0, seen = adapter.run(case), []
     for v in others:
         tr = type(adapter)(**{**adapter.settings, key: v}).simulate(case)
@@ -374,6 +386,7 @@ def check_planar(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
 
 #: every check, by the name the report gives it, in the order check_adapter runs them
 CHECKS: dict[str, Callable[[EngineAdapter, Block], str]] = {
+    "contract": check_contract,
     "hooks": check_hooks,
     "describe": check_describe,
     "unknown-setting": check_unknown_setting,
@@ -422,8 +435,9 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
     rep = CheckReport(ad.name or type(ad).__name__, version)
     for name, check in CHECKS.items():
         rep.checks.append(run_check(name, check, ad, b))
-        if name == "hooks" and not rep.checks[-1].passed:
-            rep.not_run = [n for n in CHECKS if n != "hooks"]   # they would only fail on the missing hooks
+        if name in ("contract", "hooks") and not rep.checks[-1].passed:
+            # the others would only fail on the contract or the missing hooks
+            rep.not_run = list(CHECKS)[list(CHECKS).index(name) + 1:]
             break
     return rep
 

@@ -1,133 +1,129 @@
-"""What the contact engines (MuJoCo, PyBullet, Exudyn, ...) share: :class:`ContactEngineAdapter`.
+"""The base of every contact engine (MuJoCo, PyBullet, Exudyn, ...): :class:`ContactEngine`.
 
-A contact engine simulates the block touching the table through the engine's own contact model,
-so it needs the same few things whatever the engine:
+A contact engine simulates the block touching the table through the engine's own contact model. Its
+adapter implements four batch-shaped methods and declares what it ships and what a calibration may
+change; everything else is this base's, and the same for every engine:
 
-* **Shared settings, one naming scheme** (units in names): ``settings`` (``calibrated``: contact
-  parameters searched so that free rocking reaches the case's η; ``shipped``: the engine as
-  shipped), ``drive`` (``inertial`` or ``table``), ``planar``, ``friction`` [-], ``tail_s`` (the
-  longest simulated time after the pulse), ``min_tail_s`` (the shortest) and, for engines that
-  step in segments between stop checks, ``segment_s``; ``calibrate_on`` (another block, of the same
-  slenderness or another, that the calibration runs on: the held-out check, :mod:`rockbench.engines.held_out`).
-  They are validated here, once.
-* **Old names** of settings and of their values are accepted for one release and mapped to the new
-  ones by :mod:`rockbench.engines.renamed` (``--set``, suite TOMLs, stored runs and cached calibration
-  records all go through its :func:`~rockbench.engines.renamed.canonical_settings`).
-* **One time-step rule**: :meth:`ContactEngineAdapter.time_step_s` (not to be confused with
-  :meth:`~rockbench.reference_solver.pulses.Pulse.check_dt`, which checks a step against a pulse).
-* **One ``resolve()`` flow**: explicit contact settings, else the engine's defaults, else the
-  calibration to the case's η (cached); an adapter only says which contact settings are explicit
-  (:meth:`~ContactEngineAdapter.explicit_contact`) and builds its concrete settings
-  (:meth:`~ContactEngineAdapter._resolved_settings`).
-* **One overturn-is-certain early stop**: :func:`~rockbench.reference_solver.classify.overturn_certain`,
-  the classifier's own rule, re-exported here (the whole end-of-run rule is
-  :func:`~rockbench.reference_solver.classify.run_end`).
-* **The body's energy**: :func:`body_energy_j_kg`.
-
-The stepping loop, the read-out, the free-rocking test and the calibration frame are the
-skeleton's (:class:`~rockbench.engines.skeleton.SteppedContactAdapter`); the one way η is read from
-free rocking is in :mod:`rockbench.engines.free_rocking`, the one calibration pick in
-:mod:`rockbench.engines.pick`.
+* **the four methods**: ``build(block, s, dt_s)`` the scene for a block and the resolved settings
+  ``s``; ``start(scene, block, s, dt_s, pulses, theta0_rad, n_steps)`` one world per pulse (None: free
+  rocking), every block at rest at ``theta0_rad`` on its lower corner (:func:`~rockbench.engines.motion.pivot_pose`),
+  the rows of the samples so far ``(W, n, k)``; ``advance(scene, n_from, n_to)`` every world from step
+  ``n_from`` to ``n_to`` under its pulse, the new rows ``(W, n, k)``; ``read(scene, block, s, rows, t_s,
+  pulse)`` one world's :class:`~rockbench.engines.motion.Motion` from its rows (called on each
+  segment's rows and on the whole run's: a function of the rows alone);
+* **the declarations**: ``own_dt_s`` (the engine's own step), ``fixed_dt_s`` (the benchmark's step
+  where no rule chooses one), ``SETTINGS`` (the engine's own settings; the shared ones are added),
+  ``SHIPPED`` (the shipped contact, ``{setting: value}``, None for the engine's own value unstated),
+  ``MODE_DEFAULTS`` (settings the benchmark sets by mode: ``{setting: (as shipped, calibrated)}``),
+  ``KNOBS`` (:class:`~rockbench.engines.calibration.knobs.Knob`: name, unit, values), and where the
+  engine builds a row of contact points along the base, ``CONTACT_ROWS`` and ``ROW_KNOBS``;
+* **settings**: the shared settings checked once, and one resolution (:meth:`ContactEngine.settings_with`);
+* **the time step**: one resolver (:meth:`ContactEngine.step_for`), the time-step rule's step
+  calibrated (:mod:`rockbench.engines.calibration.step_rule`);
+* **the run**: one stepping loop and one end of a run (:mod:`rockbench.engines.loop`), cases batched
+  up to ``max_worlds`` worlds, a run the engine halts retried as ``RETRIES`` says;
+* **free rocking**: one test (:meth:`ContactEngine.measure_restitution`), η read by the one reader;
+* **the calibration**: one routine (:mod:`rockbench.engines.calibration.routine`): the knobs searched
+  (or the engine's own ``candidates``), the one pick, the cache; a row along the base at a price.
 """
 
 from __future__ import annotations
 
-import dataclasses
+import json
 import math
 from typing import Any, ClassVar, Mapping
 
+import numpy as np
+
 from ..reference_solver.classify import overturn_certain
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import G, Block
+from ..reference_solver.errors import ConfigError, EngineError, check_positive
+from ..reference_solver.model import Block
 from ..reference_solver.restitution import Restitution, housner_eta
 from ..reference_solver.rules import RULES_VERSION
-from . import calibration, held_out, step_rule
-from .base import SETTINGS_MODES, CalibrationResult, EngineAdapter
-from .hooks import required
-from .renamed import RENAMED_SETTINGS, RENAMED_VALUES, canonical_changes, canonical_settings, warn_renamed
+from .calibration import cache, held_out, knobs, routine, step_rule
+from .calibration import price as pricing
+from .calibration.free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, contact_figures, first_quarter_s
+from .contract import CONTRACT_VERSION, SETTINGS_MODES, CalibrationResult, EngineAdapter, RestitutionMeasurement
+from .hooks import hook_line, required
+from .loop import run_worlds
 
-__all__ = ["ContactEngineAdapter", "RENAMED_SETTINGS", "RENAMED_VALUES", "canonical_settings", "SETTINGS_MODES",
-           "DRIVES", "body_energy_j_kg", "overturn_certain", "CONTACT_LAYOUTS", "POINTS_TRIED", "MAX_CONTACT_POINTS",
-           "first_reached", "PLANAR_MODES", "MODES"]
+__all__ = ["ContactEngine", "SHARED_SETTINGS", "DRIVES", "PLANAR_MODES", "MODES", "CONTACT_LAYOUTS",
+           "POINTS_TRIED", "MAX_CONTACT_POINTS", "as_written"]
+
+#: The settings every contact engine has, with typical defaults (an adapter may change a default in its
+#: own ``SETTINGS``): the contact ``calibrated`` to the case's η or the engine as ``shipped``; the drive;
+#: the block kept in the x–z plane; the block–table friction [-]; the longest and shortest simulated
+#: time after the pulse [s]; the block the calibration is made on (the held-out check)
+SHARED_SETTINGS: Mapping[str, Any] = {"settings": "calibrated", "drive": "inertial", "planar": True, "friction": 10.0,
+                                      "tail_s": 3.0, "min_tail_s": 0.5, "calibrate_on": None}
 
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")
-
 #: ``planar`` values: the block kept in the x–z plane, or a free 3-D body
 PLANAR_MODES = (True, False)
-
-#: the settings that choose how the problem is posed, and their values (an adapter may run fewer:
-#: :attr:`ContactEngineAdapter.SUPPORTED_MODES`)
+#: the settings that choose how the problem is posed, and their values
 MODES = {"drive": DRIVES, "planar": PLANAR_MODES}
-
-#: ``contact`` values: the corners alone, a row of points along the base, or the corners unless the
-#: target η is above Housner's (then the row); see docs/contact.md
+#: ``contact`` values of an engine with a row along the base: the corners alone, a row of points along
+#: the base, or the corners unless the target η is above Housner's (then the row); docs/contact.md
 CONTACT_LAYOUTS = ("auto", "corners", "distributed")
-
-#: Points of a contact along the base that a calibration tries in turn when ``contact_points`` is not
-#: set (the first is also the default row)
+#: Points of a row along the base a calibration tries in turn where ``contact_points`` is not set (the
+#: first is also the default row)
 POINTS_TRIED = (9, 5, 17)
-
-#: The most points a contact along the base may have
+#: The most points a row along the base may have
 MAX_CONTACT_POINTS = 101
 
-_TRUE, _FALSE = ("true", "1"), ("false", "0")
-
-#: What to do about a contact engine without a calibration (the ``settings`` default is ``calibrated``)
-CALIBRATION_ADVICE = ("the contact calibrated to the target η: declare CALIBRATION_KNOBS (the skeleton then "
-                      "searches them) or implement this hook; or run the engine as shipped: --set settings=shipped, "
-                      "or \"settings\": \"shipped\" in SETTINGS")
+#: What to do about a contact engine without a calibration (its ``settings`` default is ``calibrated``)
+CALIBRATION_ADVICE = ("declare KNOBS (the calibration then searches them) or implement candidates; or run the "
+                      "engine as shipped: --set settings=shipped, or \"settings\": \"shipped\" in SETTINGS")
 
 
-class ContactEngineAdapter(EngineAdapter):
-    """Base of the adapters of engines with a contact model (see the module docstring).
+class ContactEngine(EngineAdapter):
+    """Base of the adapters of engines with a contact model (module docstring)."""
 
-    A subclass sets :attr:`SETTINGS` to :attr:`SHARED_SETTINGS` (with its own defaults) plus its
-    engine's settings, and implements:
-
-    * :meth:`_validate_engine_settings` (its own settings; the shared ones are checked already),
-    * :meth:`explicit_contact` (whether the user gave contact settings that replace calibration),
-    * :meth:`_resolved_settings` (the concrete settings, given a calibration or None) and, where a
-      setting is filled in by mode, :meth:`_base_settings` (the settings before any calibration),
-    * ``calibrate`` and ``measure_restitution``, and ``_simulate`` (contract items 3, 8).
-    """
-
-    #: the settings every contact engine has, with typical defaults (an adapter may change a default)
-    SHARED_SETTINGS: ClassVar[Mapping[str, Any]] = {
-        "settings": "calibrated",
-        "drive": "inertial",
-        "planar": True,
-        "friction": 10.0,
-        "tail_s": 3.0,
-        "min_tail_s": 0.5,
-        "calibrate_on": None,
-    }
-
-    #: version of the calibration (free-rocking test and search); part of the cache key
-    CALIBRATION_VERSION: ClassVar[int] = 1
-    #: version of the distributed contact's calibration; part of its cache key
-    CALIBRATION_VERSION_DIST: ClassVar[int] = 1
-    #: what the engine's shipped settings do in this benchmark, measured, in one sentence that names
-    #: the setting (a stand-in where the engine ships none, a setting that fails the problem); run.json
-    #: records it with the resolved settings as shipped, and the verdict's failure reason quotes it
-    SHIPPED_NOTE: ClassVar[str | None] = None
-    #: whether the adapter offers a row of contact points along the base (``contact`` layouts)
-    distributed_contact: ClassVar[bool] = False
-    #: what a point of the distributed contact is, in calibration notes
-    POINT_UNIT: ClassVar[str] = "points"
+    #: the benchmark's step where no rule chooses one (a contact given by hand, a row along the base,
+    #: as shipped where the engine has no step of its own) [s]
+    fixed_dt_s: ClassVar[float] = 5e-4
+    #: the engine's shipped contact: ``{setting: value}``; each is a setting (default None, "not given":
+    #: given, it replaces the calibration), its value filled in from here where nothing else sets it
+    #: (None: the engine's own, unstated)
+    SHIPPED: ClassVar[Mapping[str, Any]] = {}
+    #: settings the benchmark sets by mode where not given: ``{setting: (as shipped, calibrated)}``
+    MODE_DEFAULTS: ClassVar[Mapping[str, tuple]] = {}
+    #: the calibration's knobs (:class:`~rockbench.engines.calibration.knobs.Knob`) at the corners
+    KNOBS: ClassVar[tuple] = ()
+    #: what a point of a row along the base is, in notes (``"points"``, ``"spheres"``): the engine builds
+    #: such a row (the settings ``contact`` and ``contact_points``); None: the corners only
+    CONTACT_ROWS: ClassVar[str | None] = None
+    #: the calibration's knobs of a row along the base (or the engine's own ``candidates``)
+    ROW_KNOBS: ClassVar[tuple] = ()
+    #: the shipped contact measured first and kept within this fraction of the target [-] (None: not)
+    START_KEEP_RTOL: ClassVar[float | None] = None
+    #: what to try, in turn, when the engine halts a run before the overturn is certain:
+    #: ``(step factor, settings added)`` each; none left, the case fails with the engine's reason
+    RETRIES: ClassVar[tuple] = ()
+    #: worlds an engine steps together (1: one case at a time); more: cases of one block, settings and
+    #: step run in batches (``batching = "native"``)
+    max_worlds: ClassVar[int] = 1
     #: the ``drive`` and ``planar`` values the adapter runs, e.g. ``{"drive": ("inertial",)}`` (a key left
-    #: out: every value of :data:`MODES`); another value is a ConfigError at construction, and
-    #: check-adapter skips the check of a mode left out
+    #: out: every value of :data:`MODES`); another is a ConfigError at construction
     SUPPORTED_MODES: ClassVar[Mapping[str, tuple]] = {}
+    #: what the engine's shipped settings do in this benchmark, measured, in one sentence (run.json records
+    #: it as shipped, the verdict's failure reason quotes it)
+    SHIPPED_NOTE: ClassVar[str | None] = None
+    #: version of the calibration's search; part of the cache key (raise it when the search changes)
+    CALIBRATION_VERSION: ClassVar[int] = 1
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        # an adapter's own defaults under an old name or value (``"settings": "defaults"``): kept for one release
-        own = cls.__dict__.get("SETTINGS")
-        if own is not None and canonical_settings(cls.name, own) != dict(own):
-            warn_renamed(f"{cls.__name__}.SETTINGS uses an old name or value ({canonical_changes(cls.name, own)}); "
-                         "the old spelling goes in the next release.", 2)
-            cls.SETTINGS = canonical_settings(cls.name, own)
+        if any(k in cls.__dict__ for k in ("SETTINGS", "SHIPPED", "MODE_DEFAULTS", "CONTACT_ROWS")):
+            rows = {"contact": "auto", "contact_points": None} if cls.CONTACT_ROWS else {}
+            given = {k: None for k in (*cls.SHIPPED, *cls.MODE_DEFAULTS)}
+            cls.SETTINGS = {**SHARED_SETTINGS, **given, **rows, **cls.__dict__.get("SETTINGS", cls.SETTINGS)}
+        set_ = [k for k in (*cls.SHIPPED, *cls.MODE_DEFAULTS) if cls.SETTINGS.get(k) is not None]
+        if set_:
+            raise TypeError(f"{cls.__name__}.SETTINGS gives {set_[0]!r} a default ({cls.SETTINGS[set_[0]]!r}): a "
+                            "setting of SHIPPED or MODE_DEFAULTS defaults to None (not given), and its value there "
+                            "fills it in.")
         for key, values in {**MODES, **cls.SUPPORTED_MODES}.items():
             mine = cls.supported_modes(key)
             if key not in MODES or not mine or set(mine) - set(values) or cls.SETTINGS.get(key, mine[0]) not in mine:
@@ -140,124 +136,88 @@ class ContactEngineAdapter(EngineAdapter):
         return tuple(cls.SUPPORTED_MODES.get(key, MODES.get(key, ())))
 
     def __init__(self, **settings):
-        super().__init__(**self.canonical_settings(settings, warn=True))
+        super().__init__(**settings)
+        #: the adapter's own store of what it builds (scenes, compiled models), kept for its life
+        self.scenes: dict = {}
         self._resolved: dict = {}
         self._steps: dict = {}
-        self._itself: ContactEngineAdapter | None = None
-
-    # -- names --------------------------------------------------------------------------------
-    @classmethod
-    def canonical_settings(cls, settings: Mapping[str, Any], *, warn: bool = False) -> dict:
-        """:func:`canonical_settings` of this engine."""
-        return canonical_settings(cls.name, settings, warn=warn, stacklevel=3)
+        self._itself: ContactEngine | None = None
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_settings(self, s: dict) -> None:
-        for key, allowed in (("settings", SETTINGS_MODES), ("drive", DRIVES)):
-            if s[key] not in allowed:
-                raise ConfigError(f"{self.name} setting {key!r} must be {' or '.join(allowed)}, got {s[key]!r}.")
-        self._bool_setting(s, "planar")
+        self.choice_setting(s, "settings", SETTINGS_MODES, allow_none=False)
+        self.choice_setting(s, "drive", DRIVES, allow_none=False)
+        self.bool_setting(s, "planar")
         for key in MODES:
             supported = self.supported_modes(key)
             if s[key] not in supported:
                 shown = ", ".join(str(v).lower() if isinstance(v, bool) else v for v in supported)
                 raise ConfigError(f"{self.name} does not run {key} = {str(s[key]).lower()} (its SUPPORTED_MODES): "
                                   f"use {key} = {shown}, or an engine that runs it (docs/engines.md).")
-        self._number_setting(s, "friction", allow_none=False)
-        self._number_setting(s, "tail_s", "s", allow_none=False)
-        self._number_setting(s, "min_tail_s", "s", allow_zero=True, allow_none=False)
+        self.number_setting(s, "friction", allow_none=False)
+        self.number_setting(s, "tail_s", "s", allow_none=False)
+        self.number_setting(s, "min_tail_s", "s", allow_zero=True, allow_none=False)
         if s["min_tail_s"] > s["tail_s"]:
             raise ConfigError(f"{self.name} setting 'min_tail_s' ({s['min_tail_s']:g} s) must not exceed "
                               f"'tail_s' ({s['tail_s']:g} s).")
         if "segment_s" in s:
-            self._number_setting(s, "segment_s", "s", allow_none=False)
+            self.number_setting(s, "segment_s", "s", allow_none=False)
+        if self.CONTACT_ROWS:
+            self.choice_setting(s, "contact", CONTACT_LAYOUTS, allow_none=False)
+            self.whole_setting(s, "contact_points", minimum=3, maximum=MAX_CONTACT_POINTS)
         s["calibrate_on"] = held_out.check_setting(s.get("calibrate_on"), self.name)
         if s["calibrate_on"] and s["settings"] == "shipped":
             raise ConfigError(f"{self.name} setting 'calibrate_on' needs settings = calibrated (as shipped, nothing is "
                               f"calibrated), got calibrate_on = '{s['calibrate_on']}' with settings = shipped.")
-        self._validate_engine_settings(s)
+        self.validate(s)
 
-    def _validate_engine_settings(self, s: dict) -> None:
-        """Raise ConfigError for a bad value of an engine-specific setting (default: none)."""
+    def explicit_contact(self) -> bool:
+        """Whether a contact setting (one of :attr:`SHIPPED`) was given: it replaces the calibration."""
+        return any(self.settings[k] is not None for k in self.SHIPPED)
 
-    def _contact_layout_settings(self, s: dict) -> None:
-        """Check the ``contact`` layout (:data:`CONTACT_LAYOUTS`) and ``contact_points`` (None, or a
-        whole number from 3 to :data:`MAX_CONTACT_POINTS`) of an engine that offers a contact along
-        the base."""
-        if s["contact"] not in CONTACT_LAYOUTS:
-            raise ConfigError(f"{self.name} setting 'contact' must be one of {', '.join(CONTACT_LAYOUTS)}, "
-                              f"got {s['contact']!r}.")
-        self._whole_setting(s, "contact_points", 3, maximum=MAX_CONTACT_POINTS)
-
-    def _bool_setting(self, s: dict, key: str) -> None:
-        """Check that ``s[key]`` is a bool, or a string true/false/1/0, and store it as a bool."""
-        v = s[key]
-        if isinstance(v, str) and v.lower() in _TRUE + _FALSE:
-            v = v.lower() in _TRUE
-        if not isinstance(v, bool):
-            raise ConfigError(f"{self.name} setting {key!r} must be true or false, got {s[key]!r}.")
-        s[key] = v
-
-    # -- the time step ------------------------------------------------------------------------
-    def time_step_s(self, dt_s: float | None) -> float:
-        """The time step a run or a calibration uses [s]: ``dt_s``, or :meth:`unposed_dt_s` when
-        None; a ConfigError unless it is a finite number > 0."""
-        if dt_s is None:
-            return self.unposed_dt_s()
-        try:
-            dt = float(dt_s)
-        except (TypeError, ValueError):
-            dt = math.nan
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ConfigError(f"--dt must be > 0 s, got {dt_s!r}.")
-        return dt
-
-    # -- the one time-step rule -----------------------------------------------------------------
     def calibrated(self) -> bool:
-        """Whether runs use a calibration: ``settings="calibrated"`` and no explicit contact."""
+        """Whether runs use a calibration: ``settings="calibrated"`` and no contact given."""
         return not self.explicit_contact() and self.settings["settings"] == "calibrated"
+
+    def settings_with(self, contact: Mapping | None = None, points: int | None = None) -> dict:
+        """The one resolution of the settings a run uses: the settings given; where ``settings`` is
+        ``calibrated``, :attr:`MODE_DEFAULTS`' calibrated values (else their shipped ones); the
+        ``contact`` (a calibration's settings, or a candidate's: its values that are not None; a row
+        of ``points`` along the base); with a contact given or chosen, a contact setting left out at
+        its knob's ``start``; every setting still None at its :attr:`SHIPPED` value; a row along the
+        base without ``contact_points``, :data:`POINTS_TRIED`'s first."""
+        s = dict(self.settings)
+        mode = 1 if s["settings"] == "calibrated" else 0
+        s.update({k: pair[mode] for k, pair in self.MODE_DEFAULTS.items() if s[k] is None})
+        s.update({k: v for k, v in (contact or {}).items() if v is not None and k in self.SETTINGS})
+        if points is not None:
+            s.update(contact="distributed", contact_points=points)
+        if contact or self.explicit_contact():
+            s.update({k.name: k.start for k in self.KNOBS if k.start is not None and s.get(k.name) is None})
+        s.update({k: v for k, v in self.SHIPPED.items() if s[k] is None})
+        if self.CONTACT_ROWS and s["contact"] == "distributed" and s["contact_points"] is None:
+            s["contact_points"] = POINTS_TRIED[0]
+        return s
+
+    def contact_layout(self, block: Block, target: float) -> str:
+        """``corners`` or ``distributed``: the contact a calibration to ``target`` builds (``auto``: the
+        corners up to 1 % above Housner's η_H, a row of points along the base above)."""
+        kind = self.settings.get("contact") if self.CONTACT_ROWS else "corners"
+        if kind == "auto":
+            kind = "corners" if target <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
+        return "distributed" if kind == "distributed" else "corners"
 
     def calibration_block(self, block: Block) -> Block:
         """The block the calibration of ``block``'s runs is made on: ``block`` itself, or the block the
-        ``calibrate_on`` setting names or picks (:func:`~rockbench.engines.held_out.calibration_block`;
-        a ConfigError for the mapped block itself, or a rule that finds none)."""
+        ``calibrate_on`` setting names (:func:`~rockbench.engines.calibration.held_out.calibration_block`)."""
         return held_out.calibration_block(self.settings.get("calibrate_on"), block)
 
     def calibration_target(self, block: Block, restitution: Restitution) -> tuple[Block, float]:
         """The block the calibration of ``block``'s runs is made on and the η it aims at there [-]
-        (:func:`~rockbench.engines.held_out.calibration_target`: the law's η for that block)."""
+        (:func:`~rockbench.engines.calibration.held_out.calibration_target`: the law's η for that block)."""
         return held_out.calibration_target(self.settings.get("calibrate_on"), block, restitution)
 
-    def run_step_s(self, block: Block, eta: float, dt_s: float | None = None) -> float:
-        """The step of the runs and the calibration of ``block`` [s]: ``dt_s`` where given; calibrated,
-        the one time-step rule's (:meth:`converged_step_s`) on the block the calibration is made on
-        (:meth:`calibration_block`) at ``eta``, the η the calibration aims at there
-        (:meth:`calibration_target`); else :meth:`unposed_dt_s`."""
-        on = self.calibration_block(block)
-        if dt_s is not None or not self.calibrated() or self.contact_layout(on, eta) == "distributed":
-            return self.time_step_s(dt_s)
-        return self.converged_step_s(on, eta)[0]
-
-    def converged_step_s(self, block: Block, eta: float) -> tuple[float, dict]:
-        """The step :func:`~rockbench.engines.step_rule.converged_step` chooses for ``block`` at η [s],
-        and its record; cached on disk with the calibrations. The search runs on ``block`` itself, with
-        ``calibrate_on`` left out (its probe runs are of the block the step is for), so a held-out
-        calibration shares the cached step of the block it names."""
-        key = calibration.cache_key(**self._cache_identity(), kind="step-rule", rules_version=RULES_VERSION,
-                                    block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                                    target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
-                                    probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
-                                            step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
-                                    settings=sorted((k, str(v)) for k, v in self.settings.items()
-                                                    if k != "calibrate_on"))
-        rec = self._steps.get(key) or calibration.load(key)
-        if rec is None:
-            rec = step_rule.converged_step(self._on_itself(), block, eta)[1]
-            calibration.store(key, rec)
-        self._steps[key] = rec
-        return float(rec["dt_s"]), rec
-
-    def _on_itself(self) -> "ContactEngineAdapter":
+    def _on_itself(self) -> "ContactEngine":
         """This adapter, or without ``calibrate_on`` a copy of it that calibrates every block on itself."""
         if not self.settings.get("calibrate_on"):
             return self
@@ -265,213 +225,339 @@ class ContactEngineAdapter(EngineAdapter):
             self._itself = type(self)(**{**self.settings, "calibrate_on": None})
         return self._itself
 
-    def dt_for(self, case) -> float:
-        """As :meth:`EngineAdapter.dt_for`; calibrated, a case that poses no step runs at the one
-        time-step rule's step, never coarser than its pulse accepts [s]."""
-        if case.dt_s is None and self.calibrated():
-            eta = self.calibration_target(case.block, case.restitution)[1]
-            return case.pulse.check_dt(min(self.run_step_s(case.block, eta), case.pulse.max_dt_s()))
-        return super().dt_for(case)
+    def fixed(self, contact: Mapping) -> "ContactEngine":
+        """A copy of this adapter with the contact ``contact`` given (a calibration's settings: no
+        calibration behind its runs)."""
+        given = {k: v for k, v in contact.items() if k in self.SETTINGS}
+        return type(self)(**{**self.settings, **given, "calibrate_on": None})
 
-    # -- resolve: explicit, or defaults, or calibrated ---------------------------------------
-    def explicit_contact(self) -> bool:
-        """Whether contact settings were given that replace the calibration (default: none exist)."""
-        return False
+    # -- the time step ------------------------------------------------------------------------
+    def step_for(self, block: Block, eta: float, pulse=None, dt_s: float | None = None,
+                 restitution: Restitution | None = None) -> float:
+        """The one time-step resolver of a contact engine [s]: ``dt_s`` where given; as shipped the
+        engine's own step (:attr:`own_dt_s`), never coarser than the pulse accepts, or where it ships
+        none :attr:`fixed_dt_s`; calibrated at the corners, the time-step rule's step for the block the
+        calibration is made on (:mod:`~rockbench.engines.calibration.step_rule`) at the η it aims at
+        there (:meth:`calibration_target` where ``restitution``, the law behind ``eta``, is given; else
+        ``eta``), never coarser than the pulse accepts; otherwise (a contact given, a row along the
+        base) :attr:`fixed_dt_s`, the row's never coarser than the pulse accepts. Checked against
+        ``pulse`` where one is given."""
+        if dt_s is not None:
+            dt = check_positive("--dt", dt_s, "s")
+        elif self.as_shipped():
+            dt = self.fixed_dt_s if self.own_dt_s is None else _capped(self.own_dt_s, pulse)
+        elif not self.calibrated():
+            dt = self.fixed_dt_s
+        else:
+            on, target = (self.calibration_target(block, restitution) if restitution is not None
+                          else (self.calibration_block(block), eta))
+            rowed = self.contact_layout(on, target) == "distributed"
+            dt = _capped(self.fixed_dt_s if rowed else self.rule_step(on, target)[0], pulse)
+        return dt if pulse is None else pulse.check_dt(dt)
 
+    def free_rocking_step(self, dt_s: float | None = None) -> float:
+        """The step of a free-rocking test or a calibration asked for without one, outside any case
+        (:meth:`measure_restitution`, :meth:`calibrate`) [s]: ``dt_s`` where given; as shipped the
+        engine's own step (:attr:`own_dt_s`, else :attr:`fixed_dt_s`); otherwise :attr:`fixed_dt_s`.
+        (A case's step is :meth:`step_for`'s; give ``dt_s=step_for(block, eta)`` to test at it.)"""
+        if dt_s is not None:
+            return check_positive("--dt", dt_s, "s")
+        return self.own_dt_s if self.as_shipped() and self.own_dt_s is not None else self.fixed_dt_s
+
+    def rule_step(self, block: Block, eta: float) -> tuple[float, dict]:
+        """The time-step rule's step for ``block`` at η [s] and its record, cached on disk with the
+        calibrations; the search runs on ``block`` itself (``calibrate_on`` left out: its probe runs are
+        of the block the step is for), so a held-out calibration shares the step of the block it names."""
+        on = self._on_itself()
+        key = cache.cache_key(engine=self.name, version=self.version(), contract=CONTRACT_VERSION, kind="step-rule",
+                              rules_version=RULES_VERSION, block=[block.width_m, block.height_m, block.depth_m,
+                                                                  block.mass_kg],
+                              target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
+                              probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
+                                      step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
+                              settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
+        rec = self._steps.get(key) or cache.load(key)
+        if rec is None:
+            rec = step_rule.converged_step(lambda dt: on.calibrate(block, eta, dt_s=dt), on._judged, block, eta)[1]
+            cache.store(key, rec)
+        self._steps[key] = rec
+        return float(rec["dt_s"]), rec
+
+    # -- resolve: a contact given, or as shipped, or calibrated -----------------------------------
     def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
-        """The concrete settings cases of this block, restitution and time step [s] use (for run.json).
+        """The concrete settings cases of this block, restitution and step [s] use (for run.json; the
+        step where none is given: :meth:`step_for`, and the time-step rule's record with it).
 
-        Explicit contact settings, else (``settings="shipped"``) the engine's defaults, else the
-        calibration to the restitution's η at this time step (:meth:`calibrate`, cached on disk), made
-        on :meth:`calibration_block` (``block`` itself unless ``calibrate_on`` names another, which the
-        record's ``calibrated_on`` then names) and aimed at the law's η for that block
-        (:meth:`calibration_target`); then :meth:`_resolved_settings` builds the concrete settings for
-        ``block``. Memoised per block, η and step.
-        """
+        A contact given, else as shipped the engine's, else the calibration to the restitution's η
+        at this step (:meth:`calibrate`, cached) made on :meth:`calibration_block` (the record's
+        ``calibrated_on`` names another) and aimed at the law's η for that block
+        (:meth:`calibration_target`); :meth:`settings_with` resolves them. Memoised."""
         on, eta = self.calibration_target(block, restitution) if self.calibrated() else \
             (block, restitution.eta(block.alpha_rad))
-        dt = self.run_step_s(block, eta, dt_s)
+        dt = self.step_for(block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
-            cal = None
-            if self.calibrated():   # by the adapter without calibrate_on: every run inside is of ``on`` itself
-                cal = self._on_itself().calibrate(on, eta, dt_s=dt)
-            out = self._resolved_settings(block, dt, cal)
+            cal = self._on_itself().calibrate(on, eta, dt_s=dt) if self.calibrated() else None
+            out = self.settings_with(cal.settings if cal else None)
             if cal is not None:
-                out["calibration"] = self._calibration_summary(cal)
-                if self.settings.get("calibrate_on"):
-                    out["calibration"]["calibrated_on"] = on.name
-                out["calibration"]["equals_shipped"] = self._equals_shipped(block, dt, out)
+                out["calibration"] = _summary(cal) | ({"calibrated_on": on.name} if self.settings["calibrate_on"] else {})
+                out["calibration"]["equals_shipped"] = self._equals_shipped(block, eta, dt, out)
             if self.as_shipped() and self.SHIPPED_NOTE:
                 out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
         out = as_written(self._resolved[key])
-        if dt_s is None and out.get("calibration"):   # the step the one time-step rule chose, and why
-            out["calibration"] = {**out["calibration"], "step_rule": self.converged_step_s(on, eta)[1]}
+        if dt_s is None and out.get("calibration") and self.contact_layout(on, eta) == "corners":
+            out["calibration"] = {**out["calibration"], "step_rule": self.rule_step(on, eta)[1]}
         return out
+
+    def _equals_shipped(self, block: Block, eta: float, dt: float, resolved: dict) -> bool:
+        """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
+        same settings at its own step (then the two variants give one answer, counted once)."""
+        shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None})
+        if shipped.step_for(block, eta) != dt:
+            return False
+        skip = ("settings", "calibration")
+        other = shipped.settings_with()
+        return {k: v for k, v in resolved.items() if k not in skip} == {k: v for k, v in other.items() if k not in skip}
 
     def describe(self) -> dict:
         """As :meth:`EngineAdapter.describe`, the settings as written (:func:`as_written`)."""
-        return {**super().describe(), "settings": as_written(self.settings)}
+        return {**super().describe(), "settings": as_written(self.settings), "fixed_dt_s": self.fixed_dt_s}
 
-    def _equals_shipped(self, block: Block, dt: float, resolved: dict) -> bool:
-        """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
-        same concrete settings at its own step (then the two variants give one answer, which the
-        verdict counts once)."""
-        shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None})
-        if shipped.unposed_dt_s() != dt:
-            return False
-        skip = ("settings", "calibration")
-        other = shipped._resolved_settings(block, dt, None)
-        return {k: v for k, v in resolved.items() if k not in skip} == {k: v for k, v in other.items() if k not in skip}
+    # -- the four methods ---------------------------------------------------------------------
+    @required("(block, s, dt_s) -> scene", "build (or reuse) the engine's scene for the block and the resolved "
+              "settings s (a dict), contact parameters set")
+    def build(self, block: Block, s: dict, dt_s: float) -> Any:  # pragma: no cover - declared
+        """The engine's scene for ``block`` and the resolved settings ``s`` at step ``dt_s`` [s]."""
 
-    def _base_settings(self) -> dict:
-        """The settings before any calibration: what a calibration's candidates start from and what
-        its cache key names (default: the settings as given; an adapter that fills in a setting by
-        mode, as PyBullet's solver iterations, overrides it)."""
-        return dict(self.settings)
+    @required("(scene, block, s, dt_s, pulses, theta0_rad, n_steps) -> ndarray (W, n, k)", "one world per pulse "
+              "(None: free rocking), every block at rest at theta0_rad on its lower corner (pivot_pose), each drive "
+              "loaded for n_steps steps; return the rows of the samples so far (sample 0: n = 1)")
+    def start(self, scene, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+              n_steps: int):  # pragma: no cover - declared
+        """The rows of the samples so far, ``(W, n, k)`` (sample 0 of every world: n = 1)."""
 
-    @required("(block, dt_s, calibration) -> dict", "the concrete settings of a case: the settings with "
-              "the calibration's (a CalibrationResult, None where explicit or as shipped), e.g. "
-              "{**self._base_settings(), **(calibration.settings if calibration else {})}")
-    def _resolved_settings(self, block: Block, dt: float, cal: CalibrationResult | None) -> dict:
-        """The concrete settings for ``block`` at step ``dt`` [s], with the calibration ``cal`` (None:
-        explicit or default contact)."""
+    @required("(scene, n_from, n_to) -> ndarray (W, n_to - n_from, k)", "step every world from step n_from to "
+              "n_to under its pulse; return the rows after each step")
+    def advance(self, scene, n_from: int, n_to: int):  # pragma: no cover - declared
+        """The rows of samples ``n_from + 1 … n_to`` of every world, ``(W, n, k)``."""
 
-    # -- the calibration frame ----------------------------------------------------------------
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Contact settings whose free-rocking η reaches ``target_eta`` (1 %), by the ``contact``
-        layout where the engine offers one: :meth:`_calibrate_corners`, or a row of points along the
-        base (:meth:`_calibrate_distributed_n`, with the set number of points or 9, then 5, then 17
-        until one reaches the target at an acceptable price); ``auto``: the corners up to 1 % above
-        Housner's η_H (a plastic impact at a corner is Housner's), the row above (the modified η_M).
-        A ConfigError with an explicit contact: a given contact replaces the calibration (:meth:`resolve`)."""
-        if self.explicit_contact():
-            given = [f"{k} = {self.settings[k]!r}" for k in getattr(self, "CALIBRATED_SETTINGS", ())
-                     if self.settings.get(k) is not None]
-            raise ConfigError(f"{self.name}: {', '.join(given) or 'a contact setting'} is given, and a given contact "
-                              "replaces the calibration (in maps as here), so there is nothing to calibrate: leave out "
-                              "--target to measure η with it, or leave it out to calibrate.")
-        t = self.check_target_eta(target_eta)
-        dt = self.time_step_s(dt_s)
-        if self.contact_layout(block, t) != "distributed":
-            return self._calibrate_corners(block, t, dt, use_cache)
-        n_set = self.settings["contact_points"]
-        return first_reached(lambda n: self._calibrate_distributed_n(block, t, n, dt, use_cache),
-                             (n_set,) if n_set is not None else POINTS_TRIED, self.POINT_UNIT)
+    @required("(scene, block, s, rows, t_s, pulse) -> Motion", "one world's centre of mass (x, height above the "
+              "table top, velocities), theta, theta rate and the table's x from its rows (t_s: step × dt)")
+    def read(self, scene, block: Block, s: dict, rows, t_s, pulse):  # pragma: no cover - declared
+        """One world's :class:`~rockbench.engines.motion.Motion` from its rows ``(n, k)``."""
 
-    def contact_layout(self, block: Block, target: float) -> str:
-        """``corners`` or ``distributed``: the contact a calibration to ``target`` builds (``auto``: the
-        corners up to 1 % above Housner's η_H, a row of points along the base above)."""
-        kind = self.settings.get("contact") if self.distributed_contact else "corners"
-        if kind == "auto":
-            kind = "corners" if target <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
-        return "distributed" if kind == "distributed" else "corners"
+    def retire(self, scene, w: int) -> None:
+        """Hook: world ``w`` has stopped; a batch engine that can may stop stepping it (its later rows
+        are dropped whatever they hold). Default: nothing."""
 
-    @required("(block, target, dt_s, use_cache) -> CalibrationResult", CALIBRATION_ADVICE,
-              when=lambda ad: ad.calibrated())
-    def _calibrate_corners(self, block: Block, target: float, dt: float,
-                           use_cache: bool) -> CalibrationResult:  # pragma: no cover - declared
-        """The contact at the two bottom corners calibrated to ``target`` at step ``dt`` [s]."""
-
-    @required("(block, target, n, dt_s, use_cache) -> CalibrationResult", "a row of n contact points along "
-              "the base calibrated to the target (an engine with distributed_contact = True)",
-              when=lambda ad: ad.distributed_contact)
-    def _calibrate_distributed_n(self, block: Block, t: float, n: int, dt: float,
-                                 use_cache: bool) -> CalibrationResult:  # pragma: no cover - declared
-        """A row of ``n`` contact points along the base calibrated to ``t`` at step ``dt`` [s]."""
-
-    def _cache_identity(self) -> dict:
-        """What names the engine in the calibration cache key: its name and version (an adapter
-        that shares another engine's calibrations names that engine; one with solver settings of
-        its own adds them)."""
-        return {"engine": self.name, "version": self.version()}
-
-    def _cache_key(self, block: Block, target: float, dt: float, version: int, **identity) -> str:
-        """The calibration cache key: engine, its version, the calibration's ``version``, the rule set's
-        (:data:`~rockbench.reference_solver.rules.RULES_VERSION`), block,
-        target η, step [s] and what else the result depends on (``identity``)."""
-        return calibration.cache_key(**self._cache_identity(), calibration_version=version, rules_version=RULES_VERSION,
-                                     block=[block.width_m, block.height_m, block.depth_m, block.mass_kg],
-                                     target=target, dt=dt, **identity)
-
-    def _cached(self, key: str, use_cache: bool) -> CalibrationResult | None:
-        """The cached calibration under ``key``, or None (always None without ``use_cache``); a setting
-        the calibration chose, stored under its old name (:data:`RENAMED_SETTINGS`), is read under the
-        new one. Other keys stay: Exudyn's records name its model's own parameters, some of which
-        share an old setting's name."""
-        rec = calibration.load(key) if use_cache else None
-        if rec is None or "result" not in rec:
-            return None
-        res = CalibrationResult(**rec["result"])
-        chosen = set(getattr(self, "CALIBRATED_SETTINGS", ()))   # the skeleton's adapters declare them
-        renamed = {old: new for old, new in RENAMED_SETTINGS.get(self.name, {}).items() if new in chosen}
-        return dataclasses.replace(res, settings={renamed.get(k, k): v for k, v in res.settings.items()})
-
-    @staticmethod
-    def _store(key: str, res: CalibrationResult, search: dict) -> None:
-        """Cache a calibration: ``{"result": …, "search": …}`` (``search``: what was tried)."""
-        calibration.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"},
-                                "search": search})
-
-    @staticmethod
-    def _settings_diagnostics(resolved: dict) -> dict:
-        """What a trajectory's diagnostics record of the resolved settings it ran with: the settings'
-        name and, calibrated, the calibration's summary (an explicit contact may resolve it to None)."""
-        out = {"settings": resolved["settings"]}
-        if resolved.get("calibration") is not None:
-            out["calibration"] = dict(resolved["calibration"])
+    def missing_hooks(self) -> list[str]:
+        """As :meth:`EngineAdapter.missing_hooks`, and the calibration: calibrated runs need
+        :attr:`KNOBS` or the engine's own ``candidates``."""
+        out = super().missing_hooks()
+        own = type(self).candidates is not ContactEngine.candidates
+        if self.calibrated() and not (self.KNOBS or own):
+            out.append(hook_line(type(self), "KNOBS", " (or candidates)", CALIBRATION_ADVICE))
         return out
 
-    @staticmethod
-    def _calibration_summary(cal: CalibrationResult) -> dict:
-        """What run.json records of the calibration behind the resolved settings."""
-        return {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured, "eta_std": cal.eta_std,
-                "reached": cal.reached, "price": cal.price}
+    # -- the runs -----------------------------------------------------------------------------
+    def run_worlds(self, block: Block, s: dict, dt: float, pulses: list, theta0: float = 0.0,
+                   duration_s: float | None = None) -> list:
+        """One batch of worlds through the one loop (:func:`rockbench.engines.loop.run_worlds`): each
+        world's ``(Trajectory, Motion)``. An engine that runs the whole loop on its device replaces it."""
+        return run_worlds(self, block, s, dt, pulses, theta0, duration_s)
 
-    @staticmethod
-    def check_target_eta(target_eta) -> float:
-        """A calibration target η as a float, or a ConfigError unless it is in (0, 1]."""
-        try:
-            t = float(target_eta)
-        except (TypeError, ValueError):
-            t = math.nan
-        if not (math.isfinite(t) and 0.0 < t <= 1.0):
-            raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
-        return t
+    def _pulse_runs(self, block: Block, s: dict, dt: float, pulses: list) -> list:
+        """The trajectories of pulse runs (one batch): a run the engine halted before the overturn was
+        certain retried as :attr:`RETRIES` says; still halted, an EngineError; a run the engine found
+        no measurement (``Motion.error``), an EngineError."""
+        out = []
+        for p, (tr, m) in zip(pulses, self.run_worlds(block, s, dt, pulses)):
+            for factor, extra in self.RETRIES if _halted(tr, block) else ():
+                tried = tr.diagnostics["engine_stopped"]
+                tr, m = self.run_worlds(block, {**s, **extra}, dt * factor, [p])[0]
+                tr.diagnostics.update(retried_at_dt_s=dt * factor, retried_with=extra, earlier_attempt=tried)
+                if not _halted(tr, block):
+                    break
+            out.append(EngineError(tr.diagnostics["engine_stopped"]) if _halted(tr, block) else
+                       EngineError(m.error) if m.error else tr)
+        return out
+
+    def _simulate(self, case) -> Any:
+        out = self._simulate_many([case])[0]
+        if isinstance(out, BaseException):
+            raise out
+        return out
+
+    def _simulate_many(self, cases: list) -> list:
+        """Cases whose steps are set, in batches of up to :attr:`max_worlds` worlds of one block,
+        resolved settings and step; an engine exception fails its case (its whole batch)."""
+        out: list = [None] * len(cases)
+        groups: dict = {}
+        for i, c in enumerate(cases):
+            try:
+                s = self.resolve(c.block, c.restitution, c.dt_s)
+            except ConfigError:
+                raise
+            except Exception as e:  # noqa: BLE001 - recorded per cell, the sweep goes on
+                out[i] = e
+                continue
+            key = (json.dumps(c.block.to_dict(), sort_keys=True), c.dt_s, json.dumps(s, sort_keys=True, default=str))
+            groups.setdefault(key, (c.block, s, c.dt_s, []))[3].append(i)
+        for block, s, dt, idx in groups.values():
+            for k in range(0, len(idx), self.max_worlds):
+                part = idx[k:k + self.max_worlds]
+                try:
+                    runs = self._pulse_runs(block, s, dt, [cases[i].pulse for i in part])
+                except Exception as e:  # noqa: BLE001 - the batch failed inside the engine
+                    runs = [e] * len(part)
+                for i, tr in zip(part, runs):
+                    if not isinstance(tr, BaseException):
+                        tr.diagnostics.update(_settings_diagnostics(s))
+                    out[i] = tr
+        return out
+
+    # -- free rocking -------------------------------------------------------------------------
+    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
+                            settings: dict | None = None) -> RestitutionMeasurement:
+        """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation: η impact by impact
+        read by the one reader (:data:`~rockbench.engines.calibration.free_rocking.PEAK_RATIO`), the
+        run's resting sink and hop (:func:`~rockbench.engines.calibration.free_rocking.contact_figures`).
+
+        Parameters
+        ----------
+        block : Block
+        theta0_frac : float
+            Release angle as a fraction of α [-].
+        dt_s : float, optional
+            Time step [s] (default: :meth:`free_rocking_step`'s: the engine's own as shipped, else
+            :attr:`fixed_dt_s`).
+        settings : dict, optional
+            Resolved settings to measure (default: those in force, :meth:`resolve` to Housner's η).
+        """
+        if not 0.0 < float(theta0_frac) < 1.0:
+            raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
+        dt = self.free_rocking_step(dt_s)
+        if dt > 0.01:
+            raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt!r}.")
+        s = self.resolve(block, Restitution(), dt_s=dt) if settings is None else settings
+        return self._free_rocking(block, s, dt, theta0_frac)
+
+    def measure_many(self, block: Block, settings: list[dict], dt: float, theta0_frac: float = 0.5) -> list:
+        """Free rocking of each of ``settings`` (resolved settings) at step ``dt`` [s]: a
+        :class:`~rockbench.engines.contract.RestitutionMeasurement` each, or the exception it raised."""
+        out = []
+        for s in settings:
+            try:
+                out.append(self._free_rocking(block, s, dt, theta0_frac))
+            except Exception as e:  # noqa: BLE001 - a setting the engine fails on is recorded, the search goes on
+                out.append(e)
+        return out
+
+    def _free_rocking(self, block: Block, s: dict, dt: float, theta0_frac: float) -> RestitutionMeasurement:
+        """The free-rocking test of :meth:`measure_restitution`, unchecked."""
+        theta0 = float(theta0_frac) * block.alpha_rad
+        tr, motion = self.run_worlds(block, s, dt, [None], theta0, PEAK_RATIO.duration_s(block, theta0_frac))[0]
+        return self.free_rocking_measurement(block, s, dt, theta0, tr, motion)
+
+    def free_rocking_measurement(self, block: Block, s: dict, dt: float, theta0: float, tr,
+                                 motion) -> RestitutionMeasurement:
+        """What a free-rocking run from ``theta0`` [rad] (its trajectory and motion) measured: η per
+        impact by the one reader, the resting sink and hop, the first impact's time; an EngineError
+        where the engine halted before the impacts were measured."""
+        etas = PEAK_RATIO.etas(block, motion.theta_rad, theta0)
+        if "engine_stopped" in tr.diagnostics and len(etas) < FREE_ROCKING_IMPACTS:
+            raise EngineError(f"free rocking: {tr.diagnostics['engine_stopped']}")
+        sink, hop = contact_figures(block, tr.theta_rad, tr.corner_z_m)
+        shown = {k: s.get(k) for k in ("friction", "planar", "drive", *self.SHIPPED, *self.MODE_DEFAULTS)}
+        return RestitutionMeasurement(etas=[float(e) for e in etas],
+                                      eta_mean=float(np.mean(etas)) if etas else math.nan,
+                                      eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0, dt_s=dt,
+                                      settings=shown, method=PEAK_RATIO.method, sink_m=sink, hop_m=hop,
+                                      first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad))
+
+    # -- the calibration ----------------------------------------------------------------------
+    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
+                  use_cache: bool = True) -> CalibrationResult:
+        """Contact settings whose free-rocking η reaches ``target_eta`` (1 %) at step ``dt_s`` [s]
+        (default: :meth:`free_rocking_step`'s), by the one routine
+        (:mod:`~rockbench.engines.calibration.routine`): at the corners, or (``contact = auto`` above
+        1 % over Housner's η_H, or ``distributed``) a row of points along the base with the set number
+        of points, else 9, 5 and 17 in turn until one reaches the target at an acceptable price. A
+        ConfigError with a contact given: it replaces the calibration (in maps too)."""
+        if self.explicit_contact():
+            given = [f"{k} = {self.settings[k]!r}" for k in self.SHIPPED if self.settings.get(k) is not None]
+            raise ConfigError(f"{self.name}: {', '.join(given)} is given, and a given contact replaces the calibration "
+                              "(in maps as here), so there is nothing to calibrate: leave out --target to measure η "
+                              "with it, or leave it out to calibrate.")
+        t = _target(target_eta)
+        dt = self.free_rocking_step(dt_s)
+        if self.contact_layout(block, t) != "distributed":
+            return routine.calibrate_layout(self, block, t, dt, None, use_cache)
+        n_set = self.settings["contact_points"]
+        return routine.first_reached(lambda n: routine.calibrate_layout(self, block, t, dt, n, use_cache),
+                                     (n_set,) if n_set is not None else POINTS_TRIED, self.CONTACT_ROWS)
+
+    def candidates(self, block: Block, target: float, dt_s: float, points: int | None, measure) -> list[dict]:
+        """Hook: the candidates a calibration measures, in order, each a row of ``measure(candidates)``
+        (contact settings in, rows with what the pick reads out): at the corners (``points`` None) the
+        one search of :attr:`KNOBS`, the shipped contact first where :attr:`START_KEEP_RTOL` is set; a
+        row of ``points`` along the base, of :attr:`ROW_KNOBS`. An engine with a search of its own
+        replaces it."""
+        if points is None:
+            return knobs.search(self.KNOBS, block, target, dt_s, measure, self.START_KEEP_RTOL, self.SHIPPED)
+        return knobs.search(self.ROW_KNOBS, block, target, dt_s, measure)
+
+    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
+        """The price of a calibration's contact at step ``dt_s`` [s] (:func:`~rockbench.engines.calibration.price.contact_price`)."""
+        fixed = self.fixed(c.settings)
+        dt = fixed.step_for(block, c.eta_target, dt_s=dt_s)
+        m = fixed.measure_restitution(block, dt_s=dt)
+        return pricing.contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt,
+                                     first_quarter_s=m.first_quarter_s)
+
+
+def _capped(dt: float, pulse) -> float:
+    return float(dt) if pulse is None else min(float(dt), pulse.max_dt_s())
+
+
+def _halted(tr, block: Block) -> bool:
+    """Whether the engine halted a run before its overturn was certain."""
+    return "engine_stopped" in tr.diagnostics and not overturn_certain(
+        tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, alpha_rad=block.alpha_rad, t_pulse_end_s=tr.t_pulse_end_s).any()
+
+
+def _target(target_eta) -> float:
+    """A calibration target η as a float, or a ConfigError unless it is in (0, 1]."""
+    try:
+        t = float(target_eta)
+    except (TypeError, ValueError):
+        t = math.nan
+    if not (math.isfinite(t) and 0.0 < t <= 1.0):
+        raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
+    return t
+
+
+def _summary(cal: CalibrationResult) -> dict:
+    """What run.json records of the calibration behind the resolved settings."""
+    return {"eta_target": cal.eta_target, "eta_measured": cal.eta_measured, "eta_std": cal.eta_std,
+            "reached": cal.reached, "price": cal.price, "note": cal.note, "sink_m": cal.sink_m}
+
+
+def _settings_diagnostics(resolved: dict) -> dict:
+    """What a trajectory's diagnostics record of the resolved settings it ran with: the settings'
+    name and, calibrated, the calibration's summary."""
+    out = {"settings": resolved["settings"]}
+    if resolved.get("calibration") is not None:
+        out["calibration"] = dict(resolved["calibration"])
+    return out
 
 
 def as_written(settings: Mapping[str, Any]) -> dict:
-    """``settings`` as run.json records them: a ``calibrate_on`` (:class:`~rockbench.engines.held_out.CalibrateOn`)
-    as written, ``sibling`` or the block's name."""
+    """``settings`` as run.json records them: a ``calibrate_on``
+    (:class:`~rockbench.engines.calibration.held_out.CalibrateOn`) as written, ``sibling`` or the
+    block's name."""
     out = dict(settings)
     if out.get("calibrate_on") is not None:
         out["calibrate_on"] = str(out["calibrate_on"])
     return out
-
-
-def first_reached(calibrate_n, counts, unit: str) -> CalibrationResult:
-    """Calibrate a contact along the base with each number of points in ``counts`` in turn
-    (``calibrate_n(n)`` → :class:`CalibrationResult`) and return the first that reaches its target
-    at an acceptable price; when none does, the closest (finite η first), its note listing every
-    count tried (``"9 points: …"``, ``unit`` naming what the points are)."""
-    tried = []
-    for n in counts:
-        c = calibrate_n(n)
-        if c.reached:
-            return c
-        tried.append(c)
-    if len(tried) == 1:
-        return tried[0]
-    best = min(tried, key=lambda c: abs(c.rel_error) if math.isfinite(c.rel_error) else math.inf)
-    return dataclasses.replace(best, note=" | ".join(f"{c.settings['contact_points']} {unit}: {c.note}" for c in tried))
-
-
-def body_energy_j_kg(block: Block, vx_m_s, vz_m_s, omega_rad_s, zc_m):
-    """The block's own mechanical energy per unit mass in the table's frame [J/kg]:
-    ``½(v_x² + v_z²) + ½(I_c/m)ω² + g·z_c`` from its centre of mass's velocity relative to the table
-    [m/s], its angular velocity about y [rad/s] and its height above the table top [m]. Unlike the
-    rigid model's ``½θ̇² + p²cos(α − |θ|)`` it sees a hop after an impact (the energy-gain check)."""
-    return 0.5 * (vx_m_s**2 + vz_m_s**2) + 0.5 * block.inertia_cm_kg_m2 / block.mass_kg * omega_rad_s**2 + G * zc_m
-

@@ -2,7 +2,9 @@
 ``rockbench.engines`` by a third-party package (value ``"package.module:AdapterClass"``).
 
 Adapters are named by ``"module:Class"`` strings and imported only when asked for, so listing the
-engines never imports an engine library.
+engines never imports an engine library. A plugin declares the engine contract it is written to
+(``CONTRACT_VERSION``); one written to another contract is refused here, in one line naming what
+changed and where docs/engines.md says how to port it (:func:`contract_refusal`).
 """
 
 from __future__ import annotations
@@ -12,21 +14,38 @@ import importlib
 from importlib.metadata import entry_points
 
 from ..reference_solver.errors import ConfigError, EngineUnavailableError
+from . import CONTRACT_VERSION
 from .support import install_command, outside_range, supported_range
 
 #: built-in adapters, imported lazily
 BUILTIN = {
-    "reference": "rockbench.engines.reference_adapter:ReferenceAdapter",
-    "exudyn": "rockbench.engines.exudyn_adapter:ExudynAdapter",
-    "mujoco": "rockbench.engines.mujoco_adapter:MujocoAdapter",
-    "mujoco_warp": "rockbench.engines.mujoco_warp_adapter:MujocoWarpAdapter",
-    "pybullet": "rockbench.engines.pybullet_adapter:PybulletAdapter",
-    "drake": "rockbench.engines.drake_adapter:DrakeAdapter",
-    "dart": "rockbench.engines.dart_adapter:DartAdapter",
-    "newton": "rockbench.engines.newton_adapter:NewtonAdapter",
-    "genesis": "rockbench.engines.genesis_adapter:GenesisAdapter",
-    "physx": "rockbench.engines.physx_adapter:PhysxAdapter",
+    "reference": "rockbench.engines.adapters.reference:ReferenceAdapter",
+    "exudyn": "rockbench.engines.adapters.exudyn:ExudynAdapter",
+    "mujoco": "rockbench.engines.adapters.mujoco:MujocoAdapter",
+    "mujoco_warp": "rockbench.engines.adapters.mujoco_warp:MujocoWarpAdapter",
+    "pybullet": "rockbench.engines.adapters.pybullet:PybulletAdapter",
+    "drake": "rockbench.engines.adapters.drake:DrakeAdapter",
+    "dart": "rockbench.engines.adapters.dart:DartAdapter",
+    "newton": "rockbench.engines.adapters.newton:NewtonAdapter",
+    "genesis": "rockbench.engines.adapters.genesis:GenesisAdapter",
+    "physx": "rockbench.engines.adapters.physx:PhysxAdapter",
 }
+
+#: where docs/engines.md says how to port an adapter written to an older contract
+PORTING = "docs/engines.md#porting-an-adapter-to-contract-2"
+
+#: what contract 1 (before contracts were declared) called its hooks and declarations, which contract 2
+#: does not have: an adapter that defines one was written to contract 1
+CONTRACT_1_NAMES = ("_world", "_start", "_advance", "_angles", "_motion", "_resolved_settings", "_calibrate_corners",
+                    "_calibrate_distributed_n", "_validate_engine_settings", "_base_settings", "_knobs_note",
+                    "_knobs_base", "_knobs_key", "_knobs_settings", "_evaluate", "_distributed_grid",
+                    "_distributed_rows", "_describe_contact", "_damping_ratio", "_sample_steps", "_halted", "_retire",
+                    "_trajectory", "_step_worlds", "_run", "_run_worlds", "_run_native", "run_grid", "CALIBRATION_KNOBS",
+                    "CALIBRATED_SETTINGS", "MEASURED_SETTINGS", "default_dt_s", "shipped_dt_s", "distributed_contact")
+
+#: what changed in contract 2, for the refusal of an adapter written to contract 1
+CONTRACT_2_CHANGES = ("a contact engine implements four batch-shaped methods (build, start, advance, read) and "
+                      "declares SHIPPED and KNOBS; settings, calibration and the time step are the base's")
 
 #: the entry-point group third parties register under
 ENTRY_POINT_GROUP = "rockbench.engines"
@@ -74,11 +93,12 @@ def adapter_class(name: str) -> type:
     """The adapter class registered under ``name`` (imports its module, not the engine).
 
     Raises ConfigError when the target is not a subclass of :class:`EngineAdapter` (or names no
-    class in its module) or when the class's ``name`` is not ``name`` (the one name of an engine: its
-    entry point's, the class's, and what run.json, labels and the calibration cache record),
-    EngineUnavailableError when its module cannot be imported.
+    class in its module), when the class's ``name`` is not ``name`` (the one name of an engine: its
+    entry point's, the class's, and what run.json, labels and the calibration cache record), or when
+    a plugin is written to another engine contract (:func:`contract_refusal`); EngineUnavailableError
+    when its module cannot be imported.
     """
-    from .base import EngineAdapter  # not at import time: listing engines stays light
+    from .contract import EngineAdapter  # not at import time: listing engines stays light
 
     target = _target(name)
     if isinstance(target, type):
@@ -88,18 +108,59 @@ def adapter_class(name: str) -> type:
         try:
             mod = importlib.import_module(mod_name)
         except ImportError as e:
+            own = str(getattr(e, "name", "") or "")
+            if own == "rockbench" or own.startswith("rockbench."):
+                raise ConfigError(f"engine {name!r}: its adapter module {mod_name!r} imports {own}, which this "
+                                  f"rockbench does not have: the adapter is written to an older engine contract (1); "
+                                  f"this rockbench runs contract {CONTRACT_VERSION} ({CONTRACT_2_CHANGES}): port it as "
+                                  f"{PORTING} says.") from None
             raise EngineUnavailableError(f"engine {name!r}: cannot import its adapter {mod_name!r} ({e}).") from None
         cls = getattr(mod, cls_name, None)
         if cls is None:
             raise ConfigError(f"engine {name!r}: module {mod_name!r} has no {cls_name!r}; register it as "
                               "'module:Class'.")
     if not (isinstance(cls, type) and issubclass(cls, EngineAdapter)):
-        raise ConfigError(f"engine {name!r}: {target!r} is not a subclass of rockbench.engines.base.EngineAdapter; "
-                          "an adapter must derive from it (see the contract in engines/base.py).")
+        raise ConfigError(f"engine {name!r}: {target!r} is not a subclass of rockbench.engines.contract.EngineAdapter; "
+                          "an adapter must derive from it (see the contract in engines/contract.py).")
     if cls.name != name:
         raise ConfigError(f"engine {name!r}: its adapter {cls.__module__}:{cls.__qualname__} has name = {cls.name!r}; "
                           f"an engine has one name: set the class's name = {name!r}, or register it as {cls.name!r}.")
+    refusal = contract_refusal(cls)
+    if refusal:
+        raise ConfigError(f"engine {name!r}: {refusal}")
     return cls
+
+
+def declared_contract(cls: type):
+    """The engine contract an adapter class declares: ``CONTRACT_VERSION`` set on it or on a class it
+    derives from outside rockbench's own bases (a built-in adapter is written to this contract);
+    None where nothing declares one (an adapter written before contracts were declared: contract 1)."""
+    for c in cls.__mro__:
+        module = getattr(c, "__module__", "")
+        if module.startswith("rockbench.engines.adapters."):
+            return CONTRACT_VERSION
+        if "CONTRACT_VERSION" in vars(c) and not module.startswith("rockbench."):
+            return vars(c)["CONTRACT_VERSION"]
+    return None
+
+
+def contract_refusal(cls: type) -> str | None:
+    """Why an adapter class cannot run on this rockbench's engine contract, in one line naming what
+    changed and where docs/engines.md says how to port it; None when it declares this contract."""
+    where = f"its adapter {cls.__module__}:{cls.__qualname__}"
+    declared = declared_contract(cls)
+    if declared == CONTRACT_VERSION:
+        return None
+    if declared is None:
+        old = sorted({n for c in cls.__mro__ if not c.__module__.startswith("rockbench.") for n in vars(c)}
+                     & set(CONTRACT_1_NAMES))
+        hooks = f"; it defines {', '.join(old)}, contract 1's" if old else ""
+        return (f"{where} is written to engine contract 1 (it declares no CONTRACT_VERSION{hooks}); this rockbench "
+                f"runs contract {CONTRACT_VERSION} ({CONTRACT_2_CHANGES}): port it as {PORTING} says, then declare "
+                f"CONTRACT_VERSION = {CONTRACT_VERSION}.")
+    return (f"{where} declares CONTRACT_VERSION = {declared!r}, an engine contract this rockbench does not know (it "
+            f"runs contract {CONTRACT_VERSION}): use the rockbench the adapter was written for, or port it as "
+            f"{PORTING} says.")
 
 
 def get_adapter(name: str, **settings):

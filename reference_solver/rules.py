@@ -11,7 +11,7 @@ The rules it covers:
   settings a search measured (engines/, docs/engines.md);
 * the one end-of-run rule, floor 1's per-sample ``run_end`` (reference_solver/classify.py);
 * the time step of a calibrated variant: the coarsest step of a ladder agreeing with the finest
-  step at which the calibration reaches its target (engines/step_rule.py);
+  step at which the calibration reaches its target (engines/calibration/step_rule.py);
 * what "as shipped" means: the engine's own defaults, its own time step included, with only the
   block, the table, μ and the pulse posed by the benchmark (docs/engines.md);
 * the one classifier and the one validity rule of floor 1, with their tolerances.

@@ -96,6 +96,11 @@ BATCH_CHUNK = 16
 _REST = OUTCOME_CODES[Outcome.REST]
 _ROCKING = OUTCOME_CODES[Outcome.ROCKING]
 _OVERTURN = OUTCOME_CODES[Outcome.OVERTURN]
+
+#: The paper's time step (§2.2) [s]: the reference engine's own, and the step the calibration's rigid
+#: answers are computed at (rockbench.engines.calibration.rigid)
+PAPER_DT_S = 1e-3
+
 _FLAT = FLAT_ANGLE_RAD
 _HARMONIC_CODES = {k: v for k, v in PULSE_CODES.items() if k != "record"}
 
@@ -931,7 +936,7 @@ def default_t_max_s(t_pulse_end_s: float, p_rad_s: float) -> float:
     return t_pulse_end_s + TAIL_PERIODS * 2.0 * math.pi / p_rad_s
 
 
-def solve(block: Block, pulse: Pulse, eta: float, *, dt_s: float = 1e-3, linearized: bool = False,
+def solve(block: Block, pulse: Pulse, eta: float, *, dt_s: float = PAPER_DT_S, linearized: bool = False,
           mode: str = "energy", history: bool = True, t_max_s: float | None = None,
           theta0_rad: float = 0.0, theta_dot0_rad_s: float = 0.0) -> Solution:
     """Solve one case with the paper's scheme (see the module docstring).
@@ -993,7 +998,7 @@ def solve(block: Block, pulse: Pulse, eta: float, *, dt_s: float = 1e-3, lineari
                     t_overturn_s=float(st[_S_TOVER]) if outcome is Outcome.OVERTURN else None, **common)
 
 
-def solve_batch(alpha_rad, p_rad_s, eta, pulse_kind: str, omega_rad_s, amplitude_mps2, *, dt_s=1e-3,
+def solve_batch(alpha_rad, p_rad_s, eta, pulse_kind: str, omega_rad_s, amplitude_mps2, *, dt_s=PAPER_DT_S,
                 linearized: bool = False, mode: str = "energy", t_max_s=None) -> BatchResult:
     """Solve many cases of a harmonic pulse at once, in parallel on all cores.
 

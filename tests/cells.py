@@ -1,7 +1,7 @@
 """One cell of a stability map as an engine test case: a preset block, a pulse and the cell's
 normalised frequency ω/p and amplitude a₀/(g·tanα) (the engine tests' shared way of naming a cell)."""
 
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
 from rockbench.reference_solver.pulses import make_pulse

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from rockbench.engines.mujoco_adapter import MujocoAdapter
+from rockbench.engines.adapters.mujoco import MujocoAdapter
 from rockbench.reference_solver.pulses import make_pulse
 
 #: how much of the table's acceleration reaches the block

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from rockbench.engines.skeleton import run_steps
+from rockbench.engines.motion import run_steps
 from rockbench.reference_solver.classify import run_end
 
 

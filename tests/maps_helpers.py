@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from rockbench.engines.base import EngineAdapter, Trajectory
+from rockbench.engines.contract import EngineAdapter, Trajectory
 from rockbench.reference_solver.model import G
 
 
@@ -56,10 +56,11 @@ def ideal_corners(block, th):
 
 
 class AnalyticAdapter(EngineAdapter):
+    CONTRACT_VERSION = 2
     name = "analytic"
     module = None
     SETTINGS = {"sleep_s": 0.0, "bad_above": math.inf}
-    default_dt_s = 1e-3
+    own_dt_s = 1e-3
 
     def _ratios(self, case):
         b = case.block
@@ -67,8 +68,7 @@ class AnalyticAdapter(EngineAdapter):
         a = abs(case.pulse.amplitude_mps2) / (G * math.tan(b.alpha_rad))
         return round(w, 9), round(a, 9)   # the analytic picture, not round-off, decides a cell on a line
 
-    def _simulate(self, case):
-        self.dt_for(case)   # a bad time step is the user's error: ConfigError
+    def _simulate(self, case):   # its step posed (a bad one was the user's error: a ConfigError in run_many)
         if self.settings["sleep_s"]:
             time.sleep(self.settings["sleep_s"])
         w, a = self._ratios(case)
@@ -181,7 +181,7 @@ class EtaAnalyticAdapter(AnalyticAdapter):
     SETTINGS = {**AnalyticAdapter.SETTINGS, "work_s": 0.0, "log_path": ""}
 
     def measure_restitution(self, block, *, theta0_frac=0.5, dt_s=None):
-        from rockbench.engines.base import RestitutionMeasurement
+        from rockbench.engines.contract import RestitutionMeasurement
         time.sleep(self.settings["work_s"])
         if self.settings["log_path"]:
             with open(self.settings["log_path"], "a") as f:
@@ -228,7 +228,7 @@ class StepCostAdapter(AnalyticAdapter):
     SPAN_WAVES = 1.5
 
     def _simulate(self, case):
-        dt = self.dt_for(case)
+        dt = case.dt_s   # posed: the step decided (step_for)
         w, a = self._ratios(case)
         line = 1.0 + 0.8 * w + self.settings["shift_per_s"] * dt
         out = "rest" if a <= 1.0 else ("overturn" if a > line else "rocking")

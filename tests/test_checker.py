@@ -6,7 +6,7 @@ import pytest
 
 from rockbench.benchmark.cli.main import main
 from rockbench.engines.checker import check_adapter
-from rockbench.engines.skeleton import SteppedContactAdapter
+from rockbench.engines.contact import ContactEngine
 
 
 pytestmark = pytest.mark.usefixtures("fake_engines")
@@ -85,44 +85,50 @@ def test_number_setting_checks_and_converts_for_every_adapter():
 
     import pytest
 
-    from rockbench.engines.base import EngineAdapter
+    from rockbench.engines.contract import EngineAdapter
     from rockbench.reference_solver.errors import ConfigError
 
     class Probe(EngineAdapter):
         name = "probe"
-        SETTINGS = {"k": None, "d": 0, "t": 1}
+        SETTINGS = {"k": None, "d": 0, "t": 1, "e": 0.0}
 
-        def _validate_settings(self, s):
-            self._number_setting(s, "k", "N/m")
-            self._number_setting(s, "d", "N s/m", allow_zero=True, allow_none=False)
-            self._number_setting(s, "t", "s", allow_none=False)
+        def validate(self, s):
+            self.number_setting(s, "k", "N/m")
+            self.number_setting(s, "d", "N s/m", allow_zero=True, allow_none=False)
+            self.number_setting(s, "t", "s", allow_none=False)
+            # a plastic material's restitution ships as 0: allow_zero, and a bound
+            self.number_setting(s, "e", allow_zero=True, maximum=1.0)
 
     p = Probe(t="2.5")
-    assert p.settings == {"k": None, "d": 0.0, "t": 2.5}
+    assert p.settings == {"k": None, "d": 0.0, "t": 2.5, "e": 0.0}
     for bad, match in [({"k": 0}, r"'k' must be a finite number > 0 \[N/m\], got 0"),
                        ({"d": -1}, r"'d' must be a finite number >= 0 \[N s/m\], got -1"),
-                       ({"d": None}, r"'d' must be a number \[N s/m\], got None"),
+                       ({"d": None}, r"'d' must be a finite number >= 0 \[N s/m\], got None"),
                        ({"t": math.inf}, r"probe setting 't' must be a finite number > 0 \[s\]"),
-                       ({"t": "x"}, r"'t' must be a number \[s\], got 'x'")]:
+                       ({"t": "x"}, r"'t' must be a finite number > 0 \[s\], got 'x'"),
+                       ({"t": True}, r"'t' must be a finite number > 0 \[s\], got True"),
+                       ({"e": 1.5}, r"'e' must be a finite number >= 0 and <= 1, got 1.5")]:
         with pytest.raises(ConfigError, match=match):
             Probe(**bad)
 
 
 def test_whole_setting_checks_and_converts_for_every_adapter():
+    """The same arguments as number_setting (a unit third, shown in the message): a unit given is no
+    TypeError, and every bad value one ConfigError line."""
     import math
 
     import pytest
 
-    from rockbench.engines.base import EngineAdapter
+    from rockbench.engines.contract import EngineAdapter
     from rockbench.reference_solver.errors import ConfigError
 
     class Probe(EngineAdapter):
         name = "probe"
         SETTINGS = {"n": None, "m": 3}
 
-        def _validate_settings(self, s):
-            self._whole_setting(s, "n", 0)
-            self._whole_setting(s, "m", 1, allow_none=False)
+        def validate(self, s):
+            self.whole_setting(s, "n")
+            self.whole_setting(s, "m", "steps", minimum=1, allow_none=False)
 
     p = Probe(n=4.0)
     assert p.settings == {"n": 4, "m": 3} and isinstance(p.settings["n"], int)
@@ -130,8 +136,18 @@ def test_whole_setting_checks_and_converts_for_every_adapter():
                 {"m": 0}, {"m": None}):
         key, value = next(iter(bad.items()))
         bound = 0 if key == "n" else 1
-        with pytest.raises(ConfigError, match=rf"probe setting '{key}' must be a whole number >= {bound}, got "):
+        with pytest.raises(ConfigError, match=rf"probe setting '{key}' must be a whole number >= {bound}"):
             Probe(**bad)
+
+    class Positional(EngineAdapter):   # contract 1's _whole_setting(s, key, minimum): the bound third
+        name = "positional"
+        SETTINGS = {"n": 3}
+
+        def validate(self, s):
+            self.whole_setting(s, "n", 1)
+
+    with pytest.raises(TypeError, match=r"whole_setting's third argument is the unit, .*\(minimum=, maximum=\)"):
+        Positional()
 
 
 def test_each_check_is_a_public_function_that_runs_alone(fake_engines):
@@ -158,9 +174,9 @@ def test_registry_refuses_a_class_that_is_not_an_adapter():
     from rockbench.reference_solver.errors import ConfigError
 
     registry.register("not-an-adapter", dict)
-    registry.register("no-such-class", "rockbench.engines.base:NoSuchAdapter")
+    registry.register("no-such-class", "rockbench.engines.contract:NoSuchAdapter")
     try:
-        with pytest.raises(ConfigError, match="not a subclass of rockbench.engines.base.EngineAdapter"):
+        with pytest.raises(ConfigError, match="not a subclass of rockbench.engines.contract.EngineAdapter"):
             registry.adapter_class("not-an-adapter")
         with pytest.raises(ConfigError, match="has no 'NoSuchAdapter'"):
             registry.adapter_class("no-such-class")
@@ -170,18 +186,9 @@ def test_registry_refuses_a_class_that_is_not_an_adapter():
         registry.unregister("no-such-class")
 
 
-def test_batching_is_declared_and_the_old_parallel_batch_still_reads(fake_engines):
-    import warnings
+def test_batching_is_declared(fake_engines):
+    from rockbench.engines.contract import EngineAdapter
 
-    from rockbench.engines.base import EngineAdapter
-
-    with warnings.catch_warnings(record=True) as w:
-        warnings.simplefilter("always")
-
-        class Old(EngineAdapter):
-            name = "old"
-            parallel_batch = True
-    assert Old.batching == "parallel" and "batching = 'parallel'" in str(w[0].message)
     assert fake_engines.BatchAnalyticAdapter.batching == "native" and fake_engines.AnalyticAdapter.batching == "none"
     with pytest.raises(TypeError, match="batching must be"):
         class Bad(EngineAdapter):
@@ -189,21 +196,21 @@ def test_batching_is_declared_and_the_old_parallel_batch_still_reads(fake_engine
 
 
 def test_a_supported_version_range_that_pip_cannot_read_fails_where_it_is_declared():
-    from rockbench.engines.base import EngineAdapter
+    from rockbench.engines.contract import EngineAdapter
 
     with pytest.raises(TypeError, match=r"Ranged.SUPPORTED_VERSIONS\['myengine'\] = '=>2' is not a version specifier"):
         class Ranged(EngineAdapter):
             SUPPORTED_VERSIONS = {"myengine": "=>2"}
 
 
-class HalfDone(SteppedContactAdapter):
+class HalfDone(ContactEngine):
     """A contact engine that builds its scene and implements nothing else."""
 
+    CONTRACT_VERSION = 2
     name = "half-done"
-    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "stiffness_n_m": None}
-    CALIBRATED_SETTINGS = ("stiffness_n_m",)
+    SHIPPED = {"stiffness_n_m": None}
 
-    def _world(self, block, s, dt_s):
+    def build(self, block, s, dt_s):
         return {}
 
 
@@ -213,24 +220,24 @@ def test_a_missing_hook_is_named_with_what_to_do_one_line_each(capsys):
 
     cls = HalfDone
     rep = check_adapter(cls())
-    assert not rep.passed and [c.name for c in rep.checks] == ["hooks"] and len(rep.not_run) == 14
-    lines = rep.checks[0].detail.split("\n")
-    assert [ln.split("(")[0] for ln in lines] == [f"HalfDone: implement {h}" for h in (
-        "_resolved_settings", "_start", "_advance", "_angles", "_motion", "_calibrate_corners")]
-    assert "--set settings=shipped" in lines[-1] and "CALIBRATION_KNOBS" in lines[-1]
-    # as shipped, nothing is calibrated: the calibration hook is not needed
-    shipped = check_adapter(cls(settings="shipped")).checks[0].detail
-    assert "_calibrate_corners" not in shipped and shipped.count("\n") == 4
+    assert not rep.passed and [c.name for c in rep.checks] == ["contract", "hooks"] and len(rep.not_run) == 14
+    lines = rep.checks[1].detail.split("\n")
+    assert [ln.split("(")[0].split(":")[1].strip() for ln in lines] == [
+        f"implement {h}" for h in ("start", "advance", "read", "KNOBS")]
+    assert "--set settings=shipped" in lines[-1] and "declare KNOBS" in lines[-1]
+    # as shipped, nothing is calibrated: no knobs needed
+    shipped = check_adapter(cls(settings="shipped")).checks[1].detail
+    assert "KNOBS" not in shipped and shipped.count("\n") == 2
     # the declaration raises the same line, not an empty NotImplementedError
-    with pytest.raises(MissingHook, match=r"HalfDone: implement _advance\(world, n_from, n_to\)"):
-        cls()._advance(None, 0, 1)
+    with pytest.raises(MissingHook, match=r"HalfDone: implement advance\(scene, n_from, n_to\)"):
+        cls().advance(None, 0, 1)
     registry.register("half-done", cls)
     try:
         assert main(["check-adapter", "half-done"]) == 1
     finally:
         registry.unregister("half-done")
     out = capsys.readouterr().out
-    assert "FAIL  hooks" in out and out.count("HalfDone: implement") == 6 and "14 checks not run" in out
+    assert "FAIL  hooks" in out and out.count("HalfDone: implement") == 4 and "14 checks not run" in out
 
 
 def test_every_builtin_adapter_implements_every_hook_it_needs():
@@ -253,10 +260,10 @@ def test_an_entry_point_named_otherwise_than_its_class_is_refused_in_one_line(tm
     dist = tmp_path / "alias_plugin-0.1.dist-info"
     dist.mkdir()
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: alias-plugin\nVersion: 0.1\n")
-    (dist / "entry_points.txt").write_text("[rockbench.engines]\nalias = rockbench.engines.reference_adapter:ReferenceAdapter\n")
+    (dist / "entry_points.txt").write_text("[rockbench.engines]\nalias = rockbench.engines.adapters.reference:ReferenceAdapter\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     assert "alias" in registry.names()
-    line = ("engine 'alias': its adapter rockbench.engines.reference_adapter:ReferenceAdapter has name = 'reference'; "
+    line = ("engine 'alias': its adapter rockbench.engines.adapters.reference:ReferenceAdapter has name = 'reference'; "
             "an engine has one name: set the class's name = 'alias', or register it as 'reference'.")
     with pytest.raises(ConfigError) as e:
         registry.adapter_class("alias")
@@ -273,7 +280,7 @@ def test_an_entry_point_named_otherwise_than_its_class_is_refused_in_one_line(tm
 def test_the_modes_an_adapter_runs_are_declared_refused_before_anything_runs_and_skipped_by_the_checks():
     pytest.importorskip("dartpy")
     from rockbench.engines import checker
-    from rockbench.engines.dart_adapter import DartAdapter
+    from rockbench.engines.adapters.dart import DartAdapter
     from rockbench.reference_solver.errors import ConfigError
 
     class InertialDart(DartAdapter):   # DART, declared to run the inertial drive only

@@ -18,7 +18,7 @@ from rockbench.benchmark.maps.grid import MapSpec, make_axis
 from rockbench.benchmark.maps.sweep import run_map
 from rockbench.benchmark.store.loading import load_map
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.reference_adapter import ReferenceAdapter
+from rockbench.engines.adapters.reference import ReferenceAdapter
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.validity import contact_flag_bits, contact_flags

@@ -43,12 +43,14 @@ def test_console_writes_no_blank_line():
 
 
 def test_own_eta_maps_are_planned_up_front():
-    from rockbench.benchmark.suites.preparation import Preparation
+    from rockbench.benchmark.suites.preparation import Preparation, _Task
     prep = object.__new__(Preparation)
     prep.own_eta = True
-    prep.tasks = [("mujoco", {}, "B3M", True), ("mujoco", {}, "B6L", False),
-                  ("pybullet", {"restitution": "modified"}, "B3M", True)]
-    assert prep.own_eta_slots() == 2     # a variant with its own restitution has no own-η map
+    prep.tasks = [_Task("mujoco", {}, "B3M", True, None), _Task("mujoco", {}, "B6L", False, None),
+                  _Task("pybullet", {"restitution": "modified"}, "B3M", True, None),
+                  _Task("dart", {}, "B3M", False, None, (1e-3, 5e-4), speed_only=True)]
+    # a variant with its own restitution has no own-η map, nor has a task of the speed stage alone
+    assert prep.own_eta_slots() == 2
     prep.own_eta = False
     assert prep.own_eta_slots() == 0
 
@@ -67,7 +69,7 @@ def test_engines_table_is_aligned(capsys):
 
 def test_warp_is_not_started_without_a_cuda_driver_by_the_default_suite():
     pytest.importorskip("mujoco_warp")
-    from rockbench.engines.mujoco_warp_adapter import cuda_driver_present
+    from rockbench.engines.adapters.mujoco_warp import cuda_driver_present
     if cuda_driver_present():
         pytest.skip("a CUDA driver is present: Warp has nothing to warn about")
     code = ("from rockbench.benchmark.suites.model import load_suite, suite_path\n"
@@ -85,11 +87,11 @@ def test_warp_is_not_started_without_a_cuda_driver_by_the_default_suite():
 
 def test_warp_asked_for_on_the_cpu_says_so_in_one_line_of_its_own():
     pytest.importorskip("mujoco_warp")
-    from rockbench.engines.mujoco_warp_adapter import CPU_LINE, cuda_driver_present
+    from rockbench.engines.adapters.mujoco_warp import CPU_LINE, cuda_driver_present
     if cuda_driver_present():
         pytest.skip("a CUDA driver is present")
     code = ("import os\nos.environ.pop('ROCKBENCH_DEVICE_NOTED', None)\n"
-            "from rockbench.engines.mujoco_warp_adapter import _warp\n_warp()\n_warp()\n")
+            "from rockbench.engines.adapters.mujoco_warp import _warp\n_warp()\n_warp()\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert r.stderr.splitlines() == [CPU_LINE]
@@ -100,7 +102,7 @@ def test_device_notes_are_said_once_before_the_maps(monkeypatch):
 
     from rockbench.benchmark.suites.progress import say_device_notes
     from rockbench.engines import registry
-    from rockbench.engines.base import DEVICE_NOTED_ENV
+    from rockbench.engines.contract import DEVICE_NOTED_ENV
 
     class Gpu:
         @classmethod

@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.benchmark.suites.model import load_suite
 from rockbench.benchmark.suites.plan import plan, variant_restitution, variant_settings
-from rockbench.engines import price as P
+from rockbench.engines.calibration import price as P
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import G, Block
 

@@ -1,12 +1,12 @@
 """The held-out check: ``calibrate_on`` names another block (``sibling``: the other size of the same
 slenderness; ``neighbour``: the nearest other slenderness of the same size among Table 1's blocks; or a
 preset's name), and anything else is refused with one line. The engines take the blocks themselves (a
-:class:`~rockbench.engines.held_out.CalibrateOn`, or a Block); the names are the benchmark's presets,
+:class:`~rockbench.engines.calibration.held_out.CalibrateOn`, or a Block); the names are the benchmark's presets,
 resolved before they reach an adapter (:mod:`rockbench.benchmark.engine_info.adapters`)."""
 
 import pytest
 
-from rockbench.engines import held_out
+from rockbench.engines.calibration import held_out
 from rockbench.engines.registry import get_adapter
 from rockbench.benchmark.blocks.presets import PRESETS, calibrate_on
 from rockbench.benchmark.cli.main import main

@@ -25,7 +25,14 @@ FOLDERS = {"rockbench.reference_solver": "reference_solver", "rockbench.engines"
 LAYERS = [
     ("the problem: blocks, pulses, restitution, the classifier, the reference solver",
      ["rockbench.reference_solver"]),
-    ("one adapter per engine behind one contract", ["rockbench.engines"]),
+    ("the engine contract: what an adapter exchanges, what it reads from its state, its hooks, the engines' "
+     "versions", ["rockbench.engines", "rockbench.engines.contract", "rockbench.engines.motion",
+                  "rockbench.engines.hooks", "rockbench.engines.support"]),
+    ("the calibration's rules: knobs, search, pick, η reader, price, time-step rule, held-out block, cache, the "
+     "one routine", ["rockbench.engines.calibration"]),
+    ("the contact engines' base and its loop", ["rockbench.engines.contact", "rockbench.engines.loop"]),
+    ("one adapter per engine", ["rockbench.engines.adapters"]),
+    ("the registry and the conformance checker", ["rockbench.engines.registry", "rockbench.engines.checker"]),
     ("block presets, experimental data and facts about the installed engines",
      ["rockbench.benchmark.blocks", "rockbench.benchmark.engine_info"]),
     ("maps: the case or map a user asks for, grids, cells, executors, and the run folders they are stored in",
@@ -125,8 +132,7 @@ def _is_module(dotted: str) -> bool:
 
 def test_no_private_name_crosses_a_module():
     """A name with a leading underscore stays in its module: one that another module needs is public
-    (or lives where it is needed). A package's private module (``engines/_mujoco_warp_kernels.py``) is
-    its siblings' to import."""
+    (or lives where it is needed). A package's private module is its siblings' to import."""
     found = [f"{path.relative_to(ROOT)}:{line}: imports {target}" for path, line, mod, target in _all_imports()
              if target.rsplit(".", 1)[-1].startswith("_") and not target.endswith("__")
              and not _is_module(target)]
@@ -169,9 +175,13 @@ def test_imports_inside_functions_say_why():
 
 @pytest.mark.parametrize("source, target, floor_ok", [
     ("rockbench.benchmark.maps.sweep", "rockbench.benchmark.report.plots.picture.MapPicture", False),
+    ("rockbench.engines.calibration.routine", "rockbench.engines.adapters.mujoco.MujocoAdapter", False),
+    ("rockbench.engines.adapters.mujoco", "rockbench.engines.contact.ContactEngine", True),
+    ("rockbench.engines.contract", "rockbench.engines.calibration.step_rule", False),
+    ("rockbench.engines.checker", "rockbench.engines.registry.get_adapter", True),
     ("rockbench.benchmark.report.build", "rockbench.benchmark.maps.grid.MapSpec", True),
     ("rockbench.benchmark.suites.runner", "rockbench.benchmark.report.build.build_report", True),
-    ("rockbench.engines.base", "rockbench.benchmark.store.files", False),
+    ("rockbench.engines.contract", "rockbench.benchmark.store.files", False),
 ])
 def test_the_rule_itself(source, target, floor_ok):
     """The floor comparison the test relies on says what the declared layers mean."""

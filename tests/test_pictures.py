@@ -260,8 +260,6 @@ def test_accuracy_cost_curves_one_per_engine_the_rule_circled():
     texts = [t.get_text() for t in d["legend"].get_texts()]
     assert texts[:2] == ["MuJoCo 4.0", "Drake 1.51"] and "step 0.5 ms" in texts and "declared distance 0.037" in texts
     assert {t.get_text() for t in d["labels"]} <= {"1 ms", "0.5 ms", "0.1 ms"} and d["labels"]
-    fig = ax.figure
-    r = _renderer(fig)
     ticks = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
     assert ticks and all(re.fullmatch(r"[0-9.]+", t) for t in ticks), ticks   # plain numbers, no 10^x
 

@@ -50,8 +50,8 @@ def _rockbench(site, *args):
 def test_the_installed_plugin_passes_check_adapter(site):
     out = _rockbench(site, "check-adapter", "toy")
     assert out.returncode == 0, out.stdout + out.stderr
-    assert "FAIL" not in out.stdout and "13 of 13 checks passed; 2 skipped." in out.stdout
-    assert out.stdout.splitlines()[1].split()[:2] == ["PASS", "hooks"]
+    assert "FAIL" not in out.stdout and "14 of 14 checks passed; 2 skipped." in out.stdout
+    assert [ln.split()[:2] for ln in out.stdout.splitlines()[1:3]] == [["PASS", "contract"], ["PASS", "hooks"]]
     # the modes it does not declare in SUPPORTED_MODES are skipped, each with a line saying so
     skipped = {ln.split()[1]: ln for ln in out.stdout.splitlines() if ln.split()[:1] == ["SKIP"]}
     assert set(skipped) == {"drive", "planar"}

@@ -16,7 +16,7 @@ from rockbench.benchmark.scoring.score_runs import score_dirs
 from rockbench.benchmark.store.loading import load_entry
 from rockbench.benchmark.suites.model import load_suite
 from rockbench.benchmark.suites.plan import in_sample_blocks, plan, planted_factor
-from rockbench.engines.reference_adapter import PLANTED, is_planted
+from rockbench.engines.adapters.reference import PLANTED, is_planted
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.restitution import Restitution

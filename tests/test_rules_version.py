@@ -3,11 +3,9 @@ another version are refused with one line saying to rerun (exit 5), and a map fo
 version is not resumed (exit 2)."""
 
 import json
-from types import SimpleNamespace
 
 import pytest
 
-from rockbench.engines.contact import ContactEngineAdapter
 from rockbench.benchmark.cli.main import main
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.rules import RULES_VERSION, rules_mismatch
@@ -43,11 +41,13 @@ def test_mismatch_names_both_versions_and_a_record_without_one_is_version_1():
 
 
 def test_the_cache_key_changes_with_the_rules_version(monkeypatch):
-    probe = SimpleNamespace(_cache_identity=lambda: {"engine": "probe", "version": "1"})
-    b = Block(width_m=0.05, height_m=0.1125, depth_m=0.05, mass_kg=1.0)
-    key = ContactEngineAdapter._cache_key(probe, b, 0.75, 5e-4, 1)
-    monkeypatch.setattr("rockbench.engines.contact.RULES_VERSION", "test-other")
-    assert ContactEngineAdapter._cache_key(probe, b, 0.75, 5e-4, 1) != key
+    from rockbench.engines.calibration import routine
+    from rockbench.engines.registry import get_adapter
+
+    ad, b = get_adapter("dart"), Block(width_m=0.05, height_m=0.1125, depth_m=0.05, mass_kg=1.0)
+    key = routine.cache_key(ad, b, 0.75, 5e-4, "corners")
+    monkeypatch.setattr(routine, "RULES_VERSION", "test-other")
+    assert routine.cache_key(ad, b, 0.75, 5e-4, "corners") != key
 
 
 def test_score_json_records_the_rules_version(run, capsys):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.classify import OUTCOME_CODES, classify
 from rockbench.reference_solver.energy import free_rocking_fate
@@ -116,7 +116,7 @@ def test_adapter_batch_path_equals_per_case_path():
 
 def test_adapter_basics():
     ad = get_adapter("reference")
-    assert ad.name == "reference" and ad.default_dt_s == 1e-3
+    assert ad.name == "reference" and ad.own_dt_s == 1e-3
     assert ad.settings == {"mode": "energy", "friction": 10.0, "planted_eta_factor": 1.0}
     with pytest.raises(ConfigError):
         get_adapter("reference", mode="forever")

@@ -7,7 +7,6 @@ import copy
 import csv
 import json
 import math
-from pathlib import Path
 
 import pytest
 
@@ -267,7 +266,7 @@ def test_bad_speed_tables(tmp_path, text, line):
 def test_speed_table_defaults_and_the_shipped_suites():
     from rockbench.benchmark.suites.model import load_suite, suite_path
     from rockbench.benchmark.suites.plan import plan
-    from rockbench.engines.step_rule import STEP_LADDER_S
+    from rockbench.engines.calibration.step_rule import STEP_LADDER_S
     speed, full = load_suite(suite_path("speed", False)), load_suite(suite_path("full", False))
     for s in (speed, full):
         assert s.speed.steps_s == list(STEP_LADDER_S)     # the time-step rule's ladder: its choice is on the curve

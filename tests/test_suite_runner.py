@@ -302,7 +302,7 @@ def test_engines_include_takes_an_engine_that_leaves_every_available_suite(tmp_p
     """engines.include: an engine whose default_suite_exclusion leaves "available" suites (MuJoCo Warp
     without a CUDA device)
     takes part anyway; a name rockbench does not know, or include beside a list of names, is one line."""
-    from rockbench.engines.pybullet_adapter import PybulletAdapter
+    from rockbench.engines.adapters.pybullet import PybulletAdapter
     from rockbench.benchmark.suites.plan import engine_names
     monkeypatch.setattr(PybulletAdapter, "default_suite_exclusion", classmethod(lambda cls: "slow here (test)"))
     p = tmp_path / "s.toml"
@@ -344,7 +344,7 @@ def test_only_mujoco_warp_leaves_suites_of_every_engine_by_itself():
     """An adapter's own default_suite_exclusion is for what depends on the machine (MuJoCo
     Warp without a CUDA device); Newton's blanket rule on a CPU is gone, and whether an engine's cost
     fits a suite's budget is the suite file's to say."""
-    from rockbench.engines.base import EngineAdapter
+    from rockbench.engines.contract import EngineAdapter
     from rockbench.engines.registry import BUILTIN, adapter_class
     own = {n for n in BUILTIN if n != "reference"
            and adapter_class(n).default_suite_exclusion.__func__ is not EngineAdapter.default_suite_exclusion.__func__}

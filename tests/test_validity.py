@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.base import Case, EngineAdapter, Trajectory
+from rockbench.engines.contract import Case, EngineAdapter, Trajectory
 from rockbench.reference_solver.demand import contact_demand, impact_friction_ratio
 from rockbench.reference_solver.model import G, a_ratio_to_amplitude
 from rockbench.reference_solver.pulses import make_pulse
@@ -155,7 +155,7 @@ def test_demand_of_a_block_that_never_lifts():
 
 
 def test_reference_adapter_flags_and_friction_setting():
-    from rockbench.engines.reference_adapter import ReferenceAdapter
+    from rockbench.engines.adapters.reference import ReferenceAdapter
     b, pulse = _case("B3M", "sine", 3.0, 2.5)
     case = Case(b, pulse, Restitution())
     assert ReferenceAdapter().run(case).valid
@@ -243,6 +243,7 @@ class _Recorded(EngineAdapter):
     """An adapter that replays a fixed trajectory (no engine): what each engine's judge sees."""
 
     name = "recorded"
+    own_dt_s = 1e-3
 
     def __init__(self, tr, **kw):
         super().__init__(**kw)

@@ -18,7 +18,7 @@ import difflib
 import math
 from dataclasses import dataclass
 
-from ...engines.held_out import NEIGHBOUR, SIBLING, CalibrateOn
+from ...engines.calibration.held_out import NEIGHBOUR, SIBLING, CalibrateOn
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import Block
 from ...reference_solver.restitution import Restitution, housner_eta, modified_eta
@@ -164,7 +164,7 @@ def get_preset(name: str) -> Preset:
 
 def calibrate_on(value, engine: str):
     """A ``calibrate_on`` setting as written (``sibling``, ``neighbour`` or a preset's name, any case) as
-    the engines take it: a :class:`~rockbench.engines.held_out.CalibrateOn` (the engines know no names).
+    the engines take it: a :class:`~rockbench.engines.calibration.held_out.CalibrateOn` (the engines know no names).
     ``sibling`` picks among every preset (the other size of one slenderness), ``neighbour`` among Table
     1's blocks (the nearest other slenderness of the same size: B2M → B3M, B8M → B6M, B3M ↔ B6M,
     B3L ↔ B6L); a name is any preset. None, a Block or a CalibrateOn pass as they are. A ConfigError

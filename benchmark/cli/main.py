@@ -23,10 +23,8 @@ import importlib
 import signal
 import sys
 import threading
-import warnings
 from importlib.metadata import version
 
-from ...engines.renamed import RenamedWarning
 from ...reference_solver.errors import RockbenchError
 
 #: subcommands (modules under rockbench.benchmark.cli.commands, ``-`` written ``_``) and their help lines
@@ -115,18 +113,6 @@ def _one_line(text: str) -> str:
     return "".join(c if (c + "x").splitlines() == [c + "x"] else repr(c)[1:-1] for c in text.rstrip("\n"))
 
 
-def _notes_for_renames(show_other):
-    """A ``warnings.showwarning`` that shows a :class:`~rockbench.engines.renamed.RenamedWarning` as the
-    command line does, one line, and hands every other warning to ``show_other`` (the one in force, so
-    a library's deprecation stays where Python or a test runner puts it)."""
-    def show(message, category, filename, lineno, file=None, line=None) -> None:
-        if issubclass(category, RenamedWarning):
-            print(_one_line(f"rockbench: note: {message}"), file=sys.stderr)
-        else:
-            show_other(message, category, filename, lineno, file, line)
-    return show
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rockbench`` console script; returns the exit code."""
     argv = sys.argv[1:] if argv is None else argv
@@ -143,10 +129,7 @@ def main(argv: list[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return 2
-        with warnings.catch_warnings():   # an old name or value given: one note each, then the command runs
-            warnings.filterwarnings("once", category=RenamedWarning)
-            warnings.showwarning = _notes_for_renames(warnings.showwarning)
-            return int(args.func(args) or 0)
+        return int(args.func(args) or 0)
     except UsageError as e:
         print(_one_line(str(e)), file=sys.stderr)
         return 2

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...engines.base import EngineAdapter
+from ...engines.contract import EngineAdapter
 from ...engines.registry import get_adapter
 from ..blocks.presets import calibrate_on
 

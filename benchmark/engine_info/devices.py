@@ -2,7 +2,7 @@
 speed stage's rows (an engine timed on a GPU is costed by the device's wall time and its row says so).
 
 The engines built to run their batches on a GPU are named here (:data:`GPU_ENGINES`); each says in its
-own :meth:`~rockbench.engines.base.EngineAdapter.device_note` when it runs on the CPU instead ("" where it
+own :meth:`~rockbench.engines.contract.EngineAdapter.device_note` when it runs on the CPU instead ("" where it
 runs where it is meant to), which is the line the speed stage gives for a GPU row that is absent.
 """
 

@@ -11,7 +11,7 @@ so every engine is timed by one rule:
 - **Simulated time** [s]: how long the engine integrated the block's motion, the span of the trajectory
   it returned (each engine stops a cell by the one end-of-run rule, so the spans differ from cell to
   cell and from engine to engine); taken where the one verdict rule sees the trajectory
-  (:meth:`~rockbench.engines.base.EngineAdapter.judge`), so a native batch that judges its own worlds
+  (:meth:`~rockbench.engines.contract.EngineAdapter.judge`), so a native batch that judges its own worlds
   (MuJoCo Warp) is measured the same way.
 
 Both travel with the cell's result in its ``diagnostics`` (which lose everything else before a result

@@ -63,7 +63,7 @@ from typing import Callable
 from urllib.parse import urlsplit
 
 from ...engines import registry
-from ...engines.base import CellResult
+from ...engines.contract import CellResult
 from ...engines.registry import adapter_class
 from ...reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
 from ..engine_info.adapters import build_adapter

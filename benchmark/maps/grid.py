@@ -18,12 +18,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...engines.base import Case
-from ...engines.renamed import canonical_settings
+from ...engines.contract import Case
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import Block, G, a_ratio_to_amplitude, amplitude_to_a_ratio
 from ...reference_solver.pulses import MIN_STEPS_PER_WAVE, check_accel, check_step_count, make_pulse
 from ...reference_solver.restitution import Restitution
+from ..store.files import stored_settings
 
 
 
@@ -295,8 +295,9 @@ class MapSpec:
 
     @classmethod
     def from_dict(cls, d: dict) -> "MapSpec":
-        """Inverse of :meth:`to_dict`; ValueError (ConfigError) or TypeError for a damaged description. Engine
-        settings stored under an old name or value are read under today's (:mod:`rockbench.engines.renamed`)."""
+        """Inverse of :meth:`to_dict`; ValueError (ConfigError) or TypeError for a damaged description, an
+        IncomparableError (exit 5) for engine settings stored under older names
+        (:func:`~rockbench.benchmark.store.files.stored_settings`)."""
         engine, settings, dt = d.get("engine", "reference"), d.get("engine_settings") or {}, d.get("dt_s")
         linearized = d.get("linearized", False)
         if not isinstance(engine, str) or not engine:
@@ -308,7 +309,8 @@ class MapSpec:
         if not isinstance(linearized, bool):
             raise ValueError(f"spec.linearized must be true or false, got {linearized!r}")
         return cls(Block.from_dict(d["block"]), d["pulse"], Restitution.from_dict(d["restitution"]),
-                   Axis.from_dict(d["x"]), Axis.from_dict(d["y"]), engine, canonical_settings(engine, settings), dt,
+                   Axis.from_dict(d["x"]), Axis.from_dict(d["y"]), engine,
+                   stored_settings(engine, settings, "its map's description"), dt,
                    linearized)
 
     def identity(self) -> dict:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...engines.base import CellResult
+from ...engines.contract import CellResult
 from ...reference_solver.classify import Outcome
 from . import adaptive as adaptive_mod
 from .bisection import AXIS_NAMES, UNSAMPLED, overturn_regime, regime_key, sample_regime
@@ -109,7 +109,7 @@ def _results(sweep, omega: np.ndarray, amp: np.ndarray) -> list[CellResult]:
 
 
 def _from_columns(cols) -> list[CellResult]:
-    """The :class:`CellResult` of each case of a :class:`~rockbench.engines.base.CellColumns`."""
+    """The :class:`CellResult` of each case of a :class:`~rockbench.engines.contract.CellColumns`."""
     names = tuple(cols.flag_names)
 
     def opt(x):

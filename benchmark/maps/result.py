@@ -16,7 +16,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ...engines.base import CellResult
+from ...engines.contract import CellResult
 from ...reference_solver.classify import OUTCOME_CODES, Outcome
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.validity import LEFT_MODEL_FLAGS

@@ -27,7 +27,7 @@ from typing import Callable
 import numpy as np
 from tqdm import tqdm
 
-from ...engines.reference_adapter import is_planted
+from ...engines.adapters.reference import is_planted
 from ...reference_solver.errors import ConfigError
 from ..engine_info.adapters import build_adapter
 from ..store.run_folder import RunStore

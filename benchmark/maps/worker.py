@@ -28,7 +28,7 @@ import sys
 import threading
 import time
 
-from ...engines.base import CellResult
+from ...engines.contract import CellResult
 from ...engines.registry import register
 from ..engine_info.adapters import build_adapter
 from .cost import CELL_CPU, CELL_SIMULATED, run_measured

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engines.reference_adapter import PLANTED, is_planted
+from ...engines.adapters.reference import PLANTED, is_planted
 from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from ...reference_solver.model import a_ratio_to_amplitude
 from ...reference_solver.pulses import make_pulse
@@ -36,7 +36,6 @@ from ..blocks.experiments import restitution_targets, st_limit_a_ratio
 from ..blocks.presets import PRESETS, TABLE_1, get_preset, no_exact_k_note
 from ..scoring.declared import declared_of_runs
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
-from ..scoring.metrics import PRIMARY_METRIC
 from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
 from ..scoring.speed_runs import stage_record
 from ..scoring.tables import summary

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import html
 
-from ...engines.held_out import NEIGHBOUR, SIBLING
-from ...engines.reference_adapter import PLANTED, is_planted
+from ...engines.calibration.held_out import NEIGHBOUR, SIBLING
+from ...engines.adapters.reference import PLANTED, is_planted
 from ...engines.registry import adapter_class
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.restitution import Restitution
@@ -43,7 +43,7 @@ SOLVER_NAMES = {"xpbd": "XPBD", "semi_implicit": "semi-implicit", "featherstone"
 
 def model_settings(engine: str) -> dict:
     """The settings that choose which of an engine's models runs, with their defaults
-    (:attr:`~rockbench.engines.base.EngineAdapter.MODEL_SETTINGS`; Newton's solver); {} for an
+    (:attr:`~rockbench.engines.contract.EngineAdapter.MODEL_SETTINGS`; Newton's solver); {} for an
     engine without them, or whose adapter cannot be imported here."""
     try:
         cls = adapter_class(engine)
@@ -210,7 +210,7 @@ def variant_labels(cands) -> dict[str, str]:
 def settings_class(engine_settings: dict | None, variant: str, engine: str | None = None) -> str:
     """``calibrated`` (rockbench's calibration, any contact layout it chose), ``as-shipped`` (the
     engine's defaults and nothing else), ``planted`` (the reference solver with a planted restitution
-    error, :func:`~rockbench.engines.reference_adapter.is_planted`) or, for anything else set by hand,
+    error, :func:`~rockbench.engines.adapters.reference.is_planted`) or, for anything else set by hand,
     the variant's own name. The settings that choose the ``engine``'s model (:func:`model_settings`:
     Newton's solver) are the engine's, not a tweak: they leave the class as it is."""
     if engine is not None and is_planted(engine, engine_settings):

@@ -48,7 +48,7 @@ from ...reference_solver.pulses import is_number
 from ..blocks.presets import PRESETS, TABLE_1
 from ..engine_info.versions import version_of
 from ..maps.result import MapResult
-from ..store.files import canonical_variant, read_json, utc_stamp, variant_name
+from ..store.files import read_json, stored_variant, utc_stamp, variant_name
 from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
 from .experiments import score_outcomes
 from .labels import CALIBRATED, PLANTED_SETTING, settings_class, variant_labels
@@ -515,7 +515,10 @@ def load_score(path, allow_incomplete: bool = False) -> dict:
         raise ConfigError(f"{str(p)!r} scores {len(gaps)} pair(s) of incomplete maps (the first, {gaps[0]['key']!r}, "
                           f"lacks {gaps[0].get('cells_missing')} cells); complete the maps and rescore, or compare "
                           f"anyway with {ALLOW_INCOMPLETE}.")
-    return under_new_names(doc)
+    for q in doc["pairs"]:   # a score.json written under older names is refused, never read as today's
+        if isinstance(q.get("variant"), str):
+            stored_variant(q["variant"], str(p))
+    return doc
 
 
 #: The first metrics version whose verdict this rockbench reads (classes, MCB, declarations, power).
@@ -529,30 +532,6 @@ def _older(version, than: int) -> bool:
         return int(str(version)) < than
     except ValueError:
         return True
-
-
-def under_new_names(doc: dict) -> dict:
-    """A stored score document with its engine variants named as this rockbench names them: a variant
-    stored under a setting's or a value's old name (``dart[settings=defaults]``) takes the new one
-    (:func:`~rockbench.benchmark.store.files.canonical_variant`) wherever the document names it (pairs,
-    their keys, the verdict), so that it pairs with itself in a run made after the rename."""
-    renamed = {p["variant"]: canonical_variant(p["variant"]) for p in doc["pairs"] if isinstance(p.get("variant"), str)}
-    renamed = {old: new for old, new in renamed.items() if old != new}
-    if not renamed:
-        return doc
-
-    def walk(x):
-        if isinstance(x, dict):
-            return {k: walk(v) for k, v in x.items()}
-        if isinstance(x, list):
-            return [walk(v) for v in x]
-        return renamed.get(x, x) if isinstance(x, str) else x
-
-    out = walk(doc)
-    for p in out["pairs"]:
-        head, sep, rest = p["key"].partition(" | ")
-        p["key"] = renamed.get(head, head) + sep + rest
-    return out
 
 
 def check_score_doc(doc: dict, where) -> None:

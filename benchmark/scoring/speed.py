@@ -32,7 +32,7 @@ from .scenarios import cluster_of, scenario_of
 from .statistics import CONFIDENCE, POWER, dunnett_critical, detectable, fixed, paired
 
 #: The steps of the stage where a suite lists none [s]: the one time-step rule's ladder
-#: (engines/step_rule.py), so the rule's choice lies on every curve. Coarser steps do not follow the
+#: (engines/calibration/step_rule.py), so the rule's choice lies on every curve. Coarser steps do not follow the
 #: default grid's highest frequency (20 steps per wave at ω/p = 16 on B2M is 1.46 ms); a suite with a
 #: lower frequency range may add them.
 SPEED_STEPS_S = (1e-3, 5e-4, 2e-4, 1e-4)

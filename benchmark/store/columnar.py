@@ -1,7 +1,7 @@
 """cells.csv rows written in bulk from arrays, by compiled code.
 
 A reference map solves its cells as arrays (:meth:`ReferenceAdapter.solve_grid
-<rockbench.engines.reference_adapter.ReferenceAdapter.solve_grid>`); formatting them one Python
+<rockbench.engines.adapters.reference.ReferenceAdapter.solve_grid>`); formatting them one Python
 object at a time would cost more than solving them (a float's ``repr`` alone takes about 1 µs, five
 of them per row). :func:`format_rows` writes whole chunks of rows into one byte buffer instead, in
 parallel, with the same text the per-cell path writes (:meth:`RunStore.append_results

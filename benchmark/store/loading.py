@@ -12,15 +12,15 @@ from typing import Iterable
 
 import numpy as np
 
-from ...engines.reference_adapter import is_planted
-from ...engines.renamed import canonical_settings
-from ...reference_solver.errors import ConfigError
+from ...engines.adapters.reference import is_planted
+from ...reference_solver.errors import ConfigError, IncomparableError
 from ..maps import adaptive as adaptive_mod
 from ..maps.bisection import MAX_DEPTH
 from ..maps.grid import MapSpec
 from ..maps.locating import stored_boundary
 from ..maps.result import FAILED, MapResult, put_row, empty_result, from_cells
-from .files import (COLUMNS, canonical_variant, read_cell_table, read_json, read_run, read_samples, spec_variant,
+from .files import (COLUMNS, read_cell_table, read_json, read_run, read_samples, spec_variant, stored_settings,
+                    stored_variant,
                     variant_name)
 from .frames import OUTCOME_OF_CODE, rows_to_dataframe, rows_to_dataset
 
@@ -75,6 +75,8 @@ def _spec_of_run(meta: dict, where: Path) -> tuple[MapSpec, bool, int, int]:
     except KeyError as e:
         raise ConfigError(f"{str(where)!r} is damaged: it lacks {e}; give a new --out directory "
                           "(or rerun `rockbench map` into a new one).") from None
+    except IncomparableError as e:   # stored under older names (stored_settings): one line, exit 5
+        raise IncomparableError(f"{str(where)!r}: {e}") from None
     except (TypeError, ValueError, AttributeError) as e:
         raise ConfigError(f"{str(where)!r} is damaged: {e}; give a new --out directory.") from None
     return spec, adaptive, stride, depth
@@ -108,9 +110,9 @@ def full_grid_rows(map_dir) -> list[dict]:
             row = rows.get((i, j))
             if row is not None:
                 r = {c: row[c] for c in COLUMNS}
-                # a map written before the variant column existed gets it from its spec; one written before a
-                # setting's rename reads under the new name
-                r["variant"] = canonical_variant(r.get("variant") or head["variant"])
+                # a map written before the variant column existed gets it from its spec; one stored under older
+                # names is refused (stored_variant)
+                r["variant"] = stored_variant(r.get("variant") or head["variant"], str(map_dir))
                 r["filled"] = False
             else:
                 code = int(res.outcome[i, j])
@@ -190,10 +192,9 @@ class MapEntry:
 
     @property
     def resolved_settings(self) -> dict:
-        """The concrete settings the map ran with (run.json's ``engine.resolved_settings``), under today's
-        setting names (:mod:`rockbench.engines.renamed`)."""
+        """The concrete settings the map ran with (run.json's ``engine.resolved_settings``), as recorded."""
         resolved = (self.run.get("engine") or {}).get("resolved_settings") or {}
-        return canonical_settings(self.engine, resolved, stored=True) if isinstance(resolved, dict) else {}
+        return dict(resolved) if isinstance(resolved, dict) else {}
 
     def to_dataframe(self):
         """Every cell of the full grid (adaptive fills marked ``filled``), outcome categorical
@@ -298,7 +299,7 @@ def load_entry(d: Path) -> MapEntry:
         engine, block, pulse, restitution = first["engine"], first["block"], first["pulse"], first["restitution"]
         eta = float(first["eta"])
         spec = run.get("spec") or {}
-        settings, dt = canonical_settings(engine, spec.get("engine_settings") or {}), spec.get("dt_s")
+        settings, dt = stored_settings(engine, spec.get("engine_settings") or {}, str(d)), spec.get("dt_s")
     variant = variant_name(engine, settings, dt)
     lm.meta.update({"engine": engine, "variant": variant, "block": block, "pulse": pulse,
                     "restitution": restitution, "eta": eta})
@@ -354,20 +355,18 @@ CALIBRATION_FILE = "calibration.json"
 
 
 def calibration_rows(path) -> list[dict]:
-    """The measurements a calibration.json at ``path`` holds (none when it is absent), their variant names
-    and settings read under today's names (:mod:`rockbench.engines.renamed`); a ConfigError when it is
-    damaged."""
+    """The measurements a calibration.json at ``path`` holds (none when it is absent); a ConfigError when it
+    is damaged, an IncomparableError (exit 5) when it names a variant under older names (:func:`stored_variant`)."""
     f = Path(path)
     if not f.is_file():
         return []
     try:
         rows = [dict(row) for row in read_json(f).get("measurements", [])]
-        for row in rows:
-            row["variant"] = canonical_variant(str(row["variant"]))
-            if isinstance(row.get("settings"), dict):
-                row["settings"] = canonical_settings(str(row.get("engine")), row["settings"], stored=True)
+        variants = [str(row["variant"]) for row in rows]
     except (AttributeError, KeyError, TypeError, ValueError) as e:
         raise _damaged(f, e) from None
+    for v in variants:
+        stored_variant(v, str(f))
     return rows
 
 

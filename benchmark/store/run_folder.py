@@ -29,21 +29,20 @@ from __future__ import annotations
 import csv
 import functools
 import io
-import os
 import platform
 import subprocess
 import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from .columnar import format_rows
 from .atomic import write_bytes_atomic
 from ..maps.cost import cost_of, machine
 from .files import (BOUNDARY_COLUMNS, COLUMNS, COST_COLUMNS, NEW_OUT, SAMPLE_COLUMNS, SCHEMA_VERSION, before_cost,
-                    check_map_schema, read_cells_file, read_json, read_samples, spec_variant, utc_stamp, write_json)
+                    check_map_schema, read_cells_file, read_json, read_samples, spec_variant, stored_settings,
+                    utc_stamp, write_json)
 from .lines import exact_text, plain_row
 
 
@@ -121,7 +120,7 @@ class RunStore:
             stale = rules_mismatch(previous.get("rules_version"), f"the map in {str(d)!r}")
             if stale:
                 raise ConfigError(f"{stale}: delete {str(d)!r} to compute it again, or give another --out directory.")
-            before = _canonical_identity(previous.get("spec_identity"))
+            before = _checked_identity(previous.get("spec_identity"), d)
             if before != spec.identity():
                 diff = _differences(before if isinstance(before, dict) else {}, spec.identity())
                 raise ConfigError(f"{str(d)!r} already holds a different map (differs in {diff}); give another "
@@ -265,7 +264,7 @@ class RunStore:
 
     def append_columns(self, spec, ii, jj, cols) -> None:
         """Append the rows of successful cells ``(ii[k], jj[k])`` with the verdicts of ``cols`` (a
-        :class:`~rockbench.engines.base.CellColumns`) in one write: the same text, row for row, as
+        :class:`~rockbench.engines.contract.CellColumns`) in one write: the same text, row for row, as
         :meth:`append_results` gives for the same cells (:mod:`rockbench.benchmark.store.columnar`)."""
         if len(ii) == 0:
             return
@@ -399,22 +398,12 @@ def _dict(d: dict | None, key: str) -> dict:
     return v if isinstance(v, dict) else {}
 
 
-def stored_identity(map_dir):
-    """The ``spec_identity`` the run.json of ``map_dir`` records, read under today's setting names (as
-    :meth:`~rockbench.benchmark.maps.grid.MapSpec.identity` gives it), or None where there is none."""
-    try:
-        return _canonical_identity(read_json(Path(map_dir) / "run.json").get("spec_identity"))
-    except ConfigError:
-        return None
-
-
-def _canonical_identity(identity):
-    """A stored ``spec_identity`` with its engine settings read under today's names (a map written before a
-    setting's rename resumes under the new one)."""
-    if not isinstance(identity, dict) or not isinstance(identity.get("engine_settings"), dict):
-        return identity
-    return {**identity, "engine_settings": canonical_settings(str(identity.get("engine")),
-                                                              identity["engine_settings"])}
+def _checked_identity(identity, d: Path):
+    """A stored ``spec_identity``, its engine settings checked against this rockbench's names
+    (:func:`~rockbench.benchmark.store.files.stored_settings`: a map stored under older names is not resumed)."""
+    if isinstance(identity, dict) and isinstance(identity.get("engine_settings"), dict):
+        stored_settings(str(identity.get("engine")), identity["engine_settings"], str(d))
+    return identity
 
 
 def _differences(a: dict, b: dict, prefix: str = "") -> str:

@@ -17,9 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engines.renamed import canonical_settings
 from .atomic import write_bytes_atomic
-from .files import canonical_variant
 
 #: The folder of a run (or report) directory that holds the θ(t) files.
 FOLDER = "trajectories"
@@ -85,15 +83,5 @@ def read_case(folder, case) -> dict | None:
                        "impacts_s": z[f"impacts_s_{k}"].tolist()} for k, c in enumerate(meta["curves"])]
     except (OSError, ValueError, KeyError, zipfile.BadZipFile):
         return None
-    return {"runs": [_canonical_run(r) for r in meta["runs"]], "notes": meta["notes"], "curves": curves}
-
-
-def _canonical_run(run):
-    """A stored run ``[variant, [engine, settings] or [], restitution]`` under today's setting names (a file
-    stored before a setting's rename stays current)."""
-    if not (isinstance(run, list) and len(run) == 3 and isinstance(run[0], str)):
-        return run
-    how = run[1]
-    if isinstance(how, list) and len(how) == 2 and isinstance(how[1], dict):
-        how = [how[0], canonical_settings(str(how[0]), how[1])]
-    return [canonical_variant(run[0]), how, run[2]]
+    # the runs as stored: a file written under older names does not match this rockbench's plan, and is simulated again
+    return {"runs": meta["runs"], "notes": meta["notes"], "curves": curves}

@@ -22,7 +22,6 @@ from typing import Annotated, Any, get_args
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, ValidationInfo, model_validator
 from pydantic_core import PydanticCustomError
 
-from ...engines.renamed import canonical_settings
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.pulses import is_number
 from ...reference_solver.restitution import Restitution
@@ -190,7 +189,6 @@ def _variants(v):
                 variant["blocks"] = [get_preset(b).name for b in variant["blocks"]]
             except ConfigError as e:
                 raise _bad(f"[{k}].blocks: {e}") from None
-        v[k] = canonical_settings(None, variant, warn=True)   # an old value (settings = "defaults"): a note
     return v
 
 

@@ -5,12 +5,11 @@ of its ``[power]`` table, then each engine variant's maps on each block and puls
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
-from ...engines.base import EngineAdapter
-from ...engines.reference_adapter import PLANTED
+from ...engines.adapters.reference import PLANTED
+from ...engines.contract import EngineAdapter
 from ...engines.registry import adapter_class, availability, names
 from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
@@ -19,7 +18,6 @@ from ..engine_info.adapters import engine_settings
 from ..engine_info.devices import GPU_ENGINES, device_of
 from ..store.files import own_eta_map_name, variant_name
 from ..store.loading import SPEED_STAGE
-from ..store.run_folder import stored_identity
 from .model import Suite, reference_tokens, restitution_for
 
 
@@ -272,6 +270,7 @@ def speed_record(suite: Suite, engines: list[str], notes: list[str]) -> dict:
                          "matched_distance": sp.matched_distance, "source": f"the suite {suite.name!r}"}}
 
 
+
 def planted_factor(reduction: float) -> float:
     """The reference solver's ``planted_eta_factor`` for a planted reduction δ: 1 − δ [-]."""
     return round(1.0 - float(reduction), 12)
@@ -300,22 +299,6 @@ def power_jobs(suite: Suite) -> list[MapJob]:
                 jobs.append(MapJob("reference", settings, block, pulse, r, suite.reference.dt_s,
                                    f"maps/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}"))
     return jobs
-
-
-def resume_renamed(jobs: list[MapJob], specs: list, out: Path) -> list[MapJob]:
-    """``jobs`` (of the maps ``specs``), each whose folder under ``out`` is missing but whose map a folder
-    of another name holds (one named before a setting's rename: ``maps/dart-settings=defaults/``)
-    pointed at that folder, which it then resumes instead of computing the map again beside it."""
-    missing = {json.dumps(spec.identity(), sort_keys=True): k for k, (job, spec) in enumerate(zip(jobs, specs))
-               if not (out / job.subdir).exists() and job.stage is None}
-    planned = {job.subdir for job in jobs}
-    found = list(jobs)
-    for d in sorted(p.parent for p in (out / "maps").glob("*/*/run.json")) if missing else []:
-        sub = d.relative_to(out).as_posix()
-        k = None if sub in planned else missing.pop(json.dumps(stored_identity(d), sort_keys=True), None)
-        if k is not None:
-            found[k] = replace(jobs[k], subdir=sub)
-    return found
 
 
 def own_eta_jobs(suite: Suite, etas: list[dict]) -> list[MapJob]:

@@ -14,7 +14,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from ...engines.base import EngineAdapter
+from ...engines.contract import EngineAdapter
 from ...engines.registry import adapter_class, register
 from ..blocks.presets import get_preset
 from ..engine_info.adapters import build_adapter
@@ -240,4 +240,5 @@ def cost_rank(engine: str) -> tuple:
         cls = adapter_class(engine)
     except Exception:  # noqa: BLE001 - an engine that cannot even load its adapter class goes last
         return (math.inf, 1)
-    return (float(getattr(cls, "default_dt_s", 1.0)), 1 if cls.batching != "none" else 0)
+    step = getattr(cls, "fixed_dt_s", None) or cls.own_dt_s or 1.0   # the benchmark's step for it, else its own
+    return (float(step), 1 if cls.batching != "none" else 0)

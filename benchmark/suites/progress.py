@@ -15,7 +15,7 @@ import sys
 import threading
 
 from ...engines import registry
-from ...engines.base import DEVICE_NOTED_ENV
+from ...engines.contract import DEVICE_NOTED_ENV
 
 
 class SuiteConsole:
@@ -65,7 +65,7 @@ def _duration(s: float) -> str:
 
 def say_device_notes(engines, console: SuiteConsole) -> None:
     """One line per engine that runs somewhere a reader should know of (a GPU-first engine on the
-    CPU: :meth:`~rockbench.engines.base.EngineAdapter.device_note`), before the first map; the
+    CPU: :meth:`~rockbench.engines.contract.EngineAdapter.device_note`), before the first map; the
     engines' worker processes then stay quiet about it."""
     for e in engines:
         note = registry.adapter_class(e).device_note()

@@ -77,7 +77,7 @@ import threading
 import time
 from pathlib import Path
 
-from ...engines.reference_adapter import is_planted
+from ...engines.adapters.reference import is_planted
 from ...reference_solver.errors import ConfigError, IncomparableError
 from ...reference_solver.pulses import make_pulse
 from ..blocks.cases import parse_case
@@ -99,7 +99,7 @@ from ..store.files import write_json
 from ..trajectories import record_for_report
 from .lanes import ReferenceThread, run_lanes
 from .model import Suite, skipped_reference_note
-from .plan import check_suite, engine_names, own_eta_jobs, plan, resume_renamed, speed_engines, speed_record
+from .plan import check_suite, engine_names, own_eta_jobs, plan, speed_engines, speed_record
 from .preparation import Preparation, cost_rank
 from .progress import SuiteConsole, say_device_notes
 
@@ -192,7 +192,6 @@ class _SuiteRun:
         # every spec is built (and so checked) before the first map runs (the own-η reference maps, which
         # wait for the measured η, differ from the others only in a constant restitution)
         self.specs = self.specs_of(self.todo)
-        self.todo = resume_renamed(self.todo, self.specs, out)
         self.t0 = time.perf_counter()
         self.records: dict = {}
         # calibrations (and the engines' own η) once, on every core, before the engine maps need them;

@@ -1,18 +1,18 @@
-"""The contact engines' shared base (engines/contact.py): one η measurement, one time-step rule,
-one overturn-is-certain rule, one table of renamed settings. No engine needed."""
+"""The contact engines' shared base (engines/contact.py): one η measurement, one time-step resolver,
+one overturn-is-certain rule, one resolution of the settings. No engine needed."""
 
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 import pytest
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.base import uplift_tol_rad
-from rockbench.engines.contact import RENAMED_SETTINGS, ContactEngineAdapter
-from rockbench.engines.free_rocking import free_rocking_etas
+from rockbench.engines.contract import uplift_tol_rad
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.calibration.free_rocking import free_rocking_etas
 from rockbench.reference_solver.classify import FLAT_ANGLE_RAD, decision_index, overturn_certain
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.pulses import RecordPulse
@@ -83,72 +83,77 @@ def test_overturn_certain_is_the_classifiers_rule_on_arrays_and_floats():
     assert decision_index(t[2:4], th[2:4], thd[2:4], alpha_rad=alpha, t_pulse_end_s=te) == (0, True)
 
 
-class _Toy(ContactEngineAdapter):
+class _Toy(ContactEngine):
+    CONTRACT_VERSION = 2
     name = "toy"
-    SETTINGS = {**ContactEngineAdapter.SHARED_SETTINGS, "segment_s": 0.1}
-    default_dt_s = 1e-3
+    SETTINGS = {"segment_s": 0.1}
+    SHIPPED = {"stiffness_n_m": 1e6, "damping_n_s_m": None}
+    MODE_DEFAULTS = {"iterations": (50, 30)}
+    KNOBS = (Knob("stiffness_n_m", "N/m", (1e5, 1e6), start=2e6), Knob("damping_n_s_m", "N s/m", (1.0, 2.0)))
+    own_dt_s = 1e-3
 
 
 def test_shared_settings_are_checked_once_for_every_contact_engine():
     a = _Toy(planar="false")
     assert a.settings["planar"] is False
-    for bad, msg in ((dict(settings="rigid"), "'settings' must be calibrated or shipped"),
-                     (dict(drive="mocap"), "'drive' must be inertial or table"),
+    for bad, msg in ((dict(settings="rigid"), "'settings' must be one of calibrated, shipped"),
+                     (dict(drive="mocap"), "'drive' must be one of inertial, table"),
                      (dict(planar="maybe"), "'planar' must be true or false"),
                      (dict(friction=-1), "'friction' must be a finite number > 0"),
+                     (dict(friction=True), "'friction' must be a finite number > 0"),
                      (dict(min_tail_s=5.0), "'min_tail_s' (5 s) must not exceed 'tail_s'"),
                      (dict(segment_s=0), "'segment_s' must be a finite number > 0")):
         with pytest.raises(ConfigError, match=msg.replace("(", r"\(").replace(")", r"\)")):
             _Toy(**bad)
 
 
+def test_the_settings_are_the_shared_ones_the_shipped_contact_and_the_engine_s_own():
+    assert set(_Toy.SETTINGS) == {"settings", "drive", "planar", "friction", "tail_s", "min_tail_s", "calibrate_on",
+                                  "segment_s", "stiffness_n_m", "damping_n_s_m", "iterations"}
+    assert all(_Toy.SETTINGS[k] is None for k in ("stiffness_n_m", "damping_n_s_m", "iterations"))
+    with pytest.raises(TypeError, match="'stiffness_n_m' a default"):
+        type("Stiff", (ContactEngine,), {"SETTINGS": {"stiffness_n_m": 1e6}, "SHIPPED": {"stiffness_n_m": 2e6}})
+
+
+def test_one_resolution_of_the_settings():
+    """As shipped: the shipped contact and the modes' shipped values; calibrated: the calibrated
+    values, the calibration's contact; a contact given: a knob left out at its start."""
+    shipped = _Toy(settings="shipped").settings_with()
+    assert (shipped["stiffness_n_m"], shipped["damping_n_s_m"], shipped["iterations"]) == (1e6, None, 50)
+    cal = _Toy().settings_with({"stiffness_n_m": 1e5, "damping_n_s_m": 2.0, "not_a_setting": 1})
+    assert (cal["stiffness_n_m"], cal["damping_n_s_m"], cal["iterations"]) == (1e5, 2.0, 30) and "not_a_setting" not in cal
+    given = _Toy(damping_n_s_m=3.0)
+    assert given.explicit_contact() and not given.calibrated()
+    assert (given.settings_with()["stiffness_n_m"], given.settings_with()["damping_n_s_m"]) == (2e6, 3.0)
+    assert not _Toy().explicit_contact() and _Toy().calibrated()
+
+
 @pytest.mark.parametrize("dt", [0.0, -1e-3, math.nan, "x"])
-def test_one_time_step_rule(dt):
-    with pytest.raises(ConfigError, match="--dt must be > 0 s"):
-        _Toy().time_step_s(dt)
-    assert _Toy().time_step_s(None) == 1e-3
+def test_one_time_step_resolver_refuses_a_bad_step(dt):
+    with pytest.raises(ConfigError, match="--dt must be a"):
+        _Toy().step_for(get_preset("B3M").block(), 0.75, dt_s=dt)
 
 
-@pytest.mark.parametrize("engine", sorted(RENAMED_SETTINGS))
-def test_old_setting_names_are_mapped_in_one_table(engine):
-    from rockbench.engines.registry import adapter_class
+def test_the_step_as_shipped_is_the_engine_s_own_never_coarser_than_the_pulse_accepts():
+    from rockbench.reference_solver.pulses import make_pulse
 
-    cls = adapter_class(engine)
-    for old, new in RENAMED_SETTINGS[engine].items():
-        assert new in cls.SETTINGS and old not in cls.SETTINGS
-        with warnings.catch_warnings(record=True) as w:
-            warnings.simplefilter("always")
-            assert cls.canonical_settings({old: 1.0}, warn=True) == {new: 1.0}
-        assert "now called" in str(w[0].message)
-        with pytest.raises(ConfigError, match=f"give only '{new}'"):
-            cls.canonical_settings({old: 1.0, new: 2.0})
-
-
-def test_a_cached_calibration_is_read_under_the_new_setting_names(tmp_path, monkeypatch):
-    from rockbench.engines import calibration
-    from rockbench.engines.registry import adapter_class
-
-    monkeypatch.setenv("ROCKBENCH_CACHE", str(tmp_path))
-    cls = adapter_class("pybullet")
-    old = {"eta_target": 0.8, "eta_measured": 0.8, "eta_std": 0.0, "reached": True,
-           "settings": {"restitution_coef": 0.3, "contact_stiffness": None}}
-    calibration.store("k", {"result": old, "search": {}})
-    got = cls()._cached("k", use_cache=True)
-    assert got.settings == {"contact_restitution": 0.3, "contact_stiffness_n_m": None} and got.eta_measured == 0.8
-    # Exudyn's records name its model's parameters (stiffness_n_m, ...), not settings: they stay
-    model = {"stiffness_n_m": 2e6, "damping_n_s_m": 0.0, "impact_model": 2, "restitution_coefficient": 0.05}
-    calibration.store("x", {"result": {**old, "settings": model}, "search": {}})
-    assert adapter_class("exudyn")()._cached("x", use_cache=True).settings == model
+    block = get_preset("B3M").block()
+    slow, fast = (make_pulse("sine", 5.0, w * block.p_rad_s) for w in (2.0, 60.0))
+    toy = _Toy(settings="shipped")
+    assert toy.step_for(block, 0.75) == toy.step_for(block, 0.75, slow) == 1e-3
+    assert toy.step_for(block, 0.75, fast) == pytest.approx(fast.duration_s / 20)
+    assert toy.step_for(block, 0.75, slow, dt_s=2e-4) == 2e-4
+    assert _Toy(stiffness_n_m=1e6).step_for(block, 0.75, slow) == _Toy.fixed_dt_s   # a contact given
 
 
 def _cal(n, eta, reached):
-    from rockbench.engines.base import CalibrationResult
+    from rockbench.engines.contract import CalibrationResult
     return CalibrationResult(eta_target=0.8, eta_measured=eta, eta_std=0.0, reached=reached,
                              settings={"contact_points": n}, note=f"η {eta}")
 
 
 def test_first_reached_stops_at_the_first_count_that_reaches_the_target():
-    from rockbench.engines.contact import first_reached
+    from rockbench.engines.calibration.routine import first_reached
     asked = []
     results = {9: _cal(9, 0.75, False), 5: _cal(5, 0.801, True), 17: _cal(17, 0.8, True)}
 
@@ -161,7 +166,7 @@ def test_first_reached_stops_at_the_first_count_that_reaches_the_target():
 
 
 def test_first_reached_without_success_gives_the_closest_finite_eta_and_lists_every_count():
-    from rockbench.engines.contact import first_reached
+    from rockbench.engines.calibration.routine import first_reached
     results = {9: _cal(9, math.nan, False), 5: _cal(5, 0.70, False), 17: _cal(17, 0.77, False)}
     best = first_reached(results.__getitem__, (9, 5, 17), "spheres")
     assert best.settings["contact_points"] == 17 and best.eta_measured == 0.77
@@ -196,20 +201,3 @@ def test_run_end_is_one_rule_in_order_diverged_overturn_trapped():
     e_trap = p * p - TRAPPED_MARGIN * p * p * (1.0 - np.cos(alpha))
     om = np.sqrt(2.0 * (np.array([e_trap * 1.001, e_trap * 0.999]) - p * p * np.cos(alpha)))
     assert overturn_impossible([0.0, 0.0], om, alpha_rad=alpha, p_rad_s=p).tolist() == [False, True]
-
-
-def test_calibrated_settings_default_to_none_and_the_old_name_is_an_alias():
-    from rockbench.engines.skeleton import SteppedContactAdapter
-
-    shared = SteppedContactAdapter.SHARED_SETTINGS
-    with pytest.raises(TypeError, match="'stiffness_n_m' a default .* never calibrate"):
-        type("Stiff", (SteppedContactAdapter,), {"SETTINGS": {**shared, "stiffness_n_m": 1e6},
-                                                 "CALIBRATED_SETTINGS": ("stiffness_n_m",)})
-    # as shipped by default, a given contact is fine: nothing is calibrated unless asked for
-    type("Shipped", (SteppedContactAdapter,), {"SETTINGS": {**shared, "settings": "shipped", "stiffness_n_m": 1e6},
-                                               "CALIBRATED_SETTINGS": ("stiffness_n_m",)})
-    with pytest.warns(DeprecationWarning, match="CONTACT_KEYS is now called CALIBRATED_SETTINGS"):
-        old = type("Old", (SteppedContactAdapter,), {"SETTINGS": {**shared, "stiffness_n_m": None},
-                                                     "CONTACT_KEYS": ("stiffness_n_m",)})
-    assert old.CALIBRATED_SETTINGS == ("stiffness_n_m",)
-    assert old(stiffness_n_m=2e6).explicit_contact() and not old().explicit_contact()

@@ -23,7 +23,7 @@ pytest.importorskip("dartpy", reason="dartpy is not installed (pip install 'rock
 
 from rockbench.benchmark.cli.main import main  # noqa: E402
 from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
-from rockbench.engines.base import CellResult  # noqa: E402
+from rockbench.engines.contract import CellResult  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G, Block  # noqa: E402
@@ -99,8 +99,7 @@ def test_restitution_above_the_threshold_makes_the_block_hop():
     # a large block lands fast enough (0.64 m/s) for DART to apply e = 0.6: the block leaves the table
     block = Block(0.4, 0.8, mass_kg=100.0)
     ad = get_adapter("dart", contact_restitution=0.6)
-    tr, motion = ad._trajectory(block, ad.resolve(block, Restitution()), 5e-4, None, theta0=0.5 * block.alpha_rad,
-                         duration_s=0.4)
+    tr, motion = ad.run_worlds(block, ad.resolve(block, Restitution()), 5e-4, [None], 0.5 * block.alpha_rad, 0.4)[0]
     assert np.max(motion.vz_m_s) > 0.3
     assert np.max(np.min(tr.corner_z_m, axis=1)) > 1e-3  # both corners above the table at once
 
@@ -136,7 +135,7 @@ def test_results_do_not_depend_on_the_order_of_cells():
 
 
 def test_engine_exception_becomes_engine_error(monkeypatch):
-    from rockbench.engines import dart_adapter as da
+    from rockbench.engines.adapters import dart as da
 
     def broken(*args, **kwargs):
         raise RuntimeError("simulated engine failure")

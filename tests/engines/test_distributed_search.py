@@ -1,6 +1,6 @@
-"""The skeleton's one distributed-contact search, without an engine.
+"""The one calibration routine's search of a row of points along the base, without an engine.
 
-A fake adapter gives measured rows (:meth:`_distributed_rows`) and the price functions are
+A fake adapter gives measured rows (its ``candidates``) and the price functions are
 replaced by fakes that read each candidate's answer from its row: the search must try the rows the
 one pick reaches in its order (rows without a sink or a hop measured: closest first), skip the full
 price of a row outside the uplift threshold, choose the first row that counts, and report ``not
@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import pytest
 
-from rockbench.engines import price
-from rockbench.engines.base import RestitutionMeasurement
-from rockbench.engines.skeleton import MAX_PRICE_TRIES, SteppedContactAdapter
+from rockbench.engines.calibration import cache, price, routine
+from rockbench.engines.calibration.routine import MAX_PRICE_TRIES
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.contract import RestitutionMeasurement
 from rockbench.reference_solver.model import Block
 
 BLOCK = Block(0.045, 0.10125, mass_kg=0.5444, name="B3M")
@@ -21,7 +22,7 @@ T = 0.8
 
 
 class _Probe:
-    """What :meth:`_Fake._fixed` returns: the candidate's contact, and a free-rocking test."""
+    """What :meth:`_Fake.fixed` returns: the candidate's contact, and a free-rocking test."""
 
     def __init__(self, contact):
         self.contact = contact
@@ -31,36 +32,24 @@ class _Probe:
                                       settings={}, method="fake", first_quarter_s=0.1)
 
 
-class _Fake(SteppedContactAdapter):
-    """An adapter whose distributed candidates are the rows it is given."""
+class _Fake(ContactEngine):
+    """An adapter whose candidates along the base are the rows it is given."""
 
+    CONTRACT_VERSION = 2
     name = "fake-rows"
-    default_dt_s = 1e-3
-    SETTINGS = {**SteppedContactAdapter.SHARED_SETTINGS, "settings": "shipped", "k": None}
-    CALIBRATED_SETTINGS = ("k",)
-    distributed_contact = True
+    SETTINGS = {"settings": "shipped"}
+    SHIPPED = {"k": None}
+    CONTACT_ROWS = "points"
 
     def __init__(self, rows, **settings):
         super().__init__(**settings)
-        self.rows, self.stored = rows, None
+        self.rows = rows
 
-    def _distributed_rows(self, block, t, n, dt):
-        return [dict(r) for r in self.rows], "the given rows"
+    def candidates(self, block, target, dt_s, points, measure):
+        return [dict(r) for r in self.rows]
 
-    def _distributed_key(self, block, t, n, dt):
-        return "fake"
-
-    def _cached(self, key, use_cache):
-        return None
-
-    def _store(self, key, res, search):
-        self.stored = search
-
-    def _fixed(self, contact):
+    def fixed(self, contact):
         return _Probe(contact)
-
-    def _describe_contact(self, row):
-        return f"k {row['k']}"
 
 
 def _row(k, rel, std=0.001, n=3, uplift=True, slip=0):
@@ -92,16 +81,15 @@ def calls(monkeypatch):
 
     monkeypatch.setattr(price, "uplift_threshold", uplift)
     monkeypatch.setattr(price, "contact_price", contact_price)
+    monkeypatch.setattr(cache, "store", lambda key, record: log.update(stored=record["search"]))
     log["rows"] = rows
     return log
 
 
-def _search(calls, given, **attrs):
+def _search(calls, given):
     calls["rows"].update({r["k"]: r for r in given})
     ad = _Fake(given)
-    for k, v in attrs.items():
-        setattr(ad, k, v)
-    return ad, ad._calibrate_distributed_n(BLOCK, T, 9, 1e-3, True)
+    return ad, routine.calibrate_layout(ad, BLOCK, T, 1e-3, 9, use_cache=False)
 
 
 def test_regular_rows_within_one_percent_are_tried_closest_first(calls):
@@ -111,7 +99,8 @@ def test_regular_rows_within_one_percent_are_tried_closest_first(calls):
     assert calls["uplift"][:3] == ["minus2", "plus5", "plus9"]
     assert calls["price"] == ["minus2", "plus5", "plus9"]
     assert not c.reached and "not reached" in c.note and "1 slip / 0 jump" in c.note
-    assert c.settings == {"k": "minus2", "contact_points": 9} and c.eta_measured == pytest.approx(T * 0.998)
+    assert c.settings == {"k": "minus2", "contact": "distributed", "contact_points": 9}
+    assert c.eta_measured == pytest.approx(T * 0.998)
     assert c.evaluations == len(given) and c.price is None
 
 
@@ -124,10 +113,10 @@ def test_a_row_outside_the_uplift_threshold_is_not_priced_further(calls):
 
 
 def test_the_first_row_that_counts_is_chosen(calls):
-    ad, c = _search(calls, [_row("slips", 0.001, slip=2), _row("counts", 0.002), _row("also", 0.003)])
+    _, c = _search(calls, [_row("slips", 0.001, slip=2), _row("counts", 0.002), _row("also", 0.003)])
     assert c.reached and c.settings["k"] == "counts" and c.eta_measured == pytest.approx(T * 1.002)
     assert calls["price"] == ["slips", "counts"]
-    assert [x["k"] for x in ad.stored["price_tried"]] == ["slips", "counts"]
+    assert [x["k"] for x in calls["stored"]["price_tried"]] == ["slips", "counts"]
     assert c.note.startswith("reached with 9 points along the base, k counts, 3 impacts measured; price:")
 
 

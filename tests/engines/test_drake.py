@@ -24,7 +24,7 @@ pytest.importorskip("pydrake", reason="drake is not installed (pip install 'rock
 
 from rockbench.benchmark.cli.main import main  # noqa: E402
 from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
-from rockbench.engines.base import CellResult, Trajectory  # noqa: E402
+from rockbench.engines.contract import CellResult, Trajectory  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
@@ -120,7 +120,7 @@ def test_shipped_defaults_give_an_eta_and_no_calibration():
     ad = get_adapter("drake", settings="shipped")
     s = ad.resolve(get_preset("B6M").block(), Restitution())
     assert s["approximation"] == "lagged" and "calibration" not in s
-    assert all(s[k] is None for k in ad.CALIBRATED_SETTINGS)
+    assert all(s[k] is None for k in ad.SHIPPED)
     m = ad.measure_restitution(get_preset("B6M").block())
     assert 0.85 < m.eta_mean < 1.0
 
@@ -170,13 +170,13 @@ def test_free_body_and_hydroelastic_run():
 
 
 def test_engine_exception_becomes_engine_error(monkeypatch):
-    from rockbench.engines import drake_adapter as da
+    from rockbench.engines.adapters import drake as da
 
     def broken(*args, **kwargs):
         raise RuntimeError("simulated engine failure")
 
     a = get_adapter("drake")
-    monkeypatch.setattr(da.DrakeAdapter, "_trajectory", broken)
+    monkeypatch.setattr(da.DrakeAdapter, "advance", broken)
     r = a.run(case("B3M", "sine", 4.0, 3.0))
     assert isinstance(r, CellResult) and r.status == "failed" and r.flags == ["engine-error"] and not r.valid
 

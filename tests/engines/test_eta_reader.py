@@ -1,4 +1,4 @@
-"""The one η reader (engines/free_rocking.py, PEAK_RATIO), chosen by testing three candidates on the
+"""The one η reader (engines/calibration/free_rocking.py, PEAK_RATIO), chosen by testing three candidates on the
 reference solver's free rocking, where η is applied exactly at every impact (θ̇⁺ = η·θ̇⁻), sampled on
 an engine's uniform time grid. No engine needed.
 
@@ -23,9 +23,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from rockbench.engines.base import uplift_tol_rad
-from rockbench.engines.free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, free_rocking_duration_s, swings
-from rockbench.engines.pick import ETA_RESOLUTION
+from rockbench.engines.contract import uplift_tol_rad
+from rockbench.engines.calibration.free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, free_rocking_duration_s, swings
+from rockbench.engines.calibration.pick import ETA_RESOLUTION
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import RecordPulse

@@ -18,7 +18,7 @@ from end_of_run import assert_ends_by_run_end
 pytest.importorskip("exudyn")
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.exudyn_adapter import steps_of_times
+from rockbench.engines.motion import steps_of_times
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.pulses import make_pulse
@@ -105,7 +105,7 @@ def test_calibration_reaches_housner(exudyn, block):
     assert len(m.etas) >= 3
     assert m.eta_mean == pytest.approx(cal.eta_measured, abs=1e-9)
     # a second call is served from the cache
-    assert exudyn.calibrate(b, target) is cal
+    assert exudyn.calibrate(b, target) == cal
 
 
 def test_modified_target_is_reported_not_reached(exudyn):
@@ -154,7 +154,9 @@ def test_shipped_settings_run_the_shipped_contact():
     ad = get_adapter("exudyn", settings="shipped")
     b = get_preset("B3M").block()
     res = ad.resolve(b, Restitution())
-    assert res["impact_model"] == 0 and res["restitution_coefficient"] == 1.0 and res["damping_n_s_m"] == 0.0
+    assert res["contact_restitution"] is None and res["contact_damping_n_s_m"] == 0.0   # Exudyn's own contact
+    contact = ad._contact(b, res)
+    assert contact["impact_model"] == 0 and contact["restitution_coefficient"] == 1.0
     out = ad.run(cell_case("B3M", "sine", 6.0, 0.9, dt_s=1e-4))
     assert out.status == "ok" and out.outcome == "rest"
 
@@ -162,15 +164,16 @@ def test_shipped_settings_run_the_shipped_contact():
 def test_as_shipped_runs_at_exudyns_own_step_where_the_case_poses_none():
     ad = get_adapter("exudyn", settings="shipped")
     case = cell_case("B3M", "sine", 2.0, 0.9)         # a wave of 0.27 s
-    assert ad.dt_for(case) == 1e-2 == ad.time_step_s(None)
+    assert ad.posed(case).dt_s == 1e-2 == ad.step_for(case.block, case.eta)
     # a wave shorter than 20 of Exudyn's steps is followed at 1/20 of the wave
     fast = cell_case("B3M", "sine", 16.0, 0.9)
-    assert ad.dt_for(fast) == pytest.approx(fast.pulse.duration_s / 20)
+    assert ad.posed(fast).dt_s == pytest.approx(fast.pulse.duration_s / 20)
     # at 10 ms the stand-in stiffness (a static sink of 1.34 µm) is far too stiff for the step: the
     # corner breaks through, recorded for the cell like any engine error
     out = ad.run(case)
     assert out.status == "failed" and "broke through" in out.message
-    assert get_adapter("exudyn").unposed_dt_s(case.pulse) == 1e-4   # otherwise the benchmark's step
+    given = get_adapter("exudyn", contact_restitution=0.05)    # a contact given: the benchmark's fixed step
+    assert given.posed(case).dt_s == 1e-4 == given.fixed_dt_s
 
 
 @pytest.mark.parametrize("settings", [
@@ -193,8 +196,8 @@ def test_modified_newton_iterations_reach_exudyns_solver():
                          **({} if given is None else {"modified_newton_iterations": given}))
         res = ad.resolve(b, Restitution())
         assert res["modified_newton_iterations"] == used
-        world = ad._world(b, res, 1e-4)
-        ad._start(world, b, res, 1e-4, make_pulse("sine", 1.0, 10.0), 0.0, 10)
+        world = ad.build(b, res, 1e-4)
+        ad.start(world, b, res, 1e-4, [make_pulse("sine", 1.0, 10.0)], 0.0, 10)
         assert world.model.ss.timeIntegration.newton.maxModifiedNewtonIterations == used
 
 

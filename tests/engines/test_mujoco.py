@@ -21,7 +21,7 @@ mujoco = pytest.importorskip("mujoco")
 from rockbench.benchmark.cli.main import main as cli_main  # noqa: E402
 from rockbench.benchmark.blocks.presets import PRESETS  # noqa: E402
 from rockbench.benchmark.engine_info.adapters import build_adapter  # noqa: E402
-from rockbench.engines.mujoco_adapter import MujocoAdapter  # noqa: E402
+from rockbench.engines.adapters.mujoco import MujocoAdapter  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution, housner_eta  # noqa: E402
@@ -107,12 +107,12 @@ def test_table_drive_agrees_with_inertial_drive(inertial_results):
 def test_calibration_reaches_housner_within_one_percent(name):
     blk = PRESETS[name].block()
     target = housner_eta(blk.alpha_rad)
-    c = get_adapter("mujoco").calibrate(blk, target)
+    c = get_adapter("mujoco").calibrate(blk, target, dt_s=5e-4)
     assert c.reached
     assert abs(c.eta_measured - target) <= 0.01 * target
-    assert c.settings["timeconst"] >= 2 * c.settings["dt_s"]
+    assert c.settings["timeconst_s"] >= 2 * 5e-4
     # the calibrated settings are what free rocking then shows, impact by impact
-    m = get_adapter("mujoco").measure_restitution(blk)
+    m = get_adapter("mujoco").measure_restitution(blk, dt_s=5e-4)
     assert len(m.etas) >= 2
     assert m.eta_mean == pytest.approx(c.eta_measured, rel=1e-12)
 
@@ -120,18 +120,18 @@ def test_calibration_reaches_housner_within_one_percent(name):
 def test_calibration_is_cached_and_reused():
     blk = PRESETS["B3M"].block()
     ad = get_adapter("mujoco")
-    first = ad.calibrate(blk, housner_eta(blk.alpha_rad))
-    again = get_adapter("mujoco").calibrate(blk, housner_eta(blk.alpha_rad))
+    first = ad.calibrate(blk, housner_eta(blk.alpha_rad), dt_s=5e-4)
+    again = get_adapter("mujoco").calibrate(blk, housner_eta(blk.alpha_rad), dt_s=5e-4)
     assert again.to_dict() == first.to_dict()
 
 
 def test_free_rocking_is_read_by_the_one_reader_with_sink_and_hop():
     # the native batch reads η as every engine does, and what the pick reads from the corners
-    from rockbench.engines.free_rocking import PEAK_RATIO
+    from rockbench.engines.calibration.free_rocking import PEAK_RATIO
 
     block = PRESETS["B6L"].block()
-    ok = MujocoAdapter(timeconst_s=0.001, dampratio=1.0).measure_restitution(block)
-    hops = MujocoAdapter(timeconst_s=0.001, dampratio=0.5).measure_restitution(block)
+    ok = MujocoAdapter(timeconst_s=0.001, dampratio=1.0).measure_restitution(block, dt_s=5e-4)
+    hops = MujocoAdapter(timeconst_s=0.001, dampratio=0.5).measure_restitution(block, dt_s=5e-4)
     assert ok.method == PEAK_RATIO.method and len(ok.etas) == 4
     assert 0.0 < ok.sink_m < 1e-5 and ok.hop_m < 1e-5
     assert hops.hop_m > 2e-4        # ζ 0.5 lets both corners rise a quarter of a millimetre
@@ -140,7 +140,7 @@ def test_free_rocking_is_read_by_the_one_reader_with_sink_and_hop():
 def test_batches_equal_single_runs_bit_for_bit():
     ad = get_adapter("mujoco")
     cases = [_case("B3M", "sine", 6.0, 2.0), _case("B3M", "sine", 3.0, 2.5), _case("B3M", "sine", 4.0, 0.8)]
-    many = ad._simulate_many(cases)
+    many = ad._simulate_many([ad.posed(c) for c in cases])
     for c, tr in zip(cases, many):
         one = ad.simulate(c)
         assert np.array_equal(one.theta_rad, tr.theta_rad)
@@ -205,10 +205,11 @@ def test_a_map_calibrated_on_the_other_size_is_held_out_in_its_scores(tmp_path, 
     b3m, b3l = PRESETS["B3M"].block(), PRESETS["B3L"].block()
     own = get_adapter("mujoco").resolve(b3m, Restitution())
     held = build_adapter("mujoco", calibrate_on="sibling").resolve(b3l, Restitution())
-    assert get_adapter("mujoco", calibrate_on=b3m).resolve(b3l, Restitution()) == held   # the block itself
+    # the block itself (run.json writes the setting as given: the block's name, not "sibling")
+    assert get_adapter("mujoco", calibrate_on=b3m).resolve(b3l, Restitution()) == {**held, "calibrate_on": "B3M"}
     assert held["calibration"]["calibrated_on"] == "B3M" and "calibrated_on" not in own["calibration"]
     assert held["calibration"]["step_rule"] == own["calibration"]["step_rule"]
-    assert {k: held[k] for k in ("timeconst", "dampratio", "dt_s")} == {k: own[k] for k in ("timeconst", "dampratio", "dt_s")}
+    assert {k: held[k] for k in ("timeconst_s", "dampratio")} == {k: own[k] for k in ("timeconst_s", "dampratio")}
 
     root, grid = tmp_path / "run", ["--block", "B3L", "--pulse", "sine", "--w-ratio", "2:10:3", "--a-ratio", "1:6:3"]
     assert cli_main(["map", *grid, "--out", str(root / "reference"), "--no-plot"]) == 0

@@ -21,9 +21,9 @@ pytest.importorskip("mujoco_warp", reason="mujoco-warp is not installed (pip ins
 from rockbench.benchmark.blocks.presets import PRESETS  # noqa: E402
 from rockbench.benchmark.suites.model import load_suite, suite_path
 from rockbench.benchmark.suites.plan import engine_names  # noqa: E402
-from rockbench.engines.mujoco_warp_adapter import MujocoWarpAdapter  # noqa: E402
+from rockbench.engines.adapters.mujoco_warp import MujocoWarpAdapter  # noqa: E402
 from rockbench.engines.registry import adapter_class, get_adapter  # noqa: E402
-from rockbench.engines.warp_start import warp_cache_dir  # noqa: E402
+from rockbench.engines.adapters.warp_start import warp_cache_dir  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
 
@@ -64,16 +64,16 @@ def _own_calibration_cache(tmp_path_factory):
 def warp_results():
     """The device loop's verdicts and trajectories of :data:`CELLS` then :data:`NEAR`, one batch."""
     ad = get_adapter("mujoco_warp", **CONTACT)
-    cases = [_case(*c[:4]) for c in CELLS + NEAR]
+    cases = [ad.posed(_case(*c[:4])) for c in CELLS + NEAR]
     return ad, cases, ad.run_many(cases), ad._simulate_many(cases)
 
 
 @pytest.fixture(scope="module")
 def cpu_results(warp_results):
-    """CPU MuJoCo's verdicts and trajectories of the same cases (the skeleton's loop, float64)."""
+    """CPU MuJoCo's verdicts and trajectories of the same cases (the contact base's loop, float64)."""
     cases = warp_results[1]
     cpu = get_adapter("mujoco", **{k: v for k, v in CONTACT.items() if k != "device"})
-    return cpu.run_many(cases), cpu._simulate_many(cases)
+    return cpu.run_many(cases), cpu._simulate_many([cpu.posed(c) for c in cases])
 
 
 def test_cells_are_far_from_the_reference_boundary():
@@ -158,7 +158,7 @@ def test_calibration_reaches_housner_on_b3m():
     ad = get_adapter("mujoco_warp", device="cpu")
     c = ad.calibrate(blk, target, dt_s=DT)
     assert abs(c.eta_measured - target) <= 0.015 * target, c.note
-    assert c.settings["timeconst"] >= 2 * DT
+    assert c.settings["timeconst_s"] >= 2 * DT
     again = get_adapter("mujoco_warp", device="cpu").calibrate(blk, target, dt_s=DT)
     assert again.to_dict() == c.to_dict()          # from the cache, not run again
 
@@ -211,7 +211,7 @@ def test_kernel_cache_is_in_rockbenchs_cache(monkeypatch, tmp_path):
 def test_drive_arrays_per_world():
     """The drive kernel's inputs: closed-form pulses by code and parameters, a record pulse by its
     row of table velocities at every step, free rocking (None) still."""
-    from rockbench.engines.mujoco_warp_adapter import _KIND_CODES, _KIND_STILL, _KIND_TABLE, _drive_arrays
+    from rockbench.engines.adapters.mujoco_warp import _KIND_CODES, _KIND_STILL, _KIND_TABLE, _drive_arrays
     from rockbench.reference_solver.pulses import RecordPulse, make_pulse
 
     sine = make_pulse("sine", 2.0, 10.0)

@@ -17,7 +17,7 @@ pytest.importorskip("warp", reason="warp-lang is not installed (pip install 'roc
 pytest.importorskip("newton", reason="newton is not installed (pip install 'rockbench[newton]')")
 
 from rockbench.benchmark.blocks.presets import PRESETS  # noqa: E402
-from rockbench.engines.warp_start import warp_cache_dir  # noqa: E402
+from rockbench.engines.adapters.warp_start import warp_cache_dir  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
@@ -126,9 +126,9 @@ def test_featherstone_overturns_where_it_must(drive):
 def test_vbd_search_tries_stiff_contacts_only_and_stops_at_a_regular_hit():
     """VBD's declared knobs in the one search (no engine run): stiffnesses from 1.5 × the penalty
     solvers' softest, each with kd 100, 30, 10 N s/m; it stops at the first regular one within 0.25 %."""
-    from rockbench.engines.knobs import search
-    from rockbench.engines.newton_adapter import _penalty_ke_min
-    from rockbench.engines.pick import Candidate, pick
+    from rockbench.engines.calibration.knobs import search
+    from rockbench.engines.adapters.newton import _penalty_ke_min
+    from rockbench.engines.calibration.pick import Candidate, pick
 
     blk = PRESETS["B3M"].block()
     t = housner_eta(blk.alpha_rad)
@@ -146,7 +146,7 @@ def test_vbd_search_tries_stiff_contacts_only_and_stops_at_a_regular_hit():
 
     ad = get_adapter("newton", solver="vbd")
     assert ad.START_KEEP_RTOL is None
-    rows = search(ad.CALIBRATION_KNOBS, blk, t, ad.default_dt_s, evaluate)
+    rows = search(ad.KNOBS, blk, t, ad.fixed_dt_s, evaluate)
     assert len(rows) == 5
     p = pick([Candidate.of_row(r) for r in rows], t, blk)
     assert p.reached and p.candidate.knobs["contact_damping_n_s_m"] == 30.0
@@ -164,12 +164,12 @@ def test_a_calibrated_variants_free_rocking_is_measured_with_its_calibration(mon
         seen[ad.settings["settings"]] = s
         raise StopIteration
 
-    monkeypatch.setattr(type(get_adapter("newton")), "_measure_free_rocking", measure)
+    monkeypatch.setattr(type(get_adapter("newton")), "_free_rocking", measure)
     for kind in ("calibrated", "shipped"):
         ad = get_adapter("newton", settings=kind)
         monkeypatch.setattr(ad, "calibrate", lambda b, t, **kw: type("Cal", (), {
             "settings": {"contact_stiffness_n_m": 1.0e5}, "reached": True, "note": "", "eta_measured": t,
-            "eta_target": t, "eta_std": 0.0, "price": None, "evaluations": 1})())
+            "eta_target": t, "eta_std": 0.0, "price": None, "evaluations": 1, "sink_m": None, "hop_m": None})())
         with pytest.raises(StopIteration):
             ad.measure_restitution(block)
     assert seen["calibrated"].get("contact_stiffness_n_m") == 1.0e5

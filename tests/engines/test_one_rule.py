@@ -1,56 +1,108 @@
-"""Where rockbench has one rule for every engine, no built-in adapter brings its own.
+"""Where rockbench has one rule for every engine, no built-in adapter brings its own (issue 45).
 
-Each entry of :data:`ONE_RULES` is one shared rule: the one function that is it, and the names an
-adapter may not define, in its classes (an override) or in its module (a copy), because defining
-them would make that rule its own. An adapter that steps its own loop instead of the skeleton's
-(MuJoCo Warp, on the device) is listed in :data:`OWN_LOOP` with the test that holds its loop to the
-rule. Another shared rule (the calibration pick, the η reader) is one more entry of ``ONE_RULES``.
-Every contact engine declares its calibration knobs, which the one search
-(:func:`~rockbench.engines.knobs.search`) walks.
+An adapter implements the contract's hooks and nothing else of the shared bases: every method, class
+method and property a registered adapter's own classes define that the bases also have is listed
+against the allowed set (:data:`ALLOWED`), so an adapter that overrides the settings' resolution, the
+loop, the free-rocking test, the calibration or the step rule fails here, naming it. An adapter whose
+loop runs on its device (MuJoCo Warp) is listed in :data:`OWN_LOOP` with the test that holds its loop
+to the one end-of-run rule. Each entry of :data:`ONE_RULES` is one shared rule: the one function that
+is it, and the names an adapter may not define, in its classes or its module.
 """
 
 from __future__ import annotations
 
+import inspect
 import sys
+from pathlib import Path
 
 import pytest
 
-from rockbench.engines.base import EngineAdapter
-from rockbench.engines.contact import ContactEngineAdapter
-from rockbench.engines.knobs import Knob
-from rockbench.engines.knobs import search as knob_search
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.calibration.knobs import search as knob_search
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.contract import EngineAdapter
 from rockbench.engines.registry import BUILTIN, adapter_class
-from rockbench.engines.skeleton import SteppedContactAdapter
 from rockbench.reference_solver.classify import run_end
+
+#: what a contact engine may define of the bases: its four methods, the optional hooks (its settings'
+#: values, a search of its own, stopping a retired world, a quiet import, where it runs, why the
+#: default suite leaves it out) and declarations computed from its settings (KNOBS, START_KEEP_RTOL)
+CONTACT_HOOKS = frozenset({"build", "start", "advance", "read", "validate", "candidates", "retire", "load_engine",
+                           "device_note", "default_suite_exclusion", "KNOBS", "START_KEEP_RTOL"})
+
+#: what an engine that is no contact engine may define of the base: contract items 3, 4 and 7
+GENERAL_HOOKS = frozenset({"_simulate", "_simulate_many", "_native_verdicts", "solve_grid", "validate",
+                           "load_engine", "device_note", "default_suite_exclusion"})
+
+#: adapters with a loop of their own, the hooks that loop takes over, and the test that checks it
+#: applies the shared rules
+OWN_LOOP = {"mujoco_warp": ({"run_worlds", "measure_many", "_simulate_many", "_native_verdicts"},
+                            "tests/engines/test_mujoco_warp.py::test_the_device_stops_where_run_end_does")}
 
 #: the shared rules: the one function, and the names no built-in adapter may define
 ONE_RULES = {
-    "end of a run": (run_end, ("run_end", "_stop", "_step_worlds", "_run_worlds", "_segment_end", "stop_at",
-                               "_decided", "turned_back")),
+    "end of a run": (run_end, ("run_end", "_stop", "_segment_end", "stop_at", "_decided", "turned_back")),
     "calibration search": (knob_search, ("_calibrate_knobs", "_knob_rows", "_search", "Search", "bisection",
                                          "bracket")),
 }
-
-#: where a loop of an adapter's own would live (the skeleton's loop runs behind them)
-LOOP_METHODS = ("_simulate", "_simulate_many", "_native_verdicts", "_run_native")
-
-#: adapters with a loop of their own, and the test that checks it applies the shared rules
-OWN_LOOP = {"mujoco_warp": "tests/engines/test_mujoco_warp.py::test_the_device_stops_where_run_end_does"}
-
-#: the shared base classes, where the rules live
-_BASES = (SteppedContactAdapter, ContactEngineAdapter, EngineAdapter, object)
 
 CONTACT_ENGINES = sorted(name for name in BUILTIN if name != "reference")
 
 
 def _own_classes(cls: type) -> list[type]:
     """The adapter's classes above the shared bases (its own, and an adapter it extends)."""
-    return [c for c in cls.__mro__ if c not in _BASES]
+    return [c for c in cls.__mro__ if c not in (ContactEngine, EngineAdapter, object)]
+
+
+def allowed(name: str) -> frozenset:
+    """What adapter ``name`` may define of the shared bases."""
+    cls = adapter_class(name)
+    base = CONTACT_HOOKS if issubclass(cls, ContactEngine) else GENERAL_HOOKS
+    return base | frozenset(OWN_LOOP.get(name, (set(),))[0])
+
+
+def overrides(name: str) -> dict[str, list[str]]:
+    """Every method, class method, static method and property adapter ``name``'s own classes define
+    that the shared bases have too: ``{class: [names]}``."""
+    cls = adapter_class(name)
+    bases = ContactEngine if issubclass(cls, ContactEngine) else EngineAdapter
+    out = {}
+    for c in _own_classes(cls):
+        found = [k for k, v in vars(c).items() if hasattr(bases, k) and not k.startswith("__")
+                 and (inspect.isfunction(v) or isinstance(v, (classmethod, staticmethod, property)))]
+        if found:
+            out[c.__qualname__] = sorted(found)
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN))
+def test_an_adapter_overrides_nothing_but_the_contract_s_hooks(name):
+    """The override test of issue 45: every override of every registered adapter, against the allowed set."""
+    extra = {c: sorted(set(ks) - allowed(name)) for c, ks in overrides(name).items()}
+    extra = {c: ks for c, ks in extra.items() if ks}
+    assert not extra, f"{name} overrides {extra} of the shared bases; an adapter implements the contract's hooks only"
+
+
+def test_the_override_test_sees_an_override():
+    class Sneaky(ContactEngine):
+        CONTRACT_VERSION = 2
+        name = "sneaky"
+
+        def resolve(self, block, restitution, dt_s=None):
+            return {}
+
+    from rockbench.engines import registry
+    registry.register("sneaky", Sneaky)
+    try:
+        assert overrides("sneaky") == {"test_the_override_test_sees_an_override.<locals>.Sneaky": ["resolve"]}
+        assert "resolve" not in allowed("sneaky")
+    finally:
+        registry.unregister("sneaky")
 
 
 @pytest.mark.parametrize("name", CONTACT_ENGINES)
-def test_a_contact_engine_is_on_the_shared_skeleton(name):
-    assert issubclass(adapter_class(name), SteppedContactAdapter), name
+def test_a_contact_engine_is_on_the_shared_base(name):
+    assert issubclass(adapter_class(name), ContactEngine), name
 
 
 @pytest.mark.parametrize("name", CONTACT_ENGINES)
@@ -67,21 +119,13 @@ def test_no_adapter_defines_a_shared_rule_of_its_own(name, rule):
 
 @pytest.mark.parametrize("name", CONTACT_ENGINES)
 def test_a_contact_engine_declares_its_calibration_knobs(name):
-    """The one search walks an adapter's declared knobs: none generates its candidates itself."""
-    knobs = adapter_class(name)().CALIBRATION_KNOBS
+    """The one search walks an adapter's declared knobs: none generates its corner candidates itself."""
+    knobs = adapter_class(name)().KNOBS
     assert knobs and all(isinstance(k, Knob) for k in knobs), f"{name} declares no calibration knobs"
 
 
-@pytest.mark.parametrize("name", CONTACT_ENGINES)
-def test_only_a_listed_adapter_runs_a_loop_of_its_own(name):
-    own = sorted({m for c in _own_classes(adapter_class(name)) for m in LOOP_METHODS if m in vars(c)})
-    assert not own or name in OWN_LOOP, f"{name} overrides {own}: its own loop, with no test holding it to the rules"
-
-
 def test_the_listed_loops_tests_exist():
-    from pathlib import Path
-
     root = Path(__file__).resolve().parents[2]
-    for name, where in OWN_LOOP.items():
+    for name, (_, where) in OWN_LOOP.items():
         path, _, test = where.partition("::")
         assert f"def {test}(" in (root / path).read_text(encoding="utf-8"), (name, where)

@@ -27,8 +27,8 @@ pytest.importorskip("sapien", reason="sapien is not installed (pip install 'rock
 
 from rockbench.benchmark.cli.main import main  # noqa: E402
 from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
-from rockbench.engines.base import CellResult  # noqa: E402
-from rockbench.engines.physx_adapter import SUBSTEPS_TRIED  # noqa: E402
+from rockbench.engines.contract import CellResult  # noqa: E402
+from rockbench.engines.adapters.physx import SHIPPED_CONTACT, SUBSTEPS_TRIED  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
@@ -80,8 +80,8 @@ def test_only_the_physx_step_matters():
     block = get_preset("B6L").block()
     a, b = get_adapter("physx", substeps=2), get_adapter("physx", substeps=1)
     th0 = 0.5 * block.alpha_rad
-    ta, _ = a._trajectory(block, a.resolve(block, Restitution(), 5e-4), 5e-4, None, theta0=th0, duration_s=0.5)
-    tb, _ = b._trajectory(block, b.resolve(block, Restitution(), 2.5e-4), 2.5e-4, None, theta0=th0, duration_s=0.5)
+    ta, _ = a.run_worlds(block, a.resolve(block, Restitution(), 5e-4), 5e-4, [None], th0, 0.5)[0]
+    tb, _ = b.run_worlds(block, b.resolve(block, Restitution(), 2.5e-4), 2.5e-4, [None], th0, 0.5)[0]
     assert np.array_equal(ta.theta_rad, tb.theta_rad[::2])
 
 
@@ -92,9 +92,11 @@ def test_calibration_reaches_housner_with_substeps_and_is_cached():
     res = ad.calibrate(block, target)
     assert res.reached and abs(res.eta_measured - target) <= 0.01 * target, res.note
     assert res.settings["substeps"] in SUBSTEPS_TRIED[1:] and res.settings["solver"] == "pgs"
-    assert set(res.settings) == {"solver", "substeps"}
+    assert set(res.settings) == set(SHIPPED_CONTACT)   # the whole contact: None, as shipped, but solver and substeps
+    assert {k: v for k, v in res.settings.items() if v is not None} == {"solver": "pgs",
+                                                                       "substeps": res.settings["substeps"]}
     assert res.evaluations == SUBSTEPS_TRIED.index(res.settings["substeps"]) + 1
-    assert "PhysX steps (PGS) per step" in res.note
+    assert f"with solver pgs, substeps {res.settings['substeps']};" in res.note
     again = get_adapter("physx").calibrate(block, target)
     assert again.settings == res.settings and again.eta_measured == res.eta_measured
     resolved = ad.resolve(block, Restitution(), dt_s=5e-4)   # the calibration's step, not the step rule's
@@ -142,7 +144,7 @@ def test_record_at_rest():
 
 
 def test_engine_exception_becomes_engine_error(monkeypatch):
-    from rockbench.engines import physx_adapter as pa
+    from rockbench.engines.adapters import physx as pa
 
     def broken(*args, **kwargs):
         raise RuntimeError("simulated engine failure")

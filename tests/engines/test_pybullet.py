@@ -17,7 +17,7 @@ pytest.importorskip("pybullet")
 
 from rockbench.benchmark.cli.main import main  # noqa: E402
 from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
-from rockbench.engines.base import CellResult  # noqa: E402
+from rockbench.engines.contract import CellResult  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
@@ -134,14 +134,14 @@ def test_results_do_not_depend_on_the_order_of_cells():
 
 
 def test_engine_exception_becomes_engine_error(monkeypatch):
-    from rockbench.engines import pybullet_adapter as pa
+    from rockbench.engines.adapters import pybullet as pa
 
     a = get_adapter("pybullet")
 
     def broken(*args, **kwargs):
         raise RuntimeError("simulated engine failure")
 
-    monkeypatch.setattr(pa.PybulletAdapter, "_trajectory", broken)
+    monkeypatch.setattr(pa.PybulletAdapter, "advance", broken)
     r = a.run(case("B3M", "sine", 4.0, 3.0))
     assert isinstance(r, CellResult) and r.status == "failed" and r.flags == ["engine-error"] and not r.valid
 

@@ -1,4 +1,4 @@
-"""The one bisection of the calibration searches (engines/search.py), alone and as the search of a
+"""The one bisection of the calibration searches (engines/calibration/search.py), alone and as the search of a
 declared knob runs it after its ladder, on fake η(knob) curves: no engine runs."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import math
 
 import pytest
 
-from rockbench.engines.knobs import Knob, search
-from rockbench.engines.search import BISECT_RTOL, bisection, bracket
+from rockbench.engines.calibration.knobs import Knob, search
+from rockbench.engines.calibration.search import BISECT_RTOL, bisection, bracket
 from rockbench.benchmark.blocks.presets import get_preset
 
 BLOCK = get_preset("B3M").block()
@@ -30,7 +30,7 @@ def _bisect(eta_of, target, lo, hi, steps, *, eta_lo, tol=BISECT_RTOL, nonfinite
 def _scanned(eta_of, target, ladder, steps):
     """The knob values the search of one declared knob measures: its ladder, then the bisection
     between the first neighbours that bracket the target (every finite η counts)."""
-    knob = Knob("knob", "", "other", ladder=lambda b, dt: tuple(ladder), bisect_steps=steps, bisect_regular=False)
+    knob = Knob("knob", "", values=lambda b, dt: tuple(ladder), bisect_steps=steps, bisect_regular=False)
     rows = search((knob,), BLOCK, target, 1e-3, lambda cands: [{**c, "eta": eta_of(c["knob"]), "eta_std": 0.001,
                                                                "n": 4} for c in cands])
     return [r["knob"] for r in rows]

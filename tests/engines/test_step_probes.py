@@ -1,8 +1,8 @@
 """The time-step rule's probe cells straddle the reference's overturning boundary."""
 
-from rockbench.engines.base import Case
-from rockbench.engines.reference_adapter import ReferenceAdapter
-from rockbench.engines.step_rule import PROBE_DEEP, PROBE_MARGIN, probe_cases
+from rockbench.engines.contract import Case
+from rockbench.engines.adapters.reference import ReferenceAdapter
+from rockbench.engines.calibration.step_rule import PROBE_DEEP, PROBE_MARGIN, probe_cases
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
 from rockbench.reference_solver.pulses import make_pulse

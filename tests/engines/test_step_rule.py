@@ -1,12 +1,12 @@
-"""The one time-step rule (engines/step_rule.py): the coarsest step of the ladder at which a calibrated
+"""The one time-step rule (engines/calibration/step_rule.py): the coarsest step of the ladder at which a calibrated
 engine agrees with itself at the finest step, on a fake engine whose answers per step are known."""
 
 from types import SimpleNamespace
 
 import pytest
 
-from rockbench.engines import step_rule
-from rockbench.engines.base import CellResult
+from rockbench.engines.calibration import step_rule
+from rockbench.engines.contract import CellResult
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.restitution import housner_eta
 
@@ -32,6 +32,11 @@ class FakeEngine:
                 for k, _ in enumerate(cases)]
 
 
+def _converged(eng):
+    """The rule on the fake engine: its calibration of B3M to η_H at a step, its verdicts."""
+    return step_rule.converged_step(lambda dt: eng.calibrate(B3M, ETA, dt), eng.run_many, B3M, ETA)
+
+
 @pytest.fixture(autouse=True)
 def few_probes(monkeypatch):
     monkeypatch.setattr(step_rule, "probe_cases", lambda block, eta: [("sine", 2.0, 1.5), ("sine", 3.0, 2.0)])
@@ -39,7 +44,7 @@ def few_probes(monkeypatch):
 
 def test_the_coarsest_step_that_agrees_with_the_finest_is_kept():
     eng = FakeEngine({1e-3: ETA * 0.97, 5e-4: ETA, 2e-4: ETA * 1.002, 1e-4: ETA})
-    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    dt, rec = _converged(eng)
     assert dt == 5e-4 and rec["converged"]
     assert [r["agrees"] for r in rec["compared"]] == [False, True]
     assert eng.calibrations == [1e-4, 1e-3, 5e-4]        # the yardstick first, each step calibrated once
@@ -47,24 +52,24 @@ def test_the_coarsest_step_that_agrees_with_the_finest_is_kept():
 
 def test_two_coarse_steps_that_agree_with_each_other_but_not_the_finest_do_not_count():
     eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, flip={1e-3: (0,), 5e-4: (0,)})
-    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    dt, rec = _converged(eng)
     assert dt == 2e-4 and [r["agrees"] for r in rec["compared"]] == [False, False, True]
 
 
 def test_a_probe_that_changes_outcome_keeps_the_finer_step():
     eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, flip={1e-3: (1,)})
-    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    dt, rec = _converged(eng)
     assert dt == 5e-4 and rec["compared"][0]["probes_differ"] == ["sine ω/p 3 a 2: overturn valid vs rocking valid"]
 
 
 def test_a_calibration_that_misses_its_target_never_agrees():
     eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, reached={1e-3: False})
-    assert step_rule.converged_step(eng, B3M, ETA)[0] == 5e-4
+    assert _converged(eng)[0] == 5e-4
 
 
 def test_no_agreement_anywhere_keeps_the_finest_step_and_says_so():
     eng = FakeEngine({1e-3: 0.70, 5e-4: 0.72, 2e-4: 0.74, 1e-4: 0.76})
-    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    dt, rec = _converged(eng)
     assert dt == step_rule.STEP_LADDER_S[-1] and not rec["converged"] and len(rec["compared"]) == 3
 
 
@@ -72,13 +77,13 @@ def test_a_finest_step_that_misses_the_target_is_no_yardstick():
     """Drake's case: calibrated at 1, 0.5 and 0.2 ms, not at 0.1 ms; the yardstick is 0.2 ms, and the
     coarsest step that agrees with it is kept, not the uncalibrated finest step."""
     eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, reached={1e-4: False})
-    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    dt, rec = _converged(eng)
     assert dt == 1e-3 and rec["converged"] and rec["yardstick_dt_s"] == 2e-4
     assert [(r["dt_s"], r["finer_dt_s"]) for r in rec["compared"]] == [(1e-3, 2e-4)]
 
 
 def test_no_step_that_reaches_the_target_keeps_the_finest_step_and_says_so():
     eng = FakeEngine({dt: ETA for dt in step_rule.STEP_LADDER_S}, reached={dt: False for dt in step_rule.STEP_LADDER_S})
-    dt, rec = step_rule.converged_step(eng, B3M, ETA)
+    dt, rec = _converged(eng)
     assert dt == step_rule.STEP_LADDER_S[-1] and not rec["converged"] and rec["yardstick_dt_s"] is None
     assert rec["compared"] == []

@@ -17,12 +17,12 @@ Usage (from the repository's top folder, in the venv, with ``pip install -e '.[d
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 
 import bench_drake
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.dart_adapter import landing_speed_m_s
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution, housner_eta
@@ -65,6 +65,14 @@ def cmd_eta(args) -> None:
                       f"{eta_h:.4f} | {100 * (m.eta_mean - eta_h) / eta_h:+.2f} % |")
 
 
+def landing_speed_m_s(block: Block, theta0_frac: float) -> float:
+    """The speed [m/s] at which the landing corner of a rigid block released from rest at
+    ``theta0_frac·α`` reaches the table: ``b·θ̇₀``, with ``θ̇₀ = p·√(2(cos(α − θ0) − cos α))`` the
+    free-rocking energy's angular speed at θ = 0."""
+    a = block.alpha_rad
+    return block.width_m * block.p_rad_s * math.sqrt(2.0 * (math.cos(a - theta0_frac * a) - math.cos(a)))
+
+
 def cmd_restitution(args) -> None:
     """η and the highest hop (both bottom corners off the table) of free rocking with DART's restitution
     coefficient e (the table's is 1): B3M, B6M and a large block (0.4 m × 0.8 m) whose corners land
@@ -79,7 +87,7 @@ def cmd_restitution(args) -> None:
             ad = get_adapter("dart", contact_restitution=e)
             s = ad.resolve(block, Restitution())
             m = ad.measure_restitution(block, settings=s)
-            tr, _ = ad._trajectory(block, s, ad.default_dt_s, None, theta0=theta0, duration_s=1.0)
+            tr, _ = ad.run_worlds(block, s, ad.fixed_dt_s, [None], theta0, 1.0)[0]
             hop = max(float(tr.corner_z_m.min(axis=1).max()), 0.0)
             print(f"| {block.name} | {v_land:.3f} | {e:g} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | {1e3 * hop:.3f} |")
 

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
@@ -100,7 +100,7 @@ def cmd_eta(args) -> None:
             ad = get_adapter("drake", **settings)
             s = ad.resolve(block, Restitution())
             m = ad.measure_restitution(block, settings=s)
-            shown = {k: s[k] for k in ad.CALIBRATED_SETTINGS + ("approximation",) if s.get(k) is not None}
+            shown = {k: s[k] for k in (*ad.SHIPPED, "approximation") if s.get(k) is not None}
             print(f"| {name} | {label} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | {eta_h:.4f} | "
                   f"{100 * (m.eta_mean - eta_h) / eta_h:+.2f} % | {json.dumps(shown)} |")
 

@@ -49,7 +49,7 @@ _worker_cases = None
 
 def _grid(block_name, pulse, n):
     from rockbench.benchmark.blocks.presets import get_preset
-    from rockbench.engines.base import Case
+    from rockbench.engines.contract import Case
     from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
     from rockbench.reference_solver.pulses import make_pulse
     from rockbench.reference_solver.restitution import Restitution
@@ -150,7 +150,7 @@ def main(argv=None):
 
     import exudyn
 
-    from rockbench.engines.base import uplift_tol_rad
+    from rockbench.engines.contract import uplift_tol_rad
     from rockbench.engines.registry import get_adapter
     from rockbench.reference_solver.restitution import Restitution
 

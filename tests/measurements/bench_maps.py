@@ -32,7 +32,7 @@ from rockbench.benchmark.maps.grid import MapSpec, make_axis  # noqa: E402
 from rockbench.benchmark.maps.sweep import run_map  # noqa: E402
 from rockbench.benchmark.blocks.presets import PRESETS, get_preset  # noqa: E402
 from rockbench.engines import registry  # noqa: E402
-from rockbench.engines.reference_adapter import ReferenceAdapter  # noqa: E402
+from rockbench.engines.adapters.reference import ReferenceAdapter  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution  # noqa: E402
 from rockbench.reference_solver.solver import solve_batch  # noqa: E402
 

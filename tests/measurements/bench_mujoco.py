@@ -9,7 +9,7 @@ What it prints (and writes as JSON with ``--out FILE``):
    agreement of outcomes with the reference map (all cells, and valid cells only), the
    disagreements that are *not* next to the reference boundary (a cell whose 8 neighbours all have
    its reference outcome), the same against the reference judged with the engines' uplift
-   tolerance (:func:`~rockbench.engines.base.uplift_tol_rad`: a reference "rocking" below it is
+   tolerance (:func:`~rockbench.engines.contract.uplift_tol_rad`: a reference "rocking" below it is
    "rest" to any soft-contact engine), the invalid cells and their flags, and how many of them lie
    where the rigid model itself needs a pulling table (``N < 0``) or more friction than given
    (the reference's own ``min_normal_mg``/``max_friction_ratio``), wall time, cells/s and engine steps/s, at each time step asked
@@ -41,7 +41,7 @@ from datetime import datetime, timezone
 import numpy as np
 
 from rockbench.benchmark.blocks.presets import PRESETS
-from rockbench.engines.base import Case, uplift_tol_rad
+from rockbench.engines.contract import Case, uplift_tol_rad
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
@@ -177,7 +177,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     import mujoco
-    from rockbench.engines.mujoco_adapter import MujocoAdapter
+    from rockbench.engines.adapters.mujoco import MujocoAdapter
 
     nthreads = args.threads or os.cpu_count() or 1
     out = {"when_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"), "mujoco": mujoco.__version__,

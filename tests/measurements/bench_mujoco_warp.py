@@ -44,7 +44,7 @@ from rockbench.benchmark.maps.sweep import run_map
 from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.benchmark.scoring.metrics import score
 from rockbench.benchmark.store.loading import load_entry
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
@@ -64,9 +64,9 @@ def _case(block, kind, w, a):
 
 def measure_steps(ad, block, kind: str, nworld: int, nsteps: int) -> dict:
     """The engine alone: ``nworld`` worlds (a spread of pulses) stepped ``nsteps`` steps."""
-    from rockbench.engines.mujoco_adapter import MujocoAdapter  # noqa: F401 - the builder
+    from rockbench.engines.adapters.mujoco import MujocoAdapter  # noqa: F401 - the builder
     p = ad.resolve(block, Restitution("housner"), None)
-    bm = ad._model(block, p, ad.default_dt_s)
+    bm = ad._build(block, p, ad.fixed_dt_s)
     rng = np.random.default_rng(0)
     pulses = [make_pulse(kind, a * G * math.tan(block.alpha_rad), w * block.p_rad_s)
               for w, a in zip(rng.uniform(*W_AXIS, nworld), rng.uniform(*A_AXIS, nworld))]

@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse

@@ -17,13 +17,13 @@ import os
 import sys
 import time
 
-from rockbench.engines.physx_adapter import SHIPPED_DT_S
+from rockbench.engines.adapters.physx import SHIPPED_DT_S
 from rockbench.engines.registry import get_adapter
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_omega
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution, housner_eta
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 
 #: (label, settings, Δt [s] or None for the adapter's 0.5 ms): one knob changed from PhysX as shipped
 KNOBS = ([("as shipped", {}, None)]

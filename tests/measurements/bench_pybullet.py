@@ -16,7 +16,7 @@ Usage (from the repository's top folder, in the venv)::
 ranges below), with settings calibrated to Housner's η at each time step, and with
 ``--defaults`` also PyBullet as shipped at the default step. Each map is saved as JSON in DIR
 (outcome, impacts and flags per cell, wall time, cells/s), so ``compare`` can score it again. The
-score needs the reference adapter (``rockbench.engines.reference_adapter``): cell agreement on
+score needs the reference adapter (``rockbench.engines.adapters.reference``): cell agreement on
 the three outcomes and on overturn-or-not, counting only valid cells, and how many disagreements
 are not next to the reference's overturning boundary.
 """
@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse

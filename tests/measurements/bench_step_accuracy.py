@@ -14,7 +14,7 @@ step of ``--steps`` (default 2, 1, 0.5, 0.2, 0.1 ms):
 4. the cost of a simulated cell: the mean ``wall_s`` of its cells.csv.
 
 Then the engine as shipped at its own default step (capped by the pulse, as the benchmark runs it),
-and the step the one time-step rule (:mod:`rockbench.engines.step_rule`) chooses for the block and η.
+and the step the one time-step rule (:mod:`rockbench.engines.calibration.step_rule`) chooses for the block and η.
 
 The record goes to the benchmark record ``step-accuracy-<block>-<pulse>-<grid>`` (tests/measurements/records.py: machine,
 commit, versions, command); rows of engines not run this time are kept from an earlier record of
@@ -109,8 +109,8 @@ def shipped_row(engine: str, block, make_spec, tmp: Path, reference) -> dict:
     from rockbench.engines.registry import get_adapter
 
     ad = get_adapter(engine, settings="shipped")
-    row = {"engine": engine, "variant": "as shipped", "dt_s": ad.unposed_dt_s(),
-           "shipped_dt_s": ad.shipped_dt_s}
+    row = {"engine": engine, "variant": "as shipped", "dt_s": ad.step_for(block, math.nan),
+           "shipped_dt_s": ad.own_dt_s}
     try:
         m = ad.measure_restitution(block)
         row.update(eta=m.eta_mean)   # NaN where the block sinks or never rocks freely

@@ -6,7 +6,9 @@ BEFORE.json is a verdict record (tests/measurements/results/verdict-default.json
 value, 95 % interval and rank, and per variant the spurious invalid cells summed over its like-for-like
 pairs); AFTER_SCORE.json is a run's score.json (or a record like BEFORE). Prints per variant: value,
 interval, rank (or "fails", or "held out"), spurious invalid cells (like-for-like pairs), before and
-after; variants stored under an old name (``settings=defaults``) are read under today's.
+after; variants stored under an old name (``settings=defaults``) are read under today's by this
+script's own table of the renames made before 0.1.0 (:data:`OLD_NAMES`: the verdict records kept here
+predate them; rockbench itself no longer reads an old name).
 """
 
 from __future__ import annotations
@@ -15,7 +17,32 @@ import argparse
 import json
 from pathlib import Path
 
-from rockbench.benchmark.store.files import canonical_variant
+#: the renames made before 0.1.0, per engine (settings) and for every engine (``settings`` values): the
+#: history the verdict records in results/ were written under
+OLD_NAMES = {
+    "mujoco": {"timeconst": "timeconst_s"},
+    "pybullet": {"contact_stiffness": "contact_stiffness_n_m", "contact_damping": "contact_damping_n_s_m",
+                 "contact_breaking_threshold": "contact_breaking_threshold_m", "restitution_coef": "contact_restitution"},
+    "dart": {"restitution_coeff": "contact_restitution"},
+    "physx": {"restitution_coeff": "contact_restitution"},
+    "exudyn": {"chunk_s": "segment_s", "max_tail_s": "tail_s", "stiffness_n_m": "contact_stiffness_n_m",
+               "damping_n_s_m": "contact_damping_n_s_m"},
+}
+OLD_VALUES = {"settings": {"defaults": "shipped"}}
+
+
+def canonical_variant(name: str) -> str:
+    """A variant name ``engine[k=v,...]`` under today's names (:data:`OLD_NAMES`); another form as it is."""
+    engine, bracket, inner = str(name).partition("[")
+    if not bracket or not inner.endswith("]"):
+        return name
+    parts = [p.partition("=") for p in inner[:-1].split(",")]
+    if any(not eq or not k for k, eq, _ in parts):
+        return name
+    renamed = OLD_NAMES.get(engine, {})
+    new = {renamed.get(k, k): OLD_VALUES.get(k, {}).get(v, v) for k, _, v in parts if k != "dt"}
+    dt = [f"dt={v}" for k, _, v in parts if k == "dt"]
+    return f"{engine}[{','.join([f'{k}={v}' for k, v in sorted(new.items())] + dt)}]"
 
 
 def spurious_invalid(doc: dict) -> dict:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from ....engines.price import price_line
+from ....engines.calibration.price import price_line
 from ....reference_solver.errors import ConfigError, RockbenchError
 from ...engine_info.adapters import build_adapter
 from ...engine_info.health import refuse_outside_range
@@ -70,8 +70,10 @@ def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
         rest = request.restitution_law(preset, token=args.target, option="--target")
         target = rest.eta(block.alpha_rad)
         step_rule = None
-        if dt is None and getattr(adapter, "calibrated", lambda: False)():
-            dt, step_rule = adapter.converged_step_s(block, target)   # the step the benchmark runs it at
+        if dt is None:   # the step the benchmark runs the block at (the one resolver), and the rule's record
+            dt = adapter.step_for(block, target)
+            if getattr(adapter, "calibrated", lambda: False)() and adapter.contact_layout(block, target) == "corners":
+                step_rule = adapter.rule_step(block, target)[1]
         c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
         if args.price and c.price is None:
             if not hasattr(adapter, "contact_price"):

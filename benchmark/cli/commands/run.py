@@ -23,9 +23,9 @@ def register(sub) -> None:
     p = sub.add_parser("run", help="the whole benchmark: every engine, block and pulse, reference maps, scores, "
                        "report (a suite file; default: the shipped suite 'default', see --show-suite)")
     p.add_argument("suite", nargs="?", default=None, metavar="SUITE.toml",
-                   help="a suite file, or the name of a shipped suite (default, quick, full, newton)")
+                   help="a suite file, or the name of a shipped suite (default, quick, full, newton, speed)")
     p.add_argument("--show-suite", nargs="?", const="default", default=None, metavar="NAME",
-                   help="print a shipped suite (default, quick, full, newton) as TOML, to read or to copy and edit, and exit")
+                   help="print a shipped suite (default, quick, full, newton, speed) as TOML, to read or to copy and edit, and exit")
     p.add_argument("--quick", action="store_true", help="the reduced suite (one block per slenderness, coarse grids)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output directory (default rockbench-results/<suite name>); rerunning resumes")
@@ -49,7 +49,7 @@ def run(args) -> int:
         if args.suite is not None or args.quick:
             raise ConfigError("--show-suite NAME prints one shipped suite; give no other suite or --quick.")
         if args.show_suite.endswith(".toml") or "/" in args.show_suite:
-            raise ConfigError(f"--show-suite takes the name of a shipped suite (default, quick, full, newton), got "
+            raise ConfigError(f"--show-suite takes the name of a shipped suite (default, quick, full, newton, speed), got "
                               f"{args.show_suite!r}.")
         print(suite_path(args.show_suite, False).read_text(), end="")
         return 0

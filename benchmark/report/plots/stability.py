@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ....engines.reference_adapter import is_planted
+from ....engines.adapters.reference import is_planted
 from ...blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
 from ...maps.bisection import MULTIPLE
 from ...maps.result import MapResult

@@ -127,7 +127,8 @@ def plot_verdict(v: dict, *, ax=None) -> dict:
     from matplotlib.ticker import FixedLocator, FuncFormatter  # matplotlib on first drawing
 
     rows = verdict_rows(v)
-    if ax is None:
+    own_figure = ax is None
+    if own_figure:
         from matplotlib.figure import Figure  # matplotlib on first drawing
         ax = Figure(figsize=(DOUBLE_COLUMN_IN, FRAME_IN + ROW_IN * max(len(rows), 3)), layout="constrained").add_subplot()
     n = len(rows)
@@ -155,8 +156,21 @@ def plot_verdict(v: dict, *, ax=None) -> dict:
     ax.grid(True, axis="x", lw=0.3, color="0.85")
     legend = ax.figure.legend(handles=_legend_handles(ax, lines, bands), loc="outside lower center", ncol=2,
                               fontsize=SMALL_PT, frameon=False)
+    if own_figure:
+        _fit_rows(ax, n)
     return {"ax": ax, "figure": ax.figure, "right": right, "rows": rows, "marks": marks, "bands": bands,
             "lines": lines, "legend": legend}
+
+
+def _fit_rows(ax, n: int) -> None:
+    """Grow the figure until its axes give each of the ``n`` rows :data:`ROW_IN`: the legend and the
+    labels take what the layout engine gives them, which differs between matplotlib versions."""
+    fig = ax.figure
+    fig.draw_without_rendering()
+    short_in = n * ROW_IN - ax.get_window_extent().height / fig.dpi
+    if short_in > 0:
+        w_in, h_in = fig.get_size_inches()
+        fig.set_size_inches(w_in, h_in + short_in)
 
 
 def _finite(x) -> bool:

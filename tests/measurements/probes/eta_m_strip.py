@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.blocks.presets import PRESETS
-from rockbench.engines.base import Case
+from rockbench.engines.contract import Case
 from rockbench.engines.registry import availability, get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse

@@ -3,7 +3,7 @@
 For every engine with a contact calibration (MuJoCo, PyBullet, Exudyn) and every Table 1 block,
 the calibration to η_H, η_M with the size's average k and η_M with the block's exact k (cached
 calibrations are reused; a missing one is computed, which takes about a minute per Exudyn block),
-with the price of the contact found (:func:`rockbench.engines.price.contact_price`; measured for the
+with the price of the contact found (:func:`rockbench.engines.calibration.price.contact_price`; measured for the
 η_H corner calibrations too, for comparison).
 
 Run: ``python tests/measurements/probes/eta_m_table.py [--engines mujoco,pybullet,exudyn] [--blocks B3M,...]``;
@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from rockbench.benchmark.blocks.presets import PRESETS
-from rockbench.engines.price import UPLIFT_RTOL
+from rockbench.engines.calibration.price import UPLIFT_RTOL
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.restitution import Restitution, effective_k
 

@@ -20,8 +20,8 @@ import math
 import sys
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines import dart_adapter as da
-from rockbench.engines.base import Case
+from rockbench.engines.adapters import dart as da
+from rockbench.engines.contract import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse

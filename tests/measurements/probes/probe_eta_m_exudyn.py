@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.exudyn_adapter import ExudynAdapter, default_stiffness_n_m
+from rockbench.engines.adapters.exudyn import ExudynAdapter, default_stiffness_n_m
 from rockbench.reference_solver.restitution import housner_eta, modified_eta
 from rockbench.reference_solver.validity import Measurement, judge_measurement
 

@@ -15,7 +15,7 @@ Each setting: free rocking from rest at α/2 (η measured impact by impact with 
 ``PEAK_RATIO``, the reader every calibration uses), and for the best settings a slow ramp of
 the table acceleration (inertial force −m·a(t), a from 0.9 to 1.1 g·tanα over 8 s) giving the
 static uplift threshold (the acceleration at the first instant with |θ| above the classifier's
-uplift tolerance, 2 % of α, as :func:`rockbench.engines.price.uplift_threshold` reads it), and the
+uplift tolerance, 2 % of α, as :func:`rockbench.engines.calibration.price.uplift_threshold` reads it), and the
 time from the release at α/2 to the first impact against the rigid model's (here to the step,
 0.5 ms, i.e. ±0.4 % for B3M; the adapter's measurement interpolates). The "closest" settings
 are picked by η alone: some of them fail the uplift check (one B6M setting tips over during the
@@ -44,7 +44,7 @@ import mujoco  # noqa: E402
 from mujoco import rollout  # noqa: E402
 
 from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
-from rockbench.engines.free_rocking import PEAK_RATIO  # noqa: E402
+from rockbench.engines.calibration.free_rocking import PEAK_RATIO  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta, modified_eta  # noqa: E402
 from rockbench.reference_solver.validity import uplift_tol_rad  # noqa: E402

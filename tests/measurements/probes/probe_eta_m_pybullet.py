@@ -11,7 +11,7 @@ iterations, Δt = 0.5 ms), free rocking from rest at α/2, η by the adapter's e
   rigid contact and the same compliant grid.
 
 For the settings closest to each target, the static uplift threshold (slow ramp) and the
-anti-slip cells are measured with :func:`rockbench.engines.price.contact_price`.
+anti-slip cells are measured with :func:`rockbench.engines.calibration.price.contact_price`.
 
 Run: ``python tests/measurements/probes/probe_eta_m_pybullet.py``; writes
 the record ``tests/measurements/results/probe-eta-m-pybullet.json``.
@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines import price as P
-from rockbench.engines.pybullet_adapter import PybulletAdapter
+from rockbench.engines.calibration import price as P
+from rockbench.engines.adapters.pybullet import PybulletAdapter
 from rockbench.reference_solver.restitution import Restitution, housner_eta, modified_eta
 
 # tests/measurements/ holds the one records writer
@@ -46,7 +46,7 @@ def main():
     ap.add_argument("--blocks", default="B3M,B6M")
     args = ap.parse_args()
     ad = PybulletAdapter()
-    dt = ad.default_dt_s
+    dt = ad.fixed_dt_s
     out = {"engine": "pybullet", "version": ad.version(), "dt_s": dt, "date": str(_dt.date.today()),
            "method": "free rocking from α/2, η = sqrt(K_next/K) over the first 4 impacts (the adapter's method)",
            "blocks": {}}
@@ -68,7 +68,7 @@ def main():
                                  "contact_damping_n_s_m": 2 * z * math.sqrt(k * m), "zeta": z})
         rows = []
         t0 = time.perf_counter()
-        base = ad._base_settings()
+        base = ad.settings_with()
         for g in grid:
             s = {**base, **{k: v for k, v in g.items() if k != "zeta"}}
             try:

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.api import request_of
-from rockbench.engines import exudyn_adapter as X
+from rockbench.engines.adapters import exudyn as X
 from rockbench.engines.registry import get_adapter
 
 

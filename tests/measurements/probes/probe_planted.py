@@ -25,7 +25,7 @@ from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
 from rockbench.benchmark.maps.sweep import run_map
 from rockbench.benchmark.scoring.metrics import OVERTURN, score
-from rockbench.engines.reference_adapter import PLANTED
+from rockbench.engines.adapters.reference import PLANTED
 from rockbench.reference_solver.restitution import Restitution
 
 BLOCKS = ("B2M", "B3M", "B6M", "B8M")

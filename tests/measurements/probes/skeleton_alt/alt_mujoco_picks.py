@@ -16,8 +16,8 @@ import json
 import math
 
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.engines.mujoco_adapter import MujocoAdapter
-from rockbench.engines.skeleton import CAL_MAX_SPREAD
+from rockbench.engines.adapters.mujoco import MujocoAdapter
+from rockbench.engines.loop import CAL_MAX_SPREAD
 from rockbench.reference_solver.restitution import housner_eta
 
 BLOCKS = ("B3M", "B6M", "B3L", "B6L")

@@ -1,0 +1,409 @@
+"""Drake adapter: the rocking block in Drake's compliant contact (``MultibodyPlant``).
+
+The model
+---------
+A box of full width ``b`` (x), depth ``d`` (y) and height ``h`` (z), with the block's mass and
+uniform density, stands on a table in a discrete ``MultibodyPlant`` (time step = the case's Δt)
+wired to a ``SceneGraph``. They touch only through Drake's own compliant contact; no constraint
+and no impact law of ours replaces it.
+
+* **Contact** (``contact``): ``point`` (default) puts small spheres (radius ``corner_radius_m``)
+  inside the bottom corners of the block, flush with its base and sides, against the table (a half
+  space, or a box for the table drive). Drake's point contact between a box and a plane gives one
+  contact point, the deepest, which cannot hold a block standing on its base; spheres at the corners
+  give one point per corner, as the rigid model has it. In the plane (``planar=True``) the two
+  in-plane corners (y = 0) carry the contact; a free 3-D block has all four, each with half the
+  stiffness, so ``point_stiffness_n_m`` is per bottom edge either way. ``hydroelastic`` makes the block
+  a compliant-hydroelastic box (modulus ``hydroelastic_modulus_pa``) pressed into a rigid-hydroelastic
+  table: the pressure field spreads the contact over the part of the base that penetrates.
+* **Discrete solver** (``approximation``): SAP (``sap``, default when calibrated), or the
+  Hunt–Crossley approximations ``similar`` and ``lagged`` (Drake's own default). SAP models
+  dissipation with a linear Kelvin–Voigt law and a relaxation time ``relaxation_time_s`` [s]; the
+  others with Hunt–Crossley dissipation ``hunt_crossley_dissipation_s_m`` [s/m]. The table carries a
+  stiffness of 1e20 (point) or is rigid (hydroelastic) and no dissipation, so the block's values
+  are the contact's (Drake combines the two materials in series).
+* **Planar** (default): a ``PlanarJoint`` keeps the block in the x–z plane (translation in x and
+  z, rotation about +y, so θ > 0 tilts the top towards +x: the contract's sign). ``planar=False``
+  makes it a free body.
+* **Anti-slip**: Coulomb friction 10 (``friction``, static = dynamic) on block and table.
+* **Drives** (``drive``): ``inertial`` (default): the table is fixed and the block feels ``−m·ü``
+  at its centre of mass as a generalized force on its x translation; ``table``: the table is a
+  heavy body (``table_mass_ratio`` × the block's mass) on a prismatic joint along x, pushed by
+  ``(M_table + m)·ü``, so it moves along ``u(t)`` with the velocity its contact needs; the largest
+  tracking error is recorded as ``table_track_err_rel``. Either force, over step ``[tₙ, tₙ₊₁]``, is
+  the step average ``(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` of ``ü`` times the mass: the impulse per step is exact.
+* **Restitution**: Drake has no η. ``settings="calibrated"`` (default) runs the contact parameters
+  :meth:`DrakeAdapter.calibrate` found for the case's η (cached on disk, see
+  :mod:`rockbench.engines.calibration.cache`); ``settings="shipped"`` runs Drake as shipped: its default
+  discrete approximation (``lagged``) and contact parameters (stiffness and dissipation from its
+  default penetration allowance of 1 mm), with only the time step, the geometry and the anti-slip
+  friction set.
+
+Speed
+-----
+The diagram (plant, scene graph, a ``TrajectorySource`` for the drive force and a
+``VectorLogSink`` sampling the plant's state at every step) is built once per geometry and contact
+and kept in the process; a case only resets the context (time, state, log) and hands the drive
+to the source as a zero-order hold, then a ``Simulator`` advances it in segments of ``segment_s``:
+no Python call per step.
+
+The run, its end and the free-rocking test
+------------------------------------------
+The adapter implements the four methods of the contact base
+(:class:`~rockbench.engines.contact.ContactEngine`): the diagram is the scene, a segment is one
+``AdvanceTo``, and the logged plant state gives the block's pose and velocity. The base tests floor
+1's end-of-run rule (:func:`~rockbench.reference_solver.classify.run_end`) after each
+segment and drops the samples after the stop, so the result does not depend on ``segment_s``; η is
+read with the shared peak ratio (:data:`~rockbench.engines.calibration.free_rocking.PEAK_RATIO`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+
+import numpy as np
+
+from ...reference_solver.errors import ConfigError
+from ...reference_solver.model import Block
+from ..calibration.knobs import Knob
+from ..contact import ContactEngine
+from ..motion import Motion, pivot_pose, table_track_err_rel, theta_of_quat
+
+#: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
+#: point stiffness per bottom edge [N/m], hydroelastic modulus [Pa], SAP relaxation time [s] and
+#: Hunt–Crossley dissipation [s/m]. Stiff enough that the block's static sinking (m·g/(2k), 3 µm
+#: for B3M) is far below the slip and jump tolerances, dissipative enough that the corner does not
+#: bounce: the impact is then plastic and η is Housner's (docs/drake.md).
+BASE_CONTACT = {"point_stiffness_n_m": 1e6, "hydroelastic_modulus_pa": 1e8, "relaxation_time_s": 1e-3,
+                "hunt_crossley_dissipation_s_m": 0.1}
+
+#: Stiffnesses (factors of the base) where the calibration's search varies the dissipation. Point
+#: contact: softer ones, since only a contact the step resolves lets the dissipation change η (a
+#: stiffer one is near-rigid and plastic whatever its dissipation). Hydroelastic: stiffer ones
+#: first (a stiffer pressure field concentrates the contact towards the corner, which lowers η
+#: towards Housner's), then softer [-].
+_STIFFNESS_FACTORS = {"point": (0.1, 0.03), "hydroelastic": (10.0, 100.0, 0.1, 0.03)}
+
+#: Dissipation ranges searched, log10 [-]: SAP relaxation time [s], Hunt–Crossley [s/m].
+_DISSIPATION_LOG10 = {"relaxation_time_s": (-5.0, -1.0), "hunt_crossley_dissipation_s_m": (-3.0, 1.5)}
+
+#: Half extents of the table box of the table drive [m]: wider than any table stroke.
+_TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
+
+#: Stiffness of the table's point-contact material [N/m]: so stiff that the block's sets the contact.
+_TABLE_POINT_STIFFNESS = 1e20
+
+_APPROXIMATIONS = ("sap", "similar", "lagged")
+_CONTACTS = ("point", "hydroelastic")
+
+#: Scenes kept per process (one per geometry and contact); the oldest goes first.
+_MAX_SCENES = 8
+
+
+def _import_pydrake():
+    """Import pydrake's pieces; silence the warnings Drake logs while a model is built."""
+    import pydrake.all as pd  # noqa: F401 - the optional engine library, its whole API in one import
+
+    logging.getLogger("drake").setLevel(logging.ERROR)
+    return pd
+
+
+class _Scene:
+    """One built diagram: a block (planar or free) and a table (fixed or driven), contact as given.
+
+    ``key`` is everything the diagram depends on; a case with the same key reuses it.
+    """
+
+    def __init__(self, block: Block, s: dict, dt: float):
+        pd = _import_pydrake()
+        self.pid = os.getpid()
+        self.dt = dt
+        self.planar = bool(s["planar"])
+        self.drive = s["drive"]
+        builder = pd.DiagramBuilder()
+        plant, _sg = pd.AddMultibodyPlantSceneGraph(builder, time_step=dt)
+        approx = s["approximation"]
+        if approx is not None:
+            plant.set_discrete_contact_approximation({
+                "sap": pd.DiscreteContactApproximation.kSap,
+                "similar": pd.DiscreteContactApproximation.kSimilar,
+                "lagged": pd.DiscreteContactApproximation.kLagged}[approx])
+        hydro = s["contact"] == "hydroelastic"
+        plant.set_contact_model(pd.ContactModel.kHydroelasticWithFallback if hydro else pd.ContactModel.kPoint)
+        friction = pd.CoulombFriction(float(s["friction"]), float(s["friction"]))
+        body = self._add_block(pd, plant, block, s, friction)
+        self._add_table(pd, plant, block, s, friction)
+        if self.planar:
+            # joint frame F: x along world z, y along world x, z along world +y (so the joint's
+            # rotation is the contract's θ about +y); the block's frame M is rotated the same way
+            rot = pd.RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+            F = plant.AddFrame(pd.FixedOffsetFrame("plane_F", plant.world_frame(), pd.RigidTransform(rot)))
+            M = plant.AddFrame(pd.FixedOffsetFrame("plane_M", body.body_frame(), pd.RigidTransform(rot)))
+            joint = plant.AddJoint(pd.PlanarJoint("plane", F, M, np.zeros(3)))
+        plant.Finalize()
+        self._index_state(plant, body, joint if self.planar else None)
+        self.source = builder.AddSystem(pd.TrajectorySource(pd.PiecewisePolynomial(np.zeros((self.nv, 1)))))
+        builder.Connect(self.source.get_output_port(), plant.get_applied_generalized_force_input_port())
+        self.logger = pd.LogVectorOutput(plant.get_state_output_port(), builder, dt)
+        self.diagram = builder.Build()
+        self.plant, self.body = plant, body
+        self.context = self.diagram.CreateDefaultContext()
+        self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
+        self.simulator = pd.Simulator(self.diagram, self.context)
+        self._pd = pd
+
+    def _add_block(self, pd, plant, block: Block, s: dict, friction):
+        """The block's body and its contact geometry: a compliant hydroelastic box, or a small sphere
+        at each bottom corner (point contact); returns the body."""
+        b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
+        body = plant.AddRigidBody("block", pd.SpatialInertia.SolidBoxWithMass(m, b, d, h))
+
+        def material(stiffness, edge_share: float = 1.0):
+            props = pd.ProximityProperties()
+            diss = s["hunt_crossley_dissipation_s_m"]
+            pd.AddContactMaterial(dissipation=diss, point_stiffness=(None if stiffness is None else stiffness * edge_share),
+                                  friction=friction, properties=props)
+            if s["relaxation_time_s"] is not None:
+                props.AddProperty("material", "relaxation_time", float(s["relaxation_time_s"]))
+            return props
+
+        if s["contact"] == "hydroelastic":
+            props = material(None)
+            modulus = s["hydroelastic_modulus_pa"] if s["hydroelastic_modulus_pa"] is not None else 1e8
+            pd.AddCompliantHydroelasticProperties(resolution_hint=min(b, d, h) / 4, hydroelastic_modulus=modulus,
+                                                  properties=props)
+            plant.RegisterCollisionGeometry(body, pd.RigidTransform(), pd.Box(b, d, h), "block", props)
+            return body
+        r = float(s["corner_radius_m"])
+        corners = [(1, 0.0), (-1, 0.0)] if self.planar else [(sx, sy) for sx in (1, -1) for sy in (1, -1)]
+        share = 1.0 if self.planar else 0.5
+        for i, (sx, sy) in enumerate(corners):
+            plant.RegisterCollisionGeometry(
+                body, pd.RigidTransform([sx * (b / 2 - r), sy * (d / 2 - r), -h / 2 + r]), pd.Sphere(r),
+                f"corner{i}", material(s["point_stiffness_n_m"], share))
+        return body
+
+    def _add_table(self, pd, plant, block: Block, s: dict, friction) -> None:
+        """The table: the world's half-space (inertial drive) or a heavy box on a prismatic joint
+        (table drive); sets ``table_joint`` and ``push_mass`` (the mass the drive force accelerates)."""
+        hydro = s["contact"] == "hydroelastic"
+        m = block.mass_kg
+        tprops = pd.ProximityProperties()
+        if s["settings"] == "shipped" and not hydro:
+            pd.AddContactMaterial(friction=friction, properties=tprops)
+        else:
+            pd.AddContactMaterial(dissipation=0.0, point_stiffness=_TABLE_POINT_STIFFNESS, friction=friction,
+                                  properties=tprops)
+            tprops.AddProperty("material", "relaxation_time", 0.0)
+        if hydro:
+            pd.AddRigidHydroelasticProperties(properties=tprops)
+        if self.drive == "table":
+            mt = float(s["table_mass_ratio"]) * m
+            hx, hy, hz = _TABLE_HALF_EXTENTS_M
+            table = plant.AddRigidBody("table", pd.SpatialInertia.SolidBoxWithMass(mt, 2 * hx, 2 * hy, 2 * hz))
+            plant.RegisterCollisionGeometry(table, pd.RigidTransform([0, 0, -hz]), pd.Box(2 * hx, 2 * hy, 2 * hz),
+                                            "table", tprops)
+            self.table_joint = plant.AddJoint(pd.PrismaticJoint("table_x", plant.world_frame(), table.body_frame(),
+                                                                [1.0, 0.0, 0.0]))
+            self.push_mass = mt + m
+        else:
+            plant.RegisterCollisionGeometry(plant.world_body(), pd.RigidTransform(), pd.HalfSpace(), "table", tprops)
+            self.table_joint = None
+            self.push_mass = m
+
+    def _index_state(self, plant, body, joint) -> None:
+        """Where θ, x, z (and the table) sit in the plant's state, and the dof the drive pushes."""
+        nq, nv = plant.num_positions(), plant.num_velocities()
+        if self.planar:
+            q0, v0 = joint.position_start(), joint.velocity_start()
+            # q: (z, x, θ); v: (ż, ẋ, θ̇)
+            self.iq = {"z": q0, "x": q0 + 1, "th": q0 + 2}
+            self.iv = {"z": nq + v0, "x": nq + v0 + 1, "th": nq + v0 + 2}
+            self.force_index = v0 + 1
+        else:
+            q0, v0 = body.floating_positions_start(), body.floating_velocities_start_in_v()
+            # q: (qw, qx, qy, qz, x, y, z); v: (ω_W, v_W)
+            self.iq = {"quat": q0, "x": q0 + 4, "y": q0 + 5, "z": q0 + 6}
+            self.iv = {"wx": nq + v0, "th": nq + v0 + 1, "x": nq + v0 + 3, "z": nq + v0 + 5}
+            self.force_index = v0 + 3
+        if self.table_joint is not None:
+            self.iq["table"] = self.table_joint.position_start()
+            self.iv["table"] = nq + self.table_joint.velocity_start()
+            self.force_index = self.table_joint.velocity_start()
+        self.nq, self.nv = nq, nv
+
+    def place(self, block: Block, theta0: float) -> None:
+        """Block at rest at angle ``theta0`` (pivoting on the lower corner), table at rest at x = 0."""
+        xc, zc = pivot_pose(block, theta0)
+        q = np.zeros(self.nq)
+        if self.planar:
+            q[self.iq["z"]], q[self.iq["x"]], q[self.iq["th"]] = zc, xc, theta0
+        else:
+            i = self.iq["quat"]
+            q[i:i + 4] = (math.cos(theta0 / 2), 0.0, math.sin(theta0 / 2), 0.0)
+            q[self.iq["x"]], q[self.iq["z"]] = xc, zc
+        self.plant.SetPositions(self.plant_context, q)
+        self.plant.SetVelocities(self.plant_context, np.zeros(self.nv))
+
+    def set_drive(self, force_per_step: np.ndarray) -> None:
+        """The generalized force on the driven dof during each step ``[tₙ, tₙ₊₁]`` (zero after them)."""
+        pd, dt = self._pd, self.dt
+        n = len(force_per_step)
+        # a hold centred on the step starts, so a step's update at tₙ (± round-off) sees value n
+        breaks = np.concatenate(([-0.5 * dt], (np.arange(n) + 0.5) * dt, [(n + 0.5) * dt + 1e9]))
+        values = np.zeros((self.nv, n + 2))
+        values[self.force_index, :n] = force_per_step
+        self.source.UpdateTrajectory(pd.PiecewisePolynomial.ZeroOrderHold(breaks, values))
+
+    def load(self, pulse) -> None:
+        """The drive of every step under ``pulse`` (None: none): the step average of ü times the mass
+        the drive accelerates, −m (inertial) or M_table + m (table)."""
+        if pulse is None:
+            return self.set_drive(np.zeros(0))
+        n_pulse = int(math.ceil(pulse.duration_s / self.dt - 1e-9))
+        v = pulse.vel(np.arange(n_pulse + 1) * self.dt)
+        self.set_drive((-1.0 if self.drive == "inertial" else 1.0) * self.push_mass * np.diff(v) / self.dt)
+
+    def angles(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """θ (rotation about +y) [rad] and θ̇ [rad/s] from logged states."""
+        if self.planar:
+            return data[:, self.iq["th"]], data[:, self.iv["th"]]
+        i = self.iq["quat"]
+        return theta_of_quat(data[:, i], data[:, i + 1], data[:, i + 2], data[:, i + 3]), data[:, self.iv["th"]]
+
+    def start(self) -> None:
+        self.context.SetTime(0.0)
+        self.logger.FindMutableLog(self.context).Clear()
+        self.simulator.Initialize()
+
+    def advance(self, n_steps: int) -> np.ndarray:
+        """Advance to step ``n_steps`` and return every logged state so far, ``(n_steps + 1, nq + nv)``."""
+        self.simulator.AdvanceTo(n_steps * self.dt)
+        data = self.logger.FindLog(self.context).data()
+        # a copy: the log's buffer is reused by the next case, a view would change under the caller
+        return np.array(data[:, :n_steps + 1].T, dtype=float, copy=True)
+
+
+class DrakeAdapter(ContactEngine):
+    """The rocking block in Drake (see the module docstring for the model and the end of a run).
+
+    Settings
+    --------
+    settings : {"calibrated", "shipped"}
+        Contact parameters calibrated to the case's η, or Drake as shipped.
+    contact : {"point", "hydroelastic"}
+        Point contact at the bottom corners, or hydroelastic contact of the whole base.
+    approximation : {"sap", "similar", "lagged"} or None
+        Drake's discrete contact approximation (None: ``sap`` calibrated, Drake's ``lagged`` as shipped).
+    drive : {"inertial", "table"}
+        How the pulse enters (inertial force at the centre of mass, or a driven table body).
+    planar : bool
+        Keep the block in the vertical x–z plane (a planar joint), or a free 3-D body.
+    friction : float
+        Coulomb friction block–table, static = dynamic [-].
+    point_stiffness_n_m : float or None
+        Point-contact stiffness per bottom edge [N/m]; given, it replaces calibration.
+    hydroelastic_modulus_pa : float or None
+        The block's hydroelastic modulus [Pa]; given, it replaces calibration.
+    relaxation_time_s : float or None
+        SAP's Kelvin–Voigt dissipation time scale [s]; given, it replaces calibration.
+    hunt_crossley_dissipation_s_m : float or None
+        Hunt–Crossley dissipation of ``similar``/``lagged`` [s/m]; given, it replaces calibration.
+    corner_radius_m : float
+        Radius of the corner spheres of point contact [m] (they sit inside the corners, flush).
+    table_mass_ratio : float
+        Table mass over block mass for ``drive="table"`` [-].
+    tail_s, min_tail_s, segment_s : float
+        Longest and shortest simulated time after the pulse, and the length of one simulator
+        advance between end-of-run tests [s].
+    """
+
+    name = "drake"
+    module = "pydrake"
+    install_hint = "install it with `pip install 'rockbench[drake]'` (or `pip install drake`; 1.51.1 tested)."
+    #: Drake's own default step (MultibodyPlantConfig.time_step), what it runs at as shipped
+    own_dt_s = 1e-3
+    SETTINGS = {"contact": "point", "corner_radius_m": 1e-4, "table_mass_ratio": 1000.0, "tail_s": 2.0,
+                "min_tail_s": 0.25, "segment_s": 0.1}
+    #: Drake's own contact: the stiffness and dissipation from its default penetration allowance
+    SHIPPED = {"point_stiffness_n_m": None, "hydroelastic_modulus_pa": None, "relaxation_time_s": None,
+               "hunt_crossley_dissipation_s_m": None}
+    MODE_DEFAULTS = {"approximation": ("lagged", "sap")}
+    START_KEEP_RTOL = 0.005
+    CALIBRATION_VERSION = 4
+
+    def validate(self, s: dict) -> None:
+        self.choice_setting(s, "contact", _CONTACTS, allow_none=False)
+        self.choice_setting(s, "approximation", _APPROXIMATIONS)
+        self.number_setting(s, "point_stiffness_n_m", "N/m")
+        self.number_setting(s, "hydroelastic_modulus_pa", "Pa")
+        self.number_setting(s, "relaxation_time_s", "s", allow_zero=True)
+        self.number_setting(s, "hunt_crossley_dissipation_s_m", "s/m", allow_zero=True)
+        # the spheres sit inside the corners and move the pivots inwards by their radius
+        self.number_setting(s, "corner_radius_m", "m", allow_none=False, maximum=1e-3)
+        self.number_setting(s, "table_mass_ratio", allow_none=False)
+        unused = [k for k in self.SHIPPED if s[k] is not None and k not in (k.name for k in self.KNOBS)]
+        if unused:
+            raise ConfigError(f"drake setting {unused[0]!r} does not act on contact = {s['contact']} with approximation "
+                              f"= {self._approximation(s)}: give {' and '.join(k.name for k in self.KNOBS)} instead.")
+
+    def build(self, block: Block, s: dict, dt: float) -> _Scene:
+        key = (os.getpid(), block.width_m, block.height_m, block.depth_m, block.mass_kg, dt,
+               tuple((k, s.get(k)) for k in sorted(self.SETTINGS) if k not in ("tail_s", "min_tail_s", "segment_s")))
+        sc = _SCENES.get(key)
+        if sc is None:
+            sc = _Scene(block, s, dt)
+            if len(_SCENES) >= _MAX_SCENES:
+                _SCENES.pop(next(iter(_SCENES)))
+            _SCENES[key] = sc
+        return sc
+
+    def start(self, sc: _Scene, block: Block, s: dict, dt: float, pulses: list, theta0: float, n_steps: int):
+        sc.load(pulses[0])
+        sc.place(block, theta0)
+        sc.start()
+        return sc.advance(0)[None]
+
+    def advance(self, sc: _Scene, n_from: int, n_to: int) -> np.ndarray:
+        return sc.advance(n_to)[None, n_from + 1:]
+
+    def read(self, sc: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        iq, iv = sc.iq, sc.iv
+        th, om = sc.angles(data)
+        diag: dict = {"contact": s["contact"], "approximation": s["approximation"]}
+        u_tab = v_tab = None
+        if sc.table_joint is not None:
+            u_tab, v_tab = data[:, iq["table"]], data[:, iv["table"]]
+            if pulse is not None:
+                diag["table_track_err_rel"] = table_track_err_rel(u_tab, pulse, t_s)
+        if not sc.planar:
+            diag["max_lateral_drift_m"] = float(np.nanmax(np.abs(data[:, iq["y"]])))
+        return Motion(x_m=data[:, iq["x"]], z_m=data[:, iq["z"]], theta_rad=th, vx_m_s=data[:, iv["x"]],
+                      vz_m_s=data[:, iv["z"]], theta_dot_rad_s=om, table_x_m=u_tab, table_vx_m_s=v_tab, diagnostics=diag)
+
+    def _approximation(self, s: dict) -> str:
+        return s["approximation"] or ("lagged" if s["settings"] == "shipped" else "sap")
+
+    @property
+    def KNOBS(self) -> tuple:  # noqa: N802 - the declaration, per contact model and approximation
+        """The calibration: the stiff, plastic contact of :data:`BASE_CONTACT` first (point stiffness
+        1e6 N/m per edge or modulus 1e8 Pa; relaxation time 1 ms for SAP, Hunt–Crossley 0.1 s/m
+        otherwise), which gives η close to Housner's, kept within 0.5 %; otherwise the stiffnesses
+        :data:`_STIFFNESS_FACTORS` × the base one by one, at each the dissipation's range ends
+        (:data:`_DISSIPATION_LOG10`) and a bisection of its logarithm when they bracket the target (less
+        dissipation, higher η: the corner comes off the table more elastically), until a candidate is
+        within 0.25 %. A contact given by hand takes the base for what it leaves out."""
+        s = self.settings
+        kkey = "hydroelastic_modulus_pa" if s["contact"] == "hydroelastic" else "point_stiffness_n_m"
+        dkey = "relaxation_time_s" if self._approximation(s) == "sap" else "hunt_crossley_dissipation_s_m"
+        k0, factors = BASE_CONTACT[kkey], _STIFFNESS_FACTORS[s["contact"]]
+        return (Knob(kkey, "N/m" if kkey == "point_stiffness_n_m" else "Pa", tuple(k0 * f for f in factors),
+                     start=k0, until="close"),
+                Knob(dkey, "s" if dkey == "relaxation_time_s" else "s/m", _DISSIPATION_LOG10[dkey],
+                     start=BASE_CONTACT[dkey], log10=True, bisect_steps=10, bisect_regular=False))
+
+
+#: This process's scenes, by everything a diagram depends on (a forked worker builds its own).
+_SCENES: dict = {}
