@@ -253,6 +253,7 @@ GRID = "[grid]\nw_ratio = '1:8:9'\na_ratio = '1:12:9'\nadaptive = true\n"
      "table"),
     (GRID + "[speed]\nmatched_distance = 0\n", "speed.matched_distance must be a number > 0"),
     (GRID + "[speed]\nzoom = 1\n", "unknown key speed.zoom"),
+    (GRID + "[speed]\nlocate_depth = -1\n", "speed.locate_depth must be a whole number from 0 to"),
 ])
 def test_bad_speed_tables(tmp_path, text, line):
     p = tmp_path / "s.toml"
@@ -265,12 +266,14 @@ def test_bad_speed_tables(tmp_path, text, line):
 
 def test_speed_table_defaults_and_the_shipped_suites():
     from rockbench.benchmark.suites.model import load_suite, suite_path
-    from rockbench.benchmark.suites.plan import plan
+    from rockbench.benchmark.suites.plan import plan, speed_depth
     from rockbench.engines.calibration.step_rule import STEP_LADDER_S
     speed, full = load_suite(suite_path("speed", False)), load_suite(suite_path("full", False))
     for s in (speed, full):
         assert s.speed.steps_s == list(STEP_LADDER_S)     # the time-step rule's ladder: its choice is on the curve
         assert s.speed.blocks == ["B2M", "B3M", "B6M", "B8M"] and s.speed.pulses == ["sine"]
+        assert s.speed.locate_depth == speed_depth(s) == 4   # its own depth (docs/speed.md, "The grid and the depth")
+    assert full.grid.locate_depth == 5                        # the full suite's own maps keep the grid's
     jobs = [j for j in plan(speed, ["mujoco", "dart"]) if j.stage == "speed"]
     assert len(jobs) == 2 * 4 * 4 and all(j.subdir.startswith("maps/speed/") for j in jobs)
     assert not [j for j in plan(speed, ["mujoco"]) if j.engine != "reference" and j.stage is None]
@@ -284,13 +287,15 @@ def test_defaults_take_one_block_per_slenderness(tmp_path):
                  "pulses = ['cosine', 'sine']\n[speed]\n")
     s = load_suite(p)
     assert s.speed.blocks == ["B3M", "B6L"] and s.speed.pulses == ["cosine"]
+    from rockbench.benchmark.suites.plan import speed_depth
+    assert s.speed.locate_depth is None and speed_depth(s) == s.grid.locate_depth   # the grid's where left out
 
 
 def test_plan_prints_what_the_stage_costs(capsys, tmp_path):
     assert main(["run", "speed", "--plan", "--engines", "mujoco", "--out", str(tmp_path / "o")]) == 0
     err = capsys.readouterr().err
     assert "speed stage: 1 engine(s) × 4 steps (1, 0.5, 0.2, 0.1 ms) × 4 block(s)" in err
-    assert "speed stage, mujoco: 16 maps of 1296 cells" in err
+    assert "speed stage, mujoco: 16 maps of 1296 cells" in err and "bisection samples to depth 4" in err
 
 
 def test_a_suite_of_the_speed_stage_alone_runs_scores_and_reports(fake_engines, tmp_path):
@@ -305,7 +310,7 @@ def test_a_suite_of_the_speed_stage_alone_runs_scores_and_reports(fake_engines, 
     p.write_text("[suite]\nname = 'sp'\n[grid]\nw_ratio = '1:8:9'\na_ratio = '1:12:9'\nadaptive = true\n"
                  "coarse_stride = 2\nlocate_depth = 3\n[cases]\nblocks = ['B3M']\npulses = ['sine']\n"
                  "[reference]\nrestitutions = ['housner']\n[engines]\nnames = ['analytic-step']\nvariants = []\n"
-                 "[speed]\nsteps_s = [0.001, 0.0005]\n[report]\ncases = []\n")
+                 "[speed]\nsteps_s = [0.001, 0.0005]\nlocate_depth = 2\n[report]\ncases = []\n")
     said = []
     res = run_suite(load_suite(p), tmp_path / "out", jobs=1, log=said.append)
     out = tmp_path / "out"
@@ -314,8 +319,13 @@ def test_a_suite_of_the_speed_stage_alone_runs_scores_and_reports(fake_engines, 
                     "maps/speed/analytic-step-settings=calibrated-dt=0.001/B3M-sine-housner"]
     stage = json.loads((out / maps[0] / "run.json").read_text())["options"]["stage"]
     assert stage["name"] == "speed" and stage["device"]["runs_on"] == "cpu" and stage["step_rule"] is None
+    # the stage's maps are bisected to the stage's depth, the reference to the grid's
+    assert json.loads((out / maps[0] / "run.json").read_text())["options"]["locate_depth"] == 2
+    assert json.loads((out / "maps" / "reference" / "B3M-sine-housner" / "run.json").read_text())["options"][
+        "locate_depth"] == 3
     record = json.loads((out / SPEED_FILE).read_text())
     assert record["declared"]["steps_s"] == [0.001, 0.0005] and record["declared"]["blocks"] == ["B3M"]
+    assert record["declared"]["locate_depth"] == 2
     assert {a["engine"] for a in record["absent"]} == {"mujoco_warp", "newton", "genesis"}
     doc = json.loads((out / "score.json").read_text())
     assert doc["pairs"] == [] and [p["dt_s"] for p in doc["speed"]["engines"][0]["points"]] == [0.001, 0.0005]

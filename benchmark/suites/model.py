@@ -121,6 +121,11 @@ def _locate_depth(v):
     return v
 
 
+def _locate_depth_or_none(v):
+    """``speed.locate_depth``: None (the grid's) or a depth (:func:`_locate_depth`)."""
+    return None if v is None else _locate_depth(v)
+
+
 def _restitution_token(v):
     if not _is_text_or_number(v):
         raise _bad(f" must be a text or a number, got {v!r}.")
@@ -372,13 +377,15 @@ class SpeedTable(_Table):
     """The accuracy–cost stage (docs/speed.md): every engine of the suite calibrated at each step, on the
     stage's problems, scored like any map and timed; kept out of the verdict. A key left out: the time-step
     rule's ladder, one block per slenderness of ``cases.blocks`` (the first of each), ``cases.pulses``'
-    first pulse, and the declared distance of the default (its argument in docs/speed.md)."""
+    first pulse, the declared distance of the default (its argument in docs/speed.md), and the grid's
+    ``locate_depth`` (the rounds of bisection of the stage's boundaries)."""
 
     steps_s: Annotated[list[float], BeforeValidator(_steps)] = list(SPEED_STEPS_S)
     blocks: Annotated[list[str] | None, BeforeValidator(_or_none(_blocks, "one block per slenderness of cases.blocks"))] \
         = None
     pulses: Annotated[list[str] | None, BeforeValidator(_or_none(_pulses, "the first of cases.pulses"))] = None
     matched_distance: Annotated[float, BeforeValidator(_distance)] = MATCHED_DISTANCE
+    locate_depth: Annotated[int | None, BeforeValidator(_locate_depth_or_none)] = None
 
 
 class PowerTable(_Table):

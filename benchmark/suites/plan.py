@@ -246,7 +246,7 @@ def speed_plan_lines(suite: Suite, engines: list[str], cells: int) -> list[str]:
     lines = [head]
     for engine in engines:
         lines.append(f"speed stage, {engine}: {per} maps of {cells} cells (adaptive: those near a boundary are "
-                     f"simulated, with its bisection samples), {len(sp.steps_s) * len(sp.blocks)} calibrations and the "
+                     f"simulated, with its bisection samples to depth {speed_depth(suite)}), {len(sp.steps_s) * len(sp.blocks)} calibrations and the "
                      f"time-step rule's search on {len(sp.blocks)} block(s) (both cached)")
     return lines
 
@@ -267,8 +267,14 @@ def speed_record(suite: Suite, engines: list[str], notes: list[str]) -> dict:
         absent.append({"engine": e, "why": said[len(f"engine {e} "):] if said else "not among this run's engines"})
     return {"kind": "rockbench-speed-stage", "engines": list(engines), "absent": absent,
             "declared": {"steps_s": list(sp.steps_s), "blocks": list(sp.blocks), "pulses": list(sp.pulses),
-                         "matched_distance": sp.matched_distance, "source": f"the suite {suite.name!r}"}}
+                         "matched_distance": sp.matched_distance, "locate_depth": speed_depth(suite),
+                         "source": f"the suite {suite.name!r}"}}
 
+
+def speed_depth(suite: Suite) -> int:
+    """The rounds of bisection of the speed stage's boundaries: its own ``locate_depth``, else the grid's."""
+    sp = suite.speed
+    return sp.locate_depth if sp is not None and sp.locate_depth is not None else suite.grid.locate_depth
 
 
 def planted_factor(reduction: float) -> float:

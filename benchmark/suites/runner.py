@@ -99,7 +99,7 @@ from ..store.files import write_json
 from ..trajectories import record_for_report
 from .lanes import ReferenceThread, run_lanes
 from .model import Suite, skipped_reference_note
-from .plan import check_suite, engine_names, own_eta_jobs, plan, speed_engines, speed_record
+from .plan import check_suite, engine_names, own_eta_jobs, plan, speed_depth, speed_engines, speed_record
 from .preparation import Preparation, cost_rank
 from .progress import SuiteConsole, say_device_notes
 
@@ -224,7 +224,7 @@ class _SuiteRun:
         res = self.health.guard(job.engine, lambda: run_map(
             spec, d, jobs=self.jobs, serial=job.engine == "reference",
             adaptive=suite.grid.adaptive and engine_map, coarse_stride=suite.grid.coarse_stride,
-            locate_depth=suite.grid.locate_depth, cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex,
+            locate_depth=self.depth_of(job), cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex,
             stage=self.stage_of(job)))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
@@ -233,6 +233,11 @@ class _SuiteRun:
         self.records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                            "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
         self.console.finished(spec.label(), d, self.records[k]["wall_s"])
+
+    def depth_of(self, job) -> int:
+        """The rounds of bisection of a map's boundary: the speed stage's ``locate_depth`` for its maps where
+        the stage declares one, else the grid's."""
+        return speed_depth(self.suite) if job.stage == SPEED_STAGE else self.suite.grid.locate_depth
 
     def stage_of(self, job) -> dict | None:
         """What a speed-stage map records of its stage (run.json's ``options.stage``): the stage's name, the
