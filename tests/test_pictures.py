@@ -244,7 +244,7 @@ def test_accuracy_cost_curves_one_per_engine_the_rule_circled():
     pts = [{"dt_s": 1e-3, "value": 0.4, "cost": 0.3}, {"dt_s": 5e-4, "value": 0.12, "cost": 0.6},
            {"dt_s": 1e-4, "value": 0.03, "cost": 3.0}]
     speed = {"engines": [
-        {"engine": "mujoco", "label": "MuJoCo 4.0", "points": pts, "mdd": {"value": 0.01},
+        {"engine": "mujoco", "label": "MuJoCo 4.0", "points": pts, "band": {"value": 0.01, "source": "verdict"},
          "matched": {"finest": pts[-1]}, "rule": {"on_curve": 5e-4, "value": 0.12, "cost": 0.6}},
         {"engine": "drake", "label": "Drake 1.51", "points": [{**p, "cost": 10 * p["cost"]} for p in pts],
          "rule": {"on_curve": None, "value": 0.06, "cost": 12.0}},
@@ -259,6 +259,7 @@ def test_accuracy_cost_curves_one_per_engine_the_rule_circled():
     assert set(d["bands"]) == {"mujoco"}             # the band needs the engine's detectable difference
     texts = [t.get_text() for t in d["legend"].get_texts()]
     assert texts[:2] == ["MuJoCo 4.0", "Drake 1.51"] and "step 0.5 ms" in texts and "declared distance 0.037" in texts
+    assert "finest step ± the verdict's detectable difference (0.010)" in texts   # the band says whose it is
     assert {t.get_text() for t in d["labels"]} <= {"1 ms", "0.5 ms", "0.1 ms"} and d["labels"]
     ticks = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
     assert ticks and all(re.fullmatch(r"[0-9.]+", t) for t in ticks), ticks   # plain numbers, no 10^x

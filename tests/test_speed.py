@@ -16,7 +16,7 @@ from rockbench.benchmark.maps.grid import MapSpec, parse_range
 from rockbench.benchmark.maps.sweep import run_map
 from rockbench.benchmark.report.plots.speed import plot_accuracy_cost
 from rockbench.benchmark.scoring.score_runs import compare_scores, score_dirs
-from rockbench.benchmark.scoring.speed import matched, point
+from rockbench.benchmark.scoring.speed import band, matched, point
 from rockbench.benchmark.scoring.speed_runs import SPEED_FILE
 from rockbench.benchmark.store.files import COLUMNS, COST_COLUMNS
 from rockbench.benchmark.store.loading import load_map
@@ -132,6 +132,36 @@ def test_not_reached():
     assert matched([], None, 0.1) == {"finest": None, "within_mdd": None, "within_distance": None}
 
 
+def test_the_verdicts_detectable_difference_sets_criterion_a_where_the_run_has_one(stage):
+    """A run with calibrated variants in its verdict: criterion (a) and the band take the verdict's detectable
+    difference; a run of the stage alone (the fixture) takes the stage's own, and says so."""
+    _, doc = stage
+    row = _row(doc)
+    assert doc["speed"]["verdict_mdd"] is None and row["band"] == {"value": row["mdd"]["value"], "source": "stage"}
+    assert band(0.2, row["mdd"]) == {"value": 0.2, "source": "verdict"} and band(None, None) is None
+    items = [{"block": "B3M", "pulse": "sine", "scores": {"boundary_mean": v}, "slenderness": 2.25,
+              "cells": {"w_step": 0.3, "a_step": 0.22, "locate_depth": 5}} for v in (0.30, 0.12, 0.10)]
+    cost = {"simulations": 10, "costed": 10, "cpu_s": 1.0, "wall_s": 2.0, "simulated_s": 10.0}
+    pts = [point(dt, [it], [{**cost, "cpu_s": 1e-3 / dt}], False) for dt, it in zip((1e-3, 5e-4, 1e-4), items)]
+    assert matched(pts, band(0.05, None), 0.5)["within_mdd"]["dt_s"] == 5e-4    # 0.12 within 0.10 + 0.05
+    assert matched(pts, band(0.25, None), 0.5)["within_mdd"]["dt_s"] == 1e-3    # 0.30 within 0.10 + 0.25
+
+
+def test_a_rule_step_outside_the_stage_is_said(stage):
+    """The rule chose a step the stage did not map (MuJoCo's 0.1 ms against a stage of 1–0.2 ms): the row
+    says which, with no point to circle."""
+    from rockbench.benchmark.scoring.speed import rule_point
+    from rockbench.benchmark.scoring.speed_words import matched_table
+    _, doc = stage
+    r = rule_point([], {"B3M": 5e-5, "B6M": 5e-4}, {("B6M", 5e-4): []}, {}, False)
+    assert r["outside"] and r["value"] is None and r["steps_s"] == [5e-4, 5e-5]
+    speed = copy.deepcopy(doc["speed"])
+    speed["engines"][0]["rule"] = r
+    _, body = matched_table(speed)
+    assert body[0][-1] == "0.5 ms (B6M); 0.05 ms (B3M): not among the stage's steps"
+    assert not plot_accuracy_cost(speed)["rule"]   # nothing to circle
+
+
 def test_speed_maps_stay_out_of_the_verdict(stage):
     _, doc = stage
     assert doc["pairs"] == [] and doc["verdict"]["variants"] == []
@@ -144,7 +174,7 @@ def _section(n_engines=8, spread=1.0):
         pts = [{"dt_s": dt, "value": 0.05 + 0.01 * k * spread + 30 * dt, "cost": (0.001 / dt) * (1 + 0.05 * k),
                 "se": 0.003} for dt in STEPS]
         rows.append({"engine": f"e{k}", "label": f"Engine number {k} 1.2", "device": {"runs_on": "cpu", "note": ""},
-                     "points": pts, "mdd": {"value": 0.01},
+                     "points": pts, "band": {"value": 0.01, "source": "stage"},
                      "matched": {"finest": {"dt_s": 1e-4, "value": pts[-1]["value"], "cost": pts[-1]["cost"]}},
                      "rule": {"per_block": {"B3M": 5e-4}, "on_curve": 5e-4, "value": pts[1]["value"],
                               "cost": pts[1]["cost"]}})

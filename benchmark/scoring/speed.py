@@ -130,13 +130,14 @@ def rule_point(points: list[dict], chosen: dict, pairs_at: dict, costs_at: dict,
     """The point of the time-step rule's choice: each block (``chosen``: ``{block: step [s]}``) at its own
     step, from the stage's maps at that step (``pairs_at`` / ``costs_at``: ``{(block, step): [...]}``);
     ``on_curve`` the step when every block chose the same one. None when the rule's choice is not known
-    for every block, or a chosen step is not one of the stage's."""
+    for every block; without a value or a cost (``outside``) where a chosen step is not one of the stage's."""
     if not chosen or any(v is None for v in chosen.values()):
         return None
     pairs, costs = [], []
     for block, dt in chosen.items():
         if (block, dt) not in pairs_at:
-            return None
+            return {"per_block": dict(chosen), "steps_s": sorted(set(chosen.values()), reverse=True),
+                    "on_curve": None, "value": None, "se": None, "cost": None, "scenarios": 0, "outside": True}
         pairs += pairs_at[(block, dt)]
         costs += costs_at.get((block, dt), [])
     p = point(math.nan, pairs, costs, on_gpu)
@@ -154,10 +155,10 @@ def public(p: dict) -> dict:
 # -- the section -----------------------------------------------------------------------------------------
 
 def engine_row(engine: str, version: str | None, device: dict, by_step: dict, chosen: dict, distance: float,
-               costs_of) -> dict:
-    """One engine of the section: its points by step (``by_step``: ``{step: [(pair, map dir)]}``), its
-    detectable difference, its cost at matched accuracy and the rule's point (``chosen``: ``{block: step}``;
-    ``costs_of``: map dir → its cost)."""
+               costs_of, verdict_mdd: float | None = None) -> dict:
+    """One engine of the section: its points by step (``by_step``: ``{step: [(pair, map dir)]}``), the stage's
+    own detectable difference, the ``band`` criterion (a) and the picture use (:func:`band`), its cost at
+    matched accuracy and the rule's point (``chosen``: ``{block: step}``; ``costs_of``: map dir → its cost)."""
     on_gpu = device.get("runs_on") == "gpu"
     pts, pairs_at, costs_at = [], {}, {}
     for dt in sorted(by_step, reverse=True):
@@ -168,10 +169,24 @@ def engine_row(engine: str, version: str | None, device: dict, by_step: dict, ch
             pairs_at.setdefault((p["block"], dt), []).append(p)
             costs_at.setdefault((p["block"], dt), []).append(c)
     mdd = detectable_from(pts)
+    b = band(verdict_mdd, mdd)
     head = engine_name(engine) + (f" {short_version(version)}" if version else "")
     return {"engine": engine, "label": head, "version": version, "device": device,
             "cost_unit": GPU_COST if on_gpu else CPU_COST, "points": [public(p) for p in pts], "mdd": mdd,
-            "matched": matched(pts, mdd, distance), "rule": rule_point(pts, chosen, pairs_at, costs_at, on_gpu)}
+            "band": b, "matched": matched(pts, b, distance),
+            "rule": rule_point(pts, chosen, pairs_at, costs_at, on_gpu)}
+
+
+def band(verdict_mdd: float | None, stage_mdd: dict | None) -> dict | None:
+    """The detectable difference criterion (a) and the picture's band use: the verdict's (score.json's
+    ``verdict.mcb.calibrated.mdd``, between the run's calibrated variants) where the run has one, else the
+    stage's own for the engine (:func:`detectable_from`; a run of the speed stage alone has no verdict
+    variants); ``source`` says which. None where neither is known."""
+    if verdict_mdd is not None and math.isfinite(verdict_mdd):
+        return {"value": float(verdict_mdd), "source": "verdict"}
+    if stage_mdd:
+        return {"value": stage_mdd["value"], "source": "stage"}
+    return None
 
 
 def section(rows: list[dict], declared: dict, machines: list[dict], absent: list[dict],

@@ -59,8 +59,8 @@ def speed_section(entries: list[MapEntry], pairs: list[dict], record: dict, verd
             costs[d] = map_cost(d)
         return costs[d]
 
-    rows = [engine_row(g["engine"], g["version"], g["device"], g["by_step"], g["chosen"], distance, cost_of)
-            for g in groups.values()]
+    rows = [engine_row(g["engine"], g["version"], g["device"], g["by_step"], g["chosen"], distance, cost_of,
+                       verdict_mdd) for g in groups.values()]
     rows.sort(key=lambda r: r["label"])
     return section(rows, declared, _machines(entries), list(record.get("absent") or []), verdict_mdd)
 

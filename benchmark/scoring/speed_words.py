@@ -39,7 +39,16 @@ def _rule(rule: dict | None) -> str:
     for block, dt in rule["per_block"].items():
         by.setdefault(dt, []).append(block)
     steps = "; ".join(f"{dt * 1e3:g} ms ({', '.join(bs)})" for dt, bs in sorted(by.items(), reverse=True))
+    if rule.get("outside"):
+        return f"{steps}: not among the stage's steps"
     return f"{steps}: {_g(rule['value'], '.3f')} at {_g(rule['cost'])}"
+
+
+def _band(b: dict | None) -> str:
+    """The detectable difference of criterion (a) and whose it is."""
+    if not b:
+        return "–"
+    return f"{b['value']:.3f} ({'the verdict' if b['source'] == 'verdict' else 'the stage'})"
 
 
 def matched_table(speed: dict) -> tuple[list[str], list[list[str]]]:
@@ -55,7 +64,7 @@ def matched_table(speed: dict) -> tuple[list[str], list[list[str]]]:
         m = r.get("matched") or {}
         a = m.get("within_mdd")
         speedup = f" ({a['speedup_vs_finest']:.3g}× cheaper)" if a and a.get("speedup_vs_finest") else ""
-        body.append([r["label"], _device(r), _at(m.get("finest")), _g((r.get("mdd") or {}).get("value"), ".3f"),
+        body.append([r["label"], _device(r), _at(m.get("finest")), _band(r.get("band")),
                      _at(a) + speedup, _at(m.get("within_distance")), _rule(r.get("rule"))])
     for x in speed.get("absent", []):
         body.append([engine_name(x["engine"]), "GPU: no row", f"absent: {x['why']}", "–", "–", "–", "–"])
@@ -73,16 +82,17 @@ def stage_words(speed: dict) -> str:
              "a worker)" if m else "on several machines (their costs are not comparable: rerun on one)")
     mdd = speed.get("mdd")
     vm = speed.get("verdict_mdd")
+    within = (f"the verdict's between calibrated variants, {vm:.3f}" if vm is not None else
+              f"the stage's own, from 95 % comparisons of each step with the finest on these problems ({_g(mdd, '.3f')} "
+              "typically; this run has no calibrated variants in its verdict)")
     return (f"Each engine calibrated to its target at each step ({steps} ms; calibrated at that step and mapped at "
             f"it) on one problem per slenderness ({problems}), scored against the reference like any map and timed "
             f"{where}. Cost: CPU seconds per simulated second of block motion (the CPU time of every simulation of "
             f"the maps, cells and bisection samples, over the time they simulated; a GPU row: the device's wall "
             f"seconds). Accuracy: the boundary distance's mean over the problems. Matched accuracy: (a) the "
-            f"cheapest step whose distance lies within the detectable difference (80 % power, 95 % comparisons of "
-            f"each step with the finest; {_g(mdd, '.3f')} typically, from the grid's resolution on these problems) "
-            f"of the engine's finest step's; (b) the cheapest within the declared {_g(dec.get('matched_distance'))} "
-            f"of the reference; \"not reached\" where none is. These maps are not in the verdict"
-            + (f" (whose own detectable difference between calibrated variants is {vm:.3f})." if vm else "."))
+            f"cheapest step whose distance lies within the detectable difference (80 % power) of the engine's "
+            f"finest step's: {within}; (b) the cheapest within the declared {_g(dec.get('matched_distance'))} "
+            f"of the reference; \"not reached\" where none is. These maps are not in the verdict.")
 
 
 #: The title of the matched-accuracy table on the console.

@@ -8,9 +8,10 @@ curve per engine through its time steps (score.json's ``speed``, :mod:`rockbench
   without touching another label or point (:func:`place_labels`), else left to the marker.
 - The time-step rule's choice is circled: the point of the step every block chose, or, where the blocks
   chose different steps, the point those maps make together, drawn on its own.
-- The detectable difference of a step from the engine's finest: a band in the engine's colour at the
-  finest step's distance ± that difference, reaching from the finest point leftwards (the cheaper steps
-  inside it reach matched accuracy (a)); the declared distance of criterion (b) a dashed line.
+- The detectable difference (the row's ``band``: the verdict's where the run has one, else the stage's own
+  for the engine): a band in the engine's colour at the finest step's distance ± that difference, reaching
+  from the finest point leftwards (the cheaper steps inside it reach matched accuracy (a)); the declared
+  distance of criterion (b) a dashed line.
 - The names are in a legend outside the axes, so no label lies over the data or leaves the figure.
 """
 
@@ -77,7 +78,7 @@ def plot_accuracy_cost(speed: dict, *, ax=None) -> dict:
                               label="the time-step rule's choice"))
     if out["bands"]:
         from matplotlib.patches import Patch  # matplotlib on first drawing (start-up time)
-        handles.append(Patch(facecolor="0.85", edgecolor="none", label="finest step ± detectable difference"))
+        handles.append(Patch(facecolor="0.85", edgecolor="none", label=band_words(rows)))
     if speed.get("declared", {}).get("matched_distance") and rows:
         d = float(speed["declared"]["matched_distance"])
         handles.append(ax.axhline(d, color="0.25", lw=0.8, ls=(0, (4, 3)), zorder=1, label=f"declared distance {d:g}"))
@@ -86,6 +87,16 @@ def plot_accuracy_cost(speed: dict, *, ax=None) -> dict:
     out["logy"] = logy
     out["labels"] = place_labels(ax, [(p, r) for r in rows for p in _drawn(r)])
     return out
+
+
+def band_words(rows: list[dict]) -> str:
+    """The band's legend entry: whose detectable difference it is (the verdict's, one number for every
+    engine, or each engine's own from the stage where the run has no verdict variants)."""
+    sources = {(r.get("band") or {}).get("source") for r in rows if r.get("band")}
+    if sources == {"verdict"}:
+        value = next(r["band"]["value"] for r in rows if r.get("band"))
+        return f"finest step ± the verdict's detectable difference ({value:.3f})"
+    return "finest step ± detectable difference (the stage's own)"
 
 
 def _curve(ax, r: dict, style: dict, marker: dict, out: dict) -> None:
@@ -99,7 +110,7 @@ def _curve(ax, r: dict, style: dict, marker: dict, out: dict) -> None:
         ax.plot([p["cost"]], [p["value"]], ls="none", marker=marker[p["dt_s"]], ms=5, color=style["color"],
                 mec="black", mew=0.5, zorder=4)
     out["curves"][r["engine"]] = line
-    mdd = (r.get("mdd") or {}).get("value")
+    mdd = (r.get("band") or {}).get("value")
     finest = (r.get("matched") or {}).get("finest")
     if mdd and finest and finest.get("cost"):
         # translucent, so that the bands of engines close together show through each other
