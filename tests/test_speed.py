@@ -194,8 +194,10 @@ def test_picture_labels_never_overlap_or_leave_the_figure(tmp_path, n, spread):
     boxes = words + [legend] + [t.get_window_extent(renderer) for t in drawn["legend"].get_texts()]
     for b in boxes:
         assert page.x0 - 0.5 <= b.x0 and b.x1 <= page.x1 + 0.5 and page.y0 - 0.5 <= b.y0 and b.y1 <= page.y1 + 0.5
+    curves = [ln.get_transform().transform_path(ln.get_path()) for ln in drawn["curves"].values()]
     for i, a in enumerate(words):
         assert not a.overlaps(legend)
+        assert not any(c.intersects_bbox(a, filled=False) for c in curves)   # no curve runs through the words
         for b in words[i + 1:]:
             assert not a.overlaps(b)
     texts = drawn["legend"].get_texts()

@@ -85,7 +85,8 @@ def plot_accuracy_cost(speed: dict, *, ax=None) -> dict:
     if rows:
         out["legend"] = ax.figure.legend(handles=handles, loc="outside right upper", fontsize=SMALL_PT, frameon=False)
     out["logy"] = logy
-    out["labels"] = place_labels(ax, [(p, r) for r in rows for p in _drawn(r)])
+    out["labels"] = place_labels(ax, [(p, r) for r in rows for p in _drawn(r)],
+                                 lines=list(out["curves"].values()), circles=list(out["rule"].values()))
     return out
 
 
@@ -162,11 +163,11 @@ def _axes(ax, rows: list[dict], speed: dict) -> bool:
 _OFFSETS = [(6, -3), (-6, -3), (0, 5), (0, -12), (6, 4), (-6, 4), (6, -11), (-6, -11)]
 
 
-def place_labels(ax, items: list[tuple[dict, dict]]) -> list:
-    """Write each point's step beside it where the words touch no other words, no point and no legend and
-    stay inside the axes: the first free place of :data:`_OFFSETS`, else none (the marker says the step).
-    Points are labelled in order of their cost, so that a curve's words alternate least. Returns the
-    texts placed."""
+def place_labels(ax, items: list[tuple[dict, dict]], lines=(), circles=()) -> list:
+    """Write each point's step beside it where the words touch no other words, no point, no curve
+    (``lines``), no circle of the rule's choice (``circles``) and no legend and stay inside the axes: the
+    first free place of :data:`_OFFSETS`, else none (the marker says the step). Points are labelled in
+    order of their cost, so that a curve's words alternate least. Returns the texts placed."""
     fig = ax.figure
     if not hasattr(fig.canvas, "get_renderer"):   # a figure made without pyplot: draw it with Agg
         from matplotlib.backends.backend_agg import FigureCanvasAgg  # matplotlib on first drawing (start-up time)
@@ -175,6 +176,8 @@ def place_labels(ax, items: list[tuple[dict, dict]]) -> list:
     renderer = fig.canvas.get_renderer()
     frame = ax.get_window_extent(renderer)
     taken = [_point_box(ax, p) for p, _ in items]
+    taken += [c.get_window_extent(renderer) for c in circles]
+    paths = [ln.get_transform().transform_path(ln.get_path()) for ln in lines]
     if fig.legends:
         taken += [leg.get_window_extent(renderer) for leg in fig.legends]
     placed = []
@@ -184,7 +187,8 @@ def place_labels(ax, items: list[tuple[dict, dict]]) -> list:
                             ha="left" if dx > 0 else ("right" if dx < 0 else "center"), va="bottom",
                             fontsize=SMALL_PT, color="0.2", zorder=6)
             box = t.get_window_extent(renderer)
-            if _inside(box, frame) and not any(box.overlaps(b) for b in taken):
+            if _inside(box, frame) and not any(box.overlaps(b) for b in taken) and \
+                    not any(path.intersects_bbox(box, filled=False) for path in paths):
                 taken.append(box)
                 placed.append(t)
                 break
