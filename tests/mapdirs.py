@@ -53,7 +53,7 @@ def write_map(d, codes, *, engine="reference", block="B6M", pulse="sine", restit
                          repr(float(wr[j] * b.p_rad_s)), repr(float(ar[i] * G * math.tan(b.alpha_rad))),
                          NAMES[c], "1" if ok else "0", "0.1" if ok else "", "true" if valid else "false",
                          "" if valid else ("engine-error" if not ok else bad_flag), "ok" if ok else "failed",
-                         "" if ok else "boom", "0.01", "", "",
+                         "" if ok else "boom", "0.01", "", "", "", "",   # wall_s; cpu_s, simulated_s; times
                          ("1.0" if valid else "-0.5") if is_ref and ok else "",
                          ("0.5" if valid else "2.0") if is_ref and ok else "", str(i), str(j)])
     if shuffle_seed is not None:

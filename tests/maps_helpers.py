@@ -216,9 +216,43 @@ class UnstartableAdapter(AnalyticAdapter):
         super().__init__(**settings)
 
 
+class StepCostAdapter(AnalyticAdapter):
+    """A toy engine whose error and cost are known, for the speed stage (a "calibrated" variant that takes
+    any time step): rest below a = 1, overturn above the line a = 1 + 0.8·ω/p + ``shift_per_s``·Δt, rocking
+    between, so its boundary lies ``shift_per_s``·Δt above the same line without the shift (0.781 times that
+    across it); it simulates 1.5 waves (:attr:`SPAN_WAVES`) and burns ``cpu_per_step_s`` of CPU per step of
+    that span, so its cost is ``cpu_per_step_s``/Δt CPU seconds per simulated second (plus Python's own)."""
+
+    name = "analytic-step"
+    SETTINGS = {**AnalyticAdapter.SETTINGS, "settings": "calibrated", "shift_per_s": 100.0, "cpu_per_step_s": 2e-5}
+    SPAN_WAVES = 1.5
+
+    def _simulate(self, case):
+        dt = case.dt_s   # posed: the step decided (step_for)
+        w, a = self._ratios(case)
+        line = 1.0 + 0.8 * w + self.settings["shift_per_s"] * dt
+        out = "rest" if a <= 1.0 else ("overturn" if a > line else "rocking")
+        T = case.pulse.duration_s
+        span = self.SPAN_WAVES * T
+        until = time.process_time() + self.settings["cpu_per_step_s"] * span / dt
+        while time.process_time() < until:
+            pass
+        t = np.linspace(0.0, span, 61)
+        alpha = case.block.alpha_rad
+        sgn = -math.copysign(1.0, case.pulse.amplitude_mps2)
+        if out == "rest":
+            th = np.zeros_like(t)
+        elif out == "rocking":
+            th = sgn * 0.5 * alpha * np.sin(np.pi * t / span)
+        else:
+            th = sgn * (0.5 * np.pi) * (t / t[-1]) ** 2
+        cx, cz = ideal_corners(case.block, th)
+        return Trajectory(t, th, np.gradient(th, t), T, corner_x_m=cx, corner_z_m=cz)
+
+
 ALL = {c.name: c for c in (AnalyticAdapter, BatchAnalyticAdapter, RaisingAdapter, CrashingAdapter,
                            HangingAdapter, HangingStartAdapter, DivergingAdapter, CrashingBatchAdapter,
-                           WrongAdapter, EtaAnalyticAdapter, BrokenAdapter, UnstartableAdapter)}
+                           WrongAdapter, EtaAnalyticAdapter, BrokenAdapter, UnstartableAdapter, StepCostAdapter)}
 
 
 def register_all():

@@ -43,12 +43,14 @@ def test_console_writes_no_blank_line():
 
 
 def test_own_eta_maps_are_planned_up_front():
-    from rockbench.benchmark.suites.preparation import Preparation
+    from rockbench.benchmark.suites.preparation import Preparation, _Task
     prep = object.__new__(Preparation)
     prep.own_eta = True
-    prep.tasks = [("mujoco", {}, "B3M", True), ("mujoco", {}, "B6L", False),
-                  ("pybullet", {"restitution": "modified"}, "B3M", True)]
-    assert prep.own_eta_slots() == 2     # a variant with its own restitution has no own-η map
+    prep.tasks = [_Task("mujoco", {}, "B3M", True, None), _Task("mujoco", {}, "B6L", False, None),
+                  _Task("pybullet", {"restitution": "modified"}, "B3M", True, None),
+                  _Task("dart", {}, "B3M", False, None, (1e-3, 5e-4), speed_only=True)]
+    # a variant with its own restitution has no own-η map, nor has a task of the speed stage alone
+    assert prep.own_eta_slots() == 2
     prep.own_eta = False
     assert prep.own_eta_slots() == 0
 

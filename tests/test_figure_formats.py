@@ -100,16 +100,17 @@ def _texts(fig):
 
 
 def _all_figures():
-    from rockbench.benchmark.report.plots.speed import plot_speed_accuracy
+    from rockbench.benchmark.report.plots.speed import plot_accuracy_cost
     from rockbench.benchmark.report.plots.trajectories import plot_theta
     from rockbench.reference_solver.pulses import make_pulse
     t = np.linspace(0, 0.6, 200)
     theta = plot_theta([{"label": "reference, η_H: rocking", "t_s": t, "theta_rad": 0.1 * np.sin(20 * t),
                          "reference": True, "outcome": "rocking"}], alpha_rad=0.2,
                        pulse=make_pulse("sine", 5.0, 12.0), title="B3M, sine")
-    speed = plot_speed_accuracy([{"variant": "a", "ms_per_cell": 1.0, "agreement": 0.99},
-                                 {"variant": "b", "ms_per_cell": 40.0, "agreement": 1.0}])
-    return {"panels": _panel_figure()["figure"], "theta": theta["figure"], "speed": speed["ax"].figure,
+    speed = plot_accuracy_cost({"engines": [{"engine": "a", "label": "MuJoCo 4.0", "points": [
+        {"dt_s": 1e-3, "value": 0.2, "cost": 0.5}, {"dt_s": 1e-4, "value": 0.05, "cost": 5.0}]}],
+        "declared": {"matched_distance": 0.037}})
+    return {"panels": _panel_figure()["figure"], "theta": theta["figure"], "speed": speed["figure"],
             "paper figure": _paper_figure(), "map.png": _map_figure()}
 
 

@@ -239,29 +239,30 @@ def test_theta_plot_caps_the_range_of_an_overturning_curve():
     assert d["ends"]["x"].get_ydata()[0] == pytest.approx(1.0)
 
 
-def test_speed_accuracy_spreads_the_points_and_labels_each_variant():
-    from rockbench.benchmark.report.plots.speed import plot_speed_accuracy
-    rows = [{"variant": "a", "label": "MuJoCo 4.0, calibrated to η_H", "ms_per_cell": 0.8, "agreement": 0.97},
-            {"variant": "a[x=1]", "ms_per_cell": 12.0, "agreement": 0.999},
-            {"variant": "c", "ms_per_cell": 11.0, "agreement": 1.0},
-            {"variant": "b", "ms_per_cell": None, "agreement": 0.5}]
-    d = plot_speed_accuracy(rows)
+def test_accuracy_cost_curves_one_per_engine_the_rule_circled():
+    from rockbench.benchmark.report.plots.speed import plot_accuracy_cost
+    pts = [{"dt_s": 1e-3, "value": 0.4, "cost": 0.3}, {"dt_s": 5e-4, "value": 0.12, "cost": 0.6},
+           {"dt_s": 1e-4, "value": 0.03, "cost": 3.0}]
+    speed = {"engines": [
+        {"engine": "mujoco", "label": "MuJoCo 4.0", "points": pts, "band": {"value": 0.01, "source": "verdict"},
+         "matched": {"finest": pts[-1]}, "rule": {"on_curve": 5e-4, "value": 0.12, "cost": 0.6}},
+        {"engine": "drake", "label": "Drake 1.51", "points": [{**p, "cost": 10 * p["cost"]} for p in pts],
+         "rule": {"on_curve": None, "value": 0.06, "cost": 12.0}},
+        {"engine": "none", "label": "Nothing", "points": [{"dt_s": 1e-3, "value": None, "cost": None}]}],
+        "declared": {"matched_distance": 0.037}}
+    d = plot_accuracy_cost(speed)
     ax = d["ax"]
-    assert set(d["points"]) == {"a", "a[x=1]", "c"}
-    # disagreement in per cent on a log axis: 3 % and 0.1 % a decade and more apart, 0 on the floor
-    assert d["logy"] and ax.get_yscale() == "log" and ax.get_xscale() == "log"
-    ys = {v: float(p.get_offsets()[0][1]) for v, p in d["points"].items()}
-    assert ys["a"] == pytest.approx(3.0) and ys["a[x=1]"] == pytest.approx(0.1)
-    assert ys["c"] < ys["a[x=1]"] and ax.get_ylim()[0] < ys["c"]
-    assert "[%]" in ax.get_ylabel()
-    fig = ax.figure
-    r = _renderer(fig)
+    assert set(d["curves"]) == {"mujoco", "drake"}   # an engine without a point to draw has no curve
+    assert ax.get_xscale() == "log" and d["logy"] and ax.get_yscale() == "log"   # 0.03 to 0.4: a decade
+    assert list(d["curves"]["mujoco"].get_xdata()) == [0.3, 0.6, 3.0]   # coarsest step first
+    assert d["rule"]["mujoco"].get_xdata()[0] == 0.6 and d["rule"]["drake"].get_xdata()[0] == 12.0
+    assert set(d["bands"]) == {"mujoco"}             # the band needs the engine's detectable difference
+    texts = [t.get_text() for t in d["legend"].get_texts()]
+    assert texts[:2] == ["MuJoCo 4.0", "Drake 1.51"] and "step 0.5 ms" in texts and "declared distance 0.037" in texts
+    assert "finest step ± the verdict's detectable difference (0.010)" in texts   # the band says whose it is
+    assert {t.get_text() for t in d["labels"]} <= {"1 ms", "0.5 ms", "0.1 ms"} and d["labels"]
     ticks = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
     assert ticks and all(re.fullmatch(r"[0-9.]+", t) for t in ticks), ticks   # plain numbers, no 10^x
-    # every variant labelled beside its point, the labels apart from each other
-    assert d["labels"]["a"].get_text() == "MuJoCo 4.0, calibrated to $\\eta_\\mathrm{H}$"
-    boxes = [t.get_window_extent(r) for t in d["labels"].values()]
-    assert not any(b1.overlaps(b2) for k, b1 in enumerate(boxes) for b2 in boxes[k + 1:])
 
 
 def test_labels_in_words():

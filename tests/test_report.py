@@ -46,8 +46,9 @@ def test_report_files_and_tables(report):
     for name in ("index.html", "report.md", "score.json"):
         assert (out / name).is_file()
     imgs = sorted(p.name for p in (out / "img").iterdir())
-    # the verdict, one figure per engine variant, one per block and pulse, speed against accuracy
-    assert imgs == ["speed_accuracy.png", "stability_b6l_cosine.png", "stability_b6l_sine.png",
+    # the verdict, one figure per engine variant, one per block and pulse; no accuracy–cost picture without a
+    # speed stage (the report says so)
+    assert imgs == ["stability_b6l_cosine.png", "stability_b6l_sine.png",
                     "variant_mujoco-settings-calibrated.png", "variant_pybullet.png", "verdict.png"]
     md = (out / "report.md").read_text()
     assert "## Summary: which engine is how faithful" in md and "| rank | engine variant | pairs |" in md
@@ -73,8 +74,9 @@ def test_report_files_and_tables(report):
     for m in doc["metrics"]:
         assert m["definition"] in md
     assert "## Experiments" in md and "<details><summary>Versions and settings</summary>" in md
+    assert "No accuracy–cost curves: this run has no speed stage" in md
     page = (out / "index.html").read_text()
-    assert page.count("data:image/png;base64,") == 6 and "class='num best'" in page
+    assert page.count("data:image/png;base64,") == 5 and "class='num best'" in page
     # the first screen: the verdict's picture and short verdict, the full verdict collapsed; then the
     # summary, metric definitions, then the variant figures; the rest collapsed
     order = [page.index(x) for x in ("id='verdict-figure'", "id='verdict-short'", "id='verdict-full'",
@@ -113,7 +115,7 @@ def test_index_html_renders_in_headless_chromium(report, tmp_path):
     assert dom.returncode == 0, dom.stderr[-2000:]
     body = re.search(r"<body[^>]*>", dom.stdout).group(0)
     # the page's own check ran after load: every picture decoded
-    assert 'data-images="6"' in body and 'data-images-ok="yes"' in body, body
+    assert 'data-images="5"' in body and 'data-images-ok="yes"' in body, body
     # the verdict's picture and the short verdict end above the fold of a 1280 × 800 window
     vw, vh = (int(x) for x in re.search(r'data-viewport="(\d+)x(\d+)"', body).group(1, 2))
     # (a window leaves the page about 140 pixels less in headless Chromium, as a browser's bars would)

@@ -68,6 +68,7 @@ from ...engines.registry import adapter_class
 from ...reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
 from ..engine_info.adapters import build_adapter
 from . import worker as wire
+from .cost import run_measured
 from .cores import cpu_count
 
 #: Seconds to wait for a Dask scheduler before giving up.
@@ -169,7 +170,7 @@ def _run_in_process(adapter, items, batch: bool) -> list:
     """Run ``items`` with ``adapter`` here; a failing batch falls back to one cell at a time."""
     if batch:
         try:
-            rs = adapter.run_many([c for _, c in items])
+            rs = run_measured(adapter, [c for _, c in items])
             return [(k, wire.without_diagnostics(r)) for (k, _), r in zip(items, rs)]
         except Exception:  # noqa: BLE001 - find the culprit cell by cell
             pass
@@ -177,7 +178,7 @@ def _run_in_process(adapter, items, batch: bool) -> list:
     for k, c in items:
         t0 = time.perf_counter()
         try:
-            r = adapter.run_many([c])[0]
+            r = run_measured(adapter, [c])[0]
         except Exception as e:  # noqa: BLE001 - recorded per cell, the map goes on
             r = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
         out.append((k, wire.without_diagnostics(r)))
@@ -373,7 +374,10 @@ class ProcessExecutor:
         self._cancelled = False
 
     def describe(self) -> dict:
-        return {"kind": "processes", "jobs": self.jobs}
+        """run.json's ``options.executor``: the worker processes and each one's threads (the thread
+        variables it was given, :data:`_THREAD_VARS`)."""
+        threads = str(self.env.get(_THREAD_VARS[0], ""))
+        return {"kind": "processes", "jobs": self.jobs, "threads_per_worker": int(threads) if threads.isdigit() else threads}
 
     def cancel(self) -> None:
         """Stop a :meth:`run` in progress from another thread: its workers are killed, nothing more

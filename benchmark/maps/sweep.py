@@ -76,6 +76,10 @@ class MapOptions:
     locate_depth : int
         Rounds of bisection of each boundary edge (:mod:`rockbench.benchmark.maps.bisection`; 0: the
         edge midpoints); the tolerance is a step over ``2**locate_depth``.
+    stage : dict or None
+        The stage of a suite the map belongs to, recorded in run.json's ``options.stage`` (the speed
+        stage's maps: ``{"name": "speed", ...}``, :mod:`rockbench.benchmark.store.loading`); None for
+        an ordinary map.
     """
 
     jobs: int | None = None
@@ -87,6 +91,7 @@ class MapOptions:
     progress: bool | None = None
     log: Callable[[str], None] | None = None
     locate_depth: int = DEFAULT_DEPTH
+    stage: dict | None = None
 
     @classmethod
     def checked(cls, *, coarse_stride: int | None = None, **kw) -> "MapOptions":
@@ -111,7 +116,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
             serial: bool = False, adaptive: bool = False, coarse_stride: int | None = None,
             cell_timeout_s: float = DEFAULT_CELL_TIMEOUT_S, progress: bool | None = None,
             picture=None, log: Callable[[str], None] | None = None, executor=None,
-            figure_formats=("png",), locate_depth: int = DEFAULT_DEPTH) -> MapResult:
+            figure_formats=("png",), locate_depth: int = DEFAULT_DEPTH, stage: dict | None = None) -> MapResult:
     """Compute a map into ``out_dir``, resuming whatever a previous run of the same spec finished.
 
     Parameters
@@ -149,6 +154,8 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
         Rounds of bisection of each boundary edge after the cells (default
         :data:`~rockbench.benchmark.maps.bisection.DEFAULT_DEPTH`; 0 keeps the edge midpoints): the
         located boundary is stored in bisection.csv and boundary.csv and loaded with the map.
+    stage : dict, optional
+        The suite stage the map belongs to, recorded in run.json (:class:`MapOptions`).
     log : callable, optional
         Receives one-line notes (resumed cells, ...).
     executor : optional
@@ -163,7 +170,7 @@ def run_map(spec: MapSpec, out_dir, *, jobs: int | None = None, scheduler: str |
     try:
         opts = MapOptions.checked(jobs=jobs, scheduler=scheduler, serial=serial, adaptive=adaptive,
                                   coarse_stride=coarse_stride, cell_timeout_s=cell_timeout_s, progress=progress,
-                                  log=log, locate_depth=locate_depth)
+                                  log=log, locate_depth=locate_depth, stage=stage)
         result = _compute_map(spec, Path(out_dir), opts, executor)
         if picture is not None:
             picture.draw(result, Path(out_dir) / "map", figure_formats, reference=reference_for(result))
@@ -225,7 +232,8 @@ def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> Ma
         done = store.open(spec, adapter, options={"adaptive": opts.adaptive, "coarse_stride": opts.stride,
                                                   "locate_depth": opts.locate_depth,
                                                   "cell_timeout_s": opts.cell_timeout_s,
-                                                  "executor": executor.describe()})
+                                                  "executor": executor.describe(),
+                                                  **({"stage": opts.stage} if opts.stage else {})})
         if done:
             opts.note(f"resuming {out_dir}: {len(done)} cells already done")
         if own:

@@ -31,6 +31,7 @@ import time
 from ...engines.contract import CellResult
 from ...engines.registry import register
 from ..engine_info.adapters import build_adapter
+from .cost import CELL_CPU, CELL_SIMULATED, run_measured
 
 _HEADER = struct.Struct(">Q")
 
@@ -69,9 +70,10 @@ def _read_exact(f, n: int):
 
 
 def without_diagnostics(r):
-    """The cell result ``r`` with its diagnostics dropped (they can hold long impact lists; cells.csv
-    does not store them, so they are not sent between processes either)."""
-    r.diagnostics = {}
+    """The cell result ``r`` with its diagnostics dropped but its cost (:mod:`.cost`: they can hold long
+    impact lists; cells.csv stores none of them but the cost, so nothing else is sent between processes)."""
+    d = r.diagnostics or {}
+    r.diagnostics = {k: d[k] for k in (CELL_CPU, CELL_SIMULATED) if k in d}
     return r
 
 
@@ -99,7 +101,7 @@ def serve(inp, out) -> int:
         _, chunk_id, items, batch = msg
         if batch:
             try:
-                rs = adapter.run_many([c for _, c in items])
+                rs = run_measured(adapter, [c for _, c in items])
             except Exception as e:  # noqa: BLE001 - the parent reruns the cells one by one
                 send(out, ("batch-failed", chunk_id, f"{type(e).__name__}: {e}"))
             else:
@@ -109,7 +111,7 @@ def serve(inp, out) -> int:
                 send(out, ("start", k))
                 t0 = time.perf_counter()
                 try:
-                    r = adapter.run_many([c])[0]
+                    r = run_measured(adapter, [c])[0]
                 except Exception as e:  # noqa: BLE001 - a bad cell is recorded and the map goes on
                     r = CellResult.failed("engine-error", f"{type(e).__name__}: {e}", time.perf_counter() - t0)
                 send(out, ("result", k, without_diagnostics(r)))

@@ -36,8 +36,8 @@ from ..blocks.experiments import restitution_targets, st_limit_a_ratio
 from ..blocks.presets import PRESETS, TABLE_1, get_preset, no_exact_k_note
 from ..scoring.declared import declared_of_runs
 from ..scoring.labels import case_title, restitution_symbol, variant_labels
-from ..scoring.metrics import PRIMARY_METRIC
 from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
+from ..scoring.speed_runs import stage_record
 from ..scoring.tables import summary
 from ..store.atomic import write_bytes_atomic
 from ..store.files import DISPLAY_UTC, is_own_eta_map, map_cell_rows, utc_stamp, write_json
@@ -46,7 +46,7 @@ from ..store.trajectories import FOLDER, case_stem, read_case
 from .histories import picture_span_s
 from .page import html_page, markdown_page
 from .plots.output import figure_bytes
-from .plots.speed import plot_speed_accuracy
+from .plots.speed import plot_accuracy_cost
 from .plots.stability import REFERENCE_STYLES, plot_panels
 from .plots.trajectories import plot_theta
 from .plots.verdict import plot_verdict
@@ -118,10 +118,10 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     verdict_img = _verdict_figure(sc.doc, save)
     traj_imgs = _trajectory_figures(cases, out / FOLDER, save, notes) if trajectories else []
-    speed = _speed_rows(sc.entries, sc.doc)
+    speed = _speed_rows([e for e in sc.entries if not e.in_speed_stage], sc.doc)
     ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "verdict_img": verdict_img, "variant_graphs": variant_graphs,
            "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
-           "speed_img": _speed_figure(speed, labels, save), "notes": notes, "labels": labels,
+           "speed_img": _speed_figure((sc.doc or {}).get("speed"), save), "notes": notes, "labels": labels,
            "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
     paths = _write_report(out, images, sc.doc, markdown_page(ctx), html_page(ctx, images))
     log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
@@ -152,11 +152,14 @@ class _Scored:
         try:
             doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with,
                                 allow_incomplete=allow_incomplete,
-                                declared=declared or declared_of_runs(run_of.values()))
+                                declared=declared or declared_of_runs(run_of.values()),
+                                speed_record=stage_record(list(run_of.values()) + list(run_dirs)))
             mark_runs(doc, run_of, against=bool(against), notes=notes)
         except IncomparableError as e:
             notes.append(f"No scores: {e}")
-        return cls(entries, cands, refs, doc, own_eta, notes + _no_exact_k(refs))
+        # the speed stage's maps are in the scores' speed section and its picture, not among the variants' figures
+        main = [e for e in cands if not e.in_speed_stage]
+        return cls(entries, main, refs, doc, own_eta, notes + _no_exact_k(refs))
 
 
 def _no_exact_k(refs: list[MapEntry]) -> list[str]:
@@ -196,14 +199,14 @@ def _verdict_figure(doc: dict | None, save) -> str | None:
     return save(drawn["figure"], "verdict.png")
 
 
-def _speed_figure(speed: list[dict], labels: dict, save) -> str | None:
-    """The speed-against-accuracy picture of the engines, accuracy by the primary metric (None when no
-    engine has wall times)."""
-    if not any(r.get("ms_per_cell") for r in speed if r["variant"] != "reference"):
+def _speed_figure(speed: dict | None, save) -> str | None:
+    """The accuracy–cost picture of the run's speed stage (:func:`~.plots.speed.plot_accuracy_cost`); None
+    without a speed stage, or without a point to draw (the report says so)."""
+    if not speed or not any(p.get("value") is not None and p.get("cost") for r in speed.get("engines", [])
+                            for p in r["points"]):
         return None
-    drawn = plot_speed_accuracy([{**r, "label": labels.get(r["variant"], r["variant"])} for r in speed
-                                 if r["variant"] != "reference"], metric=PRIMARY_METRIC)
-    return save(drawn["ax"].figure, "speed_accuracy.png")
+    drawn = plot_accuracy_cost(speed)
+    return save(drawn["figure"], "speed_accuracy.png")
 
 
 def _write_report(out: Path, images: dict, doc: dict | None, md: str, page: str) -> dict:
@@ -464,28 +467,39 @@ def _restitution_targets(block: str) -> dict:
 
 
 def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
-    """Wall time per simulated cell (from cells.csv) and the mean like-for-like agreement per variant."""
+    """Per variant: wall time per simulated cell and CPU seconds per simulated second (from cells.csv: the
+    second where its cells carry their cost, schema 5), and the mean like-for-like agreement."""
     acc = summary(doc) if doc else {}
     per: dict[str, list[float]] = {}
+    cost: dict[str, list[float]] = {}
     for e in entries:
         try:
             rows = map_cell_rows(e.path)
         except (OSError, ConfigError):
             continue
         for row in rows:
-            try:
-                w = float(row.get("wall_s") or "nan")
-            except ValueError:
-                continue
+            w, cpu, sim = (_float(row.get(k)) for k in ("wall_s", "cpu_s", "simulated_s"))
             if math.isfinite(w) and row.get("status", "ok") == "ok":
                 per.setdefault(e.variant, []).append(w)
+                if math.isfinite(cpu) and math.isfinite(sim):
+                    c = cost.setdefault(e.variant, [0.0, 0.0])
+                    c[0], c[1] = c[0] + cpu, c[1] + sim
     rows = []
     for v in sorted({e.variant for e in entries}):
         ws = per.get(v, [])
         ms = 1e3 * sum(ws) / len(ws) if ws else math.nan
+        cpu, sim = cost.get(v, (0.0, 0.0))
         rows.append({"variant": v, "cells": len(ws), "ms_per_cell": ms,
+                     "cpu_per_simulated_s": cpu / sim if sim > 0 else math.nan,
                      **{m: acc.get(v, {}).get(m, math.nan) for m in SPEED_METRICS}})
     return rows
+
+
+def _float(x) -> float:
+    try:
+        return float(x) if x not in (None, "") else math.nan
+    except ValueError:
+        return math.nan
 
 
 # -- tables ------------------------------------------------------------------------------------------

@@ -11,6 +11,7 @@ from importlib import resources
 
 from ..scoring.labels import case_title, for_html
 from .plots.style import DOUBLE_COLUMN_IN
+from ..scoring.speed_words import NO_STAGE, matched_table, stage_words
 from .sections import (HIGHLIGHTS, INTRO, PRICE_WORDS, READ_GRAPHS, calib_table, exp_table, md_table,
                        metric_words, pairs_table, price_table, scenario_tables, settings_tables, speed_table,
                        short_verdict_lines, summary_rows, verdict_sentences)
@@ -52,9 +53,16 @@ def markdown_page(ctx) -> str:
     ph, pb = price_table(ctx["calib"], labels)
     if pb:
         L += ["### What reaching the target costs", "", PRICE_WORDS, "", md_table(ph, pb), ""]
-    L += ["## Speed and accuracy", "", md_table(*speed_table(ctx["speed"], labels)), ""]
-    if ctx["speed_img"]:
-        L += [f"![speed and accuracy](img/{ctx['speed_img']})", ""]
+    L += ["## Speed and accuracy", ""]
+    sp = (doc or {}).get("speed")
+    if sp:
+        L += [stage_words(sp), ""]
+        if ctx["speed_img"]:
+            L += [f"![accuracy against cost](img/{ctx['speed_img']})", ""]
+        L += ["Cost at matched accuracy:", "", md_table(*matched_table(sp)), ""]
+    else:
+        L += [NO_STAGE, ""]
+    L += ["Each variant of the verdict at the step it ran:", "", md_table(*speed_table(ctx["speed"], labels)), ""]
     if doc and doc.get("experiments"):
         L += ["## Experiments", "", md_table(*exp_table(doc, labels)), ""]
     L += ["<details><summary>Stability graphs by case: every engine variant side by side</summary>", ""]
@@ -171,15 +179,22 @@ def html_page(ctx, images: dict) -> str:
     ph, pb = price_table(ctx["calib"], labels)
     if pb:
         P += ["<h3>What reaching the target costs</h3>", f"<p>{for_html(PRICE_WORDS)}</p>", _h_table(ph, pb, num_from=3)]
-    P += ["</section><section id='speed'><h2>Speed and accuracy</h2>",
-          _h_table(*speed_table(ctx["speed"], labels), num_from=1)]
-    if ctx["speed_img"]:
-        P.append(img(ctx["speed_img"], "speed and accuracy", "Each point is one engine variant: its wall time per "
-                     "simulated cell across, the primary measure up (the mean distance between its overturning "
-                     "boundary and the reference's, lower is better), both on logarithmic axes where the range "
-                     "calls for it; a variant whose boundary matches the reference's exactly sits on the dotted "
-                     "line marked “none”."))
-    P.append("</section>")
+    P.append("</section><section id='speed'><h2>Speed and accuracy</h2>")
+    sp = (doc or {}).get("speed")
+    if sp:
+        P.append(f"<p>{for_html(stage_words(sp))}</p>")
+        if ctx["speed_img"]:
+            P.append(img(ctx["speed_img"], "accuracy against cost", "One curve per engine through its time steps: "
+                         "its CPU seconds per simulated second across (logarithmic), its boundary distance from the "
+                         "reference up (lower is better); each marker is a step (the legend), written beside the point "
+                         "where it fits; the circle is the time-step rule's choice; the shaded band reaches from the "
+                         "engine's finest step leftwards over its detectable difference; the dashed line is the "
+                         "declared distance."))
+        P += ["<h3>Cost at matched accuracy</h3>", _h_table(*matched_table(sp), num_from=2)]
+    else:
+        P.append(f"<p>{for_html(NO_STAGE)}</p>")
+    P += ["<h3>Each variant of the verdict at the step it ran</h3>",
+          _h_table(*speed_table(ctx["speed"], labels), num_from=1), "</section>"]
     if doc and doc.get("experiments"):
         P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*exp_table(doc, labels), num_from=2),
               "</section>"]

@@ -124,9 +124,11 @@ SPEED_METRICS = (PRIMARY_METRIC, "agreement")
 
 def speed_table(rows, labels):
     head = ["engine variant", "simulated cells", "wall time per simulated cell [ms]",
+            "CPU seconds per simulated second",
             *(METRICS[m].title + (" (primary)" if m == PRIMARY_METRIC else "") for m in SPEED_METRICS)]
     body = [[labels.get(r["variant"], r["variant"]), str(r["cells"]),
              _num(r["ms_per_cell"], ".2f", why="no wall times in cells.csv"),
+             _num(r.get("cpu_per_simulated_s"), ".3g", why="no cost in cells.csv"),
              *(_speed_score(r, m) for m in SPEED_METRICS)] for r in rows]
     return head, body
 

@@ -51,10 +51,12 @@ from ..maps.result import MapResult
 from ..store.files import read_json, stored_variant, utc_stamp, variant_name
 from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
 from .experiments import score_outcomes
-from .labels import PLANTED_SETTING, settings_class, variant_labels
+from .labels import CALIBRATED, PLANTED_SETTING, settings_class, variant_labels
 from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, boundary_edges, cell_counts, check_gate,
                       judged_cells, located_counts, score)
 from .declared import Declared, declared_of_runs
+from .speed import COST_RISE_FACTOR, compare_speed
+from .speed_runs import speed_section, split, stage_record
 from .verdict import verdict
 
 #: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
@@ -71,7 +73,7 @@ def pair_key(p: dict) -> str:
 
 def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None,
                   own_eta: dict | None = None, pair_with=None, allow_incomplete=False,
-                  declared: Declared | None = None) -> dict:
+                  declared: Declared | None = None, speed_record: dict | None = None) -> dict:
     """Score every candidate against every reference of its block and pulse (see the module docstring).
 
     Parameters
@@ -94,6 +96,8 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         passes the maps of an engine that could not simulate, so its report still comes out).
     declared : Declared, optional
         The suite's declarations for the verdict (default: the code's, the default suite's).
+    speed_record : dict, optional
+        What the run's speed stage declared (its speed.json, :func:`~.speed_runs.stage_record`).
 
     Returns
     -------
@@ -101,7 +105,9 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         The score.json document: ``kind``, ``schema_version``, ``metrics_version``, ``metrics``
         (definitions), ``created_utc``, ``pairs`` (one per scored pair, with ``key``, the maps,
         ``like_for_like``, ``scores``), ``skipped`` (pairs on different grids, with the reason),
-        ``experiments`` (per map, when given), ``verdict``.
+        ``experiments`` (per map, when given), ``verdict``, and ``speed`` where the candidates hold
+        maps of a speed stage (:mod:`.speed`; they are scored there and kept out of ``pairs`` and the
+        verdict).
 
     Raises
     ------
@@ -110,24 +116,12 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     IncomparableError
         No candidate has a reference of its block and pulse on its grid.
     """
-    labels = variant_labels(candidates)
-    pairs, skipped = [], []
-    for c in candidates:
-        check_complete(c, allow_incomplete)
-        check_rules(c)
-        for r in (references if pair_with is None else pair_with(c)):
-            if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
-                continue
-            check_complete(r, reference=True)
-            check_rules(r)
-            if not c.map.same_axes(r.map):
-                skipped.append({"engine_dir": str(c.path), "reference_dir": str(r.path),
-                                "reason": "different grids", "engine_grid": grid_of(c.map),
-                                "reference_grid": grid_of(r.map)})
-                continue
-            pairs.append(scored_pair(c, r, labels[c.variant], own_eta))
-    if not pairs:
-        if not candidates:
+    candidates, speed_maps = split(candidates)
+    pairs, skipped = _pairs_of(candidates, references, pair_with, own_eta, allow_incomplete)
+    speed_pairs, speed_skipped = _pairs_of(speed_maps, references, pair_with, own_eta, allow_incomplete)
+    skipped += speed_skipped
+    if not pairs and not speed_pairs:
+        if not candidates and not speed_maps:
             raise IncomparableError("nothing to score: the run directories hold only reference maps; give engine "
                                     "maps, or --against REF_DIR to score these maps against others.")
         why = (f"{len(skipped)} candidate pair(s) lie on different grids" if skipped else
@@ -144,7 +138,31 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         doc["experiments"] = score_experiments(list(candidates) + [r for r in references if r not in candidates],
                                                experiments)
     doc["verdict"] = verdict(doc, declared)
+    if speed_maps:
+        mdd = ((doc["verdict"].get("mcb") or {}).get(CALIBRATED) or {}).get("mdd")
+        doc["speed"] = speed_section(speed_maps, speed_pairs, speed_record or {}, mdd)
     return doc
+
+
+def _pairs_of(candidates: list[MapEntry], references: list[MapEntry], pair_with, own_eta, allow_incomplete):
+    """``(scored pairs, pairs skipped for their grids)`` of ``candidates`` against their references."""
+    labels = variant_labels(candidates)
+    pairs, skipped = [], []
+    for c in candidates:
+        check_complete(c, allow_incomplete)
+        check_rules(c)
+        for r in (references if pair_with is None else pair_with(c)):
+            if r.path == c.path or (r.block, r.pulse) != (c.block, c.pulse):
+                continue
+            check_complete(r, reference=True)
+            check_rules(r)
+            if not c.map.same_axes(r.map):
+                skipped.append({"engine_dir": str(c.path), "reference_dir": str(r.path),
+                                "reason": "different grids", "engine_grid": grid_of(c.map),
+                                "reference_grid": grid_of(r.map)})
+                continue
+            pairs.append(scored_pair(c, r, labels[c.variant], own_eta))
+    return pairs, skipped
 
 
 def scored_pair(c: MapEntry, r: MapEntry, label: str, own_eta: dict | None) -> dict:
@@ -340,7 +358,8 @@ def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=
         cands = [e for e in entries if not e.is_reference]
         pair_with, notes = pair_within_runs(cands, refs, run_of)
     doc = score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs), pair_with=pair_with,
-                        allow_incomplete=allow_incomplete, declared=declared or declared_of_runs(run_of.values()))
+                        allow_incomplete=allow_incomplete, declared=declared or declared_of_runs(run_of.values()),
+                        speed_record=stage_record(run_of.values()))
     mark_runs(doc, run_of, against=bool(against), notes=notes)
     return doc
 
@@ -591,8 +610,11 @@ def tolerance_for(tol, name: str, units: dict) -> float:
     return max(float(tol.get("at_least", 0.0)), cells * units[name] if cells and name in units else 0.0)
 
 
-def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dict:
-    """Regressions of ``cur`` against ``base``, pair by pair and metric by metric.
+def compare_scores(base: dict, cur: dict, tolerances: dict | None = None,
+                   cost_factor: float = COST_RISE_FACTOR) -> dict:
+    """Regressions of ``cur`` against ``base``, pair by pair and metric by metric, and of the speed stage's
+    cost at matched accuracy (:func:`~.speed.compare_speed`: a rise by more than ``cost_factor`` on a like
+    machine).
 
     Each tolerance is turned into the metric's units on the baseline pair's grid
     (:func:`tolerance_for`); the rows give the value used.
@@ -603,13 +625,13 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
         ``status`` (``ok`` or ``regression``), ``compared`` (pairs in both), ``regressions`` and
         ``improvements`` (lists of ``{key, metric, baseline, current, delta, tolerance}``),
         ``missing`` (pair keys in the baseline only: a regression), ``new`` (in the current only),
-        ``tolerances``.
+        ``tolerances``, and ``speed`` (None unless both runs have a speed stage).
 
     Raises
     ------
     IncomparableError
-        Other metric definitions, no pair in common, a common pair on another grid, or a document
-        holding one pair twice (several runs scored together).
+        Other metric definitions, no pair in common (two runs of a speed stage alone excepted), a common
+        pair on another grid, or a document holding one pair twice (several runs scored together).
     """
     tol = dict(parse_tolerances([]) if tolerances is None else tolerances)
     rules = [str(d.get("rules_version", "1")) for d in (base, cur)]
@@ -625,7 +647,8 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
     b = _pairs_by_key(base, "baseline")
     c = _pairs_by_key(cur, "current")
     common = sorted(set(b) & set(c))
-    if not common:
+    speed = compare_speed(base.get("speed"), cur.get("speed"), cost_factor)
+    if not common and not (speed is not None and not b and not c):
         raise IncomparableError("the two results share no scored pair (engine, block, pulse, restitution, "
                                 "reference): they describe other scenarios.")
     for k in common:
@@ -648,9 +671,10 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None) -> dic
             elif m.worse(old, new, 0.0):
                 improvements.append(row)
     missing = sorted(set(b) - set(c))
-    return {"status": "regression" if regressions or missing else "ok", "compared": len(common),
+    slower = bool(speed and speed["flags"])
+    return {"status": "regression" if regressions or missing or slower else "ok", "compared": len(common),
             "regressions": regressions, "improvements": improvements, "missing": missing,
-            "new": sorted(set(c) - set(b)), "tolerances": tol}
+            "new": sorted(set(c) - set(b)), "tolerances": tol, "speed": speed}
 
 
 def _pairs_by_key(doc: dict, which: str) -> dict:

@@ -232,4 +232,24 @@ def compare_table(res: dict, markdown: bool = False) -> str:
              f"{len(res['new'])} new")
     if not rows:   # the table is always there, so a pull-request comment keeps its shape
         rows.append(["ok", f"all {res['compared']} pair(s) within their tolerances", "", "", "", "", ""])
+    out = (("**" + md_cell(title) + "**\n\n") if markdown else title + "\n") + render(head, rows, markdown)
+    sp = res.get("speed")
+    return out if not sp else out + "\n" + speed_compare_table(sp, markdown)
+
+
+def speed_compare_table(sp: dict, markdown: bool = False) -> str:
+    """The speed stages' costs at matched accuracy side by side (:func:`~.speed.compare_speed`): each engine
+    and criterion, flagged where the cost rose by more than the factor or is no longer reached."""
+    def at(p):
+        return "not reached" if not p else f"{p['dt_s'] * 1e3:g} ms at {p['cost']:.3g}"
+
+    head = ["", "engine", "criterion", "baseline", "current", "ratio"]
+    rows = [["COST" if r in sp["flags"] else ("not compared" if r["flag"] else "ok"), r["engine"],
+             {"within_mdd": "(a) within the detectable difference", "within_distance": "(b) within the declared "
+              "distance"}[r["criterion"]], at(r["baseline"]), at(r["current"]),
+             "–" if r["ratio"] is None else f"{r['ratio']:.2f}"] for r in sp["rows"]]
+    title = (f"speed: {len(sp['flags'])} engine cost(s) at matched accuracy rose by more than {sp['factor']:g} "
+             f"(or are no longer reached)" + "".join(f"; {n}" for n in sp["notes"]))
+    if not rows:
+        rows.append(["ok", "no engine in both runs", "", "", "", ""])
     return (("**" + md_cell(title) + "**\n\n") if markdown else title + "\n") + render(head, rows, markdown)

@@ -378,7 +378,7 @@ def _row(k, write, buf, pos, head, ax_txt, ax_off, ii, jj, outcome, words, word_
     w = 6 + fb                                 # the flags' text
     lo, hi = word_off[w], word_off[w + 1]
     pos = _put_bytes(buf, pos, words, lo, hi) if write else pos + hi - lo
-    lo, hi = word_off[5], word_off[6]          # ",ok,,<wall_s>,"
+    lo, hi = word_off[5], word_off[6]          # ",ok,,<wall_s>,,,": wall_s, then the empty cost
     pos = _put_bytes(buf, pos, words, lo, hi) if write else pos + hi - lo
     # t_overturn (overturned cells), t_uplift ('' where never lifted), min N, max |F|/N
     if o == 2:
@@ -510,7 +510,8 @@ def format_rows(head: str, axes: list[list[str]], ii, jj, outcome, n_impacts, fl
     for k, o in enumerate(ax_off):
         off[k, :o.size] = o + base
         base += int(o[-1])
-    words, word_off = _texts(["rest", "rocking", "overturn", "true", "false", f",ok,,{wall_s},", *flag_texts])
+    # the status, message, wall_s and the empty cost columns (cpu_s, simulated_s): the same text in every row
+    words, word_off = _texts(["rest", "rocking", "overturn", "true", "false", f",ok,,{wall_s},,,", *flag_texts])
 
     def u64(a):
         return np.ascontiguousarray(a, dtype=np.float64).view(np.uint64)

@@ -41,12 +41,17 @@ from ...reference_solver.errors import ConfigError, IncomparableError, Rockbench
 from .atomic import write_bytes_atomic
 
 #: Version of the run-directory layout; bumped when columns or run.json keys change meaning
-#: (3: the ``variant`` column; 4: bisection.csv, boundary.csv and the ``locate_depth`` option).
-SCHEMA_VERSION = 4
+#: (3: the ``variant`` column; 4: bisection.csv, boundary.csv and the ``locate_depth`` option; 5: the
+#: ``cpu_s`` and ``simulated_s`` columns, each simulation's cost).
+SCHEMA_VERSION = 5
 
-#: Older schemas this rockbench still reads (never resumes): a schema-3 map has no bisection, so its
-#: boundary is the depth-0 one, the edge midpoints.
-READABLE_SCHEMAS = (3, SCHEMA_VERSION)
+#: Older schemas this rockbench still reads: a schema-3 map has no bisection, so its boundary is the
+#: depth-0 one, the edge midpoints; a schema-4 map has no cost columns (read as empty).
+READABLE_SCHEMAS = (3, 4, SCHEMA_VERSION)
+
+#: Older schemas a resumed map is brought up to (its tables get the new columns, empty in the rows it
+#: has, and it goes on as a map of this schema); a schema-3 map is never resumed (it has no bisection).
+RESUMABLE_SCHEMAS = (4,)
 
 #: The cells.csv columns every map directory has (docs/cli.md, "The columns of cells.csv"), in the
 #: order the store writes them.
@@ -57,13 +62,18 @@ REQUIRED_COLUMNS = ("engine", "block", "pulse", "restitution", "eta", "w_ratio",
 #: ``variant`` beside the engine (the engine with its non-default settings and time step, e.g.
 #: ``mujoco[settings=shipped]``, so that tables of several maps concatenated stay apart), then the
 #: store's own.
-COLUMNS = [REQUIRED_COLUMNS[0], "variant", *REQUIRED_COLUMNS[1:], "status", "message", "wall_s", "t_overturn_s",
-           "t_uplift_s", "min_normal_mg", "max_friction_ratio", "i", "j"]
+COLUMNS = [REQUIRED_COLUMNS[0], "variant", *REQUIRED_COLUMNS[1:], "status", "message", "wall_s", "cpu_s",
+           "simulated_s", "t_overturn_s", "t_uplift_s", "min_normal_mg", "max_friction_ratio", "i", "j"]
+
+#: The columns of a simulation's cost (schema 5; :mod:`rockbench.benchmark.maps.cost`): its share of the CPU
+#: time of the call that ran it and the time the engine simulated [s]; empty for a cell without them.
+COST_COLUMNS = ("cpu_s", "simulated_s")
 
 #: The columns of bisection.csv: cells.csv's (``i``, ``j`` the edge's first cell), the edge's direction
 #: ``axis`` (``w``: towards cell ``(i, j + 1)``, ``a``: towards ``(i + 1, j)``) and the position ``t``
 #: in (0, 1) along it.
 SAMPLE_COLUMNS = [*COLUMNS, "axis", "t"]
+
 
 #: The columns of boundary.csv: a crossing's position, its edge, its kind (``overturn``: between a
 #: standing and an overturning cell; ``band``: a side of a band inside an overturn(n) | overturn(m)
@@ -212,19 +222,22 @@ def _parse_rows(text: str, path: Path, shape=None, columns=COLUMNS) -> tuple[dic
     if not lines:
         return {}, 0
     header = next(csv.reader([lines[0]]), [])
-    if header != columns:
+    if header != columns and header != before_cost(columns):
         raise IncomparableError(f"{str(path)!r} has other columns than this rockbench writes; it comes from "
                                 "another version: give a new --out directory.")
+    missing = dict.fromkeys(c for c in columns if c not in header)   # schema 4: no cost, read as empty
     rows: dict = {}
     good = len(lines[0].encode())
     for n, line in enumerate(lines[1:], start=2):
         vals = next(csv.reader([line]), [])
-        if len(vals) != len(columns):
+        if len(vals) != len(header):
             if n == len(lines):
                 break   # a torn last row that still ended in a newline inside a quoted field
-            raise ConfigError(f"{str(path)!r} line {n} is malformed ({len(vals)} fields, expected {len(columns)}); "
+            raise ConfigError(f"{str(path)!r} line {n} is malformed ({len(vals)} fields, expected {len(header)}); "
                               f"{_DAMAGED}.")
-        r = dict(zip(columns, vals))
+        r = dict(zip(header, vals))
+        if missing:
+            r.update((c, "") for c in missing)
         key = _check_row(r, n, path, shape)
         if columns is SAMPLE_COLUMNS:
             key = (*key, *_sample_position(r, n, path))
@@ -291,6 +304,11 @@ def _check_row_slowly(r: dict, n: int, path: Path, shape) -> tuple[int, int]:
     return i, j
 
 
+def before_cost(columns) -> list[str]:
+    """A table's columns as schemas 3 and 4 wrote them: without :data:`COST_COLUMNS` (read as empty)."""
+    return [c for c in columns if c not in COST_COLUMNS]
+
+
 def check_map_schema(meta: dict, d: Path, writing: bool = False) -> None:
     """ConfigError unless ``meta`` is a map's run.json; IncomparableError when of a schema this rockbench
     cannot read (:data:`READABLE_SCHEMAS`), or, ``writing``, of another schema than its own."""
@@ -298,9 +316,9 @@ def check_map_schema(meta: dict, d: Path, writing: bool = False) -> None:
         raise ConfigError(f"{str(d)!r} is not a rockbench map directory (its run.json is of kind "
                           f"{meta.get('kind')!r}); give a new or empty directory.")
     version = meta.get("schema_version")
-    if writing and version in READABLE_SCHEMAS and version != SCHEMA_VERSION:
+    if writing and version in READABLE_SCHEMAS and version not in (SCHEMA_VERSION, *RESUMABLE_SCHEMAS):
         raise IncomparableError(f"{str(d)!r} holds a map of schema {version}, which this rockbench reads but does not "
-                                f"resume (schema {SCHEMA_VERSION} adds the boundary's bisection); delete it to compute "
+                                f"resume (schema 4 added the boundary's bisection); delete it to compute "
                                 "the map again, or give a new --out directory.")
     if version not in READABLE_SCHEMAS:
         raise IncomparableError(f"{str(d)!r} was written with schema {version}, this rockbench "

@@ -127,6 +127,11 @@ def full_grid_rows(map_dir) -> list[dict]:
 
 
 # -- the maps of run folders, as the scores and reports read them ----------------------------------
+
+#: The name a speed-stage map records in run.json's ``options.stage`` (``{"name": "speed", ...}``).
+SPEED_STAGE = "speed"
+
+
 @dataclass
 class MapEntry:
     """One map found on disk.
@@ -177,6 +182,18 @@ class MapEntry:
     def is_planted(self) -> bool:
         """A planted variant of the reference solver: the suite's yardstick of power, not an engine."""
         return is_planted(self.engine, self.settings)
+
+    @property
+    def stage(self) -> dict:
+        """The suite stage the map was computed for (run.json's ``options.stage``; {} for an ordinary map)."""
+        st = (self.run.get("options") or {}).get("stage") if isinstance(self.run, dict) else None
+        return st if isinstance(st, dict) else {}
+
+    @property
+    def in_speed_stage(self) -> bool:
+        """A map of a suite's speed stage (:data:`SPEED_STAGE`): scored like any map, kept out of the verdict
+        (:mod:`rockbench.benchmark.scoring.speed`)."""
+        return self.stage.get("name") == SPEED_STAGE
 
     @property
     def resolved_settings(self) -> dict:
@@ -306,6 +323,31 @@ def _label_map(path: Path) -> tuple[MapResult, dict]:
     except ValueError as e:
         raise ConfigError(f"{str(path)!r} has a non-numeric w_ratio or a_ratio ({e}).") from None
     return from_cells(w, a, outcome, valid, flags=[r["flags"] for r in rows]), rows[0]
+
+
+def map_cost(d) -> dict:
+    """What a map's simulations cost, from its cells.csv and bisection.csv (every simulation: the grid's
+    cells and the boundary's samples): ``simulations`` (those that ran, status ok), ``costed`` (those of
+    them with both cost columns: a map of schema 4, or resumed from one, has rows without), and over the
+    costed ones ``cpu_s``, ``simulated_s`` and ``wall_s`` summed [s]."""
+    d = Path(d)
+    meta, rows = read_run(d)
+    shape = (int(meta["spec"]["y"]["n"]), int(meta["spec"]["x"]["n"]))
+    samples, _ = read_samples(d / "bisection.csv", shape)
+    out = {"simulations": 0, "costed": 0, "cpu_s": 0.0, "simulated_s": 0.0, "wall_s": 0.0}
+    for r in [*rows.values(), *samples.values()]:
+        if r["status"] != "ok":
+            continue
+        out["simulations"] += 1
+        try:
+            cpu, sim, wall = float(r["cpu_s"]), float(r["simulated_s"]), float(r["wall_s"])
+        except ValueError:
+            continue
+        out["costed"] += 1
+        out["cpu_s"] += cpu
+        out["simulated_s"] += sim
+        out["wall_s"] += wall
+    return out
 
 
 def load_entries(paths: Iterable) -> list[MapEntry]:

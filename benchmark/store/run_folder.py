@@ -29,7 +29,6 @@ from __future__ import annotations
 import csv
 import functools
 import io
-import os
 import platform
 import subprocess
 import sys
@@ -40,8 +39,10 @@ from ...reference_solver.errors import ConfigError
 from ...reference_solver.rules import RULES_VERSION, rules_mismatch
 from .columnar import format_rows
 from .atomic import write_bytes_atomic
-from .files import (BOUNDARY_COLUMNS, COLUMNS, NEW_OUT, SAMPLE_COLUMNS, SCHEMA_VERSION, check_map_schema,
-                    read_cells_file, read_json, read_samples, spec_variant, stored_settings, utc_stamp, write_json)
+from ..maps.cost import cost_of, machine
+from .files import (BOUNDARY_COLUMNS, COLUMNS, COST_COLUMNS, NEW_OUT, SAMPLE_COLUMNS, SCHEMA_VERSION, before_cost,
+                    check_map_schema, read_cells_file, read_json, read_samples, spec_variant, stored_settings,
+                    utc_stamp, write_json)
 from .lines import exact_text, plain_row
 
 
@@ -141,7 +142,7 @@ class RunStore:
             "git": git_info(),
             "python": sys.version.split()[0],
             "platform": platform.platform(),
-            "machine": {"cpu_count": os.cpu_count(), "processor": platform.processor() or platform.machine()},
+            "machine": machine(),
             "engine": {**describe, "resolved_settings": resolved},
             "spec": spec.to_dict(),
             "spec_identity": spec.identity(),
@@ -157,12 +158,34 @@ class RunStore:
         self.samples, good_samples = read_samples(d / "bisection.csv", spec.shape)
         self._cut_torn_tail(good)
         self._cut_torn_tail(good_samples, "bisection.csv")
+        if previous and previous.get("schema_version") != SCHEMA_VERSION:
+            self._add_cost_columns()
         self._meta = meta
         write_json(run_json, meta)
         self._csv = open(d / "cells.csv", "a", newline="")
         if self._csv.tell() == 0:
             self._write_line(COLUMNS)
         return done
+
+    def _add_cost_columns(self) -> None:
+        """A resumed schema-4 map's tables get the cost columns (empty in the rows they have), each file
+        rewritten atomically; a table that has them already (an earlier attempt was cut short) is left."""
+        for name, columns in (("cells.csv", COLUMNS), ("bisection.csv", SAMPLE_COLUMNS)):
+            path = self.dir / name
+            if not path.is_file():
+                continue
+            rows = list(csv.reader(io.StringIO(path.read_bytes().decode("utf-8-sig"), newline="")))
+            if not rows or rows[0] != before_cost(columns):
+                continue
+            at = [k for k, c in enumerate(columns) if c in COST_COLUMNS]
+            buf = io.StringIO()
+            w = csv.writer(buf, lineterminator="\n")
+            w.writerow(columns)
+            for row in rows[1:]:
+                for k in at:
+                    row.insert(k, "")
+                w.writerow(row)
+            write_bytes_atomic(path, buf.getvalue().encode())
 
     def _take_lock(self) -> None:
         import fcntl  # POSIX only
@@ -207,7 +230,7 @@ class RunStore:
                 "outcome": r.outcome or "", "n_impacts": int(r.n_impacts), "max_abs_theta_rad": r.max_abs_theta_rad,
                 "valid": bool(r.valid), "flags": ";".join(r.flags), "status": r.status,
                 "message": " ".join(str(r.message).split()), "wall_s": float(r.wall_s),
-                "t_overturn_s": r.t_overturn_s, "t_uplift_s": r.t_uplift_s, "min_normal_mg": r.min_normal_mg,
+                **dict(zip(COST_COLUMNS, cost_of(r))), "t_overturn_s": r.t_overturn_s, "t_uplift_s": r.t_uplift_s, "min_normal_mg": r.min_normal_mg,
                 "max_friction_ratio": r.max_friction_ratio, "i": int(i), "j": int(j)}
 
     def sample_row(self, spec, i: int, j: int, axis: int, t: float, point: dict, r) -> dict:
@@ -231,7 +254,7 @@ class RunStore:
             if r.status == "ok" and not r.flags and not r.message and r.outcome:
                 lines.append(plain_row(head, wr[j], ar[i], om[j], am[i], i, j, r.outcome, r.n_impacts,
                                        r.max_abs_theta_rad, r.valid, "", repr(float(r.wall_s)), r.t_overturn_s,
-                                       r.t_uplift_s, r.min_normal_mg, r.max_friction_ratio))
+                                       r.t_uplift_s, r.min_normal_mg, r.max_friction_ratio, *cost_of(r)))
             else:
                 others.append(self.row(spec, i, j, r))
         if others:

@@ -17,7 +17,7 @@ import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, get_args
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, ValidationInfo, model_validator
 from pydantic_core import PydanticCustomError
@@ -31,9 +31,10 @@ from ..blocks.presets import NOT_IN_TABLE_1, PRESETS, TABLE_1, get_preset, no_ex
 from ..maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
 from ..maps.grid import MapSpec, parse_range
 from ..scoring.declared import DEFAULTS, KEY_RULES, Declared
+from ..scoring.speed import MATCHED_DISTANCE, SPEED_STEPS_S
 
 #: the shipped suites, by name
-SHIPPED_SUITES = ("default", "quick", "full", "newton")
+SHIPPED_SUITES = ("default", "quick", "full", "newton", "speed")
 
 #: the pulses a suite may name
 PULSES = ("sine", "cosine", "half-sine")
@@ -59,6 +60,7 @@ class Suite:
     report: ReportTable
     verdict: Declared
     power: PowerTable
+    speed: SpeedTable | None = None
 
 
 # -- one rule per kind of key ------------------------------------------------------------------------
@@ -119,6 +121,11 @@ def _locate_depth(v):
     return v
 
 
+def _locate_depth_or_none(v):
+    """``speed.locate_depth``: None (the grid's) or a depth (:func:`_locate_depth`)."""
+    return None if v is None else _locate_depth(v)
+
+
 def _restitution_token(v):
     if not _is_text_or_number(v):
         raise _bad(f" must be a text or a number, got {v!r}.")
@@ -171,8 +178,8 @@ def _names(v):
 
 
 def _variants(v):
-    if not isinstance(v, list) or not all(isinstance(x, dict) for x in v) or not v:
-        raise _bad(" must be a non-empty list of tables of settings.")
+    if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
+        raise _bad(" must be a list of tables of settings.")
     for k, variant in enumerate(v):
         if "engines" in variant and not (isinstance(variant["engines"], list) and variant["engines"]
                                          and all(isinstance(n, str) for n in variant["engines"])):
@@ -202,6 +209,41 @@ def _reductions(v):
     if twice:
         raise _bad(f" lists δ = {twice[0]!r} twice; list each reduction once.")
     return [float(x) for x in v]
+
+
+def _steps(v):
+    """``speed.steps_s``: at least two distinct time steps [s], each a number > 0."""
+    if not isinstance(v, list) or len(v) < 2:
+        raise _bad(f" must list at least two time steps in seconds (a curve), e.g. [0.001, 0.0005, 0.0002, 0.0001]; "
+                   f"got {v!r}.")
+    out = [_seconds(x) for x in v]
+    if None in out:
+        raise _bad(f" must hold numbers of seconds > 0, got {v!r}.")
+    twice = [x for k, x in enumerate(out) if x in out[:k]]
+    if twice:
+        raise _bad(f" lists {twice[0]!r} s twice; list each step once.")
+    return sorted(out, reverse=True)
+
+
+def _or_none(rule, default: str):
+    """A list key whose default is worked out from other tables (None until then): a non-empty list of
+    texts, checked by ``rule``."""
+    def check(v):
+        if v is None:
+            return None
+        if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+            raise _bad(f" must be a list of names, got {v!r}.")
+        if not v:
+            raise _bad(f" is empty; list at least one, or leave the key out for {default}.")
+        return rule(v)
+    return check
+
+
+def _distance(v):
+    """``speed.matched_distance``: a boundary distance > 0 in the normalised plane."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
+        raise _bad(f" must be a number > 0 in the normalised plane (ω/p, a0/(g·tanα)), got {v!r}.")
+    return float(v)
 
 
 def _report_case(v):
@@ -331,6 +373,21 @@ class VerdictTable(_Table):
     held_out_margin: Annotated[float, _declared("held_out_margin")] = DEFAULTS.held_out_margin
     general_range_h_over_b: Annotated[tuple, _declared("general_range_h_over_b")] = \
         list(DEFAULTS.general_range_h_over_b)
+class SpeedTable(_Table):
+    """The accuracy–cost stage (docs/speed.md): every engine of the suite calibrated at each step, on the
+    stage's problems, scored like any map and timed; kept out of the verdict. A key left out: the time-step
+    rule's ladder, one block per slenderness of ``cases.blocks`` (the first of each), ``cases.pulses``'
+    first pulse, the declared distance of the default (its argument in docs/speed.md), and the grid's
+    ``locate_depth`` (the rounds of bisection of the stage's boundaries)."""
+
+    steps_s: Annotated[list[float], BeforeValidator(_steps)] = list(SPEED_STEPS_S)
+    blocks: Annotated[list[str] | None, BeforeValidator(_or_none(_blocks, "one block per slenderness of cases.blocks"))] \
+        = None
+    pulses: Annotated[list[str] | None, BeforeValidator(_or_none(_pulses, "the first of cases.pulses"))] = None
+    matched_distance: Annotated[float, BeforeValidator(_distance)] = MATCHED_DISTANCE
+    locate_depth: Annotated[int | None, BeforeValidator(_locate_depth_or_none)] = None
+
+
 class PowerTable(_Table):
     """The suite's yardstick: the reference solver mapped as an engine with η·(1 − δ), one variant per δ."""
 
@@ -349,12 +406,14 @@ class SuiteFile(_Table):
     report: ReportTable = {}
     verdict: VerdictTable = {}
     power: PowerTable = {}
+    speed: SpeedTable | None = None
 
     @model_validator(mode="after")
     def _across_tables(self, info: ValidationInfo):
         try:
             self._check_tokens(info.context["name"])
             self._check_specs(info.context["name"])
+            self._check_speed(info.context["name"])
         except ConfigError as e:
             raise _whole(str(e), "suite_line") from None
         return self
@@ -406,7 +465,60 @@ class SuiteFile(_Table):
                         raise ConfigError(f"suite {name}: {keys} ({block} {pulse}): {e}") from None
 
 
-TABLES = ("suite", "grid", "cases", "reference", "engines", "power", "run", "report", "verdict")
+    def _check_speed(self, name: str) -> None:
+        """The speed stage's problems among the suite's (their reference maps are the suite's), the engines'
+        target among the reference restitutions, and each step against each problem's highest frequency;
+        no engine variant only with a speed stage (a suite of that stage alone)."""
+        sp = self.speed
+        if sp is None:
+            if not self.engines.variants:
+                raise ConfigError(f"suite {name}: engines.variants is empty; list at least one variant, or add a "
+                                  f"[speed] table (a suite that runs the speed stage alone).")
+            return
+        sp.blocks = sp.blocks or first_per_slenderness(self.cases.blocks)
+        sp.pulses = sp.pulses or self.cases.pulses[:1]
+        for key, have, given in (("blocks", self.cases.blocks, sp.blocks), ("pulses", self.cases.pulses, sp.pulses)):
+            extra = [x for x in given if x not in have]
+            if extra:
+                raise ConfigError(f"suite {name}: speed.{key} names {extra[0]}, which is not in cases.{key} "
+                                  f"({', '.join(have)}); the speed stage is scored against the suite's reference maps.")
+        x = parse_range("grid.w_ratio", self.grid.w_ratio, "w_ratio")
+        y = parse_range("grid.a_ratio", self.grid.a_ratio, "a_ratio")
+        for block in sp.blocks:
+            target = restitution_for(self.engines.restitution, block, f"suite {name}: engines.restitution")
+            refs = [restitution_for(t, block).label for t in reference_tokens(self.reference.restitutions, block)]
+            if target.label not in refs:
+                raise ConfigError(f"suite {name}: the speed stage calibrates to engines.restitution "
+                                  f"{self.engines.restitution!r}, which reference.restitutions lacks; add it there.")
+            for pulse in sp.pulses:
+                for dt in sp.steps_s:
+                    try:
+                        MapSpec(get_preset(block).block(), pulse, target, x, y, dt_s=dt)
+                    except ConfigError as e:
+                        raise ConfigError(f"suite {name}: speed.steps_s {dt:g} s on the grid ({block} {pulse}): {e}") \
+                            from None
+
+
+def grid_cells(suite: "Suite") -> int:
+    """The cells of one map of the suite's grid."""
+    return parse_range("grid.w_ratio", suite.grid.w_ratio, "w_ratio").n * parse_range("grid.a_ratio", suite.grid.a_ratio,
+                                                                                         "a_ratio").n
+
+
+def first_per_slenderness(blocks: list[str]) -> list[str]:
+    """The first block of each slenderness h/b among ``blocks`` (presets), in their order: the speed stage's
+    default problems (two sizes of one slenderness pose one problem)."""
+    seen, out = set(), []
+    for b in blocks:
+        pre = get_preset(b)
+        key = round(pre.height_m / pre.width_m, 4)
+        if key not in seen:
+            seen.add(key)
+            out.append(pre.name)
+    return out
+
+
+TABLES = ("suite", "grid", "cases", "reference", "engines", "power", "speed", "run", "report", "verdict")
 
 
 # -- reading a file ------------------------------------------------------------------------------------
@@ -455,7 +567,8 @@ def _unknown(raw: dict, name: str) -> str | None:
     for table, val in raw.items():
         if table not in TABLES or not isinstance(val, dict):
             return f"suite {name}: unknown table [{table}]; tables: {', '.join(TABLES)}."
-        known = SuiteFile.model_fields[table].annotation.model_fields
+        ann = SuiteFile.model_fields[table].annotation   # a table's model, or it | None (an optional table)
+        known = next((t for t in (ann, *get_args(ann)) if isinstance(t, type) and issubclass(t, BaseModel))).model_fields
         extra = sorted(set(val) - set(known))
         if extra:
             return f"suite {name}: unknown key {table}.{extra[0]}; [{table}] takes {', '.join(sorted(known))}."
@@ -499,4 +612,4 @@ def load_suite(path) -> Suite:
         f"the code's defaults (the default suite's): the suite {name!r} declares none"
     return Suite(name=name, description=f.suite.description, path=str(p), raw=raw, grid=f.grid, cases=f.cases,
                  reference=f.reference, engines=f.engines, run=f.run, report=f.report,
-                 verdict=Declared(**f.verdict.model_dump(), source=source), power=f.power)
+                 verdict=Declared(**f.verdict.model_dump(), source=source), power=f.power, speed=f.speed)

@@ -15,7 +15,9 @@ from ...reference_solver.errors import ConfigError, EngineUnavailableError
 from ...reference_solver.restitution import Restitution
 from ..blocks.presets import get_preset
 from ..engine_info.adapters import engine_settings
+from ..engine_info.devices import GPU_ENGINES, device_of
 from ..store.files import own_eta_map_name, variant_name
+from ..store.loading import SPEED_STAGE
 from .model import Suite, reference_tokens, restitution_for
 
 
@@ -38,6 +40,9 @@ class MapJob:
         Time step [s] (None: the engine's default).
     subdir : str
         Where the run directory goes, relative to the output directory.
+    stage : str or None
+        The suite stage it belongs to (:data:`SPEED_STAGE` for the speed stage's maps), None for the
+        maps the verdict judges and their references.
     """
 
     engine: str
@@ -47,6 +52,7 @@ class MapJob:
     restitution: Restitution
     dt_s: float | None
     subdir: str
+    stage: str | None = None
 
 
 def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[list[str], list[str]]:
@@ -173,6 +179,7 @@ def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
                 jobs.append(MapJob("reference", {}, block, pulse, r, suite.reference.dt_s,
                                    f"maps/reference/{block}-{pulse}-{_slug(r.label)}"))
     jobs += power_jobs(suite)
+    jobs += speed_jobs(suite, speed_engines(suite, engines)[0])
     for engine in engines:
         for variant in suite.engines.variants:
             if not variant_applies(engine, variant):
@@ -184,6 +191,90 @@ def plan(suite: Suite, engines: list[str]) -> list[MapJob]:
                     jobs.append(MapJob(engine, variant_settings(variant), block, pulse, r, suite.engines.dt_s,
                                        f"maps/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}"))
     return jobs
+
+
+#: The engine settings of the speed stage's variant: each engine calibrated as the suite's calibrated variant is
+SPEED_SETTINGS = {"settings": "calibrated"}
+
+
+def speed_engines(suite: Suite, engines: list[str]) -> tuple[list[str], list[str]]:
+    """``(the engines of the speed stage, notes)``: those of the suite whose calibrated variant can be built
+    (settings checked, nothing runs); none without a ``[speed]`` table."""
+    if suite.speed is None:
+        return [], []
+    kept, notes = [], []
+    for engine in engines:
+        try:
+            adapter = object.__new__(adapter_class(engine))
+            EngineAdapter.__init__(adapter, **engine_settings(engine, SPEED_SETTINGS))
+        except ConfigError as e:
+            notes.append(f"engine {engine} left out of the speed stage: it has no calibrated variant ({e})")
+            continue
+        kept.append(engine)
+    return kept, notes
+
+
+def speed_jobs(suite: Suite, engines: list[str]) -> list[MapJob]:
+    """The speed stage's maps: each engine calibrated at each of ``speed.steps_s`` on each of the stage's
+    blocks and pulses, at the engines' restitution target, under ``maps/speed/`` (``stage`` "speed")."""
+    if suite.speed is None:
+        return []
+    jobs = []
+    for engine in engines:
+        for dt in suite.speed.steps_s:
+            vname = variant_name(engine, SPEED_SETTINGS, dt)
+            for block in suite.speed.blocks:
+                r = restitution_for(suite.engines.restitution, block)
+                for pulse in suite.speed.pulses:
+                    jobs.append(MapJob(engine, dict(SPEED_SETTINGS), block, pulse, r, dt,
+                                       f"maps/{SPEED_STAGE}/{_slug(vname)}/{block}-{pulse}-{_slug(r.label)}",
+                                       SPEED_STAGE))
+    return jobs
+
+
+def speed_plan_lines(suite: Suite, engines: list[str], cells: int) -> list[str]:
+    """What the speed stage will cost, per engine, for ``rockbench run --plan`` (``cells``: a map's grid):
+    its maps, the cells they may simulate at most, and the calibrations its steps need."""
+    if suite.speed is None:
+        return []
+    sp = suite.speed
+    steps = ", ".join(f"{dt * 1e3:g}" for dt in sp.steps_s)
+    head = (f"speed stage: {len(engines)} engine(s) × {len(sp.steps_s)} steps ({steps} ms) × "
+            f"{len(sp.blocks)} block(s) ({', '.join(sp.blocks)}) × {len(sp.pulses)} pulse(s) ({', '.join(sp.pulses)}) "
+            f"= {len(engines) * len(sp.steps_s) * len(sp.blocks) * len(sp.pulses)} maps")
+    per = len(sp.steps_s) * len(sp.blocks) * len(sp.pulses)
+    lines = [head]
+    for engine in engines:
+        lines.append(f"speed stage, {engine}: {per} maps of {cells} cells (adaptive: those near a boundary are "
+                     f"simulated, with its bisection samples to depth {speed_depth(suite)}), {len(sp.steps_s) * len(sp.blocks)} calibrations and the "
+                     f"time-step rule's search on {len(sp.blocks)} block(s) (both cached)")
+    return lines
+
+
+def speed_record(suite: Suite, engines: list[str], notes: list[str]) -> dict:
+    """What a run's speed.json says of its speed stage (:mod:`rockbench.benchmark.scoring.speed_runs`): what
+    it declared, its engines, and each engine meant for a GPU that has no GPU row here and why (it is not in
+    the stage: the run's note on it; it runs on the CPU: its own line)."""
+    sp = suite.speed
+    absent = []
+    for e in GPU_ENGINES:
+        if e in engines:
+            dev = device_of(e)
+            if dev["runs_on"] != "gpu":
+                absent.append({"engine": e, "why": f"timed on the CPU: {dev['note'] or 'no GPU device'}"})
+            continue
+        said = next((n for n in notes if n.startswith(f"engine {e} ")), None)
+        absent.append({"engine": e, "why": said[len(f"engine {e} "):] if said else "not among this run's engines"})
+    return {"kind": "rockbench-speed-stage", "engines": list(engines), "absent": absent,
+            "declared": {"steps_s": list(sp.steps_s), "blocks": list(sp.blocks), "pulses": list(sp.pulses),
+                         "matched_distance": sp.matched_distance, "locate_depth": speed_depth(suite),
+                         "source": f"the suite {suite.name!r}"}}
+
+
+def speed_depth(suite: Suite) -> int:
+    """The rounds of bisection of the speed stage's boundaries: its own ``locate_depth``, else the grid's."""
+    sp = suite.speed
+    return sp.locate_depth if sp is not None and sp.locate_depth is not None else suite.grid.locate_depth
 
 
 def planted_factor(reduction: float) -> float:

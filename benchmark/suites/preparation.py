@@ -9,6 +9,7 @@ import multiprocessing
 import os
 import sys
 import time
+from dataclasses import dataclass
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
@@ -22,19 +23,28 @@ from ..maps.executors import worker_init
 from ..store.files import variant_name, write_json
 from ..store.loading import CALIBRATION_FILE, calibration_rows
 from .model import Suite, restitution_for
-from .plan import variant_blocks, variant_restitution, variant_settings
+from .plan import SPEED_SETTINGS, variant_blocks, variant_restitution, variant_settings
 
 
 
-def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s, measure: bool) -> dict:
+def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s, measure: bool,
+                 steps: tuple = ()) -> dict:
     """One engine variant on one block: its calibration for the suite's restitution (computed once
-    and cached on disk, where the map workers find it) and, with ``measure``, its free-rocking η
-    (by a fresh adapter, as measured before the maps always was)."""
+    and cached on disk, where the map workers find it), with the time-step rule's choice where it made
+    one (``step_rule``: its record's step, whether it converged and its yardstick); the calibrations at
+    each of ``steps`` [s] (the speed stage's, after the rule's, which computes those on its ladder); and,
+    with ``measure``, its free-rocking η (by a fresh adapter, as measured before the maps always was)."""
     b = get_preset(block).block()
     variant = variant_settings(variant)
-    out: dict = {"measurement": None, "error": None}
+    law = restitution_for(restitution, block)
+    out: dict = {"measurement": None, "error": None, "step_rule": None}
     try:
-        build_adapter(engine, **variant).resolve(b, restitution_for(restitution, block), dt_s=dt_s)
+        adapter = build_adapter(engine, **variant)
+        rule = (adapter.resolve(b, law, dt_s=dt_s).get("calibration") or {}).get("step_rule") or {}
+        if rule.get("dt_s") is not None:
+            out["step_rule"] = {k: rule.get(k) for k in ("dt_s", "converged", "yardstick_dt_s", "ladder_s")}
+        for dt in steps:
+            adapter.resolve(b, law, dt_s=dt)
     except Exception:  # noqa: BLE001 - not fatal here: the maps meet it again and record it
         pass
     if measure:
@@ -67,49 +77,87 @@ def prepare_engines(suite: Suite, engines: list[str], out: Path, log, *, workers
     return Preparation(suite, engines, out, log, workers=workers, own_eta=own_eta).finish()
 
 
+@dataclass
+class _Task:
+    """One engine variant on one block to prepare: its calibration (``dt_s``: the suite's step, None for the
+    time-step rule's), its free-rocking η when ``measure``, the speed stage's ``steps`` [s]; ``speed_only``:
+    a task of the speed stage alone (no variant of the suite maps it: no own-η measurement or map)."""
+
+    engine: str
+    variant: dict
+    block: str
+    measure: bool
+    dt_s: float | None
+    steps: tuple = ()
+    speed_only: bool = False
+
+
 class Preparation:
     """:func:`prepare_engines` in two halves: made, it starts the helpers; :meth:`finish` waits for
-    them (the suite computes its reference maps in between)."""
+    them (the suite computes its reference maps in between). ``speed_engines``: the engines of the
+    suite's speed stage, whose calibrations at its steps and the time-step rule's choice on its blocks
+    are prepared too (:attr:`rules` after :meth:`finish`)."""
 
     def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
-                 own_eta: bool | None = None):
+                 own_eta: bool | None = None, speed_engines: list[str] = ()):
 
         self.t0 = time.perf_counter()
         self.suite, self.out = suite, out
         self.own_eta = suite.engines.own_eta if own_eta is None else own_eta
         self.path = out / CALIBRATION_FILE
         self.old = {(r["variant"], r["block"]): r for r in calibration_rows(self.path)}
-        self.tasks = []
+        self.tasks: list[_Task] = []
         for engine, variant, block in variant_blocks(suite, engines):
             vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)
             cached = (vname, block) in self.old and self.old[(vname, block)].get("eta_measured") is not None
             # a variant with its own restitution is scored against that restitution's reference
             # maps; its own-η map (d) would measure the Housner calibration, so it has none
-            self.tasks.append((engine, variant, block, self.own_eta and not cached and "restitution" not in variant))
+            self.tasks.append(_Task(engine, variant, block, self.own_eta and not cached and "restitution" not in variant,
+                                    suite.engines.dt_s))
+        self._add_speed(speed_engines)
+        #: the time-step rule's choice by (engine, block) for the speed stage's engines (after :meth:`finish`)
+        self.rules: dict = {}
         self.results: dict = {}
         # work to do: a measurement, or a calibration (an engine with none has nothing to prepare);
         # the costliest engines first (finer default steps), so the last tasks are short
-        self.todo = sorted((k for k, t in enumerate(self.tasks) if t[3] or _calibrates(t[0])),
-                           key=lambda k: cost_rank(self.tasks[k][0]))
+        self.todo = sorted((k for k, t in enumerate(self.tasks) if t.measure or _calibrates(t.engine)),
+                           key=lambda k: cost_rank(self.tasks[k].engine))
         for k in self.todo:
-            engine, variant, block, measure = self.tasks[k]
-            if measure:
-                vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)
-                log(f"measuring η of {vname} on {block} (free rocking)")
+            t = self.tasks[k]
+            if t.measure:
+                log(f"measuring η of {variant_name(t.engine, variant_settings(t.variant), t.dt_s)} on {t.block} "
+                    f"(free rocking)")
         self.pool, self.futs = None, {}
         if workers > 1 and len(self.todo) > 1:
             self._start_helpers(workers)
+
+    def _add_speed(self, engines) -> None:
+        """The speed stage's calibrations: on the task of the suite's own calibrated variant of that engine
+        and block where there is one (the rule's search and its calibrations are then made once), else in a
+        task of their own."""
+        sp = self.suite.speed
+        if sp is None:
+            return
+        for engine in engines:
+            for block in sp.blocks:
+                k = next((k for k, t in enumerate(self.tasks) if (t.engine, t.block, t.dt_s) == (engine, block, None)
+                          and variant_settings(t.variant) == SPEED_SETTINGS and "restitution" not in t.variant), None)
+                if k is not None:
+                    self.tasks[k].steps = tuple(sp.steps_s)
+                else:
+                    self.tasks.append(_Task(engine, dict(SPEED_SETTINGS), block, False, None, tuple(sp.steps_s), True))
 
     def own_eta_slots(self) -> int:
         """How many (variant, block) pairs get a reference map at their own measured η, at most (per
         pulse): the upper bound of :func:`own_eta_jobs`, known before any η is measured."""
         if not self.own_eta:
             return 0
-        return sum(1 for _, variant, _, _ in self.tasks if "restitution" not in variant)
+        return sum(1 for t in self.tasks if "restitution" not in t.variant and not t.speed_only)
+
+    def _args(self, t: _Task) -> tuple:
+        return (t.engine, t.variant, t.block, variant_restitution(self.suite, t.variant), t.dt_s, t.measure, t.steps)
 
     def _start_helpers(self, workers: int) -> None:
-
-        suite = self.suite
         try:
             # a fork shares what this process has imported (the engines: seconds of start-up per
             # helper); it is safe only from a single thread, else a fresh interpreter is spawned
@@ -118,9 +166,7 @@ class Preparation:
             self.pool = ProcessPoolExecutor(max_workers=min(workers, len(self.todo)), mp_context=ctx,
                                             initializer=_helper_init, initargs=(init["registry"], init["sys_path"]))
             for k in self.todo:
-                engine, variant, block, measure = self.tasks[k]
-                self.futs[k] = self.pool.submit(_prepare_one, engine, variant, block, variant_restitution(suite, variant),
-                                                suite.engines.dt_s, measure)
+                self.futs[k] = self.pool.submit(_prepare_one, *self._args(self.tasks[k]))
         except (OSError, RuntimeError, ValueError):
             self._stop()
 
@@ -131,7 +177,6 @@ class Preparation:
 
     def finish(self) -> tuple[list[dict], list[str], float]:
 
-        suite = self.suite
         try:
             for k, f in self.futs.items():
                 try:
@@ -142,27 +187,32 @@ class Preparation:
             self._stop()
         for k in self.todo:   # here: one worker, or what the helpers could not do
             if k not in self.results:
-                engine, variant, block, measure = self.tasks[k]
-                self.results[k] = _prepare_one(engine, variant, block, variant_restitution(suite, variant),
-                                               suite.engines.dt_s, measure)
-        rows, notes = [], []
-        if self.own_eta:
-            for k, (engine, variant, block, measure) in enumerate(self.tasks):
-                vname = variant_name(engine, variant_settings(variant), suite.engines.dt_s)
-                if "restitution" in variant:
-                    continue      # no own-η map for a variant with its own restitution (see above)
-                if not measure:
-                    rows.append(self.old[(vname, block)])
-                    continue
-                r = self.results[k]
-                if r["measurement"] is not None:
-                    rows.append({"variant": vname, "engine": engine, "settings": dict(variant), "block": block,
-                                 **r["measurement"]})
-                else:
-                    notes.append(f"η of {vname} on {block} not measured: {r['error']}")
-            self.out.mkdir(parents=True, exist_ok=True)
-            write_json(self.path, {"kind": "rockbench-calibration", "measurements": rows})
+                self.results[k] = _prepare_one(*self._args(self.tasks[k]))
+        for k, t in enumerate(self.tasks):
+            if t.steps:
+                self.rules[(t.engine, t.block)] = (self.results.get(k) or {}).get("step_rule")
+        rows, notes = self._own_eta_rows() if self.own_eta else ([], [])
         return rows, notes, time.perf_counter() - self.t0
+
+    def _own_eta_rows(self) -> tuple[list[dict], list[str]]:
+        """The η measurements (measured now or kept from calibration.json), written to calibration.json."""
+        rows, notes = [], []
+        for k, t in enumerate(self.tasks):
+            vname = variant_name(t.engine, variant_settings(t.variant), t.dt_s)
+            if "restitution" in t.variant or t.speed_only:
+                continue      # no own-η map for a variant with its own restitution (see above), or the speed stage's
+            if not t.measure:
+                rows.append(self.old[(vname, t.block)])
+                continue
+            r = self.results[k]
+            if r["measurement"] is not None:
+                rows.append({"variant": vname, "engine": t.engine, "settings": dict(t.variant), "block": t.block,
+                             **r["measurement"]})
+            else:
+                notes.append(f"η of {vname} on {t.block} not measured: {r['error']}")
+        self.out.mkdir(parents=True, exist_ok=True)
+        write_json(self.path, {"kind": "rockbench-calibration", "measurements": rows})
+        return rows, notes
 
 
 def _helper_init(registry: dict, sys_path: list) -> None:

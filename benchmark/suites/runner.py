@@ -43,6 +43,13 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     eta_reductions = [0.0, 0.005, 0.01, 0.02]   # one variant per δ on the in-sample blocks, mapped and
                                  # scored as engine maps (engine reference, planted_eta_factor = 1 − δ)
 
+    [speed]                      # the accuracy–cost stage (docs/speed.md): every engine calibrated at each step,
+    steps_s = [0.001, 0.0005, 0.0002, 0.0001]   # mapped at it on one block per slenderness and one pulse
+    blocks = ["B2M", "B3M", "B6M", "B8M"]        # (default: the first of each slenderness of cases.blocks)
+    pulses = ["sine"]            # (default: the first of cases.pulses); timed per simulated second, scored
+    matched_distance = 0.037     # into score.json's "speed", never the verdict; (b) of matched accuracy
+                                 # (with a [speed] table, engines.variants may be [] : the stage alone)
+
     [run]
     cell_timeout_s = 120
 
@@ -57,7 +64,8 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     general_range_h_over_b = [1.5, 6.0]      # claims about problems in general, when the suite spans it
 
 Layout of the output directory: ``OUT/maps/<engine variant>/<block>-<pulse>-<restitution>/`` (one
-``rockbench map`` run directory each, resumable), ``OUT/score.json``, ``OUT/index.html``,
+``rockbench map`` run directory each, resumable; the speed stage's under ``OUT/maps/speed/``, with
+``OUT/speed.json``), ``OUT/score.json``, ``OUT/index.html``,
 ``OUT/report.md``, ``OUT/img/``, ``OUT/trajectories/`` (the θ(t) curves of the report's cases, which the
 report draws), ``OUT/suite.json`` (the suite as run, and the timings).
 """
@@ -75,19 +83,23 @@ from ...reference_solver.pulses import make_pulse
 from ..blocks.cases import parse_case
 from ..blocks.experiments import load_outcomes
 from ..blocks.presets import get_preset
+from ..engine_info.devices import device_of
 from ..engine_info.health import EngineHealth
 from ..maps.executors import cap_jobs, cpu_count
 from ..maps.grid import MapSpec, parse_range
 from ..maps.sweep import run_map
 from ..report.build import build_report
 from ..scoring.score_runs import score_dirs
+from ..scoring.speed_runs import SPEED_FILE
+from ..scoring.speed_words import speed_block
+from ..store.loading import SPEED_STAGE
 from ..scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
 from ..store.atomic import check_output_dir
 from ..store.files import write_json
 from ..trajectories import record_for_report
 from .lanes import ReferenceThread, run_lanes
 from .model import Suite, skipped_reference_note
-from .plan import check_suite, engine_names, own_eta_jobs, plan
+from .plan import check_suite, engine_names, own_eta_jobs, plan, speed_depth, speed_engines, speed_record
 from .preparation import Preparation, cost_rank
 from .progress import SuiteConsole, say_device_notes
 
@@ -113,7 +125,9 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
     if result["score"] is not None:
-        result["summary"] = "\n".join([verdict_block(result["score"]), SUMMARY_TITLE, summary_table(result["score"])])
+        doc = result["score"]
+        parts = [verdict_block(doc), SUMMARY_TITLE, summary_table(doc)] if doc["pairs"] else []
+        result["summary"] = "\n".join(parts + [speed_block(doc.get("speed"))]).strip()
 
 
 def _warm_report() -> None:
@@ -171,7 +185,8 @@ class _SuiteRun:
         explicit = engines is not None or suite.engines.names != "available"
         engines, self.notes = engine_names(suite, engines)
         self.engines, more = check_suite(suite, engines, explicit)
-        self.notes += more + [n for n in (skipped_reference_note(suite),) if n]
+        self.speed_engines, speed_notes = speed_engines(suite, self.engines)
+        self.notes += more + speed_notes + [n for n in (skipped_reference_note(suite),) if n]
         self.todo = plan(suite, self.engines)
         self.workers = max(1, jobs or cpu_count())
         # every spec is built (and so checked) before the first map runs (the own-η reference maps, which
@@ -181,7 +196,11 @@ class _SuiteRun:
         self.records: dict = {}
         # calibrations (and the engines' own η) once, on every core, before the engine maps need them;
         # the helpers start now and work while this process computes the reference maps
-        self.prep = Preparation(suite, self.engines, out, log, workers=self.workers) if self.engines else None
+        self.prep = Preparation(suite, self.engines, out, log, workers=self.workers,
+                                speed_engines=self.speed_engines) if self.engines else None
+        if suite.speed is not None:
+            write_json(out / SPEED_FILE, speed_record(suite, self.speed_engines, self.notes))
+        self.stages: dict = {}   # map index → the stage its run.json records (the speed stage's maps)
         # [k/N]: N planned now, own-η reference maps included; k counts maps as they finish
         self.own_planned = self.prep.own_eta_slots() * len(suite.cases.pulses) if self.prep is not None else 0
         self.console = SuiteConsole(len(self.todo) + self.own_planned, log)
@@ -205,7 +224,8 @@ class _SuiteRun:
         res = self.health.guard(job.engine, lambda: run_map(
             spec, d, jobs=self.jobs, serial=job.engine == "reference",
             adaptive=suite.grid.adaptive and engine_map, coarse_stride=suite.grid.coarse_stride,
-            locate_depth=suite.grid.locate_depth, cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex))
+            locate_depth=self.depth_of(job), cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex,
+            stage=self.stage_of(job)))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
             self.unfinished.add(d)
@@ -213,6 +233,20 @@ class _SuiteRun:
         self.records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
                            "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
         self.console.finished(spec.label(), d, self.records[k]["wall_s"])
+
+    def depth_of(self, job) -> int:
+        """The rounds of bisection of a map's boundary: the speed stage's ``locate_depth`` for its maps where
+        the stage declares one, else the grid's."""
+        return speed_depth(self.suite) if job.stage == SPEED_STAGE else self.suite.grid.locate_depth
+
+    def stage_of(self, job) -> dict | None:
+        """What a speed-stage map records of its stage (run.json's ``options.stage``): the stage's name, the
+        time-step rule's choice for its engine and block (prepared before the maps), and where its engine
+        runs (:func:`~rockbench.benchmark.engine_info.devices.device_of`); None for any other map."""
+        if job.stage != SPEED_STAGE:
+            return None
+        rules = self.prep.rules if self.prep is not None else {}
+        return {"name": SPEED_STAGE, "step_rule": rules.get((job.engine, job.block)), "device": device_of(job.engine)}
 
     def compute_maps(self, report: bool) -> None:
         """Every map: the reference maps on one thread, the engine maps on lanes.

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import json
+import math
 
 from ...engine_info.versions import differences, differences_line
 from ...scoring.metrics import METRICS
+from ....reference_solver.errors import ConfigError
 from ...scoring.score_runs import DEFAULT_TOLERANCE_CELLS, compare_scores, load_score, parse_tolerances
+from ...scoring.speed import COST_RISE_FACTOR
 from ...scoring.tables import compare_table
 from ...store.files import json_safe
 
@@ -19,7 +22,9 @@ def register(sub) -> None:
                        "from CURRENT. Default tolerance of every metric: what "
                        f"{DEFAULT_TOLERANCE_CELLS:g} flipped cells change on the pair's grid, at least "
                        + ", ".join(f"{k} {m.tolerance:g}" for k, m in METRICS.items())
-                       + ". Exit 0 no regression, 1 regression, 2 bad usage, 5 not comparable.")
+                       + ". Where both runs have a speed stage, an engine whose cost at matched accuracy rose by more "
+                       "than --cost-factor (or is no longer reached) regresses too, when both were timed on like "
+                       "machines. Exit 0 no regression, 1 regression, 2 bad usage, 5 not comparable.")
     p.add_argument("baseline", metavar="BASELINE")
     p.add_argument("current", metavar="CURRENT")
     p.add_argument("--tolerance", action="append", default=[], metavar="VALUE|Ncells|METRIC=VALUE|METRIC=Ncells",
@@ -27,6 +32,9 @@ def register(sub) -> None:
                    "on the pair's grid); alone for every metric, METRIC=... for one (repeatable)")
     p.add_argument("--json", action="store_true", help="print the comparison as JSON on stdout")
     p.add_argument("--markdown", action="store_true", help="print a Markdown table (for a pull-request comment)")
+    p.add_argument("--cost-factor", type=float, default=COST_RISE_FACTOR, metavar="F",
+                   help="flag (exit 1) an engine whose cost at matched accuracy in the speed stage rose by more than F "
+                   f"times, on like machines only (CPU model, cores, threads; default {COST_RISE_FACTOR:g})")
     p.add_argument("--allow-incomplete", action="store_true",
                    help="compare score files (or run directories) whose pairs come from incomplete maps instead of "
                    "exiting 2")
@@ -35,9 +43,12 @@ def register(sub) -> None:
 
 def run(args) -> int:
     tol = parse_tolerances(args.tolerance)
+    if not (math.isfinite(args.cost_factor) and args.cost_factor >= 1.0):
+        raise ConfigError(f"--cost-factor must be a number >= 1 (how many times costlier is a regression), got "
+                          f"{args.cost_factor:g}; e.g. --cost-factor 1.5.")
     allow = args.allow_incomplete
     base, cur = load_score(args.baseline, allow), load_score(args.current, allow)
-    res = compare_scores(base, cur, tol)
+    res = compare_scores(base, cur, tol, args.cost_factor)
     res["engine_versions"] = differences(base, cur)      # engines compared at other versions (engine_versions.py)
     if args.json:
         print(json.dumps(json_safe(res), indent=2))

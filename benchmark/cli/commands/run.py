@@ -13,8 +13,8 @@ from pathlib import Path
 from ....reference_solver.errors import ConfigError
 from ...blocks.experiments import load_outcomes
 from ...store.atomic import check_output_dir
-from ...suites.model import load_suite, skipped_reference_note, suite_path
-from ...suites.plan import check_suite, engine_names, parse_engines, plan
+from ...suites.model import grid_cells, load_suite, skipped_reference_note, suite_path
+from ...suites.plan import check_suite, engine_names, parse_engines, plan, speed_engines, speed_plan_lines
 from ...suites.runner import run_suite
 from ..options import add_figure_format_option, figure_formats_from_args, jobs_from_args
 
@@ -23,9 +23,9 @@ def register(sub) -> None:
     p = sub.add_parser("run", help="the whole benchmark: every engine, block and pulse, reference maps, scores, "
                        "report (a suite file; default: the shipped suite 'default', see --show-suite)")
     p.add_argument("suite", nargs="?", default=None, metavar="SUITE.toml",
-                   help="a suite file, or the name of a shipped suite (default, quick, full, newton)")
+                   help="a suite file, or the name of a shipped suite (default, quick, full, newton, speed)")
     p.add_argument("--show-suite", nargs="?", const="default", default=None, metavar="NAME",
-                   help="print a shipped suite (default, quick, full, newton) as TOML, to read or to copy and edit, and exit")
+                   help="print a shipped suite (default, quick, full, newton, speed) as TOML, to read or to copy and edit, and exit")
     p.add_argument("--quick", action="store_true", help="the reduced suite (one block per slenderness, coarse grids)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output directory (default rockbench-results/<suite name>); rerunning resumes")
@@ -37,7 +37,8 @@ def register(sub) -> None:
                    "block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
                    "outcome T, R or O")
     p.add_argument("--no-report", action="store_true", help="maps and score.json only")
-    p.add_argument("--plan", action="store_true", help="list the maps the suite would compute and exit")
+    p.add_argument("--plan", action="store_true", help="list the maps the suite would compute (and on stderr what its "
+                   "speed stage costs per engine) and exit")
     add_figure_format_option(p, what="report's pictures in DIR/img/ (index.html embeds the PNG, always written)")
     p.set_defaults(func=run)
 
@@ -48,7 +49,7 @@ def run(args) -> int:
         if args.suite is not None or args.quick:
             raise ConfigError("--show-suite NAME prints one shipped suite; give no other suite or --quick.")
         if args.show_suite.endswith(".toml") or "/" in args.show_suite:
-            raise ConfigError(f"--show-suite takes the name of a shipped suite (default, quick, full, newton), got "
+            raise ConfigError(f"--show-suite takes the name of a shipped suite (default, quick, full, newton, speed), got "
                               f"{args.show_suite!r}.")
         print(suite_path(args.show_suite, False).read_text(), end="")
         return 0
@@ -62,7 +63,9 @@ def run(args) -> int:
     if args.plan:
         engines, notes = engine_names(suite, only)
         engines, more = check_suite(suite, engines, only is not None or suite.engines.names != "available")
-        notes += more + [n for n in (skipped_reference_note(suite),) if n]
+        fast, speed_notes = speed_engines(suite, engines)
+        notes += more + speed_notes + [n for n in (skipped_reference_note(suite),) if n]
+        notes += speed_plan_lines(suite, fast, grid_cells(suite))
         for n in notes:
             print(f"rockbench: {n}", file=sys.stderr)
         for j in plan(suite, engines):

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from ...blocks.experiments import load_outcomes
 from ...scoring.declared import defaults_note
+from ...scoring.speed_words import speed_block
 from ...scoring.metrics import METRICS, METRICS_VERSION, parse_thresholds
 from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP, gate, score_dirs
 from ...scoring.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table, summary_table,
@@ -81,6 +82,8 @@ def run(args) -> int:
         print(("\n" if md else "") + method_line(doc))
         print((f"\n### {SCENARIO_TITLE}\n\n" if md else f"\n{SCENARIO_TITLE}\n") + scenario_table(doc, markdown=md))
         print(("\n### Pairs\n\n" if md else "\nPairs\n") + pairs_table(doc, markdown=md))
+        if doc.get("speed"):
+            print("\n" + speed_block(doc["speed"], markdown=md))
         for e in doc.get("experiments", []):
             print(f"\nexperiments vs {e['variant']} {e.get('restitution', '')} ({Path(e['dir']).name}): "
                   f"accuracy {e['accuracy']:.3f}, overturn accuracy {e['overturn_accuracy']:.3f} over {e['runs']} "

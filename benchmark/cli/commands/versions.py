@@ -33,7 +33,7 @@ def register(sub) -> None:
                        "the two (the first is the baseline). Environments live under $ROCKBENCH_CACHE/versions.")
     p.add_argument("specs", nargs="*", metavar="ENGINE==VERSION [SUITE]",
                    help="two versions of one engine, e.g. mujoco==3.3.7 mujoco==4.0.0, then optionally a suite file "
-                   "or a shipped suite's name (default, quick, full, newton)")
+                   "or a shipped suite's name (default, quick, full, newton, speed)")
     p.add_argument("--quick", action="store_true", help="the reduced suite (what an engine project's CI runs)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="where the two runs go (default rockbench-results/versions/ENGINE-A-vs-B); rerunning resumes")
@@ -112,4 +112,5 @@ def run(args) -> int:
 def _compare(base: Path, cur: Path) -> int:
     """``rockbench compare BASE CUR`` in this process: its table, versions line and exit code."""
     return compare.run(argparse.Namespace(baseline=str(base), current=str(cur), tolerance=[], json=False,
-                                          markdown=False, allow_incomplete=False))
+                                          markdown=False, allow_incomplete=False,
+                                          cost_factor=compare.COST_RISE_FACTOR))

@@ -1,0 +1,79 @@
+"""The speed stage of run folders: its maps (those whose run.json names the stage) scored like any map
+against the references of their run, their costs read from their tables, and score.json's ``speed``
+section made of them (:mod:`.speed`). The verdict never sees these maps: one rule,
+:attr:`~rockbench.benchmark.store.loading.MapEntry.in_speed_stage`, keeps them apart wherever maps are
+scored (``rockbench run``, ``score``, ``report``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..engine_info.versions import version_of
+from ..store.files import read_json, variant_name
+from ..store.loading import MapEntry, map_cost
+from .speed import MATCHED_DISTANCE, SPEED_STEPS_S, engine_row, section
+
+#: The file at the top of a run folder that says what the speed stage declared and which engines meant for
+#: a GPU it left out (written by ``rockbench run`` before the stage's maps).
+SPEED_FILE = "speed.json"
+
+
+def split(candidates: list[MapEntry]) -> tuple[list[MapEntry], list[MapEntry]]:
+    """``(the verdict's maps, the speed stage's maps)``."""
+    return [c for c in candidates if not c.in_speed_stage], [c for c in candidates if c.in_speed_stage]
+
+
+def stage_record(roots) -> dict:
+    """What the run at one of ``roots`` wrote in its speed.json (the first found, at a root or just above
+    it: ``rockbench run`` scores its ``maps`` folder), {} where none did."""
+    for root in dict.fromkeys(Path(r) for r in roots):
+        for f in (root / SPEED_FILE, root.parent / SPEED_FILE):
+            if f.is_file():
+                return read_json(f)
+    return {}
+
+
+def speed_section(entries: list[MapEntry], pairs: list[dict], record: dict, verdict_mdd: float | None) -> dict:
+    """score.json's ``speed`` for the speed maps ``entries`` and their scored ``pairs`` (like for like:
+    each map against the reference of its own restitution), with the run's ``record`` (speed.json) and the
+    verdict's calibrated class's detectable difference."""
+    like = {p["engine_dir"]: p for p in pairs if p["like_for_like"]}
+    groups: dict = {}
+    for e in entries:
+        p = like.get(str(e.path))
+        if p is None or e.dt_s is None:
+            continue
+        base = variant_name(e.engine, e.settings)
+        g = groups.setdefault(base, {"engine": e.engine, "version": version_of(e), "by_step": {}, "chosen": {},
+                                     "device": e.stage.get("device") or {"runs_on": "cpu", "note": ""}})
+        g["by_step"].setdefault(float(e.dt_s), []).append((p, e.path))
+        rule = e.stage.get("step_rule") or {}
+        g["chosen"].setdefault(e.block, rule.get("dt_s") if isinstance(rule.get("dt_s"), (int, float)) else None)
+    declared = record.get("declared") or {"steps_s": list(SPEED_STEPS_S), "matched_distance": MATCHED_DISTANCE,
+                                          "source": "the code's defaults: the run has no speed.json"}
+    distance = float(declared.get("matched_distance", MATCHED_DISTANCE))
+    costs: dict = {}
+
+    def cost_of(d):
+        if d not in costs:
+            costs[d] = map_cost(d)
+        return costs[d]
+
+    rows = [engine_row(g["engine"], g["version"], g["device"], g["by_step"], g["chosen"], distance, cost_of,
+                       verdict_mdd) for g in groups.values()]
+    rows.sort(key=lambda r: r["label"])
+    return section(rows, declared, _machines(entries), list(record.get("absent") or []), verdict_mdd)
+
+
+def _machines(entries: list[MapEntry]) -> list[dict]:
+    """The distinct machines the speed maps ran on: CPU model, cores, and each worker's threads."""
+    out = []
+    for e in entries:
+        m = dict((e.run.get("machine") or {}))
+        ex = ((e.run.get("options") or {}).get("executor") or {})
+        m = {"cpu_model": m.get("cpu_model") or m.get("processor"), "cpu_count": m.get("cpu_count"),
+             "cores_usable": m.get("cores_usable", m.get("cpu_count")),
+             "threads_per_worker": ex.get("threads_per_worker", ex.get("threads"))}
+        if m not in out:
+            out.append(m)
+    return out
