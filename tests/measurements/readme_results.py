@@ -1,0 +1,118 @@
+"""Print the README's numbers from the default suite's verdict record: the main job's time, and the
+results table with the line under it.
+
+    python tests/measurements/readme_results.py [RECORD]     (default: verdict-default)
+
+The README holds the two blocks between its ``<!-- quick-start-time -->`` and ``<!-- results -->``
+markers (each closed by ``<!-- /... -->``), and tests/test_readme.py holds them equal to this output: a
+number in the README is the record's, never typed by hand. The record is written by
+tests/measurements/record_verdict.py from a finished run of the README's first command.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from records import load  # noqa: E402
+
+#: How the README names each settings class of the verdict, in the order it lists them.
+CLASSES = {"calibrated": "calibrated to η_H", "as-shipped": "as shipped", "held-out": "held out"}
+
+
+def _num(x: float) -> str:
+    return f"{x:.3f}" if abs(x) < 1 else f"{x:.3g}"
+
+
+def _engine(label: str) -> str:
+    """``MuJoCo 4.0, calibrated to η_H`` → ``MuJoCo 4.0``."""
+    return label.split(",")[0]
+
+
+def _worst(r: dict) -> str:
+    s = max(r["per_scenario"], key=lambda s: s["value"])
+    return f"{s['block']} {s['pulse']} {_num(s['value'])}"
+
+
+def _standing(r: dict) -> str:
+    if r["fails"]:
+        f = r["fails_in"][0]
+        return f"fails: {f['block']} {f['pulse']} {_num(f['value'])} > {f['limit']:g}"
+    if r["group"] == "held-out":
+        h = r["held_out"]
+        words = "carries over" if h.get("carries_over") else "does not carry over"
+        return f"{words} (in-sample {_num(h['in_sample'])})"
+    if r.get("best_in_class"):
+        return "best"
+    return "may be the best (tied)" if r.get("in_best_subset") else "behind the best"
+
+
+def rows(verdict: dict) -> list[str]:
+    """One table row per variant, planted ones aside: the classes in :data:`CLASSES`' order, failing
+    variants last, each class in the verdict's order."""
+    variants = [r for r in verdict["variants"] if r["group"] in CLASSES]
+    variants.sort(key=lambda r: (r["fails"], list(CLASSES).index(r["group"])))
+    out = []
+    for r in variants:
+        own = r["held_out"] if r["group"] == "held-out" else r   # a held-out value is its test's
+        value = f"{_num(own['value'])} [{_num(own['ci95'][0])}, {_num(own['ci95'][1])}]"
+        if r.get("in_best_subset") and not r["fails"]:
+            value = f"**{value}**"
+        out.append(f"| {CLASSES[r['group']]} | {_engine(r['label'])} | {value} | {_standing(r)} | {_worst(r)} |")
+    return out
+
+
+def summary(figures: dict) -> str:
+    """The line under the table: what the values rest on and how small a difference the suite sees."""
+    v = figures["verdict"]
+    first = next(r for r in v["variants"] if r["group"] == "calibrated")
+    mdd = ", ".join(f"{_num(f['mdd'])} ({CLASSES[c]})" for c, f in v["mcb"].items() if f.get("mdd") is not None)
+    resolved = [p for p in v["power"]["planted"] if p["resolved"]]
+    smallest = min(resolved, key=lambda p: p["delta"]) if resolved else None
+    power = (f"a restitution planted {smallest['delta'] * 100:g} % low is told from the exact one "
+             f"(distance {_num(smallest['distance'])})" if smallest else "no planted restitution error is resolved")
+    return (f"Each value is the mean boundary distance over the suite's {first['clusters']} problems (4 "
+            f"slendernesses × 2 pulses; held-out values over their {figures['held_out_scenarios']}), "
+            f"lower is better; bold: may be the best of its class (Hsu's MCB, 95 %). The smallest difference "
+            f"the suite detects at 80 % power: {mdd}; {power}.")
+
+
+def _min_s(seconds: float) -> str:
+    m, s = divmod(int(round(seconds)), 60)
+    return f"{m} min {s:02d} s" if m else f"{s} s"
+
+
+def time_block(rec: dict) -> str:
+    """The sentence beside the quick start: the first command's measured time and what it rests on."""
+    t = rec["figures"]["timing_s"]
+    m = rec["machine"]
+    return (f"The first command took **{_min_s(t['total'])}** on a fresh clone of commit {rec['commit']} "
+            f"({rec['date_utc'][:10]}): install {_min_s(t['install'])}, `rockbench run` {_min_s(t['run'])} "
+            f"({t['run_cpu_user_sys']:,} s of CPU, {rec['figures']['maps']} maps, empty calibration cache), on "
+            f"{m['cores']} cores ({m['cpu']}, {m['memory_gib']} GiB) with nothing else running.")
+
+
+def results_block(rec: dict) -> str:
+    """The results table and the line under it."""
+    figures = dict(rec["figures"])
+    held = [r["held_out"]["scenarios"] for r in figures["verdict"]["variants"] if r["group"] == "held-out"]
+    figures["held_out_scenarios"] = f"{max(held)} scenarios" if held else "scenarios"
+    lines = ["| class | engine | boundary distance [95 %] | standing | worst scenario |", "|---|---|---|---|---|"]
+    return "\n".join(lines + rows(figures["verdict"]) + ["", summary(figures)])
+
+
+#: The README's markers of each generated block: name → the function that writes it
+BLOCKS = {"quick-start-time": time_block, "results": results_block}
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    rec = load(argv[0] if argv else "verdict-default")
+    for name, block in BLOCKS.items():
+        print(f"<!-- {name} -->\n{block(rec)}\n<!-- /{name} -->\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
