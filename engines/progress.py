@@ -27,7 +27,7 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-__all__ = ["LOGGER", "INTERVAL_S", "Activity", "activity", "is_open", "plan", "advance", "announce", "duration", "line"]
+__all__ = ["LOGGER", "INTERVAL_S", "Activity", "activity", "is_open", "plan", "advance", "tick", "announce", "duration", "line"]
 
 #: The logger of the progress lines (a child of ``rockbench``)
 LOGGER = logging.getLogger("rockbench.progress")
@@ -99,6 +99,14 @@ def advance(n: int = 1) -> None:
     a = st[-1]
     a.done = min(a.done + int(n), a.planned) if a.planned else a.done + int(n)
     _maybe_say(st)
+
+
+def tick() -> None:
+    """A heartbeat from inside a long run (a segment of steps done): the counts stay as they are, and
+    a line where the throttle allows (none open: nothing)."""
+    st = _stack()
+    if st:
+        _maybe_say(st)
 
 
 def _maybe_say(st: list) -> None:

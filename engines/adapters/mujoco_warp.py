@@ -66,6 +66,7 @@ from ...reference_solver.classify import END_REASONS, trapped_energy
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import FLAT_ANGLE_RAD, Block
 from ..calibration.free_rocking import PEAK_RATIO
+from .. import progress
 from ..contract import Case, Trajectory
 from ..loop import trajectory
 from ..motion import run_steps
@@ -507,6 +508,7 @@ class MujocoWarpAdapter(MujocoAdapter):
                 if host is not hist:
                     wp.copy(host, hist)
                 self._check_capacity(peak.numpy(), d)     # (waits for the device)
+                progress.tick()
                 h = host.numpy()                          # (n, nseg, nq + nv), float32, a view
                 stopped = stop.numpy().copy()             # the sample each world stopped at, −1: running
                 ia = np.nonzero(running)[0]
