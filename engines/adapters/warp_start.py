@@ -124,6 +124,6 @@ def say_first_compile(engine: str, module_prefix: str) -> None:
     _said.add(engine)
     if not kernels_cached(module_prefix):
         import warp as wp   # optional engine library (Warp-based engines), already started
-        progress.announce(f"{engine}: compiling Warp kernels (first run after install, "
+        progress.announce(f"{engine}: compiling Warp kernels (first run after install or with an empty cache, "
                           f"{FIRST_COMPILE.get(engine, 'a minute or more')} when measured); kept in "
                           f"{wp.config.kernel_cache_dir} for later runs")
