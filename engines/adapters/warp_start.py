@@ -26,9 +26,11 @@ __all__ = ["warp_cache_dir", "cuda_driver_present", "init_on_cpu", "start_warp",
 _started = False
 
 #: How long an engine's kernels took to compile at the first run into an empty kernel cache, as the
-#: line before it says it (measured on the CPU, Warp 1.19: docs/mujoco_warp.md "Kernel cache",
-#: docs/newton.md "Speed")
-FIRST_COMPILE = {"mujoco_warp": "about a minute on a CPU", "newton": "one to two minutes of CPU"}
+#: line before it says it (Warp 1.19 on the CPU: docs/mujoco_warp.md "Kernel cache", docs/newton.md
+#: "Speed"; under load, the first progress line of a cold and a warm kernel cache 2 min 35 s and
+#: 3 min 38 s apart: docs/mujoco_warp.md and docs/newton.md, "The first cell on a new block")
+FIRST_COMPILE = {"mujoco_warp": "about a minute of CPU, 2–3 min on a loaded 2-core machine",
+                 "newton": "one to two minutes of CPU, 3–4 min on a loaded 2-core machine"}
 
 _said: set = set()
 
