@@ -40,6 +40,7 @@ from ..reference_solver.errors import ConfigError, EngineError, check_positive
 from ..reference_solver.model import Block
 from ..reference_solver.restitution import Restitution, housner_eta
 from ..reference_solver.rules import RULES_VERSION
+from . import progress
 from .calibration import cache, held_out, knobs, routine, step_rule
 from .calibration import price as pricing
 from .calibration.free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, contact_figures, first_quarter_s
@@ -278,7 +279,8 @@ class ContactEngine(EngineAdapter):
                               settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
         rec = self._steps.get(key) or cache.load(key)
         if rec is None:
-            rec = step_rule.converged_step(lambda dt: on.calibrate(block, eta, dt_s=dt), on._judged, block, eta)[1]
+            with progress.activity(f"{self.name}: time-step rule for {block.name} at η {eta:.4f}"):
+                rec = step_rule.converged_step(lambda dt: on.calibrate(block, eta, dt_s=dt), on._judged, block, eta)[1]
             cache.store(key, rec)
         self._steps[key] = rec
         return float(rec["dt_s"]), rec
@@ -411,6 +413,7 @@ class ContactEngine(EngineAdapter):
                     runs = self._pulse_runs(block, s, dt, [cases[i].pulse for i in part])
                 except Exception as e:  # noqa: BLE001 - the batch failed inside the engine
                     runs = [e] * len(part)
+                progress.advance(len(part))
                 for i, tr in zip(part, runs):
                     if not isinstance(tr, BaseException):
                         tr.diagnostics.update(_settings_diagnostics(s))
@@ -452,6 +455,7 @@ class ContactEngine(EngineAdapter):
                 out.append(self._free_rocking(block, s, dt, theta0_frac))
             except Exception as e:  # noqa: BLE001 - a setting the engine fails on is recorded, the search goes on
                 out.append(e)
+            progress.advance()
         return out
 
     def _free_rocking(self, block: Block, s: dict, dt: float, theta0_frac: float) -> RestitutionMeasurement:

@@ -23,6 +23,7 @@ import numpy as np
 from ..reference_solver.classify import run_end
 from ..reference_solver.model import Block
 from ..reference_solver.validity import uplift_tol_rad
+from . import progress
 from .contract import Trajectory
 from .motion import Motion, body_energy_j_kg, corners, run_steps, steps_of_times
 
@@ -75,6 +76,7 @@ def run_worlds(ad, block: Block, s: dict, dt: float, pulses: list, theta0: float
     while any(e is None for e in stop):
         n_to = min(max(st[0] for st, e in zip(steps, stop) if e is None), n_done + seg)
         new, halted = _advance(ad, scene, n_done, n_to, len(pulses))
+        progress.tick()   # a long run inside a calibration or the rule's probes: a line where the throttle allows
         rows.append(new)
         for w, p in enumerate(pulses):
             if stop[w] is None:

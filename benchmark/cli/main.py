@@ -11,6 +11,10 @@ Exit codes: 0 done, 1 a gate failed (or ``simulate``'s simulation failed), 2 bad
 (including a file that cannot be read or written), 3 engine unavailable, 5 results not comparable,
 70 internal error, 130 interrupted by Ctrl-C (SIGINT), 143 stopped by SIGTERM.
 
+The engines' progress lines (a long calibration, the time-step rule, Warp's first kernel compile:
+:mod:`rockbench.engines.progress`) go to stderr as ``rockbench: ...`` lines for every command
+(:func:`rockbench.benchmark.suites.progress.show_engine_progress`); stdout stays the command's own.
+
 SIGTERM is handled like Ctrl-C: it raises :class:`Terminated` (a ``KeyboardInterrupt``) in the
 main thread, so the same clean-up runs (worker processes stopped, finished cells kept).
 """
@@ -26,6 +30,7 @@ import threading
 from importlib.metadata import version
 
 from ...reference_solver.errors import RockbenchError
+from ..suites.progress import hide_engine_progress, show_engine_progress
 
 #: subcommands (modules under rockbench.benchmark.cli.commands, ``-`` written ``_``) and their help lines
 COMMANDS = {
@@ -120,6 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     old_term = None
     if threading.current_thread() is threading.main_thread():
         old_term = signal.signal(signal.SIGTERM, _on_sigterm)
+    shown = show_engine_progress()
     try:
         parser = build_parser(command_of(argv))
         args = parser.parse_args(argv)
@@ -157,6 +163,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 70
     finally:
+        hide_engine_progress(shown)
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
 

@@ -6,16 +6,21 @@ their η is known only later). ``k`` counts finished maps, whatever order they f
 reference maps and the engine maps run at once), so the lines come out in order. Own-η maps that
 turn out not to be needed (two variants measured the same η on a block and share one map, or a
 measurement failed) are counted off in one line when that is known. No line is blank.
+
+The engines' own progress lines (a calibration, the time-step rule, Warp's first kernel compile:
+:mod:`rockbench.engines.progress`, on the ``rockbench.progress`` logger) reach the same console
+through :func:`show_engine_progress`, which the command line calls for every command; the module
+imports nothing heavy, so a command that runs no engine pays nothing for it.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 import threading
 
-from ...engines import registry
-from ...engines.contract import DEVICE_NOTED_ENV
+from ...engines import progress as engine_progress
 
 
 class SuiteConsole:
@@ -31,7 +36,7 @@ class SuiteConsole:
 
     def __init__(self, total: int, log=None):
         self.total = int(total)
-        self.log = log or (lambda m: print(f"rockbench: {m}", file=sys.stderr))
+        self.log = log or console_line
         self.done = 0
         self._lock = threading.Lock()
 
@@ -45,7 +50,7 @@ class SuiteConsole:
         """One map done: ``[k/N] label → where (wall time)``."""
         with self._lock:
             self.done += 1
-            self.line(f"[{self.done}/{self.total}] {label} → {where} ({_duration(wall_s)})")
+            self.line(f"[{self.done}/{self.total}] {label} → {where} ({engine_progress.duration(wall_s)})")
 
     def not_needed(self, n: int, why: str) -> None:
         """``n`` planned maps that will not run: counted off in one line."""
@@ -56,17 +61,47 @@ class SuiteConsole:
             self.line(f"[{self.done}/{self.total}] {n} planned map(s) not needed: {why}")
 
 
-def _duration(s: float) -> str:
-    if s < 60:
-        return f"{s:.1f} s"
-    m, sec = divmod(int(round(s)), 60)
-    return f"{m} min {sec:02d} s"
+def console_line(text: str) -> None:
+    """One line on the console: stderr, with the ``rockbench:`` prefix."""
+    print(f"rockbench: {text}", file=sys.stderr)
+
+
+class ConsoleHandler(logging.Handler):
+    """The engines' progress records (:mod:`rockbench.engines.progress`) as console lines, each through
+    :meth:`SuiteConsole.line` (so one that already starts with ``rockbench:`` is not prefixed twice)."""
+
+    def __init__(self, console: SuiteConsole | None = None):
+        super().__init__(logging.INFO)
+        self.console = console or SuiteConsole(0)
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            msg = record.getMessage()
+            self.console.line(msg[len("rockbench: "):] if msg.startswith("rockbench: ") else msg)
+        except Exception:  # noqa: BLE001 - a console that cannot write loses the line, never the run
+            self.handleError(record)
+
+
+def show_engine_progress(console: SuiteConsole | None = None) -> ConsoleHandler:
+    """Route the engines' progress lines to ``console`` (default: stderr, :func:`console_line`) until
+    the returned handler is removed (:func:`hide_engine_progress`)."""
+    handler = ConsoleHandler(console)
+    engine_progress.LOGGER.addHandler(handler)
+    engine_progress.LOGGER.setLevel(logging.INFO)
+    return handler
+
+
+def hide_engine_progress(handler: ConsoleHandler) -> None:
+    """Stop routing the engines' progress lines through ``handler``."""
+    engine_progress.LOGGER.removeHandler(handler)
 
 
 def say_device_notes(engines, console: SuiteConsole) -> None:
     """One line per engine that runs somewhere a reader should know of (a GPU-first engine on the
     CPU: :meth:`~rockbench.engines.contract.EngineAdapter.device_note`), before the first map; the
     engines' worker processes then stay quiet about it."""
+    from ...engines import registry   # the adapters' classes: only where a suite runs
+    from ...engines.contract import DEVICE_NOTED_ENV   # with numpy: only where a suite runs
     for e in engines:
         note = registry.adapter_class(e).device_note()
         if note:

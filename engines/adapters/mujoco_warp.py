@@ -66,11 +66,12 @@ from ...reference_solver.classify import END_REASONS, trapped_energy
 from ...reference_solver.errors import ConfigError
 from ...reference_solver.model import FLAT_ANGLE_RAD, Block
 from ..calibration.free_rocking import PEAK_RATIO
+from .. import progress
 from ..contract import Case, Trajectory
 from ..loop import trajectory
 from ..motion import run_steps
 from .mujoco import BuiltModel, MujocoAdapter, released_state
-from .warp_start import cuda_driver_present, start_warp
+from .warp_start import cuda_driver_present, say_first_compile, start_warp
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
@@ -110,8 +111,10 @@ def _warp():
 
 
 def _kernels():
-    """The adapter's own kernels (:mod:`rockbench.engines.adapters.mujoco_warp_kernels`, imported once Warp is set up)."""
+    """The adapter's own kernels (:mod:`rockbench.engines.adapters.mujoco_warp_kernels`, imported once Warp is set up);
+    asked for before the first launch, so the line of a first compile comes here."""
     _warp()
+    say_first_compile("mujoco_warp", "mujoco_warp.")
     from . import mujoco_warp_kernels as k   # Warp's kernels: the optional engine library, once Warp is set up
     return {"drive": k.drive, "record": k.record, "end_of_run": k.end_of_run, "advance": k.advance}
 
@@ -505,6 +508,7 @@ class MujocoWarpAdapter(MujocoAdapter):
                 if host is not hist:
                     wp.copy(host, hist)
                 self._check_capacity(peak.numpy(), d)     # (waits for the device)
+                progress.tick()
                 h = host.numpy()                          # (n, nseg, nq + nv), float32, a view
                 stopped = stop.numpy().copy()             # the sample each world stopped at, −1: running
                 ia = np.nonzero(running)[0]

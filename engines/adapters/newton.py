@@ -45,7 +45,7 @@ from ...reference_solver.model import G, Block
 from ..calibration.knobs import Knob
 from ..contact import ContactEngine
 from ..motion import Motion, pivot_pose, theta_of_quat
-from .warp_start import start_warp
+from .warp_start import say_first_compile, start_warp
 
 #: The solvers offered, by their ``solver`` name
 SOLVERS = ("xpbd", "semi_implicit", "featherstone", "vbd")
@@ -80,6 +80,7 @@ class _Scene:
 
     def __init__(self, block: Block, s: dict, dt_s: float, worlds: int = 1):
         wp, newton = _newton()
+        say_first_compile("newton", "newton.")
         self.wp, self.newton, self.dt, self.worlds = wp, newton, dt_s, worlds
         self.solver_name, self.planar = s["solver"], bool(s["planar"])
         self.table_drive = s["drive"] == "table"

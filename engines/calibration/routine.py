@@ -23,6 +23,7 @@ from ...reference_solver.errors import ConfigError, EngineError
 from ...reference_solver.model import Block
 from ...reference_solver.restitution import Restitution
 from ...reference_solver.rules import RULES_VERSION
+from .. import progress
 from ..contract import CONTRACT_VERSION, CalibrationResult
 from . import cache, price as pricing
 from .pick import ETA_RESOLUTION, Candidate, damping_ratio_of_restitution, pick, ranked, regular
@@ -72,8 +73,11 @@ def measured_rows(ad, block: Block, dt: float, candidates: list[dict], points: i
     (``eta``, ``eta_std``, ``n``, ``sink_m``, ``hop_m``, ``damping_ratio``); a candidate the engine
     fails on is a row with NaN η and the ``error``."""
     settings = [ad.settings_with(c, points) for c in candidates]
+    progress.plan(len(candidates))
+    measured = ad.measure_many(block, settings, dt)
+    progress.advance(len(candidates))   # a batch engine measures them at once; the others counted one by one
     rows = []
-    for c, s, m in zip(candidates, settings, ad.measure_many(block, settings, dt)):
+    for c, s, m in zip(candidates, settings, measured):
         if isinstance(m, BaseException):
             rows.append({**c, "eta": math.nan, "eta_std": math.nan, "n": 0, "error": f"{type(m).__name__}: {m}"})
             continue
@@ -99,6 +103,17 @@ def calibrate_layout(ad, block: Block, target: float, dt: float, points: int | N
     rec = cache.load(key) if use_cache else None
     if rec is not None and "result" in rec:
         return CalibrationResult(**rec["result"])
+    with progress.activity(_activity_label(ad, block, target, dt, points)):
+        rows = _searched(ad, block, target, dt, points)
+        res, search = (_corners(ad, block, target, rows) if points is None else
+                       _row(ad, block, target, dt, points, rows))
+    cache.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"}, "search": search})
+    return res
+
+
+def _searched(ad, block: Block, target: float, dt: float, points: int | None) -> list[dict]:
+    """The measured rows of the engine's candidates; an EngineError where free rocking failed for
+    every one, a ConfigError where none gave a measurable η."""
     rows = ad.candidates(block, target, dt, points, lambda cands: measured_rows(ad, block, dt, cands, points))
     if not any(math.isfinite(r["eta"]) for r in rows):
         errors = [r["error"] for r in rows if "error" in r]
@@ -106,10 +121,14 @@ def calibrate_layout(ad, block: Block, target: float, dt: float, points: int | N
             raise EngineError(f"{ad.name} calibration: free rocking failed for every setting tried: {errors[0]}")
         raise ConfigError(f"{ad.name} calibration: no contact setting gave a measurable free rocking (fewer than "
                           "two impacts); try a smaller --dt.")
-    res, search = (_corners(ad, block, target, rows) if points is None else
-                   _row(ad, block, target, dt, points, rows))
-    cache.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"}, "search": search})
-    return res
+    return rows
+
+
+def _activity_label(ad, block: Block, target: float, dt: float, points: int | None) -> str:
+    """What a calibration's progress lines call it (the engine named where nothing encloses it)."""
+    where = "" if points is None else f", {points} {ad.CONTACT_ROWS} along the base"
+    return (("" if progress.is_open() else f"{ad.name}: ")
+            + f"calibration of {block.name} to η {target:.4f} at Δt {1e3 * dt:g} ms{where}")
 
 
 def _corners(ad, block: Block, target: float, rows: list) -> tuple[CalibrationResult, dict]:

@@ -40,6 +40,7 @@ from __future__ import annotations
 from ...reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
 from ...reference_solver.pulses import make_pulse
 from ...reference_solver.restitution import Restitution
+from .. import progress
 from ..contract import Case
 from .rigid import rigid_answers
 
@@ -110,15 +111,21 @@ def _answers(answers, block: Block, eta: float, probes: list, dt_s: float) -> li
     """Outcome (``failed`` for a cell the engine could not run) and validity of every probe cell,
     run calibrated at ``dt_s``."""
     cases = [_cell(block, eta, p, w, a, dt_s) for p, w, a in probes]
-    return [(r.outcome or "failed", "valid" if r.valid else "invalid") for r in answers(cases)]
+    with progress.activity("probe cells", unit="run"):
+        progress.plan(len(cases))
+        out = answers(cases)
+        progress.advance(len(cases))
+    return [(r.outcome or "failed", "valid" if r.valid else "invalid") for r in out]
 
 
 def _run_at(calibrate, answers, block: Block, eta: float, probes: list, dt_s: float, runs: dict) -> tuple:
     """``(calibration, probe answers or None when it is not reached)`` at ``dt_s``, computed once
     and memoised in ``runs``."""
     if dt_s not in runs:
-        cal = calibrate(dt_s)
-        runs[dt_s] = (cal, _answers(answers, block, eta, probes, dt_s) if cal.reached else None)
+        rung = STEP_LADDER_S.index(dt_s) + 1 if dt_s in STEP_LADDER_S else "?"
+        with progress.activity(f"ladder step {rung} of {len(STEP_LADDER_S)} ({1e3 * dt_s:g} ms)"):
+            cal = calibrate(dt_s)
+            runs[dt_s] = (cal, _answers(answers, block, eta, probes, dt_s) if cal.reached else None)
     return runs[dt_s]
 
 
