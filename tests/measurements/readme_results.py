@@ -87,7 +87,7 @@ def time_block(rec: dict) -> str:
     """The sentence beside the quick start: the first command's measured time and what it rests on."""
     t = rec["figures"]["timing_s"]
     m = rec["machine"]
-    return (f"The first command took **{_min_s(t['total'])}** on a fresh clone of commit {rec['commit']} "
+    return (f"The first command took **{_min_s(t['total'])}** on a fresh clone of commit {rec['commit'][:7]} "
             f"({rec['date_utc'][:10]}): install {_min_s(t['install'])}, `rockbench run` {_min_s(t['run'])} "
             f"({t['run_cpu_user_sys']:,} s of CPU, {rec['figures']['maps']} maps, empty calibration cache), on "
             f"{m['cores']} cores ({m['cpu']}, {m['memory_gib']} GiB) with nothing else running.")

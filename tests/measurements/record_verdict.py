@@ -46,8 +46,8 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     score = json.loads((a.run_dir / "score.json").read_text())
     suite = json.loads((a.run_dir / "suite.json").read_text())
-    figures = {"suite": suite.get("suite", {}).get("name") if isinstance(suite.get("suite"), dict) else suite.get("name"),
-               "metrics_version": score["metrics_version"], "maps": len(list((a.run_dir / "maps").glob("*/*"))),
+    figures = {"suite": suite.get("suite_name") or (suite.get("suite") or {}).get("suite", {}).get("name"),
+               "metrics_version": score["metrics_version"], "maps": len(suite.get("maps") or []),
                "timing_s": timing(a.run_dir, a.time_file, a.install_s), "verdict": score["verdict"],
                "spurious_invalid": spurious_invalid(score),
                "reference_gaps": score.get("reference_gaps", [])}
