@@ -38,7 +38,7 @@ def record_for_report(cases, run_dirs, out_dir, *, against=None, log=None) -> No
     entries, _ = load_runs(run_dirs)
     if not entries:
         return   # no map: the report refuses the run directories and says why
-    cands = [e for e in (entries if against else [e for e in entries if not e.is_reference]) if not e.is_planted]
+    cands = [e for e in entries if (against or not e.is_reference) and not e.is_planted]
     folder = trajectory_folder(out_dir)
     for d in run_dirs:
         for case in cases:

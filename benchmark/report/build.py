@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engines.adapters.reference import PLANTED, is_planted
+from ...engines.adapters.reference import PLANTED
 from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
 from ...reference_solver.model import a_ratio_to_amplitude
 from ...reference_solver.pulses import make_pulse
@@ -439,7 +439,7 @@ def _calibration_rows(cands: list[MapEntry], own_eta: dict | None = None) -> lis
         measured = _find_key(resolved, "eta_measured") if not on or str(on).upper() == e.block.upper() else None
         if measured is None:
             measured = (own_eta or {}).get((e.variant, e.block))
-        if is_planted(e.engine, e.settings):   # the reference solver rocks freely with exactly the η it applies
+        if e.is_planted:   # the reference solver rocks freely with exactly the η it applies
             measured = e.eta * float(e.settings[PLANTED])
         points = _find_key(resolved, "contact_points")
         r = {"variant": e.variant, "block": e.block, "restitution": e.restitution, "eta_target": e.eta,

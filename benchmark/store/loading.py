@@ -176,7 +176,7 @@ class MapEntry:
     def is_reference(self) -> bool:
         """A map of the reference solver itself (the yardstick); a planted variant of it
         (``planted_eta_factor``) is scored as an engine map."""
-        return self.engine == "reference" and not is_planted(self.engine, self.settings)
+        return self.engine == "reference" and not self.is_planted
 
     @property
     def is_planted(self) -> bool:
