@@ -42,7 +42,6 @@ import ctypes.util
 import math
 import os
 import sys
-from typing import Any
 
 import numpy as np
 
@@ -67,6 +66,16 @@ _TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
 
 #: Radius of the spheres of a distributed contact (``contact_points``) [m].
 _POINT_RADIUS_M = 5e-4
+
+#: Bullet's own contact-breaking distance [m] (its process-wide ``gContactBreakingThreshold``).
+#: ``resetSimulation`` keeps whatever the last case set, so every build sets it: this value unless
+#: the case gives its own.
+_BULLET_BREAKING_THRESHOLD_M = 0.02
+
+#: Bullet's own restitution velocity threshold [m/s]: no restitution below this approach speed
+#: (``btContactSolverInfo``). Every case sets it (0 with restitution, this value without), so none
+#: runs at the value a previous case in the same process left.
+_BULLET_RESTITUTION_THRESHOLD_MPS = 0.2
 
 
 def _import_pybullet():
@@ -136,9 +145,10 @@ class _Scene:
             return
         pb, cid = self.pb, self.cid
         pb.resetSimulation(physicsClientId=cid)
-        if breaking_threshold_m is not None:
-            # must be set before the shapes exist: Bullet copies it into each contact manifold
-            pb.setPhysicsEngineParameter(contactBreakingThreshold=breaking_threshold_m, physicsClientId=cid)
+        # must be set before the shapes exist (Bullet copies it into each contact manifold), and set
+        # every time: it is a process-wide value that a previous case may have changed
+        threshold_m = _BULLET_BREAKING_THRESHOLD_M if breaking_threshold_m is None else breaking_threshold_m
+        pb.setPhysicsEngineParameter(contactBreakingThreshold=threshold_m, physicsClientId=cid)
         tcol = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=_TABLE_HALF_EXTENTS_M, physicsClientId=cid)
         self.table = pb.createMultiBody(0.0, tcol, -1, [0, 0, -_TABLE_HALF_EXTENTS_M[2]], physicsClientId=cid)
         b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
@@ -186,11 +196,11 @@ class _Scene:
     def apply(self, s: dict, dt_s: float) -> None:
         """Set the contact and solver parameters of ``s`` (a resolved settings dict)."""
         pb, cid = self.pb, self.cid
-        params: dict[str, Any] = dict(fixedTimeStep=dt_s, numSubSteps=0, numSolverIterations=int(s["solver_iterations"]))
-        if s.get("contact_restitution"):
-            # Bullet applies restitution only above this approach speed (0.2 m/s by default)
-            params["restitutionVelocityThreshold"] = 0.0
-        pb.setPhysicsEngineParameter(physicsClientId=cid, **params)
+        # Bullet applies restitution only above an approach speed: 0 when the case has restitution,
+        # else Bullet's own (set either way, never the previous case's)
+        restitution_threshold_mps = 0.0 if s.get("contact_restitution") else _BULLET_RESTITUTION_THRESHOLD_MPS
+        pb.setPhysicsEngineParameter(fixedTimeStep=dt_s, numSubSteps=0, numSolverIterations=int(s["solver_iterations"]),
+                                     restitutionVelocityThreshold=restitution_threshold_mps, physicsClientId=cid)
         # friction and restitution combine as products: the table carries 1, the block the value
         common = dict(lateralFriction=1.0, restitution=1.0 if s.get("contact_restitution") else 0.0)
         blk = dict(lateralFriction=float(s["friction"]), restitution=float(s.get("contact_restitution") or 0.0),
@@ -349,7 +359,7 @@ class PybulletAdapter(ContactEngine):
              bisect_regular=False, along={"contact_breaking_threshold_m": 1e-4}),
     )
     START_KEEP_RTOL = 0.01
-    CALIBRATION_VERSION = 5
+    CALIBRATION_VERSION = 6
 
     @classmethod
     def load_engine(cls):
