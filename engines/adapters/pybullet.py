@@ -73,8 +73,8 @@ _POINT_RADIUS_M = 5e-4
 _BULLET_BREAKING_THRESHOLD_M = 0.02
 
 #: Bullet's own restitution velocity threshold [m/s]: no restitution below this approach speed
-#: (``btContactSolverInfo``). Every case sets it (0 with restitution, this value without), so none
-#: runs at the value a previous case in the same process left.
+#: (``btContactSolverInfo``). ``resetSimulation`` restores it, but a scene reused without a reset keeps
+#: it, so every case sets it too: 0 with restitution, this value without.
 _BULLET_RESTITUTION_THRESHOLD_MPS = 0.2
 
 

@@ -4,7 +4,7 @@ A sweep's worker runs many cells one after another, in an order the scheduler pi
 calibration tries contact settings far from the case's own. An engine that keeps state across cases
 (a process-wide parameter, a reused scene) would give a cell an answer that depends on its
 neighbours in the queue: different on another machine, under another ``--jobs``, or in a test run
-beside other tests (PyBullet's contact-breaking distance and restitution threshold did, until this
+beside other tests (PyBullet's process-wide contact-breaking distance did, until this
 test). Each engine here runs one case as shipped, then cases with every kind of setting its
 calibration or its users change, then the first case again: the two answers must be identical to
 the last digit.
