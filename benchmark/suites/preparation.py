@@ -175,6 +175,17 @@ class Preparation:
             self.pool.shutdown(wait=True, cancel_futures=True)
             self.pool = None
 
+    def abort(self) -> None:
+        """Stop the helpers now, mid-task (Ctrl-C, SIGTERM): a calibration they finished is cached, one
+        they were making is not (the cache writes each entry whole or not at all), and none waits
+        minutes for the task it had begun. Before Python 3.14 (``terminate_workers``) concurrent.futures
+        has no public way to stop a running task, so the pool's processes are terminated directly."""
+        if self.pool is not None:
+            for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
+                proc.terminate()
+            self.pool.shutdown(wait=False, cancel_futures=True)
+            self.pool = None
+
     def finish(self) -> tuple[list[dict], list[str], float]:
 
         try:
@@ -183,6 +194,9 @@ class Preparation:
                     self.results[k] = f.result()
                 except BrokenProcessPool:
                     break
+        except BaseException:
+            self.abort()
+            raise
         finally:
             self._stop()
         for k in self.todo:   # here: one worker, or what the helpers could not do

@@ -275,6 +275,8 @@ class _SuiteRun:
                       self.one_map, stop=refs.failed)
         except BaseException:
             refs.abort()   # e.g. Ctrl-C: no reference map is started after the one running now
+            if self.prep is not None:
+                self.prep.abort()   # nor does a calibration go on in a helper
             raise
         refs.join()
 
