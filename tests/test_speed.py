@@ -162,6 +162,18 @@ def test_a_rule_step_outside_the_stage_is_said(stage):
     assert not plot_accuracy_cost(speed)["rule"]   # nothing to circle
 
 
+def test_a_finest_step_that_is_also_the_cheapest_match_says_so(stage):
+    """Criterion (a) met only by the finest step itself (Exudyn in the stage measured in docs/speed.md): the
+    row says so, not "1× cheaper"."""
+    from rockbench.benchmark.scoring.speed_words import matched_table
+    _, doc = stage
+    speed = copy.deepcopy(doc["speed"])
+    m = speed["engines"][0]["matched"]
+    m["within_mdd"] = dict(m["finest"], speedup_vs_finest=1.0)
+    _, body = matched_table(speed)
+    assert body[0][4].endswith("(the finest itself)")
+
+
 def test_speed_maps_stay_out_of_the_verdict(stage):
     _, doc = stage
     assert doc["pairs"] == [] and doc["verdict"]["variants"] == []

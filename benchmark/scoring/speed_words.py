@@ -63,7 +63,10 @@ def matched_table(speed: dict) -> tuple[list[str], list[list[str]]]:
     for r in speed.get("engines", []):
         m = r.get("matched") or {}
         a = m.get("within_mdd")
-        speedup = f" ({a['speedup_vs_finest']:.3g}× cheaper)" if a and a.get("speedup_vs_finest") else ""
+        if a and a.get("dt_s") == (m.get("finest") or {}).get("dt_s"):
+            speedup = " (the finest itself)"
+        else:
+            speedup = f" ({a['speedup_vs_finest']:.3g}× cheaper)" if a and a.get("speedup_vs_finest") else ""
         body.append([r["label"], _device(r), _at(m.get("finest")), _band(r.get("band")),
                      _at(a) + speedup, _at(m.get("within_distance")), _rule(r.get("rule"))])
     for x in speed.get("absent", []):

@@ -179,10 +179,12 @@ class Preparation:
         """Stop the helpers now, mid-task (Ctrl-C, SIGTERM): a calibration they finished is cached, one
         they were making is not (the cache writes each entry whole or not at all), and none waits
         minutes for the task it had begun. Before Python 3.14 (``terminate_workers``) concurrent.futures
-        has no public way to stop a running task, so the pool's processes are terminated directly."""
+        has no public way to stop a running task, so the pool's processes are killed directly (SIGKILL,
+        not SIGTERM: a forked helper inherits the command's SIGTERM handler, which raises an exception
+        that the pool's worker loop catches and outlives)."""
         if self.pool is not None:
             for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
-                proc.terminate()
+                proc.kill()
             self.pool.shutdown(wait=False, cancel_futures=True)
             self.pool = None
 
