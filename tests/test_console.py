@@ -119,3 +119,24 @@ def test_device_notes_are_said_once_before_the_maps(monkeypatch):
     lines = []
     say_device_notes(["cpu", "gpu"], SuiteConsole(1, lines.append))
     assert lines == ["gpu: CPU only (slow): no CUDA device here"] and os.environ[DEVICE_NOTED_ENV] == "1"
+
+
+def test_console_lines_from_many_threads_stay_whole(capsys):
+    """The map lanes, the reference thread and the engines' progress records print from different threads:
+    every line comes out whole, none joined to another or blank (a blank line was seen once under load)."""
+    import threading
+
+    from rockbench.benchmark.suites.progress import console_line
+
+    def burst(k):
+        for i in range(300):
+            console_line(f"thread {k} line {i}")
+
+    threads = [threading.Thread(target=burst, args=(k,)) for k in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 8 * 300
+    assert all(ln.startswith("rockbench: thread ") and ln.count("rockbench:") == 1 for ln in lines)

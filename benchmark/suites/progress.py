@@ -61,9 +61,17 @@ class SuiteConsole:
             self.line(f"[{self.done}/{self.total}] {n} planned map(s) not needed: {why}")
 
 
+#: one writer at a time: the map lanes, the reference thread and the engines' progress records print
+#: from different threads, and ``print`` writes a line and its newline in two calls, which two threads
+#: could interleave into a joined line and a blank one
+_CONSOLE_LOCK = threading.Lock()
+
+
 def console_line(text: str) -> None:
-    """One line on the console: stderr, with the ``rockbench:`` prefix."""
-    print(f"rockbench: {text}", file=sys.stderr)
+    """One line on the console: stderr, with the ``rockbench:`` prefix, written whole in one call."""
+    with _CONSOLE_LOCK:
+        sys.stderr.write(f"rockbench: {text}\n")
+        sys.stderr.flush()
 
 
 class ConsoleHandler(logging.Handler):
