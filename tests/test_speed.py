@@ -377,6 +377,12 @@ def test_a_suite_of_the_speed_stage_alone_runs_scores_and_reports(fake_engines, 
     md = (out / "report.md").read_text()
     assert "Cost at matched accuracy" in md and "img/speed_accuracy.png" in md and (out / "img" / "speed_accuracy.png").is_file()
     assert "not in the verdict" in md
+    # the stage alone has no verdict: its report says so once, and draws no empty verdict, summary or graphs
+    assert "the accuracy–cost stage alone" in md and "## Verdict" not in md and "## Summary" not in md
+    assert "## Stability graphs" not in md and "_none_" not in md
+    page = (out / "index.html").read_text()
+    assert "id='verdict'" not in page and "id='summary'" not in page and "id='speed'" in page
+    assert page.rstrip().endswith("</html>") and "Versions and settings" in page
     assert len(res["maps"]) == 3   # the reference and the two speed maps
     again = run_suite(load_suite(p), out, jobs=1, log=lambda m: None, report=False)
     assert json.loads((out / "score.json").read_text())["speed"]["engines"][0]["points"][0]["simulations"] == \

@@ -11,7 +11,7 @@ from importlib import resources
 
 from ..scoring.labels import case_title, for_html
 from .plots.style import DOUBLE_COLUMN_IN
-from ..scoring.speed_words import NO_STAGE, matched_table, stage_words
+from ..scoring.speed_words import NO_STAGE, STAGE_ALONE, matched_table, stage_words
 from .sections import (HIGHLIGHTS, INTRO, PRICE_WORDS, READ_GRAPHS, calib_table, exp_table, md_table,
                        metric_words, pairs_table, price_table, scenario_tables, settings_tables, speed_table,
                        short_verdict_lines, summary_rows, verdict_sentences)
@@ -23,6 +23,9 @@ def markdown_page(ctx) -> str:
     L = ["# rockbench report", "", f"Generated {ctx['created']} from {', '.join(ctx['run_dirs'])}.", ""]
     for n in ctx["notes"]:
         L.append(f"> {n}")
+    if stage_alone(ctx):
+        L += ["", STAGE_ALONE, ""] + _md_speed(ctx) + _md_versions(ctx)
+        return "\n".join(L)
     if doc:
         L += ["", "## Verdict", ""]
         if ctx.get("verdict_img"):
@@ -53,15 +56,7 @@ def markdown_page(ctx) -> str:
     ph, pb = price_table(ctx["calib"], labels)
     if pb:
         L += ["### What reaching the target costs", "", PRICE_WORDS, "", md_table(ph, pb), ""]
-    L += ["## Speed and accuracy", ""]
-    sp = (doc or {}).get("speed")
-    if sp:
-        L += [stage_words(sp), ""]
-        if ctx["speed_img"]:
-            L += [f"![accuracy against cost](img/{ctx['speed_img']})", ""]
-        L += ["Cost at matched accuracy:", "", md_table(*matched_table(sp)), ""]
-    else:
-        L += [NO_STAGE, ""]
+    L += _md_speed(ctx)
     L += ["Each variant of the verdict at the step it ran:", "", md_table(*speed_table(ctx["speed"], labels)), ""]
     if doc and doc.get("experiments"):
         L += ["## Experiments", "", md_table(*exp_table(doc, labels)), ""]
@@ -69,12 +64,33 @@ def markdown_page(ctx) -> str:
     for block, pulse, img, _ in ctx["case_graphs"]:
         L += [f"### {case_title(block, pulse)}", "", f"![{block} {pulse}](img/{img})", ""]
     L += ["</details>", "", "<details><summary>Every scored pair</summary>", "",
-          md_table(*pairs_table(doc, labels)) if doc else "_none_", "", "</details>", "",
-          "<details><summary>Versions and settings</summary>", ""]
-    t = settings_tables(ctx["entries"], labels)
-    L += ["Run environment:", "", md_table(*t["env"]), "", "Engine variants:", "", md_table(*t["variants"]), "",
-          "Maps:", "", md_table(*t["maps"]), "", "</details>", ""]
+          md_table(*pairs_table(doc, labels)) if doc else "_none_", "", "</details>", ""] + _md_versions(ctx)
     return "\n".join(L)
+
+
+def stage_alone(ctx) -> bool:
+    """Whether the report's run is the accuracy–cost stage alone (``rockbench run speed``): a speed
+    section and no engine map of a verdict variant, so the page shows the stage and its settings only."""
+    return bool((ctx["doc"] or {}).get("speed")) and not ctx["labels"]
+
+
+def _md_speed(ctx) -> list[str]:
+    """The speed section's words, picture and matched-accuracy table (or why there is none)."""
+    L = ["## Speed and accuracy", ""]
+    sp = (ctx["doc"] or {}).get("speed")
+    if not sp:
+        return L + [NO_STAGE, ""]
+    L += [stage_words(sp), ""]
+    if ctx["speed_img"]:
+        L += [f"![accuracy against cost](img/{ctx['speed_img']})", ""]
+    return L + ["Cost at matched accuracy:", "", md_table(*matched_table(sp)), ""]
+
+
+def _md_versions(ctx) -> list[str]:
+    t = settings_tables(ctx["entries"], ctx["labels"])
+    return ["<details><summary>Versions and settings</summary>", "", "Run environment:", "", md_table(*t["env"]), "",
+            "Engine variants:", "", md_table(*t["variants"]), "", "Maps:", "", md_table(*t["maps"]), "", "</details>",
+            ""]
 
 
 def _asset(name: str) -> str:
@@ -147,9 +163,12 @@ def html_page(ctx, images: dict) -> str:
          f"<p class='meta'>Generated {html.escape(ctx['created'])} from {html.escape(', '.join(ctx['run_dirs']))}: "
          f"{len(ctx['entries'])} maps, {n_var} engine variant(s)"
          + (f", metrics version {html.escape(str(doc['metrics_version']))}" if doc else "") + ".</p>"]
-    if doc:
+    if doc and not stage_alone(ctx):
         P.append(_verdict_section(doc, ctx.get("verdict_img"), images))
     P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
+    if stage_alone(ctx):
+        P += [f"<p class='lead'>{for_html(STAGE_ALONE)}</p>", _h_speed(ctx, img), _h_versions(ctx)]
+        return "\n".join(P)
     P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
     if doc:
         head, body, _, marks = summary_rows(doc, labels)
@@ -179,22 +198,7 @@ def html_page(ctx, images: dict) -> str:
     ph, pb = price_table(ctx["calib"], labels)
     if pb:
         P += ["<h3>What reaching the target costs</h3>", f"<p>{for_html(PRICE_WORDS)}</p>", _h_table(ph, pb, num_from=3)]
-    P.append("</section><section id='speed'><h2>Speed and accuracy</h2>")
-    sp = (doc or {}).get("speed")
-    if sp:
-        P.append(f"<p>{for_html(stage_words(sp))}</p>")
-        if ctx["speed_img"]:
-            P.append(img(ctx["speed_img"], "accuracy against cost", "One curve per engine through its time steps: "
-                         "its CPU seconds per simulated second across (logarithmic), its boundary distance from the "
-                         "reference up (lower is better); each marker is a step (the legend), written beside the point "
-                         "where it fits; the circle is the time-step rule's choice; the shaded band reaches from the "
-                         "engine's finest step leftwards over its detectable difference; the dashed line is the "
-                         "declared distance."))
-        P += ["<h3>Cost at matched accuracy</h3>", _h_table(*matched_table(sp), num_from=2)]
-    else:
-        P.append(f"<p>{for_html(NO_STAGE)}</p>")
-    P += ["<h3>Each variant of the verdict at the step it ran</h3>",
-          _h_table(*speed_table(ctx["speed"], labels), num_from=1), "</section>"]
+    P += ["</section>", _h_speed(ctx, img, _h_table(*speed_table(ctx["speed"], labels), num_from=1))]
     if doc and doc.get("experiments"):
         P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*exp_table(doc, labels), num_from=2),
               "</section>"]
@@ -205,8 +209,39 @@ def html_page(ctx, images: dict) -> str:
     if doc:
         P += [f"<details><summary>Every scored pair ({len(doc['pairs'])})</summary>",
               _h_table(*pairs_table(doc, labels), num_from=6), "</details>"]
-    t = settings_tables(ctx["entries"], labels)
-    P += ["<details><summary>Versions and settings</summary><h3>Run environment</h3>", _h_table(*t["env"]),
-          "<h3>Engine variants</h3>", _h_table(*t["variants"]), "<h3>Maps</h3>", _h_table(*t["maps"], num_from=4),
-          "</details>", "<script>\n" + _asset("report.js") + "</script>", "</body></html>"]
+    P.append(_h_versions(ctx))
     return "\n".join(P)
+
+
+#: The speed picture's caption.
+SPEED_CAPTION = ("One curve per engine through its time steps: its CPU seconds per simulated second across "
+                 "(logarithmic), its boundary distance from the reference up (lower is better); each marker is a "
+                 "step (the legend), written beside the point where it fits; the circle is the time-step rule's "
+                 "choice; the shaded band reaches from the engine's finest step leftwards over its detectable "
+                 "difference; the dashed line is the declared distance.")
+
+
+def _h_speed(ctx, img, variants_table: str | None = None) -> str:
+    """The speed section: the stage's words, picture and matched-accuracy table (or why there is none), then
+    the verdict variants' table at the step each ran where the run has verdict variants."""
+    P = ["<section id='speed'><h2>Speed and accuracy</h2>"]
+    sp = (ctx["doc"] or {}).get("speed")
+    if sp:
+        P.append(f"<p>{for_html(stage_words(sp))}</p>")
+        if ctx["speed_img"]:
+            P.append(img(ctx["speed_img"], "accuracy against cost", SPEED_CAPTION))
+        P += ["<h3>Cost at matched accuracy</h3>", _h_table(*matched_table(sp), num_from=2)]
+    else:
+        P.append(f"<p>{for_html(NO_STAGE)}</p>")
+    if variants_table is not None:
+        P += ["<h3>Each variant of the verdict at the step it ran</h3>", variants_table]
+    return "".join(P) + "</section>"
+
+
+def _h_versions(ctx) -> str:
+    """Versions and settings (collapsed), then the page's script and its end."""
+    t = settings_tables(ctx["entries"], ctx["labels"])
+    return "\n".join(["<details><summary>Versions and settings</summary><h3>Run environment</h3>", _h_table(*t["env"]),
+                      "<h3>Engine variants</h3>", _h_table(*t["variants"]), "<h3>Maps</h3>",
+                      _h_table(*t["maps"], num_from=4), "</details>", "<script>\n" + _asset("report.js") + "</script>",
+                      "</body></html>"])

@@ -12,6 +12,11 @@ from .tables import render
 NO_STAGE = ("No accuracy–cost curves: this run has no speed stage (`rockbench run speed` runs it alone, the full "
             "suite with its maps; docs/speed.md). The table gives each variant's time at the step it ran.")
 
+#: The lead of a report whose run is the accuracy–cost stage alone.
+STAGE_ALONE = ("This run is the accuracy–cost stage alone (`rockbench run speed`): it has no verdict, no summary "
+               "and no stability graphs, since none of its maps is a verdict variant's; its maps are scored against "
+               "the reference in the speed section below. The default and full suites give the verdict.")
+
 
 def _g(x, spec: str = ".3g") -> str:
     return "–" if x is None else format(x, spec)
