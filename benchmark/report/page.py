@@ -217,8 +217,9 @@ def html_page(ctx, images: dict) -> str:
 SPEED_CAPTION = ("One curve per engine through its time steps: its CPU seconds per simulated second across "
                  "(logarithmic), its boundary distance from the reference up (lower is better); each marker is a "
                  "step (the legend), written beside the point where it fits; the circle is the time-step rule's "
-                 "choice; the shaded band reaches from the engine's finest step leftwards over its detectable "
-                 "difference; the dashed line is the declared distance.")
+                 "choice; the shaded band, in the engine's colour, spans its finest step's distance ± its detectable "
+                 "difference, from that step leftwards over the engine's own costs; the dashed line is the declared "
+                 "distance.")
 
 
 def _h_speed(ctx, img, variants_table: str | None = None) -> str:

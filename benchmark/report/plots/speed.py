@@ -5,13 +5,14 @@ curve per engine through its time steps (score.json's ``speed``, :mod:`rockbench
   where its range spans more than a factor of :data:`LOG_RANGE`.
 - One curve per engine: its colour and dash are its own (the legend names it); each point's marker is its
   time step (the legend says which), and the step is also written beside the point where the words fit
-  without touching another label or point (:func:`place_labels`), else left to the marker.
+  without touching another point or coming within :data:`LABEL_GAP_PT` of another label
+  (:func:`place_labels`), else left to the marker.
 - The time-step rule's choice is circled: the point of the step every block chose, or, where the blocks
   chose different steps, the point those maps make together, drawn on its own.
 - The detectable difference (the row's ``band``: the verdict's where the run has one, else the stage's own
   for the engine): a band in the engine's colour at the finest step's distance ± that difference, reaching
-  from the finest point leftwards (the cheaper steps inside it reach matched accuracy (a)); the declared
-  distance of criterion (b) a dashed line.
+  from the finest point leftwards over the engine's own costs (the cheaper steps inside it reach matched
+  accuracy (a)); the declared distance of criterion (b) a dashed line.
 - The names are in a legend outside the axes, so no label lies over the data or leaves the figure.
 """
 
@@ -25,6 +26,12 @@ LOG_RANGE = 10.0
 
 #: A point's marker by its step's place in the stage's ladder, coarsest first.
 STEP_MARKERS = "o s ^ D v P X h".split()
+
+#: How far an engine's band reaches left of its cheapest point (a factor of cost).
+BAND_MARGIN = 1.25
+
+#: Space kept clear around a placed step's words [points], so that two engines' words never read as one.
+LABEL_GAP_PT = 4.0
 
 #: The dashes of the engines' curves, taken in turn with the colours (an engine is never told by colour alone).
 DASHES = ["-", "--", "-.", ":"]
@@ -114,8 +121,9 @@ def _curve(ax, r: dict, style: dict, marker: dict, out: dict) -> None:
     mdd = (r.get("band") or {}).get("value")
     finest = (r.get("matched") or {}).get("finest")
     if mdd and finest and finest.get("cost"):
+        # over the engine's own costs only (its cheaper steps inside it reach matched accuracy (a)), and
         # translucent, so that the bands of engines close together show through each other
-        out["bands"][r["engine"]] = ax.fill_between([1e-300, finest["cost"]], finest["value"] - mdd,
+        out["bands"][r["engine"]] = ax.fill_between([min(xs) / BAND_MARGIN, finest["cost"]], finest["value"] - mdd,
                                                     finest["value"] + mdd, color=style["color"], alpha=0.18,
                                                     lw=0, zorder=1)
     rule = r.get("rule")
@@ -180,7 +188,7 @@ def place_labels(ax, items: list[tuple[dict, dict]], lines=(), circles=()) -> li
     paths = [ln.get_transform().transform_path(ln.get_path()) for ln in lines]
     if fig.legends:
         taken += [leg.get_window_extent(renderer) for leg in fig.legends]
-    placed = []
+    placed, gap = [], LABEL_GAP_PT * fig.dpi / 72.0
     for p, _ in sorted(items, key=lambda it: (it[0]["cost"], it[0]["value"])):
         for dx, dy in _OFFSETS:
             t = ax.annotate(_step_words(p["dt_s"]), (p["cost"], p["value"]), xytext=(dx, dy), textcoords="offset points",
@@ -189,7 +197,7 @@ def place_labels(ax, items: list[tuple[dict, dict]], lines=(), circles=()) -> li
             box = t.get_window_extent(renderer)
             if _inside(box, frame) and not any(box.overlaps(b) for b in taken) and \
                     not any(path.intersects_bbox(box, filled=False) for path in paths):
-                taken.append(box)
+                taken.append(box.padded(gap))
                 placed.append(t)
                 break
             t.remove()
