@@ -158,8 +158,29 @@ def test_a_rule_step_outside_the_stage_is_said(stage):
     speed = copy.deepcopy(doc["speed"])
     speed["engines"][0]["rule"] = r
     _, body = matched_table(speed)
-    assert body[0][-1] == "0.5 ms (B6M); 0.05 ms (B3M): not among the stage's steps"
+    assert body[0][-1] == "0.5 ms (B6M); 0.05 ms (B3M): not among the steps mapped on every problem"
     assert not plot_accuracy_cost(speed)["rule"]   # nothing to circle
+
+
+def test_a_step_not_mapped_on_every_problem_is_no_point_and_is_said(stage, tmp_path):
+    """A stage stopped midway (Newton's 0.1 ms maps in docs/speed.md): a declared step with no map, or with
+    maps on some of the stage's blocks only, is no point of the curve (its mean would be over other
+    problems); the row lists it, the table says it beside the finest step, and the finest is the finest
+    step mapped on every problem."""
+    import shutil
+    from rockbench.benchmark.scoring.speed_words import matched_table
+    root, doc = stage
+    assert _row(doc)["unmapped"] == []
+    cut = tmp_path / "speed"
+    shutil.copytree(root / "speed", cut)
+    shutil.rmtree(cut / f"{1e-4:g}")                     # 0.1 ms: no map
+    shutil.rmtree(cut / f"{2e-4:g}" / BLOCKS[0])         # 0.2 ms: one block of two
+    row = _row(score_dirs([cut], against=[root / "ref"]))
+    assert [p["dt_s"] for p in row["points"]] == [1e-3, 5e-4]
+    assert row["unmapped"] == [{"dt_s": 2e-4, "blocks": [BLOCKS[1]]}, {"dt_s": 1e-4, "blocks": []}]
+    assert row["matched"]["finest"]["dt_s"] == 5e-4
+    _, body = matched_table({"engines": [row], "declared": {"matched_distance": 0.015}})
+    assert body[0][2].endswith(f"; not mapped: 0.2 ms (only {BLOCKS[1]}), 0.1 ms")
 
 
 def test_a_finest_step_that_is_also_the_cheapest_match_says_so(stage):

@@ -59,10 +59,29 @@ def speed_section(entries: list[MapEntry], pairs: list[dict], record: dict, verd
             costs[d] = map_cost(d)
         return costs[d]
 
-    rows = [engine_row(g["engine"], g["version"], g["device"], g["by_step"], g["chosen"], distance, cost_of,
-                       verdict_mdd) for g in groups.values()]
+    rows = []
+    for g in groups.values():
+        by_step, unmapped = whole_steps(g["by_step"], declared)
+        rows.append({**engine_row(g["engine"], g["version"], g["device"], by_step, g["chosen"], distance, cost_of,
+                                  verdict_mdd), "unmapped": unmapped})
     rows.sort(key=lambda r: r["label"])
     return section(rows, declared, _machines(entries), list(record.get("absent") or []), verdict_mdd)
+
+
+def whole_steps(by_step: dict, declared: dict) -> tuple[dict, list[dict]]:
+    """The steps an engine mapped on every problem the stage declared (``by_step``: ``{step: [(pair, map
+    dir)]}``), and the declared steps it did not: ``{"dt_s", "blocks"}``, the blocks mapped at that step
+    (none, or some: a run stopped midway). A point is a mean over the stage's problems, so a step mapped
+    on some of them only would be a mean over other problems than its neighbours': it is not a point."""
+    blocks = set(declared.get("blocks") or [])
+    whole, unmapped = {}, []
+    for dt in sorted(set(by_step) | {float(x) for x in declared.get("steps_s", [])}, reverse=True):
+        have = {p["block"] for p, _ in by_step.get(dt, [])}
+        if dt in by_step and blocks <= have:
+            whole[dt] = by_step[dt]
+        else:
+            unmapped.append({"dt_s": dt, "blocks": sorted(have)})
+    return whole, unmapped
 
 
 def _machines(entries: list[MapEntry]) -> list[dict]:

@@ -29,6 +29,15 @@ def _at(p: dict | None, unit_words: str = "") -> str:
     return f"{p['dt_s'] * 1e3:g} ms: {_g(p['value'], '.3f')} at {_g(p['cost'])}{unit_words}"
 
 
+def _unmapped(r: dict) -> str:
+    """The declared steps an engine's curve lacks (a run stopped before them), said beside its finest."""
+    gone = r.get("unmapped") or []
+    if not gone:
+        return ""
+    words = [f"{u['dt_s'] * 1e3:g} ms" + (f" (only {', '.join(u['blocks'])})" if u["blocks"] else "") for u in gone]
+    return f"; not mapped: {', '.join(words)}"
+
+
 def _device(r: dict) -> str:
     d = r.get("device") or {}
     if d.get("runs_on") == "gpu":
@@ -45,7 +54,7 @@ def _rule(rule: dict | None) -> str:
         by.setdefault(dt, []).append(block)
     steps = "; ".join(f"{dt * 1e3:g} ms ({', '.join(bs)})" for dt, bs in sorted(by.items(), reverse=True))
     if rule.get("outside"):
-        return f"{steps}: not among the stage's steps"
+        return f"{steps}: not among the steps mapped on every problem"
     return f"{steps}: {_g(rule['value'], '.3f')} at {_g(rule['cost'])}"
 
 
@@ -72,7 +81,7 @@ def matched_table(speed: dict) -> tuple[list[str], list[list[str]]]:
             speedup = " (the finest itself)"
         else:
             speedup = f" ({a['speedup_vs_finest']:.3g}× cheaper)" if a and a.get("speedup_vs_finest") else ""
-        body.append([r["label"], _device(r), _at(m.get("finest")), _band(r.get("band")),
+        body.append([r["label"], _device(r), _at(m.get("finest")) + _unmapped(r), _band(r.get("band")),
                      _at(a) + speedup, _at(m.get("within_distance")), _rule(r.get("rule"))])
     for x in speed.get("absent", []):
         body.append([engine_name(x["engine"]), "GPU: no row", f"absent: {x['why']}", "–", "–", "–", "–"])
