@@ -216,7 +216,8 @@ def html_page(ctx, images: dict) -> str:
 #: The speed picture's caption.
 SPEED_CAPTION = ("One curve per engine through its time steps: its CPU seconds per simulated second across "
                  "(logarithmic), its boundary distance from the reference up (lower is better); each marker is a "
-                 "step (the legend), written beside the point where it fits; the circle is the time-step rule's "
+                 "step (the legend), written beside the point where it fits (hollow markers: an engine that shares its "
+                 "colour with another, drawn with another dash); the circle is the time-step rule's "
                  "choice; the shaded band, in the engine's colour, spans its finest step's distance ± its detectable "
                  "difference, from that step leftwards over the engine's own costs; the dashed line is the declared "
                  "distance.")

@@ -42,7 +42,10 @@ def _device(r: dict) -> str:
     d = r.get("device") or {}
     if d.get("runs_on") == "gpu":
         return "GPU (the device's wall time)"
-    return "CPU" + (f" ({d['note']})" if d.get("note") else "")
+    note = d.get("note") or ""
+    if note.lower().startswith("cpu"):   # the engine's own words already say so ("CPU only (...)")
+        return note
+    return "CPU" + (f" ({note})" if note else "")
 
 
 def _rule(rule: dict | None) -> str:

@@ -3,7 +3,8 @@ curve per engine through its time steps (score.json's ``speed``, :mod:`rockbench
 
 - Cost across, logarithmic (costs differ by orders of magnitude); the boundary distance up, logarithmic
   where its range spans more than a factor of :data:`LOG_RANGE`.
-- One curve per engine: its colour and dash are its own (the legend names it); each point's marker is its
+- One curve per engine: its colour and dash are its own (the legend names it; past the palette's six
+  colours an engine shares a colour with another, then with another dash and hollow markers); each point's marker is its
   time step (the legend says which), and the step is also written beside the point where the words fit
   without touching another point or coming within :data:`LABEL_GAP_PT` of another label
   (:func:`place_labels`), else left to the marker.
@@ -42,7 +43,10 @@ def _step_words(dt_s: float) -> str:
 
 
 def _style(k: int) -> dict:
-    return {"color": CYCLE[k % len(CYCLE)], "ls": DASHES[(k // len(CYCLE) + k) % len(DASHES)]}
+    """The k-th engine's colour and dash; past the palette's end a colour comes again with another dash and
+    hollow markers (``hollow``), so that two engines of one colour differ in line and in point."""
+    return {"color": CYCLE[k % len(CYCLE)], "ls": DASHES[(k // len(CYCLE) + k) % len(DASHES)],
+            "hollow": k >= len(CYCLE)}
 
 
 def _drawn(row: dict) -> list[dict]:
@@ -116,7 +120,8 @@ def _curve(ax, r: dict, style: dict, marker: dict, out: dict) -> None:
     (line,) = ax.plot(xs, ys, color=style["color"], ls=style["ls"], lw=1.1, zorder=3, label=label)
     for p in pts:
         ax.plot([p["cost"]], [p["value"]], ls="none", marker=marker[p["dt_s"]], ms=5, color=style["color"],
-                mec="black", mew=0.5, zorder=4)
+                mfc="white" if style["hollow"] else style["color"], mec=style["color"] if style["hollow"] else "black",
+                mew=1.0 if style["hollow"] else 0.5, zorder=4)
     out["curves"][r["engine"]] = line
     mdd = (r.get("band") or {}).get("value")
     finest = (r.get("matched") or {}).get("finest")
