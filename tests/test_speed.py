@@ -409,3 +409,14 @@ def test_a_suite_of_the_speed_stage_alone_runs_scores_and_reports(fake_engines, 
     assert json.loads((out / "score.json").read_text())["speed"]["engines"][0]["points"][0]["simulations"] == \
         doc["speed"]["engines"][0]["points"][0]["simulations"]
     assert again["score"]["speed"] is not None
+
+
+def test_the_device_column_is_the_adapters_device_note(stage):
+    """The table's "runs on": the adapter's device note where it gives one ("CPU only (...)": said once),
+    else "CPU"."""
+    from rockbench.benchmark.scoring.speed_words import matched_table
+    _, doc = stage
+    speed = copy.deepcopy(doc["speed"])
+    assert matched_table(speed)[1][0][1] == "CPU"
+    speed["engines"][0]["device"] = {"runs_on": "cpu", "note": "CPU only (Genesis's CPU backend)"}
+    assert matched_table(speed)[1][0][1] == "CPU only (Genesis's CPU backend)"

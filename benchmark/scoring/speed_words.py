@@ -42,10 +42,9 @@ def _device(r: dict) -> str:
     d = r.get("device") or {}
     if d.get("runs_on") == "gpu":
         return "GPU (the device's wall time)"
-    note = d.get("note") or ""
-    if note.lower().startswith("cpu"):   # the engine's own words already say so ("CPU only (...)")
-        return note
-    return "CPU" + (f" ({note})" if note else "")
+    # the adapter's device note says where the engine runs on this machine (``device_note``: "" for an
+    # engine that runs on the CPU by design, "CPU only (...)" for a GPU-first one without a GPU)
+    return d.get("note") or "CPU"
 
 
 def _rule(rule: dict | None) -> str:
