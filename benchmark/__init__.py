@@ -21,7 +21,7 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError, version
 
 # the presets' names, handed down to the engines' ``calibrate_on`` wherever this floor runs (map workers too)
-from .blocks import presets as _presets  # noqa: F401
+from rockbench.benchmark.blocks import presets as _presets  # noqa: F401
 
 __all__ = ["__version__", "simulate", "stability_map", "load_run", "Simulation", "Run"]
 
@@ -41,7 +41,7 @@ _LAZY = {"simulate", "stability_map", "load_run", "Simulation", "Run"}
 def __getattr__(name: str):
     if name in _LAZY:
         # the API pulls in numpy, numba and the engines' registry: load it on first use only
-        from . import api
+        from rockbench.benchmark import api
         return getattr(api, name)
     raise AttributeError(f"module 'rockbench.benchmark' has no attribute {name!r}")
 

@@ -18,21 +18,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
-from .blocks.presets import PRESETS
-from .engine_info.adapters import build_adapter
-from .maps.grid import MAP_PULSES, make_axis, parse_range
-from .maps.sweep import run_map
-from .report.histories import impact_times, picture_span_s
-from .report.plots.trajectories import plot_theta
-from .request import CaseRequest
-from .scoring.metrics import METRICS
-from .scoring.score_runs import load_score
-from .scoring.tables import ranked_summary, summary
-from .simulation import run_case, trajectory_for_picture
-from .store.frames import need, rows_to_dataframe, rows_to_dataset
-from .store.loading import MapEntry as RunMap, full_grid_rows, load_entries
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.maps.grid import MAP_PULSES, make_axis, parse_range
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.report.histories import impact_times, picture_span_s
+from rockbench.benchmark.report.plots.trajectories import plot_theta
+from rockbench.benchmark.request import CaseRequest
+from rockbench.benchmark.scoring.metrics import METRICS
+from rockbench.benchmark.scoring.score_runs import load_score
+from rockbench.benchmark.scoring.tables import ranked_summary, summary
+from rockbench.benchmark.simulation import run_case, trajectory_for_picture
+from rockbench.benchmark.store.frames import need, rows_to_dataframe, rows_to_dataset
+from rockbench.benchmark.store.loading import MapEntry as RunMap, full_grid_rows, load_entries
 
 __all__ = ["simulate", "stability_map", "load_run", "Simulation", "Run", "RunMap"]
 

@@ -15,11 +15,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..reference_solver.restitution import Restitution
-from .blocks.presets import get_preset
-from .maps.grid import MapSpec, make_axis
-from .maps.sweep import run_map
-from .report.plots.stability import plot_stability, save
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.benchmark.maps.grid import MapSpec, make_axis
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.report.plots.stability import plot_stability, save
 
 #: The normalised ranges of the recomputed figures: ω/p and a0/(g·tanα).
 W_RANGE = (0.5, 10.0)

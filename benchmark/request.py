@@ -13,13 +13,13 @@ import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from ..engines.contract import SETTINGS_MODES, Case
-from ..reference_solver.errors import ConfigError, check_positive
-from ..reference_solver.model import Block, G, a_ratio_to_amplitude
-from ..reference_solver.pulses import Pulse, RecordPulse, make_pulse
-from ..reference_solver.restitution import Restitution
-from .blocks.presets import PRESETS, get_preset
-from .maps.grid import MapSpec
+from rockbench.engines.contract import SETTINGS_MODES, Case
+from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.reference_solver.model import Block, G, a_ratio_to_amplitude
+from rockbench.reference_solver.pulses import Pulse, RecordPulse, make_pulse
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.blocks.presets import PRESETS, get_preset
+from rockbench.benchmark.maps.grid import MapSpec
 
 
 @dataclass(frozen=True)

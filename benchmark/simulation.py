@@ -20,15 +20,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engines.contract import CellResult
-from ..reference_solver.errors import RockbenchError
-from ..reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
-from .engine_info.adapters import build_adapter
-from .report.histories import impact_times, picture_span_s
-from .report.plots.output import save_figure
-from .report.plots.trajectories import plot_theta
-from .scoring.labels import restitution_symbol, variant_label
-from .store.atomic import write_atomic
+from rockbench.engines.contract import CellResult
+from rockbench.reference_solver.errors import RockbenchError
+from rockbench.reference_solver.model import amplitude_to_a_ratio, omega_to_w_ratio
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.report.histories import impact_times, picture_span_s
+from rockbench.benchmark.report.plots.output import save_figure
+from rockbench.benchmark.report.plots.trajectories import plot_theta
+from rockbench.benchmark.scoring.labels import restitution_symbol, variant_label
+from rockbench.benchmark.store.atomic import write_atomic
 
 
 def run_case(adapter, case):

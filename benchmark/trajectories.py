@@ -14,19 +14,19 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engines.contract import Case
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import a_ratio_to_amplitude
-from ..reference_solver.pulses import make_pulse
-from ..reference_solver.restitution import Restitution
-from .blocks.presets import get_preset
-from .engine_info.adapters import build_adapter
-from .report.histories import impact_times
-from .scoring.labels import restitution_symbol, variant_labels
-from .scoring.score_runs import load_runs
-from .simulation import trajectory_for_picture
-from .store import trajectories as stored
-from .store.atomic import write_bytes_atomic
+from rockbench.engines.contract import Case
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import a_ratio_to_amplitude
+from rockbench.reference_solver.pulses import make_pulse
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.report.histories import impact_times
+from rockbench.benchmark.scoring.labels import restitution_symbol, variant_labels
+from rockbench.benchmark.scoring.score_runs import load_runs
+from rockbench.benchmark.simulation import trajectory_for_picture
+from rockbench.benchmark.store import trajectories as stored
+from rockbench.benchmark.store.atomic import write_bytes_atomic
 
 
 def record_for_report(cases, run_dirs, out_dir, *, against=None, log=None) -> None:

@@ -30,14 +30,14 @@ from typing import Callable
 
 import numpy as np
 
-from ..reference_solver.errors import ConfigError
-from ..reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
-from ..reference_solver.pulses import make_pulse
-from ..reference_solver.restitution import Restitution
-from ..reference_solver.validity import Measurement
-from .contact import MODES, ContactEngine
-from .contract import Case, EngineAdapter
-from .registry import contract_refusal, get_adapter
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
+from rockbench.reference_solver.pulses import make_pulse
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.reference_solver.validity import Measurement
+from rockbench.engines.contact import MODES, ContactEngine
+from rockbench.engines.contract import Case, EngineAdapter
+from rockbench.engines.registry import contract_refusal, get_adapter
 
 #: The block the checks use by default: B6M of Table 1 (h/b = 4.5).
 DEFAULT_BLOCK = Block(0.045, 0.2025, mass_kg=1.0896, name="B6M")

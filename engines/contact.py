@@ -35,18 +35,18 @@ from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
-from ..reference_solver.classify import overturn_certain
-from ..reference_solver.errors import ConfigError, EngineError, check_positive
-from ..reference_solver.model import Block
-from ..reference_solver.restitution import Restitution, housner_eta
-from ..reference_solver.rules import RULES_VERSION
-from . import progress
-from .calibration import cache, held_out, knobs, routine, step_rule
-from .calibration import price as pricing
-from .calibration.free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, contact_figures, first_quarter_s
-from .contract import CONTRACT_VERSION, SETTINGS_MODES, CalibrationResult, EngineAdapter, RestitutionMeasurement
-from .hooks import hook_line, required
-from .loop import run_worlds
+from rockbench.reference_solver.classify import overturn_certain
+from rockbench.reference_solver.errors import ConfigError, EngineError, check_positive
+from rockbench.reference_solver.model import Block
+from rockbench.reference_solver.restitution import Restitution, housner_eta
+from rockbench.reference_solver.rules import RULES_VERSION
+from rockbench.engines import progress
+from rockbench.engines.calibration import cache, held_out, knobs, routine, step_rule
+from rockbench.engines.calibration import price as pricing
+from rockbench.engines.calibration.free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, contact_figures, first_quarter_s
+from rockbench.engines.contract import CONTRACT_VERSION, SETTINGS_MODES, CalibrationResult, EngineAdapter, RestitutionMeasurement
+from rockbench.engines.hooks import hook_line, required
+from rockbench.engines.loop import run_worlds
 
 __all__ = ["ContactEngine", "SHARED_SETTINGS", "DRIVES", "PLANAR_MODES", "MODES", "CONTACT_LAYOUTS",
            "POINTS_TRIED", "MAX_CONTACT_POINTS", "as_written"]

@@ -68,16 +68,16 @@ from typing import Any, ClassVar, Iterable, Literal, Mapping
 
 import numpy as np
 
-from ..reference_solver.classify import Classification, classify
-from ..reference_solver.errors import ConfigError, EngineUnavailableError, check_positive
-from ..reference_solver.model import Block
-from ..reference_solver.pulses import Pulse
-from ..reference_solver.restitution import Restitution
-from ..reference_solver.validity import (DEFAULT_FRICTION, FLAGS, Measurement, contact_flags, judge_measurement,
+from rockbench.reference_solver.classify import Classification, classify
+from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError, check_positive
+from rockbench.reference_solver.model import Block
+from rockbench.reference_solver.pulses import Pulse
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.reference_solver.validity import (DEFAULT_FRICTION, FLAGS, Measurement, contact_flags, judge_measurement,
                                          jump_tol_m, slip_tol_m, uplift_tol_rad)
-from . import CONTRACT_VERSION
-from .hooks import missing_hooks, required
-from .support import DISTRIBUTIONS, version_label
+from rockbench.engines import CONTRACT_VERSION
+from rockbench.engines.hooks import missing_hooks, required
+from rockbench.engines.support import DISTRIBUTIONS, version_label
 
 __all__ = ["CONTRACT_VERSION", "Case", "Trajectory", "CellResult", "CellColumns", "RestitutionMeasurement",
            "CalibrationResult", "EngineAdapter", "SETTINGS_MODES", "FLAGS", "jump_tol_m", "slip_tol_m",

@@ -20,12 +20,12 @@ import time
 
 import numpy as np
 
-from ..reference_solver.classify import run_end
-from ..reference_solver.model import Block
-from ..reference_solver.validity import uplift_tol_rad
-from . import progress
-from .contract import Trajectory
-from .motion import Motion, body_energy_j_kg, corners, run_steps, steps_of_times
+from rockbench.reference_solver.classify import run_end
+from rockbench.reference_solver.model import Block
+from rockbench.reference_solver.validity import uplift_tol_rad
+from rockbench.engines import progress
+from rockbench.engines.contract import Trajectory
+from rockbench.engines.motion import Motion, body_energy_j_kg, corners, run_steps, steps_of_times
 
 __all__ = ["EngineHalted", "run_worlds", "trajectory", "DEFAULT_SEGMENT_S"]
 

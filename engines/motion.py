@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..reference_solver.model import G, Block
+from rockbench.reference_solver.model import G, Block
 
 __all__ = ["Motion", "corners", "pivot_pose", "theta_of_quat", "quat_matrix", "theta_rate_of_body",
            "table_track_err_rel", "body_energy_j_kg", "run_steps", "steps_of_times"]

@@ -13,9 +13,9 @@ import difflib
 import importlib
 from importlib.metadata import entry_points
 
-from ..reference_solver.errors import ConfigError, EngineUnavailableError
-from . import CONTRACT_VERSION
-from .support import install_command, outside_range, supported_range
+from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError
+from rockbench.engines import CONTRACT_VERSION
+from rockbench.engines.support import install_command, outside_range, supported_range
 
 #: built-in adapters, imported lazily
 BUILTIN = {
@@ -98,7 +98,7 @@ def adapter_class(name: str) -> type:
     a plugin is written to another engine contract (:func:`contract_refusal`); EngineUnavailableError
     when its module cannot be imported.
     """
-    from .contract import EngineAdapter  # not at import time: listing engines stays light
+    from rockbench.engines.contract import EngineAdapter  # not at import time: listing engines stays light
 
     target = _target(name)
     if isinstance(target, type):

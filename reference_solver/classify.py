@@ -30,8 +30,8 @@ from enum import Enum
 
 import numpy as np
 
-from .energy import ENERGY_GAIN_TOL, free_rocking_fate
-from .model import FLAT_ANGLE_RAD  # noqa: F401 - re-exported: the classifier's flat-on-its-side angle
+from rockbench.reference_solver.energy import ENERGY_GAIN_TOL, free_rocking_fate
+from rockbench.reference_solver.model import FLAT_ANGLE_RAD  # noqa: F401 - re-exported: the classifier's flat-on-its-side angle
 
 
 

@@ -41,7 +41,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .model import G
+from rockbench.reference_solver.model import G
 
 
 @njit(cache=True)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .errors import ConfigError, check_positive
+from rockbench.reference_solver.errors import ConfigError, check_positive
 
 #: |θ| at which a block is taken to lie on its side [rad] (the classifier's rule 2)
 FLAT_ANGLE_RAD = 0.5 * math.pi - 0.01

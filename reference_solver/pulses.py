@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError, check_positive
+from rockbench.reference_solver.errors import ConfigError, check_positive
 
 #: Integer codes the compiled solver uses for the pulse kinds.
 PULSE_CODES = {"sine": 0, "cosine": 1, "half-sine": 2, "record": 3}

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .errors import ConfigError
+from rockbench.reference_solver.errors import ConfigError
 
 
 def housner_eta(alpha_rad: float) -> float:

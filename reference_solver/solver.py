@@ -74,11 +74,11 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange, set_parallel_chunksize
 
-from .classify import FLAT_ANGLE_RAD, OUTCOME_CODES, UPLIFT_TOL_FRAC, Outcome, OUTCOME_FROM_CODE, classify
-from .demand import D_MAX_F, D_MIN_N, demand_start, demand_update
-from .errors import ConfigError, check_positive
-from .model import G, Block
-from .pulses import MIN_STEPS_PER_WAVE, PULSE_CODES, Pulse
+from rockbench.reference_solver.classify import FLAT_ANGLE_RAD, OUTCOME_CODES, UPLIFT_TOL_FRAC, Outcome, OUTCOME_FROM_CODE, classify
+from rockbench.reference_solver.demand import D_MAX_F, D_MIN_N, demand_start, demand_update
+from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.reference_solver.model import G, Block
+from rockbench.reference_solver.pulses import MIN_STEPS_PER_WAVE, PULSE_CODES, Pulse
 
 #: Newton–Raphson tolerance on the update of θ_{n+1} [rad] (paper §2.2).
 NEWTON_TOL_RAD = 1e-9

@@ -48,9 +48,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .classify import UPLIFT_TOL_FRAC, decision_index, uplift_tol  # noqa: F401 - the one uplift tolerance
-from .energy import ENERGY_GAIN_TOL  # noqa: F401 - the rule's tolerance, defined with the energy
-from .model import G, Block
+from rockbench.reference_solver.classify import UPLIFT_TOL_FRAC, decision_index, uplift_tol  # noqa: F401 - the one uplift tolerance
+from rockbench.reference_solver.energy import ENERGY_GAIN_TOL  # noqa: F401 - the rule's tolerance, defined with the energy
+from rockbench.reference_solver.model import G, Block
 
 #: Flags that the one rule raises from what an engine measured.
 MEASURED_FLAGS = ("slip", "jump", "energy-gain")

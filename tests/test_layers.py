@@ -114,6 +114,15 @@ def test_imports_point_down_only():
     assert not upward, "imports that point up a floor:\n" + "\n".join(upward)
 
 
+def test_imports_are_absolute():
+    """Every import of the project's own modules names its full path (``rockbench.engines.contract``), never
+    a relative one: a module's imports read the same wherever it moves, and none climbs out of its folder."""
+    found = [f"{path.relative_to(ROOT)}:{node.lineno}: from {'.' * node.level}{node.module or ''} import ..."
+             for path in _sources() for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path)))
+             if isinstance(node, ast.ImportFrom) and node.level]
+    assert not found, "relative imports (write rockbench.<floor>...):\n" + "\n".join(found)
+
+
 def test_report_simulates_nothing():
     found = [f"{path.relative_to(ROOT)}:{line}: imports {target}" for path, line, mod, target in _all_imports()
              if mod.startswith("rockbench.benchmark.report")

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ...reference_solver.errors import ConfigError
-from .presets import get_preset
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.blocks.presets import get_preset
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,11 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
-from ...reference_solver.classify import OUTCOME_CODES, Outcome
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import G, amplitude_to_a_ratio
-from ...reference_solver.restitution import housner_eta, modified_eta
-from .presets import PRESETS, TABLE_1
+from rockbench.reference_solver.classify import OUTCOME_CODES, Outcome
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import G, amplitude_to_a_ratio
+from rockbench.reference_solver.restitution import housner_eta, modified_eta
+from rockbench.benchmark.blocks.presets import PRESETS, TABLE_1
 
 #: Largest table acceleration the Quanser ST-III still performed as one sine wave (paper §5.1,
 #: "ST limit" in Figs 13–16) [m/s^2].

@@ -18,10 +18,10 @@ import difflib
 import math
 from dataclasses import dataclass
 
-from ...engines.calibration.held_out import NEIGHBOUR, SIBLING, CalibrateOn
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import Block
-from ...reference_solver.restitution import Restitution, housner_eta, modified_eta
+from rockbench.engines.calibration.held_out import NEIGHBOUR, SIBLING, CalibrateOn
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import Block
+from rockbench.reference_solver.restitution import Restitution, housner_eta, modified_eta
 
 #: What ``rockbench blocks`` and the docs say of a preset outside Table 1
 NOT_IN_TABLE_1 = "not in Table 1 (paper's measured range)"

@@ -29,8 +29,8 @@ import sys
 import threading
 from importlib.metadata import version
 
-from ...reference_solver.errors import RockbenchError
-from ..suites.progress import hide_engine_progress, show_engine_progress
+from rockbench.reference_solver.errors import RockbenchError
+from rockbench.benchmark.suites.progress import hide_engine_progress, show_engine_progress
 
 #: subcommands (modules under rockbench.benchmark.cli.commands, ``-`` written ``_``) and their help lines
 COMMANDS = {

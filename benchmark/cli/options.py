@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import argparse
 
-from ...reference_solver.errors import ConfigError
-from ..blocks.presets import PRESETS
-from ..report.plots.output import parse_formats
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.report.plots.output import parse_formats
 
 def add_block_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("block")

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...engines.contract import EngineAdapter
-from ...engines.registry import get_adapter
-from ..blocks.presets import calibrate_on
+from rockbench.engines.contract import EngineAdapter
+from rockbench.engines.registry import get_adapter
+from rockbench.benchmark.blocks.presets import calibrate_on
 
 __all__ = ["build_adapter", "engine_settings"]
 

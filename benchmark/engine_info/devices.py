@@ -8,7 +8,7 @@ runs where it is meant to), which is the line the speed stage gives for a GPU ro
 
 from __future__ import annotations
 
-from ...engines.registry import adapter_class
+from rockbench.engines.registry import adapter_class
 
 #: The engines meant for a GPU (the issue's MuJoCo Warp, Newton and Genesis): the speed stage has a GPU row
 #: for each, timed where it runs on a CUDA device, else saying why not.

@@ -28,9 +28,9 @@ from pathlib import Path
 
 from packaging.version import InvalidVersion, Version
 
-from ...engines.registry import names
-from ...engines.support import DISTRIBUTIONS
-from ...reference_solver.errors import ConfigError, EngineUnavailableError
+from rockbench.engines.registry import names
+from rockbench.engines.support import DISTRIBUTIONS
+from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError
 
 #: the folders (and file) of the source tree that make up the installed package
 SOURCE_PARTS = ("pyproject.toml", "reference_solver", "engines", "benchmark")

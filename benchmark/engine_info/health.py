@@ -13,9 +13,9 @@ from __future__ import annotations
 import collections
 import threading
 
-from ...engines.registry import adapter_class
-from ...engines.support import install_advice, installed_label, outside_range, supported_range
-from ...reference_solver.errors import EngineError, EngineUnavailableError, RockbenchError
+from rockbench.engines.registry import adapter_class
+from rockbench.engines.support import install_advice, installed_label, outside_range, supported_range
+from rockbench.reference_solver.errors import EngineError, EngineUnavailableError, RockbenchError
 
 #: longest error text quoted in a line [characters]
 MAX_REASON = 160

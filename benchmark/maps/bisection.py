@@ -37,8 +37,8 @@ from typing import Callable
 
 import numpy as np
 
-from ...reference_solver.classify import OUTCOME_CODES, Outcome
-from .adaptive import MAX_REGIME_IMPACTS, regime_key
+from rockbench.reference_solver.classify import OUTCOME_CODES, Outcome
+from rockbench.benchmark.maps.adaptive import MAX_REGIME_IMPACTS, regime_key
 
 #: Overturn regime of a standing cell (rest or rocking); an overturn after n impacts is ``1 + min(n, 3)``.
 STANDING = 0

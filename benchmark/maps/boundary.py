@@ -20,7 +20,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .bisection import ALONG_A, ALONG_W, MULTIPLE, Bisected, bisect, far_end, regime_of
+from rockbench.benchmark.maps.bisection import ALONG_A, ALONG_W, MULTIPLE, Bisected, bisect, far_end, regime_of
 
 
 @dataclass(frozen=True)

@@ -62,14 +62,14 @@ from pathlib import Path
 from typing import Callable
 from urllib.parse import urlsplit
 
-from ...engines import registry
-from ...engines.contract import CellResult
-from ...engines.registry import adapter_class
-from ...reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
-from ..engine_info.adapters import build_adapter
-from . import worker as wire
-from .cost import run_measured
-from .cores import cpu_count
+from rockbench.engines import registry
+from rockbench.engines.contract import CellResult
+from rockbench.engines.registry import adapter_class
+from rockbench.reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.maps import worker as wire
+from rockbench.benchmark.maps.cost import run_measured
+from rockbench.benchmark.maps.cores import cpu_count
 
 #: Seconds to wait for a Dask scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0

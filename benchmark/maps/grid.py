@@ -18,12 +18,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...engines.contract import Case
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import Block, G, a_ratio_to_amplitude, amplitude_to_a_ratio
-from ...reference_solver.pulses import MIN_STEPS_PER_WAVE, check_accel, check_step_count, make_pulse
-from ...reference_solver.restitution import Restitution
-from ..store.files import stored_settings
+from rockbench.engines.contract import Case
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import Block, G, a_ratio_to_amplitude, amplitude_to_a_ratio
+from rockbench.reference_solver.pulses import MIN_STEPS_PER_WAVE, check_accel, check_step_count, make_pulse
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.store.files import stored_settings
 
 
 

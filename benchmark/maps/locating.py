@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...engines.contract import CellResult
-from ...reference_solver.classify import Outcome
-from . import adaptive as adaptive_mod
-from .bisection import AXIS_NAMES, UNSAMPLED, overturn_regime, regime_key, sample_regime
-from .boundary import LocatedBoundary, cell_validity, locate
-from .result import MapResult
+from rockbench.engines.contract import CellResult
+from rockbench.reference_solver.classify import Outcome
+from rockbench.benchmark.maps import adaptive as adaptive_mod
+from rockbench.benchmark.maps.bisection import AXIS_NAMES, UNSAMPLED, overturn_regime, regime_key, sample_regime
+from rockbench.benchmark.maps.boundary import LocatedBoundary, cell_validity, locate
+from rockbench.benchmark.maps.result import MapResult
 
 _OUTCOME_NAMES = {0: Outcome.REST.value, 1: Outcome.ROCKING.value, 2: Outcome.OVERTURN.value}
 

@@ -16,12 +16,12 @@ from typing import Mapping
 
 import numpy as np
 
-from ...engines.contract import CellResult
-from ...reference_solver.classify import OUTCOME_CODES, Outcome
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.validity import LEFT_MODEL_FLAGS
-from .boundary import LocatedBoundary, midpoint_boundary
-from .grid import MapSpec
+from rockbench.engines.contract import CellResult
+from rockbench.reference_solver.classify import OUTCOME_CODES, Outcome
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.validity import LEFT_MODEL_FLAGS
+from rockbench.benchmark.maps.boundary import LocatedBoundary, midpoint_boundary
+from rockbench.benchmark.maps.grid import MapSpec
 
 #: The codes of a cell without an outcome, beside the classifier's (0 rest, 1 rocking, 2 overturn):
 #: FAILED, the simulation gave none; MISSING, neither simulated nor inferred (an unfinished run).

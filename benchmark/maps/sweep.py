@@ -27,18 +27,18 @@ from typing import Callable
 import numpy as np
 from tqdm import tqdm
 
-from ...engines.adapters.reference import is_planted
-from ...reference_solver.errors import ConfigError
-from ..engine_info.adapters import build_adapter
-from ..store.run_folder import RunStore
-from . import adaptive as adaptive_mod
-from .adaptive import DEFAULT_STRIDE
-from .executors import DASK_SCRATCH, SerialExecutor, cap_jobs, make_executor
-from .bisection import DEFAULT_DEPTH, MAX_DEPTH, sample_regime
-from .boundary import locate
-from .grid import MAP_PULSES, MapSpec
-from .locating import boundary_rows, cell_regimes, locate_in_sweep
-from .result import MapResult, empty_result, put_columns, put_row, record_result
+from rockbench.engines.adapters.reference import is_planted
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.store.run_folder import RunStore
+from rockbench.benchmark.maps import adaptive as adaptive_mod
+from rockbench.benchmark.maps.adaptive import DEFAULT_STRIDE
+from rockbench.benchmark.maps.executors import DASK_SCRATCH, SerialExecutor, cap_jobs, make_executor
+from rockbench.benchmark.maps.bisection import DEFAULT_DEPTH, MAX_DEPTH, sample_regime
+from rockbench.benchmark.maps.boundary import locate
+from rockbench.benchmark.maps.grid import MAP_PULSES, MapSpec
+from rockbench.benchmark.maps.locating import boundary_rows, cell_regimes, locate_in_sweep
+from rockbench.benchmark.maps.result import MapResult, empty_result, put_columns, put_row, record_result
 
 
 #: Cells solved and written at a time by the columnar path (an adapter's ``solve_grid`` in this

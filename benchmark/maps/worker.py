@@ -28,10 +28,10 @@ import sys
 import threading
 import time
 
-from ...engines.contract import CellResult
-from ...engines.registry import register
-from ..engine_info.adapters import build_adapter
-from .cost import CELL_CPU, CELL_SIMULATED, run_measured
+from rockbench.engines.contract import CellResult
+from rockbench.engines.registry import register
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.maps.cost import CELL_CPU, CELL_SIMULATED, run_measured
 
 _HEADER = struct.Struct(">Q")
 

@@ -26,31 +26,31 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engines.adapters.reference import PLANTED
-from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
-from ...reference_solver.model import a_ratio_to_amplitude
-from ...reference_solver.pulses import make_pulse
-from ...reference_solver.restitution import Restitution
-from ..blocks.cases import FIG17, TrajectoryCase
-from ..blocks.experiments import restitution_targets, st_limit_a_ratio
-from ..blocks.presets import PRESETS, TABLE_1, get_preset, no_exact_k_note
-from ..scoring.declared import declared_of_runs
-from ..scoring.labels import case_title, restitution_symbol, variant_labels
-from ..scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
-from ..scoring.speed_runs import stage_record
-from ..scoring.tables import summary
-from ..store.atomic import write_bytes_atomic
-from ..store.files import DISPLAY_UTC, is_own_eta_map, map_cell_rows, utc_stamp, write_json
-from ..store.loading import MapEntry, load_entries
-from ..store.trajectories import FOLDER, case_stem, read_case
-from .histories import picture_span_s
-from .page import html_page, markdown_page
-from .plots.output import figure_bytes
-from .plots.speed import plot_accuracy_cost
-from .plots.stability import REFERENCE_STYLES, plot_panels
-from .plots.trajectories import plot_theta
-from .plots.verdict import plot_verdict
-from .sections import SPEED_METRICS
+from rockbench.engines.adapters.reference import PLANTED
+from rockbench.reference_solver.errors import ConfigError, IncomparableError, RockbenchError
+from rockbench.reference_solver.model import a_ratio_to_amplitude
+from rockbench.reference_solver.pulses import make_pulse
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.blocks.cases import FIG17, TrajectoryCase
+from rockbench.benchmark.blocks.experiments import restitution_targets, st_limit_a_ratio
+from rockbench.benchmark.blocks.presets import PRESETS, TABLE_1, get_preset, no_exact_k_note
+from rockbench.benchmark.scoring.declared import declared_of_runs
+from rockbench.benchmark.scoring.labels import case_title, restitution_symbol, variant_labels
+from rockbench.benchmark.scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
+from rockbench.benchmark.scoring.speed_runs import stage_record
+from rockbench.benchmark.scoring.tables import summary
+from rockbench.benchmark.store.atomic import write_bytes_atomic
+from rockbench.benchmark.store.files import DISPLAY_UTC, is_own_eta_map, map_cell_rows, utc_stamp, write_json
+from rockbench.benchmark.store.loading import MapEntry, load_entries
+from rockbench.benchmark.store.trajectories import FOLDER, case_stem, read_case
+from rockbench.benchmark.report.histories import picture_span_s
+from rockbench.benchmark.report.page import html_page, markdown_page
+from rockbench.benchmark.report.plots.output import figure_bytes
+from rockbench.benchmark.report.plots.speed import plot_accuracy_cost
+from rockbench.benchmark.report.plots.stability import REFERENCE_STYLES, plot_panels
+from rockbench.benchmark.report.plots.trajectories import plot_theta
+from rockbench.benchmark.report.plots.verdict import plot_verdict
+from rockbench.benchmark.report.sections import SPEED_METRICS
 
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),

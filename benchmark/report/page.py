@@ -9,10 +9,10 @@ import base64
 import html
 from importlib import resources
 
-from ..scoring.labels import case_title, for_html
-from .plots.style import DOUBLE_COLUMN_IN
-from ..scoring.speed_words import NO_STAGE, STAGE_ALONE, matched_table, stage_words
-from .sections import (HIGHLIGHTS, INTRO, PRICE_WORDS, READ_GRAPHS, calib_table, exp_table, md_table,
+from rockbench.benchmark.scoring.labels import case_title, for_html
+from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN
+from rockbench.benchmark.scoring.speed_words import NO_STAGE, STAGE_ALONE, matched_table, stage_words
+from rockbench.benchmark.report.sections import (HIGHLIGHTS, INTRO, PRICE_WORDS, READ_GRAPHS, calib_table, exp_table, md_table,
                        metric_words, pairs_table, price_table, scenario_tables, settings_tables, speed_table,
                        short_verdict_lines, summary_rows, verdict_sentences)
 

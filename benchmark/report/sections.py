@@ -7,12 +7,12 @@ from __future__ import annotations
 
 import math
 
-from ..scoring.labels import restitution_symbol
-from ..scoring.metrics import METRICS, PRIMARY_METRIC
-from ..scoring.tables import (SCENARIO_TITLE, best_group_marks, fmt, incomplete_note, method_line, primary_cell,
+from rockbench.benchmark.scoring.labels import restitution_symbol
+from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
+from rockbench.benchmark.scoring.tables import (SCENARIO_TITLE, best_group_marks, fmt, incomplete_note, method_line, primary_cell,
                               ranked_summary, reference_label, render, row_label, scenario_rows, verdict_of,
                               verdict_text)
-from ..store.loading import MapEntry
+from rockbench.benchmark.store.loading import MapEntry
 
 
 

@@ -15,11 +15,11 @@ import math
 import statistics as _py
 from dataclasses import dataclass, field
 
-from .declared import DEFAULTS, MIN_SLENDERNESSES
-from .failing import fails
-from .labels import AS_SHIPPED, CALIBRATED
-from .scenarios import Variant, entries, items
-from .statistics import POWER, detectable, differences, fixed, general, mcb, paired, z_one_sided
+from rockbench.benchmark.scoring.declared import DEFAULTS, MIN_SLENDERNESSES
+from rockbench.benchmark.scoring.failing import fails
+from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED
+from rockbench.benchmark.scoring.scenarios import Variant, entries, items
+from rockbench.benchmark.scoring.statistics import POWER, detectable, differences, fixed, general, mcb, paired, z_one_sided
 
 #: The classes whose variants are compared with the best of their class, in the verdict's order.
 COMPARED = (CALIBRATED, AS_SHIPPED)

@@ -14,7 +14,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from ...reference_solver.errors import ConfigError
+from rockbench.reference_solver.errors import ConfigError
 
 #: The word that makes each scenario's equivalence margin its own η_H–η_M reference gap.
 RESTITUTION_GAP = "restitution-gap"
@@ -142,7 +142,7 @@ def declared_of_runs(roots) -> Declared:
         A suite.json whose table is damaged, or runs that declare different verdicts (score them one
         at a time).
     """
-    from ..store.files import read_json  # the store on first use: declared values need no file
+    from rockbench.benchmark.store.files import read_json  # the store on first use: declared values need no file
 
     found: dict = {}
     for root in dict.fromkeys(Path(r) for r in roots):

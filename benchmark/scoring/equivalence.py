@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 
-from .declared import RESTITUTION_GAP, Declared
-from .scenarios import Scenario, Variant, items
-from .statistics import fixed, paired, paired_clusters, tost, upper_bound
+from rockbench.benchmark.scoring.declared import RESTITUTION_GAP, Declared
+from rockbench.benchmark.scoring.scenarios import Scenario, Variant, items
+from rockbench.benchmark.scoring.statistics import fixed, paired, paired_clusters, tost, upper_bound
 
 
 def margin_of(s: Scenario, declared: Declared) -> float | None:

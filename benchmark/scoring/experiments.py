@@ -8,9 +8,9 @@ from typing import Iterable
 
 import numpy as np
 
-from ..blocks.experiments import OUTCOME_LETTERS, OutcomePoint
-from ..maps.result import FAILED, MapResult
-from .metrics import OVERTURN
+from rockbench.benchmark.blocks.experiments import OUTCOME_LETTERS, OutcomePoint
+from rockbench.benchmark.maps.result import FAILED, MapResult
+from rockbench.benchmark.scoring.metrics import OVERTURN
 
 
 def _nearest_index(axis: np.ndarray, x: float) -> int | None:

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import math
 
-from .scenarios import Variant, items
-from .statistics import z_one_sided
+from rockbench.benchmark.scoring.scenarios import Variant, items
+from rockbench.benchmark.scoring.statistics import z_one_sided
 
 #: A reason for failing is named when it concerns at least this share of its cells [-].
 REASON_SHARE = 0.10

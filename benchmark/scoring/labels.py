@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import html
 
-from ...engines.calibration.held_out import NEIGHBOUR, SIBLING
-from ...engines.adapters.reference import PLANTED, is_planted
-from ...engines.registry import adapter_class
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.restitution import Restitution
-from ..blocks.presets import PRESETS
-from ..engine_info.versions import version_of
+from rockbench.engines.calibration.held_out import NEIGHBOUR, SIBLING
+from rockbench.engines.adapters.reference import PLANTED, is_planted
+from rockbench.engines.registry import adapter_class
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.engine_info.versions import version_of
 
 
 #: Display names of the engines (registry name → name).

@@ -43,11 +43,11 @@ from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
-from ...reference_solver.classify import OUTCOME_CODES, Outcome
-from ...reference_solver.errors import ConfigError, IncomparableError
-from ..maps.bisection import ALONG_A, FAILED_EDGE, MULTIPLE
-from ..maps.boundary import LocatedBoundary
-from ..maps.result import FAILED, MapResult
+from rockbench.reference_solver.classify import OUTCOME_CODES, Outcome
+from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.benchmark.maps.bisection import ALONG_A, FAILED_EDGE, MULTIPLE
+from rockbench.benchmark.maps.boundary import LocatedBoundary
+from rockbench.benchmark.maps.result import FAILED, MapResult
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
 METRICS_VERSION = "7"

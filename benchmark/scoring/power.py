@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import math
 
-from .scenarios import Variant, items
-from .statistics import fixed, paired
+from rockbench.benchmark.scoring.scenarios import Variant, items
+from rockbench.benchmark.scoring.statistics import fixed, paired
 
 
 def planted_variants(variants: list[Variant]) -> list[Variant]:

@@ -24,9 +24,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..blocks.presets import PRESETS
-from .labels import AS_SHIPPED, CALIBRATED, settings_class
-from .metrics import PRIMARY_METRIC
+from rockbench.benchmark.blocks.presets import PRESETS
+from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, settings_class
+from rockbench.benchmark.scoring.metrics import PRIMARY_METRIC
 
 
 @dataclass

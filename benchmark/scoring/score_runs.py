@@ -42,22 +42,22 @@ from typing import Iterable
 
 import numpy as np
 
-from ...reference_solver.errors import ConfigError, IncomparableError
-from ...reference_solver.rules import RULES_VERSION, rules_mismatch
-from ...reference_solver.pulses import is_number
-from ..blocks.presets import PRESETS, TABLE_1
-from ..engine_info.versions import version_of
-from ..maps.result import MapResult
-from ..store.files import read_json, stored_variant, utc_stamp, variant_name
-from ..store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
-from .experiments import score_outcomes
-from .labels import CALIBRATED, PLANTED_SETTING, settings_class, variant_labels
-from .metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, boundary_edges, cell_counts, check_gate,
+from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.reference_solver.rules import RULES_VERSION, rules_mismatch
+from rockbench.reference_solver.pulses import is_number
+from rockbench.benchmark.blocks.presets import PRESETS, TABLE_1
+from rockbench.benchmark.engine_info.versions import version_of
+from rockbench.benchmark.maps.result import MapResult
+from rockbench.benchmark.store.files import read_json, stored_variant, utc_stamp, variant_name
+from rockbench.benchmark.store.loading import MapEntry, find_map_dirs, grid_of, load_entries, load_entry, load_own_eta
+from rockbench.benchmark.scoring.experiments import score_outcomes
+from rockbench.benchmark.scoring.labels import CALIBRATED, PLANTED_SETTING, settings_class, variant_labels
+from rockbench.benchmark.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, boundary_edges, cell_counts, check_gate,
                       judged_cells, located_counts, score)
-from .declared import Declared, declared_of_runs
-from .speed import COST_RISE_FACTOR, compare_speed
-from .speed_runs import speed_section, split, stage_record
-from .verdict import verdict
+from rockbench.benchmark.scoring.declared import Declared, declared_of_runs
+from rockbench.benchmark.scoring.speed import COST_RISE_FACTOR, compare_speed
+from rockbench.benchmark.scoring.speed_runs import speed_section, split, stage_record
+from rockbench.benchmark.scoring.verdict import verdict
 
 #: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
 SCORE_SCHEMA_VERSION = 2

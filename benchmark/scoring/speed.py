@@ -26,10 +26,10 @@ from __future__ import annotations
 import math
 import statistics as _py
 
-from .labels import engine_name, short_version
-from .metrics import PRIMARY_METRIC
-from .scenarios import cluster_of, scenario_of
-from .statistics import CONFIDENCE, POWER, dunnett_critical, detectable, fixed, paired
+from rockbench.benchmark.scoring.labels import engine_name, short_version
+from rockbench.benchmark.scoring.metrics import PRIMARY_METRIC
+from rockbench.benchmark.scoring.scenarios import cluster_of, scenario_of
+from rockbench.benchmark.scoring.statistics import CONFIDENCE, POWER, dunnett_critical, detectable, fixed, paired
 
 #: The steps of the stage where a suite lists none [s]: the one time-step rule's ladder
 #: (engines/calibration/step_rule.py), so the rule's choice lies on every curve. Coarser steps do not follow the

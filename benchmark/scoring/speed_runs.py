@@ -8,10 +8,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..engine_info.versions import version_of
-from ..store.files import read_json, variant_name
-from ..store.loading import MapEntry, map_cost
-from .speed import MATCHED_DISTANCE, SPEED_STEPS_S, engine_row, section
+from rockbench.benchmark.engine_info.versions import version_of
+from rockbench.benchmark.store.files import read_json, variant_name
+from rockbench.benchmark.store.loading import MapEntry, map_cost
+from rockbench.benchmark.scoring.speed import MATCHED_DISTANCE, SPEED_STEPS_S, engine_row, section
 
 #: The file at the top of a run folder that says what the speed stage declared and which engines meant for
 #: a GPU it left out (written by ``rockbench run`` before the stage's maps).

@@ -6,9 +6,9 @@ import html as _html
 import math
 import textwrap
 
-from .metrics import METRICS, PRIMARY_METRIC
-from .verdict import verdict
-from .verdict_words import METHOD, number
+from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
+from rockbench.benchmark.scoring.verdict import verdict
+from rockbench.benchmark.scoring.verdict_words import METHOD, number
 
 def fmt(name: str, v) -> str:
     """A metric's value as tables write it (:meth:`~rockbench.benchmark.scoring.metrics.Metric.format`)."""

@@ -26,15 +26,15 @@ from __future__ import annotations
 
 import math
 
-from .comparisons import COMPARED, Family, add_general, critical_for_power, families, general_scope, general_value, ranks
-from .declared import DEFAULTS, Declared
-from .equivalence import held_out_check, restitution_test
-from .failing import failing_scenarios, fails, reason_kinds, reasons
-from .metrics import PRIMARY, PRIMARY_METRIC
-from .power import planted_power
-from .scenarios import Variant, items, variants_of
-from .statistics import CONFIDENCE, fixed
-from .verdict_words import METHOD, sentences, short_verdict
+from rockbench.benchmark.scoring.comparisons import COMPARED, Family, add_general, critical_for_power, families, general_scope, general_value, ranks
+from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
+from rockbench.benchmark.scoring.equivalence import held_out_check, restitution_test
+from rockbench.benchmark.scoring.failing import failing_scenarios, fails, reason_kinds, reasons
+from rockbench.benchmark.scoring.metrics import PRIMARY, PRIMARY_METRIC
+from rockbench.benchmark.scoring.power import planted_power
+from rockbench.benchmark.scoring.scenarios import Variant, items, variants_of
+from rockbench.benchmark.scoring.statistics import CONFIDENCE, fixed
+from rockbench.benchmark.scoring.verdict_words import METHOD, sentences, short_verdict
 
 #: The groups of the verdict's table and picture, in their order.
 GROUPS = ("calibrated", "as-shipped", "other", "held-out", "planted")

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import math
 
-from .comparisons import COMPARED
-from .declared import RESTITUTION_GAP
-from .labels import AS_SHIPPED, CALIBRATED, engine_name
+from rockbench.benchmark.scoring.comparisons import COMPARED
+from rockbench.benchmark.scoring.declared import RESTITUTION_GAP
+from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, engine_name
 
 #: The most words the short verdict may have.
 SHORT_WORDS = 120

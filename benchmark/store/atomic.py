@@ -12,7 +12,7 @@ import tempfile
 from pathlib import Path
 from typing import Callable
 
-from ...reference_solver.errors import ConfigError
+from rockbench.reference_solver.errors import ConfigError
 
 
 def _umask() -> int:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .lines import plain_row
+from rockbench.benchmark.store.lines import plain_row
 
 # every constant of the unsigned arithmetic is a uint64: numba would turn uint64 ⊕ int64 into float64
 _U0, _U1, _U2, _U4, _U5, _U10, _U100 = (np.uint64(v) for v in (0, 1, 2, 4, 5, 10, 100))

@@ -17,10 +17,10 @@ import csv
 import io
 from pathlib import Path
 
-from .atomic import write_atomic
-from .files import COLUMNS
-from .frames import cell_text
-from .loading import full_grid_rows
+from rockbench.benchmark.store.atomic import write_atomic
+from rockbench.benchmark.store.files import COLUMNS
+from rockbench.benchmark.store.frames import cell_text
+from rockbench.benchmark.store.loading import full_grid_rows
 
 
 #: The full-grid columns: cells.csv's, then ``filled`` and ``left_model``.

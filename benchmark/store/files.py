@@ -35,10 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engines.contract import SETTINGS_MODES
-from ...engines.registry import adapter_class
-from ...reference_solver.errors import ConfigError, IncomparableError, RockbenchError
-from .atomic import write_bytes_atomic
+from rockbench.engines.contract import SETTINGS_MODES
+from rockbench.engines.registry import adapter_class
+from rockbench.reference_solver.errors import ConfigError, IncomparableError, RockbenchError
+from rockbench.benchmark.store.atomic import write_bytes_atomic
 
 #: Version of the run-directory layout; bumped when columns or run.json keys change meaning
 #: (3: the ``variant`` column; 4: bisection.csv, boundary.csv and the ``locate_depth`` option; 5: the

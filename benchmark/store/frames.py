@@ -10,7 +10,7 @@ import importlib
 
 import numpy as np
 
-from ...reference_solver.errors import ConfigError
+from rockbench.reference_solver.errors import ConfigError
 
 
 

@@ -12,17 +12,17 @@ from typing import Iterable
 
 import numpy as np
 
-from ...engines.adapters.reference import is_planted
-from ...reference_solver.errors import ConfigError, IncomparableError
-from ..maps import adaptive as adaptive_mod
-from ..maps.bisection import MAX_DEPTH
-from ..maps.grid import MapSpec
-from ..maps.locating import stored_boundary
-from ..maps.result import FAILED, MapResult, put_row, empty_result, from_cells
-from .files import (COLUMNS, read_cell_table, read_json, read_run, read_samples, spec_variant, stored_settings,
+from rockbench.engines.adapters.reference import is_planted
+from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.benchmark.maps import adaptive as adaptive_mod
+from rockbench.benchmark.maps.bisection import MAX_DEPTH
+from rockbench.benchmark.maps.grid import MapSpec
+from rockbench.benchmark.maps.locating import stored_boundary
+from rockbench.benchmark.maps.result import FAILED, MapResult, put_row, empty_result, from_cells
+from rockbench.benchmark.store.files import (COLUMNS, read_cell_table, read_json, read_run, read_samples, spec_variant, stored_settings,
                     stored_variant,
                     variant_name)
-from .frames import OUTCOME_OF_CODE, rows_to_dataframe, rows_to_dataset
+from rockbench.benchmark.store.frames import OUTCOME_OF_CODE, rows_to_dataframe, rows_to_dataset
 
 
 def load_map(out_dir) -> MapResult:

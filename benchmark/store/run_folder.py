@@ -35,15 +35,15 @@ import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.rules import RULES_VERSION, rules_mismatch
-from .columnar import format_rows
-from .atomic import write_bytes_atomic
-from ..maps.cost import cost_of, machine
-from .files import (BOUNDARY_COLUMNS, COLUMNS, COST_COLUMNS, NEW_OUT, SAMPLE_COLUMNS, SCHEMA_VERSION, before_cost,
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.rules import RULES_VERSION, rules_mismatch
+from rockbench.benchmark.store.columnar import format_rows
+from rockbench.benchmark.store.atomic import write_bytes_atomic
+from rockbench.benchmark.maps.cost import cost_of, machine
+from rockbench.benchmark.store.files import (BOUNDARY_COLUMNS, COLUMNS, COST_COLUMNS, NEW_OUT, SAMPLE_COLUMNS, SCHEMA_VERSION, before_cost,
                     check_map_schema, read_cells_file, read_json, read_samples, spec_variant, stored_settings,
                     utc_stamp, write_json)
-from .lines import exact_text, plain_row
+from rockbench.benchmark.store.lines import exact_text, plain_row
 
 
 #: what a map directory may hold before its run.json exists: the lock, and the scratch space of a

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_bytes_atomic
+from rockbench.benchmark.store.atomic import write_bytes_atomic
 
 #: The folder of a run (or report) directory that holds the θ(t) files.
 FOLDER = "trajectories"

@@ -10,8 +10,8 @@ import threading
 from collections import deque
 from pathlib import Path
 
-from ..maps import executors as ex_mod
-from .plan import MapJob
+from rockbench.benchmark.maps import executors as ex_mod
+from rockbench.benchmark.suites.plan import MapJob
 
 
 

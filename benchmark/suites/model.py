@@ -22,16 +22,16 @@ from typing import Annotated, Any, get_args
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, ValidationInfo, model_validator
 from pydantic_core import PydanticCustomError
 
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.pulses import is_number
-from ...reference_solver.restitution import Restitution
-from ..blocks.cases import parse_case
-from ..blocks.experiments import load_outcomes
-from ..blocks.presets import NOT_IN_TABLE_1, PRESETS, TABLE_1, get_preset, no_exact_k_note
-from ..maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
-from ..maps.grid import MapSpec, parse_range
-from ..scoring.declared import DEFAULTS, KEY_RULES, Declared
-from ..scoring.speed import MATCHED_DISTANCE, SPEED_STEPS_S
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.pulses import is_number
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.blocks.cases import parse_case
+from rockbench.benchmark.blocks.experiments import load_outcomes
+from rockbench.benchmark.blocks.presets import NOT_IN_TABLE_1, PRESETS, TABLE_1, get_preset, no_exact_k_note
+from rockbench.benchmark.maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
+from rockbench.benchmark.maps.grid import MapSpec, parse_range
+from rockbench.benchmark.scoring.declared import DEFAULTS, KEY_RULES, Declared
+from rockbench.benchmark.scoring.speed import MATCHED_DISTANCE, SPEED_STEPS_S
 
 #: the shipped suites, by name
 SHIPPED_SUITES = ("default", "quick", "full", "newton", "speed")

@@ -8,17 +8,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...engines.adapters.reference import PLANTED
-from ...engines.contract import EngineAdapter
-from ...engines.registry import adapter_class, availability, names
-from ...reference_solver.errors import ConfigError, EngineUnavailableError
-from ...reference_solver.restitution import Restitution
-from ..blocks.presets import get_preset
-from ..engine_info.adapters import engine_settings
-from ..engine_info.devices import GPU_ENGINES, device_of
-from ..store.files import own_eta_map_name, variant_name
-from ..store.loading import SPEED_STAGE
-from .model import Suite, reference_tokens, restitution_for
+from rockbench.engines.adapters.reference import PLANTED
+from rockbench.engines.contract import EngineAdapter
+from rockbench.engines.registry import adapter_class, availability, names
+from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.benchmark.engine_info.adapters import engine_settings
+from rockbench.benchmark.engine_info.devices import GPU_ENGINES, device_of
+from rockbench.benchmark.store.files import own_eta_map_name, variant_name
+from rockbench.benchmark.store.loading import SPEED_STAGE
+from rockbench.benchmark.suites.model import Suite, reference_tokens, restitution_for
 
 
 

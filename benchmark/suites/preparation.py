@@ -14,16 +14,16 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from ...engines.contract import EngineAdapter
-from ...engines.registry import adapter_class, register
-from ..blocks.presets import get_preset
-from ..engine_info.adapters import build_adapter
-from ..maps.cores import can_fork_helper
-from ..maps.executors import worker_init
-from ..store.files import variant_name, write_json
-from ..store.loading import CALIBRATION_FILE, calibration_rows
-from .model import Suite, restitution_for
-from .plan import SPEED_SETTINGS, variant_blocks, variant_restitution, variant_settings
+from rockbench.engines.contract import EngineAdapter
+from rockbench.engines.registry import adapter_class, register
+from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.maps.cores import can_fork_helper
+from rockbench.benchmark.maps.executors import worker_init
+from rockbench.benchmark.store.files import variant_name, write_json
+from rockbench.benchmark.store.loading import CALIBRATION_FILE, calibration_rows
+from rockbench.benchmark.suites.model import Suite, restitution_for
+from rockbench.benchmark.suites.plan import SPEED_SETTINGS, variant_blocks, variant_restitution, variant_settings
 
 
 

@@ -20,7 +20,7 @@ import os
 import sys
 import threading
 
-from ...engines import progress as engine_progress
+from rockbench.engines import progress as engine_progress
 
 
 class SuiteConsole:
@@ -108,8 +108,8 @@ def say_device_notes(engines, console: SuiteConsole) -> None:
     """One line per engine that runs somewhere a reader should know of (a GPU-first engine on the
     CPU: :meth:`~rockbench.engines.contract.EngineAdapter.device_note`), before the first map; the
     engines' worker processes then stay quiet about it."""
-    from ...engines import registry   # the adapters' classes: only where a suite runs
-    from ...engines.contract import DEVICE_NOTED_ENV   # with numpy: only where a suite runs
+    from rockbench.engines import registry   # the adapters' classes: only where a suite runs
+    from rockbench.engines.contract import DEVICE_NOTED_ENV   # with numpy: only where a suite runs
     for e in engines:
         note = registry.adapter_class(e).device_note()
         if note:

@@ -77,31 +77,31 @@ import threading
 import time
 from pathlib import Path
 
-from ...engines.adapters.reference import is_planted
-from ...reference_solver.errors import ConfigError, IncomparableError
-from ...reference_solver.pulses import make_pulse
-from ..blocks.cases import parse_case
-from ..blocks.experiments import load_outcomes
-from ..blocks.presets import get_preset
-from ..engine_info.devices import device_of
-from ..engine_info.health import EngineHealth
-from ..maps.executors import cap_jobs, cpu_count
-from ..maps.grid import MapSpec, parse_range
-from ..maps.sweep import run_map
-from ..report.build import build_report
-from ..scoring.score_runs import score_dirs
-from ..scoring.speed_runs import SPEED_FILE
-from ..scoring.speed_words import speed_block
-from ..store.loading import SPEED_STAGE
-from ..scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
-from ..store.atomic import check_output_dir
-from ..store.files import write_json
-from ..trajectories import record_for_report
-from .lanes import ReferenceThread, run_lanes
-from .model import Suite, skipped_reference_note
-from .plan import check_suite, engine_names, own_eta_jobs, plan, speed_depth, speed_engines, speed_record
-from .preparation import Preparation, cost_rank
-from .progress import SuiteConsole, say_device_notes
+from rockbench.engines.adapters.reference import is_planted
+from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.reference_solver.pulses import make_pulse
+from rockbench.benchmark.blocks.cases import parse_case
+from rockbench.benchmark.blocks.experiments import load_outcomes
+from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.benchmark.engine_info.devices import device_of
+from rockbench.benchmark.engine_info.health import EngineHealth
+from rockbench.benchmark.maps.executors import cap_jobs, cpu_count
+from rockbench.benchmark.maps.grid import MapSpec, parse_range
+from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.report.build import build_report
+from rockbench.benchmark.scoring.score_runs import score_dirs
+from rockbench.benchmark.scoring.speed_runs import SPEED_FILE
+from rockbench.benchmark.scoring.speed_words import speed_block
+from rockbench.benchmark.store.loading import SPEED_STAGE
+from rockbench.benchmark.scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
+from rockbench.benchmark.store.atomic import check_output_dir
+from rockbench.benchmark.store.files import write_json
+from rockbench.benchmark.trajectories import record_for_report
+from rockbench.benchmark.suites.lanes import ReferenceThread, run_lanes
+from rockbench.benchmark.suites.model import Suite, skipped_reference_note
+from rockbench.benchmark.suites.plan import check_suite, engine_names, own_eta_jobs, plan, speed_depth, speed_engines, speed_record
+from rockbench.benchmark.suites.preparation import Preparation, cost_rank
+from rockbench.benchmark.suites.progress import SuiteConsole, say_device_notes
 
 
 def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report: bool, figure_formats, log,
@@ -137,8 +137,8 @@ def _warm_report() -> None:
         # a head start: importing these (and compiling the kernel) early is the point
         from matplotlib import figure  # noqa: F401
         from matplotlib.backends import backend_agg  # noqa: F401
-        from ...reference_solver.solver import solve
-        from ..report import build as report  # noqa: F401
+        from rockbench.reference_solver.solver import solve
+        from rockbench.benchmark.report import build as report  # noqa: F401
         solve(get_preset("B3M").block(), make_pulse("sine", 30.0, 60.0), 0.8, history=True)
     except Exception:  # noqa: BLE001 - only a head start; the report imports what it needs itself
         pass

@@ -54,10 +54,10 @@ import os
 
 import numpy as np
 
-from ...reference_solver.model import G, Block
-from ..calibration.knobs import Knob
-from ..contact import ContactEngine
-from ..motion import Motion, pivot_pose, table_track_err_rel
+from rockbench.reference_solver.model import G, Block
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.motion import Motion, pivot_pose, table_track_err_rel
 
 #: The collision detectors dartpy offers, by setting value
 COLLISION_DETECTORS = {"fcl": "FCLCollisionDetector", "ode": "OdeCollisionDetector",

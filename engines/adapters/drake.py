@@ -65,11 +65,11 @@ import os
 
 import numpy as np
 
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import Block
-from ..calibration.knobs import Knob
-from ..contact import ContactEngine
-from ..motion import Motion, pivot_pose, table_track_err_rel, theta_of_quat
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import Block
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.motion import Motion, pivot_pose, table_track_err_rel, theta_of_quat
 
 #: The calibrated contact's starting point (kept whenever it is within 0.5 % of the target):
 #: point stiffness per bottom edge [N/m], hydroelastic modulus [Pa], SAP relaxation time [s] and

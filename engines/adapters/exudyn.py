@@ -75,13 +75,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ...reference_solver.classify import overturn_certain
-from ...reference_solver.model import G, Block
-from ...reference_solver.pulses import Pulse
-from ..calibration.knobs import Knob
-from ..contact import ContactEngine
-from ..loop import EngineHalted
-from ..motion import Motion
+from rockbench.reference_solver.classify import overturn_certain
+from rockbench.reference_solver.model import G, Block
+from rockbench.reference_solver.pulses import Pulse
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.loop import EngineHalted
+from rockbench.engines.motion import Motion
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as

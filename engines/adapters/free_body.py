@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..motion import Motion, table_track_err_rel, theta_of_quat
+from rockbench.engines.motion import Motion, table_track_err_rel, theta_of_quat
 
 __all__ = ["motion_of"]
 

@@ -42,12 +42,12 @@ import tempfile
 
 import numpy as np
 
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import G, Block
-from ..calibration.knobs import Knob
-from ..contact import ContactEngine
-from ..motion import Motion, pivot_pose
-from .free_body import motion_of
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import G, Block
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.motion import Motion, pivot_pose
+from rockbench.engines.adapters.free_body import motion_of
 
 #: Genesis's shipped constraint time constant [s] (``RigidOptions.constraint_timeconst``)
 SHIPPED_TIMECONST_S = 0.01

@@ -66,12 +66,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import G, Block
-from ..calibration.knobs import Knob
-from ..calibration.pick import Candidate, pick
-from ..contact import ContactEngine
-from ..motion import Motion, pivot_pose, quat_matrix, table_track_err_rel, theta_of_quat, theta_rate_of_body
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import G, Block
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.calibration.pick import Candidate, pick
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.motion import Motion, pivot_pose, quat_matrix, table_track_err_rel, theta_of_quat, theta_rate_of_body
 
 #: Calibration grid: contact time constants as multiples of the time step, and damping ratios.
 _TC_FACTORS = (2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0, 48.0)

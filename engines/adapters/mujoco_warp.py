@@ -62,16 +62,16 @@ import time
 
 import numpy as np
 
-from ...reference_solver.classify import END_REASONS, trapped_energy
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import FLAT_ANGLE_RAD, Block
-from ..calibration.free_rocking import PEAK_RATIO
-from .. import progress
-from ..contract import Case, Trajectory
-from ..loop import trajectory
-from ..motion import run_steps
-from .mujoco import BuiltModel, MujocoAdapter, released_state
-from .warp_start import cuda_driver_present, say_first_compile, start_warp
+from rockbench.reference_solver.classify import END_REASONS, trapped_energy
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import FLAT_ANGLE_RAD, Block
+from rockbench.engines.calibration.free_rocking import PEAK_RATIO
+from rockbench.engines import progress
+from rockbench.engines.contract import Case, Trajectory
+from rockbench.engines.loop import trajectory
+from rockbench.engines.motion import run_steps
+from rockbench.engines.adapters.mujoco import BuiltModel, MujocoAdapter, released_state
+from rockbench.engines.adapters.warp_start import cuda_driver_present, say_first_compile, start_warp
 
 #: Contacts allocated per world: MuJoCo Warp's box–plane test makes a contact of every corner below
 #: the plane, so up to 8 (CPU MuJoCo keeps 4): a block standing on its base has 4, one sunk into a
@@ -115,7 +115,7 @@ def _kernels():
     asked for before the first launch, so the line of a first compile comes here."""
     _warp()
     say_first_compile("mujoco_warp", "mujoco_warp.")
-    from . import mujoco_warp_kernels as k   # Warp's kernels: the optional engine library, once Warp is set up
+    from rockbench.engines.adapters import mujoco_warp_kernels as k   # Warp's kernels: the optional engine library, once Warp is set up
     return {"drive": k.drive, "record": k.record, "end_of_run": k.end_of_run, "advance": k.advance}
 
 

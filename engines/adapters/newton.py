@@ -40,12 +40,12 @@ from __future__ import annotations
 import math
 import numpy as np
 
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import G, Block
-from ..calibration.knobs import Knob
-from ..contact import ContactEngine
-from ..motion import Motion, pivot_pose, theta_of_quat
-from .warp_start import say_first_compile, start_warp
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import G, Block
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.motion import Motion, pivot_pose, theta_of_quat
+from rockbench.engines.adapters.warp_start import say_first_compile, start_warp
 
 #: The solvers offered, by their ``solver`` name
 SOLVERS = ("xpbd", "semi_implicit", "featherstone", "vbd")

@@ -50,11 +50,11 @@ import warnings
 
 import numpy as np
 
-from ...reference_solver.model import G, Block
-from ..calibration.knobs import Knob
-from ..contact import ContactEngine
-from ..motion import Motion, pivot_pose
-from .free_body import motion_of
+from rockbench.reference_solver.model import G, Block
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.motion import Motion, pivot_pose
+from rockbench.engines.adapters.free_body import motion_of
 
 #: SAPIEN's own time step of a ``PhysxCpuSystem`` [s]: what PhysX users run unless they set one
 SHIPPED_DT_S = 0.01

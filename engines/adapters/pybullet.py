@@ -45,11 +45,11 @@ import sys
 
 import numpy as np
 
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import G, Block
-from ..calibration.knobs import Knob
-from ..contact import ContactEngine
-from ..motion import Motion, pivot_pose, theta_of_quat
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import G, Block
+from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.motion import Motion, pivot_pose, theta_of_quat
 
 #: Largest friction coefficient Bullet keeps: it clamps the product of the two bodies' coefficients [-].
 BULLET_MAX_FRICTION = 10.0

@@ -24,12 +24,12 @@ import math
 import time
 import numpy as np
 
-from ...reference_solver.classify import OUTCOME_FROM_CODE, Outcome
-from ...reference_solver.errors import ConfigError, check_positive
-from ...reference_solver.pulses import MIN_STEPS_PER_WAVE
-from ...reference_solver.solver import MODES, PAPER_DT_S, solve, solve_batch
-from ...reference_solver.validity import DEFAULT_FRICTION, DOMAIN_FLAGS, contact_flag_bits, contact_flags
-from ..contract import Case, CellColumns, CellResult, EngineAdapter, Trajectory
+from rockbench.reference_solver.classify import OUTCOME_FROM_CODE, Outcome
+from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.reference_solver.pulses import MIN_STEPS_PER_WAVE
+from rockbench.reference_solver.solver import MODES, PAPER_DT_S, solve, solve_batch
+from rockbench.reference_solver.validity import DEFAULT_FRICTION, DOMAIN_FLAGS, contact_flag_bits, contact_flags
+from rockbench.engines.contract import Case, CellColumns, CellResult, EngineAdapter, Trajectory
 
 #: pulse kinds the batch kernel runs (records go case by case)
 _BATCH_KINDS = ("sine", "cosine", "half-sine")

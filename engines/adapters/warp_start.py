@@ -16,9 +16,9 @@ import os
 import sys
 import tempfile
 
-from .. import progress
-from ..calibration import cache as _cal
-from ..contract import DEVICE_NOTED_ENV
+from rockbench.engines import progress
+from rockbench.engines.calibration import cache as _cal
+from rockbench.engines.contract import DEVICE_NOTED_ENV
 
 __all__ = ["warp_cache_dir", "cuda_driver_present", "init_on_cpu", "start_warp", "kernels_cached",
            "say_first_compile", "FIRST_COMPILE"]

@@ -27,8 +27,8 @@ from typing import Callable
 
 import numpy as np
 
-from ...reference_solver.model import Block
-from ...reference_solver.validity import uplift_tol_rad
+from rockbench.reference_solver.model import Block
+from rockbench.reference_solver.validity import uplift_tol_rad
 
 __all__ = ["FREE_ROCKING_IMPACTS", "FREE_ROCKING_METHOD", "EtaReader", "PEAK_RATIO", "free_rocking_duration_s",
            "free_rocking_etas", "first_quarter_s", "swings", "contact_figures"]

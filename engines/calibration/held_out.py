@@ -29,8 +29,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ...reference_solver.errors import ConfigError
-from ...reference_solver.model import Block
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.model import Block
 
 __all__ = ["SIBLING", "NEIGHBOUR", "RULES", "CalibrateOn", "check_setting", "calibration_block",
            "calibration_target", "slenderness"]

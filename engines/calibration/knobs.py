@@ -23,9 +23,9 @@ from dataclasses import dataclass
 
 import math
 
-from ...reference_solver.model import Block
-from .pick import ETA_RESOLUTION, Candidate, pick, regular
-from .search import bisection, bracket
+from rockbench.reference_solver.model import Block
+from rockbench.engines.calibration.pick import ETA_RESOLUTION, Candidate, pick, regular
+from rockbench.engines.calibration.search import bisection, bracket
 
 __all__ = ["Knob", "grid", "around", "candidate", "search"]
 

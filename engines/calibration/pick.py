@@ -26,8 +26,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field
 
-from ...reference_solver.model import Block
-from .free_rocking import FREE_ROCKING_IMPACTS
+from rockbench.reference_solver.model import Block
+from rockbench.engines.calibration.free_rocking import FREE_ROCKING_IMPACTS
 
 __all__ = ["Candidate", "Pick", "pick", "ranked", "regular", "hops", "hop_tol_m", "sink_tie_m", "CAL_MAX_SPREAD",
            "ETA_RESOLUTION", "HOP_TOL_FRAC", "SINK_TIE_FRAC", "damping_ratio_of_restitution"]

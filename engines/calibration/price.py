@@ -28,11 +28,11 @@ import time
 
 import numpy as np
 
-from ...reference_solver.model import G, Block
-from ...reference_solver.pulses import RecordPulse, make_pulse
-from ...reference_solver.restitution import Restitution
-from ..contract import Case
-from .rigid import rigid_answers
+from rockbench.reference_solver.model import G, Block
+from rockbench.reference_solver.pulses import RecordPulse, make_pulse
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.engines.contract import Case
+from rockbench.engines.calibration.rigid import rigid_answers
 
 #: Tolerance on the static uplift threshold ratio (within 2 % to count) [-].
 UPLIFT_RTOL = 0.02

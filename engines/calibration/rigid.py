@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...reference_solver.classify import OUTCOME_FROM_CODE
-from ...reference_solver.validity import contact_flags
-from ..contract import Case
+from rockbench.reference_solver.classify import OUTCOME_FROM_CODE
+from rockbench.reference_solver.validity import contact_flags
+from rockbench.engines.contract import Case
 
 __all__ = ["rigid_answers"]
 
@@ -25,7 +25,7 @@ def rigid_answers(cases: list[Case], friction: float) -> list[tuple[str, list[st
     half-sine): the outcome (``rest``, ``rocking``, ``overturn``) and ``lift-required`` /
     ``slip-required`` with the friction coefficient μ ``friction`` [-] (:func:`contact_flags`), each
     case at the paper's step and the exact energy decision after its pulse."""
-    from ...reference_solver.solver import PAPER_DT_S, solve_batch   # numba on first use (start-up time)
+    from rockbench.reference_solver.solver import PAPER_DT_S, solve_batch   # numba on first use (start-up time)
 
     out: list = [None] * len(cases)
     groups: dict[tuple, list[int]] = {}

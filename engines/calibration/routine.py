@@ -19,14 +19,14 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from ...reference_solver.errors import ConfigError, EngineError
-from ...reference_solver.model import Block
-from ...reference_solver.restitution import Restitution
-from ...reference_solver.rules import RULES_VERSION
-from .. import progress
-from ..contract import CONTRACT_VERSION, CalibrationResult
-from . import cache, price as pricing
-from .pick import ETA_RESOLUTION, Candidate, damping_ratio_of_restitution, pick, ranked, regular
+from rockbench.reference_solver.errors import ConfigError, EngineError
+from rockbench.reference_solver.model import Block
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.reference_solver.rules import RULES_VERSION
+from rockbench.engines import progress
+from rockbench.engines.contract import CONTRACT_VERSION, CalibrationResult
+from rockbench.engines.calibration import cache, price as pricing
+from rockbench.engines.calibration.pick import ETA_RESOLUTION, Candidate, damping_ratio_of_restitution, pick, ranked, regular
 
 __all__ = ["calibrate_layout", "first_reached", "measured_rows", "damping_ratio", "cache_key", "MAX_PRICE_TRIES",
            "IDENTITY_SKIP"]

@@ -37,12 +37,12 @@ hands them over).
 
 from __future__ import annotations
 
-from ...reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
-from ...reference_solver.pulses import make_pulse
-from ...reference_solver.restitution import Restitution
-from .. import progress
-from ..contract import Case
-from .rigid import rigid_answers
+from rockbench.reference_solver.model import Block, a_ratio_to_amplitude, w_ratio_to_omega
+from rockbench.reference_solver.pulses import make_pulse
+from rockbench.reference_solver.restitution import Restitution
+from rockbench.engines import progress
+from rockbench.engines.contract import Case
+from rockbench.engines.calibration.rigid import rigid_answers
 
 __all__ = ["STEP_LADDER_S", "ETA_STEP_RTOL", "PROBE_W_RATIOS", "PROBE_MARGIN", "PROBE_DEEP", "PROBE_PULSES",
            "probe_cases", "converged_step"]

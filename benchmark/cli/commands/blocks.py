@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 
-from ...blocks.presets import PRESETS
+from rockbench.benchmark.blocks.presets import PRESETS
 
 
 def register(sub) -> None:

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import json
 
-from ....engines.calibration.price import price_line
-from ....reference_solver.errors import ConfigError, RockbenchError
-from ...engine_info.adapters import build_adapter
-from ...engine_info.health import refuse_outside_range
-from ...request import CaseRequest
-from ..options import add_block_options
+from rockbench.engines.calibration.price import price_line
+from rockbench.reference_solver.errors import ConfigError, RockbenchError
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.engine_info.health import refuse_outside_range
+from rockbench.benchmark.request import CaseRequest
+from rockbench.benchmark.cli.options import add_block_options
 
 
 def register(sub) -> None:

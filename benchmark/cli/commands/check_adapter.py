@@ -10,10 +10,10 @@ from __future__ import annotations
 import json
 import sys
 
-from ....engines.checker import check_adapter
-from ....engines.support import install_advice, outside_range, supported_range
-from ...engine_info.adapters import build_adapter
-from ...request import CaseRequest
+from rockbench.engines.checker import check_adapter
+from rockbench.engines.support import install_advice, outside_range, supported_range
+from rockbench.benchmark.engine_info.adapters import build_adapter
+from rockbench.benchmark.request import CaseRequest
 
 
 def register(sub) -> None:

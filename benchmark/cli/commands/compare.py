@@ -5,13 +5,13 @@ from __future__ import annotations
 import json
 import math
 
-from ...engine_info.versions import differences, differences_line
-from ...scoring.metrics import METRICS
-from ....reference_solver.errors import ConfigError
-from ...scoring.score_runs import DEFAULT_TOLERANCE_CELLS, compare_scores, load_score, parse_tolerances
-from ...scoring.speed import COST_RISE_FACTOR
-from ...scoring.tables import compare_table
-from ...store.files import json_safe
+from rockbench.benchmark.engine_info.versions import differences, differences_line
+from rockbench.benchmark.scoring.metrics import METRICS
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.scoring.score_runs import DEFAULT_TOLERANCE_CELLS, compare_scores, load_score, parse_tolerances
+from rockbench.benchmark.scoring.speed import COST_RISE_FACTOR
+from rockbench.benchmark.scoring.tables import compare_table
+from rockbench.benchmark.store.files import json_safe
 
 
 def register(sub) -> None:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 
-from ....engines.registry import adapter_class, availability, names
+from rockbench.engines.registry import adapter_class, availability, names
 
 
 def register(sub) -> None:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 import sys
 
-from ....reference_solver.errors import ConfigError
-from ...figures import FIGURES, make_figures
-from ...store.atomic import check_output_dir
-from ..options import add_figure_format_option, figure_formats_from_args, jobs_from_args
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.figures import FIGURES, make_figures
+from rockbench.benchmark.store.atomic import check_output_dir
+from rockbench.benchmark.cli.options import add_figure_format_option, figure_formats_from_args, jobs_from_args
 
 
 def register(sub) -> None:

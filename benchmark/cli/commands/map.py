@@ -6,16 +6,16 @@ import json
 import sys
 from pathlib import Path
 
-from ....reference_solver.errors import ConfigError, EngineError
-from ...engine_info.health import EngineCannotSimulate, cannot_simulate_line, common_error
-from ...maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
-from ...maps.grid import MAP_PULSES, MapSpec, parse_range
-from ...maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
-from ...report.plots.picture import MapPicture
-from ...store.atomic import check_output_dir
-from ...request import CaseRequest
-from ...store.export import write_full_grid
-from ..options import (add_block_options, add_figure_format_option, add_model_options, figure_formats_from_args,
+from rockbench.reference_solver.errors import ConfigError, EngineError
+from rockbench.benchmark.engine_info.health import EngineCannotSimulate, cannot_simulate_line, common_error
+from rockbench.benchmark.maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
+from rockbench.benchmark.maps.grid import MAP_PULSES, MapSpec, parse_range
+from rockbench.benchmark.maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
+from rockbench.benchmark.report.plots.picture import MapPicture
+from rockbench.benchmark.store.atomic import check_output_dir
+from rockbench.benchmark.request import CaseRequest
+from rockbench.benchmark.store.export import write_full_grid
+from rockbench.benchmark.cli.options import (add_block_options, add_figure_format_option, add_model_options, figure_formats_from_args,
                        jobs_from_args)
 
 

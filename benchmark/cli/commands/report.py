@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import sys
 
-from ...blocks.cases import FIG17, parse_case
-from ...blocks.experiments import load_outcomes
-from ...report.build import build_report
-from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
-from ...store.atomic import check_output_dir
-from ...trajectories import record_for_report
-from ..options import add_figure_format_option, figure_formats_from_args
+from rockbench.benchmark.blocks.cases import FIG17, parse_case
+from rockbench.benchmark.blocks.experiments import load_outcomes
+from rockbench.benchmark.report.build import build_report
+from rockbench.benchmark.scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP
+from rockbench.benchmark.store.atomic import check_output_dir
+from rockbench.benchmark.trajectories import record_for_report
+from rockbench.benchmark.cli.options import add_figure_format_option, figure_formats_from_args
 
 #: the outcomes CSV format (kept here so that --help needs no import of the harness)
 _FORMAT = ("block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "

@@ -10,13 +10,13 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ....reference_solver.errors import ConfigError
-from ...blocks.experiments import load_outcomes
-from ...store.atomic import check_output_dir
-from ...suites.model import grid_cells, load_suite, skipped_reference_note, suite_path
-from ...suites.plan import check_suite, engine_names, parse_engines, plan, speed_engines, speed_plan_lines
-from ...suites.runner import run_suite
-from ..options import add_figure_format_option, figure_formats_from_args, jobs_from_args
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.blocks.experiments import load_outcomes
+from rockbench.benchmark.store.atomic import check_output_dir
+from rockbench.benchmark.suites.model import grid_cells, load_suite, skipped_reference_note, suite_path
+from rockbench.benchmark.suites.plan import check_suite, engine_names, parse_engines, plan, speed_engines, speed_plan_lines
+from rockbench.benchmark.suites.runner import run_suite
+from rockbench.benchmark.cli.options import add_figure_format_option, figure_formats_from_args, jobs_from_args
 
 
 def register(sub) -> None:

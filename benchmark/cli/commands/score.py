@@ -8,15 +8,15 @@ import sys
 import textwrap
 from pathlib import Path
 
-from ...blocks.experiments import load_outcomes
-from ...scoring.declared import defaults_note
-from ...scoring.speed_words import speed_block
-from ...scoring.metrics import METRICS, METRICS_VERSION, parse_thresholds
-from ...scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP, gate, score_dirs
-from ...scoring.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table, summary_table,
+from rockbench.benchmark.blocks.experiments import load_outcomes
+from rockbench.benchmark.scoring.declared import defaults_note
+from rockbench.benchmark.scoring.speed_words import speed_block
+from rockbench.benchmark.scoring.metrics import METRICS, METRICS_VERSION, parse_thresholds
+from rockbench.benchmark.scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP, gate, score_dirs
+from rockbench.benchmark.scoring.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table, summary_table,
                                verdict_block)
-from ...store.atomic import check_output_file
-from ...store.files import json_safe, write_json
+from rockbench.benchmark.store.atomic import check_output_file
+from rockbench.benchmark.store.files import json_safe, write_json
 
 
 def register(sub) -> None:

@@ -12,12 +12,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ....reference_solver.errors import ConfigError
-from ....reference_solver.solver import MODES
-from ...simulation import simulate_case
-from ...store.atomic import check_output_file
-from ...request import CaseRequest
-from ..options import add_case_options
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.solver import MODES
+from rockbench.benchmark.simulation import simulate_case
+from rockbench.benchmark.store.atomic import check_output_file
+from rockbench.benchmark.request import CaseRequest
+from rockbench.benchmark.cli.options import add_case_options
 
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="one simulation: outcome, impacts, θ(t) history and plot")

@@ -18,11 +18,11 @@ import sys
 import time
 from pathlib import Path
 
-from ....reference_solver.errors import ConfigError
-from ...engine_info.envs import build_env, parse_pair, plan_env, source_dir, source_fingerprint
-from ...store.atomic import check_output_dir
-from ..options import jobs_from_args
-from . import compare
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.engine_info.envs import build_env, parse_pair, plan_env, source_dir, source_fingerprint
+from rockbench.benchmark.store.atomic import check_output_dir
+from rockbench.benchmark.cli.options import jobs_from_args
+from rockbench.benchmark.cli.commands import compare
 
 
 def register(sub) -> None:

@@ -17,8 +17,8 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-from ....reference_solver.errors import ConfigError
-from ...store.atomic import write_atomic
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.store.atomic import write_atomic
 
 #: The formats a figure can be written in, by file suffix.
 FORMATS = ("png", "svg", "pdf")

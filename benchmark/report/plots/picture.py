@@ -24,8 +24,8 @@ import signal
 import time
 from pathlib import Path
 
-from ...maps.cores import can_fork_helper
-from . import stability
+from rockbench.benchmark.maps.cores import can_fork_helper
+from rockbench.benchmark.report.plots import stability
 
 #: Seconds the helper may take to draw once it has the map, before it is stopped and the picture
 #: is drawn here.

@@ -19,8 +19,8 @@ curve per engine through its time steps (score.json's ``speed``, :mod:`rockbench
 
 from __future__ import annotations
 
-from ...scoring.labels import for_matplotlib
-from .style import CYCLE, DOUBLE_COLUMN_IN, LABEL_PT, SMALL_PT
+from rockbench.benchmark.scoring.labels import for_matplotlib
+from rockbench.benchmark.report.plots.style import CYCLE, DOUBLE_COLUMN_IN, LABEL_PT, SMALL_PT
 
 #: Ratio of the largest to the smallest distance above which the distance axis is logarithmic.
 LOG_RANGE = 10.0

@@ -25,13 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ....engines.adapters.reference import is_planted
-from ...blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
-from ...maps.bisection import MULTIPLE
-from ...maps.result import MapResult
-from ...scoring.labels import for_matplotlib, restitution_symbol, variant_label
-from .output import save_formats
-from .style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SINGLE_COLUMN_IN, SMALL_PT, SUPTITLE_PT, TITLE_PT, tint
+from rockbench.engines.adapters.reference import is_planted
+from rockbench.benchmark.blocks.experiments import SHAKING_TABLE_LIMIT_MPS2, st_limit_a_ratio
+from rockbench.benchmark.maps.bisection import MULTIPLE
+from rockbench.benchmark.maps.result import MapResult
+from rockbench.benchmark.scoring.labels import for_matplotlib, restitution_symbol, variant_label
+from rockbench.benchmark.report.plots.output import save_formats
+from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SINGLE_COLUMN_IN, SMALL_PT, SUPTITLE_PT, TITLE_PT, tint
 
 #: Line styles of the reference boundaries, in the order given (η_H, η_M average k, η_M exact k,
 #: a constant η such as an engine's own measured one): each has its own dash as well as its own

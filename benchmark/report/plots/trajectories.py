@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ....reference_solver.model import G
-from ...scoring.labels import for_matplotlib
-from .style import CYCLE, DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, SUPTITLE_PT
+from rockbench.reference_solver.model import G
+from rockbench.benchmark.scoring.labels import for_matplotlib
+from rockbench.benchmark.report.plots.style import CYCLE, DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, SUPTITLE_PT
 
 #: Reference curve styles, in order (black solid first).
 REFERENCE_STYLES = [{"color": "#000000", "ls": "solid"}, {"color": "#555555", "ls": (0, (5, 2))},

@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import math
 
-from ...scoring.labels import for_matplotlib
-from ...scoring.verdict_words import delta_words, number
-from .style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, tint
+from rockbench.benchmark.scoring.labels import for_matplotlib
+from rockbench.benchmark.scoring.verdict_words import delta_words, number
+from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, tint
 
 #: Group headers, in the picture's order.
 HEADERS = {"calibrated": "Calibrated to η_H (best achievable)", "as-shipped": "As shipped (out of the box)",
