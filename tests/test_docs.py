@@ -193,3 +193,61 @@ def test_every_cited_section_of_physics_md_exists():
     assert cited, "no citation of docs/physics.md found"
     missing = {n: where for n, where in cited.items() if n not in sections}
     assert not missing, f"docs/physics.md has no section(s) {missing} cited there"
+
+
+#: a commit hash as git abbreviates it: 7 to 40 lowercase hex digits with at least one digit and one letter
+COMMIT_LIKE = re.compile(r"\b(?=[0-9a-f]*[0-9])(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}\b")
+#: an ISO date, 2026-11-29
+ISO_DATE = re.compile(r"\b(?:19|20)\d\d-[01]\d-[0-3]\d\b")
+
+
+def prose_lines(text: str):
+    """``(line number, line)`` of a page's prose: every line outside fenced code blocks and outside its
+    records tables.
+
+    A *records table* is a Markdown table (consecutive lines starting with ``|``) whose header row (its
+    first line) has a column headed ``record`` or ``records`` (case-insensitive, any text after it, e.g.
+    ``record (tests/measurements/results/)``). Its rows name the stored records a page rests on, and they
+    alone may carry the commit and the date a record was made at."""
+    lines = text.splitlines()
+    fence = in_records = False
+    for n, line in enumerate(lines, 1):
+        if line.startswith("```"):
+            fence = not fence
+            continue
+        if fence:
+            continue
+        if line.startswith("|"):
+            if n == 1 or not lines[n - 2].startswith("|"):           # a table's header row
+                heads = [c.strip().strip("`*").lower() for c in line.strip().strip("|").split("|")]
+                in_records = any(re.match(r"records?\b", h) for h in heads)
+            if in_records:
+                continue
+        yield n, line
+
+
+def test_prose_lines_skip_records_tables_and_code_only():
+    text = ("prose 2026-11-29\n\n| engine | record |\n|---|---|\n| mujoco | `x` at c1353c0, 2026-11-23 |\n\n"
+            "| engine | when |\n|---|---|\n| mujoco | c1353c0 |\n```text\nabc1234 2026-01-01\n```\n")
+    found = [n for n, line in prose_lines(text) if COMMIT_LIKE.search(line) or ISO_DATE.search(line)]
+    assert found == [1, 9]
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "docs").glob("*.md")), ids=_ids(sorted((ROOT / "docs").glob("*.md"))))
+def test_docs_prose_names_no_commit_and_no_date(path):
+    """Docs state today's rules: a commit or a date belongs in CHANGELOG.md or in a records table."""
+    bad = [f"{path.name}:{n}: {m.group(0)}" for n, line in prose_lines(path.read_text())
+           for m in (*COMMIT_LIKE.finditer(line), *ISO_DATE.finditer(line))]
+    assert not bad, ("a commit hash or a date in docs prose (move the story to CHANGELOG.md, or the record "
+                     "to the page's records table): " + "; ".join(bad))
+
+
+def test_check_counts_in_docs_are_the_checkers():
+    """A count of `check-adapter`'s checks drifts as checks are added: the docs give none, except the
+    example report's last line, which is tested against the checker."""
+    from rockbench.engines.checker import CHECKS
+    for path in sorted((ROOT / "docs").glob("*.md")):
+        text = path.read_text()
+        assert not re.search(r"check-adapter[^.\n]{0,40}pass(es|ed)? (all )?\d+ ", text), path.name
+        for passed, total, skipped in re.findall(r"(\d+) of (\d+) checks passed; (\d+) skipped", text):
+            assert int(passed) == int(total) and int(total) + int(skipped) == len(CHECKS), path.name
