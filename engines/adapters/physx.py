@@ -35,10 +35,19 @@ case that poses no step, never coarser than 1/20 of its pulse's wave (the one re
 PhysX's impact loses more energy the longer its step, and the substeps are the knob that moves η
 towards Housner's; PGS because TGS lets the pivot corner creep along the table at friction 10.
 
-Speed
------
-A fresh scene per run (creating one costs well under a millisecond), so no contact cache or warm
-start carries from one case to the next. No batch API on the CPU system: ``batching = "none"``.
+Batches
+-------
+Cases of one block, settings and step run as up to :data:`MAX_WORLDS` worlds of one scene
+(``batching = "native"``): every block at the origin on a table of its own, each world's two shapes
+carrying one bit of PhysX's collision groups, so a block touches its own table only; PhysX's enhanced
+determinism keeps each world's island independent of the others. A world whose run ended is taken
+out of the scene (its components disabled). The scene is built once per block, settings and step and
+reused batch after batch; a world taken back in starts without contact cache, so a cell's answer is
+the same to the last digit alone, in any batch and after any other (PGS; tests/engines/
+test_batch_independence_physx.py). With TGS a world's answer moves with the other worlds in the scene
+(float32 round-off that the rocking grows), so TGS runs one world at a time (docs/physx.md). The drive
+of every PhysX step is computed once per run, and the state of every body is read in one call per
+benchmark step (``PhysxCpuSystem.pack``).
 
 The run, its end and the read-out are the contact base's (:mod:`rockbench.engines.contact`).
 """
@@ -85,6 +94,10 @@ MAX_WORLDS = 32
 
 #: The resolved settings a scene is built with (with the block and the step: the key of a reused scene)
 _SCENE_KEYS = ("drive", "planar", "friction", *SHIPPED_CONTACT)
+
+#: A row's first 13 columns (position, quaternion w x y z, velocity, angular velocity) in a body's record
+#: of ``PhysxCpuSystem.pack`` (quaternion w x y z, position, velocity, angular velocity)
+_ROW_OF_PACK = np.r_[4:7, 0:4, 7:13]
 
 #: The UserWarning SAPIEN raises on import where the system has no libvulkan (only its renderer needs it)
 _VULKAN_WARNING = "Failed to find system libvulkan"
@@ -172,7 +185,7 @@ class _Worlds:
                 table.entity.set_pose(self._pose([0.0, 0.0, self._table_z]))
             self._load(w, pulse, dt, n_steps)
         self._index()
-        return self._rows()[:, None, :]
+        return self._rows([self.system.pack()])
 
     def _enable(self, w: int, on: bool) -> None:
         for comp in self.worlds[w]:
@@ -213,29 +226,28 @@ class _Worlds:
             self._targets = [d for d in self._targets if d[0] != w]
             self._index()
 
-    def _rows(self) -> np.ndarray:
-        """The state now of every world, ``(W, 15)`` (NaN for a world not running): the block's position
-        (3), quaternion w, x, y, z (4), velocity (3), angular velocity (3), then the table's x and ẋ;
-        read in one call from PhysX's packed state (per body: q w x y z, p, v, ω, float32)."""
-        packed = np.frombuffer(self.system.pack(), dtype=np.float32).reshape(-1, 13)
-        out = np.full((len(self.active), 15), np.nan)
-        rec = packed[self._at_block]
-        out[self._on, 0:3], out[self._on, 3:7], out[self._on, 7:13] = rec[:, 4:7], rec[:, 0:4], rec[:, 7:13]
+    def _rows(self, packs: list) -> np.ndarray:
+        """The states of every world ``(W, n, 15)`` (NaN for a world not running) from ``n`` records of
+        :meth:`PhysxCpuSystem.pack` (per body: q w x y z, p, v, ω, float32): the block's position (3),
+        quaternion w, x, y, z (4), velocity (3), angular velocity (3), then the table's x and ẋ."""
+        packed = np.frombuffer(b"".join(packs), dtype=np.float32).reshape(len(packs), -1, 13)
+        out = np.full((len(self.active), len(packs), 15), np.nan)
+        out[self._on, :, :13] = packed[:, self._at_block][..., _ROW_OF_PACK].transpose(1, 0, 2)
         if self.table_drive:
-            tab = packed[self._at_table]
-            out[self._on, 13], out[self._on, 14] = tab[:, 4], tab[:, 7]
+            tab = packed[:, self._at_table].transpose(1, 0, 2)
+            out[self._on, :, 13], out[self._on, :, 14] = tab[..., 4], tab[..., 7]
         else:
-            out[self._on, 13:15] = 0.0
+            out[self._on, :, 13:15] = 0.0
         return out
 
     def advance(self, n_from: int, n_to: int) -> np.ndarray:
         """Benchmark steps ``n_from … n_to − 1`` of every running world (``substeps`` PhysX steps
         each, each world's drive call with its precomputed drive); the states after each step
-        ``(W, n, 15)``."""
-        step, k = self.system.step, self.substeps
-        rows = np.empty((len(self.active), n_to - n_from, 15))
+        ``(W, n, 15)``, read in one call per step (PhysX's packed state of every body)."""
+        step, pack, k = self.system.step, self.system.pack, self.substeps
+        packs = []
         zero = np.zeros(3, dtype=np.float32)
-        for r, i in enumerate(range(n_from, n_to)):
+        for i in range(n_from, n_to):
             for j in range(i * k, (i + 1) * k):
                 for _, add, force, n in self._forces:
                     if j < n:
@@ -243,8 +255,8 @@ class _Worlds:
                 for _, set_target, poses in self._targets:
                     set_target(poses[min(j, len(poses) - 1)])
                 step()
-            rows[:, r] = self._rows()
-        return rows
+            packs.append(pack())
+        return self._rows(packs)
 
 
 class PhysxAdapter(ContactEngine):

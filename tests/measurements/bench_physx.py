@@ -9,6 +9,7 @@ Usage (from the repository's top folder, in the venv, with ``pip install -e '.[p
     python tests/measurements/bench_physx.py cost             # CPU ms per cell, as shipped and calibrated, both drives
     python tests/measurements/bench_physx.py creep            # the pivot corner's slip at friction 10, TGS and PGS
     python tests/measurements/bench_physx.py batch            # CPU ms per cell of 16 B3M sine cells through run_many
+    python tests/measurements/bench_physx.py worlds           # calibrated CPU per cell and per block-step by worlds per scene
 """
 
 from __future__ import annotations
@@ -143,6 +144,26 @@ def cmd_batch(args) -> None:
         print(f"| {label} | {1e3 * best / len(cases):.2f} | {n['overturn']} / {n['rocking']} / {n['rest']} |")
 
 
+def cmd_worlds(args) -> None:
+    """Calibrated CPU per cell and per block-step of :data:`BATCH_CELLS` twice over (32 cells) through
+    ``run_many``, with the adapter's ``max_worlds`` set to each of 1, 4, 8, 16, 32."""
+    print(_stamp(), file=sys.stderr)
+    cases = [_case(*c) for c in BATCH_CELLS] * 2
+    ad = get_adapter("physx")
+    ad.run(cases[0])   # the calibration, cached
+    print("| worlds per scene | CPU ms per cell | CPU µs per block-step |")
+    print("|---|---|---|")
+    for k in (1, 4, 8, 16, 32):
+        ad.max_worlds = k
+        best, out = float("inf"), []
+        for _ in range(args.repeat):
+            c0 = time.process_time()
+            out = ad.run_many(cases)
+            best = min(best, time.process_time() - c0)
+        steps = sum(r.diagnostics["steps"] for r in out)
+        print(f"| {k} | {1e3 * best / len(cases):.2f} | {1e6 * best / steps:.1f} |")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -157,6 +178,9 @@ def main(argv=None) -> int:
     b = sub.add_parser("batch")
     b.add_argument("--repeat", type=int, default=3)
     b.set_defaults(func=cmd_batch)
+    w = sub.add_parser("worlds")
+    w.add_argument("--repeat", type=int, default=2)
+    w.set_defaults(func=cmd_worlds)
     args = p.parse_args(argv)
     args.func(args)
     return 0
