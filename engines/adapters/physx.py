@@ -42,9 +42,9 @@ Cases of one block, settings and step run as up to :data:`MAX_WORLDS` worlds of 
 carrying one bit of PhysX's collision groups, so a block touches its own table only; PhysX's enhanced
 determinism keeps each world's island independent of the others. A world whose run ended is taken
 out of the scene (its components disabled). The scene is built once per block, settings and step and
-reused batch after batch; a world taken back in starts without contact cache, so a cell's answer is
-the same to the last digit alone, in any batch and after any other (PGS; tests/engines/
-test_batch_independence_physx.py). With TGS a world's answer moves with the other worlds in the scene
+reused batch after batch (a world taken back in is re-enabled, placed at rest, its velocities
+zeroed): measured, a cell's answer is the same to the last digit alone on a fresh scene, in any batch
+and after any other (PGS; tests/engines/test_batch_independence_physx.py). With TGS a world's answer moves with the other worlds in the scene
 (float32 round-off that the rocking grows), so TGS runs one world at a time (docs/physx.md). The drive
 of every PhysX step is computed once per run, and the state of every body is read in one call per
 benchmark step (``PhysxCpuSystem.pack``).
