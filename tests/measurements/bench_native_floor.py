@@ -1,6 +1,8 @@
-"""The native floor: what each CPU engine's cell costs through the product against the smallest native
-loop of the same model, and whether both give the same θ history. Measures and prints; it fails (exit 1)
-only where the two θ histories disagree, never on time.
+"""The native floor: each CPU engine's cells through the product and through a minimal native loop.
+
+What a cell costs through the product against the smallest native loop of the same model, and whether
+both give the same θ history. Measures and prints; it fails (exit 1) only where the two θ histories
+disagree, never on time.
 
     python tests/measurements/bench_native_floor.py [--engines mujoco pybullet dart physx exudyn drake]
         [--cells B3M:sine:3:5 B3M:sine:3:1.5 B8M:sine:3:1.5] [--settings calibrated shipped]
@@ -33,18 +35,20 @@ import argparse
 import math
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from records import write_record  # tests/measurements/, on the path when the script runs
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # tests/measurements/: the records module beside this script
+from records import load, write_record  # noqa: E402
 
-from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.benchmark.suites.model import restitution_for
-from rockbench.engines.contract import Case
-from rockbench.engines.motion import theta_of_quat
-from rockbench.engines.registry import get_adapter
-from rockbench.reference_solver.model import G
-from rockbench.reference_solver.pulses import make_pulse
+from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
+from rockbench.benchmark.suites.model import restitution_for  # noqa: E402
+from rockbench.engines.contract import Case  # noqa: E402
+from rockbench.engines.motion import theta_of_quat  # noqa: E402
+from rockbench.engines.registry import get_adapter  # noqa: E402
+from rockbench.reference_solver.model import G  # noqa: E402
+from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
 
 ENGINES = ("mujoco", "pybullet", "dart", "physx", "exudyn", "drake")
 CELLS = ("B3M:sine:3:5", "B3M:sine:3:1.5", "B8M:sine:3:1.5")
@@ -62,8 +66,14 @@ def case_of(text: str) -> Case:
         block = get_preset(block_name).block()
         pulse = make_pulse(pulse_kind, float(a_ratio) * G * math.tan(block.alpha_rad), float(w_ratio) * block.p_rad_s)
     except Exception as e:  # noqa: BLE001 - one line and exit 2
-        sys.exit(f"bench_native_floor: bad cell {text!r} ({e}); give BLOCK:PULSE:W_RATIO:A_RATIO, e.g. B3M:sine:3:5")
+        _refuse(f"bad cell {text!r} ({e}); give BLOCK:PULSE:W_RATIO:A_RATIO, e.g. B3M:sine:3:5")
     return Case(block, pulse, restitution_for("housner", block_name))
+
+
+def _refuse(message: str) -> None:
+    """Bad input: one line on stderr and exit 2."""
+    print(f"bench_native_floor: {message}", file=sys.stderr)
+    sys.exit(2)
 
 
 def cpu_min(fn, repeats: int) -> tuple[float, object]:
@@ -233,6 +243,46 @@ def agrees(row: dict, tol_rad: float) -> bool:
     return "native_error" not in row and max(diffs) <= tol_rad
 
 
+def summary(rows: list[dict]) -> list[dict]:
+    """Per engine and settings, over its cells (those whose native loop ran): the step [s], CPU seconds
+    per simulated second of each path (total CPU over total simulated time), their ratio, the worst
+    cell's ratio, and the batched cost per world and its ratio where the adapter batches."""
+    out: dict = {}
+    for r in rows:
+        if "native_error" in r:
+            continue
+        g = out.setdefault((r["engine"], r["settings"]), {"engine": r["engine"], "settings": r["settings"], "dt_s": set(),
+                                                           "sim_s": 0.0, "product": 0.0, "native": 0.0, "batched": 0.0,
+                                                           "worst_ratio": 0.0, "worlds": None})
+        g["dt_s"].add(r["dt_s"])
+        g["sim_s"] += r["simulated_s"]
+        g["product"] += r["product_cpu_s_per_sim_s"] * r["simulated_s"]
+        g["native"] += r["native_cpu_s_per_sim_s"] * r["simulated_s"]
+        g["worst_ratio"] = max(g["worst_ratio"], r["ratio"])
+        if "batch_worlds" in r:
+            g["worlds"] = r["batch_worlds"]
+            g["batched"] += r["product_batched_cpu_s_per_sim_s"] * r["simulated_s"]
+    for g in out.values():
+        sim = g.pop("sim_s")
+        g.update(dt_s=sorted(g["dt_s"]), product=g["product"] / sim, native=g["native"] / sim)
+        g["ratio"] = g["product"] / g["native"]
+        g["batched"] = g["batched"] / sim if g["worlds"] else None
+    return list(out.values())
+
+
+def markdown_table(figures: dict) -> str:
+    """The record's summary (:func:`summary`) as a Markdown table: CPU s per simulated s."""
+    lines = ["| engine | settings | step | product | native | ratio (worst cell) | batched a world | ratio batched |",
+             "|---|---|---|---|---|---|---|---|"]
+    for g in summary(figures["rows"]):
+        step = ", ".join(f"{1e3 * dt:.3g} ms" for dt in g["dt_s"])
+        batched = (f"{g['batched']:.3g} ({g['worlds']} worlds) | {g['batched'] / g['native']:.2f}"
+                   if g["worlds"] else "– (one world at a time) | –")
+        lines.append(f"| {g['engine']} | {g['settings']} | {step} | {g['product']:.3g} | {g['native']:.3g} | "
+                     f"{g['ratio']:.2f} ({g['worst_ratio']:.2f}) | {batched} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", nargs="+", default=list(ENGINES), choices=list(ENGINES))
@@ -242,9 +292,13 @@ def main(argv=None) -> int:
     ap.add_argument("--max-batch", type=int, default=64, help="most worlds of a batched run (and the adapter's max_worlds)")
     ap.add_argument("--theta-tol-rad", type=float, default=1e-4, help="largest difference of max|θ| and final θ [rad]")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
+    ap.add_argument("--table", metavar="NAME", help="print the record NAME's summary as a Markdown table, run nothing")
     a = ap.parse_args(argv)
+    if a.table:
+        print(markdown_table(load(a.table)["figures"]))
+        return 0
     if a.repeats < 1 or a.max_batch < 1:
-        sys.exit(f"bench_native_floor: --repeats and --max-batch must be ≥ 1, got {a.repeats} and {a.max_batch}")
+        _refuse(f"--repeats and --max-batch must be at least 1, got {a.repeats} and {a.max_batch}")
     cells = [(c, case_of(c)) for c in a.cells]   # a bad cell stops here, before anything runs
     rows = []
     for engine in a.engines:
