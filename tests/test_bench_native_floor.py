@@ -22,15 +22,18 @@ def _row(engine, cell, sim_s, product, native, **kw):
 
 
 def test_table_sums_cells_by_simulated_time_and_leaves_out_failed_loops():
-    rows = [_row("mujoco", "a", 1.0, 0.2, 0.1, batch_worlds=8, product_batched_cpu_s_per_sim_s=0.1),
-            _row("mujoco", "b", 3.0, 0.4, 0.4, batch_worlds=8, product_batched_cpu_s_per_sim_s=0.2),
-            _row("dart", "a", 1.0, 0.3, 0.2),
-            {"engine": "drake", "settings": "calibrated", "cell": "a", "native_error": "KeyError: 'th'"}]
+    """Figures of each engine and settings are totals over its cells; a step per block where they differ."""
+    rows = [_row("mujoco", "B3M:sine:3:5", 1.0, 0.2, 0.1, batch_worlds=8, product_batched_cpu_s_per_sim_s=0.1),
+            _row("mujoco", "B8M:sine:3:1.5", 3.0, 0.4, 0.4, batch_worlds=8, product_batched_cpu_s_per_sim_s=0.2),
+            _row("dart", "B3M:sine:3:5", 1.0, 0.3, 0.2),
+            {"engine": "drake", "settings": "calibrated", "cell": "B3M:sine:3:5", "native_error": "KeyError: 'th'"}]
     lines = _bench().markdown_table({"rows": rows}).splitlines()
     assert len(lines) == 4
     # mujoco: product (0.2 + 1.2)/4 = 0.35, native (0.1 + 1.2)/4 = 0.325, batched (0.1 + 0.6)/4 = 0.175
     assert lines[2] == "| mujoco | calibrated | 0.1 ms | 0.35 | 0.325 | 1.08 (2.00) | 0.175 (8 worlds) | 0.54 |"
     assert lines[3] == "| dart | calibrated | 0.1 ms | 0.3 | 0.2 | 1.50 (1.50) | – (one world at a time) | – |"
+    rows[1]["dt_s"] = 1e-3
+    assert "| 0.1 ms (B3M), 1 ms (B8M) |" in _bench().markdown_table({"rows": rows})
 
 
 def test_a_bad_cell_is_one_line_and_exit_2(capsys):

@@ -6,19 +6,23 @@ disagree, never on time.
 
     python tests/measurements/bench_native_floor.py [--engines mujoco pybullet dart physx exudyn drake]
         [--cells B3M:sine:3:5 B3M:sine:3:1.5 B8M:sine:3:1.5] [--settings calibrated shipped]
-        [--repeats 3] [--max-batch 64] [--record NAME]
+        [--repeats 3] [--max-batch N] [--record NAME] [--table NAME]
 
 For each engine, settings (``calibrated`` at the time-step rule's step, ``shipped`` at the engine's own)
 and cell (``BLOCK:PULSE:W_RATIO:A_RATIO``: ω/p and a₀/(g·tanα), restitution Housner), on a warm adapter
 (its calibration cached and its scene built before the clock starts):
 
 * *product*: the adapter's batch entry ``run_many`` on the cell alone (one world), and on
-  ``min(max_worlds, --max-batch)`` copies of it where the adapter batches (cost per world);
-* *native*: the same scene (the adapter's own ``build``, the block placed by its ``start``), the same
-  step, the same drive (``inertial``: the table fixed, −m·ü on the block, as the adapter averages it
-  over a step) and the same simulated time, stepped by the engine's own API in the smallest loop it
-  has (MuJoCo: one ``rollout`` call; Drake: one ``AdvanceTo``; Exudyn: one ``SolveSteps``; PyBullet,
-  DART, PhysX: a Python loop of step calls reading θ after each).
+  ``max_worlds`` copies of it (at most ``--max-batch``) where the adapter batches (cost per world);
+* *native*: the same scene (the adapter's own ``build``, made before the clock starts; the block placed
+  by its ``start``), the same step, the same drive (``inertial``: the table fixed, −m·ü on the block,
+  as the adapter averages it over a step) and the same simulated time, stepped by the engine's own API
+  in the smallest loop it has (MuJoCo: one ``rollout`` call; Drake: one ``AdvanceTo``; Exudyn: one
+  ``SolveSteps`` a segment of the product's ``segment_s``, since its adaptive step restarts at each
+  call; PyBullet, DART, PhysX: a Python loop of step calls reading θ after each). A product that
+  builds its scene for every case (PhysX) pays for it; the native loop does not.
+
+The batched run is that many copies of the one cell (every world ends at the same step).
 
 The simulated time is the product run's (it stops where floor 1's end-of-run rule stops it). Printed:
 CPU seconds per simulated second of each path (``time.process_time``: every thread of this process,
@@ -76,23 +80,24 @@ def _refuse(message: str) -> None:
     sys.exit(2)
 
 
-def cpu_min(fn, repeats: int) -> tuple[float, object]:
-    """The least CPU time of ``repeats`` calls of ``fn`` [s] and the last call's result."""
-    best, out = math.inf, None
+def cpu_times(fn, repeats: int, prepare=lambda: None) -> tuple[list[float], object]:
+    """The CPU time of each of ``repeats`` calls ``fn(prepare())`` [s], ``prepare`` untimed, and the
+    last call's result."""
+    times, out = [], None
     for _ in range(repeats):
+        given = prepare()
         t0 = time.process_time()
-        out = fn()
-        best = min(best, time.process_time() - t0)
-    return best, out
+        out = fn(given)
+        times.append(time.process_time() - t0)
+    return times, out
 
 
-# --- the native loops: (adapter, case, s, dt, n_steps) -> θ after each step [rad] ---------------------
+# --- the native loops: (adapter, scene, case, s, dt, n_steps) -> θ after each step [rad] --------------
 
-def _started(ad, case: Case, s: dict, dt: float, n_steps: int):
-    """The adapter's scene, built, and its block placed at rest (its ``start``), one world."""
-    scene = ad.build(case.block, s, dt)
-    rows = ad.start(scene, case.block, s, dt, [case.pulse], 0.0, n_steps)
-    return scene, rows
+def _start(ad, scene, case: Case, s: dict, dt: float, n_steps: int):
+    """The block placed at rest in the adapter's scene (its ``build``, made before the clock starts) by
+    its ``start``, one world; the first rows."""
+    return ad.start(scene, case.block, s, dt, [case.pulse], 0.0, n_steps)
 
 
 def _step_average(pulse, dt: float, n: int) -> np.ndarray:
@@ -100,18 +105,18 @@ def _step_average(pulse, dt: float, n: int) -> np.ndarray:
     return np.diff(np.asarray(pulse.vel(np.arange(n + 1) * dt), dtype=float)) / dt
 
 
-def native_mujoco(ad, case, s, dt, n_steps):
+def native_mujoco(ad, scene, case, s, dt, n_steps):
     from mujoco import MjData, rollout   # optional engine library
 
-    scene, rows = _started(ad, case, s, dt, n_steps)
+    rows = _start(ad, scene, case, s, dt, n_steps)
     model = scene["bm"].model
     ctrl = (-case.block.mass_kg * _step_average(case.pulse, dt, n_steps))[:, None]
     states, _ = rollout.rollout(model, MjData(model), rows[0, 0], ctrl, initial_warmstart=np.zeros(model.nv))
     return ad.read(scene, case.block, s, states[0], np.arange(1, n_steps + 1) * dt, case.pulse).theta_rad
 
 
-def native_pybullet(ad, case, s, dt, n_steps):
-    sc, _ = _started(ad, case, s, dt, n_steps)
+def native_pybullet(ad, sc, case, s, dt, n_steps):
+    _start(ad, sc, case, s, dt, n_steps)
     pb, cid, body = sc.pb, sc.cid, sc.block
     n_pulse = int(math.ceil(case.pulse.duration_s / dt - 1e-9))
     acc = (-case.pulse.accel((np.arange(n_steps) + 0.5) * dt)).tolist()   # ü at each step's midpoint
@@ -124,8 +129,8 @@ def native_pybullet(ad, case, s, dt, n_steps):
     return theta
 
 
-def native_dart(ad, case, s, dt, n_steps):
-    scene, _ = _started(ad, case, s, dt, n_steps)
+def native_dart(ad, scene, case, s, dt, n_steps):
+    _start(ad, scene, case, s, dt, n_steps)
     world, block = scene.world, scene.block
     acc = np.zeros(n_steps)
     n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9)))
@@ -138,8 +143,8 @@ def native_dart(ad, case, s, dt, n_steps):
     return theta
 
 
-def native_physx(ad, case, s, dt, n_steps):
-    scene, _ = _started(ad, case, s, dt, n_steps)
+def native_physx(ad, scene, case, s, dt, n_steps):
+    _start(ad, scene, case, s, dt, n_steps)
     step, body, k = scene.system.step, scene.block, scene.substeps
     n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9))) * k
     force = (-case.block.mass_kg * _step_average(case.pulse, dt / k, n_pulse)).astype(np.float32)
@@ -155,9 +160,9 @@ def native_physx(ad, case, s, dt, n_steps):
     return theta_of_quat(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
 
 
-def native_exudyn(ad, case, s, dt, n_steps):
+def native_exudyn(ad, scene, case, s, dt, n_steps):
     # Exudyn's adaptive step restarts at each SolveSteps: the product's segments, solved one call each
-    scene, _ = _started(ad, case, s, dt, n_steps)
+    _start(ad, scene, case, s, dt, n_steps)
     model = scene.model
     chunk = max(1, int(round(float(s["segment_s"]) / dt)))
     model.solver.SolveSteps(model.mbs, model.ss)
@@ -170,8 +175,8 @@ def native_exudyn(ad, case, s, dt, n_steps):
     return -data[keep, 3]   # Exudyn's planar angle is −θ
 
 
-def native_drake(ad, case, s, dt, n_steps):
-    sc, _ = _started(ad, case, s, dt, n_steps)   # the drive loaded into the diagram's source, the block placed
+def native_drake(ad, sc, case, s, dt, n_steps):
+    _start(ad, sc, case, s, dt, n_steps)   # the drive loaded into the diagram's source, the block placed
     sc.simulator.AdvanceTo(n_steps * dt)
     return sc.logger.FindLog(sc.context).data()[sc.iq["th"], 1:n_steps + 1].copy()
 
@@ -191,7 +196,9 @@ def product_history(ad, case: Case) -> tuple[Case, dict, np.ndarray, np.ndarray]
     return posed, s, np.asarray(tr.theta_rad), np.asarray(tr.t_s)
 
 
-def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch: int) -> dict:
+def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch: int | None) -> dict:
+    """One row: the cell's CPU s per simulated s through each path (the least of ``repeats``, every
+    repeat's CPU s kept), their ratio, and the differences of max|θ| and final θ between the paths."""
     ad = get_adapter(engine, settings=settings)
     case = case_of(cell)
     posed, s, theta, t_s = product_history(ad, case)   # warms the adapter: calibration, step, scene
@@ -199,20 +206,23 @@ def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch:
     n_steps = int(round(t_s[-1] / dt))
     sim_s = n_steps * dt
     row = {"engine": engine, "settings": settings, "cell": cell, "dt_s": dt, "steps": n_steps, "simulated_s": sim_s}
-    cpu, results = cpu_min(lambda: ad.run_many([case]), repeats)
-    r = results[0]
-    row.update(outcome=r.outcome, status=r.status, product_cpu_s_per_sim_s=cpu / sim_s,
+    times, results = cpu_times(lambda _: ad.run_many([case]), repeats)
+    cpu, r = min(times), results[0]
+    row.update(outcome=r.outcome, status=r.status, product_cpu_s_per_sim_s=cpu / sim_s, product_cpu_s=times,
                run_many_max_theta_diff_rad=abs(r.max_abs_theta_rad - float(np.max(np.abs(theta)))))
-    worlds = min(ad.max_worlds, max_batch)
+    worlds = min(ad.max_worlds, max_batch or ad.max_worlds)
     if worlds > 1:
-        cpu_b, _ = cpu_min(lambda: ad.run_many([case] * worlds), repeats)
-        row.update(batch_worlds=worlds, product_batched_cpu_s_per_sim_s=cpu_b / worlds / sim_s)
+        times_b, _ = cpu_times(lambda _: ad.run_many([case] * worlds), repeats)
+        row.update(batch_worlds=worlds, product_batched_cpu_s_per_sim_s=min(times_b) / worlds / sim_s,
+                   product_batched_cpu_s=times_b)
     try:
-        cpu_n, native = cpu_min(lambda: NATIVE[engine](ad, posed, s, dt, n_steps), repeats)
+        times_n, native = cpu_times(lambda scene: NATIVE[engine](ad, scene, posed, s, dt, n_steps), repeats,
+                                    lambda: ad.build(case.block, s, dt))
     except Exception as e:  # noqa: BLE001 - recorded, the other engines go on
         row["native_error"] = f"{type(e).__name__}: {e}"
         return row
-    row.update(native_cpu_s_per_sim_s=cpu_n / sim_s, ratio=cpu / cpu_n,
+    cpu_n = min(times_n)
+    row.update(native_cpu_s_per_sim_s=cpu_n / sim_s, ratio=cpu / cpu_n, native_cpu_s=times_n,
                max_theta_diff_rad=abs(float(np.max(np.abs(native))) - float(np.max(np.abs(theta)))),
                final_theta_diff_rad=abs(float(native[-1]) - float(theta[-1])),
                final_theta_rad=float(theta[-1]), max_abs_theta_rad=float(np.max(np.abs(theta))))
@@ -254,7 +264,7 @@ def summary(rows: list[dict]) -> list[dict]:
         g = out.setdefault((r["engine"], r["settings"]), {"engine": r["engine"], "settings": r["settings"], "dt_s": set(),
                                                            "sim_s": 0.0, "product": 0.0, "native": 0.0, "batched": 0.0,
                                                            "worst_ratio": 0.0, "worlds": None})
-        g["dt_s"].add(r["dt_s"])
+        g["dt_s"].add((r["cell"].split(":")[0], r["dt_s"]))
         g["sim_s"] += r["simulated_s"]
         g["product"] += r["product_cpu_s_per_sim_s"] * r["simulated_s"]
         g["native"] += r["native_cpu_s_per_sim_s"] * r["simulated_s"]
@@ -275,7 +285,9 @@ def markdown_table(figures: dict) -> str:
     lines = ["| engine | settings | step | product | native | ratio (worst cell) | batched a world | ratio batched |",
              "|---|---|---|---|---|---|---|---|"]
     for g in summary(figures["rows"]):
-        step = ", ".join(f"{1e3 * dt:.3g} ms" for dt in g["dt_s"])
+        steps = {dt for _, dt in g["dt_s"]}
+        step = (f"{1e3 * steps.pop():.3g} ms" if len(steps) == 1 else
+                ", ".join(f"{1e3 * dt:.3g} ms ({block})" for block, dt in g["dt_s"]))
         batched = (f"{g['batched']:.3g} ({g['worlds']} worlds) | {g['batched'] / g['native']:.2f}"
                    if g["worlds"] else "– (one world at a time) | –")
         lines.append(f"| {g['engine']} | {g['settings']} | {step} | {g['product']:.3g} | {g['native']:.3g} | "
@@ -289,7 +301,8 @@ def main(argv=None) -> int:
     ap.add_argument("--cells", nargs="+", default=list(CELLS), help="BLOCK:PULSE:W_RATIO:A_RATIO each")
     ap.add_argument("--settings", nargs="+", default=["calibrated", "shipped"], choices=["calibrated", "shipped"])
     ap.add_argument("--repeats", type=int, default=3, help="timed repeats of each path; the least CPU time counts")
-    ap.add_argument("--max-batch", type=int, default=64, help="most worlds of a batched run (and the adapter's max_worlds)")
+    ap.add_argument("--max-batch", type=int, default=None,
+                    help="most worlds of a batched run (default: the adapter's max_worlds)")
     ap.add_argument("--theta-tol-rad", type=float, default=1e-4, help="largest difference of max|θ| and final θ [rad]")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
     ap.add_argument("--table", metavar="NAME", help="print the record NAME's summary as a Markdown table, run nothing")
@@ -297,7 +310,7 @@ def main(argv=None) -> int:
     if a.table:
         print(markdown_table(load(a.table)["figures"]))
         return 0
-    if a.repeats < 1 or a.max_batch < 1:
+    if a.repeats < 1 or (a.max_batch is not None and a.max_batch < 1):
         _refuse(f"--repeats and --max-batch must be at least 1, got {a.repeats} and {a.max_batch}")
     cells = [(c, case_of(c)) for c in a.cells]   # a bad cell stops here, before anything runs
     rows = []
