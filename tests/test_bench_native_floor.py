@@ -36,6 +36,13 @@ def test_table_sums_cells_by_simulated_time_and_leaves_out_failed_loops():
     assert "| 0.1 ms (B3M), 1 ms (B8M) |" in _bench().markdown_table({"rows": rows})
 
 
+def test_parts_table_gives_the_rest_of_run_many():
+    rows = [_row("dart", "B3M:sine:3:5", 1.0, 0.3, 0.2, product_cpu_s=[0.006, 0.005], native_cpu_s=[0.002],
+                 product_parts={"posed_cpu_s": 0.001, "loop_cpu_s": 0.003})]
+    lines = _bench().parts_table({"rows": rows}).splitlines()
+    assert lines[2] == "| dart | calibrated | 5.00 | 1.00 | 3.00 | 1.00 | 2.00 |"
+
+
 def test_a_bad_cell_is_one_line_and_exit_2(capsys):
     with pytest.raises(SystemExit) as e:
         _bench().main(["--cells", "B3M:sine:3"])

@@ -196,6 +196,15 @@ def product_history(ad, case: Case) -> tuple[Case, dict, np.ndarray, np.ndarray]
     return posed, s, np.asarray(tr.theta_rad), np.asarray(tr.t_s)
 
 
+def product_parts(ad, case: Case, posed: Case, s: dict, repeats: int) -> dict:
+    """Where one world's ``run_many`` goes [CPU s, least of ``repeats``]: posing the case (its step,
+    ``posed``), the contact base's loop (``run_worlds``: the scene, start, advance, read, the end-of-run
+    tests, the trajectory); the rest of ``run_many`` (the resolution, the judge) is the difference."""
+    posing, _ = cpu_times(lambda _: ad.posed(case), repeats)
+    loop, _ = cpu_times(lambda _: ad.run_worlds(case.block, s, posed.dt_s, [case.pulse]), repeats)
+    return {"posed_cpu_s": min(posing), "loop_cpu_s": min(loop)}
+
+
 def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch: int | None) -> dict:
     """One row: the cell's CPU s per simulated s through each path (the least of ``repeats``, every
     repeat's CPU s kept), their ratio, and the differences of max|θ| and final θ between the paths."""
@@ -209,7 +218,8 @@ def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch:
     times, results = cpu_times(lambda _: ad.run_many([case]), repeats)
     cpu, r = min(times), results[0]
     row.update(outcome=r.outcome, status=r.status, product_cpu_s_per_sim_s=cpu / sim_s, product_cpu_s=times,
-               run_many_max_theta_diff_rad=abs(r.max_abs_theta_rad - float(np.max(np.abs(theta)))))
+               run_many_max_theta_diff_rad=abs(r.max_abs_theta_rad - float(np.max(np.abs(theta)))),
+               product_parts=product_parts(ad, case, posed, s, repeats))
     worlds = min(ad.max_worlds, max_batch or ad.max_worlds)
     if worlds > 1:
         times_b, _ = cpu_times(lambda _: ad.run_many([case] * worlds), repeats)
@@ -295,6 +305,25 @@ def markdown_table(figures: dict) -> str:
     return "\n".join(lines)
 
 
+def parts_table(figures: dict) -> str:
+    """Where one world's ``run_many`` goes (:func:`product_parts`), per engine and settings, as a Markdown
+    table: mean CPU ms a cell over the cells whose native loop ran."""
+    groups: dict = {}
+    for r in figures["rows"]:
+        if "native_error" not in r and "product_parts" in r:
+            groups.setdefault((r["engine"], r["settings"]), []).append(r)
+    lines = ["| engine | settings | run_many | posing the case | the loop (run_worlds) | the rest | native loop |",
+             "|---|---|---|---|---|---|---|"]
+    for (engine, settings), rows in groups.items():
+        product = np.mean([min(r["product_cpu_s"]) for r in rows])
+        posed = np.mean([r["product_parts"]["posed_cpu_s"] for r in rows])
+        loop = np.mean([r["product_parts"]["loop_cpu_s"] for r in rows])
+        native = np.mean([min(r["native_cpu_s"]) for r in rows])
+        lines.append(f"| {engine} | {settings} | {1e3 * product:.2f} | {1e3 * posed:.2f} | {1e3 * loop:.2f} | "
+                     f"{1e3 * (product - posed - loop):.2f} | {1e3 * native:.2f} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", nargs="+", default=list(ENGINES), choices=list(ENGINES))
@@ -305,10 +334,12 @@ def main(argv=None) -> int:
                     help="most worlds of a batched run (default: the adapter's max_worlds)")
     ap.add_argument("--theta-tol-rad", type=float, default=1e-4, help="largest difference of max|θ| and final θ [rad]")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
-    ap.add_argument("--table", metavar="NAME", help="print the record NAME's summary as a Markdown table, run nothing")
+    ap.add_argument("--table", metavar="NAME", help="print the record NAME's summary and where run_many's time goes "
+                    "as Markdown tables, run nothing")
     a = ap.parse_args(argv)
     if a.table:
-        print(markdown_table(load(a.table)["figures"]))
+        figures = load(a.table)["figures"]
+        print(markdown_table(figures) + "\n\n" + parts_table(figures))
         return 0
     if a.repeats < 1 or (a.max_batch is not None and a.max_batch < 1):
         _refuse(f"--repeats and --max-batch must be at least 1, got {a.repeats} and {a.max_batch}")
