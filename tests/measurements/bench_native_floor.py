@@ -16,19 +16,21 @@ and cell (``BLOCK:PULSE:W_RATIO:A_RATIO``: ω/p and a₀/(g·tanα), restitution
   ``max_worlds`` copies of it (at most ``--max-batch``) where the adapter batches (cost per world);
 * *native*: the same scene (the adapter's own ``build``, made before the clock starts; the block placed
   by its ``start``), the same step, the same drive (``inertial``: the table fixed, −m·ü on the block,
-  as the adapter averages it over a step) and the same simulated time, stepped by the engine's own API
-  in the smallest loop it has (MuJoCo: one ``rollout`` call; Drake: one ``AdvanceTo``; Exudyn: one
-  ``SolveSteps`` a segment of the product's ``segment_s``, since its adaptive step restarts at each
-  call; PyBullet, DART, PhysX: a Python loop of step calls reading θ after each). A product that
-  builds its scene for every case (PhysX) pays for it; the native loop does not.
+  ü as the adapter takes it: the step average, PyBullet's at the step's midpoint) and the same simulated
+  time, stepped by the engine's own API in the smallest loop it has (MuJoCo: one ``rollout`` call;
+  Drake: one ``AdvanceTo``; Exudyn: one ``SolveSteps`` a segment of the product's ``segment_s``, since
+  its adaptive step restarts at each call; PyBullet, DART, PhysX: a Python loop of step calls reading θ
+  after each). A product that builds its scene for every case (PhysX) pays for it; the native loop
+  does not.
 
 The batched run is that many copies of the one cell (every world ends at the same step).
 
 The simulated time is the product run's (it stops where floor 1's end-of-run rule stops it). Printed:
 CPU seconds per simulated second of each path (``time.process_time``: every thread of this process,
 the minimum of ``--repeats``), the ratio product/native single-world and batched (the batched cost per
-world over the native single-world loop), and the differences of max|θ| and final θ between the paths
-(they must agree to ``--theta-tol-rad``). The native loops reach into each adapter's scene for the
+world over the native single-world loop), the differences of max|θ| and final θ between the paths
+(they must agree to ``--theta-tol-rad``), and where one world's ``run_many`` goes (posing the case, the
+contact base's loop, the rest). The native loops reach into each adapter's scene for the
 engine's own objects (a model, a world, a simulator): an adapter that changes its scene needs its loop
 here changed too (a loop that fails is printed and recorded, the other engines go on).
 """
@@ -271,9 +273,9 @@ def summary(rows: list[dict]) -> list[dict]:
     for r in rows:
         if "native_error" in r:
             continue
-        g = out.setdefault((r["engine"], r["settings"]), {"engine": r["engine"], "settings": r["settings"], "dt_s": set(),
-                                                           "sim_s": 0.0, "product": 0.0, "native": 0.0, "batched": 0.0,
-                                                           "worst_ratio": 0.0, "worlds": None})
+        g = out.setdefault((r["engine"], r["settings"]),
+                           {"engine": r["engine"], "settings": r["settings"], "dt_s": set(), "sim_s": 0.0,
+                            "product": 0.0, "native": 0.0, "batched": 0.0, "worst_ratio": 0.0, "worlds": None})
         g["dt_s"].add((r["cell"].split(":")[0], r["dt_s"]))
         g["sim_s"] += r["simulated_s"]
         g["product"] += r["product_cpu_s_per_sim_s"] * r["simulated_s"]
@@ -332,7 +334,8 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="timed repeats of each path; the least CPU time counts")
     ap.add_argument("--max-batch", type=int, default=None,
                     help="most worlds of a batched run (default: the adapter's max_worlds)")
-    ap.add_argument("--theta-tol-rad", type=float, default=1e-4, help="largest difference of max|θ| and final θ [rad]")
+    ap.add_argument("--theta-tol-rad", type=float, default=1e-4,
+                    help="largest difference of max|θ| and final θ [rad]")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
     ap.add_argument("--table", metavar="NAME", help="print the record NAME's summary and where run_many's time goes "
                     "as Markdown tables, run nothing")
@@ -351,7 +354,8 @@ def main(argv=None) -> int:
                 rows.append(measure_cell(engine, settings, cell, a.repeats, a.max_batch))
                 print(line(rows[-1]), flush=True)
         if a.record:   # rewritten after each engine, so a stopped run keeps what it measured
-            write_record(a.record, MEASURES, "python tests/measurements/bench_native_floor.py " + " ".join(argv or sys.argv[1:]),
+            command = "python tests/measurements/bench_native_floor.py " + " ".join(argv or sys.argv[1:])
+            write_record(a.record, MEASURES, command,
                          {"rows": rows, "repeats": a.repeats, "theta_tol_rad": a.theta_tol_rad},
                          packages=("mujoco", "pybullet", "dartpy", "sapien", "exudyn", "drake"))
     bad = [r for r in rows if not agrees(r, a.theta_tol_rad)]
