@@ -14,7 +14,7 @@ from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, PLANTED_CLASS, settings_class, variant_label
 from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
-from rockbench.benchmark.scoring.tables import best_group_marks, ranked_summary, summary_table
+from rockbench.benchmark.scoring.tables import best_group_marks, primary_cell, ranked_summary, summary_table
 from rockbench.benchmark.maps.result import MapResult
 from rockbench.benchmark.scoring.metrics import boundary_distance
 from rockbench.benchmark.scoring.scenarios import (RESOLUTION_SD_CELLS, Scenario, Variant, entries, items,
@@ -343,6 +343,29 @@ def test_a_failing_variant_is_named_with_its_reason():
     assert "MuJoCo as shipped" in short and "overturns where the reference stands, 100 %" in short
 
 
+def test_a_missing_boundary_is_reported_as_a_failure_not_averaged():
+    """A scenario where the engine's map has no boundary holds the map's diagonal, a placeholder: the
+    variant fails there, says what its cells do instead, and has no mean or interval; its other
+    scenarios' real distances are named as distances."""
+    doc = _doc({"m": [18.6, 0.9, 18.6, 0.02, 0.01, 0.01, 0.01, 0.01], "p": [0.01] * 8},
+               m={"settings": AS_SHIPPED, "overturn_extra": 1470})
+    for q in doc["pairs"]:
+        q["cells"].update(engine_crossings=0 if q["scores"]["boundary_mean"] == 18.6 else 40, reference_crossings=40)
+    v = verdict(doc)
+    row = next(r for r in v["variants"] if r["variant"] == "m")
+    assert row["fails"] and row["value"] is None and row["ci95"] is None and row["se"] is None
+    first = row["fails_in"][0]
+    assert first["missing_boundary"] == "engine" and first["value"] is None and first["extra"] == pytest.approx(0.98)
+    assert [b["value"] for b in row["fails_in"]] == [None, None, 0.9]
+    assert {s["missing_boundary"] for s in row["per_scenario"] if s["value"] is None} == {"engine"}
+    text = " ".join(v["text"])
+    assert "B3M sine: no boundary, overturns in 98 % of the 1500 cells where the reference stays standing" in text
+    assert "18.6" not in text and "(mean" not in text.split("Fail (")[1].split("m:")[0]
+    assert "B3M sine no boundary" in " ".join(v["short"])
+    assert primary_cell(row).startswith("fails: B3M sine: no boundary")
+    assert primary_cell(next(r for r in v["variants"] if r["variant"] == "p")).startswith("0.010 [")
+
+
 def test_verdict_object_in_score_json_shape():
     v = verdict(_doc({"a": [0.01] * 8, "b": [0.01] * 8}))
     assert v["metric"] == PRIMARY_METRIC and v["direction"] == "lower"
@@ -399,7 +422,7 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     assert code == 0
     assert out.index("Verdict") < out.index("Summary")
     doc = json.loads((root / "score.json").read_text())
-    assert doc["schema_version"] == 2 and doc["metrics_version"] == "7"
+    assert doc["schema_version"] == 2 and doc["metrics_version"] == "8"
     # no suite.json beside the maps: the code's declarations, and a note that says so
     assert doc["verdict"]["declared"]["source"].startswith("the code's defaults")
     assert "rockbench: note: the verdict's declarations are the code's defaults" in err and "fail_distance 0.3" in err

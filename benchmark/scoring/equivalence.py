@@ -28,14 +28,16 @@ def margin_of(s: Scenario, declared: Declared) -> float | None:
 
 def restitution_test(v: Variant, declared: Declared) -> dict | None:
     """The equivalence of a variant's in-sample distances with the margin (module docstring); None
-    without a scenario that has a margin.
+    without a scenario that has a margin, or with a scenario whose boundary is missing.
 
     The margin is taken as declared: the gap as measured on the suite's grid, its own grid error not
     carried (a margin is a definition, not an estimate)."""
+    if v.placeholders():
+        return None                      # a missing boundary has no distance to test
     rows, ratio_items = [], []
     for (block, pulse), s in sorted(v.scenarios.items()):
         m = margin_of(s, declared)
-        if s.held_out or not math.isfinite(s.value) or m is None:
+        if s.held_out or not math.isfinite(s.distance) or m is None:
             continue
         up = upper_bound(s.value, s.sd)
         rows.append({"block": block, "pulse": pulse, "value": s.value, "upper": up, "margin": m,

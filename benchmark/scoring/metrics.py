@@ -50,7 +50,7 @@ from rockbench.benchmark.maps.boundary import LocatedBoundary
 from rockbench.benchmark.maps.result import FAILED, MapResult
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
-METRICS_VERSION = "7"
+METRICS_VERSION = "8"
 
 REST = OUTCOME_CODES[Outcome.REST]
 ROCKING = OUTCOME_CODES[Outcome.ROCKING]
@@ -342,12 +342,24 @@ def boundary_distance(eng: MapResult, ref: MapResult) -> tuple[float, float]:
     ce, cr = judged_crossings(eng, ref)
     if not ce.any() and not cr.any():
         return 0.0, 0.0
-    if be.n_crossings == 0 or br.n_crossings == 0 or not ce.any() or not cr.any():
+    if missing_boundary(int(ce.sum()), int(cr.sum())):
         diag = math.hypot(ref.w_ratio[-1] - ref.w_ratio[0], ref.a_ratio[-1] - ref.a_ratio[0])
         return diag, diag
     d = np.concatenate([point_segment_distances(be.points[ce], br.segments()),
                         point_segment_distances(br.points[cr], be.segments())])
     return float(d.mean()), float(d.max())
+
+
+def missing_boundary(engine_crossings: int, reference_crossings: int) -> str:
+    """Which map has no boundary that the metrics count while the other has one: ``"engine"``,
+    ``"reference"`` or ``""`` (both have one, or neither). Where one side lacks a boundary,
+    ``boundary_mean`` and ``boundary_max`` are the map's diagonal, a placeholder for "no boundary" and
+    not a distance: the verdict reports such a scenario as what failed, never in a mean
+    (:mod:`rockbench.benchmark.scoring.failing`). The counts are :func:`judged_crossings`' (score.json's
+    ``cells.engine_crossings`` and ``cells.reference_crossings``)."""
+    if (engine_crossings > 0) == (reference_crossings > 0):
+        return ""
+    return "engine" if engine_crossings == 0 else "reference"
 
 
 def critical_amplitude(m: MapResult) -> np.ndarray:

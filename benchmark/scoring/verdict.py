@@ -82,12 +82,12 @@ def _order(r: dict):
 
 def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: Declared, twin: Variant | None) -> dict:
     e = fixed(list(items(v).values()))
-    value = None if not e["items"] else e["mean"]
+    value = None if not e["items"] or v.placeholders() else e["mean"]   # never a mean over placeholders
     limit = declared.fail_distance
     row = {"variant": v.name, "engine": v.engine, "label": v.label, "settings": v.settings, "group": group_of(v),
            "value": value, "se": None if value is None else e["se"],
            "ci95": None if value is None else [max(e["ci95"][0], PRIMARY.perfect), e["ci95"][1]],
-           "basis": _basis(e), "rank": rk.get(v.name), "pairs": len(v.scenarios),
+           "basis": _basis(e) if value is not None else "", "rank": rk.get(v.name), "pairs": len(v.scenarios),
            "scenarios_with_value": e["items"], "clusters": e["clusters"],
            "cells_judged": v.counts.get("cells_in_domain", 0), "cell_diagonal": _mean_cell(v),
            "fails": fails(v, limit), "fails_in": failing_scenarios(v, limit), "reasons": reasons(v),
@@ -139,15 +139,17 @@ def _mean_cell(v: Variant) -> float:
 
 
 def per_scenario(v: Variant, limit: float) -> list[dict]:
-    """score.json's per-scenario values of a variant: value, own error, cluster, the η_H–η_M gap and the
-    value over it, held-out or not, and whether it fails there."""
+    """score.json's per-scenario values of a variant: value (None where a map has no boundary, named in
+    ``missing_boundary``), own error, cluster, the η_H–η_M gap and the value over it, held-out or not,
+    and whether it fails there."""
     bad = {(b["block"], b["pulse"]) for b in failing_scenarios(v, limit)}
     out = []
     for (block, pulse), s in sorted(v.scenarios.items()):
         gap = s.gap if math.isfinite(s.gap) else None
-        out.append({"block": block, "pulse": pulse, "cluster": list(s.cluster), "value": _num(s.value),
+        out.append({"block": block, "pulse": pulse, "cluster": list(s.cluster), "value": _num(s.distance),
+                    "missing_boundary": s.missing_boundary or None,
                     "sd": s.sd, "cell_diagonal": s.cell, "reference_gap": gap,
-                    "relative_to_gap": _num(s.value / s.gap) if gap else None, "held_out": s.held_out,
+                    "relative_to_gap": _num(s.distance / s.gap) if gap else None, "held_out": s.held_out,
                     "fails": (block, pulse) in bad})
     return out
 

@@ -9,6 +9,7 @@ import math
 
 from rockbench.benchmark.scoring.comparisons import COMPARED
 from rockbench.benchmark.scoring.declared import RESTITUTION_GAP
+from rockbench.benchmark.scoring.failing import scenario_words
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, engine_name
 
 #: The most words the short verdict may have.
@@ -179,20 +180,21 @@ _NAMED = 3
 
 
 def _failure(row: dict, by: dict) -> str:
-    if row["value"] is None:
+    if not row["fails_in"]:
         why = ["nothing it simulated could be judged"]
     else:
-        worst = [f"{b['block']} {b['pulse']} at {number(b['value'])}" for b in row["fails_in"][:_NAMED]]
+        worst = [scenario_words(b) for b in row["fails_in"][:_NAMED]]
         more = len(row["fails_in"]) - _NAMED
         first = row["fails_in"][0]
         coarse = ("" if first.get("beyond_error", True) else
                   f", which the grid's own error there, {number(first['sd'])}, does not resolve: a grid too coarse "
                   "for the limit decided it")
-        why = [f"off in {_and(worst)}" + (f" and {_plural(more, 'more scenario')}" if more > 0 else "")
+        why = [f"off in {'; '.join(worst)}" + (f" and {_plural(more, 'more scenario')}" if more > 0 else "")
                + f" (limit {declared_number(first['limit'])}{coarse})"] + row["reasons"]
     if row["shipped_note"]:
         why.append(row["shipped_note"].rstrip("."))
-    return f"{_name(row, by)} (mean {number(row['value'])}): {', and '.join(why)}"
+    mean = f" (mean {number(row['value'])})" if row["value"] is not None else ""
+    return f"{_name(row, by)}{mean}: {', and '.join(why)}"
 
 
 def _margin_words(margin) -> str:
@@ -392,11 +394,12 @@ def _short_class(cls: str, fam: dict, v: dict, by: dict, level: int) -> str:
 
 def _short_failure(r: dict, names: dict, level: int) -> str:
     name = names[r["variant"]]
-    if r["value"] is None:
+    if not r["fails_in"]:
         return f"{name} (nothing judged)"
     w = r["fails_in"][0]
-    bits = [f"{w['block']} {w['pulse']} {number(w['value'])}" + ("" if w.get("beyond_error", True) or level >= 2
-                                                                 else ", within the grid's error")]
+    head = (f"{w['block']} {w['pulse']} no boundary" if w.get("missing_boundary")
+            else f"{w['block']} {w['pulse']} {number(w['value'])}")
+    bits = [head + ("" if w.get("beyond_error", True) or level >= 2 else ", within the grid's error")]
     if level < 2 and r.get("reason_kinds"):
         k = r["reason_kinds"][0]
         bits.append(f"{_SHORT_REASONS[k['kind']]}, {100 * k['share']:.0f} %")

@@ -17,6 +17,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from records import load  # noqa: E402
 
+from rockbench.benchmark.scoring.failing import scenario_words  # noqa: E402
+
 #: How the README names each settings class of the verdict, in the order it lists them.
 CLASSES = {"calibrated": "calibrated to η_H", "as-shipped": "as shipped", "held-out": "held out"}
 
@@ -31,6 +33,9 @@ def _engine(label: str) -> str:
 
 
 def _worst(r: dict) -> str:
+    missing = [s for s in r["per_scenario"] if s.get("missing_boundary")]
+    if missing:
+        return f"{len(missing)} of {len(r['per_scenario'])} without a boundary"
     s = max(r["per_scenario"], key=lambda s: s["value"])
     return f"{s['block']} {s['pulse']} {_num(s['value'])}"
 
@@ -38,6 +43,8 @@ def _worst(r: dict) -> str:
 def _standing(r: dict) -> str:
     if r["fails"]:
         f = r["fails_in"][0]
+        if f.get("missing_boundary"):
+            return f"fails: {scenario_words(f)}"
         return f"fails: {f['block']} {f['pulse']} {_num(f['value'])} > {f['limit']:g}"
     if r["group"] == "held-out":
         h = r["held_out"]
@@ -56,7 +63,8 @@ def rows(verdict: dict) -> list[str]:
     out = []
     for r in variants:
         own = r["held_out"] if r["group"] == "held-out" else r   # a held-out value is its test's
-        value = f"{_num(own['value'])} [{_num(own['ci95'][0])}, {_num(own['ci95'][1])}]"
+        value = ("no mean: a map without a boundary" if own["value"] is None else
+                 f"{_num(own['value'])} [{_num(own['ci95'][0])}, {_num(own['ci95'][1])}]")
         if r.get("in_best_subset") and not r["fails"]:
             value = f"**{value}**"
         out.append(f"| {CLASSES[r['group']]} | {_engine(r['label'])} | {value} | {_standing(r)} | {_worst(r)} |")

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 
+from rockbench.benchmark.scoring.failing import scenario_words
 from rockbench.benchmark.scoring.labels import for_matplotlib
 from rockbench.benchmark.scoring.verdict_words import delta_words, number
 from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, tint
@@ -82,8 +83,8 @@ def _row(g: str, r: dict) -> dict:
                    mark="planted", right=f"{number(r['value'])}")
     elif g == "fails":
         w = r["fails_in"][0] if r["fails_in"] else None
-        row.update(mark="fails", right=(f"{number(r['value'])}; {w['block']} {w['pulse']} {number(w['value'])}" if w
-                                        else "nothing judged"))
+        mean = f"{number(r['value'])}; " if r["value"] is not None else ""
+        row.update(mark="fails", right=(mean + scenario_words(w) if w else "nothing judged"))
     elif g == "other":
         row.update(mark="other", right=f"{number(r['value'])} [{number(lo)}, {number(hi)}]")
     else:
