@@ -55,6 +55,34 @@ def test_a_slanted_boundary_shifted_by_delta_gives_delta_cos_not_the_offset_alon
     assert mx == pytest.approx(delta, abs=1e-3)
 
 
+@pytest.mark.parametrize("delta", [0.137, -0.137])
+def test_a_boundary_shifted_by_delta_gives_that_signed_offset(delta):
+    """An engine boundary δ below the reference's (it overturns at a lower amplitude: less stable) gives
+    boundary_offset +δ, one above gives −δ; as a share of the reference's critical amplitude 4.3,
+    100·δ/4.3 %. The distance is |δ| either way."""
+    s = score(straight(4.3 - delta, 0.0), straight(4.3, 0.0))
+    assert s["boundary_offset"] == pytest.approx(delta, abs=1e-3)
+    assert s["boundary_offset_percent"] == pytest.approx(100 * delta / 4.3, abs=0.03)
+    assert s["boundary_mean"] == pytest.approx(abs(delta), abs=1e-3)
+
+
+def test_a_slanted_boundary_shifted_gives_its_normal_offset_with_its_sign():
+    delta = 0.2
+    s = score(straight(2.0 - delta, 0.6), straight(2.0, 0.6))
+    assert s["boundary_offset"] == pytest.approx(s["boundary_mean"], rel=1e-12)
+    assert s["boundary_offset"] == pytest.approx(delta * math.cos(math.atan(0.6)), rel=0.02)
+    assert score(straight(2.0 + delta, 0.6), straight(2.0, 0.6))["boundary_offset"] < 0
+
+
+def test_the_offset_is_nan_without_a_boundary_and_judged_by_its_size():
+    from rockbench.benchmark.scoring.metrics import METRICS, check_gate
+    none = MapResult.from_outcomes(W, A, np.full((A.size, W.size), ROCKING))
+    assert math.isnan(score(none, straight(4.3, 0.0))["boundary_offset"])
+    m = METRICS["boundary_offset"]
+    assert m.worse(-0.05, 0.01) and not m.worse(-0.01, 0.02, tol=0.0)
+    assert check_gate({"boundary_offset": -0.2}, {"boundary_offset": 0.1})
+
+
 def test_symmetric_and_perfect_against_itself():
     a, b = straight(2.0, 0.6), straight(2.3, 0.45)
     assert boundary_distance(a, b) == pytest.approx(boundary_distance(b, a), rel=1e-12)

@@ -366,6 +366,20 @@ def test_a_missing_boundary_is_reported_as_a_failure_not_averaged():
     assert primary_cell(next(r for r in v["variants"] if r["variant"] == "p")).startswith("0.010 [")
 
 
+def test_the_signed_offset_stands_beside_the_distance():
+    """Each scenario's boundary_offset goes into the verdict per scenario and, averaged like the value
+    (sizes of a problem first), per variant; the best's words say early or late."""
+    doc = _doc({"e": [0.005] * 8, "p": [0.01] * 8})
+    offsets = [0.01, -0.01, 0.03, 0.01, 0.03, 0.01, 0.01, -0.01]
+    for q, x in zip([q for q in doc["pairs"] if q["variant"] == "e"], offsets):
+        q["scores"].update(boundary_offset=x, boundary_offset_percent=10 * x)
+    v = verdict(doc)
+    row = next(r for r in v["variants"] if r["variant"] == "e")
+    assert row["offset"] == pytest.approx(np.mean(offsets)) and row["offset_percent"] == pytest.approx(10 * np.mean(offsets))
+    assert [s["offset"] for s in row["per_scenario"]] == [x for _, x in sorted(zip(SCENARIOS, offsets))]
+    assert "offset +0.010 (+0.1 % of a_crit: overturns early)" in " ".join(v["text"])
+
+
 def test_verdict_object_in_score_json_shape():
     v = verdict(_doc({"a": [0.01] * 8, "b": [0.01] * 8}))
     assert v["metric"] == PRIMARY_METRIC and v["direction"] == "lower"

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, settings_class
-from rockbench.benchmark.scoring.metrics import PRIMARY_METRIC, missing_boundary
+from rockbench.benchmark.scoring.metrics import OFFSET, OFFSET_PERCENT, PRIMARY_METRIC, missing_boundary
 
 
 @dataclass
@@ -56,6 +56,10 @@ class Scenario:
         map's diagonal, a placeholder, not a distance; ``""`` otherwise.
     counts : dict
         Its pair's cell counts (:data:`_SUMMED`): what a failure there gets wrong.
+    offset, offset_percent : float
+        Its signed boundary offset [w/a units] and that in % of the reference's critical amplitude
+        (``boundary_offset``, ``boundary_offset_percent``: + the engine overturns earlier); NaN where the
+        pair has none.
     """
 
     value: float
@@ -67,6 +71,8 @@ class Scenario:
     held_out: bool = False
     missing_boundary: str = ""
     counts: dict = field(default_factory=dict)
+    offset: float = math.nan
+    offset_percent: float = math.nan
 
     @property
     def distance(self) -> float:
@@ -180,7 +186,12 @@ def scenario_of(p: dict, gaps: dict | None = None) -> Scenario:
     return Scenario(math.nan if value is None else float(value), resolution_sd(cell, int(depth or 0)), max(cell, _TINY),
                     cluster_of(p), (gaps or {}).get((p["block"], p["pulse"]), math.nan),
                     p.get("engine_cells"), bool(p.get("held_out")), missing,
-                    {k: int(p.get(k) or 0) for k in _SUMMED})
+                    {k: int(p.get(k) or 0) for k in _SUMMED}, _float(p["scores"].get(OFFSET)),
+                    _float(p["scores"].get(OFFSET_PERCENT)))
+
+
+def _float(x) -> float:
+    return math.nan if x is None else float(x)
 
 
 def reference_gaps(doc: dict) -> dict:

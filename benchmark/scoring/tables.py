@@ -7,7 +7,7 @@ import math
 import textwrap
 
 from rockbench.benchmark.scoring.failing import scenario_words
-from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
+from rockbench.benchmark.scoring.metrics import METRICS, NEARER_ZERO, PRIMARY_METRIC
 from rockbench.benchmark.scoring.verdict import verdict
 from rockbench.benchmark.scoring.verdict_words import METHOD, number
 
@@ -130,7 +130,7 @@ def best_group_marks(ranked: list[tuple[dict, dict]]) -> dict[str, list[bool]]:
         vals = [row[m] for (r, row), t in zip(ranked, top) if t and math.isfinite(row[m])]
         all_vals = {row[m] for _, row in ranked if math.isfinite(row[m])}
         if vals and len(all_vals) > 1:
-            best = max(vals) if spec.direction == "higher" else min(vals)
+            best = max(vals) if spec.direction == "higher" else min(vals, key=abs if spec.direction == NEARER_ZERO else None)
             marks[m] = [t and row[m] == best for (r, row), t in zip(ranked, top)]
     return marks
 

@@ -96,7 +96,7 @@ def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: D
            "held_out": held_out_check(v, twin, declared), "general": general_value(v, scope),
            "planted": None if v.planted_factor is None else {"eta_factor": v.planted_factor,
                                                              "delta": 1.0 - v.planted_factor},
-           "per_scenario": per_scenario(v, limit)}
+           **offsets(v), "per_scenario": per_scenario(v, limit)}
     row.update(_standing(v, fams))
     return row
 
@@ -138,16 +138,33 @@ def _mean_cell(v: Variant) -> float:
     return sum(cells) / len(cells) if cells else math.nan
 
 
+def offsets(v: Variant) -> dict:
+    """A variant's signed boundary offset beside its distance: ``offset`` [w/a units] and
+    ``offset_percent`` [% of the reference's critical amplitude], each the mean over problems of its
+    in-sample scenarios that have one (sizes of a problem averaged first, as the value), + where the
+    engine overturns at a lower amplitude than the reference; None where no scenario has one (a record
+    scored before the metric, or every scenario without a boundary)."""
+    out = {"offset": None, "offset_percent": None}
+    if v.placeholders():
+        return out                       # no mean where a scenario has no boundary
+    for key, attr in (("offset", "offset"), ("offset_percent", "offset_percent")):
+        its = [(getattr(s, attr), 0.0, s.cluster) for s in v.scenarios.values()
+               if not s.held_out and math.isfinite(getattr(s, attr)) and math.isfinite(s.distance)]
+        out[key] = _num(fixed(its)["mean"]) if its else None
+    return out
+
+
 def per_scenario(v: Variant, limit: float) -> list[dict]:
     """score.json's per-scenario values of a variant: value (None where a map has no boundary, named in
-    ``missing_boundary``), own error, cluster, the η_H–η_M gap and the value over it, held-out or not,
+    ``missing_boundary``), its signed offset (``offset``, ``offset_percent``), own error, cluster, the η_H–η_M gap and the value over it, held-out or not,
     and whether it fails there."""
     bad = {(b["block"], b["pulse"]) for b in failing_scenarios(v, limit)}
     out = []
     for (block, pulse), s in sorted(v.scenarios.items()):
         gap = s.gap if math.isfinite(s.gap) else None
         out.append({"block": block, "pulse": pulse, "cluster": list(s.cluster), "value": _num(s.distance),
-                    "missing_boundary": s.missing_boundary or None,
+                    "missing_boundary": s.missing_boundary or None, "offset": _num(s.offset),
+                    "offset_percent": _num(s.offset_percent),
                     "sd": s.sd, "cell_diagonal": s.cell, "reference_gap": gap,
                     "relative_to_gap": _num(s.distance / s.gap) if gap else None, "held_out": s.held_out,
                     "fails": (block, pulse) in bad})

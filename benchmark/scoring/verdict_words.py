@@ -84,7 +84,18 @@ def _figure(row: dict) -> str:
         return "no value (nothing it simulated could be judged)"
     lo, hi = row["ci95"]
     return (f"{number(row['value'])} (95 % interval {number(lo)}–{number(hi)}, {_plural(row['clusters'], 'problem')}, "
-            f"{_plural(row['scenarios_with_value'], 'scenario')})")
+            f"{_plural(row['scenarios_with_value'], 'scenario')}{offset_words(row, ', ')})")
+
+
+def offset_words(row: dict, lead: str = "") -> str:
+    """A row's signed offset beside its distance: ``offset +0.004 (+1.2 % of a_crit: overturns early)``;
+    "" without one."""
+    x, pc = row.get("offset"), row.get("offset_percent")
+    if x is None:
+        return ""
+    when = "overturns early" if x > 0 else "overturns late" if x < 0 else "neither early nor late"
+    share = f"{'+' if pc >= 0 else '−'}{abs(pc):.1f} % of a_crit: " if pc is not None else ""
+    return f"{lead}offset {signed(x)} ({share}{when})"
 
 
 def _name(row: dict, by: dict) -> str:

@@ -20,7 +20,7 @@ import math
 
 from rockbench.benchmark.scoring.failing import scenario_words
 from rockbench.benchmark.scoring.labels import for_matplotlib
-from rockbench.benchmark.scoring.verdict_words import delta_words, number
+from rockbench.benchmark.scoring.verdict_words import delta_words, number, signed
 from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, tint
 
 #: Group headers, in the picture's order.
@@ -92,7 +92,8 @@ def _row(g: str, r: dict) -> dict:
         # the header names the class: its words leave the label (another target, e.g. η_M, stays)
         row.update(label=r["label"].replace(", calibrated to η_H", "").replace(", as shipped", ""))
         row.update(mark=mark, right=f"{number(r['value'])} [{number(lo)}, {number(hi)}] "
-                                    + {"best": "best", "tied": "tied", "behind": "behind"}[mark])
+                                    + {"best": "best", "tied": "tied", "behind": "behind"}[mark]
+                                    + (f"; offset {signed(r['offset'])}" if r.get("offset") is not None else ""))
     return row
 
 
