@@ -311,7 +311,7 @@ def test_primary_order_wins_over_agreement_order():
     table = summary_table(doc)
     assert table.index("y[settings=calibrated]") < table.index("x[settings=calibrated]")
     assert "Best achievable" in v["text"][0] and "best y[settings=calibrated]" in v["text"][0]
-    assert "Resolved behind it: x[settings=calibrated]" in v["text"][0]
+    assert "Resolved behind it across problems (" in v["text"][0] and "freedom): x[settings=calibrated]" in v["text"][0]
 
 
 def test_a_secondary_metric_is_highlighted_only_inside_the_best_group():
@@ -378,6 +378,36 @@ def test_the_signed_offset_stands_beside_the_distance():
     assert row["offset"] == pytest.approx(np.mean(offsets)) and row["offset_percent"] == pytest.approx(10 * np.mean(offsets))
     assert [s["offset"] for s in row["per_scenario"]] == [x for _, x in sorted(zip(SCENARIOS, offsets))]
     assert "offset +0.010 (+0.1 % of a_crit: overturns early)" in " ".join(v["text"])
+
+
+def test_an_engine_by_problem_interaction_widens_the_across_problem_interval_not_the_on_suite_one():
+    """Two engines 0.01 apart on average: without interaction both scopes resolve the difference; with
+    a hand-built engine × problem interaction (±0.02 from problem to problem, same mean) the on-suite
+    interval of the difference is unchanged (grid error only), the across-problem one widens by the
+    spread and no longer resolves it: the headline standing (across problems) says tied, the on-suite
+    one still behind, and the words say the latter holds on this suite only."""
+    flat = [0.03] * 8
+    wiggle = [0.03 + (0.02 if k % 4 < 2 else -0.02) for k in range(8)]    # each slenderness one sign per pulse
+    out = {}
+    for name, b in (("flat", flat), ("wiggle", wiggle)):
+        doc = _doc({"a": [0.02] * 8, "b": b})
+        for q in doc["pairs"]:
+            q["cells"]["locate_depth"] = 4                                    # grid error 0.0036 per scenario
+        v = verdict(doc)
+        row = next(r for r in v["variants"] if r["variant"] == "b")
+        suite = next(x for x in row["versus"] if x["other"] == "a")
+        out[name] = (suite["ci95"], row["across"]["versus_best"]["ci95"], row, v)
+    (s0, a0, r0, _), (s1, a1, r1, v1) = out["flat"], out["wiggle"]
+    assert s1 == pytest.approx(s0)                                           # on this suite: unchanged
+    assert a1[1] - a1[0] > 3 * (a0[1] - a0[0])                               # across problems: wider
+    assert not r0["in_best_subset"] and not r0["on_suite"]["in_best_subset"]
+    assert r1["scope"] == "across problems" and r1["in_best_subset"] and not r1["on_suite"]["in_best_subset"]
+    fam = v1["mcb"]["calibrated"]
+    d = [0.03, 0.03, -0.01, -0.01]                                           # b − a per problem
+    assert fam["across"]["interaction_sd"] == pytest.approx(math.sqrt(np.var(d, ddof=1) / 2))
+    assert fam["across"]["df"] == 3 and fam["across"]["critical"] == pytest.approx(2.3534, abs=1e-3)
+    assert fam["across"]["mdd"] > fam["mdd"]
+    assert "on this suite only" in " ".join(v1["text"])
 
 
 def test_verdict_object_in_score_json_shape():

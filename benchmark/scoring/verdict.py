@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 
-from rockbench.benchmark.scoring.comparisons import COMPARED, Family, add_general, critical_for_power, families, general_scope, general_value, ranks
+from rockbench.benchmark.scoring.comparisons import ON_SUITE, COMPARED, Family, add_general, headline, critical_for_power, families, general_scope, general_value, ranks
 from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
 from rockbench.benchmark.scoring.equivalence import held_out_check, restitution_test
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails, reason_kinds, reasons
@@ -110,8 +110,10 @@ def _basis(e: dict) -> str:
 
 
 def _standing(v: Variant, fams: dict[str, Family]) -> dict:
-    """A compared variant's place in its class: identical variants, the best subset, how far behind the
-    best it may be, and its comparisons with the other entries of its class."""
+    """A compared variant's place in its class: identical variants, the best subset and how far behind
+    the best it may be by its headline standing (``scope``: across problems where the class has that
+    comparison, else on this suite), the same on this suite (``on_suite``) and across problems
+    (``across``), and its comparisons on this suite with the other entries of its class."""
     for f in fams.values():
         for ent in f.entries:
             if v in ent:
@@ -120,11 +122,19 @@ def _standing(v: Variant, fams: dict[str, Family]) -> dict:
                 versus = [dict(f.versus[(head, o)], other=o,
                                resolved_behind=_behind(f, head, o), general=f.general.get(head) if o == f.best else None)
                           for o in (e[0].name for e in f.entries) if o != head]
-                return {"same_as": [o.name for o in ent if o is not v], "in_best_subset": m["in_best_subset"],
-                        "best_in_class": head == f.best, "behind_best": m["behind"] if math.isfinite(m["behind"]) else None,
-                        "critical": m["critical"], "versus": versus}
-    return {"same_as": [], "in_best_subset": None, "best_in_class": False, "behind_best": None, "critical": None,
-            "versus": []}
+                h = headline(f, head)
+                on_suite = {"scope": ON_SUITE, "in_best_subset": m["in_best_subset"], "best_in_class": head == f.best,
+                            "behind_best": _finite(m["behind"]), "critical": m["critical"]}
+                return {"same_as": [o.name for o in ent if o is not v], "scope": h["scope"],
+                        "in_best_subset": h["in_best_subset"], "best_in_class": h["best_in_class"],
+                        "behind_best": _finite(h["behind"]), "critical": m["critical"], "on_suite": on_suite,
+                        "across": None if f.across is None else f.across["entries"][head], "versus": versus}
+    return {"same_as": [], "scope": None, "in_best_subset": None, "best_in_class": False, "behind_best": None,
+            "critical": None, "on_suite": None, "across": None, "versus": []}
+
+
+def _finite(x: float) -> float | None:
+    return x if math.isfinite(x) else None
 
 
 def _behind(f: Family, i: str, j: str) -> bool:

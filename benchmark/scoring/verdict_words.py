@@ -25,7 +25,13 @@ METHOD = {
                     "unless its paired difference from another variant of the class exceeds q·se, q the one-sided "
                     "Dunnett critical value for the class's comparisons, so the subset holds the true best with "
                     "probability at least 95 %; the class's minimal detectable difference at 80 % power is "
-                    "(q + z₀.₈)·se, se its typical paired standard error; identical maps count once."),
+                    "(q + z₀.₈)·se, se its typical paired standard error; identical maps count once. Two scopes: "
+                    "on this suite (these problems fixed, each scenario's grid error alone, normal quantiles) and "
+                    "across problems (the problems a sample: each paired difference also errs by the engine × "
+                    "problem interaction of the class's two-way table, on its (k − 1)(C − 1) degrees of freedom, "
+                    "never below the grid's error; q Dunnett's multivariate t, the detectable difference "
+                    "(q + t₀.₈)·se). The standing a variant is named by is the one across problems; one that holds "
+                    "on this suite only is said so."),
     "failing": ("A variant fails when in any in-sample scenario its boundary lies farther from the reference's than "
                 "the suite's declared fail distance, whatever its mean."),
     "equivalence": ("\"Within the uncertainty of the restitution\" is said only where a one-sided 5 % test shows the "
@@ -83,7 +89,7 @@ def _figure(row: dict) -> str:
     if row["value"] is None:
         return "no value (nothing it simulated could be judged)"
     lo, hi = row["ci95"]
-    return (f"{number(row['value'])} (95 % interval {number(lo)}–{number(hi)}, {_plural(row['clusters'], 'problem')}, "
+    return (f"{number(row['value'])} (95 % interval on this suite {number(lo)}–{number(hi)}, {_plural(row['clusters'], 'problem')}, "
             f"{_plural(row['scenarios_with_value'], 'scenario')}{offset_words(row, ', ')})")
 
 
@@ -149,24 +155,43 @@ def _class_sentence(cls: str, members: list[dict], v: dict, by: dict) -> str:
     text = f"{title}, on these {_plural(best['clusters'], 'problem')}: best {_name(best, by)}, {_figure(best)}."
     if fam["k"] == 1:
         return text[:-1] + ", its only passing variant."
-    tied = [by[n] for n in fam["best_subset"] if n != fam["best"]]
+    scope = _scope_words(fam)
+    tied = [by[n] for n in fam["entries"] if n != fam["best"] and by[n]["in_best_subset"]]
     behind = [by[n] for n in fam["entries"] if not by[n]["in_best_subset"]]
     if tied:
-        text += (" Not resolved from it, so each may be the best (Hsu's multiple comparisons with the best, 95 %): "
-                 + "; ".join(f"{_name(r, by)}, {number(r['value'])}" for r in tied) + ".")
+        text += (f" Not resolved from it {scope}, so each may be the best (Hsu's multiple comparisons with the best, "
+                 "95 %): " + "; ".join(f"{_name(r, by)}, {number(r['value'])}" for r in tied) + ".")
     if behind:
-        text += " Resolved behind it: " + "; ".join(
+        scope = scope if not tied else scope.split(" (")[0]          # the scope's numbers are said once
+        text += f" Resolved behind it {scope}: " + "; ".join(
             f"{_name(r, by)}, {number(r['value'])} (behind the best by at most {number(r['behind_best'])})"
             for r in behind) + "."
+    only = [r for r in tied if r.get("on_suite") and not r["on_suite"]["in_best_subset"]] if fam.get("across") else []
+    if only:
+        text += (" Resolved behind it on this suite only (these problems fixed, the grid's error alone), a decision "
+                 "that does not hold across problems: " + "; ".join(_name(r, by) for r in only) + ".")
     scale = scale_words(fam, v["power"])
     return text + " " + scale[0].upper() + scale[1:] + "."
+
+
+def _scope_words(fam: dict) -> str:
+    """``across problems (8 problems, engine × problem spread 0.012 against the grid's 0.005; t on 35
+    degrees of freedom)`` or ``on this suite (...)``: the scope of the class's headline standing."""
+    a = fam.get("across")
+    if a is None:
+        return "on this suite (these problems fixed, the grid's error alone)"
+    return (f"across problems ({a['problems']} problems as a sample: engine × problem spread {number(a['interaction_sd'])} "
+            f"against the grid's {number(a['grid_sd'])}; Dunnett's t on {a['df']} degrees of freedom)")
 
 
 def scale_words(fam: dict, power: dict | None) -> str:
     """How small a difference the class's comparisons could have seen: its minimal detectable difference,
     and the planted result when the document has one."""
-    text = (f"between variants of this class the suite detects a difference of {number(fam['mdd'])} with 80 % power"
-            if fam.get("mdd") is not None else "no paired comparison")
+    a = fam.get("across")
+    text = (f"between variants of this class the suite detects a difference of {number(a['mdd'])} across problems and "
+            f"{number(fam['mdd'])} on this suite, with 80 % power" if a is not None and fam.get("mdd") is not None else
+            f"between variants of this class the suite detects a difference of {number(fam['mdd'])} on this suite "
+            "with 80 % power" if fam.get("mdd") is not None else "no paired comparison")
     if power:
         text += "; " + planted_words(power)
     return text
@@ -388,14 +413,17 @@ def _short_class(cls: str, fam: dict, v: dict, by: dict, level: int) -> str:
     names = _short_names([by[n] for n in fam["entries"]], qualified=False)
     best = by[fam["best"]]
     text = f"{_SHORT_TITLES[cls]}: {names[best['variant']]} best ({number(best['value'])})"
-    tied = [names[n] for n in fam["best_subset"] if n != fam["best"]]
+    a = fam.get("across")
+    where = " across problems" if a is not None else " on this suite"
+    tied = [names[n] for n in fam["entries"] if n != fam["best"] and by[n]["in_best_subset"]]
     behind = [names[n] for n in fam["entries"] if not by[n]["in_best_subset"]]
     if tied:
-        text += f"; tied: {_list(tied, level >= 1)}"
+        text += f"; tied{where}: {_list(tied, level >= 1)}"
     if behind:
-        text += f"; resolved behind: {_list(behind, level >= 1)}"
+        text += f"; resolved behind{where}: {_list(behind, level >= 1)}"
     if fam.get("mdd") is not None:
-        scale = f"resolvable: {number(fam['mdd'])} at 80 % power"
+        scale = (f"resolvable: {number(a['mdd'])} across problems, {number(fam['mdd'])} on this suite, at 80 % power"
+                 if a is not None else f"resolvable on this suite: {number(fam['mdd'])} at 80 % power")
         p = v["power"]
         if p and p["smallest_resolved_delta"] is not None and level < 3:
             scale += f"; η planted {delta_words(p['smallest_resolved_delta'])} off resolved"

@@ -116,7 +116,9 @@ def gaps_of(record_verdict: dict) -> list[dict]:
 
 #: What a re-score changes in a record's variant: the rest (cells judged, cell counts, the classes'
 #: comparisons) is the run's, which the record's per-scenario values cannot rebuild exactly.
-_RESCORED = ("value", "se", "ci95", "basis", "scenarios_with_value", "clusters", "fails_in", "equivalence", "general")
+_RESCORED = ("value", "se", "ci95", "basis", "scenarios_with_value", "clusters", "fails_in", "equivalence", "general",
+             "rank", "scope", "in_best_subset", "best_in_class", "behind_best", "on_suite", "across", "offset",
+             "offset_percent")
 
 
 def _write(path: Path, rec: dict, v: dict) -> None:
@@ -130,6 +132,9 @@ def _write(path: Path, rec: dict, v: dict) -> None:
         r.update({k: n[k] for k in _RESCORED})
         for s, t in zip(r["per_scenario"], n["per_scenario"]):
             s.update(value=t["value"], missing_boundary=t["missing_boundary"], relative_to_gap=t["relative_to_gap"])
+    for cls, fam in old["mcb"].items():
+        fam.update(scope=v["mcb"][cls]["scope"], across=v["mcb"][cls]["across"])
+    old["method"] = v["method"]
     old["text"], old["short"] = sentences(old), short_verdict(old)
     first = fig.get("rescored", {}).get("from_metrics_version", fig["metrics_version"])
     fig["rescored"] = {"from_metrics_version": first, "by": "tests/measurements/verdict_rescore.py --write",
