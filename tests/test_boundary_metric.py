@@ -83,6 +83,19 @@ def test_the_offset_is_nan_without_a_boundary_and_judged_by_its_size():
     assert check_gate({"boundary_offset": -0.2}, {"boundary_offset": 0.1})
 
 
+def test_the_location_error_is_measured_from_the_bisection_intervals():
+    """Each crossing lies uniformly in its last interval (a step over 2**depth): the pair's error is
+    √(w_e²/12 + w_r²/12), at depth 12 a step/4096 over √6, at depth 0 (edge midpoints) a step over √6."""
+    from rockbench.benchmark.scoring.metrics import location_sd, located_counts
+    step = 0.5
+    a, b = straight(4.3, 0.0), straight(4.4, 0.0)
+    assert location_sd(a, b) == pytest.approx(step / 2 ** DEPTH / math.sqrt(6))
+    cells_a, cells_b = MapResult.from_outcomes(W, A, a.outcome), MapResult.from_outcomes(W, A, b.outcome)
+    assert located_counts(cells_a, cells_b)["location_sd"] == pytest.approx(step / math.sqrt(6))
+    none = MapResult.from_outcomes(W, A, np.full((A.size, W.size), ROCKING))
+    assert located_counts(none, b)["location_sd"] is None
+
+
 def test_symmetric_and_perfect_against_itself():
     a, b = straight(2.0, 0.6), straight(2.3, 0.45)
     assert boundary_distance(a, b) == pytest.approx(boundary_distance(b, a), rel=1e-12)

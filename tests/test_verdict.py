@@ -410,6 +410,21 @@ def test_an_engine_by_problem_interaction_widens_the_across_problem_interval_not
     assert "on this suite only" in " ".join(v1["text"])
 
 
+def test_a_scenarios_error_is_its_maps_own_where_measured():
+    """A pair's ``cells.location_sd`` (its maps' bisection intervals) is the scenario's error in place of
+    the grid's assumed share of its cell; the assumed figure stays beside it as a check."""
+    doc = _doc({"a": [0.02] * 8, "b": [0.03] * 8})
+    for q in doc["pairs"]:
+        q["cells"]["location_sd"] = 0.002 if q["variant"] == "a" else None
+    rows = {r["variant"]: r for r in verdict(doc)["variants"]}
+    s_a, s_b = rows["a"]["per_scenario"][0], rows["b"]["per_scenario"][0]
+    assert s_a["sd"] == 0.002 and s_a["sd_source"] == "measured"
+    assert s_a["sd_assumed"] == pytest.approx(resolution_sd(math.hypot(0.3, 0.2)))
+    assert s_b["sd"] == pytest.approx(s_b["sd_assumed"]) and s_b["sd_source"] == "assumed"
+    assert "measured on its maps" in rows["a"]["basis"] and "not measured" in rows["b"]["basis"]
+    assert rows["a"]["se"] < rows["b"]["se"]
+
+
 def test_verdict_object_in_score_json_shape():
     v = verdict(_doc({"a": [0.01] * 8, "b": [0.01] * 8}))
     assert v["metric"] == PRIMARY_METRIC and v["direction"] == "lower"

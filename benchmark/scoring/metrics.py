@@ -45,7 +45,7 @@ import numpy as np
 
 from rockbench.reference_solver.classify import OUTCOME_CODES, Outcome
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
-from rockbench.benchmark.maps.bisection import ALONG_A, FAILED_EDGE, MULTIPLE
+from rockbench.benchmark.maps.bisection import ALONG_A, FAILED_EDGE, MULTIPLE, UNFINISHED
 from rockbench.benchmark.maps.boundary import LocatedBoundary
 from rockbench.benchmark.maps.result import FAILED, MapResult
 
@@ -588,8 +588,9 @@ def boundary_edges(eng: MapResult, ref: MapResult) -> int:
 def located_counts(eng: MapResult, ref: MapResult) -> dict[str, int]:
     """What the boundary metrics rest on, for score.json's ``cells``: the bisection depth the pair is
     located to (the smaller of the two maps'), the located crossings the metrics count
-    (:func:`judged_crossings`), and within the judged cells the edges flagged ``multiple`` (islands,
-    tongues inside one edge) or ``failed``."""
+    (:func:`judged_crossings`), within the judged cells the edges flagged ``multiple`` (islands,
+    tongues inside one edge) or ``failed``, and the distance's error from the bisection's own
+    intervals (``location_sd``, :func:`location_sd`; None without a crossing)."""
     judged, _ = judged_cells(eng, ref)
     be, br = boundary_of(eng), boundary_of(ref)
     ie, ir = be.within(judged), br.within(judged)
@@ -599,7 +600,44 @@ def located_counts(eng: MapResult, ref: MapResult) -> dict[str, int]:
             "located_crossings": int(ce.sum() + cr.sum()),
             "engine_crossings": int(ce.sum()), "reference_crossings": int(cr.sum()),
             "multiple_edges": ie.count(MULTIPLE) + ir.count(MULTIPLE),
-            "failed_edges": ie.count(FAILED_EDGE) + ir.count(FAILED_EDGE)}
+            "failed_edges": ie.count(FAILED_EDGE) + ir.count(FAILED_EDGE),
+            "location_sd": _or_none(location_sd(eng, ref))}
+
+
+def _or_none(x: float) -> float | None:
+    return None if math.isnan(x) else x
+
+
+def bracket_widths(b: LocatedBoundary, m: MapResult) -> np.ndarray:
+    """Each crossing's last bisection interval along its edge [w/a units]: the edge's step over
+    2**depth, or the whole step where its edge's bisection stopped early (flagged ``unfinished`` or
+    ``failed``): where inside that interval the boundary lies, the map does not know."""
+    if b.n_crossings == 0:
+        return np.zeros(0)
+    w, a = m.w_ratio, m.a_ratio
+    dw = (w[-1] - w[0]) / (w.size - 1) if w.size > 1 else 0.0
+    da = (a[-1] - a[0]) / (a.size - 1) if a.size > 1 else 0.0
+    step = np.where(b.axis == ALONG_A, da, dw)
+    stopped = {tuple(e) for e, f in zip(b.edges.tolist(), b.flags.tolist()) if f in (UNFINISHED, FAILED_EDGE)}
+    early = np.array([(int(i), int(j), int(x)) in stopped for (i, j), x in zip(b.cell_a.tolist(), b.axis.tolist())],
+                     bool)
+    return np.where(early, step, step / 2.0 ** b.depth)
+
+
+def location_sd(eng: MapResult, ref: MapResult) -> float:
+    """The error of a pair's ``boundary_mean`` from where each map's bisection left its crossings,
+    measured on the maps themselves [w/a units]: each counted crossing (:func:`judged_crossings`) lies
+    uniformly within its last interval (:func:`bracket_widths`, variance width²/12); a distance errs by
+    its own crossing's error and the other boundary's at its foot, so by the two maps' mean variances
+    summed; along a boundary the crossings share one phase against the grid, so the errors are taken
+    as moving together (not divided by the number of crossings). NaN without a crossing counted."""
+    be, br = boundary_of(eng), boundary_of(ref)
+    ce, cr = judged_crossings(eng, ref)
+    if not ce.any() or not cr.any():
+        return math.nan
+    var_e = float(np.mean(bracket_widths(be, eng)[ce] ** 2)) / 12.0
+    var_r = float(np.mean(bracket_widths(br, ref)[cr] ** 2)) / 12.0
+    return math.sqrt(var_e + var_r)
 
 
 def _consistency(eng: MapResult, outside: np.ndarray) -> float:

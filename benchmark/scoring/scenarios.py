@@ -38,7 +38,10 @@ class Scenario:
     value : float
         Its primary value (NaN when nothing could be judged) [w/a units].
     sd : float
-        The value's own error from the grid's resolution (:func:`resolution_sd`) [w/a units].
+        The value's own error [w/a units]: measured on its two maps from their bisection's last
+        intervals (score.json's ``cells.location_sd``,
+        :func:`~rockbench.benchmark.scoring.metrics.location_sd`) where the pair has it, else the
+        grid's resolution as measured once against a 401 × 401 truth (:func:`resolution_sd`).
     cell : float
         The cell diagonal of its grid [w/a units].
     cluster : tuple
@@ -56,6 +59,10 @@ class Scenario:
         map's diagonal, a placeholder, not a distance; ``""`` otherwise.
     counts : dict
         Its pair's cell counts (:data:`_SUMMED`): what a failure there gets wrong.
+    sd_assumed : float
+        :func:`resolution_sd` of its grid, kept beside a measured ``sd`` as a check [w/a units].
+    sd_measured : bool
+        Whether ``sd`` is the maps' own (``location_sd``) rather than :func:`resolution_sd`.
     offset, offset_percent : float
         Its signed boundary offset [w/a units] and that in % of the reference's critical amplitude
         (``boundary_offset``, ``boundary_offset_percent``: + the engine overturns earlier); NaN where the
@@ -73,6 +80,8 @@ class Scenario:
     counts: dict = field(default_factory=dict)
     offset: float = math.nan
     offset_percent: float = math.nan
+    sd_assumed: float = math.nan
+    sd_measured: bool = False
 
     @property
     def distance(self) -> float:
@@ -181,13 +190,16 @@ def scenario_of(p: dict, gaps: dict | None = None) -> Scenario:
     c = p.get("cells") or {}
     cell = math.hypot(float(c.get("w_step", 0.0)), float(c.get("a_step", 0.0)))
     depth = c.get("locate_depth", 0)
+    assumed = resolution_sd(cell, int(depth or 0))
+    measured = c.get("location_sd")
     missing = (missing_boundary(int(c["engine_crossings"]), int(c["reference_crossings"]))
                if "engine_crossings" in c and "reference_crossings" in c else "")
-    return Scenario(math.nan if value is None else float(value), resolution_sd(cell, int(depth or 0)), max(cell, _TINY),
+    sd = float(measured) if measured is not None and float(measured) > 0 else assumed
+    return Scenario(math.nan if value is None else float(value), sd, max(cell, _TINY),
                     cluster_of(p), (gaps or {}).get((p["block"], p["pulse"]), math.nan),
                     p.get("engine_cells"), bool(p.get("held_out")), missing,
                     {k: int(p.get(k) or 0) for k in _SUMMED}, _float(p["scores"].get(OFFSET)),
-                    _float(p["scores"].get(OFFSET_PERCENT)))
+                    _float(p["scores"].get(OFFSET_PERCENT)), assumed, measured is not None and float(measured) > 0)
 
 
 def _float(x) -> float:

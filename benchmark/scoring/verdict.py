@@ -87,7 +87,7 @@ def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: D
     row = {"variant": v.name, "engine": v.engine, "label": v.label, "settings": v.settings, "group": group_of(v),
            "value": value, "se": None if value is None else e["se"],
            "ci95": None if value is None else [max(e["ci95"][0], PRIMARY.perfect), e["ci95"][1]],
-           "basis": _basis(e) if value is not None else "", "rank": rk.get(v.name), "pairs": len(v.scenarios),
+           "basis": _basis(e, v) if value is not None else "", "rank": rk.get(v.name), "pairs": len(v.scenarios),
            "scenarios_with_value": e["items"], "clusters": e["clusters"],
            "cells_judged": v.counts.get("cells_in_domain", 0), "cell_diagonal": _mean_cell(v),
            "fails": fails(v, limit), "fails_in": failing_scenarios(v, limit), "reasons": reasons(v),
@@ -101,12 +101,22 @@ def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: D
     return row
 
 
-def _basis(e: dict) -> str:
+def _basis(e: dict, v: Variant) -> str:
     if not e["items"]:
         return ""
     n, c = e["items"], e["clusters"]
     return (f"on these {c} problem{'s' if c != 1 else ''} (slenderness × pulse) of {n} scenario{'s' if n != 1 else ''}: "
-            "normal interval from each scenario's measured grid error")
+            "normal interval from each scenario's own error, " + _sd_source(v))
+
+
+def _sd_source(v: Variant) -> str:
+    """Where a variant's scenario errors come from, in words."""
+    used = [s.sd_measured for s in v.finite().values()]
+    if used and all(used):
+        return "measured on its maps (the bisection's last intervals)"
+    if any(used):
+        return "measured on its maps where they say, else assumed from the grid's cell"
+    return "assumed from the grid's cell (a 401 × 401 probe), not measured on these maps"
 
 
 def _standing(v: Variant, fams: dict[str, Family]) -> dict:
@@ -166,7 +176,9 @@ def offsets(v: Variant) -> dict:
 
 def per_scenario(v: Variant, limit: float) -> list[dict]:
     """score.json's per-scenario values of a variant: value (None where a map has no boundary, named in
-    ``missing_boundary``), its signed offset (``offset``, ``offset_percent``), own error, cluster, the η_H–η_M gap and the value over it, held-out or not,
+    ``missing_boundary``), its signed offset (``offset``, ``offset_percent``), own error (``sd``:
+    ``sd_source`` "measured" on the two maps' bisection intervals or "assumed" from the grid, with the
+    grid's figure ``sd_assumed`` beside it as a check), cluster, the η_H–η_M gap and the value over it, held-out or not,
     and whether it fails there."""
     bad = {(b["block"], b["pulse"]) for b in failing_scenarios(v, limit)}
     out = []
@@ -175,7 +187,8 @@ def per_scenario(v: Variant, limit: float) -> list[dict]:
         out.append({"block": block, "pulse": pulse, "cluster": list(s.cluster), "value": _num(s.distance),
                     "missing_boundary": s.missing_boundary or None, "offset": _num(s.offset),
                     "offset_percent": _num(s.offset_percent),
-                    "sd": s.sd, "cell_diagonal": s.cell, "reference_gap": gap,
+                    "sd": s.sd, "sd_source": "measured" if s.sd_measured else "assumed",
+                    "sd_assumed": _num(s.sd_assumed), "cell_diagonal": s.cell, "reference_gap": gap,
                     "relative_to_gap": _num(s.distance / s.gap) if gap else None, "held_out": s.held_out,
                     "fails": (block, pulse) in bad})
     return out

@@ -19,7 +19,9 @@ SHORT_WORDS = 120
 METHOD = {
     "value": ("A variant's value is the mean of its boundary distances over the suite's problems (slenderness × "
               "pulse; the sizes of one problem averaged first); its 95 % interval holds for these problems, the "
-              "suite's own, not a sample: normal, from each scenario's measured grid error alone."),
+              "suite's own, not a sample: normal, from each scenario's own location error alone (measured on its two "
+              "maps from their bisection's last intervals; assumed from the grid's cell where a score document "
+              "lacks it)."),
     "comparisons": ("Each variant is compared with the best of its settings class (calibrated; as shipped; each "
                     "class its own family) by Hsu's multiple comparisons with the best: it stays in the best subset "
                     "unless its paired difference from another variant of the class exceeds q·se, q the one-sided "

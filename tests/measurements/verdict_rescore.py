@@ -131,7 +131,8 @@ def _write(path: Path, rec: dict, v: dict) -> None:
         n = new[r["variant"]]
         r.update({k: n[k] for k in _RESCORED})
         for s, t in zip(r["per_scenario"], n["per_scenario"]):
-            s.update(value=t["value"], missing_boundary=t["missing_boundary"], relative_to_gap=t["relative_to_gap"])
+            s.update({k: t[k] for k in ("value", "missing_boundary", "relative_to_gap", "offset", "offset_percent",
+                                        "sd_source", "sd_assumed")})
     for cls, fam in old["mcb"].items():
         fam.update(scope=v["mcb"][cls]["scope"], across=v["mcb"][cls]["across"])
     old["method"] = v["method"]
