@@ -589,6 +589,30 @@ def test_a_held_out_variant_is_set_beside_its_in_sample_variant_on_the_same_scen
     assert held in line and "0.650" in line and "does not carry over (resolved worse than its twin), against 0.065 in the same scenarios" in line
 
 
+def test_held_out_scenarios_that_test_nothing_are_left_out_and_said_so():
+    """A held-out scenario bit-identical to its twin's tests nothing, nor does one whose boundary a 2 %
+    planted restitution error does not move (planted δ = 0 and δ = 2 % reference variants): both are
+    left out of the test and named; with none left, there is no test."""
+    own, held = "m[settings=calibrated]", "m[calibrate_on=neighbour,settings=calibrated]"
+    doc = _doc({own: [0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08]})
+    for (b, p), bm in zip(SCENARIOS[4:], [0.05, 0.061, 0.071, 0.082]):   # B3L sine identical, the rest not
+        doc["pairs"].append({**_pair(held, b, p, bm, settings=held), "held_out": True, "in_sample_variant": own})
+    planted = {"reference[planted_eta_factor=1.0]": ([0.0] * 8, 1.0),
+               "reference[planted_eta_factor=0.98]": ([0.05, 0.05, 0.05, 0.05, 0.05, 0.05, 0.0, 0.05], 0.98)}
+    for name, (vals, f) in planted.items():
+        doc["pairs"] += [{**_pair(name, b, p, x, settings=PLANTED_CLASS), "planted_eta_factor": f}
+                         for (b, p), x in zip(SCENARIOS, vals)]
+    for q in doc["pairs"]:
+        q["cells"]["locate_depth"] = 4                                    # grid error 0.0036 per scenario
+    v = verdict(doc)
+    check = {r["variant"]: r for r in v["variants"]}[held]["held_out"]
+    assert [(b["block"], b["pulse"], b["why"].split(" (")[0]) for b in check["left_out"]] == [
+        ("B3L", "sine", "identical to its in-sample twin"), ("B6L", "sine", "does not respond to the restitution")]
+    assert check["scenarios"] == 4 and check["tested_scenarios"] == 2
+    assert check["in_sample"] == pytest.approx((0.06 + 0.08) / 2)
+    assert "left out of the test: B3L sine, identical to its in-sample twin" in " ".join(v["text"])
+
+
 def test_a_held_out_variant_on_the_other_size_is_set_beside_the_same_problems():
     """A suite that maps the calibrated variant on the M blocks only and holds the L blocks out: the
     held-out value is set beside the in-sample value on the other size of the same slenderness × pulse

@@ -31,7 +31,7 @@ from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
 from rockbench.benchmark.scoring.equivalence import held_out_check, restitution_test
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails, reason_kinds, reasons
 from rockbench.benchmark.scoring.metrics import PRIMARY, PRIMARY_METRIC
-from rockbench.benchmark.scoring.power import planted_power
+from rockbench.benchmark.scoring.power import planted_power, restitution_response
 from rockbench.benchmark.scoring.scenarios import Variant, items, variants_of
 from rockbench.benchmark.scoring.statistics import CONFIDENCE, fixed
 from rockbench.benchmark.scoring.verdict_words import METHOD, sentences, short_verdict
@@ -60,8 +60,9 @@ def verdict(doc: dict, declared: Declared | None = None) -> dict:
         add_general(f, scope)
     rk = ranks(fams)
     power = planted_power(vs, *critical_for_power(fams))
+    response = restitution_response(vs)
     by_name = {v.name: v for v in vs}
-    rows = [_row(v, fams, rk, scope, declared, by_name.get(v.in_sample)) for v in vs]
+    rows = [_row(v, fams, rk, scope, declared, by_name.get(v.in_sample), response) for v in vs]
     rows.sort(key=_order)
     out = {"metric": PRIMARY_METRIC, "direction": PRIMARY.direction, "unit": PRIMARY.unit, "confidence": CONFIDENCE,
            "declared": declared.to_dict(), "fail_distance": declared.fail_distance, "method": METHOD,
@@ -80,7 +81,8 @@ def _order(r: dict):
             -(r["planted"] or {}).get("eta_factor", 0.0), math.inf if r["value"] is None else r["value"], r["label"])
 
 
-def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: Declared, twin: Variant | None) -> dict:
+def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: Declared, twin: Variant | None,
+         response: dict | None) -> dict:
     e = fixed(list(items(v).values()))
     value = None if not e["items"] or v.placeholders() else e["mean"]   # never a mean over placeholders
     limit = declared.fail_distance
@@ -93,7 +95,7 @@ def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: D
            "fails": fails(v, limit), "fails_in": failing_scenarios(v, limit), "reasons": reasons(v),
            "reason_kinds": reason_kinds(v), "shipped_note": v.shipped_note or None, "cells_missing": v.cells_missing,
            "equivalence": None if v.held_out_only else restitution_test(v, declared),
-           "held_out": held_out_check(v, twin, declared), "general": general_value(v, scope),
+           "held_out": held_out_check(v, twin, declared, response), "general": general_value(v, scope),
            "planted": None if v.planted_factor is None else {"eta_factor": v.planted_factor,
                                                              "delta": 1.0 - v.planted_factor},
            **offsets(v), "per_scenario": per_scenario(v, limit)}

@@ -276,6 +276,11 @@ def _held_out_words(r: dict) -> str:
     h = r["held_out"]
     lo, hi = h["ci95"]
     head = f"{r['label']}, {number(h['value'])} [{number(lo)}, {number(hi)}] over {_plural(h['scenarios'], 'scenario')}"
+    gone = h.get("left_out") or []
+    if gone:
+        head += " (left out of the test: " + "; ".join(f"{b['block']} {b['pulse']}, {b['why']}" for b in gone) + ")"
+    if h["tost"] is None and gone and not h.get("tested_scenarios"):
+        return head + ": not tested, no held-out scenario that can test it"
     if h["tost"] is None:
         return head + ", with no map of the same settings calibrated on the block itself to test it against"
     where = {"same scenarios": "in the same scenarios",
@@ -378,12 +383,15 @@ def _short(v: dict, level: int) -> list[str]:
     within = _within_by_class(v, by, level)
     if within:
         out.append(f"Within the restitution's uncertainty (on the mean): {within}.")
-    held = [r for r in rows if r["held_out"] and r["held_out"]["tost"] is not None]
+    held = [r for r in rows if r["held_out"] and (r["held_out"]["tost"] is not None or r["held_out"].get("left_out"))]
     if held:
         yes = [names[r["variant"]] for r in held if r["held_out"]["carries_over"]]
-        no = [names[r["variant"]] for r in held if not r["held_out"]["carries_over"]]
+        untested = [names[r["variant"]] for r in held if r["held_out"]["tost"] is None and r["held_out"].get("left_out")]
+        no = [names[r["variant"]] for r in held if not r["held_out"]["carries_over"] and names[r["variant"]] not in untested]
         text = "Held-out calibration carries over: " + (_list(yes, level >= 1) if yes else "none shown")
-        out.append(text + (f"; not shown: {_list(no, level >= 1)}." if no else "."))
+        text += f"; not shown: {_list(no, level >= 1)}" if no else ""
+        out.append(text + (f"; not tested (held-out scenarios identical or unresponsive): {_list(untested, level >= 1)}."
+                           if untested else "."))
     return out
 
 

@@ -48,8 +48,11 @@ def _standing(r: dict) -> str:
         return f"fails: {f['block']} {f['pulse']} {_num(f['value'])} > {f['limit']:g}"
     if r["group"] == "held-out":
         h = r["held_out"]
+        if h.get("tost") is None:
+            return f"not tested: {len(h.get('left_out') or [])} of {h['scenarios']} scenarios identical or unresponsive"
         words = "carries over" if h.get("carries_over") else "does not carry over"
-        return f"{words} (in-sample {_num(h['in_sample'])})"
+        tested = f", {h['tested_scenarios']} of {h['scenarios']} scenarios tested" if h.get("left_out") else ""
+        return f"{words} (in-sample {_num(h['in_sample'])}{tested})"
     scope = f" {r['scope']}" if r.get("scope") else ""
     if r.get("best_in_class"):
         return f"best{scope}"

@@ -117,6 +117,7 @@ def gaps_of(record_verdict: dict) -> list[dict]:
 #: What a re-score changes in a record's variant: the rest (cells judged, cell counts, the classes'
 #: comparisons) is the run's, which the record's per-scenario values cannot rebuild exactly.
 _RESCORED = ("value", "se", "ci95", "basis", "scenarios_with_value", "clusters", "fails_in", "equivalence", "general",
+             "held_out",
              "rank", "scope", "in_best_subset", "best_in_class", "behind_best", "on_suite", "across", "offset",
              "offset_percent")
 
