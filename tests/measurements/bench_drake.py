@@ -9,6 +9,8 @@ Usage (from the repository's top folder, in the venv, with ``pip install -e '.[d
     python tests/measurements/bench_drake.py cells [--repeat 2] [--max-worlds K]   # CPU time per cell through
                                                                    # run_many, 16 B3M sine cells, batches of K
     python tests/measurements/bench_drake.py worlds                # CPU per plant step and block-step, K worlds
+    python tests/measurements/bench_drake.py flips [--settings shipped]   # outcomes alone and in a batch, at
+                                                                   # the overturning boundary
     python tests/measurements/bench_drake.py maps --out DIR [--jobs 2] [--maps B3M:sine,B6L:cosine]
         [--settings calibrated]                            # maps on the default suite's grid, then `summary`
     python tests/measurements/bench_drake.py summary DIR           # cells, worker time, agreement with the reference
@@ -151,6 +153,30 @@ def cmd_worlds(args) -> None:
         print(f"batches of {k}: {cpu / len(cases) * 1e3:.0f} ms a cell, {cpu / steps * 1e6:.1f} µs a block-step")
 
 
+def cmd_flips(args) -> None:
+    """Whether a cell's outcome depends on its batch-mates at the overturning boundary: B3M, sine,
+    ω/p 3.5, the boundary amplitude bisected (one world at a time) between a₀/(g·tanα) 1.5 (rocking)
+    and 3 (overturn); then 15 amplitudes within ±rel of it, alone and as one batch with a cosine pulse."""
+    ad = get_adapter("drake", settings=args.settings)
+
+    def overturns(a: float) -> bool:
+        c = ad.posed(_case("B3M", "sine", 3.5, a))
+        return ad.judge(c, ad._simulate_many([c])[0]).outcome == "overturn"
+
+    lo, hi = 1.5, 3.0
+    for _ in range(34):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if overturns(mid) else (mid, hi)
+    print(f"boundary a₀/(g·tanα) in [{lo!r}, {hi!r}]")
+    for rel in (1e-4, 1e-6, 1e-8):
+        amps = 0.5 * (lo + hi) * (1 + rel * np.linspace(-1.0, 1.0, 15))
+        cases = [ad.posed(_case("B3M", "sine", 3.5, float(a))) for a in amps] + [ad.posed(_case("B3M", "cosine", 2.5, 2.5))]
+        alone = [ad.judge(c, ad._simulate_many([c])[0]).outcome[0] for c in cases[:15]]
+        batch = [ad.judge(c, tr).outcome[0] for c, tr in zip(cases, ad._simulate_many(cases))][:15]
+        print(f"±{rel:g}: {sum(x != y for x, y in zip(alone, batch))} of 15 flip (alone {''.join(alone)}, "
+              f"in a batch {''.join(batch)})")
+
+
 def cmd_eta(args) -> None:
     """Free-rocking η of B3M and B6M: calibrated to Housner, as shipped, and the hydroelastic variant."""
     print(_stamp(), file=sys.stderr)
@@ -273,6 +299,9 @@ def main(argv=None) -> int:
     c.add_argument("--max-worlds", type=int, default=0)
     c.set_defaults(func=cmd_cells)
     sub.add_parser("worlds").set_defaults(func=cmd_worlds)
+    f = sub.add_parser("flips")
+    f.add_argument("--settings", default="calibrated", choices=["calibrated", "shipped"])
+    f.set_defaults(func=cmd_flips)
     m = sub.add_parser("maps")
     m.add_argument("--out", required=True)
     m.add_argument("--jobs", type=int, default=2)
