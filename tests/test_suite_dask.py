@@ -236,3 +236,16 @@ def test_bad_scheduler_is_one_line_and_exit_2(tmp_path, capsys, address, why):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and why in err, err
     assert not (tmp_path / "out" / "maps").exists()
+
+
+def test_a_map_from_the_cluster_replaces_its_folder_whole(tmp_path):
+    """A half-done map folder is replaced by the finished one in one rename; nothing is left staged."""
+    from rockbench.benchmark.suites.cluster import map_files, write_map
+    d = tmp_path / "maps" / "mujoco" / "B3M-sine-housner"
+    d.mkdir(parents=True)
+    (d / "cells.csv").write_text("half\n")
+    (d / ".lock").write_text("")
+    assert map_files(d) == {"cells.csv": b"half\n"}   # the lock stays with its writer
+    write_map(d, {"cells.csv": b"whole\n", "run.json": b"{}"}, tmp_path / ".incoming")
+    assert map_files(d) == {"cells.csv": b"whole\n", "run.json": b"{}"} and not (d / ".lock").exists()
+    assert list((tmp_path / ".incoming").iterdir()) == []

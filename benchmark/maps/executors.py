@@ -614,7 +614,7 @@ class DaskConnection:
 
     def _start_local(self, jobs: int | None, scratch_dir) -> None:
         import dask  # Dask only with --scheduler (start-up time)
-        from dask.distributed import Client, LocalCluster
+        from dask.distributed import Client, LocalCluster  # Dask only with --scheduler (start-up time)
         n = jobs or min(cpu_count(), 2) or 1
         if scratch_dir is not None:
             Path(scratch_dir).mkdir(parents=True, exist_ok=True)

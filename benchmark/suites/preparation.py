@@ -100,6 +100,10 @@ class Preparation:
     client's :meth:`get_executor`) that runs the tasks instead of helper processes here; a task it loses
     (its workers died) is done here by :meth:`finish`."""
 
+    #: whether the tasks run on a cluster's executor (``pool``), and whether :meth:`abort` stopped them there
+    remote = False
+    aborted = False
+
     def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
                  own_eta: bool | None = None, speed_engines: list[str] = (), pool=None):
 
@@ -198,6 +202,7 @@ class Preparation:
         not SIGTERM: a forked helper inherits the command's SIGTERM handler, which raises an exception
         that the pool's worker loop catches and outlives)."""
         if self.remote:
+            self.aborted = True   # finish() (waiting in another thread) does nothing here either
             self._stop()
         elif self.pool is not None:
             for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
@@ -214,7 +219,7 @@ class Preparation:
                 except BrokenProcessPool:
                     break
                 except Exception:  # noqa: BLE001 - a cluster lost the task (KilledWorker): done here below
-                    if not self.remote:
+                    if not self.remote or self.aborted:
                         raise
         except BaseException:
             self.abort()
