@@ -14,6 +14,7 @@ import csv
 import io
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -113,6 +114,21 @@ class _Cluster:
                    self.env, self.tmp / f"worker{n}.log")
         self.workers.append(w)
         return w
+
+    def busy_worker(self, run: subprocess.Popen, timeout_s: float) -> subprocess.Popen | None:
+        """One of our worker processes running a task now (None if none does within ``timeout_s`` or
+        while ``run`` lasts): the scheduler says which addresses are busy, each worker's log its address."""
+        from dask.distributed import Client
+        with Client(self.address, timeout=START_S) as c:
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < timeout_s and run.poll() is None:
+                busy = {a for a, keys in c.processing().items() if keys}
+                for n, w in enumerate(self.workers):
+                    found = re.search(r"Start worker at:\s+(\S+)", (self.tmp / f"worker{n}.log").read_text())
+                    if w.poll() is None and found and found.group(1) in busy:
+                        return w
+                time.sleep(0.1)
+        return None
 
     def wait_for(self, n: int) -> None:
         from dask.distributed import Client
@@ -214,8 +230,9 @@ def test_worker_killed_mid_suite_loses_no_finished_map(setup):
             assert run.poll() is None, (tmp / "killed.log").read_text()[-3000:]
             assert time.monotonic() - t0 < RUN_S
             time.sleep(0.2)
-        assert run.poll() is None, "the suite ended before a worker could be killed mid-suite"
-        _kill(cluster.workers[-1])
+        busy = cluster.busy_worker(run, RUN_S)
+        assert busy is not None and run.poll() is None, "the suite ended before a busy worker could be killed"
+        _kill(busy)   # with the task it was running
         run.wait(timeout=RUN_S)
     finally:
         _kill(run)
