@@ -275,7 +275,8 @@ class _SuiteRun:
         return {"name": SPEED_STAGE, "step_rule": rules.get((job.engine, job.block)), "device": device_of(job.engine)}
 
     def compute_maps(self, report: bool) -> None:
-        """Every map: the reference maps on one thread, the engine maps on lanes.
+        """Every map: the reference maps on one thread, the engine maps on lanes (with a Dask cluster,
+        every map a task on it instead: :meth:`_on_cluster`).
 
         The reference runs in this process: its compiled batch kernel is parallel already, and worker
         processes would each load it again; engines keep the workers' time limit and crash isolation.
