@@ -270,18 +270,18 @@ class ContactEngine(EngineAdapter):
         calibrations; the search runs on ``block`` itself (``calibrate_on`` left out: its probe runs are
         of the block the step is for), so a held-out calibration shares the step of the block it names."""
         on = self._on_itself()
-        key = cache.cache_key(engine=self.name, version=self.version(), contract=CONTRACT_VERSION, kind="step-rule",
-                              rules_version=RULES_VERSION, block=[block.width_m, block.height_m, block.depth_m,
-                                                                  block.mass_kg],
-                              target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
-                              probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
-                                      step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
-                              settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
+        key = cache.adapter_key(self, contract=CONTRACT_VERSION, kind="step-rule",
+                                rules_version=RULES_VERSION, block=[block.width_m, block.height_m, block.depth_m,
+                                                                    block.mass_kg],
+                                target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
+                                probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
+                                        step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
+                                settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
         rec = self._steps.get(key) or cache.load(key)
         if rec is None:
             with progress.activity(f"{self.name}: time-step rule for {block.name} at η {eta:.4f}"):
                 rec = step_rule.converged_step(lambda dt: on.calibrate(block, eta, dt_s=dt), on._judged, block, eta)[1]
-            cache.store(key, rec)
+            cache.store(key, rec, self.name)
         self._steps[key] = rec
         return float(rec["dt_s"]), rec
 

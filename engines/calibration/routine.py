@@ -41,13 +41,14 @@ IDENTITY_SKIP = ("settings", "tail_s", "min_tail_s", "segment_s", "calibrate_on"
 
 def cache_key(ad, block: Block, target: float, dt: float, kind: str, **more) -> str:
     """The cache key of a calibration (``kind``) of engine ``ad`` for ``block``, ``target`` η and step
-    ``dt`` [s]: the engine and its version, the contract, its ``CALIBRATION_VERSION``, the rule set's
-    version and every setting that changes a free-rocking run."""
+    ``dt`` [s]: the engine and its version, the adapter's identity (its distribution and the hash of
+    its source, :func:`~rockbench.engines.calibration.cache.adapter_identity`), the contract, its
+    ``CALIBRATION_VERSION``, the rule set's version and every setting that changes a free-rocking run."""
     identity = {k: str(v) for k, v in sorted(ad.settings_with(None).items()) if k not in IDENTITY_SKIP}
-    return cache.cache_key(engine=ad.name, version=ad.version(), contract=CONTRACT_VERSION, kind=kind,
-                           calibration_version=ad.CALIBRATION_VERSION, rules_version=RULES_VERSION,
-                           block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=target,
-                           dt=dt, settings=identity, **more)
+    return cache.adapter_key(ad, contract=CONTRACT_VERSION, kind=kind,
+                             calibration_version=ad.CALIBRATION_VERSION, rules_version=RULES_VERSION,
+                             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=target,
+                             dt=dt, settings=identity, **more)
 
 
 def damping_ratio(ad, block: Block, s: dict) -> float | None:
@@ -107,7 +108,8 @@ def calibrate_layout(ad, block: Block, target: float, dt: float, points: int | N
         rows = _searched(ad, block, target, dt, points)
         res, search = (_corners(ad, block, target, rows) if points is None else
                        _row(ad, block, target, dt, points, rows))
-    cache.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"}, "search": search})
+    cache.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"}, "search": search},
+                ad.name)
     return res
 
 

@@ -81,7 +81,7 @@ def calls(monkeypatch):
 
     monkeypatch.setattr(price, "uplift_threshold", uplift)
     monkeypatch.setattr(price, "contact_price", contact_price)
-    monkeypatch.setattr(cache, "store", lambda key, record: log.update(stored=record["search"]))
+    monkeypatch.setattr(cache, "store", lambda key, record, engine: log.update(stored=record["search"]))
     log["rows"] = rows
     return log
 

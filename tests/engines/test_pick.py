@@ -124,7 +124,7 @@ def test_declared_knobs_give_the_grid_then_the_finer_grid_around_the_pick(monkey
                                            hop_m=1e-3 if s["zeta"] < 0.6 else 0.0) for s in settings]
 
     stored = {}
-    monkeypatch.setattr(cache, "store", lambda key, record: stored.update(record["search"]))
+    monkeypatch.setattr(cache, "store", lambda key, record, engine: stored.update(record["search"]))
     c = Grid().calibrate(BLOCK, T, dt_s=1e-3, use_cache=False)
     # the stiffest (k 4: 2 × the grid's stiffest, refined) with the damping nearest critical, never the hop
     assert c.reached and c.settings == {"k": 4.0, "zeta": 1.0} and c.evaluations == 4 + 5

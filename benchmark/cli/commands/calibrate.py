@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 
+from rockbench.engines.calibration import cache
 from rockbench.engines.calibration.price import price_line
+from rockbench.engines.registry import names
 from rockbench.reference_solver.errors import ConfigError, RockbenchError
 from rockbench.benchmark.engine_info.adapters import build_adapter
 from rockbench.benchmark.engine_info.health import refuse_outside_range
@@ -16,7 +18,7 @@ def register(sub) -> None:
     p = sub.add_parser("calibrate", help="measure an engine's η in free rocking; with --target, search "
                        "its contact settings to reach it")
     add_block_options(p)
-    p.add_argument("--engine", required=True, help="engine name (see `rockbench engines`)")
+    p.add_argument("--engine", default=None, help="engine name (see `rockbench engines`); required unless --clear")
     p.add_argument("--target", default=None, help="housner | modified | modified-average | modified-exact | a number "
                    "in (0, 1] (default: measure only); above Housner's η the contact along the base is searched")
     p.add_argument("--k", default=None, help="impulse position for --target modified (default: the preset's average k; "
@@ -31,10 +33,17 @@ def register(sub) -> None:
                    "(static uplift threshold, anti-slip, period change, speed) when the calibration has not")
     p.add_argument("--no-cache", action="store_true", help="search again even when a stored calibration exists")
     p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
+    p.add_argument("--clear", default=None, metavar="ENGINE", help="remove ENGINE's stored calibrations and "
+                   "time-step rules (and nothing else), say how many, and exit")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    if args.clear is not None:
+        return _clear(args.clear)
+    if args.engine is None:
+        raise ConfigError("calibrate needs --engine NAME (see `rockbench engines`), or --clear NAME to remove an "
+                          "engine's stored calibrations.")
     request = CaseRequest.from_args(args)
     block, preset = request.block_and_preset()
     adapter = build_adapter(args.engine, **request.engine_settings())
@@ -50,6 +59,19 @@ def run(args) -> int:
         refuse_outside_range(args.engine, e, "calibrating it")
         raise
     return _print(args, out)
+
+
+def _clear(engine: str) -> int:
+    """``--clear ENGINE``: remove the calibration cache's records of one engine (a known engine, or one
+    that records name) and say how many; an unknown engine is a ConfigError (exit 2)."""
+    stored = cache.engines_stored()
+    if engine not in names() and engine not in stored:
+        named = ", ".join(sorted(e for e in stored if e)) or "none"
+        raise ConfigError(f"--clear: unknown engine {engine!r}; known engines: {', '.join(names())} (with stored "
+                          f"calibrations: {named}); give one of them.")
+    n = cache.clear(engine)
+    print(f"removed {n} stored calibration record{'s' if n != 1 else ''} of {engine} from {cache.cache_dir()}")
+    return 0
 
 
 def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
