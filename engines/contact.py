@@ -36,7 +36,8 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from rockbench.reference_solver.classify import overturn_certain
-from rockbench.reference_solver.errors import ConfigError, EngineError, check_positive
+from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution, housner_eta
 from rockbench.reference_solver.rules import RULES_VERSION

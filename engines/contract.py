@@ -46,7 +46,7 @@ contract every adapter shares, for a subclass of :class:`EngineAdapter`:
    run.json; ``measure_restitution`` and ``calibrate`` belong to engines with a contact model.
 10. ``version()`` returns the engine's version string (its module's ``__version__``, else the
     version of the distribution that installed it), or raises
-    :class:`~rockbench.reference_solver.errors.EngineUnavailableError` with the install hint.
+    :class:`~rockbench.engines.errors.EngineUnavailableError` with the install hint.
 11. ``default_suite_exclusion()`` and ``device_note()`` (optional classmethods) say why suites of
     every engine leave this one out here, and where it runs.
 
@@ -69,7 +69,8 @@ from typing import Any, ClassVar, Iterable, Literal, Mapping
 import numpy as np
 
 from rockbench.reference_solver.classify import Classification, classify
-from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError, check_positive
+from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.engines.errors import EngineUnavailableError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.pulses import Pulse
 from rockbench.reference_solver.restitution import Restitution

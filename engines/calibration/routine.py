@@ -19,7 +19,9 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from rockbench.reference_solver.errors import ConfigError, EngineError
+from rockbench.reference_solver.errors import ConfigError
+
+from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.rules import RULES_VERSION

@@ -7,7 +7,7 @@ What it prints (and writes as JSON and Markdown into ``--out DIR``):
 2. ``steps``: the engine alone: one batch of ``nworld`` worlds stepped a fixed number of steps
    through the adapter's own batch (drive kernel, ``mujoco_warp.step``, record; CUDA graph on a GPU),
    world-steps per second.
-3. ``maps``: whole maps through ``rockbench.benchmark.maps.sweep.run_map`` (the CLI's ``rockbench map``
+3. ``maps``: whole maps through ``rockbench.benchmark.sweep.run_map`` (the CLI's ``rockbench map``
    path: cells judged by the one classifier and validity rule, written to ``cells.csv``, no
    picture), N×N cells over ω/p × a₀/(g·tanα) (the default suite's axes), every cell simulated
    (no adaptive refinement), timed from the call to the written map; maps per second, cells per
@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.maps.grid import Axis, MapSpec
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.benchmark.scoring.metrics import score
 from rockbench.benchmark.store.loading import load_entry

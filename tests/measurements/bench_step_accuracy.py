@@ -71,7 +71,7 @@ def map_scores(spec, out_dir: Path, reference) -> dict:
     ``reference`` map entry as ``rockbench score`` does: boundary distance, invalid cells, the cells
     it simulated and their mean cost (cells.csv ``wall_s``) [s], and the map's wall and CPU time [s]
     (the CPU time, of this process, says more than the wall time on a shared machine)."""
-    from rockbench.benchmark.maps.sweep import run_map
+    from rockbench.benchmark.sweep import run_map
     from rockbench.benchmark.scoring.score_runs import score_entries
     from rockbench.benchmark.store.files import read_cell_table
     from rockbench.benchmark.store.loading import load_entry
@@ -219,7 +219,7 @@ def measure(args) -> dict:
     """The record of one command: the reference map, then every engine of ``args.engines``
     (:func:`engine_rows`), with the machine, the versions, the commit and the command."""
     from rockbench.benchmark.blocks.presets import get_preset
-    from rockbench.benchmark.maps.sweep import run_map
+    from rockbench.benchmark.sweep import run_map
     from rockbench.benchmark.store.loading import load_entry
     from rockbench.benchmark.store.run_folder import git_info
     from rockbench.reference_solver.restitution import Restitution
