@@ -649,18 +649,6 @@ class EngineAdapter:
         """The concrete settings cases of this block, restitution and time step [s] use (for run.json)."""
         return dict(self.settings)
 
-    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
-                            dt_s: float | None = None) -> RestitutionMeasurement:
-        """Free rocking from rest at ``theta0_frac·α``, no excitation: η impact by impact."""
-        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate; "
-                          "calibrate applies to engines such as mujoco, pybullet, exudyn.")
-
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Search the engine's contact settings so its free-rocking η reaches ``target_eta`` (1 %)."""
-        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate; "
-                          "calibrate applies to engines such as mujoco, pybullet, exudyn.")
-
     def calibration_block(self, block: Block) -> Block:
         """The block whose geometry the calibration behind runs of ``block`` is made on: ``block``
         itself (a contact engine's ``calibrate_on`` names another); a ConfigError for one it cannot

@@ -14,6 +14,7 @@ from rockbench.benchmark.cli.main import main
 from rockbench.engines.calibration import cache
 from rockbench.engines.calibration.pick import Candidate, pick
 from rockbench.engines.registry import adapter_class
+from rockbench.engines.calibration.routine import calibrate
 
 BLOCK = get_preset("B6L").block()
 T = 0.9294
@@ -54,14 +55,14 @@ def test_a_plugin_whose_code_changes_is_calibrated_afresh(tmp_path, monkeypatch)
     monkeypatch.setattr(sys, "dont_write_bytecode", True)
     try:
         first = _tiny(tmp_path, "0.7")
-        first().calibrate(BLOCK, T, dt_s=1e-3)
+        calibrate(first(), BLOCK, T, dt_s=1e-3)
         measured = list(sys.modules["tiny_plugin"].CALLS)
         assert measured, "the first calibration measures"
-        first().calibrate(BLOCK, T, dt_s=1e-3)
+        calibrate(first(), BLOCK, T, dt_s=1e-3)
         assert sys.modules["tiny_plugin"].CALLS == measured, "the same code reads the stored calibration"
         fixed = _tiny(tmp_path, "0.8")   # the author fixes the scene and bumps nothing
         assert cache.adapter_identity(fixed) != cache.adapter_identity(first)
-        fixed().calibrate(BLOCK, T, dt_s=1e-3)
+        calibrate(fixed(), BLOCK, T, dt_s=1e-3)
         assert sys.modules["tiny_plugin"].CALLS, "the changed code is calibrated again"
         assert cache.engines_stored() == {"tiny": 2}
     finally:

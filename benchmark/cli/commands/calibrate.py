@@ -12,6 +12,10 @@ from rockbench.benchmark.engine_info.adapters import build_adapter
 from rockbench.benchmark.engine_info.health import refuse_outside_range
 from rockbench.benchmark.request import CaseRequest
 from rockbench.benchmark.cli.options import add_block_options
+from rockbench.engines.calibration.free_rocking import measure_restitution
+from rockbench.engines.calibration.price import calibration_price
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.calibration.routine import calibrate
 
 
 def register(sub) -> None:
@@ -84,7 +88,7 @@ def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
             raise ConfigError(f"--theta0 must be a number in (0, 1), got {args.theta0!r}.") from None
         if not 0.0 < frac < 1.0:
             raise ConfigError(f"--theta0 must be a fraction of α in (0, 1), got {args.theta0!r}.")
-        m = adapter.measure_restitution(block, theta0_frac=frac, dt_s=dt)
+        m = measure_restitution(adapter, block, theta0_frac=frac, dt_s=dt)
         out = {"engine": adapter.name, "block": block.name, "eta_measured": m.eta_mean, "eta_std": m.eta_std,
                "eta_target": None, "n_impacts": len(m.etas), "etas": m.etas, "settings": m.settings,
                "dt_s": m.dt_s, "method": m.method}
@@ -96,12 +100,12 @@ def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
             dt = adapter.step_for(block, target)
             if getattr(adapter, "calibrated", lambda: False)() and adapter.contact_layout(block, target) == "corners":
                 step_rule = adapter.rule_step(block, target)[1]
-        c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
+        c = calibrate(adapter, block, target, dt_s=dt, use_cache=not args.no_cache)
         if args.price and c.price is None:
-            if not hasattr(adapter, "contact_price"):
+            if not isinstance(adapter, ContactEngine):
                 raise ConfigError(f"--price: engine {adapter.name!r} does not measure a contact price; "
                                   "leave --price out.")
-            c.price = adapter.contact_price(block, c, dt)
+            c.price = calibration_price(adapter, block, c, dt)
         out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict(),
                "dt_s": dt, "step_rule": step_rule}
     return out
