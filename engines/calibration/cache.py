@@ -62,21 +62,20 @@ def adapter_identity(cls: type) -> dict:
     distribution that installed the adapter's module: rockbench's own for a built-in, the plugin's
     package otherwise; ``""`` for an adapter no distribution installed) and ``source_sha256``, a
     hash of the source of the adapter's own modules (those of its classes outside rockbench's bases)."""
-    own = [c for c in cls.__mro__ if _adapter_own(c.__module__)]
+    own = {c.__module__: c for c in reversed(cls.__mro__) if _adapter_own(c.__module__)}
     top = cls.__module__.partition(".")[0]
     dists = metadata.packages_distributions().get(top, []) if top != "__main__" else []
-    version = ""
+    name, version = "", ""
     for dist in dists:
         try:
-            version = metadata.version(dist)
+            name, version = dist, metadata.version(dist)
             break
         except metadata.PackageNotFoundError:
             continue
     digest = hashlib.sha256()
-    for c in own:
-        digest.update(_source_of(c))
-    return {"distribution": dists[0] if dists and version else "", "distribution_version": version,
-            "source_sha256": digest.hexdigest()[:16]}
+    for module in sorted(own):
+        digest.update(_source_of(own[module]))
+    return {"distribution": name, "distribution_version": version, "source_sha256": digest.hexdigest()[:16]}
 
 
 def _adapter_own(module: str) -> bool:
