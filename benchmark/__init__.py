@@ -18,12 +18,18 @@ this package is cheap: the solver, the engines and plotting load on first use.
 
 from __future__ import annotations
 
+import importlib
 from importlib.metadata import PackageNotFoundError, version
 
 # the presets' names, handed down to the engines' ``calibrate_on`` wherever this floor runs (map workers too)
 from rockbench.benchmark.blocks import presets as _presets  # noqa: F401
 
-__all__ = ["__version__", "simulate", "stability_map", "load_run", "Simulation", "Run"]
+#: the exceptions a user catches, by name, and the floor each lives on (docs/architecture.md, "Errors")
+ERRORS = {"RockbenchError": "rockbench.reference_solver.errors", "ConfigError": "rockbench.reference_solver.errors",
+          "EngineUnavailableError": "rockbench.engines.errors", "EngineError": "rockbench.engines.errors",
+          "IncomparableError": "rockbench.benchmark.errors"}
+
+__all__ = ["__version__", "simulate", "stability_map", "load_run", "Simulation", "Run", *ERRORS]
 
 
 def _version() -> str:
@@ -43,8 +49,10 @@ def __getattr__(name: str):
         # the API pulls in numpy, numba and the engines' registry: load it on first use only
         from rockbench.benchmark import api
         return getattr(api, name)
+    if name in ERRORS:
+        return getattr(importlib.import_module(ERRORS[name]), name)
     raise AttributeError(f"module 'rockbench.benchmark' has no attribute {name!r}")
 
 
 def __dir__():
-    return sorted(set(globals()) | _LAZY)
+    return sorted(set(globals()) | _LAZY | set(ERRORS))

@@ -23,7 +23,7 @@ from rockbench.reference_solver.model import amplitude_to_a_ratio, omega_to_w_ra
 from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.benchmark.engine_info.adapters import build_adapter
 from rockbench.benchmark.maps.grid import MAP_PULSES, make_axis, parse_range
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.report.histories import impact_times, picture_span_s
 from rockbench.benchmark.report.plots.trajectories import plot_theta
 from rockbench.benchmark.request import CaseRequest

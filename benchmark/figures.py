@@ -18,7 +18,7 @@ from pathlib import Path
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.report.plots.stability import plot_stability, save
 
 #: The normalised ranges of the recomputed figures: ω/p and a0/(g·tanα).

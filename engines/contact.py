@@ -22,29 +22,30 @@ change; everything else is this base's, and the same for every engine:
   calibrated (:mod:`rockbench.engines.calibration.step_rule`);
 * **the run**: one stepping loop and one end of a run (:mod:`rockbench.engines.loop`), cases batched
   up to ``max_worlds`` worlds, a run the engine halts retried as ``RETRIES`` says;
-* **free rocking**: one test (:meth:`ContactEngine.measure_restitution`), η read by the one reader;
-* **the calibration**: one routine (:mod:`rockbench.engines.calibration.routine`): the knobs searched
+* **free rocking**: one test (:func:`rockbench.engines.calibration.free_rocking.measure_restitution`, a
+  function of the engine), η read by the one reader; the base's ``measure_many`` hook runs it per setting;
+* **the calibration**: one routine (:func:`rockbench.engines.calibration.routine.calibrate`, a function
+  of the engine): the knobs searched
   (or the engine's own ``candidates``), the one pick, the cache; a row along the base at a price.
 """
 
 from __future__ import annotations
 
 import json
-import math
 from typing import Any, ClassVar, Mapping
 
-import numpy as np
 
 from rockbench.reference_solver.classify import overturn_certain
-from rockbench.reference_solver.errors import ConfigError, EngineError, check_positive
+from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution, housner_eta
 from rockbench.reference_solver.rules import RULES_VERSION
 from rockbench.engines import progress
 from rockbench.engines.calibration import cache, held_out, knobs, routine, step_rule
-from rockbench.engines.calibration import price as pricing
-from rockbench.engines.calibration.free_rocking import FREE_ROCKING_IMPACTS, PEAK_RATIO, contact_figures, first_quarter_s
-from rockbench.engines.contract import CONTRACT_VERSION, SETTINGS_MODES, CalibrationResult, EngineAdapter, RestitutionMeasurement
+from rockbench.engines.calibration.free_rocking import free_rocking_run
+from rockbench.engines.calibration.routine import POINTS_TRIED
+from rockbench.engines.contract import CONTRACT_VERSION, SETTINGS_MODES, CalibrationResult, EngineAdapter
 from rockbench.engines.hooks import hook_line, required
 from rockbench.engines.loop import run_worlds
 
@@ -67,9 +68,6 @@ MODES = {"drive": DRIVES, "planar": PLANAR_MODES}
 #: ``contact`` values of an engine with a row along the base: the corners alone, a row of points along
 #: the base, or the corners unless the target η is above Housner's (then the row); docs/contact.md
 CONTACT_LAYOUTS = ("auto", "corners", "distributed")
-#: Points of a row along the base a calibration tries in turn where ``contact_points`` is not set (the
-#: first is also the default row)
-POINTS_TRIED = (9, 5, 17)
 #: The most points a row along the base may have
 MAX_CONTACT_POINTS = 101
 
@@ -258,7 +256,8 @@ class ContactEngine(EngineAdapter):
 
     def free_rocking_step(self, dt_s: float | None = None) -> float:
         """The step of a free-rocking test or a calibration asked for without one, outside any case
-        (:meth:`measure_restitution`, :meth:`calibrate`) [s]: ``dt_s`` where given; as shipped the
+        (:func:`~rockbench.engines.calibration.free_rocking.measure_restitution`,
+        :func:`~rockbench.engines.calibration.routine.calibrate`) [s]: ``dt_s`` where given; as shipped the
         engine's own step (:attr:`own_dt_s`, else :attr:`fixed_dt_s`); otherwise :attr:`fixed_dt_s`.
         (A case's step is :meth:`step_for`'s; give ``dt_s=step_for(block, eta)`` to test at it.)"""
         if dt_s is not None:
@@ -270,18 +269,18 @@ class ContactEngine(EngineAdapter):
         calibrations; the search runs on ``block`` itself (``calibrate_on`` left out: its probe runs are
         of the block the step is for), so a held-out calibration shares the step of the block it names."""
         on = self._on_itself()
-        key = cache.cache_key(engine=self.name, version=self.version(), contract=CONTRACT_VERSION, kind="step-rule",
-                              rules_version=RULES_VERSION, block=[block.width_m, block.height_m, block.depth_m,
-                                                                  block.mass_kg],
-                              target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
-                              probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
-                                      step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
-                              settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
+        key = cache.adapter_key(self, contract=CONTRACT_VERSION, kind="step-rule",
+                                rules_version=RULES_VERSION, block=[block.width_m, block.height_m, block.depth_m,
+                                                                    block.mass_kg],
+                                target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
+                                probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
+                                        step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
+                                settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
         rec = self._steps.get(key) or cache.load(key)
         if rec is None:
             with progress.activity(f"{self.name}: time-step rule for {block.name} at η {eta:.4f}"):
-                rec = step_rule.converged_step(lambda dt: on.calibrate(block, eta, dt_s=dt), on._judged, block, eta)[1]
-            cache.store(key, rec)
+                rec = step_rule.converged_step(lambda dt: routine.calibrate(on, block, eta, dt_s=dt), on._judged, block, eta)[1]
+            cache.store(key, rec, self.name)
         self._steps[key] = rec
         return float(rec["dt_s"]), rec
 
@@ -291,7 +290,7 @@ class ContactEngine(EngineAdapter):
         step where none is given: :meth:`step_for`, and the time-step rule's record with it).
 
         A contact given, else as shipped the engine's, else the calibration to the restitution's η
-        at this step (:meth:`calibrate`, cached) made on :meth:`calibration_block` (the record's
+        at this step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached) made on :meth:`calibration_block` (the record's
         ``calibrated_on`` names another) and aimed at the law's η for that block
         (:meth:`calibration_target`); :meth:`settings_with` resolves them. Memoised."""
         on, eta = self.calibration_target(block, restitution) if self.calibrated() else \
@@ -299,7 +298,7 @@ class ContactEngine(EngineAdapter):
         dt = self.step_for(block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
-            cal = self._on_itself().calibrate(on, eta, dt_s=dt) if self.calibrated() else None
+            cal = routine.calibrate(self._on_itself(), on, eta, dt_s=dt) if self.calibrated() else None
             out = self.settings_with(cal.settings if cal else None)
             if cal is not None:
                 out["calibration"] = _summary(cal) | ({"calibrated_on": on.name} if self.settings["calibrate_on"] else {})
@@ -420,88 +419,20 @@ class ContactEngine(EngineAdapter):
                     out[i] = tr
         return out
 
-    # -- free rocking -------------------------------------------------------------------------
-    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
-                            settings: dict | None = None) -> RestitutionMeasurement:
-        """Free rocking from rest at ``theta0_frac·α`` on the +x corner, no excitation: η impact by impact
-        read by the one reader (:data:`~rockbench.engines.calibration.free_rocking.PEAK_RATIO`), the
-        run's resting sink and hop (:func:`~rockbench.engines.calibration.free_rocking.contact_figures`).
-
-        Parameters
-        ----------
-        block : Block
-        theta0_frac : float
-            Release angle as a fraction of α [-].
-        dt_s : float, optional
-            Time step [s] (default: :meth:`free_rocking_step`'s: the engine's own as shipped, else
-            :attr:`fixed_dt_s`).
-        settings : dict, optional
-            Resolved settings to measure (default: those in force, :meth:`resolve` to Housner's η).
-        """
-        if not 0.0 < float(theta0_frac) < 1.0:
-            raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
-        dt = self.free_rocking_step(dt_s)
-        if dt > 0.01:
-            raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt!r}.")
-        s = self.resolve(block, Restitution(), dt_s=dt) if settings is None else settings
-        return self._free_rocking(block, s, dt, theta0_frac)
-
+    # -- free rocking: the batch hook (the test is engines/calibration/free_rocking.py's) ----------
     def measure_many(self, block: Block, settings: list[dict], dt: float, theta0_frac: float = 0.5) -> list:
         """Free rocking of each of ``settings`` (resolved settings) at step ``dt`` [s]: a
         :class:`~rockbench.engines.contract.RestitutionMeasurement` each, or the exception it raised."""
         out = []
         for s in settings:
             try:
-                out.append(self._free_rocking(block, s, dt, theta0_frac))
+                out.append(free_rocking_run(self, block, s, dt, theta0_frac))
             except Exception as e:  # noqa: BLE001 - a setting the engine fails on is recorded, the search goes on
                 out.append(e)
             progress.advance()
         return out
 
-    def _free_rocking(self, block: Block, s: dict, dt: float, theta0_frac: float) -> RestitutionMeasurement:
-        """The free-rocking test of :meth:`measure_restitution`, unchecked."""
-        theta0 = float(theta0_frac) * block.alpha_rad
-        tr, motion = self.run_worlds(block, s, dt, [None], theta0, PEAK_RATIO.duration_s(block, theta0_frac))[0]
-        return self.free_rocking_measurement(block, s, dt, theta0, tr, motion)
-
-    def free_rocking_measurement(self, block: Block, s: dict, dt: float, theta0: float, tr,
-                                 motion) -> RestitutionMeasurement:
-        """What a free-rocking run from ``theta0`` [rad] (its trajectory and motion) measured: η per
-        impact by the one reader, the resting sink and hop, the first impact's time; an EngineError
-        where the engine halted before the impacts were measured."""
-        etas = PEAK_RATIO.etas(block, motion.theta_rad, theta0)
-        if "engine_stopped" in tr.diagnostics and len(etas) < FREE_ROCKING_IMPACTS:
-            raise EngineError(f"free rocking: {tr.diagnostics['engine_stopped']}")
-        sink, hop = contact_figures(block, tr.theta_rad, tr.corner_z_m)
-        shown = {k: s.get(k) for k in ("friction", "planar", "drive", *self.SHIPPED, *self.MODE_DEFAULTS)}
-        return RestitutionMeasurement(etas=[float(e) for e in etas],
-                                      eta_mean=float(np.mean(etas)) if etas else math.nan,
-                                      eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0, dt_s=dt,
-                                      settings=shown, method=PEAK_RATIO.method, sink_m=sink, hop_m=hop,
-                                      first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad))
-
     # -- the calibration ----------------------------------------------------------------------
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Contact settings whose free-rocking η reaches ``target_eta`` (1 %) at step ``dt_s`` [s]
-        (default: :meth:`free_rocking_step`'s), by the one routine
-        (:mod:`~rockbench.engines.calibration.routine`): at the corners, or (``contact = auto`` above
-        1 % over Housner's η_H, or ``distributed``) a row of points along the base with the set number
-        of points, else 9, 5 and 17 in turn until one reaches the target at an acceptable price. A
-        ConfigError with a contact given: it replaces the calibration (in maps too)."""
-        if self.explicit_contact():
-            given = [f"{k} = {self.settings[k]!r}" for k in self.SHIPPED if self.settings.get(k) is not None]
-            raise ConfigError(f"{self.name}: {', '.join(given)} is given, and a given contact replaces the calibration "
-                              "(in maps as here), so there is nothing to calibrate: leave out --target to measure η "
-                              "with it, or leave it out to calibrate.")
-        t = _target(target_eta)
-        dt = self.free_rocking_step(dt_s)
-        if self.contact_layout(block, t) != "distributed":
-            return routine.calibrate_layout(self, block, t, dt, None, use_cache)
-        n_set = self.settings["contact_points"]
-        return routine.first_reached(lambda n: routine.calibrate_layout(self, block, t, dt, n, use_cache),
-                                     (n_set,) if n_set is not None else POINTS_TRIED, self.CONTACT_ROWS)
-
     def candidates(self, block: Block, target: float, dt_s: float, points: int | None, measure) -> list[dict]:
         """Hook: the candidates a calibration measures, in order, each a row of ``measure(candidates)``
         (contact settings in, rows with what the pick reads out): at the corners (``points`` None) the
@@ -512,14 +443,6 @@ class ContactEngine(EngineAdapter):
             return knobs.search(self.KNOBS, block, target, dt_s, measure, self.START_KEEP_RTOL, self.SHIPPED)
         return knobs.search(self.ROW_KNOBS, block, target, dt_s, measure)
 
-    def contact_price(self, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
-        """The price of a calibration's contact at step ``dt_s`` [s] (:func:`~rockbench.engines.calibration.price.contact_price`)."""
-        fixed = self.fixed(c.settings)
-        dt = fixed.step_for(block, c.eta_target, dt_s=dt_s)
-        m = fixed.measure_restitution(block, dt_s=dt)
-        return pricing.contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt,
-                                     first_quarter_s=m.first_quarter_s)
-
 
 def _capped(dt: float, pulse) -> float:
     return float(dt) if pulse is None else min(float(dt), pulse.max_dt_s())
@@ -529,17 +452,6 @@ def _halted(tr, block: Block) -> bool:
     """Whether the engine halted a run before its overturn was certain."""
     return "engine_stopped" in tr.diagnostics and not overturn_certain(
         tr.t_s, tr.theta_rad, tr.theta_dot_rad_s, alpha_rad=block.alpha_rad, t_pulse_end_s=tr.t_pulse_end_s).any()
-
-
-def _target(target_eta) -> float:
-    """A calibration target η as a float, or a ConfigError unless it is in (0, 1]."""
-    try:
-        t = float(target_eta)
-    except (TypeError, ValueError):
-        t = math.nan
-    if not (math.isfinite(t) and 0.0 < t <= 1.0):
-        raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
-    return t
 
 
 def _summary(cal: CalibrationResult) -> dict:

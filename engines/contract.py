@@ -46,7 +46,7 @@ contract every adapter shares, for a subclass of :class:`EngineAdapter`:
    run.json; ``measure_restitution`` and ``calibrate`` belong to engines with a contact model.
 10. ``version()`` returns the engine's version string (its module's ``__version__``, else the
     version of the distribution that installed it), or raises
-    :class:`~rockbench.reference_solver.errors.EngineUnavailableError` with the install hint.
+    :class:`~rockbench.engines.errors.EngineUnavailableError` with the install hint.
 11. ``default_suite_exclusion()`` and ``device_note()`` (optional classmethods) say why suites of
     every engine leave this one out here, and where it runs.
 
@@ -69,7 +69,8 @@ from typing import Any, ClassVar, Iterable, Literal, Mapping
 import numpy as np
 
 from rockbench.reference_solver.classify import Classification, classify
-from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError, check_positive
+from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.engines.errors import EngineUnavailableError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.pulses import Pulse
 from rockbench.reference_solver.restitution import Restitution
@@ -647,18 +648,6 @@ class EngineAdapter:
     def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
         """The concrete settings cases of this block, restitution and time step [s] use (for run.json)."""
         return dict(self.settings)
-
-    def measure_restitution(self, block: Block, *, theta0_frac: float = 0.5,
-                            dt_s: float | None = None) -> RestitutionMeasurement:
-        """Free rocking from rest at ``theta0_frac·α``, no excitation: η impact by impact."""
-        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate; "
-                          "calibrate applies to engines such as mujoco, pybullet, exudyn.")
-
-    def calibrate(self, block: Block, target_eta: float, *, dt_s: float | None = None,
-                  use_cache: bool = True) -> CalibrationResult:
-        """Search the engine's contact settings so its free-rocking η reaches ``target_eta`` (1 %)."""
-        raise ConfigError(f"engine {self.name!r} has no contact model to calibrate; "
-                          "calibrate applies to engines such as mujoco, pybullet, exudyn.")
 
     def calibration_block(self, block: Block) -> Block:
         """The block whose geometry the calibration behind runs of ``block`` is made on: ``block``

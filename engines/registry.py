@@ -13,7 +13,9 @@ import difflib
 import importlib
 from importlib.metadata import entry_points
 
-from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError
+from rockbench.reference_solver.errors import ConfigError
+
+from rockbench.engines.errors import EngineUnavailableError
 from rockbench.engines import CONTRACT_VERSION
 from rockbench.engines.support import install_command, outside_range, supported_range
 

@@ -1,7 +1,12 @@
-"""The exception hierarchy shared by every floor.
+"""The root of rockbench's exceptions and the one error of bad input, for every floor.
 
-Each subclass also inherits the builtin it refines, so ``except ValueError`` keeps working for
-callers who do not know rockbench. Messages say what was wrong, what was given and what to do.
+Each floor's errors live on that floor and derive from :class:`RockbenchError`: this floor's
+:class:`ConfigError` (bad user input, exit 2, raised on every floor), the engines' in
+:mod:`rockbench.engines.errors` (an engine unavailable, an engine failing), the benchmark's in
+:mod:`rockbench.benchmark.errors` (results that cannot be compared). Users catch them all from the
+front door, ``rockbench.benchmark`` (``rb.ConfigError``; docs/architecture.md). Each subclass also
+inherits the builtin it refines, so ``except ValueError`` keeps working for callers who do not know
+rockbench. Messages say what was wrong, what was given and what to do.
 """
 
 import math
@@ -17,24 +22,6 @@ class ConfigError(RockbenchError, ValueError):
     """Bad user input: a size, a range, a setting, a file. The CLI exits with code 2."""
 
     exit_code = 2
-
-
-class EngineUnavailableError(RockbenchError, ImportError):
-    """A requested engine is not installed or cannot start. The CLI exits with code 3."""
-
-    exit_code = 3
-
-
-class EngineError(RockbenchError, RuntimeError):
-    """An engine raised or diverged while simulating one case (recorded per cell in maps)."""
-
-    exit_code = 70
-
-
-class IncomparableError(RockbenchError, ValueError):
-    """Two result sets cannot be compared (other schema or scenario). The CLI exits with code 5."""
-
-    exit_code = 5
 
 
 def check_positive(name: str, value, unit: str = "", hint: str = "") -> float:

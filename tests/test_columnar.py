@@ -11,11 +11,11 @@ import pytest
 
 from rockbench.benchmark.store import columnar
 
-from rockbench.benchmark.maps import sweep as maps
+from rockbench.benchmark import sweep as maps
 from rockbench.benchmark.store.columnar import format_rows, repr_floats
 from rockbench.benchmark.maps.executors import ProcessExecutor, make_executor, worker_init
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.store.loading import load_map
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.adapters.reference import ReferenceAdapter

@@ -11,10 +11,11 @@ from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.maps.executors import DaskExecutor, worker_init
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
 from rockbench.benchmark.maps.result import FAILED
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.store.loading import load_map
 from rockbench.benchmark.blocks.presets import get_preset
-from rockbench.reference_solver.errors import ConfigError, EngineError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.restitution import Restitution
 
 

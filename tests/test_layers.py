@@ -33,10 +33,12 @@ LAYERS = [
     ("the contact engines' base and its loop", ["rockbench.engines.contact", "rockbench.engines.loop"]),
     ("one adapter per engine", ["rockbench.engines.adapters"]),
     ("the registry and the conformance checker", ["rockbench.engines.registry", "rockbench.engines.checker"]),
-    ("block presets, experimental data and facts about the installed engines",
-     ["rockbench.benchmark.blocks", "rockbench.benchmark.engine_info"]),
-    ("maps: the case or map a user asks for, grids, cells, executors, and the run folders they are stored in",
-     ["rockbench.benchmark.request", "rockbench.benchmark.maps", "rockbench.benchmark.store"]),
+    ("block presets, experimental data, facts about the installed engines and the benchmark's errors",
+     ["rockbench.benchmark.blocks", "rockbench.benchmark.engine_info", "rockbench.benchmark.errors"]),
+    ("maps: the case or map a user asks for, grids, cells, executors, the run folders they are stored in, and the "
+     "sweep that computes a map into its folder",
+     ["rockbench.benchmark.request", "rockbench.benchmark.maps", "rockbench.benchmark.store",
+      "rockbench.benchmark.sweep"]),
     ("scores of stored maps", ["rockbench.benchmark.scoring"]),
     ("suite files: what a benchmark run computes, and computing its maps", ["rockbench.benchmark.suites"]),
     ("the report: pages and pictures of what runs stored", ["rockbench.benchmark.report"]),
@@ -48,7 +50,7 @@ LAYERS = [
 ]
 
 #: Modules the report may not import: the report draws what runs stored and simulates nothing.
-SIMULATES = ["rockbench.engines.registry", "rockbench.reference_solver.solver", "rockbench.benchmark.maps.sweep",
+SIMULATES = ["rockbench.engines.registry", "rockbench.reference_solver.solver", "rockbench.benchmark.sweep",
              "rockbench.benchmark.maps.executors", "rockbench.benchmark.maps.worker", "rockbench.benchmark.simulation"]
 
 
@@ -112,6 +114,51 @@ def test_imports_point_down_only():
               f"(floor {_floor(target) + 1}: {LAYERS[_floor(target)][0]})"
               for path, line, mod, target in _all_imports() if _floor(target) > _floor(mod)]
     assert not upward, "imports that point up a floor:\n" + "\n".join(upward)
+
+
+def _subpackage(dotted: str) -> str | None:
+    """The subpackage of a floor that holds a module (or a name in one): ``rockbench.benchmark.maps`` for
+    ``rockbench.benchmark.maps.grid.MapSpec``; None for a module directly in a floor's folder."""
+    for pkg, folder in FOLDERS.items():
+        if dotted.startswith(pkg + "."):
+            sub = dotted[len(pkg) + 1:].split(".")[0]
+            return f"{pkg}.{sub}" if (ROOT / folder / sub / "__init__.py").is_file() else None
+    return None
+
+
+def _cycle(edges: dict[str, set[str]]) -> list[str] | None:
+    """One cycle of a directed graph (its nodes in order, the first repeated at the end), None if none."""
+    state: dict[str, int] = {}   # 1: on the path, 2: done
+    path: list[str] = []
+
+    def visit(n: str) -> list[str] | None:
+        state[n] = 1
+        path.append(n)
+        for m in sorted(edges.get(n, ())):
+            if state.get(m) == 1:
+                return path[path.index(m):] + [m]
+            if m not in state and (found := visit(m)):
+                return found
+        state[n] = 2
+        path.pop()
+        return None
+
+    return next((c for n in sorted(edges) if n not in state and (c := visit(n))), None)
+
+
+def test_subpackages_import_one_way():
+    """No two subpackages of a floor import each other, directly or round a longer loop (``benchmark/store``
+    reads and writes what ``benchmark/maps`` computes; ``maps`` never imports ``store``)."""
+    edges: dict[str, set[str]] = {}
+    where: dict[tuple[str, str], str] = {}
+    for path, line, mod, target in _all_imports():
+        a, b = _subpackage(mod), _subpackage(target)
+        if a and b and a != b:
+            edges.setdefault(a, set()).add(b)
+            where.setdefault((a, b), f"{path.relative_to(ROOT)}:{line} imports {target}")
+    cycle = _cycle(edges)
+    assert cycle is None, "subpackages that import each other: " + " → ".join(cycle) + "\n" + "\n".join(
+        where[(a, b)] for a, b in zip(cycle, cycle[1:]))
 
 
 def test_imports_are_absolute():
@@ -183,7 +230,7 @@ def test_imports_inside_functions_say_why():
 
 
 @pytest.mark.parametrize("source, target, floor_ok", [
-    ("rockbench.benchmark.maps.sweep", "rockbench.benchmark.report.plots.picture.MapPicture", False),
+    ("rockbench.benchmark.sweep", "rockbench.benchmark.report.plots.picture.MapPicture", False),
     ("rockbench.engines.calibration.routine", "rockbench.engines.adapters.mujoco.MujocoAdapter", False),
     ("rockbench.engines.adapters.mujoco", "rockbench.engines.contact.ContactEngine", True),
     ("rockbench.engines.contract", "rockbench.engines.calibration.step_rule", False),
@@ -195,3 +242,17 @@ def test_imports_inside_functions_say_why():
 def test_the_rule_itself(source, target, floor_ok):
     """The floor comparison the test relies on says what the declared layers mean."""
     assert (_floor(target) <= _floor(source)) is floor_ok
+
+
+def test_each_floor_s_errors_live_on_it_and_users_catch_them_at_the_front_door():
+    """docs/architecture.md, "Errors": the root and bad input on floor 1, the engines' errors on floor 2,
+    the benchmark's on floor 3, every one a RockbenchError and importable from ``rockbench.benchmark``."""
+    import rockbench.benchmark as rb
+
+    floors = {"RockbenchError": 0, "ConfigError": 0, "EngineUnavailableError": 1, "EngineError": 1,
+              "IncomparableError": 2}
+    assert set(rb.ERRORS) == set(floors)
+    for name, floor in floors.items():
+        cls = getattr(rb, name)
+        assert issubclass(cls, rb.RockbenchError) and cls.__name__ == name
+        assert cls.__module__.split(".")[1] == list(FOLDERS)[floor].split(".")[1], cls.__module__

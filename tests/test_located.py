@@ -14,11 +14,11 @@ from rockbench.benchmark.maps import locating
 from rockbench.benchmark.maps.bisection import ALONG_A, ALONG_W
 from rockbench.benchmark.maps.boundary import midpoint_boundary
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.scoring.metrics import critical_amplitude
 from rockbench.benchmark.store.files import SAMPLE_COLUMNS, read_samples
 from rockbench.benchmark.store.loading import load_entry, load_map
-from rockbench.reference_solver.errors import IncomparableError
+from rockbench.benchmark.errors import IncomparableError
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution, modified_eta

@@ -11,7 +11,7 @@ from rockbench.benchmark.maps import adaptive
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.maps.grid import MapSpec, make_axis, parse_range
 from rockbench.benchmark.maps.result import MISSING
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.store.loading import load_map
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.reference_solver.errors import ConfigError

@@ -10,7 +10,7 @@ from rockbench.benchmark.maps import adaptive
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
 from rockbench.benchmark.maps.result import MISSING
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.store.loading import load_map
 from rockbench.benchmark.blocks.presets import PRESETS, TABLE_1, get_preset
 from rockbench.engines.checker import check_adapter

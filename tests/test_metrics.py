@@ -11,7 +11,8 @@ from rockbench.benchmark.maps.result import MapResult, from_cells
 from rockbench.benchmark.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, NEARER_ZERO, OVERTURN, REST, ROCKING,
                                                boundary_points, check_gate, critical_amplitude,
                                                cell_counts, is_perfect, parse_thresholds, score)
-from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.errors import IncomparableError
 
 N = 10
 AX = np.arange(N, dtype=float)  # unit spacing on both axes: distances are easy to count

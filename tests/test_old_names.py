@@ -13,9 +13,10 @@ import json
 import pytest
 
 from rockbench.benchmark.cli.main import main
-from rockbench.benchmark.store.files import stored_settings, stored_variant
+from rockbench.benchmark.engine_info.setting_names import stored_settings
+from rockbench.benchmark.store.files import stored_variant
 from rockbench.engines import CONTRACT_VERSION
-from rockbench.reference_solver.errors import IncomparableError
+from rockbench.benchmark.errors import IncomparableError
 
 
 def run_cli(capsys, *argv):

@@ -292,7 +292,7 @@ def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):
     """Fig. 5 (B6M): the table limit, a₀/(g·tanα) = 11.5, lies above the chart's 10: neither drawn nor
     listed; the legend sits below the axes and the labels read as the paper writes them."""
     from rockbench.benchmark.figures import FIGURES, curve_spec
-    from rockbench.benchmark.maps.sweep import run_map
+    from rockbench.benchmark.sweep import run_map
     from rockbench.benchmark.report.plots.stability import plot_stability
     _, curves = FIGURES[5]
     maps = [run_map(curve_spec(c, 12), tmp_path / f"m{k}", serial=True) for k, c in enumerate(curves)]

@@ -10,7 +10,7 @@ from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.engine_info.adapters import build_adapter
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.scoring.labels import PLANTED_CLASS, settings_class, variant_label
 from rockbench.benchmark.scoring.score_runs import score_dirs
 from rockbench.benchmark.store.loading import load_entry

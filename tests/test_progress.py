@@ -17,6 +17,7 @@ from rockbench.engines import progress
 from rockbench.engines.calibration import step_rule
 from rockbench.engines.contract import CellResult
 from rockbench.reference_solver.restitution import housner_eta
+from rockbench.engines.calibration.routine import calibrate
 
 B3M = get_preset("B3M").block()
 
@@ -152,7 +153,7 @@ def test_a_real_calibration_says_how_many_candidates_it_measured(heard, monkeypa
     pytest.importorskip("mujoco")
     from rockbench.engines.registry import get_adapter
     monkeypatch.setattr(progress, "INTERVAL_S", 0.0)
-    c = get_adapter("mujoco").calibrate(B3M, housner_eta(B3M.alpha_rad), dt_s=1e-3, use_cache=False)
+    c = calibrate(get_adapter("mujoco"), B3M, housner_eta(B3M.alpha_rad), dt_s=1e-3, use_cache=False)
     head = f"mujoco: calibration of B3M to η {housner_eta(B3M.alpha_rad):.4f} at Δt 1 ms: "
     assert heard and all(ln.startswith(head) and "candidates measured" in ln for ln in heard)
     assert heard[-1].startswith(head + f"{c.evaluations} of {c.evaluations} candidates measured")

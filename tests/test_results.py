@@ -9,7 +9,8 @@ import pytest
 
 from rockbench.benchmark.store.files import (COLUMNS, REQUIRED_COLUMNS, json_safe, read_cell_table, read_json,
                                            utc_stamp, write_json)
-from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.errors import IncomparableError
 
 
 def test_json_has_no_nan_so_non_finite_numbers_are_written_null(tmp_path):

@@ -8,7 +8,7 @@ import pytest
 
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.maps.grid import MapSpec, parse_range
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.scoring.score_runs import score_dirs
 from rockbench.engines.registry import BUILTIN, adapter_class, availability

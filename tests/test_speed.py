@@ -13,7 +13,7 @@ import pytest
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.maps.grid import MapSpec, parse_range
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.report.plots.speed import plot_accuracy_cost
 from rockbench.benchmark.scoring.score_runs import compare_scores, score_dirs
 from rockbench.benchmark.scoring.speed import band, matched, point

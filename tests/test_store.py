@@ -14,7 +14,7 @@ import pytest
 
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.report.plots.picture import MapPicture
 from rockbench.benchmark.store.loading import load_map
 from rockbench.benchmark.blocks.presets import get_preset

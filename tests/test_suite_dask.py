@@ -5,7 +5,8 @@ finished map, and a rerun completes and equals the uninterrupted run; a bad addr
 
 The suite is reduced to keep the cost low: one block and pulse, a 6 × 5 adaptive grid, MuJoCo and
 PyBullet calibrated at a fixed 1 ms step (their calibrations cached once for every run here), the reference and two planted
-variants. Every wait is bounded.
+variants. Every wait is bounded. The workers preload tests/dask_slow_maps.py, which makes each map task last at
+least two seconds, so that the kill finds a busy worker on any machine.
 """
 
 from __future__ import annotations
@@ -110,7 +111,8 @@ class _Cluster:
     def add_worker(self) -> subprocess.Popen:
         n = len(self.workers)
         w = _start([sys.executable, "-m", "dask", "worker", self.address, "--nworkers", "1", "--nthreads", "1",
-                    "--host", "127.0.0.1", "--no-dashboard", "--local-directory", str(self.tmp / f"w{n}")],
+                    "--host", "127.0.0.1", "--no-dashboard", "--local-directory", str(self.tmp / f"w{n}"),
+                    "--preload", str(Path(__file__).with_name("dask_slow_maps.py"))],
                    self.env, self.tmp / f"worker{n}.log")
         self.workers.append(w)
         return w

@@ -12,7 +12,7 @@ import pytest
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.cli.commands import versions as versions_cmd
 from rockbench.benchmark.engine_info.envs import VersionSpec, build_env, parse_pair, plan_env
-from rockbench.reference_solver.errors import EngineUnavailableError
+from rockbench.engines.errors import EngineUnavailableError
 
 
 @pytest.mark.parametrize("argv, needle", [

@@ -30,7 +30,8 @@ from packaging.version import InvalidVersion, Version
 
 from rockbench.engines.registry import names
 from rockbench.engines.support import DISTRIBUTIONS
-from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.engines.errors import EngineUnavailableError
 
 #: the folders (and file) of the source tree that make up the installed package
 SOURCE_PARTS = ("pyproject.toml", "reference_solver", "engines", "benchmark")

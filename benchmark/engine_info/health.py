@@ -15,7 +15,8 @@ import threading
 
 from rockbench.engines.registry import adapter_class
 from rockbench.engines.support import install_advice, installed_label, outside_range, supported_range
-from rockbench.reference_solver.errors import EngineError, EngineUnavailableError, RockbenchError
+from rockbench.reference_solver.errors import RockbenchError
+from rockbench.engines.errors import EngineError, EngineUnavailableError
 
 #: longest error text quoted in a line [characters]
 MAX_REASON = 160

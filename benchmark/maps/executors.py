@@ -65,7 +65,8 @@ from urllib.parse import urlsplit
 from rockbench.engines import registry
 from rockbench.engines.contract import CellResult
 from rockbench.engines.registry import adapter_class
-from rockbench.reference_solver.errors import ConfigError, EngineError, EngineUnavailableError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.engines.errors import EngineError, EngineUnavailableError
 from rockbench.benchmark.engine_info.adapters import build_adapter
 from rockbench.benchmark.maps import worker as wire
 from rockbench.benchmark.maps.cost import run_measured

@@ -23,7 +23,7 @@ from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import Block, G, a_ratio_to_amplitude, amplitude_to_a_ratio
 from rockbench.reference_solver.pulses import MIN_STEPS_PER_WAVE, check_accel, check_step_count, make_pulse
 from rockbench.reference_solver.restitution import Restitution
-from rockbench.benchmark.store.files import stored_settings
+from rockbench.benchmark.engine_info.setting_names import stored_settings
 
 
 
@@ -297,7 +297,7 @@ class MapSpec:
     def from_dict(cls, d: dict) -> "MapSpec":
         """Inverse of :meth:`to_dict`; ValueError (ConfigError) or TypeError for a damaged description, an
         IncomparableError (exit 5) for engine settings stored under older names
-        (:func:`~rockbench.benchmark.store.files.stored_settings`)."""
+        (:func:`~rockbench.benchmark.engine_info.setting_names.stored_settings`)."""
         engine, settings, dt = d.get("engine", "reference"), d.get("engine_settings") or {}, d.get("dt_s")
         linearized = d.get("linearized", False)
         if not isinstance(engine, str) or not engine:

@@ -54,7 +54,7 @@ def _valid_cells(result: MapResult) -> np.ndarray:
 
 def locate_in_sweep(sweep, depth: int) -> LocatedBoundary:
     """Bisect a computed map's boundary (``sweep``: the map stage's
-    :class:`~rockbench.benchmark.maps.sweep._Sweep`), each round one batch of the samples not yet stored."""
+    :class:`~rockbench.benchmark.sweep._Sweep`), each round one batch of the samples not yet stored."""
     memo = sweep.store.samples
 
     def sample(ii, jj, aa, tt):

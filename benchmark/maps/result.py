@@ -2,7 +2,7 @@
 simulation's impacts, θ and validity flags, and the codes of cells without an outcome
 (:data:`FAILED`, :data:`MISSING`).
 
-It is the one type of a map in memory: what :func:`~rockbench.benchmark.maps.sweep.run_map` computes,
+It is the one type of a map in memory: what :func:`~rockbench.benchmark.sweep.run_map` computes,
 what :func:`~rockbench.benchmark.store.loading.load_map` reads back, what the scores compare
 (:meth:`MapResult.from_outcomes`, also for a cell table another tool wrote) and what the pictures
 draw. A map on disk is a :class:`~rockbench.benchmark.store.loading.MapEntry` (docs/maps.md).

@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.engines.adapters.reference import PLANTED
-from rockbench.reference_solver.errors import ConfigError, IncomparableError, RockbenchError
+from rockbench.reference_solver.errors import ConfigError, RockbenchError
+from rockbench.benchmark.errors import IncomparableError
 from rockbench.reference_solver.model import a_ratio_to_amplitude
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution

@@ -44,7 +44,8 @@ from typing import Callable, Iterable, Mapping
 import numpy as np
 
 from rockbench.reference_solver.classify import OUTCOME_CODES, Outcome
-from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.errors import IncomparableError
 from rockbench.benchmark.maps.bisection import ALONG_A, FAILED_EDGE, MULTIPLE, UNFINISHED
 from rockbench.benchmark.maps.boundary import LocatedBoundary
 from rockbench.benchmark.maps.result import FAILED, MapResult

@@ -42,7 +42,9 @@ from typing import Iterable
 
 import numpy as np
 
-from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.reference_solver.errors import ConfigError
+
+from rockbench.benchmark.errors import IncomparableError
 from rockbench.reference_solver.rules import RULES_VERSION, rules_mismatch
 from rockbench.reference_solver.pulses import is_number
 from rockbench.benchmark.blocks.presets import PRESETS, TABLE_1

@@ -35,9 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rockbench.engines.contract import SETTINGS_MODES
-from rockbench.engines.registry import adapter_class
-from rockbench.reference_solver.errors import ConfigError, IncomparableError, RockbenchError
+from rockbench.reference_solver.errors import ConfigError
+
+from rockbench.benchmark.errors import IncomparableError
+from rockbench.benchmark.engine_info.setting_names import stored_settings
 from rockbench.benchmark.store.atomic import write_bytes_atomic
 
 #: Version of the run-directory layout; bumped when columns or run.json keys change meaning
@@ -378,39 +379,15 @@ def variant_name(engine: str, settings: dict | None = None, dt_s: float | None =
     return f"{engine}[{','.join(parts)}]" if parts else engine
 
 
-def stored_settings(engine: str, settings: dict, where: str) -> dict:
-    """``settings`` of ``engine`` as a stored run recorded them, checked against this rockbench's
-    names: a value of ``settings`` that is not ``calibrated`` or ``shipped``, or a setting the engine's
-    adapter does not have (an engine whose adapter is not installed here is not checked for names),
-    is an IncomparableError (exit 5) in one line saying that ``where`` was stored under older names
-    and must be computed again. Old names are never read as new ones."""
-    mode, names = settings.get("settings"), _settings_of(engine)
-    bad = (f"settings = {mode!r}" if mode is not None and mode not in SETTINGS_MODES else
-           next((f"the setting {k!r}" for k in settings if names is not None and k not in names), None))
-    if bad:
-        raise IncomparableError(f"{where} names {bad}, which engine {engine!r} does not have here: it was stored by "
-                                "an older rockbench under older names; compute it again with this one (a new --out "
-                                "folder).")
-    return dict(settings)
-
-
 def stored_variant(name: str, where: str) -> str:
     """A stored variant name (:func:`variant_name`'s ``engine[k=v,...]``), its settings checked by
-    :func:`stored_settings`; a name of another form is returned as it is."""
+    :func:`~rockbench.benchmark.engine_info.setting_names.stored_settings`; a name of another form is returned as it is."""
     engine, bracket, inner = str(name).partition("[")
     if bracket and inner.endswith("]"):
         parts = [p.partition("=") for p in inner[:-1].split(",")]
         if all(eq and k for k, eq, _ in parts):
             stored_settings(engine, {k: v for k, _, v in parts if k != "dt"}, f"{where} (variant {name})")
     return name
-
-
-def _settings_of(engine: str):
-    """The setting names of ``engine``'s adapter; None where the adapter cannot be loaded here."""
-    try:
-        return adapter_class(engine).SETTINGS
-    except (RockbenchError, ImportError):
-        return None
 
 
 #: what names a reference map at a variant's own measured η in a run folder (``maps/reference/<name>``)

@@ -13,13 +13,15 @@ from typing import Iterable
 import numpy as np
 
 from rockbench.engines.adapters.reference import is_planted
-from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.errors import IncomparableError
 from rockbench.benchmark.maps import adaptive as adaptive_mod
 from rockbench.benchmark.maps.bisection import MAX_DEPTH
 from rockbench.benchmark.maps.grid import MapSpec
 from rockbench.benchmark.maps.locating import stored_boundary
 from rockbench.benchmark.maps.result import FAILED, MapResult, put_row, empty_result, from_cells
-from rockbench.benchmark.store.files import (COLUMNS, read_cell_table, read_json, read_run, read_samples, spec_variant, stored_settings,
+from rockbench.benchmark.engine_info.setting_names import stored_settings
+from rockbench.benchmark.store.files import (COLUMNS, read_cell_table, read_json, read_run, read_samples, spec_variant,
                     stored_variant,
                     variant_name)
 from rockbench.benchmark.store.frames import OUTCOME_OF_CODE, rows_to_dataframe, rows_to_dataset

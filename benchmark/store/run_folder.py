@@ -40,8 +40,9 @@ from rockbench.reference_solver.rules import RULES_VERSION, rules_mismatch
 from rockbench.benchmark.store.columnar import format_rows
 from rockbench.benchmark.store.atomic import write_bytes_atomic
 from rockbench.benchmark.maps.cost import cost_of, machine
+from rockbench.benchmark.engine_info.setting_names import stored_settings
 from rockbench.benchmark.store.files import (BOUNDARY_COLUMNS, COLUMNS, COST_COLUMNS, NEW_OUT, SAMPLE_COLUMNS, SCHEMA_VERSION, before_cost,
-                    check_map_schema, read_cells_file, read_json, read_samples, spec_variant, stored_settings,
+                    check_map_schema, read_cells_file, read_json, read_samples, spec_variant,
                     utc_stamp, write_json)
 from rockbench.benchmark.store.lines import exact_text, plain_row
 
@@ -400,7 +401,7 @@ def _dict(d: dict | None, key: str) -> dict:
 
 def _checked_identity(identity, d: Path):
     """A stored ``spec_identity``, its engine settings checked against this rockbench's names
-    (:func:`~rockbench.benchmark.store.files.stored_settings`: a map stored under older names is not resumed)."""
+    (:func:`~rockbench.benchmark.engine_info.setting_names.stored_settings`: a map stored under older names is not resumed)."""
     if isinstance(identity, dict) and isinstance(identity.get("engine_settings"), dict):
         stored_settings(str(identity.get("engine")), identity["engine_settings"], str(d))
     return identity

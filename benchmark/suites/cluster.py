@@ -3,7 +3,7 @@
 A task carries what a worker needs to compute one map: its spec, how to compute it (the suite's
 options), the files the run folder already holds for it (so that a half-done map resumes where it
 stopped) and this process's engines and ``sys.path``. The worker computes the map in a folder of its
-own with :func:`~rockbench.benchmark.maps.sweep.run_map` (an engine map's cells in a worker process of
+own with :func:`~rockbench.benchmark.sweep.run_map` (an engine map's cells in a worker process of
 its own, :func:`~rockbench.benchmark.maps.executors.make_executor`, so time limits and crash isolation
 hold as they do here; a reference map in the task's thread) and returns the folder's files; this
 process writes them into the run folder (:func:`write_map`), so the workers need no shared file
@@ -26,10 +26,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from rockbench.reference_solver.errors import EngineUnavailableError
+from rockbench.engines.errors import EngineUnavailableError
 from rockbench.benchmark.maps.executors import NO_WORKER_TIMEOUT_S, make_executor, worker_init
 from rockbench.benchmark.maps.grid import MapSpec
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.suites.preparation import helper_init
 
 #: The folder of the run folder where finished maps from the cluster are put together before they

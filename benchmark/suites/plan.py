@@ -11,7 +11,8 @@ from pathlib import Path
 from rockbench.engines.adapters.reference import PLANTED
 from rockbench.engines.contract import EngineAdapter
 from rockbench.engines.registry import adapter_class, availability, names
-from rockbench.reference_solver.errors import ConfigError, EngineUnavailableError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.engines.errors import EngineUnavailableError
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.engine_info.adapters import engine_settings

@@ -14,7 +14,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from rockbench.engines.contract import EngineAdapter
+from rockbench.engines.contact import ContactEngine
 from rockbench.engines.registry import adapter_class, register
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.engine_info.adapters import build_adapter
@@ -24,6 +24,7 @@ from rockbench.benchmark.store.files import variant_name, write_json
 from rockbench.benchmark.store.loading import CALIBRATION_FILE, calibration_rows
 from rockbench.benchmark.suites.model import Suite, restitution_for
 from rockbench.benchmark.suites.plan import SPEED_SETTINGS, variant_blocks, variant_restitution, variant_settings
+from rockbench.engines.calibration.free_rocking import measure_restitution
 
 
 
@@ -49,7 +50,7 @@ def _prepare_one(engine: str, variant: dict, block: str, restitution: str, dt_s,
         pass
     if measure:
         try:
-            m = build_adapter(engine, **variant).measure_restitution(b, dt_s=dt_s)
+            m = measure_restitution(build_adapter(engine, **variant), b, dt_s=dt_s)
             out["measurement"] = {"eta_measured": float(m.eta_mean), "eta_std": float(m.eta_std),
                                   "n_impacts": len(m.etas), "method": m.method}
         except Exception as e:  # noqa: BLE001 - a failed measurement drops map (d) only
@@ -273,9 +274,9 @@ def _prepare_remote(registry: dict, sys_path: list, *args) -> dict:
 
 
 def _calibrates(engine: str) -> bool:
-    """Whether the engine's adapter has a calibration of its own to compute (and cache)."""
+    """Whether the engine's adapter has a calibration to compute (and cache): a contact engine's."""
     try:
-        return adapter_class(engine).calibrate is not EngineAdapter.calibrate
+        return issubclass(adapter_class(engine), ContactEngine)
     except Exception:  # noqa: BLE001 - an adapter that cannot load has nothing to prepare here
         return False
 

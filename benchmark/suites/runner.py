@@ -78,7 +78,8 @@ import time
 from pathlib import Path
 
 from rockbench.engines.adapters.reference import is_planted
-from rockbench.reference_solver.errors import ConfigError, IncomparableError
+from rockbench.reference_solver.errors import ConfigError
+from rockbench.benchmark.errors import IncomparableError
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.benchmark.blocks.cases import parse_case
 from rockbench.benchmark.blocks.experiments import load_outcomes
@@ -87,7 +88,7 @@ from rockbench.benchmark.engine_info.devices import device_of
 from rockbench.benchmark.engine_info.health import EngineHealth
 from rockbench.benchmark.maps.executors import DASK_SCRATCH, DaskConnection, cap_jobs, cpu_count
 from rockbench.benchmark.maps.grid import MapSpec, parse_range
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.report.build import build_report
 from rockbench.benchmark.scoring.score_runs import score_dirs
 from rockbench.benchmark.scoring.speed_runs import SPEED_FILE

@@ -33,7 +33,7 @@ and no impact law of ours replaces it.
   tracking error is recorded as ``table_track_err_rel``. Either force, over step ``[tₙ, tₙ₊₁]``, is
   the step average ``(u̇(tₙ₊₁) − u̇(tₙ))/Δt`` of ``ü`` times the mass: the impulse per step is exact.
 * **Restitution**: Drake has no η. ``settings="calibrated"`` (default) runs the contact parameters
-  :meth:`DrakeAdapter.calibrate` found for the case's η (cached on disk, see
+  :func:`~rockbench.engines.calibration.routine.calibrate` found for the case's η (cached on disk, see
   :mod:`rockbench.engines.calibration.cache`); ``settings="shipped"`` runs Drake as shipped: its default
   discrete approximation (``lagged``) and contact parameters (stiffness and dissipation from its
   default penetration allowance of 1 mm), with only the time step, the geometry and the anti-slip

@@ -65,7 +65,7 @@ import numpy as np
 from rockbench.reference_solver.classify import END_REASONS, trapped_energy
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import FLAT_ANGLE_RAD, Block
-from rockbench.engines.calibration.free_rocking import PEAK_RATIO
+from rockbench.engines.calibration.free_rocking import PEAK_RATIO, measured
 from rockbench.engines import progress
 from rockbench.engines.contract import Case, Trajectory
 from rockbench.engines.loop import trajectory
@@ -585,7 +585,7 @@ class MujocoWarpAdapter(MujocoAdapter):
         out = []
         for s, (tr, m) in zip(settings, runs):
             try:
-                out.append(self.free_rocking_measurement(block, s, dt, theta0, tr, m))
+                out.append(measured(self, block, s, dt, theta0, tr, m))
             except Exception as e:  # noqa: BLE001 - recorded for this setting, the search goes on
                 out.append(e)
         return out

@@ -17,6 +17,12 @@ pivot sits in its contact: the pick's measure of stiffness) and the highest clea
 corner (a hop: both corners in the air).
 
 An :class:`EtaReader` names the reader, how long its test runs and how it is recorded.
+
+The test itself is a function of the adapter, not a method an adapter inherits:
+:func:`measure_restitution` (checked, at the engine's free-rocking step, with the settings in force),
+:func:`free_rocking_run` (one run of given settings, unchecked; the base's ``measure_many`` hook runs
+it per setting) and :func:`measured` (what a run measured, for an engine that runs its free rocking
+its own way).
 """
 
 from __future__ import annotations
@@ -27,11 +33,16 @@ from typing import Callable
 
 import numpy as np
 
+from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.model import Block
+from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.validity import uplift_tol_rad
+from rockbench.engines.contract import RestitutionMeasurement
+from rockbench.engines.errors import EngineError
 
 __all__ = ["FREE_ROCKING_IMPACTS", "FREE_ROCKING_METHOD", "EtaReader", "PEAK_RATIO", "free_rocking_duration_s",
-           "free_rocking_etas", "first_quarter_s", "swings", "contact_figures"]
+           "free_rocking_etas", "first_quarter_s", "swings", "contact_figures", "measure_restitution", "free_rocking_run",
+           "measured", "require_contact"]
 
 #: Impacts a free-rocking test measures (calibrations average their η) [-]
 FREE_ROCKING_IMPACTS = 4
@@ -187,3 +198,63 @@ def _peak_ratio(block: Block, theta_rad, theta0_rad: float) -> list:
 #: The shared reader: the energy-consistent peak ratio (:func:`free_rocking_etas`)
 PEAK_RATIO = EtaReader("peak-ratio", FREE_ROCKING_METHOD,
                        lambda block, frac: free_rocking_duration_s(block, frac, FREE_ROCKING_IMPACTS), _peak_ratio)
+
+
+def measure_restitution(ad, block: Block, *, theta0_frac: float = 0.5, dt_s: float | None = None,
+                        settings: dict | None = None) -> RestitutionMeasurement:
+    """Free rocking of contact engine ``ad`` from rest at ``theta0_frac·α`` on the +x corner, no
+    excitation: η impact by impact read by the one reader (:data:`PEAK_RATIO`), the run's resting sink
+    and hop (:func:`contact_figures`).
+
+    Parameters
+    ----------
+    ad : ContactEngine
+    block : Block
+    theta0_frac : float
+        Release angle as a fraction of α [-].
+    dt_s : float, optional
+        Time step [s] (default: ``ad.free_rocking_step()``: the engine's own as shipped, else its
+        ``fixed_dt_s``).
+    settings : dict, optional
+        Resolved settings to measure (default: those in force, ``ad.resolve`` to Housner's η).
+    """
+    require_contact(ad)
+    if not 0.0 < float(theta0_frac) < 1.0:
+        raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
+    dt = ad.free_rocking_step(dt_s)
+    if dt > 0.01:
+        raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt!r}.")
+    s = ad.resolve(block, Restitution(), dt_s=dt) if settings is None else settings
+    return free_rocking_run(ad, block, s, dt, theta0_frac)
+
+
+def require_contact(ad) -> None:
+    """A ConfigError (exit 2) unless ``ad`` is a contact engine (one with a free-rocking step): an engine
+    without a contact model (the reference) has nothing to measure or calibrate."""
+    if not callable(getattr(ad, "free_rocking_step", None)):
+        raise ConfigError(f"engine {ad.name!r} has no contact model to calibrate; "
+                          "calibrate applies to engines such as mujoco, pybullet, exudyn.")
+
+
+def free_rocking_run(ad, block: Block, s: dict, dt: float, theta0_frac: float) -> RestitutionMeasurement:
+    """The free-rocking test of :func:`measure_restitution` with resolved settings ``s`` at step ``dt``
+    [s], unchecked: one run of ``ad.run_worlds``, :func:`measured`."""
+    theta0 = float(theta0_frac) * block.alpha_rad
+    tr, motion = ad.run_worlds(block, s, dt, [None], theta0, PEAK_RATIO.duration_s(block, theta0_frac))[0]
+    return measured(ad, block, s, dt, theta0, tr, motion)
+
+
+def measured(ad, block: Block, s: dict, dt: float, theta0: float, tr, motion) -> RestitutionMeasurement:
+    """What a free-rocking run of ``ad`` from ``theta0`` [rad] (its trajectory and motion) measured: η
+    per impact by the one reader, the resting sink and hop, the first impact's time; an EngineError
+    where the engine halted before the impacts were measured."""
+    etas = PEAK_RATIO.etas(block, motion.theta_rad, theta0)
+    if "engine_stopped" in tr.diagnostics and len(etas) < FREE_ROCKING_IMPACTS:
+        raise EngineError(f"free rocking: {tr.diagnostics['engine_stopped']}")
+    sink, hop = contact_figures(block, tr.theta_rad, tr.corner_z_m)
+    shown = {k: s.get(k) for k in ("friction", "planar", "drive", *ad.SHIPPED, *ad.MODE_DEFAULTS)}
+    return RestitutionMeasurement(etas=[float(e) for e in etas],
+                                  eta_mean=float(np.mean(etas)) if etas else math.nan,
+                                  eta_std=float(np.std(etas)) if etas else math.nan, theta0_rad=theta0, dt_s=dt,
+                                  settings=shown, method=PEAK_RATIO.method, sink_m=sink, hop_m=hop,
+                                  first_quarter_s=first_quarter_s(tr.t_s, tr.theta_rad))

@@ -29,7 +29,7 @@ from dataclasses import asdict, dataclass, field
 from rockbench.reference_solver.model import Block
 from rockbench.engines.calibration.free_rocking import FREE_ROCKING_IMPACTS
 
-__all__ = ["Candidate", "Pick", "pick", "ranked", "regular", "hops", "hop_tol_m", "sink_tie_m", "CAL_MAX_SPREAD",
+__all__ = ["Candidate", "Pick", "pick", "ranked", "regular", "irregular", "hops", "hop_tol_m", "sink_tie_m", "CAL_MAX_SPREAD",
            "ETA_RESOLUTION", "HOP_TOL_FRAC", "SINK_TIE_FRAC", "damping_ratio_of_restitution"]
 
 #: Largest spread (standard deviation) of the per-impact η, as a fraction of the target, that a
@@ -163,8 +163,23 @@ def pick(candidates: list[Candidate], target: float, block: Block | None) -> Pic
     if reg:
         return Pick(min(reg, key=lambda c: abs(c.eta - target)), False, "the closest regular setting")
     finite = [c for c in candidates if math.isfinite(c.eta)]
-    return Pick(min(finite or candidates, key=lambda c: abs(c.eta - target) if math.isfinite(c.eta) else math.inf),
-                False, "no regular setting (spread above the bound, a hop, or fewer than two impacts): the closest")
+    closest = min(finite or candidates, key=lambda c: abs(c.eta - target) if math.isfinite(c.eta) else math.inf)
+    return Pick(closest, False, f"no regular setting: the closest ({irregular(closest, target, block)})")
+
+
+def irregular(c: Candidate, target: float, block: Block | None) -> str:
+    """Which of :func:`regular`'s tests the candidate fails, in words (each one it fails, joined by
+    "and"; "" where it is regular): fewer than two impacts, a spread above :data:`CAL_MAX_SPREAD` of
+    the target, a hop above :func:`hop_tol_m`."""
+    failed = []
+    if not (math.isfinite(c.eta) and c.n_impacts >= 2):
+        failed.append(f"fewer than two impacts: {c.n_impacts}")
+    elif not (math.isfinite(c.eta_std) and c.eta_std <= CAL_MAX_SPREAD * target):
+        failed.append(f"spread above the bound: η std {c.eta_std:.4f} > {CAL_MAX_SPREAD:g} × target "
+                      f"{CAL_MAX_SPREAD * target:.4f}")
+    if hops(c, block):
+        failed.append(f"a hop: {1e3 * c.hop_m:.3g} mm > {1e3 * hop_tol_m(block):.3g} mm")
+    return " and ".join(failed)
 
 
 def damping_ratio_of_restitution(e: float) -> float:

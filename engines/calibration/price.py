@@ -31,7 +31,8 @@ import numpy as np
 from rockbench.reference_solver.model import G, Block
 from rockbench.reference_solver.pulses import RecordPulse, make_pulse
 from rockbench.reference_solver.restitution import Restitution
-from rockbench.engines.contract import Case
+from rockbench.engines.contract import CalibrationResult, Case
+from rockbench.engines.calibration.free_rocking import measure_restitution
 from rockbench.engines.calibration.rigid import rigid_answers
 
 #: Tolerance on the static uplift threshold ratio (within 2 % to count) [-].
@@ -136,6 +137,16 @@ def contact_price(adapter, block: Block, restitution: Restitution, dt_s: float |
     # reported: a contact may hop where the rigid model's normal force comes close to zero)
     out["counts"] = bool(up.get("within")) and (slip is None or slip["n_slip"] == 0)
     return out
+
+
+def calibration_price(ad, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
+    """The price (:func:`contact_price`) of calibration ``c``'s contact in contact engine ``ad`` at step
+    ``dt_s`` [s] (default: the engine's step for the block at the calibration's target η), with the
+    free-rocking period change measured at that step."""
+    fixed = ad.fixed(c.settings)
+    dt = fixed.step_for(block, c.eta_target, dt_s=dt_s)
+    m = measure_restitution(fixed, block, dt_s=dt)
+    return contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt, first_quarter_s=m.first_quarter_s)
 
 
 def price_line(price: dict | None) -> str:

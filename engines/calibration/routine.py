@@ -1,7 +1,8 @@
 """The one calibration routine of every contact engine: candidates measured in free rocking, the
 one pick among them, cached.
 
-A calibration chooses contact settings whose free-rocking η reaches a target. For the contact at the
+A calibration (:func:`calibrate`, a function of the engine, not a method it inherits) chooses contact
+settings whose free-rocking η reaches a target. For the contact at the
 two bottom corners (:func:`calibrate_layout` with ``points`` None) the engine's candidates (its
 declared knobs searched by :func:`~rockbench.engines.calibration.knobs.search`, or its own
 ``candidates`` function) are each measured in free rocking and the one pick
@@ -10,8 +11,9 @@ along the base (a target above Housner's η, docs/contact.md) the pick's order i
 candidate keeps the static uplift threshold and the anti-slip cells (:mod:`.price`);
 :func:`first_reached` tries 9, 5 and 17 points. Notes are written from the knobs; the damping ratio
 the pick's tie-break reads comes from the knobs' declarations (:func:`damping_ratio`). The engine is
-an argument: these functions call only its public methods (``candidates``, ``measure_restitution``,
-``settings_with``, ``fixed``) and read its declarations.
+an argument: these functions call only its public methods (``candidates``, ``measure_many``,
+``settings_with``, ``fixed``, ``explicit_contact``, ``contact_layout``, ``free_rocking_step``) and read its
+declarations.
 """
 
 from __future__ import annotations
@@ -19,17 +21,24 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from rockbench.reference_solver.errors import ConfigError, EngineError
+from rockbench.reference_solver.errors import ConfigError
+
+from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.rules import RULES_VERSION
 from rockbench.engines import progress
 from rockbench.engines.contract import CONTRACT_VERSION, CalibrationResult
 from rockbench.engines.calibration import cache, price as pricing
+from rockbench.engines.calibration.free_rocking import measure_restitution, require_contact
 from rockbench.engines.calibration.pick import ETA_RESOLUTION, Candidate, damping_ratio_of_restitution, pick, ranked, regular
 
-__all__ = ["calibrate_layout", "first_reached", "measured_rows", "damping_ratio", "cache_key", "MAX_PRICE_TRIES",
+__all__ = ["calibrate", "POINTS_TRIED", "calibrate_layout", "first_reached", "measured_rows", "damping_ratio", "cache_key", "MAX_PRICE_TRIES",
            "IDENTITY_SKIP"]
+
+#: Points of a row along the base a calibration tries in turn where ``contact_points`` is not set (the
+#: first is also the default row)
+POINTS_TRIED = (9, 5, 17)
 
 #: How many reached candidates the search of a row of points along the base prices at most.
 MAX_PRICE_TRIES = 8
@@ -39,15 +48,50 @@ MAX_PRICE_TRIES = 8
 IDENTITY_SKIP = ("settings", "tail_s", "min_tail_s", "segment_s", "calibrate_on", "threads", "judge_workers")
 
 
+def calibrate(ad, block: Block, target_eta: float, *, dt_s: float | None = None,
+              use_cache: bool = True) -> CalibrationResult:
+    """Contact settings of contact engine ``ad`` whose free-rocking η reaches ``target_eta`` (1 %) at step
+    ``dt_s`` [s] (default: ``ad.free_rocking_step()``'s): at the corners, or (``contact = auto`` above 1 %
+    over Housner's η_H, or ``distributed``) a row of points along the base with the set number of
+    points, else :data:`POINTS_TRIED` in turn until one reaches the target at an acceptable price
+    (:func:`first_reached`). A ConfigError with a contact given: it replaces the calibration (in maps
+    too)."""
+    require_contact(ad)
+    if ad.explicit_contact():
+        given = [f"{k} = {ad.settings[k]!r}" for k in ad.SHIPPED if ad.settings.get(k) is not None]
+        raise ConfigError(f"{ad.name}: {', '.join(given)} is given, and a given contact replaces the calibration "
+                          "(in maps as here), so there is nothing to calibrate: leave out --target to measure η "
+                          "with it, or leave it out to calibrate.")
+    t = _target(target_eta)
+    dt = ad.free_rocking_step(dt_s)
+    if ad.contact_layout(block, t) != "distributed":
+        return calibrate_layout(ad, block, t, dt, None, use_cache)
+    n_set = ad.settings["contact_points"]
+    return first_reached(lambda n: calibrate_layout(ad, block, t, dt, n, use_cache),
+                         (n_set,) if n_set is not None else POINTS_TRIED, ad.CONTACT_ROWS)
+
+
+def _target(target_eta) -> float:
+    """A calibration target η as a float, or a ConfigError unless it is in (0, 1]."""
+    try:
+        t = float(target_eta)
+    except (TypeError, ValueError):
+        t = math.nan
+    if not (math.isfinite(t) and 0.0 < t <= 1.0):
+        raise ConfigError(f"the target η must be in (0, 1], got {target_eta!r}.")
+    return t
+
+
 def cache_key(ad, block: Block, target: float, dt: float, kind: str, **more) -> str:
     """The cache key of a calibration (``kind``) of engine ``ad`` for ``block``, ``target`` η and step
-    ``dt`` [s]: the engine and its version, the contract, its ``CALIBRATION_VERSION``, the rule set's
-    version and every setting that changes a free-rocking run."""
+    ``dt`` [s]: the engine and its version, the adapter's identity (its distribution and the hash of
+    its source, :func:`~rockbench.engines.calibration.cache.adapter_identity`), the contract, its
+    ``CALIBRATION_VERSION``, the rule set's version and every setting that changes a free-rocking run."""
     identity = {k: str(v) for k, v in sorted(ad.settings_with(None).items()) if k not in IDENTITY_SKIP}
-    return cache.cache_key(engine=ad.name, version=ad.version(), contract=CONTRACT_VERSION, kind=kind,
-                           calibration_version=ad.CALIBRATION_VERSION, rules_version=RULES_VERSION,
-                           block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=target,
-                           dt=dt, settings=identity, **more)
+    return cache.adapter_key(ad, contract=CONTRACT_VERSION, kind=kind,
+                             calibration_version=ad.CALIBRATION_VERSION, rules_version=RULES_VERSION,
+                             block=[block.width_m, block.height_m, block.depth_m, block.mass_kg], target=target,
+                             dt=dt, settings=identity, **more)
 
 
 def damping_ratio(ad, block: Block, s: dict) -> float | None:
@@ -107,7 +151,8 @@ def calibrate_layout(ad, block: Block, target: float, dt: float, points: int | N
         rows = _searched(ad, block, target, dt, points)
         res, search = (_corners(ad, block, target, rows) if points is None else
                        _row(ad, block, target, dt, points, rows))
-    cache.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"}, "search": search})
+    cache.store(key, {"result": {k: v for k, v in res.to_dict().items() if k != "rel_error"}, "search": search},
+                ad.name)
     return res
 
 
@@ -179,7 +224,7 @@ def _row(ad, block: Block, t: float, dt: float, n: int, rows: list) -> tuple[Cal
     span = f"{len(rows)} settings searched: regular free rocking spans η = {lo:.4f}–{hi:.4f}"
     if chosen is not None:
         r = chosen
-        m = ad.fixed(_chosen_settings(ad, r, n)).measure_restitution(block, dt_s=dt)
+        m = measure_restitution(ad.fixed(_chosen_settings(ad, r, n)), block, dt_s=dt)
         price["period_change"] = (m.first_quarter_s / price["rigid_first_quarter_s"] - 1.0) if m.first_quarter_s else None
         price["first_quarter_s"] = m.first_quarter_s
         note = (f"reached with {n} {ad.CONTACT_ROWS} along the base, {described(ad, r)}, {r['n']} impacts "

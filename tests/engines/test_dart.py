@@ -28,6 +28,8 @@ from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G, Block  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution, housner_eta, modified_eta  # noqa: E402
+from rockbench.engines.calibration.free_rocking import measure_restitution  # noqa: E402
+from rockbench.engines.calibration.routine import calibrate  # noqa: E402
 
 pytestmark = pytest.mark.engine
 
@@ -65,13 +67,13 @@ def test_outcome_matches_reference_with_both_drives(cell):
 def test_calibration_to_housner_keeps_dart_as_shipped(name, tol):
     block = get_preset(name).block()
     target = housner_eta(block.alpha_rad)
-    res = get_adapter("dart").calibrate(block, target)
+    res = calibrate(get_adapter("dart"), block, target)
     assert res.reached, res.note
     assert abs(res.eta_measured - target) <= tol * target
     assert res.settings == {"collision_detector": "fcl", "split_impulse": False, "contact_restitution": 0.0}
     assert res.evaluations == 1 and "as shipped" in res.note
     # as shipped at the calibration's step (its own step is DART's 1 ms)
-    m = get_adapter("dart", settings="shipped").measure_restitution(block, dt_s=5e-4)
+    m = measure_restitution(get_adapter("dart", settings="shipped"), block, dt_s=5e-4)
     assert len(m.etas) == 4 and m.eta_mean == pytest.approx(res.eta_measured, rel=1e-12)
 
 
@@ -79,19 +81,19 @@ def test_modified_eta_is_out_of_reach_and_the_note_says_why(tmp_path):
     block = get_preset("B3M").block()
     target = modified_eta(block.alpha_rad, get_preset("B3M").k_average)
     ad = get_adapter("dart")
-    res = ad.calibrate(block, target)
+    res = calibrate(ad, block, target)
     assert not res.reached and res.eta_measured < 0.99 * target
     assert "0.1 m/s" in res.note and "not exposed" in res.note
     assert list((tmp_path / "cache" / "calibration").glob("*.json"))
-    again = ad.calibrate(block, target)
+    again = calibrate(ad, block, target)
     assert again.evaluations == res.evaluations and again.settings == res.settings
 
 
 def test_restitution_below_the_bounce_threshold_changes_nothing():
     # B6M's landing corner arrives at 0.07 m/s: e·v_n stays under DART's 0.1 m/s, so no bounce at all
     block = get_preset("B6M").block()
-    shipped = get_adapter("dart", settings="shipped").measure_restitution(block, dt_s=5e-4)
-    bouncy = get_adapter("dart", contact_restitution=1.0).measure_restitution(block, dt_s=5e-4)
+    shipped = measure_restitution(get_adapter("dart", settings="shipped"), block, dt_s=5e-4)
+    bouncy = measure_restitution(get_adapter("dart", contact_restitution=1.0), block, dt_s=5e-4)
     assert bouncy.etas == shipped.etas
 
 

@@ -22,7 +22,8 @@ T = 0.8
 
 
 class _Probe:
-    """What :meth:`_Fake.fixed` returns: the candidate's contact, and a free-rocking test."""
+    """What :meth:`_Fake.fixed` returns: the candidate's contact, and a free-rocking test (the routine's
+    ``measure_restitution`` is replaced by one that calls it)."""
 
     def __init__(self, contact):
         self.contact = contact
@@ -81,7 +82,9 @@ def calls(monkeypatch):
 
     monkeypatch.setattr(price, "uplift_threshold", uplift)
     monkeypatch.setattr(price, "contact_price", contact_price)
-    monkeypatch.setattr(cache, "store", lambda key, record: log.update(stored=record["search"]))
+    monkeypatch.setattr(routine, "measure_restitution", lambda probe, block, dt_s=None: probe.measure_restitution(
+        block, dt_s=dt_s))
+    monkeypatch.setattr(cache, "store", lambda key, record, engine: log.update(stored=record["search"]))
     log["rows"] = rows
     return log
 

@@ -25,6 +25,8 @@ from rockbench.engines.adapters.mujoco import MujocoAdapter  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution, housner_eta  # noqa: E402
+from rockbench.engines.calibration.free_rocking import measure_restitution  # noqa: E402
+from rockbench.engines.calibration.routine import calibrate  # noqa: E402
 
 pytestmark = pytest.mark.engine
 
@@ -107,12 +109,12 @@ def test_table_drive_agrees_with_inertial_drive(inertial_results):
 def test_calibration_reaches_housner_within_one_percent(name):
     blk = PRESETS[name].block()
     target = housner_eta(blk.alpha_rad)
-    c = get_adapter("mujoco").calibrate(blk, target, dt_s=5e-4)
+    c = calibrate(get_adapter("mujoco"), blk, target, dt_s=5e-4)
     assert c.reached
     assert abs(c.eta_measured - target) <= 0.01 * target
     assert c.settings["timeconst_s"] >= 2 * 5e-4
     # the calibrated settings are what free rocking then shows, impact by impact
-    m = get_adapter("mujoco").measure_restitution(blk, dt_s=5e-4)
+    m = measure_restitution(get_adapter("mujoco"), blk, dt_s=5e-4)
     assert len(m.etas) >= 2
     assert m.eta_mean == pytest.approx(c.eta_measured, rel=1e-12)
 
@@ -120,8 +122,8 @@ def test_calibration_reaches_housner_within_one_percent(name):
 def test_calibration_is_cached_and_reused():
     blk = PRESETS["B3M"].block()
     ad = get_adapter("mujoco")
-    first = ad.calibrate(blk, housner_eta(blk.alpha_rad), dt_s=5e-4)
-    again = get_adapter("mujoco").calibrate(blk, housner_eta(blk.alpha_rad), dt_s=5e-4)
+    first = calibrate(ad, blk, housner_eta(blk.alpha_rad), dt_s=5e-4)
+    again = calibrate(get_adapter("mujoco"), blk, housner_eta(blk.alpha_rad), dt_s=5e-4)
     assert again.to_dict() == first.to_dict()
 
 
@@ -130,8 +132,8 @@ def test_free_rocking_is_read_by_the_one_reader_with_sink_and_hop():
     from rockbench.engines.calibration.free_rocking import PEAK_RATIO
 
     block = PRESETS["B6L"].block()
-    ok = MujocoAdapter(timeconst_s=0.001, dampratio=1.0).measure_restitution(block, dt_s=5e-4)
-    hops = MujocoAdapter(timeconst_s=0.001, dampratio=0.5).measure_restitution(block, dt_s=5e-4)
+    ok = measure_restitution(MujocoAdapter(timeconst_s=0.001, dampratio=1.0), block, dt_s=5e-4)
+    hops = measure_restitution(MujocoAdapter(timeconst_s=0.001, dampratio=0.5), block, dt_s=5e-4)
     assert ok.method == PEAK_RATIO.method and len(ok.etas) == 4
     assert 0.0 < ok.sink_m < 1e-5 and ok.hop_m < 1e-5
     assert hops.hop_m > 2e-4        # ζ 0.5 lets both corners rise a quarter of a millimetre

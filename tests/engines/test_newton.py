@@ -21,6 +21,9 @@ from rockbench.engines.adapters.warp_start import warp_cache_dir  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.restitution import housner_eta  # noqa: E402
+from rockbench.engines.calibration import free_rocking, routine  # noqa: E402
+from rockbench.engines.calibration.free_rocking import measure_restitution  # noqa: E402
+from rockbench.engines.calibration.routine import calibrate  # noqa: E402
 
 pytestmark = pytest.mark.engine
 
@@ -104,7 +107,7 @@ def test_xpbd_calibration_comes_within_1_5_percent_of_housner_and_says_it_is_not
     """B3M: XPBD's η levels off about 1.3 % below η_H as its contact converges (docs/newton.md)."""
     blk = PRESETS["B3M"].block()
     target = housner_eta(blk.alpha_rad)
-    cal = get_adapter("newton", solver="xpbd").calibrate(blk, target)
+    cal = calibrate(get_adapter("newton", solver="xpbd"), blk, target)
     assert abs(cal.eta_measured / target - 1.0) < 0.015 and cal.eta_std < 0.01
     assert not cal.reached and cal.note.startswith("not reached") and cal.settings["iterations"] >= 2
 
@@ -164,13 +167,13 @@ def test_a_calibrated_variants_free_rocking_is_measured_with_its_calibration(mon
         seen[ad.settings["settings"]] = s
         raise StopIteration
 
-    monkeypatch.setattr(type(get_adapter("newton")), "_free_rocking", measure)
+    monkeypatch.setattr(free_rocking, "free_rocking_run", measure)
+    monkeypatch.setattr(routine, "calibrate", lambda ad, b, t, **kw: type("Cal", (), {
+        "settings": {"contact_stiffness_n_m": 1.0e5}, "reached": True, "note": "", "eta_measured": t,
+        "eta_target": t, "eta_std": 0.0, "price": None, "evaluations": 1, "sink_m": None, "hop_m": None})())
     for kind in ("calibrated", "shipped"):
         ad = get_adapter("newton", settings=kind)
-        monkeypatch.setattr(ad, "calibrate", lambda b, t, **kw: type("Cal", (), {
-            "settings": {"contact_stiffness_n_m": 1.0e5}, "reached": True, "note": "", "eta_measured": t,
-            "eta_target": t, "eta_std": 0.0, "price": None, "evaluations": 1, "sink_m": None, "hop_m": None})())
         with pytest.raises(StopIteration):
-            ad.measure_restitution(block)
+            measure_restitution(ad, block)
     assert seen["calibrated"].get("contact_stiffness_n_m") == 1.0e5
     assert seen["shipped"].get("contact_stiffness_n_m") is None

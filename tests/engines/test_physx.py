@@ -33,6 +33,8 @@ from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution, housner_eta  # noqa: E402
+from rockbench.engines.calibration.free_rocking import measure_restitution  # noqa: E402
+from rockbench.engines.calibration.routine import calibrate  # noqa: E402
 
 pytestmark = pytest.mark.engine
 
@@ -66,11 +68,11 @@ def test_shipped_eta_is_below_housner_and_rises_as_the_step_shrinks():
     block = get_preset("B3M").block()
     eta_h = housner_eta(block.alpha_rad)
     # at the benchmark's 0.5 ms (as shipped, a case that poses no step runs at SAPIEN's own 10 ms)
-    shipped = get_adapter("physx", settings="shipped").measure_restitution(block, dt_s=5e-4)
+    shipped = measure_restitution(get_adapter("physx", settings="shipped"), block, dt_s=5e-4)
     assert len(shipped.etas) == 4 and 0.93 * eta_h < shipped.eta_mean < 0.97 * eta_h
     assert shipped.settings["substeps"] == 1 and shipped.settings["solver"] == "tgs"
-    finer = get_adapter("physx", substeps=6).measure_restitution(block)
-    coarser = get_adapter("physx", settings="shipped").measure_restitution(block, dt_s=1e-3)
+    finer = measure_restitution(get_adapter("physx", substeps=6), block)
+    coarser = measure_restitution(get_adapter("physx", settings="shipped"), block, dt_s=1e-3)
     assert coarser.eta_mean < shipped.eta_mean < finer.eta_mean
     assert abs(finer.eta_mean - eta_h) < 0.01 * eta_h
 
@@ -89,7 +91,7 @@ def test_calibration_reaches_housner_with_substeps_and_is_cached():
     block = get_preset("B6L").block()
     target = housner_eta(block.alpha_rad)
     ad = get_adapter("physx")
-    res = ad.calibrate(block, target)
+    res = calibrate(ad, block, target)
     assert res.reached and abs(res.eta_measured - target) <= 0.01 * target, res.note
     assert res.settings["substeps"] in SUBSTEPS_TRIED[1:] and res.settings["solver"] == "pgs"
     assert set(res.settings) == set(SHIPPED_CONTACT)   # the whole contact: None, as shipped, but solver and substeps
@@ -97,7 +99,7 @@ def test_calibration_reaches_housner_with_substeps_and_is_cached():
                                                                        "substeps": res.settings["substeps"]}
     assert res.evaluations == SUBSTEPS_TRIED.index(res.settings["substeps"]) + 1
     assert f"with solver pgs, substeps {res.settings['substeps']};" in res.note
-    again = get_adapter("physx").calibrate(block, target)
+    again = calibrate(get_adapter("physx"), block, target)
     assert again.settings == res.settings and again.eta_measured == res.eta_measured
     resolved = ad.resolve(block, Restitution(), dt_s=5e-4)   # the calibration's step, not the step rule's
     assert resolved["substeps"] == res.settings["substeps"] and resolved["solver"] == "pgs"
@@ -117,8 +119,8 @@ def test_pgs_holds_the_pivot_where_tgs_lets_it_creep():
 def test_restitution_below_the_bounce_threshold_changes_nothing():
     # the landing corner arrives far below PhysX's 2 m/s bounce threshold
     block = get_preset("B3M").block()
-    shipped = get_adapter("physx", settings="shipped").measure_restitution(block, dt_s=5e-4)
-    bouncy = get_adapter("physx", contact_restitution=1.0).measure_restitution(block, dt_s=5e-4)
+    shipped = measure_restitution(get_adapter("physx", settings="shipped"), block, dt_s=5e-4)
+    bouncy = measure_restitution(get_adapter("physx", contact_restitution=1.0), block, dt_s=5e-4)
     assert bouncy.etas == shipped.etas
 
 

@@ -15,6 +15,7 @@ from rockbench.engines.calibration.pick import (CAL_MAX_SPREAD, ETA_RESOLUTION, 
 from rockbench.engines.contact import ContactEngine
 from rockbench.engines.registry import BUILTIN, adapter_class
 from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.engines.calibration.routine import calibrate
 
 BLOCK = get_preset("B6L").block()
 T = 0.9294
@@ -124,8 +125,8 @@ def test_declared_knobs_give_the_grid_then_the_finer_grid_around_the_pick(monkey
                                            hop_m=1e-3 if s["zeta"] < 0.6 else 0.0) for s in settings]
 
     stored = {}
-    monkeypatch.setattr(cache, "store", lambda key, record: stored.update(record["search"]))
-    c = Grid().calibrate(BLOCK, T, dt_s=1e-3, use_cache=False)
+    monkeypatch.setattr(cache, "store", lambda key, record, engine: stored.update(record["search"]))
+    c = calibrate(Grid(), BLOCK, T, dt_s=1e-3, use_cache=False)
     # the stiffest (k 4: 2 × the grid's stiffest, refined) with the damping nearest critical, never the hop
     assert c.reached and c.settings == {"k": 4.0, "zeta": 1.0} and c.evaluations == 4 + 5
     assert len(stored["tried"]) == 9 and "reached" in c.note

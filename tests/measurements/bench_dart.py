@@ -26,6 +26,7 @@ from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution, housner_eta
+from rockbench.engines.calibration.free_rocking import measure_restitution
 
 #: the cells the speed is measured on (block, pulse, ω/p, a₀/(g·tanα)): rocking, overturn and rest
 CELLS = [("B3M", "sine", 4.0, 3.0), ("B6M", "cosine", 3.0, 2.0), ("B3M", "sine", 2.0, 1.5), ("B6M", "sine", 6.0, 3.0)]
@@ -60,7 +61,7 @@ def cmd_eta(args) -> None:
         eta_h = housner_eta(block.alpha_rad)
         for planar in (True, False):
             for dt in (1e-3, 5e-4, 2.5e-4):
-                m = get_adapter("dart", planar=planar, settings="shipped").measure_restitution(block, dt_s=dt)
+                m = measure_restitution(get_adapter("dart", planar=planar, settings="shipped"), block, dt_s=dt)
                 print(f"| {name} | {'planar' if planar else 'free'} | {dt:g} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | "
                       f"{eta_h:.4f} | {100 * (m.eta_mean - eta_h) / eta_h:+.2f} % |")
 
@@ -86,7 +87,7 @@ def cmd_restitution(args) -> None:
         for e in (0.0, 0.25, 0.5, 0.75, 1.0):
             ad = get_adapter("dart", contact_restitution=e)
             s = ad.resolve(block, Restitution())
-            m = ad.measure_restitution(block, settings=s)
+            m = measure_restitution(ad, block, settings=s)
             tr, _ = ad.run_worlds(block, s, ad.fixed_dt_s, [None], theta0, 1.0)[0]
             hop = max(float(tr.corner_z_m.min(axis=1).max()), 0.0)
             print(f"| {block.name} | {v_land:.3f} | {e:g} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | {1e3 * hop:.3f} |")

@@ -49,6 +49,7 @@ from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution, housner_eta
+from rockbench.engines.calibration.free_rocking import measure_restitution
 
 #: The default suite's grid (benchmark/suites/default.toml)
 GRID = ["--w-ratio", "1:16:51", "--a-ratio", "1:12:51", "--adaptive", "--coarse-stride", "4"]
@@ -189,7 +190,7 @@ def cmd_eta(args) -> None:
                                 ("hydroelastic, calibrated to η_H", {"contact": "hydroelastic"})):
             ad = get_adapter("drake", **settings)
             s = ad.resolve(block, Restitution())
-            m = ad.measure_restitution(block, settings=s)
+            m = measure_restitution(ad, block, settings=s)
             shown = {k: s[k] for k in (*ad.SHIPPED, "approximation") if s.get(k) is not None}
             print(f"| {name} | {label} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | {eta_h:.4f} | "
                   f"{100 * (m.eta_mean - eta_h) / eta_h:+.2f} % | {json.dumps(shown)} |")

@@ -150,6 +150,7 @@ def main(argv=None):
 
     import exudyn
 
+    from rockbench.engines.calibration.routine import calibrate
     from rockbench.engines.contract import uplift_tol_rad
     from rockbench.engines.registry import get_adapter
     from rockbench.reference_solver.restitution import Restitution
@@ -189,7 +190,7 @@ def main(argv=None):
             settings = {"settings": mode}
             if mode == "calibrated":
                 # calibrate once here so that every worker reads it from the cache
-                cal = get_adapter("exudyn").calibrate(block, Restitution().eta(block.alpha_rad), dt_s=dt)
+                cal = calibrate(get_adapter("exudyn"), block, Restitution().eta(block.alpha_rad), dt_s=dt)
                 cal_info = {"eta_measured": cal.eta_measured, "eta_std": cal.eta_std, "reached": cal.reached,
                             "restitution_coefficient": cal.settings["restitution_coefficient"]}
             else:

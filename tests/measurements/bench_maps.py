@@ -29,7 +29,7 @@ sys.path.insert(0, str(HERE))
 
 from rockbench.benchmark.maps.executors import make_executor  # noqa: E402
 from rockbench.benchmark.maps.grid import MapSpec, make_axis  # noqa: E402
-from rockbench.benchmark.maps.sweep import run_map  # noqa: E402
+from rockbench.benchmark.sweep import run_map  # noqa: E402
 from rockbench.benchmark.blocks.presets import PRESETS, get_preset  # noqa: E402
 from rockbench.engines import registry  # noqa: E402
 from rockbench.engines.adapters.reference import ReferenceAdapter  # noqa: E402

@@ -7,7 +7,7 @@ What it prints (and writes as JSON and Markdown into ``--out DIR``):
 2. ``steps``: the engine alone: one batch of ``nworld`` worlds stepped a fixed number of steps
    through the adapter's own batch (drive kernel, ``mujoco_warp.step``, record; CUDA graph on a GPU),
    world-steps per second.
-3. ``maps``: whole maps through ``rockbench.benchmark.maps.sweep.run_map`` (the CLI's ``rockbench map``
+3. ``maps``: whole maps through ``rockbench.benchmark.sweep.run_map`` (the CLI's ``rockbench map``
    path: cells judged by the one classifier and validity rule, written to ``cells.csv``, no
    picture), N×N cells over ω/p × a₀/(g·tanα) (the default suite's axes), every cell simulated
    (no adaptive refinement), timed from the call to the written map; maps per second, cells per
@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from rockbench.benchmark.maps.grid import Axis, MapSpec
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.benchmark.scoring.metrics import score
 from rockbench.benchmark.store.loading import load_entry
@@ -49,6 +49,8 @@ from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution, housner_eta
+from rockbench.engines.calibration.free_rocking import measure_restitution
+from rockbench.engines.calibration.routine import calibrate
 
 W_AXIS = (1.0, 16.0)     # the default suite's axes
 A_AXIS = (1.0, 12.0)
@@ -149,14 +151,14 @@ def main(argv=None) -> int:
     first = time.perf_counter() - t1
     out["setup"] = {"adapter_and_warp_init_s": t1 - t0, "first_run_incl_kernel_load_and_calibration_s": first}
     if args.settings == "calibrated":
-        cal = ad.calibrate(blk, housner_eta(blk.alpha_rad))
+        cal = calibrate(ad, blk, housner_eta(blk.alpha_rad))
         out["setup"]["calibration"] = cal.to_dict()
         _log(f"setup {first:.1f} s; calibration η {cal.eta_measured:.4f} vs {cal.eta_target:.4f} "
              f"({100 * cal.rel_error:+.2f} %)")
     out["free_rocking"] = {}
     for name in ("B3M", "B6M"):
         b = PRESETS[name].block()
-        m = ad.measure_restitution(b)
+        m = measure_restitution(ad, b)
         out["free_rocking"][name] = {"eta_housner": housner_eta(b.alpha_rad), "eta_mean": m.eta_mean,
                                      "eta_std": m.eta_std, "impacts": len(m.etas), "settings": m.settings}
         _log(f"free rocking {name} ({args.settings}): η {m.eta_mean:.4f} ± {m.eta_std:.4f} over {len(m.etas)} "
@@ -202,11 +204,11 @@ def main(argv=None) -> int:
         par = {}
         for name in ("B3M", "B6M"):
             b = PRESETS[name].block()
-            mw = ad.measure_restitution(b)
-            mc = cpu.measure_restitution(b)
+            mw = measure_restitution(ad, b)
+            mc = measure_restitution(cpu, b)
             # the same contact in both: MuJoCo Warp at the CPU engine's calibrated solref
-            same = get_adapter("mujoco_warp", device=args.device, timeconst_s=mc.settings["timeconst"],
-                               dampratio=mc.settings["dampratio"]).measure_restitution(b)
+            same = measure_restitution(get_adapter("mujoco_warp", device=args.device, timeconst_s=mc.settings["timeconst"],
+                               dampratio=mc.settings["dampratio"]), b)
             par[name] = {"eta_housner": housner_eta(b.alpha_rad), "warp": [mw.eta_mean, mw.eta_std, len(mw.etas)],
                          "cpu": [mc.eta_mean, mc.eta_std, len(mc.etas)],
                          "warp_at_cpu_settings": [same.eta_mean, same.eta_std, len(same.etas)],

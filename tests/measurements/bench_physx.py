@@ -26,6 +26,8 @@ from rockbench.reference_solver.model import a_ratio_to_amplitude, w_ratio_to_om
 from rockbench.reference_solver.pulses import make_pulse
 from rockbench.reference_solver.restitution import Restitution, housner_eta
 from rockbench.engines.contract import Case
+from rockbench.engines.calibration.free_rocking import measure_restitution
+from rockbench.engines.calibration.routine import calibrate
 
 #: (label, settings, Δt [s] or None for the adapter's 0.5 ms): one knob changed from PhysX as shipped
 KNOBS = ([("as shipped", {}, None)]
@@ -62,7 +64,7 @@ def cmd_eta(args) -> None:
         block = get_preset(name).block()
         eta_h = housner_eta(block.alpha_rad)
         for label, settings, dt in KNOBS:
-            m = get_adapter("physx", settings="shipped", **settings).measure_restitution(block, dt_s=dt)
+            m = measure_restitution(get_adapter("physx", settings="shipped", **settings), block, dt_s=dt)
             print(f"| {name} | {label} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | {len(m.etas)} | "
                   f"{100 * (m.eta_mean / eta_h - 1):+.1f} % |")
 
@@ -75,7 +77,7 @@ def cmd_calibrate(args) -> None:
     for name in ("B3M", "B6M", "B3L", "B6L"):
         block = get_preset(name).block()
         c0 = time.process_time()
-        res = get_adapter("physx").calibrate(block, housner_eta(block.alpha_rad), use_cache=False)
+        res = calibrate(get_adapter("physx"), block, housner_eta(block.alpha_rad), use_cache=False)
         print(f"| {name} | {res.eta_target:.4f} | {res.settings['substeps']} | {res.eta_measured:.4f} ± "
               f"{res.eta_std:.4f} | {100 * res.rel_error:+.2f} % | {res.evaluations} | {time.process_time() - c0:.2f} |")
 

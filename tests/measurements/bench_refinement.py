@@ -46,7 +46,7 @@ from rockbench.benchmark.maps.result import MISSING
 from rockbench.benchmark.store.loading import load_map
 from rockbench.benchmark.blocks.presets import PRESETS, get_preset
 from rockbench.benchmark.suites.model import restitution_for
-from rockbench.reference_solver.errors import IncomparableError
+from rockbench.benchmark.errors import IncomparableError
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.solver import solve_batch
 

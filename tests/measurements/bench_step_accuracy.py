@@ -4,7 +4,7 @@ prints; it passes or fails on nothing.
 For one block and pulse (default B3M under one sine wave, Housner's η) and each engine, at each
 step of ``--steps`` (default 2, 1, 0.5, 0.2, 0.1 ms):
 
-1. the calibration to η at that step (:meth:`calibrate`, cached like every calibration): the η it
+1. the calibration to η at that step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached like every calibration): the η it
    measured and whether it reached the target;
 2. the engine's calibrated map at that step (``rockbench map --dt``: the contact calibrated at that
    step), on one grid, adaptive, in this process;
@@ -71,7 +71,7 @@ def map_scores(spec, out_dir: Path, reference) -> dict:
     ``reference`` map entry as ``rockbench score`` does: boundary distance, invalid cells, the cells
     it simulated and their mean cost (cells.csv ``wall_s``) [s], and the map's wall and CPU time [s]
     (the CPU time, of this process, says more than the wall time on a shared machine)."""
-    from rockbench.benchmark.maps.sweep import run_map
+    from rockbench.benchmark.sweep import run_map
     from rockbench.benchmark.scoring.score_runs import score_entries
     from rockbench.benchmark.store.files import read_cell_table
     from rockbench.benchmark.store.loading import load_entry
@@ -91,12 +91,13 @@ def map_scores(spec, out_dir: Path, reference) -> dict:
 
 def calibrated_row(engine: str, block, eta: float, dt_s: float, make_spec, tmp: Path, reference) -> dict:
     """One step: the calibration to ``eta`` at ``dt_s`` [s] and the calibrated map's scores."""
+    from rockbench.engines.calibration.routine import calibrate
     from rockbench.engines.registry import get_adapter
 
     row = {"engine": engine, "variant": "calibrated", "dt_s": dt_s}
     try:
         spec = make_spec(engine, {}, dt_s)     # a step too coarse for the grid's pulses is refused here
-        cal = get_adapter(engine).calibrate(block, eta, dt_s=dt_s)
+        cal = calibrate(get_adapter(engine), block, eta, dt_s=dt_s)
         row.update(eta=cal.eta_measured, eta_target=eta, reached=bool(cal.reached))
         row.update(map_scores(spec, tmp / f"{engine}-{dt_s:g}", reference))
     except Exception as e:  # noqa: BLE001 - recorded and the run goes on (asv's rule)
@@ -106,13 +107,14 @@ def calibrated_row(engine: str, block, eta: float, dt_s: float, make_spec, tmp: 
 
 def shipped_row(engine: str, block, make_spec, tmp: Path, reference) -> dict:
     """The engine as shipped at its own default step: its free-rocking η and its map's scores."""
+    from rockbench.engines.calibration.free_rocking import measure_restitution
     from rockbench.engines.registry import get_adapter
 
     ad = get_adapter(engine, settings="shipped")
     row = {"engine": engine, "variant": "as shipped", "dt_s": ad.step_for(block, math.nan),
            "shipped_dt_s": ad.own_dt_s}
     try:
-        m = ad.measure_restitution(block)
+        m = measure_restitution(ad, block)
         row.update(eta=m.eta_mean)   # NaN where the block sinks or never rocks freely
         row.update(map_scores(make_spec(engine, {"settings": "shipped"}, None), tmp / f"{engine}-shipped", reference))
     except Exception as e:  # noqa: BLE001 - recorded and the run goes on
@@ -219,7 +221,7 @@ def measure(args) -> dict:
     """The record of one command: the reference map, then every engine of ``args.engines``
     (:func:`engine_rows`), with the machine, the versions, the commit and the command."""
     from rockbench.benchmark.blocks.presets import get_preset
-    from rockbench.benchmark.maps.sweep import run_map
+    from rockbench.benchmark.sweep import run_map
     from rockbench.benchmark.store.loading import load_entry
     from rockbench.benchmark.store.run_folder import git_info
     from rockbench.reference_solver.restitution import Restitution

@@ -4,19 +4,25 @@ from __future__ import annotations
 
 import json
 
+from rockbench.engines.calibration import cache
 from rockbench.engines.calibration.price import price_line
+from rockbench.engines.registry import names
 from rockbench.reference_solver.errors import ConfigError, RockbenchError
 from rockbench.benchmark.engine_info.adapters import build_adapter
 from rockbench.benchmark.engine_info.health import refuse_outside_range
 from rockbench.benchmark.request import CaseRequest
 from rockbench.benchmark.cli.options import add_block_options
+from rockbench.engines.calibration.free_rocking import measure_restitution
+from rockbench.engines.calibration.price import calibration_price
+from rockbench.engines.contact import ContactEngine
+from rockbench.engines.calibration.routine import calibrate
 
 
 def register(sub) -> None:
     p = sub.add_parser("calibrate", help="measure an engine's η in free rocking; with --target, search "
                        "its contact settings to reach it")
     add_block_options(p)
-    p.add_argument("--engine", required=True, help="engine name (see `rockbench engines`)")
+    p.add_argument("--engine", default=None, help="engine name (see `rockbench engines`); required unless --clear")
     p.add_argument("--target", default=None, help="housner | modified | modified-average | modified-exact | a number "
                    "in (0, 1] (default: measure only); above Housner's η the contact along the base is searched")
     p.add_argument("--k", default=None, help="impulse position for --target modified (default: the preset's average k; "
@@ -31,10 +37,17 @@ def register(sub) -> None:
                    "(static uplift threshold, anti-slip, period change, speed) when the calibration has not")
     p.add_argument("--no-cache", action="store_true", help="search again even when a stored calibration exists")
     p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
+    p.add_argument("--clear", default=None, metavar="ENGINE", help="remove ENGINE's stored calibrations and "
+                   "time-step rules (and nothing else), say how many, and exit")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    if args.clear is not None:
+        return _clear(args.clear)
+    if args.engine is None:
+        raise ConfigError("calibrate needs --engine NAME (see `rockbench engines`), or --clear NAME to remove an "
+                          "engine's stored calibrations.")
     request = CaseRequest.from_args(args)
     block, preset = request.block_and_preset()
     adapter = build_adapter(args.engine, **request.engine_settings())
@@ -52,6 +65,19 @@ def run(args) -> int:
     return _print(args, out)
 
 
+def _clear(engine: str) -> int:
+    """``--clear ENGINE``: remove the calibration cache's records of one engine (a known engine, or one
+    that records name) and say how many; an unknown engine is a ConfigError (exit 2)."""
+    stored = cache.engines_stored()
+    if engine not in names() and engine not in stored:
+        named = ", ".join(sorted(e for e in stored if e)) or "none"
+        raise ConfigError(f"--clear: unknown engine {engine!r}; known engines: {', '.join(names())} (with stored "
+                          f"calibrations: {named}); give one of them.")
+    n = cache.clear(engine)
+    print(f"removed {n} stored calibration record{'s' if n != 1 else ''} of {engine} from {cache.cache_dir()}")
+    return 0
+
+
 def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
     """What ``calibrate`` prints: the measured η, or the search for a target (and its price)."""
     dt = request.dt_s()
@@ -62,7 +88,7 @@ def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
             raise ConfigError(f"--theta0 must be a number in (0, 1), got {args.theta0!r}.") from None
         if not 0.0 < frac < 1.0:
             raise ConfigError(f"--theta0 must be a fraction of α in (0, 1), got {args.theta0!r}.")
-        m = adapter.measure_restitution(block, theta0_frac=frac, dt_s=dt)
+        m = measure_restitution(adapter, block, theta0_frac=frac, dt_s=dt)
         out = {"engine": adapter.name, "block": block.name, "eta_measured": m.eta_mean, "eta_std": m.eta_std,
                "eta_target": None, "n_impacts": len(m.etas), "etas": m.etas, "settings": m.settings,
                "dt_s": m.dt_s, "method": m.method}
@@ -74,12 +100,12 @@ def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
             dt = adapter.step_for(block, target)
             if getattr(adapter, "calibrated", lambda: False)() and adapter.contact_layout(block, target) == "corners":
                 step_rule = adapter.rule_step(block, target)[1]
-        c = adapter.calibrate(block, target, dt_s=dt, use_cache=not args.no_cache)
+        c = calibrate(adapter, block, target, dt_s=dt, use_cache=not args.no_cache)
         if args.price and c.price is None:
-            if not hasattr(adapter, "contact_price"):
+            if not isinstance(adapter, ContactEngine):
                 raise ConfigError(f"--price: engine {adapter.name!r} does not measure a contact price; "
                                   "leave --price out.")
-            c.price = adapter.contact_price(block, c, dt)
+            c.price = calibration_price(adapter, block, c, dt)
         out = {"engine": adapter.name, "block": block.name, "target": rest.label, **c.to_dict(),
                "dt_s": dt, "step_rule": step_rule}
     return out

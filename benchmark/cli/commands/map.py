@@ -6,11 +6,13 @@ import json
 import sys
 from pathlib import Path
 
-from rockbench.reference_solver.errors import ConfigError, EngineError
+from rockbench.reference_solver.errors import ConfigError
+
+from rockbench.engines.errors import EngineError
 from rockbench.benchmark.engine_info.health import EngineCannotSimulate, cannot_simulate_line, common_error
 from rockbench.benchmark.maps.bisection import DEFAULT_DEPTH, MAX_DEPTH
 from rockbench.benchmark.maps.grid import MAP_PULSES, MapSpec, parse_range
-from rockbench.benchmark.maps.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
+from rockbench.benchmark.sweep import DEFAULT_CELL_TIMEOUT_S, run_map
 from rockbench.benchmark.report.plots.picture import MapPicture
 from rockbench.benchmark.store.atomic import check_output_dir
 from rockbench.benchmark.request import CaseRequest

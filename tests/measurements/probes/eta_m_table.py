@@ -23,6 +23,8 @@ from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.engines.calibration.price import UPLIFT_RTOL
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.restitution import Restitution, effective_k
+from rockbench.engines.calibration.price import calibration_price
+from rockbench.engines.calibration.routine import calibrate
 
 # tests/measurements/ holds the one records writer
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -71,9 +73,9 @@ def main():
                     continue
                 ad = get_adapter(eng)
                 t0 = time.perf_counter()
-                c = ad.calibrate(b, rest.eta(b.alpha_rad))
+                c = calibrate(ad, b, rest.eta(b.alpha_rad))
                 if c.price is None:
-                    c.price = ad.contact_price(b, c)
+                    c.price = calibration_price(ad, b, c)
                 p = c.price
                 rows.append({"engine": eng, "block": bname, "target": label, "eta_target": c.eta_target,
                              "eta_measured": c.eta_measured, "eta_std": c.eta_std, "rel_error": c.rel_error,

@@ -25,6 +25,7 @@ from rockbench.engines.contract import Case
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.model import G
 from rockbench.reference_solver.pulses import make_pulse
+from rockbench.engines.calibration.free_rocking import measure_restitution
 
 CELLS = [(name, kind, w, a) for name in ("B3M", "B6M") for kind in ("sine", "cosine")
          for w, a in ((2, 1.5), (4, 1.6), (4, 3), (6, 2), (8, 4))]
@@ -70,7 +71,7 @@ def row() -> None:
             for dt in (5e-4, 2.5e-4):
                 da._scene.cache_clear()
                 da._Scene = _row_scene(planar_scene, n)
-                m = get_adapter("dart", settings="shipped").measure_restitution(get_preset(name).block(), dt_s=dt)
+                m = measure_restitution(get_adapter("dart", settings="shipped"), get_preset(name).block(), dt_s=dt)
                 print(f"| {name} | {n} | {dt:g} | {m.eta_mean:.4f} ± {m.eta_std:.4f} | "
                       f"{', '.join(f'{e:.4f}' for e in m.etas)} |")
     da._Scene = planar_scene

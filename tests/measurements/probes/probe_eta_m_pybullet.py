@@ -2,7 +2,7 @@
 
 The adapter's planar block (slide x, slide z, hinge y; friction 10, friction anchors, 30 solver
 iterations, Δt = 0.5 ms), free rocking from rest at α/2, η by the adapter's energy method
-(:meth:`PybulletAdapter.measure_restitution`, the one its calibration uses). Searched:
+(:func:`rockbench.engines.calibration.free_rocking.measure_restitution`, the one its calibration uses). Searched:
 
 * ``corners`` (Bullet's box–box contact): compliant contact, stiffness ``k`` from 1e3 N/m to the
   stiffest the step resolves (``m/Δt²``) combined with damping ratios ζ = 0.05–2
@@ -33,6 +33,7 @@ from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.calibration import price as P
 from rockbench.engines.adapters.pybullet import PybulletAdapter
 from rockbench.reference_solver.restitution import Restitution, housner_eta, modified_eta
+from rockbench.engines.calibration.free_rocking import measure_restitution
 
 # tests/measurements/ holds the one records writer
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -72,7 +73,7 @@ def main():
         for g in grid:
             s = {**base, **{k: v for k, v in g.items() if k != "zeta"}}
             try:
-                mm = ad.measure_restitution(block, dt_s=dt, settings=s)
+                mm = measure_restitution(ad, block, dt_s=dt, settings=s)
                 rows.append({**g, "eta": mm.eta_mean, "eta_std": mm.eta_std, "etas": mm.etas})
             except Exception as e:  # noqa: BLE001
                 rows.append({**g, "error": f"{type(e).__name__}: {e}"[:200]})

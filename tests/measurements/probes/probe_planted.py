@@ -23,7 +23,7 @@ import numpy as np
 
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.scoring.metrics import OVERTURN, score
 from rockbench.engines.adapters.reference import PLANTED
 from rockbench.reference_solver.restitution import Restitution

@@ -39,7 +39,7 @@ import numpy as np
 
 from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.benchmark.maps.grid import MapSpec, make_axis
-from rockbench.benchmark.maps.sweep import run_map
+from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.scoring.metrics import boundary_of, judged_crossings, point_segment_distances
 from rockbench.benchmark.store.loading import load_entry, load_map
 from rockbench.reference_solver.restitution import Restitution, housner_eta

@@ -19,6 +19,7 @@ from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines.adapters.mujoco import MujocoAdapter
 from rockbench.engines.loop import CAL_MAX_SPREAD
 from rockbench.reference_solver.restitution import housner_eta
+from rockbench.engines.calibration.routine import calibrate
 
 BLOCKS = ("B3M", "B6M", "B3L", "B6L")
 
@@ -30,7 +31,7 @@ def pick_of(name: str) -> dict:
     ad = MujocoAdapter(settings="calibrated")
     seen: dict = {}
     ad._store = lambda key, res, search: seen.update(search)  # keep the grid, write no cache
-    res = ad.calibrate(block, target, use_cache=False)
+    res = calibrate(ad, block, target, use_cache=False)
     rows = [r for r in seen["grid"] if math.isfinite(r[2])]
     within = [r for r in rows if abs(r[2] - target) <= 0.01 * target]
     steady = [r for r in within if r[3] <= CAL_MAX_SPREAD * target]

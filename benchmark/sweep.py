@@ -2,7 +2,9 @@
 
 A map is described by a :class:`MapSpec` (block, pulse kind, restitution, engine, the two axes) and
 computed by :func:`run_map` into a run directory (see :mod:`rockbench.benchmark.store.run_folder`): every
-finished cell is appended to ``cells.csv`` at once, so an interrupted map resumes where it stopped.
+finished cell is appended to ``cells.csv`` at once, so an interrupted map resumes where it stopped. The
+sweep joins the maps (:mod:`rockbench.benchmark.maps`) and the run folders they are stored in
+(:mod:`rockbench.benchmark.store`, which reads and writes the maps' types), so it lives above both.
 :func:`rockbench.benchmark.store.loading.load_map` reads a run directory back into a
 :class:`~rockbench.benchmark.maps.result.MapResult`; the grid (:class:`~rockbench.benchmark.maps.grid.MapSpec`)
 lives in :mod:`rockbench.benchmark.maps.grid`.
