@@ -132,7 +132,7 @@ class _Scene:
         world.addSkeleton(self.table)
         world.addSkeleton(self.block)
         self.world, self._dart = world, dart
-        self.acc = np.zeros(0)
+        self.acc, self.gravity = np.zeros(0), []
 
     def load(self, pulse, dt: float) -> None:
         """The drive of every step of ``dt`` [s] under ``pulse`` (None: none): the step average of ü
@@ -142,6 +142,7 @@ class _Scene:
         else:
             n_pulse = int(math.ceil(pulse.duration_s / dt - 1e-9))
             self.acc = np.diff(np.asarray(pulse.vel(np.arange(n_pulse + 1) * dt), dtype=float)) / dt
+        self.gravity = [[-a, 0.0, -G] for a in self.acc.tolist()]
 
     def angles(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """θ [rad] and θ̇ [rad/s] of state rows."""
@@ -190,9 +191,12 @@ class _Scene:
                 rows[k, :nq], rows[k, nq:2 * nq] = getq(), getv()
                 rows[k, 2 * nq], rows[k, 2 * nq + 1] = tq()[0], tv()[0]
         else:
-            grav = self.world.setGravity
+            # gravity tilted by each step's −ü (Python floats, made once per run), set back once at the
+            # pulse's end and left alone after it
+            grav, tilted = self.world.setGravity, self.gravity
             for k, i in enumerate(range(n_from, n_to)):
-                grav([-(acc[i] if i < n_acc else 0.0), 0.0, -G])
+                if i <= n_acc:
+                    grav(tilted[i] if i < n_acc else [-0.0, 0.0, -G])   # −0.0: the pulse's −ü of 0, as it was
                 step()
                 rows[k, :nq], rows[k, nq:] = getq(), getv()
         return rows
