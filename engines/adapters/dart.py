@@ -265,6 +265,10 @@ class DartAdapter(ContactEngine):
     install_hint = "install it with `pip install 'rockbench[dart]'` (or `pip install dartpy==6.20.0`; Python < 3.12)."
     #: DART's own default step (World.getTimeStep()), what it runs at as shipped
     own_dt_s = 1e-3
+    #: the loop's segments end at each run's marks and last at most this after its pulse [s]
+    #: (:mod:`rockbench.engines.loop`): DART steps one step a call, so where a segment starts changes
+    #: nothing (each run's samples measured bit for bit the same), and fewer steps run past a stop
+    near_segment_s = 0.05
     SETTINGS = {"corner_radius_m": 1e-4, "tail_s": 2.0, "min_tail_s": 0.25}
     SHIPPED = SHIPPED_CONTACT
     #: The calibration: DART's contact is rigid and its impact plastic, which is Housner's η_H, so the
