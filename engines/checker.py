@@ -1,7 +1,7 @@
 """A conformance suite for engine adapters, in the spirit of Gymnasium's env checker.
 
-Each check is a public function ``check_<name>(adapter, block)`` that returns what it saw or raises
-:class:`CheckFailed` (testable alone); :data:`CHECKS` lists them and ``check_adapter(adapter_or_name)``
+Each check is a public function ``check_<name>(adapter, block, dt_s=None)`` that returns what it saw
+or raises :class:`CheckFailed` (testable alone); :data:`CHECKS` lists them and ``check_adapter(adapter_or_name)``
 runs them all: first that the adapter is written to this rockbench's engine contract and implements
 every hook, then a dozen short simulations that check what the contract (:mod:`rockbench.engines.contract`)
 promises: the shape and units of the trajectory, the sign
@@ -111,12 +111,14 @@ class CheckSkipped(Exception):
     """Why a check does not apply to the adapter (a mode it does not support), in one line."""
 
 
-def _rocking(block: Block) -> Case:
-    """The plain rocking case most checks use: one sine wave at ω/p = 4, a0 = 1.6·g·tanα."""
-    return _case(block, "sine", 4.0, 1.6)
+def _rocking(block: Block, dt_s: float | None = None) -> Case:
+    """The plain rocking case most checks use: one sine wave at ω/p = 4, a0 = 1.6·g·tanα (at step
+    ``dt_s`` [s], None: the adapter's own)."""
+    return _case(block, "sine", 4.0, 1.6, dt_s)
 
 
-def check_contract(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_contract(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                   dt_s: float | None = None) -> str:
     """The adapter is written to this rockbench's engine contract (the ``CONTRACT_VERSION`` it
     declares; :func:`~rockbench.engines.registry.contract_refusal`)."""
     refusal = contract_refusal(type(adapter))
@@ -125,7 +127,8 @@ def check_contract(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
     return f"written to engine contract {type(adapter).CONTRACT_VERSION}"
 
 
-def check_hooks(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_hooks(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                dt_s: float | None = None) -> str:
     """Every hook the base class calls is implemented (:mod:`rockbench.engines.hooks`); one line per
     missing hook saying what to implement."""
     missing = adapter.missing_hooks()
@@ -134,7 +137,8 @@ def check_hooks(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
     return "every hook the base class calls is implemented"
 
 
-def check_describe(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_describe(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                   dt_s: float | None = None) -> str:
     """describe() and resolve() are JSON-ready and the version is known."""
     ad, b = adapter, block
     try:
@@ -150,7 +154,8 @@ def check_describe(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
     return f"describe() and resolve() are JSON-ready; version {version}"
 
 
-def check_unknown_setting(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_unknown_setting(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                          dt_s: float | None = None) -> str:
     """An unknown setting raises ConfigError (contract item 2)."""
     ad = adapter
     try:
@@ -160,10 +165,11 @@ def check_unknown_setting(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) 
     raise CheckFailed("an unknown setting was accepted; it must raise ConfigError (contract item 2)")
 
 
-def check_trajectory_shape(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_trajectory_shape(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                           dt_s: float | None = None) -> str:
     """The trajectory of a rocking case: 1-D samples from t = 0 over the pulse, only the diverged flag (items 3, 4)."""
     ad, b = adapter, block
-    rocking = _rocking(block)
+    rocking = _rocking(block, dt_s)
     tr = ad.simulate(rocking)
     t, th, thd = (np.asarray(x) for x in (tr.t_s, tr.theta_rad, tr.theta_dot_rad_s))
     if not (t.ndim == th.ndim == thd.ndim == 1 and t.shape == th.shape == thd.shape and t.size >= 2):
@@ -176,7 +182,7 @@ def check_trajectory_shape(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK)
     if not np.all(np.diff(t) > 0):
         raise CheckFailed("sample times must increase strictly")
     T = rocking.pulse.duration_s
-    dt = ad.step_for(b, rocking.eta, rocking.pulse)
+    dt = ad.step_for(b, rocking.eta, rocking.pulse, dt_s=dt_s)
     if not math.isclose(tr.t_pulse_end_s, T, rel_tol=0.01, abs_tol=2 * dt):
         raise CheckFailed(f"t_pulse_end_s = {tr.t_pulse_end_s:g} but the pulse lasts {T:g} s (seconds expected)")
     if t[-1] < T - 2 * dt:
@@ -191,10 +197,11 @@ def check_trajectory_shape(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK)
     return f"{t.size} samples over {t[-1]:.3f} s, pulse {T:.3f} s"
 
 
-def check_units(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_units(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                dt_s: float | None = None) -> str:
     """Radians and rad/s: max |θ| plausible and θ̇ the derivative of θ."""
     ad = adapter
-    rocking = _rocking(block)
+    rocking = _rocking(block, dt_s)
     tr = ad.simulate(rocking)
     t, th, thd = (np.asarray(x, float) for x in (tr.t_s, tr.theta_rad, tr.theta_dot_rad_s))
     m = float(np.max(np.abs(th)))
@@ -210,10 +217,11 @@ def check_units(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
     return f"max |θ| = {m:.4f} rad, θ̇ matches dθ/dt (median mismatch {100 * err:.1f} %)"
 
 
-def check_sign_convention(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_sign_convention(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                          dt_s: float | None = None) -> str:
     """A positive table acceleration starts a negative θ (item 3)."""
     ad = adapter
-    rocking = _rocking(block)
+    rocking = _rocking(block, dt_s)
     tr = ad.simulate(rocking)
     th = np.asarray(tr.theta_rad, float)
     lifted = np.nonzero(np.abs(th) > max(tr.uplift_tol_rad, 1e-12))[0]
@@ -225,12 +233,13 @@ def check_sign_convention(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) 
     return "a positive table acceleration starts a negative θ"
 
 
-def check_mirror_symmetry(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_mirror_symmetry(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                          dt_s: float | None = None) -> str:
     """−ü gives the mirrored motion: same outcome, impacts and max |θ|, θ on the other side."""
     ad, b = adapter, block
     msgs = []
     for kind in ("sine", "cosine"):
-        c = _case(b, kind, 4.0, 1.6)
+        c = _case(b, kind, 4.0, 1.6, dt_s)
         r1, r2 = ad.run(c), ad.run(_mirror(c))
         if (r1.outcome, r1.n_impacts) != (r2.outcome, r2.n_impacts):
             raise CheckFailed(f"{kind}: ü gives {r1.outcome} with {r1.n_impacts} impacts, −ü gives {r2.outcome} with "
@@ -247,22 +256,24 @@ def check_mirror_symmetry(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) 
     return "−ü gives −θ (" + ", ".join(msgs) + ")"
 
 
-def check_no_uplift_below_threshold(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_no_uplift_below_threshold(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                                    dt_s: float | None = None) -> str:
     """No uplift below a0 = g·tanα (sine and cosine, ω/p = 1 and 6)."""
     ad, b = adapter, block
     for kind in ("sine", "cosine"):
         for w in (1.0, 6.0):
-            r = ad.run(_case(b, kind, w, 0.9))
+            r = ad.run(_case(b, kind, w, 0.9, dt_s))
             if r.outcome != "rest":
                 raise CheckFailed(f"{kind}, ω/p = {w:g}, a0 = 0.9·g·tanα: {r.outcome} (max |θ| = "
                             f"{r.max_abs_theta_rad:.3g} rad); no uplift is possible below g·tanα")
     return "rest at a0 = 0.9·g·tanα (sine and cosine, ω/p = 1 and 6)"
 
 
-def check_determinism(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_determinism(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                      dt_s: float | None = None) -> str:
     """Two runs of one case are bit-identical."""
     ad = adapter
-    rocking = _rocking(block)
+    rocking = _rocking(block, dt_s)
     t1, t2 = ad.simulate(rocking), ad.simulate(rocking)
     if not (np.array_equal(t1.t_s, t2.t_s) and np.array_equal(t1.theta_rad, t2.theta_rad)):
         n = min(len(t1.theta_rad), len(t2.theta_rad))
@@ -271,10 +282,11 @@ def check_determinism(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> s
     return "two runs are bit-identical"
 
 
-def check_batch_equals_single(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_batch_equals_single(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                              dt_s: float | None = None) -> str:
     """run_many equals run case by case (item 6)."""
     ad, b = adapter, block
-    cases = [_case(b, "sine", 4.0, 1.6), _case(b, "cosine", 2.0, 3.0), _case(b, "sine", 1.0, 0.9)]
+    cases = [_case(b, "sine", 4.0, 1.6, dt_s), _case(b, "cosine", 2.0, 3.0, dt_s), _case(b, "sine", 1.0, 0.9, dt_s)]
     many = ad.run_many(cases)
     one = [ad.run(c) for c in cases]
     for k, (m, o) in enumerate(zip(many, one)):
@@ -285,10 +297,11 @@ def check_batch_equals_single(adapter: EngineAdapter, block: Block = DEFAULT_BLO
     return "run_many equals run case by case"
 
 
-def check_bad_case_config_error(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_bad_case_config_error(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                                dt_s: float | None = None) -> str:
     """A negative or too coarse time step raises ConfigError."""
     ad = adapter
-    rocking = _rocking(block)
+    rocking = _rocking(block, dt_s)
     for dt in (-1e-3, 10.0):
         bad = replace(rocking, dt_s=dt)
         try:
@@ -302,19 +315,21 @@ def check_bad_case_config_error(adapter: EngineAdapter, block: Block = DEFAULT_B
     return "a negative or too coarse time step raises ConfigError"
 
 
-def check_overturns_when_it_must(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_overturns_when_it_must(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                                 dt_s: float | None = None) -> str:
     """A long, strong sine wave (ω/p = 1, a0 = 5·g·tanα) overturns the block."""
     ad, b = adapter, block
-    r = ad.run(_case(b, "sine", 1.0, 5.0))
+    r = ad.run(_case(b, "sine", 1.0, 5.0, dt_s))
     if r.outcome != "overturn":
         raise CheckFailed(f"one sine wave at ω/p = 1, a0 = 5·g·tanα gave {r.outcome}; every faithful model overturns")
     return "overturns under a long, strong sine wave (ω/p = 1, a0 = 5·g·tanα)"
 
 
-def check_measurements(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_measurements(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                       dt_s: float | None = None) -> str:
     """Measurements the one validity rule can judge; the mild rocking case is valid (item 4)."""
     ad = adapter
-    rocking = _rocking(block)
+    rocking = _rocking(block, dt_s)
     tr = ad.simulate(rocking)
     if tr.min_normal_mg is not None:
         if not (math.isfinite(tr.min_normal_mg) and math.isfinite(tr.max_friction_ratio or 0.0)):
@@ -341,7 +356,7 @@ def check_measurements(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> 
             " reported; the mild rocking case is valid by the one rule")
 
 
-def _check_mode(adapter: EngineAdapter, block: Block, key: str) -> str:
+def _check_mode(adapter: EngineAdapter, block: Block, key: str, dt_s: float | None = None) -> str:
     """The rocking case under every value of the setting ``key`` (``drive``, ``planar``) the adapter
     supports besides its own, at its own step: it lifts on the contract's side, the one validity rule
     finds it valid, and its outcome and max |θ| (within 10 %) are those of the adapter's own value."""
@@ -353,8 +368,9 @@ def _check_mode(adapter: EngineAdapter, block: Block, key: str) -> str:
     if not others:
         left = ", ".join(f"{key} = {str(v).lower()}" for v in MODES[key] if v not in supported)
         raise CheckSkipped(f"the adapter supports {key} = {str(own).lower()} only (SUPPORTED_MODES): {left} not checked")
-    rocking = _rocking(block)
-    case = replace(rocking, dt_s=adapter.step_for(block, rocking.eta, rocking.pulse))   # the step of its own runs
+    rocking = _rocking(block, dt_s)
+    # the step of its own runs
+    case = replace(rocking, dt_s=adapter.step_for(block, rocking.eta, rocking.pulse, dt_s=dt_s))
     r0, seen = adapter.run(case), []
     for v in others:
         tr = type(adapter)(**{**adapter.settings, key: v}).simulate(case)
@@ -374,18 +390,20 @@ def _check_mode(adapter: EngineAdapter, block: Block, key: str) -> str:
     return "; ".join(seen) + f" ({str(own).lower()}: {r0.max_abs_theta_rad:.4f} rad)"
 
 
-def check_drive(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_drive(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                dt_s: float | None = None) -> str:
     """The rocking case under each other drive the adapter supports poses the same problem."""
-    return _check_mode(adapter, block, "drive")
+    return _check_mode(adapter, block, "drive", dt_s)
 
 
-def check_planar(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK) -> str:
+def check_planar(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+                 dt_s: float | None = None) -> str:
     """The rocking case with the other ``planar`` value, where the adapter supports it, poses the same problem."""
-    return _check_mode(adapter, block, "planar")
+    return _check_mode(adapter, block, "planar", dt_s)
 
 
 #: every check, by the name the report gives it, in the order check_adapter runs them
-CHECKS: dict[str, Callable[[EngineAdapter, Block], str]] = {
+CHECKS: dict[str, Callable[..., str]] = {
     "contract": check_contract,
     "hooks": check_hooks,
     "describe": check_describe,
@@ -405,7 +423,7 @@ CHECKS: dict[str, Callable[[EngineAdapter, Block], str]] = {
 }
 
 
-def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport:
+def check_adapter(adapter_or_name, *, block: Block | None = None, dt_s: float | None = None) -> CheckReport:
     """Run every check of :data:`CHECKS` on an adapter instance or a registered engine name.
 
     Parameters
@@ -414,6 +432,10 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
         The adapter, or its registry name (instantiated with default settings).
     block : Block, optional
         The block to use (default :data:`DEFAULT_BLOCK`, B6M).
+    dt_s : float, optional
+        The time step of every case [s]; default: the adapter's own (``step_for``: for a calibrated
+        contact engine the time-step rule's step, whose calibrations at each step of the ladder are
+        what a slow engine's checks spend most of their time on).
 
     Returns
     -------
@@ -434,7 +456,7 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
         version = None
     rep = CheckReport(ad.name or type(ad).__name__, version)
     for name, check in CHECKS.items():
-        rep.checks.append(run_check(name, check, ad, b))
+        rep.checks.append(run_check(name, check, ad, b, dt_s))
         if name in ("contract", "hooks") and not rep.checks[-1].passed:
             # the others would only fail on the contract or the missing hooks
             rep.not_run = list(CHECKS)[list(CHECKS).index(name) + 1:]
@@ -442,14 +464,14 @@ def check_adapter(adapter_or_name, *, block: Block | None = None) -> CheckReport
     return rep
 
 
-def run_check(name: str, check: Callable[[EngineAdapter, Block], str], adapter: EngineAdapter,
-              block: Block = DEFAULT_BLOCK) -> CheckResult:
+def run_check(name: str, check: Callable[..., str], adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
+              dt_s: float | None = None) -> CheckResult:
     """Run one check: passed with its detail, or failed with the :class:`CheckFailed` message or
     the exception it raised."""
     t0 = time.perf_counter()
     skipped = False
     try:
-        detail, ok = check(adapter, block), True
+        detail, ok = check(adapter, block, dt_s), True
     except CheckSkipped as e:
         ok, detail, skipped = True, str(e), True
     except CheckFailed as e:

@@ -55,6 +55,47 @@ def test_a_slanted_boundary_shifted_by_delta_gives_delta_cos_not_the_offset_alon
     assert mx == pytest.approx(delta, abs=1e-3)
 
 
+@pytest.mark.parametrize("delta", [0.137, -0.137])
+def test_a_boundary_shifted_by_delta_gives_that_signed_offset(delta):
+    """An engine boundary δ below the reference's (it overturns at a lower amplitude: less stable) gives
+    boundary_offset +δ, one above gives −δ; as a share of the reference's critical amplitude 4.3,
+    100·δ/4.3 %. The distance is |δ| either way."""
+    s = score(straight(4.3 - delta, 0.0), straight(4.3, 0.0))
+    assert s["boundary_offset"] == pytest.approx(delta, abs=1e-3)
+    assert s["boundary_offset_percent"] == pytest.approx(100 * delta / 4.3, abs=0.03)
+    assert s["boundary_mean"] == pytest.approx(abs(delta), abs=1e-3)
+
+
+def test_a_slanted_boundary_shifted_gives_its_normal_offset_with_its_sign():
+    delta = 0.2
+    s = score(straight(2.0 - delta, 0.6), straight(2.0, 0.6))
+    assert s["boundary_offset"] == pytest.approx(s["boundary_mean"], rel=1e-12)
+    assert s["boundary_offset"] == pytest.approx(delta * math.cos(math.atan(0.6)), rel=0.02)
+    assert score(straight(2.0 + delta, 0.6), straight(2.0, 0.6))["boundary_offset"] < 0
+
+
+def test_the_offset_is_nan_without_a_boundary_and_judged_by_its_size():
+    from rockbench.benchmark.scoring.metrics import METRICS, check_gate
+    none = MapResult.from_outcomes(W, A, np.full((A.size, W.size), ROCKING))
+    assert math.isnan(score(none, straight(4.3, 0.0))["boundary_offset"])
+    m = METRICS["boundary_offset"]
+    assert m.worse(-0.05, 0.01) and not m.worse(-0.01, 0.02, tol=0.0)
+    assert check_gate({"boundary_offset": -0.2}, {"boundary_offset": 0.1})
+
+
+def test_the_location_error_is_measured_from_the_bisection_intervals():
+    """Each crossing lies uniformly in its last interval (a step over 2**depth): the pair's error is
+    √(w_e²/12 + w_r²/12), at depth 12 a step/4096 over √6, at depth 0 (edge midpoints) a step over √6."""
+    from rockbench.benchmark.scoring.metrics import location_sd, located_counts
+    step = 0.5
+    a, b = straight(4.3, 0.0), straight(4.4, 0.0)
+    assert location_sd(a, b) == pytest.approx(step / 2 ** DEPTH / math.sqrt(6))
+    cells_a, cells_b = MapResult.from_outcomes(W, A, a.outcome), MapResult.from_outcomes(W, A, b.outcome)
+    assert located_counts(cells_a, cells_b)["location_sd"] == pytest.approx(step / math.sqrt(6))
+    none = MapResult.from_outcomes(W, A, np.full((A.size, W.size), ROCKING))
+    assert located_counts(none, b)["location_sd"] is None
+
+
 def test_symmetric_and_perfect_against_itself():
     a, b = straight(2.0, 0.6), straight(2.3, 0.45)
     assert boundary_distance(a, b) == pytest.approx(boundary_distance(b, a), rel=1e-12)

@@ -301,3 +301,20 @@ def test_the_modes_an_adapter_runs_are_declared_refused_before_anything_runs_and
     with pytest.raises(TypeError, match=r"SUPPORTED_MODES\['contact'\]"):
         class Other(DartAdapter):       # only drive and planar are modes
             SUPPORTED_MODES = {"contact": ("corners",)}
+
+
+def test_check_adapter_at_a_given_step(capsys):
+    """``--dt`` runs every check at that step: twice as many samples at half the step (the reference solver
+    samples every step)."""
+    detail = {}
+    for dt_s in (2e-3, 1e-3):
+        rep = check_adapter("reference", dt_s=dt_s)
+        assert rep.passed, rep.text()
+        detail[dt_s] = next(c.detail for c in rep.checks if c.name == "trajectory-shape")
+    n_coarse, n_fine = (int(detail[dt].split()[0]) for dt in (2e-3, 1e-3))
+    assert 1.8 * n_coarse < n_fine < 2.2 * n_coarse, detail
+    assert main(["check-adapter", "reference", "--dt", "0.002"]) == 0
+    assert "checks passed" in capsys.readouterr().out
+    assert main(["check-adapter", "analytic", "--dt", "-1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--dt" in err and "\n" not in err

@@ -309,3 +309,15 @@ def test_planted_restitutions_give_the_smallest_delta_resolved():
                      for b, p in PROBLEMS]
     far = {r["variant"]: r for r in verdict(doc)["variants"]}["d10"]
     assert not far["fails"] and far["group"] == "planted" and far["fails_in"] == []
+
+
+def test_dunnetts_t_critical_value():
+    """One comparison: Student's t; many: above the normal Dunnett value, falling to it as df grows
+    (Dunnett's one-sided table: 2.32 for five comparisons on 35 degrees of freedom, 2.23 on ∞)."""
+    from scipy import stats
+
+    from rockbench.benchmark.scoring.statistics import dunnett_critical, dunnett_t_critical
+    assert dunnett_t_critical(1, 7) == pytest.approx(stats.t.ppf(0.95, 7))
+    assert dunnett_t_critical(5, 35) == pytest.approx(2.32, abs=0.01)
+    assert dunnett_t_critical(5, math.inf) == pytest.approx(dunnett_critical([math.sqrt(0.5)] * 5))
+    assert dunnett_t_critical(5, 14) > dunnett_t_critical(5, 35) > dunnett_t_critical(5, 1000)

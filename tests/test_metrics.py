@@ -8,7 +8,7 @@ from hypothesis import assume, given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
 
 from rockbench.benchmark.maps.result import MapResult, from_cells
-from rockbench.benchmark.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, OVERTURN, REST, ROCKING,
+from rockbench.benchmark.scoring.metrics import (FAILED, METRICS, METRICS_VERSION, NEARER_ZERO, OVERTURN, REST, ROCKING,
                                                boundary_points, check_gate, critical_amplitude,
                                                cell_counts, is_perfect, parse_thresholds, score)
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
@@ -26,7 +26,7 @@ def band_map(first_overturn_row, below=ROCKING, n=N):
 def test_metrics_table_is_complete():
     assert METRICS_VERSION
     for m in METRICS.values():
-        assert m.direction in ("higher", "lower")
+        assert m.direction in ("higher", "lower", NEARER_ZERO)
         assert m.definition and m.unit
         assert m.tolerance >= 0
 
@@ -360,7 +360,7 @@ def test_every_metric_is_one_complete_object():
     units = cell_units({"grid": {"n_w": 5, "n_a": 4, "w_lo": 1, "w_hi": 5, "a_lo": 1, "a_hi": 4}})
     for m in METRICS.values():
         assert m.short and m.title and m.question and m.definition
-        assert m.kind in ("fraction", "distance", "count") and m.direction in ("higher", "lower")
+        assert m.kind in ("fraction", "distance", "count") and m.direction in ("higher", "lower", NEARER_ZERO)
         assert units[m.name] > 0
         assert m.format(math.nan) == "n/a" and m.format(m.perfect)
     assert [m.name for m in METRICS.values() if m.role == "primary"] == ["boundary_mean"]

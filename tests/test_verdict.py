@@ -14,7 +14,7 @@ from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, PLANTED_CLASS, settings_class, variant_label
 from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
-from rockbench.benchmark.scoring.tables import best_group_marks, ranked_summary, summary_table
+from rockbench.benchmark.scoring.tables import best_group_marks, primary_cell, ranked_summary, summary_table
 from rockbench.benchmark.maps.result import MapResult
 from rockbench.benchmark.scoring.metrics import boundary_distance
 from rockbench.benchmark.scoring.scenarios import (RESOLUTION_SD_CELLS, Scenario, Variant, entries, items,
@@ -311,7 +311,7 @@ def test_primary_order_wins_over_agreement_order():
     table = summary_table(doc)
     assert table.index("y[settings=calibrated]") < table.index("x[settings=calibrated]")
     assert "Best achievable" in v["text"][0] and "best y[settings=calibrated]" in v["text"][0]
-    assert "Resolved behind it: x[settings=calibrated]" in v["text"][0]
+    assert "Resolved behind it across problems (" in v["text"][0] and "freedom): x[settings=calibrated]" in v["text"][0]
 
 
 def test_a_secondary_metric_is_highlighted_only_inside_the_best_group():
@@ -341,6 +341,88 @@ def test_a_failing_variant_is_named_with_its_reason():
     assert "Best achievable (engines calibrated by rockbench), on these 4 problems: best pybullet" in text
     short = " ".join(v["short"])
     assert "MuJoCo as shipped" in short and "overturns where the reference stands, 100 %" in short
+
+
+def test_a_missing_boundary_is_reported_as_a_failure_not_averaged():
+    """A scenario where the engine's map has no boundary holds the map's diagonal, a placeholder: the
+    variant fails there, says what its cells do instead, and has no mean or interval; its other
+    scenarios' real distances are named as distances."""
+    doc = _doc({"m": [18.6, 0.9, 18.6, 0.02, 0.01, 0.01, 0.01, 0.01], "p": [0.01] * 8},
+               m={"settings": AS_SHIPPED, "overturn_extra": 1470})
+    for q in doc["pairs"]:
+        q["cells"].update(engine_crossings=0 if q["scores"]["boundary_mean"] == 18.6 else 40, reference_crossings=40)
+    v = verdict(doc)
+    row = next(r for r in v["variants"] if r["variant"] == "m")
+    assert row["fails"] and row["value"] is None and row["ci95"] is None and row["se"] is None
+    first = row["fails_in"][0]
+    assert first["missing_boundary"] == "engine" and first["value"] is None and first["extra"] == pytest.approx(0.98)
+    assert [b["value"] for b in row["fails_in"]] == [None, None, 0.9]
+    assert {s["missing_boundary"] for s in row["per_scenario"] if s["value"] is None} == {"engine"}
+    text = " ".join(v["text"])
+    assert "B3M sine: no boundary, overturns in 98 % of the 1500 cells where the reference stays standing" in text
+    assert "18.6" not in text and "(mean" not in text.split("Fail (")[1].split("m:")[0]
+    assert "B3M sine no boundary" in " ".join(v["short"])
+    assert primary_cell(row).startswith("fails: B3M sine: no boundary")
+    assert primary_cell(next(r for r in v["variants"] if r["variant"] == "p")).startswith("0.010 [")
+
+
+def test_the_signed_offset_stands_beside_the_distance():
+    """Each scenario's boundary_offset goes into the verdict per scenario and, averaged like the value
+    (sizes of a problem first), per variant; the best's words say early or late."""
+    doc = _doc({"e": [0.005] * 8, "p": [0.01] * 8})
+    offsets = [0.01, -0.01, 0.03, 0.01, 0.03, 0.01, 0.01, -0.01]
+    for q, x in zip([q for q in doc["pairs"] if q["variant"] == "e"], offsets):
+        q["scores"].update(boundary_offset=x, boundary_offset_percent=10 * x)
+    v = verdict(doc)
+    row = next(r for r in v["variants"] if r["variant"] == "e")
+    assert row["offset"] == pytest.approx(np.mean(offsets)) and row["offset_percent"] == pytest.approx(10 * np.mean(offsets))
+    assert [s["offset"] for s in row["per_scenario"]] == [x for _, x in sorted(zip(SCENARIOS, offsets))]
+    assert "offset +0.010 (+0.1 % of a_crit: overturns early)" in " ".join(v["text"])
+
+
+def test_an_engine_by_problem_interaction_widens_the_across_problem_interval_not_the_on_suite_one():
+    """Two engines 0.01 apart on average: without interaction both scopes resolve the difference; with
+    a hand-built engine × problem interaction (±0.02 from problem to problem, same mean) the on-suite
+    interval of the difference is unchanged (grid error only), the across-problem one widens by the
+    spread and no longer resolves it: the headline standing (across problems) says tied, the on-suite
+    one still behind, and the words say the latter holds on this suite only."""
+    flat = [0.03] * 8
+    wiggle = [0.03 + (0.02 if k % 4 < 2 else -0.02) for k in range(8)]    # each slenderness one sign per pulse
+    out = {}
+    for name, b in (("flat", flat), ("wiggle", wiggle)):
+        doc = _doc({"a": [0.02] * 8, "b": b})
+        for q in doc["pairs"]:
+            q["cells"]["locate_depth"] = 4                                    # grid error 0.0036 per scenario
+        v = verdict(doc)
+        row = next(r for r in v["variants"] if r["variant"] == "b")
+        suite = next(x for x in row["versus"] if x["other"] == "a")
+        out[name] = (suite["ci95"], row["across"]["versus_best"]["ci95"], row, v)
+    (s0, a0, r0, _), (s1, a1, r1, v1) = out["flat"], out["wiggle"]
+    assert s1 == pytest.approx(s0)                                           # on this suite: unchanged
+    assert a1[1] - a1[0] > 3 * (a0[1] - a0[0])                               # across problems: wider
+    assert not r0["in_best_subset"] and not r0["on_suite"]["in_best_subset"]
+    assert r1["scope"] == "across problems" and r1["in_best_subset"] and not r1["on_suite"]["in_best_subset"]
+    fam = v1["mcb"]["calibrated"]
+    d = [0.03, 0.03, -0.01, -0.01]                                           # b − a per problem
+    assert fam["across"]["interaction_sd"] == pytest.approx(math.sqrt(np.var(d, ddof=1) / 2))
+    assert fam["across"]["df"] == 3 and fam["across"]["critical"] == pytest.approx(2.3534, abs=1e-3)
+    assert fam["across"]["mdd"] > fam["mdd"]
+    assert "on this suite only" in " ".join(v1["text"])
+
+
+def test_a_scenarios_error_is_its_maps_own_where_measured():
+    """A pair's ``cells.location_sd`` (its maps' bisection intervals) is the scenario's error in place of
+    the grid's assumed share of its cell; the assumed figure stays beside it as a check."""
+    doc = _doc({"a": [0.02] * 8, "b": [0.03] * 8})
+    for q in doc["pairs"]:
+        q["cells"]["location_sd"] = 0.002 if q["variant"] == "a" else None
+    rows = {r["variant"]: r for r in verdict(doc)["variants"]}
+    s_a, s_b = rows["a"]["per_scenario"][0], rows["b"]["per_scenario"][0]
+    assert s_a["sd"] == 0.002 and s_a["sd_source"] == "measured"
+    assert s_a["sd_assumed"] == pytest.approx(resolution_sd(math.hypot(0.3, 0.2)))
+    assert s_b["sd"] == pytest.approx(s_b["sd_assumed"]) and s_b["sd_source"] == "assumed"
+    assert "measured on its maps" in rows["a"]["basis"] and "not measured" in rows["b"]["basis"]
+    assert rows["a"]["se"] < rows["b"]["se"]
 
 
 def test_verdict_object_in_score_json_shape():
@@ -399,7 +481,7 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     assert code == 0
     assert out.index("Verdict") < out.index("Summary")
     doc = json.loads((root / "score.json").read_text())
-    assert doc["schema_version"] == 2 and doc["metrics_version"] == "7"
+    assert doc["schema_version"] == 2 and doc["metrics_version"] == "8"
     # no suite.json beside the maps: the code's declarations, and a note that says so
     assert doc["verdict"]["declared"]["source"].startswith("the code's defaults")
     assert "rockbench: note: the verdict's declarations are the code's defaults" in err and "fail_distance 0.3" in err
@@ -505,6 +587,30 @@ def test_a_held_out_variant_is_set_beside_its_in_sample_variant_on_the_same_scen
     assert "Fail" not in text and "Other settings" not in text
     line = next(t for t in v["text"] if t.startswith("Held-out check"))
     assert held in line and "0.650" in line and "does not carry over (resolved worse than its twin), against 0.065 in the same scenarios" in line
+
+
+def test_held_out_scenarios_that_test_nothing_are_left_out_and_said_so():
+    """A held-out scenario bit-identical to its twin's tests nothing, nor does one whose boundary a 2 %
+    planted restitution error does not move (planted δ = 0 and δ = 2 % reference variants): both are
+    left out of the test and named; with none left, there is no test."""
+    own, held = "m[settings=calibrated]", "m[calibrate_on=neighbour,settings=calibrated]"
+    doc = _doc({own: [0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08]})
+    for (b, p), bm in zip(SCENARIOS[4:], [0.05, 0.061, 0.071, 0.082]):   # B3L sine identical, the rest not
+        doc["pairs"].append({**_pair(held, b, p, bm, settings=held), "held_out": True, "in_sample_variant": own})
+    planted = {"reference[planted_eta_factor=1.0]": ([0.0] * 8, 1.0),
+               "reference[planted_eta_factor=0.98]": ([0.05, 0.05, 0.05, 0.05, 0.05, 0.05, 0.0, 0.05], 0.98)}
+    for name, (vals, f) in planted.items():
+        doc["pairs"] += [{**_pair(name, b, p, x, settings=PLANTED_CLASS), "planted_eta_factor": f}
+                         for (b, p), x in zip(SCENARIOS, vals)]
+    for q in doc["pairs"]:
+        q["cells"]["locate_depth"] = 4                                    # grid error 0.0036 per scenario
+    v = verdict(doc)
+    check = {r["variant"]: r for r in v["variants"]}[held]["held_out"]
+    assert [(b["block"], b["pulse"], b["why"].split(" (")[0]) for b in check["left_out"]] == [
+        ("B3L", "sine", "identical to its in-sample twin"), ("B6L", "sine", "does not respond to the restitution")]
+    assert check["scenarios"] == 4 and check["tested_scenarios"] == 2
+    assert check["in_sample"] == pytest.approx((0.06 + 0.08) / 2)
+    assert "left out of the test: B3L sine, identical to its in-sample twin" in " ".join(v["text"])
 
 
 def test_a_held_out_variant_on_the_other_size_is_set_beside_the_same_problems():

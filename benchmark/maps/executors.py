@@ -574,39 +574,30 @@ def _dask_task(init: dict, items: list, batch: bool, cell_timeout_s: float) -> l
     return out
 
 
-class DaskExecutor:
-    """Chunks as Dask tasks on a cluster (``address``) or on a LocalCluster on loopback (``"local"``)."""
+class DaskConnection:
+    """A client of a Dask cluster (``address``), or of a LocalCluster on loopback that it starts
+    (``"local"``, ``jobs`` workers of one thread each, default two or the cores if fewer), checked
+    within :data:`CONNECT_TIMEOUT_S`; ``scratch_dir`` is where a local cluster keeps its scratch space
+    (default: a temporary folder), removed by :meth:`close`. :class:`DaskExecutor` runs a map's chunks
+    through one; ``rockbench run --scheduler`` runs a suite's maps through one.
 
-    def __init__(self, init: dict, address: str, jobs: int | None = None, scratch_dir=None):
+    Raises
+    ------
+    ConfigError
+        A malformed address, or no Dask scheduler at it.
+    """
+
+    def __init__(self, address: str, jobs: int | None = None, scratch_dir=None):
         try:
-            from dask.distributed import Client, LocalCluster  # Dask only with --scheduler (start-up time)
+            from dask.distributed import Client  # Dask only with --scheduler (start-up time)
         except ImportError as e:  # pragma: no cover - a declared dependency
             raise EngineUnavailableError(f"--scheduler needs dask[distributed] ({e}); pip install 'dask[distributed]'.")
-        self.init = init
         self.address = address
         self.cluster = None
         self.client = None
-        self.log_path = None
         self.scratch = None
         if address == "local":
-            n = jobs or min(cpu_count(), 2) or 1
-            if scratch_dir is not None:
-                Path(scratch_dir).mkdir(parents=True, exist_ok=True)
-                self.scratch = Path(scratch_dir)
-            else:
-                self.scratch = Path(tempfile.mkdtemp(prefix="rockbench-dask-"))
-            try:
-                import dask  # Dask only with --scheduler (start-up time)
-                # the scheduler (in this process) takes its scratch folder from the configuration, the
-                # workers from local_directory: both go to ours, removed by close()
-                with dask.config.set({"temporary-directory": str(self.scratch)}):
-                    self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                                dashboard_address=":0", silence_logs=logging.ERROR,
-                                                local_directory=str(self.scratch))
-                self.client = Client(self.cluster, timeout=CONNECT_TIMEOUT_S)
-            except BaseException:
-                self.close()
-                raise
+            self._start_local(jobs, scratch_dir)
         else:
             if "://" not in address and ":" not in address:
                 raise ConfigError(f"--scheduler takes a Dask scheduler address such as tcp://host:8786 or 'local', "
@@ -620,13 +611,64 @@ class DaskExecutor:
                 raise ConfigError(f"cannot reach the Dask scheduler at {address!r} within {CONNECT_TIMEOUT_S:g} s "
                                   f"({type(e).__name__}: {msg}); start it (dask scheduler) or use --scheduler "
                                   "local.") from None
+
+    def _start_local(self, jobs: int | None, scratch_dir) -> None:
+        import dask  # Dask only with --scheduler (start-up time)
+        from dask.distributed import Client, LocalCluster  # Dask only with --scheduler (start-up time)
+        n = jobs or min(cpu_count(), 2) or 1
+        if scratch_dir is not None:
+            Path(scratch_dir).mkdir(parents=True, exist_ok=True)
+            self.scratch = Path(scratch_dir)
+        else:
+            self.scratch = Path(tempfile.mkdtemp(prefix="rockbench-dask-"))
+        try:
+            # the scheduler (in this process) takes its scratch folder from the configuration, the
+            # workers from local_directory: both go to ours, removed by close()
+            with dask.config.set({"temporary-directory": str(self.scratch)}):
+                self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                            dashboard_address=":0", silence_logs=logging.ERROR,
+                                            local_directory=str(self.scratch))
+            self.client = Client(self.cluster, timeout=CONNECT_TIMEOUT_S)
+        except BaseException:
+            self.close()
+            raise
+
+    def worker_count(self) -> int:
+        """The workers in the cluster, as the client last heard (it refreshes this in the background
+        every few seconds: ``scheduler_info()`` would ask the scheduler and wait without a limit)."""
+        info = getattr(self.client, "_scheduler_identity", None) or {}
+        # recent Dask sends the count (``n_workers``) and no longer every worker's entry
+        return int(info.get("n_workers", len(info.get("workers") or {})))
+
+    def close(self) -> None:
+        try:
+            if self.client is not None:
+                self.client.close(timeout=CONNECT_TIMEOUT_S)
+        except Exception:  # noqa: BLE001 - closing a broken connection must not hide the first error
+            pass
+        finally:
+            try:
+                if self.cluster is not None:
+                    self.cluster.close(timeout=2 * CONNECT_TIMEOUT_S)
+            finally:
+                if self.scratch is not None:
+                    shutil.rmtree(self.scratch, ignore_errors=True)
+                    self.scratch = None
+
+
+class DaskExecutor:
+    """Chunks as Dask tasks on a cluster (``address``) or on a LocalCluster on loopback (``"local"``)."""
+
+    def __init__(self, init: dict, address: str, jobs: int | None = None, scratch_dir=None):
+        self.init = init
+        self.address = address
+        self.log_path = None
+        self.dask = DaskConnection(address, jobs=jobs, scratch_dir=scratch_dir)
+        self.client = self.dask.client
         self.n_workers = max(1, self._worker_count() or (jobs or 1))
 
     def _worker_count(self) -> int:
-        # the client's own view, which it refreshes in the background every few seconds:
-        # scheduler_info() would ask the scheduler and wait without a limit
-        info = getattr(self.client, "_scheduler_identity", None) or {}
-        return len(info.get("workers", {}))
+        return self.dask.worker_count()
 
     def describe(self) -> dict:
         return {"kind": "dask", "scheduler": self.address, "workers": self.n_workers}
@@ -667,19 +709,7 @@ class DaskExecutor:
                 f.cancel()
 
     def close(self) -> None:
-        try:
-            if self.client is not None:
-                self.client.close(timeout=CONNECT_TIMEOUT_S)
-        except Exception:  # noqa: BLE001 - closing a broken connection must not hide the first error
-            pass
-        finally:
-            try:
-                if self.cluster is not None:
-                    self.cluster.close(timeout=2 * CONNECT_TIMEOUT_S)
-            finally:
-                if self.scratch is not None:
-                    shutil.rmtree(self.scratch, ignore_errors=True)
-                    self.scratch = None
+        self.dask.close()
 
 
 def _handshake(address: str) -> None:

@@ -19,7 +19,9 @@ from rockbench.benchmark.scoring.declared import DEFAULTS, MIN_SLENDERNESSES
 from rockbench.benchmark.scoring.failing import fails
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED
 from rockbench.benchmark.scoring.scenarios import Variant, entries, items
-from rockbench.benchmark.scoring.statistics import POWER, detectable, differences, fixed, general, mcb, paired, z_one_sided
+from rockbench.benchmark.scoring.statistics import (CONFIDENCE, POWER, by_cluster, detectable, differences, dunnett_t_critical, fixed,
+                                                    general, interaction, mcb, paired, t_quantile,
+                                                    z_one_sided)
 
 #: The classes whose variants are compared with the best of their class, in the verdict's order.
 COMPARED = (CALIBRATED, AS_SHIPPED)
@@ -52,6 +54,12 @@ class Family:
         Its minimal detectable difference at 80 % power, (critical + z₀.₈)·pair_se [w/a units].
     general : dict
         Entry → its comparison with the best about problems in general (only where stated).
+    across : dict or None
+        The same comparisons across problems (:func:`across_problems`); None with fewer than two
+        entries or problems in common.
+
+    ``critical``, ``pair_se``, ``mdd`` and ``mcb`` are **on this suite** (:data:`ON_SUITE`): the
+    problems fixed, measurement error only.
     """
 
     cls: str
@@ -64,6 +72,7 @@ class Family:
     pair_se: float | None = None
     mdd: float | None = None
     general: dict = field(default_factory=dict)
+    across: dict | None = None
 
     @property
     def best_subset(self) -> list[str]:
@@ -74,7 +83,7 @@ class Family:
         """score.json's ``verdict.mcb[class]``."""
         return {"class": self.cls, "entries": [e[0].name for e in self.entries], "k": len(self.entries),
                 "best": self.best, "best_subset": self.best_subset, "critical": self.critical,
-                "pair_se": self.pair_se, "mdd": self.mdd, "power": POWER,
+                "pair_se": self.pair_se, "mdd": self.mdd, "power": POWER, "scope": ON_SUITE, "across": self.across,
                 "members": {e[0].name: [v.name for v in e] for e in self.entries}}
 
 
@@ -96,7 +105,63 @@ def family(cls: str, ents: list[list[Variant]]) -> Family:
         f.critical = _py.median(m["critical"] for m in f.mcb.values())
         f.pair_se = _py.median(finite)
         f.mdd = detectable(f.critical, f.pair_se)
+    f.across = across_problems(f, heads)
     return f
+
+
+#: The two scopes every standing, detectable difference and interval names.
+ON_SUITE, ACROSS = "on this suite", "across problems"
+
+
+def problem_table(heads: dict) -> tuple[list, list, list]:
+    """``(names, X, V)``: each entry's value and grid variance per problem (its cluster means,
+    :func:`~.statistics.by_cluster`) on the problems every entry has, rows in ``heads``' order."""
+    means = {n: by_cluster(list(it.values())) for n, it in heads.items()}
+    common = sorted(set.intersection(*(set(m) for m in means.values())), key=str) if means else []
+    names = list(heads)
+    return names, [[means[n][c][0] for c in common] for n in names], [[means[n][c][1] for c in common] for n in names]
+
+
+def across_problems(f: Family, heads: dict) -> dict | None:
+    """Hsu's comparisons with the best **across problems**: the problems a sample, so each paired
+    difference errs by the engine × problem interaction (:func:`~.statistics.interaction` of the
+    class's two-way table, (k − 1)(C − 1) degrees of freedom), never less than its grid error on this
+    suite (the floor); q Dunnett's one-sided multivariate-t critical value for the k − 1 comparisons
+    with the best (:func:`~.statistics.dunnett_t_critical`); the detectable difference (q + t₀.₈)·se.
+
+    Returns ``{"scope", "problems", "df", "interaction_sd", "grid_sd", "critical", "pair_se", "mdd",
+    "best", "best_subset", "entries": {name: {"value", "in_best_subset", "behind", "versus_best"}}}``
+    (``versus_best``: the difference from the best with its two-sided 95 % t interval); None with fewer
+    than two entries or two problems in common."""
+    names, x, var = problem_table(heads)
+    k, c = len(names), len(x[0]) if x else 0
+    if k < 2 or c < 2:
+        return None
+    ms, df = interaction(x)
+    values = {n: sum(row) / c for n, row in zip(names, x)}
+    grid = {n: sum(row) / c ** 2 for n, row in zip(names, var)}             # on-suite variance of each mean
+    se = {(i, j): max(math.sqrt(2.0 * ms / c), math.sqrt(grid[i] + grid[j]))
+          for i in names for j in names if i != j}
+    q = dunnett_t_critical(k - 1, df)
+    out = {}
+    for i in names:
+        ups = [values[i] - values[j] + q * se[(i, j)] for j in names if j != i]
+        out[i] = {"value": values[i], "in_best_subset": all(values[i] - values[j] <= q * se[(i, j)]
+                                                            for j in names if j != i),
+                  "behind": max(0.0, max(ups))}
+    pair_se = _py.median(se[(i, j)] for (i, j) in se if i < j)
+    best = min(values, key=values.get)
+    half = t_quantile(0.5 + CONFIDENCE / 2, df)
+    for i in names:
+        d = values[i] - values[best]
+        out[i]["versus_best"] = None if i == best else {
+            "against": best, "difference": d, "se": se[(i, best)], "df": df,
+            "ci95": [d - half * se[(i, best)], d + half * se[(i, best)]]}
+    grid_sd = math.sqrt(sum(v for row in var for v in row) / (k * c))
+    return {"scope": ACROSS, "problems": c, "df": df, "interaction_sd": math.sqrt(ms), "grid_sd": grid_sd,
+            "critical": q, "pair_se": pair_se, "mdd": (q + t_quantile(POWER, df)) * pair_se,
+            "best": best, "best_subset": sorted((n for n in names if out[n]["in_best_subset"]), key=values.get),
+            "entries": out}
 
 
 def families(variants: list[Variant], limit: float) -> dict[str, Family]:
@@ -111,14 +176,26 @@ def families(variants: list[Variant], limit: float) -> dict[str, Family]:
 
 
 def ranks(fams: dict[str, Family]) -> dict[str, int]:
-    """Each compared variant's rank: 1 in its class's best subset, 2 resolved behind the best; variants
-    of one entry share it."""
+    """Each compared variant's rank: 1 in its class's best subset, 2 resolved behind the best, by its
+    :func:`headline` standing (across problems where stated); variants of one entry share it."""
     out = {}
     for f in fams.values():
         for e in f.entries:
-            r = 1 if f.mcb[e[0].name]["in_best_subset"] else 2
+            r = 1 if headline(f, e[0].name)["in_best_subset"] else 2
             out.update({v.name: r for v in e})
     return out
+
+
+def headline(f: Family, name: str) -> dict:
+    """An entry's headline standing: across problems where the class has that comparison, else on this
+    suite. ``{"scope", "in_best_subset", "best_in_class", "behind"}``."""
+    if f.across is not None:
+        a = f.across["entries"][name]
+        return {"scope": ACROSS, "in_best_subset": a["in_best_subset"], "best_in_class": name == f.across["best"],
+                "behind": a["behind"]}
+    m = f.mcb[name]
+    return {"scope": ON_SUITE, "in_best_subset": m["in_best_subset"], "best_in_class": name == f.best,
+            "behind": m["behind"]}
 
 
 def rank(variants: list[Variant], limit: float | None = None) -> dict[str, int]:

@@ -45,16 +45,20 @@ import numpy as np
 
 from rockbench.reference_solver.classify import OUTCOME_CODES, Outcome
 from rockbench.reference_solver.errors import ConfigError, IncomparableError
-from rockbench.benchmark.maps.bisection import ALONG_A, FAILED_EDGE, MULTIPLE
+from rockbench.benchmark.maps.bisection import ALONG_A, FAILED_EDGE, MULTIPLE, UNFINISHED
 from rockbench.benchmark.maps.boundary import LocatedBoundary
 from rockbench.benchmark.maps.result import FAILED, MapResult
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
-METRICS_VERSION = "7"
+METRICS_VERSION = "8"
 
 REST = OUTCOME_CODES[Outcome.REST]
 ROCKING = OUTCOME_CODES[Outcome.ROCKING]
 OVERTURN = OUTCOME_CODES[Outcome.OVERTURN]
+
+
+#: The direction of a signed metric: its size, not its sign, is how far from perfect it is.
+NEARER_ZERO = "nearer zero"
 
 
 @dataclass(frozen=True)
@@ -68,7 +72,8 @@ class Metric:
     definition : str
         What it measures, in one or two sentences.
     direction : str
-        ``"higher"`` or ``"lower"`` is better.
+        ``"higher"`` or ``"lower"`` is better, or :data:`NEARER_ZERO` for a signed metric (its absolute
+        value lower is better).
     perfect : float
         The value of ``score(x, x)``.
     unit : str
@@ -92,7 +97,8 @@ class Metric:
         What one flipped cell changes it by, for ``compare``'s tolerances in cells
         (:func:`rockbench.benchmark.scoring.score_runs.cell_units` turns it into a number per pair):
         ``"1/judged"``, ``"1/overturn_union"``, ``"1/outside_simulated"``, ``"diagonal"`` (of a
-        cell), ``"a_step"``, ``"a_step/columns"`` or ``"one"``.
+        cell), ``"diagonal/a_lo %"`` (a diagonal in % of the grid's lowest amplitude), ``"a_step"``,
+        ``"a_step/columns"`` or ``"one"``.
     value : callable
         How it is computed: ``value(c)`` for a :class:`Compared` pair (an engine map against its
         reference map) [its unit]. Only called when the pair has judged cells, unless ``always``.
@@ -133,6 +139,8 @@ class Metric:
         tol = self.tolerance if tol is None else tol
         if _isnan(new) or _isnan(old):
             return _isnan(new) and not _isnan(old)
+        if self.direction == NEARER_ZERO:
+            new, old = abs(new), abs(old)
         delta = (old - new) if self.direction == "higher" else (new - old)
         return delta > tol + 1e-12
 
@@ -198,6 +206,24 @@ _METRIC_LIST = [
            question="How far is the engine's boundary from the reference's at its worst point?",
            short="bnd max", title="boundary distance, max", cell_unit="diagonal",
            value=lambda c: c.boundary[1]),
+    Metric("boundary_offset",
+           "Mean signed normal offset of the engine's overturning boundary from the reference's, in the "
+           "normalised plane, over the same crossings and distances as boundary_mean: each distance is "
+           "positive where the engine's boundary lies on the reference's standing side (the engine overturns "
+           "at a lower amplitude than the rigid model: less stable, conservative for a design) and negative "
+           "on its overturning side (it overturns later); n/a when only one map has a boundary.",
+           "nearer zero", 0.0, "w/a units", 0.02,
+           question="Does the engine overturn too early (+) or too late (−), and by how much on average?",
+           short="bnd offset", title="boundary offset, signed", cell_unit="diagonal",
+           value=lambda c: c.offset[0]),
+    Metric("boundary_offset_percent",
+           "boundary_offset with each signed distance divided by the reference's critical amplitude "
+           "a₀/(g·tanα) at its nearest reference crossing, in per cent: how much lower (+) or higher (−) "
+           "than the rigid model's the engine's overturning amplitude is.",
+           "nearer zero", 0.0, "% of a_crit", 1.0,
+           question="By what share of the rigid model's overturning amplitude is the engine early (+) or late (−)?",
+           short="offset %", title="boundary offset, % of a_crit", cell_unit="diagonal/a_lo %",
+           value=lambda c: c.offset[1]),
     Metric("critical_error_mean",
            "Mean over frequency columns where at least one map overturns of |Δ a_crit|, with a_crit the "
            "LOWEST overturning a0/(g·tanα) of the column, located by the crossing on the edge below its lowest "
@@ -251,6 +277,10 @@ METRICS: dict[str, Metric] = {m.name: m for m in _METRIC_LIST}
 #: choice): verdicts, ranks, the summary's order and its highlights follow it.
 PRIMARY_METRIC = "boundary_mean"
 PRIMARY = METRICS[PRIMARY_METRIC]
+
+#: The signed companions of the primary measure the verdict states beside it (+: the engine overturns
+#: at a lower amplitude than the reference).
+OFFSET, OFFSET_PERCENT = "boundary_offset", "boundary_offset_percent"
 
 
 # -- the pieces ------------------------------------------------------------------------------------
@@ -342,12 +372,70 @@ def boundary_distance(eng: MapResult, ref: MapResult) -> tuple[float, float]:
     ce, cr = judged_crossings(eng, ref)
     if not ce.any() and not cr.any():
         return 0.0, 0.0
-    if be.n_crossings == 0 or br.n_crossings == 0 or not ce.any() or not cr.any():
+    if missing_boundary(int(ce.sum()), int(cr.sum())):
         diag = math.hypot(ref.w_ratio[-1] - ref.w_ratio[0], ref.a_ratio[-1] - ref.a_ratio[0])
         return diag, diag
     d = np.concatenate([point_segment_distances(be.points[ce], br.segments()),
                         point_segment_distances(br.points[cr], be.segments())])
     return float(d.mean()), float(d.max())
+
+
+def overturn_normals(b: LocatedBoundary, m: MapResult) -> np.ndarray:
+    """For each crossing of ``m``'s boundary ``b``, the unit vector of the normalised plane along its edge
+    pointing from the standing cell to the overturning one, shape (n, 2) (w, a); where both cells of the
+    edge stand or both overturn (a thin band inside the edge), +a: overturning lies at higher amplitude."""
+    if b.n_crossings == 0:
+        return np.zeros((0, 2))
+    ov = m.outcome == OVERTURN
+    ov_a, ov_b = ov[tuple(b.cell_a.T)], ov[tuple(b.cell_b.T)]
+    step = np.column_stack([b.cell_b[:, 1] - b.cell_a[:, 1], b.cell_b[:, 0] - b.cell_a[:, 0]]).astype(float)
+    sign = np.where(ov_b & ~ov_a, 1.0, np.where(ov_a & ~ov_b, -1.0, 0.0))
+    out = step * sign[:, None]
+    out[sign == 0] = (0.0, 1.0)
+    return out
+
+
+def boundary_offset(eng: MapResult, ref: MapResult) -> tuple[float, float]:
+    """The signed ``boundary_mean``: (mean [w/a units], mean in % of the reference's critical amplitude).
+
+    Over the crossings :func:`boundary_distance` averages, each point-to-polyline distance gets the sign
+    of the side of the other boundary it lies on, read from the nearest crossing of the other map and
+    that crossing's :func:`overturn_normals`: an engine crossing on the reference's standing side, or a
+    reference crossing on the engine's overturning side, is +, the engine overturning at lower
+    amplitude. The per-cent form divides each signed distance by the a₀/(g·tanα) of the nearest
+    reference crossing (the reference's critical amplitude there). (0, 0) when neither map has a
+    boundary; NaN when only one has (:func:`missing_boundary`)."""
+    be, br = boundary_of(eng), boundary_of(ref)
+    ce, cr = judged_crossings(eng, ref)
+    if not ce.any() and not cr.any():
+        return 0.0, 0.0
+    if missing_boundary(int(ce.sum()), int(cr.sum())):
+        return math.nan, math.nan
+    pe, pr = be.points[ce], br.points[cr]
+    ne, nr = overturn_normals(be, eng)[ce], overturn_normals(br, ref)[cr]
+    _, ke = _nearest(pe, pr)
+    _, kr = _nearest(pr, pe)
+    side_e = -np.sign(np.einsum("ij,ij->i", pe - pr[ke], nr[ke]))   # on the reference's overturning side: late
+    side_r = np.sign(np.einsum("ij,ij->i", pr - pe[kr], ne[kr]))    # on the engine's overturning side: early
+    signed = np.concatenate([side_e * point_segment_distances(pe, br.segments()),
+                             side_r * point_segment_distances(pr, be.segments())])
+    a_crit = np.concatenate([pr[ke, 1], pr[:, 1]])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.where(a_crit > 0, signed / a_crit, np.nan)
+    percent = 100.0 * float(np.nanmean(share)) if np.isfinite(share).any() else math.nan
+    return float(signed.mean()), percent
+
+
+def missing_boundary(engine_crossings: int, reference_crossings: int) -> str:
+    """Which map has no boundary that the metrics count while the other has one: ``"engine"``,
+    ``"reference"`` or ``""`` (both have one, or neither). Where one side lacks a boundary,
+    ``boundary_mean`` and ``boundary_max`` are the map's diagonal, a placeholder for "no boundary" and
+    not a distance: the verdict reports such a scenario as what failed, never in a mean
+    (:mod:`rockbench.benchmark.scoring.failing`). The counts are :func:`judged_crossings`' (score.json's
+    ``cells.engine_crossings`` and ``cells.reference_crossings``)."""
+    if (engine_crossings > 0) == (reference_crossings > 0):
+        return ""
+    return "engine" if engine_crossings == 0 else "reference"
 
 
 def critical_amplitude(m: MapResult) -> np.ndarray:
@@ -466,6 +554,11 @@ class Compared:
         return boundary_distance(self.eng, self.ref)
 
     @cached_property
+    def offset(self) -> tuple[float, float]:
+        """:func:`boundary_offset` (signed mean [w/a units], signed mean in % of a_crit)."""
+        return boundary_offset(self.eng, self.ref)
+
+    @cached_property
     def critical(self) -> dict:
         """:func:`critical_errors` of the judged cells."""
         return critical_errors(*self.inside)
@@ -495,8 +588,9 @@ def boundary_edges(eng: MapResult, ref: MapResult) -> int:
 def located_counts(eng: MapResult, ref: MapResult) -> dict[str, int]:
     """What the boundary metrics rest on, for score.json's ``cells``: the bisection depth the pair is
     located to (the smaller of the two maps'), the located crossings the metrics count
-    (:func:`judged_crossings`), and within the judged cells the edges flagged ``multiple`` (islands,
-    tongues inside one edge) or ``failed``."""
+    (:func:`judged_crossings`), within the judged cells the edges flagged ``multiple`` (islands,
+    tongues inside one edge) or ``failed``, and the distance's error from the bisection's own
+    intervals (``location_sd``, :func:`location_sd`; None without a crossing)."""
     judged, _ = judged_cells(eng, ref)
     be, br = boundary_of(eng), boundary_of(ref)
     ie, ir = be.within(judged), br.within(judged)
@@ -506,7 +600,44 @@ def located_counts(eng: MapResult, ref: MapResult) -> dict[str, int]:
             "located_crossings": int(ce.sum() + cr.sum()),
             "engine_crossings": int(ce.sum()), "reference_crossings": int(cr.sum()),
             "multiple_edges": ie.count(MULTIPLE) + ir.count(MULTIPLE),
-            "failed_edges": ie.count(FAILED_EDGE) + ir.count(FAILED_EDGE)}
+            "failed_edges": ie.count(FAILED_EDGE) + ir.count(FAILED_EDGE),
+            "location_sd": _or_none(location_sd(eng, ref))}
+
+
+def _or_none(x: float) -> float | None:
+    return None if math.isnan(x) else x
+
+
+def bracket_widths(b: LocatedBoundary, m: MapResult) -> np.ndarray:
+    """Each crossing's last bisection interval along its edge [w/a units]: the edge's step over
+    2**depth, or the whole step where its edge's bisection stopped early (flagged ``unfinished`` or
+    ``failed``): where inside that interval the boundary lies, the map does not know."""
+    if b.n_crossings == 0:
+        return np.zeros(0)
+    w, a = m.w_ratio, m.a_ratio
+    dw = (w[-1] - w[0]) / (w.size - 1) if w.size > 1 else 0.0
+    da = (a[-1] - a[0]) / (a.size - 1) if a.size > 1 else 0.0
+    step = np.where(b.axis == ALONG_A, da, dw)
+    stopped = {tuple(e) for e, f in zip(b.edges.tolist(), b.flags.tolist()) if f in (UNFINISHED, FAILED_EDGE)}
+    early = np.array([(int(i), int(j), int(x)) in stopped for (i, j), x in zip(b.cell_a.tolist(), b.axis.tolist())],
+                     bool)
+    return np.where(early, step, step / 2.0 ** b.depth)
+
+
+def location_sd(eng: MapResult, ref: MapResult) -> float:
+    """The error of a pair's ``boundary_mean`` from where each map's bisection left its crossings,
+    measured on the maps themselves [w/a units]: each counted crossing (:func:`judged_crossings`) lies
+    uniformly within its last interval (:func:`bracket_widths`, variance width²/12); a distance errs by
+    its own crossing's error and the other boundary's at its foot, so by the two maps' mean variances
+    summed; along a boundary the crossings share one phase against the grid, so the errors are taken
+    as moving together (not divided by the number of crossings). NaN without a crossing counted."""
+    be, br = boundary_of(eng), boundary_of(ref)
+    ce, cr = judged_crossings(eng, ref)
+    if not ce.any() or not cr.any():
+        return math.nan
+    var_e = float(np.mean(bracket_widths(be, eng)[ce] ** 2)) / 12.0
+    var_r = float(np.mean(bracket_widths(br, ref)[cr] ** 2)) / 12.0
+    return math.sqrt(var_e + var_r)
 
 
 def _consistency(eng: MapResult, outside: np.ndarray) -> float:
@@ -554,7 +685,8 @@ def check_gate(scores: Mapping[str, float], thresholds: Mapping[str, float]) -> 
     for name, limit in thresholds.items():
         m = METRICS[name]
         v = scores.get(name, math.nan)
-        bad = _isnan(v) or (v < limit if m.direction == "higher" else v > limit)
+        size = abs(v) if m.direction == NEARER_ZERO and not _isnan(v) else v
+        bad = _isnan(v) or (v < limit if m.direction == "higher" else size > limit)
         if bad:
             rel = "below" if m.direction == "higher" else "above"
             out.append(f"{name} = {v:.6g} is {rel} the limit {limit:g}")
@@ -585,7 +717,8 @@ def parse_thresholds(items: Iterable[str], direction: str | None = None, option:
             raise ConfigError(f"{option} {name}= needs a number, got {val!r}.") from None
         if not math.isfinite(v):
             raise ConfigError(f"{option} {name}= needs a finite number, got {val!r}.")
-        if direction is not None and METRICS[name].direction != direction:
+        own = "lower" if METRICS[name].direction == NEARER_ZERO else METRICS[name].direction  # a limit on its size
+        if direction is not None and own != direction:
             other = "--fail-over" if direction == "higher" else "--fail-under"
             raise ConfigError(f"{option} {name}: {name} is {METRICS[name].direction}-is-better; use {other} "
                               f"{name}={val} instead.")

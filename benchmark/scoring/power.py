@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from rockbench.benchmark.scoring.scenarios import Variant, items
-from rockbench.benchmark.scoring.statistics import fixed, paired
+from rockbench.benchmark.scoring.statistics import fixed, paired, z_one_sided
 
 
 def planted_variants(variants: list[Variant]) -> list[Variant]:
@@ -53,3 +53,21 @@ def planted_power(variants: list[Variant], critical: float, critical_from: str) 
             "planted": rows, "smallest_resolved_delta": min(resolved) if resolved else None,
             "largest_unresolved_delta": max((r["delta"] for r in rows if not r["resolved"] and r["delta"] > 0),
                                             default=None)}
+
+
+def restitution_response(variants: list[Variant]) -> dict | None:
+    """Per scenario, whether its boundary responds to the restitution: the largest planted δ's distance
+    exceeds δ = 0's there by more than z₀.₉₅ times their summed errors (``{(block, pulse): bool}``, the
+    largest δ with the word). None without a planted δ > 0 and a δ = 0 variant: then nothing is known."""
+    planted = planted_variants(variants)
+    base = next((v for v in planted if abs(v.planted_factor - 1.0) < 1e-9), None)
+    top = planted[-1] if planted else None
+    if base is None or top is None or top is base:
+        return None
+    z = z_one_sided()
+    out = {}
+    for k, s in top.scenarios.items():
+        b = base.scenarios.get(k)
+        if b is not None and math.isfinite(s.distance) and math.isfinite(b.distance):
+            out[k] = s.distance - b.distance > z * math.hypot(s.sd, b.sd)
+    return {"delta": 1.0 - top.planted_factor, "responds": out}

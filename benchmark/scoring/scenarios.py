@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 from rockbench.benchmark.blocks.presets import PRESETS
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, settings_class
-from rockbench.benchmark.scoring.metrics import PRIMARY_METRIC
+from rockbench.benchmark.scoring.metrics import OFFSET, OFFSET_PERCENT, PRIMARY_METRIC, missing_boundary
 
 
 @dataclass
@@ -38,7 +38,10 @@ class Scenario:
     value : float
         Its primary value (NaN when nothing could be judged) [w/a units].
     sd : float
-        The value's own error from the grid's resolution (:func:`resolution_sd`) [w/a units].
+        The value's own error [w/a units]: measured on its two maps from their bisection's last
+        intervals (score.json's ``cells.location_sd``,
+        :func:`~rockbench.benchmark.scoring.metrics.location_sd`) where the pair has it, else the
+        grid's resolution as measured once against a 401 × 401 truth (:func:`resolution_sd`).
     cell : float
         The cell diagonal of its grid [w/a units].
     cluster : tuple
@@ -50,6 +53,20 @@ class Scenario:
         A fingerprint of the engine map's outcomes (equal fingerprints: the same cells).
     held_out : bool
         The variant's calibration was made on another block than this one.
+    missing_boundary : str
+        ``"engine"`` or ``"reference"`` when that map has no boundary in the judged cells and the other
+        has one (:func:`~rockbench.benchmark.scoring.metrics.missing_boundary`): ``value`` is then the
+        map's diagonal, a placeholder, not a distance; ``""`` otherwise.
+    counts : dict
+        Its pair's cell counts (:data:`_SUMMED`): what a failure there gets wrong.
+    sd_assumed : float
+        :func:`resolution_sd` of its grid, kept beside a measured ``sd`` as a check [w/a units].
+    sd_measured : bool
+        Whether ``sd`` is the maps' own (``location_sd``) rather than :func:`resolution_sd`.
+    offset, offset_percent : float
+        Its signed boundary offset [w/a units] and that in % of the reference's critical amplitude
+        (``boundary_offset``, ``boundary_offset_percent``: + the engine overturns earlier); NaN where the
+        pair has none.
     """
 
     value: float
@@ -59,6 +76,17 @@ class Scenario:
     gap: float = math.nan
     cells_id: str | None = None
     held_out: bool = False
+    missing_boundary: str = ""
+    counts: dict = field(default_factory=dict)
+    offset: float = math.nan
+    offset_percent: float = math.nan
+    sd_assumed: float = math.nan
+    sd_measured: bool = False
+
+    @property
+    def distance(self) -> float:
+        """Its value where it is a distance; NaN for a placeholder (a missing boundary) [w/a units]."""
+        return math.nan if self.missing_boundary else self.value
 
 
 @dataclass
@@ -83,8 +111,12 @@ class Variant:
         return bool(self.scenarios) and all(s.held_out for s in self.scenarios.values())
 
     def finite(self) -> dict:
-        """The in-sample scenarios with a value (held-out ones are the held-out check's)."""
-        return {k: s for k, s in self.scenarios.items() if math.isfinite(s.value) and not s.held_out}
+        """The in-sample scenarios with a distance (held-out ones are the held-out check's)."""
+        return {k: s for k, s in self.scenarios.items() if math.isfinite(s.distance) and not s.held_out}
+
+    def placeholders(self) -> list:
+        """The in-sample scenarios (block, pulse) whose value is a placeholder for a missing boundary."""
+        return [k for k, s in self.scenarios.items() if s.missing_boundary and not s.held_out]
 
     @property
     def value(self) -> float:
@@ -135,10 +167,11 @@ _TINY = 1e-12
 
 
 def items(v: Variant, held_out: bool = False) -> dict:
-    """``{(block, pulse): (value, sd, cluster)}`` of a variant's scenarios with a value, in-sample or
-    held-out: the items of :mod:`~rockbench.benchmark.scoring.statistics`."""
+    """``{(block, pulse): (value, sd, cluster)}`` of a variant's scenarios with a distance (not a
+    placeholder for a missing boundary), in-sample or held-out: the items of
+    :mod:`~rockbench.benchmark.scoring.statistics`."""
     return {k: (s.value, s.sd, s.cluster) for k, s in v.scenarios.items()
-            if math.isfinite(s.value) and s.held_out == held_out}
+            if math.isfinite(s.distance) and s.held_out == held_out}
 
 
 def cluster_of(p: dict) -> tuple:
@@ -157,9 +190,20 @@ def scenario_of(p: dict, gaps: dict | None = None) -> Scenario:
     c = p.get("cells") or {}
     cell = math.hypot(float(c.get("w_step", 0.0)), float(c.get("a_step", 0.0)))
     depth = c.get("locate_depth", 0)
-    return Scenario(math.nan if value is None else float(value), resolution_sd(cell, int(depth or 0)), max(cell, _TINY),
+    assumed = resolution_sd(cell, int(depth or 0))
+    measured = c.get("location_sd")
+    missing = (missing_boundary(int(c["engine_crossings"]), int(c["reference_crossings"]))
+               if "engine_crossings" in c and "reference_crossings" in c else "")
+    sd = float(measured) if measured is not None and float(measured) > 0 else assumed
+    return Scenario(math.nan if value is None else float(value), sd, max(cell, _TINY),
                     cluster_of(p), (gaps or {}).get((p["block"], p["pulse"]), math.nan),
-                    p.get("engine_cells"), bool(p.get("held_out")))
+                    p.get("engine_cells"), bool(p.get("held_out")), missing,
+                    {k: int(p.get(k) or 0) for k in _SUMMED}, _float(p["scores"].get(OFFSET)),
+                    _float(p["scores"].get(OFFSET_PERCENT)), assumed, measured is not None and float(measured) > 0)
+
+
+def _float(x) -> float:
+    return math.nan if x is None else float(x)
 
 
 def reference_gaps(doc: dict) -> dict:

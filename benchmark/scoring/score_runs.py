@@ -444,7 +444,8 @@ def cell_units(pair: dict) -> dict:
     """What one flipped cell can change in each metric of ``pair`` (in the metric's own units).
 
     Each metric says which (its ``cell_unit``): fractions of cells change by one over the cells they
-    are taken over; distances in the normalised plane by a cell's diagonal; critical amplitudes by an
+    are taken over; distances in the normalised plane by a cell's diagonal (in % of a critical amplitude,
+    by a diagonal over the grid's lowest amplitude, the most it can be); critical amplitudes by an
     amplitude step (the mean by one step over the columns); counts by one. A pair without ``cells``
     (an older score.json) uses its whole grid.
     """
@@ -457,6 +458,8 @@ def cell_units(pair: dict) -> dict:
             "1/overturn_union": 1.0 / max(int(c.get("overturn_union", n_w * n_a)), 1),
             "1/outside_simulated": 1.0 / max(pair.get("cells_outside_domain_simulated", n_w * n_a), 1),
             "diagonal": math.hypot(dw, da), "a_step": da, "a_step/columns": da / n_w, "one": 1.0}
+    a_lo = float(g.get("a_lo", 0) or 0)
+    base["diagonal/a_lo %"] = 100.0 * base["diagonal"] / (a_lo if a_lo > 0 else max(da, 1e-12))
     return {name: base[m.cell_unit] for name, m in METRICS.items()}
 
 

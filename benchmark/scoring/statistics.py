@@ -13,6 +13,12 @@ Two kinds of inference are kept apart:
   value's only error is the measured error of each scenario; the mean over C problems has variance
   Σv_c / C² (v_c the error variance of problem c's value, sizes of one problem averaged first), and
   the quantiles are the normal's. The grid's error is counted once.
+- **Across problems** ("across problems"): the problems are a sample of problems like them, so a
+  paired difference between two engines errs also by how the engines' errors differ from problem to
+  problem (the engine × problem interaction): the class's two-way table of problem values, its
+  interaction mean square on (k − 1)(C − 1) degrees of freedom, with the grid's error as a floor
+  (:func:`interaction`, :func:`dunnett_t_critical`; applied by
+  :func:`~rockbench.benchmark.scoring.comparisons.across_problems`).
 - **About problems in general**: the slendernesses are the sample; a value's interval is Student's t
   over the slenderness means (pulses averaged within a slenderness), whose spread already holds the
   grid's error. For a balanced design this is the mixed model with random problem and engine ×
@@ -24,6 +30,8 @@ from __future__ import annotations
 import functools
 import math
 from typing import Hashable, Sequence
+
+import numpy as np
 
 #: Confidence of every interval the verdict states, and 1 − the error rate of each family of tests.
 CONFIDENCE = 0.95
@@ -40,6 +48,11 @@ def _stats():
 def z_two_sided(confidence: float = CONFIDENCE) -> float:
     """The normal quantile of a two-sided ``confidence`` interval (1.96 at 95 %)."""
     return float(_stats().norm.ppf(0.5 + confidence / 2))
+
+
+def t_quantile(p: float, df: float) -> float:
+    """Student's t quantile at probability ``p`` on ``df`` degrees of freedom."""
+    return float(_stats().t.ppf(p, df))
 
 
 def z_one_sided(confidence: float = CONFIDENCE) -> float:
@@ -187,6 +200,44 @@ def mcb(values: dict, se: dict, var: dict, confidence: float = CONFIDENCE) -> di
         out[i] = {"in_best_subset": all(g <= 0 for g in gaps), "critical": q,
                   "behind": max(0.0, max(ups)) if ups else 0.0}
     return out
+
+
+def dunnett_t_critical(comparisons: int, df: float, confidence: float = CONFIDENCE) -> float:
+    """The one-sided critical value of Dunnett's many-to-one comparisons on ``df`` degrees of freedom
+    (a multivariate t with equal correlation ½: a balanced two-way design, each comparison with the same
+    control): P(max_j T_j ≤ q) = ``confidence``. One comparison gives Student's t quantile; infinite
+    ``df`` the normal :func:`dunnett_critical`; none 0."""
+    if comparisons <= 0:
+        return 0.0
+    if not math.isfinite(df):
+        return dunnett_critical([math.sqrt(0.5)] * comparisons, confidence)
+    if comparisons == 1:
+        return float(_stats().t.ppf(confidence, df))
+    return _dunnett_t(int(comparisons), float(df), float(confidence))
+
+
+@functools.lru_cache(maxsize=256)
+def _dunnett_t(m: int, df: float, confidence: float) -> float:
+    from scipy import optimize  # SciPy on first use (start-up time)
+    shape = np.full((m, m), 0.5) + 0.5 * np.eye(m)
+    dist = _stats().multivariate_t(np.zeros(m), shape, df=df, seed=20261207)   # fixed seed: reproducible
+    return float(optimize.brentq(lambda q: dist.cdf(np.full(m, q), random_state=20261207) - confidence,
+                                 0.0, 20.0, xtol=1e-6))
+
+
+def interaction(table) -> tuple[float, int]:
+    """The engine × problem interaction of a complete two-way table (rows engines, columns problems) of
+    values: its mean square Σ(x − row mean − column mean + grand mean)² / ((k − 1)(C − 1)) and those
+    degrees of freedom; (NaN, 0) with fewer than two rows or columns. Its expectation is the variance of
+    a single engine-on-problem value about the additive model (engine effect + problem effect): the
+    interaction and the measurement error together."""
+    x = np.asarray(table, float)
+    k, c = x.shape
+    if k < 2 or c < 2:
+        return math.nan, 0
+    r = x - x.mean(axis=1, keepdims=True) - x.mean(axis=0, keepdims=True) + x.mean()
+    df = (k - 1) * (c - 1)
+    return float((r * r).sum() / df), df
 
 
 def detectable(critical: float, se: float, power: float = POWER) -> float:

@@ -6,7 +6,8 @@ import html as _html
 import math
 import textwrap
 
-from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
+from rockbench.benchmark.scoring.failing import scenario_words
+from rockbench.benchmark.scoring.metrics import METRICS, NEARER_ZERO, PRIMARY_METRIC
 from rockbench.benchmark.scoring.verdict import verdict
 from rockbench.benchmark.scoring.verdict_words import METHOD, number
 
@@ -80,14 +81,16 @@ def summary(doc: dict) -> dict:
 
 def primary_cell(row: dict) -> str:
     """A verdict row's primary value with its 95 % interval: ``0.008 [0.003, 0.013]``; a variant of
-    the held-out check alone, its held-out value so marked."""
+    the held-out check alone, its held-out value so marked; a failing variant, what failed first
+    (without a mean where a map has no boundary: its distance is a placeholder)."""
     if row.get("value") is None and row.get("held_out"):
         h = row["held_out"]
         return f"{number(h['value'])} [{number(h['ci95'][0])}, {number(h['ci95'][1])}] held out"
+    failure = "fails: " + scenario_words(row["fails_in"][0]) if row.get("fails") and row.get("fails_in") else ""
     if row.get("value") is None:
-        return "n/a (nothing judged)"
+        return failure or "n/a (nothing judged)"
     lo, hi = row["ci95"]
-    return f"{number(row['value'])} [{number(lo)}, {number(hi)}]"
+    return f"{number(row['value'])} [{number(lo)}, {number(hi)}]" + (f"; {failure}" if failure else "")
 
 
 def verdict_of(doc: dict) -> dict:
@@ -127,7 +130,7 @@ def best_group_marks(ranked: list[tuple[dict, dict]]) -> dict[str, list[bool]]:
         vals = [row[m] for (r, row), t in zip(ranked, top) if t and math.isfinite(row[m])]
         all_vals = {row[m] for _, row in ranked if math.isfinite(row[m])}
         if vals and len(all_vals) > 1:
-            best = max(vals) if spec.direction == "higher" else min(vals)
+            best = max(vals) if spec.direction == "higher" else min(vals, key=abs if spec.direction == NEARER_ZERO else None)
             marks[m] = [t and row[m] == best for (r, row), t in zip(ranked, top)]
     return marks
 
@@ -189,7 +192,9 @@ def scenario_rows(doc: dict) -> tuple[list[str], list[list[str]]]:
                 cells.append("")
                 continue
             mark = (" !" if s.get("fails") else "") + (" (held out)" if s["held_out"] else "")
-            cells.append(number(s["value"]) + mark)
+            value = "no boundary" if s.get("missing_boundary") == "engine" else (
+                "no reference boundary" if s.get("missing_boundary") else number(s["value"]))
+            cells.append(value + mark)
         body.append([row_label(r), *cells])
     return ["engine", *(f"{b} {p}" for b, p in keys)], body
 

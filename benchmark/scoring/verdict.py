@@ -26,12 +26,12 @@ from __future__ import annotations
 
 import math
 
-from rockbench.benchmark.scoring.comparisons import COMPARED, Family, add_general, critical_for_power, families, general_scope, general_value, ranks
+from rockbench.benchmark.scoring.comparisons import ON_SUITE, COMPARED, Family, add_general, headline, critical_for_power, families, general_scope, general_value, ranks
 from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
 from rockbench.benchmark.scoring.equivalence import held_out_check, restitution_test
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails, reason_kinds, reasons
 from rockbench.benchmark.scoring.metrics import PRIMARY, PRIMARY_METRIC
-from rockbench.benchmark.scoring.power import planted_power
+from rockbench.benchmark.scoring.power import planted_power, restitution_response
 from rockbench.benchmark.scoring.scenarios import Variant, items, variants_of
 from rockbench.benchmark.scoring.statistics import CONFIDENCE, fixed
 from rockbench.benchmark.scoring.verdict_words import METHOD, sentences, short_verdict
@@ -60,8 +60,9 @@ def verdict(doc: dict, declared: Declared | None = None) -> dict:
         add_general(f, scope)
     rk = ranks(fams)
     power = planted_power(vs, *critical_for_power(fams))
+    response = restitution_response(vs)
     by_name = {v.name: v for v in vs}
-    rows = [_row(v, fams, rk, scope, declared, by_name.get(v.in_sample)) for v in vs]
+    rows = [_row(v, fams, rk, scope, declared, by_name.get(v.in_sample), response) for v in vs]
     rows.sort(key=_order)
     out = {"metric": PRIMARY_METRIC, "direction": PRIMARY.direction, "unit": PRIMARY.unit, "confidence": CONFIDENCE,
            "declared": declared.to_dict(), "fail_distance": declared.fail_distance, "method": METHOD,
@@ -80,38 +81,51 @@ def _order(r: dict):
             -(r["planted"] or {}).get("eta_factor", 0.0), math.inf if r["value"] is None else r["value"], r["label"])
 
 
-def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: Declared, twin: Variant | None) -> dict:
+def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: Declared, twin: Variant | None,
+         response: dict | None) -> dict:
     e = fixed(list(items(v).values()))
-    value = None if not e["items"] else e["mean"]
+    value = None if not e["items"] or v.placeholders() else e["mean"]   # never a mean over placeholders
     limit = declared.fail_distance
     row = {"variant": v.name, "engine": v.engine, "label": v.label, "settings": v.settings, "group": group_of(v),
            "value": value, "se": None if value is None else e["se"],
            "ci95": None if value is None else [max(e["ci95"][0], PRIMARY.perfect), e["ci95"][1]],
-           "basis": _basis(e), "rank": rk.get(v.name), "pairs": len(v.scenarios),
+           "basis": _basis(e, v) if value is not None else "", "rank": rk.get(v.name), "pairs": len(v.scenarios),
            "scenarios_with_value": e["items"], "clusters": e["clusters"],
            "cells_judged": v.counts.get("cells_in_domain", 0), "cell_diagonal": _mean_cell(v),
            "fails": fails(v, limit), "fails_in": failing_scenarios(v, limit), "reasons": reasons(v),
            "reason_kinds": reason_kinds(v), "shipped_note": v.shipped_note or None, "cells_missing": v.cells_missing,
            "equivalence": None if v.held_out_only else restitution_test(v, declared),
-           "held_out": held_out_check(v, twin, declared), "general": general_value(v, scope),
+           "held_out": held_out_check(v, twin, declared, response), "general": general_value(v, scope),
            "planted": None if v.planted_factor is None else {"eta_factor": v.planted_factor,
                                                              "delta": 1.0 - v.planted_factor},
-           "per_scenario": per_scenario(v, limit)}
+           **offsets(v), "per_scenario": per_scenario(v, limit)}
     row.update(_standing(v, fams))
     return row
 
 
-def _basis(e: dict) -> str:
+def _basis(e: dict, v: Variant) -> str:
     if not e["items"]:
         return ""
     n, c = e["items"], e["clusters"]
     return (f"on these {c} problem{'s' if c != 1 else ''} (slenderness × pulse) of {n} scenario{'s' if n != 1 else ''}: "
-            "normal interval from each scenario's measured grid error")
+            "normal interval from each scenario's own error, " + _sd_source(v))
+
+
+def _sd_source(v: Variant) -> str:
+    """Where a variant's scenario errors come from, in words."""
+    used = [s.sd_measured for s in v.finite().values()]
+    if used and all(used):
+        return "measured on its maps (the bisection's last intervals)"
+    if any(used):
+        return "measured on its maps where they say, else assumed from the grid's cell"
+    return "assumed from the grid's cell (a 401 × 401 probe), not measured on these maps"
 
 
 def _standing(v: Variant, fams: dict[str, Family]) -> dict:
-    """A compared variant's place in its class: identical variants, the best subset, how far behind the
-    best it may be, and its comparisons with the other entries of its class."""
+    """A compared variant's place in its class: identical variants, the best subset and how far behind
+    the best it may be by its headline standing (``scope``: across problems where the class has that
+    comparison, else on this suite), the same on this suite (``on_suite``) and across problems
+    (``across``), and its comparisons on this suite with the other entries of its class."""
     for f in fams.values():
         for ent in f.entries:
             if v in ent:
@@ -120,11 +134,19 @@ def _standing(v: Variant, fams: dict[str, Family]) -> dict:
                 versus = [dict(f.versus[(head, o)], other=o,
                                resolved_behind=_behind(f, head, o), general=f.general.get(head) if o == f.best else None)
                           for o in (e[0].name for e in f.entries) if o != head]
-                return {"same_as": [o.name for o in ent if o is not v], "in_best_subset": m["in_best_subset"],
-                        "best_in_class": head == f.best, "behind_best": m["behind"] if math.isfinite(m["behind"]) else None,
-                        "critical": m["critical"], "versus": versus}
-    return {"same_as": [], "in_best_subset": None, "best_in_class": False, "behind_best": None, "critical": None,
-            "versus": []}
+                h = headline(f, head)
+                on_suite = {"scope": ON_SUITE, "in_best_subset": m["in_best_subset"], "best_in_class": head == f.best,
+                            "behind_best": _finite(m["behind"]), "critical": m["critical"]}
+                return {"same_as": [o.name for o in ent if o is not v], "scope": h["scope"],
+                        "in_best_subset": h["in_best_subset"], "best_in_class": h["best_in_class"],
+                        "behind_best": _finite(h["behind"]), "critical": m["critical"], "on_suite": on_suite,
+                        "across": None if f.across is None else f.across["entries"][head], "versus": versus}
+    return {"same_as": [], "scope": None, "in_best_subset": None, "best_in_class": False, "behind_best": None,
+            "critical": None, "on_suite": None, "across": None, "versus": []}
+
+
+def _finite(x: float) -> float | None:
+    return x if math.isfinite(x) else None
 
 
 def _behind(f: Family, i: str, j: str) -> bool:
@@ -138,16 +160,38 @@ def _mean_cell(v: Variant) -> float:
     return sum(cells) / len(cells) if cells else math.nan
 
 
+def offsets(v: Variant) -> dict:
+    """A variant's signed boundary offset beside its distance: ``offset`` [w/a units] and
+    ``offset_percent`` [% of the reference's critical amplitude], each the mean over problems of its
+    in-sample scenarios that have one (sizes of a problem averaged first, as the value), + where the
+    engine overturns at a lower amplitude than the reference; None where no scenario has one (a record
+    scored before the metric, or every scenario without a boundary)."""
+    out = {"offset": None, "offset_percent": None}
+    if v.placeholders():
+        return out                       # no mean where a scenario has no boundary
+    for key, attr in (("offset", "offset"), ("offset_percent", "offset_percent")):
+        its = [(getattr(s, attr), 0.0, s.cluster) for s in v.scenarios.values()
+               if not s.held_out and math.isfinite(getattr(s, attr)) and math.isfinite(s.distance)]
+        out[key] = _num(fixed(its)["mean"]) if its else None
+    return out
+
+
 def per_scenario(v: Variant, limit: float) -> list[dict]:
-    """score.json's per-scenario values of a variant: value, own error, cluster, the η_H–η_M gap and the
-    value over it, held-out or not, and whether it fails there."""
+    """score.json's per-scenario values of a variant: value (None where a map has no boundary, named in
+    ``missing_boundary``), its signed offset (``offset``, ``offset_percent``), own error (``sd``:
+    ``sd_source`` "measured" on the two maps' bisection intervals or "assumed" from the grid, with the
+    grid's figure ``sd_assumed`` beside it as a check), cluster, the η_H–η_M gap and the value over it, held-out or not,
+    and whether it fails there."""
     bad = {(b["block"], b["pulse"]) for b in failing_scenarios(v, limit)}
     out = []
     for (block, pulse), s in sorted(v.scenarios.items()):
         gap = s.gap if math.isfinite(s.gap) else None
-        out.append({"block": block, "pulse": pulse, "cluster": list(s.cluster), "value": _num(s.value),
-                    "sd": s.sd, "cell_diagonal": s.cell, "reference_gap": gap,
-                    "relative_to_gap": _num(s.value / s.gap) if gap else None, "held_out": s.held_out,
+        out.append({"block": block, "pulse": pulse, "cluster": list(s.cluster), "value": _num(s.distance),
+                    "missing_boundary": s.missing_boundary or None, "offset": _num(s.offset),
+                    "offset_percent": _num(s.offset_percent),
+                    "sd": s.sd, "sd_source": "measured" if s.sd_measured else "assumed",
+                    "sd_assumed": _num(s.sd_assumed), "cell_diagonal": s.cell, "reference_gap": gap,
+                    "relative_to_gap": _num(s.distance / s.gap) if gap else None, "held_out": s.held_out,
                     "fails": (block, pulse) in bad})
     return out
 

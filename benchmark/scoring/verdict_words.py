@@ -9,6 +9,7 @@ import math
 
 from rockbench.benchmark.scoring.comparisons import COMPARED
 from rockbench.benchmark.scoring.declared import RESTITUTION_GAP
+from rockbench.benchmark.scoring.failing import scenario_words
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, engine_name
 
 #: The most words the short verdict may have.
@@ -18,13 +19,21 @@ SHORT_WORDS = 120
 METHOD = {
     "value": ("A variant's value is the mean of its boundary distances over the suite's problems (slenderness × "
               "pulse; the sizes of one problem averaged first); its 95 % interval holds for these problems, the "
-              "suite's own, not a sample: normal, from each scenario's measured grid error alone."),
+              "suite's own, not a sample: normal, from each scenario's own location error alone (measured on its two "
+              "maps from their bisection's last intervals; assumed from the grid's cell where a score document "
+              "lacks it)."),
     "comparisons": ("Each variant is compared with the best of its settings class (calibrated; as shipped; each "
                     "class its own family) by Hsu's multiple comparisons with the best: it stays in the best subset "
                     "unless its paired difference from another variant of the class exceeds q·se, q the one-sided "
                     "Dunnett critical value for the class's comparisons, so the subset holds the true best with "
                     "probability at least 95 %; the class's minimal detectable difference at 80 % power is "
-                    "(q + z₀.₈)·se, se its typical paired standard error; identical maps count once."),
+                    "(q + z₀.₈)·se, se its typical paired standard error; identical maps count once. Two scopes: "
+                    "on this suite (these problems fixed, each scenario's grid error alone, normal quantiles) and "
+                    "across problems (the problems a sample: each paired difference also errs by the engine × "
+                    "problem interaction of the class's two-way table, on its (k − 1)(C − 1) degrees of freedom, "
+                    "never below the grid's error; q Dunnett's multivariate t, the detectable difference "
+                    "(q + t₀.₈)·se). The standing a variant is named by is the one across problems; one that holds "
+                    "on this suite only is said so."),
     "failing": ("A variant fails when in any in-sample scenario its boundary lies farther from the reference's than "
                 "the suite's declared fail distance, whatever its mean."),
     "equivalence": ("\"Within the uncertainty of the restitution\" is said only where a one-sided 5 % test shows the "
@@ -82,8 +91,19 @@ def _figure(row: dict) -> str:
     if row["value"] is None:
         return "no value (nothing it simulated could be judged)"
     lo, hi = row["ci95"]
-    return (f"{number(row['value'])} (95 % interval {number(lo)}–{number(hi)}, {_plural(row['clusters'], 'problem')}, "
-            f"{_plural(row['scenarios_with_value'], 'scenario')})")
+    return (f"{number(row['value'])} (95 % interval on this suite {number(lo)}–{number(hi)}, {_plural(row['clusters'], 'problem')}, "
+            f"{_plural(row['scenarios_with_value'], 'scenario')}{offset_words(row, ', ')})")
+
+
+def offset_words(row: dict, lead: str = "") -> str:
+    """A row's signed offset beside its distance: ``offset +0.004 (+1.2 % of a_crit: overturns early)``;
+    "" without one."""
+    x, pc = row.get("offset"), row.get("offset_percent")
+    if x is None:
+        return ""
+    when = "overturns early" if x > 0 else "overturns late" if x < 0 else "neither early nor late"
+    share = f"{'+' if pc >= 0 else '−'}{abs(pc):.1f} % of a_crit: " if pc is not None else ""
+    return f"{lead}offset {signed(x)} ({share}{when})"
 
 
 def _name(row: dict, by: dict) -> str:
@@ -137,24 +157,43 @@ def _class_sentence(cls: str, members: list[dict], v: dict, by: dict) -> str:
     text = f"{title}, on these {_plural(best['clusters'], 'problem')}: best {_name(best, by)}, {_figure(best)}."
     if fam["k"] == 1:
         return text[:-1] + ", its only passing variant."
-    tied = [by[n] for n in fam["best_subset"] if n != fam["best"]]
+    scope = _scope_words(fam)
+    tied = [by[n] for n in fam["entries"] if n != fam["best"] and by[n]["in_best_subset"]]
     behind = [by[n] for n in fam["entries"] if not by[n]["in_best_subset"]]
     if tied:
-        text += (" Not resolved from it, so each may be the best (Hsu's multiple comparisons with the best, 95 %): "
-                 + "; ".join(f"{_name(r, by)}, {number(r['value'])}" for r in tied) + ".")
+        text += (f" Not resolved from it {scope}, so each may be the best (Hsu's multiple comparisons with the best, "
+                 "95 %): " + "; ".join(f"{_name(r, by)}, {number(r['value'])}" for r in tied) + ".")
     if behind:
-        text += " Resolved behind it: " + "; ".join(
+        scope = scope if not tied else scope.split(" (")[0]          # the scope's numbers are said once
+        text += f" Resolved behind it {scope}: " + "; ".join(
             f"{_name(r, by)}, {number(r['value'])} (behind the best by at most {number(r['behind_best'])})"
             for r in behind) + "."
+    only = [r for r in tied if r.get("on_suite") and not r["on_suite"]["in_best_subset"]] if fam.get("across") else []
+    if only:
+        text += (" Resolved behind it on this suite only (these problems fixed, the grid's error alone), a decision "
+                 "that does not hold across problems: " + "; ".join(_name(r, by) for r in only) + ".")
     scale = scale_words(fam, v["power"])
     return text + " " + scale[0].upper() + scale[1:] + "."
+
+
+def _scope_words(fam: dict) -> str:
+    """``across problems (8 problems, engine × problem spread 0.012 against the grid's 0.005; t on 35
+    degrees of freedom)`` or ``on this suite (...)``: the scope of the class's headline standing."""
+    a = fam.get("across")
+    if a is None:
+        return "on this suite (these problems fixed, the grid's error alone)"
+    return (f"across problems ({a['problems']} problems as a sample: engine × problem spread {number(a['interaction_sd'])} "
+            f"against the grid's {number(a['grid_sd'])}; Dunnett's t on {a['df']} degrees of freedom)")
 
 
 def scale_words(fam: dict, power: dict | None) -> str:
     """How small a difference the class's comparisons could have seen: its minimal detectable difference,
     and the planted result when the document has one."""
-    text = (f"between variants of this class the suite detects a difference of {number(fam['mdd'])} with 80 % power"
-            if fam.get("mdd") is not None else "no paired comparison")
+    a = fam.get("across")
+    text = (f"between variants of this class the suite detects a difference of {number(a['mdd'])} across problems and "
+            f"{number(fam['mdd'])} on this suite, with 80 % power" if a is not None and fam.get("mdd") is not None else
+            f"between variants of this class the suite detects a difference of {number(fam['mdd'])} on this suite "
+            "with 80 % power" if fam.get("mdd") is not None else "no paired comparison")
     if power:
         text += "; " + planted_words(power)
     return text
@@ -179,20 +218,21 @@ _NAMED = 3
 
 
 def _failure(row: dict, by: dict) -> str:
-    if row["value"] is None:
+    if not row["fails_in"]:
         why = ["nothing it simulated could be judged"]
     else:
-        worst = [f"{b['block']} {b['pulse']} at {number(b['value'])}" for b in row["fails_in"][:_NAMED]]
+        worst = [scenario_words(b) for b in row["fails_in"][:_NAMED]]
         more = len(row["fails_in"]) - _NAMED
         first = row["fails_in"][0]
         coarse = ("" if first.get("beyond_error", True) else
                   f", which the grid's own error there, {number(first['sd'])}, does not resolve: a grid too coarse "
                   "for the limit decided it")
-        why = [f"off in {_and(worst)}" + (f" and {_plural(more, 'more scenario')}" if more > 0 else "")
+        why = [f"off in {'; '.join(worst)}" + (f" and {_plural(more, 'more scenario')}" if more > 0 else "")
                + f" (limit {declared_number(first['limit'])}{coarse})"] + row["reasons"]
     if row["shipped_note"]:
         why.append(row["shipped_note"].rstrip("."))
-    return f"{_name(row, by)} (mean {number(row['value'])}): {', and '.join(why)}"
+    mean = f" (mean {number(row['value'])})" if row["value"] is not None else ""
+    return f"{_name(row, by)}{mean}: {', and '.join(why)}"
 
 
 def _margin_words(margin) -> str:
@@ -236,6 +276,11 @@ def _held_out_words(r: dict) -> str:
     h = r["held_out"]
     lo, hi = h["ci95"]
     head = f"{r['label']}, {number(h['value'])} [{number(lo)}, {number(hi)}] over {_plural(h['scenarios'], 'scenario')}"
+    gone = h.get("left_out") or []
+    if gone:
+        head += " (left out of the test: " + "; ".join(f"{b['block']} {b['pulse']}, {b['why']}" for b in gone) + ")"
+    if h["tost"] is None and gone and not h.get("tested_scenarios"):
+        return head + ": not tested, no held-out scenario that can test it"
     if h["tost"] is None:
         return head + ", with no map of the same settings calibrated on the block itself to test it against"
     where = {"same scenarios": "in the same scenarios",
@@ -338,12 +383,15 @@ def _short(v: dict, level: int) -> list[str]:
     within = _within_by_class(v, by, level)
     if within:
         out.append(f"Within the restitution's uncertainty (on the mean): {within}.")
-    held = [r for r in rows if r["held_out"] and r["held_out"]["tost"] is not None]
+    held = [r for r in rows if r["held_out"] and (r["held_out"]["tost"] is not None or r["held_out"].get("left_out"))]
     if held:
         yes = [names[r["variant"]] for r in held if r["held_out"]["carries_over"]]
-        no = [names[r["variant"]] for r in held if not r["held_out"]["carries_over"]]
+        untested = [names[r["variant"]] for r in held if r["held_out"]["tost"] is None and r["held_out"].get("left_out")]
+        no = [names[r["variant"]] for r in held if not r["held_out"]["carries_over"] and names[r["variant"]] not in untested]
         text = "Held-out calibration carries over: " + (_list(yes, level >= 1) if yes else "none shown")
-        out.append(text + (f"; not shown: {_list(no, level >= 1)}." if no else "."))
+        text += f"; not shown: {_list(no, level >= 1)}" if no else ""
+        out.append(text + (f"; not tested (held-out scenarios identical or unresponsive): {_list(untested, level >= 1)}."
+                           if untested else "."))
     return out
 
 
@@ -375,14 +423,17 @@ def _short_class(cls: str, fam: dict, v: dict, by: dict, level: int) -> str:
     names = _short_names([by[n] for n in fam["entries"]], qualified=False)
     best = by[fam["best"]]
     text = f"{_SHORT_TITLES[cls]}: {names[best['variant']]} best ({number(best['value'])})"
-    tied = [names[n] for n in fam["best_subset"] if n != fam["best"]]
+    a = fam.get("across")
+    where = " across problems" if a is not None else " on this suite"
+    tied = [names[n] for n in fam["entries"] if n != fam["best"] and by[n]["in_best_subset"]]
     behind = [names[n] for n in fam["entries"] if not by[n]["in_best_subset"]]
     if tied:
-        text += f"; tied: {_list(tied, level >= 1)}"
+        text += f"; tied{where}: {_list(tied, level >= 1)}"
     if behind:
-        text += f"; resolved behind: {_list(behind, level >= 1)}"
+        text += f"; resolved behind{where}: {_list(behind, level >= 1)}"
     if fam.get("mdd") is not None:
-        scale = f"resolvable: {number(fam['mdd'])} at 80 % power"
+        scale = (f"resolvable: {number(a['mdd'])} across problems, {number(fam['mdd'])} on this suite, at 80 % power"
+                 if a is not None else f"resolvable on this suite: {number(fam['mdd'])} at 80 % power")
         p = v["power"]
         if p and p["smallest_resolved_delta"] is not None and level < 3:
             scale += f"; η planted {delta_words(p['smallest_resolved_delta'])} off resolved"
@@ -392,11 +443,12 @@ def _short_class(cls: str, fam: dict, v: dict, by: dict, level: int) -> str:
 
 def _short_failure(r: dict, names: dict, level: int) -> str:
     name = names[r["variant"]]
-    if r["value"] is None:
+    if not r["fails_in"]:
         return f"{name} (nothing judged)"
     w = r["fails_in"][0]
-    bits = [f"{w['block']} {w['pulse']} {number(w['value'])}" + ("" if w.get("beyond_error", True) or level >= 2
-                                                                 else ", within the grid's error")]
+    head = (f"{w['block']} {w['pulse']} no boundary" if w.get("missing_boundary")
+            else f"{w['block']} {w['pulse']} {number(w['value'])}")
+    bits = [head + ("" if w.get("beyond_error", True) or level >= 2 else ", within the grid's error")]
     if level < 2 and r.get("reason_kinds"):
         k = r["reason_kinds"][0]
         bits.append(f"{_SHORT_REASONS[k['kind']]}, {100 * k['share']:.0f} %")

@@ -96,10 +96,16 @@ class Preparation:
     """:func:`prepare_engines` in two halves: made, it starts the helpers; :meth:`finish` waits for
     them (the suite computes its reference maps in between). ``speed_engines``: the engines of the
     suite's speed stage, whose calibrations at its steps and the time-step rule's choice on its blocks
-    are prepared too (:attr:`rules` after :meth:`finish`)."""
+    are prepared too (:attr:`rules` after :meth:`finish`). ``pool``: an executor of a cluster (a Dask
+    client's :meth:`get_executor`) that runs the tasks instead of helper processes here; a task it loses
+    (its workers died) is done here by :meth:`finish`."""
+
+    #: whether the tasks run on a cluster's executor (``pool``), and whether :meth:`abort` stopped them there
+    remote = False
+    aborted = False
 
     def __init__(self, suite: Suite, engines: list[str], out: Path, log, *, workers: int = 1,
-                 own_eta: bool | None = None, speed_engines: list[str] = ()):
+                 own_eta: bool | None = None, speed_engines: list[str] = (), pool=None):
 
         self.t0 = time.perf_counter()
         self.suite, self.out = suite, out
@@ -127,8 +133,10 @@ class Preparation:
             if t.measure:
                 log(f"measuring η of {variant_name(t.engine, variant_settings(t.variant), t.dt_s)} on {t.block} "
                     f"(free rocking)")
-        self.pool, self.futs = None, {}
-        if workers > 1 and len(self.todo) > 1:
+        self.pool, self.futs, self.remote = None, {}, pool is not None
+        if pool is not None:
+            self._submit_to(pool)
+        elif workers > 1 and len(self.todo) > 1:
             self._start_helpers(workers)
 
     def _add_speed(self, engines) -> None:
@@ -164,15 +172,26 @@ class Preparation:
             ctx = multiprocessing.get_context("fork" if can_fork_helper() else "spawn")
             init = worker_init("", {})   # this process's extra engines and sys.path, as map workers get them
             self.pool = ProcessPoolExecutor(max_workers=min(workers, len(self.todo)), mp_context=ctx,
-                                            initializer=_helper_init, initargs=(init["registry"], init["sys_path"]))
+                                            initializer=helper_init, initargs=(init["registry"], init["sys_path"]))
             for k in self.todo:
                 self.futs[k] = self.pool.submit(_prepare_one, *self._args(self.tasks[k]))
         except (OSError, RuntimeError, ValueError):
             self._stop()
 
+    def _submit_to(self, pool) -> None:
+        """Every task to a cluster's executor, the costliest first (its workers set up the registry and
+        ``sys.path`` this process has, as the helpers here do)."""
+        init = worker_init("", {})
+        self.pool = pool
+        for k in self.todo:
+            self.futs[k] = pool.submit(_prepare_remote, init["registry"], init["sys_path"], *self._args(self.tasks[k]))
+
     def _stop(self) -> None:
         if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
+            if self.remote:
+                self.pool.shutdown(wait=False)   # a cluster's executor: cancels what has not run
+            else:
+                self.pool.shutdown(wait=True, cancel_futures=True)
             self.pool = None
 
     def abort(self) -> None:
@@ -182,7 +201,10 @@ class Preparation:
         has no public way to stop a running task, so the pool's processes are killed directly (SIGKILL,
         not SIGTERM: a forked helper inherits the command's SIGTERM handler, which raises an exception
         that the pool's worker loop catches and outlives)."""
-        if self.pool is not None:
+        if self.remote:
+            self.aborted = True   # finish() (waiting in another thread) does nothing here either
+            self._stop()
+        elif self.pool is not None:
             for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
                 proc.kill()
             self.pool.shutdown(wait=False, cancel_futures=True)
@@ -196,6 +218,9 @@ class Preparation:
                     self.results[k] = f.result()
                 except BrokenProcessPool:
                     break
+                except Exception:  # noqa: BLE001 - a cluster lost the task (KilledWorker): done here below
+                    if not self.remote or self.aborted:
+                        raise
         except BaseException:
             self.abort()
             raise
@@ -231,12 +256,20 @@ class Preparation:
         return rows, notes
 
 
-def _helper_init(registry: dict, sys_path: list) -> None:
+def helper_init(registry: dict, sys_path: list) -> None:
+    """A helper process or a cluster's worker learns the engines registered and the ``sys.path`` of the
+    process that runs the suite (:func:`~rockbench.benchmark.maps.executors.worker_init`)."""
     for p in sys_path:
         if p not in sys.path and os.path.isdir(p):
             sys.path.append(p)
     for name, target in registry.items():
         register(name, target)
+
+
+def _prepare_remote(registry: dict, sys_path: list, *args) -> dict:
+    """:func:`_prepare_one` on a cluster's worker, which first learns this process's engines and path."""
+    helper_init(registry, sys_path)
+    return _prepare_one(*args)
 
 
 def _calibrates(engine: str) -> bool:

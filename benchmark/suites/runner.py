@@ -85,7 +85,7 @@ from rockbench.benchmark.blocks.experiments import load_outcomes
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.benchmark.engine_info.devices import device_of
 from rockbench.benchmark.engine_info.health import EngineHealth
-from rockbench.benchmark.maps.executors import cap_jobs, cpu_count
+from rockbench.benchmark.maps.executors import DASK_SCRATCH, DaskConnection, cap_jobs, cpu_count
 from rockbench.benchmark.maps.grid import MapSpec, parse_range
 from rockbench.benchmark.maps.sweep import run_map
 from rockbench.benchmark.report.build import build_report
@@ -97,6 +97,7 @@ from rockbench.benchmark.scoring.tables import SUMMARY_TITLE, summary_table, ver
 from rockbench.benchmark.store.atomic import check_output_dir
 from rockbench.benchmark.store.files import write_json
 from rockbench.benchmark.trajectories import record_for_report
+from rockbench.benchmark.suites.cluster import ClusterMaps
 from rockbench.benchmark.suites.lanes import ReferenceThread, run_lanes
 from rockbench.benchmark.suites.model import Suite, skipped_reference_note
 from rockbench.benchmark.suites.plan import check_suite, engine_names, own_eta_jobs, plan, speed_depth, speed_engines, speed_record
@@ -144,17 +145,26 @@ def _warm_report() -> None:
         pass
 
 
+def _warm_report_meanwhile() -> None:
+    """The report's start-up (matplotlib, the reference's history kernel) costs a few seconds of one core
+    at the end; a thread pays it while the workers compute the engine maps."""
+    threading.Thread(target=_warm_report, name="rockbench-warm-report", daemon=True).start()
+
+
 def _started(k: int) -> None:
     """A map starts: nothing is printed (a map is reported when it finishes, by
     :meth:`SuiteConsole.finished`, so that the lines come in order)."""
 
 
 def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=None, report: bool = True,
-              log=None, engines: list[str] | None = None, figure_formats=("png",)) -> dict:
+              log=None, engines: list[str] | None = None, figure_formats=("png",),
+              scheduler: str | None = None) -> dict:
     """Compute what is missing, score, and write the report (see the module docstring).
 
     ``engines`` (``run --engines``) restricts the engine maps to those engines; ``figure_formats``
-    are the formats of the report's pictures (png, svg, pdf).
+    are the formats of the report's pictures (png, svg, pdf); ``scheduler`` (``run --scheduler``) a
+    Dask scheduler's address, or ``"local"`` for a LocalCluster of ``jobs`` workers on 127.0.0.1, to
+    compute the calibrations and maps on (:mod:`rockbench.benchmark.suites.cluster`; the same maps).
 
     Returns
     -------
@@ -170,16 +180,24 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     jobs, note = cap_jobs(jobs)
     if note:
         log(note)
-    run = _SuiteRun(suite, out, jobs, log, engines)
-    run.compute_maps(report)
+    dask = None
+    if scheduler is not None:
+        # checked (and a local cluster started) before anything is written
+        dask = DaskConnection(scheduler, jobs=jobs, scratch_dir=out / DASK_SCRATCH if scheduler == "local" else None)
+    try:
+        run = _SuiteRun(suite, out, jobs, log, engines, dask)
+        run.compute_maps(report)
+    finally:
+        if dask is not None:
+            dask.close()
     return run.finish(experiments, report, figure_formats)
 
 
 class _SuiteRun:
     """One :func:`run_suite`: its plan of maps and their specs, the console, what finished and what could not."""
 
-    def __init__(self, suite: Suite, out: Path, jobs: int | None, log, engines: list[str] | None):
-        self.suite, self.out, self.jobs, self.log = suite, out, jobs, log
+    def __init__(self, suite: Suite, out: Path, jobs: int | None, log, engines: list[str] | None, dask=None):
+        self.suite, self.out, self.jobs, self.log, self.dask = suite, out, jobs, log, dask
         self.x = parse_range("grid.w_ratio", suite.grid.w_ratio, "w_ratio")
         self.y = parse_range("grid.a_ratio", suite.grid.a_ratio, "a_ratio")
         explicit = engines is not None or suite.engines.names != "available"
@@ -196,8 +214,8 @@ class _SuiteRun:
         self.records: dict = {}
         # calibrations (and the engines' own η) once, on every core, before the engine maps need them;
         # the helpers start now and work while this process computes the reference maps
-        self.prep = Preparation(suite, self.engines, out, log, workers=self.workers,
-                                speed_engines=self.speed_engines) if self.engines else None
+        self.prep = Preparation(suite, self.engines, out, log, workers=self.workers, speed_engines=self.speed_engines,
+                                pool=dask.client.get_executor(pure=False) if dask else None) if self.engines else None
         if suite.speed is not None:
             write_json(out / SPEED_FILE, speed_record(suite, self.speed_engines, self.notes))
         self.stages: dict = {}   # map index → the stage its run.json records (the speed stage's maps)
@@ -212,25 +230,33 @@ class _SuiteRun:
         return [MapSpec(get_preset(j.block).block(), j.pulse, j.restitution, self.x, self.y, engine=j.engine,
                         engine_settings=dict(j.settings), dt_s=j.dt_s) for j in jobs_]
 
-    def one_map(self, k: int, ex) -> None:
-        job, spec, suite = self.todo[k], self.specs[k], self.suite
+    def map_options(self, job) -> dict:
+        """How the suite computes map ``job`` (:func:`run_map`'s options, here or on a cluster's worker).
+
+        Reference maps are computed in full: they cost milliseconds, and scoring needs the rigid
+        model's domain (lift-/slip-required) in every cell, not just where refinement looked; a planted
+        variant is the reference solver, mapped as an engine map is."""
+        engine_map = job.engine != "reference" or is_planted(job.engine, job.settings)
+        return {"adaptive": self.suite.grid.adaptive and engine_map, "coarse_stride": self.suite.grid.coarse_stride,
+                "locate_depth": self.depth_of(job), "cell_timeout_s": self.suite.run.cell_timeout_s,
+                "stage": self.stage_of(job)}
+
+    def one_map(self, k: int, ex, compute=None) -> None:
+        """Map ``k``, computed here with executor ``ex`` (None: the reference's, in this process), or by
+        ``compute()`` (a cluster's task, written to the run folder), and recorded."""
+        job, spec = self.todo[k], self.specs[k]
         d = self.out / job.subdir
         t1 = time.perf_counter()
-        # reference maps are computed in full: they cost milliseconds, and scoring needs the
-        # rigid model's domain (lift-/slip-required) in every cell, not just where refinement looked;
-        # a planted variant is the reference solver in this process, mapped as an engine map is;
         # an engine that cannot simulate is stopped after its first map (EngineHealth.guard)
-        engine_map = job.engine != "reference" or is_planted(job.engine, job.settings)
-        res = self.health.guard(job.engine, lambda: run_map(
-            spec, d, jobs=self.jobs, serial=job.engine == "reference",
-            adaptive=suite.grid.adaptive and engine_map, coarse_stride=suite.grid.coarse_stride,
-            locate_depth=self.depth_of(job), cell_timeout_s=suite.run.cell_timeout_s, log=self.log, executor=ex,
-            stage=self.stage_of(job)))
+        res = self.health.guard(job.engine, compute or (lambda: run_map(
+            spec, d, jobs=self.jobs, serial=job.engine == "reference", log=self.log, executor=ex,
+            **self.map_options(job))))
         if res is None:   # the engine cannot simulate: its map is skipped, and counted off
             self.console.not_needed(1, f"{spec.label()} skipped: {job.engine} cannot simulate (see the end of the run)")
             self.unfinished.add(d)
             return
-        self.records[k] = {"dir": str(d), "label": spec.label(), "wall_s": time.perf_counter() - t1,
+        wall_s = res.wall_s if compute is not None else time.perf_counter() - t1   # a task's: on its worker
+        self.records[k] = {"dir": str(d), "label": spec.label(), "wall_s": wall_s,
                            "n_simulated": res.n_simulated, "n_cells": spec.n_cells, "n_failed": len(res.failures)}
         self.console.finished(spec.label(), d, self.records[k]["wall_s"])
 
@@ -249,7 +275,8 @@ class _SuiteRun:
         return {"name": SPEED_STAGE, "step_rule": rules.get((job.engine, job.block)), "device": device_of(job.engine)}
 
     def compute_maps(self, report: bool) -> None:
-        """Every map: the reference maps on one thread, the engine maps on lanes.
+        """Every map: the reference maps on one thread, the engine maps on lanes (with a Dask cluster,
+        every map a task on it instead: :meth:`_on_cluster`).
 
         The reference runs in this process: its compiled batch kernel is parallel already, and worker
         processes would each load it again; engines keep the workers' time limit and crash isolation.
@@ -258,19 +285,20 @@ class _SuiteRun:
         kernel's first compile (about 12 s of one core) no longer holds the engine maps back.
         """
         todo = self.todo
+        engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
+        # the costliest engines first, so that the last maps, when one core may wait for the other, are short
+        engine_maps.sort(key=lambda k: cost_rank(todo[k].engine))
+        if self.dask is not None:
+            self._on_cluster(engine_maps, report)
+            return
         refs = ReferenceThread(_started, self.one_map)
         refs.add(k for k, job in enumerate(todo) if job.engine == "reference")
         try:
             if self.prep is not None:
-                self._own_eta_maps(refs)
+                self.own_eta_maps(refs)
             refs.close()
             if report:
-                # the report's start-up (matplotlib, the reference's history kernel) costs a few seconds of
-                # one core at the end; a thread pays it while the workers compute the engine maps
-                threading.Thread(target=_warm_report, name="rockbench-warm-report", daemon=True).start()
-            engine_maps = [k for k, job in enumerate(todo) if job.engine != "reference"]
-            # the costliest engines first, so that the last maps, when one core may wait for the other, are short
-            engine_maps.sort(key=lambda k: cost_rank(todo[k].engine))
+                _warm_report_meanwhile()
             run_lanes(engine_maps, todo, self.out, min(self.workers, max(1, len(engine_maps))), _started,
                       self.one_map, stop=refs.failed)
         except BaseException:
@@ -280,9 +308,21 @@ class _SuiteRun:
             raise
         refs.join()
 
-    def _own_eta_maps(self, refs: ReferenceThread) -> None:
-        """Wait for the calibrations and η measurements; with own_eta, hand the reference thread a map
-        at each variant's measured η."""
+    def _on_cluster(self, engine_maps: list[int], report: bool) -> None:
+        """Every map as a task on the Dask cluster (:mod:`rockbench.benchmark.suites.cluster`), which this
+        process collects (warming the report meanwhile)."""
+        if report:
+            _warm_report_meanwhile()
+        try:
+            ClusterMaps(self, self.dask).run_all(engine_maps)
+        except BaseException:
+            if self.prep is not None:
+                self.prep.abort()   # no calibration task goes on
+            raise
+
+    def own_eta_maps(self, refs) -> None:
+        """Wait for the calibrations and η measurements; with own_eta, hand ``refs`` (the reference
+        thread, or the cluster's tasks) a map at each variant's measured η."""
         etas, more, _ = self.prep.finish()
         self.notes += more
         if self.suite.engines.own_eta:

@@ -39,13 +39,22 @@ and no impact law of ours replaces it.
   default penetration allowance of 1 mm), with only the time step, the geometry and the anti-slip
   friction set.
 
-Speed
------
-The diagram (plant, scene graph, a ``TrajectorySource`` for the drive force and a
-``VectorLogSink`` sampling the plant's state at every step) is built once per geometry and contact
-and kept in the process; a case only resets the context (time, state, log) and hands the drive
-to the source as a zero-order hold, then a ``Simulator`` advances it in segments of ``segment_s``:
-no Python call per step.
+Speed: many worlds in one plant
+-------------------------------
+A step of a ``MultibodyPlant`` has a fixed cost (the SAP solve's set-up, the geometry queries, the
+diagram's update: about 40 µs here) that one block pays alone, so the cells of a batch
+(``max_worlds = 16``; 1 with hydroelastic contact, whose outcomes flip in a batch) run as the worlds
+of one plant: world ``w`` is its own block on its own planar
+joint (or free), driven by its own pulse, and touches only its own table (collision filters keep
+the worlds' geometry apart; the inertial drive's table, the world's half-space, is one geometry).
+A world whose run ended is taken out of contact (:meth:`_Scene.retire`). The diagram (plant, scene
+graph, a ``TrajectorySource`` for every world's drive force and a ``VectorLogSink`` sampling the
+plant's state at every step) is built once per geometry, contact and number of worlds and kept in the
+process; a batch only resets the context (time, state, log, filters) and hands the drives to the
+source as a zero-order hold, then a ``Simulator`` advances it in segments of ``segment_s``: no Python
+call per step. A cell's θ in a batch is not its θ alone bit for bit (SAP solves the worlds as one
+problem, with one convergence test): docs/drake.md, "Speed", gives the measured difference and its
+bound.
 
 The run, its end and the free-rocking test
 ------------------------------------------
@@ -98,8 +107,8 @@ _TABLE_POINT_STIFFNESS = 1e20
 _APPROXIMATIONS = ("sap", "similar", "lagged")
 _CONTACTS = ("point", "hydroelastic")
 
-#: Scenes kept per process (one per geometry and contact); the oldest goes first.
-_MAX_SCENES = 8
+#: Scenes kept per process (one per geometry, contact and size); the oldest goes first.
+_MAX_SCENES = 32
 
 
 def _import_pydrake():
@@ -111,19 +120,22 @@ def _import_pydrake():
 
 
 class _Scene:
-    """One built diagram: a block (planar or free) and a table (fixed or driven), contact as given.
+    """One built diagram: ``n_worlds`` blocks (planar or free), each on its own table (fixed or driven),
+    contact as given; every world touches its own table alone (collision filters), so the worlds share
+    the plant and its step but not their contact. The inertial drive's table is the world's half-space,
+    one geometry all blocks stand on.
 
-    ``key`` is everything the diagram depends on; a case with the same key reuses it.
+    ``key`` is everything the diagram depends on; a batch with the same key and size reuses it.
     """
 
-    def __init__(self, block: Block, s: dict, dt: float):
+    def __init__(self, block: Block, s: dict, dt: float, n_worlds: int):
         pd = _import_pydrake()
-        self.pid = os.getpid()
         self.dt = dt
         self.planar = bool(s["planar"])
         self.drive = s["drive"]
+        self.n_worlds = n_worlds
         builder = pd.DiagramBuilder()
-        plant, _sg = pd.AddMultibodyPlantSceneGraph(builder, time_step=dt)
+        plant, sg = pd.AddMultibodyPlantSceneGraph(builder, time_step=dt)
         approx = s["approximation"]
         if approx is not None:
             plant.set_discrete_contact_approximation({
@@ -133,32 +145,50 @@ class _Scene:
         hydro = s["contact"] == "hydroelastic"
         plant.set_contact_model(pd.ContactModel.kHydroelasticWithFallback if hydro else pd.ContactModel.kPoint)
         friction = pd.CoulombFriction(float(s["friction"]), float(s["friction"]))
-        body = self._add_block(pd, plant, block, s, friction)
-        self._add_table(pd, plant, block, s, friction)
-        if self.planar:
-            # joint frame F: x along world z, y along world x, z along world +y (so the joint's
-            # rotation is the contract's θ about +y); the block's frame M is rotated the same way
-            rot = pd.RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
-            F = plant.AddFrame(pd.FixedOffsetFrame("plane_F", plant.world_frame(), pd.RigidTransform(rot)))
-            M = plant.AddFrame(pd.FixedOffsetFrame("plane_M", body.body_frame(), pd.RigidTransform(rot)))
-            joint = plant.AddJoint(pd.PlanarJoint("plane", F, M, np.zeros(3)))
+        # world by world in one order (block, table, joint): one world builds as a lone block always did
+        worlds = [self._add_world(pd, plant, block, s, friction, w) for w in range(n_worlds)]
         plant.Finalize()
-        self._index_state(plant, body, joint if self.planar else None)
+        decl = pd.CollisionFilterDeclaration()
+        for i in range(n_worlds):
+            for j in range(i + 1, n_worlds):
+                decl.ExcludeBetween(pd.GeometrySet(worlds[i]["geometries"]), pd.GeometrySet(worlds[j]["geometries"]))
+        sg.collision_filter_manager().Apply(decl)
+        self.plant, self.scene_graph = plant, sg
+        self.geometries = [wd["geometries"] for wd in worlds]
+        self.all_geometries = pd.GeometrySet(sg.model_inspector().GetAllGeometryIds())
+        self._index_state(plant, worlds)
         self.source = builder.AddSystem(pd.TrajectorySource(pd.PiecewisePolynomial(np.zeros((self.nv, 1)))))
         builder.Connect(self.source.get_output_port(), plant.get_applied_generalized_force_input_port())
         self.logger = pd.LogVectorOutput(plant.get_state_output_port(), builder, dt)
         self.diagram = builder.Build()
-        self.plant, self.body = plant, body
         self.context = self.diagram.CreateDefaultContext()
         self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
+        self.sg_context = sg.GetMyMutableContextFromRoot(self.context)
+        self.retired: list = []   # the context's filters that take retired worlds out of contact
         self.simulator = pd.Simulator(self.diagram, self.context)
         self._pd = pd
 
-    def _add_block(self, pd, plant, block: Block, s: dict, friction):
-        """The block's body and its contact geometry: a compliant hydroelastic box, or a small sphere
-        at each bottom corner (point contact); returns the body."""
+    def _add_world(self, pd, plant, block: Block, s: dict, friction, w: int) -> dict:
+        """World ``w``: its block, its table and (planar) its block's planar joint; returns them and
+        the world's collision geometries (the shared half-space is none of them)."""
+        body, geometries = self._add_block(pd, plant, block, s, friction, w)
+        table_joint, table_geometry = self._add_table(pd, plant, block, s, friction, w)
+        joint = None
+        if self.planar:
+            # joint frame F: x along world z, y along world x, z along world +y (so the joint's
+            # rotation is the contract's θ about +y); the block's frame M is rotated the same way
+            rot = pd.RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+            F = plant.AddFrame(pd.FixedOffsetFrame(f"plane_F{w}", plant.world_frame(), pd.RigidTransform(rot)))
+            M = plant.AddFrame(pd.FixedOffsetFrame(f"plane_M{w}", body.body_frame(), pd.RigidTransform(rot)))
+            joint = plant.AddJoint(pd.PlanarJoint(f"plane{w}", F, M, np.zeros(3)))
+        return {"body": body, "joint": joint, "table_joint": table_joint,
+                "geometries": geometries + ([table_geometry] if table_geometry is not None else [])}
+
+    def _add_block(self, pd, plant, block: Block, s: dict, friction, w: int):
+        """World ``w``'s block and its contact geometry: a compliant hydroelastic box, or a small sphere
+        at each bottom corner (point contact); returns the body and its geometries."""
         b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
-        body = plant.AddRigidBody("block", pd.SpatialInertia.SolidBoxWithMass(m, b, d, h))
+        body = plant.AddRigidBody(f"block{w}", pd.SpatialInertia.SolidBoxWithMass(m, b, d, h))
 
         def material(stiffness, edge_share: float = 1.0):
             props = pd.ProximityProperties()
@@ -174,22 +204,23 @@ class _Scene:
             modulus = s["hydroelastic_modulus_pa"] if s["hydroelastic_modulus_pa"] is not None else 1e8
             pd.AddCompliantHydroelasticProperties(resolution_hint=min(b, d, h) / 4, hydroelastic_modulus=modulus,
                                                   properties=props)
-            plant.RegisterCollisionGeometry(body, pd.RigidTransform(), pd.Box(b, d, h), "block", props)
-            return body
+            return body, [plant.RegisterCollisionGeometry(body, pd.RigidTransform(), pd.Box(b, d, h), "block", props)]
         r = float(s["corner_radius_m"])
         corners = [(1, 0.0), (-1, 0.0)] if self.planar else [(sx, sy) for sx in (1, -1) for sy in (1, -1)]
         share = 1.0 if self.planar else 0.5
-        for i, (sx, sy) in enumerate(corners):
-            plant.RegisterCollisionGeometry(
-                body, pd.RigidTransform([sx * (b / 2 - r), sy * (d / 2 - r), -h / 2 + r]), pd.Sphere(r),
-                f"corner{i}", material(s["point_stiffness_n_m"], share))
-        return body
+        return body, [plant.RegisterCollisionGeometry(
+            body, pd.RigidTransform([sx * (b / 2 - r), sy * (d / 2 - r), -h / 2 + r]), pd.Sphere(r),
+            f"corner{i}", material(s["point_stiffness_n_m"], share)) for i, (sx, sy) in enumerate(corners)]
 
-    def _add_table(self, pd, plant, block: Block, s: dict, friction) -> None:
-        """The table: the world's half-space (inertial drive) or a heavy box on a prismatic joint
-        (table drive); sets ``table_joint`` and ``push_mass`` (the mass the drive force accelerates)."""
+    def _add_table(self, pd, plant, block: Block, s: dict, friction, w: int):
+        """World ``w``'s table: the world's half-space (inertial drive; registered once, with the first
+        world) or a heavy box on a prismatic joint (table drive); sets ``push_mass`` (the mass the drive
+        force accelerates) and returns the table's joint and its geometry of its own (None: none)."""
         hydro = s["contact"] == "hydroelastic"
         m = block.mass_kg
+        self.push_mass = m
+        if self.drive != "table" and w > 0:
+            return None, None
         tprops = pd.ProximityProperties()
         if s["settings"] == "shipped" and not hydro:
             pd.AddContactMaterial(friction=friction, properties=tprops)
@@ -199,91 +230,123 @@ class _Scene:
             tprops.AddProperty("material", "relaxation_time", 0.0)
         if hydro:
             pd.AddRigidHydroelasticProperties(properties=tprops)
-        if self.drive == "table":
-            mt = float(s["table_mass_ratio"]) * m
-            hx, hy, hz = _TABLE_HALF_EXTENTS_M
-            table = plant.AddRigidBody("table", pd.SpatialInertia.SolidBoxWithMass(mt, 2 * hx, 2 * hy, 2 * hz))
-            plant.RegisterCollisionGeometry(table, pd.RigidTransform([0, 0, -hz]), pd.Box(2 * hx, 2 * hy, 2 * hz),
-                                            "table", tprops)
-            self.table_joint = plant.AddJoint(pd.PrismaticJoint("table_x", plant.world_frame(), table.body_frame(),
-                                                                [1.0, 0.0, 0.0]))
-            self.push_mass = mt + m
-        else:
+        if self.drive != "table":
             plant.RegisterCollisionGeometry(plant.world_body(), pd.RigidTransform(), pd.HalfSpace(), "table", tprops)
-            self.table_joint = None
-            self.push_mass = m
+            return None, None
+        mt = float(s["table_mass_ratio"]) * m
+        hx, hy, hz = _TABLE_HALF_EXTENTS_M
+        table = plant.AddRigidBody(f"table{w}", pd.SpatialInertia.SolidBoxWithMass(mt, 2 * hx, 2 * hy, 2 * hz))
+        geometry = plant.RegisterCollisionGeometry(table, pd.RigidTransform([0, 0, -hz]),
+                                                   pd.Box(2 * hx, 2 * hy, 2 * hz), "table", tprops)
+        joint = plant.AddJoint(pd.PrismaticJoint(f"table_x{w}", plant.world_frame(), table.body_frame(), [1.0, 0.0, 0.0]))
+        self.push_mass = mt + m
+        return joint, geometry
 
-    def _index_state(self, plant, body, joint) -> None:
-        """Where θ, x, z (and the table) sit in the plant's state, and the dof the drive pushes."""
+    def _index_state(self, plant, worlds: list) -> None:
+        """Where each world's block (and table) sits in the plant's state: ``cols[w]``, the columns of
+        world ``w``'s row (block q, table q, block v, table v), the same layout for every world, whose
+        places ``iq``/``iv`` name; ``force_index[w]``, the dof its drive pushes."""
         nq, nv = plant.num_positions(), plant.num_velocities()
-        if self.planar:
-            q0, v0 = joint.position_start(), joint.velocity_start()
-            # q: (z, x, θ); v: (ż, ẋ, θ̇)
-            self.iq = {"z": q0, "x": q0 + 1, "th": q0 + 2}
-            self.iv = {"z": nq + v0, "x": nq + v0 + 1, "th": nq + v0 + 2}
-            self.force_index = v0 + 1
-        else:
-            q0, v0 = body.floating_positions_start(), body.floating_velocities_start_in_v()
-            # q: (qw, qx, qy, qz, x, y, z); v: (ω_W, v_W)
-            self.iq = {"quat": q0, "x": q0 + 4, "y": q0 + 5, "z": q0 + 6}
-            self.iv = {"wx": nq + v0, "th": nq + v0 + 1, "x": nq + v0 + 3, "z": nq + v0 + 5}
-            self.force_index = v0 + 3
-        if self.table_joint is not None:
-            self.iq["table"] = self.table_joint.position_start()
-            self.iv["table"] = nq + self.table_joint.velocity_start()
-            self.force_index = self.table_joint.velocity_start()
+        self.cols, self.force_index = [], []
+        for wd in worlds:
+            if self.planar:
+                q0, v0 = wd["joint"].position_start(), wd["joint"].velocity_start()
+                q, v, push = list(range(q0, q0 + 3)), list(range(v0, v0 + 3)), v0 + 1   # q: (z, x, θ); v: (ż, ẋ, θ̇)
+            else:
+                q0, v0 = wd["body"].floating_positions_start(), wd["body"].floating_velocities_start_in_v()
+                q, v, push = list(range(q0, q0 + 7)), list(range(v0, v0 + 6)), v0 + 3   # q: (qw..qz, x, y, z); v: (ω, v)
+            if wd["table_joint"] is not None:
+                q, v, push = q + [wd["table_joint"].position_start()], v + [wd["table_joint"].velocity_start()], \
+                    wd["table_joint"].velocity_start()
+            self.cols.append(q + [nq + i for i in v])
+            self.force_index.append(push)
+        self.cols = np.array(self.cols, dtype=int)
+        o = 3 if self.planar else 7   # the row's first velocity: after the block's q
+        o += worlds[0]["table_joint"] is not None
+        self.iq = {"z": 0, "x": 1, "th": 2} if self.planar else {"quat": 0, "x": 4, "y": 5, "z": 6}
+        self.iv = {"z": o, "x": o + 1, "th": o + 2} if self.planar else {"wx": o, "th": o + 1, "x": o + 3, "z": o + 5}
+        if worlds[0]["table_joint"] is not None:
+            self.iq["table"], self.iv["table"] = o - 1, len(self.cols[0]) - 1
         self.nq, self.nv = nq, nv
 
     def place(self, block: Block, theta0: float) -> None:
-        """Block at rest at angle ``theta0`` (pivoting on the lower corner), table at rest at x = 0."""
+        """Every block at rest at angle ``theta0`` (pivoting on the lower corner), every table at rest at
+        x = 0."""
         xc, zc = pivot_pose(block, theta0)
         q = np.zeros(self.nq)
-        if self.planar:
-            q[self.iq["z"]], q[self.iq["x"]], q[self.iq["th"]] = zc, xc, theta0
-        else:
-            i = self.iq["quat"]
-            q[i:i + 4] = (math.cos(theta0 / 2), 0.0, math.sin(theta0 / 2), 0.0)
-            q[self.iq["x"]], q[self.iq["z"]] = xc, zc
+        for cols in self.cols:
+            if self.planar:
+                q[cols[self.iq["z"]]], q[cols[self.iq["x"]]], q[cols[self.iq["th"]]] = zc, xc, theta0
+            else:
+                i = cols[self.iq["quat"]]
+                q[i:i + 4] = (math.cos(theta0 / 2), 0.0, math.sin(theta0 / 2), 0.0)
+                q[cols[self.iq["x"]]], q[cols[self.iq["z"]]] = xc, zc
         self.plant.SetPositions(self.plant_context, q)
         self.plant.SetVelocities(self.plant_context, np.zeros(self.nv))
 
-    def set_drive(self, force_per_step: np.ndarray) -> None:
-        """The generalized force on the driven dof during each step ``[tₙ, tₙ₊₁]`` (zero after them)."""
+    def retire(self, w: int) -> None:
+        """World ``w`` out of contact from the next step (a filter in the context): its block falls
+        freely, three (six) dofs without a constraint, all SAP solves of it (about 3 µs a step
+        against about 10 µs for a world in contact). Locking its joints would take it out of the
+        solve, but Drake 1.51.1 crashes (a segmentation fault in ``AdvanceTo``) with a locked tree
+        beside two free ones. Its rows from here on are dropped; retired or left running, it moves the
+        other worlds' θ from their one-world runs by the same largest amount (measured)."""
+        pd = self._pd
+        manager = self.scene_graph.collision_filter_manager(self.sg_context)
+        decl = pd.CollisionFilterDeclaration().ExcludeBetween(pd.GeometrySet(self.geometries[w]), self.all_geometries)
+        self.retired.append(manager.ApplyTransient(decl))
+
+    def set_drive(self, forces: list) -> None:
+        """World ``w``'s generalized force on its driven dof during each step ``[tₙ, tₙ₊₁]``,
+        ``forces[w]`` (zero after them, and on the worlds beyond ``forces``)."""
         pd, dt = self._pd, self.dt
-        n = len(force_per_step)
+        n = max((len(f) for f in forces), default=0)
         # a hold centred on the step starts, so a step's update at tₙ (± round-off) sees value n
         breaks = np.concatenate(([-0.5 * dt], (np.arange(n) + 0.5) * dt, [(n + 0.5) * dt + 1e9]))
         values = np.zeros((self.nv, n + 2))
-        values[self.force_index, :n] = force_per_step
+        for w, f in enumerate(forces):
+            values[self.force_index[w], :len(f)] = f
         self.source.UpdateTrajectory(pd.PiecewisePolynomial.ZeroOrderHold(breaks, values))
 
-    def load(self, pulse) -> None:
+    def drive_of(self, pulse) -> np.ndarray:
         """The drive of every step under ``pulse`` (None: none): the step average of ü times the mass
         the drive accelerates, −m (inertial) or M_table + m (table)."""
         if pulse is None:
-            return self.set_drive(np.zeros(0))
+            return np.zeros(0)
         n_pulse = int(math.ceil(pulse.duration_s / self.dt - 1e-9))
         v = pulse.vel(np.arange(n_pulse + 1) * self.dt)
-        self.set_drive((-1.0 if self.drive == "inertial" else 1.0) * self.push_mass * np.diff(v) / self.dt)
+        return (-1.0 if self.drive == "inertial" else 1.0) * self.push_mass * np.diff(v) / self.dt
 
     def angles(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """θ (rotation about +y) [rad] and θ̇ [rad/s] from logged states."""
+        """θ (rotation about +y) [rad] and θ̇ [rad/s] from one world's rows."""
         if self.planar:
             return data[:, self.iq["th"]], data[:, self.iv["th"]]
         i = self.iq["quat"]
         return theta_of_quat(data[:, i], data[:, i + 1], data[:, i + 2], data[:, i + 3]), data[:, self.iv["th"]]
 
-    def start(self) -> None:
+    def start(self, block: Block, pulses: list, theta0: float) -> None:
+        """World ``w`` under ``pulses[w]`` (one per world), at rest at ``theta0``; none retired."""
+        self.set_drive([self.drive_of(p) for p in pulses])
+        manager = self.scene_graph.collision_filter_manager(self.sg_context)
+        for fid in self.retired:
+            manager.RemoveDeclaration(fid)
+        self.retired = []
+        self.place(block, theta0)
         self.context.SetTime(0.0)
         self.logger.FindMutableLog(self.context).Clear()
+        self.logged = 0
         self.simulator.Initialize()
 
-    def advance(self, n_steps: int) -> np.ndarray:
-        """Advance to step ``n_steps`` and return every logged state so far, ``(n_steps + 1, nq + nv)``."""
-        self.simulator.AdvanceTo(n_steps * self.dt)
-        data = self.logger.FindLog(self.context).data()
-        # a copy: the log's buffer is reused by the next case, a view would change under the caller
-        return np.array(data[:, :n_steps + 1].T, dtype=float, copy=True)
+    def advance(self, n_from: int, n_to: int) -> np.ndarray:
+        """Advance to step ``n_to``; every world's rows of samples ``n_from + 1 … n_to`` (``n_from = -1``:
+        from sample 0), ``(W, n, k)``. The log keeps no more than the segment: read, it is cleared."""
+        self.simulator.AdvanceTo(n_to * self.dt)
+        log = self.logger.FindMutableLog(self.context)
+        first = self.logged   # the sample the log's first column holds
+        rows = np.transpose(log.data()[self.cols.T, n_from + 1 - first:n_to + 1 - first], (1, 2, 0)).astype(float)
+        log.Clear()
+        self.logged = n_to + 1
+        return rows
 
 
 class DrakeAdapter(ContactEngine):
@@ -325,6 +388,10 @@ class DrakeAdapter(ContactEngine):
     install_hint = "install it with `pip install 'rockbench[drake]'` (or `pip install drake`; 1.51.1 tested)."
     #: Drake's own default step (MultibodyPlantConfig.time_step), what it runs at as shipped
     own_dt_s = 1e-3
+    #: the cells of a batch run as worlds of one plant (:class:`_Scene`): one step of Drake's fixed cost
+    #: for all of them (docs/drake.md, "Speed")
+    batching = "native"
+    max_worlds = 16
     SETTINGS = {"contact": "point", "corner_radius_m": 1e-4, "table_mass_ratio": 1000.0, "tail_s": 2.0,
                 "min_tail_s": 0.25, "segment_s": 0.1}
     #: Drake's own contact: the stiffness and dissipation from its default penetration allowance
@@ -333,6 +400,14 @@ class DrakeAdapter(ContactEngine):
     MODE_DEFAULTS = {"approximation": ("lagged", "sap")}
     START_KEEP_RTOL = 0.005
     CALIBRATION_VERSION = 4
+
+    def __init__(self, **settings):
+        super().__init__(**settings)
+        if self.settings["contact"] == "hydroelastic":
+            # measured: beside batch-mates a hydroelastic block's θ leaves its one-world run within
+            # 20 steps and its outcome flips (B3M, sine, ω/p 5, a₀/(g·tanα) 3: rocking alone, overturn
+            # in a batch); its cells run one world at a time (docs/drake.md, "Speed")
+            self.max_worlds = 1
 
     def validate(self, s: dict) -> None:
         self.choice_setting(s, "contact", _CONTACTS, allow_none=False)
@@ -349,32 +424,31 @@ class DrakeAdapter(ContactEngine):
             raise ConfigError(f"drake setting {unused[0]!r} does not act on contact = {s['contact']} with approximation "
                               f"= {self._approximation(s)}: give {' and '.join(k.name for k in self.KNOBS)} instead.")
 
-    def build(self, block: Block, s: dict, dt: float) -> _Scene:
-        key = (os.getpid(), block.width_m, block.height_m, block.depth_m, block.mass_kg, dt,
-               tuple((k, s.get(k)) for k in sorted(self.SETTINGS) if k not in ("tail_s", "min_tail_s", "segment_s")))
-        sc = _SCENES.get(key)
-        if sc is None:
-            sc = _Scene(block, s, dt)
-            if len(_SCENES) >= _MAX_SCENES:
-                _SCENES.pop(next(iter(_SCENES)))
-            _SCENES[key] = sc
-        return sc
+    def build(self, block: Block, s: dict, dt: float) -> dict:
+        """What :meth:`start` picks the diagram by (its size is the batch's): the block, settings and step."""
+        return {"block": block, "s": s, "dt": dt}
 
-    def start(self, sc: _Scene, block: Block, s: dict, dt: float, pulses: list, theta0: float, n_steps: int):
-        sc.load(pulses[0])
-        sc.place(block, theta0)
-        sc.start()
-        return sc.advance(0)[None]
+    def start(self, run: dict, block: Block, s: dict, dt: float, pulses: list, theta0: float, n_steps: int):
+        """The batch's worlds on a diagram of as many worlds (reused; building one costs about 10 ms of
+        CPU for 16 worlds, so a diagram of each size costs less than one spare world's steps)."""
+        sc = _scene(block, s, dt, len(pulses))
+        run["scene"] = sc
+        sc.start(block, pulses, theta0)
+        return sc.advance(-1, 0)
 
-    def advance(self, sc: _Scene, n_from: int, n_to: int) -> np.ndarray:
-        return sc.advance(n_to)[None, n_from + 1:]
+    def advance(self, run: dict, n_from: int, n_to: int) -> np.ndarray:
+        return run["scene"].advance(n_from, n_to)
 
-    def read(self, sc: _Scene, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+    def retire(self, run: dict, w: int) -> None:
+        run["scene"].retire(w)
+
+    def read(self, run: dict, block: Block, s: dict, data: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+        sc = run["scene"]
         iq, iv = sc.iq, sc.iv
         th, om = sc.angles(data)
         diag: dict = {"contact": s["contact"], "approximation": s["approximation"]}
         u_tab = v_tab = None
-        if sc.table_joint is not None:
+        if "table" in iq:
             u_tab, v_tab = data[:, iq["table"]], data[:, iv["table"]]
             if pulse is not None:
                 diag["table_track_err_rel"] = table_track_err_rel(u_tab, pulse, t_s)
@@ -405,5 +479,18 @@ class DrakeAdapter(ContactEngine):
                      start=BASE_CONTACT[dkey], log10=True, bisect_steps=10, bisect_regular=False))
 
 
-#: This process's scenes, by everything a diagram depends on (a forked worker builds its own).
+#: This process's scenes, by everything a diagram depends on and its size (a forked worker builds its own).
 _SCENES: dict = {}
+
+
+def _scene(block: Block, s: dict, dt: float, n_worlds: int) -> _Scene:
+    """The diagram of ``n_worlds`` worlds for the block, settings and step: this process's, else built."""
+    key = (os.getpid(), block.width_m, block.height_m, block.depth_m, block.mass_kg, dt, n_worlds,
+           tuple((k, s.get(k)) for k in sorted(DrakeAdapter.SETTINGS) if k not in ("tail_s", "min_tail_s", "segment_s")))
+    sc = _SCENES.get(key)
+    if sc is None:
+        sc = _Scene(block, s, dt, n_worlds)
+        if len(_SCENES) >= _MAX_SCENES:
+            _SCENES.pop(next(iter(_SCENES)))
+        _SCENES[key] = sc
+    return sc

@@ -35,16 +35,26 @@ case that poses no step, never coarser than 1/20 of its pulse's wave (the one re
 PhysX's impact loses more energy the longer its step, and the substeps are the knob that moves η
 towards Housner's; PGS because TGS lets the pivot corner creep along the table at friction 10.
 
-Speed
------
-A fresh scene per run (creating one costs well under a millisecond), so no contact cache or warm
-start carries from one case to the next. No batch API on the CPU system: ``batching = "none"``.
+Batches
+-------
+Cases of one block, settings and step run as up to :data:`MAX_WORLDS` worlds of one scene
+(``batching = "native"``): every block at the origin on a table of its own, each world's two shapes
+carrying one bit of PhysX's collision groups, so a block touches its own table only; PhysX's enhanced
+determinism keeps each world's island independent of the others. A world whose run ended is taken
+out of the scene (its components disabled). The scene is built once per block, settings and step and
+reused batch after batch (a world taken back in is re-enabled, placed at rest, its velocities
+zeroed): measured, a cell's answer is the same to the last digit alone on a fresh scene, in any batch
+and after any other (PGS; tests/engines/test_batch_independence_physx.py). With TGS a world's answer moves with the other worlds in the scene
+(float32 round-off that the rocking grows), so TGS runs one world at a time (docs/physx.md). The drive
+of every PhysX step is computed once per run, and the state of every body is read in one call per
+benchmark step (``PhysxCpuSystem.pack``).
 
 The run, its end and the read-out are the contact base's (:mod:`rockbench.engines.contact`).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 
@@ -79,6 +89,16 @@ SUBSTEPS_TRIED = (1, 2, 3, 4, 6, 8, 12)
 #: Half extents of the table box [m]: wider than any table stroke
 _TABLE_HALF_EXTENTS_M = (5.0, 1.0, 0.05)
 
+#: The most worlds one scene holds: a world's two shapes carry one bit of PhysX's 32-bit collision groups
+MAX_WORLDS = 32
+
+#: The resolved settings a scene is built with (with the block and the step: the key of a reused scene)
+_SCENE_KEYS = ("drive", "planar", "friction", *SHIPPED_CONTACT)
+
+#: A row's first 13 columns (position, quaternion w x y z, velocity, angular velocity) in a body's record
+#: of ``PhysxCpuSystem.pack`` (quaternion w x y z, position, velocity, angular velocity)
+_ROW_OF_PACK = np.r_[4:7, 0:4, 7:13]
+
 #: The UserWarning SAPIEN raises on import where the system has no libvulkan (only its renderer needs it)
 _VULKAN_WARNING = "Failed to find system libvulkan"
 
@@ -88,101 +108,155 @@ def _sapien():
     return PhysxAdapter.load_engine()
 
 
-class _Scene:
-    """One SAPIEN scene: the block (planar or free) on a table (static, or kinematic for the table
-    drive), contact and solver as in the resolved settings ``s``, stepping ``dt/substeps``."""
+class _Worlds:
+    """One SAPIEN scene of worlds, each a block (planar or free) on its own table (static, or kinematic
+    for the table drive), every one at the origin and colliding only with its own table (PhysX's
+    collision groups: world ``w``'s two shapes carry bit ``w``); contact and solver as in the resolved
+    settings ``s``, stepping ``dt/substeps``. A world not running is disabled (out of PhysX's scene)."""
 
     def __init__(self, block: Block, s: dict, dt: float):
         sapien = _sapien()
         px = sapien.physx
         # global in SAPIEN, copied by the system created next
         px.set_scene_config(gravity=np.array([0.0, 0.0, -G], dtype=np.float32),
-                            bounce_threshold=float(s["bounce_threshold_m_s"]), enable_tgs=s["solver"] == "tgs")
+                            bounce_threshold=float(s["bounce_threshold_m_s"]), enable_tgs=s["solver"] == "tgs",
+                            enable_enhanced_determinism=True)
         self.system = px.PhysxCpuSystem()
         self.substeps = int(s["substeps"])
         self.h = dt / self.substeps
         self.system.set_timestep(self.h)
         self.scene = sapien.Scene([self.system])
-        self.mass_kg, self._pose = block.mass_kg, sapien.Pose
+        self.block, self.s, self._pose = block, s, sapien.Pose
         mu = float(s["friction"])
-        material = px.PhysxMaterial(mu, mu, float(s["contact_restitution"]))
-        self.table = px.PhysxRigidDynamicComponent() if s["drive"] == "table" else px.PhysxRigidStaticComponent()
-        hx, hy, hz = _TABLE_HALF_EXTENTS_M
-        self._table_z = -hz
-        self.table.attach(self._box((hx, hy, hz), material, s))
-        if s["drive"] == "table":
-            self.table.set_kinematic(True)
-        self._add(self.table, (0.0, 0.0, -hz))
-        self.block = px.PhysxRigidDynamicComponent()
-        shape = self._box((block.width_m / 2, block.depth_m / 2, block.height_m / 2), material, s)
-        shape.set_density(block.mass_kg / (block.width_m * block.depth_m * block.height_m))
-        self.block.attach(shape)
-        self.block.set_solver_position_iterations(int(s["position_iterations"]))
-        self.block.set_solver_velocity_iterations(int(s["velocity_iterations"]))
-        self.block.set_sleep_threshold(0.0)
-        if s["planar"]:
-            self.block.set_locked_motion_axes([False, True, False, True, False, True])
-        self._add(self.block, (0.0, 0.0, block.height_m / 2))
+        self._material = px.PhysxMaterial(mu, mu, float(s["contact_restitution"]))
         self.table_drive = s["drive"] == "table"
-        self.acc = np.zeros(0)   # inertial drive: ü per PhysX step [m/s^2]
-        self.disp = np.zeros(0)  # table drive: u at the end of each PhysX step [m]
+        self._table_z = -_TABLE_HALF_EXTENTS_M[2]
+        self.worlds: list[tuple] = []   # (block, table) components of each world built
+        self.active = np.zeros(0, dtype=bool)   # of the worlds of the batch now: running
+        self._forces: list = []         # per running world: (w, its block's add_force_torque, forces, how many)
+        self._targets: list = []        # per running world: (w, its table's set_kinematic_target, poses)
 
-    def load(self, pulse, dt: float, n_steps: int) -> None:
-        """The drive of every PhysX step of ``n_steps`` benchmark steps of ``dt`` [s] under ``pulse``
-        (None: none): the table's u at its end, or the step average of ü (the velocity change per
-        PhysX step is exact)."""
-        if pulse is None:
-            return
-        n = min(n_steps, int(math.ceil(pulse.duration_s / dt - 1e-9))) * self.substeps
-        t = np.arange(n + 1) * self.h
+    def _world(self, w: int) -> tuple:
+        """World ``w``'s block and table, added to the scene (bit ``w`` of the collision groups)."""
+        px, b, s = _sapien().physx, self.block, self.s
+        table = px.PhysxRigidDynamicComponent() if self.table_drive else px.PhysxRigidStaticComponent()
+        table.attach(self._box(_TABLE_HALF_EXTENTS_M, w))
         if self.table_drive:
-            self.disp = np.asarray(pulse.disp(t[1:]), dtype=float)
-        else:
-            self.acc = np.diff(np.asarray(pulse.vel(t), dtype=float)) / self.h
+            table.set_kinematic(True)
+        body = px.PhysxRigidDynamicComponent()
+        shape = self._box((b.width_m / 2, b.depth_m / 2, b.height_m / 2), w)
+        shape.set_density(b.mass_kg / (b.width_m * b.depth_m * b.height_m))
+        body.attach(shape)
+        body.set_solver_position_iterations(int(s["position_iterations"]))
+        body.set_solver_velocity_iterations(int(s["velocity_iterations"]))
+        body.set_sleep_threshold(0.0)
+        if s["planar"]:
+            body.set_locked_motion_axes([False, True, False, True, False, True])
+        for comp in (table, body):
+            entity = _sapien().Entity()
+            entity.add_component(comp)
+            entity.set_pose(self._pose([0.0, 0.0, self._table_z]))
+            self.scene.add_entity(entity)
+        return body, table
 
-    def _box(self, half_m, material, s: dict):
-        px = _sapien().physx
-        shape = px.PhysxCollisionShapeBox(np.asarray(half_m, dtype=np.float32), material)
-        shape.set_contact_offset(float(s["contact_offset_m"]))
+    def _box(self, half_m, w: int):
+        shape = _sapien().physx.PhysxCollisionShapeBox(np.asarray(half_m, dtype=np.float32), self._material)
+        shape.set_contact_offset(float(self.s["contact_offset_m"]))
+        shape.set_collision_groups([1 << w, 1 << w, 0, 0])
         return shape
 
-    def _add(self, body, xyz) -> None:
-        entity = _sapien().Entity()
-        entity.add_component(body)
-        entity.set_pose(self._pose(list(xyz)))
-        self.scene.add_entity(entity)
+    def start(self, pulses: list, theta0: float, dt: float, n_steps: int) -> np.ndarray:
+        """One world per pulse at rest at ``theta0`` [rad] on its lower corner, its drive loaded for
+        ``n_steps`` steps of ``dt`` [s]; the worlds beyond them disabled. The first rows ``(W, 1, 15)``."""
+        while len(self.worlds) < len(pulses):
+            self.worlds.append(self._world(len(self.worlds)))
+        self.active = np.ones(len(pulses), dtype=bool)
+        for w in range(len(self.worlds)):
+            self._enable(w, w < len(pulses))
+        xc, zc = pivot_pose(self.block, theta0)
+        q = [math.cos(theta0 / 2), 0.0, math.sin(theta0 / 2), 0.0]
+        self._forces, self._targets = [], []
+        for w, pulse in enumerate(pulses):
+            body, table = self.worlds[w]
+            body.entity.set_pose(self._pose([xc, 0.0, zc], q))
+            body.set_linear_velocity(np.zeros(3, dtype=np.float32))
+            body.set_angular_velocity(np.zeros(3, dtype=np.float32))
+            if self.table_drive:
+                table.entity.set_pose(self._pose([0.0, 0.0, self._table_z]))
+            self._load(w, pulse, dt, n_steps)
+        self._index()
+        return self._rows([self.system.pack()])
 
-    def place(self, block: Block, theta0: float) -> None:
-        """The block at rest at ``theta0`` [rad] pivoting on its lower corner."""
-        xc, zc = pivot_pose(block, theta0)
-        self.block.entity.set_pose(self._pose([xc, 0.0, zc], [math.cos(theta0 / 2), 0.0, math.sin(theta0 / 2), 0.0]))
+    def _enable(self, w: int, on: bool) -> None:
+        for comp in self.worlds[w]:
+            if comp.is_enabled != on:
+                (comp.enable if on else comp.disable)()
 
-    def row(self) -> np.ndarray:
-        """The state now: the block's position (3), quaternion w, x, y, z (4), velocity (3) and angular
-        velocity (3), then the table's x and ẋ."""
-        pose = self.block.entity_pose
-        tab = self.table.entity_pose.p[0] if self.table_drive else 0.0
-        v_tab = self.table.linear_velocity[0] if self.table_drive else 0.0
-        return np.concatenate([pose.p, pose.q, self.block.linear_velocity, self.block.angular_velocity, [tab, v_tab]])
+    def _load(self, w: int, pulse, dt: float, n_steps: int) -> None:
+        """World ``w``'s drive of every PhysX step of ``n_steps`` benchmark steps of ``dt`` [s] under
+        ``pulse`` (None: none), computed once for the run: the table's target pose at the step's end
+        (held at the last after the pulse), or the force −m·ü, ü the step average (the velocity change
+        per PhysX step is exact), float32 as PhysX takes it."""
+        body, table = self.worlds[w]
+        n = 0 if pulse is None else min(n_steps, int(math.ceil(pulse.duration_s / dt - 1e-9))) * self.substeps
+        t = np.arange(n + 1) * self.h
+        if self.table_drive:
+            u = np.asarray(pulse.disp(t[1:]), dtype=float) if n else np.zeros(1)
+            self._targets.append((w, table.set_kinematic_target, [self._pose([x, 0.0, self._table_z]) for x in u]))
+        elif n:
+            force = np.zeros((n, 3), dtype=np.float32)
+            force[:, 0] = -self.block.mass_kg * (np.diff(np.asarray(pulse.vel(t), dtype=float)) / self.h)
+            self._forces.append((w, body.add_force_torque, force, n))
+
+    def _index(self) -> None:
+        """Where each running world's block (and table) sits in :meth:`PhysxCpuSystem.pack`'s records."""
+        order = {c.entity.per_scene_id: i for i, c in enumerate(self.system.get_rigid_dynamic_components())}
+        on = np.nonzero(self.active)[0]
+        self._on = on
+        self._at_block = np.array([order[self.worlds[w][0].entity.per_scene_id] for w in on], dtype=int)
+        self._at_table = (np.array([order[self.worlds[w][1].entity.per_scene_id] for w in on], dtype=int)
+                          if self.table_drive else None)
+
+    def retire(self, w: int) -> None:
+        """World ``w`` stops: out of PhysX's scene, its drive dropped."""
+        if w < len(self.active) and self.active[w]:
+            self.active[w] = False
+            self._enable(w, False)
+            self._forces = [d for d in self._forces if d[0] != w]
+            self._targets = [d for d in self._targets if d[0] != w]
+            self._index()
+
+    def _rows(self, packs: list) -> np.ndarray:
+        """The states of every world ``(W, n, 15)`` (NaN for a world not running) from ``n`` records of
+        :meth:`PhysxCpuSystem.pack` (per body: q w x y z, p, v, ω, float32): the block's position (3),
+        quaternion w, x, y, z (4), velocity (3), angular velocity (3), then the table's x and ẋ."""
+        packed = np.frombuffer(b"".join(packs), dtype=np.float32).reshape(len(packs), -1, 13)
+        out = np.full((len(self.active), len(packs), 15), np.nan)
+        out[self._on, :, :13] = packed[:, self._at_block][..., _ROW_OF_PACK].transpose(1, 0, 2)
+        if self.table_drive:
+            tab = packed[:, self._at_table].transpose(1, 0, 2)
+            out[self._on, :, 13], out[self._on, :, 14] = tab[..., 4], tab[..., 7]
+        else:
+            out[self._on, :, 13:15] = 0.0
+        return out
 
     def advance(self, n_from: int, n_to: int) -> np.ndarray:
-        """Benchmark steps ``n_from … n_to − 1`` (``substeps`` PhysX steps each, the drive of each from
-        :attr:`acc` or :attr:`disp`); the states after each benchmark step."""
-        step, k = self.system.step, self.substeps
-        rows = np.empty((n_to - n_from, 15))
+        """Benchmark steps ``n_from … n_to − 1`` of every running world (``substeps`` PhysX steps
+        each, each world's drive call with its precomputed drive); the states after each step
+        ``(W, n, 15)``, read in one call per step (PhysX's packed state of every body)."""
+        step, pack, k = self.system.step, self.system.pack, self.substeps
+        packs = []
         zero = np.zeros(3, dtype=np.float32)
-        force = np.zeros(3, dtype=np.float32)
-        for r, i in enumerate(range(n_from, n_to)):
+        for i in range(n_from, n_to):
             for j in range(i * k, (i + 1) * k):
-                if self.table_drive:
-                    u = self.disp[j] if j < len(self.disp) else self.disp[-1] if len(self.disp) else 0.0
-                    self.table.set_kinematic_target(self._pose([u, 0.0, self._table_z]))
-                elif j < len(self.acc):
-                    force[0] = -self.mass_kg * self.acc[j]
-                    self.block.add_force_torque(force, zero)
+                for _, add, force, n in self._forces:
+                    if j < n:
+                        add(force[j], zero)
+                for _, set_target, poses in self._targets:
+                    set_target(poses[min(j, len(poses) - 1)])
                 step()
-            rows[r] = self.row()
-        return rows
+            packs.append(pack())
+        return self._rows(packs)
 
 
 class PhysxAdapter(ContactEngine):
@@ -218,6 +292,8 @@ class PhysxAdapter(ContactEngine):
     module = "sapien"
     install_hint = "install it with `pip install 'rockbench[physx]'` (or `pip install sapien==3.0.3`)."
     own_dt_s = SHIPPED_DT_S
+    batching = "native"
+    max_worlds = MAX_WORLDS
     SETTINGS = {"tail_s": 2.0, "min_tail_s": 0.25}
     SHIPPED = SHIPPED_CONTACT
     #: The calibration: PhysX as shipped but for its solver (:data:`CALIBRATED_SOLVER`) and its
@@ -242,17 +318,29 @@ class PhysxAdapter(ContactEngine):
         self.number_setting(s, "contact_restitution", allow_zero=True, maximum=1.0)
         self.number_setting(s, "bounce_threshold_m_s", "m/s")
 
-    def build(self, block: Block, s: dict, dt_s: float) -> _Scene:
-        return _Scene(block, s, dt_s)
+    def run_worlds(self, block: Block, s: dict, dt: float, pulses: list, theta0: float = 0.0,
+                   duration_s: float | None = None) -> list:
+        """The contact base's batch of worlds in one scene with PGS; with TGS one world at a time,
+        since TGS's answer moves with the other worlds in the scene (measured, docs/physx.md)."""
+        batches = [pulses] if s["solver"] == "pgs" else [[p] for p in pulses]
+        return [r for b in batches for r in ContactEngine.run_worlds(self, block, s, dt, b, theta0, duration_s)]
 
-    def start(self, scene: _Scene, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
+    def build(self, block: Block, s: dict, dt_s: float) -> _Worlds:
+        """The scene of the block, settings and step: built once, its worlds reused batch after batch."""
+        key = (json.dumps(block.to_dict(), sort_keys=True), dt_s, *(s[k] for k in _SCENE_KEYS))
+        if key not in self.scenes:
+            self.scenes[key] = _Worlds(block, s, dt_s)
+        return self.scenes[key]
+
+    def start(self, scene: _Worlds, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
               n_steps: int) -> np.ndarray:
-        scene.place(block, theta0_rad)
-        scene.load(pulses[0], dt_s, n_steps)
-        return scene.row()[None, None, :]
+        return scene.start(pulses, theta0_rad, dt_s, n_steps)
 
-    def advance(self, scene: _Scene, n_from: int, n_to: int) -> np.ndarray:
-        return scene.advance(n_from, n_to)[None]
+    def advance(self, scene: _Worlds, n_from: int, n_to: int) -> np.ndarray:
+        return scene.advance(n_from, n_to)
 
-    def read(self, scene: _Scene, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
+    def retire(self, scene: _Worlds, w: int) -> None:
+        scene.retire(w)
+
+    def read(self, scene: _Worlds, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         return motion_of(rows, t_s, pulse, scene.table_drive, {k: s[k] for k in self.SHIPPED})

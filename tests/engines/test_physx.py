@@ -149,7 +149,7 @@ def test_engine_exception_becomes_engine_error(monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("simulated engine failure")
 
-    monkeypatch.setattr(pa._Scene, "advance", broken)
+    monkeypatch.setattr(pa._Worlds, "advance", broken)
     r = get_adapter("physx", settings="shipped").run(case("B3M", "sine", 4.0, 3.0))
     assert isinstance(r, CellResult) and r.status == "failed" and r.flags == ["engine-error"] and not r.valid
 

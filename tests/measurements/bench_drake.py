@@ -6,6 +6,11 @@ Usage (from the repository's top folder, in the venv, with ``pip install -e '.[d
 
     python tests/measurements/bench_drake.py steps                 # steps per second, one process, several models
     python tests/measurements/bench_drake.py eta                   # free-rocking η: calibrated and as shipped, B3M B6M
+    python tests/measurements/bench_drake.py cells [--repeat 2] [--max-worlds K]   # CPU time per cell through
+                                                                   # run_many, 16 B3M sine cells, batches of K
+    python tests/measurements/bench_drake.py worlds                # CPU per plant step and block-step, K worlds
+    python tests/measurements/bench_drake.py flips [--settings shipped]   # outcomes alone and in a batch, at
+                                                                   # the overturning boundary
     python tests/measurements/bench_drake.py maps --out DIR [--jobs 2] [--maps B3M:sine,B6L:cosine]
         [--settings calibrated]                            # maps on the default suite's grid, then `summary`
     python tests/measurements/bench_drake.py summary DIR           # cells, worker time, agreement with the reference
@@ -85,6 +90,91 @@ def cmd_steps(args) -> None:
                 wall += d["wall_s"]
                 cpu += d["cpu_s"]
         print(f"| {label} | {int(steps)} | {steps / wall:,.0f} | {steps / cpu:,.0f} | {os.getloadavg()[0]:.1f} |")
+
+
+#: the cells ``cells`` times: B3M under a sine wave, ω/p × a₀/(g·tanα) on a 4 × 4 grid holding rest,
+#: rocking and overturn (the yardstick's range), each at the time-step rule's step
+CELLS = [("B3M", "sine", float(w), float(a)) for a in np.linspace(1.5, 6.0, 4) for w in np.linspace(2.0, 5.0, 4)]
+
+
+def cmd_cells(args) -> None:
+    """CPU time per cell of :data:`CELLS` through ``run_many`` (the sweep's batch entry), calibrated
+    Drake in batches of ``--max-worlds`` (default: the adapter's); the calibration, the step rule and
+    the diagram made first, untimed."""
+    print(_stamp(), file=sys.stderr)
+    ad = get_adapter("drake")
+    if args.max_worlds:
+        ad.max_worlds = args.max_worlds
+    cases = [_case(*c) for c in CELLS]
+    for c in cases:
+        ad.resolve(c.block, c.restitution, None)   # calibration and step rule, not timed
+    ad.run_many(cases)   # the diagrams built, not timed
+    for _ in range(args.repeat):
+        c0 = time.process_time()
+        res = ad.run_many(cases)
+        cpu = time.process_time() - c0
+        outcomes = {o: sum(r.outcome == o for r in res) for o in ("rest", "rocking", "overturn")}
+        steps = sum((r.diagnostics or {}).get("steps", 0) for r in res)
+        print(f"{len(cases)} cells, max_worlds {getattr(ad, 'max_worlds', 1)}: {cpu:.2f} CPU s, "
+              f"{cpu / len(cases) * 1e3:.0f} ms a cell, {cpu / steps * 1e6:.1f} µs a block-step "
+              f"({steps} steps; {outcomes}); load {os.getloadavg()[0]:.1f}")
+
+
+def cmd_worlds(args) -> None:
+    """What K worlds in one plant cost: a plant step with K worlds all rocking (B3M, sine, ω/p 3,
+    a₀/(g·tanα) 1.5, 0.2 s), with K − 1 of them retired, and 32 B3M sine cells (ω/p 2–5 × a₀/(g·tanα)
+    1.5–6) through the adapter's batch in batches of K; CPU time."""
+    from rockbench.engines.adapters import drake as da
+
+    print(_stamp(), file=sys.stderr)
+    ad = get_adapter("drake")
+    c = ad.posed(_case("B3M", "sine", 3.0, 1.5))
+    s = ad.resolve(c.block, c.restitution, c.dt_s)
+    for k, retired in ((1, 0), (16, 0), (16, 15)):
+        sc = da._Scene(c.block, s, c.dt_s, k)
+        sc.start(c.block, [c.pulse] * k, 0.0)
+        for w in range(k - retired, k):
+            sc.retire(w)
+        n = round(0.2 / c.dt_s)
+        c0 = time.process_time()
+        sc.advance(0, n)
+        cpu = (time.process_time() - c0) / n
+        print(f"{k} worlds, {retired} retired: {cpu * 1e6:.0f} µs a plant step, "
+              f"{cpu / (k - retired) * 1e6:.1f} µs a running block's step")
+    cases = [ad.posed(_case("B3M", "sine", float(w), float(a))) for a in np.linspace(1.5, 6.0, 4)
+             for w in np.linspace(2.0, 5.0, 8)]
+    for k in (1, 4, 8, 16, 32):
+        ad.max_worlds = k
+        ad._simulate_many(cases)   # the diagrams built, not timed
+        c0 = time.process_time()
+        trs = ad._simulate_many(cases)
+        cpu = time.process_time() - c0
+        steps = sum(tr.diagnostics["steps"] for tr in trs)
+        print(f"batches of {k}: {cpu / len(cases) * 1e3:.0f} ms a cell, {cpu / steps * 1e6:.1f} µs a block-step")
+
+
+def cmd_flips(args) -> None:
+    """Whether a cell's outcome depends on its batch-mates at the overturning boundary: B3M, sine,
+    ω/p 3.5, the boundary amplitude bisected (one world at a time) between a₀/(g·tanα) 1.5 (rocking)
+    and 3 (overturn); then 15 amplitudes within ±rel of it, alone and as one batch with a cosine pulse."""
+    ad = get_adapter("drake", settings=args.settings)
+
+    def overturns(a: float) -> bool:
+        c = ad.posed(_case("B3M", "sine", 3.5, a))
+        return ad.judge(c, ad._simulate_many([c])[0]).outcome == "overturn"
+
+    lo, hi = 1.5, 3.0
+    for _ in range(34):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if overturns(mid) else (mid, hi)
+    print(f"boundary a₀/(g·tanα) in [{lo!r}, {hi!r}]")
+    for rel in (1e-4, 1e-6, 1e-8):
+        amps = 0.5 * (lo + hi) * (1 + rel * np.linspace(-1.0, 1.0, 15))
+        cases = [ad.posed(_case("B3M", "sine", 3.5, float(a))) for a in amps] + [ad.posed(_case("B3M", "cosine", 2.5, 2.5))]
+        alone = [ad.judge(c, ad._simulate_many([c])[0]).outcome[0] for c in cases[:15]]
+        batch = [ad.judge(c, tr).outcome[0] for c, tr in zip(cases, ad._simulate_many(cases))][:15]
+        print(f"±{rel:g}: {sum(x != y for x, y in zip(alone, batch))} of 15 flip (alone {''.join(alone)}, "
+              f"in a batch {''.join(batch)})")
 
 
 def cmd_eta(args) -> None:
@@ -204,6 +294,14 @@ def main(argv=None) -> int:
     s.add_argument("--repeat", type=int, default=3)
     s.set_defaults(func=cmd_steps)
     sub.add_parser("eta").set_defaults(func=cmd_eta)
+    c = sub.add_parser("cells")
+    c.add_argument("--repeat", type=int, default=2)
+    c.add_argument("--max-worlds", type=int, default=0)
+    c.set_defaults(func=cmd_cells)
+    sub.add_parser("worlds").set_defaults(func=cmd_worlds)
+    f = sub.add_parser("flips")
+    f.add_argument("--settings", default="calibrated", choices=["calibrated", "shipped"])
+    f.set_defaults(func=cmd_flips)
     m = sub.add_parser("maps")
     m.add_argument("--out", required=True)
     m.add_argument("--jobs", type=int, default=2)

@@ -3,6 +3,8 @@
 passes or fails nothing.
 
     python tests/measurements/bench_lanes_replay.py RUN_DIR [--lanes 2] [--add COST.json ...]
+    python tests/measurements/bench_lanes_replay.py --record RECORD.json --lanes 8 32 128
+
 
 Each engine map of RUN_DIR (the output of ``rockbench run``) costs what its cells cost (cells.csv
 ``wall_s`` summed). ``--add`` adds the maps of engines measured by ``bench_engine_cost.py`` (its
@@ -13,6 +15,13 @@ runner's (``preparation.cost_rank``: finest default step first, engines without 
 those with one), longest map first (which needs each map's cost before it runs), and the lower
 bound, the total over the lanes. The lanes' lending of a core to the last map (lanes.py) is not
 modelled: it narrows the gap further.
+
+The second form projects a suite on a cluster of N one-core workers (``rockbench run --scheduler``: one
+task per map, each map on one core) from a record of ``bench_run.py`` (e.g. ``run-default-suite.json``),
+which keeps each engine variant's maps and their summed wall time on a 2-lane run: every map of a
+variant is given the variant's mean. A projection, not a measurement: the maps' spread within a
+variant, the calibrations (run before the engine maps, one task per variant and block) and the
+cluster's own overhead are left out; the report (on the client, one core) is added as recorded.
 """
 
 from __future__ import annotations
@@ -49,6 +58,30 @@ def added_maps(cost_json: Path, scenarios: int = 8) -> list[tuple[str, float]]:
     return out
 
 
+def record_maps(record: Path) -> tuple[list[tuple[str, float]], dict]:
+    """(engine, cost [s]) of every map of a bench_run.py record (each map its variant's mean), and its summary."""
+    summary = json.loads(record.read_text())["figures"]["summary"]
+    out = []
+    for variant, v in summary["per_variant"].items():
+        out += [(variant.split("-")[0], v["wall_s"] / v["maps"])] * v["maps"]
+    return out, summary
+
+
+def project(record: Path, cores: list[int]) -> None:
+    """The suite of ``record`` on clusters of ``cores`` one-core workers (see the module docstring)."""
+    maps, summary = record_maps(record)
+    runner = [c for e, c in sorted(maps, key=lambda m: cost_rank(m[0]))]
+    total, longest = sum(runner), max(runner)
+    report_s = summary.get("report_wall_s") or 0.0
+    print(f"{len(maps)} maps (reference maps included), {total:.0f} s of map wall on one core each; "
+          f"longest map {longest:.0f} s; report {report_s:.0f} s (recorded wall of the whole suite "
+          f"{summary['wall_s']:.0f} s on {summary.get('lanes', 2)} lanes)")
+    for n in cores:
+        maps_s = makespan(runner, n)
+        print(f"  {n:4d} cores: maps {maps_s:7.0f} s (lower bound {max(total / n, longest):7.0f} s), "
+              f"with the report {maps_s + report_s:7.0f} s  [projection]")
+
+
 def makespan(costs: list[float], lanes: int) -> float:
     """When the last lane ends, each map going to the lane that frees first [s]."""
     free = [0.0] * lanes
@@ -59,10 +92,17 @@ def makespan(costs: list[float], lanes: int) -> float:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("run_dir", type=Path)
-    ap.add_argument("--lanes", type=int, default=2)
+    ap.add_argument("run_dir", type=Path, nargs="?")
+    ap.add_argument("--lanes", type=int, nargs="+", default=[2])
     ap.add_argument("--add", type=Path, nargs="*", default=[])
+    ap.add_argument("--record", type=Path, help="project a bench_run.py record on clusters of --lanes cores")
     a = ap.parse_args(argv)
+    if a.record is not None:
+        project(a.record, a.lanes)
+        return 0
+    if a.run_dir is None:
+        ap.error("give RUN_DIR or --record")
+    a.lanes = a.lanes[0]
     maps = run_maps(a.run_dir)
     for p in a.add:
         maps += added_maps(p)

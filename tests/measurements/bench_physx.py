@@ -8,6 +8,8 @@ Usage (from the repository's top folder, in the venv, with ``pip install -e '.[p
     python tests/measurements/bench_physx.py calibrate        # the calibration to η_H of the four Table 1 blocks
     python tests/measurements/bench_physx.py cost             # CPU ms per cell, as shipped and calibrated, both drives
     python tests/measurements/bench_physx.py creep            # the pivot corner's slip at friction 10, TGS and PGS
+    python tests/measurements/bench_physx.py batch            # CPU ms per cell of 16 B3M sine cells through run_many
+    python tests/measurements/bench_physx.py worlds           # calibrated CPU per cell and per block-step by worlds per scene
 """
 
 from __future__ import annotations
@@ -119,6 +121,49 @@ def cmd_creep(args) -> None:
         print(f"| B3M sine {c[2]:g}, {c[3]:g} | {need} | " + " | ".join(out) + " |")
 
 
+#: the 16 cells of ``batch``: B3M sine, ω/p 2, 6, 10, 14 × a₀/(g·tanα) 1.5, 3, 6, 10 (rest, rocking, overturn)
+BATCH_CELLS = [("B3M", "sine", w, a) for w in (2.0, 6.0, 10.0, 14.0) for a in (1.5, 3.0, 6.0, 10.0)]
+
+
+def cmd_batch(args) -> None:
+    """CPU ms per cell of :data:`BATCH_CELLS` through ``run_many`` (the map sweep's entry), calibrated and as
+    shipped, the calibration made before the clock starts; the fastest of ``--repeat`` calls."""
+    print(_stamp(), file=sys.stderr)
+    cases = [_case(*c) for c in BATCH_CELLS]
+    print("| variant | CPU ms per cell | outcomes (overturn / rocking / rest) |")
+    print("|---|---|---|")
+    for label, settings in (("calibrated", {}), ("as shipped", {"settings": "shipped"})):
+        ad = get_adapter("physx", **settings)
+        ad.run(cases[0])   # the calibration, cached
+        best, out = float("inf"), []
+        for _ in range(args.repeat):
+            c0 = time.process_time()
+            out = ad.run_many(cases)
+            best = min(best, time.process_time() - c0)
+        n = {k: sum(r.outcome == k for r in out) for k in ("overturn", "rocking", "rest")}
+        print(f"| {label} | {1e3 * best / len(cases):.2f} | {n['overturn']} / {n['rocking']} / {n['rest']} |")
+
+
+def cmd_worlds(args) -> None:
+    """Calibrated CPU per cell and per block-step of :data:`BATCH_CELLS` twice over (32 cells) through
+    ``run_many``, with the adapter's ``max_worlds`` set to each of 1, 4, 8, 16, 32."""
+    print(_stamp(), file=sys.stderr)
+    cases = [_case(*c) for c in BATCH_CELLS] * 2
+    ad = get_adapter("physx")
+    ad.run(cases[0])   # the calibration, cached
+    print("| worlds per scene | CPU ms per cell | CPU µs per block-step |")
+    print("|---|---|---|")
+    for k in (1, 4, 8, 16, 32):
+        ad.max_worlds = k
+        best, out = float("inf"), []
+        for _ in range(args.repeat):
+            c0 = time.process_time()
+            out = ad.run_many(cases)
+            best = min(best, time.process_time() - c0)
+        steps = sum(r.diagnostics["steps"] for r in out)
+        print(f"| {k} | {1e3 * best / len(cases):.2f} | {1e6 * best / steps:.1f} |")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -130,6 +175,12 @@ def main(argv=None) -> int:
     c.add_argument("--repeat", type=int, default=3)
     c.set_defaults(func=cmd_cost)
     sub.add_parser("creep").set_defaults(func=cmd_creep)
+    b = sub.add_parser("batch")
+    b.add_argument("--repeat", type=int, default=3)
+    b.set_defaults(func=cmd_batch)
+    w = sub.add_parser("worlds")
+    w.add_argument("--repeat", type=int, default=2)
+    w.set_defaults(func=cmd_worlds)
     args = p.parse_args(argv)
     args.func(args)
     return 0

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import sys
 
+from rockbench.reference_solver.errors import check_positive
 from rockbench.engines.checker import check_adapter
 from rockbench.engines.support import install_advice, outside_range, supported_range
 from rockbench.benchmark.engine_info.adapters import build_adapter
@@ -20,6 +21,9 @@ def register(sub) -> None:
     p = sub.add_parser("check-adapter", help="run the adapter conformance suite on an engine")
     p.add_argument("name", help="engine name (see `rockbench engines`)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="an engine setting (repeatable)")
+    p.add_argument("--dt", default=None, metavar="SECONDS",
+                   help="run every check at this time step [s] (default: the engine's own; for a calibrated engine "
+                        "the time-step rule's, whose calibrations at each step of its ladder take long on a slow engine)")
     p.add_argument("--json", action="store_true", help="machine-readable report on stdout")
     p.set_defaults(func=run)
 
@@ -30,7 +34,7 @@ def run(args) -> int:
     outside = outside_range(cls)
     if outside:
         print(f"rockbench: warning: {outside}; {install_advice(cls)} for a supported one.", file=sys.stderr)
-    rep = check_adapter(adapter)
+    rep = check_adapter(adapter, dt_s=None if args.dt is None else check_positive("--dt", args.dt, "s"))
     if args.json:
         print(json.dumps({**rep.to_dict(), "supported": supported_range(cls), "outside_range": outside},
                          indent=2))

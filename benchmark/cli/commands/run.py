@@ -33,6 +33,9 @@ def register(sub) -> None:
                    help="only these engines (e.g. the one under test); the reference maps are always computed")
     p.add_argument("--jobs", default=None, metavar="N",
                    help="worker processes (default: all cores): N engine maps at a time, one worker each")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="compute the calibrations and maps on a Dask cluster (tcp://host:8786), or 'local' for a "
+                   "LocalCluster of --jobs workers on 127.0.0.1; the same maps and scores, resumed the same way")
     p.add_argument("--experiments", metavar="FILE.csv", help="shaking-table outcomes to score against: "
                    "block,pulse,f_hz,amplitude_mps2,outcome,repetitions,source (or omega_rad_s/period_s, amplitude_g); "
                    "outcome T, R or O")
@@ -76,7 +79,7 @@ def run(args) -> int:
     if args.experiments:
         points = load_outcomes(args.experiments)
     res = run_suite(suite, out, jobs=jobs, experiments=points, report=not args.no_report, engines=only,
-                    figure_formats=formats)
+                    figure_formats=formats, scheduler=args.scheduler)
     for n in res["notes"]:
         print(f"rockbench: note: {n}", file=sys.stderr)
     print(f"rockbench: {len(res['maps'])} maps in {res['maps_wall_s']:.0f} s, total {res['wall_s']:.0f} s; "

@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import math
 
+from rockbench.benchmark.scoring.failing import scenario_words
 from rockbench.benchmark.scoring.labels import for_matplotlib
-from rockbench.benchmark.scoring.verdict_words import delta_words, number
+from rockbench.benchmark.scoring.verdict_words import delta_words, number, signed
 from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, tint
 
 #: Group headers, in the picture's order.
@@ -73,6 +74,7 @@ def _row(g: str, r: dict) -> dict:
                    twin=h["in_sample"], mark="held-out",
                    right=(f"{number(h['value'])} vs {number(h['in_sample'])}: "
                           + ("carries over" if h["carries_over"] else "not shown") if h["tost"] else
+                          f"{number(h['value'])}: not tested" if h.get("left_out") else
                           f"{number(h['value'])}: no twin"))
         return row
     lo, hi = r["ci95"] if r["ci95"] else (math.nan, math.nan)
@@ -82,8 +84,8 @@ def _row(g: str, r: dict) -> dict:
                    mark="planted", right=f"{number(r['value'])}")
     elif g == "fails":
         w = r["fails_in"][0] if r["fails_in"] else None
-        row.update(mark="fails", right=(f"{number(r['value'])}; {w['block']} {w['pulse']} {number(w['value'])}" if w
-                                        else "nothing judged"))
+        mean = f"{number(r['value'])}; " if r["value"] is not None else ""
+        row.update(mark="fails", right=(mean + scenario_words(w) if w else "nothing judged"))
     elif g == "other":
         row.update(mark="other", right=f"{number(r['value'])} [{number(lo)}, {number(hi)}]")
     else:
@@ -91,7 +93,9 @@ def _row(g: str, r: dict) -> dict:
         # the header names the class: its words leave the label (another target, e.g. η_M, stays)
         row.update(label=r["label"].replace(", calibrated to η_H", "").replace(", as shipped", ""))
         row.update(mark=mark, right=f"{number(r['value'])} [{number(lo)}, {number(hi)}] "
-                                    + {"best": "best", "tied": "tied", "behind": "behind"}[mark])
+                                    + {"best": "best", "tied": "tied", "behind": "behind"}[mark]
+                                    + ("" if r.get("scope") != "on this suite" else " (on this suite)")
+                                    + (f"; offset {signed(r['offset'])}" if r.get("offset") is not None else ""))
     return row
 
 
@@ -150,8 +154,9 @@ def plot_verdict(v: dict, *, ax=None) -> dict:
     ax.set_ylim(-0.7, n - 0.3)
     _labels(ax, rows)
     right = _right(ax, rows)
-    ax.set_xlabel("boundary distance: mean over the suite's problems, normalised plane (bars: 95 % intervals)\n"
-                  "lower is better" + ("; linear up to the fail limit, logarithmic above it" if logx else ""),
+    ax.set_xlabel("boundary distance: mean over the suite's problems, normalised plane, lower is better\n"
+                  "bars: 95 % intervals on this suite; best, tied, behind and the band: across problems"
+                  + ("\nlinear up to the fail limit, logarithmic above it" if logx else ""),
                   fontsize=LABEL_PT)
     ax.grid(True, axis="x", lw=0.3, color="0.85")
     legend = ax.figure.legend(handles=_legend_handles(ax, lines, bands), loc="outside lower center", ncol=2,
@@ -198,14 +203,16 @@ def _draw_row(ax, r: dict) -> list:
 
 
 def _draw_bands(ax, v: dict, rows: list[dict]) -> dict:
-    """The detectable-difference band of each compared class, over its rows, from its best."""
+    """The detectable-difference band of each compared class, over its rows, from its best: across
+    problems where the class has that comparison (the headline standing's scope), else on this suite."""
     bands = {}
     for cls, fam in v["mcb"].items():
         ys = [r["y"] for r in rows if r["kind"] == "variant" and r["group"] == cls]
         best = next((r for r in rows if r.get("variant") == fam["best"] and r["group"] == cls), None)
-        if not ys or best is None or fam.get("mdd") is None:
+        mdd = (fam.get("across") or {}).get("mdd", fam.get("mdd"))     # the headline scope's
+        if not ys or best is None or mdd is None:
             continue
-        bands[cls] = ax.fill_betweenx([min(ys) - 0.45, max(ys) + 0.45], best["value"], best["value"] + fam["mdd"],
+        bands[cls] = ax.fill_betweenx([min(ys) - 0.45, max(ys) + 0.45], best["value"], best["value"] + mdd,
                                       color=tint(COLOURS[cls], 0.18), lw=0, zorder=1)
     return bands
 
@@ -251,9 +258,10 @@ def _legend_handles(ax, lines: dict, bands: dict) -> list:
                       markeredgecolor=edge or colour, label=text)
 
     c = COLOURS["calibrated"]
-    handles = [mark("D", True, c, "best of its class", "black"), mark("o", True, c, "may be the best (Hsu's MCB, 95 %)"),
+    handles = [mark("D", True, c, "best of its class", "black"),
+               mark("o", True, c, "may be the best (Hsu's MCB, 95 %)"),
                mark("o", False, c, "resolved behind the best")]
     if bands:
-        handles.append(Patch(color=tint(c, 0.18), label="from the best: the difference the suite detects (80 % power)"))
+        handles.append(Patch(color=tint(c, 0.18), label="from the best: detectable difference (80 % power)"))
     return handles + list(lines.values())
 

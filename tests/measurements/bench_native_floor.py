@@ -1,0 +1,368 @@
+"""The native floor: each CPU engine's cells through the product and through a minimal native loop.
+
+What a cell costs through the product against the smallest native loop of the same model, and whether
+both give the same θ history. Measures and prints; it fails (exit 1) only where the two θ histories
+disagree, never on time.
+
+    python tests/measurements/bench_native_floor.py [--engines mujoco pybullet dart physx exudyn drake]
+        [--cells B3M:sine:3:5 B3M:sine:3:1.5 B8M:sine:3:1.5] [--settings calibrated shipped]
+        [--repeats 3] [--max-batch N] [--record NAME] [--table NAME]
+
+For each engine, settings (``calibrated`` at the time-step rule's step, ``shipped`` at the engine's own)
+and cell (``BLOCK:PULSE:W_RATIO:A_RATIO``: ω/p and a₀/(g·tanα), restitution Housner), on a warm adapter
+(its calibration cached and its scene built before the clock starts):
+
+* *product*: the adapter's batch entry ``run_many`` on the cell alone (one world), and on
+  ``max_worlds`` copies of it (at most ``--max-batch``) where the adapter batches (cost per world);
+* *native*: the same scene (the adapter's own ``build``, made before the clock starts; the block placed
+  by its ``start``), the same step, the same drive (``inertial``: the table fixed, −m·ü on the block,
+  ü as the adapter takes it: the step average, PyBullet's at the step's midpoint) and the same simulated
+  time, stepped by the engine's own API in the smallest loop it has (MuJoCo: one ``rollout`` call;
+  Drake: one ``AdvanceTo``; Exudyn: one ``SolveSteps`` a segment of the product's ``segment_s``, since
+  its adaptive step restarts at each call; PyBullet, DART, PhysX: a Python loop of step calls reading θ
+  after each). A product that builds its scene for every case (PhysX) pays for it; the native loop
+  does not.
+
+The batched run is that many copies of the one cell (every world ends at the same step).
+
+The simulated time is the product run's (it stops where floor 1's end-of-run rule stops it). Printed:
+CPU seconds per simulated second of each path (``time.process_time``: every thread of this process,
+the minimum of ``--repeats``), the ratio product/native single-world and batched (the batched cost per
+world over the native single-world loop), the differences of max|θ| and final θ between the paths
+(they must agree to ``--theta-tol-rad``), and where one world's ``run_many`` goes (posing the case, the
+contact base's loop, the rest). The native loops reach into each adapter's scene for the
+engine's own objects (a model, a world, a simulator): an adapter that changes its scene needs its loop
+here changed too (a loop that fails is printed and recorded, the other engines go on).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # tests/measurements/: the records module beside this script
+from records import load, write_record  # noqa: E402
+
+from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
+from rockbench.benchmark.suites.model import restitution_for  # noqa: E402
+from rockbench.engines.contract import Case  # noqa: E402
+from rockbench.engines.motion import theta_of_quat  # noqa: E402
+from rockbench.engines.registry import get_adapter  # noqa: E402
+from rockbench.reference_solver.model import G  # noqa: E402
+from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
+
+ENGINES = ("mujoco", "pybullet", "dart", "physx", "exudyn", "drake")
+CELLS = ("B3M:sine:3:5", "B3M:sine:3:1.5", "B8M:sine:3:1.5")
+MEASURES = ("CPU seconds per simulated second of one cell through the product (the adapter's run_many on a warm "
+            "adapter, one world and batched) and through the smallest native loop of the same scene, step, drive "
+            "and duration, their ratio, and the differences of the two paths' max|θ| and final θ")
+
+
+# --- the cells ------------------------------------------------------------------------------------
+
+def case_of(text: str) -> Case:
+    """The case of ``BLOCK:PULSE:W_RATIO:A_RATIO`` (restitution Housner); exit 2 on a bad one."""
+    try:
+        block_name, pulse_kind, w_ratio, a_ratio = text.split(":")
+        block = get_preset(block_name).block()
+        pulse = make_pulse(pulse_kind, float(a_ratio) * G * math.tan(block.alpha_rad), float(w_ratio) * block.p_rad_s)
+    except Exception as e:  # noqa: BLE001 - one line and exit 2
+        _refuse(f"bad cell {text!r} ({e}); give BLOCK:PULSE:W_RATIO:A_RATIO, e.g. B3M:sine:3:5")
+    return Case(block, pulse, restitution_for("housner", block_name))
+
+
+def _refuse(message: str) -> None:
+    """Bad input: one line on stderr and exit 2."""
+    print(f"bench_native_floor: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def cpu_times(fn, repeats: int, prepare=lambda: None) -> tuple[list[float], object]:
+    """The CPU time of each of ``repeats`` calls ``fn(prepare())`` [s], ``prepare`` untimed, and the
+    last call's result."""
+    times, out = [], None
+    for _ in range(repeats):
+        given = prepare()
+        t0 = time.process_time()
+        out = fn(given)
+        times.append(time.process_time() - t0)
+    return times, out
+
+
+# --- the native loops: (adapter, scene, case, s, dt, n_steps) -> θ after each step [rad] --------------
+
+def _start(ad, scene, case: Case, s: dict, dt: float, n_steps: int):
+    """The block placed at rest in the adapter's scene (its ``build``, made before the clock starts) by
+    its ``start``, one world; the first rows."""
+    return ad.start(scene, case.block, s, dt, [case.pulse], 0.0, n_steps)
+
+
+def _step_average(pulse, dt: float, n: int) -> np.ndarray:
+    """ü averaged over each of ``n`` steps of ``dt`` [m/s^2]: (u̇(tₙ₊₁) − u̇(tₙ))/Δt."""
+    return np.diff(np.asarray(pulse.vel(np.arange(n + 1) * dt), dtype=float)) / dt
+
+
+def native_mujoco(ad, scene, case, s, dt, n_steps):
+    from mujoco import MjData, rollout   # optional engine library
+
+    rows = _start(ad, scene, case, s, dt, n_steps)
+    model = scene["bm"].model
+    ctrl = (-case.block.mass_kg * _step_average(case.pulse, dt, n_steps))[:, None]
+    states, _ = rollout.rollout(model, MjData(model), rows[0, 0], ctrl, initial_warmstart=np.zeros(model.nv))
+    return ad.read(scene, case.block, s, states[0], np.arange(1, n_steps + 1) * dt, case.pulse).theta_rad
+
+
+def native_pybullet(ad, sc, case, s, dt, n_steps):
+    _start(ad, sc, case, s, dt, n_steps)
+    pb, cid, body = sc.pb, sc.cid, sc.block
+    n_pulse = int(math.ceil(case.pulse.duration_s / dt - 1e-9))
+    acc = (-case.pulse.accel((np.arange(n_steps) + 0.5) * dt)).tolist()   # ü at each step's midpoint
+    theta = np.empty(n_steps)
+    for i in range(n_steps):
+        if i <= n_pulse:
+            pb.setGravity(acc[i], 0.0, -G, physicsClientId=cid)
+        pb.stepSimulation(physicsClientId=cid)
+        theta[i] = pb.getJointState(body, 2, physicsClientId=cid)[0]
+    return theta
+
+
+def native_dart(ad, scene, case, s, dt, n_steps):
+    _start(ad, scene, case, s, dt, n_steps)
+    world, block = scene.world, scene.block
+    acc = np.zeros(n_steps)
+    n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9)))
+    acc[:n_pulse] = _step_average(case.pulse, dt, n_pulse)
+    theta = np.empty(n_steps)
+    for i in range(n_steps):
+        world.setGravity([-acc[i], 0.0, -G])
+        world.step()
+        theta[i] = block.getPositions()[2]
+    return theta
+
+
+def native_physx(ad, scene, case, s, dt, n_steps):
+    _start(ad, scene, case, s, dt, n_steps)
+    step, body, k = scene.system.step, scene.block, scene.substeps
+    n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9))) * k
+    force = (-case.block.mass_kg * _step_average(case.pulse, dt / k, n_pulse)).astype(np.float32)
+    zero, f = np.zeros(3, dtype=np.float32), np.zeros(3, dtype=np.float32)
+    q = np.empty((n_steps, 4))
+    for i in range(n_steps):
+        for j in range(i * k, (i + 1) * k):
+            if j < n_pulse:
+                f[0] = force[j]
+                body.add_force_torque(f, zero)
+            step()
+        q[i] = body.entity_pose.q
+    return theta_of_quat(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
+
+
+def native_exudyn(ad, scene, case, s, dt, n_steps):
+    # Exudyn's adaptive step restarts at each SolveSteps: the product's segments, solved one call each
+    _start(ad, scene, case, s, dt, n_steps)
+    model = scene.model
+    chunk = max(1, int(round(float(s["segment_s"]) / dt)))
+    model.solver.SolveSteps(model.mbs, model.ss)
+    for _ in range(chunk, n_steps, chunk):
+        model.solver.it.endTime = model.mbs.systemData.GetTime() + chunk * dt
+        model.solver.SolveSteps(model.mbs, model.ss)
+    data = model.mbs.GetSensorStoredData(model.sensors[0])
+    keep = np.diff(np.concatenate([[-math.inf], data[:, 0]])) > 0.5 * dt
+    keep &= (data[:, 0] > 0.5 * dt) & (data[:, 0] < (n_steps + 0.5) * dt)   # its samples after t = 0 up to the end
+    return -data[keep, 3]   # Exudyn's planar angle is −θ
+
+
+def native_drake(ad, sc, case, s, dt, n_steps):
+    _start(ad, sc, case, s, dt, n_steps)   # the drive loaded into the diagram's source, the block placed
+    sc.simulator.AdvanceTo(n_steps * dt)
+    return sc.logger.FindLog(sc.context).data()[sc.iq["th"], 1:n_steps + 1].copy()
+
+
+NATIVE = {"mujoco": native_mujoco, "pybullet": native_pybullet, "dart": native_dart, "physx": native_physx,
+          "exudyn": native_exudyn, "drake": native_drake}
+
+
+# --- one engine, settings and cell --------------------------------------------------------------
+
+def product_history(ad, case: Case) -> tuple[Case, dict, np.ndarray, np.ndarray]:
+    """The posed case, its resolved settings, and the product's θ [rad] and times [s] of one run
+    (the contact base's one loop, what ``run_many`` simulates)."""
+    posed = ad.posed(case)
+    s = ad.resolve(case.block, case.restitution, posed.dt_s)
+    tr, _ = ad.run_worlds(case.block, s, posed.dt_s, [case.pulse])[0]
+    return posed, s, np.asarray(tr.theta_rad), np.asarray(tr.t_s)
+
+
+def product_parts(ad, case: Case, posed: Case, s: dict, repeats: int) -> dict:
+    """Where one world's ``run_many`` goes [CPU s, least of ``repeats``]: posing the case (its step,
+    ``posed``), the contact base's loop (``run_worlds``: the scene, start, advance, read, the end-of-run
+    tests, the trajectory); the rest of ``run_many`` (the resolution, the judge) is the difference."""
+    posing, _ = cpu_times(lambda _: ad.posed(case), repeats)
+    loop, _ = cpu_times(lambda _: ad.run_worlds(case.block, s, posed.dt_s, [case.pulse]), repeats)
+    return {"posed_cpu_s": min(posing), "loop_cpu_s": min(loop)}
+
+
+def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch: int | None) -> dict:
+    """One row: the cell's CPU s per simulated s through each path (the least of ``repeats``, every
+    repeat's CPU s kept), their ratio, and the differences of max|θ| and final θ between the paths."""
+    ad = get_adapter(engine, settings=settings)
+    case = case_of(cell)
+    posed, s, theta, t_s = product_history(ad, case)   # warms the adapter: calibration, step, scene
+    dt = posed.dt_s
+    n_steps = int(round(t_s[-1] / dt))
+    sim_s = n_steps * dt
+    row = {"engine": engine, "settings": settings, "cell": cell, "dt_s": dt, "steps": n_steps, "simulated_s": sim_s}
+    times, results = cpu_times(lambda _: ad.run_many([case]), repeats)
+    cpu, r = min(times), results[0]
+    row.update(outcome=r.outcome, status=r.status, product_cpu_s_per_sim_s=cpu / sim_s, product_cpu_s=times,
+               run_many_max_theta_diff_rad=abs(r.max_abs_theta_rad - float(np.max(np.abs(theta)))),
+               product_parts=product_parts(ad, case, posed, s, repeats))
+    worlds = min(ad.max_worlds, max_batch or ad.max_worlds)
+    if worlds > 1:
+        times_b, _ = cpu_times(lambda _: ad.run_many([case] * worlds), repeats)
+        row.update(batch_worlds=worlds, product_batched_cpu_s_per_sim_s=min(times_b) / worlds / sim_s,
+                   product_batched_cpu_s=times_b)
+    try:
+        times_n, native = cpu_times(lambda scene: NATIVE[engine](ad, scene, posed, s, dt, n_steps), repeats,
+                                    lambda: ad.build(case.block, s, dt))
+    except Exception as e:  # noqa: BLE001 - recorded, the other engines go on
+        row["native_error"] = f"{type(e).__name__}: {e}"
+        return row
+    cpu_n = min(times_n)
+    row.update(native_cpu_s_per_sim_s=cpu_n / sim_s, ratio=cpu / cpu_n, native_cpu_s=times_n,
+               max_theta_diff_rad=abs(float(np.max(np.abs(native))) - float(np.max(np.abs(theta)))),
+               final_theta_diff_rad=abs(float(native[-1]) - float(theta[-1])),
+               final_theta_rad=float(theta[-1]), max_abs_theta_rad=float(np.max(np.abs(theta))))
+    if "product_batched_cpu_s_per_sim_s" in row:
+        row["ratio_batched"] = row["product_batched_cpu_s_per_sim_s"] / row["native_cpu_s_per_sim_s"]
+    return row
+
+
+def line(row: dict) -> str:
+    head = (f"{row['engine']:9} {row['settings']:10} {row['cell']:15} dt {row['dt_s']:.3g} s, "
+            f"{row['simulated_s']:.3g} s simulated, {row['outcome'] or row['status']}")
+    if "native_error" in row:
+        return f"{head}: product {row['product_cpu_s_per_sim_s']:.3g} CPU s/s; native failed: {row['native_error']}"
+    out = (f"{head}: product {row['product_cpu_s_per_sim_s']:.3g}, native "
+           f"{row['native_cpu_s_per_sim_s']:.3g} CPU s/s, ratio {row['ratio']:.2f}")
+    if "ratio_batched" in row:
+        out += (f"; batched ({row['batch_worlds']} worlds) {row['product_batched_cpu_s_per_sim_s']:.3g} a world, "
+                f"ratio {row['ratio_batched']:.2f}")
+    return out + (f"; Δmax|θ| {row['max_theta_diff_rad']:.1e}, Δθ_end {row['final_theta_diff_rad']:.1e} rad "
+                  f"(run_many vs its loop {row['run_many_max_theta_diff_rad']:.1e})")
+
+
+def agrees(row: dict, tol_rad: float) -> bool:
+    """Whether the paths' θ histories agree to ``tol_rad`` (a cell the judge failed has no max|θ| of run_many's)."""
+    diffs = [row.get(k, math.nan) for k in ("max_theta_diff_rad", "final_theta_diff_rad")]
+    if row["status"] == "ok":
+        diffs.append(row["run_many_max_theta_diff_rad"])
+    return "native_error" not in row and max(diffs) <= tol_rad
+
+
+def summary(rows: list[dict]) -> list[dict]:
+    """Per engine and settings, over its cells (those whose native loop ran): the step [s], CPU seconds
+    per simulated second of each path (total CPU over total simulated time), their ratio, the worst
+    cell's ratio, and the batched cost per world and its ratio where the adapter batches."""
+    out: dict = {}
+    for r in rows:
+        if "native_error" in r:
+            continue
+        g = out.setdefault((r["engine"], r["settings"]),
+                           {"engine": r["engine"], "settings": r["settings"], "dt_s": set(), "sim_s": 0.0,
+                            "product": 0.0, "native": 0.0, "batched": 0.0, "worst_ratio": 0.0, "worlds": None})
+        g["dt_s"].add((r["cell"].split(":")[0], r["dt_s"]))
+        g["sim_s"] += r["simulated_s"]
+        g["product"] += r["product_cpu_s_per_sim_s"] * r["simulated_s"]
+        g["native"] += r["native_cpu_s_per_sim_s"] * r["simulated_s"]
+        g["worst_ratio"] = max(g["worst_ratio"], r["ratio"])
+        if "batch_worlds" in r:
+            g["worlds"] = r["batch_worlds"]
+            g["batched"] += r["product_batched_cpu_s_per_sim_s"] * r["simulated_s"]
+    for g in out.values():
+        sim = g.pop("sim_s")
+        g.update(dt_s=sorted(g["dt_s"]), product=g["product"] / sim, native=g["native"] / sim)
+        g["ratio"] = g["product"] / g["native"]
+        g["batched"] = g["batched"] / sim if g["worlds"] else None
+    return list(out.values())
+
+
+def markdown_table(figures: dict) -> str:
+    """The record's summary (:func:`summary`) as a Markdown table: CPU s per simulated s."""
+    lines = ["| engine | settings | step | product | native | ratio (worst cell) | batched a world | ratio batched |",
+             "|---|---|---|---|---|---|---|---|"]
+    for g in summary(figures["rows"]):
+        steps = {dt for _, dt in g["dt_s"]}
+        step = (f"{1e3 * steps.pop():.3g} ms" if len(steps) == 1 else
+                ", ".join(f"{1e3 * dt:.3g} ms ({block})" for block, dt in g["dt_s"]))
+        batched = (f"{g['batched']:.3g} ({g['worlds']} worlds) | {g['batched'] / g['native']:.2f}"
+                   if g["worlds"] else "– (one world at a time) | –")
+        lines.append(f"| {g['engine']} | {g['settings']} | {step} | {g['product']:.3g} | {g['native']:.3g} | "
+                     f"{g['ratio']:.2f} ({g['worst_ratio']:.2f}) | {batched} |")
+    return "\n".join(lines)
+
+
+def parts_table(figures: dict) -> str:
+    """Where one world's ``run_many`` goes (:func:`product_parts`), per engine and settings, as a Markdown
+    table: mean CPU ms a cell over the cells whose native loop ran."""
+    groups: dict = {}
+    for r in figures["rows"]:
+        if "native_error" not in r and "product_parts" in r:
+            groups.setdefault((r["engine"], r["settings"]), []).append(r)
+    lines = ["| engine | settings | run_many | posing the case | the loop (run_worlds) | the rest | native loop |",
+             "|---|---|---|---|---|---|---|"]
+    for (engine, settings), rows in groups.items():
+        product = np.mean([min(r["product_cpu_s"]) for r in rows])
+        posed = np.mean([r["product_parts"]["posed_cpu_s"] for r in rows])
+        loop = np.mean([r["product_parts"]["loop_cpu_s"] for r in rows])
+        native = np.mean([min(r["native_cpu_s"]) for r in rows])
+        lines.append(f"| {engine} | {settings} | {1e3 * product:.2f} | {1e3 * posed:.2f} | {1e3 * loop:.2f} | "
+                     f"{1e3 * (product - posed - loop):.2f} | {1e3 * native:.2f} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--engines", nargs="+", default=list(ENGINES), choices=list(ENGINES))
+    ap.add_argument("--cells", nargs="+", default=list(CELLS), help="BLOCK:PULSE:W_RATIO:A_RATIO each")
+    ap.add_argument("--settings", nargs="+", default=["calibrated", "shipped"], choices=["calibrated", "shipped"])
+    ap.add_argument("--repeats", type=int, default=3, help="timed repeats of each path; the least CPU time counts")
+    ap.add_argument("--max-batch", type=int, default=None,
+                    help="most worlds of a batched run (default: the adapter's max_worlds)")
+    ap.add_argument("--theta-tol-rad", type=float, default=1e-4,
+                    help="largest difference of max|θ| and final θ [rad]")
+    ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
+    ap.add_argument("--table", metavar="NAME", help="print the record NAME's summary and where run_many's time goes "
+                    "as Markdown tables, run nothing")
+    a = ap.parse_args(argv)
+    if a.table:
+        figures = load(a.table)["figures"]
+        print(markdown_table(figures) + "\n\n" + parts_table(figures))
+        return 0
+    if a.repeats < 1 or (a.max_batch is not None and a.max_batch < 1):
+        _refuse(f"--repeats and --max-batch must be at least 1, got {a.repeats} and {a.max_batch}")
+    cells = [(c, case_of(c)) for c in a.cells]   # a bad cell stops here, before anything runs
+    rows = []
+    for engine in a.engines:
+        for settings in a.settings:
+            for cell, _ in cells:
+                rows.append(measure_cell(engine, settings, cell, a.repeats, a.max_batch))
+                print(line(rows[-1]), flush=True)
+        if a.record:   # rewritten after each engine, so a stopped run keeps what it measured
+            command = "python tests/measurements/bench_native_floor.py " + " ".join(argv or sys.argv[1:])
+            write_record(a.record, MEASURES, command,
+                         {"rows": rows, "repeats": a.repeats, "theta_tol_rad": a.theta_tol_rad},
+                         packages=("mujoco", "pybullet", "dartpy", "sapien", "exudyn", "drake"))
+    bad = [r for r in rows if not agrees(r, a.theta_tol_rad)]
+    for r in bad:
+        print(f"DISAGREE: {r['engine']} {r['settings']} {r['cell']}", file=sys.stderr)
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,57 @@
+"""tests/measurements/bench_native_floor.py: its table on a made-up record, and one engine's product and
+native loop giving the same θ history (DART as shipped, one overturning cell; nothing timed is tested)."""
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "tests" / "measurements" / "bench_native_floor.py"
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("bench_native_floor", BENCH)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _row(engine, cell, sim_s, product, native, **kw):
+    return {"engine": engine, "settings": "calibrated", "cell": cell, "dt_s": 1e-4, "simulated_s": sim_s,
+            "product_cpu_s_per_sim_s": product, "native_cpu_s_per_sim_s": native, "ratio": product / native, **kw}
+
+
+def test_table_sums_cells_by_simulated_time_and_leaves_out_failed_loops():
+    """Figures of each engine and settings are totals over its cells; a step per block where they differ."""
+    rows = [_row("mujoco", "B3M:sine:3:5", 1.0, 0.2, 0.1, batch_worlds=8, product_batched_cpu_s_per_sim_s=0.1),
+            _row("mujoco", "B8M:sine:3:1.5", 3.0, 0.4, 0.4, batch_worlds=8, product_batched_cpu_s_per_sim_s=0.2),
+            _row("dart", "B3M:sine:3:5", 1.0, 0.3, 0.2),
+            {"engine": "drake", "settings": "calibrated", "cell": "B3M:sine:3:5", "native_error": "KeyError: 'th'"}]
+    lines = _bench().markdown_table({"rows": rows}).splitlines()
+    assert len(lines) == 4
+    # mujoco: product (0.2 + 1.2)/4 = 0.35, native (0.1 + 1.2)/4 = 0.325, batched (0.1 + 0.6)/4 = 0.175
+    assert lines[2] == "| mujoco | calibrated | 0.1 ms | 0.35 | 0.325 | 1.08 (2.00) | 0.175 (8 worlds) | 0.54 |"
+    assert lines[3] == "| dart | calibrated | 0.1 ms | 0.3 | 0.2 | 1.50 (1.50) | – (one world at a time) | – |"
+    rows[1]["dt_s"] = 1e-3
+    assert "| 0.1 ms (B3M), 1 ms (B8M) |" in _bench().markdown_table({"rows": rows})
+
+
+def test_parts_table_gives_the_rest_of_run_many():
+    rows = [_row("dart", "B3M:sine:3:5", 1.0, 0.3, 0.2, product_cpu_s=[0.006, 0.005], native_cpu_s=[0.002],
+                 product_parts={"posed_cpu_s": 0.001, "loop_cpu_s": 0.003})]
+    lines = _bench().parts_table({"rows": rows}).splitlines()
+    assert lines[2] == "| dart | calibrated | 5.00 | 1.00 | 3.00 | 1.00 | 2.00 |"
+
+
+def test_a_bad_cell_is_one_line_and_exit_2(capsys):
+    with pytest.raises(SystemExit) as e:
+        _bench().main(["--cells", "B3M:sine:3"])
+    assert e.value.code == 2 and "bad cell 'B3M:sine:3'" in capsys.readouterr().err
+
+
+def test_dart_product_and_native_loop_agree():
+    pytest.importorskip("dartpy")
+    b = _bench()
+    row = b.measure_cell("dart", "shipped", "B3M:sine:3:5", repeats=1, max_batch=1)
+    assert "native_error" not in row and row["outcome"] == "overturn"
+    assert b.agrees(row, 1e-9), row
