@@ -268,6 +268,12 @@ class ContactEngine(EngineAdapter):
         """The time-step rule's step for ``block`` at η [s] and its record, cached on disk with the
         calibrations; the search runs on ``block`` itself (``calibrate_on`` left out: its probe runs are
         of the block the step is for), so a held-out calibration shares the step of the block it names."""
+        # read once per adapter, block, η and settings (the disk key, the engine's version among
+        # its parts, costs more to make than a short run: a calibrated cell asks for its step)
+        memo = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(float(eta), 12),
+                tuple(sorted((k, str(v)) for k, v in self.settings.items())))
+        if memo in self._steps:
+            return float(self._steps[memo]["dt_s"]), self._steps[memo]
         on = self._on_itself()
         key = cache.adapter_key(self, contract=CONTRACT_VERSION, kind="step-rule",
                                 rules_version=RULES_VERSION, block=[block.width_m, block.height_m, block.depth_m,
@@ -276,12 +282,13 @@ class ContactEngine(EngineAdapter):
                                 probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
                                         step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
                                 settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
-        rec = self._steps.get(key) or cache.load(key)
+        rec = cache.load(key)
         if rec is None:
             with progress.activity(f"{self.name}: time-step rule for {block.name} at η {eta:.4f}"):
-                rec = step_rule.converged_step(lambda dt: routine.calibrate(on, block, eta, dt_s=dt), on._judged, block, eta)[1]
+                rec = step_rule.converged_step(lambda dt: routine.calibrate(on, block, eta, dt_s=dt), on._judged,
+                                                block, eta)[1]
             cache.store(key, rec, self.name)
-        self._steps[key] = rec
+        self._steps[memo] = rec
         return float(rec["dt_s"]), rec
 
     # -- resolve: a contact given, or as shipped, or calibrated -----------------------------------

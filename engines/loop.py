@@ -6,7 +6,14 @@ scene, ``start`` the worlds, ``advance`` them segment by segment, ``read`` their
 segment every running world's new samples are tested with floor 1's end-of-run rule
 (:func:`~rockbench.reference_solver.classify.run_end`: diverged, overturn certain, or trapped below
 the barrier after ``min_tail_s``), else the run ends ``tail_s`` after the pulse; the samples after a
-world's stop are dropped, so a result never depends on the segment length. An engine with its own
+world's stop are dropped. The segments are ``segment_s`` long (:data:`DEFAULT_SEGMENT_S` where an
+engine has no such setting); an adapter whose steps do not depend on where a segment starts declares
+``near_segment_s`` [s], and its segments then end at each run's marks (its pulse's end, where an
+overturn is most often certain; the trapped rule's first step; its last step) and last at most
+``near_segment_s`` after its pulse, so that fewer steps run past a stop (docs/speed.md, "Work past
+the stop and repeated work"). An engine that starts each segment afresh (MuJoCo's rollouts from a
+zero warm start, Exudyn's solver re-entered) keeps the fixed segments: where they end moves its
+last digits, so its result is that of its segment length. An engine with its own
 sampling reports each sample's time (``Motion.t_s``): the rule then counts the samples it got, each
 at its own step (:func:`~rockbench.engines.motion.steps_of_times`). An engine that stops by itself
 raises :class:`EngineHalted` with the rows it has; the run ends there (``ended_by`` ``"halted"``).
@@ -16,6 +23,7 @@ judge reads: θ, θ̇, both bottom corners relative to the table, the block's ow
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -46,6 +54,22 @@ def _segment_steps(s: dict, dt_s: float) -> int:
     return max(1, int(round(float(s.get("segment_s", DEFAULT_SEGMENT_S)) / dt_s)))
 
 
+def _segment_end(n_done: int, seg: int, near: int | None, running: list[tuple]) -> int:
+    """The step the next segment ends at, after step ``n_done``, for the running worlds' steps
+    ``(n_w, n_pulse, n_min)`` each (:func:`~rockbench.engines.motion.run_steps`). ``near`` None: ``seg``
+    steps on, at most the last world's last step. Otherwise at every world's next mark (its pulse's
+    end, its trapped rule's first step, its last step), where its run most often ends; within ``seg``
+    steps before its pulse's end (only a flat block or a diverged run ends it there), within ``near``
+    steps after it (an overturn or the trapped rule may end it at any sample)."""
+    if near is None:
+        return min(max(n_w for n_w, _, _ in running), n_done + seg)
+    ends = []
+    for n_w, n_pulse, n_min in running:
+        marks = [m for m in (n_pulse, n_min, n_w) if n_done < m < math.inf]
+        ends.append(min([n_done + (seg if n_done < n_pulse else near)] + marks))
+    return int(min(ends))
+
+
 def _advance(ad, scene, n_from: int, n_to: int, n_worlds: int) -> tuple[np.ndarray, str | None]:
     """One segment's rows ``(W, n, k)`` and, where the engine halted in it, why."""
     try:
@@ -72,9 +96,11 @@ def run_worlds(ad, block: Block, s: dict, dt: float, pulses: list, theta0: float
     rows, n_rows = [first], first.shape[1]
     stop: list = [None] * len(pulses)          # (row index of the last sample kept, why)
     n_done, seg = 0, _segment_steps(s, dt)
+    near_s = getattr(ad, "near_segment_s", None)
+    near = None if near_s is None else min(seg, max(1, int(round(near_s / dt))))
     t0, c0 = time.perf_counter(), time.process_time()
     while any(e is None for e in stop):
-        n_to = min(max(st[0] for st, e in zip(steps, stop) if e is None), n_done + seg)
+        n_to = _segment_end(n_done, seg, near, [st for st, e in zip(steps, stop) if e is None])
         new, halted = _advance(ad, scene, n_done, n_to, len(pulses))
         progress.tick()   # a long run inside a calibration or the rule's probes: a line where the throttle allows
         rows.append(new)

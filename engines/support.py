@@ -100,15 +100,28 @@ def supported_range(engine: str | type) -> str:
     return " and ".join(parts)
 
 
+#: ``{(lookup, distribution): installed version or None}``: each distribution's version read once per
+#: process (``importlib.metadata`` scans the installed packages' metadata, milliseconds a read, and a
+#: calibrated cell's step asks for it). An engine upgraded inside a running process is not a case
+#: rockbench supports: such a process keeps the version it read first. Keyed by the lookup function
+#: too, so that a replaced ``version`` (a test's) is asked afresh.
+_VERSIONS: dict = {}
+
+
+def _installed(d: str) -> str | None:
+    """The installed version of distribution ``d``, None where it is not installed (read once, :data:`_VERSIONS`)."""
+    key = (version, d)
+    if key not in _VERSIONS:
+        try:
+            _VERSIONS[key] = version(d)
+        except PackageNotFoundError:
+            _VERSIONS[key] = None
+    return _VERSIONS[key]
+
+
 def installed_versions(engine: str | type) -> dict[str, str]:
     """``{distribution: installed version}`` of ``engine``'s distributions that are installed."""
-    out = {}
-    for d in _distributions(engine):
-        try:
-            out[d] = version(d)
-        except PackageNotFoundError:
-            pass
-    return out
+    return {d: v for d in _distributions(engine) if (v := _installed(d)) is not None}
 
 
 def installed_label(engine: str | type) -> str:

@@ -365,10 +365,11 @@ class _Model:
         """The sensors' rows stored since the last call: ``t, x, y, φ, ẋ, ẏ, φ̇`` (planar) or ``t``,
         position, rotation matrix, angular velocity, velocity (3-D). Each segment boundary is stored
         twice (end of one segment, start of the next): a row within half a step of the one
-        before is dropped."""
-        parts = [self.mbs.GetSensorStoredData(s) for s in self.sensors]
+        before is dropped. (Exudyn hands back a sensor's whole history, the one copy it makes; only
+        the new rows are joined.)"""
+        parts = [self.mbs.GetSensorStoredData(s)[self.n_raw:] for s in self.sensors]
         raw = (np.concatenate([parts[0]] + [x[:, 1:] for x in parts[1:]], axis=1) if len(parts[0])
-               else np.empty((0, 7 if self.planar else 19)))[self.n_raw:]
+               else np.empty((0, 7 if self.planar else 19)))
         keep = np.diff(np.concatenate([[self.t_raw], raw[:, 0]])) > 0.5 * self.dt_s
         self.n_raw += raw.shape[0]
         if raw.shape[0]:

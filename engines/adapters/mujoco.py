@@ -62,7 +62,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -102,6 +102,9 @@ class BuiltModel:
     mass_kg: float
     push_mass_kg: float     # the mass the drive force accelerates (m, or M_table + m)
     qi: dict                # indices into the state vector
+    #: the rollout threads' MjData, made on a run's first start and reused by every later one:
+    #: ``{(process id, threads): datas}`` (a forked worker makes its own)
+    datas: dict = field(default_factory=dict)
 
 
 class MujocoAdapter(ContactEngine):
@@ -210,15 +213,22 @@ class MujocoAdapter(ContactEngine):
     def start(self, world: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
               n_steps: int) -> np.ndarray:
         """Every world at the settled rest state (turned to ``theta0_rad`` about the +x edge, the sink
-        kept); the rollout threads (one MjData each)."""
+        kept); the rollout threads (one MjData each, made once per model and thread count, and one
+        thread pool per thread count: every segment starts from an explicit state and warm start, so
+        nothing of a run stays in them)."""
         import mujoco   # optional engine library
         from mujoco import rollout   # optional engine library
 
         bm, n = world["bm"], len(pulses)
         nthread = min(self._threads(), n)
+        key = (os.getpid(), nthread)
+        if key not in bm.datas:
+            bm.datas[key] = [mujoco.MjData(bm.model) for _ in range(nthread)]
+        if key not in _ROLLOUTS:
+            _ROLLOUTS[key] = rollout.Rollout(nthread=nthread)
         state = bm.s0 if theta0_rad == 0.0 else released_state(bm, block, theta0_rad)
         world.update(pulses=pulses, current=np.tile(state, (n, 1)), active=np.ones(n, dtype=bool),
-                     datas=[mujoco.MjData(bm.model) for _ in range(nthread)], ro=rollout.Rollout(nthread=nthread))
+                     datas=bm.datas[key], ro=_ROLLOUTS[key])
         return world["current"][:, None].copy()
 
     def advance(self, world: dict, n_from: int, n_to: int) -> np.ndarray:
@@ -369,6 +379,10 @@ class MujocoAdapter(ContactEngine):
             share = 0
         return share if share > 0 else (os.cpu_count() or 1)
 
+
+#: the rollout thread pools of this process, one per thread count, shared by every model and run:
+#: ``{(process id, threads): mujoco.rollout.Rollout}`` (a forked worker makes its own)
+_ROLLOUTS: dict = {}
 
 #: the solver settings a model is built with (:attr:`MujocoAdapter.MODE_DEFAULTS`)
 MODE_KEYS = ("cone", "integrator", "noslip_iterations", "impratio")

@@ -338,6 +338,10 @@ class PybulletAdapter(ContactEngine):
                     "macOS and Windows).")
     #: PyBullet's own default step (fixedTimeStep, 1/240 s), what it runs at as shipped
     own_dt_s = 1.0 / 240.0
+    #: the loop's segments end at each run's marks and last at most this after its pulse [s]
+    #: (:mod:`rockbench.engines.loop`): Bullet's step does not depend on where a segment starts (each
+    #: run's samples measured bit for bit the same), so fewer steps run past a stop (docs/speed.md)
+    near_segment_s = 0.05
     SETTINGS = {"friction": BULLET_MAX_FRICTION, "friction_anchor": True, "tail_s": 2.0, "min_tail_s": 0.25}
     #: Bullet's rigid contact (no stiffness, no restitution; its own breaking threshold)
     SHIPPED = {"contact_stiffness_n_m": None, "contact_damping_n_s_m": None, "contact_restitution": None,

@@ -143,3 +143,54 @@ def test_an_engines_own_sampling_is_counted_row_by_row():
                                steps=np.arange(1, own.t_s.size) / 2.0)    # the rows' own step numbers
         ended.add(why)
     assert "trapped" in ended and ended & {"flat", "overturn"}
+
+
+class _Counted(_Toy):
+    """The toy counting the steps it was asked for and where its segments end."""
+
+    def advance(self, w, n_from, n_to):
+        self.ends.append(n_to)
+        self.stepped += len(w["state"]) * (n_to - n_from)
+        return super().advance(w, n_from, n_to)
+
+
+class _Near(_Counted):
+    """The toy with segments that end at each run's marks (``near_segment_s``)."""
+
+    near_segment_s = 0.01
+
+
+def test_segments_that_end_at_the_marks_change_no_run_and_step_less_past_the_stop():
+    """An engine whose step does not depend on where a segment starts gives the same runs with the
+    segments ending at each run's marks; a segment ends at the pulse's end of each run still going then,
+    and the engine steps less
+    than with fixed segments."""
+    cases = _cases()
+    runs = {}
+    for ad in (_Near(), _Counted()):
+        ad.ends, ad.stepped = [], 0
+        runs[ad.name, type(ad)] = (ad, ad._simulate_many([ad.posed(c) for c in cases]))
+    (near, a_runs), (fixed, b_runs) = runs.values()
+    for a, b in zip(a_runs, b_runs):
+        assert a.t_s.size == b.t_s.size and a.diagnostics["ended_by"] == b.diagnostics["ended_by"]
+        assert np.array_equal(a.theta_rad, b.theta_rad) and np.array_equal(a.theta_dot_rad_s, b.theta_dot_rad_s)
+    dt = near.own_dt_s
+    pulse_ends = {int(math.ceil(c.pulse.duration_s / dt - 1e-9)) for c, a in zip(cases, a_runs)
+                  if a.t_s[-1] >= c.pulse.duration_s}   # the runs still going at their pulse's end
+    assert len(pulse_ends) >= 3 and pulse_ends <= set(near.ends)
+    assert near.stepped < fixed.stepped
+
+def test_a_segment_ends_at_each_running_worlds_next_mark():
+    from rockbench.engines.loop import _segment_end
+
+    running = [(5000, 1200, 2200), (3000, 700, 1700)]   # (last step, pulse's end, trapped rule's first step)
+    assert _segment_end(0, 500, None, running) == 500                  # fixed segments: no marks
+    assert _segment_end(4800, 500, None, running) == 5000              # at most the last world's last step
+    assert _segment_end(0, 500, 100, running) == 500                   # before the pulses' ends: long segments
+    assert _segment_end(500, 500, 100, running) == 700                 # a pulse's end
+    assert _segment_end(700, 500, 100, running) == 800                 # after it: short segments
+    assert _segment_end(1150, 500, 100, running) == 1200               # the other world's pulse's end
+    assert _segment_end(1650, 500, 100, running) == 1700               # the trapped rule's first step
+    assert _segment_end(2950, 500, 100, running[1:]) == 3000           # the last step
+    free = [(4000, math.inf, math.inf)]                                # free rocking: one segment
+    assert _segment_end(0, 4000, 100, free) == 4000
