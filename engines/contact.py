@@ -397,8 +397,13 @@ class ContactEngine(EngineAdapter):
             raise out
         return out
 
+    def worlds_per_batch(self, s: dict) -> int:
+        """How many worlds one batch of the resolved settings ``s`` holds: :attr:`max_worlds`; an engine
+        whose answer moves with its batch-mates under some settings returns 1 for those (a hook)."""
+        return self.max_worlds
+
     def _simulate_many(self, cases: list) -> list:
-        """Cases whose steps are set, in batches of up to :attr:`max_worlds` worlds of one block,
+        """Cases whose steps are set, in batches of up to :meth:`worlds_per_batch` worlds of one block,
         resolved settings and step; an engine exception fails its case (its whole batch)."""
         out: list = [None] * len(cases)
         groups: dict = {}
@@ -413,8 +418,9 @@ class ContactEngine(EngineAdapter):
             key = (json.dumps(c.block.to_dict(), sort_keys=True), c.dt_s, json.dumps(s, sort_keys=True, default=str))
             groups.setdefault(key, (c.block, s, c.dt_s, []))[3].append(i)
         for block, s, dt, idx in groups.values():
-            for k in range(0, len(idx), self.max_worlds):
-                part = idx[k:k + self.max_worlds]
+            n_worlds = self.worlds_per_batch(s)
+            for k in range(0, len(idx), n_worlds):
+                part = idx[k:k + n_worlds]
                 try:
                     runs = self._pulse_runs(block, s, dt, [cases[i].pulse for i in part])
                 except Exception as e:  # noqa: BLE001 - the batch failed inside the engine

@@ -294,6 +294,10 @@ class PhysxAdapter(ContactEngine):
     own_dt_s = SHIPPED_DT_S
     batching = "native"
     max_worlds = MAX_WORLDS
+    #: the loop's segments end at each run's marks and last at most this after its pulse [s]
+    #: (:mod:`rockbench.engines.loop`): PhysX steps one step a call, so where a segment starts changes
+    #: nothing (runs measured bit for bit the same), and fewer steps run past a stop
+    near_segment_s = 0.05
     SETTINGS = {"tail_s": 2.0, "min_tail_s": 0.25}
     SHIPPED = SHIPPED_CONTACT
     #: The calibration: PhysX as shipped but for its solver (:data:`CALIBRATED_SOLVER`) and its
@@ -318,12 +322,10 @@ class PhysxAdapter(ContactEngine):
         self.number_setting(s, "contact_restitution", allow_zero=True, maximum=1.0)
         self.number_setting(s, "bounce_threshold_m_s", "m/s")
 
-    def run_worlds(self, block: Block, s: dict, dt: float, pulses: list, theta0: float = 0.0,
-                   duration_s: float | None = None) -> list:
-        """The contact base's batch of worlds in one scene with PGS; with TGS one world at a time,
-        since TGS's answer moves with the other worlds in the scene (measured, docs/physx.md)."""
-        batches = [pulses] if s["solver"] == "pgs" else [[p] for p in pulses]
-        return [r for b in batches for r in ContactEngine.run_worlds(self, block, s, dt, b, theta0, duration_s)]
+    def worlds_per_batch(self, s: dict) -> int:
+        """Up to :data:`MAX_WORLDS` worlds in one scene with PGS; with TGS one world at a time, since
+        TGS's answer moves with the other worlds in the scene (measured, docs/physx.md)."""
+        return self.max_worlds if s["solver"] == "pgs" else 1
 
     def build(self, block: Block, s: dict, dt_s: float) -> _Worlds:
         """The scene of the block, settings and step: built once, its worlds reused batch after batch."""
