@@ -307,8 +307,9 @@ def test_paper_figure_lists_the_st_limit_only_when_it_is_on_the_chart(tmp_path):
 
 # -- the verdict as a picture ---------------------------------------------------------------------------------
 
-def _verdict_doc(failing=True, planted=True):
-    """A verdict object of a suite like the default one: two classes, held-out twins, planted δ, failures."""
+def _verdict_doc(failing=True, planted=True, no_boundary=False):
+    """A verdict object of a suite like the default one: two classes, held-out twins, planted δ, failures
+    (with ``no_boundary``, the failing variant's maps have no boundary: its distance is the placeholder)."""
     from rockbench.benchmark.scoring.verdict import verdict
     probs = [(b, p) for b in ("B3M", "B6M") for p in ("sine", "cosine")]
 
@@ -322,8 +323,11 @@ def _verdict_doc(failing=True, planted=True):
     for k, (engine, name) in enumerate([("mujoco", "MuJoCo 4.0"), ("pybullet", "PyBullet 3.2.7"), ("dart", "DART 6.20")]):
         for b, p in probs:
             pairs.append(pair(f"{name}, calibrated to η_H", engine, "calibrated", b, p, 0.01 + 0.02 * k))
+            lost = failing and k == 0 and no_boundary
             pairs.append(pair(f"{name}, as shipped", engine, "as-shipped", b, p,
-                              (0.9 if failing and k == 0 else 0.04 + 0.05 * k)))
+                              18.6 if lost else (0.9 if failing and k == 0 else 0.04 + 0.05 * k),
+                              **({"cells": {"w_step": 0.05, "a_step": 0.05, "engine_crossings": 0,
+                                            "reference_crossings": 12}} if lost else {})))
             pairs.append(pair(f"{name}, held out", engine, f"{name} held", b.replace("M", "L"), p, 0.02 + 0.02 * k,
                               held_out=True, in_sample_variant=f"{name}, calibrated to η_H"))
     if planted:
@@ -383,6 +387,22 @@ def test_the_verdict_labels_are_words_that_never_overlap_or_leave_the_figure():
             and bb.y1 <= fig.bbox.y1 + 1, t.get_text()
         assert not INTERNAL_KEY.search(t.get_text()), t.get_text()
         assert t.get_fontsize() >= 7.0
+
+
+def test_a_failure_without_a_boundary_keeps_the_verdict_picture_in_its_frame():
+    """A failing variant whose maps have no boundary is named short on the right (the verdict's text says
+    what its cells do): every word stays inside the figure and the axes keep their width."""
+    from rockbench.benchmark.report.plots.verdict import plot_verdict
+    d = plot_verdict(_verdict_doc(no_boundary=True))
+    fig = d["figure"]
+    lost = next(r for r in d["rows"] if r["group"] == "fails" and r["kind"] == "variant")
+    assert "no boundary (4 of 4 maps)" in lost["right"], lost
+    r = _renderer(fig)
+    from matplotlib.text import Text
+    for t in (t for t in fig.findobj(Text) if t.get_text() and t.get_visible()):
+        bb = t.get_window_extent(r)
+        assert fig.bbox.x0 - 1 <= bb.x0 and bb.x1 <= fig.bbox.x1 + 1, t.get_text()
+    assert d["ax"].get_window_extent(r).width > 0.3 * fig.bbox.width
 
 
 def test_the_verdict_axis_is_linear_without_failures(tmp_path):

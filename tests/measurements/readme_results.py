@@ -62,6 +62,15 @@ def _standing(r: dict) -> str:
     return f"may be the best (tied){scope}" + ("; behind on this suite only" if only else "")
 
 
+def _offset(r: dict) -> str:
+    """The mean signed offset of the boundary (positive: overturns at a lower amplitude than the rigid
+    model, conservative) and its share of the reference's critical amplitude; – where there is none."""
+    if r.get("offset") is None:
+        return "–"
+    pct = f" ({r['offset_percent']:+.1f} %)" if r.get("offset_percent") is not None else ""
+    return f"{r['offset']:+.3f}{pct}"
+
+
 def rows(verdict: dict) -> list[str]:
     """One table row per variant, planted ones aside: the classes in :data:`CLASSES`' order, failing
     variants last, each class in the verdict's order."""
@@ -74,7 +83,8 @@ def rows(verdict: dict) -> list[str]:
                  f"{_num(own['value'])} [{_num(own['ci95'][0])}, {_num(own['ci95'][1])}]")
         if r.get("in_best_subset") and not r["fails"]:
             value = f"**{value}**"
-        out.append(f"| {CLASSES[r['group']]} | {_engine(r['label'])} | {value} | {_standing(r)} | {_worst(r)} |")
+        out.append(f"| {CLASSES[r['group']]} | {_engine(r['label'])} | {value} | {_offset(r)} | {_standing(r)} | "
+                   f"{_worst(r)} |")
     return out
 
 
@@ -92,7 +102,7 @@ def summary(figures: dict) -> str:
              "by less, or the other way)" if smallest else "no planted restitution error is resolved")
     return (f"Each value is the mean boundary distance over the suite's {first['clusters']} problems (4 "
             f"slendernesses × 2 pulses; held-out values over their {figures['held_out_scenarios']}), "
-            f"lower is better; intervals on this suite (these problems fixed, the grid's error alone); bold: may be "
+            f"lower is better; intervals on this suite (these problems fixed, each map's measured location error alone); the signed offset is positive where the engine overturns at a lower amplitude than the rigid model (conservative), negative where later; bold: may be "
             f"the best of its class across problems (Hsu's MCB, 95 %, the engine × problem spread as error). The "
             f"smallest difference the suite detects at 80 % power: {mdd}; {power}.")
 
@@ -117,7 +127,8 @@ def results_block(rec: dict) -> str:
     figures = dict(rec["figures"])
     held = [r["held_out"]["scenarios"] for r in figures["verdict"]["variants"] if r["group"] == "held-out"]
     figures["held_out_scenarios"] = f"{max(held)} scenarios" if held else "scenarios"
-    lines = ["| class | engine | boundary distance [95 %, on this suite] | standing | worst scenario |", "|---|---|---|---|---|"]
+    lines = ["| class | engine | boundary distance [95 %, on this suite] | signed offset (of a_crit) | standing | "
+             "worst scenario |", "|---|---|---|---|---|---|"]
     return "\n".join(lines + rows(figures["verdict"]) + ["", summary(figures)])
 
 

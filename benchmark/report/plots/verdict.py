@@ -85,7 +85,7 @@ def _row(g: str, r: dict) -> dict:
     elif g == "fails":
         w = r["fails_in"][0] if r["fails_in"] else None
         mean = f"{number(r['value'])}; " if r["value"] is not None else ""
-        row.update(mark="fails", right=(mean + scenario_words(w) if w else "nothing judged"))
+        row.update(mark="fails", right=(mean + _fail_words(r, w) if w else "nothing judged"))
     elif g == "other":
         row.update(mark="other", right=f"{number(r['value'])} [{number(lo)}, {number(hi)}]")
     else:
@@ -97,6 +97,16 @@ def _row(g: str, r: dict) -> dict:
                                     + ("" if r.get("scope") != "on this suite" else " (on this suite)")
                                     + (f"; offset {signed(r['offset'])}" if r.get("offset") is not None else ""))
     return row
+
+
+def _fail_words(r: dict, w: dict) -> str:
+    """A failing variant's first failing scenario, short enough for the column on the right: where its
+    map has no boundary, how many of its maps have none (what their cells do instead is the verdict's
+    text: :func:`~rockbench.benchmark.scoring.failing.scenario_words`)."""
+    if not w.get("missing_boundary") or w["missing_boundary"] == "reference":
+        return scenario_words(w)
+    n = sum(bool(s.get("missing_boundary")) for s in r["per_scenario"])
+    return f"{w['block']} {w['pulse']}: no boundary ({n} of {len(r['per_scenario'])} maps)"
 
 
 def _margin(v: dict) -> tuple[float | None, str]:
