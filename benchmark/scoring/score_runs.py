@@ -560,7 +560,9 @@ def check_score_doc(doc: dict, where) -> None:
             raise bad(f"pairs[{n}].cells is {p['cells']!r}, not an object")
         for part in ("scores", "grid", "cells"):
             for name, v in (p.get(part) or {}).items():
-                if (v is None and part != "scores") or isinstance(v, bool) or not isinstance(v, (int, float, type(None))):
+                # a score may be missing, and so may the maps' location error (no crossing to bracket)
+                may_lack = part == "scores" or (part, name) == ("cells", "location_sd")
+                if (v is None and not may_lack) or isinstance(v, bool) or not isinstance(v, (int, float, type(None))):
                     raise bad(f"pairs[{n}].{part}.{name} is {v!r}, not a number")
         for name in ("n_w", "n_a"):
             if not isinstance(p["grid"].get(name), int) or p["grid"][name] < 1:

@@ -208,7 +208,8 @@ def measure_restitution(ad, block: Block, *, theta0_frac: float = 0.5, dt_s: flo
 
     Parameters
     ----------
-    ad : ContactEngine
+    ad : ContactEngine, or an engine without a contact model that has a ``measure_restitution(block,
+        theta0_frac=, dt_s=)`` of its own (then that is called)
     block : Block
     theta0_frac : float
         Release angle as a fraction of α [-].
@@ -218,6 +219,11 @@ def measure_restitution(ad, block: Block, *, theta0_frac: float = 0.5, dt_s: flo
     settings : dict, optional
         Resolved settings to measure (default: those in force, ``ad.resolve`` to Housner's η).
     """
+    own = getattr(ad, "measure_restitution", None)
+    if callable(own) and not callable(getattr(ad, "free_rocking_step", None)):
+        # an engine without a contact model of rockbench's that measures its own free rocking (the one
+        # hook of the general contract for it): its measurement, as it makes it
+        return own(block, theta0_frac=theta0_frac, dt_s=dt_s)
     require_contact(ad)
     if not 0.0 < float(theta0_frac) < 1.0:
         raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")

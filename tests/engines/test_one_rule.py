@@ -32,7 +32,7 @@ CONTACT_HOOKS = frozenset({"build", "start", "advance", "read", "validate", "can
 
 #: what an engine that is no contact engine may define of the base: contract items 3, 4 and 7
 GENERAL_HOOKS = frozenset({"_simulate", "_simulate_many", "_native_verdicts", "solve_grid", "validate",
-                           "load_engine", "device_note", "default_suite_exclusion"})
+                           "load_engine", "device_note", "default_suite_exclusion", "measure_restitution"})
 
 #: adapters with a loop of their own, the hooks that loop takes over, and the test that checks it
 #: applies the shared rules
