@@ -1,19 +1,13 @@
 """tests/measurements/bench_native_floor.py: its table on a made-up record, and one engine's product and
 native loop giving the same θ history (DART as shipped, one overturning cell; nothing timed is tested)."""
 
-import importlib.util
-from pathlib import Path
-
 import pytest
 
-BENCH = Path(__file__).resolve().parents[1] / "tests" / "measurements" / "bench_native_floor.py"
+from measurement_scripts import load_script
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location("bench_native_floor", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("bench_native_floor")
 
 
 def _row(engine, cell, sim_s, product, native, **kw):

@@ -1,18 +1,13 @@
 """The table and record of tests/measurements/bench_step_accuracy.py, on a made-up record (no engine runs)."""
 
-import importlib.util
 import json
 import math
-from pathlib import Path
 
-BENCH = Path(__file__).resolve().parents[1] / "tests" / "measurements" / "bench_step_accuracy.py"
+from measurement_scripts import load_script
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location("bench_step_accuracy", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("bench_step_accuracy")
 
 
 def _row(engine, variant, dt_s, **kw):

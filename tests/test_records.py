@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 import subprocess
 import sys
 from pathlib import Path
+
+from measurement_scripts import load_script
 
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "tests" / "measurements" / "records.py"
@@ -16,10 +17,7 @@ CITATION = re.compile(r"(?<![\w-])(?:tests/measurements/)?results/([A-Za-z0-9_.{
 
 
 def _records():
-    spec = importlib.util.spec_from_file_location("records", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("records")
 
 
 def test_every_file_in_the_folder_is_a_valid_record():
