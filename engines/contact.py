@@ -103,6 +103,10 @@ class ContactEngine(EngineAdapter):
     #: worlds an engine steps together (1: one case at a time); more: cases of one block, settings and
     #: step run in batches (``batching = "native"``)
     max_worlds: ClassVar[int] = 1
+    #: the loop's segments end at each run's marks and last at most this after its pulse [s]
+    #: (:mod:`rockbench.engines.loop`), for an engine whose steps do not depend on where a segment
+    #: starts; None: fixed segments of ``segment_s``
+    near_segment_s: ClassVar[float | None] = None
     #: the ``drive`` and ``planar`` values the adapter runs, e.g. ``{"drive": ("inertial",)}`` (a key left
     #: out: every value of :data:`MODES`); another is a ConfigError at construction
     SUPPORTED_MODES: ClassVar[Mapping[str, tuple]] = {}

@@ -96,7 +96,7 @@ def run_worlds(ad, block: Block, s: dict, dt: float, pulses: list, theta0: float
     rows, n_rows = [first], first.shape[1]
     stop: list = [None] * len(pulses)          # (row index of the last sample kept, why)
     n_done, seg = 0, _segment_steps(s, dt)
-    near_s = getattr(ad, "near_segment_s", None)
+    near_s = ad.near_segment_s
     near = None if near_s is None else min(seg, max(1, int(round(near_s / dt))))
     t0, c0 = time.perf_counter(), time.process_time()
     while any(e is None for e in stop):
