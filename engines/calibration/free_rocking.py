@@ -42,7 +42,7 @@ from rockbench.engines.errors import EngineError
 
 __all__ = ["FREE_ROCKING_IMPACTS", "FREE_ROCKING_METHOD", "EtaReader", "PEAK_RATIO", "free_rocking_duration_s",
            "free_rocking_etas", "first_quarter_s", "swings", "contact_figures", "measure_restitution", "free_rocking_run",
-           "measured", "require_contact"]
+           "measured", "has_contact_model", "require_contact"]
 
 #: Impacts a free-rocking test measures (calibrations average their η) [-]
 FREE_ROCKING_IMPACTS = 4
@@ -220,7 +220,7 @@ def measure_restitution(ad, block: Block, *, theta0_frac: float = 0.5, dt_s: flo
         Resolved settings to measure (default: those in force, ``ad.resolve`` to Housner's η).
     """
     own = getattr(ad, "measure_restitution", None)
-    if callable(own) and not callable(getattr(ad, "free_rocking_step", None)):
+    if callable(own) and not has_contact_model(ad):
         # an engine without a contact model of rockbench's that measures its own free rocking (the one
         # hook of the general contract for it): its measurement, as it makes it
         return own(block, theta0_frac=theta0_frac, dt_s=dt_s)
@@ -234,10 +234,15 @@ def measure_restitution(ad, block: Block, *, theta0_frac: float = 0.5, dt_s: flo
     return free_rocking_run(ad, block, s, dt, theta0_frac)
 
 
+def has_contact_model(ad) -> bool:
+    """Whether ``ad`` is a contact engine: one with a free-rocking step."""
+    return callable(getattr(ad, "free_rocking_step", None))
+
+
 def require_contact(ad) -> None:
-    """A ConfigError (exit 2) unless ``ad`` is a contact engine (one with a free-rocking step): an engine
+    """A ConfigError (exit 2) unless ``ad`` is a contact engine (:func:`has_contact_model`): an engine
     without a contact model (the reference) has nothing to measure or calibrate."""
-    if not callable(getattr(ad, "free_rocking_step", None)):
+    if not has_contact_model(ad):
         raise ConfigError(f"engine {ad.name!r} has no contact model to calibrate; "
                           "calibrate applies to engines such as mujoco, pybullet, exudyn.")
 
