@@ -405,13 +405,12 @@ class DrakeAdapter(ContactEngine):
     START_KEEP_RTOL = 0.005
     CALIBRATION_VERSION = 4
 
-    def __init__(self, **settings):
-        super().__init__(**settings)
-        if self.settings["contact"] == "hydroelastic":
-            # measured: beside batch-mates a hydroelastic block's θ leaves its one-world run within
-            # 20 steps and its outcome flips (B3M, sine, ω/p 5, a₀/(g·tanα) 3: rocking alone, overturn
-            # in a batch); its cells run one world at a time (docs/drake.md, "Speed")
-            self.max_worlds = 1
+    def worlds_per_batch(self, s: dict) -> int:
+        """Up to :attr:`max_worlds` worlds in one plant; with hydroelastic contact one world at a time.
+        Measured: beside batch-mates a hydroelastic block's θ leaves its one-world run within 20 steps
+        and its outcome flips (B3M, sine, ω/p 5, a₀/(g·tanα) 3: rocking alone, overturn in a batch)
+        (docs/drake.md, "Speed")."""
+        return 1 if s["contact"] == "hydroelastic" else self.max_worlds
 
     def validate(self, s: dict) -> None:
         self.choice_setting(s, "contact", _CONTACTS, allow_none=False)
