@@ -46,6 +46,6 @@ def test_a_bad_cell_is_one_line_and_exit_2(capsys):
 def test_dart_product_and_native_loop_agree():
     pytest.importorskip("dartpy")
     b = _bench()
-    row = b.measure_cell("dart", "shipped", "B3M:sine:3:5", repeats=1, max_batch=1)
+    row = b.measure_cell("dart", "shipped", "B3M:sine:3:5", repeats=1)
     assert "native_error" not in row and row["outcome"] == "overturn"
     assert b.agrees(row, 1e-9), row

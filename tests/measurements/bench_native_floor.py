@@ -145,21 +145,38 @@ def native_dart(ad, scene, case, s, dt, n_steps):
     return theta
 
 
-def native_physx(ad, scene, case, s, dt, n_steps):
-    _start(ad, scene, case, s, dt, n_steps)
-    step, body, k = scene.system.step, scene.block, scene.substeps
-    n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9))) * k
-    force = (-case.block.mass_kg * _step_average(case.pulse, dt / k, n_pulse)).astype(np.float32)
-    zero, f = np.zeros(3, dtype=np.float32), np.zeros(3, dtype=np.float32)
-    q = np.empty((n_steps, 4))
+def physx_worlds(ad, scene, case, s, dt, n_steps, k: int) -> np.ndarray:
+    """PhysX, ``k`` worlds of the cell in the adapter's scene (its ``build``; every block at the origin on
+    a table of its own, each world's shapes one bit of the collision groups), placed by its ``start``:
+    a Python loop of ``k`` ``add_force_torque`` calls and one step a PhysX step, the packed state of
+    every body read after each benchmark step. θ of each world ``(k, n_steps)``."""
+    ad.start(scene, case.block, s, dt, [case.pulse] * k, 0.0, n_steps)
+    system, sub = scene.system, scene.substeps
+    step, pack = system.step, system.pack
+    bodies = [scene.worlds[w][0] for w in range(k)]
+    order = {c.entity.per_scene_id: i for i, c in enumerate(system.get_rigid_dynamic_components())}
+    at = np.array([order[b.entity.per_scene_id] for b in bodies])
+    n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9))) * sub
+    forces = []
+    for body in bodies:   # each world's own drive, as a world of another cell would need
+        f = np.zeros((n_pulse, 3), dtype=np.float32)
+        f[:, 0] = -case.block.mass_kg * _step_average(case.pulse, dt / sub, n_pulse)
+        forces.append((body.add_force_torque, f))
+    zero = np.zeros(3, dtype=np.float32)
+    packs = []
     for i in range(n_steps):
-        for j in range(i * k, (i + 1) * k):
+        for j in range(i * sub, (i + 1) * sub):
             if j < n_pulse:
-                f[0] = force[j]
-                body.add_force_torque(f, zero)
+                for add, f in forces:
+                    add(f[j], zero)
             step()
-        q[i] = body.entity_pose.q
-    return theta_of_quat(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
+        packs.append(pack())
+    q = np.frombuffer(b"".join(packs), dtype=np.float32).reshape(n_steps, -1, 13)[:, at, :4].astype(float)
+    return theta_of_quat(q[..., 0], q[..., 1], q[..., 2], q[..., 3]).T
+
+
+def native_physx(ad, scene, case, s, dt, n_steps):
+    return physx_worlds(ad, scene, case, s, dt, n_steps, 1)[0]
 
 
 def native_exudyn(ad, scene, case, s, dt, n_steps):
@@ -177,10 +194,18 @@ def native_exudyn(ad, scene, case, s, dt, n_steps):
     return -data[keep, 3]   # Exudyn's planar angle is −θ
 
 
-def native_drake(ad, sc, case, s, dt, n_steps):
-    _start(ad, sc, case, s, dt, n_steps)   # the drive loaded into the diagram's source, the block placed
+def drake_worlds(ad, run, case, s, dt, n_steps, k: int) -> np.ndarray:
+    """Drake, ``k`` worlds of the cell in one plant (the adapter's diagram of ``k`` blocks, each on its own
+    planar joint and touching its own table alone), the drives loaded into its source and the blocks
+    placed by its ``start``: one ``AdvanceTo`` to the end. θ of each world ``(k, n_steps)``."""
+    ad.start(run, case.block, s, dt, [case.pulse] * k, 0.0, n_steps)   # sample 0 read, the log cleared
+    sc = run["scene"]
     sc.simulator.AdvanceTo(n_steps * dt)
-    return sc.logger.FindLog(sc.context).data()[sc.iq["th"], 1:n_steps + 1].copy()
+    return sc.logger.FindLog(sc.context).data()[sc.cols[:, sc.iq["th"]], :n_steps].copy()
+
+
+def native_drake(ad, run, case, s, dt, n_steps):
+    return drake_worlds(ad, run, case, s, dt, n_steps, 1)[0]
 
 
 NATIVE = {"mujoco": native_mujoco, "pybullet": native_pybullet, "dart": native_dart, "physx": native_physx,
@@ -207,9 +232,48 @@ def product_parts(ad, case: Case, posed: Case, s: dict, repeats: int) -> dict:
     return {"posed_cpu_s": min(posing), "loop_cpu_s": min(loop)}
 
 
-def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch: int | None) -> dict:
+def started(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
+    """The adapter's scene of the cell's block, settings and step with ``k`` worlds started in it, so
+    that what it builds for ``k`` worlds is built before the clock starts (PhysX, Drake)."""
+    scene = ad.build(case.block, s, dt)
+    ad.start(scene, case.block, s, dt, [case.pulse] * k, 0.0, n_steps)
+    return scene
+
+
+#: engine → (its scene of ``k`` worlds made before the clock, the loop of ``k`` worlds in one engine
+#: call ``(ad, scene, case, s, dt, n_steps, k) -> θ (k, n_steps)``)
+WORLDS = {"physx": (started, physx_worlds), "drake": (started, drake_worlds)}
+
+
+def measure_worlds(engine: str, ad, case: Case, posed: Case, s: dict, theta: np.ndarray, ks: list, repeats: int) -> list:
+    """Per number of worlds ``k`` (copies of the cell): the product's CPU s per simulated s a world
+    (``run_many`` of ``k`` copies, where the adapter runs ``k`` worlds a batch) and the native loop's of
+    ``k`` worlds in one engine call (where :data:`WORLDS` has one), the largest |Δθ| of any world from
+    the product's one-world history, and from the same loop's world alone (0: bit for bit)."""
+    dt, n_steps = posed.dt_s, theta.size - 1   # the history's samples after t = 0
+    sim_s = n_steps * dt
+    out, alone = [], None
+    for k in ks:
+        entry = {"worlds": k}
+        if k == 1 or ad.worlds_per_batch(s) >= k:
+            times_p, _ = cpu_times(lambda _: ad.run_many([case] * k), repeats)
+            entry.update(product_cpu_s_per_sim_s=min(times_p) / k / sim_s, product_cpu_s=times_p)
+        if engine in WORLDS:
+            prepare, loop = WORLDS[engine]
+            times_n, th = cpu_times(lambda scene: loop(ad, scene, posed, s, dt, n_steps, k), repeats,
+                                    lambda: prepare(ad, posed, s, dt, n_steps, k))
+            alone = th[0] if k == 1 else alone
+            entry.update(native_cpu_s_per_sim_s=min(times_n) / k / sim_s, native_cpu_s=times_n,
+                         theta_diff_from_product_rad=float(np.max(np.abs(th - theta[1:]))),
+                         theta_diff_from_alone_rad=None if alone is None else float(np.max(np.abs(th - alone))))
+        out.append(entry)
+    return out
+
+
+def measure_cell(engine: str, settings: str, cell: str, repeats: int, ks: tuple = (1,)) -> dict:
     """One row: the cell's CPU s per simulated s through each path (the least of ``repeats``, every
-    repeat's CPU s kept), their ratio, and the differences of max|θ| and final θ between the paths."""
+    repeat's CPU s kept), their ratio, and the differences of max|θ| and final θ between the paths;
+    with ``ks`` beyond 1, the same per world at each number of worlds (:func:`measure_worlds`)."""
     ad = get_adapter(engine, settings=settings)
     case = case_of(cell)
     posed, s, theta, t_s = product_history(ad, case)   # warms the adapter: calibration, step, scene
@@ -222,11 +286,12 @@ def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch:
     row.update(outcome=r.outcome, status=r.status, product_cpu_s_per_sim_s=cpu / sim_s, product_cpu_s=times,
                run_many_max_theta_diff_rad=abs(r.max_abs_theta_rad - float(np.max(np.abs(theta)))),
                product_parts=product_parts(ad, case, posed, s, repeats))
-    worlds = min(ad.max_worlds, max_batch or ad.max_worlds)
-    if worlds > 1:
-        times_b, _ = cpu_times(lambda _: ad.run_many([case] * worlds), repeats)
-        row.update(batch_worlds=worlds, product_batched_cpu_s_per_sim_s=min(times_b) / worlds / sim_s,
-                   product_batched_cpu_s=times_b)
+    if len(ks) > 1:
+        row["worlds"] = measure_worlds(engine, ad, case, posed, s, theta, list(ks), repeats)
+        batched = [w for w in row["worlds"] if w["worlds"] > 1 and "product_cpu_s_per_sim_s" in w]
+        if batched:   # the largest batch, in the summary's columns
+            row.update(batch_worlds=batched[-1]["worlds"],
+                       product_batched_cpu_s_per_sim_s=batched[-1]["product_cpu_s_per_sim_s"])
     try:
         times_n, native = cpu_times(lambda scene: NATIVE[engine](ad, scene, posed, s, dt, n_steps), repeats,
                                     lambda: ad.build(case.block, s, dt))
@@ -253,8 +318,17 @@ def line(row: dict) -> str:
     if "ratio_batched" in row:
         out += (f"; batched ({row['batch_worlds']} worlds) {row['product_batched_cpu_s_per_sim_s']:.3g} a world, "
                 f"ratio {row['ratio_batched']:.2f}")
-    return out + (f"; Δmax|θ| {row['max_theta_diff_rad']:.1e}, Δθ_end {row['final_theta_diff_rad']:.1e} rad "
-                  f"(run_many vs its loop {row['run_many_max_theta_diff_rad']:.1e})")
+    out += (f"; Δmax|θ| {row['max_theta_diff_rad']:.1e}, Δθ_end {row['final_theta_diff_rad']:.1e} rad "
+            f"(run_many vs its loop {row['run_many_max_theta_diff_rad']:.1e})")
+    for w in row.get("worlds", []):
+        out += f"\n    {w['worlds']:3} worlds: product " + (
+            f"{w['product_cpu_s_per_sim_s']:.3g}" if "product_cpu_s_per_sim_s" in w else "(one world a batch)")
+        if "native_cpu_s_per_sim_s" in w:
+            alone = w["theta_diff_from_alone_rad"]
+            out += (f", native {w['native_cpu_s_per_sim_s']:.3g} CPU s/s a world; |Δθ| from the product "
+                    f"{w['theta_diff_from_product_rad']:.1e}, from the world alone "
+                    + ("–" if alone is None else f"{alone:.1e}") + " rad")
+    return out
 
 
 def agrees(row: dict, tol_rad: float) -> bool:
@@ -332,8 +406,9 @@ def main(argv=None) -> int:
     ap.add_argument("--cells", nargs="+", default=list(CELLS), help="BLOCK:PULSE:W_RATIO:A_RATIO each")
     ap.add_argument("--settings", nargs="+", default=["calibrated", "shipped"], choices=["calibrated", "shipped"])
     ap.add_argument("--repeats", type=int, default=3, help="timed repeats of each path; the least CPU time counts")
-    ap.add_argument("--max-batch", type=int, default=None,
-                    help="most worlds of a batched run (default: the adapter's max_worlds)")
+    ap.add_argument("--worlds", type=int, nargs="+", default=[1],
+                    help="numbers of worlds: beyond 1, each cell also runs as that many copies, through the product "
+                         "and where the engine has one through its native loop of many worlds in one call")
     ap.add_argument("--theta-tol-rad", type=float, default=1e-4,
                     help="largest difference of max|θ| and final θ [rad]")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
@@ -344,14 +419,15 @@ def main(argv=None) -> int:
         figures = load(a.table)["figures"]
         print(markdown_table(figures) + "\n\n" + parts_table(figures))
         return 0
-    if a.repeats < 1 or (a.max_batch is not None and a.max_batch < 1):
-        _refuse(f"--repeats and --max-batch must be at least 1, got {a.repeats} and {a.max_batch}")
+    if a.repeats < 1 or min(a.worlds) < 1:
+        _refuse(f"--repeats and --worlds must be at least 1, got {a.repeats} and {a.worlds}")
+    ks = sorted({1, *a.worlds})
     cells = [(c, case_of(c)) for c in a.cells]   # a bad cell stops here, before anything runs
     rows = []
     for engine in a.engines:
         for settings in a.settings:
             for cell, _ in cells:
-                rows.append(measure_cell(engine, settings, cell, a.repeats, a.max_batch))
+                rows.append(measure_cell(engine, settings, cell, a.repeats, tuple(ks)))
                 print(line(rows[-1]), flush=True)
         if a.record:   # rewritten after each engine, so a stopped run keeps what it measured
             command = "python tests/measurements/bench_native_floor.py " + " ".join(argv or sys.argv[1:])
