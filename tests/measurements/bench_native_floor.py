@@ -51,7 +51,7 @@ from records import load, write_record  # noqa: E402
 from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
 from rockbench.benchmark.suites.model import restitution_for  # noqa: E402
 from rockbench.engines.contract import Case  # noqa: E402
-from rockbench.engines.motion import theta_of_quat  # noqa: E402
+from rockbench.engines.motion import pivot_pose, theta_of_quat  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
 from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
@@ -208,6 +208,114 @@ def native_drake(ad, run, case, s, dt, n_steps):
     return drake_worlds(ad, run, case, s, dt, n_steps, 1)[0]
 
 
+# --- many worlds in one engine call where the adapter runs one (measured, not in the product) ------
+
+def dart_prepare(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
+    """A DART world of ``k`` worlds: the adapter's one-world scene (a world of its own) and ``k − 1`` more
+    tables and blocks (its ``table_skeleton`` and ``block_skeleton``), every pair of body nodes of two
+    different worlds on the collision filter's black list, so each block touches its own table alone."""
+    import dartpy as dart   # optional engine library
+    from rockbench.engines.adapters.dart import _Scene, block_skeleton, table_skeleton
+
+    if s["drive"] != "inertial" or not s["planar"]:
+        raise ValueError("the loop of many DART worlds drives a planar block by a force (drive inertial)")
+    scene = _Scene(case.block, s, dt)
+    scene.pairs = [(scene.table, scene.block)]
+    for w in range(1, k):
+        pair = (table_skeleton(dart, s, f"table{w}")[0], block_skeleton(dart, case.block, s, f"block{w}")[0])
+        for skeleton in pair:
+            scene.world.addSkeleton(skeleton)
+        scene.pairs.append(pair)
+    apart = dart.collision.BodyNodeCollisionFilter()
+    nodes = [[sk.getBodyNode(0) for sk in pair] for pair in scene.pairs]
+    for i in range(k):
+        for j in range(i + 1, k):
+            for a in nodes[i]:
+                for b in nodes[j]:
+                    apart.addBodyNodePairToBlackList(a, b)
+    scene.world.getConstraintSolver().getCollisionOption().collisionFilter = apart
+    scene.apart = apart   # the option holds it by reference: kept alive with the scene
+    return scene
+
+
+def dart_worlds(ad, scene, case, s, dt, n_steps, k: int) -> np.ndarray:
+    """DART, ``k`` blocks in one ``World`` (:func:`dart_prepare`), each driven by its own generalized force
+    −m·ü on its x dof (ü the step average; the adapter tilts gravity, which one world of many cannot):
+    one ``World.step`` a step, θ of each world read after it ``(k, n_steps)``."""
+    xc, zc = pivot_pose(case.block, 0.0)
+    blocks = [block for _, block in scene.pairs]
+    for block in blocks:
+        block.setPositions([zc, xc, 0.0])
+        block.setVelocities(np.zeros(3))
+    world = scene.world
+    world.setGravity([0.0, 0.0, -G])
+    world.setTime(0.0)
+    world.getConstraintSolver().setCollisionDetector(scene.detector())
+    n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9)))
+    drives = [(block.setForces, [[0.0, f, 0.0] for f in (-case.block.mass_kg * _step_average(case.pulse, dt, n_pulse)).tolist()])
+              for block in blocks]
+    reads = [block.getPositions for block in blocks]
+    theta = np.empty((k, n_steps))
+    for i in range(n_steps):
+        if i < n_pulse:
+            for set_forces, forces in drives:
+                set_forces(forces[i])
+        world.step()
+        for w, read in enumerate(reads):
+            theta[w, i] = read()[2]
+    return theta
+
+
+_PYBULLET_CLIENTS: list = []   # the last client pybullet_prepare made, disconnected by the next call
+
+
+def pybullet_prepare(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
+    """A PyBullet DIRECT client of ``k`` worlds: the adapter's table and block (its ``build`` on a client of
+    its own) and ``k − 1`` more (its ``add_bodies`` and ``apply_dynamics``), world ``w``'s table and block
+    in collision group and mask bit ``w``, so each block touches its own table alone."""
+    from rockbench.engines.adapters.pybullet import _Scene
+
+    if s["drive"] != "inertial" or not s["planar"]:
+        raise ValueError("the loop of many PyBullet worlds drives planar blocks through gravity (drive inertial)")
+    while _PYBULLET_CLIENTS:
+        old = _PYBULLET_CLIENTS.pop()
+        old.pb.disconnect(physicsClientId=old.cid)
+    sc = ad.build(case.block, s, dt, sc=_Scene())
+    _PYBULLET_CLIENTS.append(sc)
+    sc.bodies = [(sc.table, sc.block, sc.block_link)]
+    for _ in range(1, k):
+        sc.bodies.append(sc.add_bodies(case.block, True, ad.points(s)))
+        sc.apply_dynamics(s, *sc.bodies[-1])
+    for w, (table, body, link) in enumerate(sc.bodies):
+        sc.pb.setCollisionFilterGroupMask(table, -1, 1 << w, 1 << w, physicsClientId=sc.cid)
+        sc.pb.setCollisionFilterGroupMask(body, link, 1 << w, 1 << w, physicsClientId=sc.cid)
+    return sc
+
+
+def pybullet_worlds(ad, sc, case, s, dt, n_steps, k: int) -> np.ndarray:
+    """PyBullet, ``k`` blocks in one client (:func:`pybullet_prepare`), all under the cell's one pulse
+    through the gravity vector, as the adapter drives one (cells of different pulses in one client would
+    need a force per block: in PyBullet 3.2 a force at a link's centre, ``applyExternalForce`` in either
+    frame, does not turn the block on its corner, measured; so this is the cost of copies of one cell, a
+    floor for a batch of cells): one ``stepSimulation`` a step, θ of each world read after it."""
+    pb, cid = sc.pb, sc.cid
+    xc, zc = pivot_pose(case.block, 0.0)
+    for _, body, _ in sc.bodies:
+        for j, q in ((0, xc), (1, zc - case.block.height_m / 2), (2, 0.0)):
+            pb.resetJointState(body, j, q, 0.0, physicsClientId=cid)
+    n_pulse = int(math.ceil(case.pulse.duration_s / dt - 1e-9))
+    acc = (-case.pulse.accel((np.arange(min(n_steps, n_pulse + 1)) + 0.5) * dt)).tolist()
+    bodies = [body for _, body, _ in sc.bodies]
+    gravity, step, joint = pb.setGravity, pb.stepSimulation, pb.getJointState
+    theta = np.empty((k, n_steps))
+    for i in range(n_steps):
+        if i < len(acc):
+            gravity(acc[i], 0.0, -G, physicsClientId=cid)
+        step(physicsClientId=cid)
+        for w, body in enumerate(bodies):
+            theta[w, i] = joint(body, 2, physicsClientId=cid)[0]
+    return theta
+
 NATIVE = {"mujoco": native_mujoco, "pybullet": native_pybullet, "dart": native_dart, "physx": native_physx,
           "exudyn": native_exudyn, "drake": native_drake}
 
@@ -242,7 +350,8 @@ def started(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
 
 #: engine → (its scene of ``k`` worlds made before the clock, the loop of ``k`` worlds in one engine
 #: call ``(ad, scene, case, s, dt, n_steps, k) -> θ (k, n_steps)``)
-WORLDS = {"physx": (started, physx_worlds), "drake": (started, drake_worlds)}
+WORLDS = {"physx": (started, physx_worlds), "drake": (started, drake_worlds), "dart": (dart_prepare, dart_worlds),
+          "pybullet": (pybullet_prepare, pybullet_worlds)}
 
 
 def measure_worlds(engine: str, ad, case: Case, posed: Case, s: dict, theta: np.ndarray, ks: list, repeats: int) -> list:
