@@ -213,7 +213,7 @@ def native_drake(ad, run, case, s, dt, n_steps):
 def dart_prepare(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
     """A DART world of ``k`` worlds: the adapter's one-world scene (a world of its own) and ``k − 1`` more
     tables and blocks (its ``table_skeleton`` and ``block_skeleton``), every pair of body nodes of two
-    different worlds on the collision filter's black list, so each block touches its own table alone."""
+    different worlds on the black list of the solver's collision filter, so each block touches its own table alone."""
     import dartpy as dart   # optional engine library
     from rockbench.engines.adapters.dart import _Scene, block_skeleton, table_skeleton
 
@@ -226,15 +226,14 @@ def dart_prepare(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
         for skeleton in pair:
             scene.world.addSkeleton(skeleton)
         scene.pairs.append(pair)
-    apart = dart.collision.BodyNodeCollisionFilter()
+    # the solver's own filter (dartpy's getCollisionOption returns a copy, which shares the filter)
+    apart = scene.world.getConstraintSolver().getCollisionOption().collisionFilter
     nodes = [[sk.getBodyNode(0) for sk in pair] for pair in scene.pairs]
     for i in range(k):
         for j in range(i + 1, k):
             for a in nodes[i]:
                 for b in nodes[j]:
                     apart.addBodyNodePairToBlackList(a, b)
-    scene.world.getConstraintSolver().getCollisionOption().collisionFilter = apart
-    scene.apart = apart   # the option holds it by reference: kept alive with the scene
     return scene
 
 
