@@ -508,6 +508,30 @@ def parts_table(figures: dict) -> str:
     return "\n".join(lines)
 
 
+def worlds_table(figures: dict) -> str:
+    """Cost a world at each number of worlds (:func:`measure_worlds`), per engine and settings, as a
+    Markdown table: CPU s per simulated s totalled over the cells, each over the native loop's one world,
+    and the largest |Δθ| of any world from the same loop's world alone (0: bit for bit)."""
+    groups: dict = {}
+    for r in figures["rows"]:
+        for w in r.get("worlds", []):
+            g = groups.setdefault((r["engine"], r["settings"], w["worlds"]), {"sim": 0.0, "product": 0.0, "native": 0.0,
+                                                                              "alone": 0.0, "has_product": True})
+            g["sim"] += r["simulated_s"]
+            g["has_product"] &= "product_cpu_s_per_sim_s" in w
+            g["product"] += w.get("product_cpu_s_per_sim_s", math.nan) * r["simulated_s"]
+            g["native"] += w.get("native_cpu_s_per_sim_s", math.nan) * r["simulated_s"]
+            g["alone"] = max(g["alone"], w.get("theta_diff_from_alone_rad") or 0.0)
+    lines = ["| engine | settings | worlds | product a world | native a world | product / native one world | "
+             "native / native one world | max \\|Δθ\\| from alone [rad] |", "|---|---|---|---|---|---|---|---|"]
+    for (engine, settings, k), g in groups.items():
+        one = groups[(engine, settings, 1)]["native"] / groups[(engine, settings, 1)]["sim"]
+        product, native = g["product"] / g["sim"], g["native"] / g["sim"]
+        shown = f"{product:.3g} | " if g["has_product"] else "one world a batch | "
+        ratio = f"{product / one:.2f} | " if g["has_product"] else "– | "
+        lines.append(f"| {engine} | {settings} | {k} | {shown}{native:.3g} | {ratio}{native / one:.2f} | {g['alone']:.1g} |")
+    return "\n".join(lines)
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", nargs="+", default=list(ENGINES), choices=list(ENGINES))
@@ -525,7 +549,8 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     if a.table:
         figures = load(a.table)["figures"]
-        print(markdown_table(figures) + "\n\n" + parts_table(figures))
+        print(markdown_table(figures) + "\n\n" + parts_table(figures)
+              + ("\n\n" + worlds_table(figures) if any("worlds" in r for r in figures["rows"]) else ""))
         return 0
     if a.repeats < 1 or min(a.worlds) < 1:
         _refuse(f"--repeats and --worlds must be at least 1, got {a.repeats} and {a.worlds}")
