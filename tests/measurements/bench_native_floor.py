@@ -1,29 +1,35 @@
 """The native floor: each CPU engine's cells through the product and through a minimal native loop.
 
-What a cell costs through the product against the smallest native loop of the same model, and whether
-both give the same θ history. Measures and prints; it fails (exit 1) only where the two θ histories
-disagree, never on time.
+What a cell costs through the product against the smallest native loop of the same model, one world
+and many worlds in one engine call, and whether both give the same θ history. Measures and prints;
+it fails (exit 1) only where the two θ histories disagree, never on time.
 
     python tests/measurements/bench_native_floor.py [--engines mujoco pybullet dart physx exudyn drake]
         [--cells B3M:sine:3:5 B3M:sine:3:1.5 B8M:sine:3:1.5] [--settings calibrated shipped]
-        [--repeats 3] [--max-batch N] [--record NAME] [--table NAME]
+        [--repeats 3] [--worlds 1 4 16] [--record NAME] [--table NAME]
 
 For each engine, settings (``calibrated`` at the time-step rule's step, ``shipped`` at the engine's own)
 and cell (``BLOCK:PULSE:W_RATIO:A_RATIO``: ω/p and a₀/(g·tanα), restitution Housner), on a warm adapter
 (its calibration cached and its scene built before the clock starts):
 
-* *product*: the adapter's batch entry ``run_many`` on the cell alone (one world), and on
-  ``max_worlds`` copies of it (at most ``--max-batch``) where the adapter batches (cost per world);
+* *product*: the adapter's batch entry ``run_many`` on the cell alone (one world);
 * *native*: the same scene (the adapter's own ``build``, made before the clock starts; the block placed
   by its ``start``), the same step, the same drive (``inertial``: the table fixed, −m·ü on the block,
   ü as the adapter takes it: the step average, PyBullet's at the step's midpoint) and the same simulated
   time, stepped by the engine's own API in the smallest loop it has (MuJoCo: one ``rollout`` call;
   Drake: one ``AdvanceTo``; Exudyn: one ``SolveSteps`` a segment of the product's ``segment_s``, since
   its adaptive step restarts at each call; PyBullet, DART, PhysX: a Python loop of step calls reading θ
-  after each). A product that builds its scene for every case (PhysX) pays for it; the native loop
-  does not.
+  after each).
 
-The batched run is that many copies of the one cell (every world ends at the same step).
+``--worlds K ...`` adds, for each K, the cell as K copies: through the product (``run_many`` of K
+copies, where the adapter runs K worlds a batch) and through a native loop of K worlds in one engine
+call (:data:`WORLDS`): PhysX, K blocks at the origin in the adapter's scene, each colliding with its
+own table alone (collision groups); Drake, K blocks in one plant, each on its own planar joint (the
+adapter's diagram of K worlds); DART, K tables and blocks in one ``World``, every pair of two worlds on
+the collision filter's black list, each block driven by its own force; PyBullet, K tables and blocks in
+one client, collision group and mask bit per world, under the one pulse's gravity. It prints the cost
+a world and the largest |Δθ| of any world from the product's one-world run and from the same loop's
+world alone (0: bit for bit).
 
 The simulated time is the product run's (it stops where floor 1's end-of-run rule stops it). Printed:
 CPU seconds per simulated second of each path (``time.process_time``: every thread of this process,
