@@ -98,38 +98,8 @@ class _Scene:
         self.detector = getattr(dart.collision, COLLISION_DETECTORS[s["collision_detector"]])
         solver.setCollisionDetector(self.detector())
         solver.setSplitImpulseEnabled(bool(s["split_impulse"]))
-        mu, e = float(s["friction"]), float(s["contact_restitution"])
-        self.table = dart.dynamics.Skeleton("table")
-        if self.drive == "table":
-            joint, body = self.table.createPrismaticJointAndBodyNodePair()
-            joint.setAxis([1.0, 0.0, 0.0])
-            joint.setActuatorType(dart.dynamics.ActuatorType.ACCELERATION)
-            self.table_joint = joint
-        else:
-            _, body = self.table.createWeldJointAndBodyNodePair()
-            self.table.setMobile(False)
-            self.table_joint = None
-        hx, hy, hz = _TABLE_HALF_EXTENTS_M
-        shape = body.createShapeNode(dart.dynamics.BoxShape([2 * hx, 2 * hy, 2 * hz]))
-        shape.setRelativeTranslation([0.0, 0.0, -hz])
-        _contact_aspects(shape, mu, 1.0)
-        self.block = dart.dynamics.Skeleton("block")
-        if self.planar:
-            self.joint, node = self.block.createPlanarJointAndBodyNodePair()
-            self.joint.setZXPlane()  # positions (z, x, θ about +y)
-        else:
-            self.joint, node = self.block.createFreeJointAndBodyNodePair()
-        box = dart.dynamics.BoxShape([block.width_m, block.depth_m, block.height_m])
-        if self.planar:
-            # one contact point per bottom corner: a sphere flush inside it, in the plane y = 0
-            r = float(s["corner_radius_m"])
-            for side in (1.0, -1.0):
-                sphere = node.createShapeNode(dart.dynamics.SphereShape(r))
-                sphere.setRelativeTranslation([side * (block.width_m / 2 - r), 0.0, -block.height_m / 2 + r])
-                _contact_aspects(sphere, mu, e)
-        else:
-            _contact_aspects(node.createShapeNode(box), mu, e)
-        node.setInertia(dart.dynamics.Inertia(block.mass_kg, [0.0, 0.0, 0.0], box.computeInertia(block.mass_kg)))
+        self.table, self.table_joint = table_skeleton(dart, s)
+        self.block, self.joint = block_skeleton(dart, block, s)
         world.addSkeleton(self.table)
         world.addSkeleton(self.block)
         self.world, self._dart = world, dart
@@ -211,6 +181,50 @@ def _scene(pid: int, block: Block, dt_s: float, settings: tuple) -> _Scene:
     """This process's world for a block, step [s] and the settings it depends on (``(name, value)``
     pairs); ``pid`` keys it by process, so a forked worker builds its own."""
     return _Scene(block, dict(settings), dt_s)
+
+
+def table_skeleton(dart, s: dict, name: str = "table") -> tuple:
+    """The table of the resolved settings ``s``: a box whose top is z = 0, welded (inertial drive) or
+    kinematic on a prismatic joint along x (table drive); the skeleton and that joint (None: welded)."""
+    table = dart.dynamics.Skeleton(name)
+    if s["drive"] == "table":
+        joint, body = table.createPrismaticJointAndBodyNodePair()
+        joint.setAxis([1.0, 0.0, 0.0])
+        joint.setActuatorType(dart.dynamics.ActuatorType.ACCELERATION)
+    else:
+        _, body = table.createWeldJointAndBodyNodePair()
+        table.setMobile(False)
+        joint = None
+    hx, hy, hz = _TABLE_HALF_EXTENTS_M
+    shape = body.createShapeNode(dart.dynamics.BoxShape([2 * hx, 2 * hy, 2 * hz]))
+    shape.setRelativeTranslation([0.0, 0.0, -hz])
+    _contact_aspects(shape, float(s["friction"]), 1.0)
+    return table, joint
+
+
+def block_skeleton(dart, block: Block, s: dict, name: str = "block") -> tuple:
+    """The block of the resolved settings ``s``: on a planar joint in the z–x plane (positions z, x, θ
+    about +y) with a sphere flush inside each bottom corner, or a box on a free joint; the skeleton and
+    its joint."""
+    mu, e = float(s["friction"]), float(s["contact_restitution"])
+    skeleton = dart.dynamics.Skeleton(name)
+    if s["planar"]:
+        joint, node = skeleton.createPlanarJointAndBodyNodePair()
+        joint.setZXPlane()  # positions (z, x, θ about +y)
+    else:
+        joint, node = skeleton.createFreeJointAndBodyNodePair()
+    box = dart.dynamics.BoxShape([block.width_m, block.depth_m, block.height_m])
+    if s["planar"]:
+        # one contact point per bottom corner: a sphere flush inside it, in the plane y = 0
+        r = float(s["corner_radius_m"])
+        for side in (1.0, -1.0):
+            sphere = node.createShapeNode(dart.dynamics.SphereShape(r))
+            sphere.setRelativeTranslation([side * (block.width_m / 2 - r), 0.0, -block.height_m / 2 + r])
+            _contact_aspects(sphere, mu, e)
+    else:
+        _contact_aspects(node.createShapeNode(box), mu, e)
+    node.setInertia(dart.dynamics.Inertia(block.mass_kg, [0.0, 0.0, 0.0], box.computeInertia(block.mass_kg)))
+    return skeleton, joint
 
 
 def _contact_aspects(shape_node, friction: float, restitution: float) -> None:
