@@ -18,7 +18,8 @@ change; everything else is this base's, and the same for every engine:
   ``KNOBS`` (:class:`~rockbench.engines.calibration.knobs.Knob`: name, unit, values), and where the
   engine builds a row of contact points along the base, ``CONTACT_ROWS`` and ``ROW_KNOBS``;
 * **settings**: the shared settings checked once, and one resolution (:meth:`ContactEngine.settings_with`);
-* **the time step**: one resolver (:meth:`ContactEngine.step_for`), the time-step rule's step
+* **the time step**: every case posed once (:meth:`ContactEngine.posed`) by the one resolver, a function
+  of the engine (:func:`rockbench.engines.calibration.time_step.step_for`), the time-step rule's step
   calibrated (:mod:`rockbench.engines.calibration.step_rule`);
 * **the run**: one stepping loop and one end of a run (:mod:`rockbench.engines.loop`), cases batched
   up to ``max_worlds`` worlds, a run the engine halts retried as ``RETRIES`` says;
@@ -31,21 +32,21 @@ change; everything else is this base's, and the same for every engine:
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from typing import Any, ClassVar, Mapping
 
 
 from rockbench.reference_solver.classify import overturn_certain
-from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.reference_solver.errors import ConfigError
 from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution, housner_eta
-from rockbench.reference_solver.rules import RULES_VERSION
 from rockbench.engines import progress
-from rockbench.engines.calibration import cache, held_out, knobs, routine, step_rule
+from rockbench.engines.calibration import held_out, knobs, routine, time_step
 from rockbench.engines.calibration.free_rocking import free_rocking_run
 from rockbench.engines.calibration.routine import POINTS_TRIED
-from rockbench.engines.contract import CONTRACT_VERSION, SETTINGS_MODES, CalibrationResult, EngineAdapter
+from rockbench.engines.contract import SETTINGS_MODES, CalibrationResult, EngineAdapter
 from rockbench.engines.hooks import hook_line, required
 from rockbench.engines.loop import run_worlds
 
@@ -143,7 +144,6 @@ class ContactEngine(EngineAdapter):
         #: the adapter's own store of what it builds (scenes, compiled models), kept for its life
         self.scenes: dict = {}
         self._resolved: dict = {}
-        self._steps: dict = {}
         self._itself: ContactEngine | None = None
 
     # -- settings -----------------------------------------------------------------------------
@@ -235,70 +235,17 @@ class ContactEngine(EngineAdapter):
         return type(self)(**{**self.settings, **given, "calibrate_on": None})
 
     # -- the time step ------------------------------------------------------------------------
-    def step_for(self, block: Block, eta: float, pulse=None, dt_s: float | None = None,
-                 restitution: Restitution | None = None) -> float:
-        """The one time-step resolver of a contact engine [s]: ``dt_s`` where given; as shipped the
-        engine's own step (:attr:`own_dt_s`), never coarser than the pulse accepts, or where it ships
-        none :attr:`fixed_dt_s`; calibrated at the corners, the time-step rule's step for the block the
-        calibration is made on (:mod:`~rockbench.engines.calibration.step_rule`) at the η it aims at
-        there (:meth:`calibration_target` where ``restitution``, the law behind ``eta``, is given; else
-        ``eta``), never coarser than the pulse accepts; otherwise (a contact given, a row along the
-        base) :attr:`fixed_dt_s`, the row's never coarser than the pulse accepts. Checked against
-        ``pulse`` where one is given."""
-        if dt_s is not None:
-            dt = check_positive("--dt", dt_s, "s")
-        elif self.as_shipped():
-            dt = self.fixed_dt_s if self.own_dt_s is None else _capped(self.own_dt_s, pulse)
-        elif not self.calibrated():
-            dt = self.fixed_dt_s
-        else:
-            on, target = (self.calibration_target(block, restitution) if restitution is not None
-                          else (self.calibration_block(block), eta))
-            rowed = self.contact_layout(on, target) == "distributed"
-            dt = _capped(self.fixed_dt_s if rowed else self.rule_step(on, target)[0], pulse)
-        return dt if pulse is None else pulse.check_dt(dt)
-
-    def free_rocking_step(self, dt_s: float | None = None) -> float:
-        """The step of a free-rocking test or a calibration asked for without one, outside any case
-        (:func:`~rockbench.engines.calibration.free_rocking.measure_restitution`,
-        :func:`~rockbench.engines.calibration.routine.calibrate`) [s]: ``dt_s`` where given; as shipped the
-        engine's own step (:attr:`own_dt_s`, else :attr:`fixed_dt_s`); otherwise :attr:`fixed_dt_s`.
-        (A case's step is :meth:`step_for`'s; give ``dt_s=step_for(block, eta)`` to test at it.)"""
-        if dt_s is not None:
-            return check_positive("--dt", dt_s, "s")
-        return self.own_dt_s if self.as_shipped() and self.own_dt_s is not None else self.fixed_dt_s
-
-    def rule_step(self, block: Block, eta: float) -> tuple[float, dict]:
-        """The time-step rule's step for ``block`` at η [s] and its record, cached on disk with the
-        calibrations; the search runs on ``block`` itself (``calibrate_on`` left out: its probe runs are
-        of the block the step is for), so a held-out calibration shares the step of the block it names."""
-        # read once per adapter, block, η and settings (the disk key, the engine's version among
-        # its parts, costs more to make than a short run: a calibrated cell asks for its step)
-        memo = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(float(eta), 12),
-                tuple(sorted((k, str(v)) for k, v in self.settings.items())))
-        if memo in self._steps:
-            return float(self._steps[memo]["dt_s"]), self._steps[memo]
-        on = self._on_itself()
-        key = cache.adapter_key(self, contract=CONTRACT_VERSION, kind="step-rule",
-                                rules_version=RULES_VERSION, block=[block.width_m, block.height_m, block.depth_m,
-                                                                    block.mass_kg],
-                                target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
-                                probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
-                                        step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
-                                settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
-        rec = cache.load(key)
-        if rec is None:
-            with progress.activity(f"{self.name}: time-step rule for {block.name} at η {eta:.4f}"):
-                rec = step_rule.converged_step(lambda dt: routine.calibrate(on, block, eta, dt_s=dt), on._judged,
-                                                block, eta)[1]
-            cache.store(key, rec, self.name)
-        self._steps[memo] = rec
-        return float(rec["dt_s"]), rec
+    def posed(self, case):
+        """``case`` with its step decided once, by the one resolver of a contact engine
+        (:func:`~rockbench.engines.calibration.time_step.step_for`): what runs."""
+        return dataclasses.replace(case, dt_s=time_step.step_for(self, case.block, case.eta, case.pulse, case.dt_s,
+                                                                 restitution=case.restitution))
 
     # -- resolve: a contact given, or as shipped, or calibrated -----------------------------------
     def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
         """The concrete settings cases of this block, restitution and step [s] use (for run.json; the
-        step where none is given: :meth:`step_for`, and the time-step rule's record with it).
+        step where none is given: :func:`~rockbench.engines.calibration.time_step.step_for`, and the
+        time-step rule's record with it).
 
         A contact given, else as shipped the engine's, else the calibration to the restitution's η
         at this step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached) made on :meth:`calibration_block` (the record's
@@ -306,7 +253,7 @@ class ContactEngine(EngineAdapter):
         (:meth:`calibration_target`); :meth:`settings_with` resolves them. Memoised."""
         on, eta = self.calibration_target(block, restitution) if self.calibrated() else \
             (block, restitution.eta(block.alpha_rad))
-        dt = self.step_for(block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
+        dt = time_step.step_for(self, block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
             cal = routine.calibrate(self._on_itself(), on, eta, dt_s=dt) if self.calibrated() else None
@@ -319,14 +266,14 @@ class ContactEngine(EngineAdapter):
             self._resolved[key] = out
         out = as_written(self._resolved[key])
         if dt_s is None and out.get("calibration") and self.contact_layout(on, eta) == "corners":
-            out["calibration"] = {**out["calibration"], "step_rule": self.rule_step(on, eta)[1]}
+            out["calibration"] = {**out["calibration"], "step_rule": time_step.rule_step(self, on, eta)[1]}
         return out
 
     def _equals_shipped(self, block: Block, eta: float, dt: float, resolved: dict) -> bool:
         """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
         same settings at its own step (then the two variants give one answer, counted once)."""
         shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None})
-        if shipped.step_for(block, eta) != dt:
+        if time_step.step_for(shipped, block, eta) != dt:
             return False
         skip = ("settings", "calibration")
         other = shipped.settings_with()
@@ -459,10 +406,6 @@ class ContactEngine(EngineAdapter):
         if points is None:
             return knobs.search(self.KNOBS, block, target, dt_s, measure, self.START_KEEP_RTOL, self.SHIPPED)
         return knobs.search(self.ROW_KNOBS, block, target, dt_s, measure)
-
-
-def _capped(dt: float, pulse) -> float:
-    return float(dt) if pulse is None else min(float(dt), pulse.max_dt_s())
 
 
 def _halted(tr, block: Block) -> bool:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from rockbench.engines.calibration import cache
+from rockbench.engines.calibration import cache, time_step
 from rockbench.engines.calibration.price import price_line
 from rockbench.engines.registry import names
 from rockbench.reference_solver.errors import ConfigError, RockbenchError
@@ -96,10 +96,10 @@ def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
         rest = request.restitution_law(preset, token=args.target, option="--target")
         target = rest.eta(block.alpha_rad)
         step_rule = None
-        if dt is None:   # the step the benchmark runs the block at (the one resolver), and the rule's record
-            dt = adapter.step_for(block, target)
-            if getattr(adapter, "calibrated", lambda: False)() and adapter.contact_layout(block, target) == "corners":
-                step_rule = adapter.rule_step(block, target)[1]
+        if dt is None and isinstance(adapter, ContactEngine):   # the step the benchmark runs the block at (the
+            dt = time_step.step_for(adapter, block, target)        # one resolver), and the rule's record
+            if adapter.calibrated() and adapter.contact_layout(block, target) == "corners":
+                step_rule = time_step.rule_step(adapter, block, target)[1]
         c = calibrate(adapter, block, target, dt_s=dt, use_cache=not args.no_cache)
         if args.price and c.price is None:
             if not isinstance(adapter, ContactEngine):
