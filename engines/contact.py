@@ -2,7 +2,9 @@
 
 A contact engine simulates the block touching the table through the engine's own contact model. Its
 adapter implements four batch-shaped methods and declares what it ships and what a calibration may
-change; everything else is this base's, and the same for every engine:
+change; this base keeps what every run needs (the settings, a case posed and resolved, the one loop),
+and the policies are functions of the engine in :mod:`rockbench.engines.calibration` (the time step,
+free rocking, the calibration and its price), the same for every engine:
 
 * **the four methods**: ``build(block, s, dt_s)`` the scene for a block and the resolved settings
   ``s``; ``start(scene, block, s, dt_s, pulses, theta0_rad, n_steps)`` one world per pulse (None: free
@@ -26,8 +28,9 @@ change; everything else is this base's, and the same for every engine:
 * **free rocking**: one test (:func:`rockbench.engines.calibration.free_rocking.measure_restitution`, a
   function of the engine), η read by the one reader; the base's ``measure_many`` hook runs it per setting;
 * **the calibration**: one routine (:func:`rockbench.engines.calibration.routine.calibrate`, a function
-  of the engine): the knobs searched
-  (or the engine's own ``candidates``), the one pick, the cache; a row along the base at a price.
+  of the engine): the knobs searched (or the engine's own ``candidates``), the one pick, the cache; a
+  row along the base at a price (:mod:`rockbench.engines.calibration.layout`); the block calibrated on
+  (:mod:`rockbench.engines.calibration.held_out`).
 """
 
 from __future__ import annotations
@@ -41,9 +44,9 @@ from rockbench.reference_solver.classify import overturn_certain
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
-from rockbench.reference_solver.restitution import Restitution, housner_eta
+from rockbench.reference_solver.restitution import Restitution
 from rockbench.engines import progress
-from rockbench.engines.calibration import held_out, knobs, routine, time_step
+from rockbench.engines.calibration import held_out, knobs, layout, routine, time_step
 from rockbench.engines.calibration.free_rocking import free_rocking_run
 from rockbench.engines.calibration.routine import POINTS_TRIED
 from rockbench.engines.contract import SETTINGS_MODES, CalibrationResult, EngineAdapter
@@ -202,24 +205,6 @@ class ContactEngine(EngineAdapter):
             s["contact_points"] = POINTS_TRIED[0]
         return s
 
-    def contact_layout(self, block: Block, target: float) -> str:
-        """``corners`` or ``distributed``: the contact a calibration to ``target`` builds (``auto``: the
-        corners up to 1 % above Housner's η_H, a row of points along the base above)."""
-        kind = self.settings.get("contact") if self.CONTACT_ROWS else "corners"
-        if kind == "auto":
-            kind = "corners" if target <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
-        return "distributed" if kind == "distributed" else "corners"
-
-    def calibration_block(self, block: Block) -> Block:
-        """The block the calibration of ``block``'s runs is made on: ``block`` itself, or the block the
-        ``calibrate_on`` setting names (:func:`~rockbench.engines.calibration.held_out.calibration_block`)."""
-        return held_out.calibration_block(self.settings.get("calibrate_on"), block)
-
-    def calibration_target(self, block: Block, restitution: Restitution) -> tuple[Block, float]:
-        """The block the calibration of ``block``'s runs is made on and the η it aims at there [-]
-        (:func:`~rockbench.engines.calibration.held_out.calibration_target`: the law's η for that block)."""
-        return held_out.calibration_target(self.settings.get("calibrate_on"), block, restitution)
-
     def _on_itself(self) -> "ContactEngine":
         """This adapter, or without ``calibrate_on`` a copy of it that calibrates every block on itself."""
         if not self.settings.get("calibrate_on"):
@@ -227,12 +212,6 @@ class ContactEngine(EngineAdapter):
         if self._itself is None:
             self._itself = type(self)(**{**self.settings, "calibrate_on": None})
         return self._itself
-
-    def fixed(self, contact: Mapping) -> "ContactEngine":
-        """A copy of this adapter with the contact ``contact`` given (a calibration's settings: no
-        calibration behind its runs)."""
-        given = {k: v for k, v in contact.items() if k in self.SETTINGS}
-        return type(self)(**{**self.settings, **given, "calibrate_on": None})
 
     # -- the time step ------------------------------------------------------------------------
     def posed(self, case):
@@ -248,11 +227,12 @@ class ContactEngine(EngineAdapter):
         time-step rule's record with it).
 
         A contact given, else as shipped the engine's, else the calibration to the restitution's η
-        at this step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached) made on :meth:`calibration_block` (the record's
-        ``calibrated_on`` names another) and aimed at the law's η for that block
-        (:meth:`calibration_target`); :meth:`settings_with` resolves them. Memoised."""
-        on, eta = self.calibration_target(block, restitution) if self.calibrated() else \
-            (block, restitution.eta(block.alpha_rad))
+        at this step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached) made on the block
+        ``calibrate_on`` names (the record's ``calibrated_on`` names it) and aimed at the law's η for
+        that block (:func:`~rockbench.engines.calibration.held_out.calibration_target`);
+        :meth:`settings_with` resolves them. Memoised."""
+        on, eta = (held_out.calibration_target(self.settings["calibrate_on"], block, restitution) if self.calibrated()
+                   else (block, restitution.eta(block.alpha_rad)))
         dt = time_step.step_for(self, block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
@@ -265,7 +245,7 @@ class ContactEngine(EngineAdapter):
                 out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
         out = as_written(self._resolved[key])
-        if dt_s is None and out.get("calibration") and self.contact_layout(on, eta) == "corners":
+        if dt_s is None and out.get("calibration") and layout.contact_layout(self, on, eta) == "corners":
             out["calibration"] = {**out["calibration"], "step_rule": time_step.rule_step(self, on, eta)[1]}
         return out
 

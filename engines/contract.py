@@ -641,12 +641,6 @@ class EngineAdapter:
         """The concrete settings cases of this block, restitution and time step [s] use (for run.json)."""
         return dict(self.settings)
 
-    def calibration_block(self, block: Block) -> Block:
-        """The block whose geometry the calibration behind runs of ``block`` is made on: ``block``
-        itself (a contact engine's ``calibrate_on`` names another); a ConfigError for one it cannot
-        run ``block`` with, before anything runs."""
-        return block
-
     def as_shipped(self) -> bool:
         """Whether the engine runs as shipped: ``settings="shipped"`` (adapters without that setting
         never do)."""

@@ -19,7 +19,7 @@ from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.rules import RULES_VERSION
 from rockbench.engines import progress
 from rockbench.engines.contract import CONTRACT_VERSION
-from rockbench.engines.calibration import cache, routine, step_rule
+from rockbench.engines.calibration import cache, held_out, layout, routine, step_rule
 
 __all__ = ["step_for", "rule_step"]
 
@@ -34,7 +34,8 @@ def step_for(ad, block: Block, eta: float, pulse=None, dt_s: float | None = None
     """The one time-step resolver of contact engine ``ad`` [s]: ``dt_s`` where given; as shipped the
     engine's own step (``own_dt_s``), never coarser than the pulse accepts, or where it ships none
     ``fixed_dt_s``; calibrated at the corners, the time-step rule's step (:func:`rule_step`) for the
-    block the calibration is made on at the η it aims at there (``ad.calibration_target`` where
+    block the calibration is made on at the η it aims at there (its ``calibrate_on`` setting,
+    :func:`~rockbench.engines.calibration.held_out.calibration_target` where
     ``restitution``, the law behind ``eta``, is given; else ``eta``), never coarser than the pulse
     accepts; otherwise (a contact given, a row along the base) ``fixed_dt_s``, the row's never coarser
     than the pulse accepts. Checked against ``pulse`` where one is given."""
@@ -45,9 +46,10 @@ def step_for(ad, block: Block, eta: float, pulse=None, dt_s: float | None = None
     elif not ad.calibrated():
         dt = ad.fixed_dt_s
     else:
-        on, target = (ad.calibration_target(block, restitution) if restitution is not None
-                      else (ad.calibration_block(block), eta))
-        rowed = ad.contact_layout(on, target) == "distributed"
+        calibrate_on = ad.settings["calibrate_on"]
+        on, target = (held_out.calibration_target(calibrate_on, block, restitution) if restitution is not None
+                      else (held_out.calibration_block(calibrate_on, block), eta))
+        rowed = layout.contact_layout(ad, on, target) == "distributed"
         dt = _capped(ad.fixed_dt_s if rowed else rule_step(ad, on, target)[0], pulse)
     return dt if pulse is None else pulse.check_dt(dt)
 
