@@ -547,7 +547,7 @@ class EngineAdapter:
 
     # -- the time step (contract item 8) --------------------------------------------------------
     def posed(self, case: Case) -> Case:
-        """``case`` with its step decided once, by the one resolver: what runs [s]. ``case.dt_s`` where
+        """``case`` with its step decided once, by the one resolver: what runs. ``case.dt_s`` [s] where
         given (a finite number > 0), else the engine's own step (:attr:`own_dt_s`); checked against the
         pulse (:meth:`~rockbench.reference_solver.pulses.Pulse.check_dt`: fine enough to follow it). A
         ConfigError for a bad step. (A contact engine's resolver is
