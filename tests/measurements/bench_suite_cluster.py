@@ -1,0 +1,210 @@
+"""The quick suite on a real Dask cluster on this machine against the local run: the same maps and
+score.json, and what each costs. Measures and records; exits 1 if a run differs from the local one.
+
+    python tests/measurements/bench_suite_cluster.py [--workers 1 2] [--kill] [--no-record]
+
+Runs ``rockbench run --quick --no-report`` locally (its lanes) and then, for each ``--workers`` N, on a
+cluster of a ``dask scheduler`` and N one-thread ``dask worker`` processes on 127.0.0.1
+(tests/dask_cluster.py: the cluster tests/test_suite_dask.py checks), each run with an empty
+calibration cache of its own (the cluster's client and workers share it, as on one machine). Every
+cluster run's maps are compared with the local run's cell for cell (timing columns aside) and its
+score.json with the local one (timestamp aside).
+
+Per run: wall time and CPU time of every process. The client's (``rockbench run`` and every process it
+waited for) comes from ``getrusage(RUSAGE_CHILDREN)`` around its wait; the scheduler's and the workers'
+(each ``dask worker``, its worker process and the engine processes it waited for) from their process
+trees just before the cluster is torn down (psutil: each live process's own CPU plus that of the
+children it reaped), less what the same trees had spent when the workers were ready (start-up, kept
+apart). The scheduler's task stream gives each task's compute time by kind: ``_prepare_remote`` (a
+calibration and free-rocking η of an engine variant on a block) and ``map_task`` (a map).
+
+``--kill`` then runs the worker-death path once on a cluster of 2 workers: when the first map is
+finished, a worker busy with a task is killed (SIGKILL, its session with it); the maps finished before
+are checked intact, a worker is added and the suite rerun into the same folder, which must resume and
+end equal to the local run.
+
+The figures go to the record ``tests/measurements/results/suite-cluster-quick.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import psutil
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))          # records.py beside this script
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # tests/: the cluster of tests/test_suite_dask.py
+from records import write_record  # noqa: E402
+from dask_cluster import Cluster, differences, finished, kill, maps, run_command, start, suite_env  # noqa: E402
+
+RECORD = "suite-cluster-quick"
+MEASURES = ("The quick suite (`rockbench run --quick --no-report`) locally and on a real Dask cluster of 1 and 2 "
+            "one-thread `dask worker` processes on 127.0.0.1 (with a `dask scheduler`), each run from an empty "
+            "calibration cache: wall and CPU time of every process (client, scheduler, workers and their "
+            "children), each task's compute time by kind, and whether maps and score.json equal the local run's.")
+#: bound of one run's wait [s]
+RUN_S = 3600
+
+
+def _children_cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def tree_cpu_s(pid: int) -> float:
+    """CPU [s] of process ``pid`` and its live descendants, each with the children it reaped."""
+    try:
+        root = psutil.Process(pid)
+        procs = [root, *root.children(recursive=True)]
+    except psutil.NoSuchProcess:
+        return 0.0
+    total = 0.0
+    for p in procs:
+        try:
+            t = p.cpu_times()
+        except psutil.NoSuchProcess:
+            continue
+        total += t.user + t.system + t.children_user + t.children_system
+    return total
+
+
+def run_client(out: Path, env: dict, more: list[str], log: Path) -> dict:
+    """``rockbench run --quick`` into ``out``: its exit code, wall and CPU (with every process it waited for)."""
+    cpu0, t0 = _children_cpu_s(), time.perf_counter()
+    p = start(run_command("--quick", out, more), env, log)
+    code = p.wait(timeout=RUN_S)
+    return {"returncode": code, "wall_s": round(time.perf_counter() - t0, 1),
+            "client_cpu_s": round(_children_cpu_s() - cpu0, 1)}
+
+
+def task_costs(address: str, since_s: float | None = None) -> dict:
+    """Compute time of the tasks the scheduler's task stream holds (started after ``since_s``, epoch
+    seconds), by kind: count, total and each task's [s]."""
+    from dask.distributed import Client
+    from dask.utils import key_split
+    with Client(address, timeout=60) as c:
+        stream = c.get_task_stream(start=since_s)
+    kinds: dict = {}
+    for msg in stream:
+        compute = sum(s["stop"] - s["start"] for s in msg.get("startstops", ()) if s.get("action") == "compute")
+        k = kinds.setdefault(key_split(msg["key"]), {"n": 0, "compute_s": 0.0, "each_s": []})
+        k["n"] += 1
+        k["compute_s"] += compute
+        k["each_s"].append(round(compute, 2))
+    for k in kinds.values():
+        k["compute_s"] = round(k["compute_s"], 1)
+        k["each_s"].sort(reverse=True)
+    return kinds
+
+
+def start_task_stream(address: str) -> None:
+    """Have the scheduler record its task stream from now on (its plugin is added on first request)."""
+    from dask.distributed import Client
+    with Client(address, timeout=60) as c:
+        c.get_task_stream(count=1)
+
+
+def cluster_run(tmp: Path, n_workers: int, local: Path) -> dict:
+    """The quick suite on a fresh cluster of ``n_workers``: costs and the comparison with ``local``."""
+    tmp.mkdir(parents=True)
+    env = suite_env(tmp / "cache")
+    cluster = Cluster(tmp, env)
+    try:
+        for _ in range(n_workers):
+            cluster.add_worker()
+        cluster.wait_for(n_workers)
+        start_task_stream(cluster.address)
+        pids = {"scheduler": cluster.scheduler.pid, "workers": [w.pid for w in cluster.workers]}
+        startup = {"scheduler": tree_cpu_s(pids["scheduler"]), "workers": sum(map(tree_cpu_s, pids["workers"]))}
+        since = time.time()
+        r = run_client(tmp / "out", env, ["--scheduler", cluster.address], tmp / "client.log")
+        end = {"scheduler": tree_cpu_s(pids["scheduler"]), "workers": sum(map(tree_cpu_s, pids["workers"]))}
+        r["tasks"] = task_costs(cluster.address, since)
+    finally:
+        cluster.close()
+    r["scheduler_cpu_s"] = round(end["scheduler"] - startup["scheduler"], 1)
+    r["workers_cpu_s"] = round(end["workers"] - startup["workers"], 1)
+    r["cpu_s"] = round(r["client_cpu_s"] + r["scheduler_cpu_s"] + r["workers_cpu_s"], 1)
+    r["startup_cpu_s"] = {k: round(v, 1) for k, v in startup.items()}
+    return {**r, **_compare(local, tmp / "out")}
+
+
+def _compare(local: Path, out: Path) -> dict:
+    diff = differences(local, out) if (out / "score.json").exists() else ["score.json missing"]
+    return {"n_maps": len(maps(out)), "same_as_local": not diff, "differences": diff[:20]}
+
+
+def worker_death(tmp: Path, local: Path) -> dict:
+    """Kill a busy worker of 2 mid-suite, then rerun into the same folder (see the module docstring)."""
+    tmp.mkdir(parents=True)
+    env = suite_env(tmp / "cache")
+    out = tmp / "out"
+    cluster = Cluster(tmp, env)
+    try:
+        cluster.add_worker()
+        cluster.add_worker()
+        cluster.wait_for(2)
+        t0 = time.perf_counter()
+        run = start(run_command("--quick", out, ["--scheduler", cluster.address]), env, tmp / "killed.log")
+        try:
+            while not (before := finished(out)) and run.poll() is None and time.perf_counter() - t0 < RUN_S:
+                time.sleep(0.2)
+            busy = cluster.busy_worker(run, RUN_S)
+            if busy is None:
+                return {"killed": False, "why": "the suite ended before a busy worker could be killed"}
+            killed_at_s = time.perf_counter() - t0
+            kill(busy)
+            code = run.wait(timeout=RUN_S)
+        finally:
+            kill(run)
+        intact = all((d / "cells.csv").read_bytes() == cells for d, cells in before.items())
+        n_after_kill = len(finished(out))
+        cluster.add_worker()
+        cluster.wait_for(2)
+        rerun = run_client(out, env, ["--scheduler", cluster.address], tmp / "rerun.log")
+    finally:
+        cluster.close()
+    return {"killed": True, "killed_after_s": round(killed_at_s, 1), "maps_finished_before_kill": len(before),
+            "finished_maps_intact": intact, "killed_run_returncode": code, "maps_finished_after_killed_run": n_after_kill,
+            "rerun": rerun, **_compare(local, out)}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="cluster sizes to run (default 1 2)")
+    ap.add_argument("--kill", action="store_true", help="also kill a worker mid-suite and rerun (2 workers)")
+    ap.add_argument("--no-record", action="store_true", help="print the figures, write no record")
+    a = ap.parse_args(argv)
+    tmp = Path(tempfile.mkdtemp(prefix="rb-suite-cluster-"))
+    print(f"working in {tmp}", flush=True)
+    local_dir = tmp / "local"
+    local_dir.mkdir()
+    local = {"run": "local lanes", **run_client(local_dir / "out", suite_env(local_dir / "cache"), [],
+                                                local_dir / "client.log")}
+    local["cpu_s"], local["n_maps"] = local["client_cpu_s"], len(maps(local_dir / "out"))
+    print(local, flush=True)
+    runs = [local]
+    for n in a.workers:
+        r = {"run": f"cluster, {n} worker{'s' if n > 1 else ''}", **cluster_run(tmp / f"cluster{n}", n, local_dir / "out")}
+        print({k: v for k, v in r.items() if k != "tasks"}, flush=True)
+        runs.append(r)
+    figures = {"suite": "quick", "cores": len(os.sched_getaffinity(0)), "runs": runs}
+    if a.kill:
+        figures["worker_death"] = worker_death(tmp / "killed", local_dir / "out")
+        print(figures["worker_death"], flush=True)
+    ok = all(r.get("same_as_local", True) and r["returncode"] == 0 for r in runs) and \
+        figures.get("worker_death", {}).get("same_as_local", True)
+    command = "python tests/measurements/bench_suite_cluster.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    if not a.no_record:
+        print(write_record(RECORD, MEASURES, command.strip(), figures, packages=("dask", "distributed", "psutil")))
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
