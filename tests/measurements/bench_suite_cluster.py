@@ -15,8 +15,9 @@ waited for) comes from ``getrusage(RUSAGE_CHILDREN)`` around its wait; the sched
 (each ``dask worker``, its worker process and the engine processes it waited for) from their process
 trees just before the cluster is torn down (psutil: each live process's own CPU plus that of the
 children it reaped), less what the same trees had spent when the workers were ready (start-up, kept
-apart). The scheduler's task stream gives each task's compute time by kind: ``_prepare_remote`` (a
-calibration and free-rocking η of an engine variant on a block) and ``map_task`` (a map).
+apart). The scheduler's task stream gives each task's kind, start and end: ``_prepare_remote`` (a
+calibration and free-rocking η of an engine variant on a block) or ``map_task`` (a map);
+tests/measurements/bench_lanes_replay.py replays it on more cores.
 
 ``--kill`` then runs the worker-death path once on a cluster of 2 workers: when the first map is
 finished, a worker busy with a task is killed (SIGKILL, its session with it); the maps finished before
@@ -83,24 +84,26 @@ def run_client(out: Path, env: dict, more: list[str], log: Path) -> dict:
             "client_cpu_s": round(_children_cpu_s() - cpu0, 1)}
 
 
-def task_costs(address: str, since_s: float | None = None) -> dict:
-    """Compute time of the tasks the scheduler's task stream holds (started after ``since_s``, epoch
-    seconds), by kind: count, total and each task's [s]."""
+def task_costs(address: str, since_s: float) -> dict:
+    """The tasks of the scheduler's task stream (begun just before the run), by kind: count and total
+    compute time [s]; and ``stream``: each task's kind, compute start and end [s after ``since_s``, epoch
+    seconds] and worker (its index in order of first appearance), in order of start."""
     from dask.distributed import Client
     from dask.utils import key_split
     with Client(address, timeout=60) as c:
-        stream = c.get_task_stream(start=since_s)
-    kinds: dict = {}
-    for msg in stream:
-        compute = sum(s["stop"] - s["start"] for s in msg.get("startstops", ()) if s.get("action") == "compute")
-        k = kinds.setdefault(key_split(msg["key"]), {"n": 0, "compute_s": 0.0, "each_s": []})
+        messages = c.get_task_stream()   # the stream began (start_task_stream) on this fresh cluster just before the run
+    kinds, stream, workers = {}, [], {}
+    for msg in messages:
+        for s in msg.get("startstops", ()):
+            if s.get("action") == "compute":
+                w = workers.setdefault(msg.get("worker"), len(workers))
+                stream.append([key_split(msg["key"]), round(s["start"] - since_s, 2), round(s["stop"] - since_s, 2), w])
+    stream.sort(key=lambda t: t[1])
+    for kind, t0, t1, _ in stream:
+        k = kinds.setdefault(kind, {"n": 0, "compute_s": 0.0})
         k["n"] += 1
-        k["compute_s"] += compute
-        k["each_s"].append(round(compute, 2))
-    for k in kinds.values():
-        k["compute_s"] = round(k["compute_s"], 1)
-        k["each_s"].sort(reverse=True)
-    return kinds
+        k["compute_s"] = round(k["compute_s"] + t1 - t0, 2)
+    return {"by_kind": kinds, "stream": stream}
 
 
 def start_task_stream(address: str) -> None:
