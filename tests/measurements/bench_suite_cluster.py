@@ -11,7 +11,7 @@ cluster run's maps are compared with the local run's cell for cell (timing colum
 score.json with the local one (timestamp aside).
 
 Per run: wall time and CPU time of every process. The client's (``rockbench run`` and every process it
-waited for) comes from ``getrusage(RUSAGE_CHILDREN)`` around its wait; the scheduler's and the workers'
+waited for) comes from ``wait4`` on it; the scheduler's and the workers'
 (each ``dask worker``, its worker process and the engine processes it waited for) from their process
 trees just before the cluster is torn down (psutil: each live process's own CPU plus that of the
 children it reaped), less what the same trees had spent when the workers were ready (start-up, kept
@@ -31,10 +31,10 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import psutil
@@ -51,11 +51,6 @@ MEASURES = ("The quick suite (`rockbench run --quick --no-report`) locally and o
             "children), each task's compute time by kind, and whether maps and score.json equal the local run's.")
 #: bound of one run's wait [s]
 RUN_S = 3600
-
-
-def _children_cpu_s() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
 
 
 def tree_cpu_s(pid: int) -> float:
@@ -77,11 +72,12 @@ def tree_cpu_s(pid: int) -> float:
 
 def run_client(out: Path, env: dict, more: list[str], log: Path) -> dict:
     """``rockbench run --quick`` into ``out``: its exit code, wall and CPU (with every process it waited for)."""
-    cpu0, t0 = _children_cpu_s(), time.perf_counter()
+    t0 = time.perf_counter()
     p = start(run_command("--quick", out, more), env, log)
-    code = p.wait(timeout=RUN_S)
-    return {"returncode": code, "wall_s": round(time.perf_counter() - t0, 1),
-            "client_cpu_s": round(_children_cpu_s() - cpu0, 1)}
+    _, status, usage = os.wait4(p.pid, 0)   # this child's CPU with that of every process it waited for
+    p.returncode = os.waitstatus_to_exitcode(status)
+    return {"returncode": p.returncode, "wall_s": round(time.perf_counter() - t0, 1),
+            "client_cpu_s": round(usage.ru_utime + usage.ru_stime, 1)}
 
 
 def task_costs(address: str, since_s: float) -> dict:
@@ -113,7 +109,7 @@ def start_task_stream(address: str) -> None:
         c.get_task_stream(count=1)
 
 
-def cluster_run(tmp: Path, n_workers: int, local: Path) -> dict:
+def cluster_run(tmp: Path, n_workers: int, local: Path, compare: bool = True) -> dict:
     """The quick suite on a fresh cluster of ``n_workers``: costs and the comparison with ``local``."""
     tmp.mkdir(parents=True)
     env = suite_env(tmp / "cache")
@@ -135,7 +131,7 @@ def cluster_run(tmp: Path, n_workers: int, local: Path) -> dict:
     r["workers_cpu_s"] = round(end["workers"] - startup["workers"], 1)
     r["cpu_s"] = round(r["client_cpu_s"] + r["scheduler_cpu_s"] + r["workers_cpu_s"], 1)
     r["startup_cpu_s"] = {k: round(v, 1) for k, v in startup.items()}
-    return {**r, **_compare(local, tmp / "out")}
+    return {**r, **_compare(local, tmp / "out")} if compare else r
 
 
 def _compare(local: Path, out: Path) -> dict:
@@ -178,34 +174,56 @@ def worker_death(tmp: Path, local: Path) -> dict:
             "rerun": rerun, **_compare(local, out)}
 
 
+def local_run(tmp: Path) -> dict:
+    """The quick suite on this machine's lanes."""
+    tmp.mkdir(parents=True)
+    r = {"run": "local lanes", **run_client(tmp / "out", suite_env(tmp / "cache"), [], tmp / "client.log")}
+    r["cpu_s"], r["n_maps"] = r["client_cpu_s"], len(maps(tmp / "out"))
+    return r
+
+
+def measure_runs(tmp: Path, workers: list[int], together: bool) -> list[dict]:
+    """The local run and a cluster run per entry of ``workers``, one after another or all at once."""
+    local = tmp / "local"
+    jobs = [lambda: local_run(local)]
+    jobs += [lambda n=n: {"run": f"cluster, {n} worker{'s' if n > 1 else ''}", "workers": n,
+                          **cluster_run(tmp / f"cluster{n}", n, local / "out", compare=not together)} for n in workers]
+    if together:
+        with ThreadPoolExecutor(len(jobs)) as pool:
+            runs = list(pool.map(lambda job: job(), jobs))
+        for r in runs[1:]:   # compared once the local run has ended
+            r.update(_compare(local / "out", tmp / f"cluster{r['workers']}" / "out"))
+    else:
+        runs = [job() for job in jobs]
+    for r in runs:
+        print({k: v for k, v in r.items() if k != "tasks"}, flush=True)
+    return runs
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="cluster sizes to run (default 1 2)")
-    ap.add_argument("--kill", action="store_true", help="also kill a worker mid-suite and rerun (2 workers)")
+    ap.add_argument("--together", action="store_true",
+                    help="run the local and cluster runs at the same time (a loaded machine: their CPU still "
+                         "counts apart, their wall times are not comparable)")
+    ap.add_argument("--kill", action="store_true", help="then kill a worker mid-suite and rerun (2 workers)")
     ap.add_argument("--no-record", action="store_true", help="print the figures, write no record")
     a = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="rb-suite-cluster-"))
     print(f"working in {tmp}", flush=True)
-    local_dir = tmp / "local"
-    local_dir.mkdir()
-    local = {"run": "local lanes", **run_client(local_dir / "out", suite_env(local_dir / "cache"), [],
-                                                local_dir / "client.log")}
-    local["cpu_s"], local["n_maps"] = local["client_cpu_s"], len(maps(local_dir / "out"))
-    print(local, flush=True)
-    runs = [local]
-    for n in a.workers:
-        r = {"run": f"cluster, {n} worker{'s' if n > 1 else ''}", **cluster_run(tmp / f"cluster{n}", n, local_dir / "out")}
-        print({k: v for k, v in r.items() if k != "tasks"}, flush=True)
-        runs.append(r)
-    figures = {"suite": "quick", "cores": len(os.sched_getaffinity(0)), "runs": runs}
+    command = ("python tests/measurements/bench_suite_cluster.py "
+               + " ".join(argv if argv is not None else sys.argv[1:])).strip()
+    runs = measure_runs(tmp, a.workers, a.together)
+    figures = {"suite": "quick", "cores": len(os.sched_getaffinity(0)), "together": a.together, "runs": runs}
+    ok = all(r.get("same_as_local", True) and r["returncode"] == 0 for r in runs)
+    if not a.no_record:   # written now and again with the worker death, so that a long run keeps its first part
+        print(write_record(RECORD, MEASURES, command, figures, packages=("dask", "distributed", "psutil")), flush=True)
     if a.kill:
-        figures["worker_death"] = worker_death(tmp / "killed", local_dir / "out")
+        figures["worker_death"] = worker_death(tmp / "killed", tmp / "local" / "out")
         print(figures["worker_death"], flush=True)
-    ok = all(r.get("same_as_local", True) and r["returncode"] == 0 for r in runs) and \
-        figures.get("worker_death", {}).get("same_as_local", True)
-    command = "python tests/measurements/bench_suite_cluster.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    if not a.no_record:
-        print(write_record(RECORD, MEASURES, command.strip(), figures, packages=("dask", "distributed", "psutil")))
+        ok = ok and figures["worker_death"].get("same_as_local", False)
+        if not a.no_record:
+            print(write_record(RECORD, MEASURES, command, figures, packages=("dask", "distributed", "psutil")))
     return 0 if ok else 1
 
 
