@@ -85,12 +85,21 @@ class Cluster:
             t0 = time.monotonic()
             while time.monotonic() - t0 < timeout_s and run.poll() is None:
                 busy = {a for a, keys in c.processing().items() if keys}
-                for n, w in enumerate(self.workers):
-                    found = re.search(r"Start worker at:\s+(\S+)", (self.tmp / f"worker{n}.log").read_text())
-                    if w.poll() is None and found and found.group(1) in busy:
-                        return w
+                for address, n in self.numbers().items():
+                    if self.workers[n].poll() is None and address in busy:
+                        return self.workers[n]
                 time.sleep(0.1)
         return None
+
+    def numbers(self) -> dict:
+        """Each started worker's number (its index in ``workers``) by its address, as its log gives it."""
+        found = {}
+        for n in range(len(self.workers)):
+            log = self.tmp / f"worker{n}.log"
+            address = re.search(r"Start worker at:\s+(\S+)", log.read_text()) if log.exists() else None
+            if address:
+                found[address.group(1)] = n
+        return found
 
     def wait_for(self, n: int) -> None:
         from dask.distributed import Client

@@ -15,8 +15,10 @@ waited for) comes from ``wait4`` on it; the scheduler's and the workers'
 (each ``dask worker``, its worker process and the engine processes it waited for) from their process
 trees just before the cluster is torn down (psutil: each live process's own CPU plus that of the
 children it reaped), less what the same trees had spent when the workers were ready (start-up, kept
-apart). The scheduler's task stream gives each task's kind, start and end: ``_prepare_remote`` (a
-calibration and free-rocking η of an engine variant on a block) or ``map_task`` (a map);
+apart). The scheduler's task stream gives each task's kind, start and end: ``prepare_remote`` (a
+calibration and free-rocking η of an engine variant on a block) or ``map_task`` (a map); its CPU is
+its worker's meanwhile (each worker's tree sampled every 0.25 s: one thread a worker, so one task at
+a time, its engine process included, and the worker's own background);
 tests/measurements/bench_lanes_replay.py replays it on more cores.
 
 ``--kill`` then runs the worker-death path once on a cluster of 2 workers: when the first map is
@@ -33,10 +35,12 @@ import argparse
 import os
 import sys
 import tempfile
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 import psutil
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))          # records.py beside this script
@@ -51,6 +55,8 @@ MEASURES = ("The quick suite (`rockbench run --quick --no-report`) locally and o
             "children), each task's compute time by kind, and whether maps and score.json equal the local run's.")
 #: bound of one run's wait [s]
 RUN_S = 3600
+#: how often each worker's CPU is sampled during a cluster run [s]
+SAMPLE_S = 0.25
 
 
 def tree_cpu_s(pid: int) -> float:
@@ -80,25 +86,54 @@ def run_client(out: Path, env: dict, more: list[str], log: Path) -> dict:
             "client_cpu_s": round(usage.ru_utime + usage.ru_stime, 1)}
 
 
-def task_costs(address: str, since_s: float) -> dict:
-    """The tasks of the scheduler's task stream (begun just before the run), by kind: count and total
-    compute time [s]; and ``stream``: each task's kind, compute start and end [s after ``since_s``, epoch
-    seconds] and worker (its index in order of first appearance), in order of start."""
+class WorkerCpu:
+    """(A thread.) Each worker's process tree's CPU [s], sampled every :data:`SAMPLE_S` against time since
+    ``since_s`` (epoch seconds); :meth:`between` reads it off by linear interpolation."""
+
+    def __init__(self, pids: list[int], since_s: float):
+        self.pids, self.since_s, self.samples = pids, since_s, [[] for _ in pids]
+        self.done = threading.Event()
+        self.thread = threading.Thread(target=self._sample, daemon=True)
+        self.thread.start()
+
+    def _sample(self) -> None:
+        while not self.done.wait(SAMPLE_S):
+            for n, pid in enumerate(self.pids):
+                self.samples[n].append((time.time() - self.since_s, tree_cpu_s(pid)))
+
+    def stop(self) -> None:
+        self.done.set()
+        self.thread.join()
+
+    def between(self, n: int, t0_s: float, t1_s: float) -> float:
+        """CPU [s] of worker ``n``'s tree from ``t0_s`` to ``t1_s`` (seconds since ``since_s``)."""
+        t, cpu = np.array(self.samples[n]).T
+        return float(np.interp(t1_s, t, cpu) - np.interp(t0_s, t, cpu))
+
+
+def task_costs(address: str, since_s: float, numbers: dict, cpu: WorkerCpu) -> dict:
+    """The tasks of the scheduler's task stream (begun just before the run), by kind: count, total compute
+    time and the CPU of their workers meanwhile [s]; and ``stream``: each task's kind, compute start and end
+    [s after ``since_s``, epoch seconds], worker (its number, ``numbers``: by address) and that worker's CPU
+    from start to end (its tree: the task's engine process included), in order of start."""
     from dask.distributed import Client
     from dask.utils import key_split
     with Client(address, timeout=60) as c:
         messages = c.get_task_stream()   # the stream began (start_task_stream) on this fresh cluster just before the run
-    kinds, stream, workers = {}, [], {}
+    stream = []
     for msg in messages:
         for s in msg.get("startstops", ()):
             if s.get("action") == "compute":
-                w = workers.setdefault(msg.get("worker"), len(workers))
-                stream.append([key_split(msg["key"]), round(s["start"] - since_s, 2), round(s["stop"] - since_s, 2), w])
+                w, t0, t1 = numbers.get(msg.get("worker"), -1), s["start"] - since_s, s["stop"] - since_s
+                stream.append([key_split(msg["key"]), round(t0, 2), round(t1, 2), w,
+                               round(cpu.between(w, t0, t1), 2) if w >= 0 else None])
     stream.sort(key=lambda t: t[1])
-    for kind, t0, t1, _ in stream:
-        k = kinds.setdefault(kind, {"n": 0, "compute_s": 0.0})
+    kinds: dict = {}
+    for kind, t0, t1, _, cpu_s in stream:
+        k = kinds.setdefault(kind, {"n": 0, "compute_s": 0.0, "cpu_s": 0.0})
         k["n"] += 1
         k["compute_s"] = round(k["compute_s"] + t1 - t0, 2)
+        k["cpu_s"] = round(k["cpu_s"] + (cpu_s or 0.0), 2)
     return {"by_kind": kinds, "stream": stream}
 
 
@@ -122,9 +157,11 @@ def cluster_run(tmp: Path, n_workers: int, local: Path, compare: bool = True) ->
         pids = {"scheduler": cluster.scheduler.pid, "workers": [w.pid for w in cluster.workers]}
         startup = {"scheduler": tree_cpu_s(pids["scheduler"]), "workers": sum(map(tree_cpu_s, pids["workers"]))}
         since = time.time()
+        cpu = WorkerCpu(pids["workers"], since)
         r = run_client(tmp / "out", env, ["--scheduler", cluster.address], tmp / "client.log")
         end = {"scheduler": tree_cpu_s(pids["scheduler"]), "workers": sum(map(tree_cpu_s, pids["workers"]))}
-        r["tasks"] = task_costs(cluster.address, since)
+        cpu.stop()
+        r["tasks"] = task_costs(cluster.address, since, cluster.numbers(), cpu)
     finally:
         cluster.close()
     r["scheduler_cpu_s"] = round(end["scheduler"] - startup["scheduler"], 1)
@@ -182,17 +219,19 @@ def local_run(tmp: Path) -> dict:
     return r
 
 
-def measure_runs(tmp: Path, workers: list[int], together: bool) -> list[dict]:
-    """The local run and a cluster run per entry of ``workers``, one after another or all at once."""
-    local = tmp / "local"
-    jobs = [lambda: local_run(local)]
+def measure_runs(tmp: Path, workers: list[int], together: bool, local_out: Path | None) -> list[dict]:
+    """The local run (unless ``local_out``, an earlier local run's folder, stands in for it) and a
+    cluster run per entry of ``workers``, one after another or all at once."""
+    local = local_out or tmp / "local" / "out"
+    jobs = [lambda: local_run(local.parent)] if local_out is None else []
     jobs += [lambda n=n: {"run": f"cluster, {n} worker{'s' if n > 1 else ''}", "workers": n,
-                          **cluster_run(tmp / f"cluster{n}", n, local / "out", compare=not together)} for n in workers]
+                          **cluster_run(tmp / f"cluster{n}", n, local, compare=not together)} for n in workers]
     if together:
         with ThreadPoolExecutor(len(jobs)) as pool:
             runs = list(pool.map(lambda job: job(), jobs))
-        for r in runs[1:]:   # compared once the local run has ended
-            r.update(_compare(local / "out", tmp / f"cluster{r['workers']}" / "out"))
+        for r in runs:   # compared once the local run has ended
+            if "workers" in r:
+                r.update(_compare(local, tmp / f"cluster{r['workers']}" / "out"))
     else:
         runs = [job() for job in jobs]
     for r in runs:
@@ -207,23 +246,25 @@ def main(argv=None) -> int:
                     help="run the local and cluster runs at the same time (a loaded machine: their CPU still "
                          "counts apart, their wall times are not comparable)")
     ap.add_argument("--kill", action="store_true", help="then kill a worker mid-suite and rerun (2 workers)")
+    ap.add_argument("--local", type=Path, help="compare with this earlier local run's folder instead of running one")
+    ap.add_argument("--record", default=RECORD, help=f"the record's name (default {RECORD})")
     ap.add_argument("--no-record", action="store_true", help="print the figures, write no record")
     a = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="rb-suite-cluster-"))
     print(f"working in {tmp}", flush=True)
     command = ("python tests/measurements/bench_suite_cluster.py "
                + " ".join(argv if argv is not None else sys.argv[1:])).strip()
-    runs = measure_runs(tmp, a.workers, a.together)
+    runs = measure_runs(tmp, a.workers, a.together, a.local)
     figures = {"suite": "quick", "cores": len(os.sched_getaffinity(0)), "together": a.together, "runs": runs}
     ok = all(r.get("same_as_local", True) and r["returncode"] == 0 for r in runs)
     if not a.no_record:   # written now and again with the worker death, so that a long run keeps its first part
-        print(write_record(RECORD, MEASURES, command, figures, packages=("dask", "distributed", "psutil")), flush=True)
+        print(write_record(a.record, MEASURES, command, figures, packages=("dask", "distributed", "psutil")), flush=True)
     if a.kill:
-        figures["worker_death"] = worker_death(tmp / "killed", tmp / "local" / "out")
+        figures["worker_death"] = worker_death(tmp / "killed", a.local or tmp / "local" / "out")
         print(figures["worker_death"], flush=True)
         ok = ok and figures["worker_death"].get("same_as_local", False)
         if not a.no_record:
-            print(write_record(RECORD, MEASURES, command, figures, packages=("dask", "distributed", "psutil")))
+            print(write_record(a.record, MEASURES, command, figures, packages=("dask", "distributed", "psutil")))
     return 0 if ok else 1
 
 
