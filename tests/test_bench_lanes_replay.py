@@ -25,4 +25,13 @@ def test_a_record_gives_its_tasks_in_order_and_the_time_outside_them(tmp_path):
     record.write_text(json.dumps({"figures": {"runs": runs}}))
     run, tasks, outside_s = replay.cluster_tasks(record)
     assert run["wall_s"] == 12.0 and tasks == [(CAL, 4.0), ("map_task", 3.0)]
-    assert outside_s == 1.5 + (12.0 - 9.0)
+    assert outside_s == 1.5 + (12.0 - 9.0)   # no CPU recorded: wall before the first task and after the last
+
+
+def test_a_record_with_each_tasks_cpu_costs_it(tmp_path):
+    stream = [[CAL, 1.5, 5.5, 0, 2.5], ["map_task", 6.0, 9.0, 0, 1.25]]
+    runs = [{"run": "cluster, 1 worker", "wall_s": 12.0, "client_cpu_s": 0.75, "tasks": {"stream": stream}}]
+    record = tmp_path / "r.json"
+    record.write_text(json.dumps({"figures": {"runs": runs}}))
+    _, tasks, outside_s = replay.cluster_tasks(record)
+    assert tasks == [(CAL, 2.5), ("map_task", 1.25)] and outside_s == 0.75

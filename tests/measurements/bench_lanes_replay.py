@@ -26,14 +26,14 @@ the client, one core) is added as recorded.
 
     python tests/measurements/bench_lanes_replay.py --cluster-record RECORD.json --lanes 2 8 32 128
 
-The third form replays a record of ``bench_suite_cluster.py`` (e.g. ``suite-cluster-quick.json``), which
-keeps every task of its 1-worker cluster run with its compute time: the calibration tasks first, each to
-the core that frees first, then every map once the last calibration has ended (the runner submits the
-engine maps then; the reference maps, submitted at once, are held back with them, which costs at most
-their few seconds), in the order they ran; the run's time outside its tasks (the client's start-up
-before the first task, its scores after the last) is added as measured. Left out: each worker's own
-start-up where it runs on a machine of its own (the engines' imports and the reference's compiled
-kernels, which the 1-worker run paid once) and the cluster's dispatch beyond what the 1-worker run paid.
+The third form replays a record of ``bench_suite_cluster.py`` (e.g. ``suite-cluster-quick-task-cpu.json``),
+which keeps every task of its 1-worker cluster run with its cost (its CPU where the record has it, else
+its compute wall time): the calibration tasks first, each to the core that frees first, then every map
+once the last calibration has ended (the runner submits the engine maps then; the reference maps,
+submitted at once, are held back with them, which costs at most their few seconds), in the order they
+ran; the cost outside the tasks (the client's CPU, else its wall before the first task and after the
+last) is added. Left out: each worker's own start-up where it runs on a machine of its own (the
+reference's compiled kernels, which the 1-worker run paid once) and the cluster's dispatch.
 """
 
 from __future__ import annotations
@@ -94,18 +94,23 @@ def project(record: Path, cores: list[int]) -> None:
               f"with the report {maps_s + report_s:7.0f} s  [projection]")
 
 
-#: the kind of a calibration task in a bench_suite_cluster.py record's task stream (preparation._prepare_remote)
-CALIBRATION = "_prepare_remote"
+#: the kind of a calibration task in a bench_suite_cluster.py record's task stream
+#: (preparation._prepare_remote, as dask.utils.key_split names it)
+CALIBRATION = "prepare_remote"
 
 
 def cluster_tasks(record: Path, workers: int = 1) -> tuple[dict, list[tuple[str, float]], float]:
-    """The cluster run of ``workers`` in a bench_suite_cluster.py record, its tasks (kind, compute [s])
-    in the order they started, and its time outside them (before the first and after the last) [s]."""
+    """The cluster run of ``workers`` in a bench_suite_cluster.py record, its tasks (kind, cost [s]) in the
+    order they started, and the cost outside them [s]. A task costs its CPU where the record has it
+    (its worker's tree meanwhile), and the outside the client's CPU; else a task costs its compute wall
+    time, and the outside the run's wall before the first task and after the last."""
     runs = json.loads(record.read_text())["figures"]["runs"]
     run = next(r for r in runs if r["run"].startswith(f"cluster, {workers} worker"))
     stream = run["tasks"]["stream"]
+    if all(len(t) > 4 and t[4] is not None for t in stream):
+        return run, [(t[0], t[4]) for t in stream], run["client_cpu_s"]
     outside_s = stream[0][1] + (run["wall_s"] - max(t[2] for t in stream))
-    return run, [(kind, t1 - t0) for kind, t0, t1, _ in stream], outside_s
+    return run, [(t[0], t[2] - t[1]) for t in stream], outside_s
 
 
 def replay_cluster(tasks: list[tuple[str, float]], cores: int) -> float:
@@ -132,7 +137,7 @@ def project_cluster(record: Path, cores: list[int]) -> None:
     measured = {r["run"]: r["wall_s"] for r in json.loads(record.read_text())["figures"]["runs"]}
     print(f"{len(calib)} calibration tasks ({sum(calib):.0f} s, longest {max(calib, default=0):.0f} s) and "
           f"{len(maps)} map tasks ({sum(maps):.0f} s, longest {max(maps, default=0):.0f} s) of the 1-worker run; "
-          f"{outside_s:.0f} s outside its tasks; measured: "
+          f"{outside_s:.0f} s outside them; measured wall: "
           + ", ".join(f"{k} {v:.0f} s" for k, v in measured.items()))
     for n in cores:
         tasks_s, calib_s = replay_cluster(tasks, n), replay_cluster([t for t in tasks if t[0] == CALIBRATION], n)
