@@ -21,8 +21,8 @@ its worker's meanwhile (each worker's tree sampled every 0.25 s: one thread a wo
 a time, its engine process included, and the worker's own background);
 tests/measurements/bench_lanes_replay.py replays it on more cores.
 
-``--kill`` then runs the worker-death path once on a cluster of 2 workers: when the first map is
-finished, a worker busy with a task is killed (SIGKILL, its session with it); the maps finished before
+``--kill`` then runs the worker-death path once on a cluster of 2 workers: when the first engine map
+is finished, a worker busy with a task is killed (SIGKILL, its session with it); the maps finished before
 are checked intact, a worker is added and the suite rerun into the same folder, which must resume and
 end equal to the local run.
 
@@ -189,12 +189,14 @@ def worker_death(tmp: Path, local: Path) -> dict:
         t0 = time.perf_counter()
         run = start(run_command("--quick", out, ["--scheduler", cluster.address]), env, tmp / "killed.log")
         try:
-            while not (before := finished(out)) and run.poll() is None and time.perf_counter() - t0 < RUN_S:
+            while not _an_engine_map(before := finished(out)) and run.poll() is None:
+                if time.perf_counter() - t0 > RUN_S:
+                    break
                 time.sleep(0.2)
             busy = cluster.busy_worker(run, RUN_S)
             if busy is None:
                 return {"killed": False, "why": "the suite ended before a busy worker could be killed"}
-            killed_at_s = time.perf_counter() - t0
+            killed_at_s, running = time.perf_counter() - t0, _running_on(cluster, busy)
             kill(busy)
             code = run.wait(timeout=RUN_S)
         finally:
@@ -206,9 +208,24 @@ def worker_death(tmp: Path, local: Path) -> dict:
         rerun = run_client(out, env, ["--scheduler", cluster.address], tmp / "rerun.log")
     finally:
         cluster.close()
-    return {"killed": True, "killed_after_s": round(killed_at_s, 1), "maps_finished_before_kill": len(before),
+    return {"killed": True, "killed_after_s": round(killed_at_s, 1), "killed_worker_was_running": running,
+            "maps_finished_before_kill": len(before),
             "finished_maps_intact": intact, "killed_run_returncode": code, "maps_finished_after_killed_run": n_after_kill,
             "rerun": rerun, **_compare(local, out)}
+
+
+def _an_engine_map(done: dict) -> bool:
+    """Whether the finished maps (:func:`finished`) include an engine's (its variant's folder not the reference's)."""
+    return any(not d.parent.name.startswith("reference") for d in done)
+
+
+def _running_on(cluster: Cluster, worker) -> list[str]:
+    """The kinds of the tasks the scheduler has ``worker`` (one of ``cluster.workers``) running now."""
+    from dask.distributed import Client
+    from dask.utils import key_split
+    address = next((a for a, n in cluster.numbers().items() if cluster.workers[n] is worker), None)
+    with Client(cluster.address, timeout=60) as c:
+        return sorted(key_split(k) for k in c.processing().get(address, ()))
 
 
 def local_run(tmp: Path) -> dict:
@@ -241,7 +258,8 @@ def measure_runs(tmp: Path, workers: list[int], together: bool, local_out: Path 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="cluster sizes to run (default 1 2)")
+    ap.add_argument("--workers", type=int, nargs="*", default=[1, 2],
+                    help="cluster sizes to run (default 1 2; none with --local: the worker death alone)")
     ap.add_argument("--together", action="store_true",
                     help="run the local and cluster runs at the same time (a loaded machine: their CPU still "
                          "counts apart, their wall times are not comparable)")
