@@ -1,18 +1,21 @@
 """The quick suite on a real Dask cluster on this machine against the local run: the same maps and
 score.json, and what each costs. Measures and records; exits 1 if a run differs from the local one.
 
-    python tests/measurements/bench_suite_cluster.py [--workers 1 2] [--kill] [--no-record]
+    python tests/measurements/bench_suite_cluster.py [--workers 1 2] [--together] [--kill]
+        [--local RUN_DIR] [--record NAME] [--no-record]
 
 Runs ``rockbench run --quick --no-report`` locally (its lanes) and then, for each ``--workers`` N, on a
 cluster of a ``dask scheduler`` and N one-thread ``dask worker`` processes on 127.0.0.1
 (tests/dask_cluster.py: the cluster tests/test_suite_dask.py checks), each run with an empty
 calibration cache of its own (the cluster's client and workers share it, as on one machine). Every
 cluster run's maps are compared with the local run's cell for cell (timing columns aside) and its
-score.json with the local one (timestamp aside).
+score.json with the local one (timestamp aside). ``--together`` runs them all at once (on a loaded
+machine: their CPU counts apart, their walls are then not comparable); ``--local`` compares with an
+earlier local run's output folder instead of running one.
 
 Per run: wall time and CPU time of every process. The client's (``rockbench run`` and every process it
-waited for) comes from ``wait4`` on it; the scheduler's and the workers'
-(each ``dask worker``, its worker process and the engine processes it waited for) from their process
+waited for) comes from ``wait4`` on it; the scheduler's and the workers' (each ``dask worker``, its
+worker process and the engine processes it waited for) from their process
 trees just before the cluster is torn down (psutil: each live process's own CPU plus that of the
 children it reaped), less what the same trees had spent when the workers were ready (start-up, kept
 apart). The scheduler's task stream gives each task's kind, start and end: ``prepare_remote`` (a
@@ -26,7 +29,8 @@ is finished, a worker busy with a task is killed (SIGKILL, its session with it);
 are checked intact, a worker is added and the suite rerun into the same folder, which must resume and
 end equal to the local run.
 
-The figures go to the record ``tests/measurements/results/suite-cluster-quick.json``.
+The figures go to the record ``tests/measurements/results/suite-cluster-quick.json`` (``--record``: another
+name), written after the runs and again after the worker death.
 """
 
 from __future__ import annotations
