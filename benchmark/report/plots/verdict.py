@@ -74,7 +74,7 @@ def _row(g: str, r: dict) -> dict:
                    twin=h["in_sample"], mark="held-out",
                    right=(f"{number(h['value'])} vs {number(h['in_sample'])}: "
                           + ("carries over" if h["carries_over"] else "not shown") if h["tost"] else
-                          f"{number(h['value'])}: not tested" if h.get("left_out") else
+                          f"{number(h['value'])}: not tested" if h.get("left_out") or h.get("in_sample") is not None else
                           f"{number(h['value'])}: no twin"))
         return row
     lo, hi = r["ci95"] if r["ci95"] else (math.nan, math.nan)
