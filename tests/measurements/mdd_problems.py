@@ -157,8 +157,7 @@ def main(argv=None) -> int:
     docs = [json.loads((r / "score.json").read_text()) for r in (a.default_run, a.more_run)]
     heads = pooled(*docs)
     GAPS.update({(g["block"], g["pulse"]): g["boundary_mean"] for d in docs for g in d["reference_gaps"]})
-    old = sorted({x[2] for x in next(iter(calibrated(docs[0]).values())).scenarios and
-                  items(next(iter(calibrated(docs[0]).values()))).values()}, key=str)
+    old = sorted({x[2] for v in calibrated(docs[0]).values() for x in items(v).values()}, key=str)
     new = sorted({x[2] for it in heads.values() for x in it.values()} - set(old), key=str)
     slender = sorted({c[0] for c in new})
     figures = {"engines": sorted(heads), "default_problems": [list(c) for c in old],
