@@ -169,6 +169,11 @@ def main(argv=None) -> int:
             ps = set(old) | {c for c in new if c[0] in chosen}
             nested[" + ".join(f"h/b {s:g}" for s in chosen)] = {**mdd(heads, ps), "every_engine": with_all(heads, ps)}
     figures["default_plus_slendernesses"] = nested
+    figures["added_scenarios"] = [
+        {k: p.get(k) for k in ("variant", "block", "pulse", "overturn_extra", "overturn_missed", "reference_overturn")}
+        | {m: p["scores"].get(m) for m in ("boundary_mean", "boundary_offset", "boundary_max", "critical_one_sided")}
+        for p in docs[1]["pairs"] if p.get("like_for_like") and p["settings"] == "calibrated"]
+    figures["added_reference_gaps"] = [g for g in docs[1]["reference_gaps"]]
     everything = old + new
     figures["subsets_of_all"] = subsets(heads, everything, range(4, len(everything) + 1))
     scale = 35 / 25                                         # 26 × 26 on the same axes: steps 35/25 of 36 × 36's
