@@ -117,6 +117,7 @@ def main(argv=None) -> int:
     ap.add_argument("run_dirs", nargs="*")
     ap.add_argument("--near", type=float, default=0.05, help="near_segment_s [s] of the 'marks' column (default 0.05)")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
+    ap.add_argument("--notes", help="the record's notes: where the maps come from")
     ap.add_argument("--table", metavar="NAME", help="print the record NAME's rows as a markdown table and stop")
     args = ap.parse_args(argv)
     if args.table:
@@ -136,7 +137,7 @@ def main(argv=None) -> int:
         print(f"{e}, pooled over {o['maps']} maps ({o['runs']} runs): {o['past_pct']:.1f} % past today")
     if args.record:
         write_record(args.record, MEASURES, "python tests/measurements/bench_past_stop.py " + " ".join(argv or sys.argv[1:]),
-                     {"near_s": args.near, "rows": rows, "pooled": pool})
+                     {"near_s": args.near, "rows": rows, "pooled": pool}, notes=args.notes)
     return 0
 
 
