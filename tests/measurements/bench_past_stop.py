@@ -24,12 +24,14 @@ import csv
 import json
 import math
 import sys
+from pathlib import Path
 
-from records import load, write_record  # tests/measurements/, on the path when the script runs
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # tests/measurements/: the records module beside this script
+from records import load, write_record  # noqa: E402
 
-from rockbench.engines.loop import DEFAULT_SEGMENT_S, _segment_end
-from rockbench.engines.motion import run_steps
-from rockbench.engines.registry import adapter_class
+from rockbench.engines.loop import DEFAULT_SEGMENT_S, _segment_end  # noqa: E402
+from rockbench.engines.motion import run_steps  # noqa: E402
+from rockbench.engines.registry import adapter_class  # noqa: E402
 
 MEASURES = ("Steps simulated past each run's stop over every run of a located map (its cells and its "
             "boundary's bisection samples), replayed from the map's recorded stops with the loop's own "
