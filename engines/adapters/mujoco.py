@@ -297,6 +297,12 @@ class MujocoAdapter(ContactEngine):
                       table_vx_m_s=vt, diagnostics=diag, t_s=t, corner_x_m=np.stack([xp, xm], axis=1),
                       corner_z_m=np.stack([zp, zm], axis=1))
 
+    def stop_angles(self, world: dict, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> tuple:
+        """θ, θ̇ and the state's own time of a segment's rows for the end-of-run test, as :meth:`read`
+        gives them (without the corners and the centre of mass it adds)."""
+        th, thd, _ = _angles_of(world["bm"], rows)
+        return th, thd, rows[:, 0]
+
     def candidates(self, block: Block, target: float, dt_s: float, points: int | None, measure) -> list[dict]:
         """The corners: the knobs' search. A row along the base: solimp impedance d (0.3–0.9) × time
         constant (2–16·Δt) × damping ratio (0.5–2), then a finer grid around its pick (d ± 0.05 within
