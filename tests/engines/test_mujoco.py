@@ -150,14 +150,17 @@ def test_batches_equal_single_runs_bit_for_bit():
 
 
 @pytest.mark.parametrize("settings", ["calibrated", "shipped"])
-def test_segments_that_end_at_the_marks_change_no_run(settings):
+def test_segments_that_end_at_the_marks_change_no_run(settings, monkeypatch):
     """Segments ending at each run's marks (``near_segment_s``) give every run bit for bit as fixed
     segments do: each world's solver warm start is carried across a segment's end and zeroed on the
-    fixed segments' grid, and fewer steps run past the stops."""
+    fixed segments' grid. The runs at the marks use two threads, every segment on the pool."""
+    from rockbench.engines.adapters import mujoco as adapter_module
+
     cells = [(b, w, a) for b in ("B3M", "B8M") for w, a in ((6.0, 2.0), (3.0, 2.5), (4.0, 0.8), (1.5, 1.3))]
     runs = {}
-    for near in (None, MujocoAdapter.near_segment_s):
-        ad = get_adapter("mujoco", settings=settings)
+    for near, threads in ((None, 1), (MujocoAdapter.near_segment_s, 2)):
+        monkeypatch.setattr(adapter_module, "_THREADED_STEPS", 0 if threads > 1 else adapter_module._THREADED_STEPS)
+        ad = get_adapter("mujoco", settings=settings, threads=threads)
         ad.near_segment_s = near
         cases = [ad.posed(_pinned_case(b, "sine", w, a) if settings == "calibrated" else _case(b, "sine", w, a))
                  for b, w, a in cells]
