@@ -286,6 +286,13 @@ class ContactEngine(EngineAdapter):
     def read(self, scene, block: Block, s: dict, rows, t_s, pulse):  # pragma: no cover - declared
         """One world's :class:`~rockbench.engines.motion.Motion` from its rows ``(n, k)``."""
 
+    def stop_angles(self, scene, block: Block, s: dict, rows, t_s, pulse) -> tuple:
+        """Hook: what the loop's end-of-run test reads of one world's new rows: ``(θ [rad], θ̇ [rad/s],
+        the rows' own times [s] or None)``, as :meth:`read` gives them (the default reads them from it);
+        an engine whose ``read`` does more than these overrides it to test a segment for less."""
+        m = self.read(scene, block, s, rows, t_s, pulse)
+        return m.theta_rad, m.theta_dot_rad_s, m.t_s
+
     def retire(self, scene, w: int) -> None:
         """Hook: world ``w`` has stopped; a batch engine that can may stop stepping it (its later rows
         are dropped whatever they hold). Default: nothing."""
