@@ -277,6 +277,8 @@ class _Scene:
 
     def advance(self, n_from: int, n_to: int) -> list:
         """Steps ``n_from`` to ``n_to``: drive, step, read; the states after each step."""
+        if self.planar and not self.drive_table:
+            return self._advance_planar(n_from, n_to)
         pb, cid = self.pb, self.cid
         step, set_g, table, table_z = pb.stepSimulation, pb.setGravity, self.table, -_TABLE_HALF_EXTENTS_M[2]
         rows = []
@@ -291,6 +293,25 @@ class _Scene:
             rows.append(self.read())
         return rows
 
+
+    def _advance_planar(self, n_from: int, n_to: int) -> list:
+        """:meth:`advance` of the planar chain under the inertial drive: gravity tilted during the pulse
+        (and set back at its step ``n_pulse``), the three joints' states read in one call a step and
+        made rows ``(x, z_slider, θ, ẋ, ż, θ̇)`` after the loop."""
+        pb, cid, body, joints = self.pb, self.cid, self.block, (0, 1, 2)
+        step, set_g, get = pb.stepSimulation, pb.setGravity, pb.getJointStates
+        states = []
+        keep = states.append
+        n_tilted = max(n_from, min(n_to, self.n_pulse + 1)) if self.acc is not None else n_from
+        acc = self.acc
+        for i in range(n_from, n_tilted):
+            set_g(acc[i], 0.0, -G, physicsClientId=cid)
+            step(physicsClientId=cid)
+            keep(get(body, joints, physicsClientId=cid))
+        for _ in range(n_tilted, n_to):
+            step(physicsClientId=cid)
+            keep(get(body, joints, physicsClientId=cid))
+        return [(x[0], z[0], th[0], x[1], z[1], th[1]) for x, z, th in states]
 
 _SCENE: _Scene | None = None
 
