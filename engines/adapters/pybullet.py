@@ -257,11 +257,15 @@ class _Scene:
         self.n_pulse = int(math.ceil(pulse.duration_s / dt_s - 1e-9)) if pulse is not None else -1
         self.drive_table = pulse is not None and not self.inertial
         if pulse is not None:
-            mid = (np.arange(n_steps) + 0.5) * dt_s
-            # plain lists: indexing them in the loop costs less than numpy scalars
-            self.acc = (-pulse.accel(mid)).tolist() if self.inertial else None
-            self.u_pos = pulse.disp(np.arange(n_steps) * dt_s).tolist()
-            self.u_vel = pulse.vel(mid).tolist()
+            # plain lists: indexing them in the loop costs less than numpy scalars. The inertial drive
+            # reads steps 0 … n_pulse only; the table's drive every step of the run
+            n_drive = min(n_steps, self.n_pulse + 1) if self.inertial else n_steps
+            mid = (np.arange(n_drive) + 0.5) * dt_s
+            if self.inertial:
+                self.acc = (-pulse.accel(mid)).tolist()
+            else:
+                self.u_pos = pulse.disp(np.arange(n_drive) * dt_s).tolist()
+                self.u_vel = pulse.vel(mid).tolist()
         self.pb.setGravity(0.0, 0.0, -G, physicsClientId=self.cid)
 
     def read(self, velocities: bool = True) -> tuple:
