@@ -159,6 +159,7 @@ class _Scene:
             return self._advance_table(n_from, n_to, nq)
         step, getq, getv = self.world.step, self.block.getPositions, self.block.getVelocities
         rows = np.empty((n_to - n_from, 2 * nq))
+        pos, vel = rows[:, :nq], rows[:, nq:]   # views: a row of each is set faster than a slice of a row
         # gravity tilted by each step's −ü (arrays made once per run), then set back once at the
         # pulse's end (step len(acc)) and left alone after it
         grav, tilted = self.world.setGravity, self.gravity
@@ -167,11 +168,11 @@ class _Scene:
         for i in range(n_from, n_tilted):
             grav(tilted[i])
             step()
-            rows[k, :nq], rows[k, nq:] = getq(), getv()
+            pos[k], vel[k] = getq(), getv()
             k += 1
         for k in range(k, n_to - n_from):
             step()
-            rows[k, :nq], rows[k, nq:] = getq(), getv()
+            pos[k], vel[k] = getq(), getv()
         return rows
 
     def _advance_table(self, n_from: int, n_to: int, nq: int) -> np.ndarray:
