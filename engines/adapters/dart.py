@@ -113,7 +113,10 @@ class _Scene:
         else:
             n_pulse = int(math.ceil(pulse.duration_s / dt - 1e-9))
             self.acc = np.diff(np.asarray(pulse.vel(np.arange(n_pulse + 1) * dt), dtype=float)) / dt
-        self.gravity = [[-a, 0.0, -G] for a in self.acc.tolist()]
+        # the gravity vector of each step of the pulse, and once more after it set back upright (−0.0:
+        # the pulse's −ü of 0, as it was); arrays, which dartpy takes faster than lists
+        self.gravity = list(np.column_stack([-np.append(self.acc, 0.0), np.zeros(self.acc.size + 1),
+                                             np.full(self.acc.size + 1, -G)]))
 
     def angles(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """θ [rad] and θ̇ [rad/s] of state rows."""
@@ -151,28 +154,40 @@ class _Scene:
 
     def advance(self, n_from: int, n_to: int) -> np.ndarray:
         """Steps ``n_from … n_to − 1`` (the drive of each step from :attr:`acc`); the states after each."""
-        step, getq, getv = self.world.step, self.block.getPositions, self.block.getVelocities
         nq = 3 if self.planar else 6
-        table = self.table_joint is not None
-        rows = np.empty((n_to - n_from, 2 * nq + (2 if table else 0)))
+        if self.table_joint is not None:
+            return self._advance_table(n_from, n_to, nq)
+        step, getq, getv = self.world.step, self.block.getPositions, self.block.getVelocities
+        rows = np.empty((n_to - n_from, 2 * nq))
+        pos, vel = rows[:, :nq], rows[:, nq:]   # views: a row of each is set faster than a slice of a row
+        # gravity tilted by each step's −ü (arrays made once per run), then set back once at the
+        # pulse's end (step len(acc)) and left alone after it
+        grav, tilted = self.world.setGravity, self.gravity
+        n_tilted = min(n_to, len(tilted))
+        k = 0
+        for i in range(n_from, n_tilted):
+            grav(tilted[i])
+            step()
+            pos[k], vel[k] = getq(), getv()
+            k += 1
+        for k in range(k, n_to - n_from):
+            step()
+            pos[k], vel[k] = getq(), getv()
+        return rows
+
+    def _advance_table(self, n_from: int, n_to: int, nq: int) -> np.ndarray:
+        """:meth:`advance` with the table driven: its acceleration commanded each step; the rows end with
+        the table's x and ẋ."""
+        step, getq, getv = self.world.step, self.block.getPositions, self.block.getVelocities
+        rows = np.empty((n_to - n_from, 2 * nq + 2))
         acc = self.acc
         n_acc = len(acc)
-        if table:
-            cmd, tq, tv = self.table.setCommands, self.table.getPositions, self.table.getVelocities
-            for k, i in enumerate(range(n_from, n_to)):
-                cmd([acc[i] if i < n_acc else 0.0])
-                step()
-                rows[k, :nq], rows[k, nq:2 * nq] = getq(), getv()
-                rows[k, 2 * nq], rows[k, 2 * nq + 1] = tq()[0], tv()[0]
-        else:
-            # gravity tilted by each step's −ü (Python floats, made once per run), set back once at the
-            # pulse's end and left alone after it
-            grav, tilted = self.world.setGravity, self.gravity
-            for k, i in enumerate(range(n_from, n_to)):
-                if i <= n_acc:
-                    grav(tilted[i] if i < n_acc else [-0.0, 0.0, -G])   # −0.0: the pulse's −ü of 0, as it was
-                step()
-                rows[k, :nq], rows[k, nq:] = getq(), getv()
+        cmd, tq, tv = self.table.setCommands, self.table.getPositions, self.table.getVelocities
+        for k, i in enumerate(range(n_from, n_to)):
+            cmd([acc[i] if i < n_acc else 0.0])
+            step()
+            rows[k, :nq], rows[k, nq:2 * nq] = getq(), getv()
+            rows[k, 2 * nq], rows[k, 2 * nq + 1] = tq()[0], tv()[0]
         return rows
 
 

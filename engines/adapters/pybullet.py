@@ -257,11 +257,15 @@ class _Scene:
         self.n_pulse = int(math.ceil(pulse.duration_s / dt_s - 1e-9)) if pulse is not None else -1
         self.drive_table = pulse is not None and not self.inertial
         if pulse is not None:
-            mid = (np.arange(n_steps) + 0.5) * dt_s
-            # plain lists: indexing them in the loop costs less than numpy scalars
-            self.acc = (-pulse.accel(mid)).tolist() if self.inertial else None
-            self.u_pos = pulse.disp(np.arange(n_steps) * dt_s).tolist()
-            self.u_vel = pulse.vel(mid).tolist()
+            # plain lists: indexing them in the loop costs less than numpy scalars. The inertial drive
+            # reads steps 0 … n_pulse only; the table's drive every step of the run
+            n_drive = min(n_steps, self.n_pulse + 1) if self.inertial else n_steps
+            mid = (np.arange(n_drive) + 0.5) * dt_s
+            if self.inertial:
+                self.acc = (-pulse.accel(mid)).tolist()
+            else:
+                self.u_pos = pulse.disp(np.arange(n_drive) * dt_s).tolist()
+                self.u_vel = pulse.vel(mid).tolist()
         self.pb.setGravity(0.0, 0.0, -G, physicsClientId=self.cid)
 
     def read(self, velocities: bool = True) -> tuple:
@@ -277,6 +281,8 @@ class _Scene:
 
     def advance(self, n_from: int, n_to: int) -> list:
         """Steps ``n_from`` to ``n_to``: drive, step, read; the states after each step."""
+        if self.planar and not self.drive_table:
+            return self._advance_planar(n_from, n_to)
         pb, cid = self.pb, self.cid
         step, set_g, table, table_z = pb.stepSimulation, pb.setGravity, self.table, -_TABLE_HALF_EXTENTS_M[2]
         rows = []
@@ -291,6 +297,25 @@ class _Scene:
             rows.append(self.read())
         return rows
 
+
+    def _advance_planar(self, n_from: int, n_to: int) -> list:
+        """:meth:`advance` of the planar chain under the inertial drive: gravity tilted during the pulse
+        (and set back at its step ``n_pulse``), the three joints' states read in one call a step and
+        made rows ``(x, z_slider, θ, ẋ, ż, θ̇)`` after the loop."""
+        pb, cid, body, joints = self.pb, self.cid, self.block, (0, 1, 2)
+        step, set_g, get = pb.stepSimulation, pb.setGravity, pb.getJointStates
+        states = []
+        keep = states.append
+        n_tilted = max(n_from, min(n_to, self.n_pulse + 1)) if self.acc is not None else n_from
+        acc = self.acc
+        for i in range(n_from, n_tilted):
+            set_g(acc[i], 0.0, -G, physicsClientId=cid)
+            step(physicsClientId=cid)
+            keep(get(body, joints, physicsClientId=cid))
+        for _ in range(n_tilted, n_to):
+            step(physicsClientId=cid)
+            keep(get(body, joints, physicsClientId=cid))
+        return [(x[0], z[0], th[0], x[1], z[1], th[1]) for x, z, th in states]
 
 _SCENE: _Scene | None = None
 
