@@ -100,7 +100,7 @@ def pooled(rows: list[dict]) -> dict:
 
 
 def markdown_table(figures: dict) -> str:
-    """The record's rows as docs/speed.md's table."""
+    """The record's rows as a Markdown table, one row per map (docs/speed.md quotes the pooled figures)."""
     near = figures["near_s"]
     lines = ["| engine | block | step | runs | mean simulated | fixed segments: past (segments a run) "
              f"| at the marks, {near:g} s: past (segments a run) | today | past today |",
