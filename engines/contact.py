@@ -45,7 +45,8 @@ from rockbench.engines import progress
 from rockbench.engines.calibration import cache, held_out, knobs, routine, step_rule
 from rockbench.engines.calibration.free_rocking import free_rocking_run
 from rockbench.engines.calibration.routine import POINTS_TRIED
-from rockbench.engines.contract import CONTRACT_VERSION, SETTINGS_MODES, CalibrationResult, EngineAdapter
+from rockbench.engines.contract import (CONTRACT_VERSION, PLANTED, PLANTED_FACTOR_RANGE, SETTINGS_MODES, CalibrationResult,
+                                       EngineAdapter)
 from rockbench.engines.hooks import hook_line, required
 from rockbench.engines.loop import run_worlds
 
@@ -55,9 +56,10 @@ __all__ = ["ContactEngine", "SHARED_SETTINGS", "DRIVES", "PLANAR_MODES", "MODES"
 #: The settings every contact engine has, with typical defaults (an adapter may change a default in its
 #: own ``SETTINGS``): the contact ``calibrated`` to the case's η or the engine as ``shipped``; the drive;
 #: the block kept in the x–z plane; the block–table friction [-]; the longest and shortest simulated
-#: time after the pulse [s]; the block the calibration is made on (the held-out check)
+#: time after the pulse [s]; the block the calibration is made on (the held-out check); a planted
+#: restitution error, the factor on the calibration's target (the suite's power against an engine's own error)
 SHARED_SETTINGS: Mapping[str, Any] = {"settings": "calibrated", "drive": "inertial", "planar": True, "friction": 10.0,
-                                      "tail_s": 3.0, "min_tail_s": 0.5, "calibrate_on": None}
+                                      "tail_s": 3.0, "min_tail_s": 0.5, "calibrate_on": None, PLANTED: None}
 
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")
@@ -145,6 +147,7 @@ class ContactEngine(EngineAdapter):
         self._resolved: dict = {}
         self._steps: dict = {}
         self._itself: ContactEngine | None = None
+        self._plain: ContactEngine | None = None
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_settings(self, s: dict) -> None:
@@ -172,7 +175,26 @@ class ContactEngine(EngineAdapter):
         if s["calibrate_on"] and s["settings"] == "shipped":
             raise ConfigError(f"{self.name} setting 'calibrate_on' needs settings = calibrated (as shipped, nothing is "
                               f"calibrated), got calibrate_on = '{s['calibrate_on']}' with settings = shipped.")
+        self._validate_planted(s)
         self.validate(s)
+
+    def _validate_planted(self, s: dict) -> None:
+        """``planted_eta_factor``: None, or a number in :data:`PLANTED_FACTOR_RANGE` with ``settings =
+        calibrated`` (as shipped nothing is calibrated, so there is no target to move)."""
+        lo, hi = PLANTED_FACTOR_RANGE
+        self.number_setting(s, PLANTED)
+        if s[PLANTED] is None:
+            return
+        if not lo <= s[PLANTED] <= hi:
+            raise ConfigError(f"{self.name} setting '{PLANTED}' must be in [{lo:g}, {hi:g}] (the calibration aims at "
+                              f"η × it), got {s[PLANTED]!r}.")
+        if s["settings"] == "shipped":
+            raise ConfigError(f"{self.name} setting '{PLANTED}' needs settings = calibrated (it moves the "
+                              f"calibration's target; as shipped nothing is calibrated), got settings = shipped.")
+
+    def planted_factor(self) -> float:
+        """The factor a planted restitution error puts on the calibration's target (1: none) [-]."""
+        return 1.0 if self.settings.get(PLANTED) is None else float(self.settings[PLANTED])
 
     def explicit_contact(self) -> bool:
         """Whether a contact setting (one of :attr:`SHIPPED`) was given: it replaces the calibration."""
@@ -204,10 +226,12 @@ class ContactEngine(EngineAdapter):
 
     def contact_layout(self, block: Block, target: float) -> str:
         """``corners`` or ``distributed``: the contact a calibration to ``target`` builds (``auto``: the
-        corners up to 1 % above Housner's η_H, a row of points along the base above)."""
+        corners up to 1 % above Housner's η_H, a row of points along the base above). A planted error
+        moves the target, never the contact: the layout is that of ``target`` / :meth:`planted_factor`."""
         kind = self.settings.get("contact") if self.CONTACT_ROWS else "corners"
         if kind == "auto":
-            kind = "corners" if target <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
+            own = target / self.planted_factor()
+            kind = "corners" if own <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
         return "distributed" if kind == "distributed" else "corners"
 
     def calibration_block(self, block: Block) -> Block:
@@ -217,8 +241,10 @@ class ContactEngine(EngineAdapter):
 
     def calibration_target(self, block: Block, restitution: Restitution) -> tuple[Block, float]:
         """The block the calibration of ``block``'s runs is made on and the η it aims at there [-]
-        (:func:`~rockbench.engines.calibration.held_out.calibration_target`: the law's η for that block)."""
-        return held_out.calibration_target(self.settings.get("calibrate_on"), block, restitution)
+        (:func:`~rockbench.engines.calibration.held_out.calibration_target`: the law's η for that block),
+        times :meth:`planted_factor` (a planted restitution error: the calibration cache keys the target)."""
+        on, eta = held_out.calibration_target(self.settings.get("calibrate_on"), block, restitution)
+        return on, eta * self.planted_factor()
 
     def _on_itself(self) -> "ContactEngine":
         """This adapter, or without ``calibrate_on`` a copy of it that calibrates every block on itself."""
@@ -227,6 +253,14 @@ class ContactEngine(EngineAdapter):
         if self._itself is None:
             self._itself = type(self)(**{**self.settings, "calibrate_on": None})
         return self._itself
+
+    def _unplanted(self) -> "ContactEngine":
+        """This adapter, or with a planted error a copy of it without one (the time-step rule's)."""
+        if self.planted_factor() == 1.0:
+            return self
+        if self._plain is None:
+            self._plain = type(self)(**{**self.settings, PLANTED: None})
+        return self._plain
 
     def fixed(self, contact: Mapping) -> "ContactEngine":
         """A copy of this adapter with the contact ``contact`` given (a calibration's settings: no
@@ -271,7 +305,11 @@ class ContactEngine(EngineAdapter):
     def rule_step(self, block: Block, eta: float) -> tuple[float, dict]:
         """The time-step rule's step for ``block`` at η [s] and its record, cached on disk with the
         calibrations; the search runs on ``block`` itself (``calibrate_on`` left out: its probe runs are
-        of the block the step is for), so a held-out calibration shares the step of the block it names."""
+        of the block the step is for), so a held-out calibration shares the step of the block it names.
+        ``eta`` is a calibration's target: with a planted error the step is the unplanted one's, at
+        η / :meth:`planted_factor` (a planted error moves the target, never the step)."""
+        if self.planted_factor() != 1.0:
+            return self._unplanted().rule_step(block, eta / self.planted_factor())
         # read once per adapter, block, η and settings (the disk key, the engine's version among
         # its parts, costs more to make than a short run: a calibrated cell asks for its step)
         memo = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(float(eta), 12),
@@ -285,7 +323,8 @@ class ContactEngine(EngineAdapter):
                                 target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
                                 probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
                                         step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
-                                settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
+                                settings=sorted((k, str(v)) for k, v in self.settings.items()
+                                                if k not in ("calibrate_on", PLANTED)))
         rec = cache.load(key)
         if rec is None:
             with progress.activity(f"{self.name}: time-step rule for {block.name} at η {eta:.4f}"):
@@ -325,7 +364,7 @@ class ContactEngine(EngineAdapter):
     def _equals_shipped(self, block: Block, eta: float, dt: float, resolved: dict) -> bool:
         """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
         same settings at its own step (then the two variants give one answer, counted once)."""
-        shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None})
+        shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None, PLANTED: None})
         if shipped.step_for(block, eta) != dt:
             return False
         skip = ("settings", "calibration")
