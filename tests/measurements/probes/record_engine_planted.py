@@ -11,6 +11,10 @@ Run from the repository root after the suite::
 
     nice rockbench run tests/measurements/probes/suite_engine_planted.toml --jobs 1 --out OUT --no-report
     nice python tests/measurements/probes/record_engine_planted.py OUT [--no-record]
+
+The calibrations may be timed first, while the suite's maps run (they need only its calibration cache):
+``record_engine_planted.py --time-calibrations CAL.json``, then ``record_engine_planted.py OUT
+--calibrations CAL.json``.
 """
 
 from __future__ import annotations
@@ -83,21 +87,27 @@ def calibration_cpu_s(engine: str, variant: dict, blocks: list[str], restitution
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("out", type=Path)
+    ap.add_argument("out", type=Path, nargs="?")
     ap.add_argument("--no-record", action="store_true")
+    ap.add_argument("--time-calibrations", type=Path, help="time the calibrations alone into this JSON file")
+    ap.add_argument("--calibrations", type=Path, help="the calibrations' times from --time-calibrations")
     args = ap.parse_args(argv)
     suite = load_suite(SUITE)
+    planted = [v for v in suite.engines.variants if PLANTED in v]
+    if args.time_calibrations:
+        cals = {str(v[PLANTED]): calibration_cpu_s("mujoco", v, blocks_of(suite, v), suite.engines.restitution)
+                for v in planted}
+        args.time_calibrations.write_text(json.dumps(cals, indent=1))
+        return 0
+    timed = json.loads(args.calibrations.read_text()) if args.calibrations else {}
     verdict = json.loads((args.out / "score.json").read_text())["verdict"]
     power = verdict["engine_power"]
     maps = {d.name: round(sum(map_cpu_s(m) for m in d.iterdir() if m.is_dir()), 1)
             for d in (args.out / "maps").iterdir() if d.is_dir() and d.name.startswith("mujoco")}
     variants = {}
-    for v in suite.engines.variants:
-        if PLANTED not in v:
-            continue
+    for v in planted:
         factor = v[PLANTED]
-        blocks = blocks_of(suite, v)
-        cal = calibration_cpu_s("mujoco", v, blocks, suite.engines.restitution)
+        cal = timed.get(str(factor)) or calibration_cpu_s("mujoco", v, blocks_of(suite, v), suite.engines.restitution)
         folder = next(n for n in maps if f"factor={factor:g}-" in n)
         variants[f"{factor - 1:+.2f}"] = {"eta_factor": factor, "map_cpu_s": maps[folder], "blocks": cal,
                                           "calibration_cpu_s": round(sum(c["calibration_cpu_s"] for c in cal.values()), 1),
