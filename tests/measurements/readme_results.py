@@ -149,13 +149,13 @@ def engine_power_block(_rec: dict | None = None) -> str:
     ``_rec``: the default suite's verdict record has no engine-planted variant)."""
     rec = load(ENGINE_POWER_RECORD)
     f = rec["figures"]
-    lines = ["| δ (η_H·(1 + δ)) | η reached / η_H | signed offset change [95 %, across problems] | "
+    lines = ["| δ (η_H·(1 + δ)) | η reached / η_H (B2M B3M B6M B8M) | signed offset change [95 %, across problems] | "
              "distance change [95 %, across problems] |", "|---|---|---|---|"]
     for engine, e in f["engine_power"]["engines"].items():
         for r in e["rows"]:
-            blocks = f["variants"][f"{r['delta']:+.2f}"]["blocks"].values()
-            reached = sum(b["eta_reached"] / b["eta_law"] for b in blocks) / len(blocks)
-            lines.append(f"| {r['delta'] * 100:+g} % | {reached:.4f} | {_moved(r['offset'])} | {_moved(r['distance'])} |")
+            per = f["variants"][f"{r['delta']:+.2f}"]["eta_over_law"]
+            reached = " ".join(f"{per[b]['reached']:.3f}" for b in sorted(per))
+            lines.append(f"| {r['delta'] * 100:+g} % | {reached} | {_moved(r['offset'])} | {_moved(r['distance'])} |")
         res = e["resolved_abs_delta"]
         words = {m: (", ".join(f"{d * 100:g} %" for d in res[m]) or "none") for m in res}
     first = f["engine_power"]["engines"]["mujoco"]["rows"][0]["distance"]

@@ -54,10 +54,28 @@ def map_cpu_s(folder: Path) -> float:
     return total
 
 
-def calibration_cpu_s(engine: str, variant: dict, blocks: list[str], restitution: str) -> dict:
+def etas(out: Path, folder: str, variant: str) -> dict:
+    """Per block, the η a variant's calibration aimed at and reached (its sine map's run.json) and its own
+    free-rocking η (the run's calibration.json) over the law's η: ``{block: {"target", "reached",
+    "reached_ok", "own"}}`` (each η as a ratio to the law's)."""
+    own = {m["block"]: m["eta_measured"] for m in json.loads((out / "calibration.json").read_text())["measurements"]
+           if m["variant"] == variant}
+    res = {}
+    for m in sorted((out / "maps" / folder).glob("*-sine-*")):
+        run = json.loads((m / "run.json").read_text())
+        law = float(run["spec"]["restitution"]["eta"]) if "eta" in run["spec"].get("restitution", {}) else None
+        cal = run["engine"]["resolved_settings"]["calibration"]
+        block = m.name.split("-")[0]
+        law = law or run["summary"]["eta"]
+        res[block] = {"target": cal["eta_target"] / law, "reached": cal["eta_measured"] / law,
+                      "reached_ok": cal["reached"], "own": own[block] / law if block in own else None}
+    return res
+
+
+def calibration_cpu_s(engine: str, variant: dict, blocks: list[str], restitution: str, done=None) -> dict:
     """A planted variant's calibrations and own-η measurements, timed in a scratch cache that lacks its
     calibration records: ``{block: {"calibration_cpu_s", "own_eta_cpu_s", "eta_target", "eta_reached",
-    "eta_own"}}``."""
+    "eta_own"}}`` (``done(out)`` called after each block)."""
     src = Path(os.environ["ROCKBENCH_CACHE"])
     out = {}
     with tempfile.TemporaryDirectory() as scratch:
@@ -80,6 +98,8 @@ def calibration_cpu_s(engine: str, variant: dict, blocks: list[str], restitution
                 out[block] = {"calibration_cpu_s": round(t1 - t0, 2), "own_eta_cpu_s": round(t2 - t1, 2),
                               "eta_target": target, "eta_reached": cal.get("eta_measured"),
                               "eta_own": float(own.eta_mean), "eta_law": law.eta(b.alpha_rad)}
+                if done is not None:
+                    done(out)
         finally:
             os.environ["ROCKBENCH_CACHE"] = str(src)
     return out
@@ -95,11 +115,15 @@ def main(argv=None) -> int:
     suite = load_suite(SUITE)
     planted = [v for v in suite.engines.variants if PLANTED in v]
     if args.time_calibrations:
-        cals = {str(v[PLANTED]): calibration_cpu_s("mujoco", v, blocks_of(suite, v), suite.engines.restitution)
-                for v in planted}
-        args.time_calibrations.write_text(json.dumps(cals, indent=1))
+        cals: dict = {}
+        for v in sorted(planted, key=lambda v: abs(v[PLANTED] - 1.0)):     # the 1 % variants first
+
+            def done(out, key=str(v[PLANTED])):
+                cals[key] = out
+                args.time_calibrations.write_text(json.dumps(cals, indent=1))
+            calibration_cpu_s("mujoco", v, blocks_of(suite, v), suite.engines.restitution, done)
         return 0
-    timed = json.loads(args.calibrations.read_text()) if args.calibrations else {}
+    timed = json.loads(args.calibrations.read_text()) if args.calibrations else None
     verdict = json.loads((args.out / "score.json").read_text())["verdict"]
     power = verdict["engine_power"]
     maps = {d.name: round(sum(map_cpu_s(m) for m in d.iterdir() if m.is_dir()), 1)
@@ -107,9 +131,13 @@ def main(argv=None) -> int:
     variants = {}
     for v in planted:
         factor = v[PLANTED]
-        cal = timed.get(str(factor)) or calibration_cpu_s("mujoco", v, blocks_of(suite, v), suite.engines.restitution)
+        cal = (timed.get(str(factor), {}) if timed is not None else
+               calibration_cpu_s("mujoco", v, blocks_of(suite, v), suite.engines.restitution))
         folder = next(n for n in maps if f"factor={factor:g}-" in n)
+        name = f"mujoco[{PLANTED}={factor:g},settings=calibrated]"
         variants[f"{factor - 1:+.2f}"] = {"eta_factor": factor, "map_cpu_s": maps[folder], "blocks": cal,
+                                          "eta_over_law": etas(args.out, folder, name),
+                                          "blocks_timed": len(cal),
                                           "calibration_cpu_s": round(sum(c["calibration_cpu_s"] for c in cal.values()), 1),
                                           "own_eta_cpu_s": round(sum(c["own_eta_cpu_s"] for c in cal.values()), 1)}
         print(f"δ = {factor - 1:+.2f}: maps {maps[folder]:.0f} s, calibrations {variants[f'{factor - 1:+.2f}']['calibration_cpu_s']:.0f} s, "
@@ -123,7 +151,8 @@ def main(argv=None) -> int:
     figures = {"suite": SUITE.name, "problems": rows[0]["distance"]["problems"] if rows and rows[0]["distance"] else None,
                "engine_power": power, "base": {"variant": base["variant"], "value": base["value"], "offset": base["offset"],
                                                "map_cpu_s": next(c for n, c in maps.items() if "planted" not in n)},
-               "map_cpu_s_by_folder": maps, "variants": variants,
+               "map_cpu_s_by_folder": maps,
+               "base_eta_over_law": etas(args.out, "mujoco-settings=calibrated", "mujoco[settings=calibrated]"), "variants": variants,
                "planted_variants_cpu_s": round(sum(v["map_cpu_s"] + v["calibration_cpu_s"] + v["own_eta_cpu_s"]
                                                    for v in variants.values()), 1)}
     print(f"the four planted variants: {figures['planted_variants_cpu_s']:.0f} s of CPU in all")
