@@ -111,7 +111,7 @@ def _planted(v: Variant) -> dict | None:
     if v.planted_factor is None:
         return None
     sign = 1.0 if v.settings == ENGINE_PLANTED_CLASS else -1.0
-    return {"eta_factor": v.planted_factor, "delta": round(sign * (v.planted_factor - 1.0), 12)}
+    return {"eta_factor": v.planted_factor, "delta": round(sign * (v.planted_factor - 1.0), 12) + 0.0}   # never −0
 
 
 def _basis(e: dict, v: Variant) -> str:
