@@ -136,4 +136,4 @@ def test_a_shifted_boundary_is_resolved_across_problems_as_the_statistics_say(wr
     assert sorted(labels.values())[0].endswith("calibrated to η_H × 0.980 (planted)")
     text = next(t for t in v["text"] if t.startswith("The suite's power against MuJoCo's own restitution error"))
     assert "t on 7 degrees of freedom" in text and "δ = +2 %: distance +0.1" in text
-    assert text.endswith("by the distance, |δ| 2 % resolved; by the offset, |δ| none resolved.")
+    assert text.endswith("by the distance, |δ| 2 % resolved; by the offset, no |δ| resolved.")

@@ -358,8 +358,8 @@ def engine_power_sentences(p: dict | None, labels: dict) -> list[str]:
                 + ", ".join(_moved(r[m], m) for m in ("distance", "offset")) for r in e["rows"]]
         df = next((r[m]["df"] for r in e["rows"] for m in ("distance", "offset") if r[m]), None)
         res = e["resolved_abs_delta"]
-        tail = "; ".join(f"by the {m}, |δ| " + (_and([delta_words(d) for d in res[m]]) + " resolved" if res[m]
-                                                 else "none resolved") for m in ("distance", "offset"))
+        tail = "; ".join(f"by the {m}, " + ("|δ| " + _and([delta_words(d) for d in res[m]]) + " resolved" if res[m]
+                                            else "no |δ| resolved") for m in ("distance", "offset"))
         out.append(f"The suite's power against {name}'s own restitution error, across problems ({name} calibrated "
                    f"to η·(1 + δ) against its own calibration to η, δ = 0, paired per problem"
                    + (f", t on {df} degrees of freedom" if df is not None else "") + "; the distance one-sided, the "
