@@ -9,7 +9,8 @@ import pytest
 
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines import contact
-from rockbench.engines.calibration import routine
+from rockbench.engines.calibration import routine, time_step
+from rockbench.engines.calibration.layout import contact_layout
 from rockbench.engines.contract import CalibrationResult
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
@@ -29,8 +30,8 @@ def test_the_calibration_aims_at_eta_times_the_factor_and_the_layout_stays(b6m):
     assert high.calibration_target(b6m, Restitution())[1] == pytest.approx(1.02 * eta, rel=1e-15)
     assert low.calibration_target(b6m, Restitution())[1] == pytest.approx(0.98 * eta, rel=1e-15)
     # 2 % above η_H would be a row along the base for the unplanted engine; a planted error keeps the corners
-    assert plain.contact_layout(b6m, 1.02 * eta) == "distributed"
-    assert high.contact_layout(b6m, 1.02 * eta) == low.contact_layout(b6m, 0.98 * eta) == "corners"
+    assert contact_layout(plain, b6m, 1.02 * eta) == "distributed"
+    assert contact_layout(high, b6m, 1.02 * eta) == contact_layout(low, b6m, 0.98 * eta) == "corners"
 
 
 def test_the_cache_key_holds_the_target_and_not_the_factor(b6m):
@@ -44,10 +45,10 @@ def test_the_cache_key_holds_the_target_and_not_the_factor(b6m):
 def test_resolve_calibrates_to_the_planted_target_at_the_unplanted_step(b6m, monkeypatch):
     eta = housner_eta(b6m.alpha_rad)
     steps, targets = [], []
-    monkeypatch.setattr(contact.step_rule, "converged_step", lambda cal, judged, block, e: steps.append(e) or
+    monkeypatch.setattr(time_step.step_rule, "converged_step", lambda cal, judged, block, e: steps.append(e) or
                         (None, {"dt_s": 4e-4}))
-    monkeypatch.setattr(contact.cache, "load", lambda key: None)
-    monkeypatch.setattr(contact.cache, "store", lambda key, rec, engine: None)
+    monkeypatch.setattr(time_step.cache, "load", lambda key: None)
+    monkeypatch.setattr(time_step.cache, "store", lambda key, rec, engine: None)
 
     def calibrate(ad, block, target, *, dt_s=None, use_cache=True):
         targets.append((target, dt_s, ad.planted_factor()))
