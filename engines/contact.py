@@ -46,7 +46,7 @@ from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.engines import progress
-from rockbench.engines.calibration import held_out, knobs, layout, routine, time_step
+from rockbench.engines.calibration import held_out, knobs, layout, planted, routine, time_step
 from rockbench.engines.calibration.free_rocking import free_rocking_run
 from rockbench.engines.calibration.routine import POINTS_TRIED
 from rockbench.engines.contract import PLANTED, PLANTED_FACTOR_RANGE, SETTINGS_MODES, CalibrationResult, EngineAdapter
@@ -149,7 +149,6 @@ class ContactEngine(EngineAdapter):
         self.scenes: dict = {}
         self._resolved: dict = {}
         self._itself: ContactEngine | None = None
-        self._plain: ContactEngine | None = None
 
     # -- settings -----------------------------------------------------------------------------
     def _validate_settings(self, s: dict) -> None:
@@ -194,10 +193,6 @@ class ContactEngine(EngineAdapter):
             raise ConfigError(f"{self.name} setting '{PLANTED}' needs settings = calibrated (it moves the "
                               f"calibration's target; as shipped nothing is calibrated), got settings = shipped.")
 
-    def planted_factor(self) -> float:
-        """The factor a planted restitution error puts on the calibration's target (1: none) [-]."""
-        return 1.0 if self.settings.get(PLANTED) is None else float(self.settings[PLANTED])
-
     def explicit_contact(self) -> bool:
         """Whether a contact setting (one of :attr:`SHIPPED`) was given: it replaces the calibration."""
         return any(self.settings[k] is not None for k in self.SHIPPED)
@@ -226,14 +221,6 @@ class ContactEngine(EngineAdapter):
             s["contact_points"] = POINTS_TRIED[0]
         return s
 
-    def calibration_target(self, block: Block, restitution: Restitution) -> tuple[Block, float]:
-        """The block the calibration of ``block``'s runs is made on and the η it aims at there [-]: the
-        law's η for that block (:func:`~rockbench.engines.calibration.held_out.calibration_target`, its
-        ``calibrate_on`` setting) times :meth:`planted_factor` (a planted restitution error; the
-        calibration cache keys the target)."""
-        on, eta = held_out.calibration_target(self.settings["calibrate_on"], block, restitution)
-        return on, eta * self.planted_factor()
-
     def _on_itself(self) -> "ContactEngine":
         """This adapter, or without ``calibrate_on`` a copy of it that calibrates every block on itself."""
         if not self.settings.get("calibrate_on"):
@@ -241,14 +228,6 @@ class ContactEngine(EngineAdapter):
         if self._itself is None:
             self._itself = type(self)(**{**self.settings, "calibrate_on": None})
         return self._itself
-
-    def _unplanted(self) -> "ContactEngine":
-        """This adapter, or with a planted error a copy of it without one (the time-step rule's)."""
-        if self.planted_factor() == 1.0:
-            return self
-        if self._plain is None:
-            self._plain = type(self)(**{**self.settings, PLANTED: None})
-        return self._plain
 
     # -- the time step ------------------------------------------------------------------------
     def posed(self, case):
@@ -266,9 +245,9 @@ class ContactEngine(EngineAdapter):
         A contact given, else as shipped the engine's, else the calibration to the restitution's η
         at this step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached) made on the block
         ``calibrate_on`` names (the record's ``calibrated_on`` names it) and aimed at the law's η for
-        that block (:meth:`calibration_target`, times a planted factor);
+        that block times a planted factor (:func:`~rockbench.engines.calibration.planted.calibration_target`);
         :meth:`settings_with` resolves them. Memoised."""
-        on, eta = (self.calibration_target(block, restitution) if self.calibrated()
+        on, eta = (planted.calibration_target(self, block, restitution) if self.calibrated()
                    else (block, restitution.eta(block.alpha_rad)))
         dt = time_step.step_for(self, block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)

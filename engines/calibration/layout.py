@@ -9,6 +9,7 @@ from typing import Mapping
 
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import housner_eta
+from rockbench.engines.calibration import planted
 
 __all__ = ["contact_layout", "with_contact"]
 
@@ -21,7 +22,7 @@ def contact_layout(ad, block: Block, target: float) -> str:
     planted factor."""
     kind = ad.settings.get("contact") if ad.CONTACT_ROWS else "corners"
     if kind == "auto":
-        own = target / ad.planted_factor()
+        own = target / planted.factor(ad)
         kind = "corners" if own <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
     return "distributed" if kind == "distributed" else "corners"
 

@@ -19,7 +19,7 @@ from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.rules import RULES_VERSION
 from rockbench.engines import progress
 from rockbench.engines.contract import CONTRACT_VERSION, PLANTED
-from rockbench.engines.calibration import cache, held_out, layout, routine, step_rule
+from rockbench.engines.calibration import cache, held_out, layout, planted, routine, step_rule
 
 __all__ = ["step_for", "rule_step"]
 
@@ -35,7 +35,7 @@ def step_for(ad, block: Block, eta: float, pulse=None, dt_s: float | None = None
     engine's own step (``own_dt_s``), never coarser than the pulse accepts, or where it ships none
     ``fixed_dt_s``; calibrated at the corners, the time-step rule's step (:func:`rule_step`) for the
     block the calibration is made on at the η it aims at there (its ``calibrate_on`` setting and
-    planted factor, ``ad.calibration_target`` where ``restitution``, the law behind ``eta``, is given;
+    planted factor, :func:`~rockbench.engines.calibration.planted.calibration_target` where ``restitution``, the law behind ``eta``, is given;
     else ``eta`` times the factor), never coarser than the pulse
     accepts; otherwise (a contact given, a row along the base) ``fixed_dt_s``, the row's never coarser
     than the pulse accepts. Checked against ``pulse`` where one is given."""
@@ -46,8 +46,8 @@ def step_for(ad, block: Block, eta: float, pulse=None, dt_s: float | None = None
     elif not ad.calibrated():
         dt = ad.fixed_dt_s
     else:
-        on, target = (ad.calibration_target(block, restitution) if restitution is not None
-                      else (held_out.calibration_block(ad.settings["calibrate_on"], block), eta * ad.planted_factor()))
+        on, target = (planted.calibration_target(ad, block, restitution) if restitution is not None
+                      else (held_out.calibration_block(ad.settings["calibrate_on"], block), eta * planted.factor(ad)))
         rowed = layout.contact_layout(ad, on, target) == "distributed"
         dt = _capped(ad.fixed_dt_s if rowed else rule_step(ad, on, target)[0], pulse)
     return dt if pulse is None else pulse.check_dt(dt)
@@ -60,8 +60,8 @@ def rule_step(ad, block: Block, eta: float) -> tuple[float, dict]:
     the block the step is for), so a held-out calibration shares the step of the block it names.
     ``eta`` is a calibration's target: with a planted error (``planted_eta_factor``) the step is the
     unplanted engine's at η / the factor (a planted error moves the target, never the step)."""
-    if ad.planted_factor() != 1.0:
-        return rule_step(ad._unplanted(), block, eta / ad.planted_factor())   # noqa: SLF001 - the base's copy
+    if planted.factor(ad) != 1.0:
+        return rule_step(planted.unplanted(ad), block, eta / planted.factor(ad))
     memo = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(float(eta), 12),
             tuple(sorted((k, str(v)) for k, v in ad.settings.items())))
     mine = _RULE_STEPS.setdefault(ad, {})

@@ -9,7 +9,7 @@ import pytest
 
 from rockbench.benchmark.blocks.presets import get_preset
 from rockbench.engines import contact
-from rockbench.engines.calibration import routine, time_step
+from rockbench.engines.calibration import planted, routine, time_step
 from rockbench.engines.calibration.layout import contact_layout
 from rockbench.engines.contract import CalibrationResult
 from rockbench.engines.registry import get_adapter
@@ -26,9 +26,9 @@ def test_the_calibration_aims_at_eta_times_the_factor_and_the_layout_stays(b6m):
     eta = housner_eta(b6m.alpha_rad)
     plain, high, low = (get_adapter("mujoco", **kw) for kw in ({}, {"planted_eta_factor": 1.02},
                                                                {"planted_eta_factor": 0.98}))
-    assert plain.calibration_target(b6m, Restitution()) == (b6m, eta)
-    assert high.calibration_target(b6m, Restitution())[1] == pytest.approx(1.02 * eta, rel=1e-15)
-    assert low.calibration_target(b6m, Restitution())[1] == pytest.approx(0.98 * eta, rel=1e-15)
+    assert planted.calibration_target(plain, b6m, Restitution()) == (b6m, eta)
+    assert planted.calibration_target(high, b6m, Restitution())[1] == pytest.approx(1.02 * eta, rel=1e-15)
+    assert planted.calibration_target(low, b6m, Restitution())[1] == pytest.approx(0.98 * eta, rel=1e-15)
     # 2 % above η_H would be a row along the base for the unplanted engine; a planted error keeps the corners
     assert contact_layout(plain, b6m, 1.02 * eta) == "distributed"
     assert contact_layout(high, b6m, 1.02 * eta) == contact_layout(low, b6m, 0.98 * eta) == "corners"
@@ -51,7 +51,7 @@ def test_resolve_calibrates_to_the_planted_target_at_the_unplanted_step(b6m, mon
     monkeypatch.setattr(time_step.cache, "store", lambda key, rec, engine: None)
 
     def calibrate(ad, block, target, *, dt_s=None, use_cache=True):
-        targets.append((target, dt_s, ad.planted_factor()))
+        targets.append((target, dt_s, planted.factor(ad)))
         return CalibrationResult(eta_target=target, eta_measured=target, eta_std=0.0, reached=True,
                                  settings={"timeconst_s": 2e-3, "dampratio": 1.0}, note="recorded")
     monkeypatch.setattr(contact.routine, "calibrate", calibrate)

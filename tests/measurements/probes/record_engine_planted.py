@@ -37,6 +37,7 @@ from rockbench.benchmark.engine_info.adapters import build_adapter  # noqa: E402
 from rockbench.benchmark.suites.model import load_suite, restitution_for  # noqa: E402
 from rockbench.benchmark.suites.plan import blocks_of, variant_settings  # noqa: E402
 from rockbench.engines.calibration.free_rocking import measure_restitution  # noqa: E402
+from rockbench.engines.calibration import planted  # noqa: E402
 from rockbench.engines.contract import PLANTED  # noqa: E402
 
 SUITE = Path(__file__).resolve().parent / "suite_engine_planted.toml"
@@ -85,7 +86,7 @@ def calibration_cpu_s(engine: str, variant: dict, blocks: list[str], restitution
             for block in blocks:
                 b, law = get_preset(block).block(), restitution_for(restitution, block)
                 ad = build_adapter(engine, **variant_settings(variant))
-                target = ad.calibration_target(b, law)[1]
+                target = planted.calibration_target(ad, b, law)[1]
                 for p in Path(scratch, "calibration").glob("*.json"):     # this variant's records out
                     res = (json.loads(p.read_text()).get("result") or {})
                     if res.get("eta_target") is not None and abs(res["eta_target"] - target) < 1e-12:
