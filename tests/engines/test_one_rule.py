@@ -31,7 +31,7 @@ from rockbench.reference_solver.classify import run_end
 #: values, a search of its own, stopping a retired world, a quiet import, where it runs, why the
 #: default suite leaves it out, how many worlds a batch of given settings holds) and declarations computed from its settings (KNOBS, START_KEEP_RTOL)
 CONTACT_HOOKS = frozenset({"build", "start", "advance", "read", "validate", "candidates", "retire", "load_engine",
-                           "device_note", "default_suite_exclusion", "worlds_per_batch", "KNOBS", "START_KEEP_RTOL"})
+                           "device_note", "default_suite_exclusion", "worlds_per_batch", "stop_angles", "KNOBS", "START_KEEP_RTOL"})
 
 #: what an engine that is no contact engine may define of the base: contract items 3, 4 and 7
 GENERAL_HOOKS = frozenset({"_simulate", "_simulate_many", "_native_verdicts", "solve_grid", "validate",
