@@ -46,10 +46,10 @@ from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.engines import progress
-from rockbench.engines.calibration import held_out, knobs, layout, routine, time_step
+from rockbench.engines.calibration import held_out, knobs, layout, planted, routine, time_step
 from rockbench.engines.calibration.free_rocking import free_rocking_run
 from rockbench.engines.calibration.routine import POINTS_TRIED
-from rockbench.engines.contract import SETTINGS_MODES, CalibrationResult, EngineAdapter
+from rockbench.engines.contract import PLANTED, PLANTED_FACTOR_RANGE, SETTINGS_MODES, CalibrationResult, EngineAdapter
 from rockbench.engines.hooks import hook_line, required
 from rockbench.engines.loop import run_worlds
 
@@ -59,9 +59,10 @@ __all__ = ["ContactEngine", "SHARED_SETTINGS", "DRIVES", "PLANAR_MODES", "MODES"
 #: The settings every contact engine has, with typical defaults (an adapter may change a default in its
 #: own ``SETTINGS``): the contact ``calibrated`` to the case's η or the engine as ``shipped``; the drive;
 #: the block kept in the x–z plane; the block–table friction [-]; the longest and shortest simulated
-#: time after the pulse [s]; the block the calibration is made on (the held-out check)
+#: time after the pulse [s]; the block the calibration is made on (the held-out check); a planted
+#: restitution error, the factor on the calibration's target (the suite's power against an engine's own error)
 SHARED_SETTINGS: Mapping[str, Any] = {"settings": "calibrated", "drive": "inertial", "planar": True, "friction": 10.0,
-                                      "tail_s": 3.0, "min_tail_s": 0.5, "calibrate_on": None}
+                                      "tail_s": 3.0, "min_tail_s": 0.5, "calibrate_on": None, PLANTED: None}
 
 #: ``drive`` values: the inertial force −m·ü at the centre of mass, or a table moved along u(t)
 DRIVES = ("inertial", "table")
@@ -175,7 +176,22 @@ class ContactEngine(EngineAdapter):
         if s["calibrate_on"] and s["settings"] == "shipped":
             raise ConfigError(f"{self.name} setting 'calibrate_on' needs settings = calibrated (as shipped, nothing is "
                               f"calibrated), got calibrate_on = '{s['calibrate_on']}' with settings = shipped.")
+        self._validate_planted(s)
         self.validate(s)
+
+    def _validate_planted(self, s: dict) -> None:
+        """``planted_eta_factor``: None, or a number in :data:`PLANTED_FACTOR_RANGE` with ``settings =
+        calibrated`` (as shipped nothing is calibrated, so there is no target to move)."""
+        lo, hi = PLANTED_FACTOR_RANGE
+        self.number_setting(s, PLANTED)
+        if s[PLANTED] is None:
+            return
+        if not lo <= s[PLANTED] <= hi:
+            raise ConfigError(f"{self.name} setting '{PLANTED}' must be in [{lo:g}, {hi:g}] (the calibration aims at "
+                              f"η × it), got {s[PLANTED]!r}.")
+        if s["settings"] == "shipped":
+            raise ConfigError(f"{self.name} setting '{PLANTED}' needs settings = calibrated (it moves the "
+                              f"calibration's target; as shipped nothing is calibrated), got settings = shipped.")
 
     def explicit_contact(self) -> bool:
         """Whether a contact setting (one of :attr:`SHIPPED`) was given: it replaces the calibration."""
@@ -229,9 +245,9 @@ class ContactEngine(EngineAdapter):
         A contact given, else as shipped the engine's, else the calibration to the restitution's η
         at this step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached) made on the block
         ``calibrate_on`` names (the record's ``calibrated_on`` names it) and aimed at the law's η for
-        that block (:func:`~rockbench.engines.calibration.held_out.calibration_target`);
+        that block times a planted factor (:func:`~rockbench.engines.calibration.planted.calibration_target`);
         :meth:`settings_with` resolves them. Memoised."""
-        on, eta = (held_out.calibration_target(self.settings["calibrate_on"], block, restitution) if self.calibrated()
+        on, eta = (planted.calibration_target(self, block, restitution) if self.calibrated()
                    else (block, restitution.eta(block.alpha_rad)))
         dt = time_step.step_for(self, block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
@@ -252,7 +268,7 @@ class ContactEngine(EngineAdapter):
     def _equals_shipped(self, block: Block, eta: float, dt: float, resolved: dict) -> bool:
         """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
         same settings at its own step (then the two variants give one answer, counted once)."""
-        shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None})
+        shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None, PLANTED: None})
         if time_step.step_for(shipped, block, eta) != dt:
             return False
         skip = ("settings", "calibration")

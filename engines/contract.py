@@ -391,6 +391,15 @@ class CalibrationResult:
 #: the engine as shipped (:meth:`EngineAdapter.as_shipped`)
 SETTINGS_MODES = ("calibrated", "shipped")
 
+#: The setting that plants a restitution error, the same on every engine that takes it: the factor on
+#: the η a case asks for [-]. The reference solver runs with η × factor (factor 1 − δ, in (0, 1]); a
+#: calibrated contact engine is calibrated to η × factor (factor 1 + δ, in
+#: :data:`PLANTED_FACTOR_RANGE`) with the contact layout and time step of its unplanted calibration.
+PLANTED = "planted_eta_factor"
+
+#: The factors a contact engine's planted restitution error may take (inclusive) [-]: errors up to 50 %.
+PLANTED_FACTOR_RANGE = (0.5, 1.5)
+
 
 class EngineAdapter:
     """Base class of every engine adapter; see the module docstring for the contract."""

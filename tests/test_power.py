@@ -122,7 +122,7 @@ def test_power_variants_run_whatever_engines_run(tmp_path, capsys):
                                                  "reduction once."),
     ("[power]\neta_reductions = ['1%']\n",
      "suite s.toml: power.eta_reductions must be a list of numbers δ in [0, 1) (the planted η is η·(1 − δ)), got ['1%']."),
-    ("[power]\ndeltas = [0.01]\n", "suite s.toml: unknown key power.deltas; [power] takes eta_reductions."),
+    ("[power]\ndeltas = [0.01]\n", "suite s.toml: unknown key power.deltas; [power] takes engine_eta_offsets, engines, eta_reductions."),
 ])
 def test_a_bad_power_table_is_one_line_and_exit_2(tmp_path, capsys, table, line):
     p = _power_suite(tmp_path, table)

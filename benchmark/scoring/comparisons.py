@@ -105,7 +105,7 @@ def family(cls: str, ents: list[list[Variant]]) -> Family:
         f.critical = _py.median(m["critical"] for m in f.mcb.values())
         f.pair_se = _py.median(finite)
         f.mdd = detectable(f.critical, f.pair_se)
-    f.across = across_problems(f, heads)
+    f.across = across_problems(heads)
     return f
 
 
@@ -122,8 +122,9 @@ def problem_table(heads: dict) -> tuple[list, list, list]:
     return names, [[means[n][c][0] for c in common] for n in names], [[means[n][c][1] for c in common] for n in names]
 
 
-def across_problems(f: Family, heads: dict) -> dict | None:
-    """Hsu's comparisons with the best **across problems**: the problems a sample, so each paired
+def across_problems(heads: dict) -> dict | None:
+    """Hsu's comparisons with the best **across problems** of the entries ``heads`` (``{name: items}``,
+    :func:`~.scenarios.items`): the problems a sample, so each paired
     difference errs by the engine × problem interaction (:func:`~.statistics.interaction` of the
     class's two-way table, (k − 1)(C − 1) degrees of freedom), never less than its grid error on this
     suite (the floor); q Dunnett's one-sided multivariate-t critical value for the k − 1 comparisons

@@ -23,12 +23,17 @@ ENGINE_NAMES = {"reference": "Reference solver", "mujoco": "MuJoCo", "pybullet":
                 "mujoco_warp": "MuJoCo Warp", "drake": "Drake", "dart": "DART", "newton": "Newton", "genesis": "Genesis",
                 "physx": "PhysX 5 via SAPIEN"}   # the version shown is SAPIEN's (PhysX has none of its own in the wheel)
 
-#: Engine settings that say nothing a reader needs when they have their default value.
-_QUIET = {"settings"}
+#: Engine settings that say nothing a reader needs when they have their default value (a planted factor
+#: is said with the target it moves).
+_QUIET = {"settings", PLANTED}
 
 #: The settings classes the verdict answers apart (best achievable, out of the box), and the suite's
 #: yardstick: the reference solver with a planted restitution error (``planted_eta_factor``)
 CALIBRATED, AS_SHIPPED, PLANTED_CLASS = "calibrated", "as-shipped", "planted"
+
+#: The class of an engine calibrated to η_target × (1 + δ) (a contact engine's ``planted_eta_factor``):
+#: the suite's power against an engine's own restitution error, never in the calibrated standing
+ENGINE_PLANTED_CLASS = "engine-planted"
 
 #: The reference adapter's setting that plants a restitution η_target × factor (the suite's power).
 PLANTED_SETTING = PLANTED
@@ -139,6 +144,8 @@ def variant_label(engine: str, settings: dict | None = None, *, version=None, re
     if engine != "reference":
         if s.get("settings", "calibrated") == "shipped":
             words.append("as shipped")
+        elif s.get(PLANTED_SETTING) is not None:
+            words.append(f"calibrated to {planted_words(restitution, s[PLANTED_SETTING], block)}")
         else:
             words.append(f"calibrated to {restitution_symbol(restitution, block)}" if restitution else "calibrated")
     elif restitution:
@@ -210,11 +217,14 @@ def variant_labels(cands) -> dict[str, str]:
 def settings_class(engine_settings: dict | None, variant: str, engine: str | None = None) -> str:
     """``calibrated`` (rockbench's calibration, any contact layout it chose), ``as-shipped`` (the
     engine's defaults and nothing else), ``planted`` (the reference solver with a planted restitution
-    error, :func:`~rockbench.engines.adapters.reference.is_planted`) or, for anything else set by hand,
+    error, :func:`~rockbench.engines.adapters.reference.is_planted`), ``engine-planted`` (an engine
+    calibrated to the target × its ``planted_eta_factor``) or, for anything else set by hand,
     the variant's own name. The settings that choose the ``engine``'s model (:func:`model_settings`:
     Newton's solver) are the engine's, not a tweak: they leave the class as it is."""
     if engine is not None and is_planted(engine, engine_settings):
         return PLANTED_CLASS
+    if engine not in (None, "reference") and (engine_settings or {}).get(PLANTED_SETTING) is not None:
+        return ENGINE_PLANTED_CLASS
     model = model_settings(engine) if engine else {}
     s = {k: v for k, v in (engine_settings or {}).items() if k not in model}
     kind = s.get("settings", "calibrated")

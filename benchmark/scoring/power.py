@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import math
 
+from rockbench.benchmark.scoring.labels import PLANTED_CLASS
 from rockbench.benchmark.scoring.scenarios import Variant, items
 from rockbench.benchmark.scoring.statistics import fixed, paired, z_one_sided
 
 
 def planted_variants(variants: list[Variant]) -> list[Variant]:
-    """The planted variants, smallest δ first."""
-    return sorted((v for v in variants if v.planted_factor is not None), key=lambda v: -v.planted_factor)
+    """The reference solver's planted variants (class ``planted``), smallest δ first (an engine's own planted
+    error is :mod:`~rockbench.benchmark.scoring.engine_power`'s)."""
+    return sorted((v for v in variants if v.planted_factor is not None and v.settings == PLANTED_CLASS),
+                  key=lambda v: -v.planted_factor)
 
 
 def planted_power(variants: list[Variant], critical: float, critical_from: str) -> dict | None:

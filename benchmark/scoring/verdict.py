@@ -31,21 +31,24 @@ from rockbench.benchmark.scoring.declared import DEFAULTS, Declared, fail_limit
 from rockbench.benchmark.scoring.equivalence import held_out_check, restitution_test
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails, reason_kinds, reasons
 from rockbench.benchmark.scoring.metrics import PRIMARY, PRIMARY_METRIC
+from rockbench.benchmark.scoring.engine_power import engine_planted_power
+from rockbench.benchmark.scoring.labels import ENGINE_PLANTED_CLASS
 from rockbench.benchmark.scoring.power import planted_power, restitution_response
 from rockbench.benchmark.scoring.scenarios import Variant, items, reference_gaps, variants_of
 from rockbench.benchmark.scoring.statistics import CONFIDENCE, fixed
 from rockbench.benchmark.scoring.verdict_words import METHOD, sentences, short_verdict
 
 #: The groups of the verdict's table and picture, in their order.
-GROUPS = ("calibrated", "as-shipped", "other", "held-out", "planted")
+GROUPS = ("calibrated", "as-shipped", "other", "held-out", "planted", "engine-planted")
 
 
 def group_of(v: Variant) -> str:
-    """Where a variant is shown: its compared class, ``held-out``, ``planted`` or ``other`` (set by hand)."""
+    """Where a variant is shown: its compared class, ``held-out``, ``planted`` (the reference solver's),
+    ``engine-planted`` (an engine calibrated to η·(1 + δ)) or ``other`` (set by hand)."""
     if v.held_out_only:
         return "held-out"
     if v.planted_factor is not None:
-        return "planted"
+        return "engine-planted" if v.settings == ENGINE_PLANTED_CLASS else "planted"
     return v.settings if v.settings in COMPARED else "other"
 
 
@@ -67,7 +70,8 @@ def verdict(doc: dict, declared: Declared | None = None) -> dict:
     rows.sort(key=_order)
     out = {"metric": PRIMARY_METRIC, "direction": PRIMARY.direction, "unit": PRIMARY.unit, "confidence": CONFIDENCE,
            "declared": declared.to_dict(), "fail_distance": limit["value"], "fail_limit": limit, "method": METHOD,
-           "mcb": {cls: f.to_dict() for cls, f in fams.items()}, "power": power, "general": scope,
+           "mcb": {cls: f.to_dict() for cls, f in fams.items()}, "power": power,
+           "engine_power": engine_planted_power(vs), "general": scope,
            "equivalence": {"margin": declared.equivalence_margin,
                            "within": [r["variant"] for r in rows if (r["equivalence"] or {}).get("within")
                                       and not r["fails"] and r["group"] in COMPARED]},
@@ -103,11 +107,18 @@ def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: D
            "reason_kinds": reason_kinds(v), "shipped_note": v.shipped_note or None, "cells_missing": v.cells_missing,
            "equivalence": None if v.held_out_only else restitution_test(v, declared),
            "held_out": held_out_check(v, twin, declared, response), "general": general_value(v, scope),
-           "planted": None if v.planted_factor is None else {"eta_factor": v.planted_factor,
-                                                             "delta": 1.0 - v.planted_factor},
+           "planted": _planted(v),
            **offsets(v), "per_scenario": per_scenario(v, limit)}
     row.update(_standing(v, fams))
     return row
+
+
+def _planted(v: Variant) -> dict | None:
+    """A planted variant's factor and δ: the reference's η·(1 − δ), an engine's calibration to η·(1 + δ)."""
+    if v.planted_factor is None:
+        return None
+    sign = 1.0 if v.settings == ENGINE_PLANTED_CLASS else -1.0
+    return {"eta_factor": v.planted_factor, "delta": round(sign * (v.planted_factor - 1.0), 12) + 0.0}   # never −0
 
 
 def _basis(e: dict, v: Variant) -> str:

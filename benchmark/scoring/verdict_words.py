@@ -148,6 +148,7 @@ def sentences(v: dict) -> list[str]:
                    "in at least one scenario, whatever the mean): " + "; ".join(_failure(r, by) for r in failing)
                    + ".")
     out += _equivalence_sentence(v) + _held_out_sentence(rows, v) + _general_sentence(v, by) + _power_sentence(v)
+    out += engine_power_sentences(v.get("engine_power"), {r["engine"]: r["label"] for r in rows})
     incomplete = [r for r in rows if r["cells_missing"]]
     if incomplete:
         out.append("Incomplete maps, scored on the cells they have: "
@@ -353,6 +354,40 @@ def _power_sentence(v: dict) -> list[str]:
     return [f"The suite's power, measured (the reference solver as an engine with its restitution planted δ below "
             f"the target, each against {against} by {p['critical_from']}, q = {p['critical']:.2f}): "
             + "; ".join(bits) + f"; {tail}."]
+
+
+def engine_power_sentences(p: dict | None, labels: dict) -> list[str]:
+    """One sentence per engine with engine-planted variants (score.json's ``verdict.engine_power``): each
+    δ against the engine's δ = 0 variant across problems, by the distance and by the signed offset, and
+    the |δ| each resolves; nothing without such variants. ``labels``: ``{engine: a label}`` (its name
+    is the label's first words)."""
+    out = []
+    for engine, e in ((p or {}).get("engines") or {}).items():
+        name = str(labels.get(engine, engine)).split(",")[0]
+        if e["against"] is None:
+            out.append(f"{name} calibrated to η·(1 + δ) has no calibrated variant (δ = 0) in these scores to be "
+                       "compared with: its planted restitution errors are not judged.")
+            continue
+        bits = [f"δ = {'+' if r['delta'] > 0 else '−'}{delta_words(abs(r['delta']))}: "
+                + ", ".join(_moved(r[m], m) for m in ("distance", "offset")) for r in e["rows"]]
+        df = next((r[m]["df"] for r in e["rows"] for m in ("distance", "offset") if r[m]), None)
+        res = e["resolved_abs_delta"]
+        tail = "; ".join(f"by the {m}, " + ("|δ| " + _and([delta_words(d) for d in res[m]]) + " resolved" if res[m]
+                                            else "no |δ| resolved") for m in ("distance", "offset"))
+        out.append(f"The suite's power against {name}'s own restitution error, across problems ({name} calibrated "
+                   f"to η·(1 + δ) against its own calibration to η, δ = 0, paired per problem"
+                   + (f", t on {df} degrees of freedom" if df is not None else "") + "; the distance one-sided, the "
+                   "signed offset two-sided): " + "; ".join(bits) + f"; {tail}.")
+    return out
+
+
+def _moved(d: dict | None, measure: str) -> str:
+    """``distance +0.004 (95 % −0.001 to +0.009), not resolved``."""
+    if d is None:
+        return f"{measure} n/a"
+    lo, hi = d["ci95"]
+    return (f"{measure} {signed(d['difference'])} (95 % {signed(lo)} to {signed(hi)}), "
+            + ("resolved" if d["resolved"] else "not resolved"))
 
 
 # -- the short verdict ------------------------------------------------------------------------------------

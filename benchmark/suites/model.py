@@ -23,6 +23,8 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, Va
 from pydantic_core import PydanticCustomError
 
 from rockbench.reference_solver.errors import ConfigError
+from rockbench.engines.contract import PLANTED, PLANTED_FACTOR_RANGE
+from rockbench.engines.registry import names as engine_registry_names
 from rockbench.reference_solver.pulses import is_number
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.benchmark.blocks.cases import parse_case
@@ -211,6 +213,45 @@ def _reductions(v):
     return [float(x) for x in v]
 
 
+def _offsets(v):
+    """``power.engine_eta_offsets``: distinct numbers δ ≠ 0 with 1 + δ in the planted factors' range, each
+    engine of ``power.engines`` being calibrated to η·(1 + δ)."""
+    lo, hi = (round(x - 1.0, 12) for x in PLANTED_FACTOR_RANGE)
+    rule = f"numbers δ ≠ 0 from {lo:g} to {hi:g} (the engine is calibrated to η·(1 + δ); δ = 0 is its calibrated variant)"
+    if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+        raise _bad(f" must be a list of {rule}, got {v!r}.")
+    for x in v:
+        if not (math.isfinite(x) and lo <= x <= hi and x != 0):
+            raise _bad(f" must hold {rule}, got {x!r}; e.g. [-0.02, -0.01, 0.01, 0.02].")
+    twice = [x for k, x in enumerate(v) if x in v[:k]]
+    if twice:
+        raise _bad(f" lists δ = {twice[0]!r} twice; list each offset once.")
+    return [float(x) for x in v]
+
+
+def _power_engines(v):
+    """``power.engines``: the engines of the engine-planted variants, each a known engine but the reference."""
+    if not isinstance(v, list) or not all(isinstance(n, str) for n in v):
+        raise _bad(f" must be a list of engine names, e.g. [\"mujoco\"]; got {v!r}.")
+    for n in v:
+        if n == "reference" or n not in engine_registry_names():
+            raise _bad(f" names {n!r}, which is not an engine with a calibration (the reference solver's planted "
+                       f"variants are power.eta_reductions); `rockbench engines` lists the engines.")
+    return list(dict.fromkeys(v))
+
+
+def engine_planted_factor(offset: float) -> float:
+    """The ``planted_eta_factor`` of an engine calibrated to η·(1 + δ) for an offset δ: 1 + δ [-]."""
+    return round(1.0 + float(offset), 12)
+
+
+def is_engine_base(variant: dict, engine: str) -> bool:
+    """Whether a suite variant is ``engine``'s calibrated variant that its engine-planted variants are set
+    beside: it runs the engine, calibrated (the default) on each block itself, with no planted error."""
+    return (("engines" not in variant or engine in variant["engines"]) and variant.get("settings", "calibrated") ==
+            "calibrated" and not variant.get("calibrate_on") and PLANTED not in variant)
+
+
 def _steps(v):
     """``speed.steps_s``: at least two distinct time steps [s], each a number > 0."""
     if not isinstance(v, list) or len(v) < 2:
@@ -389,9 +430,13 @@ class SpeedTable(_Table):
 
 
 class PowerTable(_Table):
-    """The suite's yardstick: the reference solver mapped as an engine with η·(1 − δ), one variant per δ."""
+    """The suite's yardstick: the reference solver mapped as an engine with η·(1 − δ), one variant per δ;
+    and the suite's power against an engine's own error: each engine of ``engines`` calibrated to η·(1 + δ)
+    for each δ of ``engine_eta_offsets`` (engine variants of their own, :meth:`SuiteFile._add_engine_planted`)."""
 
     eta_reductions: Annotated[list[float], BeforeValidator(_reductions)] = []
+    engine_eta_offsets: Annotated[list[float], BeforeValidator(_offsets)] = []
+    engines: Annotated[list[str], BeforeValidator(_power_engines)] = []
 
 
 class SuiteFile(_Table):
@@ -414,6 +459,7 @@ class SuiteFile(_Table):
             self._check_tokens(info.context["name"])
             self._check_specs(info.context["name"])
             self._check_speed(info.context["name"])
+            self._add_engine_planted(info.context["name"])
         except ConfigError as e:
             raise _whole(str(e), "suite_line") from None
         return self
@@ -449,6 +495,24 @@ class SuiteFile(_Table):
             where = f"engines.variants[{k}].restitution" if "restitution" in v else "engines.restitution"
             for b in (b for b in blocks if "blocks" not in v or b in v["blocks"]):
                 restitution_for(str(v.get("restitution", self.engines.restitution)), b, f"suite {name}: {where}")
+
+    def _add_engine_planted(self, name: str) -> None:
+        """``[power]``'s engine-planted variants, added to ``engines.variants``: for each engine of
+        ``power.engines`` and each δ of ``power.engine_eta_offsets``, the engine's calibrated variant
+        (:func:`is_engine_base`, the first) with ``planted_eta_factor`` = 1 + δ and that engine alone."""
+        p = self.power
+        if bool(p.engine_eta_offsets) != bool(p.engines):
+            raise ConfigError(f"suite {name}: power.engine_eta_offsets and power.engines go together (the offsets δ "
+                              f"and the engines calibrated to η·(1 + δ)); give both, e.g. engine_eta_offsets = "
+                              f"[-0.01, 0.01] and engines = [\"mujoco\"], or neither.")
+        for engine in p.engines:
+            base = next((v for v in self.engines.variants if is_engine_base(v, engine)), None)
+            if base is None:
+                raise ConfigError(f"suite {name}: power.engines names {engine!r}, but engines.variants has no "
+                                  f"calibrated variant of it (settings = \"calibrated\", no calibrate_on) to compare "
+                                  f"its planted variants with; add one.")
+            for d in p.engine_eta_offsets:
+                self.engines.variants.append({**base, "engines": [engine], PLANTED: engine_planted_factor(d)})
 
     def _check_specs(self, name: str) -> None:
         """Every map's spec, built once here, checks the grid's size and each time step against the

@@ -29,13 +29,10 @@ from rockbench.reference_solver.errors import ConfigError, check_positive
 from rockbench.reference_solver.pulses import MIN_STEPS_PER_WAVE
 from rockbench.reference_solver.solver import MODES, PAPER_DT_S, solve, solve_batch
 from rockbench.reference_solver.validity import DEFAULT_FRICTION, DOMAIN_FLAGS, contact_flag_bits, contact_flags
-from rockbench.engines.contract import Case, CellColumns, CellResult, EngineAdapter, Trajectory
+from rockbench.engines.contract import PLANTED, Case, CellColumns, CellResult, EngineAdapter, Trajectory
 
 #: pulse kinds the batch kernel runs (records go case by case)
 _BATCH_KINDS = ("sine", "cosine", "half-sine")
-
-#: The setting that plants a restitution error: the factor on the η every case asks for [-]
-PLANTED = "planted_eta_factor"
 
 
 def is_planted(engine: str, settings) -> bool:

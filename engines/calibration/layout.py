@@ -9,6 +9,7 @@ from typing import Mapping
 
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import housner_eta
+from rockbench.engines.calibration import planted
 
 __all__ = ["contact_layout", "with_contact"]
 
@@ -16,10 +17,13 @@ __all__ = ["contact_layout", "with_contact"]
 def contact_layout(ad, block: Block, target: float) -> str:
     """``corners`` or ``distributed``: the contact a calibration of contact engine ``ad`` to ``target``
     builds: its ``contact`` setting where it builds a row along the base (``CONTACT_ROWS``), else the
-    corners; ``auto``: the corners up to 1 % above Housner's η_H, a row of points along the base above."""
+    corners; ``auto``: the corners up to 1 % above Housner's η_H, a row of points along the base above.
+    A planted error moves the target, never the contact: the layout is that of ``target`` / the engine's
+    planted factor."""
     kind = ad.settings.get("contact") if ad.CONTACT_ROWS else "corners"
     if kind == "auto":
-        kind = "corners" if target <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
+        own = target / planted.factor(ad)
+        kind = "corners" if own <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
     return "distributed" if kind == "distributed" else "corners"
 
 

@@ -45,8 +45,10 @@ POINTS_TRIED = (9, 5, 17)
 MAX_PRICE_TRIES = 8
 
 #: Settings that do not change a free-rocking run (how long a mapped run lasts, how it is batched,
-#: which block it is calibrated on): left out of a calibration's cache key
-IDENTITY_SKIP = ("settings", "tail_s", "min_tail_s", "segment_s", "calibrate_on", "threads", "judge_workers")
+#: which block it is calibrated on, a planted restitution error: the key holds the target it moves):
+#: left out of a calibration's cache key
+IDENTITY_SKIP = ("settings", "tail_s", "min_tail_s", "segment_s", "calibrate_on", "threads", "judge_workers",
+                 "planted_eta_factor")
 
 
 def calibrate(ad, block: Block, target_eta: float, *, dt_s: float | None = None,

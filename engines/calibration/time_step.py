@@ -18,8 +18,8 @@ from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.rules import RULES_VERSION
 from rockbench.engines import progress
-from rockbench.engines.contract import CONTRACT_VERSION
-from rockbench.engines.calibration import cache, held_out, layout, routine, step_rule
+from rockbench.engines.contract import CONTRACT_VERSION, PLANTED
+from rockbench.engines.calibration import cache, held_out, layout, planted, routine, step_rule
 
 __all__ = ["step_for", "rule_step"]
 
@@ -34,9 +34,9 @@ def step_for(ad, block: Block, eta: float, pulse=None, dt_s: float | None = None
     """The one time-step resolver of contact engine ``ad`` [s]: ``dt_s`` where given; as shipped the
     engine's own step (``own_dt_s``), never coarser than the pulse accepts, or where it ships none
     ``fixed_dt_s``; calibrated at the corners, the time-step rule's step (:func:`rule_step`) for the
-    block the calibration is made on at the η it aims at there (its ``calibrate_on`` setting,
-    :func:`~rockbench.engines.calibration.held_out.calibration_target` where
-    ``restitution``, the law behind ``eta``, is given; else ``eta``), never coarser than the pulse
+    block the calibration is made on at the η it aims at there (its ``calibrate_on`` setting and
+    planted factor, :func:`~rockbench.engines.calibration.planted.calibration_target` where ``restitution``, the law behind ``eta``, is given;
+    else ``eta`` times the factor), never coarser than the pulse
     accepts; otherwise (a contact given, a row along the base) ``fixed_dt_s``, the row's never coarser
     than the pulse accepts. Checked against ``pulse`` where one is given."""
     if dt_s is not None:
@@ -46,9 +46,8 @@ def step_for(ad, block: Block, eta: float, pulse=None, dt_s: float | None = None
     elif not ad.calibrated():
         dt = ad.fixed_dt_s
     else:
-        calibrate_on = ad.settings["calibrate_on"]
-        on, target = (held_out.calibration_target(calibrate_on, block, restitution) if restitution is not None
-                      else (held_out.calibration_block(calibrate_on, block), eta))
+        on, target = (planted.calibration_target(ad, block, restitution) if restitution is not None
+                      else (held_out.calibration_block(ad.settings["calibrate_on"], block), eta * planted.factor(ad)))
         rowed = layout.contact_layout(ad, on, target) == "distributed"
         dt = _capped(ad.fixed_dt_s if rowed else rule_step(ad, on, target)[0], pulse)
     return dt if pulse is None else pulse.check_dt(dt)
@@ -58,7 +57,11 @@ def rule_step(ad, block: Block, eta: float) -> tuple[float, dict]:
     """The time-step rule's step for ``block`` at η [s] in contact engine ``ad`` and its record
     (:func:`~rockbench.engines.calibration.step_rule.converged_step`), cached on disk with the
     calibrations; the search runs on ``block`` itself (``calibrate_on`` left out: its probe runs are of
-    the block the step is for), so a held-out calibration shares the step of the block it names."""
+    the block the step is for), so a held-out calibration shares the step of the block it names.
+    ``eta`` is a calibration's target: with a planted error (``planted_eta_factor``) the step is the
+    unplanted engine's at η / the factor (a planted error moves the target, never the step)."""
+    if planted.factor(ad) != 1.0:
+        return rule_step(planted.unplanted(ad), block, eta / planted.factor(ad))
     memo = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(float(eta), 12),
             tuple(sorted((k, str(v)) for k, v in ad.settings.items())))
     mine = _RULE_STEPS.setdefault(ad, {})
@@ -75,7 +78,8 @@ def _searched(ad, block: Block, eta: float) -> dict:
                             target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
                             probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
                                     step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
-                            settings=sorted((k, str(v)) for k, v in ad.settings.items() if k != "calibrate_on"))
+                            settings=sorted((k, str(v)) for k, v in ad.settings.items()
+                                            if k not in ("calibrate_on", PLANTED)))
     rec = cache.load(key)
     if rec is None:
         on = ad._on_itself()   # noqa: SLF001 - the contact base's copy without calibrate_on

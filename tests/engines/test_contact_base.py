@@ -110,6 +110,7 @@ def test_shared_settings_are_checked_once_for_every_contact_engine():
 
 def test_the_settings_are_the_shared_ones_the_shipped_contact_and_the_engine_s_own():
     assert set(_Toy.SETTINGS) == {"settings", "drive", "planar", "friction", "tail_s", "min_tail_s", "calibrate_on",
+                                  "planted_eta_factor",
                                   "segment_s", "stiffness_n_m", "damping_n_s_m", "iterations"}
     assert all(_Toy.SETTINGS[k] is None for k in ("stiffness_n_m", "damping_n_s_m", "iterations"))
     with pytest.raises(TypeError, match="'stiffness_n_m' a default"):
