@@ -349,9 +349,10 @@ def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(
 
 def test_the_current_metrics_version_refuses_version_two():
     from rockbench.benchmark.scoring.score_runs import compare_scores
-    doc = {"metrics_version": "2", "pairs": []}
+    from rockbench.benchmark.scoring.scores import Scores
+    old, new = (Scores.from_json({"metrics_version": v, "pairs": [], "verdict": {}}) for v in ("2", METRICS_VERSION))
     with pytest.raises(IncomparableError, match=f"metrics version 2, current {METRICS_VERSION}"):
-        compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})
+        compare_scores(old, new)
 
 
 def test_every_metric_is_one_complete_object():

@@ -83,7 +83,7 @@ def test_report_files_and_tables(report):
                                      "id='summary-table'", "<dl class='metrics'>", "id='stability'",
                                      "<details><summary>Every scored pair", "<details><summary>Versions and settings")]
     assert order == sorted(order)
-    short = res["doc"]["verdict"]["short"]
+    short = short_verdict_text(res["scores"])
     assert 0 < len(" ".join(short).split()) <= 120 and all(for_html(t) in page for t in short)
     # settings are a table, not a JSON dump
     assert "<pre>" not in page and "settings used (resolved)" in page
