@@ -13,6 +13,7 @@ import pytest
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.blocks.cases import FIG17
 from rockbench.benchmark.report.build import build_report
+from rockbench.benchmark.report.tables import short_verdict_text
 from rockbench.benchmark.scoring.labels import for_html
 from rockbench.benchmark.trajectories import record_for_report
 from rockbench.benchmark.maps.result import MapResult
