@@ -20,6 +20,7 @@ from rockbench.benchmark.scoring.metrics import boundary_distance
 from rockbench.benchmark.scoring.scenarios import (RESOLUTION_SD_CELLS, Scenario, Variant, entries, items,
                                                    resolution_sd)
 from rockbench.benchmark.scoring.statistics import fixed, paired as paired_items
+from rockbench.benchmark.scoring.scores import Scores
 from rockbench.benchmark.scoring.verdict import verdict
 from rockbench.benchmark.report.verdict_words import SHORT_WORDS, sentences, short_verdict, words
 from test_score_runs import run_cli
@@ -51,6 +52,13 @@ def _variant(name, values, cell=0.36, sd=0.0036, engine=None, cells=None, settin
     sc = {s: Scenario(v, sd, cell, (SLENDER[s[0]], s[1]), cells_id=None if cells is None else cells[k])
           for k, (s, v) in enumerate(zip(SCENARIOS, values))}
     return Variant(name, engine or name, name, settings, sc)
+
+
+def _scores(doc: dict) -> Scores:
+    """The :class:`Scores` of a hand-built score document: its pairs keyed, its verdict computed."""
+    pairs = sorted(({"key": f"{p['variant']} | {p['block']} | {p['pulse']}", **p} for p in doc["pairs"]),
+                   key=lambda p: p["key"])
+    return Scores.from_json({"metrics_version": "test", "pairs": pairs, "verdict": verdict(doc)})
 
 
 def _paired(a, b):
@@ -304,11 +312,11 @@ def test_primary_order_wins_over_agreement_order():
     v = verdict(doc)
     assert [r["variant"] for r in v["variants"]] == ["y[settings=calibrated]", "x[settings=calibrated]"]
     assert [r["rank"] for r in v["variants"]] == [1, 2]
-    ranked = ranked_summary(doc)
+    ranked = ranked_summary(_scores(doc))
     marks = best_group_marks(ranked)
     assert marks[PRIMARY_METRIC] == [True, False]
     assert "agreement" not in marks          # a lone best group highlights its primary value only
-    table = summary_table(doc)
+    table = summary_table(_scores(doc))
     assert table.index("y[settings=calibrated]") < table.index("x[settings=calibrated]")
     assert "Best achievable" in sentences(v)[0] and "best y[settings=calibrated]" in sentences(v)[0]
     assert "Resolved behind it across problems (" in sentences(v)[0] and "freedom): x[settings=calibrated]" in sentences(v)[0]
@@ -319,7 +327,7 @@ def test_a_secondary_metric_is_highlighted_only_inside_the_best_group():
     vals = [0.02, 0.03, 0.02, 0.03, 0.02, 0.03, 0.02, 0.03]
     doc = _doc({"a": vals, "b": list(reversed(vals)), "z": [5.0] * 8},
                a={"agreement": 0.95}, b={"agreement": 0.96}, z={"agreement": 0.99, "settings": AS_SHIPPED})
-    ranked = ranked_summary(doc)
+    ranked = ranked_summary(_scores(doc))
     names = [r["variant"] for r, _ in ranked]
     marks = best_group_marks(ranked)
     assert set(names[:2]) == {"a", "b"} and ranked[0][0]["rank"] == ranked[1][0]["rank"] == 1
@@ -428,7 +436,8 @@ def test_a_scenarios_error_is_its_maps_own_where_measured():
 def test_verdict_object_in_score_json_shape():
     v = verdict(_doc({"a": [0.01] * 8, "b": [0.01] * 8}))
     assert v["metric"] == PRIMARY_METRIC and v["direction"] == "lower"
-    assert set(v) >= {"method", "declared", "power", "equivalence", "mcb", "general", "variants", "text", "short"}
+    assert set(v) >= {"declared", "power", "equivalence", "mcb", "general", "variants"}
+    assert not set(v) & {"method", "text", "short"}           # numbers only: the words are the report's
     assert v["declared"] == {**DEFAULTS.to_dict()} and v["power"] is None and not v["general"]["stated"]
     for r in v["variants"]:
         assert {"variant", "engine", "settings", "group", "value", "se", "ci95", "rank", "in_best_subset", "pairs",
@@ -481,7 +490,7 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     assert code == 0
     assert out.index("Verdict") < out.index("Summary")
     doc = json.loads((root / "score.json").read_text())
-    assert doc["schema_version"] == 2 and doc["metrics_version"] == "8"
+    assert doc["schema_version"] == 2 and doc["metrics_version"] == "9"
     # no suite.json beside the maps: the code's declarations, and a note that says so
     assert doc["verdict"]["declared"]["source"].startswith("the code's defaults")
     assert "rockbench: note: the verdict's declarations are the code's defaults" in err and "fail_distance 0.3" in err

@@ -119,14 +119,7 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     speed_pairs, speed_skipped = _pairs_of(speed_maps, references, pair_with, own_eta, allow_incomplete)
     skipped += speed_skipped
     if not pairs and not speed_pairs:
-        if not candidates and not speed_maps:
-            raise IncomparableError("nothing to score: the run directories hold only reference maps; give engine "
-                                    "maps, or --against REF_DIR to score these maps against others.")
-        why = (f"{len(skipped)} candidate pair(s) lie on different grids" if skipped else
-               "no reference map of the same block and pulse")
-        raise IncomparableError(f"no engine map could be paired with a reference map ({why}); compute the "
-                                "reference with the same block, pulse, --w-ratio and --a-ratio "
-                                "(or pass it with --against).")
+        _nothing_paired(bool(candidates or speed_maps), skipped)
     pairs.sort(key=lambda p: p["key"])
     pairing = None if runs is None else mark_runs(pairs, runs.run_of, against=runs.against, notes=runs.notes)
     doc = {"kind": SCORE_KIND, "schema_version": SCORE_SCHEMA_VERSION, "metrics_version": METRICS_VERSION,
@@ -143,6 +136,18 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     if pairing is not None:
         doc["pairing"] = pairing
     return Scores.from_json(doc)
+
+
+def _nothing_paired(any_engine_map: bool, skipped: list) -> None:
+    """The IncomparableError of a scoring in which no engine map found a reference: why, and what to do."""
+    if not any_engine_map:
+        raise IncomparableError("nothing to score: the run directories hold only reference maps; give engine "
+                                "maps, or --against REF_DIR to score these maps against others.")
+    why = (f"{len(skipped)} candidate pair(s) lie on different grids" if skipped else
+           "no reference map of the same block and pulse")
+    raise IncomparableError(f"no engine map could be paired with a reference map ({why}); compute the "
+                            "reference with the same block, pulse, --w-ratio and --a-ratio "
+                            "(or pass it with --against).")
 
 
 def _pairs_of(candidates: list[MapEntry], references: list[MapEntry], pair_with, own_eta, allow_incomplete):
