@@ -581,6 +581,7 @@ def check_score_doc(doc: dict, where) -> None:
     def bad(what: str):
         return ConfigError(f"{str(where)!r} is damaged: {what}; score the run again (`rockbench score RUN_DIR`).")
 
+    _check_parts(doc, bad)
     pairs = doc.get("pairs")
     if not isinstance(pairs, list):
         raise bad(f"'pairs' must be a list, got {type(pairs).__name__ if pairs is not None else 'nothing'}")
@@ -608,6 +609,21 @@ def check_score_doc(doc: dict, where) -> None:
         for name in ("cells_in_domain", "cells_outside_domain", "cells_outside_domain_simulated", "invalid_cells"):
             if name in p and (isinstance(p[name], bool) or not isinstance(p[name], int) or p[name] < 0):
                 raise bad(f"pairs[{n}].{name} is {p[name]!r}, not a whole number >= 0")
+
+
+def _check_parts(doc: dict, bad) -> None:
+    """The parts :class:`~.scores.Scores` reads beside the pairs: ``bad(what)`` for the first of another kind."""
+    verdict_ = doc.get("verdict")
+    if not isinstance(verdict_, dict):
+        raise bad(f"'verdict' must be an object, got {type(verdict_).__name__ if verdict_ is not None else 'nothing'}")
+    if not isinstance(verdict_.get("variants", []), (list, type(None))):
+        raise bad(f"'verdict.variants' must be a list, got {type(verdict_['variants']).__name__}")
+    for name in ("metrics", "skipped", "reference_gaps", "experiments"):
+        if not isinstance(doc.get(name, []), (list, type(None))):
+            raise bad(f"{name!r} must be a list, got {type(doc[name]).__name__}")
+    for name in ("speed", "pairing", "gate"):
+        if not isinstance(doc.get(name), (dict, type(None))):
+            raise bad(f"{name!r} must be an object, got {type(doc[name]).__name__}")
 
 
 # -- comparing two score documents -----------------------------------------------------------------
