@@ -102,7 +102,7 @@ def simulate_case(engine: str, settings: dict, case, *, history: Path | None = N
     given; the JSON object of ``rockbench simulate`` (:func:`simulation_record`, plus ``history``,
     ``plot``, ``plot_span_s`` and ``plot_note`` where written). ``outcome`` is None when it failed."""
     adapter = build_adapter(engine, **settings)
-    dt = adapter.step_for(case.block, case.eta, case.pulse, case.dt_s, restitution=case.restitution)  # the one resolver: a bad step refused first
+    dt = adapter.posed(case).dt_s   # the one resolver: a bad step refused first
     tr, res = run_case(adapter, case)
     out = simulation_record(adapter, case, res, dt)
     if tr is not None and history is not None:

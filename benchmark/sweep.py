@@ -30,6 +30,7 @@ import numpy as np
 from tqdm import tqdm
 
 from rockbench.engines.adapters.reference import is_planted
+from rockbench.engines.calibration import held_out
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.benchmark.engine_info.adapters import build_adapter
 from rockbench.benchmark.store.run_folder import RunStore
@@ -226,7 +227,8 @@ def _executor_for(spec: MapSpec, out_dir: Path, opts: MapOptions, executor):
 def _compute_map(spec: MapSpec, out_dir: Path, opts: MapOptions, executor) -> MapResult:
     """:func:`run_map` without the picture: open the store, resume, sweep, fill, finish."""
     adapter = build_adapter(spec.engine, **spec.engine_settings)   # bad engine/settings fail before any file is made
-    adapter.calibration_block(spec.block)                        # so does a calibrate_on block of another slenderness
+    held_out.calibration_block(adapter.settings.get("calibrate_on"), spec.block)   # so does a calibrate_on block
+                                                                                   # of another slenderness
     t0 = time.perf_counter()
     executor, own = _executor_for(spec, out_dir, opts, executor)
     store = RunStore(out_dir)

@@ -182,7 +182,7 @@ def check_trajectory_shape(adapter: EngineAdapter, block: Block = DEFAULT_BLOCK,
     if not np.all(np.diff(t) > 0):
         raise CheckFailed("sample times must increase strictly")
     T = rocking.pulse.duration_s
-    dt = ad.step_for(b, rocking.eta, rocking.pulse, dt_s=dt_s)
+    dt = ad.posed(replace(rocking, dt_s=dt_s)).dt_s
     if not math.isclose(tr.t_pulse_end_s, T, rel_tol=0.01, abs_tol=2 * dt):
         raise CheckFailed(f"t_pulse_end_s = {tr.t_pulse_end_s:g} but the pulse lasts {T:g} s (seconds expected)")
     if t[-1] < T - 2 * dt:
@@ -311,7 +311,7 @@ def check_bad_case_config_error(adapter: EngineAdapter, block: Block = DEFAULT_B
         except Exception as e:  # noqa: BLE001
             raise CheckFailed(f"dt_s = {dt:g} s raised {type(e).__name__}, not ConfigError: {e}") from None
         raise CheckFailed(f"dt_s = {dt:g} s was accepted; a bad case must raise ConfigError (the step is the case's "
-                          "dt_s, which run_many poses with step_for)")
+                          "dt_s, which run_many poses once)")
     return "a negative or too coarse time step raises ConfigError"
 
 
@@ -370,7 +370,7 @@ def _check_mode(adapter: EngineAdapter, block: Block, key: str, dt_s: float | No
         raise CheckSkipped(f"the adapter supports {key} = {str(own).lower()} only (SUPPORTED_MODES): {left} not checked")
     rocking = _rocking(block, dt_s)
     # the step of its own runs
-    case = replace(rocking, dt_s=adapter.step_for(block, rocking.eta, rocking.pulse, dt_s=dt_s))
+    case = adapter.posed(replace(rocking, dt_s=dt_s))
     r0, seen = adapter.run(case), []
     for v in others:
         tr = type(adapter)(**{**adapter.settings, key: v}).simulate(case)
@@ -433,7 +433,7 @@ def check_adapter(adapter_or_name, *, block: Block | None = None, dt_s: float | 
     block : Block, optional
         The block to use (default :data:`DEFAULT_BLOCK`, B6M).
     dt_s : float, optional
-        The time step of every case [s]; default: the adapter's own (``step_for``: for a calibrated
+        The time step of every case [s]; default: the adapter's own (``posed``: for a calibrated
         contact engine the time-step rule's step, whose calibrations at each step of the ladder are
         what a slow engine's checks spend most of their time on).
 

@@ -2,7 +2,9 @@
 
 A contact engine simulates the block touching the table through the engine's own contact model. Its
 adapter implements four batch-shaped methods and declares what it ships and what a calibration may
-change; everything else is this base's, and the same for every engine:
+change; this base keeps what every run needs (the settings, a case posed and resolved, the one loop),
+and the policies are functions of the engine in :mod:`rockbench.engines.calibration` (the time step,
+free rocking, the calibration and its price), the same for every engine:
 
 * **the four methods**: ``build(block, s, dt_s)`` the scene for a block and the resolved settings
   ``s``; ``start(scene, block, s, dt_s, pulses, theta0_rad, n_steps)`` one world per pulse (None: free
@@ -18,34 +20,36 @@ change; everything else is this base's, and the same for every engine:
   ``KNOBS`` (:class:`~rockbench.engines.calibration.knobs.Knob`: name, unit, values), and where the
   engine builds a row of contact points along the base, ``CONTACT_ROWS`` and ``ROW_KNOBS``;
 * **settings**: the shared settings checked once, and one resolution (:meth:`ContactEngine.settings_with`);
-* **the time step**: one resolver (:meth:`ContactEngine.step_for`), the time-step rule's step
+* **the time step**: every case posed once (:meth:`ContactEngine.posed`) by the one resolver, a function
+  of the engine (:func:`rockbench.engines.calibration.time_step.step_for`), the time-step rule's step
   calibrated (:mod:`rockbench.engines.calibration.step_rule`);
 * **the run**: one stepping loop and one end of a run (:mod:`rockbench.engines.loop`), cases batched
   up to ``max_worlds`` worlds, a run the engine halts retried as ``RETRIES`` says;
 * **free rocking**: one test (:func:`rockbench.engines.calibration.free_rocking.measure_restitution`, a
   function of the engine), η read by the one reader; the base's ``measure_many`` hook runs it per setting;
 * **the calibration**: one routine (:func:`rockbench.engines.calibration.routine.calibrate`, a function
-  of the engine): the knobs searched
-  (or the engine's own ``candidates``), the one pick, the cache; a row along the base at a price.
+  of the engine): the knobs searched (or the engine's own ``candidates``), the one pick, the cache; a
+  row along the base at a price (:mod:`rockbench.engines.calibration.layout`); the block calibrated on
+  (:mod:`rockbench.engines.calibration.held_out`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from typing import Any, ClassVar, Mapping
 
 
 from rockbench.reference_solver.classify import overturn_certain
-from rockbench.reference_solver.errors import ConfigError, check_positive
+from rockbench.reference_solver.errors import ConfigError
 from rockbench.engines.errors import EngineError
 from rockbench.reference_solver.model import Block
-from rockbench.reference_solver.restitution import Restitution, housner_eta
-from rockbench.reference_solver.rules import RULES_VERSION
+from rockbench.reference_solver.restitution import Restitution
 from rockbench.engines import progress
-from rockbench.engines.calibration import cache, held_out, knobs, routine, step_rule
+from rockbench.engines.calibration import held_out, knobs, layout, routine, time_step
 from rockbench.engines.calibration.free_rocking import free_rocking_run
 from rockbench.engines.calibration.routine import POINTS_TRIED
-from rockbench.engines.contract import CONTRACT_VERSION, SETTINGS_MODES, CalibrationResult, EngineAdapter
+from rockbench.engines.contract import SETTINGS_MODES, CalibrationResult, EngineAdapter
 from rockbench.engines.hooks import hook_line, required
 from rockbench.engines.loop import run_worlds
 
@@ -143,7 +147,6 @@ class ContactEngine(EngineAdapter):
         #: the adapter's own store of what it builds (scenes, compiled models), kept for its life
         self.scenes: dict = {}
         self._resolved: dict = {}
-        self._steps: dict = {}
         self._itself: ContactEngine | None = None
 
     # -- settings -----------------------------------------------------------------------------
@@ -202,24 +205,6 @@ class ContactEngine(EngineAdapter):
             s["contact_points"] = POINTS_TRIED[0]
         return s
 
-    def contact_layout(self, block: Block, target: float) -> str:
-        """``corners`` or ``distributed``: the contact a calibration to ``target`` builds (``auto``: the
-        corners up to 1 % above Housner's η_H, a row of points along the base above)."""
-        kind = self.settings.get("contact") if self.CONTACT_ROWS else "corners"
-        if kind == "auto":
-            kind = "corners" if target <= 1.01 * housner_eta(block.alpha_rad) else "distributed"
-        return "distributed" if kind == "distributed" else "corners"
-
-    def calibration_block(self, block: Block) -> Block:
-        """The block the calibration of ``block``'s runs is made on: ``block`` itself, or the block the
-        ``calibrate_on`` setting names (:func:`~rockbench.engines.calibration.held_out.calibration_block`)."""
-        return held_out.calibration_block(self.settings.get("calibrate_on"), block)
-
-    def calibration_target(self, block: Block, restitution: Restitution) -> tuple[Block, float]:
-        """The block the calibration of ``block``'s runs is made on and the η it aims at there [-]
-        (:func:`~rockbench.engines.calibration.held_out.calibration_target`: the law's η for that block)."""
-        return held_out.calibration_target(self.settings.get("calibrate_on"), block, restitution)
-
     def _on_itself(self) -> "ContactEngine":
         """This adapter, or without ``calibrate_on`` a copy of it that calibrates every block on itself."""
         if not self.settings.get("calibrate_on"):
@@ -228,85 +213,27 @@ class ContactEngine(EngineAdapter):
             self._itself = type(self)(**{**self.settings, "calibrate_on": None})
         return self._itself
 
-    def fixed(self, contact: Mapping) -> "ContactEngine":
-        """A copy of this adapter with the contact ``contact`` given (a calibration's settings: no
-        calibration behind its runs)."""
-        given = {k: v for k, v in contact.items() if k in self.SETTINGS}
-        return type(self)(**{**self.settings, **given, "calibrate_on": None})
-
     # -- the time step ------------------------------------------------------------------------
-    def step_for(self, block: Block, eta: float, pulse=None, dt_s: float | None = None,
-                 restitution: Restitution | None = None) -> float:
-        """The one time-step resolver of a contact engine [s]: ``dt_s`` where given; as shipped the
-        engine's own step (:attr:`own_dt_s`), never coarser than the pulse accepts, or where it ships
-        none :attr:`fixed_dt_s`; calibrated at the corners, the time-step rule's step for the block the
-        calibration is made on (:mod:`~rockbench.engines.calibration.step_rule`) at the η it aims at
-        there (:meth:`calibration_target` where ``restitution``, the law behind ``eta``, is given; else
-        ``eta``), never coarser than the pulse accepts; otherwise (a contact given, a row along the
-        base) :attr:`fixed_dt_s`, the row's never coarser than the pulse accepts. Checked against
-        ``pulse`` where one is given."""
-        if dt_s is not None:
-            dt = check_positive("--dt", dt_s, "s")
-        elif self.as_shipped():
-            dt = self.fixed_dt_s if self.own_dt_s is None else _capped(self.own_dt_s, pulse)
-        elif not self.calibrated():
-            dt = self.fixed_dt_s
-        else:
-            on, target = (self.calibration_target(block, restitution) if restitution is not None
-                          else (self.calibration_block(block), eta))
-            rowed = self.contact_layout(on, target) == "distributed"
-            dt = _capped(self.fixed_dt_s if rowed else self.rule_step(on, target)[0], pulse)
-        return dt if pulse is None else pulse.check_dt(dt)
-
-    def free_rocking_step(self, dt_s: float | None = None) -> float:
-        """The step of a free-rocking test or a calibration asked for without one, outside any case
-        (:func:`~rockbench.engines.calibration.free_rocking.measure_restitution`,
-        :func:`~rockbench.engines.calibration.routine.calibrate`) [s]: ``dt_s`` where given; as shipped the
-        engine's own step (:attr:`own_dt_s`, else :attr:`fixed_dt_s`); otherwise :attr:`fixed_dt_s`.
-        (A case's step is :meth:`step_for`'s; give ``dt_s=step_for(block, eta)`` to test at it.)"""
-        if dt_s is not None:
-            return check_positive("--dt", dt_s, "s")
-        return self.own_dt_s if self.as_shipped() and self.own_dt_s is not None else self.fixed_dt_s
-
-    def rule_step(self, block: Block, eta: float) -> tuple[float, dict]:
-        """The time-step rule's step for ``block`` at η [s] and its record, cached on disk with the
-        calibrations; the search runs on ``block`` itself (``calibrate_on`` left out: its probe runs are
-        of the block the step is for), so a held-out calibration shares the step of the block it names."""
-        # read once per adapter, block, η and settings (the disk key, the engine's version among
-        # its parts, costs more to make than a short run: a calibrated cell asks for its step)
-        memo = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(float(eta), 12),
-                tuple(sorted((k, str(v)) for k, v in self.settings.items())))
-        if memo in self._steps:
-            return float(self._steps[memo]["dt_s"]), self._steps[memo]
-        on = self._on_itself()
-        key = cache.adapter_key(self, contract=CONTRACT_VERSION, kind="step-rule",
-                                rules_version=RULES_VERSION, block=[block.width_m, block.height_m, block.depth_m,
-                                                                    block.mass_kg],
-                                target=round(float(eta), 12), ladder=list(step_rule.STEP_LADDER_S),
-                                probes=[step_rule.PROBE_W_RATIOS, step_rule.PROBE_MARGIN, step_rule.PROBE_DEEP,
-                                        step_rule.PROBE_PULSES, step_rule.ETA_STEP_RTOL],
-                                settings=sorted((k, str(v)) for k, v in self.settings.items() if k != "calibrate_on"))
-        rec = cache.load(key)
-        if rec is None:
-            with progress.activity(f"{self.name}: time-step rule for {block.name} at η {eta:.4f}"):
-                rec = step_rule.converged_step(lambda dt: routine.calibrate(on, block, eta, dt_s=dt), on._judged,
-                                                block, eta)[1]
-            cache.store(key, rec, self.name)
-        self._steps[memo] = rec
-        return float(rec["dt_s"]), rec
+    def posed(self, case):
+        """``case`` with its step decided once, by the one resolver of a contact engine
+        (:func:`~rockbench.engines.calibration.time_step.step_for`): what runs."""
+        return dataclasses.replace(case, dt_s=time_step.step_for(self, case.block, case.eta, case.pulse, case.dt_s,
+                                                                 restitution=case.restitution))
 
     # -- resolve: a contact given, or as shipped, or calibrated -----------------------------------
     def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
         """The concrete settings cases of this block, restitution and step [s] use (for run.json; the
-        step where none is given: :meth:`step_for`, and the time-step rule's record with it).
+        step where none is given: :func:`~rockbench.engines.calibration.time_step.step_for`, and the
+        time-step rule's record with it).
 
         A contact given, else as shipped the engine's, else the calibration to the restitution's η
-        at this step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached) made on :meth:`calibration_block` (the record's
-        ``calibrated_on`` names another) and aimed at the law's η for that block
-        (:meth:`calibration_target`); :meth:`settings_with` resolves them. Memoised."""
-        on, eta = self.calibration_target(block, restitution) if self.calibrated() else \
-            (block, restitution.eta(block.alpha_rad))
-        dt = self.step_for(block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
+        at this step (:func:`~rockbench.engines.calibration.routine.calibrate`, cached) made on the block
+        ``calibrate_on`` names (the record's ``calibrated_on`` names it) and aimed at the law's η for
+        that block (:func:`~rockbench.engines.calibration.held_out.calibration_target`);
+        :meth:`settings_with` resolves them. Memoised."""
+        on, eta = (held_out.calibration_target(self.settings["calibrate_on"], block, restitution) if self.calibrated()
+                   else (block, restitution.eta(block.alpha_rad)))
+        dt = time_step.step_for(self, block, restitution.eta(block.alpha_rad), dt_s=dt_s, restitution=restitution)
         key = (block.width_m, block.height_m, block.depth_m, block.mass_kg, round(eta, 12), dt)
         if key not in self._resolved:
             cal = routine.calibrate(self._on_itself(), on, eta, dt_s=dt) if self.calibrated() else None
@@ -318,15 +245,15 @@ class ContactEngine(EngineAdapter):
                 out["shipped_note"] = self.SHIPPED_NOTE
             self._resolved[key] = out
         out = as_written(self._resolved[key])
-        if dt_s is None and out.get("calibration") and self.contact_layout(on, eta) == "corners":
-            out["calibration"] = {**out["calibration"], "step_rule": self.rule_step(on, eta)[1]}
+        if dt_s is None and out.get("calibration") and layout.contact_layout(self, on, eta) == "corners":
+            out["calibration"] = {**out["calibration"], "step_rule": time_step.rule_step(self, on, eta)[1]}
         return out
 
     def _equals_shipped(self, block: Block, eta: float, dt: float, resolved: dict) -> bool:
         """Whether calibrated settings ``resolved`` at step ``dt`` [s] are the engine as shipped: the
         same settings at its own step (then the two variants give one answer, counted once)."""
         shipped = type(self)(**{**self.settings, "settings": "shipped", "calibrate_on": None})
-        if shipped.step_for(block, eta) != dt:
+        if time_step.step_for(shipped, block, eta) != dt:
             return False
         skip = ("settings", "calibration")
         other = shipped.settings_with()
@@ -358,6 +285,13 @@ class ContactEngine(EngineAdapter):
               "table top, velocities), theta, theta rate and the table's x from its rows (t_s: step × dt)")
     def read(self, scene, block: Block, s: dict, rows, t_s, pulse):  # pragma: no cover - declared
         """One world's :class:`~rockbench.engines.motion.Motion` from its rows ``(n, k)``."""
+
+    def stop_angles(self, scene, block: Block, s: dict, rows, t_s, pulse) -> tuple:
+        """Hook: what the loop's end-of-run test reads of one world's new rows: ``(θ [rad], θ̇ [rad/s],
+        the rows' own times [s] or None)``, as :meth:`read` gives them (the default reads them from it);
+        an engine whose ``read`` does more than these overrides it to test a segment for less."""
+        m = self.read(scene, block, s, rows, t_s, pulse)
+        return m.theta_rad, m.theta_dot_rad_s, m.t_s
 
     def retire(self, scene, w: int) -> None:
         """Hook: world ``w`` has stopped; a batch engine that can may stop stepping it (its later rows
@@ -459,10 +393,6 @@ class ContactEngine(EngineAdapter):
         if points is None:
             return knobs.search(self.KNOBS, block, target, dt_s, measure, self.START_KEEP_RTOL, self.SHIPPED)
         return knobs.search(self.ROW_KNOBS, block, target, dt_s, measure)
-
-
-def _capped(dt: float, pulse) -> float:
-    return float(dt) if pulse is None else min(float(dt), pulse.max_dt_s())
 
 
 def _halted(tr, block: Block) -> bool:

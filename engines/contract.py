@@ -38,9 +38,9 @@ contract every adapter shares, for a subclass of :class:`EngineAdapter`:
    that uses every core; maps run it in their own process). A native batch that applies the
    classifier's rule itself implements ``_native_verdicts``; a ``parallel`` adapter may offer
    ``solve_grid(...)`` (verdicts of a grid of harmonic cases as :class:`CellColumns`).
-8. The time step is decided once, by one resolver, :meth:`EngineAdapter.step_for`: the step given,
+8. The time step is decided once, by one resolver, :meth:`EngineAdapter.posed`: the step given,
    else the engine's (here ``own_dt_s``; a contact engine's rule in
-   :meth:`~rockbench.engines.contact.ContactEngine.step_for`). :meth:`run_many` poses every case's
+   :func:`~rockbench.engines.calibration.time_step.step_for`). :meth:`run_many` poses every case's
    step with it before anything runs, and the case carries it (``Case.dt_s``) from there on.
 9. ``resolve(block, restitution, dt_s)`` returns the concrete settings a case will use, recorded in
    run.json; ``measure_restitution`` and ``calibrate`` belong to engines with a contact model.
@@ -106,7 +106,7 @@ class Case:
         calibrated to.
     dt_s : float or None
         The time step the case runs at [s]; None: not posed yet, the engine's one resolver
-        (:meth:`EngineAdapter.step_for`) decides it when the case runs.
+        (:meth:`EngineAdapter.posed`) decides it when the case runs.
     linearized : bool
         Linearised equation of motion (reference only).
     """
@@ -546,24 +546,16 @@ class EngineAdapter:
         return [None] * len(cases)
 
     # -- the time step (contract item 8) --------------------------------------------------------
-    def step_for(self, block: Block, eta: float, pulse: Pulse | None = None, dt_s: float | None = None,
-                 restitution: Restitution | None = None) -> float:
-        """The one time-step resolver: the step a run of ``block`` at η under ``pulse`` is made at [s]
-        (``restitution``, the law behind η, where a contact engine calibrates on another block).
-
-        ``dt_s`` where given (a finite number > 0), else the engine's own step (:attr:`own_dt_s`);
-        checked against ``pulse`` (:meth:`~rockbench.reference_solver.pulses.Pulse.check_dt`: fine
-        enough to follow it) where one is given. A ConfigError for a bad step.
-        """
-        if dt_s is None and self.own_dt_s is None:
-            raise ConfigError(f"engine {self.name!r} has no time step of its own (own_dt_s): give the case one (--dt).")
-        dt = check_positive("--dt", dt_s if dt_s is not None else self.own_dt_s, "s")
-        return dt if pulse is None else pulse.check_dt(dt)
-
     def posed(self, case: Case) -> Case:
-        """``case`` with its step decided (:meth:`step_for`, once): what runs."""
-        return dataclasses.replace(case, dt_s=self.step_for(case.block, case.eta, case.pulse, case.dt_s,
-                                                                 restitution=case.restitution))
+        """``case`` with its step decided once, by the one resolver: what runs. ``case.dt_s`` [s] where
+        given (a finite number > 0), else the engine's own step (:attr:`own_dt_s`); checked against the
+        pulse (:meth:`~rockbench.reference_solver.pulses.Pulse.check_dt`: fine enough to follow it). A
+        ConfigError for a bad step. (A contact engine's resolver is
+        :func:`~rockbench.engines.calibration.time_step.step_for`.)"""
+        if case.dt_s is None and self.own_dt_s is None:
+            raise ConfigError(f"engine {self.name!r} has no time step of its own (own_dt_s): give the case one (--dt).")
+        dt = check_positive("--dt", case.dt_s if case.dt_s is not None else self.own_dt_s, "s")
+        return dataclasses.replace(case, dt_s=dt if case.pulse is None else case.pulse.check_dt(dt))
 
     # -- the public methods ----------------------------------------------------------------------
     def simulate(self, case: Case) -> Trajectory:
@@ -577,7 +569,7 @@ class EngineAdapter:
     def run_many(self, cases: Iterable[Case]) -> list[CellResult]:
         """Simulate and classify many cases; failures are recorded per case.
 
-        Every case's step is decided first (:meth:`step_for`); cases the adapter's
+        Every case's step is decided first (:meth:`posed`); cases the adapter's
         :meth:`_native_verdicts` hook returns verdicts for keep them, the others are simulated
         (:meth:`_simulate_many`) and judged (:meth:`judge`).
         """
@@ -648,12 +640,6 @@ class EngineAdapter:
     def resolve(self, block: Block, restitution: Restitution, dt_s: float | None = None) -> dict:
         """The concrete settings cases of this block, restitution and time step [s] use (for run.json)."""
         return dict(self.settings)
-
-    def calibration_block(self, block: Block) -> Block:
-        """The block whose geometry the calibration behind runs of ``block`` is made on: ``block``
-        itself (a contact engine's ``calibrate_on`` names another); a ConfigError for one it cannot
-        run ``block`` with, before anything runs."""
-        return block
 
     def as_shipped(self) -> bool:
         """Whether the engine runs as shipped: ``settings="shipped"`` (adapters without that setting

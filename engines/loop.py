@@ -11,9 +11,8 @@ engine has no such setting); an adapter whose steps do not depend on where a seg
 ``near_segment_s`` [s], and its segments then end at each run's marks (its pulse's end, where an
 overturn is most often certain; the trapped rule's first step; its last step) and last at most
 ``near_segment_s`` after its pulse, so that fewer steps run past a stop (docs/speed.md, "Work past
-the stop and repeated work"). An engine that starts each segment afresh (MuJoCo's rollouts from a
-zero warm start, Exudyn's solver re-entered) keeps the fixed segments: where they end moves its
-last digits, so its result is that of its segment length. An engine with its own
+the stop and repeated work"). An engine whose solver is re-entered at each segment (Exudyn) keeps
+the fixed segments: where they end moves its results, so they are those of its segment length. An engine with its own
 sampling reports each sample's time (``Motion.t_s``): the rule then counts the samples it got, each
 at its own step (:func:`~rockbench.engines.motion.steps_of_times`). An engine that stops by itself
 raises :class:`EngineHalted` with the rows it has; the run ends there (``ended_by`` ``"halted"``).
@@ -35,7 +34,7 @@ from rockbench.engines import progress
 from rockbench.engines.contract import Trajectory
 from rockbench.engines.motion import Motion, body_energy_j_kg, corners, run_steps, steps_of_times
 
-__all__ = ["EngineHalted", "run_worlds", "trajectory", "DEFAULT_SEGMENT_S"]
+__all__ = ["EngineHalted", "run_worlds", "trajectory", "segment_steps", "DEFAULT_SEGMENT_S"]
 
 #: The segment between end-of-run tests of an engine without a ``segment_s`` setting [s]
 DEFAULT_SEGMENT_S = 0.05
@@ -50,7 +49,9 @@ class EngineHalted(Exception):
         self.rows = rows
 
 
-def _segment_steps(s: dict, dt_s: float) -> int:
+def segment_steps(s: dict, dt_s: float) -> int:
+    """The steps of a fixed segment: the settings' ``segment_s`` (:data:`DEFAULT_SEGMENT_S` without it)
+    at step ``dt_s`` [s], at least one."""
     return max(1, int(round(float(s.get("segment_s", DEFAULT_SEGMENT_S)) / dt_s)))
 
 
@@ -95,7 +96,7 @@ def run_worlds(ad, block: Block, s: dict, dt: float, pulses: list, theta0: float
     first = np.asarray(ad.start(scene, block, s, dt, pulses, theta0, max(n for n, _, _ in steps)), dtype=float)
     rows, n_rows = [first], first.shape[1]
     stop: list = [None] * len(pulses)          # (row index of the last sample kept, why)
-    n_done, seg = 0, _segment_steps(s, dt)
+    n_done, seg = 0, segment_steps(s, dt)
     near_s = ad.near_segment_s
     near = None if near_s is None else min(seg, max(1, int(round(near_s / dt))))
     t0, c0 = time.perf_counter(), time.process_time()
@@ -124,12 +125,12 @@ def _stop(ad, scene, block: Block, s: dict, dt: float, pulse, new: np.ndarray, n
     :func:`~rockbench.reference_solver.classify.run_end` on each row at its own step, else the engine's
     own stop, else the tail (the run's last step, ``steps[0]``); None: the run goes on."""
     n_w, n_pulse, n_min = steps
-    m = ad.read(scene, block, s, new, (first + np.arange(new.shape[0])) * dt, pulse) if new.shape[0] else None
-    k = (np.arange(n_done + 1, n_done + new.shape[0] + 1, dtype=float) if m is None or m.t_s is None
-         else steps_of_times(m.t_s, dt))
+    m = ad.stop_angles(scene, block, s, new, (first + np.arange(new.shape[0])) * dt, pulse) if new.shape[0] else None
+    k = (np.arange(n_done + 1, n_done + new.shape[0] + 1, dtype=float) if m is None or m[2] is None
+         else steps_of_times(m[2], dt))
     j = int(np.searchsorted(k, min(n_to, n_w) + 0.5))   # rows up to the run's last step
     if m is not None and j:
-        end = run_end(k[:j], m.theta_rad[:j], m.theta_dot_rad_s[:j], alpha_rad=block.alpha_rad,
+        end = run_end(k[:j], m[0][:j], m[1][:j], alpha_rad=block.alpha_rad,
                       p_rad_s=block.p_rad_s, pulse_end_step=n_pulse, min_tail_step=n_min)
         if end is not None:
             return first + end[0], end[1], {}

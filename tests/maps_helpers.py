@@ -228,7 +228,7 @@ class StepCostAdapter(AnalyticAdapter):
     SPAN_WAVES = 1.5
 
     def _simulate(self, case):
-        dt = case.dt_s   # posed: the step decided (step_for)
+        dt = case.dt_s   # posed: the step decided (posed)
         w, a = self._ratios(case)
         line = 1.0 + 0.8 * w + self.settings["shift_per_s"] * dt
         out = "rest" if a <= 1.0 else ("overturn" if a > line else "rocking")

@@ -46,6 +46,35 @@ def test_a_bad_cell_is_one_line_and_exit_2(capsys):
 def test_dart_product_and_native_loop_agree():
     pytest.importorskip("dartpy")
     b = _bench()
-    row = b.measure_cell("dart", "shipped", "B3M:sine:3:5", repeats=1, max_batch=1)
+    row = b.measure_cell("dart", "shipped", "B3M:sine:3:5", repeats=1)
     assert "native_error" not in row and row["outcome"] == "overturn"
     assert b.agrees(row, 1e-9), row
+
+
+def test_worlds_table_totals_cells_and_compares_with_the_native_loop_alone():
+    """A world's cost at each number of worlds, over the native loop's one world; the largest |Δθ| from alone."""
+    def worlds(native_1, native_4, product_4=None, alone=0.0):
+        four = {"worlds": 4, "native_cpu_s_per_sim_s": native_4, "theta_diff_from_alone_rad": alone}
+        if product_4 is not None:
+            four["product_cpu_s_per_sim_s"] = product_4
+        return [{"worlds": 1, "product_cpu_s_per_sim_s": 2 * native_1, "native_cpu_s_per_sim_s": native_1,
+                 "theta_diff_from_alone_rad": 0.0}, four]
+    rows = [_row("drake", "B3M:sine:3:5", 1.0, 0.2, 0.1, worlds=worlds(0.1, 0.05, 0.06, 1e-15)),
+            _row("drake", "B8M:sine:3:1.5", 3.0, 0.4, 0.3, worlds=worlds(0.3, 0.1, 0.12)),
+            _row("dart", "B3M:sine:3:5", 1.0, 0.3, 0.2, worlds=worlds(0.2, 0.3, alone=1e-9))]
+    lines = _bench().worlds_table({"rows": rows}).splitlines()
+    # drake one world: native (0.1 + 0.9)/4 = 0.25, product 0.5; four: native (0.05 + 0.3)/4, product (0.06 + 0.36)/4
+    assert lines[2] == "| drake | calibrated | 1 | 0.5 | 0.25 | 2.00 | 1.00 | 0 |"
+    assert lines[3] == "| drake | calibrated | 4 | 0.105 | 0.0875 | 0.42 | 0.35 | 1e-15 |"
+    assert lines[5] == "| dart | calibrated | 4 | one world a batch | 0.3 | – | 1.50 | 1e-09 |"
+
+
+def test_physx_loop_of_many_worlds_agrees_with_the_product_and_with_one_world():
+    """PhysX's worlds at the origin, each on its own table: one world the product's θ bit for bit; as shipped
+    (TGS, float32) a world beside others within 1e-6 rad of itself alone (measured: up to 8e-7 over the
+    script's cells; PGS, calibrated: 0)."""
+    pytest.importorskip("sapien")
+    row = _bench().measure_cell("physx", "shipped", "B3M:sine:3:5", repeats=1, ks=(1, 3))
+    assert _bench().agrees(row, 1e-9), row
+    assert row["worlds"][0]["theta_diff_from_alone_rad"] == 0.0 and row["worlds"][1]["theta_diff_from_alone_rad"] <= 1e-6
+    assert row["worlds"][0]["theta_diff_from_product_rad"] == 0.0

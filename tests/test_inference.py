@@ -199,7 +199,7 @@ def test_the_held_out_check_is_a_paired_equivalence_test():
         doc = _doc({own: [0.03] * 4}, **{own: {"sd_cell": 10 * sd}})
         doc["pairs"] += [_pair(held, b, p, 0.03 + shift, settings=held, held_out=True, in_sample_variant=own,
                                sd_cell=10 * sd) for b, p in PROBLEMS]
-        h = {r["variant"]: r for r in verdict(doc)["variants"]}[held]["held_out"]
+        h = {r["variant"]: r for r in verdict(doc, Declared(held_out_margin=0.05))["variants"]}[held]["held_out"]
         assert h["in_sample_scope"] == "same scenarios" and h["difference"] == pytest.approx(shift)
         assert h["carries_over"] is carries and (h["difference_ci95"][0] > 0) is worse
         t = tost(h["difference"], paired_se := h["tost"]["interval"][1] - h["difference"], 0.05)

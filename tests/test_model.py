@@ -51,11 +51,12 @@ def test_density_consistent_with_aluminium():
 
 def test_table_1_is_the_four_printed_blocks():
     assert TABLE_1 == tuple(TABLE1) and all(PRESETS[n].in_table_1 for n in TABLE_1)
-    assert sorted(set(PRESETS) - set(TABLE_1)) == ["B2M", "B8M"]
+    assert sorted(set(PRESETS) - set(TABLE_1)) == ["B2M", "B4M", "B5M", "B7M", "B8M"]
 
 
-# h/b: the slenderness of B2M and B8M (medium: b = 45 mm, the size whose average k is 0.8608 over h/b 1.5-9.75)
-MEASURED_RANGE = {"B2M": 1.5, "B8M": 6.0}
+# h/b: the slenderness of the medium blocks outside Table 1 (b = 45 mm, the size whose average k is 0.8608
+# over h/b 1.5-9.75), Table 1's steps of 0.75
+MEASURED_RANGE = {"B2M": 1.5, "B4M": 3.0, "B5M": 3.75, "B7M": 5.25, "B8M": 6.0}
 
 
 @pytest.mark.parametrize("name", list(MEASURED_RANGE))
@@ -93,6 +94,9 @@ def test_measured_range_values():
     assert round(get_preset("B2M").row()["eta_modified_average_k"], 4) == 0.6363
     assert round(get_preset("B8M").row()["eta_modified_average_k"], 4) == 0.9698
     assert round(get_preset("B2M").block().p_rad_s, 3) == 13.468 and round(get_preset("B8M").block().p_rad_s, 3) == 7.332
+    # B4M: tan α = 1/3, sin²α = 1/10; B5M: 4/15, 16/241; B7M: 4/21, 16/457
+    for name, s2 in (("B4M", 1 / 10), ("B5M", 16 / 241), ("B7M", 16 / 457)):
+        assert get_preset(name).row()["eta_housner"] == pytest.approx(1 - 1.5 * s2, rel=1e-12)
 
 
 def test_a_block_without_a_measured_k_has_no_exact_restitution():
@@ -152,11 +156,11 @@ def test_rockbench_blocks_lists_every_preset_and_marks_those_outside_table_1(cap
     assert main(["blocks"]) == 0
     lines = capsys.readouterr().out.splitlines()
     rows = {ln.split()[0]: ln for ln in lines[1:] if ln.split()[0] in PRESETS}
-    assert list(rows) == ["B2M", "B3M", "B6M", "B8M", "B3L", "B6L"]
+    assert list(rows) == ["B2M", "B3M", "B4M", "B5M", "B6M", "B7M", "B8M", "B3L", "B6L"]
     for name, line in rows.items():
         assert line.endswith(NOT_IN_TABLE_1) == (name not in TABLE_1)
     assert "0.5385" in rows["B2M"] and "0.9595" in rows["B8M"] and rows["B8M"].count("—") == 2
-    assert lines[-1].startswith("B2M, B8M: medium blocks inside the h/b range 1.5–9.75")
+    assert lines[-1].startswith("B2M, B4M, B5M, B7M, B8M: medium blocks inside the h/b range 1.5–9.75")
     assert main(["blocks", "--json"]) == 0
     js = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
     assert js["B2M"]["in_table_1"] is False and js["B2M"]["k_exact"] is None and js["B3M"]["note"] is None

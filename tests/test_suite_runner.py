@@ -363,13 +363,15 @@ def test_the_code_defaults_are_the_default_suites_declarations():
 
 
 @pytest.mark.parametrize("table, line", [
-    ("fail_distance = 0", "suite s.toml: verdict.fail_distance must be a number > 0 in the normalised plane, got 0."),
-    ("fail_distance = 'far'", "suite s.toml: verdict.fail_distance must be a number > 0 in the normalised plane, "
-                              "got 'far'."),
+    ("fail_distance = 0", "suite s.toml: verdict.fail_distance must be \"largest-restitution-gap\" or a number > 0 "
+                          "in the normalised plane, got 0."),
+    ("fail_distance = 'far'", "suite s.toml: verdict.fail_distance must be \"largest-restitution-gap\" or a number > 0 "
+                              "in the normalised plane, got 'far'."),
     ("equivalence_margin = 'restitution'",
      "suite s.toml: verdict.equivalence_margin must be \"restitution-gap\" or a number > 0, got 'restitution'."),
     ("held_out_margin = -0.05",
-     "suite s.toml: verdict.held_out_margin must be a number > 0 in the normalised plane, got -0.05."),
+     "suite s.toml: verdict.held_out_margin must be \"half-restitution-gap\" or a number > 0 in the normalised "
+     "plane, got -0.05."),
     ("general_range_h_over_b = [6.0, 1.5]",
      "suite s.toml: verdict.general_range_h_over_b must be [lo, hi], two slendernesses h/b with 0 < lo < hi, "
      "got [6.0, 1.5]."),

@@ -21,13 +21,20 @@ from rockbench.benchmark.scoring.scenarios import (RESOLUTION_SD_CELLS, Scenario
                                                    resolution_sd)
 from rockbench.benchmark.scoring.statistics import fixed, paired as paired_items
 from rockbench.benchmark.scoring.scores import Scores
-from rockbench.benchmark.scoring.verdict import verdict
+from rockbench.benchmark.scoring.verdict import verdict as _verdict
 from rockbench.benchmark.report.verdict_words import SHORT_WORDS, sentences, short_verdict, words
 from test_score_runs import run_cli
 
 SCENARIOS = [(b, p) for b in ("B3M", "B6M", "B3L", "B6L") for p in ("sine", "cosine")]
 SLENDER = {"B3M": 2.25, "B3L": 2.25, "B6M": 4.5, "B6L": 4.5}
-LIMIT = DEFAULTS.fail_distance
+LIMIT = 0.3                      # a declared limit, as a suite may state one
+#: The hand-built documents below have no η_M reference maps, so no gap for the default rules: they are
+#: judged by declared numbers (the rules' own tests are in tests/test_margins.py)
+NUMBERS = Declared(fail_distance=LIMIT, held_out_margin=0.05)
+
+
+def verdict(doc: dict, declared: Declared | None = None) -> dict:
+    return _verdict(doc, declared or NUMBERS)
 
 
 def _pair(variant, block, pulse, bm, *, agreement=0.97, settings=CALIBRATED, edges=100, cells_id=None, **counts):
@@ -153,7 +160,7 @@ def test_the_fail_limit_is_the_declared_distance_not_a_cell():
         assert not fails(_variant("m", vals, cell=cell), LIMIT)
     v = verdict(_doc({"m": vals}), Declared(fail_distance=0.2))
     assert v["variants"][0]["fails"] and v["declared"]["fail_distance"] == 0.2
-    assert "Fail (boundary farther than 0.2 from the reference's" in " ".join(sentences(v))
+    assert "Fail (boundary farther than 0.2, the suite's declared limit, from the reference's" in " ".join(sentences(v))
 
 
 def test_a_failure_the_grid_cannot_resolve_says_so():
@@ -195,7 +202,7 @@ def test_two_identical_variants_are_one_entry():
     b = _variant("x[settings=calibrated,contact=corners]", [0.01] * 8, engine="x", cells=ids)
     c = _variant("y", [0.2] * 8)
     assert [[v.name for v in e] for e in entries([a, b, c])] == [[a.name, b.name], ["y"]]
-    r = rank([a, b, c])
+    r = rank([a, b, c], LIMIT)
     assert r[a.name] == r[b.name] == 1 and r["y"] == 2
     other = list(ids)
     other[3] = "different"
@@ -243,7 +250,7 @@ def test_the_paired_error_sums_both_variants_errors_over_shared_problems():
 def test_two_identical_maps_tie():
     a, b = _variant("a", [0.02, 0.05, 0.01, 0.03]), _variant("b", [0.02, 0.05, 0.01, 0.03])
     assert _paired(a, b)["difference"] == 0.0 and _paired(a, b)["p"] == pytest.approx(1.0)
-    assert rank([a, b]) == {"a": 1, "b": 1}
+    assert rank([a, b], LIMIT) == {"a": 1, "b": 1}
 
 
 def test_a_boundary_shifted_by_half_a_cell_in_every_scenario_does_not_tie():
@@ -252,7 +259,7 @@ def test_a_boundary_shifted_by_half_a_cell_in_every_scenario_does_not_tie():
     a, b = _variant("a", vals), _variant("b", [x + cell / 2 for x in vals])
     res = _paired(b, a)
     assert res["difference"] == pytest.approx(cell / 2) and res["ci95"][0] > 0
-    assert rank([a, b]) == {"a": 1, "b": 2}
+    assert rank([a, b], LIMIT) == {"a": 1, "b": 2}
 
 
 def test_a_perfect_variant_is_not_decided_by_a_floor():
@@ -263,8 +270,8 @@ def test_a_perfect_variant_is_not_decided_by_a_floor():
     perfect = _variant("perfect", [0.0] * 8, sd=sd)
     near, far = _variant("near", [0.018] * 8, sd=sd), _variant("far", [0.18] * 8, sd=sd)
     assert _paired(perfect, near)["difference"] == pytest.approx(-0.018)
-    assert rank([perfect, near]) == {"perfect": 1, "near": 1}
-    assert rank([perfect, far]) == {"perfect": 1, "far": 2}
+    assert rank([perfect, near], LIMIT) == {"perfect": 1, "near": 1}
+    assert rank([perfect, far], LIMIT) == {"perfect": 1, "far": 2}
 
 
 def test_a_failing_variant_has_no_rank_and_costs_the_others_no_power():
@@ -272,7 +279,7 @@ def test_a_failing_variant_has_no_rank_and_costs_the_others_no_power():
     holds only the passing variants."""
     vals = [0.02, 0.05, 0.01, 0.03, 0.02, 0.04, 0.01, 0.02]
     a, b, c = _variant("a", vals), _variant("b", [x + 0.18 for x in vals]), _variant("c", [x + 1.08 for x in vals])
-    assert rank([a, b, c]) == {"a": 1, "b": 2}
+    assert rank([a, b, c], LIMIT) == {"a": 1, "b": 2}
     v = verdict(_doc({"a": vals, "b": [x + 0.18 for x in vals], "c": [x + 1.08 for x in vals]}))
     row = next(r for r in v["variants"] if r["variant"] == "c")
     assert row["rank"] is None and row["fails"] and row["versus"] == []
@@ -292,13 +299,13 @@ def test_ranks_are_the_best_subset_and_those_behind_it():
     a = _variant("a", [0.010, 0.012, 0.011, 0.009, 0.010, 0.012, 0.011, 0.009])
     b = _variant("b", [0.011, 0.010, 0.012, 0.010, 0.011, 0.010, 0.009, 0.012])
     c = _variant("c", [0.20, 0.25, 0.15, 0.28, 0.20, 0.22, 0.18, 0.26])
-    assert rank([c, b, a]) == {"a": 1, "b": 1, "c": 2}
+    assert rank([c, b, a], LIMIT) == {"a": 1, "b": 1, "c": 2}
 
 
 def test_variants_without_a_shared_scenario_are_not_resolved():
     a = Variant("a", "a", "a", CALIBRATED, {("B3M", "sine"): Scenario(0.01, 0.001, 0.3, (2.25, "sine"))})
     b = Variant("b", "b", "b", CALIBRATED, {("B6M", "sine"): Scenario(0.2, 0.001, 0.3, (4.5, "sine"))})
-    assert _paired(a, b)["difference"] is None and rank([a, b]) == {"a": 1, "b": 1}
+    assert _paired(a, b)["difference"] is None and rank([a, b], LIMIT) == {"a": 1, "b": 1}
 
 
 # -- the verdict of a score document --------------------------------------------------------------------
@@ -327,6 +334,7 @@ def test_a_secondary_metric_is_highlighted_only_inside_the_best_group():
     vals = [0.02, 0.03, 0.02, 0.03, 0.02, 0.03, 0.02, 0.03]
     doc = _doc({"a": vals, "b": list(reversed(vals)), "z": [5.0] * 8},
                a={"agreement": 0.95}, b={"agreement": 0.96}, z={"agreement": 0.99, "settings": AS_SHIPPED})
+    doc["reference_gaps"] = [{"block": b, "pulse": p, "boundary_mean": 0.3} for b, p in SCENARIOS]  # limit 0.3
     ranked = ranked_summary(_scores(doc))
     names = [r["variant"] for r, _ in ranked]
     marks = best_group_marks(ranked)
@@ -344,7 +352,7 @@ def test_a_failing_variant_is_named_with_its_reason():
     assert bad["fails"] and bad["reasons"] == ["overturns in 100 % of the cells where the reference stays standing"]
     text = " ".join(sentences(v))
     assert "Out of the box (engines as shipped): its only variant, mujoco[settings=shipped], fails" in text
-    assert "Fail (boundary farther than 0.3 from the reference's, the suite's declared limit" in text
+    assert "Fail (boundary farther than 0.3, the suite's declared limit, from the reference's" in text
     assert "overturns in 100 %" in text
     assert "Best achievable (engines calibrated by rockbench), on these 4 problems: best pybullet" in text
     short = " ".join(short_verdict(v))
@@ -438,7 +446,7 @@ def test_verdict_object_in_score_json_shape():
     assert v["metric"] == PRIMARY_METRIC and v["direction"] == "lower"
     assert set(v) >= {"declared", "power", "equivalence", "mcb", "general", "variants"}
     assert not set(v) & {"method", "text", "short"}           # numbers only: the words are the report's
-    assert v["declared"] == {**DEFAULTS.to_dict()} and v["power"] is None and not v["general"]["stated"]
+    assert v["declared"] == {**NUMBERS.to_dict()} and v["power"] is None and not v["general"]["stated"]
     for r in v["variants"]:
         assert {"variant", "engine", "settings", "group", "value", "se", "ci95", "rank", "in_best_subset", "pairs",
                 "versus", "equivalence", "held_out", "general", "planted"} <= set(r)
@@ -493,7 +501,7 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     assert doc["schema_version"] == 2 and doc["metrics_version"] == "9"
     # no suite.json beside the maps: the code's declarations, and a note that says so
     assert doc["verdict"]["declared"]["source"].startswith("the code's defaults")
-    assert "rockbench: note: the verdict's declarations are the code's defaults" in err and "fail_distance 0.3" in err
+    assert "rockbench: note: the verdict's declarations are the code's defaults" in err and "fail_distance largest-restitution-gap" in err
     rows = {r["settings"]: r for r in doc["verdict"]["variants"]}
     assert rows[CALIBRATED]["value"] == 0.0 and rows[CALIBRATED]["rank"] == 1
     assert rows[AS_SHIPPED]["fails"] and "overturns in 100 %" in rows[AS_SHIPPED]["reasons"][0]
@@ -507,7 +515,7 @@ def test_the_default_suites_case_one_outlier_fails_and_the_rest_keep_their_order
     m = _variant("m", [0.0, 0.0, 0.006, 0.005, 0.549, 0.007, 0.012, 0.024], sd=0.012)
     e = _variant("e", [0.083, 0.024, 0.064, 0.024, 0.029, 0.037, 0.041, 0.059], sd=0.012)
     assert fails(m, LIMIT) and not fails(p, LIMIT) and not fails(e, LIMIT)
-    r = rank([p, m, e])
+    r = rank([p, m, e], LIMIT)
     assert r["p"] == 1 and r["e"] >= r["p"] and "m" not in r
 
 

@@ -5,11 +5,12 @@ range its average k was measured over. Aluminium, depth = width.
 (0.8608 for b = 45 mm, h/b 1.5–9.75; 0.7306 for b = 60 mm); ``k_exact`` is the block's own measured
 value, which only Table 1's four blocks have.
 
-B2M (h/b 1.5) and B8M (h/b 6.0) are not in Table 1: they are medium blocks (b = 45 mm) inside the range
-of the nine blocks whose average k the paper quotes (its §3.1), so Housner's η and η_M with the size's
-average k are defined for them, and nothing else is (no exact k, no shaking-table points). Their names
-are inferred: Table 1 numbers the slenderness in steps of 0.75 (B3: h/b 2.25, B6: 4.5), and 1.5 and 6.0
-are steps 2 and 8. Their mass is the mean density of Table 1's four weighed blocks times the volume.
+B2M, B4M, B5M, B7M and B8M (h/b 1.5, 3.0, 3.75, 5.25 and 6.0) are not in Table 1: they are medium blocks
+(b = 45 mm) inside the range of the nine blocks whose average k the paper quotes (its §3.1), so Housner's
+η and η_M with the size's average k are defined for them, and nothing else is (no exact k, no
+shaking-table points). Their names are inferred: Table 1 numbers the slenderness in steps of 0.75 (B3:
+h/b 2.25, B6: 4.5), so 1.5, 3.0, 3.75, 5.25 and 6.0 are steps 2, 4, 5, 7 and 8. Their mass is the mean
+density of Table 1's four weighed blocks times the volume.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ class Preset:
     Attributes
     ----------
     name : str
-        B3M, B6M, B3L, B6L (Table 1); B2M, B8M (the measured range).
+        B3M, B6M, B3L, B6L (Table 1); B2M, B4M, B5M, B7M, B8M (the measured range).
     mass_kg, width_m, height_m : float
         As printed (Table 1) or derived (mass from the mean density) [kg], [m], [m].
     k_average : float
@@ -132,10 +133,14 @@ def measured_range_block(h_over_b: float, size: Preset) -> Preset:
                   in_table_1=False)
 
 
-#: Every preset, by name, medium before large and by slenderness: B2M, B3M, B6M, B8M, B3L, B6L (B2M and B8M
-#: medium blocks of h/b 1.5 and 6.0 from the measured range)
+#: The slendernesses of the medium blocks from the measured range: Table 1's steps of 0.75 between 1.5 and
+#: 6.0 that Table 1 does not hold (B2M, B4M, B5M, B7M, B8M)
+MEASURED_RANGE_H_OVER_B = (1.5, 3.0, 3.75, 5.25, 6.0)
+
+#: Every preset, by name, medium before large and by slenderness: B2M, B3M, B4M, B5M, B6M, B7M, B8M, B3L,
+#: B6L (the medium blocks outside Table 1 from the measured range)
 PRESETS: dict[str, Preset] = {p.name: p for p in sorted(
-    (*_TABLE_1, measured_range_block(1.5, _TABLE_1[0]), measured_range_block(6.0, _TABLE_1[0])),
+    (*_TABLE_1, *(measured_range_block(hb, _TABLE_1[0]) for hb in MEASURED_RANGE_H_OVER_B)),
     key=lambda p: (p.width_m, p.h_over_b))}
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from rockbench.benchmark.scoring.comparisons import COMPARED
-from rockbench.benchmark.scoring.declared import RESTITUTION_GAP
+from rockbench.benchmark.scoring.declared import RESTITUTION_GAP, rule_words
 from rockbench.benchmark.scoring.failing import scenario_words
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, engine_name
 
@@ -69,6 +69,18 @@ def signed(x) -> str:
 def declared_number(x) -> str:
     """A declared value as the suite wrote it: ``0.3``."""
     return f"{float(x):g}"
+
+
+def limit_words(v: dict) -> str:
+    """The fail limit with what it rests on: ``0.165, the largest η_H–η_M reference gap of the run's
+    scenarios (B3M sine)``, ``0.3, the suite's declared limit``, or that the run gives none."""
+    lim = v.get("fail_limit") or {"value": v["fail_distance"], "rule": None, "from": None}
+    if lim["value"] is None:
+        return "a limit (none: the run has no η_H–η_M reference gap for the suite's rule, so only a missing boundary fails)"
+    if lim["rule"] is None:
+        return f"{declared_number(lim['value'])}, the suite's declared limit,"
+    f = lim["from"]
+    return f"{number(lim['value'])}, {rule_words(lim['rule'])} ({f['block']} {f['pulse']}),"
 
 
 def delta_words(delta: float) -> str:
@@ -133,8 +145,8 @@ def sentences(v: dict) -> list[str]:
     failing = [r for r in rows if r["fails"] and not any(by[o]["fails"] for o in r["same_as"]
                                                          if rows.index(by[o]) < rows.index(r))]
     if failing:
-        out.append(f"Fail (boundary farther than {declared_number(v['fail_distance'])} from the reference's, the suite's declared "
-                   "limit, in at least one scenario, whatever the mean): " + "; ".join(_failure(r, by) for r in failing)
+        out.append(f"Fail (boundary farther than {limit_words(v)} from the reference's "
+                   "in at least one scenario, whatever the mean): " + "; ".join(_failure(r, by) for r in failing)
                    + ".")
     out += _equivalence_sentence(v) + _held_out_sentence(rows, v) + _general_sentence(v, by) + _power_sentence(v)
     incomplete = [r for r in rows if r["cells_missing"]]
@@ -229,7 +241,7 @@ def _failure(row: dict, by: dict) -> str:
                   f", which the grid's own error there, {number(first['sd'])}, does not resolve: a grid too coarse "
                   "for the limit decided it")
         why = [f"off in {'; '.join(worst)}" + (f" and {_plural(more, 'more scenario')}" if more > 0 else "")
-               + f" (limit {declared_number(first['limit'])}{coarse})"] + row["reasons"]
+               + f" (limit {'none' if first['limit'] is None else format(first['limit'], '.3g')}{coarse})"] + row["reasons"]
     if row["shipped_note"]:
         why.append(row["shipped_note"].rstrip("."))
     mean = f" (mean {number(row['value'])})" if row["value"] is not None else ""
@@ -267,9 +279,9 @@ def _held_out_sentence(rows: list[dict], v: dict) -> list[str]:
     held = [r for r in rows if r["held_out"]]
     if not held:
         return []
-    margin = declared_number(v["declared"]["held_out_margin"])
+    margin = rule_words(v["declared"]["held_out_margin"])
     return [f"Held-out check (calibrated on another block, set against the same settings calibrated on each block "
-            f"itself; two one-sided 5 % tests, margin ±{margin} declared by the suite): "
+            f"itself; two one-sided 5 % tests, margin ± {margin}, declared by the suite): "
             + "; ".join(_held_out_words(r) for r in held) + "."]
 
 
@@ -282,6 +294,8 @@ def _held_out_words(r: dict) -> str:
         head += " (left out of the test: " + "; ".join(f"{b['block']} {b['pulse']}, {b['why']}" for b in gone) + ")"
     if h["tost"] is None and gone and not h.get("tested_scenarios"):
         return head + ": not tested, no held-out scenario that can test it"
+    if h["tost"] is None and h.get("in_sample_variant") is not None and h.get("margin", 1) is None:
+        return head + ": not tested, no η_H–η_M reference gap in its tested scenarios to set its margin"
     if h["tost"] is None:
         return head + ", with no map of the same settings calibrated on the block itself to test it against"
     where = {"same scenarios": "in the same scenarios",
@@ -294,7 +308,7 @@ def _held_out_words(r: dict) -> str:
     else:
         word = "not shown to carry over"
     return (f"{head}: {word}, against {number(h['in_sample'])} {where}, difference {signed(h['difference'])} "
-            f"(90 % interval {signed(t['interval'][0])} to {signed(t['interval'][1])})")
+            f"(90 % interval {signed(t['interval'][0])} to {signed(t['interval'][1])}, margin ±{number(h['margin'])})")
 
 
 def _general_sentence(v: dict, by: dict) -> list[str]:
@@ -379,7 +393,8 @@ def _short(v: dict, level: int) -> list[str]:
             out.append(_short_class(cls, fam, v, by, level))
     failing = [r for r in rows if r["fails"]]
     if failing:
-        out.append(f"Fail (a scenario beyond {declared_number(v['fail_distance'])}): "
+        beyond = "a missing boundary" if v["fail_distance"] is None else f"a scenario beyond {v['fail_distance']:.3g}"
+        out.append(f"Fail ({beyond}): "
                    + _list([_short_failure(r, names, level) for r in failing], level >= 3) + ".")
     within = _within_by_class(v, by, level)
     if within:

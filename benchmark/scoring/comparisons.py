@@ -15,7 +15,7 @@ import math
 import statistics as _py
 from dataclasses import dataclass, field
 
-from rockbench.benchmark.scoring.declared import DEFAULTS, MIN_SLENDERNESSES
+from rockbench.benchmark.scoring.declared import DEFAULTS, MIN_SLENDERNESSES, fail_limit
 from rockbench.benchmark.scoring.failing import fails
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED
 from rockbench.benchmark.scoring.scenarios import Variant, entries, items
@@ -200,8 +200,11 @@ def headline(f: Family, name: str) -> dict:
 
 def rank(variants: list[Variant], limit: float | None = None) -> dict[str, int]:
     """:func:`ranks` of ``variants`` compared in their classes (``limit``: the failing distance, default
-    the code's)."""
-    return ranks(families(variants, DEFAULTS.fail_distance if limit is None else limit))
+    the code's rule on the variants' own η_H–η_M gaps)."""
+    if limit is None:
+        gaps = {k: s.gap for v in variants for k, s in v.scenarios.items()}
+        limit = fail_limit(DEFAULTS, gaps)["value"]
+    return ranks(families(variants, math.inf if limit is None else limit))
 
 
 def critical_for_power(fams: dict[str, Family]) -> tuple[float, str]:

@@ -1,6 +1,8 @@
 """What a suite declares before its verdict is computed: the failing limit, the equivalence margins and
 the slenderness range a claim about problems in general may cover (the suite file's ``[verdict]``
-table; docs/scores.md, "What a suite declares").
+table; docs/scores.md, "What a suite declares"), and the numbers the declared rules give on a run
+(:func:`fail_limit`, :func:`held_out_margin_of`): the fail limit and the held-out margin are rules on
+each scenario's η_H–η_M reference gap, computed from the run, or numbers a suite states.
 
 One rule per key (:data:`KEY_RULES`), used by the suite file's model
 (:mod:`rockbench.benchmark.suites.model`) and by :func:`declared_from_table`, which reads the table
@@ -18,6 +20,11 @@ from rockbench.reference_solver.errors import ConfigError
 
 #: The word that makes each scenario's equivalence margin its own η_H–η_M reference gap.
 RESTITUTION_GAP = "restitution-gap"
+#: The rule that makes the fail limit the largest η_H–η_M reference gap of the run's scenarios.
+LARGEST_GAP = "largest-restitution-gap"
+#: The rule that makes a held-out variant's margin half the mean η_H–η_M reference gap of the scenarios
+#: it is tested on (problems averaged as its difference is).
+HALF_GAP = "half-restitution-gap"
 
 
 @dataclass(frozen=True)
@@ -26,15 +33,18 @@ class Declared:
 
     Attributes
     ----------
-    fail_distance : float
+    fail_distance : str or float
         A variant fails when in any in-sample scenario its boundary lies farther than this from the
-        reference's [w/a units]. Independent of the grid.
+        reference's: ``"largest-restitution-gap"`` (the largest η_H–η_M reference gap of the run's
+        scenarios, :func:`fail_limit`) or one number [w/a units]. Independent of the grid.
     equivalence_margin : str or float
         "Within the uncertainty of the restitution": ``"restitution-gap"`` (each scenario's distance
         between the η_H and η_M, average k, reference boundaries) or one number [w/a units].
-    held_out_margin : float
+    held_out_margin : str or float
         A held-out calibration "carries over" when its paired difference from its in-sample twin lies
-        within ± this, by a two one-sided test [w/a units].
+        within ± this, by a two one-sided test: ``"half-restitution-gap"`` (half the mean η_H–η_M
+        reference gap of the scenarios it is tested on, :func:`held_out_margin_of`) or one number
+        [w/a units].
     general_range_h_over_b : tuple of float
         ``(lo, hi)``: the slenderness range a claim about problems in general may cover; stated only
         when the suite's problems span it with at least :data:`MIN_SLENDERNESSES` slendernesses [-].
@@ -42,9 +52,9 @@ class Declared:
         Where the values come from, in words (the suite file, a run's suite.json, the code's defaults).
     """
 
-    fail_distance: float = 0.3
+    fail_distance: str | float = LARGEST_GAP
     equivalence_margin: str | float = RESTITUTION_GAP
-    held_out_margin: float = 0.05
+    held_out_margin: str | float = HALF_GAP
     general_range_h_over_b: tuple = (1.5, 6.0)
     source: str = field(default="the code's defaults (the default suite's): no suite.json", compare=False)
 
@@ -72,14 +82,26 @@ def _positive(v) -> float:
     return float(v)
 
 
-def check_fail_distance(v) -> float:
-    """``fail_distance``: a number > 0 [w/a units]."""
-    return _positive(v)
+def _rule_or_positive(v, rule: str) -> str | float:
+    """``rule`` (any case) or a number > 0 [w/a units]."""
+    if isinstance(v, str) and v.strip().lower() == rule:
+        return rule
+    try:
+        if isinstance(v, str):
+            raise ConfigError("")
+        return _positive(v)
+    except ConfigError:
+        raise ConfigError(f" must be \"{rule}\" or a number > 0 in the normalised plane, got {v!r}.") from None
 
 
-def check_held_out_margin(v) -> float:
-    """``held_out_margin``: a number > 0 [w/a units]."""
-    return _positive(v)
+def check_fail_distance(v) -> str | float:
+    """``fail_distance``: ``"largest-restitution-gap"`` or a number > 0 [w/a units]."""
+    return _rule_or_positive(v, LARGEST_GAP)
+
+
+def check_held_out_margin(v) -> str | float:
+    """``held_out_margin``: ``"half-restitution-gap"`` or a number > 0 [w/a units]."""
+    return _rule_or_positive(v, HALF_GAP)
 
 
 def check_equivalence_margin(v) -> str | float:
@@ -106,6 +128,47 @@ def check_general_range(v) -> tuple:
 #: The keys of a ``[verdict]`` table and their rules.
 KEY_RULES = {"fail_distance": check_fail_distance, "equivalence_margin": check_equivalence_margin,
              "held_out_margin": check_held_out_margin, "general_range_h_over_b": check_general_range}
+
+
+# -- the numbers the rules give on a run ------------------------------------------------------------------
+
+def fail_limit(declared: Declared, gaps: dict) -> dict:
+    """The fail limit on a run: ``{"value", "rule", "from"}``. With :data:`LARGEST_GAP`, ``value`` is the
+    largest of ``gaps`` (``{(block, pulse): η_H–η_M reference gap}``, score.json's ``reference_gaps``)
+    and ``from`` its scenario (``{"block", "pulse", "gap"}``); None where the run has no gap (no η_M
+    reference map), and then no scenario fails by its distance. A declared number is its own value
+    (``rule`` None)."""
+    if declared.fail_distance != LARGEST_GAP:
+        return {"value": float(declared.fail_distance), "rule": None, "from": None}
+    known = {k: g for k, g in gaps.items() if math.isfinite(g) and g > 0}
+    if not known:
+        return {"value": None, "rule": LARGEST_GAP, "from": None}
+    (block, pulse), gap = max(known.items(), key=lambda kv: (kv[1], kv[0]))
+    return {"value": gap, "rule": LARGEST_GAP, "from": {"block": block, "pulse": pulse, "gap": gap}}
+
+
+def held_out_margin_of(declared: Declared, gaps) -> float | None:
+    """A held-out test's margin [w/a units]: with :data:`HALF_GAP`, half the mean over problems of
+    ``gaps`` (``(gap, cluster)`` of each tested scenario: a problem's sizes averaged first, as the
+    paired difference averages them), None where no tested scenario has a gap; else the declared
+    number."""
+    if declared.held_out_margin != HALF_GAP:
+        return float(declared.held_out_margin)
+    per: dict = {}
+    for gap, cluster in gaps:
+        if math.isfinite(gap) and gap > 0:
+            per.setdefault(cluster, []).append(gap)
+    if not per:
+        return None
+    return 0.5 * sum(sum(g) / len(g) for g in per.values()) / len(per)
+
+
+def rule_words(value) -> str:
+    """A declared value in words: a rule's meaning, a number as written."""
+    return {LARGEST_GAP: "the largest η_H–η_M reference gap of the run's scenarios",
+            HALF_GAP: "half the mean η_H–η_M reference gap of the tested scenarios",
+            RESTITUTION_GAP: "each scenario's η_H–η_M reference gap"}.get(value, f"{value:g}" if isinstance(value, float)
+                                                                          else str(value))
 
 
 def declared_from_table(table, source: str, where: str = "verdict") -> Declared:
@@ -171,6 +234,6 @@ def defaults_note(declared: dict) -> str | None:
     ``verdict.declared``); None for a suite's own."""
     if not str(declared.get("source", "")).startswith("the code's defaults"):
         return None
-    return (f"the verdict's declarations are {declared['source']}: fail_distance {declared['fail_distance']:g}, "
-            f"equivalence_margin {declared['equivalence_margin']}, held_out_margin {declared['held_out_margin']:g}, "
+    return (f"the verdict's declarations are {declared['source']}: fail_distance {declared['fail_distance']}, "
+            f"equivalence_margin {declared['equivalence_margin']}, held_out_margin {declared['held_out_margin']}, "
             f"general_range_h_over_b {list(declared['general_range_h_over_b'])}")

@@ -6,7 +6,8 @@
   5 % test that the mean of distance/margin is below 1) and per scenario (d + z₀.₉₅·sd below the
   margin), the worst scenario named.
 - **The held-out check**: a held-out variant against its in-sample twin (the same settings calibrated
-  on each block itself) by a paired two one-sided test with ``held_out_margin``; "carries over" only
+  on each block itself) by a paired two one-sided test with ``held_out_margin`` (by default half the
+  mean η_H–η_M gap of the tested scenarios, :func:`~.declared.held_out_margin_of`); "carries over" only
   when it passes.
 """
 
@@ -14,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from rockbench.benchmark.scoring.declared import RESTITUTION_GAP, Declared
+from rockbench.benchmark.scoring.declared import RESTITUTION_GAP, Declared, held_out_margin_of
 from rockbench.benchmark.scoring.scenarios import Scenario, Variant, items
 from rockbench.benchmark.scoring.statistics import fixed, paired, paired_clusters, tost, upper_bound
 
@@ -57,8 +58,9 @@ def held_out_check(v: Variant, twin: Variant | None, declared: Declared, respons
     """The held-out check of a variant: its held-out scenarios' value and interval, its twin's value on
     the same scenarios (else on the other size of the same problems, else none), and the paired two
     one-sided test of their difference with ``held_out_margin``, over the held-out scenarios that can
-    test anything (:func:`left_out`; ``response``: :func:`~.power.restitution_response`). None without
-    a held-out scenario."""
+    test anything (:func:`left_out`; ``response``: :func:`~.power.restitution_response`); the margin
+    (``margin``, with ``margin_rule``) from those scenarios' gaps where the suite declares the rule, and
+    no test where none of them has a gap. None without a held-out scenario."""
     held_all = items(v, held_out=True)
     if not held_all:
         return None
@@ -69,7 +71,9 @@ def held_out_check(v: Variant, twin: Variant | None, declared: Declared, respons
     clusters = {x[2] for x in held.values()}
     same = {k: x for k, x in mine.items() if k in held}
     problems = {k: x for k, x in mine.items() if x[2] in clusters}
-    out = {"value": e["mean"], "ci95": _clip(e["ci95"]), "scenarios": len(held_all), "margin": declared.held_out_margin,
+    margin = held_out_margin_of(declared, [(v.scenarios[k].gap, x[2]) for k, x in held.items()])
+    out = {"value": e["mean"], "ci95": _clip(e["ci95"]), "scenarios": len(held_all), "margin": margin,
+           "margin_rule": None if isinstance(declared.held_out_margin, float) else declared.held_out_margin,
            "tested_scenarios": len(held), "left_out": out_of_test,
            "in_sample": None, "in_sample_scope": "none", "in_sample_variant": None, "difference": None,
            "difference_ci95": None, "tost": None, "carries_over": False}
@@ -79,9 +83,12 @@ def held_out_check(v: Variant, twin: Variant | None, declared: Declared, respons
         d, base, scope = paired_clusters(held, problems), problems, "same problems"
     else:
         return out
-    t = tost(d["difference"], d["se"], declared.held_out_margin)
     out.update(in_sample=fixed(list(base.values()))["mean"], in_sample_scope=scope, in_sample_variant=twin.name,
-               difference=d["difference"], difference_ci95=d["ci95"], tost=t, carries_over=t["equivalent"])
+               difference=d["difference"], difference_ci95=d["ci95"])
+    if margin is None:
+        return out                       # the rule has no gap to stand on: no test
+    t = tost(d["difference"], d["se"], margin)
+    out.update(tost=t, carries_over=t["equivalent"])
     return out
 
 

@@ -39,7 +39,7 @@ def scenario_failure(key: tuple, s: Scenario, limit: float) -> dict:
     c = s.counts
     value = None if s.missing_boundary else s.value
     return {"block": key[0], "pulse": key[1], "value": value, "missing_boundary": s.missing_boundary,
-            "limit": limit, "sd": s.sd,
+            "limit": limit if math.isfinite(limit) else None, "sd": s.sd,
             "beyond_error": value is None or value - z_one_sided() * s.sd > limit,
             "missed": _share_or_none(c, "overturn_missed", "reference_overturn"),
             "reference_overturn": c.get("reference_overturn", 0),

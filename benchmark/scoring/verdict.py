@@ -27,12 +27,12 @@ from __future__ import annotations
 import math
 
 from rockbench.benchmark.scoring.comparisons import ON_SUITE, COMPARED, Family, add_general, headline, critical_for_power, families, general_scope, general_value, ranks
-from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
+from rockbench.benchmark.scoring.declared import DEFAULTS, Declared, fail_limit
 from rockbench.benchmark.scoring.equivalence import held_out_check, restitution_test
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails, reason_kinds, reasons
 from rockbench.benchmark.scoring.metrics import PRIMARY, PRIMARY_METRIC
 from rockbench.benchmark.scoring.power import planted_power, restitution_response
-from rockbench.benchmark.scoring.scenarios import Variant, items, variants_of
+from rockbench.benchmark.scoring.scenarios import Variant, items, reference_gaps, variants_of
 from rockbench.benchmark.scoring.statistics import CONFIDENCE, fixed
 
 #: The groups of the verdict's table and picture, in their order.
@@ -53,7 +53,8 @@ def verdict(doc: dict, declared: Declared | None = None) -> dict:
     defaults to the code's :data:`~rockbench.benchmark.scoring.declared.DEFAULTS`."""
     declared = declared or DEFAULTS
     vs = variants_of(doc)
-    fams = families(vs, declared.fail_distance)
+    limit = fail_limit(declared, reference_gaps(doc))
+    fams = families(vs, _limit(limit))
     scope = general_scope(vs, declared)
     for f in fams.values():
         add_general(f, scope)
@@ -61,10 +62,10 @@ def verdict(doc: dict, declared: Declared | None = None) -> dict:
     power = planted_power(vs, *critical_for_power(fams))
     response = restitution_response(vs)
     by_name = {v.name: v for v in vs}
-    rows = [_row(v, fams, rk, scope, declared, by_name.get(v.in_sample), response) for v in vs]
+    rows = [_row(v, fams, rk, scope, declared, limit, by_name.get(v.in_sample), response) for v in vs]
     rows.sort(key=_order)
     out = {"metric": PRIMARY_METRIC, "direction": PRIMARY.direction, "unit": PRIMARY.unit, "confidence": CONFIDENCE,
-           "declared": declared.to_dict(), "fail_distance": declared.fail_distance,
+           "declared": declared.to_dict(), "fail_distance": limit["value"], "fail_limit": limit,
            "mcb": {cls: f.to_dict() for cls, f in fams.items()}, "power": power, "general": scope,
            "equivalence": {"margin": declared.equivalence_margin,
                            "within": [r["variant"] for r in rows if (r["equivalence"] or {}).get("within")
@@ -78,11 +79,17 @@ def _order(r: dict):
             -(r["planted"] or {}).get("eta_factor", 0.0), math.inf if r["value"] is None else r["value"], r["label"])
 
 
-def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: Declared, twin: Variant | None,
-         response: dict | None) -> dict:
+def _limit(limit: dict) -> float:
+    """The fail limit's value as the failing rule takes it: infinite where the run gives none (no η_H–η_M
+    gap for the declared rule), so only a missing boundary fails."""
+    return math.inf if limit["value"] is None else limit["value"]
+
+
+def _row(v: Variant, fams: dict[str, Family], rk: dict, scope: dict, declared: Declared, fail: dict,
+         twin: Variant | None, response: dict | None) -> dict:
     e = fixed(list(items(v).values()))
     value = None if not e["items"] or v.placeholders() else e["mean"]   # never a mean over placeholders
-    limit = declared.fail_distance
+    limit = _limit(fail)
     row = {"variant": v.name, "engine": v.engine, "label": v.label, "settings": v.settings, "group": group_of(v),
            "value": value, "se": None if value is None else e["se"],
            "ci95": None if value is None else [max(e["ci95"][0], PRIMARY.perfect), e["ci95"][1]],

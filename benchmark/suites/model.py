@@ -368,9 +368,9 @@ class VerdictTable(_Table):
     """What the verdict is judged by, declared before it is computed (docs/scores.md, "What a suite
     declares"); a key left out takes the default suite's value."""
 
-    fail_distance: Annotated[float, _declared("fail_distance")] = DEFAULTS.fail_distance
+    fail_distance: Annotated[str | float, _declared("fail_distance")] = DEFAULTS.fail_distance
     equivalence_margin: Annotated[str | float, _declared("equivalence_margin")] = DEFAULTS.equivalence_margin
-    held_out_margin: Annotated[float, _declared("held_out_margin")] = DEFAULTS.held_out_margin
+    held_out_margin: Annotated[str | float, _declared("held_out_margin")] = DEFAULTS.held_out_margin
     general_range_h_over_b: Annotated[tuple, _declared("general_range_h_over_b")] = \
         list(DEFAULTS.general_range_h_over_b)
 class SpeedTable(_Table):

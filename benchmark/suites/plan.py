@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from rockbench.engines.adapters.reference import PLANTED
+from rockbench.engines.calibration import held_out
 from rockbench.engines.contract import EngineAdapter
 from rockbench.engines.registry import adapter_class, availability, names
 from rockbench.reference_solver.errors import ConfigError
@@ -83,7 +84,7 @@ def check_suite(suite: "Suite", engines: list[str], explicit: bool) -> tuple[lis
                 adapter = object.__new__(cls)
                 EngineAdapter.__init__(adapter, **engine_settings(engine, variant_settings(variant)))
                 for block in blocks_of(suite, variant):   # calibrate_on: a block of each one's slenderness
-                    adapter.calibration_block(get_preset(block).block())
+                    held_out.calibration_block(adapter.settings.get("calibrate_on"), get_preset(block).block())
             except ConfigError as e:
                 refused[engine] = f"engines.variants[{k}] {variant}: {e}"
                 break

@@ -58,9 +58,9 @@ A suite is a TOML file (``benchmark/suites/default.toml`` and ``quick.toml`` are
     # experiments = "path/to/outcomes.csv"   (relative to the suite file)
 
     [verdict]                    # declared before the verdict is computed (docs/scores.md)
-    fail_distance = 0.3          # a scenario farther than this from the reference fails the variant
+    fail_distance = "largest-restitution-gap"   # or a number: a scenario farther than this fails the variant
     equivalence_margin = "restitution-gap"   # or a number: "within the uncertainty of the restitution"
-    held_out_margin = 0.05       # a held-out calibration carries over within ± this (paired TOST)
+    held_out_margin = "half-restitution-gap"    # or a number: a held-out calibration carries over within ± this
     general_range_h_over_b = [1.5, 6.0]      # claims about problems in general, when the suite spans it
 
 Layout of the output directory: ``OUT/maps/<engine variant>/<block>-<pulse>-<restitution>/`` (one

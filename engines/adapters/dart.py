@@ -98,38 +98,8 @@ class _Scene:
         self.detector = getattr(dart.collision, COLLISION_DETECTORS[s["collision_detector"]])
         solver.setCollisionDetector(self.detector())
         solver.setSplitImpulseEnabled(bool(s["split_impulse"]))
-        mu, e = float(s["friction"]), float(s["contact_restitution"])
-        self.table = dart.dynamics.Skeleton("table")
-        if self.drive == "table":
-            joint, body = self.table.createPrismaticJointAndBodyNodePair()
-            joint.setAxis([1.0, 0.0, 0.0])
-            joint.setActuatorType(dart.dynamics.ActuatorType.ACCELERATION)
-            self.table_joint = joint
-        else:
-            _, body = self.table.createWeldJointAndBodyNodePair()
-            self.table.setMobile(False)
-            self.table_joint = None
-        hx, hy, hz = _TABLE_HALF_EXTENTS_M
-        shape = body.createShapeNode(dart.dynamics.BoxShape([2 * hx, 2 * hy, 2 * hz]))
-        shape.setRelativeTranslation([0.0, 0.0, -hz])
-        _contact_aspects(shape, mu, 1.0)
-        self.block = dart.dynamics.Skeleton("block")
-        if self.planar:
-            self.joint, node = self.block.createPlanarJointAndBodyNodePair()
-            self.joint.setZXPlane()  # positions (z, x, θ about +y)
-        else:
-            self.joint, node = self.block.createFreeJointAndBodyNodePair()
-        box = dart.dynamics.BoxShape([block.width_m, block.depth_m, block.height_m])
-        if self.planar:
-            # one contact point per bottom corner: a sphere flush inside it, in the plane y = 0
-            r = float(s["corner_radius_m"])
-            for side in (1.0, -1.0):
-                sphere = node.createShapeNode(dart.dynamics.SphereShape(r))
-                sphere.setRelativeTranslation([side * (block.width_m / 2 - r), 0.0, -block.height_m / 2 + r])
-                _contact_aspects(sphere, mu, e)
-        else:
-            _contact_aspects(node.createShapeNode(box), mu, e)
-        node.setInertia(dart.dynamics.Inertia(block.mass_kg, [0.0, 0.0, 0.0], box.computeInertia(block.mass_kg)))
+        self.table, self.table_joint = table_skeleton(dart, s)
+        self.block, self.joint = block_skeleton(dart, block, s)
         world.addSkeleton(self.table)
         world.addSkeleton(self.block)
         self.world, self._dart = world, dart
@@ -143,7 +113,10 @@ class _Scene:
         else:
             n_pulse = int(math.ceil(pulse.duration_s / dt - 1e-9))
             self.acc = np.diff(np.asarray(pulse.vel(np.arange(n_pulse + 1) * dt), dtype=float)) / dt
-        self.gravity = [[-a, 0.0, -G] for a in self.acc.tolist()]
+        # the gravity vector of each step of the pulse, and once more after it set back upright (−0.0:
+        # the pulse's −ü of 0, as it was); arrays, which dartpy takes faster than lists
+        self.gravity = list(np.column_stack([-np.append(self.acc, 0.0), np.zeros(self.acc.size + 1),
+                                             np.full(self.acc.size + 1, -G)]))
 
     def angles(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """θ [rad] and θ̇ [rad/s] of state rows."""
@@ -181,28 +154,40 @@ class _Scene:
 
     def advance(self, n_from: int, n_to: int) -> np.ndarray:
         """Steps ``n_from … n_to − 1`` (the drive of each step from :attr:`acc`); the states after each."""
-        step, getq, getv = self.world.step, self.block.getPositions, self.block.getVelocities
         nq = 3 if self.planar else 6
-        table = self.table_joint is not None
-        rows = np.empty((n_to - n_from, 2 * nq + (2 if table else 0)))
+        if self.table_joint is not None:
+            return self._advance_table(n_from, n_to, nq)
+        step, getq, getv = self.world.step, self.block.getPositions, self.block.getVelocities
+        rows = np.empty((n_to - n_from, 2 * nq))
+        pos, vel = rows[:, :nq], rows[:, nq:]   # views: a row of each is set faster than a slice of a row
+        # gravity tilted by each step's −ü (arrays made once per run), then set back once at the
+        # pulse's end (step len(acc)) and left alone after it
+        grav, tilted = self.world.setGravity, self.gravity
+        n_tilted = min(n_to, len(tilted))
+        k = 0
+        for i in range(n_from, n_tilted):
+            grav(tilted[i])
+            step()
+            pos[k], vel[k] = getq(), getv()
+            k += 1
+        for k in range(k, n_to - n_from):
+            step()
+            pos[k], vel[k] = getq(), getv()
+        return rows
+
+    def _advance_table(self, n_from: int, n_to: int, nq: int) -> np.ndarray:
+        """:meth:`advance` with the table driven: its acceleration commanded each step; the rows end with
+        the table's x and ẋ."""
+        step, getq, getv = self.world.step, self.block.getPositions, self.block.getVelocities
+        rows = np.empty((n_to - n_from, 2 * nq + 2))
         acc = self.acc
         n_acc = len(acc)
-        if table:
-            cmd, tq, tv = self.table.setCommands, self.table.getPositions, self.table.getVelocities
-            for k, i in enumerate(range(n_from, n_to)):
-                cmd([acc[i] if i < n_acc else 0.0])
-                step()
-                rows[k, :nq], rows[k, nq:2 * nq] = getq(), getv()
-                rows[k, 2 * nq], rows[k, 2 * nq + 1] = tq()[0], tv()[0]
-        else:
-            # gravity tilted by each step's −ü (Python floats, made once per run), set back once at the
-            # pulse's end and left alone after it
-            grav, tilted = self.world.setGravity, self.gravity
-            for k, i in enumerate(range(n_from, n_to)):
-                if i <= n_acc:
-                    grav(tilted[i] if i < n_acc else [-0.0, 0.0, -G])   # −0.0: the pulse's −ü of 0, as it was
-                step()
-                rows[k, :nq], rows[k, nq:] = getq(), getv()
+        cmd, tq, tv = self.table.setCommands, self.table.getPositions, self.table.getVelocities
+        for k, i in enumerate(range(n_from, n_to)):
+            cmd([acc[i] if i < n_acc else 0.0])
+            step()
+            rows[k, :nq], rows[k, nq:2 * nq] = getq(), getv()
+            rows[k, 2 * nq], rows[k, 2 * nq + 1] = tq()[0], tv()[0]
         return rows
 
 
@@ -211,6 +196,50 @@ def _scene(pid: int, block: Block, dt_s: float, settings: tuple) -> _Scene:
     """This process's world for a block, step [s] and the settings it depends on (``(name, value)``
     pairs); ``pid`` keys it by process, so a forked worker builds its own."""
     return _Scene(block, dict(settings), dt_s)
+
+
+def table_skeleton(dart, s: dict, name: str = "table") -> tuple:
+    """The table of the resolved settings ``s``: a box whose top is z = 0, welded (inertial drive) or
+    kinematic on a prismatic joint along x (table drive); the skeleton and that joint (None: welded)."""
+    table = dart.dynamics.Skeleton(name)
+    if s["drive"] == "table":
+        joint, body = table.createPrismaticJointAndBodyNodePair()
+        joint.setAxis([1.0, 0.0, 0.0])
+        joint.setActuatorType(dart.dynamics.ActuatorType.ACCELERATION)
+    else:
+        _, body = table.createWeldJointAndBodyNodePair()
+        table.setMobile(False)
+        joint = None
+    hx, hy, hz = _TABLE_HALF_EXTENTS_M
+    shape = body.createShapeNode(dart.dynamics.BoxShape([2 * hx, 2 * hy, 2 * hz]))
+    shape.setRelativeTranslation([0.0, 0.0, -hz])
+    _contact_aspects(shape, float(s["friction"]), 1.0)
+    return table, joint
+
+
+def block_skeleton(dart, block: Block, s: dict, name: str = "block") -> tuple:
+    """The block of the resolved settings ``s``: on a planar joint in the z–x plane (positions z, x, θ
+    about +y) with a sphere flush inside each bottom corner, or a box on a free joint; the skeleton and
+    its joint."""
+    mu, e = float(s["friction"]), float(s["contact_restitution"])
+    skeleton = dart.dynamics.Skeleton(name)
+    if s["planar"]:
+        joint, node = skeleton.createPlanarJointAndBodyNodePair()
+        joint.setZXPlane()  # positions (z, x, θ about +y)
+    else:
+        joint, node = skeleton.createFreeJointAndBodyNodePair()
+    box = dart.dynamics.BoxShape([block.width_m, block.depth_m, block.height_m])
+    if s["planar"]:
+        # one contact point per bottom corner: a sphere flush inside it, in the plane y = 0
+        r = float(s["corner_radius_m"])
+        for side in (1.0, -1.0):
+            sphere = node.createShapeNode(dart.dynamics.SphereShape(r))
+            sphere.setRelativeTranslation([side * (block.width_m / 2 - r), 0.0, -block.height_m / 2 + r])
+            _contact_aspects(sphere, mu, e)
+    else:
+        _contact_aspects(node.createShapeNode(box), mu, e)
+    node.setInertia(dart.dynamics.Inertia(block.mass_kg, [0.0, 0.0, 0.0], box.computeInertia(block.mass_kg)))
+    return skeleton, joint
 
 
 def _contact_aspects(shape_node, friction: float, restitution: float) -> None:

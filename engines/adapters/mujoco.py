@@ -52,16 +52,20 @@ Speed
 The model is built once per (block, contact settings, drive) with MuJoCo's model-editing API
 (``MjSpec``), settled 0.3 s on its contact, and cached; every run starts from that settled state (a
 free-rocking release turns it about the +x edge onto the start pose, the sink kept). Cells run
-through ``mujoco.rollout`` (native, multi-threaded), with the drive as an open-loop control
-sequence: no Python call per step. Every segment of every cell starts from an explicit state and a
-zero solver warm start, so a cell's result never depends on which other cells share its batch
-(tested bit for bit).
+through ``mujoco.rollout``, one world a call on each of the adapter's threads (MuJoCo releases the
+GIL), with the drive as an open-loop control sequence: no Python call per step. A world starts from
+an explicit state; its solver warm start is zero at each point of the grid of fixed ``segment_s``
+segments and carried from its step before elsewhere (read back from the thread's MjData, since the
+rollout returns the state without it), so a run is the same bit for bit wherever the loop ends its
+segments (``near_segment_s``: at each run's marks) and whichever cells share its batch (tested).
 """
 
 from __future__ import annotations
 
 import math
 import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -71,6 +75,7 @@ from rockbench.reference_solver.model import G, Block
 from rockbench.engines.calibration.knobs import Knob
 from rockbench.engines.calibration.pick import Candidate, pick
 from rockbench.engines.contact import ContactEngine
+from rockbench.engines.loop import segment_steps
 from rockbench.engines.motion import Motion, pivot_pose, quat_matrix, table_track_err_rel, theta_of_quat, theta_rate_of_body
 
 #: Calibration grid: contact time constants as multiples of the time step, and damping ratios.
@@ -167,6 +172,9 @@ class MujocoAdapter(ContactEngine):
     #: cells run through native multi-threaded rollouts: the base's batch of worlds
     batching = "native"
     max_worlds = 512
+    #: segments end at each run's marks: each world's warm start is carried across a segment's end and
+    #: zeroed on the grid of fixed ``segment_s`` segments, so runs are those of fixed segments bit for bit
+    near_segment_s = 0.04
     SETTINGS = {"contact_radius_m": 5e-4, "solimp_d": None, "segment_s": 0.25, "table_mass_ratio": 1000.0, "threads": 0}
     #: MuJoCo's own contact, solref (0.02 s, 1) (MuJoCo 3.x/4.0 docs)
     SHIPPED = {"timeconst_s": 0.02, "dampratio": 1.0}
@@ -213,42 +221,62 @@ class MujocoAdapter(ContactEngine):
     def start(self, world: dict, block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
               n_steps: int) -> np.ndarray:
         """Every world at the settled rest state (turned to ``theta0_rad`` about the +x edge, the sink
-        kept); the rollout threads (one MjData each, made once per model and thread count, and one
-        thread pool per thread count: every segment starts from an explicit state and warm start, so
-        nothing of a run stays in them)."""
+        kept), a zero warm start, and the rollout threads: one MjData each (made once per model and
+        thread count) and one single-threaded ``Rollout`` each, so that each world's warm start can be
+        read back after its segment (``mujoco.rollout`` returns the state without it)."""
         import mujoco   # optional engine library
-        from mujoco import rollout   # optional engine library
 
         bm, n = world["bm"], len(pulses)
         nthread = min(self._threads(), n)
         key = (os.getpid(), nthread)
         if key not in bm.datas:
             bm.datas[key] = [mujoco.MjData(bm.model) for _ in range(nthread)]
-        if key not in _ROLLOUTS:
-            _ROLLOUTS[key] = rollout.Rollout(nthread=nthread)
         state = bm.s0 if theta0_rad == 0.0 else released_state(bm, block, theta0_rad)
         world.update(pulses=pulses, current=np.tile(state, (n, 1)), active=np.ones(n, dtype=bool),
-                     datas=bm.datas[key], ro=_ROLLOUTS[key])
+                     warm=np.zeros((n, bm.model.nv)), frozen=np.zeros(n, dtype=bool),
+                     grid=segment_steps(s, dt_s), datas=bm.datas[key], pool=_pool(key))
         return world["current"][:, None].copy()
 
     def advance(self, world: dict, n_from: int, n_to: int) -> np.ndarray:
         """One segment of the worlds still running (the others' rows are NaN), the drive averaged
-        over each step: the force −m·ü (or (M_table + m)·ü on the table) from the pulse's velocity."""
+        over each step: the force −m·ü (or (M_table + m)·ü on the table) from the pulse's velocity.
+
+        A world's solver warm start is zero at each point of the grid of fixed ``segment_s``
+        segments and carried from the world's step before elsewhere, and a world that raised a MuJoCo
+        warning holds its state to the next grid point, as one rollout a grid segment does: a run is
+        the same bit for bit wherever the loop ends its segments (``near_segment_s``)."""
+        bm, grid = world["bm"], world["grid"]
+        out = np.full((len(world["pulses"]), n_to - n_from, bm.s0.size), np.nan)
+        cuts = [n_from, *range((n_from // grid + 1) * grid, n_to, grid), n_to]
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            if a % grid == 0:
+                world["warm"][:] = 0.0
+                world["frozen"][:] = False
+            self._piece(world, a, b, out[:, a - n_from:b - n_from])
+        return out
+
+    @staticmethod
+    def _piece(world: dict, n_from: int, n_to: int, out: np.ndarray) -> None:
+        """Steps ``n_from`` to ``n_to`` of the running worlds, within one grid segment, into ``out``."""
         bm = world["bm"]
-        model, dt, nseg = bm.model, bm.model.opt.timestep, n_to - n_from
-        ia = np.nonzero(world["active"])[0]
+        dt, nseg = bm.model.opt.timestep, n_to - n_from
+        held = world["active"] & world["frozen"]
+        out[held] = world["current"][held, None]
+        ia = np.nonzero(world["active"] & ~world["frozen"])[0]
         tk = (n_from + np.arange(nseg + 1)) * dt
-        ctrl = np.zeros((ia.size, nseg, 1))
-        for j, i in enumerate(ia):
+        ctrl = np.zeros((len(world["pulses"]), nseg, 1))
+        for i in ia:
             if world["pulses"][i] is not None:
                 v = np.asarray(world["pulses"][i].vel(tk), dtype=float)
-                ctrl[j, :, 0] = (-bm.mass_kg if bm.drive == "inertial" else bm.push_mass_kg) * (np.diff(v) / dt)
-        st, _ = world["ro"].rollout([model] * ia.size, world["datas"], world["current"][ia], ctrl,
-                                    initial_warmstart=np.zeros((ia.size, model.nv)))
-        out = np.full((len(world["pulses"]), nseg, bm.s0.size), np.nan)
-        out[ia] = st
-        world["current"][ia] = st[:, -1]
-        return out
+                ctrl[i, :, 0] = (-bm.mass_kg if bm.drive == "inertial" else bm.push_mass_kg) * (np.diff(v) / dt)
+        rows = np.empty((len(world["pulses"]), nseg, bm.s0.size))
+        if len(world["datas"]) == 1 or ia.size * nseg < _THREADED_STEPS:
+            _roll(bm.model, world["datas"][0], world, ia, ctrl, rows)
+        else:
+            chunks = np.array_split(ia, len(world["datas"]))
+            list(world["pool"].map(lambda c, d: _roll(bm.model, d, world, c, ctrl, rows), chunks, world["datas"]))
+        out[ia] = rows[ia]
+        world["current"][ia] = rows[ia, -1]
 
     def retire(self, world: dict, w: int) -> None:
         world["active"][w] = False
@@ -268,6 +296,12 @@ class MujocoAdapter(ContactEngine):
         return Motion(x_m=x, z_m=z, theta_rad=th, vx_m_s=vx, vz_m_s=vz, theta_dot_rad_s=thd, table_x_m=ut,
                       table_vx_m_s=vt, diagnostics=diag, t_s=t, corner_x_m=np.stack([xp, xm], axis=1),
                       corner_z_m=np.stack([zp, zm], axis=1))
+
+    def stop_angles(self, world: dict, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> tuple:
+        """θ, θ̇ and the state's own time of a segment's rows for the end-of-run test, as :meth:`read`
+        gives them (without the corners and the centre of mass it adds)."""
+        th, thd, _ = _angles_of(world["bm"], rows)
+        return th, thd, rows[:, 0]
 
     def candidates(self, block: Block, target: float, dt_s: float, points: int | None, measure) -> list[dict]:
         """The corners: the knobs' search. A row along the base: solimp impedance d (0.3–0.9) × time
@@ -381,8 +415,40 @@ class MujocoAdapter(ContactEngine):
 
 
 #: the rollout thread pools of this process, one per thread count, shared by every model and run:
-#: ``{(process id, threads): mujoco.rollout.Rollout}`` (a forked worker makes its own)
-_ROLLOUTS: dict = {}
+#: ``{(process id, threads): ThreadPoolExecutor}`` (a forked worker makes its own)
+_POOLS: dict = {}
+
+
+def _pool(key: tuple) -> ThreadPoolExecutor:
+    """The thread pool of ``key`` ``(process id, threads)``, made on first use."""
+    if key not in _POOLS:
+        _POOLS[key] = ThreadPoolExecutor(max_workers=key[1])
+    return _POOLS[key]
+
+
+def _roll(model, data, world: dict, worlds: np.ndarray, ctrl: np.ndarray, out: np.ndarray) -> None:
+    """One rollout per world of ``worlds`` on one thread's ``data`` (MuJoCo releases the GIL), each from
+    the world's state and warm start, into ``out``; each world's warm start and warnings read back."""
+    import mujoco   # optional engine library
+    from mujoco import rollout   # optional engine library
+
+    me = threading.get_ident()
+    if me not in _SERIAL:
+        _SERIAL[me] = rollout.Rollout(nthread=0)
+    for i in worlds:
+        _SERIAL[me].rollout([model], [data], world["current"][i:i + 1], ctrl[i:i + 1], skip_checks=True,
+                            nstep=out.shape[1], initial_warmstart=world["warm"][i:i + 1], state=out[i:i + 1],
+                            control_spec=mujoco.mjtState.mjSTATE_CTRL.value)
+        world["warm"][i] = data.qacc_warmstart
+        world["frozen"][i] = data.warning.number.any()
+
+
+#: one single-threaded rollout per thread that runs them: ``{thread id: mujoco.rollout.Rollout}``
+_SERIAL: dict = {}
+#: world-steps of a segment below which its worlds run on the calling thread: about 20 ms of MuJoCo's
+#: steps, against about 0.1 ms of handing work to the pool's threads (results are the same either way)
+_THREADED_STEPS = 5000
+
 
 #: the solver settings a model is built with (:attr:`MujocoAdapter.MODE_DEFAULTS`)
 MODE_KEYS = ("cone", "integrator", "noslip_iterations", "impratio")

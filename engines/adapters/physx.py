@@ -30,7 +30,7 @@ The time step
 PhysX steps ``substeps`` times per benchmark step (``h = Δt/substeps``); the run records one sample
 per benchmark step. As shipped, SAPIEN's system steps 0.01 s (:data:`SHIPPED_DT_S`), and so does a
 case that poses no step, never coarser than 1/20 of its pulse's wave (the one resolver,
-:meth:`~rockbench.engines.contact.ContactEngine.step_for`); calibrated, the time-step rule's (docs/physx.md).
+:func:`~rockbench.engines.calibration.time_step.step_for`); calibrated, the time-step rule's (docs/physx.md).
 ``settings="calibrated"`` runs PGS and searches the substeps (:attr:`PhysxAdapter.KNOBS`):
 PhysX's impact loses more energy the longer its step, and the substeps are the knob that moves η
 towards Housner's; PGS because TGS lets the pivot corner creep along the table at friction 10.

@@ -149,8 +149,15 @@ class _Scene:
         # every time: it is a process-wide value that a previous case may have changed
         threshold_m = _BULLET_BREAKING_THRESHOLD_M if breaking_threshold_m is None else breaking_threshold_m
         pb.setPhysicsEngineParameter(contactBreakingThreshold=threshold_m, physicsClientId=cid)
+        self.table, self.block, self.block_link = self.add_bodies(block, planar, points)
+        self.key = key
+
+    def add_bodies(self, block: Block, planar: bool, points: int | None = None) -> tuple:
+        """A table and a block (planar chain or free body) added to the client; ``(table, block, the block's
+        link)``."""
+        pb, cid = self.pb, self.cid
         tcol = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=_TABLE_HALF_EXTENTS_M, physicsClientId=cid)
-        self.table = pb.createMultiBody(0.0, tcol, -1, [0, 0, -_TABLE_HALF_EXTENTS_M[2]], physicsClientId=cid)
+        table = pb.createMultiBody(0.0, tcol, -1, [0, 0, -_TABLE_HALF_EXTENTS_M[2]], physicsClientId=cid)
         b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
         if points:
             # a row of small spheres along the base, the outer ones under the bottom
@@ -165,7 +172,7 @@ class _Scene:
             bcol = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[b / 2, d / 2, h / 2], physicsClientId=cid)
         if planar:
             n = 3
-            self.block = pb.createMultiBody(
+            body = pb.createMultiBody(
                 baseMass=0.0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=-1, basePosition=[0, 0, h / 2],
                 linkMasses=[_SLIDER_MASS_KG, _SLIDER_MASS_KG, m], linkCollisionShapeIndices=[-1, -1, bcol],
                 linkVisualShapeIndices=[-1] * n, linkPositions=[[0, 0, 0]] * n,
@@ -174,24 +181,24 @@ class _Scene:
                 linkJointTypes=[pb.JOINT_PRISMATIC, pb.JOINT_PRISMATIC, pb.JOINT_REVOLUTE],
                 linkJointAxis=[[1, 0, 0], [0, 0, 1], [0, 1, 0]], physicsClientId=cid)
             # joints of a new multibody carry velocity motors: switch them off, the joints must be free
-            pb.setJointMotorControlArray(self.block, [0, 1, 2], pb.VELOCITY_CONTROL, forces=[0, 0, 0],
+            pb.setJointMotorControlArray(body, [0, 1, 2], pb.VELOCITY_CONTROL, forces=[0, 0, 0],
                                          physicsClientId=cid)
-            self.block_link = 2
+            link = 2
             links = (-1, 0, 1, 2)
         else:
-            self.block = pb.createMultiBody(m, bcol, -1, [0, 0, h / 2], physicsClientId=cid)
-            self.block_link = -1
+            body = pb.createMultiBody(m, bcol, -1, [0, 0, h / 2], physicsClientId=cid)
+            link = -1
             links = (-1,)
         for j in links:
             # Bullet damps multibody motion by default (0.04): the model has no damping at all
-            pb.changeDynamics(self.block, j, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
+            pb.changeDynamics(body, j, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
                               physicsClientId=cid)
         if points:
             box_i = [m * (d * d + h * h) / 12.0, m * (b * b + h * h) / 12.0, m * (b * b + d * d) / 12.0]
-            pb.changeDynamics(self.block, self.block_link, localInertiaDiagonal=box_i, physicsClientId=cid)
+            pb.changeDynamics(body, link, localInertiaDiagonal=box_i, physicsClientId=cid)
         # a block resting on the table for 2 s would fall asleep and ignore a later pulse
-        pb.changeDynamics(self.block, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
-        self.key = key
+        pb.changeDynamics(body, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
+        return table, body, link
 
     def apply(self, s: dict, dt_s: float) -> None:
         """Set the contact and solver parameters of ``s`` (a resolved settings dict)."""
@@ -201,6 +208,11 @@ class _Scene:
         restitution_threshold_mps = 0.0 if s.get("contact_restitution") else _BULLET_RESTITUTION_THRESHOLD_MPS
         pb.setPhysicsEngineParameter(fixedTimeStep=dt_s, numSubSteps=0, numSolverIterations=int(s["solver_iterations"]),
                                      restitutionVelocityThreshold=restitution_threshold_mps, physicsClientId=cid)
+        self.apply_dynamics(s, self.table, self.block, self.block_link)
+
+    def apply_dynamics(self, s: dict, table: int, body: int, link: int) -> None:
+        """Set the contact parameters of ``s`` (a resolved settings dict) on a table and a block's ``link``."""
+        pb, cid = self.pb, self.cid
         # friction and restitution combine as products: the table carries 1, the block the value
         common = dict(lateralFriction=1.0, restitution=1.0 if s.get("contact_restitution") else 0.0)
         blk = dict(lateralFriction=float(s["friction"]), restitution=float(s.get("contact_restitution") or 0.0),
@@ -209,8 +221,8 @@ class _Scene:
             kp, kd = float(s["contact_stiffness_n_m"]), float(s["contact_damping_n_s_m"])
             common.update(contactStiffness=kp, contactDamping=kd)
             blk.update(contactStiffness=kp, contactDamping=kd)
-        pb.changeDynamics(self.table, -1, physicsClientId=cid, **common)
-        pb.changeDynamics(self.block, self.block_link, physicsClientId=cid, **blk)
+        pb.changeDynamics(table, -1, physicsClientId=cid, **common)
+        pb.changeDynamics(body, link, physicsClientId=cid, **blk)
 
     def place(self, block: Block, planar: bool, theta0: float = 0.0) -> None:
         """Put the block at rest on the table at angle ``theta0`` (pivoting on the lower corner)
@@ -245,11 +257,15 @@ class _Scene:
         self.n_pulse = int(math.ceil(pulse.duration_s / dt_s - 1e-9)) if pulse is not None else -1
         self.drive_table = pulse is not None and not self.inertial
         if pulse is not None:
-            mid = (np.arange(n_steps) + 0.5) * dt_s
-            # plain lists: indexing them in the loop costs less than numpy scalars
-            self.acc = (-pulse.accel(mid)).tolist() if self.inertial else None
-            self.u_pos = pulse.disp(np.arange(n_steps) * dt_s).tolist()
-            self.u_vel = pulse.vel(mid).tolist()
+            # plain lists: indexing them in the loop costs less than numpy scalars. The inertial drive
+            # reads steps 0 … n_pulse only; the table's drive every step of the run
+            n_drive = min(n_steps, self.n_pulse + 1) if self.inertial else n_steps
+            mid = (np.arange(n_drive) + 0.5) * dt_s
+            if self.inertial:
+                self.acc = (-pulse.accel(mid)).tolist()
+            else:
+                self.u_pos = pulse.disp(np.arange(n_drive) * dt_s).tolist()
+                self.u_vel = pulse.vel(mid).tolist()
         self.pb.setGravity(0.0, 0.0, -G, physicsClientId=self.cid)
 
     def read(self, velocities: bool = True) -> tuple:
@@ -265,6 +281,8 @@ class _Scene:
 
     def advance(self, n_from: int, n_to: int) -> list:
         """Steps ``n_from`` to ``n_to``: drive, step, read; the states after each step."""
+        if self.planar and not self.drive_table:
+            return self._advance_planar(n_from, n_to)
         pb, cid = self.pb, self.cid
         step, set_g, table, table_z = pb.stepSimulation, pb.setGravity, self.table, -_TABLE_HALF_EXTENTS_M[2]
         rows = []
@@ -279,6 +297,25 @@ class _Scene:
             rows.append(self.read())
         return rows
 
+
+    def _advance_planar(self, n_from: int, n_to: int) -> list:
+        """:meth:`advance` of the planar chain under the inertial drive: gravity tilted during the pulse
+        (and set back at its step ``n_pulse``), the three joints' states read in one call a step and
+        made rows ``(x, z_slider, θ, ẋ, ż, θ̇)`` after the loop."""
+        pb, cid, body, joints = self.pb, self.cid, self.block, (0, 1, 2)
+        step, set_g, get = pb.stepSimulation, pb.setGravity, pb.getJointStates
+        states = []
+        keep = states.append
+        n_tilted = max(n_from, min(n_to, self.n_pulse + 1)) if self.acc is not None else n_from
+        acc = self.acc
+        for i in range(n_from, n_tilted):
+            set_g(acc[i], 0.0, -G, physicsClientId=cid)
+            step(physicsClientId=cid)
+            keep(get(body, joints, physicsClientId=cid))
+        for _ in range(n_tilted, n_to):
+            step(physicsClientId=cid)
+            keep(get(body, joints, physicsClientId=cid))
+        return [(x[0], z[0], th[0], x[1], z[1], th[1]) for x, z, th in states]
 
 _SCENE: _Scene | None = None
 
@@ -382,13 +419,19 @@ class PybulletAdapter(ContactEngine):
                               "give both (Bullet ignores one without the other).")
         self.whole_setting(s, "solver_iterations", minimum=1)
 
-    def build(self, block: Block, s: dict, dt_s: float) -> "_Scene":
-        sc = _scene()
-        points = s["contact_points"] if s["contact"] == "distributed" else None
+    def build(self, block: Block, s: dict, dt_s: float, sc: "_Scene | None" = None) -> "_Scene":
+        """The block and its table in this process's client (or in ``sc``'s) as the resolved settings
+        ``s`` and the step [s] make them."""
+        sc = _scene() if sc is None else sc
         sc.build(block, bool(s["planar"]), s.get("contact_breaking_threshold_m"),
-                 tuple(s.get(k) for k in (*self.SHIPPED, "friction", "friction_anchor")), points=points)
+                 tuple(s.get(k) for k in (*self.SHIPPED, "friction", "friction_anchor")), points=self.points(s))
         sc.apply(s, dt_s)
         return sc
+
+    @staticmethod
+    def points(s: dict) -> int | None:
+        """The contact spheres along the block's base of the resolved settings ``s`` (None: a box)."""
+        return s["contact_points"] if s["contact"] == "distributed" else None
 
     def start(self, sc: "_Scene", block: Block, s: dict, dt_s: float, pulses: list, theta0_rad: float,
               n_steps: int) -> np.ndarray:

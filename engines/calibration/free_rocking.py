@@ -33,7 +33,7 @@ from typing import Callable
 
 import numpy as np
 
-from rockbench.reference_solver.errors import ConfigError
+from rockbench.reference_solver.errors import ConfigError, check_positive
 from rockbench.reference_solver.model import Block
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.reference_solver.validity import uplift_tol_rad
@@ -42,7 +42,7 @@ from rockbench.engines.errors import EngineError
 
 __all__ = ["FREE_ROCKING_IMPACTS", "FREE_ROCKING_METHOD", "EtaReader", "PEAK_RATIO", "free_rocking_duration_s",
            "free_rocking_etas", "first_quarter_s", "swings", "contact_figures", "measure_restitution", "free_rocking_run",
-           "measured", "has_contact_model", "require_contact"]
+           "measured", "free_rocking_step", "has_contact_model", "require_contact"]
 
 #: Impacts a free-rocking test measures (calibrations average their η) [-]
 FREE_ROCKING_IMPACTS = 4
@@ -214,7 +214,7 @@ def measure_restitution(ad, block: Block, *, theta0_frac: float = 0.5, dt_s: flo
     theta0_frac : float
         Release angle as a fraction of α [-].
     dt_s : float, optional
-        Time step [s] (default: ``ad.free_rocking_step()``: the engine's own as shipped, else its
+        Time step [s] (default: :func:`free_rocking_step`'s: the engine's own as shipped, else its
         ``fixed_dt_s``).
     settings : dict, optional
         Resolved settings to measure (default: those in force, ``ad.resolve`` to Housner's η).
@@ -227,16 +227,28 @@ def measure_restitution(ad, block: Block, *, theta0_frac: float = 0.5, dt_s: flo
     require_contact(ad)
     if not 0.0 < float(theta0_frac) < 1.0:
         raise ConfigError(f"theta0_frac must be in (0, 1), got {theta0_frac!r}.")
-    dt = ad.free_rocking_step(dt_s)
+    dt = free_rocking_step(ad, dt_s)
     if dt > 0.01:
         raise ConfigError(f"--dt must be in (0, 0.01] s for a free-rocking test, got {dt!r}.")
     s = ad.resolve(block, Restitution(), dt_s=dt) if settings is None else settings
     return free_rocking_run(ad, block, s, dt, theta0_frac)
 
 
+def free_rocking_step(ad, dt_s: float | None = None) -> float:
+    """The step of a free-rocking test or a calibration of contact engine ``ad`` asked for without one,
+    outside any case (:func:`measure_restitution`,
+    :func:`~rockbench.engines.calibration.routine.calibrate`) [s]: ``dt_s`` where given; as shipped the
+    engine's own step (``own_dt_s``, else ``fixed_dt_s``); otherwise ``fixed_dt_s``. (A case's step is
+    :func:`~rockbench.engines.calibration.time_step.step_for`'s; give ``dt_s=step_for(ad, block, eta)``
+    to test at it.)"""
+    if dt_s is not None:
+        return check_positive("--dt", dt_s, "s")
+    return ad.own_dt_s if ad.as_shipped() and ad.own_dt_s is not None else ad.fixed_dt_s
+
+
 def has_contact_model(ad) -> bool:
-    """Whether ``ad`` is a contact engine: one with a free-rocking step."""
-    return callable(getattr(ad, "free_rocking_step", None))
+    """Whether ``ad`` is a contact engine: one with the contact base's free-rocking hook (``measure_many``)."""
+    return callable(getattr(ad, "measure_many", None))
 
 
 def require_contact(ad) -> None:

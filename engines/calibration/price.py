@@ -32,7 +32,8 @@ from rockbench.reference_solver.model import G, Block
 from rockbench.reference_solver.pulses import RecordPulse, make_pulse
 from rockbench.reference_solver.restitution import Restitution
 from rockbench.engines.contract import CalibrationResult, Case
-from rockbench.engines.calibration.free_rocking import measure_restitution
+from rockbench.engines.calibration.free_rocking import free_rocking_step, measure_restitution
+from rockbench.engines.calibration.layout import with_contact
 from rockbench.engines.calibration.rigid import rigid_answers
 
 #: Tolerance on the static uplift threshold ratio (within 2 % to count) [-].
@@ -141,10 +142,10 @@ def contact_price(adapter, block: Block, restitution: Restitution, dt_s: float |
 
 def calibration_price(ad, block: Block, c: CalibrationResult, dt_s: float | None = None) -> dict:
     """The price (:func:`contact_price`) of calibration ``c``'s contact in contact engine ``ad`` at step
-    ``dt_s`` [s] (default: the engine's step for the block at the calibration's target η), with the
-    free-rocking period change measured at that step."""
-    fixed = ad.fixed(c.settings)
-    dt = fixed.step_for(block, c.eta_target, dt_s=dt_s)
+    ``dt_s`` [s] (default: the step of the contact given, :func:`free_rocking_step`: no rule chooses
+    it), with the free-rocking period change measured at that step."""
+    fixed = with_contact(ad, c.settings)
+    dt = free_rocking_step(fixed, dt_s)
     m = measure_restitution(fixed, block, dt_s=dt)
     return contact_price(fixed, block, Restitution("constant", value=c.eta_target), dt, first_quarter_s=m.first_quarter_s)
 

@@ -12,8 +12,8 @@ candidate keeps the static uplift threshold and the anti-slip cells (:mod:`.pric
 :func:`first_reached` tries 9, 5 and 17 points. Notes are written from the knobs; the damping ratio
 the pick's tie-break reads comes from the knobs' declarations (:func:`damping_ratio`). The engine is
 an argument: these functions call only its public methods (``candidates``, ``measure_many``,
-``settings_with``, ``fixed``, ``explicit_contact``, ``contact_layout``, ``free_rocking_step``) and read its
-declarations.
+``settings_with``, ``explicit_contact``) and read its declarations and settings
+(:mod:`~rockbench.engines.calibration.layout`: the contact it builds).
 """
 
 from __future__ import annotations
@@ -30,7 +30,8 @@ from rockbench.reference_solver.rules import RULES_VERSION
 from rockbench.engines import progress
 from rockbench.engines.contract import CONTRACT_VERSION, CalibrationResult
 from rockbench.engines.calibration import cache, price as pricing
-from rockbench.engines.calibration.free_rocking import measure_restitution, require_contact
+from rockbench.engines.calibration.layout import contact_layout, with_contact
+from rockbench.engines.calibration.free_rocking import free_rocking_step, measure_restitution, require_contact
 from rockbench.engines.calibration.pick import ETA_RESOLUTION, Candidate, damping_ratio_of_restitution, pick, ranked, regular
 
 __all__ = ["calibrate", "POINTS_TRIED", "calibrate_layout", "first_reached", "measured_rows", "damping_ratio", "cache_key", "MAX_PRICE_TRIES",
@@ -51,8 +52,8 @@ IDENTITY_SKIP = ("settings", "tail_s", "min_tail_s", "segment_s", "calibrate_on"
 def calibrate(ad, block: Block, target_eta: float, *, dt_s: float | None = None,
               use_cache: bool = True) -> CalibrationResult:
     """Contact settings of contact engine ``ad`` whose free-rocking η reaches ``target_eta`` (1 %) at step
-    ``dt_s`` [s] (default: ``ad.free_rocking_step()``'s): at the corners, or (``contact = auto`` above 1 %
-    over Housner's η_H, or ``distributed``) a row of points along the base with the set number of
+    ``dt_s`` [s] (default: :func:`~rockbench.engines.calibration.free_rocking.free_rocking_step`'s): at the
+    corners, or (``contact = auto`` above 1 % over Housner's η_H, or ``distributed``) a row of points along the base with the set number of
     points, else :data:`POINTS_TRIED` in turn until one reaches the target at an acceptable price
     (:func:`first_reached`). A ConfigError with a contact given: it replaces the calibration (in maps
     too)."""
@@ -63,8 +64,8 @@ def calibrate(ad, block: Block, target_eta: float, *, dt_s: float | None = None,
                           "(in maps as here), so there is nothing to calibrate: leave out --target to measure η "
                           "with it, or leave it out to calibrate.")
     t = _target(target_eta)
-    dt = ad.free_rocking_step(dt_s)
-    if ad.contact_layout(block, t) != "distributed":
+    dt = free_rocking_step(ad, dt_s)
+    if contact_layout(ad, block, t) != "distributed":
         return calibrate_layout(ad, block, t, dt, None, use_cache)
     n_set = ad.settings["contact_points"]
     return first_reached(lambda n: calibrate_layout(ad, block, t, dt, n, use_cache),
@@ -224,7 +225,7 @@ def _row(ad, block: Block, t: float, dt: float, n: int, rows: list) -> tuple[Cal
     span = f"{len(rows)} settings searched: regular free rocking spans η = {lo:.4f}–{hi:.4f}"
     if chosen is not None:
         r = chosen
-        m = measure_restitution(ad.fixed(_chosen_settings(ad, r, n)), block, dt_s=dt)
+        m = measure_restitution(with_contact(ad, _chosen_settings(ad, r, n)), block, dt_s=dt)
         price["period_change"] = (m.first_quarter_s / price["rigid_first_quarter_s"] - 1.0) if m.first_quarter_s else None
         price["first_quarter_s"] = m.first_quarter_s
         note = (f"reached with {n} {ad.CONTACT_ROWS} along the base, {described(ad, r)}, {r['n']} impacts "
@@ -248,7 +249,7 @@ def _first_that_counts(ad, block: Block, within: list, n: int, dt: float,
     rest = Restitution("constant", value=t)
     tried = []
     for r in within[:MAX_PRICE_TRIES]:
-        fixed = ad.fixed(_chosen_settings(ad, r, n))
+        fixed = with_contact(ad, _chosen_settings(ad, r, n))
         up = pricing.uplift_threshold(fixed, block, rest, dt)
         tried.append({**r, "uplift_ratio": up.get("ratio", math.nan)})
         if not up.get("within"):

@@ -31,7 +31,7 @@ compared: η at both steps and the probes that disagree) goes into run.json with
 
 The rule runs an engine through two functions it is given, so that it calls nothing that decides a
 step itself: ``calibrate(dt_s)``, the calibration at a step, and ``answers(cases)``, the verdicts of
-cases whose step is set (the contact base's, :meth:`~rockbench.engines.contact.ContactEngine.step_for`,
+cases whose step is set (the contact base's, :func:`~rockbench.engines.calibration.time_step.step_for`,
 hands them over).
 """
 

@@ -13,6 +13,7 @@ from rockbench.engines.contract import uplift_tol_rad
 from rockbench.engines.calibration.knobs import Knob
 from rockbench.engines.contact import ContactEngine
 from rockbench.engines.calibration.free_rocking import free_rocking_etas
+from rockbench.engines.calibration.time_step import step_for
 from rockbench.reference_solver.classify import FLAT_ANGLE_RAD, decision_index, overturn_certain
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.pulses import RecordPulse
@@ -131,7 +132,7 @@ def test_one_resolution_of_the_settings():
 @pytest.mark.parametrize("dt", [0.0, -1e-3, math.nan, "x"])
 def test_one_time_step_resolver_refuses_a_bad_step(dt):
     with pytest.raises(ConfigError, match="--dt must be a"):
-        _Toy().step_for(get_preset("B3M").block(), 0.75, dt_s=dt)
+        step_for(_Toy(), get_preset("B3M").block(), 0.75, dt_s=dt)
 
 
 def test_the_step_as_shipped_is_the_engine_s_own_never_coarser_than_the_pulse_accepts():
@@ -140,10 +141,10 @@ def test_the_step_as_shipped_is_the_engine_s_own_never_coarser_than_the_pulse_ac
     block = get_preset("B3M").block()
     slow, fast = (make_pulse("sine", 5.0, w * block.p_rad_s) for w in (2.0, 60.0))
     toy = _Toy(settings="shipped")
-    assert toy.step_for(block, 0.75) == toy.step_for(block, 0.75, slow) == 1e-3
-    assert toy.step_for(block, 0.75, fast) == pytest.approx(fast.duration_s / 20)
-    assert toy.step_for(block, 0.75, slow, dt_s=2e-4) == 2e-4
-    assert _Toy(stiffness_n_m=1e6).step_for(block, 0.75, slow) == _Toy.fixed_dt_s   # a contact given
+    assert step_for(toy, block, 0.75) == step_for(toy, block, 0.75, slow) == 1e-3
+    assert step_for(toy, block, 0.75, fast) == pytest.approx(fast.duration_s / 20)
+    assert step_for(toy, block, 0.75, slow, dt_s=2e-4) == 2e-4
+    assert step_for(_Toy(stiffness_n_m=1e6), block, 0.75, slow) == _Toy.fixed_dt_s   # a contact given
 
 
 def _cal(n, eta, reached):

@@ -150,6 +150,30 @@ def test_batches_equal_single_runs_bit_for_bit():
         assert np.array_equal(one.theta_dot_rad_s, tr.theta_dot_rad_s)
 
 
+@pytest.mark.parametrize("settings", ["calibrated", "shipped"])
+def test_segments_that_end_at_the_marks_change_no_run(settings, monkeypatch):
+    """Segments ending at each run's marks (``near_segment_s``) give every run bit for bit as fixed
+    segments do: each world's solver warm start is carried across a segment's end and zeroed on the
+    fixed segments' grid. The runs at the marks use two threads, every segment on the pool."""
+    from rockbench.engines.adapters import mujoco as adapter_module
+
+    cells = [(b, w, a) for b in ("B3M", "B8M") for w, a in ((6.0, 2.0), (3.0, 2.5), (4.0, 0.8), (1.5, 1.3))]
+    runs = {}
+    for near, threads in ((None, 1), (MujocoAdapter.near_segment_s, 2)):
+        monkeypatch.setattr(adapter_module, "_THREADED_STEPS", 0 if threads > 1 else adapter_module._THREADED_STEPS)
+        ad = get_adapter("mujoco", settings=settings, threads=threads)
+        ad.near_segment_s = near
+        cases = [ad.posed(_pinned_case(b, "sine", w, a) if settings == "calibrated" else _case(b, "sine", w, a))
+                 for b, w, a in cells]
+        runs[near] = ad._simulate_many(cases)
+    assert MujocoAdapter.near_segment_s is not None
+    (fixed, near) = runs.values()
+    for a, b in zip(fixed, near):
+        assert a.diagnostics["ended_by"] == b.diagnostics["ended_by"]
+        assert np.array_equal(a.theta_rad, b.theta_rad) and np.array_equal(a.theta_dot_rad_s, b.theta_dot_rad_s)
+    assert len({tr.diagnostics["ended_by"] for tr in fixed}) >= 2
+
+
 def test_run_ends_where_the_one_rule_says():
     # the contract's conventions and mirror symmetry: tests/engines/test_contract.py
     ad = get_adapter("mujoco")

@@ -18,7 +18,10 @@ from pathlib import Path
 import pytest
 
 from rockbench.engines.calibration.knobs import Knob
+from rockbench.engines.calibration import time_step
+from rockbench.engines.calibration.free_rocking import measure_restitution
 from rockbench.engines.calibration.knobs import search as knob_search
+from rockbench.engines.calibration.routine import calibrate
 from rockbench.engines.contact import ContactEngine
 from rockbench.engines.contract import EngineAdapter
 from rockbench.engines.registry import BUILTIN, adapter_class
@@ -28,7 +31,7 @@ from rockbench.reference_solver.classify import run_end
 #: values, a search of its own, stopping a retired world, a quiet import, where it runs, why the
 #: default suite leaves it out, how many worlds a batch of given settings holds) and declarations computed from its settings (KNOBS, START_KEEP_RTOL)
 CONTACT_HOOKS = frozenset({"build", "start", "advance", "read", "validate", "candidates", "retire", "load_engine",
-                           "device_note", "default_suite_exclusion", "worlds_per_batch", "KNOBS", "START_KEEP_RTOL"})
+                           "device_note", "default_suite_exclusion", "worlds_per_batch", "stop_angles", "KNOBS", "START_KEEP_RTOL"})
 
 #: what an engine that is no contact engine may define of the base: contract items 3, 4 and 7
 GENERAL_HOOKS = frozenset({"_simulate", "_simulate_many", "_native_verdicts", "solve_grid", "validate",
@@ -39,11 +42,17 @@ GENERAL_HOOKS = frozenset({"_simulate", "_simulate_many", "_native_verdicts", "s
 OWN_LOOP = {"mujoco_warp": ({"run_worlds", "measure_many", "_simulate_many", "_native_verdicts"},
                             "tests/engines/test_mujoco_warp.py::test_the_device_stops_where_run_end_does")}
 
-#: the shared rules: the one function, and the names no built-in adapter may define
+#: the shared rules: the one function, and the names no built-in adapter may define (the policy that
+#: is functions of the adapter, docs/engines.md's "whole public surface", among them: a method of that
+#: name would be a second rule nothing calls, or one a reader takes for the rule)
 ONE_RULES = {
     "end of a run": (run_end, ("run_end", "_stop", "_segment_end", "stop_at", "_decided", "turned_back")),
     "calibration search": (knob_search, ("_calibrate_knobs", "_knob_rows", "_search", "Search", "bisection",
                                          "bracket")),
+    "time step": (time_step.step_for, ("step_for", "rule_step", "free_rocking_step", "dt_for", "converged_step_s")),
+    "calibration": (calibrate, ("calibrate", "contact_layout", "fixed", "with_contact", "calibration_block",
+                                "calibration_target", "calibration_price", "contact_price")),
+    "free-rocking test": (measure_restitution, ("measure_restitution", "free_rocking_run")),
 }
 
 CONTACT_ENGINES = sorted(name for name in BUILTIN if name != "reference")
@@ -105,16 +114,41 @@ def test_a_contact_engine_is_on_the_shared_base(name):
     assert issubclass(adapter_class(name), ContactEngine), name
 
 
+def rules_of_its_own(cls: type, rule: str) -> list[str]:
+    """What adapter class ``cls`` (its own classes and their modules) defines of shared rule ``rule``'s
+    names, one line each."""
+    one, forbidden = ONE_RULES[rule]
+    out = []
+    for c in _own_classes(cls):
+        defined = sorted(set(vars(c)) & set(forbidden))
+        out += [f"{c.__qualname__} defines {defined}, the {rule} is the shared one ({one.__name__})"] if defined else []
+        module = vars(sys.modules[c.__module__])
+        copies = [k for k in forbidden if module.get(k) not in (None, one)]
+        out += [f"module {c.__module__} defines {copies} of its own (the {rule})"] if copies else []
+    return out
+
+
 @pytest.mark.parametrize("name", CONTACT_ENGINES)
 @pytest.mark.parametrize("rule", sorted(ONE_RULES))
 def test_no_adapter_defines_a_shared_rule_of_its_own(name, rule):
-    one, forbidden = ONE_RULES[rule]
-    for c in _own_classes(adapter_class(name)):
-        defined = sorted(set(vars(c)) & set(forbidden))
-        assert not defined, f"{name}: {c.__qualname__} defines {defined}, the {rule} is the shared one ({one.__name__})"
-        module = vars(sys.modules[c.__module__])
-        copies = [k for k in forbidden if module.get(k) not in (None, one)]
-        assert not copies, f"{name}: module {c.__module__} defines {copies} of its own (the {rule})"
+    assert not rules_of_its_own(adapter_class(name), rule), (name, rules_of_its_own(adapter_class(name), rule))
+
+
+def test_a_method_named_after_a_policy_function_is_seen():
+    """The time step, the calibration and free rocking are functions of the adapter: a method of that name is a
+    rule of its own."""
+    class Sneaky(ContactEngine):
+        CONTRACT_VERSION = 2
+        name = "sneaky"
+
+        def step_for(self, block, eta, pulse=None, dt_s=None, restitution=None):
+            return 1.0
+
+        def contact_layout(self, block, target):
+            return "corners"
+
+    assert rules_of_its_own(Sneaky, "time step") and rules_of_its_own(Sneaky, "calibration")
+    assert not rules_of_its_own(Sneaky, "free-rocking test")
 
 
 @pytest.mark.parametrize("name", CONTACT_ENGINES)

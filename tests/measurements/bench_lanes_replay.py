@@ -21,7 +21,19 @@ task per map, each map on one core) from a record of ``bench_run.py`` (e.g. ``ru
 which keeps each engine variant's maps and their summed wall time on a 2-lane run: every map of a
 variant is given the variant's mean. A projection, not a measurement: the maps' spread within a
 variant, the calibrations (run before the engine maps, one task per variant and block) and the
-cluster's own overhead are left out; the report (on the client, one core) is added as recorded.
+cluster's own overhead are left out (a bench_run.py record keeps no calibration's cost); the report (on
+the client, one core) is added as recorded.
+
+    python tests/measurements/bench_lanes_replay.py --cluster-record RECORD.json --lanes 2 8 32 128
+
+The third form replays a record of ``bench_suite_cluster.py`` (e.g. ``suite-cluster-quick-task-cpu.json``),
+which keeps every task of its 1-worker cluster run with its cost (its CPU where the record has it, else
+its compute wall time): the calibration tasks first, each to the core that frees first, then every map
+once the last calibration has ended (the runner submits the engine maps then; the reference maps,
+submitted at once, are held back with them, which costs at most their few seconds), in the order they
+ran; the cost outside the tasks (the client's CPU, else its wall before the first task and after the
+last) is added. Left out: each worker's own start-up where it runs on a machine of its own (the
+reference's compiled kernels, which the 1-worker run paid once) and the cluster's dispatch.
 """
 
 from __future__ import annotations
@@ -82,6 +94,57 @@ def project(record: Path, cores: list[int]) -> None:
               f"with the report {maps_s + report_s:7.0f} s  [projection]")
 
 
+#: the kind of a calibration task in a bench_suite_cluster.py record's task stream
+#: (preparation._prepare_remote, as dask.utils.key_split names it)
+CALIBRATION = "prepare_remote"
+
+
+def cluster_tasks(record: Path, workers: int = 1) -> tuple[dict, list[tuple[str, float]], float]:
+    """The cluster run of ``workers`` in a bench_suite_cluster.py record, its tasks (kind, cost [s]) in the
+    order they started, and the cost outside them [s]. A task costs its CPU where the record has it
+    (its worker's tree meanwhile), and the outside the client's CPU; else a task costs its compute wall
+    time, and the outside the run's wall before the first task and after the last."""
+    runs = json.loads(record.read_text())["figures"]["runs"]
+    run = next(r for r in runs if r["run"].startswith(f"cluster, {workers} worker"))
+    stream = run["tasks"]["stream"]
+    if all(len(t) > 4 and t[4] is not None for t in stream):
+        return run, [(t[0], t[4]) for t in stream], run["client_cpu_s"]
+    outside_s = stream[0][1] + (run["wall_s"] - max(t[2] for t in stream))
+    return run, [(t[0], t[2] - t[1]) for t in stream], outside_s
+
+
+def replay_cluster(tasks: list[tuple[str, float]], cores: int) -> float:
+    """When the last of ``tasks`` ends on ``cores`` one-core workers: the calibrations first, the maps
+    after the last calibration has ended, each task to the core that frees first [s]."""
+    free = [0.0] * cores
+    for kind, c in tasks:
+        if kind == CALIBRATION:
+            heapq.heappush(free, heapq.heappop(free) + c)
+    barrier = max(free) if any(kind == CALIBRATION for kind, _ in tasks) else 0.0
+    free = [max(f, barrier) for f in free]
+    heapq.heapify(free)
+    for kind, c in tasks:
+        if kind != CALIBRATION:
+            heapq.heappush(free, heapq.heappop(free) + c)
+    return max(free)
+
+
+def project_cluster(record: Path, cores: list[int]) -> None:
+    """The suite of a bench_suite_cluster.py record on clusters of ``cores`` one-core workers."""
+    run, tasks, outside_s = cluster_tasks(record)
+    calib = [c for k, c in tasks if k == CALIBRATION]
+    maps = [c for k, c in tasks if k != CALIBRATION]
+    measured = {r["run"]: r["wall_s"] for r in json.loads(record.read_text())["figures"]["runs"]}
+    print(f"{len(calib)} calibration tasks ({sum(calib):.0f} s, longest {max(calib, default=0):.0f} s) and "
+          f"{len(maps)} map tasks ({sum(maps):.0f} s, longest {max(maps, default=0):.0f} s) of the 1-worker run; "
+          f"{outside_s:.0f} s outside them; measured wall: "
+          + ", ".join(f"{k} {v:.0f} s" for k, v in measured.items()))
+    for n in cores:
+        tasks_s, calib_s = replay_cluster(tasks, n), replay_cluster([t for t in tasks if t[0] == CALIBRATION], n)
+        print(f"  {n:4d} cores: tasks {tasks_s:7.0f} s (the calibrations' part {calib_s:6.0f} s), "
+              f"with the time outside them {tasks_s + outside_s:7.0f} s  [projection]")
+
+
 def makespan(costs: list[float], lanes: int) -> float:
     """When the last lane ends, each map going to the lane that frees first [s]."""
     free = [0.0] * lanes
@@ -96,7 +159,12 @@ def main(argv=None) -> int:
     ap.add_argument("--lanes", type=int, nargs="+", default=[2])
     ap.add_argument("--add", type=Path, nargs="*", default=[])
     ap.add_argument("--record", type=Path, help="project a bench_run.py record on clusters of --lanes cores")
+    ap.add_argument("--cluster-record", type=Path,
+                    help="replay a bench_suite_cluster.py record's 1-worker tasks on clusters of --lanes cores")
     a = ap.parse_args(argv)
+    if a.cluster_record is not None:
+        project_cluster(a.cluster_record, a.lanes)
+        return 0
     if a.record is not None:
         project(a.record, a.lanes)
         return 0

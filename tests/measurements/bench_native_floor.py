@@ -1,29 +1,35 @@
 """The native floor: each CPU engine's cells through the product and through a minimal native loop.
 
-What a cell costs through the product against the smallest native loop of the same model, and whether
-both give the same θ history. Measures and prints; it fails (exit 1) only where the two θ histories
-disagree, never on time.
+What a cell costs through the product against the smallest native loop of the same model, one world
+and many worlds in one engine call, and whether both give the same θ history. Measures and prints;
+it fails (exit 1) only where the two θ histories disagree, never on time.
 
     python tests/measurements/bench_native_floor.py [--engines mujoco pybullet dart physx exudyn drake]
         [--cells B3M:sine:3:5 B3M:sine:3:1.5 B8M:sine:3:1.5] [--settings calibrated shipped]
-        [--repeats 3] [--max-batch N] [--record NAME] [--table NAME]
+        [--repeats 3] [--worlds 1 4 16] [--record NAME] [--table NAME]
 
 For each engine, settings (``calibrated`` at the time-step rule's step, ``shipped`` at the engine's own)
 and cell (``BLOCK:PULSE:W_RATIO:A_RATIO``: ω/p and a₀/(g·tanα), restitution Housner), on a warm adapter
 (its calibration cached and its scene built before the clock starts):
 
-* *product*: the adapter's batch entry ``run_many`` on the cell alone (one world), and on
-  ``max_worlds`` copies of it (at most ``--max-batch``) where the adapter batches (cost per world);
+* *product*: the adapter's batch entry ``run_many`` on the cell alone (one world);
 * *native*: the same scene (the adapter's own ``build``, made before the clock starts; the block placed
   by its ``start``), the same step, the same drive (``inertial``: the table fixed, −m·ü on the block,
   ü as the adapter takes it: the step average, PyBullet's at the step's midpoint) and the same simulated
   time, stepped by the engine's own API in the smallest loop it has (MuJoCo: one ``rollout`` call;
   Drake: one ``AdvanceTo``; Exudyn: one ``SolveSteps`` a segment of the product's ``segment_s``, since
   its adaptive step restarts at each call; PyBullet, DART, PhysX: a Python loop of step calls reading θ
-  after each). A product that builds its scene for every case (PhysX) pays for it; the native loop
-  does not.
+  after each).
 
-The batched run is that many copies of the one cell (every world ends at the same step).
+``--worlds K ...`` adds, for each K, the cell as K copies: through the product (``run_many`` of K
+copies, where the adapter runs K worlds a batch) and through a native loop of K worlds in one engine
+call (:data:`WORLDS`): PhysX, K blocks at the origin in the adapter's scene, each colliding with its
+own table alone (collision groups); Drake, K blocks in one plant, each on its own planar joint (the
+adapter's diagram of K worlds); DART, K tables and blocks in one ``World``, every pair of two worlds on
+the collision filter's black list, each block driven by its own force; PyBullet, K tables and blocks in
+one client, collision group and mask bit per world, under the one pulse's gravity. It prints the cost
+a world and the largest |Δθ| of any world from the product's one-world run and from the same loop's
+world alone (0: bit for bit).
 
 The simulated time is the product run's (it stops where floor 1's end-of-run rule stops it). Printed:
 CPU seconds per simulated second of each path (``time.process_time``: every thread of this process,
@@ -51,7 +57,7 @@ from records import load, write_record  # noqa: E402
 from rockbench.benchmark.blocks.presets import get_preset  # noqa: E402
 from rockbench.benchmark.suites.model import restitution_for  # noqa: E402
 from rockbench.engines.contract import Case  # noqa: E402
-from rockbench.engines.motion import theta_of_quat  # noqa: E402
+from rockbench.engines.motion import pivot_pose, theta_of_quat  # noqa: E402
 from rockbench.engines.registry import get_adapter  # noqa: E402
 from rockbench.reference_solver.model import G  # noqa: E402
 from rockbench.reference_solver.pulses import make_pulse  # noqa: E402
@@ -145,21 +151,38 @@ def native_dart(ad, scene, case, s, dt, n_steps):
     return theta
 
 
-def native_physx(ad, scene, case, s, dt, n_steps):
-    _start(ad, scene, case, s, dt, n_steps)
-    step, body, k = scene.system.step, scene.block, scene.substeps
-    n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9))) * k
-    force = (-case.block.mass_kg * _step_average(case.pulse, dt / k, n_pulse)).astype(np.float32)
-    zero, f = np.zeros(3, dtype=np.float32), np.zeros(3, dtype=np.float32)
-    q = np.empty((n_steps, 4))
+def physx_worlds(ad, scene, case, s, dt, n_steps, k: int) -> np.ndarray:
+    """PhysX, ``k`` worlds of the cell in the adapter's scene (its ``build``; every block at the origin on
+    a table of its own, each world's shapes one bit of the collision groups), placed by its ``start``:
+    a Python loop of ``k`` ``add_force_torque`` calls and one step a PhysX step, the packed state of
+    every body read after each benchmark step. θ of each world ``(k, n_steps)``."""
+    ad.start(scene, case.block, s, dt, [case.pulse] * k, 0.0, n_steps)
+    system, sub = scene.system, scene.substeps
+    step, pack = system.step, system.pack
+    bodies = [scene.worlds[w][0] for w in range(k)]
+    order = {c.entity.per_scene_id: i for i, c in enumerate(system.get_rigid_dynamic_components())}
+    at = np.array([order[b.entity.per_scene_id] for b in bodies])
+    n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9))) * sub
+    forces = []
+    for body in bodies:   # each world's own drive, as a world of another cell would need
+        f = np.zeros((n_pulse, 3), dtype=np.float32)
+        f[:, 0] = -case.block.mass_kg * _step_average(case.pulse, dt / sub, n_pulse)
+        forces.append((body.add_force_torque, f))
+    zero = np.zeros(3, dtype=np.float32)
+    packs = []
     for i in range(n_steps):
-        for j in range(i * k, (i + 1) * k):
+        for j in range(i * sub, (i + 1) * sub):
             if j < n_pulse:
-                f[0] = force[j]
-                body.add_force_torque(f, zero)
+                for add, f in forces:
+                    add(f[j], zero)
             step()
-        q[i] = body.entity_pose.q
-    return theta_of_quat(q[:, 0], q[:, 1], q[:, 2], q[:, 3])
+        packs.append(pack())
+    q = np.frombuffer(b"".join(packs), dtype=np.float32).reshape(n_steps, -1, 13)[:, at, :4].astype(float)
+    return theta_of_quat(q[..., 0], q[..., 1], q[..., 2], q[..., 3]).T
+
+
+def native_physx(ad, scene, case, s, dt, n_steps):
+    return physx_worlds(ad, scene, case, s, dt, n_steps, 1)[0]
 
 
 def native_exudyn(ad, scene, case, s, dt, n_steps):
@@ -177,11 +200,126 @@ def native_exudyn(ad, scene, case, s, dt, n_steps):
     return -data[keep, 3]   # Exudyn's planar angle is −θ
 
 
-def native_drake(ad, sc, case, s, dt, n_steps):
-    _start(ad, sc, case, s, dt, n_steps)   # the drive loaded into the diagram's source, the block placed
+def drake_worlds(ad, run, case, s, dt, n_steps, k: int) -> np.ndarray:
+    """Drake, ``k`` worlds of the cell in one plant (the adapter's diagram of ``k`` blocks, each on its own
+    planar joint and touching its own table alone), the drives loaded into its source and the blocks
+    placed by its ``start``: one ``AdvanceTo`` to the end. θ of each world ``(k, n_steps)``."""
+    ad.start(run, case.block, s, dt, [case.pulse] * k, 0.0, n_steps)   # sample 0 read, the log cleared
+    sc = run["scene"]
     sc.simulator.AdvanceTo(n_steps * dt)
-    return sc.logger.FindLog(sc.context).data()[sc.iq["th"], 1:n_steps + 1].copy()
+    return sc.logger.FindLog(sc.context).data()[sc.cols[:, sc.iq["th"]], :n_steps].copy()
 
+
+def native_drake(ad, run, case, s, dt, n_steps):
+    return drake_worlds(ad, run, case, s, dt, n_steps, 1)[0]
+
+
+# --- many worlds in one engine call where the adapter runs one (measured, not in the product) ------
+
+def dart_prepare(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
+    """A DART world of ``k`` worlds: the adapter's one-world scene (a world of its own) and ``k − 1`` more
+    tables and blocks (its ``table_skeleton`` and ``block_skeleton``), every pair of body nodes of two
+    different worlds on the black list of the solver's collision filter, so each block touches its own table alone."""
+    import dartpy as dart   # optional engine library
+    from rockbench.engines.adapters.dart import _Scene, block_skeleton, table_skeleton
+
+    if s["drive"] != "inertial" or not s["planar"]:
+        raise ValueError("the loop of many DART worlds drives a planar block by a force (drive inertial)")
+    scene = _Scene(case.block, s, dt)
+    scene.pairs = [(scene.table, scene.block)]
+    for w in range(1, k):
+        pair = (table_skeleton(dart, s, f"table{w}")[0], block_skeleton(dart, case.block, s, f"block{w}")[0])
+        for skeleton in pair:
+            scene.world.addSkeleton(skeleton)
+        scene.pairs.append(pair)
+    # the solver's own filter (dartpy's getCollisionOption returns a copy, which shares the filter)
+    apart = scene.world.getConstraintSolver().getCollisionOption().collisionFilter
+    nodes = [[sk.getBodyNode(0) for sk in pair] for pair in scene.pairs]
+    for i in range(k):
+        for j in range(i + 1, k):
+            for a in nodes[i]:
+                for b in nodes[j]:
+                    apart.addBodyNodePairToBlackList(a, b)
+    return scene
+
+
+def dart_worlds(ad, scene, case, s, dt, n_steps, k: int) -> np.ndarray:
+    """DART, ``k`` blocks in one ``World`` (:func:`dart_prepare`), each driven by its own generalized force
+    −m·ü on its x dof (ü the step average; the adapter tilts gravity, which one world of many cannot):
+    one ``World.step`` a step, θ of each world read after it ``(k, n_steps)``."""
+    xc, zc = pivot_pose(case.block, 0.0)
+    blocks = [block for _, block in scene.pairs]
+    for block in blocks:
+        block.setPositions([zc, xc, 0.0])
+        block.setVelocities(np.zeros(3))
+    world = scene.world
+    world.setGravity([0.0, 0.0, -G])
+    world.setTime(0.0)
+    world.getConstraintSolver().setCollisionDetector(scene.detector())
+    n_pulse = min(n_steps, int(math.ceil(case.pulse.duration_s / dt - 1e-9)))
+    drives = [(block.setForces, [[0.0, f, 0.0] for f in (-case.block.mass_kg * _step_average(case.pulse, dt, n_pulse)).tolist()])
+              for block in blocks]
+    reads = [block.getPositions for block in blocks]
+    theta = np.empty((k, n_steps))
+    for i in range(n_steps):
+        if i < n_pulse:
+            for set_forces, forces in drives:
+                set_forces(forces[i])
+        world.step()
+        for w, read in enumerate(reads):
+            theta[w, i] = read()[2]
+    return theta
+
+
+_PYBULLET_CLIENTS: list = []   # the last client pybullet_prepare made, disconnected by the next call
+
+
+def pybullet_prepare(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
+    """A PyBullet DIRECT client of ``k`` worlds: the adapter's table and block (its ``build`` on a client of
+    its own) and ``k − 1`` more (its ``add_bodies`` and ``apply_dynamics``), world ``w``'s table and block
+    in collision group and mask bit ``w``, so each block touches its own table alone."""
+    from rockbench.engines.adapters.pybullet import _Scene
+
+    if s["drive"] != "inertial" or not s["planar"]:
+        raise ValueError("the loop of many PyBullet worlds drives planar blocks through gravity (drive inertial)")
+    while _PYBULLET_CLIENTS:
+        old = _PYBULLET_CLIENTS.pop()
+        old.pb.disconnect(physicsClientId=old.cid)
+    sc = ad.build(case.block, s, dt, sc=_Scene())
+    _PYBULLET_CLIENTS.append(sc)
+    sc.bodies = [(sc.table, sc.block, sc.block_link)]
+    for _ in range(1, k):
+        sc.bodies.append(sc.add_bodies(case.block, True, ad.points(s)))
+        sc.apply_dynamics(s, *sc.bodies[-1])
+    for w, (table, body, link) in enumerate(sc.bodies):
+        sc.pb.setCollisionFilterGroupMask(table, -1, 1 << w, 1 << w, physicsClientId=sc.cid)
+        sc.pb.setCollisionFilterGroupMask(body, link, 1 << w, 1 << w, physicsClientId=sc.cid)
+    return sc
+
+
+def pybullet_worlds(ad, sc, case, s, dt, n_steps, k: int) -> np.ndarray:
+    """PyBullet, ``k`` blocks in one client (:func:`pybullet_prepare`), all under the cell's one pulse
+    through the gravity vector, as the adapter drives one (cells of different pulses in one client would
+    need a force per block: in PyBullet 3.2 a force at a link's centre, ``applyExternalForce`` in either
+    frame, does not turn the block on its corner, measured; so this is the cost of copies of one cell, a
+    floor for a batch of cells): one ``stepSimulation`` a step, θ of each world read after it."""
+    pb, cid = sc.pb, sc.cid
+    xc, zc = pivot_pose(case.block, 0.0)
+    for _, body, _ in sc.bodies:
+        for j, q in ((0, xc), (1, zc - case.block.height_m / 2), (2, 0.0)):
+            pb.resetJointState(body, j, q, 0.0, physicsClientId=cid)
+    n_pulse = int(math.ceil(case.pulse.duration_s / dt - 1e-9))
+    acc = (-case.pulse.accel((np.arange(min(n_steps, n_pulse + 1)) + 0.5) * dt)).tolist()
+    bodies = [body for _, body, _ in sc.bodies]
+    gravity, step, joint = pb.setGravity, pb.stepSimulation, pb.getJointState
+    theta = np.empty((k, n_steps))
+    for i in range(n_steps):
+        if i < len(acc):
+            gravity(acc[i], 0.0, -G, physicsClientId=cid)
+        step(physicsClientId=cid)
+        for w, body in enumerate(bodies):
+            theta[w, i] = joint(body, 2, physicsClientId=cid)[0]
+    return theta
 
 NATIVE = {"mujoco": native_mujoco, "pybullet": native_pybullet, "dart": native_dart, "physx": native_physx,
           "exudyn": native_exudyn, "drake": native_drake}
@@ -207,9 +345,49 @@ def product_parts(ad, case: Case, posed: Case, s: dict, repeats: int) -> dict:
     return {"posed_cpu_s": min(posing), "loop_cpu_s": min(loop)}
 
 
-def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch: int | None) -> dict:
+def started(ad, case: Case, s: dict, dt: float, n_steps: int, k: int):
+    """The adapter's scene of the cell's block, settings and step with ``k`` worlds started in it, so
+    that what it builds for ``k`` worlds is built before the clock starts (PhysX, Drake)."""
+    scene = ad.build(case.block, s, dt)
+    ad.start(scene, case.block, s, dt, [case.pulse] * k, 0.0, n_steps)
+    return scene
+
+
+#: engine → (its scene of ``k`` worlds made before the clock, the loop of ``k`` worlds in one engine
+#: call ``(ad, scene, case, s, dt, n_steps, k) -> θ (k, n_steps)``)
+WORLDS = {"physx": (started, physx_worlds), "drake": (started, drake_worlds), "dart": (dart_prepare, dart_worlds),
+          "pybullet": (pybullet_prepare, pybullet_worlds)}
+
+
+def measure_worlds(engine: str, ad, case: Case, posed: Case, s: dict, theta: np.ndarray, ks: list, repeats: int) -> list:
+    """Per number of worlds ``k`` (copies of the cell): the product's CPU s per simulated s a world
+    (``run_many`` of ``k`` copies, where the adapter runs ``k`` worlds a batch) and the native loop's of
+    ``k`` worlds in one engine call (where :data:`WORLDS` has one), the largest |Δθ| of any world from
+    the product's one-world history, and from the same loop's world alone (0: bit for bit)."""
+    dt, n_steps = posed.dt_s, theta.size - 1   # the history's samples after t = 0
+    sim_s = n_steps * dt
+    out, alone = [], None
+    for k in ks:
+        entry = {"worlds": k}
+        if k == 1 or ad.worlds_per_batch(s) >= k:
+            times_p, _ = cpu_times(lambda _: ad.run_many([case] * k), repeats)
+            entry.update(product_cpu_s_per_sim_s=min(times_p) / k / sim_s, product_cpu_s=times_p)
+        if engine in WORLDS:
+            prepare, loop = WORLDS[engine]
+            times_n, th = cpu_times(lambda scene: loop(ad, scene, posed, s, dt, n_steps, k), repeats,
+                                    lambda: prepare(ad, posed, s, dt, n_steps, k))
+            alone = th[0] if k == 1 else alone
+            entry.update(native_cpu_s_per_sim_s=min(times_n) / k / sim_s, native_cpu_s=times_n,
+                         theta_diff_from_product_rad=float(np.max(np.abs(th - theta[1:]))),
+                         theta_diff_from_alone_rad=None if alone is None else float(np.max(np.abs(th - alone))))
+        out.append(entry)
+    return out
+
+
+def measure_cell(engine: str, settings: str, cell: str, repeats: int, ks: tuple = (1,)) -> dict:
     """One row: the cell's CPU s per simulated s through each path (the least of ``repeats``, every
-    repeat's CPU s kept), their ratio, and the differences of max|θ| and final θ between the paths."""
+    repeat's CPU s kept), their ratio, and the differences of max|θ| and final θ between the paths;
+    with ``ks`` beyond 1, the same per world at each number of worlds (:func:`measure_worlds`)."""
     ad = get_adapter(engine, settings=settings)
     case = case_of(cell)
     posed, s, theta, t_s = product_history(ad, case)   # warms the adapter: calibration, step, scene
@@ -222,11 +400,12 @@ def measure_cell(engine: str, settings: str, cell: str, repeats: int, max_batch:
     row.update(outcome=r.outcome, status=r.status, product_cpu_s_per_sim_s=cpu / sim_s, product_cpu_s=times,
                run_many_max_theta_diff_rad=abs(r.max_abs_theta_rad - float(np.max(np.abs(theta)))),
                product_parts=product_parts(ad, case, posed, s, repeats))
-    worlds = min(ad.max_worlds, max_batch or ad.max_worlds)
-    if worlds > 1:
-        times_b, _ = cpu_times(lambda _: ad.run_many([case] * worlds), repeats)
-        row.update(batch_worlds=worlds, product_batched_cpu_s_per_sim_s=min(times_b) / worlds / sim_s,
-                   product_batched_cpu_s=times_b)
+    if len(ks) > 1:
+        row["worlds"] = measure_worlds(engine, ad, case, posed, s, theta, list(ks), repeats)
+        batched = [w for w in row["worlds"] if w["worlds"] > 1 and "product_cpu_s_per_sim_s" in w]
+        if batched:   # the largest batch, in the summary's columns
+            row.update(batch_worlds=batched[-1]["worlds"],
+                       product_batched_cpu_s_per_sim_s=batched[-1]["product_cpu_s_per_sim_s"])
     try:
         times_n, native = cpu_times(lambda scene: NATIVE[engine](ad, scene, posed, s, dt, n_steps), repeats,
                                     lambda: ad.build(case.block, s, dt))
@@ -253,8 +432,17 @@ def line(row: dict) -> str:
     if "ratio_batched" in row:
         out += (f"; batched ({row['batch_worlds']} worlds) {row['product_batched_cpu_s_per_sim_s']:.3g} a world, "
                 f"ratio {row['ratio_batched']:.2f}")
-    return out + (f"; Δmax|θ| {row['max_theta_diff_rad']:.1e}, Δθ_end {row['final_theta_diff_rad']:.1e} rad "
-                  f"(run_many vs its loop {row['run_many_max_theta_diff_rad']:.1e})")
+    out += (f"; Δmax|θ| {row['max_theta_diff_rad']:.1e}, Δθ_end {row['final_theta_diff_rad']:.1e} rad "
+            f"(run_many vs its loop {row['run_many_max_theta_diff_rad']:.1e})")
+    for w in row.get("worlds", []):
+        out += f"\n    {w['worlds']:3} worlds: product " + (
+            f"{w['product_cpu_s_per_sim_s']:.3g}" if "product_cpu_s_per_sim_s" in w else "(one world a batch)")
+        if "native_cpu_s_per_sim_s" in w:
+            alone = w["theta_diff_from_alone_rad"]
+            out += (f", native {w['native_cpu_s_per_sim_s']:.3g} CPU s/s a world; |Δθ| from the product "
+                    f"{w['theta_diff_from_product_rad']:.1e}, from the world alone "
+                    + ("–" if alone is None else f"{alone:.1e}") + " rad")
+    return out
 
 
 def agrees(row: dict, tol_rad: float) -> bool:
@@ -326,14 +514,39 @@ def parts_table(figures: dict) -> str:
     return "\n".join(lines)
 
 
+def worlds_table(figures: dict) -> str:
+    """Cost a world at each number of worlds (:func:`measure_worlds`), per engine and settings, as a
+    Markdown table: CPU s per simulated s totalled over the cells, each over the native loop's one world,
+    and the largest |Δθ| of any world from the same loop's world alone (0: bit for bit)."""
+    groups: dict = {}
+    for r in figures["rows"]:
+        for w in r.get("worlds", []):
+            g = groups.setdefault((r["engine"], r["settings"], w["worlds"]), {"sim": 0.0, "product": 0.0, "native": 0.0,
+                                                                              "alone": 0.0, "has_product": True})
+            g["sim"] += r["simulated_s"]
+            g["has_product"] &= "product_cpu_s_per_sim_s" in w
+            g["product"] += w.get("product_cpu_s_per_sim_s", math.nan) * r["simulated_s"]
+            g["native"] += w.get("native_cpu_s_per_sim_s", math.nan) * r["simulated_s"]
+            g["alone"] = max(g["alone"], w.get("theta_diff_from_alone_rad") or 0.0)
+    lines = ["| engine | settings | worlds | product a world | native a world | product / native one world | "
+             "native / native one world | max \\|Δθ\\| from alone [rad] |", "|---|---|---|---|---|---|---|---|"]
+    for (engine, settings, k), g in groups.items():
+        one = groups[(engine, settings, 1)]["native"] / groups[(engine, settings, 1)]["sim"]
+        product, native = g["product"] / g["sim"], g["native"] / g["sim"]
+        shown = f"{product:.3g} | " if g["has_product"] else "one world a batch | "
+        ratio = f"{product / one:.2f} | " if g["has_product"] else "– | "
+        lines.append(f"| {engine} | {settings} | {k} | {shown}{native:.3g} | {ratio}{native / one:.2f} | {g['alone']:.1g} |")
+    return "\n".join(lines)
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--engines", nargs="+", default=list(ENGINES), choices=list(ENGINES))
     ap.add_argument("--cells", nargs="+", default=list(CELLS), help="BLOCK:PULSE:W_RATIO:A_RATIO each")
     ap.add_argument("--settings", nargs="+", default=["calibrated", "shipped"], choices=["calibrated", "shipped"])
     ap.add_argument("--repeats", type=int, default=3, help="timed repeats of each path; the least CPU time counts")
-    ap.add_argument("--max-batch", type=int, default=None,
-                    help="most worlds of a batched run (default: the adapter's max_worlds)")
+    ap.add_argument("--worlds", type=int, nargs="+", default=[1],
+                    help="numbers of worlds: beyond 1, each cell also runs as that many copies, through the product "
+                         "and where the engine has one through its native loop of many worlds in one call")
     ap.add_argument("--theta-tol-rad", type=float, default=1e-4,
                     help="largest difference of max|θ| and final θ [rad]")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
@@ -342,16 +555,18 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     if a.table:
         figures = load(a.table)["figures"]
-        print(markdown_table(figures) + "\n\n" + parts_table(figures))
+        print(markdown_table(figures) + "\n\n" + parts_table(figures)
+              + ("\n\n" + worlds_table(figures) if any("worlds" in r for r in figures["rows"]) else ""))
         return 0
-    if a.repeats < 1 or (a.max_batch is not None and a.max_batch < 1):
-        _refuse(f"--repeats and --max-batch must be at least 1, got {a.repeats} and {a.max_batch}")
+    if a.repeats < 1 or min(a.worlds) < 1:
+        _refuse(f"--repeats and --worlds must be at least 1, got {a.repeats} and {a.worlds}")
+    ks = sorted({1, *a.worlds})
     cells = [(c, case_of(c)) for c in a.cells]   # a bad cell stops here, before anything runs
     rows = []
     for engine in a.engines:
         for settings in a.settings:
             for cell, _ in cells:
-                rows.append(measure_cell(engine, settings, cell, a.repeats, a.max_batch))
+                rows.append(measure_cell(engine, settings, cell, a.repeats, tuple(ks)))
                 print(line(rows[-1]), flush=True)
         if a.record:   # rewritten after each engine, so a stopped run keeps what it measured
             command = "python tests/measurements/bench_native_floor.py " + " ".join(argv or sys.argv[1:])

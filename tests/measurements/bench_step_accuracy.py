@@ -108,10 +108,11 @@ def calibrated_row(engine: str, block, eta: float, dt_s: float, make_spec, tmp: 
 def shipped_row(engine: str, block, make_spec, tmp: Path, reference) -> dict:
     """The engine as shipped at its own default step: its free-rocking η and its map's scores."""
     from rockbench.engines.calibration.free_rocking import measure_restitution
+    from rockbench.engines.calibration.time_step import step_for
     from rockbench.engines.registry import get_adapter
 
     ad = get_adapter(engine, settings="shipped")
-    row = {"engine": engine, "variant": "as shipped", "dt_s": ad.step_for(block, math.nan),
+    row = {"engine": engine, "variant": "as shipped", "dt_s": step_for(ad, block, math.nan),
            "shipped_dt_s": ad.own_dt_s}
     try:
         m = measure_restitution(ad, block)
@@ -124,10 +125,11 @@ def shipped_row(engine: str, block, make_spec, tmp: Path, reference) -> dict:
 
 def rule_step(engine: str, block, eta: float) -> dict:
     """The step the one time-step rule chooses for ``block`` at η, and whether it converged."""
+    from rockbench.engines.calibration import time_step
     from rockbench.engines.registry import get_adapter
 
     try:
-        dt, rec = get_adapter(engine).converged_step_s(block, eta)
+        dt, rec = time_step.rule_step(get_adapter(engine), block, eta)
         return {"engine": engine, "dt_s": dt, "converged": rec["converged"]}
     except Exception as e:  # noqa: BLE001 - recorded and the run goes on
         return {"engine": engine, "error": f"{type(e).__name__}: {e}"}

@@ -45,7 +45,7 @@ def _standing(r: dict) -> str:
         f = r["fails_in"][0]
         if f.get("missing_boundary"):
             return f"fails: {scenario_words(f)}"
-        return f"fails: {f['block']} {f['pulse']} {_num(f['value'])} > {f['limit']:g}"
+        return f"fails: {f['block']} {f['pulse']} {_num(f['value'])} > {f['limit']:.3g}"
     if r["group"] == "held-out":
         h = r["held_out"]
         if h.get("tost") is None:

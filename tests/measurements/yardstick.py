@@ -91,9 +91,9 @@ def _jsonable(x):
 
 
 def step_of(adapter, case) -> float:
-    """The step a case runs at, by the adapter's one resolver (``step_for``; before issue 45, ``dt_for``)."""
-    if hasattr(adapter, "step_for"):
-        return float(adapter.step_for(case.block, case.eta, case.pulse, case.dt_s))
+    """The step a case runs at, by the adapter's one resolver (``posed``; before issue 45, ``dt_for``)."""
+    if hasattr(adapter, "posed"):
+        return float(adapter.posed(case).dt_s)
     return float(adapter.dt_for(case))
 
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import json
 
-from rockbench.engines.calibration import cache
+from rockbench.engines.calibration import cache, held_out, time_step
+from rockbench.engines.calibration.layout import contact_layout
 from rockbench.engines.calibration.price import price_line
 from rockbench.engines.registry import names
 from rockbench.reference_solver.errors import ConfigError, RockbenchError
@@ -52,7 +53,7 @@ def run(args) -> int:
     block, preset = request.block_and_preset()
     adapter = build_adapter(args.engine, **request.engine_settings())
     if getattr(adapter, "settings", {}).get("calibrate_on"):   # a calibration is of the block it ran on
-        on = adapter.calibration_block(block)
+        on = held_out.calibration_block(adapter.settings["calibrate_on"], block)
         raise ConfigError(f"calibrate_on is a setting of maps and runs (the held-out check); the calibration it uses "
                           f"is {on.name}'s own: rockbench calibrate --engine {args.engine} --block {on.name}.")
     try:
@@ -96,10 +97,10 @@ def _calibrate(args, request: CaseRequest, adapter, block, preset) -> dict:
         rest = request.restitution_law(preset, token=args.target, option="--target")
         target = rest.eta(block.alpha_rad)
         step_rule = None
-        if dt is None:   # the step the benchmark runs the block at (the one resolver), and the rule's record
-            dt = adapter.step_for(block, target)
-            if getattr(adapter, "calibrated", lambda: False)() and adapter.contact_layout(block, target) == "corners":
-                step_rule = adapter.rule_step(block, target)[1]
+        if dt is None and isinstance(adapter, ContactEngine):   # the step the benchmark runs the block at (the
+            dt = time_step.step_for(adapter, block, target)        # one resolver), and the rule's record
+            if adapter.calibrated() and contact_layout(adapter, block, target) == "corners":
+                step_rule = time_step.rule_step(adapter, block, target)[1]
         c = calibrate(adapter, block, target, dt_s=dt, use_cache=not args.no_cache)
         if args.price and c.price is None:
             if not isinstance(adapter, ContactEngine):

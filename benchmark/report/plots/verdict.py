@@ -5,7 +5,7 @@ the planted restitutions that measure the suite's power; those that fail, apart 
 Each compared class's best is a filled diamond, the variants that may be the best (its tie group,
 Hsu's best subset) filled circles, those resolved behind it open circles; a shaded band from the
 class's best shows the smallest difference the suite detects there (80 % power); the restitution
-margin (the mean η_H–η_M reference gap, or the declared number) and the declared fail limit are
+margin (the mean η_H–η_M reference gap, or the declared number) and the fail limit (its rule's value, or the declared number) are
 vertical lines. Labels are tick labels (the variant on the left, its numbers on the right), so they
 never overlap and the layout keeps them inside the figure. When a value lies past twice the fail limit
 (a failing mean reaches 18.6, the map's diagonal) the axis is linear up to the fail limit and
@@ -74,7 +74,7 @@ def _row(g: str, r: dict) -> dict:
                    twin=h["in_sample"], mark="held-out",
                    right=(f"{number(h['value'])} vs {number(h['in_sample'])}: "
                           + ("carries over" if h["carries_over"] else "not shown") if h["tost"] else
-                          f"{number(h['value'])}: not tested" if h.get("left_out") else
+                          f"{number(h['value'])}: not tested" if h.get("left_out") or h.get("in_sample") is not None else
                           f"{number(h['value'])}: no twin"))
         return row
     lo, hi = r["ci95"] if r["ci95"] else (math.nan, math.nan)
@@ -148,7 +148,7 @@ def plot_verdict(v: dict, *, ax=None) -> dict:
     n = len(rows)
     for k, r in enumerate(rows):
         r["y"] = n - 1 - k
-    limit = v["fail_distance"]
+    limit, limit_from = _fail_line(v, rows)
     # a logarithmic stretch only for what lies far past the limit (a failing mean of 18.6)
     logx = any(r["kind"] == "variant" and _finite(r.get("value")) and r["value"] > 2 * limit for r in rows)
     marks = {r["variant"]: _draw_row(ax, r) for r in rows if r["kind"] == "variant" and r["value"] is not None}
@@ -157,8 +157,9 @@ def plot_verdict(v: dict, *, ax=None) -> dict:
     margin, margin_words = _margin(v)
     if margin is not None:
         lines["margin"] = ax.axvline(margin, color="0.25", lw=0.9, ls=(0, (4, 2)), label=for_matplotlib(margin_words))
-    lines["fail"] = ax.axvline(limit, color=COLOURS["fails"], lw=0.9, ls=(0, (1, 1.5)),
-                               label=f"fail limit {limit:g} (declared)")
+    if limit_from is not None:
+        lines["fail"] = ax.axvline(limit, color=COLOURS["fails"], lw=0.9, ls=(0, (1, 1.5)),
+                                   label=f"fail limit {limit:.3g} ({limit_from})")
     hi = max([r["hi"] for r in rows if r["kind"] == "variant" and _finite(r.get("hi"))] + [limit, margin or 0.0])
     _x_axis(ax, logx, limit, hi, FixedLocator, FuncFormatter)
     ax.set_ylim(-0.7, n - 0.3)
@@ -225,6 +226,18 @@ def _draw_bands(ax, v: dict, rows: list[dict]) -> dict:
         bands[cls] = ax.fill_betweenx([min(ys) - 0.45, max(ys) + 0.45], best["value"], best["value"] + mdd,
                                       color=tint(COLOURS[cls], 0.18), lw=0, zorder=1)
     return bands
+
+
+def _fail_line(v: dict, rows: list[dict]) -> tuple[float, str | None]:
+    """The fail limit and what it rests on for its line's label (``declared``, or the rule's scenario),
+    or, where the run gives none, the largest finite interval end for the axis and None (no line)."""
+    lim = v.get("fail_limit") or {"value": v["fail_distance"], "rule": None, "from": None}
+    if lim["value"] is None:
+        ends = [r["hi"] for r in rows if r["kind"] == "variant" and _finite(r.get("hi"))]
+        return max(ends + [0.1]), None
+    if lim["rule"] is None:
+        return lim["value"], "declared"
+    return lim["value"], f"largest η_H–η_M gap, {lim['from']['block']} {lim['from']['pulse']}"
 
 
 def _x_axis(ax, logx: bool, limit: float, hi: float, FixedLocator, FuncFormatter) -> None:
