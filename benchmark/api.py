@@ -29,7 +29,8 @@ from rockbench.benchmark.report.plots.trajectories import plot_theta
 from rockbench.benchmark.request import CaseRequest
 from rockbench.benchmark.scoring.metrics import METRICS
 from rockbench.benchmark.scoring.score_runs import load_score
-from rockbench.benchmark.scoring.tables import ranked_summary, summary
+from rockbench.benchmark.report.tables import ranked_summary, short_verdict_text, summary, verdict_text
+from rockbench.benchmark.scoring.scores import Scores
 from rockbench.benchmark.simulation import run_case, trajectory_for_picture
 from rockbench.benchmark.store.frames import need, rows_to_dataframe, rows_to_dataset
 from rockbench.benchmark.store.loading import MapEntry as RunMap, full_grid_rows, load_entries
@@ -284,13 +285,14 @@ class Run:
     maps : list of RunMap
         Every map found in or below it (``RunMap`` is :class:`~rockbench.benchmark.store.loading.MapEntry`: its folder,
         engine, variant, block, pulse, restitution, η, outcome grid; ``to_dataframe()``, ``to_dataset()``).
-    score : dict or None
-        score.json (metric definitions, every scored pair), when the folder has one.
+    score : Scores or None
+        score.json read back (:class:`~rockbench.benchmark.scoring.scores.Scores`: metric definitions, every
+        scored pair by variant and scenario, the verdict, the speed stage), when the folder has one.
     """
 
     path: Path
     maps: list
-    score: dict | None = None
+    score: Scores | None = None
 
     def cells(self):
         """All maps' cells on their full grids in one tidy ``pandas.DataFrame`` (``variant``,
@@ -309,7 +311,7 @@ class Run:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
         rows = [{"variant": p["variant"], "block": p["block"], "pulse": p["pulse"], "restitution": p["restitution"],
                  "reference": p["reference"]["restitution"], "like_for_like": p["like_for_like"],
-                 **{k: (np.nan if v is None else v) for k, v in p["scores"].items()}} for p in self.score["pairs"]]
+                 **{k: (np.nan if v is None else v) for k, v in p["scores"].items()}} for p in self.score.pairs]
         return pd.DataFrame(rows)
 
     def summary(self):
@@ -324,7 +326,7 @@ class Run:
         """The verdict of score.json, one row per variant in the verdict's order (``pandas.DataFrame``
         indexed by variant: label, settings, group, the primary value, ``ci95_lo``, ``ci95_hi``, rank (1
         may be the best of its class, 2 resolved behind it), pairs, fails, reasons); its sentences are
-        ``run.score["verdict"]["text"]``, its short form ``["short"]``."""
+        :meth:`verdict_text`."""
         pd = need("pandas")
         if not self.score:
             raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
@@ -333,10 +335,17 @@ class Run:
                                "ci95_hi": (r["ci95"] or [np.nan, np.nan])[1]} for r, _ in ranked_summary(self.score)}
         return pd.DataFrame.from_dict(rows, orient="index")
 
+    def verdict_text(self, short: bool = False) -> list[str]:
+        """The verdict's sentences (``short``: the verdict in at most 120 words), written by the report's words
+        (:mod:`~rockbench.benchmark.report.verdict_words`) from score.json's numbers."""
+        if not self.score:
+            raise ConfigError(f"{str(self.path)!r} has no score.json; run `rockbench score {self.path}` first.")
+        return short_verdict_text(self.score) if short else verdict_text(self.score)
+
     def metrics(self) -> dict:
         """Metric name → its definition in words (from score.json, else from this rockbench)."""
-        if self.score and self.score.get("metrics"):
-            return {m["name"]: m["definition"] for m in self.score["metrics"]}
+        if self.score and self.score.metrics:
+            return {m["name"]: m["definition"] for m in self.score.metrics}
         return {k: m.definition for k, m in METRICS.items()}
 
 

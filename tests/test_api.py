@@ -107,3 +107,6 @@ def test_load_run_reads_maps_and_scores(write_map, band, tmp_path):
     assert v.loc["mujoco[settings=shipped]", "ci95_lo"] <= v.loc["mujoco[settings=shipped]", "value"]
     assert v.loc["mujoco[settings=shipped]", "settings"] == "as-shipped"
     assert v.loc["mujoco[settings=shipped]", "group"] == "as-shipped"
+    # score.json holds the numbers; the verdict's words are written from them
+    assert run.verdict_text(short=True) and run.verdict_text()[-1].startswith("Measure:")
+    assert "text" not in run.score.to_json()["verdict"]

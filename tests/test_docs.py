@@ -160,7 +160,7 @@ def _fake_run_folder(tmp: Path, write_map, band) -> None:
     write_map(root / "maps" / "reference" / "B3M-sine-housner", band(9, 11, 4), block="B3M")
     write_map(root / "maps" / "mujoco-settings=calibrated" / "B3M-sine-housner", band(9, 11, 5), engine="mujoco",
               block="B3M", settings={"settings": "calibrated"})
-    write_json(root / "score.json", score_dirs([root / "maps"]))
+    write_json(root / "score.json", score_dirs([root / "maps"]).to_json())
 
 
 def test_the_notebook_example_is_ten_lines():

@@ -16,6 +16,7 @@ from rockbench.benchmark.scoring.labels import CALIBRATED, PLANTED_CLASS
 from rockbench.benchmark.scoring.statistics import (detectable, differences, dunnett_critical, general, mcb,
                                                     paired, slenderness_means, tost, z_one_sided)
 from rockbench.benchmark.scoring.verdict import verdict
+from rockbench.benchmark.report.verdict_words import sentences
 from test_score_runs import run_cli
 
 PROBLEMS = [(b, p) for b in ("B3M", "B6M") for p in ("sine", "cosine")]
@@ -171,7 +172,7 @@ def test_an_equivalence_margin_met_and_missed_as_constructed():
     assert c["within"] and not c["within_every_scenario"] and (c["worst"]["block"], c["worst"]["pulse"]) == ("B6M", "sine")
     v = verdict(doc)
     assert v["equivalence"]["within"] == ["a", "c"]
-    text = next(t for t in v["text"] if t.startswith("Within the uncertainty"))
+    text = next(t for t in sentences(v) if t.startswith("Within the uncertainty"))
     assert "Not shown: b" in text and "worst B6M sine" in text
     # a declared number instead of the gap: 0.5 holds B too
     assert verdict(doc, Declared(equivalence_margin=0.5))["equivalence"]["within"] == ["a", "c", "b"]
@@ -217,10 +218,10 @@ def test_a_claim_about_problems_in_general_needs_the_declared_range():
     assert v["general"]["stated"] and v["general"]["slendernesses"] == [1.5, 2.25, 4.5, 6.0]
     a = next(r for r in v["variants"] if r["variant"] == "a")
     assert a["general"]["df"] == 3 and a["general"]["slendernesses"] == 4
-    assert any(t.startswith("About problems in general (h/b 1.5–6, 4 slendernesses") for t in v["text"])
+    assert any(t.startswith("About problems in general (h/b 1.5–6, 4 slendernesses") for t in sentences(v))
     narrow = verdict(_doc({"a": vals[:4]}))
     assert not narrow["general"]["stated"] and narrow["variants"][0]["general"] is None
-    assert "span h/b 2.25–4.5 with 2 slendernesses" in " ".join(narrow["text"])
+    assert "span h/b 2.25–4.5 with 2 slendernesses" in " ".join(sentences(narrow))
 
 
 def _balanced(seed=2):
@@ -299,10 +300,10 @@ def test_planted_restitutions_give_the_smallest_delta_resolved():
     assert rows["d1"]["difference"] == pytest.approx(0.012)
     assert {r["variant"] for r in v["variants"] if r["group"] == "planted"} == set(values)
     assert all(r["rank"] is None for r in v["variants"] if r["group"] == "planted")
-    cal = v["text"][0]
+    cal = sentences(v)[0]
     assert "a restitution planted 1 % below its target, its boundary 0.012 from the reference's, is resolved" in cal
     assert "0.5 % is not" in cal
-    assert any("the smallest δ this suite resolves from δ = 0: 1 %" in t for t in v["text"])
+    assert any("the smallest δ this suite resolves from δ = 0: 1 %" in t for t in sentences(v))
     assert paired({}, {})["difference"] is None
     # a planted restitution far off is the yardstick's own reach, never a failing engine
     doc["pairs"] += [_pair("d10", b, p, 0.6, settings=PLANTED_CLASS, planted_eta_factor=0.9, sd_cell=0.04)

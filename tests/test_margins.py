@@ -10,6 +10,7 @@ from rockbench.benchmark.scoring.declared import (DEFAULTS, HALF_GAP, LARGEST_GA
 from rockbench.benchmark.scoring.equivalence import held_out_check
 from rockbench.benchmark.scoring.scenarios import Scenario, Variant
 from rockbench.benchmark.scoring.verdict import verdict
+from rockbench.benchmark.report.verdict_words import sentences
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.benchmark.scoring.declared import check_fail_distance, check_held_out_margin
 
@@ -93,4 +94,4 @@ def test_the_verdict_fails_by_the_largest_gap_and_says_where_it_comes_from():
     v = verdict({"pairs": pairs, "reference_gaps": small})
     assert v["fail_distance"] == 0.10 and next(r for r in v["variants"] if r["variant"] == "m")["fails"]
     assert ("Fail (boundary farther than 0.100, the largest η_H–η_M reference gap of the run's scenarios "
-            "(B2M sine), from the reference's") in " ".join(v["text"])
+            "(B2M sine), from the reference's") in " ".join(sentences(v))

@@ -36,7 +36,9 @@ def test_a_new_metric_is_one_object(monkeypatch):
     """docs/scores.md's claim: a metric is one ``Metric`` (name, definition, direction, unit, titles,
     tolerance, version and how it is computed); registered alone, it is scored, gets its column in the
     pairs table and the summary, and ``compare`` its default tolerance, with nothing else changed."""
-    from rockbench.benchmark.scoring import metrics, score_runs, tables
+    from rockbench.benchmark.report import tables
+    from rockbench.benchmark.scoring import metrics, score_runs
+    from rockbench.benchmark.scoring.scores import Scores, pair_key
 
     m = metrics.Metric("overturn_cells", "Engine cells judged overturn.", "lower", 0.0, "-", 3.0,
                        kind="count", short="ov cells", title="overturn cells",
@@ -46,9 +48,10 @@ def test_a_new_metric_is_one_object(monkeypatch):
     assert s["overturn_cells"] == 6 * N and s["boundary_mean"] == 1.0
     pair = {"variant": "e", "block": "B3M", "pulse": "sine", "restitution": "housner", "like_for_like": True,
             "reference": {"restitution": "housner"}, "scores": s}
-    head, row = tables.pairs_table({"pairs": [pair]}).splitlines()[0::2]
+    scores = Scores.from_json({"pairs": [{"key": pair_key(pair), **pair}], "verdict": {}})
+    head, row = tables.pairs_table(scores).splitlines()[0::2]
     assert "ov cells" in head and f"{6 * N}" in row.split()
-    assert tables.summary({"pairs": [pair]})["e"]["overturn_cells"] == 6 * N
+    assert tables.summary(scores)["e"]["overturn_cells"] == 6 * N
     assert score_runs.parse_tolerances([])["overturn_cells"]["at_least"] == 3.0
     assert m.version == METRICS_VERSION and m.to_dict()["title"] == "overturn cells"
 
@@ -349,9 +352,10 @@ def test_score_of_a_reference_map_with_itself_is_perfect_outside_its_domain_too(
 
 def test_the_current_metrics_version_refuses_version_two():
     from rockbench.benchmark.scoring.score_runs import compare_scores
-    doc = {"metrics_version": "2", "pairs": []}
+    from rockbench.benchmark.scoring.scores import Scores
+    old, new = (Scores.from_json({"metrics_version": v, "pairs": [], "verdict": {}}) for v in ("2", METRICS_VERSION))
     with pytest.raises(IncomparableError, match=f"metrics version 2, current {METRICS_VERSION}"):
-        compare_scores(doc, {"metrics_version": METRICS_VERSION, "pairs": []})
+        compare_scores(old, new)
 
 
 def test_every_metric_is_one_complete_object():

@@ -20,6 +20,7 @@ from rockbench.engines.adapters.reference import PLANTED, is_planted
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.reference_solver.restitution import Restitution
+from rockbench.benchmark.report.verdict_words import sentences
 
 X = make_axis("--w-ratio", "w_ratio", 1.0, 16.0, 26)
 Y = make_axis("--a-ratio", "a_ratio", 1.0, 12.0, 26)
@@ -141,7 +142,7 @@ def test_planted_maps_are_scored_as_engine_maps_in_their_own_class(tmp_path):
     for f in (1.0, 0.98):
         run_map(_spec(factor=f), out / "maps" / f"planted-{f}" / "B6M-sine-housner", serial=True, adaptive=True,
                 coarse_stride=3)
-    doc = score_dirs([out])
+    doc = score_dirs([out]).to_json()
     pairs = {p["variant"]: p for p in doc["pairs"]}
     assert set(pairs) == {"reference[planted_eta_factor=1.0]", "reference[planted_eta_factor=0.98]"}
     one, low = pairs["reference[planted_eta_factor=1.0]"], pairs["reference[planted_eta_factor=0.98]"]
@@ -150,6 +151,6 @@ def test_planted_maps_are_scored_as_engine_maps_in_their_own_class(tmp_path):
     assert low["scores"]["boundary_mean"] > 0.0 and low["label"] == "Reference solver, η_H × 0.980 (planted)"
     rows = {r["variant"]: r for r in doc["verdict"]["variants"]}
     assert all(r["rank"] is None for r in rows.values())   # the yardstick is not an engine to rank
-    assert any(t.startswith("The suite's power, measured") for t in doc["verdict"]["text"])
+    assert any(t.startswith("The suite's power, measured") for t in sentences(doc["verdict"]))
     assert settings_class({PLANTED: 0.99}, "x", "reference") == PLANTED_CLASS
     assert variant_label("reference", {PLANTED: 0.995}, restitution="housner") == "Reference solver, η_H × 0.995 (planted)"

@@ -13,6 +13,7 @@ import pytest
 from rockbench.benchmark.cli.main import main
 from rockbench.benchmark.blocks.cases import FIG17
 from rockbench.benchmark.report.build import build_report
+from rockbench.benchmark.report.tables import short_verdict_text
 from rockbench.benchmark.scoring.labels import for_html
 from rockbench.benchmark.trajectories import record_for_report
 from rockbench.benchmark.maps.result import MapResult
@@ -83,7 +84,7 @@ def test_report_files_and_tables(report):
                                      "id='summary-table'", "<dl class='metrics'>", "id='stability'",
                                      "<details><summary>Every scored pair", "<details><summary>Versions and settings")]
     assert order == sorted(order)
-    short = res["doc"]["verdict"]["short"]
+    short = short_verdict_text(res["scores"])
     assert 0 < len(" ".join(short).split()) <= 120 and all(for_html(t) in page for t in short)
     # settings are a table, not a JSON dump
     assert "<pre>" not in page and "settings used (resolved)" in page

@@ -23,7 +23,7 @@ def _spec(n=13):
 def test_adaptive_reference_map_scores_perfect_against_the_full_one(tmp_path):
     run_map(_spec(), tmp_path / "full", serial=True)
     run_map(_spec(), tmp_path / "adaptive", serial=True, adaptive=True, coarse_stride=2)
-    doc = score_dirs([tmp_path / "adaptive"], against=[tmp_path / "full"])
+    doc = score_dirs([tmp_path / "adaptive"], against=[tmp_path / "full"]).to_json()
     (p,) = doc["pairs"]
     assert p["filled_cells"] > 0  # inferred cells are counted, not called invalid
     s = p["scores"]

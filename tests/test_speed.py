@@ -16,6 +16,7 @@ from rockbench.benchmark.maps.grid import MapSpec, parse_range
 from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.report.plots.speed import plot_accuracy_cost
 from rockbench.benchmark.scoring.score_runs import compare_scores, score_dirs
+from rockbench.benchmark.scoring.scores import Scores
 from rockbench.benchmark.scoring.speed import band, matched, point
 from rockbench.benchmark.scoring.speed_runs import SPEED_FILE
 from rockbench.benchmark.store.files import COLUMNS, COST_COLUMNS
@@ -55,7 +56,7 @@ def stage(tmp_path_factory):
                 "source": "the test"}
     (root / "speed" / SPEED_FILE).write_text(json.dumps({"declared": declared, "absent": [
         {"engine": "mujoco_warp", "why": "skipped: no CUDA device here"}]}))
-    doc = score_dirs([root / "speed"], against=[root / "ref"])
+    doc = score_dirs([root / "speed"], against=[root / "ref"]).to_json()
     return root, doc
 
 
@@ -154,7 +155,7 @@ def test_a_rule_step_outside_the_stage_is_said(stage):
     """The rule chose a step the stage did not map (MuJoCo's 0.1 ms against a stage of 1–0.2 ms): the row
     says which, with no point to circle."""
     from rockbench.benchmark.scoring.speed import rule_point
-    from rockbench.benchmark.scoring.speed_words import matched_table
+    from rockbench.benchmark.report.speed_words import matched_table
     _, doc = stage
     r = rule_point([], {"B3M": 5e-5, "B6M": 5e-4}, {("B6M", 5e-4): []}, {}, False)
     assert r["outside"] and r["value"] is None and r["steps_s"] == [5e-4, 5e-5]
@@ -171,14 +172,14 @@ def test_a_step_not_mapped_on_every_problem_is_no_point_and_is_said(stage, tmp_p
     problems); the row lists it, the table says it beside the finest step, and the finest is the finest
     step mapped on every problem."""
     import shutil
-    from rockbench.benchmark.scoring.speed_words import matched_table
+    from rockbench.benchmark.report.speed_words import matched_table
     root, doc = stage
     assert _row(doc)["unmapped"] == []
     cut = tmp_path / "speed"
     shutil.copytree(root / "speed", cut)
     shutil.rmtree(cut / f"{1e-4:g}")                     # 0.1 ms: no map
     shutil.rmtree(cut / f"{2e-4:g}" / BLOCKS[0])         # 0.2 ms: one block of two
-    row = _row(score_dirs([cut], against=[root / "ref"]))
+    row = _row(score_dirs([cut], against=[root / "ref"]).to_json())
     assert [p["dt_s"] for p in row["points"]] == [1e-3, 5e-4]
     assert row["unmapped"] == [{"dt_s": 2e-4, "blocks": [BLOCKS[1]]}, {"dt_s": 1e-4, "blocks": []}]
     assert row["matched"]["finest"]["dt_s"] == 5e-4
@@ -189,7 +190,7 @@ def test_a_step_not_mapped_on_every_problem_is_no_point_and_is_said(stage, tmp_p
 def test_a_finest_step_that_is_also_the_cheapest_match_says_so(stage):
     """Criterion (a) met only by the finest step itself (Exudyn in the stage measured in docs/speed.md): the
     row says so, not "1× cheaper"."""
-    from rockbench.benchmark.scoring.speed_words import matched_table
+    from rockbench.benchmark.report.speed_words import matched_table
     _, doc = stage
     speed = copy.deepcopy(doc["speed"])
     m = speed["engines"][0]["matched"]
@@ -256,19 +257,24 @@ def _doc_with(doc, factor=1.0, machine=None):
     return d
 
 
+def _compare(base: dict, cur: dict) -> dict:
+    """:func:`compare_scores` of two score.json documents."""
+    return compare_scores(Scores.from_json(base), Scores.from_json(cur))
+
+
 def test_compare_flags_a_cost_rise_on_like_machines_only(stage, tmp_path, capsys):
     _, doc = stage
     assert doc["speed"]["machine"] is not None
-    same = compare_scores(doc, _doc_with(doc, 1.4))
+    same = _compare(doc, _doc_with(doc, 1.4))
     assert same["status"] == "ok" and not same["speed"]["flags"]
-    risen = compare_scores(doc, _doc_with(doc, 1.6))
+    risen = _compare(doc, _doc_with(doc, 1.6))
     assert risen["status"] == "regression" and {r["criterion"] for r in risen["speed"]["flags"]} == \
         {"within_mdd", "within_distance"}
-    elsewhere = compare_scores(doc, _doc_with(doc, 3.0, {"cpu_model": "another CPU"}))
+    elsewhere = _compare(doc, _doc_with(doc, 3.0, {"cpu_model": "another CPU"}))
     assert elsewhere["status"] == "ok" and "costs not compared" in elsewhere["speed"]["notes"][0]
     gone = _doc_with(doc)
     gone["speed"]["engines"][0]["matched"]["within_distance"] = None
-    assert compare_scores(doc, gone)["speed"]["flags"][0]["why"] == "no longer reached"
+    assert _compare(doc, gone)["speed"]["flags"][0]["why"] == "no longer reached"
     # the command: exit 1 on the flag, --cost-factor moves it
     for name, d in (("base", doc), ("cur", _doc_with(doc, 1.6))):
         (tmp_path / f"{name}.json").write_text(json.dumps(d, default=str))
@@ -411,13 +417,13 @@ def test_a_suite_of_the_speed_stage_alone_runs_scores_and_reports(fake_engines, 
     again = run_suite(load_suite(p), out, jobs=1, log=lambda m: None, report=False)
     assert json.loads((out / "score.json").read_text())["speed"]["engines"][0]["points"][0]["simulations"] == \
         doc["speed"]["engines"][0]["points"][0]["simulations"]
-    assert again["score"]["speed"] is not None
+    assert again["score"].speed is not None
 
 
 def test_the_device_column_is_the_adapters_device_note(stage):
     """The table's "runs on": the adapter's device note where it gives one ("CPU only (...)": said once),
     else "CPU"."""
-    from rockbench.benchmark.scoring.speed_words import matched_table
+    from rockbench.benchmark.report.speed_words import matched_table
     _, doc = stage
     speed = copy.deepcopy(doc["speed"])
     assert matched_table(speed)[1][0][1] == "CPU"

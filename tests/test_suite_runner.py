@@ -398,7 +398,7 @@ def test_a_run_records_its_declarations_and_a_rescore_reads_them(fake_engines, t
         "[cases]\nblocks = ['B3M']\npulses = ['sine']\n[reference]\nrestitutions = ['housner']\n"
         "[engines]\nnames = ['analytic']\nown_eta = false\n[verdict]\nfail_distance = 5.0\nheld_out_margin = 0.1\n")
     res = run_suite(load_suite(tmp_path / "s.toml"), tmp_path / "out", jobs=1, report=False, log=lambda m: None)
-    declared = res["score"]["verdict"]["declared"]
+    declared = res["score"].verdict.declared
     assert declared["fail_distance"] == 5.0 and declared["held_out_margin"] == 0.1
     assert declared["equivalence_margin"] == "restitution-gap" and declared["source"] == "the suite 't'"
     recorded = json.loads((tmp_path / "out" / "suite.json").read_text())["verdict_declared"]

@@ -14,14 +14,15 @@ from rockbench.benchmark.scoring.declared import DEFAULTS, Declared
 from rockbench.benchmark.scoring.failing import failing_scenarios, fails
 from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, PLANTED_CLASS, settings_class, variant_label
 from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
-from rockbench.benchmark.scoring.tables import best_group_marks, primary_cell, ranked_summary, summary_table
+from rockbench.benchmark.report.tables import best_group_marks, primary_cell, ranked_summary, summary_table
 from rockbench.benchmark.maps.result import MapResult
 from rockbench.benchmark.scoring.metrics import boundary_distance
 from rockbench.benchmark.scoring.scenarios import (RESOLUTION_SD_CELLS, Scenario, Variant, entries, items,
                                                    resolution_sd)
 from rockbench.benchmark.scoring.statistics import fixed, paired as paired_items
+from rockbench.benchmark.scoring.scores import Scores
 from rockbench.benchmark.scoring.verdict import verdict as _verdict
-from rockbench.benchmark.scoring.verdict_words import SHORT_WORDS, words
+from rockbench.benchmark.report.verdict_words import SHORT_WORDS, sentences, short_verdict, words
 from test_score_runs import run_cli
 
 SCENARIOS = [(b, p) for b in ("B3M", "B6M", "B3L", "B6L") for p in ("sine", "cosine")]
@@ -58,6 +59,13 @@ def _variant(name, values, cell=0.36, sd=0.0036, engine=None, cells=None, settin
     sc = {s: Scenario(v, sd, cell, (SLENDER[s[0]], s[1]), cells_id=None if cells is None else cells[k])
           for k, (s, v) in enumerate(zip(SCENARIOS, values))}
     return Variant(name, engine or name, name, settings, sc)
+
+
+def _scores(doc: dict) -> Scores:
+    """The :class:`Scores` of a hand-built score document: its pairs keyed, its verdict computed."""
+    pairs = sorted(({"key": f"{p['variant']} | {p['block']} | {p['pulse']}", **p} for p in doc["pairs"]),
+                   key=lambda p: p["key"])
+    return Scores.from_json({"metrics_version": "test", "pairs": pairs, "verdict": verdict(doc)})
 
 
 def _paired(a, b):
@@ -152,7 +160,7 @@ def test_the_fail_limit_is_the_declared_distance_not_a_cell():
         assert not fails(_variant("m", vals, cell=cell), LIMIT)
     v = verdict(_doc({"m": vals}), Declared(fail_distance=0.2))
     assert v["variants"][0]["fails"] and v["declared"]["fail_distance"] == 0.2
-    assert "Fail (boundary farther than 0.2, the suite's declared limit, from the reference's" in " ".join(v["text"])
+    assert "Fail (boundary farther than 0.2, the suite's declared limit, from the reference's" in " ".join(sentences(v))
 
 
 def test_a_failure_the_grid_cannot_resolve_says_so():
@@ -160,14 +168,14 @@ def test_a_failure_the_grid_cannot_resolve_says_so():
     verdict says the grid's error does not resolve it; 0.55 with an error of 0.036 is beyond it."""
     fine = verdict(_doc({"m": [0.01] * 7 + [0.55]}))
     assert fine["variants"][0]["fails"] and fine["variants"][0]["fails_in"][0]["beyond_error"]
-    assert "does not resolve" not in " ".join(fine["text"])
+    assert "does not resolve" not in " ".join(sentences(fine))
     v = _variant("m", [0.01] * 7 + [0.35], sd=0.2)
     (bad,) = failing_scenarios(v, LIMIT)
     assert not bad["beyond_error"] and bad["sd"] == 0.2
     doc = _doc({"m": [0.01] * 7 + [0.35]})
     for q in doc["pairs"]:
         q["cells"] = {"w_step": 1.414, "a_step": 1.414}       # a cell diagonal of 2.0: an error of 0.2
-    text = " ".join(verdict(doc)["text"])
+    text = " ".join(sentences(verdict(doc)))
     assert "(limit 0.3, which the grid's own error there, 0.200, does not resolve" in text
 
 
@@ -179,7 +187,7 @@ def test_the_verdict_names_the_failing_scenario_and_the_adapters_note():
         if q["variant"] == "m":
             q["shipped_note"] = "its default cone lets the block sink"
     v = verdict(doc)
-    text = " ".join(v["text"])
+    text = " ".join(sentences(v))
     assert "m (mean" in text and "off in B6L cosine at 0.550 (limit 0.3)" in text
     assert "its default cone lets the block sink" in text
 
@@ -218,7 +226,7 @@ def test_identical_variants_are_merged_in_the_verdict():
     rows = {r["variant"]: r for r in v["variants"]}
     assert rows["x[settings=calibrated]"]["same_as"] == ["x[contact=corners]"]
     assert len(rows["y"]["versus"]) == 1 and v["mcb"][CALIBRATED]["k"] == 2
-    assert "identical maps" in " ".join(v["text"])
+    assert "identical maps" in " ".join(sentences(v))
 
 
 # -- comparisons with the best of the class ------------------------------------------------------------------
@@ -311,14 +319,14 @@ def test_primary_order_wins_over_agreement_order():
     v = verdict(doc)
     assert [r["variant"] for r in v["variants"]] == ["y[settings=calibrated]", "x[settings=calibrated]"]
     assert [r["rank"] for r in v["variants"]] == [1, 2]
-    ranked = ranked_summary(doc)
+    ranked = ranked_summary(_scores(doc))
     marks = best_group_marks(ranked)
     assert marks[PRIMARY_METRIC] == [True, False]
     assert "agreement" not in marks          # a lone best group highlights its primary value only
-    table = summary_table(doc)
+    table = summary_table(_scores(doc))
     assert table.index("y[settings=calibrated]") < table.index("x[settings=calibrated]")
-    assert "Best achievable" in v["text"][0] and "best y[settings=calibrated]" in v["text"][0]
-    assert "Resolved behind it across problems (" in v["text"][0] and "freedom): x[settings=calibrated]" in v["text"][0]
+    assert "Best achievable" in sentences(v)[0] and "best y[settings=calibrated]" in sentences(v)[0]
+    assert "Resolved behind it across problems (" in sentences(v)[0] and "freedom): x[settings=calibrated]" in sentences(v)[0]
 
 
 def test_a_secondary_metric_is_highlighted_only_inside_the_best_group():
@@ -327,7 +335,7 @@ def test_a_secondary_metric_is_highlighted_only_inside_the_best_group():
     doc = _doc({"a": vals, "b": list(reversed(vals)), "z": [5.0] * 8},
                a={"agreement": 0.95}, b={"agreement": 0.96}, z={"agreement": 0.99, "settings": AS_SHIPPED})
     doc["reference_gaps"] = [{"block": b, "pulse": p, "boundary_mean": 0.3} for b, p in SCENARIOS]  # limit 0.3
-    ranked = ranked_summary(doc)
+    ranked = ranked_summary(_scores(doc))
     names = [r["variant"] for r, _ in ranked]
     marks = best_group_marks(ranked)
     assert set(names[:2]) == {"a", "b"} and ranked[0][0]["rank"] == ranked[1][0]["rank"] == 1
@@ -342,12 +350,12 @@ def test_a_failing_variant_is_named_with_its_reason():
     v = verdict(doc)
     bad = next(r for r in v["variants"] if r["variant"].startswith("mujoco"))
     assert bad["fails"] and bad["reasons"] == ["overturns in 100 % of the cells where the reference stays standing"]
-    text = " ".join(v["text"])
+    text = " ".join(sentences(v))
     assert "Out of the box (engines as shipped): its only variant, mujoco[settings=shipped], fails" in text
     assert "Fail (boundary farther than 0.3, the suite's declared limit, from the reference's" in text
     assert "overturns in 100 %" in text
     assert "Best achievable (engines calibrated by rockbench), on these 4 problems: best pybullet" in text
-    short = " ".join(v["short"])
+    short = " ".join(short_verdict(v))
     assert "MuJoCo as shipped" in short and "overturns where the reference stands, 100 %" in short
 
 
@@ -366,10 +374,10 @@ def test_a_missing_boundary_is_reported_as_a_failure_not_averaged():
     assert first["missing_boundary"] == "engine" and first["value"] is None and first["extra"] == pytest.approx(0.98)
     assert [b["value"] for b in row["fails_in"]] == [None, None, 0.9]
     assert {s["missing_boundary"] for s in row["per_scenario"] if s["value"] is None} == {"engine"}
-    text = " ".join(v["text"])
+    text = " ".join(sentences(v))
     assert "B3M sine: no boundary, overturns in 98 % of the 1500 cells where the reference stays standing" in text
     assert "18.6" not in text and "(mean" not in text.split("Fail (")[1].split("m:")[0]
-    assert "B3M sine no boundary" in " ".join(v["short"])
+    assert "B3M sine no boundary" in " ".join(short_verdict(v))
     assert primary_cell(row).startswith("fails: B3M sine: no boundary")
     assert primary_cell(next(r for r in v["variants"] if r["variant"] == "p")).startswith("0.010 [")
 
@@ -385,7 +393,7 @@ def test_the_signed_offset_stands_beside_the_distance():
     row = next(r for r in v["variants"] if r["variant"] == "e")
     assert row["offset"] == pytest.approx(np.mean(offsets)) and row["offset_percent"] == pytest.approx(10 * np.mean(offsets))
     assert [s["offset"] for s in row["per_scenario"]] == [x for _, x in sorted(zip(SCENARIOS, offsets))]
-    assert "offset +0.010 (+0.1 % of a_crit: overturns early)" in " ".join(v["text"])
+    assert "offset +0.010 (+0.1 % of a_crit: overturns early)" in " ".join(sentences(v))
 
 
 def test_an_engine_by_problem_interaction_widens_the_across_problem_interval_not_the_on_suite_one():
@@ -415,7 +423,7 @@ def test_an_engine_by_problem_interaction_widens_the_across_problem_interval_not
     assert fam["across"]["interaction_sd"] == pytest.approx(math.sqrt(np.var(d, ddof=1) / 2))
     assert fam["across"]["df"] == 3 and fam["across"]["critical"] == pytest.approx(2.3534, abs=1e-3)
     assert fam["across"]["mdd"] > fam["mdd"]
-    assert "on this suite only" in " ".join(v1["text"])
+    assert "on this suite only" in " ".join(sentences(v1))
 
 
 def test_a_scenarios_error_is_its_maps_own_where_measured():
@@ -436,14 +444,15 @@ def test_a_scenarios_error_is_its_maps_own_where_measured():
 def test_verdict_object_in_score_json_shape():
     v = verdict(_doc({"a": [0.01] * 8, "b": [0.01] * 8}))
     assert v["metric"] == PRIMARY_METRIC and v["direction"] == "lower"
-    assert set(v) >= {"method", "declared", "power", "equivalence", "mcb", "general", "variants", "text", "short"}
+    assert set(v) >= {"declared", "power", "equivalence", "mcb", "general", "variants"}
+    assert not set(v) & {"method", "text", "short"}           # numbers only: the words are the report's
     assert v["declared"] == {**NUMBERS.to_dict()} and v["power"] is None and not v["general"]["stated"]
     for r in v["variants"]:
         assert {"variant", "engine", "settings", "group", "value", "se", "ci95", "rank", "in_best_subset", "pairs",
                 "versus", "equivalence", "held_out", "general", "planted"} <= set(r)
         assert r["pairs"] == 8 and r["rank"] == 1
         assert len(r["ci95"]) == 2 and r["ci95"][0] <= r["value"] <= r["ci95"][1]
-    assert "Not resolved from it" in v["text"][0] and "detects a difference of" in v["text"][0]
+    assert "Not resolved from it" in sentences(v)[0] and "detects a difference of" in sentences(v)[0]
     json.dumps(v)                                   # plain JSON all through
 
 
@@ -489,7 +498,7 @@ def test_score_json_carries_the_verdict_and_the_console_prints_it(write_map, ban
     assert code == 0
     assert out.index("Verdict") < out.index("Summary")
     doc = json.loads((root / "score.json").read_text())
-    assert doc["schema_version"] == 2 and doc["metrics_version"] == "8"
+    assert doc["schema_version"] == 2 and doc["metrics_version"] == "9"
     # no suite.json beside the maps: the code's declarations, and a note that says so
     assert doc["verdict"]["declared"]["source"].startswith("the code's defaults")
     assert "rockbench: note: the verdict's declarations are the code's defaults" in err and "fail_distance largest-restitution-gap" in err
@@ -548,7 +557,7 @@ def test_score_json_and_console_carry_per_scenario_values_gaps_and_merged_varian
     assert cal["rank"] == dflt["rank"] == 1 and cal["best_in_class"] and dflt["best_in_class"]
     assert cal["per_scenario"][0]["reference_gap"] == gap[0]["boundary_mean"]
     assert cal["equivalence"]["mean_ratio"] == 0.0 and cal["equivalence"]["within"]
-    text = " ".join(doc["verdict"]["text"])
+    text = " ".join(sentences(doc["verdict"]))
     assert "its shipped contact lets the block sink" in text and "Within the uncertainty of the restitution" in text
     assert "Per scenario" in out and "η_H–η_M reference gap" in out and "Hsu's multiple comparisons" in out
 
@@ -572,7 +581,7 @@ def test_a_map_calibrated_on_another_block_is_the_held_out_check(write_map, band
     assert row["value"] == 0.0 and not row["fails"] and row["scenarios_with_value"] == 1
     assert row["held_out"]["scenarios"] == 1 and row["held_out"]["value"] > 0
     assert row["held_out"]["in_sample_scope"] == "same problems" and not row["held_out"]["carries_over"]
-    assert any(t.startswith("Held-out check") for t in doc["verdict"]["text"])
+    assert any(t.startswith("Held-out check") for t in sentences(doc["verdict"]))
 
 
 def test_a_held_out_variant_is_set_beside_its_in_sample_variant_on_the_same_scenarios():
@@ -591,9 +600,9 @@ def test_a_held_out_variant_is_set_beside_its_in_sample_variant_on_the_same_scen
     assert check["in_sample"] == pytest.approx(0.065) and check["in_sample_scope"] == "same scenarios"
     assert check["difference"] == pytest.approx(0.65 - 0.065) and not check["carries_over"]
     assert check["difference_ci95"][0] > 0          # resolved worse than its twin
-    text = " ".join(v["text"])
+    text = " ".join(sentences(v))
     assert "Fail" not in text and "Other settings" not in text
-    line = next(t for t in v["text"] if t.startswith("Held-out check"))
+    line = next(t for t in sentences(v) if t.startswith("Held-out check"))
     assert held in line and "0.650" in line and "does not carry over (resolved worse than its twin), against 0.065 in the same scenarios" in line
 
 
@@ -618,7 +627,7 @@ def test_held_out_scenarios_that_test_nothing_are_left_out_and_said_so():
         ("B3L", "sine", "identical to its in-sample twin"), ("B6L", "sine", "does not respond to the restitution")]
     assert check["scenarios"] == 4 and check["tested_scenarios"] == 2
     assert check["in_sample"] == pytest.approx((0.06 + 0.08) / 2)
-    assert "left out of the test: B3L sine, identical to its in-sample twin" in " ".join(v["text"])
+    assert "left out of the test: B3L sine, identical to its in-sample twin" in " ".join(sentences(v))
 
 
 def test_a_held_out_variant_on_the_other_size_is_set_beside_the_same_problems():
@@ -632,7 +641,7 @@ def test_a_held_out_variant_on_the_other_size_is_set_beside_the_same_problems():
     check = {r["variant"]: r for r in verdict(doc)["variants"]}[held]["held_out"]
     assert check["in_sample_scope"] == "same problems" and check["in_sample_variant"] == own
     assert check["in_sample"] == pytest.approx(0.025)
-    line = next(t for t in verdict(doc)["text"] if t.startswith("Held-out check"))
+    line = next(t for t in sentences(verdict(doc)) if t.startswith("Held-out check"))
     assert "against 0.025 on the other size of the same problems" in line
 
 
@@ -647,8 +656,8 @@ def test_the_short_verdict_fits_120_words_for_any_suite():
         values[f"{e}[settings=shipped]"] = [0.02 + 0.03 * k] * 8
         kw[f"{e}[settings=shipped]"] = {"settings": AS_SHIPPED, "overturn_missed": 300, "invalid_in_domain": 900}
     v = verdict(_doc(values, **kw))
-    assert words(v["short"]) <= SHORT_WORDS
-    assert v["short"][0].startswith("Calibrated: engine0 best") and v["short"][1].startswith("As shipped: engine0 best")
-    assert any(t.startswith("Fail (a scenario beyond 0.3)") for t in v["short"])
+    assert words(short_verdict(v)) <= SHORT_WORDS
+    assert short_verdict(v)[0].startswith("Calibrated: engine0 best") and short_verdict(v)[1].startswith("As shipped: engine0 best")
+    assert any(t.startswith("Fail (a scenario beyond 0.3)") for t in short_verdict(v))
     small = verdict(_doc({"a": [0.01] * 8, "b": [0.3] * 8}, b={"settings": AS_SHIPPED}))
-    assert small["short"] == ["Calibrated: a best (0.010).", "As shipped: b best (0.300)."]
+    assert short_verdict(small) == ["Calibrated: a best (0.010).", "As shipped: b best (0.300)."]

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -35,14 +34,13 @@ from rockbench.reference_solver.restitution import Restitution
 from rockbench.benchmark.blocks.cases import FIG17, TrajectoryCase
 from rockbench.benchmark.blocks.experiments import restitution_targets, st_limit_a_ratio
 from rockbench.benchmark.blocks.presets import PRESETS, TABLE_1, get_preset, no_exact_k_note
-from rockbench.benchmark.scoring.declared import declared_of_runs
 from rockbench.benchmark.scoring.labels import case_title, restitution_symbol, variant_labels
-from rockbench.benchmark.scoring.score_runs import at_own_eta, load_own_eta, load_runs, mark_runs, pair_within_runs, score_entries
-from rockbench.benchmark.scoring.speed_runs import stage_record
-from rockbench.benchmark.scoring.tables import summary
+from rockbench.benchmark.scoring.score_runs import RunMaps, at_own_eta, load_run_maps, score_run
+from rockbench.benchmark.scoring.scores import Scores
+from rockbench.benchmark.report.tables import summary
 from rockbench.benchmark.store.atomic import write_bytes_atomic
 from rockbench.benchmark.store.files import DISPLAY_UTC, is_own_eta_map, map_cell_rows, utc_stamp, write_json
-from rockbench.benchmark.store.loading import MapEntry, load_entries
+from rockbench.benchmark.store.loading import MapEntry
 from rockbench.benchmark.store.trajectories import FOLDER, case_stem, read_case
 from rockbench.benchmark.report.histories import picture_span_s
 from rockbench.benchmark.report.page import html_page, markdown_page
@@ -78,7 +76,7 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         Progress messages (default: stderr).
     allow_incomplete : bool or collection of Path
         Score engine maps that lack cells on what they have (flagged) instead of refusing them: all
-        (True) or those of these map directories (:func:`~rockbench.benchmark.scoring.score_runs.score_entries`).
+        (True) or those of these map directories (:func:`~rockbench.benchmark.scoring.score_runs.score_run`).
     figure_formats : sequence of str
         The formats of the pictures in ``img/`` (``png``, ``svg``, ``pdf``); the PNG is always
         written too, since index.html embeds it and report.md links it.
@@ -88,7 +86,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     Returns
     -------
     dict
-        Paths written (``html``, ``markdown``, ``score``, ``images``), the score document and notes.
+        Paths written (``html``, ``markdown``, ``score``, ``images``), the ``scores`` (:class:`~rockbench.benchmark.scoring.scores.Scores`,
+        None when nothing could be scored) and notes.
 
     Raises
     ------
@@ -100,8 +99,25 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    sc = _Scored.of(run_dirs, against, experiments, allow_incomplete, declared)
-    notes = sc.notes
+    maps = load_run_maps(run_dirs, against, declared)
+    scores, notes = None, list(maps.notes)
+    try:
+        scores = score_run(maps, experiments, allow_incomplete)
+    except IncomparableError as e:
+        notes.append(f"No scores: {e}")
+    return write_report(maps, scores, out, experiments=experiments, cases=cases, trajectories=trajectories, log=log,
+                        figure_formats=figure_formats, notes=notes + _no_exact_k(maps.references), run_dirs=run_dirs)
+
+
+def write_report(maps: RunMaps, scores: Scores | None, out: Path, *, experiments=None, cases=(FIG17,),
+                 trajectories: bool = True, log=None, figure_formats=("png",), notes=(), run_dirs=(),
+                 created: str | None = None) -> dict:
+    """Draw and write the report of ``maps`` and their ``scores`` (:func:`~rockbench.benchmark.scoring.score_runs.score_run`;
+    None: nothing could be scored) into ``out``; the arguments as :func:`build_report`'s, ``notes`` the
+    page's notes and ``created`` its time stamp (default now). Returns the paths written
+    (:func:`_write_report`), the ``scores`` and the notes."""
+    log = log or (lambda msg: print(f"rockbench: {msg}", file=sys.stderr))
+    notes = list(notes)
     images: dict[str, bytes] = {}
     widths: dict[str, float] = {}
 
@@ -112,55 +128,24 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
             images[f"{stem}.{fmt}"] = figure_bytes(fig, fmt)
         return name
 
-    cands, refs, own_eta = sc.cands, sc.refs, sc.own_eta
+    # the speed stage's maps are in the scores' speed section and its picture, not among the variants' figures
+    cands, refs, own_eta = [e for e in maps.candidates if not e.in_speed_stage], maps.references, maps.own_eta
     labels = variant_labels(cands)
-    pair_of = _like_pairs(sc.doc)
+    pair_of = _like_pairs(scores)
     variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
     case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
-    verdict_img = _verdict_figure(sc.doc, save)
+    verdict_img = _verdict_figure(scores, save)
     traj_imgs = _trajectory_figures(cases, out / FOLDER, save, notes) if trajectories else []
-    speed = _speed_rows([e for e in sc.entries if not e.in_speed_stage], sc.doc)
-    ctx = {"entries": sc.entries, "refs": refs, "doc": sc.doc, "verdict_img": verdict_img, "variant_graphs": variant_graphs,
-           "case_graphs": case_graphs, "traj": traj_imgs, "calib": _calibration_rows(cands, own_eta), "speed": speed,
-           "speed_img": _speed_figure((sc.doc or {}).get("speed"), save), "notes": notes, "labels": labels,
-           "run_dirs": [str(d) for d in run_dirs], "created": utc_stamp(DISPLAY_UTC), "fig_widths": widths}
-    paths = _write_report(out, images, sc.doc, markdown_page(ctx), html_page(ctx, images))
+    speed = _speed_rows([e for e in maps.entries if not e.in_speed_stage], scores)
+    ctx = {"entries": maps.entries, "refs": refs, "scores": scores, "verdict_img": verdict_img,
+           "variant_graphs": variant_graphs, "case_graphs": case_graphs, "traj": traj_imgs,
+           "calib": _calibration_rows(cands, own_eta), "speed": speed,
+           "speed_img": _speed_figure(None if scores is None or scores.speed is None else scores.speed.record, save),
+           "notes": notes, "labels": labels, "run_dirs": [str(d) for d in run_dirs],
+           "created": created or utc_stamp(DISPLAY_UTC), "fig_widths": widths}
+    paths = _write_report(out, images, scores, markdown_page(ctx), html_page(ctx, images))
     log(f"report written to {out / 'index.html'} and {out / 'report.md'}")
-    return {**paths, "doc": sc.doc, "notes": notes}
-
-
-@dataclass
-class _Scored:
-    """The maps of a report and their scores: every map (``entries``), the engine maps (``cands``) and
-    the references they are judged against, the score document (None when nothing could be scored),
-    the engines' own η, and notes for the page."""
-
-    entries: list
-    cands: list
-    refs: list
-    doc: dict | None
-    own_eta: dict
-    notes: list
-
-    @classmethod
-    def of(cls, run_dirs, against, experiments, allow_incomplete=False, declared=None) -> "_Scored":
-        entries, run_of = load_runs(run_dirs)
-        refs = load_entries(against) if against else [e for e in entries if e.is_reference]
-        cands = entries if against else [e for e in entries if not e.is_reference]
-        pair_with, notes = (None, []) if against else pair_within_runs(cands, refs, run_of)
-        doc = None
-        own_eta = load_own_eta(list(run_dirs) + [Path(d).parent for d in run_dirs])
-        try:
-            doc = score_entries(cands, refs, experiments, own_eta=own_eta, pair_with=pair_with,
-                                allow_incomplete=allow_incomplete,
-                                declared=declared or declared_of_runs(run_of.values()),
-                                speed_record=stage_record(list(run_of.values()) + list(run_dirs)))
-            mark_runs(doc, run_of, against=bool(against), notes=notes)
-        except IncomparableError as e:
-            notes.append(f"No scores: {e}")
-        # the speed stage's maps are in the scores' speed section and its picture, not among the variants' figures
-        main = [e for e in cands if not e.in_speed_stage]
-        return cls(entries, main, refs, doc, own_eta, notes + _no_exact_k(refs))
+    return {**paths, "scores": scores, "notes": notes}
 
 
 def _no_exact_k(refs: list[MapEntry]) -> list[str]:
@@ -191,12 +176,12 @@ def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
     return out
 
 
-def _verdict_figure(doc: dict | None, save) -> str | None:
+def _verdict_figure(scores: Scores | None, save) -> str | None:
     """The verdict as a forest plot (:func:`~rockbench.benchmark.report.plots.verdict.plot_verdict`);
     None without scores or without a variant to draw."""
-    if not doc or not any(r["value"] is not None or r["held_out"] for r in doc["verdict"]["variants"]):
+    if not scores or not any(r["value"] is not None or r["held_out"] for r in scores.verdict.variants):
         return None
-    drawn = plot_verdict(doc["verdict"])
+    drawn = plot_verdict(scores.verdict.to_json())
     return save(drawn["figure"], "verdict.png")
 
 
@@ -210,14 +195,14 @@ def _speed_figure(speed: dict | None, save) -> str | None:
     return save(drawn["figure"], "speed_accuracy.png")
 
 
-def _write_report(out: Path, images: dict, doc: dict | None, md: str, page: str) -> dict:
+def _write_report(out: Path, images: dict, scores: Scores | None, md: str, page: str) -> dict:
     """Write the pictures, score.json, report.md and index.html (each atomically); their paths."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "img").mkdir(exist_ok=True)
     written = [write_bytes_atomic(out / "img" / name, data) for name, data in images.items()]
     paths = {"images": [str(p) for p in written]}
-    if doc is not None:
-        paths["score"] = str(write_json(out / "score.json", doc))
+    if scores is not None:
+        paths["score"] = str(write_json(out / "score.json", scores.to_json()))
     paths["markdown"] = str(write_bytes_atomic(out / "report.md", md.encode()))
     paths["html"] = str(write_bytes_atomic(out / "index.html", page.encode()))
     return paths
@@ -229,10 +214,10 @@ def _slug(s: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in str(s)).strip("-").lower()
 
 
-def _like_pairs(doc) -> dict:
+def _like_pairs(scores: Scores | None) -> dict:
     """``engine_dir`` → its like-for-like scored pair."""
     out = {}
-    for p in (doc or {}).get("pairs", []):
+    for p in (scores.pairs if scores else []):
         if p["like_for_like"]:
             out[p["engine_dir"]] = p
     return out
@@ -467,10 +452,10 @@ def _restitution_targets(block: str) -> dict:
     return {"housner": row["eta_housner"], "modified_average_k": row["eta_modified_average_k"]}
 
 
-def _speed_rows(entries: list[MapEntry], doc) -> list[dict]:
+def _speed_rows(entries: list[MapEntry], scores: Scores | None) -> list[dict]:
     """Per variant: wall time per simulated cell and CPU seconds per simulated second (from cells.csv: the
     second where its cells carry their cost, schema 5), and the mean like-for-like agreement."""
-    acc = summary(doc) if doc else {}
+    acc = summary(scores) if scores else {}
     per: dict[str, list[float]] = {}
     cost: dict[str, list[float]] = {}
     for e in entries:

@@ -11,7 +11,8 @@ from importlib import resources
 
 from rockbench.benchmark.scoring.labels import case_title, for_html
 from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN
-from rockbench.benchmark.scoring.speed_words import NO_STAGE, STAGE_ALONE, matched_table, stage_words
+from rockbench.benchmark.scoring.scores import Scores
+from rockbench.benchmark.report.speed_words import NO_STAGE, STAGE_ALONE, matched_table, stage_words
 from rockbench.benchmark.report.sections import (HIGHLIGHTS, INTRO, PRICE_WORDS, READ_GRAPHS, calib_table, exp_table, md_table,
                        metric_words, pairs_table, price_table, scenario_tables, settings_tables, speed_table,
                        short_verdict_lines, summary_rows, verdict_sentences)
@@ -19,32 +20,32 @@ from rockbench.benchmark.report.sections import (HIGHLIGHTS, INTRO, PRICE_WORDS,
 
 
 def markdown_page(ctx) -> str:
-    doc, labels = ctx["doc"], ctx["labels"]
+    scores, labels = ctx["scores"], ctx["labels"]
     L = ["# rockbench report", "", f"Generated {ctx['created']} from {', '.join(ctx['run_dirs'])}.", ""]
     for n in ctx["notes"]:
         L.append(f"> {n}")
     if stage_alone(ctx):
         L += ["", STAGE_ALONE, ""] + _md_speed(ctx) + _md_versions(ctx)
         return "\n".join(L)
-    if doc:
+    if scores:
         L += ["", "## Verdict", ""]
         if ctx.get("verdict_img"):
             L += [f"![The verdict: every engine variant's boundary distance with its 95 % interval](img/{ctx['verdict_img']})",
                   ""]
-        L += [" ".join(short_verdict_lines(doc)), "", "<details><summary>The verdict in full</summary>", ""]
-        L += [f"- {s}" for s in verdict_sentences(doc)] + ["", "</details>", ""]
+        L += [" ".join(short_verdict_lines(scores)), "", "<details><summary>The verdict in full</summary>", ""]
+        L += [f"- {s}" for s in verdict_sentences(scores)] + ["", "</details>", ""]
     L += ["", "## Summary: which engine is how faithful", ""]
-    if doc:
-        head, body, _, marks = summary_rows(doc, labels)
+    if scores:
+        head, body, _, marks = summary_rows(scores, labels)
         for col, flags in marks.items():
             for row, is_best in zip(body, flags):
                 if is_best:
                     row[col] = f"**{row[col]}**"
-        method, title, s_head, s_body = scenario_tables(doc)
+        method, title, s_head, s_body = scenario_tables(scores)
         L += [INTRO + " " + HIGHLIGHTS, "", md_table(head, body), "", method, ""]
         L += [f"{title}:", "", md_table(s_head, s_body), ""]
         L += ["What each column measures:", ""]
-        L += [f"- **{t}**, {how}: {d}" for t, how, d in metric_words(doc)] + [""]
+        L += [f"- **{t}**, {how}: {d}" for t, how, d in metric_words(scores)] + [""]
     else:
         L += ["_no scores_", ""]
     L += ["## Stability graphs, one per engine variant", "", READ_GRAPHS, ""]
@@ -58,26 +59,32 @@ def markdown_page(ctx) -> str:
         L += ["### What reaching the target costs", "", PRICE_WORDS, "", md_table(ph, pb), ""]
     L += _md_speed(ctx)
     L += ["Each variant of the verdict at the step it ran:", "", md_table(*speed_table(ctx["speed"], labels)), ""]
-    if doc and doc.get("experiments"):
-        L += ["## Experiments", "", md_table(*exp_table(doc, labels)), ""]
+    if scores and scores.experiments:
+        L += ["## Experiments", "", md_table(*exp_table(scores, labels)), ""]
     L += ["<details><summary>Stability graphs by case: every engine variant side by side</summary>", ""]
     for block, pulse, img, _ in ctx["case_graphs"]:
         L += [f"### {case_title(block, pulse)}", "", f"![{block} {pulse}](img/{img})", ""]
     L += ["</details>", "", "<details><summary>Every scored pair</summary>", "",
-          md_table(*pairs_table(doc, labels)) if doc else "_none_", "", "</details>", ""] + _md_versions(ctx)
+          md_table(*pairs_table(scores, labels)) if scores else "_none_", "", "</details>", ""] + _md_versions(ctx)
     return "\n".join(L)
 
 
 def stage_alone(ctx) -> bool:
     """Whether the report's run is the accuracy–cost stage alone (``rockbench run speed``): a speed
     section and no engine map of a verdict variant, so the page shows the stage and its settings only."""
-    return bool((ctx["doc"] or {}).get("speed")) and not ctx["labels"]
+    return bool(speed_of(ctx)) and not ctx["labels"]
+
+
+def speed_of(ctx) -> dict | None:
+    """The scores' speed stage (score.json's ``speed``), None without one."""
+    scores = ctx["scores"]
+    return None if scores is None or scores.speed is None else scores.speed.record
 
 
 def _md_speed(ctx) -> list[str]:
     """The speed section's words, picture and matched-accuracy table (or why there is none)."""
     L = ["## Speed and accuracy", ""]
-    sp = (ctx["doc"] or {}).get("speed")
+    sp = speed_of(ctx)
     if not sp:
         return L + [NO_STAGE, ""]
     L += [stage_words(sp), ""]
@@ -130,7 +137,7 @@ def _page_share(width_in: float | None) -> float:
     return min(100.0, 100.0 * width_in / DOUBLE_COLUMN_IN)
 
 
-def _verdict_section(doc: dict, name: str | None, images: dict) -> str:
+def _verdict_section(scores: Scores, name: str | None, images: dict) -> str:
     """The first screen: the verdict's picture beside the verdict in at most 120 words, and every sentence
     of it collapsed below."""
     fig = ""
@@ -138,8 +145,8 @@ def _verdict_section(doc: dict, name: str | None, images: dict) -> str:
         b64 = base64.b64encode(images[name]).decode()
         fig = (f"<figure id='verdict-figure'><img alt='the verdict: every engine variant&#39;s boundary distance "
                f"with its 95 % interval, grouped by class' src='data:image/png;base64,{b64}'></figure>")
-    words = "".join(f"<p>{for_html(s)}</p>" for s in short_verdict_lines(doc))
-    full = "".join(f"<li>{for_html(s)}</li>" for s in verdict_sentences(doc))
+    words = "".join(f"<p>{for_html(s)}</p>" for s in short_verdict_lines(scores))
+    full = "".join(f"<li>{for_html(s)}</li>" for s in verdict_sentences(scores))
     return (f"<section id='verdict'><h2>Verdict</h2><div class='verdict-first'>{fig}"
             f"<div id='verdict-short' class='verdict-words'>{words}</div></div>"
             f"<details id='verdict-full'><summary>The verdict in full: every sentence, with the test it rests on"
@@ -147,7 +154,7 @@ def _verdict_section(doc: dict, name: str | None, images: dict) -> str:
 
 
 def html_page(ctx, images: dict) -> str:
-    doc, labels = ctx["doc"], ctx["labels"]
+    scores, labels = ctx["scores"], ctx["labels"]
 
     def img(name, alt, caption=None):
         b64 = base64.b64encode(images[name]).decode()
@@ -162,24 +169,24 @@ def html_page(ctx, images: dict) -> str:
          "<h1>rockbench report</h1>",
          f"<p class='meta'>Generated {html.escape(ctx['created'])} from {html.escape(', '.join(ctx['run_dirs']))}: "
          f"{len(ctx['entries'])} maps, {n_var} engine variant(s)"
-         + (f", metrics version {html.escape(str(doc['metrics_version']))}" if doc else "") + ".</p>"]
-    if doc and not stage_alone(ctx):
-        P.append(_verdict_section(doc, ctx.get("verdict_img"), images))
+         + (f", metrics version {html.escape(str(scores.metrics_version))}" if scores else "") + ".</p>"]
+    if scores and not stage_alone(ctx):
+        P.append(_verdict_section(scores, ctx.get("verdict_img"), images))
     P += [f"<p class='note'>{html.escape(n)}</p>" for n in ctx["notes"]]
     if stage_alone(ctx):
         P += [f"<p class='lead'>{for_html(STAGE_ALONE)}</p>", _h_speed(ctx, img), _h_versions(ctx)]
         return "\n".join(P)
     P.append("<section id='summary'><h2>Summary: which engine is how faithful</h2>")
-    if doc:
-        head, body, _, marks = summary_rows(doc, labels)
+    if scores:
+        head, body, _, marks = summary_rows(scores, labels)
         P.append(f"<p class='lead'>{html.escape(INTRO)} {html.escape(HIGHLIGHTS)}</p>")
         P.append(_h_table(head, body, id_="summary-table", num_from=2, best=marks))
-        method, title, s_head, s_body = scenario_tables(doc)
+        method, title, s_head, s_body = scenario_tables(scores)
         P.append(f"<p class='method'>{html.escape(method)}</p><h3>{for_html(title)}</h3>")
         P.append(_h_table(s_head, s_body, id_="scenario-table", num_from=1))
         P.append("<dl class='metrics'>" + "".join(
             f"<dt>{for_html(t)} <span>({html.escape(how)})</span></dt><dd>{html.escape(d)}</dd>"
-            for t, how, d in metric_words(doc)) + "</dl>")
+            for t, how, d in metric_words(scores)) + "</dl>")
     else:
         P.append("<p><em>no scores</em></p>")
     P.append("</section>")
@@ -199,16 +206,16 @@ def html_page(ctx, images: dict) -> str:
     if pb:
         P += ["<h3>What reaching the target costs</h3>", f"<p>{for_html(PRICE_WORDS)}</p>", _h_table(ph, pb, num_from=3)]
     P += ["</section>", _h_speed(ctx, img, _h_table(*speed_table(ctx["speed"], labels), num_from=1))]
-    if doc and doc.get("experiments"):
-        P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*exp_table(doc, labels), num_from=2),
+    if scores and scores.experiments:
+        P += ["<section id='experiments'><h2>Experiments</h2>", _h_table(*exp_table(scores, labels), num_from=2),
               "</section>"]
     P.append("<details><summary>Stability graphs by case: every engine variant side by side</summary>")
     for block, pulse, name, _ in ctx["case_graphs"]:
         P += [f"<h3>{html.escape(case_title(block, pulse))}</h3>", img(name, f"stability graph {block} {pulse}")]
     P.append("</details>")
-    if doc:
-        P += [f"<details><summary>Every scored pair ({len(doc['pairs'])})</summary>",
-              _h_table(*pairs_table(doc, labels), num_from=6), "</details>"]
+    if scores:
+        P += [f"<details><summary>Every scored pair ({len(scores.pairs)})</summary>",
+              _h_table(*pairs_table(scores, labels), num_from=6), "</details>"]
     P.append(_h_versions(ctx))
     return "\n".join(P)
 
@@ -227,7 +234,7 @@ def _h_speed(ctx, img, variants_table: str | None = None) -> str:
     """The speed section: the stage's words, picture and matched-accuracy table (or why there is none), then
     the verdict variants' table at the step each ran where the run has verdict variants."""
     P = ["<section id='speed'><h2>Speed and accuracy</h2>"]
-    sp = (ctx["doc"] or {}).get("speed")
+    sp = speed_of(ctx)
     if sp:
         P.append(f"<p>{for_html(stage_words(sp))}</p>")
         if ctx["speed_img"]:

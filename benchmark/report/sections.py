@@ -1,4 +1,4 @@
-"""The report's tables and the words around them, built from a score document and the maps (rows of
+"""The report's tables and the words around them, built from the scores (:class:`~rockbench.benchmark.scoring.scores.Scores`) and the maps (rows of
 text, one list per table): summary, verdict, calibration and its price, speed, experiments, pairs,
 versions and settings. :mod:`~rockbench.benchmark.report.page` writes them as Markdown and HTML.
 """
@@ -9,9 +9,10 @@ import math
 
 from rockbench.benchmark.scoring.labels import restitution_symbol
 from rockbench.benchmark.scoring.metrics import METRICS, PRIMARY_METRIC
-from rockbench.benchmark.scoring.tables import (SCENARIO_TITLE, best_group_marks, fmt, incomplete_note, method_line, primary_cell,
-                              ranked_summary, reference_label, render, row_label, scenario_rows, verdict_of,
-                              verdict_text)
+from rockbench.benchmark.report.tables import (SCENARIO_TITLE, best_group_marks, fmt, incomplete_note, method_line, primary_cell,
+                              ranked_summary, reference_label, render, row_label, scenario_rows,
+                              short_verdict_text, verdict_text)
+from rockbench.benchmark.scoring.scores import Scores
 from rockbench.benchmark.store.loading import MapEntry
 
 
@@ -23,11 +24,11 @@ def _num(x, spec=".4f", why: str | None = None):
     return format(x, spec)
 
 
-def summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
+def summary_rows(scores: Scores, labels) -> tuple[list[str], list[list[str]], list[str], dict]:
     """Head, body and the variant key of each row, in the verdict's order (rank, then the primary
-    value), and per metric which rows to highlight (:func:`~rockbench.benchmark.scoring.tables.best_group_marks`)."""
+    value), and per metric which rows to highlight (:func:`~rockbench.benchmark.report.tables.best_group_marks`)."""
 
-    ranked = ranked_summary(doc)
+    ranked = ranked_summary(scores)
     second = [m for m in METRICS if m != PRIMARY_METRIC]
     head = (["rank", "engine variant", "pairs", f"{METRICS[PRIMARY_METRIC].title} [95 % interval] (primary)"]
             + [METRICS[m].title for m in second])
@@ -40,19 +41,19 @@ def summary_rows(doc, labels) -> tuple[list[str], list[list[str]], list[str], di
     return head, body, [r["variant"] for r, _ in ranked], marks
 
 
-def scenario_tables(doc) -> tuple[str, str, list[str], list[list[str]]]:
+def scenario_tables(scores: Scores) -> tuple[str, str, list[str], list[list[str]]]:
     """The method sentence under the summary, and the per-scenario table's title, head and rows."""
-    return (method_line(doc), SCENARIO_TITLE, *scenario_rows(doc))
+    return (method_line(), SCENARIO_TITLE, *scenario_rows(scores))
 
 
-def verdict_sentences(doc) -> list[str]:
-    """The verdict's sentences (score.json's ``verdict.text``)."""
-    return verdict_text(doc)
+def verdict_sentences(scores: Scores) -> list[str]:
+    """The verdict's sentences (:func:`~rockbench.benchmark.report.verdict_words.sentences`)."""
+    return verdict_text(scores)
 
 
-def short_verdict_lines(doc) -> list[str]:
-    """The verdict in at most 120 words (score.json's ``verdict.short``)."""
-    return list(verdict_of(doc)["short"])
+def short_verdict_lines(scores: Scores) -> list[str]:
+    """The verdict in at most 120 words (:func:`~rockbench.benchmark.report.verdict_words.short_verdict`)."""
+    return short_verdict_text(scores)
 
 
 def calib_table(rows, labels):
@@ -141,11 +142,11 @@ def _speed_score(row: dict, metric: str) -> str:
     return "n/a (the yardstick itself)" if row["variant"] == "reference" else "n/a (no like-for-like reference map)"
 
 
-def exp_table(doc, labels):
+def exp_table(scores: Scores | None, labels):
     head = ["map", "restitution", "runs", "outside", "accuracy", "overturn accuracy",
             "confusion T/R/O → rest/rocking/overturn/failed"]
     body = []
-    for e in (doc or {}).get("experiments", []):
+    for e in (scores.experiments or ()) if scores else ():
         conf = "; ".join(f"{k}: " + "/".join(str(v) for v in row.values()) for k, row in e["confusion"].items())
         body.append([f"{labels.get(e['variant'], e['variant'])}, {e['block']} {e['pulse']}",
                      restitution_symbol(e["restitution"], e["block"]), str(e["runs"]), str(e["outside"]),
@@ -154,13 +155,13 @@ def exp_table(doc, labels):
     return head, body
 
 
-def pairs_table(doc, labels):
+def pairs_table(scores: Scores | None, labels):
     head = ["engine variant", "block", "pulse", "restitution", "vs reference", "like for like"] + \
         [METRICS[m].title for m in METRICS]
     body = [[labels.get(p["variant"], p["variant"]) + incomplete_note(p), p["block"], p["pulse"],
              restitution_symbol(p["restitution"], p["block"]),
              reference_label(p), "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
-            for p in (doc or {}).get("pairs", [])]
+            for p in (scores.pairs if scores else [])]
     return head, body
 
 
@@ -235,10 +236,10 @@ def md_table(head, body):
     return render(head, esc, markdown=True)
 
 
-def metric_words(doc) -> list[tuple[str, str, str]]:
+def metric_words(scores: Scores | None) -> list[tuple[str, str, str]]:
     """``(title, how read, question and definition)`` of each metric, the primary first (score.json's
     definitions, else this version's)."""
-    ms = (doc or {}).get("metrics") or [m.to_dict() for m in METRICS.values()]
+    ms = list(scores.metrics if scores else ()) or [m.to_dict() for m in METRICS.values()]
     ms = sorted(ms, key=lambda m: m.get("role") != "primary")
     return [((m.get("title") or m["name"]) + f" ({m['name']}, {m.get('role', 'secondary')})",
              f"{m['direction']} is better, perfect {m['perfect']:g}" + _unit_words(m["unit"]),

@@ -51,7 +51,7 @@ from rockbench.benchmark.maps.boundary import LocatedBoundary
 from rockbench.benchmark.maps.result import FAILED, MapResult
 
 #: Version of the metric definitions; bump when any definition below changes meaning.
-METRICS_VERSION = "8"
+METRICS_VERSION = "9"
 
 REST = OUTCOME_CODES[Outcome.REST]
 ROCKING = OUTCOME_CODES[Outcome.ROCKING]

@@ -37,6 +37,7 @@ from __future__ import annotations
 import hashlib
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
@@ -59,23 +60,15 @@ from rockbench.benchmark.scoring.metrics import (FAILED, METRICS, METRICS_VERSIO
 from rockbench.benchmark.scoring.declared import Declared, declared_of_runs
 from rockbench.benchmark.scoring.speed import COST_RISE_FACTOR, compare_speed
 from rockbench.benchmark.scoring.speed_runs import speed_section, split, stage_record
+from rockbench.benchmark.scoring.scores import SCORE_KIND, SCORE_SCHEMA_VERSION, Scores, pair_key
 from rockbench.benchmark.scoring.verdict import verdict
-
-#: Version of score.json's layout (2: the verdict, pairs' completeness, labels and settings classes).
-SCORE_SCHEMA_VERSION = 2
-SCORE_KIND = "rockbench-score"
-
 
 # -- scoring ---------------------------------------------------------------------------------------
 
-def pair_key(p: dict) -> str:
-    """A stable text key of a scored pair: what compare matches baseline and current by."""
-    return f"{p['variant']} | {p['block']} | {p['pulse']} | {p['restitution']} | vs {p['reference']['restitution']}"
-
-
 def score_entries(candidates: list[MapEntry], references: list[MapEntry], experiments=None,
                   own_eta: dict | None = None, pair_with=None, allow_incomplete=False,
-                  declared: Declared | None = None, speed_record: dict | None = None) -> dict:
+                  declared: Declared | None = None, speed_record: dict | None = None,
+                  runs: "RunMaps | None" = None) -> Scores:
     """Score every candidate against every reference of its block and pulse (see the module docstring).
 
     Parameters
@@ -100,16 +93,19 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
         The suite's declarations for the verdict (default: the code's, the default suite's).
     speed_record : dict, optional
         What the run's speed stage declared (its speed.json, :func:`~.speed_runs.stage_record`).
+    runs : RunMaps, optional
+        The runs the maps were loaded from (:func:`load_run_maps`): each pair is marked with its run and the
+        scores say how maps were paired (``pairing``, :func:`mark_runs`).
 
     Returns
     -------
-    dict
-        The score.json document: ``kind``, ``schema_version``, ``metrics_version``, ``metrics``
+    Scores
+        Whose score.json document (:meth:`~.scores.Scores.to_json`) holds ``kind``, ``schema_version``, ``metrics_version``, ``metrics``
         (definitions), ``created_utc``, ``pairs`` (one per scored pair, with ``key``, the maps,
         ``like_for_like``, ``scores``), ``skipped`` (pairs on different grids, with the reason),
         ``experiments`` (per map, when given), ``verdict``, and ``speed`` where the candidates hold
         maps of a speed stage (:mod:`.speed`; they are scored there and kept out of ``pairs`` and the
-        verdict).
+        verdict), and ``pairing`` with ``runs``.
 
     Raises
     ------
@@ -123,15 +119,9 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     speed_pairs, speed_skipped = _pairs_of(speed_maps, references, pair_with, own_eta, allow_incomplete)
     skipped += speed_skipped
     if not pairs and not speed_pairs:
-        if not candidates and not speed_maps:
-            raise IncomparableError("nothing to score: the run directories hold only reference maps; give engine "
-                                    "maps, or --against REF_DIR to score these maps against others.")
-        why = (f"{len(skipped)} candidate pair(s) lie on different grids" if skipped else
-               "no reference map of the same block and pulse")
-        raise IncomparableError(f"no engine map could be paired with a reference map ({why}); compute the "
-                                "reference with the same block, pulse, --w-ratio and --a-ratio "
-                                "(or pass it with --against).")
+        _nothing_paired(bool(candidates or speed_maps), skipped)
     pairs.sort(key=lambda p: p["key"])
+    pairing = None if runs is None else mark_runs(pairs, runs.run_of, against=runs.against, notes=runs.notes)
     doc = {"kind": SCORE_KIND, "schema_version": SCORE_SCHEMA_VERSION, "metrics_version": METRICS_VERSION,
            "rules_version": RULES_VERSION, "created_utc": utc_stamp(),
            "metrics": [m.to_dict() for m in METRICS.values()], "pairs": pairs, "skipped": skipped,
@@ -143,7 +133,21 @@ def score_entries(candidates: list[MapEntry], references: list[MapEntry], experi
     if speed_maps:
         mdd = ((doc["verdict"].get("mcb") or {}).get(CALIBRATED) or {}).get("mdd")
         doc["speed"] = speed_section(speed_maps, speed_pairs, speed_record or {}, mdd)
-    return doc
+    if pairing is not None:
+        doc["pairing"] = pairing
+    return Scores.from_json(doc)
+
+
+def _nothing_paired(any_engine_map: bool, skipped: list) -> None:
+    """The IncomparableError of a scoring in which no engine map found a reference: why, and what to do."""
+    if not any_engine_map:
+        raise IncomparableError("nothing to score: the run directories hold only reference maps; give engine "
+                                "maps, or --against REF_DIR to score these maps against others.")
+    why = (f"{len(skipped)} candidate pair(s) lie on different grids" if skipped else
+           "no reference map of the same block and pulse")
+    raise IncomparableError(f"no engine map could be paired with a reference map ({why}); compute the "
+                            "reference with the same block, pulse, --w-ratio and --a-ratio "
+                            "(or pass it with --against).")
 
 
 def _pairs_of(candidates: list[MapEntry], references: list[MapEntry], pair_with, own_eta, allow_incomplete):
@@ -338,32 +342,64 @@ def score_experiments(entries: list[MapEntry], points) -> list[dict]:
     return out
 
 
-def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None,
-               allow_incomplete=False, declared: Declared | None = None) -> dict:
-    """Load the maps under ``run_dirs`` (and ``against``) and score them (see :func:`score_entries`),
-    each engine map against the reference maps of its own run (see the module docstring).
+@dataclass(frozen=True)
+class RunMaps:
+    """The maps of one or more runs as scoring reads them (:func:`load_run_maps`): every map found
+    (``entries``) with its run (``run_of``: map directory → run), the engine maps to score
+    (``candidates``) and the references (``references``: those of the runs, or those given with
+    ``against``), which references each candidate may be paired with (``pair_with``, None: any) and the
+    notes of that pairing, the engine variants' own η and the speed stage's record read from the runs'
+    folders (:func:`run_folders`), and the verdict's declarations."""
 
-    Engine variants' own η come from a ``calibration.json`` at the top of a run directory (written
-    by ``rockbench run``), when there is one. The document's ``pairing`` says how maps were paired
-    (and, in ``notes``, where runs had to be crossed). The verdict's declarations are ``declared``, else
-    those of the suite each run recorded in its suite.json
-    (:func:`~rockbench.benchmark.scoring.declared.declared_of_runs`).
-    """
-    run_dirs = list(run_dirs)
-    entries, run_of = load_runs(run_dirs)
+    entries: list
+    run_of: dict
+    candidates: list
+    references: list
+    against: bool
+    pair_with: object
+    notes: tuple
+    own_eta: dict
+    speed_record: dict
+    declared: Declared
+
+
+def run_folders(roots: Iterable) -> list[Path]:
+    """Where a run's own files are read from (calibration.json: its engines' own η; speed.json: its
+    speed stage): each run's folder (:func:`load_runs`) and the folder just above it, since
+    ``rockbench run`` scores its ``maps`` folder. One rule for every command that scores."""
+    return list(dict.fromkeys(q for r in roots for q in (Path(r), Path(r).parent)))
+
+
+def load_run_maps(run_dirs: Iterable, against: Iterable | None = None, declared: Declared | None = None) -> RunMaps:
+    """The maps under ``run_dirs`` (and the references under ``against``) ready to score (:func:`score_run`):
+    each engine map is paired with the reference maps of its own run (see the module docstring). The
+    verdict's declarations are ``declared``, else those of the suite each run recorded in its suite.json
+    (:func:`~rockbench.benchmark.scoring.declared.declared_of_runs`)."""
+    entries, run_of = load_runs(list(run_dirs))
     if against:
-        refs = load_entries(against)
-        cands = entries
+        refs, cands = load_entries(against), entries
         pair_with, notes = None, []
     else:
         refs = [e for e in entries if e.is_reference]
         cands = [e for e in entries if not e.is_reference]
         pair_with, notes = pair_within_runs(cands, refs, run_of)
-    doc = score_entries(cands, refs, experiments, own_eta=load_own_eta(run_dirs), pair_with=pair_with,
-                        allow_incomplete=allow_incomplete, declared=declared or declared_of_runs(run_of.values()),
-                        speed_record=stage_record(run_of.values()))
-    mark_runs(doc, run_of, against=bool(against), notes=notes)
-    return doc
+    folders = run_folders(run_of.values())
+    return RunMaps(entries, run_of, cands, refs, bool(against), pair_with, tuple(notes), load_own_eta(folders),
+                   stage_record(folders), declared or declared_of_runs(run_of.values()))
+
+
+def score_run(maps: RunMaps, experiments=None, allow_incomplete=False) -> Scores:
+    """The one producer of a run's :class:`~.scores.Scores`: ``maps`` (:func:`load_run_maps`) scored, each
+    engine map against the references it is paired with (:func:`score_entries`), with the runs marked."""
+    return score_entries(maps.candidates, maps.references, experiments, own_eta=maps.own_eta,
+                         pair_with=maps.pair_with, allow_incomplete=allow_incomplete, declared=maps.declared,
+                         speed_record=maps.speed_record, runs=maps)
+
+
+def score_dirs(run_dirs: Iterable, against: Iterable | None = None, experiments=None,
+               allow_incomplete=False, declared: Declared | None = None) -> Scores:
+    """:func:`score_run` of :func:`load_run_maps`: the maps under ``run_dirs`` (and ``against``) scored."""
+    return score_run(load_run_maps(run_dirs, against, declared), experiments, allow_incomplete)
 
 
 def _run_root(d: Path, arg: Path) -> Path:
@@ -410,16 +446,17 @@ def pair_within_runs(cands: list[MapEntry], refs: list[MapEntry], run_of: dict):
     return (lambda c: own.get(c.path, [])), notes
 
 
-def mark_runs(doc: dict, run_of: dict, *, against: bool = False, notes: list | None = None) -> None:
-    """Record in a score document which run each pair comes from and how maps were paired."""
-    for p in doc["pairs"]:
+def mark_runs(pairs: list[dict], run_of: dict, *, against: bool = False, notes=()) -> dict:
+    """Record in each scored pair which run it comes from; returns score.json's ``pairing``: how maps
+    were paired."""
+    for p in pairs:
         run = run_of.get(Path(p["engine_dir"]))
         p["run"] = None if run is None else str(run)
         ref_run = run_of.get(Path(p["reference"]["dir"]))
         p["reference"]["run"] = None if ref_run is None else str(ref_run)
         p["across_runs"] = bool(not against and run is not None and ref_run is not None and run != ref_run)
-    doc["pairing"] = {"rule": "against" if against else "within each run",
-                      "runs": sorted({str(r) for r in run_of.values()}), "notes": list(notes or [])}
+    return {"rule": "against" if against else "within each run",
+            "runs": sorted({str(r) for r in run_of.values()}), "notes": list(notes or [])}
 
 
 def grid_cells(eng: MapResult, ref: MapResult) -> dict:
@@ -465,10 +502,10 @@ def cell_units(pair: dict) -> dict:
     return {name: base[m.cell_unit] for name, m in METRICS.items()}
 
 
-def gate(doc: dict, thresholds: dict) -> list[str]:
-    """Failed gate lines for every gated pair of a score document (see the module docstring)."""
+def gate(scores: Scores, thresholds: dict) -> list[str]:
+    """Failed gate lines for every gated pair of the scores (see the module docstring)."""
     by_engine: dict[str, list[dict]] = {}
-    for p in doc["pairs"]:
+    for p in scores.pairs:
         by_engine.setdefault(p["engine_dir"], []).append(p)
     out = []
     for ps in by_engine.values():
@@ -478,8 +515,8 @@ def gate(doc: dict, thresholds: dict) -> list[str]:
     return out
 
 
-def load_score(path, allow_incomplete: bool = False) -> dict:
-    """A score document from a score.json file, or computed from a run directory.
+def load_score(path, allow_incomplete: bool = False) -> Scores:
+    """The scores of a score.json file (:meth:`~.scores.Scores.from_json`), or computed from a run directory.
 
     A directory with a ``score.json`` gives that file; otherwise its maps are scored (engine maps
     against the reference maps found with them).
@@ -523,7 +560,7 @@ def load_score(path, allow_incomplete: bool = False) -> dict:
     for q in doc["pairs"]:   # a score.json written under older names is refused, never read as today's
         if isinstance(q.get("variant"), str):
             stored_variant(q["variant"], str(p))
-    return doc
+    return Scores.from_json(doc)
 
 
 #: The first metrics version whose verdict this rockbench reads (classes, MCB, declarations, power).
@@ -544,6 +581,7 @@ def check_score_doc(doc: dict, where) -> None:
     def bad(what: str):
         return ConfigError(f"{str(where)!r} is damaged: {what}; score the run again (`rockbench score RUN_DIR`).")
 
+    _check_parts(doc, bad)
     pairs = doc.get("pairs")
     if not isinstance(pairs, list):
         raise bad(f"'pairs' must be a list, got {type(pairs).__name__ if pairs is not None else 'nothing'}")
@@ -571,6 +609,21 @@ def check_score_doc(doc: dict, where) -> None:
         for name in ("cells_in_domain", "cells_outside_domain", "cells_outside_domain_simulated", "invalid_cells"):
             if name in p and (isinstance(p[name], bool) or not isinstance(p[name], int) or p[name] < 0):
                 raise bad(f"pairs[{n}].{name} is {p[name]!r}, not a whole number >= 0")
+
+
+def _check_parts(doc: dict, bad) -> None:
+    """The parts :class:`~.scores.Scores` reads beside the pairs: ``bad(what)`` for the first of another kind."""
+    verdict_ = doc.get("verdict")
+    if not isinstance(verdict_, dict):
+        raise bad(f"'verdict' must be an object, got {type(verdict_).__name__ if verdict_ is not None else 'nothing'}")
+    if not isinstance(verdict_.get("variants", []), (list, type(None))):
+        raise bad(f"'verdict.variants' must be a list, got {type(verdict_['variants']).__name__}")
+    for name in ("metrics", "skipped", "reference_gaps", "experiments"):
+        if not isinstance(doc.get(name, []), (list, type(None))):
+            raise bad(f"{name!r} must be a list, got {type(doc[name]).__name__}")
+    for name in ("speed", "pairing", "gate"):
+        if not isinstance(doc.get(name), (dict, type(None))):
+            raise bad(f"{name!r} must be an object, got {type(doc[name]).__name__}")
 
 
 # -- comparing two score documents -----------------------------------------------------------------
@@ -617,7 +670,7 @@ def tolerance_for(tol, name: str, units: dict) -> float:
     return max(float(tol.get("at_least", 0.0)), cells * units[name] if cells and name in units else 0.0)
 
 
-def compare_scores(base: dict, cur: dict, tolerances: dict | None = None,
+def compare_scores(base: Scores, cur: Scores, tolerances: dict | None = None,
                    cost_factor: float = COST_RISE_FACTOR) -> dict:
     """Regressions of ``cur`` against ``base``, pair by pair and metric by metric, and of the speed stage's
     cost at matched accuracy (:func:`~.speed.compare_speed`: a rise by more than ``cost_factor`` on a like
@@ -641,20 +694,20 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None,
         pair on another grid, or a document holding one pair twice (several runs scored together).
     """
     tol = dict(parse_tolerances([]) if tolerances is None else tolerances)
-    rules = [str(d.get("rules_version", "1")) for d in (base, cur)]
+    rules = [str(d.rules_version or "1") for d in (base, cur)]
     if rules[0] != rules[1]:
         raise IncomparableError(f"the results follow other rules (baseline rules version {rules[0]}, current "
                                 f"{rules[1]}; docs/engines.md says what each changed): rerun the older one with "
                                 "one rockbench (`rockbench run`) before comparing.")
-    if base.get("metrics_version") != cur.get("metrics_version"):
+    if base.metrics_version != cur.metrics_version:
         raise IncomparableError(f"the scores use other metric definitions (baseline metrics version "
-                                f"{base.get('metrics_version')}, current {cur.get('metrics_version')}; docs/scores.md "
+                                f"{base.metrics_version}, current {cur.metrics_version}; docs/scores.md "
                                 "says what each version changed); rescore both with one rockbench "
                                 "(`rockbench score RUN_DIR`).")
     b = _pairs_by_key(base, "baseline")
     c = _pairs_by_key(cur, "current")
     common = sorted(set(b) & set(c))
-    speed = compare_speed(base.get("speed"), cur.get("speed"), cost_factor)
+    speed = compare_speed(*(None if d.speed is None else d.speed.to_json() for d in (base, cur)), cost_factor)
     if not common and not (speed is not None and not b and not c):
         raise IncomparableError("the two results share no scored pair (engine, block, pulse, restitution, "
                                 "reference): they describe other scenarios.")
@@ -684,9 +737,9 @@ def compare_scores(base: dict, cur: dict, tolerances: dict | None = None,
             "new": sorted(set(c) - set(b)), "tolerances": tol, "speed": speed}
 
 
-def _pairs_by_key(doc: dict, which: str) -> dict:
+def _pairs_by_key(scores: Scores, which: str) -> dict:
     out: dict = {}
-    for p in doc["pairs"]:
+    for p in scores.pairs:
         if p["key"] in out:
             runs = [str(q.get("run")) for q in (out[p["key"]], p)]
             raise IncomparableError(f"the {which} holds the pair {p['key']!r} twice (runs {runs[0]} and {runs[1]}); "

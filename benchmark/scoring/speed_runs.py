@@ -23,13 +23,13 @@ def split(candidates: list[MapEntry]) -> tuple[list[MapEntry], list[MapEntry]]:
     return [c for c in candidates if not c.in_speed_stage], [c for c in candidates if c.in_speed_stage]
 
 
-def stage_record(roots) -> dict:
-    """What the run at one of ``roots`` wrote in its speed.json (the first found, at a root or just above
-    it: ``rockbench run`` scores its ``maps`` folder), {} where none did."""
-    for root in dict.fromkeys(Path(r) for r in roots):
-        for f in (root / SPEED_FILE, root.parent / SPEED_FILE):
-            if f.is_file():
-                return read_json(f)
+def stage_record(folders) -> dict:
+    """What the run wrote in its speed.json: the first found in ``folders`` (a run's folders,
+    :func:`~.score_runs.run_folders`), {} where none is."""
+    for folder in folders:
+        f = Path(folder) / SPEED_FILE
+        if f.is_file():
+            return read_json(f)
     return {}
 
 

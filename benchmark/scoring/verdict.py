@@ -19,7 +19,7 @@ every rule; each lives in its own module:
 - **Failing**: one in-sample scenario beyond the declared ``fail_distance`` (:mod:`~rockbench.benchmark.scoring.failing`).
 - **Equivalence** with the restitution's uncertainty, and the held-out check, by tests against declared
   margins (:mod:`~rockbench.benchmark.scoring.equivalence`).
-- **In words**: :mod:`~rockbench.benchmark.scoring.verdict_words`.
+- **In words**: the report's :mod:`~rockbench.benchmark.report.verdict_words` (the verdict holds numbers only).
 """
 
 from __future__ import annotations
@@ -36,7 +36,6 @@ from rockbench.benchmark.scoring.labels import ENGINE_PLANTED_CLASS
 from rockbench.benchmark.scoring.power import planted_power, restitution_response
 from rockbench.benchmark.scoring.scenarios import Variant, items, reference_gaps, variants_of
 from rockbench.benchmark.scoring.statistics import CONFIDENCE, fixed
-from rockbench.benchmark.scoring.verdict_words import METHOD, sentences, short_verdict
 
 #: The groups of the verdict's table and picture, in their order.
 GROUPS = ("calibrated", "as-shipped", "other", "held-out", "planted", "engine-planted")
@@ -69,15 +68,13 @@ def verdict(doc: dict, declared: Declared | None = None) -> dict:
     rows = [_row(v, fams, rk, scope, declared, limit, by_name.get(v.in_sample), response) for v in vs]
     rows.sort(key=_order)
     out = {"metric": PRIMARY_METRIC, "direction": PRIMARY.direction, "unit": PRIMARY.unit, "confidence": CONFIDENCE,
-           "declared": declared.to_dict(), "fail_distance": limit["value"], "fail_limit": limit, "method": METHOD,
+           "declared": declared.to_dict(), "fail_distance": limit["value"], "fail_limit": limit,
            "mcb": {cls: f.to_dict() for cls, f in fams.items()}, "power": power,
            "engine_power": engine_planted_power(vs), "general": scope,
            "equivalence": {"margin": declared.equivalence_margin,
                            "within": [r["variant"] for r in rows if (r["equivalence"] or {}).get("within")
                                       and not r["fails"] and r["group"] in COMPARED]},
            "variants": rows}
-    out["text"] = sentences(out)
-    out["short"] = short_verdict(out)
     return out
 
 

@@ -92,9 +92,8 @@ from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.report.build import build_report
 from rockbench.benchmark.scoring.score_runs import score_dirs
 from rockbench.benchmark.scoring.speed_runs import SPEED_FILE
-from rockbench.benchmark.scoring.speed_words import speed_block
 from rockbench.benchmark.store.loading import SPEED_STAGE
-from rockbench.benchmark.scoring.tables import SUMMARY_TITLE, summary_table, verdict_block
+from rockbench.benchmark.report.console import console_summary
 from rockbench.benchmark.store.atomic import check_output_dir
 from rockbench.benchmark.store.files import write_json
 from rockbench.benchmark.trajectories import record_for_report
@@ -116,20 +115,18 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
         record_for_report(cases, [out / "maps"], out, log=log)
         rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
                            figure_formats=figure_formats, allow_incomplete=unfinished, declared=suite.verdict)
-        result["score"] = rep["doc"]
+        result["score"] = rep["scores"]
         result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
         result["report"] = {k: rep[k] for k in ("html", "markdown") if k in rep}
     else:
         try:
             result["score"] = score_dirs([out / "maps"], experiments=experiments, allow_incomplete=unfinished,
                                          declared=suite.verdict)
-            write_json(out / "score.json", result["score"])
+            write_json(out / "score.json", result["score"].to_json())
         except IncomparableError as e:  # e.g. no engine installed: the maps are still worth having
             result["notes"].append(f"No scores: {e}")
     if result["score"] is not None:
-        doc = result["score"]
-        parts = [verdict_block(doc), SUMMARY_TITLE, summary_table(doc)] if doc["pairs"] else []
-        result["summary"] = "\n".join(parts + [speed_block(doc.get("speed"))]).strip()
+        result["summary"] = console_summary(result["score"])
 
 
 def _warm_report() -> None:
@@ -170,7 +167,7 @@ def run_suite(suite: Suite, out_dir, *, jobs: int | None = None, experiments=Non
     Returns
     -------
     dict
-        ``maps`` (per map: dir and wall time), ``wall_s``, ``score`` (the score document or None),
+        ``maps`` (per map: dir and wall time), ``wall_s``, ``score`` (the run's :class:`~rockbench.benchmark.scoring.scores.Scores` or None),
         ``notes``, ``report`` (paths) and ``summary`` (the summary table as text).
     """
     log = log or (lambda m: print(f"rockbench: {m}", file=sys.stderr))

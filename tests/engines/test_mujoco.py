@@ -27,6 +27,7 @@ from rockbench.reference_solver.errors import ConfigError  # noqa: E402
 from rockbench.reference_solver.restitution import Restitution, housner_eta  # noqa: E402
 from rockbench.engines.calibration.free_rocking import measure_restitution  # noqa: E402
 from rockbench.engines.calibration.routine import calibrate  # noqa: E402
+from rockbench.benchmark.report.verdict_words import sentences
 
 pytestmark = pytest.mark.engine
 
@@ -247,7 +248,7 @@ def test_a_map_calibrated_on_the_other_size_is_held_out_in_its_scores(tmp_path, 
     doc = json.loads((root / "score.json").read_text())
     pair = next(p for p in doc["pairs"] if p["engine"] == "mujoco")
     assert pair["held_out"] and pair["calibrated_on"] == "B3M" and pair["in_sample_variant"] == "mujoco"
-    assert any(t.startswith("Held-out check") for t in doc["verdict"]["text"])
+    assert any(t.startswith("Held-out check") for t in sentences(doc["verdict"]))
     capsys.readouterr()
     assert cli_main(["map", "--engine", "mujoco", *grid, "--set", "calibrate_on=B3L", "--out", str(tmp_path / "no")]) == 2
     err = capsys.readouterr().err.strip()

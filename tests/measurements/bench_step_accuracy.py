@@ -79,7 +79,7 @@ def map_scores(spec, out_dir: Path, reference) -> dict:
     t0, c0 = time.perf_counter(), time.process_time()
     run_map(spec, out_dir, serial=True, adaptive=True, progress=False)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    pair = score_entries([load_entry(out_dir)], [reference])["pairs"][0]
+    pair = score_entries([load_entry(out_dir)], [reference]).pairs[0]
     rows = [r for r in read_cell_table(out_dir / "cells.csv") if r.get("status", "ok") == "ok"]
     walls = [float(r["wall_s"]) for r in rows if r.get("wall_s")]
     return {"boundary_mean": pair["scores"]["boundary_mean"], "boundary_max": pair["scores"]["boundary_max"],

@@ -23,7 +23,7 @@ from pathlib import Path
 from rockbench.benchmark.scoring.metrics import METRICS_VERSION
 from rockbench.benchmark.scoring.scenarios import RESOLUTION_SD_LOCATED, resolution_share
 from rockbench.benchmark.scoring.verdict import verdict
-from rockbench.benchmark.scoring.verdict_words import number, sentences, short_verdict, words
+from rockbench.benchmark.report.verdict_words import number, sentences, short_verdict, words
 
 #: A stored reason's words → the cell counts that give it back.
 _REASONS = {"overturns in": ("overturn_extra", "reference_standing"),
@@ -95,13 +95,12 @@ def _placeholder(s: dict) -> float:
 
 
 def without_cell_shares(v: dict) -> dict:
-    """The verdict with the failing scenarios' cell shares removed and its words rewritten: a record
-    keeps each variant's reasons, not each scenario's cells, so the shares :func:`pairs_of` rebuilds
-    are the variant's spread evenly, not the scenario's."""
+    """The verdict with the failing scenarios' cell shares removed: a record keeps each variant's reasons,
+    not each scenario's cells, so the shares :func:`pairs_of` rebuilds are the variant's spread evenly,
+    not the scenario's."""
     for r in v["variants"]:
         for b in r["fails_in"]:
             b.update(missed=None, extra=None)
-    v["text"], v["short"] = sentences(v), short_verdict(v)
     return v
 
 
@@ -124,7 +123,7 @@ _RESCORED = ("value", "se", "ci95", "basis", "scenarios_with_value", "clusters",
 
 def _write(path: Path, rec: dict, v: dict) -> None:
     """The record with the parts of its verdict the per-scenario values decide re-scored (:data:`_RESCORED`,
-    each scenario's value and missing boundary) and its words rewritten; no map is read again."""
+    each scenario's value and missing boundary); no map is read again."""
     fig = rec["figures"]
     old = fig["verdict"]
     new = {r["variant"]: r for r in v["variants"]}
@@ -136,8 +135,8 @@ def _write(path: Path, rec: dict, v: dict) -> None:
                                         "sd_source", "sd_assumed")})
     for cls, fam in old["mcb"].items():
         fam.update(scope=v["mcb"][cls]["scope"], across=v["mcb"][cls]["across"])
-    old["method"] = v["method"]
-    old["text"], old["short"] = sentences(old), short_verdict(old)
+    for words_key in ("method", "text", "short"):   # the verdict holds numbers only (metrics 9): words are the report's
+        old.pop(words_key, None)
     first = fig.get("rescored", {}).get("from_metrics_version", fig["metrics_version"])
     fig["rescored"] = {"from_metrics_version": first, "by": "tests/measurements/verdict_rescore.py --write",
                        "what": "the verdict's values, intervals, failures and words recomputed from the stored "
@@ -164,11 +163,12 @@ def main() -> None:
     if a.json:
         print(json.dumps(v, indent=1, ensure_ascii=False))
         return
-    print(f"Short verdict ({words(v['short'])} words):")
-    for t in v["short"]:
+    short = short_verdict(v)
+    print(f"Short verdict ({words(short)} words):")
+    for t in short:
         print("  " + t)
     print("\nIn full:")
-    for t in v["text"]:
+    for t in sentences(v):
         print("- " + t)
     print("\nPer variant: group, value [95 %], standing")
     for r in v["variants"]:

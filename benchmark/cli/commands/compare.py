@@ -10,7 +10,7 @@ from rockbench.benchmark.scoring.metrics import METRICS
 from rockbench.reference_solver.errors import ConfigError
 from rockbench.benchmark.scoring.score_runs import DEFAULT_TOLERANCE_CELLS, compare_scores, load_score, parse_tolerances
 from rockbench.benchmark.scoring.speed import COST_RISE_FACTOR
-from rockbench.benchmark.scoring.tables import compare_table
+from rockbench.benchmark.report.tables import compare_table
 from rockbench.benchmark.store.files import json_safe
 
 
@@ -49,11 +49,12 @@ def run(args) -> int:
     allow = args.allow_incomplete
     base, cur = load_score(args.baseline, allow), load_score(args.current, allow)
     res = compare_scores(base, cur, tol, args.cost_factor)
-    res["engine_versions"] = differences(base, cur)      # engines compared at other versions (engine_versions.py)
+    docs = base.to_json(), cur.to_json()
+    res["engine_versions"] = differences(*docs)      # engines compared at other versions (engine_versions.py)
     if args.json:
         print(json.dumps(json_safe(res), indent=2))
     else:
         if res["engine_versions"]:
-            print(differences_line(base, cur))
+            print(differences_line(*docs))
         print(compare_table(res, markdown=args.markdown))
     return 1 if res["status"] != "ok" else 0

@@ -6,14 +6,15 @@ import argparse
 import json
 import sys
 import textwrap
+from dataclasses import replace
 from pathlib import Path
 
 from rockbench.benchmark.blocks.experiments import load_outcomes
 from rockbench.benchmark.scoring.declared import defaults_note
-from rockbench.benchmark.scoring.speed_words import speed_block
+from rockbench.benchmark.report.speed_words import speed_block
 from rockbench.benchmark.scoring.metrics import METRICS, METRICS_VERSION, parse_thresholds
 from rockbench.benchmark.scoring.score_runs import ALLOW_INCOMPLETE, ALLOW_INCOMPLETE_HELP, gate, score_dirs
-from rockbench.benchmark.scoring.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table, summary_table,
+from rockbench.benchmark.report.tables import (SCENARIO_TITLE, SUMMARY_TITLE, method_line, pairs_table, scenario_table, summary_table,
                                verdict_block)
 from rockbench.benchmark.store.atomic import check_output_file
 from rockbench.benchmark.store.files import json_safe, write_json
@@ -62,29 +63,29 @@ def run(args) -> int:
     out = None
     if not args.no_write:   # refused before the scoring, not after it
         out = check_output_file(Path(args.out) if args.out else Path(args.run_dirs[0]) / "score.json", "--out")
-    doc = score_dirs(args.run_dirs, args.against or None, points, allow_incomplete=args.allow_incomplete)
-    for n in doc.get("pairing", {}).get("notes", []):
+    scores = score_dirs(args.run_dirs, args.against or None, points, allow_incomplete=args.allow_incomplete)
+    for n in (scores.pairing or {}).get("notes", []):
         print(f"rockbench: note: {n}", file=sys.stderr)
-    failures = gate(doc, thresholds)
-    doc["gate"] = {"thresholds": thresholds, "failed": failures, "passed": not failures}
+    failures = gate(scores, thresholds)
+    scores = replace(scores, gate={"thresholds": thresholds, "failed": failures, "passed": not failures})
     if out is not None:
-        write_json(out, doc)
+        write_json(out, scores.to_json())
         print(f"rockbench: scores written to {out}", file=sys.stderr)
-    note = defaults_note(doc["verdict"]["declared"])     # after the write: an error stays one line
+    note = defaults_note(scores.verdict.declared)     # after the write: an error stays one line
     if note:
         print(f"rockbench: note: {note}", file=sys.stderr)
     if args.json:
-        print(json.dumps(json_safe(doc), indent=2))
+        print(json.dumps(json_safe(scores.to_json()), indent=2))
     else:
         md = args.markdown
-        print(verdict_block(doc, markdown=md))
-        print((f"\n### {SUMMARY_TITLE}\n\n" if md else f"\n{SUMMARY_TITLE}\n") + summary_table(doc, markdown=md))
-        print(("\n" if md else "") + method_line(doc))
-        print((f"\n### {SCENARIO_TITLE}\n\n" if md else f"\n{SCENARIO_TITLE}\n") + scenario_table(doc, markdown=md))
-        print(("\n### Pairs\n\n" if md else "\nPairs\n") + pairs_table(doc, markdown=md))
-        if doc.get("speed"):
-            print("\n" + speed_block(doc["speed"], markdown=md))
-        for e in doc.get("experiments", []):
+        print(verdict_block(scores, markdown=md))
+        print((f"\n### {SUMMARY_TITLE}\n\n" if md else f"\n{SUMMARY_TITLE}\n") + summary_table(scores, markdown=md))
+        print(("\n" if md else "") + method_line())
+        print((f"\n### {SCENARIO_TITLE}\n\n" if md else f"\n{SCENARIO_TITLE}\n") + scenario_table(scores, markdown=md))
+        print(("\n### Pairs\n\n" if md else "\nPairs\n") + pairs_table(scores, markdown=md))
+        if scores.speed is not None:
+            print("\n" + speed_block(scores.speed.record, markdown=md))
+        for e in scores.experiments or ():
             print(f"\nexperiments vs {e['variant']} {e.get('restitution', '')} ({Path(e['dir']).name}): "
                   f"accuracy {e['accuracy']:.3f}, overturn accuracy {e['overturn_accuracy']:.3f} over {e['runs']} "
                   f"run(s), {e['outside']} outside the map")

@@ -20,7 +20,7 @@ import math
 
 from rockbench.benchmark.scoring.failing import scenario_words
 from rockbench.benchmark.scoring.labels import for_matplotlib
-from rockbench.benchmark.scoring.verdict_words import delta_words, number, signed
+from rockbench.benchmark.report.verdict_words import delta_words, number, signed
 from rockbench.benchmark.report.plots.style import DOUBLE_COLUMN_IN, LABEL_PT, OKABE_ITO, SMALL_PT, tint
 
 #: Group headers, in the picture's order.

@@ -55,7 +55,7 @@ def main(argv=None) -> int:
                 # as the suite's planted variant: the reference solver as an engine, judged against η_H
                 cands.append(dataclasses.replace(e, variant=f"reference[planted_eta_factor={f:g}]",
                                                  settings={"planted_eta_factor": f}, restitution="housner"))
-    doc = score_entries(cands, refs)
+    doc = score_entries(cands, refs).to_json()
     p = doc["verdict"]["power"]
     q6 = dunnett_critical([math.sqrt(0.5)] * 5)
     print(f"grid {args.w_ratio} × {args.a_ratio}; 4 problems (B3M, B6M × sine, cosine); critical value: one "

@@ -8,8 +8,8 @@ import textwrap
 
 from rockbench.benchmark.scoring.failing import scenario_words
 from rockbench.benchmark.scoring.metrics import METRICS, NEARER_ZERO, PRIMARY_METRIC
-from rockbench.benchmark.scoring.verdict import verdict
-from rockbench.benchmark.scoring.verdict_words import METHOD, number
+from rockbench.benchmark.scoring.scores import Scores
+from rockbench.benchmark.report.verdict_words import METHOD, number, sentences, short_verdict
 
 def fmt(name: str, v) -> str:
     """A metric's value as tables write it (:meth:`~rockbench.benchmark.scoring.metrics.Metric.format`)."""
@@ -33,12 +33,12 @@ def render(head: list[str], rows: list[list[str]], markdown: bool) -> str:
     return "\n".join(out)
 
 
-def pairs_table(doc: dict, markdown: bool = False) -> str:
+def pairs_table(scores: Scores, markdown: bool = False) -> str:
     """One row per scored pair, one column per metric."""
     head = ["engine", "block", "pulse", "restitution", "vs reference", "like"] + [METRICS[m].short for m in METRICS]
     rows = [[p["variant"] + incomplete_note(p), p["block"], p["pulse"], p["restitution"], reference_label(p),
              "yes" if p["like_for_like"] else "", *(fmt(m, p["scores"].get(m)) for m in METRICS)]
-            for p in doc["pairs"]]
+            for p in scores.pairs]
     return render(head, rows, markdown)
 
 
@@ -54,14 +54,14 @@ def reference_label(p: dict) -> str:
     return r["restitution"] + (" (own η)" if r.get("kind") == "own-eta" else "")
 
 
-def summary(doc: dict) -> dict:
+def summary(scores: Scores) -> dict:
     """Per engine variant: the mean of each metric over its like-for-like pairs (counts summed).
 
     Variants without like-for-like pairs use all their pairs. Returns ``{variant: {metric: value,
     "pairs": n}}``.
     """
     groups: dict[str, list[dict]] = {}
-    for p in doc["pairs"]:
+    for p in scores.pairs:
         groups.setdefault(p["variant"], []).append(p)
     out = {}
     for v, ps in sorted(groups.items()):
@@ -93,16 +93,11 @@ def primary_cell(row: dict) -> str:
     return f"{number(row['value'])} [{number(lo)}, {number(hi)}]" + (f"; {failure}" if failure else "")
 
 
-def verdict_of(doc: dict) -> dict:
-    """The document's verdict (computed when an older document has none)."""
-    return doc.get("verdict") or verdict(doc)
-
-
-def ranked_summary(doc: dict) -> list[tuple[dict, dict]]:
+def ranked_summary(scores: Scores) -> list[tuple[dict, dict]]:
     """``[(verdict row, summary row)]`` in the verdict's order (rank, then value): the rows of every
     summary table."""
-    s = summary(doc)
-    return [(r, s[r["variant"]]) for r in verdict_of(doc)["variants"] if r["variant"] in s]
+    s = summary(scores)
+    return [(r, s[r["variant"]]) for r in scores.verdict.variants if r["variant"] in s]
 
 
 def row_label(r: dict, label: str | None = None) -> str:
@@ -135,11 +130,11 @@ def best_group_marks(ranked: list[tuple[dict, dict]]) -> dict[str, list[bool]]:
     return marks
 
 
-def summary_table(doc: dict, markdown: bool = False, html: bool = False) -> str:
+def summary_table(scores: Scores, markdown: bool = False, html: bool = False) -> str:
     """Engine variant × metric in the verdict's order: rank (equal ranks tie), the primary metric with its
     95 % interval, then the secondary metrics; highlights as :func:`best_group_marks` (``**`` in
     Markdown, ``*`` in text, bold in HTML)."""
-    ranked = ranked_summary(doc)
+    ranked = ranked_summary(scores)
     marks = best_group_marks(ranked)
     second = [m for m in METRICS if m != PRIMARY_METRIC]
     head = (["rank", "engine", "pairs", f"{METRICS[PRIMARY_METRIC].short} [95 % CI]"]
@@ -170,18 +165,17 @@ SCENARIO_TITLE = ("Per scenario: boundary distance of each variant ('!' beyond t
                   "reference boundaries")
 
 
-def method_line(doc: dict) -> str:
+def method_line() -> str:
     """How the values and ranks were made (under every summary table)."""
-    m = verdict_of(doc).get("method") or METHOD
-    return " ".join(m[k] for k in ("value", "comparisons", "failing") if k in m)
+    return " ".join(METHOD[k] for k in ("value", "comparisons", "failing"))
 
 
-def scenario_rows(doc: dict) -> tuple[list[str], list[list[str]]]:
+def scenario_rows(scores: Scores) -> tuple[list[str], list[list[str]]]:
     """Head and rows of the per-scenario table: one row per variant (the verdict's order), one column
     per block × pulse, and a first row with the η_H–η_M reference gap of each scenario."""
-    rows = [r for r in verdict_of(doc)["variants"] if r.get("per_scenario")]
+    rows = [r for r in scores.verdict.variants if r.get("per_scenario")]
     keys = sorted({(s["block"], s["pulse"]) for r in rows for s in r["per_scenario"]})
-    gaps = {(g["block"], g["pulse"]): g.get("boundary_mean") for g in doc.get("reference_gaps", [])}
+    gaps = {(g["block"], g["pulse"]): g.get("boundary_mean") for g in scores.reference_gaps}
     body = [["η_H–η_M reference gap", *(number(gaps.get(k)) for k in keys)]] if gaps else []
     for r in rows:
         by = {(s["block"], s["pulse"]): s for s in r["per_scenario"]}
@@ -199,20 +193,25 @@ def scenario_rows(doc: dict) -> tuple[list[str], list[list[str]]]:
     return ["engine", *(f"{b} {p}" for b, p in keys)], body
 
 
-def scenario_table(doc: dict, markdown: bool = False) -> str:
+def scenario_table(scores: Scores, markdown: bool = False) -> str:
     """:func:`scenario_rows` as a text or Markdown table."""
-    return render(*scenario_rows(doc), markdown)
+    return render(*scenario_rows(scores), markdown)
 
 
-def verdict_text(doc: dict) -> list[str]:
-    """The verdict's sentences."""
-    return list(verdict_of(doc)["text"])
+def verdict_text(scores: Scores) -> list[str]:
+    """The verdict's sentences (:func:`~.verdict_words.sentences`)."""
+    return sentences(scores.verdict.to_json())
 
 
-def verdict_block(doc: dict, markdown: bool = False) -> str:
+def short_verdict_text(scores: Scores) -> list[str]:
+    """The verdict in short (:func:`~.verdict_words.short_verdict`)."""
+    return short_verdict(scores.verdict.to_json())
+
+
+def verdict_block(scores: Scores, markdown: bool = False) -> str:
     """The verdict under its title, in short (at most 120 words) and then every sentence: Markdown, or
     for a terminal folded at 100 columns."""
-    short, lines = verdict_of(doc).get("short") or [], verdict_text(doc)
+    short, lines = short_verdict_text(scores), verdict_text(scores)
     if markdown:
         return ("### Verdict\n\n" + (" ".join(md_cell(t) for t in short) + "\n\n" if short else "")
                 + "\n".join(f"- {md_cell(t)}" for t in lines))

@@ -1,6 +1,7 @@
 """The verdict in words: the full sentences (:func:`sentences`) and the short verdict of at most
 :data:`SHORT_WORDS` words for the report's first screen (:func:`short_verdict`), both generated from the
-numbers of the verdict object (:func:`rockbench.benchmark.scoring.verdict.verdict`), never typed.
+numbers of the verdict object (:func:`rockbench.benchmark.scoring.verdict.verdict`), never typed. The
+verdict holds numbers only; these words are the report's, written afresh wherever they are shown.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from rockbench.benchmark.scoring.labels import AS_SHIPPED, CALIBRATED, engine_na
 #: The most words the short verdict may have.
 SHORT_WORDS = 120
 
-#: How the verdict was made, one sentence per part (score.json's ``verdict.method``).
+#: How the verdict was made, one sentence per part (under the report's and the console's tables).
 METHOD = {
     "value": ("A variant's value is the mean of its boundary distances over the suite's problems (slenderness × "
               "pulse; the sizes of one problem averaged first); its 95 % interval holds for these problems, the "
@@ -155,7 +156,7 @@ def sentences(v: dict) -> list[str]:
                    + "; ".join(f"{r['label']} lacks {r['cells_missing']} cell(s)" for r in incomplete) + ".")
     out.append("Measure: the mean distance between the engine's and the reference's overturning boundaries in the "
                "normalised plane (ω/p, a₀/(g·tanα)), lower is better, like-for-like pairs. "
-               + " ".join(v["method"][k] for k in ("value", "comparisons")))
+               + " ".join(METHOD[k] for k in ("value", "comparisons")))
     return out
 
 

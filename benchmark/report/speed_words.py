@@ -6,7 +6,7 @@ console: what the curves rest on, and each engine's cost at matched accuracy, th
 from __future__ import annotations
 
 from rockbench.benchmark.scoring.labels import engine_name
-from rockbench.benchmark.scoring.tables import render
+from rockbench.benchmark.report.tables import render
 
 #: The section's words where a run has no speed stage.
 NO_STAGE = ("No accuracy–cost curves: this run has no speed stage (`rockbench run speed` runs it alone, the full "
