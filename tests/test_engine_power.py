@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from rockbench.benchmark.cli.main import main
+from rockbench.benchmark.report.verdict_words import sentences
 from rockbench.benchmark.scoring.labels import ENGINE_PLANTED_CLASS
 from rockbench.benchmark.suites.model import load_suite
 from rockbench.benchmark.suites.plan import plan
@@ -134,6 +135,6 @@ def test_a_shifted_boundary_is_resolved_across_problems_as_the_statistics_say(wr
     assert e["resolved_abs_delta"] == {"distance": [0.02], "offset": []}
     labels = {r["variant"]: r["label"] for r in v["variants"] if r["group"] == ENGINE_PLANTED_CLASS}
     assert sorted(labels.values())[0].endswith("calibrated to η_H × 0.980 (planted)")
-    text = next(t for t in v["text"] if t.startswith("The suite's power against MuJoCo's own restitution error"))
+    text = next(t for t in sentences(v) if t.startswith("The suite's power against MuJoCo's own restitution error"))
     assert "t on 7 degrees of freedom" in text and "δ = +2 %: distance +0.1" in text
     assert text.endswith("by the distance, |δ| 2 % resolved; by the offset, no |δ| resolved.")
