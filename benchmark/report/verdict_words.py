@@ -302,14 +302,19 @@ def _held_out_words(r: dict) -> str:
     where = {"same scenarios": "in the same scenarios",
              "same problems": "on the other size of the same problems"}[h["in_sample_scope"]]
     t = h["tost"]
-    if h["carries_over"]:
-        word = "carries over"
-    elif h["difference_ci95"][0] > 0:
-        word = "does not carry over (resolved worse than its twin)"
-    else:
-        word = "not shown to carry over"
+    word = held_out_word(h)
     return (f"{head}: {word}, against {number(h['in_sample'])} {where}, difference {signed(h['difference'])} "
             f"(90 % interval {signed(t['interval'][0])} to {signed(t['interval'][1])}, margin ±{number(h['margin'])})")
+
+
+def held_out_word(h: dict) -> str:
+    """What a tested held-out variant's TOST says: it carries over (the difference's 90 % interval inside the
+    margin), is resolved worse than its in-sample twin (the 95 % interval above 0), or neither."""
+    if h["carries_over"]:
+        return "carries over"
+    if h["difference_ci95"][0] > 0:
+        return "does not carry over (resolved worse than its twin)"
+    return "not shown to carry over"
 
 
 def _general_sentence(v: dict, by: dict) -> list[str]:

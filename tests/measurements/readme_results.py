@@ -17,6 +17,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from records import load  # noqa: E402
 
+from rockbench.benchmark.report.verdict_words import held_out_word  # noqa: E402
 from rockbench.benchmark.scoring.failing import scenario_words  # noqa: E402
 
 #: How the README names each settings class of the verdict, in the order it lists them.
@@ -50,7 +51,7 @@ def _standing(r: dict) -> str:
         h = r["held_out"]
         if h.get("tost") is None:
             return f"not tested: {len(h.get('left_out') or [])} of {h['scenarios']} scenarios identical or unresponsive"
-        words = "carries over" if h.get("carries_over") else "does not carry over"
+        words = held_out_word(h)
         tested = f", {h['tested_scenarios']} of {h['scenarios']} scenarios tested" if h.get("left_out") else ""
         return f"{words} (in-sample {_num(h['in_sample'])}{tested})"
     scope = f" {r['scope']}" if r.get("scope") else ""
@@ -100,7 +101,7 @@ def summary(figures: dict) -> str:
     power = (f"a restitution planted {smallest['delta'] * 100:g} % low in the reference solver itself is told from "
              f"the exact one on this suite (distance {_num(smallest['distance'])}; an engine that already errs moves "
              "by less, or the other way)" if smallest else "no planted restitution error is resolved")
-    power += "; " + engine_power_words()
+    power += "; " + engine_power_words(v) if v.get("engine_power") else ""
     return (f"Each value is the mean boundary distance over the suite's {first['clusters']} problems (4 "
             f"slendernesses × 2 pulses; held-out values over their {figures['held_out_scenarios']}), "
             f"lower is better; intervals on this suite (these problems fixed, each map's measured location error alone); the signed offset is positive where the engine overturns at a lower amplitude than the rigid model (conservative), negative where later; bold: may be "
@@ -144,20 +145,22 @@ def realised_shift(f: dict, delta_key: str) -> float:
     return sum(v[b]["reached"] - base[b]["reached"] for b in v) / len(v)
 
 
-def engine_power_words() -> str:
-    """What the suite resolves of an engine's own restitution error (its own record: the default suite's
-    verdict record has no engine-planted variant): the |δ| resolved across problems by the signed offset
-    and by the distance, the η shifts the calibrations realised, and where the variants run."""
-    f = load(ENGINE_POWER_RECORD)["figures"]
-    e = f["engine_power"]["engines"]["mujoco"]
+def engine_power_words(verdict: dict) -> str:
+    """What the suite resolves of an engine's own restitution error: the |δ| resolved across problems by the
+    signed offset and by the distance, from the verdict's own ``engine_power`` (the default suite runs
+    MuJoCo's engine-planted variants), and the η shifts their calibrations realised (measured by
+    tests/measurements/probes/record_engine_planted.py, record :data:`ENGINE_POWER_RECORD`)."""
+    e = verdict["engine_power"]["engines"]["mujoco"]
     res = e["resolved_abs_delta"]
     first = next(r["distance"] for r in e["rows"] if r["distance"])
+    deltas = ", ".join(f"{r['delta'] * 100:+g} %" for r in sorted(e["rows"], key=lambda r: r["delta"]))
     said = {m: " and ".join(f"{d * 100:g} %" for d in res[m]) for m in res if res[m]}
     told = ("is told from its own calibration across the {n} problems at no |δ| up to 2 %, by the signed offset or by "
             "the distance" if not said else "is told from its own calibration across the {n} problems at |δ| "
             + "; ".join(f"{d} by the {m}" for m, d in said.items()))
+    f = load(ENGINE_POWER_RECORD)["figures"]
     shifts = sorted(realised_shift(f, k) for k in f["variants"])
-    return (f"MuJoCo calibrated to η_H·(1 + δ), δ = ±1 %, ±2 % (the `full` suite), "
+    return (f"MuJoCo calibrated to η_H·(1 + δ), δ = {deltas}, "
             + told.format(n=first["problems"])
             + f" (t on {first['df']} degrees of freedom), its calibrations having moved η by only "
             f"{100 * shifts[0]:+.1f} to {100 * shifts[-1]:+.1f} % (record {ENGINE_POWER_RECORD}; docs/scores.md)")
