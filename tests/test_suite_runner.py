@@ -28,9 +28,13 @@ def test_shipped_suites_parse_and_plan():
     assert len(planted) == 4 * 4 * 2   # four reductions δ × four blocks × two pulses
     assert sorted({j.settings["planted_eta_factor"] for j in planted}) == [0.98, 0.99, 0.995, 1.0]
     assert {j.restitution.label for j in planted} == {"housner"} and {j.dt_s for j in planted} == {d.reference.dt_s}
-    # engines × (2 variants on the four blocks + the held-out check on B2M and B8M) × pulses
+    # engines × (2 variants on the four blocks + the held-out check on B2M and B8M) × pulses, and MuJoCo's
+    # engine-planted variants: four δ × four blocks × two pulses
     engine_jobs = [j for j in jobs if j.engine != "reference"]
-    assert len(engine_jobs) == 2 * (2 * 4 + 2) * 2
+    engine_planted = [j for j in engine_jobs if j.settings.get("planted_eta_factor")]
+    assert len(engine_planted) == 4 * 4 * 2 and {j.engine for j in engine_planted} == {"mujoco"}
+    assert sorted({j.settings["planted_eta_factor"] for j in engine_planted}) == [0.98, 0.99, 1.01, 1.02]
+    assert len(engine_jobs) - len(engine_planted) == 2 * (2 * 4 + 2) * 2
     assert {j.block for j in engine_jobs if not j.settings.get("calibrate_on")} == {"B2M", "B3M", "B6M", "B8M"}
     held = [j for j in jobs if j.settings.get("calibrate_on")]
     assert {j.block for j in held} == {"B2M", "B8M"} and {j.settings["calibrate_on"] for j in held} == {"neighbour"}

@@ -591,7 +591,7 @@ def check_score_doc(doc: dict, where) -> None:
         for key, kind in (("key", str), ("grid", dict), ("scores", dict)):
             if not isinstance(p.get(key), kind):
                 raise bad(f"pairs[{n}] has no {key!r} {'text' if kind is str else 'object'}")
-        for key in ("engine", "variant", "engine_version"):
+        for key in ("engine", "variant", "engine_version", "block", "pulse"):
             if p.get(key) is not None and not isinstance(p[key], str):
                 raise bad(f"pairs[{n}].{key} is {p[key]!r}, not a text")
         if "cells" in p and not isinstance(p["cells"], dict):

@@ -22,8 +22,8 @@ T = 0.8
 
 
 class _Probe:
-    """What :meth:`_Fake.fixed` returns: the candidate's contact, and a free-rocking test (the routine's
-    ``measure_restitution`` is replaced by one that calls it)."""
+    """What ``layout.with_contact`` returns for the fake (the routine's is replaced): the candidate's
+    contact, and a free-rocking test (the routine's ``measure_restitution`` is replaced by one that calls it)."""
 
     def __init__(self, contact):
         self.contact = contact
@@ -48,9 +48,6 @@ class _Fake(ContactEngine):
 
     def candidates(self, block, target, dt_s, points, measure):
         return [dict(r) for r in self.rows]
-
-    def fixed(self, contact):
-        return _Probe(contact)
 
 
 def _row(k, rel, std=0.001, n=3, uplift=True, slip=0):
@@ -82,6 +79,7 @@ def calls(monkeypatch):
 
     monkeypatch.setattr(price, "uplift_threshold", uplift)
     monkeypatch.setattr(price, "contact_price", contact_price)
+    monkeypatch.setattr(routine, "with_contact", lambda ad, contact: _Probe(contact))
     monkeypatch.setattr(routine, "measure_restitution", lambda probe, block, dt_s=None: probe.measure_restitution(
         block, dt_s=dt_s))
     monkeypatch.setattr(cache, "store", lambda key, record, engine: log.update(stored=record["search"]))
