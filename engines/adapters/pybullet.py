@@ -297,7 +297,6 @@ class _Scene:
             rows.append(self.read())
         return rows
 
-
     def _advance_planar(self, n_from: int, n_to: int) -> list:
         """:meth:`advance` of the planar chain under the inertial drive: gravity tilted during the pulse
         (and set back at its step ``n_pulse``), the three joints' states read in one call a step and
@@ -316,6 +315,7 @@ class _Scene:
             step(physicsClientId=cid)
             keep(get(body, joints, physicsClientId=cid))
         return [(x[0], z[0], th[0], x[1], z[1], th[1]) for x, z, th in states]
+
 
 _SCENE: _Scene | None = None
 
