@@ -184,8 +184,10 @@ def _max_dtheta(a, b) -> float:
 def cmd_flips(args) -> None:
     """Whether a cell's outcome depends on its batch-mates at the overturning boundary: B3M, sine,
     ω/p 3.5, the boundary amplitude bisected (one world at a time) between a₀/(g·tanα) 1.5 (rocking)
-    and 3 (overturn); then 15 amplitudes within ±rel of it, alone and as one batch with a cosine pulse."""
+    and 3 (overturn); then 15 amplitudes within ±rel of it, alone and as one batch of 16 with a cosine
+    pulse (the adapter's batch hooks at 16 worlds; the product runs one world a batch)."""
     ad = get_adapter("drake", settings=args.settings)
+    ad.max_worlds = 16
 
     def overturns(a: float) -> bool:
         c = ad.posed(_case("B3M", "sine", 3.5, a))
