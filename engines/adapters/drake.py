@@ -39,22 +39,21 @@ and no impact law of ours replaces it.
   default penetration allowance of 1 mm), with only the time step, the geometry and the anti-slip
   friction set.
 
-Speed: many worlds in one plant
--------------------------------
+Speed and batches: one world a batch
+------------------------------------
 A step of a ``MultibodyPlant`` has a fixed cost (the SAP solve's set-up, the geometry queries, the
-diagram's update: about 40 µs here) that one block pays alone, so the cells of a batch
-(``max_worlds = 16``; 1 with hydroelastic contact, whose outcomes flip in a batch) run as the worlds
-of one plant: world ``w`` is its own block on its own planar
-joint (or free), driven by its own pulse, and touches only its own table (collision filters keep
-the worlds' geometry apart; the inertial drive's table, the world's half-space, is one geometry).
-A world whose run ended is taken out of contact (:meth:`_Scene.retire`). The diagram (plant, scene
-graph, a ``TrajectorySource`` for every world's drive force and a ``VectorLogSink`` sampling the
-plant's state at every step) is built once per geometry, contact and number of worlds and kept in the
-process; a batch only resets the context (time, state, log, filters) and hands the drives to the
-source as a zero-order hold, then a ``Simulator`` advances it in segments of ``segment_s``: no Python
-call per step. A cell's θ in a batch is not its θ alone bit for bit (SAP solves the worlds as one
-problem, with one convergence test): docs/drake.md, "Speed", gives the measured difference and its
-bound.
+diagram's update: about 40 µs here) that one block pays alone. Blocks of one plant would share it,
+but SAP solves a plant's blocks as one problem with one convergence test, so a block's θ would move
+with its batch-mates. The adapter's diagram of ``n`` worlds (:class:`_Scene`) holds a plant of its
+own (with its own scene graph, drive and log) for each world, all advanced by one ``Simulator``: a
+world's step is its own solve and its θ is the same bit for bit in any batch
+(``tests/engines/test_batch_independence.py``). Such worlds share nothing worth having (each pays
+its plant's fixed cost; measured: no cheaper a cell than one world at a time), so cells run one world
+a batch (``max_worlds = 1``): docs/drake.md, "Speed and batches". The diagram is built once per
+geometry, contact and number of worlds and kept in the process; a batch only resets the context
+(time, state, logs, filters) and hands each world's drive to its source as a zero-order hold, then
+the ``Simulator`` advances it in segments: no Python call per step. A world whose run ended is taken
+out of contact (:meth:`_World.retire`).
 
 The run, its end and the free-rocking test
 ------------------------------------------
@@ -119,23 +118,17 @@ def _import_pydrake():
     return pd
 
 
-class _Scene:
-    """One built diagram: ``n_worlds`` blocks (planar or free), each on its own table (fixed or driven),
-    contact as given; every world touches its own table alone (collision filters), so the worlds share
-    the plant and its step but not their contact. The inertial drive's table is the world's half-space,
-    one geometry all blocks stand on.
+class _World:
+    """One world: a discrete ``MultibodyPlant`` with its own ``SceneGraph``, one block (planar or free)
+    on its table (fixed or driven) in the contact given, its drive (a ``TrajectorySource``) and its log
+    (a ``VectorLogSink`` sampling the plant's state at every step). Its discrete update is a solve of
+    its own: nothing in it reads another world."""
 
-    ``key`` is everything the diagram depends on; a batch with the same key and size reuses it.
-    """
-
-    def __init__(self, block: Block, s: dict, dt: float, n_worlds: int):
-        pd = _import_pydrake()
-        self.dt = dt
-        self.planar = bool(s["planar"])
-        self.drive = s["drive"]
-        self.n_worlds = n_worlds
-        builder = pd.DiagramBuilder()
+    def __init__(self, pd, builder, block: Block, s: dict, dt: float, w: int):
+        self.planar, self.drive = bool(s["planar"]), s["drive"]
         plant, sg = pd.AddMultibodyPlantSceneGraph(builder, time_step=dt)
+        plant.set_name(f"plant{w}")
+        sg.set_name(f"scene_graph{w}")
         approx = s["approximation"]
         if approx is not None:
             plant.set_discrete_contact_approximation({
@@ -145,50 +138,36 @@ class _Scene:
         hydro = s["contact"] == "hydroelastic"
         plant.set_contact_model(pd.ContactModel.kHydroelasticWithFallback if hydro else pd.ContactModel.kPoint)
         friction = pd.CoulombFriction(float(s["friction"]), float(s["friction"]))
-        # world by world in one order (block, table, joint): one world builds as a lone block always did
-        worlds = [self._add_world(pd, plant, block, s, friction, w) for w in range(n_worlds)]
+        # in one order (block, table, joint): a world builds as a lone block always did
+        body, geometries = self._add_block(pd, plant, block, s, friction)
+        table_joint = self._add_table(pd, plant, block, s, friction)
+        joint = self._add_planar_joint(pd, plant, body) if self.planar else None
         plant.Finalize()
-        decl = pd.CollisionFilterDeclaration()
-        for i in range(n_worlds):
-            for j in range(i + 1, n_worlds):
-                decl.ExcludeBetween(pd.GeometrySet(worlds[i]["geometries"]), pd.GeometrySet(worlds[j]["geometries"]))
-        sg.collision_filter_manager().Apply(decl)
         self.plant, self.scene_graph = plant, sg
-        self.geometries = [wd["geometries"] for wd in worlds]
+        self.block_geometries = pd.GeometrySet(geometries)
         self.all_geometries = pd.GeometrySet(sg.model_inspector().GetAllGeometryIds())
-        self._index_state(plant, worlds)
+        self._index_state(plant, body, joint, table_joint)
         self.source = builder.AddSystem(pd.TrajectorySource(pd.PiecewisePolynomial(np.zeros((self.nv, 1)))))
+        self.source.set_name(f"drive{w}")
         builder.Connect(self.source.get_output_port(), plant.get_applied_generalized_force_input_port())
         self.logger = pd.LogVectorOutput(plant.get_state_output_port(), builder, dt)
-        self.diagram = builder.Build()
-        self.context = self.diagram.CreateDefaultContext()
-        self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
-        self.sg_context = sg.GetMyMutableContextFromRoot(self.context)
-        self.retired: list = []   # the context's filters that take retired worlds out of contact
-        self.simulator = pd.Simulator(self.diagram, self.context)
+        self.retired = None   # the context's filter that takes the block out of contact, once retired
         self._pd = pd
 
-    def _add_world(self, pd, plant, block: Block, s: dict, friction, w: int) -> dict:
-        """World ``w``: its block, its table and (planar) its block's planar joint; returns them and
-        the world's collision geometries (the shared half-space is none of them)."""
-        body, geometries = self._add_block(pd, plant, block, s, friction, w)
-        table_joint, table_geometry = self._add_table(pd, plant, block, s, friction, w)
-        joint = None
-        if self.planar:
-            # joint frame F: x along world z, y along world x, z along world +y (so the joint's
-            # rotation is the contract's θ about +y); the block's frame M is rotated the same way
-            rot = pd.RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
-            F = plant.AddFrame(pd.FixedOffsetFrame(f"plane_F{w}", plant.world_frame(), pd.RigidTransform(rot)))
-            M = plant.AddFrame(pd.FixedOffsetFrame(f"plane_M{w}", body.body_frame(), pd.RigidTransform(rot)))
-            joint = plant.AddJoint(pd.PlanarJoint(f"plane{w}", F, M, np.zeros(3)))
-        return {"body": body, "joint": joint, "table_joint": table_joint,
-                "geometries": geometries + ([table_geometry] if table_geometry is not None else [])}
+    @staticmethod
+    def _add_planar_joint(pd, plant, body):
+        """The block's planar joint: frame F with x along world z, y along world x, z along world +y (so
+        the joint's rotation is the contract's θ about +y); the block's frame M rotated the same way."""
+        rot = pd.RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+        F = plant.AddFrame(pd.FixedOffsetFrame("plane_F", plant.world_frame(), pd.RigidTransform(rot)))
+        M = plant.AddFrame(pd.FixedOffsetFrame("plane_M", body.body_frame(), pd.RigidTransform(rot)))
+        return plant.AddJoint(pd.PlanarJoint("plane", F, M, np.zeros(3)))
 
-    def _add_block(self, pd, plant, block: Block, s: dict, friction, w: int):
-        """World ``w``'s block and its contact geometry: a compliant hydroelastic box, or a small sphere
-        at each bottom corner (point contact); returns the body and its geometries."""
+    def _add_block(self, pd, plant, block: Block, s: dict, friction):
+        """The block and its contact geometry: a compliant hydroelastic box, or a small sphere at each
+        bottom corner (point contact); returns the body and its geometries."""
         b, h, d, m = block.width_m, block.height_m, block.depth_m, block.mass_kg
-        body = plant.AddRigidBody(f"block{w}", pd.SpatialInertia.SolidBoxWithMass(m, b, d, h))
+        body = plant.AddRigidBody("block", pd.SpatialInertia.SolidBoxWithMass(m, b, d, h))
 
         def material(stiffness, edge_share: float = 1.0):
             props = pd.ProximityProperties()
@@ -212,15 +191,13 @@ class _Scene:
             body, pd.RigidTransform([sx * (b / 2 - r), sy * (d / 2 - r), -h / 2 + r]), pd.Sphere(r),
             f"corner{i}", material(s["point_stiffness_n_m"], share)) for i, (sx, sy) in enumerate(corners)]
 
-    def _add_table(self, pd, plant, block: Block, s: dict, friction, w: int):
-        """World ``w``'s table: the world's half-space (inertial drive; registered once, with the first
-        world) or a heavy box on a prismatic joint (table drive); sets ``push_mass`` (the mass the drive
-        force accelerates) and returns the table's joint and its geometry of its own (None: none)."""
+    def _add_table(self, pd, plant, block: Block, s: dict, friction):
+        """The table: the world's half-space (inertial drive) or a heavy box on a prismatic joint (table
+        drive); sets ``push_mass`` (the mass the drive force accelerates) and returns the table's joint
+        (None: fixed)."""
         hydro = s["contact"] == "hydroelastic"
         m = block.mass_kg
         self.push_mass = m
-        if self.drive != "table" and w > 0:
-            return None, None
         tprops = pd.ProximityProperties()
         if s["settings"] == "shipped" and not hydro:
             pd.AddContactMaterial(friction=friction, properties=tprops)
@@ -232,81 +209,115 @@ class _Scene:
             pd.AddRigidHydroelasticProperties(properties=tprops)
         if self.drive != "table":
             plant.RegisterCollisionGeometry(plant.world_body(), pd.RigidTransform(), pd.HalfSpace(), "table", tprops)
-            return None, None
+            return None
         mt = float(s["table_mass_ratio"]) * m
         hx, hy, hz = _TABLE_HALF_EXTENTS_M
-        table = plant.AddRigidBody(f"table{w}", pd.SpatialInertia.SolidBoxWithMass(mt, 2 * hx, 2 * hy, 2 * hz))
-        geometry = plant.RegisterCollisionGeometry(table, pd.RigidTransform([0, 0, -hz]),
-                                                   pd.Box(2 * hx, 2 * hy, 2 * hz), "table", tprops)
-        joint = plant.AddJoint(pd.PrismaticJoint(f"table_x{w}", plant.world_frame(), table.body_frame(), [1.0, 0.0, 0.0]))
+        table = plant.AddRigidBody("table", pd.SpatialInertia.SolidBoxWithMass(mt, 2 * hx, 2 * hy, 2 * hz))
+        plant.RegisterCollisionGeometry(table, pd.RigidTransform([0, 0, -hz]), pd.Box(2 * hx, 2 * hy, 2 * hz),
+                                        "table", tprops)
+        joint = plant.AddJoint(pd.PrismaticJoint("table_x", plant.world_frame(), table.body_frame(), [1.0, 0.0, 0.0]))
         self.push_mass = mt + m
-        return joint, geometry
+        return joint
 
-    def _index_state(self, plant, worlds: list) -> None:
-        """Where each world's block (and table) sits in the plant's state: ``cols[w]``, the columns of
-        world ``w``'s row (block q, table q, block v, table v), the same layout for every world, whose
-        places ``iq``/``iv`` name; ``force_index[w]``, the dof its drive pushes."""
+    def _index_state(self, plant, body, joint, table_joint) -> None:
+        """Where the block (and table) sits in the plant's state: ``cols``, the columns of the world's
+        row (block q, table q, block v, table v), whose places ``iq``/``iv`` name; ``force_index``, the
+        dof the drive pushes."""
         nq, nv = plant.num_positions(), plant.num_velocities()
-        self.cols, self.force_index = [], []
-        for wd in worlds:
-            if self.planar:
-                q0, v0 = wd["joint"].position_start(), wd["joint"].velocity_start()
-                q, v, push = list(range(q0, q0 + 3)), list(range(v0, v0 + 3)), v0 + 1   # q: (z, x, θ); v: (ż, ẋ, θ̇)
-            else:
-                q0, v0 = wd["body"].floating_positions_start(), wd["body"].floating_velocities_start_in_v()
-                q, v, push = list(range(q0, q0 + 7)), list(range(v0, v0 + 6)), v0 + 3   # q: (qw..qz, x, y, z); v: (ω, v)
-            if wd["table_joint"] is not None:
-                q, v, push = q + [wd["table_joint"].position_start()], v + [wd["table_joint"].velocity_start()], \
-                    wd["table_joint"].velocity_start()
-            self.cols.append(q + [nq + i for i in v])
-            self.force_index.append(push)
-        self.cols = np.array(self.cols, dtype=int)
+        if self.planar:
+            q0, v0 = joint.position_start(), joint.velocity_start()
+            q, v, push = list(range(q0, q0 + 3)), list(range(v0, v0 + 3)), v0 + 1   # q: (z, x, θ); v: (ż, ẋ, θ̇)
+        else:
+            q0, v0 = body.floating_positions_start(), body.floating_velocities_start_in_v()
+            q, v, push = list(range(q0, q0 + 7)), list(range(v0, v0 + 6)), v0 + 3   # q: (qw..qz, x, y, z); v: (ω, v)
+        if table_joint is not None:
+            q, v, push = q + [table_joint.position_start()], v + [table_joint.velocity_start()], table_joint.velocity_start()
+        self.cols, self.force_index = np.array(q + [nq + i for i in v], dtype=int), push
         o = 3 if self.planar else 7   # the row's first velocity: after the block's q
-        o += worlds[0]["table_joint"] is not None
+        o += table_joint is not None
         self.iq = {"z": 0, "x": 1, "th": 2} if self.planar else {"quat": 0, "x": 4, "y": 5, "z": 6}
         self.iv = {"z": o, "x": o + 1, "th": o + 2} if self.planar else {"wx": o, "th": o + 1, "x": o + 3, "z": o + 5}
-        if worlds[0]["table_joint"] is not None:
-            self.iq["table"], self.iv["table"] = o - 1, len(self.cols[0]) - 1
+        if table_joint is not None:
+            self.iq["table"], self.iv["table"] = o - 1, len(self.cols) - 1
         self.nq, self.nv = nq, nv
 
+    def bind(self, root_context) -> None:
+        """Find the world's contexts in the diagram's ``root_context``."""
+        self.plant_context = self.plant.GetMyMutableContextFromRoot(root_context)
+        self.sg_context = self.scene_graph.GetMyMutableContextFromRoot(root_context)
+        self.root_context = root_context   # the log's: a sink finds its log from the root
+
     def place(self, block: Block, theta0: float) -> None:
-        """Every block at rest at angle ``theta0`` (pivoting on the lower corner), every table at rest at
-        x = 0."""
+        """The block at rest at angle ``theta0`` (pivoting on the lower corner), the table at rest at x = 0;
+        back in contact if it was retired."""
+        if self.retired is not None:
+            self.scene_graph.collision_filter_manager(self.sg_context).RemoveDeclaration(self.retired)
+            self.retired = None
         xc, zc = pivot_pose(block, theta0)
-        q = np.zeros(self.nq)
-        for cols in self.cols:
-            if self.planar:
-                q[cols[self.iq["z"]]], q[cols[self.iq["x"]]], q[cols[self.iq["th"]]] = zc, xc, theta0
-            else:
-                i = cols[self.iq["quat"]]
-                q[i:i + 4] = (math.cos(theta0 / 2), 0.0, math.sin(theta0 / 2), 0.0)
-                q[cols[self.iq["x"]]], q[cols[self.iq["z"]]] = xc, zc
+        q, cols = np.zeros(self.nq), self.cols
+        if self.planar:
+            q[cols[self.iq["z"]]], q[cols[self.iq["x"]]], q[cols[self.iq["th"]]] = zc, xc, theta0
+        else:
+            i = cols[self.iq["quat"]]
+            q[i:i + 4] = (math.cos(theta0 / 2), 0.0, math.sin(theta0 / 2), 0.0)
+            q[cols[self.iq["x"]]], q[cols[self.iq["z"]]] = xc, zc
         self.plant.SetPositions(self.plant_context, q)
         self.plant.SetVelocities(self.plant_context, np.zeros(self.nv))
 
-    def retire(self, w: int) -> None:
-        """World ``w`` out of contact from the next step (a filter in the context): its block falls
-        freely, three (six) dofs without a constraint, all SAP solves of it (about 3 µs a step
-        against about 10 µs for a world in contact). Locking its joints would take it out of the
-        solve, but Drake 1.51.1 crashes (a segmentation fault in ``AdvanceTo``) with a locked tree
-        beside two free ones. Its rows from here on are dropped; retired or left running, it moves the
-        other worlds' θ from their one-world runs by the same largest amount (measured)."""
+    def retire(self) -> None:
+        """The block out of contact from the next step (a filter in the context): it falls freely, and
+        its plant's solve has no contact to solve. Locking its joints would take it out of the solve,
+        but Drake 1.51.1 crashes (a segmentation fault in ``AdvanceTo``) with a locked tree."""
         pd = self._pd
         manager = self.scene_graph.collision_filter_manager(self.sg_context)
-        decl = pd.CollisionFilterDeclaration().ExcludeBetween(pd.GeometrySet(self.geometries[w]), self.all_geometries)
-        self.retired.append(manager.ApplyTransient(decl))
+        self.retired = manager.ApplyTransient(pd.CollisionFilterDeclaration().ExcludeBetween(
+            self.block_geometries, self.all_geometries))
 
-    def set_drive(self, forces: list) -> None:
-        """World ``w``'s generalized force on its driven dof during each step ``[tₙ, tₙ₊₁]``,
-        ``forces[w]`` (zero after them, and on the worlds beyond ``forces``)."""
-        pd, dt = self._pd, self.dt
-        n = max((len(f) for f in forces), default=0)
+    def set_drive(self, dt: float, force: np.ndarray) -> None:
+        """The generalized force on the driven dof during each step ``[tₙ, tₙ₊₁]``, ``force[n]`` (zero after)."""
+        n = len(force)
         # a hold centred on the step starts, so a step's update at tₙ (± round-off) sees value n
         breaks = np.concatenate(([-0.5 * dt], (np.arange(n) + 0.5) * dt, [(n + 0.5) * dt + 1e9]))
         values = np.zeros((self.nv, n + 2))
-        for w, f in enumerate(forces):
-            values[self.force_index[w], :len(f)] = f
-        self.source.UpdateTrajectory(pd.PiecewisePolynomial.ZeroOrderHold(breaks, values))
+        values[self.force_index, :n] = force
+        self.source.UpdateTrajectory(self._pd.PiecewisePolynomial.ZeroOrderHold(breaks, values))
+
+    def rows(self, n_from: int, n_to: int, first: int) -> np.ndarray:
+        """The world's rows of samples ``n_from + 1 … n_to`` from its log, whose first column is sample
+        ``first``; the log cleared."""
+        log = self.logger.FindMutableLog(self.root_context)
+        rows = log.data()[self.cols, n_from + 1 - first:n_to + 1 - first].T.astype(float)
+        log.Clear()
+        return rows
+
+
+class _Scene:
+    """One built diagram of ``n_worlds`` worlds (:class:`_World`), each a plant of its own, advanced by
+    one ``Simulator``: one ``AdvanceTo`` steps them all, and a world's step is its own solve, so its θ
+    is the same bit for bit in any batch (``tests/engines/test_batch_independence.py``).
+
+    ``key`` is everything the diagram depends on; a batch with the same key and size reuses it.
+    """
+
+    def __init__(self, block: Block, s: dict, dt: float, n_worlds: int):
+        pd = _import_pydrake()
+        self.dt = dt
+        self.planar = bool(s["planar"])
+        self.drive = s["drive"]
+        self.n_worlds = n_worlds
+        builder = pd.DiagramBuilder()
+        self.worlds = [_World(pd, builder, block, s, dt, w) for w in range(n_worlds)]
+        self.diagram = builder.Build()
+        self.context = self.diagram.CreateDefaultContext()
+        for world in self.worlds:
+            world.bind(self.context)
+        w0 = self.worlds[0]
+        self.iq, self.iv, self.push_mass = w0.iq, w0.iv, w0.push_mass
+        self.simulator = pd.Simulator(self.diagram, self.context)
+
+    def retire(self, w: int) -> None:
+        """World ``w`` out of contact from the next step; its rows from here on are dropped."""
+        self.worlds[w].retire()
 
     def drive_of(self, pulse) -> np.ndarray:
         """The drive of every step under ``pulse`` (None: none): the step average of ü times the mass
@@ -325,26 +336,21 @@ class _Scene:
         return theta_of_quat(data[:, i], data[:, i + 1], data[:, i + 2], data[:, i + 3]), data[:, self.iv["th"]]
 
     def start(self, block: Block, pulses: list, theta0: float) -> None:
-        """World ``w`` under ``pulses[w]`` (one per world), at rest at ``theta0``; none retired."""
-        self.set_drive([self.drive_of(p) for p in pulses])
-        manager = self.scene_graph.collision_filter_manager(self.sg_context)
-        for fid in self.retired:
-            manager.RemoveDeclaration(fid)
-        self.retired = []
-        self.place(block, theta0)
+        """World ``w`` under ``pulses[w]`` (one per world; the worlds beyond them undriven), at rest at
+        ``theta0``, in contact."""
+        for w, world in enumerate(self.worlds):
+            world.set_drive(self.dt, self.drive_of(pulses[w] if w < len(pulses) else None))
+            world.place(block, theta0)
+            world.logger.FindMutableLog(self.context).Clear()
         self.context.SetTime(0.0)
-        self.logger.FindMutableLog(self.context).Clear()
         self.logged = 0
         self.simulator.Initialize()
 
     def advance(self, n_from: int, n_to: int) -> np.ndarray:
         """Advance to step ``n_to``; every world's rows of samples ``n_from + 1 … n_to`` (``n_from = -1``:
-        from sample 0), ``(W, n, k)``. The log keeps no more than the segment: read, it is cleared."""
+        from sample 0), ``(W, n, k)``. The logs keep no more than the segment: read, they are cleared."""
         self.simulator.AdvanceTo(n_to * self.dt)
-        log = self.logger.FindMutableLog(self.context)
-        first = self.logged   # the sample the log's first column holds
-        rows = np.transpose(log.data()[self.cols.T, n_from + 1 - first:n_to + 1 - first], (1, 2, 0)).astype(float)
-        log.Clear()
+        rows = np.stack([world.rows(n_from, n_to, self.logged) for world in self.worlds])
         self.logged = n_to + 1
         return rows
 
@@ -388,29 +394,24 @@ class DrakeAdapter(ContactEngine):
     install_hint = "install it with `pip install 'rockbench[drake]'` (or `pip install drake`; 1.51.1 tested)."
     #: Drake's own default step (MultibodyPlantConfig.time_step), what it runs at as shipped
     own_dt_s = 1e-3
-    #: the cells of a batch run as worlds of one plant (:class:`_Scene`): one step of Drake's fixed cost
-    #: for all of them (docs/drake.md, "Speed")
+    #: the contact base's batch hooks run worlds of one diagram, a plant each (:class:`_Scene`); one world
+    #: a batch, since K plants cost K worlds' steps and a world retired early still steps (docs/drake.md,
+    #: "Speed and batches")
     batching = "native"
-    max_worlds = 16
+    max_worlds = 1
     #: the loop's segments end at each run's marks and last at most this after its pulse [s]
     #: (:mod:`rockbench.engines.loop`): Drake's discrete steps do not depend on where ``AdvanceTo``
-    #: stops (runs measured bit for bit the same), and fewer steps run past a stop
-    near_segment_s = 0.05
+    #: stops (runs measured bit for bit the same), and fewer steps run past a stop: 0.04 s here and
+    #: segments of 0.05 s before the pulse's end leave 2.4 % of the steps past the stops (docs/speed.md)
+    near_segment_s = 0.04
     SETTINGS = {"contact": "point", "corner_radius_m": 1e-4, "table_mass_ratio": 1000.0, "tail_s": 2.0,
-                "min_tail_s": 0.25, "segment_s": 0.1}
+                "min_tail_s": 0.25, "segment_s": 0.05}
     #: Drake's own contact: the stiffness and dissipation from its default penetration allowance
     SHIPPED = {"point_stiffness_n_m": None, "hydroelastic_modulus_pa": None, "relaxation_time_s": None,
                "hunt_crossley_dissipation_s_m": None}
     MODE_DEFAULTS = {"approximation": ("lagged", "sap")}
     START_KEEP_RTOL = 0.005
     CALIBRATION_VERSION = 4
-
-    def worlds_per_batch(self, s: dict) -> int:
-        """Up to :attr:`max_worlds` worlds in one plant; with hydroelastic contact one world at a time.
-        Measured: beside batch-mates a hydroelastic block's θ leaves its one-world run within 20 steps
-        and its outcome flips (B3M, sine, ω/p 5, a₀/(g·tanα) 3: rocking alone, overturn in a batch)
-        (docs/drake.md, "Speed")."""
-        return 1 if s["contact"] == "hydroelastic" else self.max_worlds
 
     def validate(self, s: dict) -> None:
         self.choice_setting(s, "contact", _CONTACTS, allow_none=False)
@@ -432,8 +433,7 @@ class DrakeAdapter(ContactEngine):
         return {"block": block, "s": s, "dt": dt}
 
     def start(self, run: dict, block: Block, s: dict, dt: float, pulses: list, theta0: float, n_steps: int):
-        """The batch's worlds on a diagram of as many worlds (reused; building one costs about 10 ms of
-        CPU for 16 worlds, so a diagram of each size costs less than one spare world's steps)."""
+        """The batch's worlds on a diagram of as many worlds (built once per size and reused)."""
         sc = _scene(block, s, dt, len(pulses))
         run["scene"] = sc
         sc.start(block, pulses, theta0)

@@ -8,7 +8,8 @@ Usage (from the repository's top folder, in the venv, with ``pip install -e '.[d
     python tests/measurements/bench_drake.py eta                   # free-rocking η: calibrated and as shipped, B3M B6M
     python tests/measurements/bench_drake.py cells [--repeat 2] [--max-worlds K]   # CPU time per cell through
                                                                    # run_many, 16 B3M sine cells, batches of K
-    python tests/measurements/bench_drake.py worlds                # CPU per plant step and block-step, K worlds
+    python tests/measurements/bench_drake.py worlds [--settings shipped] [--repeat 2]   # CPU a step and a cell,
+                                                                   # batches of K worlds, and Δθ from batches of 1
     python tests/measurements/bench_drake.py flips [--settings shipped]   # outcomes alone and in a batch, at
                                                                    # the overturning boundary
     python tests/measurements/bench_drake.py maps --out DIR [--jobs 2] [--maps B3M:sine,B6L:cosine]
@@ -122,43 +123,71 @@ def cmd_cells(args) -> None:
 
 
 def cmd_worlds(args) -> None:
-    """What K worlds in one plant cost: a plant step with K worlds all rocking (B3M, sine, ω/p 3,
-    a₀/(g·tanα) 1.5, 0.2 s), with K − 1 of them retired, and 32 B3M sine cells (ω/p 2–5 × a₀/(g·tanα)
-    1.5–6) through the adapter's batch in batches of K; CPU time."""
-    from rockbench.engines.adapters import drake as da
-
+    """What K worlds a batch cost (``--settings``; CPU time, the least of ``--repeat``): a step of the
+    batch's diagram with K worlds all rocking (B3M, sine, ω/p 3, a₀/(g·tanα) 1.5, 0.2 s) and with K − 1
+    of them retired, then 32 B3M sine cells (ω/p 2–5 × a₀/(g·tanα) 1.5–6) through the adapter's batch in
+    batches of K, with the largest |Δθ| of any cell from its run in batches of 1 (0: bit for bit)."""
     print(_stamp(), file=sys.stderr)
-    ad = get_adapter("drake")
+    ad = get_adapter("drake", settings=args.settings)
     c = ad.posed(_case("B3M", "sine", 3.0, 1.5))
     s = ad.resolve(c.block, c.restitution, c.dt_s)
-    for k, retired in ((1, 0), (16, 0), (16, 15)):
-        sc = da._Scene(c.block, s, c.dt_s, k)
+    for k in WORLDS_K:
+        for retired in sorted({0, k - 1}):
+            cpu = _step_cpu(c, s, k, retired, args.repeat)
+            print(f"{args.settings}, {k} worlds, {retired} retired: {cpu * 1e6:.0f} µs a step, "
+                  f"{cpu / (k - retired) * 1e6:.1f} µs a running world's step")
+    cases = [ad.posed(_case("B3M", "sine", float(w), float(a))) for a in np.linspace(1.5, 6.0, 4)
+             for w in np.linspace(2.0, 5.0, 8)]
+    alone = None
+    for k in WORLDS_K:
+        ad.max_worlds = k
+        ad._simulate_many(cases)   # the diagrams built, not timed
+        cpus = []
+        for _ in range(args.repeat):
+            c0 = time.process_time()
+            trs = ad._simulate_many(cases)
+            cpus.append(time.process_time() - c0)
+        alone = alone or trs
+        steps = sum(tr.diagnostics["steps"] for tr in trs)
+        print(f"{args.settings}, batches of {k}: {min(cpus) / len(cases) * 1e3:.0f} ms a cell, "
+              f"{min(cpus) / steps * 1e6:.1f} µs a block-step, max |Δθ| from batches of 1 "
+              f"{max(_max_dtheta(a, b) for a, b in zip(alone, trs)):.2g} rad")
+
+
+#: the batch sizes ``worlds`` measures
+WORLDS_K = (1, 4, 8, 16)
+
+
+def _step_cpu(c: Case, s: dict, k: int, retired: int, repeat: int) -> float:
+    """CPU seconds a step of the adapter's diagram of ``k`` worlds of cell ``c``, ``retired`` of them
+    out of contact from the start, over 0.2 s (the least of ``repeat``)."""
+    from rockbench.engines.adapters import drake as da
+
+    sc, n, cpus = da._Scene(c.block, s, c.dt_s, k), round(0.2 / c.dt_s), []
+    for _ in range(repeat):
         sc.start(c.block, [c.pulse] * k, 0.0)
         for w in range(k - retired, k):
             sc.retire(w)
-        n = round(0.2 / c.dt_s)
         c0 = time.process_time()
         sc.advance(0, n)
-        cpu = (time.process_time() - c0) / n
-        print(f"{k} worlds, {retired} retired: {cpu * 1e6:.0f} µs a plant step, "
-              f"{cpu / (k - retired) * 1e6:.1f} µs a running block's step")
-    cases = [ad.posed(_case("B3M", "sine", float(w), float(a))) for a in np.linspace(1.5, 6.0, 4)
-             for w in np.linspace(2.0, 5.0, 8)]
-    for k in (1, 4, 8, 16, 32):
-        ad.max_worlds = k
-        ad._simulate_many(cases)   # the diagrams built, not timed
-        c0 = time.process_time()
-        trs = ad._simulate_many(cases)
-        cpu = time.process_time() - c0
-        steps = sum(tr.diagnostics["steps"] for tr in trs)
-        print(f"batches of {k}: {cpu / len(cases) * 1e3:.0f} ms a cell, {cpu / steps * 1e6:.1f} µs a block-step")
+        cpus.append((time.process_time() - c0) / n)
+    return min(cpus)
+
+
+def _max_dtheta(a, b) -> float:
+    """The largest |Δθ| [rad] of two trajectories of one cell over their common samples (inf: other lengths)."""
+    if a.theta_rad.size != b.theta_rad.size:
+        return math.inf
+    return float(np.max(np.abs(a.theta_rad - b.theta_rad)))
 
 
 def cmd_flips(args) -> None:
     """Whether a cell's outcome depends on its batch-mates at the overturning boundary: B3M, sine,
     ω/p 3.5, the boundary amplitude bisected (one world at a time) between a₀/(g·tanα) 1.5 (rocking)
-    and 3 (overturn); then 15 amplitudes within ±rel of it, alone and as one batch with a cosine pulse."""
+    and 3 (overturn); then 15 amplitudes within ±rel of it, alone and as one batch of 16 with a cosine
+    pulse (the adapter's batch hooks at 16 worlds; the product runs one world a batch)."""
     ad = get_adapter("drake", settings=args.settings)
+    ad.max_worlds = 16
 
     def overturns(a: float) -> bool:
         c = ad.posed(_case("B3M", "sine", 3.5, a))
@@ -299,7 +328,10 @@ def main(argv=None) -> int:
     c.add_argument("--repeat", type=int, default=2)
     c.add_argument("--max-worlds", type=int, default=0)
     c.set_defaults(func=cmd_cells)
-    sub.add_parser("worlds").set_defaults(func=cmd_worlds)
+    k = sub.add_parser("worlds")
+    k.add_argument("--settings", default="calibrated", choices=["calibrated", "shipped"])
+    k.add_argument("--repeat", type=int, default=2)
+    k.set_defaults(func=cmd_worlds)
     f = sub.add_parser("flips")
     f.add_argument("--settings", default="calibrated", choices=["calibrated", "shipped"])
     f.set_defaults(func=cmd_flips)

@@ -24,7 +24,7 @@ and cell (``BLOCK:PULSE:W_RATIO:A_RATIO``: ω/p and a₀/(g·tanα), restitution
 ``--worlds K ...`` adds, for each K, the cell as K copies: through the product (``run_many`` of K
 copies, where the adapter runs K worlds a batch) and through a native loop of K worlds in one engine
 call (:data:`WORLDS`): PhysX, K blocks at the origin in the adapter's scene, each colliding with its
-own table alone (collision groups); Drake, K blocks in one plant, each on its own planar joint (the
+own table alone (collision groups); Drake, K plants in one diagram, a block each (the
 adapter's diagram of K worlds); DART, K tables and blocks in one ``World``, every pair of two worlds on
 the collision filter's black list, each block driven by its own force; PyBullet, K tables and blocks in
 one client, collision group and mask bit per world, under the one pulse's gravity. It prints the cost
@@ -201,13 +201,13 @@ def native_exudyn(ad, scene, case, s, dt, n_steps):
 
 
 def drake_worlds(ad, run, case, s, dt, n_steps, k: int) -> np.ndarray:
-    """Drake, ``k`` worlds of the cell in one plant (the adapter's diagram of ``k`` blocks, each on its own
-    planar joint and touching its own table alone), the drives loaded into its source and the blocks
-    placed by its ``start``: one ``AdvanceTo`` to the end. θ of each world ``(k, n_steps)``."""
-    ad.start(run, case.block, s, dt, [case.pulse] * k, 0.0, n_steps)   # sample 0 read, the log cleared
+    """Drake, ``k`` worlds of the cell in one diagram (the adapter's diagram of ``k`` plants, one block
+    each), the drives loaded into their sources and the blocks placed by its ``start``: one
+    ``AdvanceTo`` to the end. θ of each world ``(k, n_steps)``."""
+    ad.start(run, case.block, s, dt, [case.pulse] * k, 0.0, n_steps)   # sample 0 read, the logs cleared
     sc = run["scene"]
     sc.simulator.AdvanceTo(n_steps * dt)
-    return sc.logger.FindLog(sc.context).data()[sc.cols[:, sc.iq["th"]], :n_steps].copy()
+    return np.array([w.logger.FindLog(sc.context).data()[w.cols[sc.iq["th"]], :n_steps] for w in sc.worlds])
 
 
 def native_drake(ad, run, case, s, dt, n_steps):

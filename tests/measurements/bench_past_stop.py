@@ -11,7 +11,7 @@ A run's stop is its simulated time (``simulated_s``; the loop drops the samples 
 ends at one period 2π/ω. The segments of the engine's settings (run.json: ``segment_s``, 0.05 s
 without it, at the run's step) are replayed with the loop's own ``_segment_end`` to each run's stop:
 fixed (``near_segment_s`` None), ending at the marks with ``--near``, and as the engine's adapter
-declares today (its ``near_segment_s``). The fraction is Σ (steps from a stop to the end of its
+declares today (its ``near_segment_s``, and its default ``segment_s`` where it has one). The fraction is Σ (steps from a stop to the end of its
 segment) / Σ (steps to the stops), a batch's worlds counted one at a time; each engine's runs are also
 pooled over the directories given. ``--record NAME`` writes the rows as a benchmark record
 (tests/measurements/records.py); ``--table NAME`` prints a record's rows as a markdown table.
@@ -76,11 +76,14 @@ def past(dt: float, seg_s: float, tail_s: float, min_tail_s: float, cells: list,
 def measure(run_dir: str, near_s: float) -> dict:
     """One map's row: its runs and the steps past their stops with each segment rule."""
     info, cells = runs(run_dir)
-    declared = adapter_class(info["engine"]).near_segment_s
+    cls = adapter_class(info["engine"])
+    declared, seg_now = cls.near_segment_s, float(cls.SETTINGS.get("segment_s", info["segment_s"]))
     row = {"map": run_dir.rstrip("/").split("/maps/")[-1], **info, "runs": len(cells),
-           "mean_simulated_s": sum(c[0] for c in cells) / len(cells), "near_segment_s": declared}
-    for key, near in (("fixed", None), ("marks", near_s), ("now", declared)):
-        over, total, segments = past(info["dt_s"], info["segment_s"], info["tail_s"], info["min_tail_s"], cells, near)
+           "mean_simulated_s": sum(c[0] for c in cells) / len(cells), "near_segment_s": declared,
+           "segment_s_now": seg_now}
+    for key, near, seg in (("fixed", None, info["segment_s"]), ("marks", near_s, info["segment_s"]),
+                           ("now", declared, seg_now)):
+        over, total, segments = past(info["dt_s"], seg, info["tail_s"], info["min_tail_s"], cells, near)
         row[key] = {"near_segment_s": near, "steps_past": over, "steps_to_stops": total,
                     "past_pct": 100.0 * over / total, "segments_per_run": segments / len(cells)}
     return row

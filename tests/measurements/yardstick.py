@@ -55,11 +55,6 @@ EXPLICIT = {
     "exudyn": {"contact": "distributed", "contact_points": 9, "contact_restitution": 0.2},
 }
 
-#: Engines whose cells the yardstick runs one world at a time: their batches' answers differ from one
-#: world's in the last digits (Drake: one SAP solve, with one convergence test, for all the worlds of a
-#: plant), bounded by tests/engines/test_batch_independence.py; the yardstick keeps the one-world answers
-ONE_WORLD = {"drake"}
-
 #: the fields of a cell compared (floats to the last digit)
 CELL_FIELDS = ("outcome", "n_impacts", "max_abs_theta_rad", "t_overturn_s", "t_uplift_s", "valid", "flags", "status",
                "message")
@@ -158,8 +153,6 @@ def compute(engine: str, cache_root: str) -> dict:
     for name, (settings, ws, as_) in variants(engine, cls).items():
         t0 = time.perf_counter()
         ad = get_adapter(engine, **settings)
-        if engine in ONE_WORLD:
-            ad.max_worlds = 1
         rec = {"settings": _jsonable(settings)}
         try:
             rec["resolved"] = _jsonable(ad.resolve(block, Restitution("housner"), None))
