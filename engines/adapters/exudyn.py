@@ -416,8 +416,10 @@ class _Model:
         its row stored) where it fires."""
         t_prev, self._t_prev = self._t_prev, t
         tol = 1e-6 * self.dt_s
+        # a step of Δt (to rounding, 1e-9 Δt) after a stored or dropped row: the sensors store this one
+        # (they store the first step at or after each multiple of Δt, within 1e-10 s) and rows() keeps it
         if (self._next >= self.check_t.size or t < self.check_t[self._next] - tol
-                or abs(t - t_prev - self.dt_s) > tol or abs(t / self.dt_s - round(t / self.dt_s)) > 1e-6):
+                or abs(t - t_prev - self.dt_s) > 1e-9 * self.dt_s or abs(t / self.dt_s - round(t / self.dt_s)) > 1e-6):
             return True
         self._next = int(np.searchsorted(self.check_t, t + tol))
         row = np.concatenate([[t], *(mbs.GetNodeOutput(self.node, k) for k in self.sensor_kinds)])
