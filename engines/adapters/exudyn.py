@@ -385,8 +385,8 @@ class _Model:
         self.first = True
         return np.empty((0, 7 if self.planar else 19))
 
-    def advance(self, n_steps: int) -> np.ndarray:
-        """One segment of ``n_steps`` steps (the first: the ``chunk_steps`` of :meth:`start`), cut short
+    def advance(self) -> np.ndarray:
+        """One segment (the run's last one too: the loop drops the rows after its last step), cut short
         where a check inside it fires; the state rows the sensors stored in it (:meth:`rows`)."""
         if self.message is not None:
             return np.empty((0, 7 if self.planar else 19))
@@ -395,7 +395,7 @@ class _Model:
                                "rule fired, but the run was asked to go on")
         t_from = self.mbs.systemData.GetTime()
         if not self.first:
-            self.solver.it.endTime = t_from + n_steps * self.dt_s
+            self.solver.it.endTime = t_from + self.n_chunk * self.dt_s
         self.first = False
         tol = 1e-6 * self.dt_s
         self._next, self._t_prev = int(np.searchsorted(self.check_t, t_from + tol)), t_from
@@ -610,7 +610,7 @@ class ExudynAdapter(ContactEngine):
         return check_steps(n_pulse, n_min, n_last, chunk, max(1, int(round(CHECK_S / dt_s))))
 
     def advance(self, scene, n_from: int, n_to: int) -> np.ndarray:
-        return scene.model.advance(n_to - n_from)[None]
+        return scene.model.advance()[None]
 
     def read(self, scene, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         """The block's motion from Exudyn's sensors, with its own contact points: the block's bottom
