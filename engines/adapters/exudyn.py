@@ -41,11 +41,18 @@ Model
 
 End of a run
 ------------
-The run is the contact base's loop (:mod:`rockbench.engines.loop`), integrated in segments of
+The run is the contact base's loop (:mod:`rockbench.engines.loop`), integrated in fixed segments of
 ``segment_s`` inside Exudyn's C++ solver, with every contact engine's one end-of-run
 rule (:func:`~rockbench.reference_solver.classify.run_end`) tested at every row Exudyn's sensors
 stored, at its own time (Exudyn shortens its step where Newton struggles, so a segment may hold
-more rows than steps: the rule counts rows, not steps). A run also ends where Exudyn's solver
+more rows than steps: the rule counts rows, not steps). The segments stay fixed because each is a
+new ``SolveSteps`` call, which refreshes the modified Newton's Jacobian, restarts at the full step
+and lands on the segment's end time: a segment ending elsewhere moves θ (docs/exudyn.md, "Where a
+run stops"). Instead, in a segment that holds one of the run's marks (its pulse's end, the trapped
+rule's first step), a post-step hook tests the same rule on the solver's current state at the marks
+and every :data:`CHECK_S` after the pulse's end (:func:`check_steps`) and stops the solver after the
+step where it fires; the loop's own test then finds the stop in the rows, so the runs are those of the
+fixed segments bit for bit, with fewer steps past their stops. A run also ends where Exudyn's solver
 stopped (Newton did not converge even at its smallest step): ``advance`` raises
 :class:`~rockbench.engines.loop.EngineHalted`, and the base retries the case as
 :attr:`ExudynAdapter.RETRIES` says (module notes, "Solver"). The shared classifier decides the outcome
@@ -75,13 +82,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from rockbench.reference_solver.classify import overturn_certain
+from rockbench.reference_solver.classify import overturn_certain, run_end
 from rockbench.reference_solver.model import G, Block
 from rockbench.reference_solver.pulses import Pulse
 from rockbench.engines.calibration.knobs import Knob
 from rockbench.engines.contact import ContactEngine
-from rockbench.engines.loop import EngineHalted
-from rockbench.engines.motion import Motion
+from rockbench.engines.loop import EngineHalted, segment_steps
+from rockbench.engines.motion import Motion, run_steps, steps_of_times
 
 #: Static penetration of one corner under half the block's weight that sets the default contact
 #: stiffness [m]: 1.34 µm, the value of k = 2e6 N/m for B3M, inside the range docs/physics.md §8 gives as
@@ -94,6 +101,10 @@ CALIBRATION_RESTITUTIONS = (0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8)
 #: The scan for the distributed contact (docs/contact.md): its η rises with the coefficient from about
 #: η_H, and the probe (tests/measurements/probes/probe_eta_m_exudyn.py) found η_M between 0.1 and 0.3 for B3M.
 CALIBRATION_RESTITUTIONS_DIST = (0.05, 0.08, 0.1, 0.12, 0.14, 0.17, 0.2, 0.24, 0.28, 0.33, 0.4, 0.5)
+
+#: Inside a segment that holds one of a run's marks, Exudyn's solver also tests the end-of-run rule this often
+#: after the pulse's end [s] (:func:`check_steps`)
+CHECK_S = 0.01
 
 #: Relative tolerance of a calibration (the issue asks for 1 %) [-].
 CALIBRATION_RTOL = 0.01
@@ -108,6 +119,30 @@ _CONTACT_KEYS = ("stiffness_n_m", "contact_points", "damping_n_s_m", "impact_mod
 #: the symbolic variables of a harmonic pulse: a₀, ω, its length, cosine (1) or sine (0), and the
 #: table's displacement and velocity at its end
 _PULSE_VARS = ("a0", "w", "tb", "cs", "utb", "vtb")
+
+
+def check_steps(n_pulse: int, n_min: int, n_last: int, chunk: int, every: int) -> list[int]:
+    """The steps inside a run's fixed segments of ``chunk`` steps at which Exudyn's solver tests the
+    end-of-run rule itself: each of the run's marks (its pulse's end ``n_pulse``, the trapped rule's first
+    step ``n_min``) that is not a segment's end, and every ``every`` steps after the pulse's end in the
+    segments that hold a mark (module notes, "End of a run"); ``n_last``: the run's last step."""
+    out: set[int] = set()
+    for mark in (n_pulse, n_min):
+        if mark >= n_last or mark % chunk == 0:
+            continue
+        lo, hi = mark // chunk * chunk, min((mark // chunk + 1) * chunk, n_last)
+        out |= {mark} | {n for n in range(n_pulse, hi, every) if n > lo}
+    return sorted(out)
+
+
+def _rule_fires(model, block: Block, dt_s: float, n_pulse: int, n_min: int):
+    """Whether floor 1's end-of-run rule names one state row of ``model`` (:meth:`_Model.rows`), read as
+    the loop reads a row (θ and θ̇ of :meth:`_Model.angles`, the step t/Δt)."""
+    def fires(row: np.ndarray) -> bool:
+        theta, theta_dot = model.angles(row[None])
+        return run_end(steps_of_times(row[:1], dt_s), theta, theta_dot, alpha_rad=block.alpha_rad,
+                       p_rad_s=block.p_rad_s, pulse_end_step=n_pulse, min_tail_step=n_min) is not None
+    return fires
 
 
 def default_stiffness_n_m(block: Block) -> float:
@@ -226,6 +261,7 @@ class _Model:
         OVT = self.exu.OutputVariableType
         kinds = ((OVT.Coordinates, OVT.Coordinates_t) if self.planar else
                  (OVT.Position, OVT.RotationMatrix, OVT.AngularVelocity, OVT.Velocity))
+        self.sensor_kinds = kinds
         self.sensors = [self.mbs.AddSensor(self.ii.SensorNode(nodeNumber=self.node, storeInternal=True,
                                                              outputVariableType=k)) for k in kinds]
 
@@ -327,15 +363,18 @@ class _Model:
             self.exu.symbolic.variables.Set(self._pre + nm, val)
 
     # -- running (the adapter's four methods call these) ----------------------------------------
-    def start(self, chunk_steps: int, full_newton: bool) -> np.ndarray:
+    def start(self, chunk_steps: int, full_newton: bool, check_steps=(), fires=None) -> np.ndarray:
         """Initialise Exudyn's solver for segments of ``chunk_steps`` steps (``full_newton``: a new
         Jacobian at every Newton iteration), the previous run's solver closed; no samples yet (the
-        first segment stores t = 0)."""
+        first segment stores t = 0). ``check_steps``: the steps inside the segments at which the
+        solver tests ``fires`` (a state row → whether the run ends there) and stops where it does
+        (:func:`check_steps`)."""
         if getattr(self, "solver", None) is not None:
             self.solver.FinalizeSolver(self.mbs, self.ss)
         ss = self.ss
         ss.timeIntegration.newton.useModifiedNewton = not full_newton
         self.n_chunk, self.steps, self.n_raw, self.t_raw = chunk_steps, 0, 0, -math.inf
+        self.check_t, self.fires, self.stopped_at = np.asarray(check_steps, dtype=float) * self.dt_s, fires, None
         ss.timeIntegration.startTime = 0.0
         ss.timeIntegration.endTime = chunk_steps * self.dt_s
         ss.timeIntegration.numberOfSteps = chunk_steps
@@ -347,19 +386,47 @@ class _Model:
         return np.empty((0, 7 if self.planar else 19))
 
     def advance(self) -> np.ndarray:
-        """One segment; the state rows the sensors stored in it (:meth:`rows`)."""
+        """One segment (the run's last one too: the loop drops the rows after its last step), cut short
+        where a check inside it fires; the state rows the sensors stored in it (:meth:`rows`)."""
         if self.message is not None:
             return np.empty((0, 7 if self.planar else 19))
+        if self.stopped_at is not None:
+            raise RuntimeError(f"Exudyn's solver stopped itself at t = {self.stopped_at:.6g} s, where the end-of-run "
+                               "rule fired, but the run was asked to go on")
+        t_from = self.mbs.systemData.GetTime()
         if not self.first:
-            self.solver.it.endTime = self.mbs.systemData.GetTime() + self.n_chunk * self.dt_s
+            self.solver.it.endTime = t_from + self.n_chunk * self.dt_s
         self.first = False
+        tol = 1e-6 * self.dt_s
+        self._next, self._t_prev = int(np.searchsorted(self.check_t, t_from + tol)), t_from
+        inside = self._next < self.check_t.size and self.check_t[self._next] < self.solver.it.endTime - tol
+        self.mbs.SetPostStepUserFunction(self._post_step if inside else 0)
         ok = self.solver.SolveSteps(self.mbs, self.ss)
-        self.steps += self.n_chunk
+        self.steps += int(round((self.mbs.systemData.GetTime() - t_from) / self.dt_s))
         if not ok:
             self.message = (f"Exudyn's solver stopped at t = {self.mbs.systemData.GetTime():.6g} s "
                             "(Newton did not converge even at the minimum step size)")
             raise EngineHalted(self.message, self.rows()[None])
         return self.rows()
+
+    def _post_step(self, mbs, t: float) -> bool:
+        """Exudyn's post-step hook in a segment that holds a check: at the first whole step at or after
+        each check (a step of Δt from the step before, so the sensors store its row and :meth:`rows`
+        keeps it), the current state tested with ``fires``; False (the solver stops after this step,
+        its row stored) where it fires."""
+        t_prev, self._t_prev = self._t_prev, t
+        tol = 1e-6 * self.dt_s
+        # a step of Δt (to rounding, 1e-9 Δt) after a stored or dropped row: the sensors store this one
+        # (they store the first step at or after each multiple of Δt, within 1e-10 s) and rows() keeps it
+        if (self._next >= self.check_t.size or t < self.check_t[self._next] - tol
+                or abs(t - t_prev - self.dt_s) > 1e-9 * self.dt_s or abs(t / self.dt_s - round(t / self.dt_s)) > 1e-6):
+            return True
+        self._next = int(np.searchsorted(self.check_t, t + tol))
+        row = np.concatenate([[t], *(mbs.GetNodeOutput(self.node, k) for k in self.sensor_kinds)])
+        if self.fires(row):
+            self.stopped_at = t
+            return False
+        return True
 
     def rows(self) -> np.ndarray:
         """The sensors' rows stored since the last call: ``t, x, y, φ, ẋ, ẏ, φ̇`` (planar) or ``t``,
@@ -527,7 +594,20 @@ class ExudynAdapter(ContactEngine):
         if model.uses_symbolic:
             model.set_pulse(pulse)
         scene.model = model
-        return model.start(max(1, int(round(float(s["segment_s"]) / dt_s))), bool(s.get("full_newton")))[None]
+        chunk, checks, fires = segment_steps(s, dt_s), (), None
+        if pulse is not None:
+            n_last, n_pulse, n_min = run_steps(dt_s, pulse.duration_s, s["tail_s"], s["min_tail_s"])
+            checks = self.stop_check_steps(chunk, dt_s, n_last, n_pulse, n_min)
+            fires = _rule_fires(model, block, dt_s, n_pulse, n_min)
+        return model.start(chunk, bool(s.get("full_newton")), checks, fires)[None]
+
+    @staticmethod
+    def stop_check_steps(chunk: int, dt_s: float, n_last: int, n_pulse: int, n_min: int) -> list[int]:
+        """The steps inside a run's fixed segments of ``chunk`` steps at which Exudyn's solver tests the
+        end-of-run rule itself (:func:`check_steps`, every :data:`CHECK_S` after the pulse's end); the run's
+        last step, its pulse's end and the trapped rule's first step as :func:`~rockbench.engines.motion.run_steps`
+        gives them (``tests/measurements/bench_past_stop.py`` replays them)."""
+        return check_steps(n_pulse, n_min, n_last, chunk, max(1, int(round(CHECK_S / dt_s))))
 
     def advance(self, scene, n_from: int, n_to: int) -> np.ndarray:
         return scene.model.advance()[None]

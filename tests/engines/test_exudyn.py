@@ -10,6 +10,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from cells import cell_case
@@ -18,6 +19,7 @@ from end_of_run import assert_ends_by_run_end
 pytest.importorskip("exudyn")
 
 from rockbench.benchmark.blocks.presets import get_preset
+from rockbench.engines.adapters import exudyn as exudyn_adapter
 from rockbench.engines.motion import steps_of_times
 from rockbench.engines.registry import get_adapter
 from rockbench.reference_solver.errors import ConfigError
@@ -151,6 +153,31 @@ def test_run_ends_at_the_row_the_one_rule_names(exudyn):
                                          steps=steps_of_times(tr.t_s[1:], dt)))
         assert tr.t_s[-1] < case.pulse.duration_s + exudyn.settings["tail_s"]
     assert ended == {"overturn", "trapped"}
+
+
+def test_check_steps_lie_inside_the_segments_that_hold_a_mark():
+    """The steps at which Exudyn's solver tests the end-of-run rule itself: segments of 500 steps, the
+    pulse's end at step 1234, the trapped rule from 4234, every 100 steps after the pulse's end."""
+    assert exudyn_adapter.check_steps(1234, 4234, 31234, 500, 100) == [1234, 1334, 1434, 4034, 4134, 4234, 4334,
+                                                                       4434]
+    # marks on segments' ends: the loop tests there itself
+    assert exudyn_adapter.check_steps(1000, 4000, 31000, 500, 100) == []
+
+
+def test_stopping_inside_a_segment_keeps_the_fixed_segments_runs(exudyn, monkeypatch):
+    """Where the rule fires at a check, Exudyn's solver stops inside its segment: the runs are those of
+    its plain fixed segments bit for bit (an overturn after the pulse, a block trapped at the trapped
+    rule's first step), with fewer steps simulated."""
+    cases = [_case("B3M", "sine", w, a) for w, a in ((2.0, 1.5), (4.0, 1.5))]
+    checked = [exudyn.simulate(c) for c in cases]
+    monkeypatch.setattr(exudyn_adapter, "check_steps", lambda *args: [])
+    plain = [exudyn.simulate(c) for c in cases]
+    for a, b in zip(checked, plain):
+        for key in ("t_s", "theta_rad", "theta_dot_rad_s"):
+            np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+        assert a.diagnostics["ended_by"] == b.diagnostics["ended_by"]
+        assert a.diagnostics["steps"] < b.diagnostics["steps"]
+    assert {t.diagnostics["ended_by"] for t in checked} == {"overturn", "trapped"}
 
 
 def test_shipped_settings_run_the_shipped_contact():

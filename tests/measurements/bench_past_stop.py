@@ -11,7 +11,10 @@ A run's stop is its simulated time (``simulated_s``; the loop drops the samples 
 ends at one period 2π/ω. The segments of the engine's settings (run.json: ``segment_s``, 0.05 s
 without it, at the run's step) are replayed with the loop's own ``_segment_end`` to each run's stop:
 fixed (``near_segment_s`` None), ending at the marks with ``--near``, and as the engine's adapter
-declares today (its ``near_segment_s``, and its default ``segment_s`` where it has one). The fraction is Σ (steps from a stop to the end of its
+declares today (its ``near_segment_s``, and its default ``segment_s`` where it has one; an engine whose
+solver stops itself inside a segment, Exudyn, declares ``stop_check_steps``, and its run then ends at the
+first of those steps at or after the stop, the rule's stops being lasting: an overturn under way, a
+trapped block). The fraction is Σ (steps from a stop to the end of its
 segment) / Σ (steps to the stops), a batch's worlds counted one at a time; each engine's runs are also
 pooled over the directories given. ``--record NAME`` writes the rows as a benchmark record
 (tests/measurements/records.py); ``--table NAME`` prints a record's rows as a markdown table.
@@ -58,17 +61,22 @@ def runs(run_dir: str) -> tuple[dict, list]:
     return info, out
 
 
-def past(dt: float, seg_s: float, tail_s: float, min_tail_s: float, cells: list, near_s: float | None):
-    """``(steps past the stops, steps to them, segments)`` of the runs ``cells`` with these segments."""
+def past(dt: float, seg_s: float, tail_s: float, min_tail_s: float, cells: list, near_s: float | None,
+         checks=None):
+    """``(steps past the stops, steps to them, segments)`` of the runs ``cells`` with these segments;
+    ``checks``: the engine's ``stop_check_steps`` (its solver stops itself inside a segment at the first
+    of them at or after the stop), or None."""
     seg = max(1, round(seg_s / dt))
     near = None if near_s is None else min(seg, max(1, round(near_s / dt)))
     over = total = segments = 0
     for t_stop, t_pulse in cells:
         steps = run_steps(dt, t_pulse, tail_s, min_tail_s)
-        k, n = min(round(t_stop / dt), steps[0]), 0
+        k, n, before = min(round(t_stop / dt), steps[0]), 0, 0
         while n < k:
-            n = _segment_end(n, seg, near, [steps])
+            before, n = n, _segment_end(n, seg, near, [steps])
             segments += 1
+        inside = [c for c in (checks(seg, dt, *steps) if checks else ()) if max(before, k - 1) < c < n]
+        n = min(inside, default=n)
         over, total = over + n - k, total + k
     return over, total, segments
 
@@ -77,13 +85,14 @@ def measure(run_dir: str, near_s: float) -> dict:
     """One map's row: its runs and the steps past their stops with each segment rule."""
     info, cells = runs(run_dir)
     cls = adapter_class(info["engine"])
-    declared, seg_now = cls.near_segment_s, float(cls.SETTINGS.get("segment_s", info["segment_s"]))
+    declared, checks = cls.near_segment_s, getattr(cls, "stop_check_steps", None)
+    seg_now = float(cls.SETTINGS.get("segment_s", info["segment_s"]))
     row = {"map": run_dir.rstrip("/").split("/maps/")[-1], **info, "runs": len(cells),
            "mean_simulated_s": sum(c[0] for c in cells) / len(cells), "near_segment_s": declared,
-           "segment_s_now": seg_now}
-    for key, near, seg in (("fixed", None, info["segment_s"]), ("marks", near_s, info["segment_s"]),
-                           ("now", declared, seg_now)):
-        over, total, segments = past(info["dt_s"], seg, info["tail_s"], info["min_tail_s"], cells, near)
+           "segment_s_now": seg_now, "checks_inside": checks is not None}
+    for key, near, seg, inside in (("fixed", None, info["segment_s"], None), ("marks", near_s, info["segment_s"], None),
+                                   ("now", declared, seg_now, checks)):
+        over, total, segments = past(info["dt_s"], seg, info["tail_s"], info["min_tail_s"], cells, near, inside)
         row[key] = {"near_segment_s": near, "steps_past": over, "steps_to_stops": total,
                     "past_pct": 100.0 * over / total, "segments_per_run": segments / len(cells)}
     return row
@@ -110,6 +119,7 @@ def markdown_table(figures: dict) -> str:
              "|---|---|---|---|---|---|---|---|---|"]
     for r in figures["rows"]:
         today = "fixed" if r["near_segment_s"] is None else f"at the marks ({r['near_segment_s']:g} s)"
+        today += ", stopped inside at checks" if r.get("checks_inside") else ""
         lines.append(f"| {r['engine']} | {r['block']} | {1e3 * r['dt_s']:g} ms | {r['runs']} | "
                      f"{r['mean_simulated_s']:.3f} s | {r['fixed']['past_pct']:.1f} % ({r['fixed']['segments_per_run']:.1f}) | "
                      f"{r['marks']['past_pct']:.1f} % ({r['marks']['segments_per_run']:.1f}) | {today} | "
