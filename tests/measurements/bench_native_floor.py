@@ -6,7 +6,7 @@ it fails (exit 1) only where the two θ histories disagree, never on time.
 
     python tests/measurements/bench_native_floor.py [--engines mujoco pybullet dart physx exudyn drake]
         [--cells B3M:sine:3:5 B3M:sine:3:1.5 B8M:sine:3:1.5] [--settings calibrated shipped]
-        [--repeats 3] [--warmup 0] [--worlds 1 4 16] [--record NAME] [--table NAME]
+        [--repeats 3] [--warmup 0] [--worlds 1 4 16] [--record NAME [--notes TEXT]] [--table NAME]
 
 For each engine, settings (``calibrated`` at the time-step rule's step, ``shipped`` at the engine's own)
 and cell (``BLOCK:PULSE:W_RATIO:A_RATIO``: ω/p and a₀/(g·tanα), restitution Housner), on a warm adapter
@@ -557,6 +557,7 @@ def main(argv=None) -> int:
     ap.add_argument("--theta-tol-rad", type=float, default=1e-4,
                     help="largest difference of max|θ| and final θ [rad]")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
+    ap.add_argument("--notes", help="the record's notes: the machine's load, what code was measured")
     ap.add_argument("--table", metavar="NAME", help="print the record NAME's summary and where run_many's time goes "
                     "as Markdown tables, run nothing")
     a = ap.parse_args(argv)
@@ -580,7 +581,7 @@ def main(argv=None) -> int:
             command = "python tests/measurements/bench_native_floor.py " + " ".join(argv or sys.argv[1:])
             write_record(a.record, MEASURES, command,
                          {"rows": rows, "repeats": a.repeats, "warmup": a.warmup, "theta_tol_rad": a.theta_tol_rad},
-                         packages=("mujoco", "pybullet", "dartpy", "sapien", "exudyn", "drake"))
+                         packages=("mujoco", "pybullet", "dartpy", "sapien", "exudyn", "drake"), notes=a.notes)
     bad = [r for r in rows if not agrees(r, a.theta_tol_rad)]
     for r in bad:
         print(f"DISAGREE: {r['engine']} {r['settings']} {r['cell']}", file=sys.stderr)
