@@ -125,10 +125,14 @@ def _stop(ad, scene, block: Block, s: dict, dt: float, pulse, new: np.ndarray, n
     :func:`~rockbench.reference_solver.classify.run_end` on each row at its own step, else the engine's
     own stop, else the tail (the run's last step, ``steps[0]``); None: the run goes on."""
     n_w, n_pulse, n_min = steps
-    m = ad.stop_angles(scene, block, s, new, (first + np.arange(new.shape[0])) * dt, pulse) if new.shape[0] else None
-    k = (np.arange(n_done + 1, n_done + new.shape[0] + 1, dtype=float) if m is None or m[2] is None
-         else steps_of_times(m[2], dt))
-    j = int(np.searchsorted(k, min(n_to, n_w) + 0.5))   # rows up to the run's last step
+    n_new = new.shape[0]
+    m = ad.stop_angles(scene, block, s, new, (first + np.arange(n_new)) * dt, pulse) if n_new else None
+    if m is None or m[2] is None:   # a row a step: steps n_done + 1 … n_done + n_new
+        k = np.arange(n_done + 1, n_done + n_new + 1, dtype=float)
+        j = min(max(min(n_to, n_w) - n_done, 0), n_new)   # rows up to the run's last step
+    else:
+        k = steps_of_times(m[2], dt)
+        j = int(np.searchsorted(k, min(n_to, n_w) + 0.5))
     if m is not None and j:
         end = run_end(k[:j], m[0][:j], m[1][:j], alpha_rad=block.alpha_rad,
                       p_rad_s=block.p_rad_s, pulse_end_step=n_pulse, min_tail_step=n_min)

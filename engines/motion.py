@@ -83,12 +83,12 @@ def corners(block: Block, xc, zc, th, u_tab):
     [m], from the centre of mass (x, height) [m], θ [rad] and the table's x [m]."""
     b, h = block.width_m, block.height_m
     c, s = np.cos(th), np.sin(th)
-    xs, zs = [], []
-    for side in (1.0, -1.0):
-        # rotation about +y by θ: body (x, z) -> (x cosθ + z sinθ, −x sinθ + z cosθ)
-        xs.append(xc + side * b / 2 * c - h / 2 * s - u_tab)
-        zs.append(zc - side * b / 2 * s - h / 2 * c)
-    return np.stack(xs, axis=1), np.stack(zs, axis=1)
+    # rotation about +y by θ: body (±b/2, −h/2) -> (±(b/2)cosθ − (h/2)sinθ, ∓(b/2)sinθ − (h/2)cosθ);
+    # each product made once for both corners (x − y and x + (−y) are the same number)
+    bc, bs, hs, hc = b / 2 * c, b / 2 * s, h / 2 * s, h / 2 * c
+    x = np.stack([xc + bc - hs - u_tab, xc - bc - hs - u_tab], axis=1)
+    z = np.stack([zc - bs - hc, zc + bs - hc], axis=1)
+    return x, z
 
 
 def theta_of_quat(w, x, y, z):

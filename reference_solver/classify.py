@@ -157,7 +157,13 @@ def overturn_certain(t_s, theta_rad, theta_dot_rad_s, *, alpha_rad: float, t_pul
     adapters test it after every step). Every adapter's early stop and :func:`decision_index` use it.
     """
     a = abs(theta_rad)
-    return (a >= FLAT_ANGLE_RAD) | ((t_s >= t_pulse_end_s) & (a > alpha_rad) & (theta_rad * theta_dot_rad_s > 0.0))
+    return flat_on_side(a) | ((t_s >= t_pulse_end_s) & (a > alpha_rad) & (theta_rad * theta_dot_rad_s > 0.0))
+
+
+def flat_on_side(abs_theta_rad):
+    """Where the block lies flat on its side, ``|θ| ≥ π/2 − 0.01`` (from ``|θ|`` [rad]): the part of
+    :func:`overturn_certain` that holds at any time, before the excitation's end too."""
+    return abs_theta_rad >= FLAT_ANGLE_RAD
 
 
 #: The end-of-run rule's margin under the barrier, as a fraction of the barrier height ``p²(1 − cos α)``
@@ -213,9 +219,13 @@ def run_end(step, theta_rad, theta_dot_rad_s, *, alpha_rad: float, p_rad_s: floa
     th = np.asarray(theta_rad, dtype=float)
     om = np.asarray(theta_dot_rad_s, dtype=float)
     bad = ~(np.isfinite(th) & np.isfinite(om))
-    certain = overturn_certain(i, th, om, alpha_rad=alpha_rad, t_pulse_end_s=pulse_end_step)
-    trapped = (i >= min_tail_step) & overturn_impossible(th, om, alpha_rad=alpha_rad, p_rad_s=p_rad_s)
-    hit = np.flatnonzero(bad | certain | trapped)
+    last = i.max() if i.size else -math.inf   # samples all before a rule's first step skip its test
+    certain = (flat_on_side(np.abs(th)) if last < pulse_end_step
+               else overturn_certain(i, th, om, alpha_rad=alpha_rad, t_pulse_end_s=pulse_end_step))
+    hit = bad | certain
+    if not last < min_tail_step:   # (a step of NaN tests every sample, as the rule does)
+        hit |= (i >= min_tail_step) & overturn_impossible(th, om, alpha_rad=alpha_rad, p_rad_s=p_rad_s)
+    hit = np.flatnonzero(hit)
     if not hit.size:
         return None
     k = int(hit[0])

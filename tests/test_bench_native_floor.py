@@ -43,6 +43,19 @@ def test_a_bad_cell_is_one_line_and_exit_2(capsys):
     assert e.value.code == 2 and "bad cell 'B3M:sine:3'" in capsys.readouterr().err
 
 
+def test_warmup_calls_are_untimed():
+    """``warmup`` calls run before the timed ones and are not among the times."""
+    calls = []
+    times, out = _bench().cpu_times(lambda given: calls.append(given) or len(calls), 2, lambda: "x", warmup=3)
+    assert calls == ["x"] * 5 and len(times) == 2 and out == 5
+
+
+def test_a_negative_warmup_is_one_line_and_exit_2(capsys):
+    with pytest.raises(SystemExit) as e:
+        _bench().main(["--warmup", "-1"])
+    assert e.value.code == 2 and "--warmup at least 0" in capsys.readouterr().err
+
+
 def test_dart_product_and_native_loop_agree():
     pytest.importorskip("dartpy")
     b = _bench()

@@ -332,6 +332,11 @@ class DartAdapter(ContactEngine):
     def advance(self, scene: _Scene, n_from: int, n_to: int) -> np.ndarray:
         return scene.advance(n_from, n_to)[None]
 
+    def stop_angles(self, scene: _Scene, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> tuple:
+        """θ and θ̇ of a segment's rows for the loop's end-of-run test, as :meth:`read` gives them (one
+        sample a step: no times of its own), without the rest of the read-out."""
+        return (*scene.angles(rows), None)
+
     def read(self, scene: _Scene, block: Block, s: dict, rows: np.ndarray, t_s: np.ndarray, pulse) -> Motion:
         th, om = scene.angles(rows)
         diag = {"collision_detector": s["collision_detector"], "split_impulse": bool(s["split_impulse"]),

@@ -185,6 +185,28 @@ def test_contact_points_must_be_a_whole_number_from_3_to_101(value):
             adapter_class(name)(contact_points=value)
 
 
+def test_run_end_skipping_a_rule_no_sample_reaches_gives_the_full_rule_s_answer():
+    """run_end tests a rule only where a sample reaches its first step: on random segments before,
+    across and after each mark (NaNs, flat angles and fractional steps among them) it answers as every
+    rule tested at every sample does."""
+    from rockbench.reference_solver.classify import overturn_impossible, run_end
+
+    alpha, p, n_pulse, n_min = 0.25, 3.0, 40, 60
+    rng = np.random.default_rng(7)
+    for start in range(0, 90):
+        k = start + np.sort(rng.uniform(0.5, 12.0, 8)) if start % 2 else np.arange(start + 1, start + 9, dtype=float)
+        th = rng.choice([-1.0, 1.0], 8) * rng.choice([0.0, 0.01, 0.2, 0.3, FLAT_ANGLE_RAD, np.nan], 8,
+                                                     p=[0.2, 0.2, 0.25, 0.3, 0.03, 0.02])
+        om = rng.normal(0.0, 2.0, 8)
+        bad = ~(np.isfinite(th) & np.isfinite(om))
+        certain = overturn_certain(k, th, om, alpha_rad=alpha, t_pulse_end_s=n_pulse)
+        trapped = (k >= n_min) & overturn_impossible(th, om, alpha_rad=alpha, p_rad_s=p)
+        hit = np.flatnonzero(bad | certain | trapped)
+        full = None if not hit.size else (int(hit[0]), "diverged" if bad[hit[0]] else (
+            ("flat" if abs(th[hit[0]]) >= FLAT_ANGLE_RAD else "overturn") if certain[hit[0]] else "trapped"))
+        assert run_end(k, th, om, alpha_rad=alpha, p_rad_s=p, pulse_end_step=n_pulse, min_tail_step=n_min) == full
+
+
 def test_run_end_is_one_rule_in_order_diverged_overturn_trapped():
     from rockbench.reference_solver.classify import TRAPPED_MARGIN, overturn_impossible, run_end
 

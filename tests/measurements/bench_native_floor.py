@@ -6,7 +6,7 @@ it fails (exit 1) only where the two θ histories disagree, never on time.
 
     python tests/measurements/bench_native_floor.py [--engines mujoco pybullet dart physx exudyn drake]
         [--cells B3M:sine:3:5 B3M:sine:3:1.5 B8M:sine:3:1.5] [--settings calibrated shipped]
-        [--repeats 3] [--worlds 1 4 16] [--record NAME] [--table NAME]
+        [--repeats 3] [--warmup 0] [--worlds 1 4 16] [--record NAME [--notes TEXT]] [--table NAME]
 
 For each engine, settings (``calibrated`` at the time-step rule's step, ``shipped`` at the engine's own)
 and cell (``BLOCK:PULSE:W_RATIO:A_RATIO``: ω/p and a₀/(g·tanα), restitution Housner), on a warm adapter
@@ -33,7 +33,7 @@ world alone (0: bit for bit).
 
 The simulated time is the product run's (it stops where floor 1's end-of-run rule stops it). Printed:
 CPU seconds per simulated second of each path (``time.process_time``: every thread of this process,
-the minimum of ``--repeats``), the ratio product/native single-world and batched (the batched cost per
+the minimum of ``--repeats``, after ``--warmup`` untimed calls of each path), the ratio product/native single-world and batched (the batched cost per
 world over the native single-world loop), the differences of max|θ| and final θ between the paths
 (they must agree to ``--theta-tol-rad``), and where one world's ``run_many`` goes (posing the case, the
 contact base's loop, the rest). The native loops reach into each adapter's scene for the
@@ -88,9 +88,11 @@ def _refuse(message: str) -> None:
     sys.exit(2)
 
 
-def cpu_times(fn, repeats: int, prepare=lambda: None) -> tuple[list[float], object]:
-    """The CPU time of each of ``repeats`` calls ``fn(prepare())`` [s], ``prepare`` untimed, and the
-    last call's result."""
+def cpu_times(fn, repeats: int, prepare=lambda: None, warmup: int = 0) -> tuple[list[float], object]:
+    """The CPU time of each of ``repeats`` calls ``fn(prepare())`` [s], ``prepare`` untimed, after
+    ``warmup`` untimed calls, and the last call's result."""
+    for _ in range(warmup):
+        fn(prepare())
     times, out = [], None
     for _ in range(repeats):
         given = prepare()
@@ -336,12 +338,12 @@ def product_history(ad, case: Case) -> tuple[Case, dict, np.ndarray, np.ndarray]
     return posed, s, np.asarray(tr.theta_rad), np.asarray(tr.t_s)
 
 
-def product_parts(ad, case: Case, posed: Case, s: dict, repeats: int) -> dict:
+def product_parts(ad, case: Case, posed: Case, s: dict, repeats: int, warmup: int = 0) -> dict:
     """Where one world's ``run_many`` goes [CPU s, least of ``repeats``]: posing the case (its step,
     ``posed``), the contact base's loop (``run_worlds``: the scene, start, advance, read, the end-of-run
     tests, the trajectory); the rest of ``run_many`` (the resolution, the judge) is the difference."""
-    posing, _ = cpu_times(lambda _: ad.posed(case), repeats)
-    loop, _ = cpu_times(lambda _: ad.run_worlds(case.block, s, posed.dt_s, [case.pulse]), repeats)
+    posing, _ = cpu_times(lambda _: ad.posed(case), repeats, warmup=warmup)
+    loop, _ = cpu_times(lambda _: ad.run_worlds(case.block, s, posed.dt_s, [case.pulse]), repeats, warmup=warmup)
     return {"posed_cpu_s": min(posing), "loop_cpu_s": min(loop)}
 
 
@@ -359,7 +361,8 @@ WORLDS = {"physx": (started, physx_worlds), "drake": (started, drake_worlds), "d
           "pybullet": (pybullet_prepare, pybullet_worlds)}
 
 
-def measure_worlds(engine: str, ad, case: Case, posed: Case, s: dict, theta: np.ndarray, ks: list, repeats: int) -> list:
+def measure_worlds(engine: str, ad, case: Case, posed: Case, s: dict, theta: np.ndarray, ks: list, repeats: int,
+                   warmup: int = 0) -> list:
     """Per number of worlds ``k`` (copies of the cell): the product's CPU s per simulated s a world
     (``run_many`` of ``k`` copies, where the adapter runs ``k`` worlds a batch) and the native loop's of
     ``k`` worlds in one engine call (where :data:`WORLDS` has one), the largest |Δθ| of any world from
@@ -370,12 +373,12 @@ def measure_worlds(engine: str, ad, case: Case, posed: Case, s: dict, theta: np.
     for k in ks:
         entry = {"worlds": k}
         if k == 1 or ad.worlds_per_batch(s) >= k:
-            times_p, _ = cpu_times(lambda _: ad.run_many([case] * k), repeats)
+            times_p, _ = cpu_times(lambda _: ad.run_many([case] * k), repeats, warmup=warmup)
             entry.update(product_cpu_s_per_sim_s=min(times_p) / k / sim_s, product_cpu_s=times_p)
         if engine in WORLDS:
             prepare, loop = WORLDS[engine]
             times_n, th = cpu_times(lambda scene: loop(ad, scene, posed, s, dt, n_steps, k), repeats,
-                                    lambda: prepare(ad, posed, s, dt, n_steps, k))
+                                    lambda: prepare(ad, posed, s, dt, n_steps, k), warmup)
             alone = th[0] if k == 1 else alone
             entry.update(native_cpu_s_per_sim_s=min(times_n) / k / sim_s, native_cpu_s=times_n,
                          theta_diff_from_product_rad=float(np.max(np.abs(th - theta[1:]))),
@@ -384,7 +387,7 @@ def measure_worlds(engine: str, ad, case: Case, posed: Case, s: dict, theta: np.
     return out
 
 
-def measure_cell(engine: str, settings: str, cell: str, repeats: int, ks: tuple = (1,)) -> dict:
+def measure_cell(engine: str, settings: str, cell: str, repeats: int, ks: tuple = (1,), warmup: int = 0) -> dict:
     """One row: the cell's CPU s per simulated s through each path (the least of ``repeats``, every
     repeat's CPU s kept), their ratio, and the differences of max|θ| and final θ between the paths;
     with ``ks`` beyond 1, the same per world at each number of worlds (:func:`measure_worlds`)."""
@@ -395,20 +398,20 @@ def measure_cell(engine: str, settings: str, cell: str, repeats: int, ks: tuple 
     n_steps = int(round(t_s[-1] / dt))
     sim_s = n_steps * dt
     row = {"engine": engine, "settings": settings, "cell": cell, "dt_s": dt, "steps": n_steps, "simulated_s": sim_s}
-    times, results = cpu_times(lambda _: ad.run_many([case]), repeats)
+    times, results = cpu_times(lambda _: ad.run_many([case]), repeats, warmup=warmup)
     cpu, r = min(times), results[0]
     row.update(outcome=r.outcome, status=r.status, product_cpu_s_per_sim_s=cpu / sim_s, product_cpu_s=times,
                run_many_max_theta_diff_rad=abs(r.max_abs_theta_rad - float(np.max(np.abs(theta)))),
-               product_parts=product_parts(ad, case, posed, s, repeats))
+               product_parts=product_parts(ad, case, posed, s, repeats, warmup))
     if len(ks) > 1:
-        row["worlds"] = measure_worlds(engine, ad, case, posed, s, theta, list(ks), repeats)
+        row["worlds"] = measure_worlds(engine, ad, case, posed, s, theta, list(ks), repeats, warmup)
         batched = [w for w in row["worlds"] if w["worlds"] > 1 and "product_cpu_s_per_sim_s" in w]
         if batched:   # the largest batch, in the summary's columns
             row.update(batch_worlds=batched[-1]["worlds"],
                        product_batched_cpu_s_per_sim_s=batched[-1]["product_cpu_s_per_sim_s"])
     try:
         times_n, native = cpu_times(lambda scene: NATIVE[engine](ad, scene, posed, s, dt, n_steps), repeats,
-                                    lambda: ad.build(case.block, s, dt))
+                                    lambda: ad.build(case.block, s, dt), warmup)
     except Exception as e:  # noqa: BLE001 - recorded, the other engines go on
         row["native_error"] = f"{type(e).__name__}: {e}"
         return row
@@ -544,12 +547,17 @@ def main(argv=None) -> int:
     ap.add_argument("--cells", nargs="+", default=list(CELLS), help="BLOCK:PULSE:W_RATIO:A_RATIO each")
     ap.add_argument("--settings", nargs="+", default=["calibrated", "shipped"], choices=["calibrated", "shipped"])
     ap.add_argument("--repeats", type=int, default=3, help="timed repeats of each path; the least CPU time counts")
+    ap.add_argument("--warmup", type=int, default=0,
+                    help="untimed calls of each path before its timed repeats (Python specialises a function's "
+                         "code after a few calls: the native loop's one function within its first call, the "
+                         "product's many after several runs, as in a map's worker)")
     ap.add_argument("--worlds", type=int, nargs="+", default=[1],
                     help="numbers of worlds: beyond 1, each cell also runs as that many copies, through the product "
                          "and where the engine has one through its native loop of many worlds in one call")
     ap.add_argument("--theta-tol-rad", type=float, default=1e-4,
                     help="largest difference of max|θ| and final θ [rad]")
     ap.add_argument("--record", help="write the rows as this benchmark record (tests/measurements/records.py)")
+    ap.add_argument("--notes", help="the record's notes: the machine's load, what code was measured")
     ap.add_argument("--table", metavar="NAME", help="print the record NAME's summary and where run_many's time goes "
                     "as Markdown tables, run nothing")
     a = ap.parse_args(argv)
@@ -558,21 +566,22 @@ def main(argv=None) -> int:
         print(markdown_table(figures) + "\n\n" + parts_table(figures)
               + ("\n\n" + worlds_table(figures) if any("worlds" in r for r in figures["rows"]) else ""))
         return 0
-    if a.repeats < 1 or min(a.worlds) < 1:
-        _refuse(f"--repeats and --worlds must be at least 1, got {a.repeats} and {a.worlds}")
+    if a.repeats < 1 or min(a.worlds) < 1 or a.warmup < 0:
+        _refuse(f"--repeats and --worlds must be at least 1 and --warmup at least 0, got {a.repeats}, {a.worlds} "
+                f"and {a.warmup}")
     ks = sorted({1, *a.worlds})
     cells = [(c, case_of(c)) for c in a.cells]   # a bad cell stops here, before anything runs
     rows = []
     for engine in a.engines:
         for settings in a.settings:
             for cell, _ in cells:
-                rows.append(measure_cell(engine, settings, cell, a.repeats, tuple(ks)))
+                rows.append(measure_cell(engine, settings, cell, a.repeats, tuple(ks), a.warmup))
                 print(line(rows[-1]), flush=True)
         if a.record:   # rewritten after each engine, so a stopped run keeps what it measured
             command = "python tests/measurements/bench_native_floor.py " + " ".join(argv or sys.argv[1:])
             write_record(a.record, MEASURES, command,
-                         {"rows": rows, "repeats": a.repeats, "theta_tol_rad": a.theta_tol_rad},
-                         packages=("mujoco", "pybullet", "dartpy", "sapien", "exudyn", "drake"))
+                         {"rows": rows, "repeats": a.repeats, "warmup": a.warmup, "theta_tol_rad": a.theta_tol_rad},
+                         packages=("mujoco", "pybullet", "dartpy", "sapien", "exudyn", "drake"), notes=a.notes)
     bad = [r for r in rows if not agrees(r, a.theta_tol_rad)]
     for r in bad:
         print(f"DISAGREE: {r['engine']} {r['settings']} {r['cell']}", file=sys.stderr)
