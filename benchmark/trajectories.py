@@ -29,13 +29,15 @@ from rockbench.benchmark.store import trajectories as stored
 from rockbench.benchmark.store.atomic import write_bytes_atomic
 
 
-def record_for_report(cases, run_dirs, out_dir, *, against=None, log=None) -> None:
+def record_for_report(cases, run_dirs, out_dir, *, against=None, log=None, entries=None) -> None:
     """Store in ``out_dir/trajectories`` the θ(t) runs of ``cases`` for the report of the maps under
     ``run_dirs`` (its engine maps: every map when scored ``against`` other references, else those that
     are not the reference's), as :func:`~rockbench.benchmark.report.build.build_report` draws them. A
-    case some run directory already stored for the same runs is copied from there, not simulated."""
+    case some run directory already stored for the same runs is copied from there, not simulated.
+    ``entries``: those maps when already read (:func:`~rockbench.benchmark.scoring.score_runs.load_runs`)."""
     log = log or (lambda msg: print(f"rockbench: {msg}", file=sys.stderr))
-    entries, _ = load_runs(run_dirs)
+    if entries is None:
+        entries, _ = load_runs(run_dirs)
     if not entries:
         return   # no map: the report refuses the run directories and says why
     cands = [e for e in entries if (against or not e.is_reference) and not e.is_planted]

@@ -424,3 +424,21 @@ def test_the_planted_rows_say_whether_each_delta_is_resolved():
     assert [r["label"] for r in rows] == ["δ = 0 % (η_H × 1)", "δ = 0.5 % (η_H × 0.995)", "δ = 1 % (η_H × 0.99)",
                                           "δ = 2 % (η_H × 0.98)"]
     assert rows[0]["right"] == "0.000" and rows[-1]["right"].endswith(": resolved")
+
+
+@pytest.mark.parametrize("fork", [True, False])
+def test_pictures_drawn_by_helper_processes_are_the_bytes_drawn_here(monkeypatch, fork):
+    from rockbench.benchmark.report.plots import drawing
+    from rockbench.benchmark.report.plots.trajectories import plot_theta
+    t = np.linspace(0, 1, 200)
+    pics = drawing.Drawings(("png", "pdf"))   # (an SVG's ids differ from one drawing to the next even here)
+    for k in (1, 2, 3):
+        pics.add(f"theta_{k}.png", plot_theta, [{"label": "x", "t_s": t, "theta_rad": k * t, "outcome": "overturn"}],
+                 alpha_rad=1.0, cost=k)
+    here = [drawing.draw(d, pics.formats) for d in pics.todo]
+    monkeypatch.setattr(drawing, "cpu_count", lambda: 2)   # helpers even on one core
+    monkeypatch.setattr(drawing, "can_fork_helper", lambda: fork)
+    images, widths = pics.draw_all()
+    assert list(images) == [f"theta_{k}.{f}" for k in (1, 2, 3) for f in ("png", "pdf")]   # in the order added
+    assert images == {n: b for files, _ in here for n, b in files.items()}
+    assert widths == {f"theta_{k}.png": w for k, (_, w) in zip((1, 2, 3), here)}

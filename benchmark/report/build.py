@@ -44,7 +44,7 @@ from rockbench.benchmark.store.loading import MapEntry
 from rockbench.benchmark.store.trajectories import FOLDER, case_stem, read_case
 from rockbench.benchmark.report.histories import picture_span_s
 from rockbench.benchmark.report.page import html_page, markdown_page
-from rockbench.benchmark.report.plots.output import figure_bytes
+from rockbench.benchmark.report.plots.drawing import Drawings
 from rockbench.benchmark.report.plots.speed import plot_accuracy_cost
 from rockbench.benchmark.report.plots.stability import REFERENCE_STYLES, plot_panels
 from rockbench.benchmark.report.plots.trajectories import plot_theta
@@ -54,7 +54,7 @@ from rockbench.benchmark.report.sections import SPEED_METRICS
 
 def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FIG17,),
                  trajectories: bool = True, log=None, allow_incomplete=False,
-                 figure_formats=("png",), declared=None) -> dict:
+                 figure_formats=("png",), declared=None, maps: RunMaps | None = None) -> dict:
     """Write the report of the maps under ``run_dirs`` into ``out_dir``.
 
     Parameters
@@ -82,6 +82,9 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
         written too, since index.html embeds it and report.md links it.
     declared : Declared, optional
         The verdict's declarations (default: those of the runs' suite.json, else the code's).
+    maps : RunMaps, optional
+        The maps of ``run_dirs``, ``against`` and ``declared`` when already read
+        (:func:`~rockbench.benchmark.scoring.score_runs.load_run_maps`).
 
     Returns
     -------
@@ -99,7 +102,8 @@ def build_report(run_dirs, out_dir, *, against=None, experiments=None, cases=(FI
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; give a directory for the report.")
-    maps = load_run_maps(run_dirs, against, declared)
+    if maps is None:
+        maps = load_run_maps(run_dirs, against, declared)
     scores, notes = None, list(maps.notes)
     try:
         scores = score_run(maps, experiments, allow_incomplete)
@@ -118,29 +122,23 @@ def write_report(maps: RunMaps, scores: Scores | None, out: Path, *, experiments
     (:func:`_write_report`), the ``scores`` and the notes."""
     log = log or (lambda msg: print(f"rockbench: {msg}", file=sys.stderr))
     notes = list(notes)
-    images: dict[str, bytes] = {}
-    widths: dict[str, float] = {}
-
-    def save(fig, name):
-        widths[name] = fig.get_figwidth()
-        stem = name[: -len(".png")]
-        for fmt in dict.fromkeys(("png", *figure_formats)):
-            images[f"{stem}.{fmt}"] = figure_bytes(fig, fmt)
-        return name
+    drawings = Drawings(figure_formats)   # every picture, drawn at once over the cores below
 
     # the speed stage's maps are in the scores' speed section and its picture, not among the variants' figures
     cands, refs, own_eta = [e for e in maps.candidates if not e.in_speed_stage], maps.references, maps.own_eta
     labels = variant_labels(cands)
     pair_of = _like_pairs(scores)
-    variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
-    case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save)
-    verdict_img = _verdict_figure(scores, save)
-    traj_imgs = _trajectory_figures(cases, out / FOLDER, save, notes) if trajectories else []
+    variant_graphs = _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, drawings)
+    case_graphs = _case_figures(cands, refs, own_eta, experiments, labels, pair_of, drawings)
+    verdict_img = _verdict_figure(scores, drawings)
+    traj_imgs = _trajectory_figures(cases, out / FOLDER, drawings, notes) if trajectories else []
     speed = _speed_rows([e for e in maps.entries if not e.in_speed_stage], scores)
+    speed_img = _speed_figure(None if scores is None or scores.speed is None else scores.speed.record, drawings)
+    images, widths = drawings.draw_all()
     ctx = {"entries": maps.entries, "refs": refs, "scores": scores, "verdict_img": verdict_img,
            "variant_graphs": variant_graphs, "case_graphs": case_graphs, "traj": traj_imgs,
            "calib": _calibration_rows(cands, own_eta), "speed": speed,
-           "speed_img": _speed_figure(None if scores is None or scores.speed is None else scores.speed.record, save),
+           "speed_img": speed_img,
            "notes": notes, "labels": labels, "run_dirs": [str(d) for d in run_dirs],
            "created": created or utc_stamp(DISPLAY_UTC), "fig_widths": widths}
     paths = _write_report(out, images, scores, markdown_page(ctx), html_page(ctx, images))
@@ -162,12 +160,12 @@ def _no_exact_k(refs: list[MapEntry]) -> list[str]:
     return [note] if note else []
 
 
-def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
+def _trajectory_figures(cases, folder: Path, drawings, notes: list) -> list:
     """``[(case, image name)]`` of the θ(t) comparisons drawn; a case that cannot be drawn is a note."""
     out = []
     for case in cases:
         try:
-            name, case_notes = _trajectory_figure(case, folder, save)
+            name, case_notes = _trajectory_figure(case, folder, drawings)
             notes += case_notes
             if name:
                 out.append((case, name))
@@ -176,23 +174,21 @@ def _trajectory_figures(cases, folder: Path, save, notes: list) -> list:
     return out
 
 
-def _verdict_figure(scores: Scores | None, save) -> str | None:
+def _verdict_figure(scores: Scores | None, drawings) -> str | None:
     """The verdict as a forest plot (:func:`~rockbench.benchmark.report.plots.verdict.plot_verdict`);
     None without scores or without a variant to draw."""
     if not scores or not any(r["value"] is not None or r["held_out"] for r in scores.verdict.variants):
         return None
-    drawn = plot_verdict(scores.verdict.to_json())
-    return save(drawn["figure"], "verdict.png")
+    return drawings.add("verdict.png", plot_verdict, scores.verdict.to_json())
 
 
-def _speed_figure(speed: dict | None, save) -> str | None:
+def _speed_figure(speed: dict | None, drawings) -> str | None:
     """The accuracy–cost picture of the run's speed stage (:func:`~.plots.speed.plot_accuracy_cost`); None
     without a speed stage, or without a point to draw (the report says so)."""
     if not speed or not any(p.get("value") is not None and p.get("cost") for r in speed.get("engines", [])
                             for p in r["points"]):
         return None
-    drawn = plot_accuracy_cost(speed)
-    return save(drawn["figure"], "speed_accuracy.png")
+    return drawings.add("speed_accuracy.png", plot_accuracy_cost, speed)
 
 
 def _write_report(out: Path, images: dict, scores: Scores | None, md: str, page: str) -> dict:
@@ -311,7 +307,7 @@ def _case_order(key):
             {"sine": 0, "cosine": 1, "half-sine": 2}.get(pulse, 3), pulse)
 
 
-def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str]]:
+def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, drawings) -> list[tuple[str, str, str]]:
     """One figure per engine variant: a panel per block and pulse. Returns ``(variant, label, image)``."""
     groups = _groups(cands, refs, own_eta)
     out = []
@@ -326,13 +322,13 @@ def _variant_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -
             e = engines[v]
             panels.append(_panel(e, std, own.get(v, []), experiments, pair_of.get(str(e.path)),
                                  case_title(block, pulse), block, pulse))
-        drawn = plot_panels(panels, ncols=min(len(pulses), 3) if len(keys) > 1 else 1,
-                            suptitle=f"{labels[v]}: overturn region against the reference boundaries")
-        out.append((v, labels[v], save(drawn["figure"], f"variant_{_slug(v)}.png")))
+        out.append((v, labels[v], drawings.add(f"variant_{_slug(v)}.png", plot_panels, panels, cost=len(panels),
+                                           ncols=min(len(pulses), 3) if len(keys) > 1 else 1,
+                                           suptitle=f"{labels[v]}: overturn region against the reference boundaries")))
     return out
 
 
-def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> list[tuple[str, str, str, int]]:
+def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, drawings) -> list[tuple[str, str, str, int]]:
     """One figure per block and pulse: a panel per engine variant (or the references alone).
     Returns ``(block, pulse, image, number of experimental points)``."""
     out = []
@@ -346,9 +342,10 @@ def _case_figures(cands, refs, own_eta, experiments, labels, pair_of, save) -> l
             if not std:
                 continue
             panels = [_panel(None, std, [], experiments, None, "reference boundaries", block, pulse)]
-        drawn = plot_panels(panels, ncols=min(len(panels), 3), suptitle=case_title(block, pulse))
+        name = drawings.add(f"stability_{_slug(block)}_{_slug(pulse)}.png", plot_panels, panels, cost=len(panels),
+                        ncols=min(len(panels), 3), suptitle=case_title(block, pulse))
         pts, _ = _points_and_limit(experiments, block, pulse)
-        out.append((block, pulse, save(drawn["figure"], f"stability_{_slug(block)}_{_slug(pulse)}.png"), len(pts)))
+        out.append((block, pulse, name, len(pts)))
     return out
 
 
@@ -361,7 +358,7 @@ def _points_and_limit(points, block, pulse):
     return sel, st_limit_a_ratio(block)
 
 
-def _trajectory_figure(case: TrajectoryCase, folder: Path, save):
+def _trajectory_figure(case: TrajectoryCase, folder: Path, drawings):
     """Draw the θ(t) curves of ``case`` that the run stored in ``folder``
     (:func:`~rockbench.benchmark.trajectories.record_trajectories`); ``(image name or None, notes)``."""
     have = read_case(folder, case)
@@ -378,8 +375,8 @@ def _trajectory_figure(case: TrajectoryCase, folder: Path, save):
     # every engine curve runs to its own decision; the references are drawn over the same span
     span = picture_span_s(pulse, max(overturns) if overturns else None)
     t_end = max([span] + ends)
-    drawn = plot_theta(hist, alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=t_end, title=case.title)
-    return save(drawn["figure"], f"{case_stem(case)}.png"), have["notes"]
+    return drawings.add(f"{case_stem(case)}.png", plot_theta, hist, alpha_rad=block.alpha_rad, pulse=pulse, t_end_s=t_end,
+                    title=case.title), have["notes"]
 
 
 def _restitution_from_label(label: str):

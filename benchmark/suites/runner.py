@@ -90,7 +90,7 @@ from rockbench.benchmark.maps.executors import DASK_SCRATCH, DaskConnection, cap
 from rockbench.benchmark.maps.grid import MapSpec, parse_range
 from rockbench.benchmark.sweep import run_map
 from rockbench.benchmark.report.build import build_report
-from rockbench.benchmark.scoring.score_runs import score_dirs
+from rockbench.benchmark.scoring.score_runs import load_run_maps, score_dirs
 from rockbench.benchmark.scoring.speed_runs import SPEED_FILE
 from rockbench.benchmark.store.loading import SPEED_STAGE
 from rockbench.benchmark.report.console import console_summary
@@ -112,8 +112,9 @@ def _score_and_report(suite: Suite, out: Path, result: dict, experiments, report
     simulate) are scored as incomplete instead of refused."""
     if report:
         cases = tuple(parse_case(c) for c in suite.report.cases)
-        record_for_report(cases, [out / "maps"], out, log=log)
-        rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log,
+        maps = load_run_maps([out / "maps"], None, suite.verdict)   # read once for the θ(t) runs and the report
+        record_for_report(cases, [out / "maps"], out, log=log, entries=maps.entries)
+        rep = build_report([out / "maps"], out, experiments=experiments, cases=cases, log=log, maps=maps,
                            figure_formats=figure_formats, allow_incomplete=unfinished, declared=suite.verdict)
         result["score"] = rep["scores"]
         result["notes"] = list(dict.fromkeys(result["notes"] + rep["notes"]))   # each note once
