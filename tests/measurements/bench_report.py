@@ -10,7 +10,7 @@ simulated, the maps scored, every picture drawn, the pages written), with the su
 suite.json when that file exists, else the default suite. CPU is this process's and its helper
 processes' (user + system). ``--json OUT`` writes the figures to OUT; ``--before OUT`` puts the
 figures of such a file (e.g. measured on an earlier commit) beside them; ``--record NAME`` writes the
-record ``tests/measurements/results/NAME.json``.
+record NAME among tests/measurements/results/ (:mod:`records`).
 """
 
 from __future__ import annotations
